@@ -1,0 +1,66 @@
+"""The ``pacc`` console script: one command, sub-commands that live in their own packages.
+
+``pacc ecu …`` is ``python -m ecu …``, ``pacc sim …`` is ``python -m sim_bus …``,
+``pacc drive …`` runs the ECU and the simulator in one process, ``pacc cloud …`` is
+``python -m cloud_sync …``. Sub-command modules are imported only when chosen, so
+``pacc --help`` does not import numpy, cantools or python-can.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+from collections.abc import Callable
+
+#: sub-command -> (module with ``main(argv) -> int``, one-line help)
+SUBCOMMANDS: dict[str, tuple[str, str]] = {
+    "ecu": ("ecu.cli", "run the ACC ECU node on a CAN bus"),
+    "sim": ("sim_bus.cli", "run the bus simulator (lead, ego physics, driver) against an ECU"),
+    "drive": ("sim_bus.drive", "ECU + simulator in one process, lockstep, print PoI/NIM"),
+    "cloud": ("cloud_sync.cli", "cloud side: learn a driver's DGPT by IRL, sync logs"),
+}
+
+_USAGE = "usage: pacc [-h] {" + ",".join(SUBCOMMANDS) + "} ..."
+
+
+def _help() -> str:
+    lines = [
+        _USAGE,
+        "",
+        "pacc: personalized adaptive cruise control on a CAN bus.",
+        "",
+        "sub-commands:",
+    ]
+    lines += [f"  {name:<7} {text}" for name, (_, text) in SUBCOMMANDS.items()]
+    lines += ["", "Run 'pacc SUBCOMMAND --help' for the options of one sub-command."]
+    return "\n".join(lines)
+
+
+def resolve(name: str) -> Callable[[list[str] | None], int]:
+    """Import and return the ``main`` of sub-command ``name`` (KeyError if unknown)."""
+    module_name, _ = SUBCOMMANDS[name]
+    module = importlib.import_module(module_name)
+    entry: Callable[[list[str] | None], int] = module.main
+    return entry
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Dispatch ``argv`` (default ``sys.argv[1:]``) to a sub-command; return its exit code."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    if not args or args[0] in ("-h", "--help"):
+        print(_help())
+        return 0 if args else 2
+    if args[0] == "--version":
+        from importlib.metadata import version
+
+        print(f"pacc {version('pacc')}")
+        return 0
+    name, rest = args[0], args[1:]
+    if name not in SUBCOMMANDS:
+        print(f"{_USAGE}\npacc: error: unknown sub-command {name!r}", file=sys.stderr)
+        return 2
+    return resolve(name)(rest)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
