@@ -1,0 +1,145 @@
+"""A node's two ends on the bus: the inbox (decode + E2E check) and the outbox (counter + CRC).
+
+Counters and checksums live here and in the codec, never in the callers: a node hands
+the outbox logical values and gets a ready frame; it hands the inbox raw frames and gets
+checked logical values, with every outcome counted per role and kind.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+import can
+
+from dbc.codec import Codec, Decoded, Value
+from dbc.e2e import E2EReceiver, E2EStatus
+from dbc.errors import CrcError, DlcError, EncodeError, RangeError
+
+#: Pseudo-role under which frames of no bound message are counted.
+UNKNOWN_ROLE = "?"
+
+
+class Inbox:
+    """Receive side of a node: accepts raw frames, keeps the latest checked values per role.
+
+    Args:
+        codec: the network's codec.
+        roles: the roles this node consumes; frames of other bound roles are ignored
+            (counted as ``(role, OK)`` nowhere), frames of unknown ids counted as UNKNOWN_ID.
+        timeout_multiple: a role times out after this many of its DBC periods.
+    """
+
+    def __init__(self, codec: Codec, roles: Iterable[str], timeout_multiple: float = 10.0) -> None:
+        self.codec = codec
+        self.roles = tuple(roles)
+        self._by_id = {}
+        self.receivers: dict[str, E2EReceiver] = {}
+        for role in self.roles:
+            mc = codec.by_role[role]
+            if mc.cycle_s <= 0:
+                raise ValueError(f"role {role}: message {mc.name} has no GenMsgCycleTime")
+            self._by_id[mc.frame_id] = mc
+            self.receivers[role] = E2EReceiver(mc.cycle_s, timeout_multiple)
+        self._latest: dict[str, dict[str, Value]] = {}
+        self.counts: Counter[tuple[str, E2EStatus]] = Counter()
+        self.frames_in = 0
+
+    def accept(self, frame_id: int, data: bytes | bytearray, now_s: float) -> Decoded | None:
+        """Check one frame received at ``now_s`` (s); return it if usable, else None.
+
+        Never raises for bad input: unknown ids, wrong DLC, wrong CRC, out-of-range values
+        and repeated counters are dropped and counted in :attr:`counts`.
+        """
+        self.frames_in += 1
+        mc = self._by_id.get(frame_id)
+        if mc is None:
+            if frame_id not in self.codec.by_id:
+                self.counts[(UNKNOWN_ROLE, E2EStatus.UNKNOWN_ID)] += 1
+            return None
+        receiver = self.receivers[mc.role]
+        try:
+            decoded = mc.decode(data)
+        except CrcError:
+            status = E2EStatus.WRONG_CRC
+        except DlcError:
+            status = E2EStatus.WRONG_DLC
+        except RangeError:
+            status = E2EStatus.OUT_OF_RANGE
+        else:
+            if decoded.counter is not None:
+                status = receiver.check_counter(decoded.counter, now_s)
+                self.counts[(mc.role, status)] += 1
+                if status is E2EStatus.REPEATED:
+                    return None
+            else:
+                receiver.last_ok_s = now_s
+                self.counts[(mc.role, E2EStatus.OK)] += 1
+            self._latest[mc.role] = decoded.values
+            return decoded
+        receiver.record(status)
+        self.counts[(mc.role, status)] += 1
+        return None
+
+    def accept_message(self, msg: can.Message, now_s: float | None = None) -> Decoded | None:
+        """:meth:`accept` for a python-can message (its timestamp if ``now_s`` is None).
+
+        Error and remote frames are dropped and counted as WRONG_DLC of the unknown role.
+        """
+        if msg.is_error_frame or msg.is_remote_frame:
+            self.frames_in += 1
+            self.counts[(UNKNOWN_ROLE, E2EStatus.WRONG_DLC)] += 1
+            return None
+        return self.accept(msg.arbitration_id, msg.data, msg.timestamp if now_s is None else now_s)
+
+    def latest(self, role: str) -> dict[str, Value] | None:
+        """The last usable values of ``role`` (even if stale), or None if none arrived."""
+        return self._latest.get(role)
+
+    def fresh(self, role: str, now_s: float) -> bool:
+        """True when ``role`` delivered a usable frame within its timeout before ``now_s``."""
+        return not self.receivers[role].timed_out(now_s)
+
+    def errors(self) -> dict[str, int]:
+        """Counts of every non-OK outcome by kind, summed over roles."""
+        out: Counter[str] = Counter()
+        for (_, status), n in self.counts.items():
+            if status is not E2EStatus.OK:
+                out[status.value] += n
+        return dict(out)
+
+
+class Outbox:
+    """Send side of a node: one alive counter per role, CRC filled by the codec."""
+
+    def __init__(self, codec: Codec) -> None:
+        self.codec = codec
+        self.counters: dict[str, int] = {role: 0 for role in codec.by_role}
+        self.frames_out = 0
+
+    def encode(self, role: str, values: Mapping[str, Any]) -> bytes:
+        """Payload of ``role`` with the next alive counter; raise EncodeError on bad values.
+
+        The counter advances only when the frame was built.
+        """
+        try:
+            mc = self.codec.by_role[role]
+        except KeyError:
+            raise EncodeError(f"no role {role!r} in the binding") from None
+        counter = self.counters[role]
+        data = mc.encode(values, counter)
+        self.counters[role] = (counter + 1) & 0xF
+        self.frames_out += 1
+        return data
+
+    def pack(self, role: str, values: Mapping[str, Any], timestamp: float = 0.0) -> can.Message:
+        """:meth:`encode` wrapped in a python-can message ready for ``bus.send``."""
+        data = self.encode(role, values)
+        mc = self.codec.by_role[role]
+        return can.Message(
+            arbitration_id=mc.frame_id,
+            data=data,
+            is_extended_id=mc.is_extended,
+            timestamp=timestamp,
+        )
