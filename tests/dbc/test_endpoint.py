@@ -1,0 +1,94 @@
+"""Inbox and outbox on a real python-can virtual bus."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import can
+import pytest
+
+from dbc.codec import EncodeError, load_codec
+from dbc.e2e import E2EStatus
+from dbc.endpoint import UNKNOWN_ROLE, Inbox, Outbox
+
+CODEC = load_codec()
+EGO = {"speed_mps": 20.0, "accel_mps2": 0.1, "speed_valid": 1}
+
+
+@pytest.fixture
+def buses() -> Iterator[tuple[can.BusABC, can.BusABC]]:
+    tx = can.Bus(interface="virtual", channel="pacc-endpoint-test")
+    rx = can.Bus(interface="virtual", channel="pacc-endpoint-test")
+    yield tx, rx
+    tx.shutdown()
+    rx.shutdown()
+
+
+def test_frames_cross_the_virtual_bus(buses: tuple[can.BusABC, can.BusABC]) -> None:
+    tx, rx = buses
+    outbox, inbox = Outbox(CODEC), Inbox(CODEC, ["ego", "radar"])
+    for i in range(20):
+        tx.send(outbox.pack("ego", {**EGO, "speed_mps": 20.0 + i * 0.01}))
+    got = []
+    while (msg := rx.recv(timeout=0.1)) is not None:
+        decoded = inbox.accept_message(msg, now_s=0.01 * len(got))
+        assert decoded is not None
+        got.append(decoded.values["speed_mps"])
+    assert got == pytest.approx([20.0 + i * 0.01 for i in range(20)])
+    assert inbox.counts[("ego", E2EStatus.OK)] == 20
+    assert outbox.counters["ego"] == 20 % 16
+    assert inbox.fresh("ego", 0.2) and not inbox.fresh("radar", 0.2)
+
+
+def test_bad_frames_are_dropped_and_counted() -> None:
+    outbox, inbox = Outbox(CODEC), Inbox(CODEC, ["ego"])
+    mc = CODEC.by_role["ego"]
+    good = outbox.encode("ego", EGO)
+    assert inbox.accept(mc.frame_id, good, 0.0) is not None
+    corrupt = bytearray(outbox.encode("ego", {**EGO, "speed_mps": 30.0}))
+    corrupt[3] ^= 0x40
+    assert inbox.accept(mc.frame_id, bytes(corrupt), 0.01) is None
+    assert inbox.latest("ego") == pytest.approx(CODEC.decode(mc.frame_id, good).values)
+    assert inbox.accept(mc.frame_id, good, 0.02) is None  # counter repeated
+    assert inbox.accept(mc.frame_id, good[:5], 0.03) is None
+    assert inbox.accept(0x7FF, good, 0.04) is None
+    assert inbox.accept(CODEC.by_role["command"].frame_id, b"\0" * 8, 0.05) is None  # not ours
+    err = can.Message(is_error_frame=True)
+    assert inbox.accept_message(err, 0.06) is None
+    assert inbox.counts[("ego", E2EStatus.WRONG_CRC)] == 1
+    assert inbox.counts[("ego", E2EStatus.REPEATED)] == 1
+    assert inbox.counts[("ego", E2EStatus.WRONG_DLC)] == 1
+    assert inbox.counts[(UNKNOWN_ROLE, E2EStatus.UNKNOWN_ID)] == 1
+    assert inbox.errors() == {"wrong_crc": 1, "repeated_counter": 1, "wrong_dlc": 2,
+                              "unknown_id": 1}
+    assert inbox.frames_in == 7
+
+
+def test_skipped_counter_is_used_and_counted() -> None:
+    outbox, inbox = Outbox(CODEC), Inbox(CODEC, ["ego"])
+    mc = CODEC.by_role["ego"]
+    inbox.accept(mc.frame_id, outbox.encode("ego", EGO), 0.0)
+    outbox.encode("ego", EGO)
+    outbox.encode("ego", EGO)  # two frames lost on the way
+    decoded = inbox.accept(mc.frame_id, outbox.encode("ego", EGO), 0.03)
+    assert decoded is not None
+    assert inbox.counts[("ego", E2EStatus.SKIPPED)] == 1
+    assert inbox.receivers["ego"].skipped == 2
+
+
+def test_timeout_uses_the_dbc_period() -> None:
+    inbox = Inbox(CODEC, ["radar", "hmi"], timeout_multiple=4)
+    outbox = Outbox(CODEC)
+    radar = {"lead_valid": 1, "gap_m": 30, "rel_speed_mps": 0, "lead_accel_mps2": 0,
+             "lead_accel_valid": 1}
+    inbox.accept(CODEC.by_role["radar"].frame_id, outbox.encode("radar", radar), 1.0)
+    assert inbox.fresh("radar", 1.0 + 4 * 0.05 - 1e-6)
+    assert not inbox.fresh("radar", 1.0 + 4 * 0.05 + 1e-6)
+    assert not inbox.fresh("hmi", 1.0)
+
+
+def test_outbox_refuses_bad_values_and_keeps_counter() -> None:
+    outbox = Outbox(CODEC)
+    with pytest.raises(EncodeError):
+        outbox.encode("ego", {**EGO, "speed_mps": float("nan")})
+    assert outbox.counters["ego"] == 0 and outbox.frames_out == 0
