@@ -1,0 +1,59 @@
+"""The `pacc` console script: dispatch, help, errors, lazy imports."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+from ecu import launcher
+
+
+def test_help_lists_every_subcommand(capsys: pytest.CaptureFixture[str]) -> None:
+    assert launcher.main(["--help"]) == 0
+    out = capsys.readouterr().out
+    for name in ("ecu", "sim", "drive", "cloud"):
+        assert f"  {name} " in out
+
+
+def test_no_arguments_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None:
+    assert launcher.main([]) == 2
+    assert "usage: pacc" in capsys.readouterr().out
+
+
+def test_unknown_subcommand(capsys: pytest.CaptureFixture[str]) -> None:
+    assert launcher.main(["fly"]) == 2
+    assert "unknown sub-command 'fly'" in capsys.readouterr().err
+
+
+def test_version(capsys: pytest.CaptureFixture[str]) -> None:
+    assert launcher.main(["--version"]) == 0
+    assert capsys.readouterr().out.startswith("pacc ")
+
+
+def test_help_imports_nothing_heavy() -> None:
+    code = (
+        "import sys; from ecu import launcher; launcher.main(['--help']);"
+        "heavy = [m for m in ('numpy', 'scipy', 'can', 'cantools', 'mcap') if m in sys.modules];"
+        "print(heavy)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip().splitlines()[-1] == "[]"
+
+
+@pytest.mark.parametrize("name", sorted(launcher.SUBCOMMANDS))
+def test_every_subcommand_has_a_main_with_help(name: str) -> None:
+    """Each sub-command resolves to main(argv) -> int and answers --help in-process."""
+    entry = launcher.resolve(name)
+    with pytest.raises(SystemExit) as exc:
+        entry(["--help"])
+    assert exc.value.code == 0
+
+
+def test_console_script_and_python_m_agree() -> None:
+    for module in ("ecu", "sim_bus", "cloud_sync"):
+        out = subprocess.run([sys.executable, "-m", module, "--help"], capture_output=True,
+                             text=True)
+        assert out.returncode == 0, out.stderr
+        assert "usage:" in out.stdout
