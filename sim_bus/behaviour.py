@@ -1,0 +1,245 @@
+"""What a synthetic driver does each step: manual following (IDM+) and ACC interventions.
+
+Manual following (ACC off) is IDM+ (Schakel et al., 2010) around the driver's own preferred
+gap: ``a = a_max·min(1 − (v/v0)⁴, 1 − (s*/s)²)`` with ``s* = g*(v) + v·(v − v_f)/(2√(a_max·b))``;
+its equilibrium gap in car following is exactly g*(v). The driver perceives the world
+``reaction_s`` late and its control is noisy (AR(1), ``accel_noise_mps2``).
+
+Under ACC the driver monitors the gap. Too close (or closing so fast that the gap predicted
+``lookahead_s`` ahead is too close) for longer than ``patience_s``, or time-to-collision below
+``ttc_brake_s``: it brakes. Too far for longer than ``patience_far_s``: it presses the
+accelerator. While pressing it drives by its own IDM+ (sign-restricted to the pedal). It
+releases when the gap it anticipates ``anticipation_s`` ahead is within ``release_band`` of its
+preference, holding the pedal ``prolong_s`` longer (the anticipation and prolonging the paper
+observed). When ACC is not engaged (before SET, after a brake cancel, after a fault) it drives
+by hand, and presses SET/RESUME once the gap feels right with the pedals released.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from sim_bus.drivers import DriverParams
+
+#: AccState codes on the bus
+ACC_OFF, ACC_STANDBY, ACC_ACTIVE, ACC_OVERRIDE, ACC_FAULT = 0, 1, 2, 3, 4
+#: acceleration of a coasting car with no pedal pressed (drag, engine braking), m/s²
+COAST_MPS2 = -0.3
+#: manual pedal mapping: full accelerator gives this acceleration; brake pressure per m/s²
+ACCEL_FULL_MPS2 = 3.0
+BRAKE_BAR_PER_MPS2 = 12.0
+DECEL_LIMIT_MPS2 = 8.0
+BUTTON_HOLD_S = 0.3
+RESUME_DELAY_S = 1.0
+MIN_PRESS_S = 0.4
+MAX_PRESS_S = 20.0
+
+
+def idm_plus_accel(v_mps: float, v_lead_mps: float, gap_m: float, pref_gap_m: float,
+                   p: DriverParams) -> float:
+    """IDM+ acceleration (m/s²) around the preferred gap, limited to [−8, a_max]."""
+    s_star = pref_gap_m + v_mps * (v_mps - v_lead_mps) / (
+        2.0 * math.sqrt(p.accel_max_mps2 * p.decel_comfort_mps2))
+    s_star = max(s_star, p.standstill_m * 0.5)
+    s = max(gap_m, 0.1)
+    free = 1.0 - (v_mps / p.desired_speed_mps) ** 4
+    follow = 1.0 - (s_star / s) ** 2
+    a = p.accel_max_mps2 * min(free, follow)
+    return min(max(a, -DECEL_LIMIT_MPS2), p.accel_max_mps2)
+
+
+class DriverAgent:
+    """A driver's state across steps of ``dt_s``; outputs are attributes (no allocation).
+
+    Outputs after :meth:`step`: ``a_cmd_mps2`` (the acceleration its pedals ask for, used when
+    a pedal is pressed or ACC is not engaged), ``accel_pressed``, ``brake_pressed``,
+    ``accel_pct``, ``brake_bar``, ``set_button``, ``resume_button``, ``pref_gap_m``.
+    ``acc_mode`` False: manual driving throughout (ACC off).
+    """
+
+    def __init__(self, p: DriverParams, rng: np.random.Generator, dt_s: float = 0.05,
+                 acc_mode: bool = True, engage_s: float = 0.5) -> None:
+        self.p = p
+        self.dt_s = dt_s
+        self.acc_mode = acc_mode
+        self.engage_s = engage_s
+        self._rng = rng
+        n_delay = max(0, int(round(p.reaction_s / dt_s)))
+        self._buf: list[tuple[float, float, float]] = []
+        self._n_delay = n_delay
+        self._head = 0
+        self.condition = 1.0
+        self._log_c = 0.0
+        self._noise = 0.0
+        self._noise_k = math.exp(-dt_s / 1.0)
+        self._noise_s = p.accel_noise_mps2 * math.sqrt(1.0 - self._noise_k ** 2)
+        self._sd_c = p.condition_drift_per_min * math.sqrt(dt_s / 60.0)
+        self._tap_p = p.spurious_press_per_min * dt_s / 60.0
+        self.t_s = 0.0
+        self.mode = "idle"  # idle | brake | accel | tap
+        self._close_t = 0.0
+        self._far_t = 0.0
+        self._press_t = 0.0
+        self._ok_t = -1.0
+        self._last_release_t = -1e9
+        self._button_until = -1.0
+        self._button = ""
+        self._engaged_once = False
+        self.a_cmd_mps2 = 0.0
+        self.accel_pressed = False
+        self.brake_pressed = False
+        self.accel_pct = 0.0
+        self.brake_bar = 0.0
+        self.set_button = False
+        self.resume_button = False
+        self.pref_gap_m = 0.0
+        self.presses = 0
+
+    # -- perception ---------------------------------------------------------------------
+    def _perceive(self, v: float, v_lead: float, gap: float) -> tuple[float, float, float]:
+        """Return the state seen ``reaction_s`` ago (ring buffer of the true states)."""
+        if self._n_delay == 0:
+            return v, v_lead, gap
+        if len(self._buf) < self._n_delay:
+            self._buf.append((v, v_lead, gap))
+            return self._buf[0]
+        old = self._buf[self._head]
+        self._buf[self._head] = (v, v_lead, gap)
+        self._head = (self._head + 1) % self._n_delay
+        return old
+
+    def _draws(self) -> tuple[float, float, float]:
+        z = self._rng.standard_normal(2)
+        return float(z[0]), float(z[1]), float(self._rng.random())
+
+    # -- one step -----------------------------------------------------------------------
+    def step(self, v_mps: float, v_lead_mps: float, gap_m: float, acc_state: int) -> None:
+        """Advance ``dt_s``: perceive (delayed), update preference drift, decide the pedals."""
+        p = self.p
+        dt = self.dt_s
+        self.t_s += dt
+        zn, zc, u = self._draws()
+        self._noise = self._noise_k * self._noise + self._noise_s * zn
+        if self._sd_c > 0.0:
+            self._log_c = min(max(self._log_c + self._sd_c * zc, -0.3), 0.4)
+            self.condition = math.exp(self._log_c)
+        v, vl, g = self._perceive(v_mps, v_lead_mps, gap_m)
+        pref = float(p.standstill_m + p.condition_factor * self.condition
+                     * float(np.interp(v, p.headway_speeds_mps, p.headway_s)) * v)
+        self.pref_gap_m = pref
+        a_idm = idm_plus_accel(v, vl, g, pref, p) + self._noise
+        self.set_button = self.resume_button = False
+        if self.t_s < self._button_until:
+            self.set_button = self._button == "set"
+            self.resume_button = self._button == "resume"
+        engaged = acc_state in (ACC_ACTIVE, ACC_OVERRIDE)
+        if engaged:
+            self._engaged_once = True
+        if not self.acc_mode:
+            self._drive_by_hand(a_idm)
+            return
+        if engaged or self.mode != "idle":
+            self._supervise(v, vl, g, pref, a_idm, u, engaged)
+        else:
+            self._not_engaged(v, vl, g, pref, a_idm, acc_state)
+
+    def _drive_by_hand(self, a: float) -> None:
+        self.a_cmd_mps2 = a
+        self._set_pedals(a, "brake" if a < COAST_MPS2 else "accel")
+
+    def _set_pedals(self, a: float, which: str) -> None:
+        if which == "brake":
+            self.accel_pressed, self.brake_pressed = False, True
+            self.accel_pct = 0.0
+            self.brake_bar = min(max(-a * BRAKE_BAR_PER_MPS2, 1.0), 250.0)
+        elif which == "accel":
+            self.accel_pressed, self.brake_pressed = True, False
+            self.accel_pct = min(max(a / ACCEL_FULL_MPS2 * 100.0, 1.0), 100.0)
+            self.brake_bar = 0.0
+        else:
+            self.accel_pressed = self.brake_pressed = False
+            self.accel_pct = self.brake_bar = 0.0
+
+    def _press_button(self, name: str) -> None:
+        self._button = name
+        self._button_until = self.t_s + BUTTON_HOLD_S
+        self.set_button = name == "set"
+        self.resume_button = name == "resume"
+
+    def _not_engaged(self, v: float, vl: float, g: float, pref: float, a: float,
+                     acc_state: int) -> None:
+        """ACC not engaged: drive by hand; engage (SET, then RESUME) once the gap feels right."""
+        p = self.p
+        band = max(p.comfort_band * pref, p.comfort_band_min_m)
+        quiet = self.t_s - self._last_release_t >= RESUME_DELAY_S
+        feels_right = abs(g - pref) <= band and vl - v > -1.0
+        can_engage = acc_state == ACC_STANDBY and self.t_s >= self.engage_s
+        if can_engage and feels_right and quiet:
+            self.a_cmd_mps2 = COAST_MPS2
+            self._set_pedals(0.0, "none")
+            if self.t_s >= self._button_until + BUTTON_HOLD_S:
+                self._press_button("resume" if self._engaged_once else "set")
+            return
+        if can_engage and feels_right:
+            self.a_cmd_mps2 = COAST_MPS2
+            self._set_pedals(0.0, "none")
+            return
+        self._drive_by_hand(a)
+        self._last_release_t = self.t_s if not can_engage else self._last_release_t
+
+    def _supervise(self, v: float, vl: float, g: float, pref: float, a: float, u: float,
+                   engaged: bool) -> None:
+        """ACC engaged (or a press in progress): monitor, press, release."""
+        p = self.p
+        dt = self.dt_s
+        band = max(p.comfort_band * pref, p.comfort_band_min_m)
+        closing = v - vl
+        ttc = g / closing if closing > 0.1 else math.inf
+        if self.mode == "idle":
+            g_pred = g - max(closing, 0.0) * p.lookahead_s
+            self._close_t = self._close_t + dt if (g < pref - band or g_pred < pref - band) else 0.0
+            self._far_t = self._far_t + dt if g > pref + band and closing <= 0.3 else 0.0
+            rested = self.t_s - self._last_release_t >= p.refractory_s
+            if ttc < p.ttc_brake_s or g < 0.5 * pref:
+                self._start("brake")
+            elif rested and self._close_t >= p.patience_s:
+                self._start("brake")
+            elif rested and self._far_t >= p.patience_far_s:
+                self._start("accel")
+            elif rested and u < self._tap_p:
+                self._start("tap")
+            else:
+                self.a_cmd_mps2 = a
+                self._set_pedals(0.0, "none")
+                return
+        self._press_t += dt
+        g_ant = g + (vl - v) * p.anticipation_s
+        if self.mode == "brake":
+            self.a_cmd_mps2 = min(a, -0.5)
+            ok = g_ant >= pref * (1.0 - p.release_band) and ttc > p.ttc_brake_s
+        elif self.mode == "accel":
+            self.a_cmd_mps2 = max(a, 0.3)
+            ok = g_ant <= pref * (1.0 + p.release_band) or closing > 1.0
+        else:  # a short random tap of the accelerator
+            self.a_cmd_mps2 = max(a, 0.2)
+            ok = self._press_t >= 0.3
+        if ok and self._ok_t < 0.0:
+            self._ok_t = self._press_t
+        hold = 0.0 if self.mode == "tap" else p.prolong_s
+        done = ok and self._press_t - self._ok_t >= hold and self._press_t >= MIN_PRESS_S
+        if done or self._press_t >= MAX_PRESS_S:
+            self.mode = "idle"
+            self._last_release_t = self.t_s
+            self._close_t = self._far_t = 0.0
+            self.a_cmd_mps2 = a
+            self._set_pedals(0.0, "none")
+            return
+        self._set_pedals(self.a_cmd_mps2, "brake" if self.mode == "brake" else "accel")
+
+    def _start(self, mode: str) -> None:
+        self.mode = mode
+        self._press_t = 0.0
+        self._ok_t = -1.0
+        self.presses += 1

@@ -1,0 +1,69 @@
+"""ACC-off demonstrations: a synthetic driver follows a lead profile by hand (no bus).
+
+These trips are what the cloud's IRL learns from. Pure physics and the driver's IDM+
+(sim_bus.behaviour), at 20 Hz, logged at 10 Hz; a pure function of (driver, profile, seed,
+plant configuration).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from sim_bus.behaviour import ACC_OFF, ACCEL_FULL_MPS2, DECEL_LIMIT_MPS2, DriverAgent
+from sim_bus.drivers import DriverParams
+from sim_bus.plant import Plant, PlantConfig, PlantState
+from sim_bus.scenarios import LeadProfile
+
+if TYPE_CHECKING:
+    from cloud_sync.triplog import Trip
+
+MANUAL_DT_S = 0.05
+LOG_EVERY = 2  # 20 Hz steps -> 10 Hz samples
+
+
+def manual_trip(driver: DriverParams, profile: LeadProfile, seed: int,
+                plant: PlantConfig | None = None, condition: str = "dry") -> Trip:
+    """Drive ``profile`` by hand with ``driver``; return a cloud_sync Trip (10 Hz, mode manual).
+
+    The ego starts at the lead's speed at the driver's preferred gap. A collision (gap ≤ 0)
+    ends the trip early and is recorded in ``meta["collision"]``.
+    """
+    from cloud_sync.triplog import Trip
+
+    cfg = plant or PlantConfig(dt_s=MANUAL_DT_S)
+    if abs(cfg.dt_s - MANUAL_DT_S) > 1e-12:
+        raise ValueError(f"manual trips run at dt_s = {MANUAL_DT_S}")
+    ss = np.random.SeedSequence([seed, 0x6D616E])
+    rng_plant, rng_driver = (np.random.default_rng(s) for s in ss.spawn(2))
+    v_lead, a_lead = profile.resample(MANUAL_DT_S)
+    v0 = float(v_lead[0])
+    gap0 = float(driver.preferred_gap_m(v0))
+    car = Plant(cfg, PlantState(v0, 0.0, gap0), rng_plant)
+    agent = DriverAgent(driver, rng_driver, dt_s=MANUAL_DT_S, acc_mode=False)
+    n = len(v_lead)
+    m = (n + LOG_EVERY - 1) // LOG_EVERY
+    cols = np.zeros((7, m))
+    k = 0
+    for i in range(n):
+        vl = float(v_lead[i])
+        if i % LOG_EVERY == 0:
+            agent_out = agent.a_cmd_mps2
+            cols[:, k] = (i * MANUAL_DT_S, car.v_mps, car.gap_m, vl, car.a_mps2,
+                          max(agent_out, 0.0) / ACCEL_FULL_MPS2 if agent.accel_pressed else 0.0,
+                          -min(agent_out, 0.0) / DECEL_LIMIT_MPS2 if agent.brake_pressed else 0.0)
+            k += 1
+        if car.collided:
+            break
+        agent.step(car.v_mps, vl, car.gap_m, ACC_OFF)
+        car.advance(agent.a_cmd_mps2, vl, float(a_lead[i]))
+    cols = cols[:, :k]
+    meta = {
+        "driver_id": driver.driver_id, "condition": condition, "mode": "manual",
+        "scenario": profile.name, "seed": int(seed), "collision": bool(car.collided),
+        "collision_t_s": car.collision_t_s, "source": "sim_bus.manual",
+    }
+    return Trip(t_s=cols[0], v_mps=cols[1], gap_m=cols[2], v_lead_mps=cols[3], a_mps2=cols[4],
+                accel_pedal=np.clip(cols[5], 0.0, 1.0), brake_pedal=np.clip(cols[6], 0.0, 1.0),
+                acc_state=np.zeros(k, dtype=np.int64), meta=meta)

@@ -1,0 +1,110 @@
+"""Drive metrics, shared by ``pacc drive`` and the experiment (pure functions on arrays).
+
+All inputs are 1-D arrays of one length ``n`` sampled at a uniform step (``t_s``):
+
+- PoI: percentage of ACC-ON time with either pedal pressed;
+- NIM: pedal-press onsets (released -> accelerator or brake pressed) per minute of ACC-ON time;
+- min gap (m), min time-to-collision (s; inf when never closing), RMS jerk (m/s³) of the
+  actual acceleration, gap error against the driver's preference (mean, RMS; m).
+
+ACC-ON time: samples in Active or Override, plus Standby samples after the first engagement
+(a brake press that cancels the ACC is still an intervention of an ACC-ON drive); Off and
+Fault samples are not ACC-ON.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+ACC_STANDBY, ACC_ACTIVE, ACC_OVERRIDE = 1, 2, 3
+
+
+@dataclass(frozen=True)
+class DriveMetrics:
+    """The figures of one drive (units in the names)."""
+
+    poi_pct: float
+    nim_per_min: float
+    acc_on_s: float
+    press_onsets: int
+    min_gap_m: float
+    min_ttc_s: float
+    rms_jerk_mps3: float
+    gap_error_mean_m: float
+    gap_error_rms_m: float
+
+    def as_dict(self) -> dict[str, float]:
+        """The figures as a plain dict (JSON-ready; inf kept as float)."""
+        return {k: float(v) for k, v in asdict(self).items()}
+
+
+def acc_on_mask(acc_state: np.ndarray) -> np.ndarray:
+    """Boolean (n,): ACC-ON samples (Active/Override, and Standby after the first engagement)."""
+    s = np.asarray(acc_state)
+    engaged = (s == ACC_ACTIVE) | (s == ACC_OVERRIDE)
+    after_first = np.cumsum(engaged) > 0
+    return engaged | ((s == ACC_STANDBY) & after_first)
+
+
+def press_onsets(pressed: np.ndarray) -> np.ndarray:
+    """Boolean (n,): True where a press starts (pressed now, not pressed one sample before)."""
+    p = np.asarray(pressed, dtype=bool)
+    prev = np.concatenate([[False], p[:-1]])
+    return p & ~prev
+
+
+def poi_nim(t_s: np.ndarray, acc_state: np.ndarray, accel_pressed: np.ndarray,
+            brake_pressed: np.ndarray) -> tuple[float, float, float, int]:
+    """(PoI %, NIM per min, ACC-ON seconds, onsets) of one drive; NaN figures if never ON."""
+    t = np.asarray(t_s, dtype=np.float64)
+    dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    on = acc_on_mask(acc_state)
+    pressed = np.asarray(accel_pressed, dtype=bool) | np.asarray(brake_pressed, dtype=bool)
+    # an onset is a change from no pedal to a pedal, or from one pedal to the other
+    a = np.asarray(accel_pressed, dtype=bool)
+    b = np.asarray(brake_pressed, dtype=bool)
+    onsets_mask = (press_onsets(a) | press_onsets(b)) & on
+    on_s = float(on.sum()) * dt
+    n_on = int(onsets_mask.sum())
+    if on_s <= 0.0:
+        return math.nan, math.nan, 0.0, n_on
+    poi = 100.0 * float((pressed & on).sum()) * dt / on_s
+    return poi, n_on / (on_s / 60.0), on_s, n_on
+
+
+def min_ttc_s(gap_m: np.ndarray, v_mps: np.ndarray, v_lead_mps: np.ndarray) -> float:
+    """Smallest gap / closing speed over samples that close (v > v_lead); inf if none."""
+    closing = np.asarray(v_mps) - np.asarray(v_lead_mps)
+    m = closing > 1e-3
+    if not np.any(m):
+        return math.inf
+    return float(np.min(np.maximum(np.asarray(gap_m)[m], 0.0) / closing[m]))
+
+
+def rms_jerk(t_s: np.ndarray, a_mps2: np.ndarray) -> float:
+    """Root mean square of the finite-difference jerk (m/s³); 0 for fewer than 2 samples."""
+    if len(a_mps2) < 2:
+        return 0.0
+    j = np.diff(np.asarray(a_mps2, dtype=np.float64)) / np.diff(np.asarray(t_s, dtype=np.float64))
+    return float(np.sqrt(np.mean(j * j)))
+
+
+def drive_metrics(t_s: np.ndarray, v_mps: np.ndarray, gap_m: np.ndarray, v_lead_mps: np.ndarray,
+                  a_mps2: np.ndarray, acc_state: np.ndarray, accel_pressed: np.ndarray,
+                  brake_pressed: np.ndarray, pref_gap_m: np.ndarray) -> DriveMetrics:
+    """All figures of one drive; the gap error uses ACC-ON samples without a pedal pressed."""
+    poi, nim, on_s, n_on = poi_nim(t_s, acc_state, accel_pressed, brake_pressed)
+    on = acc_on_mask(acc_state) & ~(np.asarray(accel_pressed, bool) | np.asarray(brake_pressed,
+                                                                                   bool))
+    err = (np.asarray(gap_m) - np.asarray(pref_gap_m))[on]
+    return DriveMetrics(
+        poi_pct=poi, nim_per_min=nim, acc_on_s=on_s, press_onsets=n_on,
+        min_gap_m=float(np.min(gap_m)) if len(gap_m) else math.nan,
+        min_ttc_s=min_ttc_s(gap_m, v_mps, v_lead_mps),
+        rms_jerk_mps3=rms_jerk(t_s, a_mps2),
+        gap_error_mean_m=float(err.mean()) if err.size else math.nan,
+        gap_error_rms_m=float(np.sqrt(np.mean(err * err))) if err.size else math.nan,
+    )

@@ -1,0 +1,151 @@
+"""Ego vehicle longitudinal dynamics: eq. 1-2 of the paper with the sign fix of PAPER-NOTES.
+
+    v[t+1] = v[t] + a[t]·Δt + σ_v·n_v
+    g[t+1] = g[t] + (v_f[t] − v[t])·Δt + ½·(a_f[t] − a[t])·Δt² + σ_g·n_g
+
+with n ~ N(0, 1) scaled so that σ_v, σ_g are standard deviations per 0.1 s (the paper's
+10 Hz step) whatever the simulation step is. Between the requested acceleration and the
+actual one sits a first-order actuator lag (time constant ``actuator_tau_s``, 0 = none).
+The speed never goes below zero: at standstill a negative acceleration holds the car.
+A gap at or below zero is a collision; the plant records it, it never hides it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+#: the paper's sample period, the reference of the noise standard deviations (s)
+NOISE_REF_DT_S = 0.1
+
+
+@dataclass(frozen=True)
+class PlantConfig:
+    """Ego dynamics parameters (units in the names)."""
+
+    dt_s: float = 0.01
+    actuator_tau_s: float = 0.4
+    sigma_v_mps: float = 0.01
+    sigma_g_m: float = 0.01
+    accel_min_mps2: float = -8.0
+    accel_max_mps2: float = 4.0
+
+    def __post_init__(self) -> None:
+        if not (self.dt_s > 0 and self.actuator_tau_s >= 0):
+            raise ValueError("dt_s must be > 0 and actuator_tau_s >= 0")
+        if self.sigma_v_mps < 0 or self.sigma_g_m < 0:
+            raise ValueError("noise standard deviations must be >= 0")
+
+
+@dataclass(frozen=True)
+class PlantState:
+    """Ego state: speed (m/s), actual acceleration (m/s²), gap to the lead (m), position (m)."""
+
+    v_mps: float
+    a_mps2: float
+    gap_m: float
+    x_m: float = 0.0
+
+
+def lag_factor(dt_s: float, tau_s: float) -> float:
+    """Exact discrete factor of a first-order lag: a += k·(a_cmd − a), k = 1 − exp(−Δt/τ)."""
+    return 1.0 if tau_s <= 0.0 else 1.0 - math.exp(-dt_s / tau_s)
+
+
+def step(
+    state: PlantState,
+    a_cmd_mps2: float,
+    v_lead_mps: float,
+    a_lead_mps2: float,
+    cfg: PlantConfig,
+    noise_v: float = 0.0,
+    noise_g: float = 0.0,
+) -> PlantState:
+    """One plant step of ``cfg.dt_s``; ``noise_v``, ``noise_g`` are N(0, 1) draws (pure)."""
+    v, a, g, x = _step_floats(
+        state.v_mps, state.a_mps2, state.gap_m, state.x_m, a_cmd_mps2, v_lead_mps, a_lead_mps2,
+        cfg.dt_s, lag_factor(cfg.dt_s, cfg.actuator_tau_s), cfg.accel_min_mps2,
+        cfg.accel_max_mps2, _noise_scale(cfg) * cfg.sigma_v_mps * noise_v,
+        _noise_scale(cfg) * cfg.sigma_g_m * noise_g,
+    )
+    return PlantState(v, a, g, x)
+
+
+def _noise_scale(cfg: PlantConfig) -> float:
+    return math.sqrt(cfg.dt_s / NOISE_REF_DT_S)
+
+
+def _step_floats(
+    v: float, a: float, g: float, x: float, a_cmd: float, v_f: float, a_f: float, dt: float,
+    k_lag: float, a_lo: float, a_hi: float, dv_noise: float, dg_noise: float,
+) -> tuple[float, float, float, float]:
+    """Scalar core of :func:`step` (floats in, floats out, no allocation beyond the tuple)."""
+    a_cmd = a_lo if a_cmd < a_lo else a_hi if a_cmd > a_hi else a_cmd
+    a = a + k_lag * (a_cmd - a)
+    a_eff = a
+    if v + a * dt < 0.0:  # stops within the step: travel v²/(2|a|), then stand still
+        a_eff = -v / dt if dt > 0 else 0.0
+    dx = v * dt + 0.5 * a_eff * dt * dt
+    v_new = v + a_eff * dt + dv_noise
+    if v_new < 0.0:
+        v_new = 0.0
+    g_new = g + (v_f - v) * dt + 0.5 * (a_f - a_eff) * dt * dt + dg_noise
+    if v_new == 0.0 and a < 0.0:
+        a = 0.0  # held by the brakes at standstill
+    return v_new, a, g_new, x + dx
+
+
+class Plant:
+    """Stateful wrapper around :func:`step` for the hot loop (floats, pre-drawn noise).
+
+    ``rng`` draws the noise in blocks; with both sigmas zero no noise is drawn at all.
+    """
+
+    def __init__(self, cfg: PlantConfig, initial: PlantState, rng: np.random.Generator) -> None:
+        self.cfg = cfg
+        self.v_mps = initial.v_mps
+        self.a_mps2 = initial.a_mps2
+        self.gap_m = initial.gap_m
+        self.x_m = initial.x_m
+        self.collided = initial.gap_m <= 0.0
+        self.collision_t_s: float | None = 0.0 if self.collided else None
+        self.t_s = 0.0
+        self._k = lag_factor(cfg.dt_s, cfg.actuator_tau_s)
+        scale = _noise_scale(cfg)
+        self._sv = scale * cfg.sigma_v_mps
+        self._sg = scale * cfg.sigma_g_m
+        self._rng = rng
+        self._noise = np.zeros((0, 2))
+        self._i = 0
+
+    def _next_noise(self) -> tuple[float, float]:
+        if self._sv == 0.0 and self._sg == 0.0:
+            return 0.0, 0.0
+        if self._i >= len(self._noise):
+            self._noise = self._rng.standard_normal((4096, 2))
+            self._i = 0
+        n = self._noise[self._i]
+        self._i += 1
+        return self._sv * float(n[0]), self._sg * float(n[1])
+
+    @property
+    def state(self) -> PlantState:
+        """The current state as a frozen value."""
+        return PlantState(self.v_mps, self.a_mps2, self.gap_m, self.x_m)
+
+    def advance(self, a_cmd_mps2: float, v_lead_mps: float, a_lead_mps2: float) -> None:
+        """Advance one step of ``cfg.dt_s`` with the given command and lead motion."""
+        cfg = self.cfg
+        nv, ng = self._next_noise()
+        if not math.isfinite(a_cmd_mps2):
+            a_cmd_mps2 = 0.0
+        self.v_mps, self.a_mps2, self.gap_m, self.x_m = _step_floats(
+            self.v_mps, self.a_mps2, self.gap_m, self.x_m, a_cmd_mps2, v_lead_mps, a_lead_mps2,
+            cfg.dt_s, self._k, cfg.accel_min_mps2, cfg.accel_max_mps2, nv, ng,
+        )
+        self.t_s += cfg.dt_s
+        if self.gap_m <= 0.0 and not self.collided:
+            self.collided = True
+            self.collision_t_s = self.t_s

@@ -1,0 +1,299 @@
+"""Lead-vehicle speed profiles: the paper's stochastic generator over the shipped real data.
+
+The generator (section IV-A of the paper): cut the real leader speed traces into short
+segments; draw a high-level random sequence of average speeds; for each, pick a random real
+segment of matching average speed and concatenate; finally filter so acceleration and
+deceleration stay within bounds (a rate limiter, then a moving average, which keeps the
+bounds). The real data cover leader speeds of about 12-28 m/s; a requested average speed
+with no real segment within the tolerance takes the nearest real segment scaled in speed
+(the scale is recorded). Every profile carries its provenance (pair, start sample, length,
+scale), so a test can check that its pieces really come from the data.
+
+Profiles are 10 Hz. ``canonical_profiles(seed)`` gives the evaluation set: four manual-driving
+profiles covering 5-30 m/s, Scenario A (seen: drawn from the manual profiles, from 30 m/s
+slowing to 5 m/s) and Scenario B (unseen: newly synthesized), 300 s each.
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from sim_bus.dataset import load_human_pairs
+from sim_bus.errors import ScenarioError
+
+DT_S = 0.1
+
+
+@dataclass(frozen=True)
+class SegmentRef:
+    """Where one piece of a profile comes from: ``scale·source[start:start+length]``."""
+
+    source: str
+    start: int
+    length: int
+    scale: float = 1.0
+
+
+@dataclass(frozen=True)
+class LeadProfile:
+    """A lead speed profile: ``t_s``, ``v_lead_mps`` float64 arrays of shape (n,), 10 Hz."""
+
+    name: str
+    t_s: np.ndarray
+    v_lead_mps: np.ndarray
+    segments: tuple[SegmentRef, ...] = ()
+    raw_v_mps: np.ndarray | None = field(default=None, repr=False)
+
+    @property
+    def duration_s(self) -> float:
+        """Duration of the profile (s)."""
+        return float(self.t_s[-1] - self.t_s[0]) if len(self.t_s) else 0.0
+
+    def accel_mps2(self) -> np.ndarray:
+        """Lead acceleration (m/s²), shape (n,), by forward differences (last one repeated)."""
+        a = np.diff(self.v_lead_mps) / DT_S
+        return np.append(a, a[-1] if len(a) else 0.0)
+
+    def resample(self, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """Lead speed and acceleration on a grid of step ``dt_s`` from 0 to the end, shape (m,).
+
+        The speed is interpolated linearly; the acceleration is the slope of the interpolant,
+        so integrating it reproduces the interpolated speed exactly.
+        """
+        n = int(round(self.duration_s / dt_s)) + 1
+        t = np.arange(n) * dt_s + self.t_s[0]
+        v = np.interp(t, self.t_s, self.v_lead_mps)
+        slopes = np.diff(self.v_lead_mps) / np.diff(self.t_s)
+        idx = np.clip(np.searchsorted(self.t_s, t, side="right") - 1, 0, len(slopes) - 1)
+        return v, slopes[idx]
+
+
+@dataclass(frozen=True)
+class GeneratorConfig:
+    """Stochastic generator settings."""
+
+    segment_s: float = 20.0
+    stride_s: float = 1.0
+    tolerance_mps: float = 1.5
+    accel_max_mps2: float = 2.0
+    decel_max_mps2: float = 3.0
+    smooth_s: float = 1.0
+    duration_s: float = 300.0
+    max_spread_mps: float = 8.0
+
+
+@dataclass(frozen=True)
+class _Library:
+    """All usable speed windows of the sources: source index, start sample, mean speed."""
+
+    names: tuple[str, ...]
+    speeds: tuple[np.ndarray, ...]
+    source_index: np.ndarray
+    start: np.ndarray
+    mean_mps: np.ndarray
+    length: int
+
+
+def _library(sources: list[tuple[str, np.ndarray]], cfg: GeneratorConfig) -> _Library:
+    """Index every window of ``cfg.segment_s`` (stride ``cfg.stride_s``) of the sources.
+
+    Windows that touch standstill (min < 1 m/s) or spread more than ``max_spread_mps`` are
+    left out: the generator wants car-following segments around one average speed.
+    """
+    n = int(round(cfg.segment_s / DT_S))
+    stride = max(1, int(round(cfg.stride_s / DT_S)))
+    idx_l, start_l, mean_l = [], [], []
+    for i, (_, v) in enumerate(sources):
+        if len(v) < n:
+            continue
+        starts = np.arange(0, len(v) - n + 1, stride)
+        windows = np.lib.stride_tricks.sliding_window_view(v, n)[starts]
+        keep = (windows.min(axis=1) >= 1.0) & (np.ptp(windows, axis=1) <= cfg.max_spread_mps)
+        idx_l.append(np.full(int(keep.sum()), i))
+        start_l.append(starts[keep])
+        mean_l.append(windows[keep].mean(axis=1))
+    if not idx_l or sum(len(x) for x in idx_l) == 0:
+        raise ScenarioError("the sources hold no usable segment of the requested length")
+    return _Library(tuple(name for name, _ in sources), tuple(v for _, v in sources),
+                    np.concatenate(idx_l), np.concatenate(start_l), np.concatenate(mean_l), n)
+
+
+def real_sources() -> list[tuple[str, np.ndarray]]:
+    """The shipped real leader speed traces as (pair id, speed array (n,)) pairs."""
+    return [(p.pair_id, p.v_leader_mps) for p in load_human_pairs()]
+
+
+def bound_filter(v_mps: np.ndarray, cfg: GeneratorConfig) -> np.ndarray:
+    """Rate-limit to [−decel_max, accel_max]·Δt per sample, then a centred moving average.
+
+    A moving average is a convex combination of shifted copies, so it keeps the bounds.
+    Returns float64 of the same shape (n,), speeds ≥ 0.
+    """
+    out = np.empty_like(v_mps, dtype=np.float64)
+    up, down = cfg.accel_max_mps2 * DT_S, cfg.decel_max_mps2 * DT_S
+    prev = float(v_mps[0])
+    for i, x in enumerate(v_mps.tolist()):
+        prev = min(max(x, prev - down), prev + up)
+        out[i] = prev
+    k = max(1, int(round(cfg.smooth_s / DT_S)))
+    if k > 1 and len(out) > k:
+        padded = np.concatenate([np.full(k // 2, out[0]), out, np.full(k - 1 - k // 2, out[-1])])
+        out = np.convolve(padded, np.ones(k) / k, mode="valid")
+    return np.maximum(out, 0.0)
+
+
+def synthesize(
+    speeds_mps: np.ndarray,
+    seed: int,
+    name: str,
+    cfg: GeneratorConfig | None = None,
+    sources: list[tuple[str, np.ndarray]] | None = None,
+) -> LeadProfile:
+    """Concatenate random segments matching each average speed, then bound-filter.
+
+    ``speeds_mps``: the high-level sequence, shape (k,); ``sources``: named 10-Hz speed traces
+    to cut segments from (default: the shipped real leader traces). The result is trimmed to
+    ``cfg.duration_s``. Pure function of (speeds, seed, cfg, sources).
+    """
+    cfg = cfg or GeneratorConfig()
+    speeds = np.asarray(speeds_mps, dtype=np.float64)
+    if speeds.ndim != 1 or len(speeds) == 0 or not np.all(np.isfinite(speeds)):
+        raise ScenarioError("the speed sequence must be a non-empty 1-D array of finite values")
+    if np.any(speeds <= 0):
+        raise ScenarioError("average speeds must be > 0 m/s")
+    lib = _library(real_sources() if sources is None else sources, cfg)
+    rng = np.random.default_rng(seed)
+    pieces: list[np.ndarray] = []
+    refs: list[SegmentRef] = []
+    for target in speeds.tolist():
+        err = np.abs(lib.mean_mps - target)
+        ok = np.flatnonzero(err <= cfg.tolerance_mps)
+        if len(ok):
+            j = int(ok[rng.integers(len(ok))])
+            scale = 1.0
+        else:
+            j = int(np.argmin(err))
+            scale = target / float(lib.mean_mps[j])
+        src = int(lib.source_index[j])
+        s = int(lib.start[j])
+        pieces.append(scale * lib.speeds[src][s:s + lib.length])
+        refs.append(SegmentRef(lib.names[src], s, lib.length, scale))
+    raw = np.concatenate(pieces)
+    n = int(round(cfg.duration_s / DT_S)) + 1
+    if len(raw) < n:
+        raise ScenarioError(f"{len(speeds)} segments of {cfg.segment_s} s are shorter than "
+                            f"{cfg.duration_s} s")
+    raw = raw[:n]
+    return LeadProfile(name, np.arange(n) * DT_S, bound_filter(raw, cfg), tuple(refs), raw)
+
+
+def random_speed_sequence(
+    lo_mps: float, hi_mps: float, n: int, rng: np.random.Generator, max_step_mps: float = 5.0
+) -> np.ndarray:
+    """A bounded random walk of ``n`` average speeds in [lo, hi] (shape (n,)).
+
+    The walk starts uniformly in the range, steps by at most ``max_step_mps`` and visits both
+    ends of the range (the lowest and highest draws are stretched onto lo and hi), so the
+    profile covers the requested speeds.
+    """
+    if not (0 < lo_mps < hi_mps) or n < 2:
+        raise ScenarioError("need 0 < lo < hi and at least two speeds")
+    x = np.empty(n)
+    x[0] = rng.uniform(lo_mps, hi_mps)
+    for i in range(1, n):
+        x[i] = np.clip(x[i - 1] + rng.uniform(-max_step_mps, max_step_mps), lo_mps, hi_mps)
+    span = x.max() - x.min()
+    if span < 1e-9:
+        return np.linspace(lo_mps, hi_mps, n)
+    return lo_mps + (x - x.min()) * (hi_mps - lo_mps) / span
+
+
+#: speed ranges of the four manual-driving profiles (m/s); together they cover 5-30 m/s
+MANUAL_RANGES_MPS: tuple[tuple[float, float], ...] = ((5.0, 12.0), (10.0, 18.0),
+                                                       (16.0, 24.0), (22.0, 30.0))
+
+
+def _scenario_a(manual: list[LeadProfile], seed: int, cfg: GeneratorConfig) -> LeadProfile:
+    """Seen scenario: segments of the manual profiles, average speed from 30 down to 5 m/s."""
+    n_seg = int(np.ceil(cfg.duration_s / cfg.segment_s)) + 1
+    speeds = np.linspace(30.0, 5.0, n_seg)
+    sources = [(p.name, p.v_lead_mps) for p in manual]
+    return synthesize(speeds, seed, "A", cfg, sources)
+
+
+def canonical_profiles(seed: int = 0) -> dict[str, LeadProfile]:
+    """The evaluation set: ``manual1``..``manual4``, ``A`` (seen) and ``B`` (unseen), 300 s.
+
+    Pure function of the seed and the shipped data.
+    """
+    cfg = GeneratorConfig()
+    n_seg = int(np.ceil(cfg.duration_s / cfg.segment_s)) + 1
+    ss = np.random.SeedSequence(seed)
+    children = ss.spawn(len(MANUAL_RANGES_MPS) + 1)
+    out: dict[str, LeadProfile] = {}
+    manual: list[LeadProfile] = []
+    for k, (lo, hi) in enumerate(MANUAL_RANGES_MPS):
+        rng = np.random.default_rng(children[k])
+        seq = random_speed_sequence(lo, hi, n_seg, rng, max_step_mps=3.0)
+        prof = synthesize(seq, int(rng.integers(2**31)), f"manual{k + 1}", cfg)
+        manual.append(prof)
+        out[prof.name] = prof
+    out["A"] = _scenario_a(manual, int(np.random.default_rng(children[-1]).integers(2**31)),
+                           cfg)
+    rng = np.random.default_rng(ss.spawn(1)[0])
+    seq = random_speed_sequence(5.0, 30.0, n_seg, rng, max_step_mps=6.0)
+    out["B"] = synthesize(seq, int(rng.integers(2**31)), "B", cfg)
+    return out
+
+
+def shorten(profile: LeadProfile, duration_s: float) -> LeadProfile:
+    """The first ``duration_s`` seconds of a profile (for quick tests and demos)."""
+    n = min(len(profile.t_s), int(round(duration_s / DT_S)) + 1)
+    raw = None if profile.raw_v_mps is None else profile.raw_v_mps[:n]
+    return LeadProfile(profile.name, profile.t_s[:n], profile.v_lead_mps[:n],
+                       profile.segments, raw)
+
+
+def save_profile_csv(profile: LeadProfile, path: Path) -> None:
+    """Write ``t_s,v_lead_mps`` rows (header first) to ``path``."""
+    with Path(path).open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["t_s", "v_lead_mps"])
+        for t, v in zip(profile.t_s.tolist(), profile.v_lead_mps.tolist(), strict=True):
+            writer.writerow([f"{t:.3f}", f"{v:.5f}"])
+
+
+def load_profile_csv(path: Path, name: str | None = None) -> LeadProfile:
+    """Read a recorded ``t_s,v_lead_mps`` CSV and resample it to 10 Hz.
+
+    Raises ScenarioError with the file and the reason when the file is unusable (missing
+    columns, non-numeric or non-finite values, time not increasing, negative speeds, < 1 s).
+    """
+    path = Path(path)
+    try:
+        with path.open(newline="", encoding="utf-8-sig") as handle:
+            rows = list(csv.DictReader(handle))
+    except OSError as exc:
+        raise ScenarioError(f"{path}: {exc}") from exc
+    if not rows or not {"t_s", "v_lead_mps"} <= set(rows[0]):
+        raise ScenarioError(f"{path}: need a header with columns t_s and v_lead_mps")
+    try:
+        t = np.array([float(r["t_s"]) for r in rows])
+        v = np.array([float(r["v_lead_mps"]) for r in rows])
+    except (TypeError, ValueError) as exc:
+        raise ScenarioError(f"{path}: non-numeric value ({exc})") from exc
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(v))):
+        raise ScenarioError(f"{path}: non-finite values")
+    if len(t) < 2 or np.any(np.diff(t) <= 0):
+        raise ScenarioError(f"{path}: t_s must be strictly increasing")
+    if np.any(v < 0):
+        raise ScenarioError(f"{path}: negative speed")
+    if t[-1] - t[0] < 1.0:
+        raise ScenarioError(f"{path}: shorter than 1 s")
+    n = int(np.floor((t[-1] - t[0]) / DT_S + 1e-9)) + 1
+    grid = np.arange(n) * DT_S
+    return LeadProfile(name or path.stem, grid, np.interp(grid + t[0], t, v))
