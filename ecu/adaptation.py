@@ -1,0 +1,230 @@
+"""Online DGPT adaptation from one takeover: the paper's Algorithm 1, as read in PAPER-NOTES.
+
+Runs once, at the moment a takeover ends (pedal released), with the ego speed ``v``, the lead
+speed ``v_f`` and the gap ``g`` at that moment and the takeover's duration ``p_t``:
+
+1. Behaviour filter — update only when ``p_t > P_T`` and ``(v_f - v) < V_D`` (the printed
+   ``update_flag`` is the skip condition; short takeovers are noise, a lead pulling away fast
+   is no steady state).
+2. Steady-state prediction — ``v_f >= v``: the gap is not closing, ``g_desire = g``;
+   otherwise the ego keeps closing after release: ``g_desire = g - K_T * (v - v_f)``.
+3. Update and smooth — the change ``delta = g_desire - DGPT(v_bin)`` at the speed bin nearest
+   ``v`` is spread over ``window_size`` bins centred there with triangular weights (1 at the
+   centre, falling linearly, zero one bin past the window), so one takeover moves a region of
+   the table and the centre bin lands exactly on ``g_desire``. The rest is left untouched
+   (smoothing the whole table at every update would erode it).
+4. Safety filter — every bin is clipped to ``[d0 + Safe_TG_min * v_i, d0 + Safe_TG_max * v_i]``.
+
+:func:`adapt` is pure: (table, takeover summary, params) -> (new table, decision). A skipped
+update returns the same table object and a decision naming the reason.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import StrEnum
+
+import numpy as np
+
+from ecu import EcuError
+from ecu.dgpt import Dgpt, SafetyBounds
+
+
+class AdaptationError(EcuError):
+    """Invalid adaptation parameters."""
+
+
+@dataclass(frozen=True)
+class AdaptationParams:
+    """Parameters of Algorithm 1 (defaults justified in docs/ecu.md and the tests).
+
+    Attributes:
+        min_takeover_s: P_T; takeovers this short or shorter are noise (1.0 s: a tap on a
+            pedal to feel the car or a reflex lasts well under a second).
+        coast_down_s: K_T, seconds; closing speed times K_T is the gap still lost after
+            release while the ACC matches the lead speed (about dv / (2 a) with a ~ 1 m/s^2
+            comfortable deceleration and dv of a few m/s gives ~1 s).
+        max_speed_diff_mps: V_D; a lead faster by V_D or more is pulling away: no steady
+            state (5 m/s: a gap opening at 18 km/h changes by 5 m each second).
+        window_size: bins moved by one update (odd, >= 1); 9 bins at 0.5 m/s cover +-2 m/s,
+            the speed spread of a typical several-second takeover.
+        safe_tg_min_s: lower safety time gap (0.8 s: the shortest selectable production gap).
+        safe_tg_max_s: upper safety time gap (5.0 s: above the paper's 4 s "high" setting).
+        standstill_m: d0, the standstill distance of the safety filter (4 m).
+    """
+
+    min_takeover_s: float = 1.0
+    coast_down_s: float = 1.0
+    max_speed_diff_mps: float = 5.0
+    window_size: int = 9
+    safe_tg_min_s: float = 0.8
+    safe_tg_max_s: float = 5.0
+    standstill_m: float = 4.0
+
+    def __post_init__(self) -> None:
+        floats = (
+            self.min_takeover_s,
+            self.coast_down_s,
+            self.max_speed_diff_mps,
+            self.safe_tg_min_s,
+            self.safe_tg_max_s,
+            self.standstill_m,
+        )
+        if not all(math.isfinite(x) and x >= 0.0 for x in floats):
+            raise AdaptationError(f"adaptation parameters must be finite and >= 0: {self}")
+        if self.window_size < 1 or self.window_size % 2 == 0:
+            raise AdaptationError(f"window_size must be odd and >= 1, got {self.window_size}")
+        if self.safe_tg_min_s > self.safe_tg_max_s:
+            raise AdaptationError("safe_tg_min_s exceeds safe_tg_max_s")
+
+    def check_within(self, bounds: SafetyBounds) -> None:
+        """Raise if the safety filter's region is not inside the table ``bounds``."""
+        v = np.array([0.0, 40.0])
+        lo = self.standstill_m + self.safe_tg_min_s * v
+        hi = self.standstill_m + self.safe_tg_max_s * v
+        if np.any(lo < bounds.lower_m(v) - 1e-9) or np.any(hi > bounds.upper_m(v) + 1e-9):
+            raise AdaptationError("the adaptation safety filter reaches outside SafetyBounds")
+
+
+class Reason(StrEnum):
+    """Why an adaptation was applied or skipped."""
+
+    APPLIED = "applied"
+    SHORT_TAKEOVER = "short_takeover"
+    SPEED_DIFFERENCE = "speed_difference"
+    NO_LEAD = "no_lead"
+    INVALID_INPUT = "invalid_input"
+
+
+@dataclass(frozen=True, slots=True)
+class TakeoverSummary:
+    """The state at the end of one takeover (pedal release).
+
+    Attributes:
+        duration_s: p_t, time from the first pedal press to the release, s.
+        v_mps: ego speed at release, m/s.
+        v_lead_mps: lead speed v_f at release, m/s (NaN without a lead).
+        gap_m: bumper-to-bumper gap at release, m (NaN without a lead).
+        lead_valid: the radar tracked a lead at release.
+    """
+
+    duration_s: float
+    v_mps: float
+    v_lead_mps: float
+    gap_m: float
+    lead_valid: bool = True
+
+
+@dataclass(frozen=True, slots=True)
+class Decision:
+    """Outcome of one adaptation.
+
+    Attributes:
+        applied: the table changed.
+        reason: why (``Reason.APPLIED`` or the skip reason).
+        bin_index: centre bin of the update (-1 when skipped).
+        g_desire_m: predicted steady-state gap before the safety filter, m (NaN if skipped).
+        delta_m: change of the centre bin after the safety filter, m (0 if skipped).
+    """
+
+    applied: bool
+    reason: Reason
+    bin_index: int = -1
+    g_desire_m: float = math.nan
+    delta_m: float = 0.0
+
+    def __str__(self) -> str:
+        if not self.applied:
+            return f"adaptation skipped: {self.reason.value}"
+        return (
+            f"adaptation applied at bin {self.bin_index}: g_desire {self.g_desire_m:.2f} m "
+            f"(centre moved {self.delta_m:+.2f} m)"
+        )
+
+
+def behaviour_filter(summary: TakeoverSummary, params: AdaptationParams) -> Reason:
+    """``Reason.APPLIED`` if the takeover may update the table, else the skip reason."""
+    values = (summary.duration_s, summary.v_mps)
+    if not all(math.isfinite(x) for x in values) or summary.v_mps < 0.0:
+        return Reason.INVALID_INPUT
+    if not summary.lead_valid:
+        return Reason.NO_LEAD
+    if not (math.isfinite(summary.v_lead_mps) and math.isfinite(summary.gap_m)):
+        return Reason.INVALID_INPUT
+    if summary.gap_m < 0.0 or summary.v_lead_mps < 0.0:
+        return Reason.INVALID_INPUT
+    if summary.duration_s <= params.min_takeover_s:
+        return Reason.SHORT_TAKEOVER
+    if summary.v_lead_mps - summary.v_mps >= params.max_speed_diff_mps:
+        return Reason.SPEED_DIFFERENCE
+    return Reason.APPLIED
+
+
+def predict_steady_gap(summary: TakeoverSummary, params: AdaptationParams) -> float:
+    """Steady-state gap the driver aimed at, m: ``g`` if not closing, else ``g - K_T * dv``."""
+    if summary.v_lead_mps >= summary.v_mps:
+        return summary.gap_m
+    return summary.gap_m - params.coast_down_s * (summary.v_mps - summary.v_lead_mps)
+
+
+def spread_weights(n_bins: int, centre: int, window_size: int) -> np.ndarray:
+    """Triangular update weights, shape ``(n_bins,)``: 1 at ``centre``, 0 outside the window."""
+    half = (window_size - 1) // 2
+    idx = np.arange(n_bins)
+    w = 1.0 - np.abs(idx - centre) / (half + 1)
+    return np.clip(w, 0.0, 1.0)
+
+
+def safety_filter(speed_mps: np.ndarray, gap_m: np.ndarray, params: AdaptationParams) -> np.ndarray:
+    """``gap_m`` (``(n,)``) clipped into the time-gap band of ``params`` at ``speed_mps``."""
+    lo = params.standstill_m + params.safe_tg_min_s * speed_mps
+    hi = params.standstill_m + params.safe_tg_max_s * speed_mps
+    return np.clip(gap_m, lo, hi)
+
+
+def adapt(
+    table: Dgpt,
+    summary: TakeoverSummary,
+    params: AdaptationParams,
+    *,
+    created_utc: str | None = None,
+) -> tuple[Dgpt, Decision]:
+    """Apply Algorithm 1 for one finished takeover; pure.
+
+    Returns the new table (``version + 1``, source ``adapted``) and the decision, or the same
+    ``table`` object and a skip decision.
+    """
+    reason = behaviour_filter(summary, params)
+    if reason is not Reason.APPLIED:
+        return table, Decision(applied=False, reason=reason)
+    g_desire = predict_steady_gap(summary, params)
+    speed = table.speed_mps
+    centre = int(round((summary.v_mps - float(speed[0])) / table.step_mps))
+    centre = min(max(centre, 0), speed.size - 1)
+    delta = g_desire - float(table.gap_m[centre])
+    gap = table.gap_m + delta * spread_weights(speed.size, centre, params.window_size)
+    gap = safety_filter(speed, gap, params)
+    new = table.with_gaps(gap, "adapted", created_utc=created_utc)
+    decision = Decision(
+        applied=True,
+        reason=Reason.APPLIED,
+        bin_index=centre,
+        g_desire_m=g_desire,
+        delta_m=float(new.gap_m[centre] - table.gap_m[centre]),
+    )
+    return new, decision
+
+
+__all__ = [
+    "AdaptationError",
+    "AdaptationParams",
+    "Decision",
+    "Reason",
+    "TakeoverSummary",
+    "adapt",
+    "behaviour_filter",
+    "predict_steady_gap",
+    "safety_filter",
+    "spread_weights",
+]

@@ -1,0 +1,201 @@
+"""Longitudinal controller: PID on the gap error, cruise at the set speed, output envelope.
+
+The gap law is eq. (5)-(6) of the paper with the signs of PAPER-NOTES::
+
+    e     = g - DGPT(v)                       (m, positive when the gap is too large)
+    e_dot = (v_f - v) - DGPT'(v) * a          (m/s; DGPT' in s, a the measured ego accel)
+    a_gap = Kp(v) * e + Ki(v) * I + Kd(v) * e_dot + K_lead * a_f
+
+where ``v_f - v`` is the radar's relative speed (the relative-speed term) and ``a_f`` the
+lead acceleration when the radar reports one. Without a valid lead the car cruises:
+``a_cruise = K_cruise * (v_set - v)``; with a lead the command is ``min(a_gap, a_cruise)`` so
+the set speed is never exceeded. Gains are (breakpoint, value) tables over ego speed.
+
+Anti-windup: the integral ``I`` (m*s) only runs while the gap law is in control (ACTIVE, lead
+valid, not capped by cruise), is frozen while the output sits at an acceleration limit in the
+direction the error pushes, and is clamped to ``+-integral_limit_m_s``.
+
+Envelope (:func:`limit_command`): every emitted request lies in ``[accel_min, accel_max]``
+(-3.5 ... +2.0 m/s^2, ISO 15622) and moves by at most ``jerk_max * dt`` per cycle (2.5 m/s^3).
+Emergency exception: when a valid lead is closing with a time-to-collision below
+``emergency_ttc_s`` (3 s), the request may *decrease* at up to ``emergency_jerk_mps3``
+(10 m/s^3) so braking builds quickly; the acceleration bounds still hold and releasing the
+brake stays limited to ``jerk_max``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from ecu import EcuError
+
+
+class ControllerError(EcuError):
+    """Invalid controller parameters."""
+
+
+Table = tuple[tuple[float, ...], tuple[float, ...]]
+
+
+def interp(x: float, table: Table) -> float:
+    """Piecewise-linear lookup in a (breakpoints, values) table, ends held (scalar, fast)."""
+    bp, val = table
+    if x <= bp[0]:
+        return val[0]
+    for i in range(1, len(bp)):
+        if x < bp[i]:
+            f = (x - bp[i - 1]) / (bp[i] - bp[i - 1])
+            return val[i - 1] + f * (val[i] - val[i - 1])
+    return val[-1]
+
+
+def _check_table(name: str, table: Table) -> None:
+    bp, val = table
+    if len(bp) == 0 or len(bp) != len(val):
+        raise ControllerError(f"{name}: breakpoints and values must be non-empty, same length")
+    if any(b2 <= b1 for b1, b2 in zip(bp, bp[1:], strict=False)):
+        raise ControllerError(f"{name}: breakpoints must increase strictly")
+    if not all(math.isfinite(x) and x >= 0.0 for x in (*bp, *val)):
+        raise ControllerError(f"{name}: values must be finite and >= 0")
+
+
+@dataclass(frozen=True)
+class ControllerParams:
+    """Gains (as (breakpoints m/s, values) tables) and the output envelope.
+
+    Attributes:
+        kp: proportional gain on the gap error, 1/s^2.
+        ki: integral gain, 1/s^3.
+        kd: derivative gain on the gap-error rate (relative speed), 1/s.
+        k_lead_accel: feed-forward of the lead acceleration, dimensionless.
+        k_cruise_per_s: speed-error gain of the cruise law, 1/s.
+        integral_limit_m_s: clamp of the gap-error integral, m*s.
+        accel_min_mps2 / accel_max_mps2: acceleration envelope, m/s^2.
+        jerk_max_mps3: rate limit of the request in normal operation, m/s^3.
+        emergency_ttc_s: time-to-collision below which the emergency exception applies, s.
+        emergency_jerk_mps3: rate limit of a *decreasing* request in an emergency, m/s^3.
+    """
+
+    kp: Table = ((0.0, 10.0, 20.0, 30.0), (0.25, 0.2, 0.15, 0.12))
+    ki: Table = ((0.0, 30.0), (0.01, 0.01))
+    kd: Table = ((0.0, 10.0, 30.0), (0.8, 0.75, 0.7))
+    k_lead_accel: float = 0.5
+    k_cruise_per_s: float = 0.3
+    integral_limit_m_s: float = 20.0
+    accel_min_mps2: float = -3.5
+    accel_max_mps2: float = 2.0
+    jerk_max_mps3: float = 2.5
+    emergency_ttc_s: float = 3.0
+    emergency_jerk_mps3: float = 10.0
+
+    def __post_init__(self) -> None:
+        for name in ("kp", "ki", "kd"):
+            _check_table(name, getattr(self, name))
+        scalars = (
+            self.k_lead_accel,
+            self.k_cruise_per_s,
+            self.integral_limit_m_s,
+            self.jerk_max_mps3,
+            self.emergency_ttc_s,
+            self.emergency_jerk_mps3,
+        )
+        if not all(math.isfinite(x) and x >= 0.0 for x in scalars):
+            raise ControllerError(f"controller parameters must be finite and >= 0: {self}")
+        if not self.accel_min_mps2 < 0.0 < self.accel_max_mps2:
+            raise ControllerError("need accel_min_mps2 < 0 < accel_max_mps2")
+        if self.emergency_jerk_mps3 < self.jerk_max_mps3:
+            raise ControllerError("emergency_jerk_mps3 must be >= jerk_max_mps3")
+
+
+@dataclass(frozen=True, slots=True)
+class ControlInput:
+    """What the controller sees in one cycle (all finite; the node checks validity).
+
+    Attributes:
+        v_mps: ego speed, m/s.
+        a_mps2: measured ego acceleration, m/s^2.
+        set_speed_mps: cruise set speed, m/s.
+        lead_valid: a lead is tracked.
+        gap_m: gap to the lead, m (ignored without a lead).
+        rel_speed_mps: lead speed minus ego speed, m/s.
+        lead_accel_mps2: lead acceleration, m/s^2 (0 when unavailable).
+        desired_gap_m: DGPT(v), m.
+        desired_gap_slope_s: dDGPT/dv at v, s.
+    """
+
+    v_mps: float
+    a_mps2: float
+    set_speed_mps: float
+    lead_valid: bool
+    gap_m: float
+    rel_speed_mps: float
+    lead_accel_mps2: float
+    desired_gap_m: float
+    desired_gap_slope_s: float
+
+
+def time_to_collision_s(lead_valid: bool, gap_m: float, rel_speed_mps: float) -> float:
+    """Gap over closing speed, s; ``inf`` without a lead or when not closing."""
+    if not lead_valid or rel_speed_mps >= 0.0:
+        return math.inf
+    return max(gap_m, 0.0) / -rel_speed_mps
+
+
+def desired_accel(
+    params: ControllerParams,
+    obs: ControlInput,
+    integral_m_s: float,
+    dt_s: float,
+    *,
+    integrate: bool,
+) -> tuple[float, float]:
+    """The unlimited acceleration request and the next integral: ``(accel_mps2, integral_m_s)``.
+
+    ``integrate`` False freezes the integral (override, standby, fault).
+    """
+    v = obs.v_mps
+    a_cruise = params.k_cruise_per_s * (obs.set_speed_mps - v)
+    if not obs.lead_valid:
+        return a_cruise, integral_m_s
+    e = obs.gap_m - obs.desired_gap_m
+    e_dot = obs.rel_speed_mps - obs.desired_gap_slope_s * obs.a_mps2
+    kp = interp(v, params.kp)
+    ki = interp(v, params.ki)
+    kd = interp(v, params.kd)
+    a_gap = kp * e + ki * integral_m_s + kd * e_dot + params.k_lead_accel * obs.lead_accel_mps2
+    following = a_gap <= a_cruise
+    at_upper = a_gap >= params.accel_max_mps2 and e > 0.0
+    at_lower = a_gap <= params.accel_min_mps2 and e < 0.0
+    if integrate and following and not (at_upper or at_lower):
+        lim = params.integral_limit_m_s
+        integral_m_s = min(max(integral_m_s + e * dt_s, -lim), lim)
+    return min(a_gap, a_cruise), integral_m_s
+
+
+def limit_command(
+    params: ControllerParams, prev_mps2: float, target_mps2: float, dt_s: float, *, emergency: bool
+) -> float:
+    """Clip ``target_mps2`` into the envelope and rate-limit it from ``prev_mps2``.
+
+    A non-finite target is treated as 0 (the safe direction of a ramp).
+    """
+    if not math.isfinite(target_mps2):
+        target_mps2 = 0.0
+    target = min(max(target_mps2, params.accel_min_mps2), params.accel_max_mps2)
+    dt = max(dt_s, 0.0)
+    up = params.jerk_max_mps3 * dt
+    down = (params.emergency_jerk_mps3 if emergency else params.jerk_max_mps3) * dt
+    out = min(max(target, prev_mps2 - down), prev_mps2 + up)
+    return min(max(out, params.accel_min_mps2), params.accel_max_mps2)
+
+
+__all__ = [
+    "ControlInput",
+    "ControllerError",
+    "ControllerParams",
+    "desired_accel",
+    "interp",
+    "limit_command",
+    "time_to_collision_s",
+]
