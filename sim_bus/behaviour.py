@@ -35,6 +35,7 @@ BUTTON_HOLD_S = 0.3
 RESUME_DELAY_S = 1.0
 MIN_PRESS_S = 0.4
 MAX_PRESS_S = 20.0
+FAULT_RETRY_S = 5.0  # after a fault, the driver tries RESUME once it has lasted this long
 
 
 def idm_plus_accel(v_mps: float, v_lead_mps: float, gap_m: float, pref_gap_m: float,
@@ -87,6 +88,7 @@ class DriverAgent:
         self._button_until = -1.0
         self._button = ""
         self._engaged_once = False
+        self._fault_t = 0.0
         self.a_cmd_mps2 = 0.0
         self.accel_pressed = False
         self.brake_pressed = False
@@ -135,6 +137,7 @@ class DriverAgent:
             self.set_button = self._button == "set"
             self.resume_button = self._button == "resume"
         engaged = acc_state in (ACC_ACTIVE, ACC_OVERRIDE)
+        self._fault_t = self._fault_t + dt if acc_state == ACC_FAULT else 0.0
         if engaged:
             self._engaged_once = True
         if not self.acc_mode:
@@ -175,7 +178,8 @@ class DriverAgent:
         band = max(p.comfort_band * pref, p.comfort_band_min_m)
         quiet = self.t_s - self._last_release_t >= RESUME_DELAY_S
         feels_right = abs(g - pref) <= band and vl - v > -1.0
-        can_engage = acc_state == ACC_STANDBY and self.t_s >= self.engage_s
+        can_engage = self.t_s >= self.engage_s and (
+            acc_state == ACC_STANDBY or self._fault_t >= FAULT_RETRY_S)
         if can_engage and feels_right and quiet:
             self.a_cmd_mps2 = COAST_MPS2
             self._set_pedals(0.0, "none")

@@ -1,0 +1,284 @@
+"""``pacc drive``: the ECU node and the simulator in one process, lockstep, one virtual bus.
+
+    pacc drive --scenario B --driver d3 --controller predefined|predefined+oa|irl|irl+oa
+               [--profile DGPT.json] [--seed N] [--faults SPEC] [--log run.mcap]
+
+prints PoI, NIM, min gap, min time-to-collision, RMS jerk, takeovers, adaptations and
+collisions. A drive is a pure function of (configuration, seed, shipped data): the ECU and
+the simulator each get a python-can ``virtual`` bus on a private channel, and time is the
+simulator's (every frame stamped with simulated time). Exit status: 0, 1 if the drive
+ended in a collision, 2 on bad options or input files.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Literal
+
+if TYPE_CHECKING:
+    from ecu.dgpt import Dgpt
+    from ecu.runtime import RuntimeSummary
+    from sim_bus.drivers import DriverParams
+    from sim_bus.metrics import DriveMetrics
+    from sim_bus.scenarios import LeadProfile
+    from sim_bus.world import WorldLog
+
+Controller = Literal["predefined", "predefined+oa", "irl", "irl+oa"]
+CONTROLLERS: tuple[str, ...] = ("predefined", "predefined+oa", "irl", "irl+oa")
+#: ACC set speed in the car-following study: above every lead speed, so the lead governs
+SET_SPEED_MPS = 40.0
+_channel_ids = itertools.count()
+
+
+@dataclass(frozen=True)
+class DriveConfig:
+    """One closed-loop drive (what, with whom, how long, which faults, which brake mode)."""
+
+    scenario: str = "B"
+    driver_id: str = "d1"
+    controller: Controller = "predefined"
+    seed: int = 0
+    duration_s: float | None = None  # None: the whole profile
+    faults: str = ""
+    brake_mode: Literal["resume", "cancel"] = "resume"
+    engage_s: float = 1.5
+
+
+@dataclass
+class DriveResult:
+    """What a drive produced: figures, the simulator log, the ECU summary, frame counts."""
+
+    config: DriveConfig
+    metrics: DriveMetrics
+    collision: bool
+    collision_t_s: float | None
+    takeovers: int
+    adaptations: int
+    sim_s: float
+    wall_s: float
+    log: WorldLog
+    summary: RuntimeSummary
+    frames_sent: int
+    frames_faulted: int
+    final_table: Dgpt
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def realtime_factor(self) -> float:
+        """Simulated seconds per wall-clock second."""
+        return self.sim_s / self.wall_s if self.wall_s > 0 else math.inf
+
+
+def predefined_table(driver: DriverParams) -> Dgpt:
+    """The Predefined controller's table: the driver's chosen constant headway, d0 = 4 m."""
+    from ecu.dgpt import predefined
+
+    return predefined(driver.predefined_headway_s, driver_id=driver.driver_id,
+                      created_utc="2000-01-01T00:00:00Z")
+
+
+def resolve_profile(scenario: str, seed: int) -> LeadProfile:
+    """A canonical profile name (A, B, manual1..4) or a CSV file of ``t_s,v_lead_mps``."""
+    from sim_bus.errors import ScenarioError
+    from sim_bus.scenarios import canonical_profiles, load_profile_csv
+
+    if scenario.lower().endswith(".csv"):
+        return load_profile_csv(Path(scenario))
+    profiles = canonical_profiles(seed)
+    if scenario not in profiles:
+        raise ScenarioError(f"unknown scenario {scenario!r}: one of {sorted(profiles)} "
+                            "or a .csv file")
+    return profiles[scenario]
+
+
+def run_drive(cfg: DriveConfig, driver: DriverParams, table: Dgpt,
+              profile: LeadProfile | None = None, *, takeover_sink: Any = None,
+              record_channel: str | None = None) -> DriveResult:
+    """Run one lockstep drive; never raises for a collision (it is reported).
+
+    ``record_channel``: when given, the drive's virtual channel name (so a test can attach a
+    listener that sees every frame); by default a private, unique channel.
+    """
+    import can
+    import numpy as np
+
+    from dbc.codec import load_codec
+    from ecu.node import EcuConfig, EcuNode
+    from ecu.runtime import EcuRuntime
+    from sim_bus.drivers import GAP_SETTING_CODE
+    from sim_bus.faults import parse_faults
+    from sim_bus.metrics import drive_metrics
+    from sim_bus.node import SimNode
+    from sim_bus.scenarios import shorten
+    from sim_bus.world import World, WorldConfig
+
+    if cfg.controller not in CONTROLLERS:
+        raise ValueError(f"controller must be one of {CONTROLLERS}")
+    prof = profile or resolve_profile(cfg.scenario, cfg.seed)
+    if cfg.duration_s is not None:
+        prof = shorten(prof, cfg.duration_s)
+    faults = parse_faults(cfg.faults)
+    codec = load_codec()
+    ss = np.random.SeedSequence([cfg.seed, 0x64726976])
+    fault_rng = np.random.default_rng(ss.spawn(1)[0])
+    world = World(driver, prof, cfg.seed, WorldConfig(engage_s=cfg.engage_s))
+    channel = record_channel or f"pacc-drive-{id(cfg):x}-{next(_channel_ids)}"
+    ecu_cfg = EcuConfig(adaptation=cfg.controller.endswith("+oa"), brake_mode=cfg.brake_mode,
+                        set_speed_mps=SET_SPEED_MPS,
+                        trip_meta={"driver_id": driver.driver_id, "seed": cfg.seed,
+                                   "scenario": prof.name, "controller": cfg.controller})
+    ecu = EcuNode(ecu_cfg, table, takeover_sink=takeover_sink)
+    sim_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
+    ecu_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
+    try:
+        rt = EcuRuntime(ecu_bus, ecu, codec=codec)
+        node = SimNode(sim_bus, world, codec=codec, faults=faults, rng=fault_rng,
+                       gap_setting=GAP_SETTING_CODE[driver.predefined_setting])
+        start = time.perf_counter()
+        step = node.step
+        advance = rt.advance_to
+        while not world.done:
+            now = node.t_s
+            step()
+            advance(now)
+        wall = time.perf_counter() - start
+        ecu.finish()
+        summary = rt.summary()
+    finally:
+        sim_bus.shutdown()
+        ecu_bus.shutdown()
+    log = world.log()
+    metrics = drive_metrics(log.t_s, log.v_mps, log.gap_m, log.v_lead_mps, log.a_mps2,
+                            log.acc_state, log.accel_pressed, log.brake_pressed, log.pref_gap_m)
+    return DriveResult(
+        config=cfg, metrics=metrics, collision=world.plant.collided,
+        collision_t_s=world.plant.collision_t_s, takeovers=ecu.takeovers,
+        adaptations=ecu.adaptations, sim_s=world.t_s, wall_s=wall, log=log, summary=summary,
+        frames_sent=node.frames_sent, frames_faulted=node.frames_faulted,
+        final_table=ecu.table)
+
+
+def log_to_trip(result: DriveResult, driver: DriverParams) -> Any:
+    """The drive's log as a cloud_sync Trip at 10 Hz (mode "acc")."""
+    import numpy as np
+
+    from cloud_sync.triplog import Trip
+
+    log = result.log
+    every = max(1, int(round(0.1 / float(np.median(np.diff(log.t_s)))))) if len(log.t_s) > 1 \
+        else 1
+    sl = slice(None, None, every)
+    metrics = {k: (v if math.isfinite(v) else None)
+               for k, v in result.metrics.as_dict().items()}
+    meta: dict[str, Any] = {"driver_id": driver.driver_id, "condition": "dry", "mode": "acc",
+            "scenario": result.config.scenario, "seed": result.config.seed,
+            "controller": result.config.controller, "faults": result.config.faults,
+            "collision": result.collision, "metrics": metrics,
+            "takeovers": result.takeovers, "adaptations": result.adaptations,
+            "source": "sim_bus.drive"}
+    return Trip(t_s=log.t_s[sl], v_mps=log.v_mps[sl], gap_m=log.gap_m[sl],
+                v_lead_mps=log.v_lead_mps[sl], a_mps2=log.a_mps2[sl],
+                accel_pedal=np.clip(log.accel_pct[sl] / 100.0, 0.0, 1.0),
+                brake_pedal=np.clip(log.brake_bar[sl] / 250.0, 0.0, 1.0),
+                acc_state=log.acc_state[sl], meta=meta)
+
+
+def format_result(r: DriveResult) -> str:
+    """The human-readable report printed by ``pacc drive``."""
+    m = r.metrics
+    c = r.config
+    col = f"1 at t = {r.collision_t_s:.2f} s" if r.collision else "0"
+    lines = [
+        f"drive: scenario {c.scenario}, driver {c.driver_id}, controller {c.controller}, "
+        f"seed {c.seed}, {r.sim_s:.1f} s simulated in {r.wall_s:.2f} s "
+        f"({r.realtime_factor:.0f}x real time)",
+        f"  PoI            {m.poi_pct:7.2f} %   (ACC-ON {m.acc_on_s:.1f} s)",
+        f"  NIM            {m.nim_per_min:7.2f} /min ({m.press_onsets} presses)",
+        f"  min gap        {m.min_gap_m:7.2f} m",
+        f"  min TTC        {m.min_ttc_s:7.2f} s",
+        f"  RMS jerk       {m.rms_jerk_mps3:7.3f} m/s^3",
+        f"  gap error      {m.gap_error_mean_m:7.2f} m mean, {m.gap_error_rms_m:.2f} m RMS "
+        "(vs. the driver's preference)",
+        f"  takeovers      {r.takeovers:7d}",
+        f"  adaptations    {r.adaptations:7d}",
+        f"  collisions     {col}",
+        f"  frames         {r.frames_sent} sent by the simulator, {r.frames_faulted} faulted; "
+        f"ECU E2E errors {r.summary.e2e_errors or 'none'}",
+    ]
+    return "\n".join(lines)
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="pacc drive", description=__doc__.split("\n\n")[0],
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--scenario", default="B",
+                   help="A, B, manual1..manual4 or a CSV of t_s,v_lead_mps (default B)")
+    p.add_argument("--driver", default="d1", help="d1..d5 or a driver .toml/.json (default d1)")
+    p.add_argument("--controller", default="predefined", choices=CONTROLLERS)
+    p.add_argument("--profile", type=Path, help="DGPT JSON for the irl controllers")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--faults", default="", help="fault SPEC, e.g. 'radar:dropout=100-105'")
+    p.add_argument("--log", type=Path, help="write the drive as an MCAP trip log")
+    p.add_argument("--duration", type=float, help="simulate only the first N seconds")
+    p.add_argument("--brake-mode", choices=("resume", "cancel"), default="resume",
+                   help="brake press: override and resume (paper) or cancel (production)")
+    p.add_argument("--cache", type=Path, help="cache folder of learned IRL tables "
+                   "(default ~/.cache/pacc)")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``pacc drive``; returns the exit status."""
+    args = _parser().parse_args(argv)
+    from ecu import EcuError
+    from sim_bus.drivers import load_driver
+    from sim_bus.errors import SimError
+    from sim_bus.faults import parse_faults
+    from sim_bus.irl_table import irl_table
+
+    try:
+        driver = load_driver(args.driver)
+        parse_faults(args.faults)
+        if args.duration is not None and not (args.duration > 0):
+            raise SimError("--duration must be > 0")
+        cfg = DriveConfig(scenario=args.scenario, driver_id=driver.driver_id,
+                          controller=args.controller, seed=args.seed,
+                          duration_s=args.duration, faults=args.faults,
+                          brake_mode=args.brake_mode)
+        profile = resolve_profile(args.scenario, args.seed)
+        if args.controller.startswith("irl"):
+            if args.profile is not None:
+                from ecu.dgpt import load_dgpt
+
+                table = load_dgpt(args.profile)
+            else:
+                print("learning the IRL table from the driver's manual trips "
+                      "(cached) ...", file=sys.stderr)
+                table = irl_table(driver, args.seed, args.cache)
+        else:
+            table = predefined_table(driver)
+        result = run_drive(cfg, driver, table, profile)
+    except (SimError, EcuError, OSError) as exc:
+        print(f"pacc drive: error: {exc}", file=sys.stderr)
+        return 2
+    print(format_result(result))
+    if args.log is not None:
+        from cloud_sync.triplog import TripLogError, write_trip
+
+        try:
+            write_trip(args.log, log_to_trip(result, driver))
+        except (TripLogError, OSError) as exc:
+            print(f"pacc drive: error: cannot write {args.log}: {exc}", file=sys.stderr)
+            return 2
+        print(f"  log            {args.log}")
+    return 1 if result.collision else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,80 @@
+"""The IRL table of a driver for ``pacc drive --controller irl|irl+oa``.
+
+With ``--profile`` the given DGPT file is used. Without it, if the cloud trainer
+(``cloud_sync.trainer.learn_dgpt``) is installed, the table is learned from the driver's
+manual trips on the canonical profiles manual1..manual4 and cached (JSON DGPT) under the
+cache directory, keyed by the driver parameters, the seed and the trainer module's source
+hash; otherwise a DriveError asks for ``--profile``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import inspect
+import json
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from sim_bus.drivers import DriverParams
+from sim_bus.errors import DriveError
+
+if TYPE_CHECKING:
+    from ecu.dgpt import Dgpt
+
+MANUAL_PROFILES = ("manual1", "manual2", "manual3", "manual4")
+
+
+def default_cache_dir() -> Path:
+    """``$XDG_CACHE_HOME/pacc`` or ``~/.cache/pacc``."""
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "pacc"
+
+
+def cache_key(driver: DriverParams, seed: int, trainer_source: str) -> str:
+    """A hex key of (driver parameters, seed, trainer source): same inputs, same table."""
+    payload = json.dumps({"driver": dataclasses.asdict(driver), "seed": seed,
+                          "profiles": MANUAL_PROFILES, "trainer": trainer_source},
+                         sort_keys=True, default=str)
+    return hashlib.sha256(payload.encode()).hexdigest()[:16]
+
+
+def irl_table(driver: DriverParams, seed: int, cache_dir: Path | None = None) -> Dgpt:
+    """Learn (or read from the cache) the driver's IRL table from its manual trips."""
+    from ecu.dgpt import DgptError, load_dgpt, save_dgpt
+
+    try:
+        from cloud_sync import trainer
+    except ImportError:
+        raise DriveError("no IRL table: pass --profile DGPT.json (the cloud trainer "
+                         "cloud_sync.trainer is not available)") from None
+    learn = getattr(trainer, "learn_dgpt", None)
+    if learn is None:
+        raise DriveError("no IRL table: pass --profile DGPT.json (cloud_sync.trainer has no "
+                         "learn_dgpt)")
+    try:
+        source = inspect.getsource(trainer)
+    except (OSError, TypeError):
+        source = getattr(trainer, "__file__", "") or ""
+    key = cache_key(driver, seed, hashlib.sha256(source.encode()).hexdigest())
+    folder = cache_dir or default_cache_dir()
+    path = folder / f"irl-{driver.driver_id}-{key}.json"
+    if path.exists():
+        try:
+            return load_dgpt(path)
+        except DgptError:
+            path.unlink(missing_ok=True)  # a damaged cache entry is rebuilt
+    from sim_bus.manual import manual_trip
+    from sim_bus.scenarios import canonical_profiles
+
+    profiles = canonical_profiles(seed)
+    trips = [manual_trip(driver, profiles[name], seed + i)
+             for i, name in enumerate(MANUAL_PROFILES)]
+    result = learn(trips, driver_id=driver.driver_id, seed=seed)
+    table: Dgpt = result.table
+    folder.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    save_dgpt(table, tmp)
+    tmp.replace(path)
+    return table

@@ -1,0 +1,229 @@
+"""The simulator's bus node: plays ESC, PEDAL, RADAR and HMI, consumes ACC_Command.
+
+Frames go out at their DBC periods (ego and pedals 10 ms, radar 50 ms, hmi 100 ms) with the
+alive counter and CRC of the codec's Outbox, stamped with simulated time. ACC_Command frames
+are checked by an Inbox (E2E); the request is applied only while the command is fresh
+(``command_timeout_s``), ``request_active`` is 1 and no pedal is pressed (see world.World).
+
+Two clocks: :meth:`SimNode.step` (lockstep, one tick; the caller owns time: same seed, same
+frame sequence) and :meth:`SimNode.run_realtime` (sleeps to the wall clock).
+Fault injection (sim_bus.faults) is applied to the transmitted frames.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+import time
+from typing import TYPE_CHECKING, Any
+
+import can
+import numpy as np
+
+from sim_bus.behaviour import ACC_OFF
+from sim_bus.faults import FaultPlan, FaultSpec
+from sim_bus.world import World
+
+if TYPE_CHECKING:
+    from dbc.codec import Codec
+
+TX_ROLES = ("ego", "pedals", "radar", "hmi")
+
+
+class SimNode:
+    """Bus I/O around a :class:`World`. ``bus`` is any python-can bus (virtual in lockstep).
+
+    ``faults``: per-role fault plans; ``rng``: the Generator for random faults (seeded by the
+    caller); ``gap_setting`` 1..3 and ``profile_id`` 0..255 are sent on HMI_Buttons.
+    """
+
+    def __init__(self, bus: can.BusABC, world: World, codec: Codec | None = None,
+                 faults: FaultSpec | None = None, rng: np.random.Generator | None = None,
+                 gap_setting: int = 2, profile_id: int = 0,
+                 command_timeout_s: float = 0.1) -> None:
+        from dbc.codec import load_codec
+        from dbc.endpoint import Inbox, Outbox
+
+        self.bus = bus
+        self.world = world
+        self.codec = codec or load_codec()
+        self.outbox = Outbox(self.codec)
+        cmd_cycle = self.codec.by_role["command"].cycle_s
+        self.inbox = Inbox(self.codec, ("command", "status"),
+                           timeout_multiple=command_timeout_s / cmd_cycle)
+        self.dt_s = world.cfg.plant.dt_s
+        self.tick = 0
+        self.t_s = 0.0
+        self._mc = {r: self.codec.by_role[r] for r in TX_ROLES}
+        self._every = {r: max(1, int(round(self._mc[r].cycle_s / self.dt_s))) for r in TX_ROLES}
+        self._bounds = {(r, k): self._mc[r].bounds(k) for r in TX_ROLES for k in self._mc[r].fields}
+        self._values: dict[str, dict[str, Any]] = {
+            "ego": {"speed_mps": 0.0, "accel_mps2": 0.0, "speed_valid": 1},
+            "pedals": {"accel_pedal_pct": 0.0, "accel_pressed": 0, "brake_pressed": 0,
+                       "brake_pressure_bar": 0.0},
+            "radar": {"lead_valid": 1, "gap_m": 0.0, "rel_speed_mps": 0.0,
+                      "lead_accel_mps2": 0.0, "lead_accel_valid": 1},
+            "hmi": {"main_switch": 1, "set": 0, "resume": 0, "cancel": 0,
+                    "gap_setting": int(gap_setting), "profile_id": int(profile_id)},
+        }
+        self.faults = faults if faults is not None and faults.plans else None
+        self._rng = rng or np.random.default_rng(0)
+        self._frozen: dict[str, dict[str, Any]] = {}
+        self._pending: list[tuple[float, int, can.Message]] = []
+        self._seq = 0
+        self.request_active = False
+        self.a_request_mps2 = 0.0
+        self.acc_state = ACC_OFF
+        self.takeover_request = False
+        self.status: dict[str, Any] | None = None
+        self.frames_sent = 0
+        self.frames_faulted = 0
+        self.commands_ok = 0
+
+    # -- receive ------------------------------------------------------------------------
+    def _receive(self, now: float) -> None:
+        bus = self.bus
+        accept = self.inbox.accept
+        while True:
+            msg = bus.recv(0.0)
+            if msg is None:
+                break
+            if msg.is_error_frame or msg.is_remote_frame:
+                continue
+            d = accept(msg.arbitration_id, msg.data, now)
+            if d is None:
+                continue
+            if d.role == "command":
+                v = d.values
+                self.commands_ok += 1
+                self.request_active = bool(v["request_active"])
+                self.a_request_mps2 = float(v["accel_request_mps2"])
+                self.acc_state = int(v["acc_state"])
+                self.takeover_request = bool(v["takeover_request"])
+            elif d.role == "status":
+                self.status = d.values
+
+    # -- transmit -----------------------------------------------------------------------
+    def _fill(self, role: str) -> dict[str, Any]:
+        w = self.world
+        car = w.plant
+        agent = w.agent
+        vals = self._values[role]
+        b = self._bounds
+        if role == "ego":
+            vals["speed_mps"] = _clip(car.v_mps, b[("ego", "speed_mps")])
+            vals["accel_mps2"] = _clip(car.a_mps2, b[("ego", "accel_mps2")])
+        elif role == "pedals":
+            vals["accel_pressed"] = 1 if agent.accel_pressed else 0
+            vals["brake_pressed"] = 1 if agent.brake_pressed else 0
+            vals["accel_pedal_pct"] = _clip(agent.accel_pct, b[("pedals", "accel_pedal_pct")])
+            vals["brake_pressure_bar"] = _clip(agent.brake_bar,
+                                               b[("pedals", "brake_pressure_bar")])
+        elif role == "radar":
+            gap = car.gap_m
+            lo, hi = b[("radar", "gap_m")]
+            vals["lead_valid"] = 1 if lo <= gap <= hi else 0
+            vals["gap_m"] = _clip(gap, (lo, hi))
+            vals["rel_speed_mps"] = _clip(w.v_lead_mps - car.v_mps, b[("radar", "rel_speed_mps")])
+            vals["lead_accel_mps2"] = _clip(w.a_lead_mps2, b[("radar", "lead_accel_mps2")])
+        else:
+            vals["set"] = 1 if agent.set_button else 0
+            vals["resume"] = 1 if agent.resume_button else 0
+        return vals
+
+    def _send(self, msg: can.Message) -> None:
+        self.bus.send(msg)
+        self.frames_sent += 1
+
+    def _transmit(self, now: float) -> None:
+        tick = self.tick
+        faults = self.faults
+        for role in TX_ROLES:
+            if tick % self._every[role]:
+                continue
+            vals = self._fill(role)
+            if faults is None:
+                mc = self._mc[role]
+                msg = can.Message(arbitration_id=mc.frame_id, data=self.outbox.encode(role, vals),
+                                  is_extended_id=mc.is_extended, timestamp=now)
+                self._send(msg)
+                continue
+            plan = faults.plan(role)
+            if plan is None:
+                self._send(self.outbox.pack(role, vals, timestamp=now))
+            else:
+                self._transmit_faulty(role, vals, plan, now)
+        if self._pending:
+            while self._pending and self._pending[0][0] <= now + 1e-9:
+                _, _, msg = heapq.heappop(self._pending)
+                msg.timestamp = now
+                self._send(msg)
+
+    def _transmit_faulty(self, role: str, vals: dict[str, Any], plan: FaultPlan,
+                         now: float) -> None:
+        if plan.silent_at(now):
+            self.frames_faulted += 1
+            return
+        window = plan.frozen_at(now)
+        if window is not None:
+            key = f"{role}@{window[0]}"
+            if key not in self._frozen:
+                self._frozen[key] = dict(vals)
+            vals = self._frozen[key]
+            self.frames_faulted += 1
+        u = self._rng.random(3) if plan.random else (1.0, 1.0, 1.0)
+        if u[0] < plan.counter:  # repeat the previous alive counter
+            self.outbox.counters[role] = (self.outbox.counters[role] - 1) & 0xF
+            self.frames_faulted += 1
+        msg = self.outbox.pack(role, vals, timestamp=now)
+        if u[1] < plan.crc:
+            crc_byte = self._mc[role].crc_byte
+            data = bytearray(msg.data)
+            data[crc_byte if crc_byte is not None else 0] ^= 0x5A
+            msg.data = data
+            self.frames_faulted += 1
+        if u[2] < plan.drop:
+            self.frames_faulted += 1
+            return
+        if plan.delay_s > 0.0:
+            self._seq += 1
+            heapq.heappush(self._pending, (now + plan.delay_s, self._seq, msg))
+            return
+        self._send(msg)
+
+    # -- clocks -------------------------------------------------------------------------
+    def command_now(self, now: float) -> tuple[bool, float, int]:
+        """(request active and fresh, request m/s², AccState the driver sees) at ``now``."""
+        fresh = self.inbox.fresh("command", now) if self.commands_ok else False
+        active = self.request_active and fresh
+        a = self.a_request_mps2 if active and math.isfinite(self.a_request_mps2) else 0.0
+        return active, a, self.acc_state if fresh else ACC_OFF
+
+    def step(self) -> None:
+        """One lockstep tick: take in commands, send due frames, advance the world by dt."""
+        now = self.t_s
+        self._receive(now)
+        self._transmit(now)
+        active, a, state = self.command_now(now)
+        self.world.advance(active, a, state)
+        self.tick += 1
+        self.t_s = self.tick * self.dt_s
+
+    def run_realtime(self, duration_s: float, stop: Any = None) -> None:
+        """Run in real time for ``duration_s`` (or until the world is done / ``stop()``)."""
+        start = time.monotonic()
+        while self.t_s < duration_s and not self.world.done:
+            if stop is not None and stop():
+                break
+            self.step()
+            delay = start + self.t_s - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+
+
+def _clip(x: float, bounds: tuple[float, float]) -> float:
+    """``x`` limited to ``bounds``; NaN becomes the lower bound (never an EncodeError)."""
+    lo, hi = bounds
+    if x != x:
+        return lo
+    return lo if x < lo else hi if x > hi else x
