@@ -206,6 +206,7 @@ class EcuNode:
         self._takeover_start: float | None = None
         self._takeover_pedal = ""
         self.last_decision: Decision | None = None
+        self._profile_fault = False
         self.recorder: TakeoverRecorder | None = None
         if takeover_sink is not None:
             self.recorder = TakeoverRecorder(
@@ -332,11 +333,23 @@ class EcuNode:
             desired_gap_m=desired_gap if math.isfinite(desired_gap) else 0.0,
             dgpt_version=table.version,
             adaptation_count=self.adaptations,
-            fault_code=self.fault_code,
+            fault_code=(
+                FaultCode.PROFILE
+                if self._profile_fault and self.fault_code is FaultCode.NONE
+                else self.fault_code
+            ),
             set_speed_mps=self.set_speed_mps,
             emergency=emergency,
             events=tuple(events),
         )
+
+    def report_profile_fault(self) -> None:
+        """The requested profile was refused: report FaultCode PROFILE on the status.
+
+        The node keeps running on the table it was given (the predefined fallback); the code
+        shows whenever no input fault is being reported.
+        """
+        self._profile_fault = True
 
     def finish(self) -> None:
         """End of trip: hand any open takeover segment to the sink."""

@@ -1,0 +1,164 @@
+"""``pacc ecu``: run the ACC ECU node on a CAN bus in real time.
+
+Example::
+
+    pacc ecu -i virtual -c vcan0 --headway 1.5 --takeovers takeovers/ --duration 300
+
+The node starts from ``--profile`` (a DGPT JSON file) or a predefined constant-headway table.
+An invalid profile is refused with a clear message; the ECU then runs on the predefined
+table, says so, and reports FaultCode Profile on ACC_Status. State changes, faults and
+adaptation decisions are printed as they happen; at exit (``--duration`` elapsed or Ctrl-C)
+a summary: cycles, frames in/out, E2E errors by kind, takeovers, adaptations, max cycle time.
+Exit codes: 0 run completed, 1 bus/DBC/takeover-directory error, 2 usage error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``pacc ecu`` (python-can flag conventions)."""
+    p = argparse.ArgumentParser(
+        prog="pacc ecu",
+        description="Run the personalized ACC ECU node on a CAN bus (50 Hz, real time).",
+    )
+    bus = p.add_argument_group("bus (omitted: python-can's own configuration applies)")
+    bus.add_argument("-i", "--interface", help="python-can interface, e.g. virtual, socketcan")
+    bus.add_argument("-c", "--channel", help="channel, e.g. vcan0")
+    bus.add_argument("-b", "--bitrate", type=int, help="bitrate, bit/s")
+    bus.add_argument("--dbc", help="DBC file (default: the packaged dbc/pacc.dbc)")
+    table = p.add_mutually_exclusive_group()
+    table.add_argument("--profile", metavar="DGPT.json", help="driver gap preference table")
+    table.add_argument(
+        "--headway",
+        type=float,
+        default=1.5,
+        metavar="S",
+        help="predefined table: constant time headway, s (default 1.5; the paper: 1, 3, 4)",
+    )
+    p.add_argument(
+        "--standstill", type=float, default=4.0, metavar="M", help="standstill gap, m (4)"
+    )
+    p.add_argument(
+        "--adaptation",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="online DGPT adaptation at each takeover release (default: on)",
+    )
+    p.add_argument(
+        "--brake",
+        choices=("resume", "cancel"),
+        default="resume",
+        help="brake press: override and resume on release (paper) or cancel (production)",
+    )
+    p.add_argument("--set-speed", type=float, metavar="MPS", help="SET engages at this speed")
+    p.add_argument("--takeovers", metavar="DIR", help="write takeover segments (MCAP) here")
+    p.add_argument("--save-profile", metavar="PATH", help="write the final DGPT here at exit")
+    p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
+    p.add_argument("-v", "--verbose", action="store_true", help="log at INFO level")
+    return p
+
+
+def _bus_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    kwargs: dict[str, Any] = {"interface": args.interface, "channel": args.channel}
+    if args.bitrate is not None:
+        kwargs["bitrate"] = args.bitrate
+    return kwargs
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``pacc ecu`` / ``python -m ecu``; returns the exit code."""
+    args = build_parser().parse_args(argv)
+    if args.duration is not None and not args.duration >= 0.0:
+        print("pacc ecu: error: --duration must be >= 0", file=sys.stderr)
+        return 2
+    return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
+    import logging
+
+    import can
+
+    from dbc.codec import CodecError, load_codec
+    from ecu import EcuError
+    from ecu.dgpt import Dgpt, DgptError, load_dgpt, predefined, save_dgpt
+    from ecu.node import EcuConfig, EcuNode
+    from ecu.recorder import TripSink, directory_sink
+    from ecu.runtime import EcuRuntime
+
+    logging.basicConfig(
+        level=logging.INFO if args.verbose else logging.WARNING,
+        format="%(levelname)s %(name)s: %(message)s",
+    )
+    try:
+        config = EcuConfig(
+            adaptation=args.adaptation, brake_mode=args.brake, set_speed_mps=args.set_speed
+        )
+        fallback = predefined(args.headway, args.standstill)
+    except EcuError as exc:
+        print(f"pacc ecu: error: {exc}", file=sys.stderr)
+        return 2
+    table: Dgpt = fallback
+    profile_fault = False
+    if args.profile:
+        try:
+            table = load_dgpt(args.profile, config.bounds)
+            print(f"profile: {args.profile} ({table.driver_id}, {table.source}, v{table.version})")
+        except DgptError as exc:
+            profile_fault = True
+            print(f"pacc ecu: profile refused: {exc}", file=sys.stderr)
+            print(
+                f"pacc ecu: running on the predefined table ({args.headway:g} s headway, "
+                f"{args.standstill:g} m standstill) instead",
+                file=sys.stderr,
+            )
+    else:
+        print(f"profile: predefined {args.headway:g} s headway, {args.standstill:g} m standstill")
+    sink: TripSink | None = None
+    try:
+        codec = load_codec(args.dbc) if args.dbc else load_codec()
+        if args.takeovers:
+            sink = directory_sink(args.takeovers)
+    except (CodecError, EcuError) as exc:
+        print(f"pacc ecu: error: {exc}", file=sys.stderr)
+        return 1
+    node = EcuNode(config, table, sink)
+    if profile_fault:
+        node.report_profile_fault()
+    try:
+        bus = can.Bus(**_bus_kwargs(args))
+    except (can.CanError, OSError, ValueError, ImportError) as exc:
+        print(f"pacc ecu: error: cannot open the CAN bus: {exc}", file=sys.stderr)
+        return 1
+    with bus:
+        rt = EcuRuntime(bus, node, codec, on_event=lambda text: print(text, flush=True))
+        print(f"ECU running on {bus.channel_info} (Ctrl-C to stop)", flush=True)
+        try:
+            rt.run_realtime(args.duration)
+        except KeyboardInterrupt:
+            print("interrupted", flush=True)
+        finally:
+            node.finish()
+    print(rt.summary(), flush=True)
+    if args.takeovers and node.recorder is not None:
+        rec = node.recorder
+        print(
+            f"takeover segments: {rec.segments} written to {args.takeovers}"
+            f" ({rec.sink_errors} failed)"
+        )
+    if args.save_profile:
+        try:
+            save_dgpt(node.table, args.save_profile)
+            print(f"profile saved: {args.save_profile} (v{node.table.version})")
+        except DgptError as exc:
+            print(f"pacc ecu: error: {exc}", file=sys.stderr)
+            return 1
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,289 @@
+"""EcuNode.step: closed loop on a minimal plant, takeovers, faults, the envelope property."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import Any
+
+import pytest
+from hypothesis import event, given
+from hypothesis import strategies as st
+
+from cloud_sync.triplog import Trip
+from ecu.dgpt import predefined
+from ecu.node import ConfigError, EcuConfig, EcuNode, NodeInputs, NodeOutputs
+from ecu.state import AccState, FaultCode
+
+DT = 0.02
+JERK = 2.5
+EPS = 1e-9
+
+
+class Loop:
+    """The node on a minimal plant: first-order actuator lag 0.3 s, lead at constant speed."""
+
+    def __init__(self, node: EcuNode, v: float = 20.0, gap: float = 50.0, v_lead: float = 20.0):
+        self.node, self.v, self.gap, self.v_lead, self.a, self.t = node, v, gap, v_lead, 0.0, 0.0
+        self.inp = NodeInputs(main_switch=True)
+        self.driver_accel = 0.0  # m/s^2 applied while a pedal is pressed
+        self.out: NodeOutputs | None = None
+        self.events: list[str] = []
+
+    def run(self, seconds: float, **changes: Any) -> NodeOutputs:
+        for _ in range(int(round(seconds / DT))):
+            inp = replace(
+                self.inp,
+                v_mps=self.v,
+                a_mps2=self.a,
+                lead_valid=True,
+                gap_m=self.gap,
+                rel_speed_mps=self.v_lead - self.v,
+                **changes,
+            )
+            self.out = out = self.node.step(inp, self.t)
+            self.events += out.events
+            if inp.accel_pressed or inp.brake_pressed:
+                cmd = self.driver_accel
+            else:
+                cmd = out.accel_request_mps2 if out.request_active else 0.0
+            self.a += (cmd - self.a) * DT / 0.3
+            self.v = max(self.v + self.a * DT, 0.0)
+            self.gap += (self.v_lead - self.v) * DT
+            self.t += DT
+        assert self.out is not None
+        return self.out
+
+    def engage(self) -> None:
+        self.run(1.2)
+        self.run(0.1, set_button=True)
+        assert self.node.state is AccState.ACTIVE
+
+
+def test_steady_state_following_distance() -> None:
+    """openpilot-style: lead at a constant 20 m/s, 1.5 s table: the gap settles within
+    10 % + 0.5 m of DGPT(20 m/s) = 34 m, from too far and from too close."""
+    for start_gap in (60.0, 25.0):
+        node = EcuNode(EcuConfig(set_speed_mps=30.0), predefined(1.5))
+        loop = Loop(node, v=20.0, gap=start_gap)
+        loop.engage()
+        loop.run(90.0)
+        desired = node.table.lookup(20.0)
+        assert desired == pytest.approx(34.0)
+        assert abs(loop.gap - desired) <= 0.1 * desired + 0.5
+        assert abs(loop.v - 20.0) < 0.2
+
+
+def test_cruise_without_lead_holds_set_speed() -> None:
+    node = EcuNode(EcuConfig(), predefined(1.5))
+    loop = Loop(node, v=25.0, gap=200.0, v_lead=40.0)
+    loop.engage()
+    assert node.set_speed_mps == pytest.approx(25.0, abs=0.1)
+    for _ in range(int(40 / DT)):
+        loop.inp = replace(loop.inp, lead_valid=False)
+        out = node.step(replace(loop.inp, v_mps=loop.v, a_mps2=loop.a), loop.t)
+        loop.a += (out.accel_request_mps2 - loop.a) * DT / 0.3
+        loop.v += loop.a * DT
+        loop.t += DT
+    assert loop.v == pytest.approx(25.0, abs=0.3)
+
+
+def test_accelerator_takeover_adapts_and_records() -> None:
+    segments: list[Trip] = []
+    node = EcuNode(EcuConfig(trip_meta={"seed": 7}), predefined(3.0), segments.append)
+    loop = Loop(node, v=20.0, gap=64.0)
+    loop.engage()
+    loop.run(10.0)
+    loop.driver_accel = 1.0
+    out = loop.run(3.0, accel_pressed=True, accel_pedal=0.3)
+    assert out.acc_state is AccState.OVERRIDE and not out.request_active
+    assert node.takeovers == 1
+    loop.driver_accel = 0.0
+    g_rel, v_rel = loop.gap, loop.v  # the inputs of the release cycle
+    out = loop.run(0.1)
+    assert out.acc_state is AccState.ACTIVE
+    assert node.adaptations == 1 and node.table.version == 1
+    d = node.last_decision
+    assert d is not None and d.applied
+    # closing (v > v_f = 20): g_desire = g - K_T * (v - v_f), written at the bin of v
+    assert v_rel > 22.0
+    assert d.g_desire_m == pytest.approx(g_rel - 1.0 * (v_rel - 20.0))
+    assert d.bin_index == round(v_rel / 0.5)
+    assert node.table.gap_m[d.bin_index] == pytest.approx(d.g_desire_m)
+    assert d.g_desire_m < predefined(3.0).lookup(v_rel)
+    assert not segments  # post window still open
+    loop.run(5.5)
+    assert len(segments) == 1
+    seg = segments[0]
+    assert seg.meta["mode"] == "takeover" and seg.meta["seed"] == 7
+    assert seg.meta["takeovers"][0]["pedal"] == "accel"
+    assert seg.meta["takeovers"][0]["adaptation"] == "applied"
+    # 5 s pre-trigger + 3 s takeover + 5 s post at 10 Hz
+    assert 125 <= len(seg) <= 135
+    assert set(seg.acc_state.tolist()) >= {2, 3}
+    assert seg.accel_pedal.max() == pytest.approx(0.3)
+
+
+def test_short_takeover_skipped_and_adaptation_off() -> None:
+    node = EcuNode(EcuConfig(), predefined(3.0))
+    loop = Loop(node, gap=64.0)
+    loop.engage()
+    loop.run(0.5, accel_pressed=True)
+    loop.run(0.1)
+    assert node.takeovers == 1 and node.adaptations == 0
+    assert node.last_decision is not None and node.last_decision.reason.value == "short_takeover"
+    off = EcuNode(EcuConfig(adaptation=False), predefined(3.0))
+    loop = Loop(off, gap=64.0)
+    loop.engage()
+    loop.run(3.0, accel_pressed=True)
+    loop.run(0.1)
+    assert off.takeovers == 1 and off.table.version == 0
+
+
+def test_brake_modes() -> None:
+    node = EcuNode(EcuConfig(brake_mode="resume", set_speed_mps=30.0), predefined(1.5))
+    loop = Loop(node, gap=40.0)
+    loop.engage()
+    out = loop.run(2.0)
+    assert out.request_active and out.accel_request_mps2 != 0.0
+    out = loop.run(DT, brake_pressed=True)
+    assert out.acc_state is AccState.OVERRIDE and not out.request_active
+    assert loop.run(0.5, brake_pressed=True).acc_state is AccState.OVERRIDE
+    assert loop.run(0.1).acc_state is AccState.ACTIVE
+    node = EcuNode(EcuConfig(brake_mode="cancel"), predefined(1.5))
+    loop = Loop(node, gap=34.0)
+    loop.engage()
+    assert loop.run(0.5, brake_pressed=True).acc_state is AccState.STANDBY
+    assert loop.run(0.5).acc_state is AccState.STANDBY
+    assert node.takeovers == 1
+
+
+def test_radar_loss_faults_with_ramp_and_needs_settle_to_reengage() -> None:
+    node = EcuNode(EcuConfig(), predefined(1.5))
+    loop = Loop(node, v=20.0, gap=20.0, v_lead=18.0)  # too close and closing: braking
+    loop.engage()
+    out = loop.run(1.0)
+    assert out.request_active and out.accel_request_mps2 < -0.5
+    prev = out.accel_request_mps2
+    out = loop.run(DT, radar_ok=False)
+    assert out.acc_state is AccState.FAULT and out.fault_code is FaultCode.RADAR_INPUT
+    assert out.takeover_request and out.request_active
+    ramp = [out.accel_request_mps2]
+    while out.request_active:
+        out = loop.run(DT, radar_ok=False)
+        ramp.append(out.accel_request_mps2)
+    assert ramp[-1] == 0.0 and not out.request_active and out.takeover_request
+    steps = [b - a for a, b in zip([prev, *ramp], ramp, strict=False)]
+    assert all(0.0 <= s <= JERK * DT + EPS for s in steps)
+    assert len(ramp) >= int(abs(prev) / (JERK * DT))
+    # inputs valid again: SET within 1 s is refused, after 1 s it engages
+    loop.run(0.5)
+    assert loop.run(0.1, set_button=True).acc_state is AccState.FAULT
+    loop.run(0.6)
+    out = loop.run(0.1, set_button=True)
+    assert out.acc_state is AccState.ACTIVE and out.fault_code is FaultCode.NONE
+
+
+def test_nan_speed_is_a_fault_not_an_exception() -> None:
+    node = EcuNode(EcuConfig(), predefined(1.5))
+    loop = Loop(node)
+    loop.engage()
+    out = node.step(replace(loop.inp, v_mps=math.nan), loop.t + DT)
+    assert out.acc_state is AccState.FAULT and out.fault_code is FaultCode.SPEED_INPUT
+    assert math.isfinite(out.accel_request_mps2)
+
+
+def test_profile_fault_reported() -> None:
+    node = EcuNode(EcuConfig(), predefined(1.5))
+    node.report_profile_fault()
+    out = node.step(NodeInputs(main_switch=True), 0.0)
+    assert out.fault_code is FaultCode.PROFILE
+
+
+def test_config_validated() -> None:
+    with pytest.raises(ConfigError):
+        EcuConfig(brake_mode="sometimes")  # type: ignore[arg-type]
+    with pytest.raises(ConfigError):
+        EcuConfig(cycle_s=0.5)
+    with pytest.raises(ConfigError):
+        EcuConfig(set_speed_mps=80.0)
+
+
+# -- property: the envelope holds for arbitrary input sequences ------------------------------
+
+floats = st.one_of(
+    st.floats(min_value=-5.0, max_value=80.0),
+    st.floats(min_value=0.0, max_value=80.0),
+    st.floats(min_value=0.0, max_value=80.0),
+    st.sampled_from([math.nan, math.inf, -math.inf, 0.0]),
+)
+mostly = st.sampled_from([True, True, True, True, False])  # validity flags: mostly valid
+rarely = st.sampled_from([False, False, False, False, True])  # pedals and buttons
+inputs = st.builds(
+    NodeInputs,
+    v_mps=floats,
+    a_mps2=st.floats(-10.0, 10.0),
+    speed_ok=mostly,
+    accel_pedal=st.floats(0.0, 1.0),
+    brake_pedal=st.floats(0.0, 1.0),
+    accel_pressed=rarely,
+    brake_pressed=rarely,
+    pedals_ok=mostly,
+    lead_valid=st.booleans(),
+    gap_m=floats,
+    rel_speed_mps=st.one_of(st.floats(-40.0, 40.0), st.just(math.nan)),
+    lead_accel_mps2=st.floats(-15.0, 15.0),
+    lead_accel_valid=st.booleans(),
+    radar_ok=mostly,
+    main_switch=mostly,
+    set_button=rarely,
+    resume_button=rarely,
+    cancel_button=rarely,
+    hmi_ok=mostly,
+)
+# runs of repeated inputs so the machine gets to settle, engage and act
+runs = st.lists(st.tuples(inputs, st.integers(1, 80)), min_size=1, max_size=25)
+engage = st.builds(  # valid inputs, main on: held, then SET pressed
+    NodeInputs,
+    v_mps=st.floats(0.0, 40.0),
+    a_mps2=st.floats(-3.0, 3.0),
+    lead_valid=st.booleans(),
+    gap_m=st.floats(0.0, 150.0),
+    rel_speed_mps=st.floats(-15.0, 15.0),
+    main_switch=st.just(True),
+)
+
+
+@given(
+    start=engage,
+    hold=st.integers(1, 150),
+    runs=runs,
+    brake_mode=st.sampled_from(["resume", "cancel"]),
+)
+def test_every_command_inside_envelope(
+    start: NodeInputs, hold: int, runs: list[tuple[NodeInputs, int]], brake_mode: str
+) -> None:
+    node = EcuNode(EcuConfig(brake_mode=brake_mode, settle_s=0.1), predefined(1.5))  # type: ignore[arg-type]
+    p = node.config.controller
+    prev, t = 0.0, 0.0
+    states: set[AccState] = set()
+    runs = [(start, 10), (replace(start, set_button=True), 1), (start, hold), *runs]
+    for inp, n in runs:
+        for _ in range(n):
+            out = node.step(inp, t)
+            a = out.accel_request_mps2
+            assert p.accel_min_mps2 <= a <= p.accel_max_mps2
+            rise, fall = JERK * DT + EPS, (10.0 if out.emergency else JERK) * DT + EPS
+            assert -fall <= a - prev <= rise
+            if out.emergency:
+                assert out.acc_state is AccState.ACTIVE and a < prev + EPS
+            if out.acc_state is AccState.FAULT:
+                assert out.takeover_request
+                if out.request_active:  # only the ramp toward zero
+                    assert abs(a) < abs(prev) and a * prev >= 0.0
+            elif out.acc_state is not AccState.ACTIVE:
+                assert not out.request_active
+            prev = a
+            t += DT
+            states.add(out.acc_state)
+    event(f"reached {max(states).name}")
