@@ -34,7 +34,6 @@ DECEL_LIMIT_MPS2 = 8.0
 BUTTON_HOLD_S = 0.3
 RESUME_DELAY_S = 1.0
 MIN_PRESS_S = 0.4
-MAX_PRESS_S = 20.0
 FAULT_RETRY_S = 5.0  # after a fault, the driver tries RESUME once it has lasted this long
 
 
@@ -130,8 +129,6 @@ class DriverAgent:
         v, vl, g = self._perceive(v_mps, v_lead_mps, gap_m)
         pref = float(p.standstill_m + p.condition_factor * self.condition
                      * float(np.interp(v, p.headway_speeds_mps, p.headway_s)) * v)
-        self.pref_gap_m = pref
-        a_idm = idm_plus_accel(v, vl, g, pref, p) + self._noise
         self.set_button = self.resume_button = False
         if self.t_s < self._button_until:
             self.set_button = self._button == "set"
@@ -140,10 +137,14 @@ class DriverAgent:
         self._fault_t = self._fault_t + dt if acc_state == ACC_FAULT else 0.0
         if engaged:
             self._engaged_once = True
+        supervising = self.acc_mode and (engaged or self.mode != "idle")
+        if supervising:
+            pref *= p.acc_preference_factor
+        self.pref_gap_m = pref
+        a_idm = idm_plus_accel(v, vl, g, pref, p) + self._noise
         if not self.acc_mode:
             self._drive_by_hand(a_idm)
-            return
-        if engaged or self.mode != "idle":
+        elif supervising:
             self._supervise(v, vl, g, pref, a_idm, u, engaged)
         else:
             self._not_engaged(v, vl, g, pref, a_idm, acc_state)
@@ -225,7 +226,7 @@ class DriverAgent:
             ok = g_ant >= pref * (1.0 - p.release_band) and ttc > p.ttc_brake_s
         elif self.mode == "accel":
             self.a_cmd_mps2 = max(a, 0.3)
-            ok = g_ant <= pref * (1.0 + p.release_band) or closing > 1.0
+            ok = g_ant <= pref * (1.0 + p.release_band)
         else:  # a short random tap of the accelerator
             self.a_cmd_mps2 = max(a, 0.2)
             ok = self._press_t >= 0.3
@@ -233,7 +234,7 @@ class DriverAgent:
             self._ok_t = self._press_t
         hold = 0.0 if self.mode == "tap" else p.prolong_s
         done = ok and self._press_t - self._ok_t >= hold and self._press_t >= MIN_PRESS_S
-        if done or self._press_t >= MAX_PRESS_S:
+        if done or self._press_t >= p.press_max_s:
             self.mode = "idle"
             self._last_release_t = self.t_s
             self._close_t = self._far_t = 0.0

@@ -41,6 +41,9 @@ class DriverParams:
     headway_s: tuple[float, ...] = (1.8, 1.8, 1.8, 1.8)
     condition_factor: float = 1.0
     condition_drift_per_min: float = 0.0  # std of the factor's random walk per √minute
+    # under ACC the driver judges the gap against acc_preference_factor · g*(v): drivers
+    # often want a different gap when not in control than the one they keep by hand
+    acc_preference_factor: float = 1.0
     # tolerance and timing of interventions under ACC
     comfort_band: float = 0.15  # relative half-width of the comfortable gap band
     comfort_band_min_m: float = 2.0
@@ -54,7 +57,8 @@ class DriverParams:
     release_band: float = 0.06
     anticipation_s: float = 1.0
     prolong_s: float = 0.3
-    refractory_s: float = 2.0  # minimum time between two presses
+    refractory_s: float = 1.0  # minimum time between two presses
+    press_max_s: float = 3.0  # a press lasts at most this long (drivers nudge in bursts)
     # manual driving: IDM+ around the preference
     accel_max_mps2: float = 1.5
     decel_comfort_mps2: float = 2.0
@@ -76,7 +80,9 @@ class DriverParams:
             raise DriverError(f"{self.driver_id}: standstill_m must lie in 0.5..15 m")
         if not 0.5 <= self.condition_factor <= 2.0:
             raise DriverError(f"{self.driver_id}: condition_factor must lie in 0.5..2")
-        positive = ("patience_s", "patience_far_s", "reaction_s", "accel_max_mps2",
+        if not 0.5 <= self.acc_preference_factor <= 2.0:
+            raise DriverError(f"{self.driver_id}: acc_preference_factor must lie in 0.5..2")
+        positive = ("patience_s", "patience_far_s", "reaction_s", "accel_max_mps2", "press_max_s",
                     "decel_comfort_mps2", "desired_speed_mps", "comfort_band")
         for name in positive:
             if not getattr(self, name) > 0:
@@ -105,6 +111,11 @@ class DriverParams:
         c = self.condition_factor * condition_factor
         return self.standstill_m + c * self.headway_at(v) * v
 
+    def acc_preferred_gap_m(self, v_mps: np.ndarray | float,
+                            condition_factor: float = 1.0) -> np.ndarray:
+        """The gap the driver wants under ACC: ``acc_preference_factor · g*(v)`` (m)."""
+        return self.acc_preference_factor * self.preferred_gap_m(v_mps, condition_factor)
+
     @property
     def predefined_headway_s(self) -> float:
         """The constant headway this driver picks for the Predefined controller (s)."""
@@ -116,27 +127,29 @@ BUILTIN_DRIVERS: dict[str, DriverParams] = {
         "d1", "close follower: short headway, impatient, brakes late",
         standstill_m=3.0, headway_s=(1.15, 1.2, 1.25, 1.3), comfort_band=0.15,
         patience_s=1.2, patience_far_s=2.5, reaction_s=0.5, anticipation_s=1.2,
-        accel_max_mps2=2.0, decel_comfort_mps2=2.5, predefined_setting="low"),
+        accel_max_mps2=2.0, decel_comfort_mps2=2.5, press_max_s=2.5, predefined_setting="low"),
     "d2": DriverParams(
         "d2", "moderate: medium headway, average patience",
         standstill_m=4.0, headway_s=(1.6, 1.7, 1.8, 1.9), comfort_band=0.15,
-        patience_s=1.5, patience_far_s=4.0, reaction_s=0.6, predefined_setting="medium"),
+        patience_s=1.5, patience_far_s=4.0, reaction_s=0.6, acc_preference_factor=1.1,
+        predefined_setting="medium"),
     "d3": DriverParams(
         "d3", "very cautious: long headway, brakes early, prolongs its presses",
         standstill_m=5.0, headway_s=(2.5, 2.7, 2.9, 3.0), comfort_band=0.12,
         patience_s=1.0, patience_far_s=6.0, lookahead_s=2.0, ttc_brake_s=4.0, reaction_s=0.8,
         anticipation_s=0.3, prolong_s=1.0, accel_max_mps2=1.2, decel_comfort_mps2=1.8,
-        predefined_setting="high"),
+        acc_preference_factor=1.1, press_max_s=4.0, predefined_setting="high"),
     "d4": DriverParams(
         "d4", "speed-dependent: close in town, far on the motorway",
         standstill_m=4.0, headway_s=(1.2, 1.5, 2.3, 2.7), comfort_band=0.15,
-        patience_s=1.5, patience_far_s=3.5, reaction_s=0.6, predefined_setting="medium"),
+        patience_s=1.5, patience_far_s=3.5, reaction_s=0.6, acc_preference_factor=0.92,
+        predefined_setting="medium"),
     "d5": DriverParams(
         "d5", "inconsistent: drifting preference, noisy control, random short taps",
         standstill_m=4.0, headway_s=(1.7, 1.9, 2.1, 2.2), condition_drift_per_min=0.05,
         comfort_band=0.18, patience_s=2.0, patience_far_s=4.0, reaction_s=0.7,
         anticipation_s=0.6, prolong_s=0.6, accel_noise_mps2=0.3, spurious_press_per_min=0.5,
-        predefined_setting="medium"),
+        press_max_s=2.0, predefined_setting="medium"),
 }
 
 
