@@ -1,0 +1,139 @@
+"""``pacc ecu`` in-process on the virtual bus, with a thread playing the other nodes."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import threading
+import time
+from pathlib import Path
+
+import can
+import pytest
+
+from dbc.codec import load_codec
+from ecu.cli import main
+from ecu.dgpt import load_dgpt
+from ecu.peers import PeerNodes
+
+_ids = itertools.count()
+CODEC = load_codec()
+
+
+class Peers(threading.Thread):
+    """Plays ESC/PEDAL/RADAR/HMI in real time: SET at 1.2 s, accelerator 1.6..3.0 s."""
+
+    def __init__(self, channel: str, seconds: float) -> None:
+        super().__init__(daemon=True)
+        self.channel, self.seconds = channel, seconds
+        self.status: list[dict[str, float | int]] = []
+
+    def run(self) -> None:
+        with can.Bus(interface="virtual", channel=self.channel) as bus:
+            peers = PeerNodes(bus, CODEC)
+            peers.set("radar", gap_m=60.0)
+            t0 = time.monotonic()
+            while (t := time.monotonic() - t0) < self.seconds:
+                peers.set("hmi", set=int(1.2 <= t < 1.4))
+                peers.set("pedals", accel_pressed=int(1.6 <= t < 3.0))
+                peers.send_due(t)
+                while (msg := bus.recv(0)) is not None:
+                    mc = CODEC.by_id.get(msg.arbitration_id)
+                    if mc is not None and mc.role == "status":
+                        self.status.append(CODEC.decode(msg.arbitration_id, msg.data).values)
+                time.sleep(0.002)
+
+
+def test_cli_runs_takeover_and_prints_summary(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    channel = f"ecu-cli-{next(_ids)}"
+    peers = Peers(channel, 3.8)
+    peers.start()
+    rc = main(
+        [
+            "-i",
+            "virtual",
+            "-c",
+            channel,
+            "--headway",
+            "3",
+            "--duration",
+            "3.5",
+            "--takeovers",
+            str(tmp_path / "to"),
+            "--save-profile",
+            str(tmp_path / "p.json"),
+        ]
+    )
+    peers.join()
+    out = capsys.readouterr().out
+    assert rc == 0
+    assert "state OFF -> STANDBY" in out
+    assert "state STANDBY -> ACTIVE" in out
+    assert "state ACTIVE -> OVERRIDE" in out
+    assert "takeover 1 (accel)" in out
+    assert "adaptation applied" in out
+    for line in (
+        "cycles:",
+        "frames in/out:",
+        "E2E errors:",
+        "takeovers:      1",
+        "adaptations:    1",
+        "max cycle time:",
+    ):
+        assert line in out
+    # the open takeover segment is flushed at exit; the adapted profile saved
+    assert len(list((tmp_path / "to").glob("takeover_*.mcap"))) == 1
+    saved = load_dgpt(tmp_path / "p.json")
+    assert saved.version == 1 and saved.source == "adapted"
+
+
+def test_invalid_profile_refused_falls_back(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"format": "pacc.dgpt/1", "speed_mps": [0, 1], "gap_m": [1, 2]}))
+    channel = f"ecu-cli-{next(_ids)}"
+    peers = Peers(channel, 1.0)
+    peers.start()
+    rc = main(["-i", "virtual", "-c", channel, "--profile", str(bad), "--duration", "0.8"])
+    peers.join()
+    captured = capsys.readouterr()
+    assert rc == 0
+    assert "profile refused" in captured.err and str(bad) in captured.err
+    assert "missing key(s): version, source" in captured.err
+    assert "running on the predefined table (1.5 s headway" in captured.err
+    assert peers.status and all(s["fault_code"] == 5 for s in peers.status)
+    assert all(s["desired_gap_m"] == pytest.approx(34.0, abs=0.05) for s in peers.status)
+
+
+def test_usage_and_bus_errors(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as info:
+        main(["--brake", "sometimes"])
+    assert info.value.code == 2
+    assert main(["--duration", "-1"]) == 2
+    assert main(["--headway", "0.2", "-i", "virtual", "-c", "x"]) == 2
+    assert "outside the safety bounds" in capsys.readouterr().err
+    assert main(["-i", "no_such_interface", "-c", "x", "--duration", "0"]) == 1
+    assert "cannot open the CAN bus" in capsys.readouterr().err
+    assert main(["-i", "virtual", "-c", "x", "--dbc", "/nonexistent.dbc"]) == 1
+
+
+def test_help_is_fast_and_lists_flags(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as info:
+        main(["--help"])
+    assert info.value.code == 0
+    text = capsys.readouterr().out
+    for flag in (
+        "--interface",
+        "--channel",
+        "--bitrate",
+        "--profile",
+        "--headway",
+        "--no-adaptation",
+        "--brake",
+        "--takeovers",
+        "--duration",
+    ):
+        assert flag in text

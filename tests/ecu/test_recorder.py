@@ -1,0 +1,109 @@
+"""Takeover recorder: pre-trigger ring buffer, post window, merged takeovers, MCAP sink."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from cloud_sync.triplog import Trip, read_trip
+from ecu.recorder import RecorderError, Sample, TakeoverRecorder, directory_sink
+
+
+def feed(rec: TakeoverRecorder, t0: float, t1: float, state: int = 2, dt: float = 0.02) -> float:
+    t = t0
+    while t < t1 - 1e-9:
+        rec.sample(Sample(t, 20.0, 30.0 if state != 1 else math.nan, 20.0, 0.0, 0.1, 0.0, state))
+        t = round(t + dt, 6)
+    return t
+
+
+def test_segment_spans_pre_takeover_and_post() -> None:
+    out: list[Trip] = []
+    rec = TakeoverRecorder(out.append, meta={"driver_id": "d1"})
+    feed(rec, 0.0, 20.0)
+    rec.start(20.0, "brake")
+    feed(rec, 20.0, 22.0, state=3)
+    rec.release(22.0, "applied")
+    feed(rec, 22.0, 26.9)
+    assert not out and rec.recording
+    feed(rec, 26.9, 30.0)
+    assert len(out) == 1 and not rec.recording
+    trip = out[0]
+    assert trip.t_s[0] == pytest.approx(15.0) and trip.t_s[-1] == pytest.approx(27.0)
+    assert len(trip) == 121  # 50 pre + 20 takeover + 51 post (10 Hz, both ends)
+    assert trip.meta["mode"] == "takeover" and trip.meta["driver_id"] == "d1"
+    assert trip.meta["takeovers"] == [
+        {"start_s": 20.0, "pedal": "brake", "release_s": 22.0, "adaptation": "applied"}
+    ]
+    assert set(trip.acc_state.tolist()) == {2, 3}
+
+
+def test_takeover_in_post_window_extends_segment() -> None:
+    out: list[Trip] = []
+    rec = TakeoverRecorder(out.append)
+    feed(rec, 0.0, 10.0)
+    rec.start(10.0, "accel")
+    feed(rec, 10.0, 11.0, state=3)
+    rec.release(11.0, "short_takeover")
+    feed(rec, 11.0, 14.0)
+    rec.start(14.0, "accel")
+    feed(rec, 14.0, 16.0, state=3)
+    rec.release(16.0, "applied")
+    feed(rec, 16.0, 25.0)
+    assert len(out) == 1
+    assert [x["adaptation"] for x in out[0].meta["takeovers"]] == ["short_takeover", "applied"]
+    assert out[0].t_s[-1] == pytest.approx(21.0)
+
+
+def test_flush_emits_open_segment_and_short_history() -> None:
+    out: list[Trip] = []
+    rec = TakeoverRecorder(out.append)
+    feed(rec, 0.0, 1.0)
+    rec.start(1.0, "accel")
+    feed(rec, 1.0, 2.0, state=3)
+    rec.flush()
+    assert len(out) == 1 and out[0].t_s[0] == 0.0
+    assert "release_s" not in out[0].meta["takeovers"][0]
+
+
+def test_sink_failure_counted_not_raised() -> None:
+    def broken(trip: Trip) -> None:
+        raise OSError("disk full")
+
+    rec = TakeoverRecorder(broken)
+    feed(rec, 0.0, 1.0)
+    rec.start(1.0, "accel")
+    rec.flush()
+    assert rec.sink_errors == 1 and rec.segments == 1
+
+
+def test_directory_sink_writes_mcap(tmp_path: Path) -> None:
+    sink = directory_sink(tmp_path / "to")
+    rec = TakeoverRecorder(sink, meta={"seed": 3})
+    for k in range(2):
+        feed(rec, 30.0 * k, 30.0 * k + 10.0)
+        rec.start(30.0 * k + 10.0, "accel")
+        feed(rec, 30.0 * k + 10.0, 30.0 * k + 12.0, state=3)
+        rec.release(30.0 * k + 12.0, "applied")
+        feed(rec, 30.0 * k + 12.0, 30.0 * k + 18.0)
+    files = sorted((tmp_path / "to").glob("*.mcap"))
+    assert [f.name for f in files] == ["takeover_0000.mcap", "takeover_0001.mcap"]
+    back = read_trip(files[1])
+    assert back.meta["mode"] == "takeover" and back.meta["seed"] == 3 and back.meta["index"] == 1
+    assert len(back) == 50 + 20 + 51
+    # a second recorder on the same directory never overwrites
+    sink2 = directory_sink(tmp_path / "to")
+    rec2 = TakeoverRecorder(sink2)
+    feed(rec2, 0.0, 1.0)
+    rec2.start(1.0, "brake")
+    rec2.flush()
+    assert len(list((tmp_path / "to").glob("*.mcap"))) == 3
+
+
+def test_directory_sink_refuses_a_file(tmp_path: Path) -> None:
+    f = tmp_path / "plain"
+    f.write_text("x")
+    with pytest.raises(RecorderError, match="cannot create"):
+        directory_sink(f)

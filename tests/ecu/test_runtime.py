@@ -1,0 +1,229 @@
+"""The ECU on a real python-can virtual bus, with ESC/PEDAL/RADAR/HMI played from the DBC."""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Iterator
+from typing import Any
+
+import can
+import pytest
+
+from dbc.codec import load_codec
+from ecu.dgpt import predefined
+from ecu.node import EcuConfig, EcuNode
+from ecu.peers import PeerNodes
+from ecu.runtime import EcuRuntime
+
+_ids = itertools.count()
+CODEC = load_codec()
+JERK_STEP = 2.5 * 0.02 + 0.01 + 1e-9  # per 20 ms frame, plus the DBC's 0.01 m/s^2 resolution
+
+
+class Bench:
+    """ECU runtime + scripted peers + a listener, on one private virtual channel, lockstep."""
+
+    def __init__(self, config: EcuConfig | None = None, headway_s: float = 1.5) -> None:
+        channel = f"ecu-test-{next(_ids)}"
+        self.buses = [can.Bus(interface="virtual", channel=channel) for _ in range(3)]
+        ecu_bus, peer_bus, self.listener = self.buses
+        self.node = EcuNode(config or EcuConfig(set_speed_mps=30.0), predefined(headway_s))
+        self.events: list[str] = []
+        self.rt = EcuRuntime(ecu_bus, self.node, CODEC, on_event=self.events.append)
+        self.peers = PeerNodes(peer_bus, CODEC)
+        self.t = 0.0
+        self.k = 0
+        self.commands: list[dict[str, Any]] = []
+        self.statuses: list[dict[str, Any]] = []
+        self.plant = False
+        self.state: tuple[float, float] | None = None  # plant (v m/s, gap m)
+        self.v_lead = 20.0
+
+    def close(self) -> None:
+        for bus in self.buses:
+            bus.shutdown()
+
+    def run(self, seconds: float, **hmi: int) -> None:
+        """Advance ``seconds`` in 10 ms steps; HMI fields held at ``hmi`` meanwhile."""
+        self.peers.set("hmi", **{"set": 0, "resume": 0, "cancel": 0, **hmi})
+        for _ in range(int(round(seconds / 0.01))):
+            self.k += 1
+            self.t = self.k * 0.01
+            self.peers.send_due(self.t)
+            self.rt.advance_to(self.t)
+            self._listen()
+            if self.plant:
+                self._plant_step(0.01)
+
+    def _listen(self) -> None:
+        while (msg := self.listener.recv(0)) is not None:
+            mc = CODEC.by_id.get(msg.arbitration_id)
+            if mc is None or mc.role not in ("command", "status"):
+                continue
+            d = CODEC.decode(msg.arbitration_id, msg.data)
+            (self.commands if d.role == "command" else self.statuses).append(d.values)
+
+    def _plant_step(self, dt: float) -> None:
+        """Ego executes the active request; true state in floats, frames carry it rounded."""
+        if self.state is None:
+            self.state = (
+                self.peers.values["ego"]["speed_mps"],
+                self.peers.values["radar"]["gap_m"],
+            )
+        v, gap = self.state
+        cmd = self.commands[-1] if self.commands else None
+        a = cmd["accel_request_mps2"] if cmd and cmd["request_active"] else 0.0
+        v = max(v + a * dt, 0.0)
+        gap += (self.v_lead - v) * dt
+        self.state = (v, gap)
+        self.peers.set("ego", speed_mps=round(v, 2), accel_mps2=round(a, 2))
+        self.peers.set("radar", gap_m=round(gap, 2), rel_speed_mps=round(self.v_lead - v, 2))
+
+    def engage(self) -> None:
+        self.run(1.2)
+        self.run(0.2, set=1)
+        self.run(0.1)
+        assert self.commands[-1]["acc_state"] == 2
+
+
+@pytest.fixture
+def bench() -> Iterator[Bench]:
+    b = Bench()
+    yield b
+    b.close()
+
+
+def test_engage_and_frames(bench: Bench) -> None:
+    bench.peers.set("radar", gap_m=60.0)
+    bench.run(1.0)
+    assert {c["acc_state"] for c in bench.commands} == {1}
+    assert not any(c["request_active"] for c in bench.commands)
+    bench.engage()
+    bench.run(1.0)
+    cmds = bench.commands
+    assert len(cmds) == bench.rt.cycles == 175  # t = 0.01 .. 3.49 s at 50 Hz
+    assert len(bench.statuses) == 35  # every 5th cycle
+    active = [c for c in cmds if c["acc_state"] == 2]
+    assert all(c["request_active"] for c in active)
+    # gap 60 m > DGPT(20) = 34 m: accelerate, ramping at the jerk limit
+    accels = [c["accel_request_mps2"] for c in active]
+    assert accels[-1] > 0.5
+    assert all(0.0 <= b - a <= JERK_STEP for a, b in itertools.pairwise(accels))
+    st = bench.statuses[-1]
+    assert st["desired_gap_m"] == pytest.approx(34.0, abs=0.05)
+    assert st["dgpt_version"] == 0 and st["fault_code"] == 0
+    assert st["set_speed_mps"] == pytest.approx(30.0)
+    assert any("STANDBY -> ACTIVE" in e for e in bench.events)
+    summary = bench.rt.summary()
+    assert summary.e2e_errors == {}
+    assert summary.frames_out == len(cmds) + len(bench.statuses)
+    assert "cycles:" in str(summary)
+
+
+def test_follow_closed_loop_on_the_bus(bench: Bench) -> None:
+    bench.plant = True
+    bench.peers.set("radar", gap_m=50.0)
+    bench.engage()
+    bench.run(60.0)
+    gap = bench.peers.values["radar"]["gap_m"]
+    assert abs(gap - 34.0) <= 0.1 * 34.0 + 0.5
+    assert bench.node.state.name == "ACTIVE"
+
+
+def test_accelerator_override_and_resume(bench: Bench) -> None:
+    bench.peers.set("radar", gap_m=60.0)
+    bench.engage()
+    bench.peers.set("pedals", accel_pressed=1, accel_pedal_pct=30.0)
+    bench.run(2.0)
+    assert bench.commands[-1]["acc_state"] == 3 and bench.commands[-1]["request_active"] == 0
+    bench.peers.set("pedals", accel_pressed=0, accel_pedal_pct=0.0)
+    bench.run(0.2)
+    assert bench.commands[-1]["acc_state"] == 2 and bench.commands[-1]["request_active"] == 1
+    s = bench.rt.summary()
+    assert s.takeovers == 1 and s.adaptations == 1 and s.dgpt_version == 1
+    # v = v_f at release: the table now holds the 60 m gap at 20 m/s
+    assert bench.statuses[-1]["desired_gap_m"] == pytest.approx(60.0, abs=0.05)
+    assert bench.statuses[-1]["adaptation_count"] == 1
+
+
+@pytest.mark.parametrize(("mode", "during", "after"), [("resume", 3, 2), ("cancel", 1, 1)])
+def test_brake(mode: str, during: int, after: int) -> None:
+    b = Bench(EcuConfig(brake_mode=mode, set_speed_mps=30.0))  # type: ignore[arg-type]
+    try:
+        b.peers.set("radar", gap_m=30.0)
+        b.engage()
+        b.peers.set("pedals", brake_pressed=1, brake_pressure_bar=20.0)
+        b.run(1.5)
+        assert b.commands[-1]["acc_state"] == during and b.commands[-1]["request_active"] == 0
+        b.peers.set("pedals", brake_pressed=0, brake_pressure_bar=0.0)
+        b.run(0.2)
+        assert b.commands[-1]["acc_state"] == after
+        assert b.rt.summary().takeovers == 1
+    finally:
+        b.close()
+
+
+def test_radar_timeout_faults_with_ramp(bench: Bench) -> None:
+    bench.peers.set("radar", gap_m=20.0, rel_speed_mps=-2.0)  # close and closing: brake
+    bench.engage()
+    bench.run(1.5)
+    assert bench.commands[-1]["accel_request_mps2"] < -1.0
+    n0 = len(bench.commands)
+    bench.peers.mute("radar")
+    bench.run(2.0)
+    after = bench.commands[n0:]
+    fault_at = next(i for i, c in enumerate(after) if c["acc_state"] == 4)
+    # 10 radar periods = 0.5 s, +-1 period
+    assert 22 <= fault_at <= 28
+    ramp = after[fault_at:]
+    assert all(c["takeover_request"] == 1 for c in ramp)
+    active = [c["accel_request_mps2"] for c in ramp if c["request_active"]]
+    assert len(active) >= 20  # from below -1 m/s^2 at 0.05 per frame
+    assert all(0.0 <= b - a <= JERK_STEP for a, b in itertools.pairwise(active))
+    assert ramp[-1]["request_active"] == 0 and ramp[-1]["accel_request_mps2"] == 0.0
+    assert bench.statuses[-1]["fault_code"] == 3
+    assert any("RADAR_INPUT" in e for e in bench.events)
+    # radar back: SET is refused until inputs have been valid for 1 s
+    bench.peers.mute("radar", False)
+    bench.run(0.5)
+    bench.run(0.2, set=1)
+    assert bench.commands[-1]["acc_state"] == 4
+    bench.run(1.0)
+    bench.run(0.2, set=1)
+    assert bench.commands[-1]["acc_state"] == 2
+
+
+def test_bad_crc_frames_dropped_and_counted(bench: Bench) -> None:
+    bench.engage()
+    bench.peers.corrupt("radar", 3)
+    bench.peers.corrupt("ego", 2)
+    bench.run(0.5)
+    errors = bench.rt.summary().e2e_errors
+    assert errors.get("wrong_crc") == 5
+    assert bench.node.state.name == "ACTIVE"
+    assert bench.rt.inbox.fresh("radar", bench.t)
+
+
+def test_garbage_frames_ignored(bench: Bench) -> None:
+    bench.engage()
+    for _ in range(4):
+        bench.peers.send_garbage()
+        bench.run(0.05)
+    errors = bench.rt.summary().e2e_errors
+    assert errors.get("unknown_id") == 4
+    assert errors.get("wrong_dlc") == 4
+    assert errors.get("wrong_crc") == 4
+    assert bench.node.state.name == "ACTIVE"
+    assert all(c["acc_state"] == 2 for c in bench.commands[-10:])
+
+
+def test_realtime_mode_runs_and_stops() -> None:
+    b = Bench()
+    try:
+        b.rt.run_realtime(0.25)
+        assert 10 <= b.rt.cycles <= 14
+        assert len(b.rt.cycle_starts) == b.rt.cycles
+        assert b.node.state.name == "OFF"  # no HMI on the bus
+        assert b.rt.summary().max_cycle_s < 0.02
+    finally:
+        b.close()
