@@ -1,0 +1,185 @@
+"""From a reward (or from raw data) to a DGPT: argmax, low-pass, coverage, continuation, bounds.
+
+All functions are pure and work on the DGPT speed axis (``ecu.dgpt.speed_axis``, shape (n,)).
+
+- :func:`coverage_s`: seconds of usable demonstration within ±``half_window_mps`` of each bin.
+- :func:`argmax_gap`: ``DGPT(v) = argmax_g r(v, g)`` over a fine gap grid inside the bounds.
+- :func:`lowpass`: zero-phase Butterworth filter (``scipy.signal.filtfilt``) along the axis.
+- :func:`continue_time_gap`: bins without evidence get ``d0 + T(v)·v``, where the time gap
+  ``T = (g − d0)/v`` is interpolated between covered bins and held constant beyond them (or,
+  with a fallback table, the fallback's gaps are kept there).
+- :func:`steady_state_gaps`: the empirical baseline, the median gap of near-steady samples
+  (|dv| and |a| small) per speed bin.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import signal
+
+from ecu.dgpt import SafetyBounds, clamp_to_bounds
+
+__all__ = [
+    "coverage_s",
+    "argmax_gap",
+    "lowpass",
+    "continue_time_gap",
+    "steady_state_gaps",
+    "finish_table",
+    "gap_support",
+    "reference_line",
+]
+
+
+def coverage_s(
+    axis_mps: np.ndarray, v_mps: np.ndarray, dt_s: np.ndarray, half_window_mps: float = 0.5
+) -> np.ndarray:
+    """Seconds of data per bin: Σ dt over samples with ``|v − v_i| ≤ half_window``; (n,)."""
+    order = np.argsort(v_mps)
+    v_sorted = v_mps[order]
+    cum = np.concatenate([[0.0], np.cumsum(dt_s[order])])
+    lo = np.searchsorted(v_sorted, axis_mps - half_window_mps, side="left")
+    hi = np.searchsorted(v_sorted, axis_mps + half_window_mps, side="right")
+    return np.asarray(cum[hi] - cum[lo])
+
+
+def gap_support(
+    axis_mps: np.ndarray,
+    v_mps: np.ndarray,
+    gap_m: np.ndarray,
+    *,
+    half_window_mps: float = 1.0,
+    quantile: float = 0.01,
+    margin_m: float = 2.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The demonstrated gap range per bin: the ``quantile``…``1 − quantile`` range of gaps
+    within ±half_window of each bin, widened by ``margin_m``; NaN where no sample. (n,) each.
+
+    The reward is identified only where the demonstrations are; the argmax is taken there.
+    """
+    order = np.argsort(v_mps)
+    v, g = v_mps[order], gap_m[order]
+    lo_i = np.searchsorted(v, axis_mps - half_window_mps, side="left")
+    hi_i = np.searchsorted(v, axis_mps + half_window_mps, side="right")
+    lo = np.full(axis_mps.size, np.nan)
+    hi = np.full(axis_mps.size, np.nan)
+    for i, (a, b) in enumerate(zip(lo_i.tolist(), hi_i.tolist(), strict=True)):
+        if b > a:
+            q = np.quantile(g[a:b], [quantile, 1.0 - quantile])
+            lo[i], hi[i] = q[0] - margin_m, q[1] + margin_m
+    return lo, hi
+
+
+def reference_line(
+    v_mps: np.ndarray, gap_m: np.ndarray, dv_mps: np.ndarray, a_mps2: np.ndarray
+) -> tuple[float, float]:
+    """Least-squares line ``g ≈ c0 + c1·v`` through near-steady samples (all samples if fewer
+    than 20 are steady); ``c1`` clipped to 0…5 s. Returns ``(c0_m, c1_s)``."""
+    steady = (np.abs(dv_mps) <= 1.0) & (np.abs(a_mps2) <= 0.5)
+    if steady.sum() < 20:
+        steady = np.ones(v_mps.size, dtype=bool)
+    v, g = v_mps[steady], gap_m[steady]
+    if v.size < 2 or float(np.ptp(v)) < 1e-6:
+        return float(np.median(g)) if g.size else 0.0, 0.0
+    c1, c0 = np.polyfit(v, g, 1)
+    c1 = float(np.clip(c1, 0.0, 5.0))
+    return float(np.median(g - c1 * v)), c1
+
+
+def argmax_gap(reward_fn_vg: np.ndarray, gaps_m: np.ndarray) -> np.ndarray:
+    """Per row of ``reward_fn_vg`` (n, m) evaluated at ``gaps_m`` (m,), the maximising gap (n,)."""
+    return np.asarray(gaps_m[np.argmax(reward_fn_vg, axis=1)])
+
+
+def lowpass(gap_m: np.ndarray, cutoff: float = 0.1, order: int = 2) -> np.ndarray:
+    """Zero-phase Butterworth low-pass of ``gap_m`` (n,) along the axis.
+
+    ``cutoff`` is the normalised cut-off frequency (1 = Nyquist, i.e. 1/(2 bins)); 0.1 keeps
+    variations slower than about 20 bins (10 m/s at 0.5 m/s per bin).
+    """
+    b, a = signal.butter(order, cutoff)
+    x = np.arange(gap_m.size, dtype=np.float64)
+    slope, icpt = np.polyfit(x, gap_m, 1)
+    trend = icpt + slope * x  # filtered separately: a straight table passes unchanged
+    resid = gap_m - trend
+    padlen = min(3 * max(len(a), len(b)) * 4, gap_m.size - 1)
+    return np.asarray(trend + signal.filtfilt(b, a, resid, padlen=padlen))
+
+
+def continue_time_gap(
+    axis_mps: np.ndarray,
+    gap_m: np.ndarray,
+    covered: np.ndarray,
+    standstill_m: float,
+    fallback_m: np.ndarray | None = None,
+) -> np.ndarray:
+    """Replace the gaps of uncovered bins (``covered`` False) by a time-gap continuation.
+
+    Without ``fallback_m``: the time gap ``T_i = (g_i − d0)/v_i`` of covered bins with v > 0 is
+    interpolated linearly over speed and held beyond the covered range; an uncovered bin gets
+    ``d0 + T(v)·v`` (so a standstill bin gets ``d0``). With ``fallback_m`` (n,): uncovered bins
+    keep the fallback's gaps (an earlier table), covered bins take ``gap_m``.
+    If nothing is covered, the result is the fallback, or ``gap_m`` unchanged.
+    """
+    out = np.array(gap_m, dtype=np.float64)
+    if fallback_m is not None:
+        return np.where(covered, out, fallback_m)
+    use = covered & (axis_mps > 0.5)
+    if not use.any():
+        return out
+    headway = (out[use] - standstill_m) / axis_mps[use]
+    t_all = np.interp(axis_mps, axis_mps[use], headway)
+    return np.where(covered, out, standstill_m + t_all * axis_mps)
+
+
+def steady_state_gaps(
+    axis_mps: np.ndarray,
+    v_mps: np.ndarray,
+    gap_m: np.ndarray,
+    dv_mps: np.ndarray,
+    a_mps2: np.ndarray,
+    *,
+    max_abs_dv_mps: float = 0.5,
+    max_abs_a_mps2: float = 0.3,
+    half_window_mps: float = 0.5,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The empirical baseline: median gap of steady-state samples per speed bin.
+
+    Inputs are sample arrays of shape (k,). Returns ``(gap_m, count)`` of shape (n,): the median
+    gap of samples with ``|dv| ≤ max_abs_dv`` and ``|a| ≤ max_abs_a`` within ±half_window of
+    each bin (NaN where none), and the number of such samples.
+    """
+    steady = (np.abs(dv_mps) <= max_abs_dv_mps) & (np.abs(a_mps2) <= max_abs_a_mps2)
+    v, g = v_mps[steady], gap_m[steady]
+    order = np.argsort(v)
+    v, g = v[order], g[order]
+    lo = np.searchsorted(v, axis_mps - half_window_mps, side="left")
+    hi = np.searchsorted(v, axis_mps + half_window_mps, side="right")
+    out = np.full(axis_mps.size, np.nan)
+    for i, (a, b) in enumerate(zip(lo.tolist(), hi.tolist(), strict=True)):
+        if b > a:
+            out[i] = float(np.median(g[a:b]))
+    return out, (hi - lo).astype(np.int64)
+
+
+def finish_table(
+    axis_mps: np.ndarray,
+    raw_gap_m: np.ndarray,
+    covered: np.ndarray,
+    bounds: SafetyBounds,
+    *,
+    cutoff: float = 0.1,
+    fallback_m: np.ndarray | None = None,
+) -> np.ndarray:
+    """Raw per-bin gaps → the final table (n,): continuation, low-pass, continuation, clamp.
+
+    Uncovered bins are first filled by continuation so the filter sees no holes; after the
+    filter the covered bins keep their filtered values and the uncovered ones are continued
+    again from them (or taken from ``fallback_m``); last, everything is clamped to ``bounds``.
+    """
+    raw = np.where(np.isfinite(raw_gap_m), raw_gap_m, 0.0)
+    covered = covered & np.isfinite(raw_gap_m)
+    filled = continue_time_gap(axis_mps, raw, covered, bounds.standstill_m, fallback_m)
+    smooth = lowpass(clamp_to_bounds(axis_mps, filled, bounds), cutoff)
+    final = continue_time_gap(axis_mps, smooth, covered, bounds.standstill_m, fallback_m)
+    return np.asarray(clamp_to_bounds(axis_mps, final, bounds))

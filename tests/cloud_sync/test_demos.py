@@ -1,0 +1,95 @@
+"""Demonstrations: refusal of unusable data, segmentation, weights, digest."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from cloud_sync.demos import (
+    check_demos,
+    digest,
+    extract_transitions,
+    takeover_weighted,
+    usable_mask,
+)
+from cloud_sync.errors import DemoError
+from cloud_sync.trainer import learn_dgpt
+from cloud_sync.triplog import Trip
+
+
+def nan_trip(n: int = 600) -> Trip:
+    nan = np.full(n, np.nan)
+    return Trip(
+        t_s=np.arange(n) * 0.1,
+        v_mps=nan,
+        gap_m=nan,
+        v_lead_mps=nan,
+        a_mps2=nan,
+        accel_pedal=nan,
+        brake_pedal=nan,
+        acc_state=np.zeros(n, dtype=np.int64),
+        meta={"source": "nan.mcap"},
+    )
+
+
+def test_refuses_empty_list() -> None:
+    with pytest.raises(DemoError, match="no demonstrations"):
+        learn_dgpt([], driver_id="x")
+
+
+def test_refuses_empty_trip(follower: Callable[..., Trip]) -> None:
+    t = follower(0, minutes=0.5)
+    empty = Trip(**{k: v[:0] for k, v in t.__dict__.items() if k != "meta"}, meta={})
+    with pytest.raises(DemoError, match="empty demonstration"):
+        learn_dgpt([empty], driver_id="x")
+
+
+def test_refuses_nan_filled() -> None:
+    with pytest.raises(DemoError, match="nan.mcap: demonstration is NaN-filled"):
+        learn_dgpt([nan_trip()], driver_id="x")
+
+
+def test_refuses_too_short(follower: Callable[..., Trip]) -> None:
+    with pytest.raises(DemoError, match=r"too short: 30\.0 s .* at least 60 s"):
+        learn_dgpt([follower(0, minutes=0.5)], driver_id="x")
+
+
+def test_usable_mask_excludes_acc_active_and_missing_lead(follower: Callable[..., Trip]) -> None:
+    t = follower(1, minutes=0.2)
+    state = np.zeros(len(t), dtype=np.int64)
+    state[10:20] = 2
+    gap = t.gap_m.copy()
+    gap[30:35] = np.nan
+    t2 = replace(t, acc_state=state, gap_m=gap)
+    m = usable_mask(t2, 120.0)
+    assert not m[10:20].any() and not m[30:35].any()
+    assert m[:10].all() and m[20:30].all()
+    assert check_demos([t2], max_gap_m=120.0, min_total_s=1.0) == pytest.approx((len(t) - 15) * 0.1)
+
+
+def test_segments_cover_every_step_once(follower: Callable[..., Trip]) -> None:
+    t = follower(2, minutes=1.0)  # 600 samples
+    tr = extract_transitions([t], [1.0], dt_s=1.0, horizon=5, max_gap_m=120.0)
+    # 10 phase offsets, 60 samples each → 59 steps each
+    assert tr.n == 10 * 59
+    assert np.all((tr.pos >= 1) & (tr.pos <= tr.seg_len) & (tr.seg_len <= 5))
+    starts = tr.pos == tr.seg_len
+    assert int(tr.seg_len[starts].sum()) == tr.n
+    # the action is the mean acceleration over the step
+    assert np.allclose(tr.a_mps2[:3], (t.v_mps[10:40:10] - t.v_mps[0:30:10]) / 1.0)
+    assert np.all(np.isfinite(tr.dv_mps))
+
+
+def test_takeover_weights_and_digest(follower: Callable[..., Trip]) -> None:
+    a = follower(3, minutes=0.2)
+    b = replace(a, meta={**a.meta, "mode": "acc"})
+    assert takeover_weighted([a, b], 5.0) == [1.0, 5.0]
+    d1 = digest([a, b], [1.0, 5.0])
+    assert d1 == digest([a, b], [1.0, 5.0])
+    assert d1 != digest([a, b], [1.0, 4.0])
+    v = a.v_mps.copy()
+    v[5] += 0.01
+    assert d1 != digest([replace(a, v_mps=v), b], [1.0, 5.0])
