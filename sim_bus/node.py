@@ -15,6 +15,7 @@ from __future__ import annotations
 import heapq
 import math
 import time
+from collections import Counter
 from typing import TYPE_CHECKING, Any
 
 import can
@@ -77,7 +78,7 @@ class SimNode:
         self.takeover_request = False
         self.status: dict[str, Any] | None = None
         self.frames_sent = 0
-        self.frames_faulted = 0
+        self.fault_counts: Counter[tuple[str, str]] = Counter()
         self.commands_ok = 0
 
     # -- receive ------------------------------------------------------------------------
@@ -161,8 +162,14 @@ class SimNode:
 
     def _transmit_faulty(self, role: str, vals: dict[str, Any], plan: FaultPlan,
                          now: float) -> None:
+        """Send one frame of ``role`` through its fault plan.
+
+        One uniform draw per frame decides the random faults (``u < counter``, ``u < crc``,
+        ``u < drop``), so with one seed the same frames are hit whatever the kind.
+        """
+        counts = self.fault_counts
         if plan.silent_at(now):
-            self.frames_faulted += 1
+            counts[(role, "silent")] += 1
             return
         window = plan.frozen_at(now)
         if window is not None:
@@ -170,26 +177,33 @@ class SimNode:
             if key not in self._frozen:
                 self._frozen[key] = dict(vals)
             vals = self._frozen[key]
-            self.frames_faulted += 1
-        u = self._rng.random(3) if plan.random else (1.0, 1.0, 1.0)
-        if u[0] < plan.counter:  # repeat the previous alive counter
+            counts[(role, "frozen")] += 1
+        u = float(self._rng.random()) if plan.random else 1.0
+        if u < plan.counter:  # repeat the previous alive counter
             self.outbox.counters[role] = (self.outbox.counters[role] - 1) & 0xF
-            self.frames_faulted += 1
+            counts[(role, "counter")] += 1
         msg = self.outbox.pack(role, vals, timestamp=now)
-        if u[1] < plan.crc:
-            crc_byte = self._mc[role].crc_byte
+        if u < plan.crc:  # a payload byte flipped on the wire: the CRC no longer matches
+            mc = self._mc[role]
             data = bytearray(msg.data)
-            data[crc_byte if crc_byte is not None else 0] ^= 0x5A
+            i = 2 if mc.crc_byte != 2 else 3
+            data[i] ^= 0x5A
             msg.data = data
-            self.frames_faulted += 1
-        if u[2] < plan.drop:
-            self.frames_faulted += 1
+            counts[(role, "crc")] += 1
+        if u < plan.drop:
+            counts[(role, "drop")] += 1
             return
         if plan.delay_s > 0.0:
             self._seq += 1
             heapq.heappush(self._pending, (now + plan.delay_s, self._seq, msg))
+            counts[(role, "delay")] += 1
             return
         self._send(msg)
+
+    @property
+    def frames_faulted(self) -> int:
+        """Frames hit by any fault so far."""
+        return sum(self.fault_counts.values())
 
     # -- clocks -------------------------------------------------------------------------
     def command_now(self, now: float) -> tuple[bool, float, int]:

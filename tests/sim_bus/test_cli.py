@@ -1,0 +1,95 @@
+"""``pacc drive`` and ``pacc sim`` entry points."""
+
+from __future__ import annotations
+
+import hashlib
+import inspect
+import threading
+from pathlib import Path
+
+import can
+import pytest
+
+from cloud_sync.triplog import read_trip
+from ecu.dgpt import predefined, save_dgpt
+from ecu.node import EcuConfig, EcuNode
+from ecu.runtime import EcuRuntime
+from sim_bus import cli, drive
+from sim_bus.drivers import BUILTIN_DRIVERS
+from sim_bus.irl_table import cache_key, irl_table
+
+
+def test_drive_prints_the_figures_and_logs(tmp_path: Path,
+                                           capsys: pytest.CaptureFixture[str]) -> None:
+    log = tmp_path / "run.mcap"
+    rc = drive.main(["--scenario", "A", "--driver", "d3", "--controller", "predefined+oa",
+                     "--seed", "1", "--duration", "20", "--log", str(log)])
+    out = capsys.readouterr().out
+    assert rc == 0
+    for word in ("PoI", "NIM", "min gap", "min TTC", "RMS jerk", "takeovers", "adaptations",
+                 "collisions     0"):
+        assert word in out
+    trip = read_trip(log)
+    assert trip.meta["mode"] == "acc" and trip.meta["controller"] == "predefined+oa"
+    assert len(trip.t_s) == 200 and (trip.acc_state == 2).any()
+
+
+def test_drive_irl_with_profile(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "t.json"
+    save_dgpt(predefined(1.8, driver_id="d2"), path)
+    rc = drive.main(["--controller", "irl", "--driver", "d2", "--profile", str(path),
+                     "--duration", "10", "--scenario", "manual2"])
+    assert rc == 0 and "controller irl" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("argv,match", [
+    (["--driver", "d9"], "unknown driver"),
+    (["--faults", "radar:drop=7"], "0..1"),
+    (["--scenario", "Z"], "unknown scenario"),
+    (["--scenario", "missing.csv"], "missing.csv"),
+    (["--controller", "irl", "--profile", "nope.json"], "nope.json"),
+    (["--duration", "-1"], "duration"),
+])
+def test_drive_bad_options(argv: list[str], match: str,
+                           capsys: pytest.CaptureFixture[str]) -> None:
+    assert drive.main(argv) == 2
+    err = capsys.readouterr().err
+    assert "error" in err and match in err
+
+
+def test_irl_table_cache_hit_skips_learning(tmp_path: Path) -> None:
+    from cloud_sync import trainer
+
+    driver = BUILTIN_DRIVERS["d4"]
+    src = hashlib.sha256(inspect.getsource(trainer).encode()).hexdigest()
+    cached = predefined(2.2, driver_id="d4")
+    save_dgpt(cached, tmp_path / f"irl-d4-{cache_key(driver, 5, src)}.json")
+    table = irl_table(driver, 5, tmp_path)  # learning would take seconds; the hit is instant
+    assert table.source == "predefined" and (table.gap_m == cached.gap_m).all()
+    assert cache_key(driver, 5, src) != cache_key(driver, 6, src)
+    assert cache_key(driver, 5, src) != cache_key(BUILTIN_DRIVERS["d3"], 5, src)
+
+
+def test_sim_real_time_against_an_ecu_runtime(capsys: pytest.CaptureFixture[str]) -> None:
+    channel = "test-pacc-sim-rt"
+    ecu_bus = can.Bus(interface="virtual", channel=channel)
+    rt = EcuRuntime(ecu_bus, EcuNode(EcuConfig(set_speed_mps=40.0), predefined(1.8)))
+    thread = threading.Thread(target=rt.run_realtime, args=(4.0,), daemon=True)
+    thread.start()
+    try:
+        rc = cli.main(["-i", "virtual", "-c", channel, "--scenario", "manual2", "--driver", "d2",
+                       "--duration", "3", "--quiet"])
+    finally:
+        rt.stop()
+        thread.join(5.0)
+        ecu_bus.shutdown()
+    out = capsys.readouterr().out
+    assert rc == 0
+    n_cmd = int(out.split(" ACC commands received")[0].rsplit(";", 1)[1])
+    assert 100 <= n_cmd <= 160  # 50 Hz for ~3 s
+    assert rt.summary().frames_in > 500
+
+
+def test_sim_bad_bus(capsys: pytest.CaptureFixture[str]) -> None:
+    assert cli.main(["-i", "no-such-interface", "-c", "x", "--duration", "1"]) == 2
+    assert "cannot open the bus" in capsys.readouterr().err

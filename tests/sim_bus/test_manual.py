@@ -1,0 +1,86 @@
+"""Manual (ACC-off) demonstrations and their calibration against the real human pairs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cloud_sync.triplog import Trip, read_trip, write_trip
+from sim_bus.dataset import load_human_pairs
+from sim_bus.drivers import BUILTIN_DRIVERS
+from sim_bus.manual import manual_trip
+from sim_bus.scenarios import LeadProfile, canonical_profiles, shorten
+
+
+@pytest.fixture(scope="module")
+def profiles() -> dict[str, LeadProfile]:
+    return canonical_profiles(0)
+
+
+@pytest.mark.parametrize("driver_id", sorted(BUILTIN_DRIVERS))
+def test_manual_trip_follows_own_preference(driver_id: str,
+                                            profiles: dict[str, LeadProfile]) -> None:
+    d = BUILTIN_DRIVERS[driver_id]
+    trip = manual_trip(d, profiles["manual3"], seed=1)
+    assert isinstance(trip, Trip)
+    assert trip.meta["mode"] == "manual" and trip.meta["driver_id"] == driver_id
+    assert not trip.meta["collision"]
+    assert len(trip.t_s) == 3001 and np.allclose(np.diff(trip.t_s), 0.1)
+    assert np.all(trip.acc_state == 0)
+    assert np.all((trip.accel_pedal >= 0) & (trip.accel_pedal <= 1))
+    assert np.all((trip.brake_pedal >= 0) & (trip.brake_pedal <= 1))
+    rel = (trip.gap_m - d.preferred_gap_m(trip.v_mps)) / d.preferred_gap_m(trip.v_mps)
+    limit = 0.2 if d.condition_drift_per_min > 0 else 0.08
+    assert abs(float(np.median(rel))) < limit
+    assert trip.gap_m.min() > 2.0
+
+
+def test_manual_trip_is_deterministic(profiles: dict[str, LeadProfile]) -> None:
+    p = shorten(profiles["B"], 60.0)
+    a = manual_trip(BUILTIN_DRIVERS["d5"], p, seed=3)
+    b = manual_trip(BUILTIN_DRIVERS["d5"], p, seed=3)
+    c = manual_trip(BUILTIN_DRIVERS["d5"], p, seed=4)
+    assert np.array_equal(a.gap_m, b.gap_m) and np.array_equal(a.v_mps, b.v_mps)
+    assert not np.array_equal(a.gap_m, c.gap_m)
+
+
+def test_manual_trip_round_trips_through_mcap(tmp_path, profiles) -> None:  # type: ignore[no-untyped-def]
+    trip = manual_trip(BUILTIN_DRIVERS["d2"], shorten(profiles["manual1"], 30.0), seed=0)
+    path = tmp_path / "m.mcap"
+    write_trip(path, trip)
+    back = read_trip(path)
+    assert np.allclose(back.gap_m, trip.gap_m) and back.meta["mode"] == "manual"
+
+
+def _headway_by_band(v: np.ndarray, gap: np.ndarray, dv: np.ndarray) -> dict[int, float]:
+    out = {}
+    for lo in (10, 15, 20, 25):
+        m = (v >= lo) & (v < lo + 5) & (np.abs(dv) < 0.5)
+        if m.sum() > 100:
+            out[lo] = float(np.median(gap[m] / v[m]))
+    return out
+
+
+def test_calibration_against_real_human_pairs() -> None:
+    """Our drivers, following the real leaders by hand, keep human-like headways.
+
+    Real pairs: median time gaps 1.4-3.4 s per 5 m/s band. Every built-in driver's band
+    medians must lie within the range the real followers span (widened by 0.2 s), and the
+    drivers together must span most of it.
+    """
+    pairs = load_human_pairs()
+    real: list[float] = []
+    for p in pairs:
+        real += _headway_by_band(p.v_follower_mps, p.gap_m, p.v_leader_mps - p.v_follower_mps
+                                 ).values()
+    lo, hi = min(real), max(real)
+    ours: list[float] = []
+    for d in BUILTIN_DRIVERS.values():
+        for p in pairs[:2] + pairs[4:5]:
+            n = len(p.v_leader_mps)
+            prof = LeadProfile(p.pair_id, np.arange(n) * 0.1, p.v_leader_mps)
+            trip = manual_trip(d, shorten(prof, 600.0), seed=0)
+            ours += _headway_by_band(trip.v_mps, trip.gap_m, trip.v_lead_mps - trip.v_mps
+                                     ).values()
+    assert lo - 0.2 <= min(ours) and max(ours) <= hi + 0.2
+    assert max(ours) - min(ours) > 0.6 * (hi - lo)

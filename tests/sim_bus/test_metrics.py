@@ -1,0 +1,62 @@
+"""PoI, NIM, TTC, jerk on hand-built drives."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from sim_bus.metrics import acc_on_mask, drive_metrics, min_ttc_s, poi_nim, rms_jerk
+
+
+def test_poi_and_nim_hand_counted() -> None:
+    t = np.arange(600) * 0.1  # 60 s
+    state = np.full(600, 2)
+    acc = np.zeros(600, bool)
+    brk = np.zeros(600, bool)
+    acc[100:130] = True  # 3 s
+    brk[300:310] = True  # 1 s
+    acc[310:320] = True  # switch pedals: a second onset, 1 s
+    poi, nim, on_s, n = poi_nim(t, state, acc, brk)
+    assert on_s == pytest.approx(60.0)
+    assert poi == pytest.approx(100.0 * 5.0 / 60.0)
+    assert n == 3 and nim == pytest.approx(3.0)
+
+
+def test_acc_on_excludes_off_and_fault_and_standby_before_engagement() -> None:
+    s = np.array([0, 1, 1, 2, 3, 1, 4, 2])
+    assert acc_on_mask(s).tolist() == [False, False, False, True, True, True, False, True]
+    t = np.arange(8) * 1.0
+    pressed = np.array([1, 1, 0, 0, 0, 0, 1, 0], bool)
+    poi, nim, on_s, n = poi_nim(t, s, pressed, np.zeros(8, bool))
+    assert on_s == 4.0 and poi == 0.0 and n == 0
+
+
+def test_never_on_gives_nan() -> None:
+    poi, nim, on_s, n = poi_nim(np.arange(5.0), np.zeros(5), np.ones(5, bool), np.zeros(5, bool))
+    assert math.isnan(poi) and math.isnan(nim) and on_s == 0.0
+
+
+def test_min_ttc_and_jerk() -> None:
+    gap = np.array([30.0, 20.0, 10.0])
+    v = np.array([20.0, 20.0, 15.0])
+    vl = np.array([25.0, 15.0, 10.0])
+    assert min_ttc_s(gap, v, vl) == pytest.approx(2.0)
+    assert min_ttc_s(gap, vl - 10.0, vl) == math.inf
+    t = np.arange(5) * 0.5
+    a = np.array([0.0, 1.0, 2.0, 3.0, 4.0])
+    assert rms_jerk(t, a) == pytest.approx(2.0)
+
+
+def test_drive_metrics_gap_error_uses_unpressed_acc_on_samples() -> None:
+    n = 100
+    t = np.arange(n) * 0.1
+    state = np.full(n, 2)
+    pressed = np.zeros(n, bool)
+    pressed[:50] = True
+    gap = np.where(np.arange(n) < 50, 100.0, 32.0)
+    m = drive_metrics(t, np.full(n, 20.0), gap, np.full(n, 20.0), np.zeros(n), state, pressed,
+                      np.zeros(n, bool), np.full(n, 30.0))
+    assert m.gap_error_mean_m == pytest.approx(2.0) and m.gap_error_rms_m == pytest.approx(2.0)
+    assert m.min_gap_m == 32.0 and m.poi_pct == pytest.approx(50.0)
