@@ -26,7 +26,7 @@ from __future__ import annotations
 import logging
 import math
 from collections import Counter
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -39,7 +39,7 @@ from ecu.controller import (
     limit_command,
     time_to_collision_s,
 )
-from ecu.dgpt import Dgpt, SafetyBounds
+from ecu.dgpt import Dgpt, SafetyBounds, utc_now_iso
 from ecu.recorder import Sample, TakeoverRecorder, TripSink
 from ecu.state import AccState, BrakeMode, Events, FaultCode, transition
 
@@ -185,12 +185,20 @@ class EcuNode:
         config: node configuration.
         table: the DGPT to start with.
         takeover_sink: receives each recorded takeover segment; None disables recording.
+        utc_now: clock giving the ISO 8601 ``created_utc`` of adapted tables (injected so a
+            lockstep drive can make its tables reproducible; default: the wall clock).
     """
 
     def __init__(
-        self, config: EcuConfig, table: Dgpt, takeover_sink: TripSink | None = None
+        self,
+        config: EcuConfig,
+        table: Dgpt,
+        takeover_sink: TripSink | None = None,
+        *,
+        utc_now: Callable[[], str] = utc_now_iso,
     ) -> None:
         self.config = config
+        self._utc_now = utc_now
         self._table = table
         self.state = AccState.OFF
         self.fault_code = FaultCode.NONE
@@ -369,7 +377,8 @@ class EcuNode:
     ) -> None:
         if new is AccState.FAULT:
             self.fault_code = fault
-            self._fault_ramp = True
+            # ramp only a request that was being executed; after an override it stays off
+            self._fault_ramp = old is AccState.ACTIVE
             events.append(f"fault: {fault.name} input invalid while {old.name}")
         if new in (AccState.ACTIVE, AccState.OVERRIDE) and old in (
             AccState.STANDBY,
@@ -422,7 +431,9 @@ class EcuNode:
             decision = Decision(applied=False, reason=Reason.INVALID_INPUT)
             label = self._record_decision(decision, events)
         else:
-            self._table, decision = adapt(self._table, summary, self.config.adaptation_params)
+            self._table, decision = adapt(
+                self._table, summary, self.config.adaptation_params, created_utc=self._utc_now()
+            )
             label = self._record_decision(decision, events)
         if self.recorder is not None:
             self.recorder.release(now_s, label)

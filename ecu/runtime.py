@@ -238,7 +238,7 @@ class EcuRuntime:
         self._k += 1
         self.cycles += 1
         for text in out.events:
-            log.info("t=%.2f %s", t, text)
+            log.debug("t=%.2f %s", t, text)
             if self.on_event is not None:
                 self.on_event(f"t={t:.2f} s  {text}")
         elapsed = time.perf_counter() - t_start

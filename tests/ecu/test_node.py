@@ -184,6 +184,39 @@ def test_radar_loss_faults_with_ramp_and_needs_settle_to_reengage() -> None:
     assert out.acc_state is AccState.ACTIVE and out.fault_code is FaultCode.NONE
 
 
+def test_fault_during_override_keeps_request_inactive() -> None:
+    node = EcuNode(EcuConfig(set_speed_mps=30.0), predefined(1.5))
+    loop = Loop(node, v=20.0, gap=60.0)
+    loop.engage()
+    out = loop.run(1.0)
+    assert out.request_active and out.accel_request_mps2 > 0.5
+    out = loop.run(DT, accel_pressed=True)
+    assert out.acc_state is AccState.OVERRIDE and not out.request_active
+    out = loop.run(DT, accel_pressed=True, pedals_ok=False)
+    assert out.acc_state is AccState.FAULT and out.fault_code is FaultCode.PEDAL_INPUT
+    for _ in range(30):
+        out = loop.run(DT, pedals_ok=False)
+        assert not out.request_active and out.takeover_request
+
+
+def test_injected_clock_makes_adapted_tables_reproducible() -> None:
+    tables = []
+    for _ in range(2):
+        node = EcuNode(
+            EcuConfig(),
+            predefined(3.0, created_utc="2026-01-01T00:00:00Z"),
+            utc_now=lambda: "2026-01-01T00:01:00Z",
+        )
+        loop = Loop(node, gap=64.0)
+        loop.engage()
+        loop.run(2.0, accel_pressed=True)
+        loop.run(0.1)
+        assert node.adaptations == 1
+        tables.append(node.table.to_json_dict())
+    assert tables[0] == tables[1]
+    assert tables[0]["created_utc"] == "2026-01-01T00:01:00Z"
+
+
 def test_nan_speed_is_a_fault_not_an_exception() -> None:
     node = EcuNode(EcuConfig(), predefined(1.5))
     loop = Loop(node)
@@ -266,6 +299,7 @@ def test_every_command_inside_envelope(
     node = EcuNode(EcuConfig(brake_mode=brake_mode, settle_s=0.1), predefined(1.5))  # type: ignore[arg-type]
     p = node.config.controller
     prev, t = 0.0, 0.0
+    prev_active, prev_state = False, AccState.OFF
     states: set[AccState] = set()
     runs = [(start, 10), (replace(start, set_button=True), 1), (start, hold), *runs]
     for inp, n in runs:
@@ -279,11 +313,12 @@ def test_every_command_inside_envelope(
                 assert out.acc_state is AccState.ACTIVE and a < prev + EPS
             if out.acc_state is AccState.FAULT:
                 assert out.takeover_request
-                if out.request_active:  # only the ramp toward zero
+                if out.request_active:  # only the ramp toward zero of an executed request
                     assert abs(a) < abs(prev) and a * prev >= 0.0
+                    assert prev_active and prev_state in (AccState.ACTIVE, AccState.FAULT)
             elif out.acc_state is not AccState.ACTIVE:
                 assert not out.request_active
-            prev = a
+            prev, prev_active, prev_state = a, out.request_active, out.acc_state
             t += DT
             states.add(out.acc_state)
     event(f"reached {max(states).name}")
