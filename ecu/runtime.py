@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, Any
 
 import can
 
+from ecu import EcuError
 from ecu.node import EcuNode, NodeInputs, NodeOutputs
 
 if TYPE_CHECKING:
@@ -45,6 +46,12 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 INPUT_ROLES = ("ego", "pedals", "radar", "hmi")
+#: Largest clock jump (s) that advance_to catches up cycle by cycle; beyond it, it skips.
+MAX_CATCHUP_S = 10.0
+
+
+class RuntimeClockError(EcuError):
+    """The runtime was given a time it cannot run to (not finite)."""
 
 
 @dataclass(frozen=True)
@@ -61,6 +68,7 @@ class RuntimeSummary:
     state: str
     dgpt_version: int
     send_errors: int = 0
+    skipped_cycles: int = 0
     adaptation_decisions: dict[str, int] = field(default_factory=dict)
 
     def __str__(self) -> str:
@@ -78,7 +86,7 @@ class RuntimeSummary:
                 f"DGPT version:   {self.dgpt_version}",
                 f"final state:    {self.state}",
                 f"max cycle time: {self.max_cycle_s * 1e3:.3f} ms",
-                f"send errors:    {self.send_errors}",
+                f"send errors:    {self.send_errors}, skipped cycles: {self.skipped_cycles}",
             ]
         )
 
@@ -123,6 +131,9 @@ class EcuRuntime:
         self.cycles = 0
         self.max_cycle_s = 0.0
         self.send_errors = 0
+        #: cycles not run because the clock jumped by more than ``MAX_CATCHUP_S``
+        self.skipped_cycles = 0
+        self._max_catchup = int(MAX_CATCHUP_S / self.cycle_s)
         self.last_outputs: NodeOutputs | None = None
         #: real-time mode: start time of every cycle (s, monotonic), for jitter statistics
         self.cycle_starts: list[float] = []
@@ -135,10 +146,21 @@ class EcuRuntime:
     # -- lockstep ----------------------------------------------------------------------
 
     def advance_to(self, now_s: float) -> None:
-        """Drain the bus into the Inbox at ``now_s`` and run every cycle due up to ``now_s``."""
+        """Drain the bus into the Inbox at ``now_s`` and run every cycle due up to ``now_s``.
+
+        Raises:
+            RuntimeClockError: ``now_s`` is not finite (a host bug; nothing is consumed).
+        """
+        if not math.isfinite(now_s):
+            raise RuntimeClockError(f"advance_to: time must be finite, got {now_s}")
         self._drain(now_s)
         if self._t0 is None:
             self._t0 = now_s
+        behind = int((now_s - self._t0) / self.cycle_s) - self._k
+        if behind > self._max_catchup:  # a jump of the host clock: skip, do not replay
+            log.warning("advance_to: %d cycles behind, skipping %d", behind, behind - 1)
+            self.skipped_cycles += behind - 1
+            self._k += behind - 1
         while True:
             t = self._t0 + self._k * self.cycle_s
             if t > now_s + 1e-9:
@@ -157,7 +179,13 @@ class EcuRuntime:
     # -- real time ---------------------------------------------------------------------
 
     def run_realtime(self, duration_s: float | None = None) -> None:
-        """Run 50 Hz cycles on ``time.monotonic`` for ``duration_s`` s (None: until stop())."""
+        """Run 50 Hz cycles on ``time.monotonic`` for ``duration_s`` s (None: until stop()).
+
+        Overruns of more than one period skip the missed cycles (counted in
+        ``skipped_cycles``) instead of bursting them.
+        """
+        if duration_s is not None and not duration_s >= 0.0:
+            raise RuntimeClockError(f"run_realtime: duration must be >= 0 s, got {duration_s}")
         self._stop.clear()
         clock = time.monotonic
         start = clock()
@@ -181,6 +209,7 @@ class EcuRuntime:
             if next_t < clock() - self.cycle_s:  # overrun by more than a period: skip ahead
                 skipped = int((clock() - next_t) / self.cycle_s)
                 self._k += skipped
+                self.skipped_cycles += skipped
                 next_t += skipped * self.cycle_s
 
     def stop(self) -> None:
@@ -285,8 +314,9 @@ class EcuRuntime:
             state=node.state.name,
             dgpt_version=node.table.version,
             send_errors=self.send_errors,
+            skipped_cycles=self.skipped_cycles,
             adaptation_decisions={r.value: n for r, n in node.decisions.items()},
         )
 
 
-__all__ = ["INPUT_ROLES", "EcuRuntime", "RuntimeSummary"]
+__all__ = ["INPUT_ROLES", "MAX_CATCHUP_S", "EcuRuntime", "RuntimeClockError", "RuntimeSummary"]

@@ -13,7 +13,7 @@ from dbc.codec import load_codec
 from ecu.dgpt import predefined
 from ecu.node import EcuConfig, EcuNode
 from ecu.peers import PeerNodes
-from ecu.runtime import EcuRuntime
+from ecu.runtime import EcuRuntime, RuntimeClockError
 
 _ids = itertools.count()
 CODEC = load_codec()
@@ -227,3 +227,17 @@ def test_realtime_mode_runs_and_stops() -> None:
         assert b.rt.summary().max_cycle_s < 0.02
     finally:
         b.close()
+
+
+def test_bad_clock_rejected_and_jumps_skipped(bench: Bench) -> None:
+    with pytest.raises(RuntimeClockError):
+        bench.rt.advance_to(float("nan"))
+    with pytest.raises(RuntimeClockError):
+        bench.rt.run_realtime(float("nan"))
+    bench.run(1.0)
+    cycles = bench.rt.cycles
+    bench.rt.advance_to(1.0 + 3600.0)  # an hour in one call: no hour of replay
+    assert bench.rt.cycles - cycles <= 2
+    assert bench.rt.summary().skipped_cycles > 179_000
+    bench.rt.advance_to(3601.5)
+    assert bench.rt.cycles - cycles <= 30
