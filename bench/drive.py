@@ -23,7 +23,7 @@ import time
 
 import can
 
-from dbc.e2e import CRC8_TABLE  # type: ignore[attr-defined]
+from dbc.e2e import CRC8_TABLE
 from sim_bus.drive import DriveConfig, predefined_table, run_drive
 from sim_bus.drivers import BUILTIN_DRIVERS
 
