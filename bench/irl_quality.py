@@ -1,0 +1,105 @@
+"""Quality of the learned DGPTs, printed as Markdown tables (copied into docs/irl.md).
+
+(a) Real data: the eight human-driven follower pairs of OpenACC AstaZero
+    (/work/shared/data/openacc_astazero): the IRL table of each driver against the empirical
+    steady-state gaps of the same driver (the baseline table): RMSE over the speeds both
+    cover, and the mean time gap g/v per speed band.
+(b) Synthetic: each built-in driver d1..d5 (sim_bus) drives manual1..manual4 by hand; the
+    IRL table and the baseline against the driver's true g*(v), RMSE over the covered speeds
+    (target ≤ 2 m).
+
+    .venv/bin/python bench/irl_quality.py [--real-only | --synthetic-only]
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from cloud_sync.trainer import learn_dgpt
+from cloud_sync.tripfiles import read_csv_trip
+
+DATA = Path("/work/shared/data/openacc_astazero")
+BANDS = ((10.0, 15.0), (15.0, 20.0), (20.0, 25.0), (25.0, 30.0))
+
+
+def _rmse(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.sqrt(np.mean((a - b) ** 2))) if a.size else float("nan")
+
+
+def real() -> None:
+    files = sorted(DATA.glob("oa_pair_*.csv"))
+    if not files:
+        print(f"(a) skipped: {DATA} not present")
+        return
+    print("(a) OpenACC AstaZero, human drivers: IRL DGPT vs empirical steady-state gaps\n")
+    head = " | ".join(f"{lo:g}-{hi:g} m/s IRL/emp" for lo, hi in BANDS)
+    print(f"| pair | covered (m/s) | RMSE (m) | time gap g/v (s): {head} | train (s) |")
+    print("|---|---|---|" + "---|" * len(BANDS) + "---|")
+    for f in files:
+        pair = f.stem.replace("oa_pair_040719_", "")
+        trip = read_csv_trip(f, driver_id=pair)
+        res = learn_dgpt([trip], driver_id=pair)
+        t, b = res.table, res.baseline
+        if b is None:
+            print(f"| {pair} | no steady-state following for the baseline |")
+            continue
+        both = res.covered & np.asarray(b.meta["covered"], dtype=bool)
+        v = t.speed_mps
+        cells = []
+        for lo, hi in BANDS:
+            m = both & (v >= lo) & (v < hi)
+            if m.any():
+                cells.append(f"{np.mean(t.gap_m[m] / v[m]):.2f} / {np.mean(b.gap_m[m] / v[m]):.2f}")
+            else:
+                cells.append("–")
+        cov = ", ".join(f"{a:g}-{c:g}" for a, c in t.meta["covered_mps"])
+        print(
+            f"| {pair} | {cov} | {_rmse(t.gap_m[both], b.gap_m[both]):.2f} | "
+            + " | ".join(cells)
+            + f" | {res.train_s:.1f} |"
+        )
+    print()
+
+
+def synthetic() -> None:
+    from sim_bus.drivers import BUILTIN_DRIVERS
+    from sim_bus.manual import manual_trip
+    from sim_bus.scenarios import canonical_profiles
+
+    print(
+        "(b) built-in synthetic drivers, manual1..manual4 (4 x 300 s): RMSE against the true "
+        "g*(v) over the covered speeds\n"
+    )
+    print("| driver | covered (m/s) | IRL RMSE (m) | baseline RMSE (m) | train (s) |")
+    print("|---|---|---|---|---|")
+    profiles = canonical_profiles(0)
+    for name, driver in BUILTIN_DRIVERS.items():
+        trips = [manual_trip(driver, profiles[f"manual{i + 1}"], i) for i in range(4)]
+        t0 = time.perf_counter()
+        res = learn_dgpt(trips, driver_id=name)
+        wall = time.perf_counter() - t0
+        v, cov = res.table.speed_mps, res.covered
+        truth = driver.preferred_gap_m(v)
+        base = res.baseline.gap_m if res.baseline is not None else np.full(v.size, np.nan)
+        ranges = ", ".join(f"{a:g}-{c:g}" for a, c in res.table.meta["covered_mps"])
+        print(
+            f"| {name} | {ranges} | {_rmse(res.table.gap_m[cov], truth[cov]):.2f} | "
+            f"{_rmse(base[cov], truth[cov]):.2f} | {wall:.1f} |"
+        )
+    print()
+
+
+def main(argv: list[str]) -> int:
+    if "--synthetic-only" not in argv:
+        real()
+    if "--real-only" not in argv:
+        synthetic()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main(sys.argv[1:]))
