@@ -54,6 +54,11 @@ def build_parser() -> argparse.ArgumentParser:
         default="resume",
         help="brake press: override and resume on release (paper) or cancel (production)",
     )
+    p.add_argument(
+        "--profiles",
+        metavar="DIR",
+        help="driver profiles: HMI DriverProfileId n > 0 loads DIR/profile_<n>.json",
+    )
     p.add_argument("--set-speed", type=float, metavar="MPS", help="SET engages at this speed")
     p.add_argument("--takeovers", metavar="DIR", help="write takeover segments (MCAP) here")
     p.add_argument("--save-profile", metavar="PATH", help="write the final DGPT here at exit")
@@ -135,7 +140,13 @@ def _run(args: argparse.Namespace) -> int:
         print(f"pacc ecu: error: cannot open the CAN bus: {exc}", file=sys.stderr)
         return 1
     with bus:
-        rt = EcuRuntime(bus, node, codec, on_event=lambda text: print(text, flush=True))
+        rt = EcuRuntime(
+            bus,
+            node,
+            codec,
+            on_event=lambda text: print(text, flush=True),
+            profile_dir=args.profiles,
+        )
         print(f"ECU running on {bus.channel_info} (Ctrl-C to stop)", flush=True)
         try:
             rt.run_realtime(args.duration)

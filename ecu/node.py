@@ -215,6 +215,7 @@ class EcuNode:
         self._takeover_pedal = ""
         self.last_decision: Decision | None = None
         self._profile_fault = False
+        self._pending_events: list[str] = []
         self.recorder: TakeoverRecorder | None = None
         if takeover_sink is not None:
             self.recorder = TakeoverRecorder(
@@ -244,6 +245,9 @@ class EcuNode:
         """Run one control cycle at time ``now_s`` (s, monotonic); never raises on bad input."""
         cfg = self.config
         events: list[str] = []
+        if self._pending_events:
+            events += self._pending_events
+            self._pending_events.clear()
         dt = cfg.cycle_s if self._last_now is None else now_s - self._last_now
         dt = min(max(dt, 0.0), MAX_DT_S) if math.isfinite(dt) else 0.0
         self._last_now = now_s
@@ -351,13 +355,24 @@ class EcuNode:
             events=tuple(events),
         )
 
-    def report_profile_fault(self) -> None:
+    def report_profile_fault(self, message: str = "") -> None:
         """The requested profile was refused: report FaultCode PROFILE on the status.
 
-        The node keeps running on the table it was given (the predefined fallback); the code
-        shows whenever no input fault is being reported.
+        The node keeps running on the table it has (the last good one, or the predefined
+        fallback); the code shows whenever no input fault is being reported. ``message``
+        appears among the next step's events.
         """
         self._profile_fault = True
+        if message:
+            self._pending_events.append(message)
+
+    def set_table(self, table: Dgpt, message: str = "") -> None:
+        """Use ``table`` from the next cycle on (a driver profile switch); clears the profile
+        fault. The request's jerk limit smooths the change of the desired gap."""
+        self._table = table
+        self._profile_fault = False
+        if message:
+            self._pending_events.append(message)
 
     def finish(self) -> None:
         """End of trip: hand any open takeover segment to the sink."""

@@ -29,10 +29,12 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import can
@@ -104,6 +106,10 @@ class EcuRuntime:
         codec: the network codec; None loads the packaged pacc DBC.
         on_event: called with each node event text (state changes, faults, adaptations).
         timeout_multiple: an input role times out after this many of its DBC periods.
+        profile_dir: driver profiles: when HMI ``DriverProfileId`` changes to ``n > 0`` the
+            runtime loads ``profile_dir/profile_<n>.json``; an invalid file is refused (the
+            node keeps its last good table and reports FaultCode Profile), a missing one
+            keeps the table; ``n = 0`` (guest) returns to the table the node started with.
     """
 
     def __init__(
@@ -114,6 +120,7 @@ class EcuRuntime:
         *,
         on_event: Callable[[str], None] | None = None,
         timeout_multiple: float = 10.0,
+        profile_dir: str | os.PathLike[str] | None = None,
     ) -> None:
         from dbc.codec import load_codec
         from dbc.endpoint import Inbox, Outbox
@@ -138,6 +145,9 @@ class EcuRuntime:
         #: real-time mode: start time of every cycle (s, monotonic), for jitter statistics
         self.cycle_starts: list[float] = []
         self._stop = threading.Event()
+        self.profile_dir = Path(profile_dir) if profile_dir is not None else None
+        self._guest_table = node.table
+        self._profile_id: int | None = None
         self._lo_cmd, self._hi_cmd = self.codec.by_role["command"].bounds("accel_request_mps2")
         status = self.codec.by_role["status"]
         self._hi_gap = status.bounds("desired_gap_m")[1]
@@ -261,7 +271,12 @@ class EcuRuntime:
 
     def _cycle(self, t: float) -> None:
         t_start = time.perf_counter()
-        out = self.node.step(self.read_inputs(t), t)
+        inputs = self.read_inputs(t)
+        if self.profile_dir is not None and inputs.hmi_ok:
+            hmi = self.inbox.latest("hmi")
+            if hmi is not None and int(hmi["profile_id"]) != self._profile_id:
+                self._switch_profile(int(hmi["profile_id"]))
+        out = self.node.step(inputs, t)
         self.last_outputs = out
         self._send(t, out)
         self._k += 1
@@ -297,6 +312,35 @@ class EcuRuntime:
         except (EncodeError, can.CanError) as exc:
             self.send_errors += 1
             log.error("t=%.2f send failed: %s", t, exc)
+
+    def _switch_profile(self, profile_id: int) -> None:
+        """Load driver profile ``profile_id`` (I/O at the edge; never raises)."""
+        from ecu.dgpt import DgptError, load_dgpt
+
+        self._profile_id = profile_id
+        node = self.node
+        if profile_id == 0:
+            if node.table is not self._guest_table:
+                node.set_table(self._guest_table, "profile 0 (guest): startup table")
+            return
+        assert self.profile_dir is not None
+        path = self.profile_dir / f"profile_{profile_id}.json"
+        if not path.exists():
+            node.set_table(
+                node.table, f"profile {profile_id}: no {path}, keeping DGPT v{node.table.version}"
+            )
+            return
+        try:
+            table = load_dgpt(path, node.config.bounds)
+        except DgptError as exc:
+            node.report_profile_fault(
+                f"profile {profile_id} refused: {exc}; keeping the last good DGPT "
+                f"({node.table.driver_id} v{node.table.version})"
+            )
+            return
+        node.set_table(
+            table, f"profile {profile_id}: {table.driver_id} {table.source} v{table.version}"
+        )
 
     # -- reporting ---------------------------------------------------------------------
 

@@ -3,14 +3,16 @@
 from __future__ import annotations
 
 import itertools
+import json
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import can
 import pytest
 
 from dbc.codec import load_codec
-from ecu.dgpt import predefined
+from ecu.dgpt import predefined, save_dgpt
 from ecu.node import EcuConfig, EcuNode
 from ecu.peers import PeerNodes
 from ecu.runtime import EcuRuntime, RuntimeClockError
@@ -23,13 +25,20 @@ JERK_STEP = 2.5 * 0.02 + 0.01 + 1e-9  # per 20 ms frame, plus the DBC's 0.01 m/s
 class Bench:
     """ECU runtime + scripted peers + a listener, on one private virtual channel, lockstep."""
 
-    def __init__(self, config: EcuConfig | None = None, headway_s: float = 1.5) -> None:
+    def __init__(
+        self,
+        config: EcuConfig | None = None,
+        headway_s: float = 1.5,
+        profile_dir: Path | None = None,
+    ) -> None:
         channel = f"ecu-test-{next(_ids)}"
         self.buses = [can.Bus(interface="virtual", channel=channel) for _ in range(3)]
         ecu_bus, peer_bus, self.listener = self.buses
         self.node = EcuNode(config or EcuConfig(set_speed_mps=30.0), predefined(headway_s))
         self.events: list[str] = []
-        self.rt = EcuRuntime(ecu_bus, self.node, CODEC, on_event=self.events.append)
+        self.rt = EcuRuntime(
+            ecu_bus, self.node, CODEC, on_event=self.events.append, profile_dir=profile_dir
+        )
         self.peers = PeerNodes(peer_bus, CODEC)
         self.t = 0.0
         self.k = 0
@@ -241,3 +250,28 @@ def test_bad_clock_rejected_and_jumps_skipped(bench: Bench) -> None:
     assert bench.rt.summary().skipped_cycles > 179_000
     bench.rt.advance_to(3601.5)
     assert bench.rt.cycles - cycles <= 30
+
+
+def test_driver_profile_switch_keeps_last_good_table(tmp_path: Path) -> None:
+    save_dgpt(predefined(3.0, driver_id="d3"), tmp_path / "profile_3.json")
+    bad = predefined(2.0).to_json_dict()
+    bad["gap_m"][40] = 500.0  # outside the safety bounds at 20 m/s
+    (tmp_path / "profile_4.json").write_text(json.dumps(bad))
+    b = Bench(profile_dir=tmp_path)
+    try:
+        b.run(0.5)
+        assert b.statuses[-1]["desired_gap_m"] == pytest.approx(34.0, abs=0.05)
+        b.run(0.5, profile_id=3)
+        assert b.statuses[-1]["desired_gap_m"] == pytest.approx(64.0, abs=0.05)
+        assert b.node.table.driver_id == "d3"
+        b.run(0.5, profile_id=4)
+        assert b.statuses[-1]["desired_gap_m"] == pytest.approx(64.0, abs=0.05)
+        assert b.statuses[-1]["fault_code"] == 5
+        assert any("profile 4 refused" in e and "outside the safety bounds" in e for e in b.events)
+        b.run(0.5, profile_id=7)  # no such file: keep the table
+        assert b.statuses[-1]["desired_gap_m"] == pytest.approx(64.0, abs=0.05)
+        b.run(0.5, profile_id=0)
+        assert b.statuses[-1]["desired_gap_m"] == pytest.approx(34.0, abs=0.05)
+        assert b.statuses[-1]["fault_code"] == 0
+    finally:
+        b.close()
