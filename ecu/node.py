@@ -204,6 +204,8 @@ class EcuNode:
         self.fault_code = FaultCode.NONE
         self.set_speed_mps = 0.0
         self.decisions: Counter[Reason] = Counter()
+        #: FAULT entries by the input that caused them
+        self.faults: Counter[FaultCode] = Counter()
         self.takeovers = 0
         self._integral = 0.0
         self._prev_accel = 0.0
@@ -392,6 +394,7 @@ class EcuNode:
     ) -> None:
         if new is AccState.FAULT:
             self.fault_code = fault
+            self.faults[fault] += 1
             # ramp only a request that was being executed; after an override it stays off
             self._fault_ramp = old is AccState.ACTIVE
             events.append(f"fault: {fault.name} input invalid while {old.name}")

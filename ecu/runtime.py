@@ -72,12 +72,14 @@ class RuntimeSummary:
     send_errors: int = 0
     skipped_cycles: int = 0
     adaptation_decisions: dict[str, int] = field(default_factory=dict)
+    faults: dict[str, int] = field(default_factory=dict)
 
     def __str__(self) -> str:
         errors = ", ".join(f"{k} {v}" for k, v in sorted(self.e2e_errors.items())) or "none"
         decisions = (
             ", ".join(f"{k} {v}" for k, v in sorted(self.adaptation_decisions.items())) or "none"
         )
+        faults = ", ".join(f"{k} {v}" for k, v in sorted(self.faults.items())) or "none"
         return "\n".join(
             [
                 f"cycles:         {self.cycles}",
@@ -86,6 +88,7 @@ class RuntimeSummary:
                 f"takeovers:      {self.takeovers}",
                 f"adaptations:    {self.adaptations} (decisions: {decisions})",
                 f"DGPT version:   {self.dgpt_version}",
+                f"faults:         {faults}",
                 f"final state:    {self.state}",
                 f"max cycle time: {self.max_cycle_s * 1e3:.3f} ms",
                 f"send errors:    {self.send_errors}, skipped cycles: {self.skipped_cycles}",
@@ -360,6 +363,7 @@ class EcuRuntime:
             send_errors=self.send_errors,
             skipped_cycles=self.skipped_cycles,
             adaptation_decisions={r.value: n for r, n in node.decisions.items()},
+            faults={f.name: n for f, n in node.faults.items()},
         )
 
 

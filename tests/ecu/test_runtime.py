@@ -192,6 +192,8 @@ def test_radar_timeout_faults_with_ramp(bench: Bench) -> None:
     assert ramp[-1]["request_active"] == 0 and ramp[-1]["accel_request_mps2"] == 0.0
     assert bench.statuses[-1]["fault_code"] == 3
     assert any("RADAR_INPUT" in e for e in bench.events)
+    assert bench.rt.summary().faults == {"RADAR_INPUT": 1}
+    assert "faults:         RADAR_INPUT 1" in str(bench.rt.summary())
     # radar back: SET is refused until inputs have been valid for 1 s
     bench.peers.mute("radar", False)
     bench.run(0.5)
