@@ -7,8 +7,11 @@ Modules, one concept each:
 - :mod:`ecu.controller` — PID gap controller with the acceleration/jerk envelope.
 - :mod:`ecu.state` — engagement state machine (pure transition function).
 - :mod:`ecu.recorder` — takeover recorder (pre-trigger ring buffer, segments to a sink).
+- :mod:`ecu.config` — ``EcuConfig``, the node's frozen configuration.
+- :mod:`ecu.signals` — ``NodeInputs`` / ``NodeOutputs``, the node's boundary values.
 - :mod:`ecu.node` — ``EcuNode.step(inputs, now) -> outputs``, pure of I/O.
 - :mod:`ecu.runtime` — wires a python-can bus, the codec, the clock and the log.
+- :mod:`ecu.peers` — scripted ESC/PEDAL/RADAR/HMI nodes for tests and benchmarks.
 - :mod:`ecu.cli` — ``pacc ecu`` / ``python -m ecu``.
 
 Every error raised by this package derives from :class:`EcuError`.

@@ -26,156 +26,22 @@ from __future__ import annotations
 import logging
 import math
 from collections import Counter
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
-from typing import Any
+from collections.abc import Callable
 
-from ecu import EcuError
-from ecu.adaptation import AdaptationParams, Decision, Reason, TakeoverSummary, adapt
+from ecu.adaptation import Decision, Reason, TakeoverSummary, adapt
+from ecu.config import MAX_DT_S, ConfigError, EcuConfig
 from ecu.controller import (
     ControlInput,
-    ControllerParams,
     desired_accel,
     limit_command,
     time_to_collision_s,
 )
-from ecu.dgpt import Dgpt, SafetyBounds, utc_now_iso
+from ecu.dgpt import Dgpt, utc_now_iso
 from ecu.recorder import Sample, TakeoverRecorder, TripSink
-from ecu.state import AccState, BrakeMode, Events, FaultCode, transition
+from ecu.signals import NodeInputs, NodeOutputs, all_finite, input_fault
+from ecu.state import AccState, Events, FaultCode, transition
 
 log = logging.getLogger(__name__)
-
-#: Largest time step the controller integrates over in one call, s.
-MAX_DT_S = 0.1
-
-
-class ConfigError(EcuError):
-    """Invalid ECU configuration."""
-
-
-@dataclass(frozen=True)
-class EcuConfig:
-    """Configuration of the ACC node (frozen; validated on construction).
-
-    Attributes:
-        adaptation: run the online DGPT adaptation at each takeover release.
-        brake_mode: ``"resume"`` (brake = override, resume on release: the paper's study) or
-            ``"cancel"`` (brake returns to STANDBY: production behaviour).
-        adaptation_params: Algorithm 1 parameters.
-        controller: PID gains and envelope.
-        bounds: DGPT safety bounds (for loading tables).
-        cycle_s: control period, s (ACC_Command every cycle).
-        status_period_s: ACC_Status period, s.
-        settle_s: inputs must be valid this long before SET re-engages, s.
-        set_speed_mps: if given, SET engages with this set speed (car-following studies set it
-            above every lead speed); None: SET takes the current speed.
-        record_period_s / pre_trigger_s / post_trigger_s: takeover recorder, s.
-        trip_meta: metadata copied into every takeover segment (driver_id, seed, ...).
-    """
-
-    adaptation: bool = True
-    brake_mode: BrakeMode = "resume"
-    adaptation_params: AdaptationParams = field(default_factory=AdaptationParams)
-    controller: ControllerParams = field(default_factory=ControllerParams)
-    bounds: SafetyBounds = field(default_factory=SafetyBounds)
-    cycle_s: float = 0.02
-    status_period_s: float = 0.1
-    settle_s: float = 1.0
-    set_speed_mps: float | None = None
-    record_period_s: float = 0.1
-    pre_trigger_s: float = 5.0
-    post_trigger_s: float = 5.0
-    trip_meta: Mapping[str, Any] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        if self.brake_mode not in ("resume", "cancel"):
-            raise ConfigError(f"brake_mode must be 'resume' or 'cancel', got {self.brake_mode!r}")
-        if not (0.0 < self.cycle_s <= MAX_DT_S and self.status_period_s >= self.cycle_s):
-            raise ConfigError("need 0 < cycle_s <= 0.1 s and status_period_s >= cycle_s")
-        if not (math.isfinite(self.settle_s) and self.settle_s >= 0.0):
-            raise ConfigError("settle_s must be finite and >= 0")
-        if self.set_speed_mps is not None and not 0.0 <= self.set_speed_mps <= 63.75:
-            raise ConfigError("set_speed_mps must be within 0..63.75 m/s")
-        self.adaptation_params.check_within(self.bounds)
-
-
-@dataclass(slots=True)
-class NodeInputs:
-    """Checked inputs of one cycle. ``*_ok`` = fresh and passed E2E (set by the runtime).
-
-    Units: speeds m/s, accelerations m/s^2, gap m, pedals 0..1. ``rel_speed_mps`` is lead
-    speed minus ego speed. Button fields are levels (pressed = True).
-    """
-
-    v_mps: float = 0.0
-    a_mps2: float = 0.0
-    speed_ok: bool = True
-    accel_pedal: float = 0.0
-    brake_pedal: float = 0.0
-    accel_pressed: bool = False
-    brake_pressed: bool = False
-    pedals_ok: bool = True
-    lead_valid: bool = False
-    gap_m: float = 0.0
-    rel_speed_mps: float = 0.0
-    lead_accel_mps2: float = 0.0
-    lead_accel_valid: bool = False
-    radar_ok: bool = True
-    main_switch: bool = False
-    set_button: bool = False
-    resume_button: bool = False
-    cancel_button: bool = False
-    hmi_ok: bool = True
-
-
-@dataclass(frozen=True, slots=True)
-class NodeOutputs:
-    """Everything the node emits in one cycle (the runtime packs it into frames).
-
-    Attributes:
-        accel_request_mps2: requested acceleration, m/s^2 (always within the envelope).
-        request_active: the powertrain shall execute the request.
-        acc_state: AccState code.
-        takeover_request: the driver must take over (FAULT).
-        desired_gap_m: DGPT at the current speed, m.
-        dgpt_version: version of the table in use.
-        adaptation_count: adaptations applied so far.
-        fault_code: FaultCode of the last fault (0 none).
-        set_speed_mps: cruise set speed, m/s.
-        emergency: the emergency jerk exception was in force this cycle.
-        events: human-readable events of this cycle (state changes, faults, adaptations).
-    """
-
-    accel_request_mps2: float
-    request_active: bool
-    acc_state: AccState
-    takeover_request: bool
-    desired_gap_m: float
-    dgpt_version: int
-    adaptation_count: int
-    fault_code: FaultCode
-    set_speed_mps: float
-    emergency: bool
-    events: tuple[str, ...] = ()
-
-
-def _finite(*xs: float) -> bool:
-    return all(math.isfinite(x) for x in xs)
-
-
-def input_fault(inp: NodeInputs) -> FaultCode:
-    """The first invalid safety-relevant input of ``inp`` (speed, pedals, radar, buttons)."""
-    if not (inp.speed_ok and _finite(inp.v_mps, inp.a_mps2) and inp.v_mps >= 0.0):
-        return FaultCode.SPEED_INPUT
-    if not (inp.pedals_ok and _finite(inp.accel_pedal, inp.brake_pedal)):
-        return FaultCode.PEDAL_INPUT
-    if not inp.radar_ok or (
-        inp.lead_valid and not _finite(inp.gap_m, inp.rel_speed_mps, inp.lead_accel_mps2)
-    ):
-        return FaultCode.RADAR_INPUT
-    if not inp.hmi_ok:
-        return FaultCode.HMI_INPUT
-    return FaultCode.NONE
 
 
 class EcuNode:
@@ -271,7 +137,7 @@ class EcuNode:
             lv and not prev for lv, prev in zip(levels, self._buttons, strict=True)
         )
         self._buttons = levels
-        pedals_known = inp.pedals_ok and _finite(inp.accel_pedal, inp.brake_pedal)
+        pedals_known = inp.pedals_ok and all_finite(inp.accel_pedal, inp.brake_pedal)
         accel = inp.accel_pressed if pedals_known else False
         brake = inp.brake_pressed if pedals_known else False
         ev = Events(
@@ -293,7 +159,7 @@ class EcuNode:
 
         self._track_takeover(old, new, accel, brake, valid, inp, now_s, events)
 
-        v = inp.v_mps if _finite(inp.v_mps) else 0.0
+        v = inp.v_mps if all_finite(inp.v_mps) else 0.0
         table = self._table
         desired_gap = table.lookup(v)
         emergency = False

@@ -1,0 +1,70 @@
+"""Configuration of the ACC node: one frozen dataclass, validated on construction."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from ecu import EcuError
+from ecu.adaptation import AdaptationParams
+from ecu.controller import ControllerParams
+from ecu.dgpt import SafetyBounds
+from ecu.state import BrakeMode
+
+#: Largest time step the controller integrates over in one call, s.
+MAX_DT_S = 0.1
+
+
+class ConfigError(EcuError):
+    """Invalid ECU configuration."""
+
+
+@dataclass(frozen=True)
+class EcuConfig:
+    """Configuration of the ACC node (frozen; validated on construction).
+
+    Attributes:
+        adaptation: run the online DGPT adaptation at each takeover release.
+        brake_mode: ``"resume"`` (brake = override, resume on release: the paper's study) or
+            ``"cancel"`` (brake returns to STANDBY: production behaviour).
+        adaptation_params: Algorithm 1 parameters.
+        controller: PID gains and envelope.
+        bounds: DGPT safety bounds (for loading tables).
+        cycle_s: control period, s (ACC_Command every cycle).
+        status_period_s: ACC_Status period, s.
+        settle_s: inputs must be valid this long before SET re-engages, s.
+        set_speed_mps: if given, SET engages with this set speed (car-following studies set it
+            above every lead speed); None: SET takes the current speed.
+        record_period_s / pre_trigger_s / post_trigger_s: takeover recorder, s.
+        trip_meta: metadata copied into every takeover segment (driver_id, seed, ...).
+    """
+
+    adaptation: bool = True
+    brake_mode: BrakeMode = "resume"
+    adaptation_params: AdaptationParams = field(default_factory=AdaptationParams)
+    controller: ControllerParams = field(default_factory=ControllerParams)
+    bounds: SafetyBounds = field(default_factory=SafetyBounds)
+    cycle_s: float = 0.02
+    status_period_s: float = 0.1
+    settle_s: float = 1.0
+    set_speed_mps: float | None = None
+    record_period_s: float = 0.1
+    pre_trigger_s: float = 5.0
+    post_trigger_s: float = 5.0
+    trip_meta: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.brake_mode not in ("resume", "cancel"):
+            raise ConfigError(f"brake_mode must be 'resume' or 'cancel', got {self.brake_mode!r}")
+        if not (0.0 < self.cycle_s <= MAX_DT_S and self.status_period_s >= self.cycle_s):
+            raise ConfigError("need 0 < cycle_s <= 0.1 s and status_period_s >= cycle_s")
+        if not (math.isfinite(self.settle_s) and self.settle_s >= 0.0):
+            raise ConfigError("settle_s must be finite and >= 0")
+        if self.set_speed_mps is not None and not 0.0 <= self.set_speed_mps <= 63.75:
+            raise ConfigError("set_speed_mps must be within 0..63.75 m/s")
+        self.adaptation_params.check_within(self.bounds)
+
+
+__all__ = ["MAX_DT_S", "ConfigError", "EcuConfig"]

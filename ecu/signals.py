@@ -1,0 +1,94 @@
+"""The node's boundary values: checked inputs of one cycle, outputs of one cycle.
+
+No signal names or CAN ids here: the runtime turns frames into :class:`NodeInputs` and
+:class:`NodeOutputs` into frames.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from ecu.state import AccState, FaultCode
+
+
+@dataclass(slots=True)
+class NodeInputs:
+    """Checked inputs of one cycle. ``*_ok`` = fresh and passed E2E (set by the runtime).
+
+    Units: speeds m/s, accelerations m/s^2, gap m, pedals 0..1. ``rel_speed_mps`` is lead
+    speed minus ego speed. Button fields are levels (pressed = True).
+    """
+
+    v_mps: float = 0.0
+    a_mps2: float = 0.0
+    speed_ok: bool = True
+    accel_pedal: float = 0.0
+    brake_pedal: float = 0.0
+    accel_pressed: bool = False
+    brake_pressed: bool = False
+    pedals_ok: bool = True
+    lead_valid: bool = False
+    gap_m: float = 0.0
+    rel_speed_mps: float = 0.0
+    lead_accel_mps2: float = 0.0
+    lead_accel_valid: bool = False
+    radar_ok: bool = True
+    main_switch: bool = False
+    set_button: bool = False
+    resume_button: bool = False
+    cancel_button: bool = False
+    hmi_ok: bool = True
+
+
+@dataclass(frozen=True, slots=True)
+class NodeOutputs:
+    """Everything the node emits in one cycle (the runtime packs it into frames).
+
+    Attributes:
+        accel_request_mps2: requested acceleration, m/s^2 (always within the envelope).
+        request_active: the powertrain shall execute the request.
+        acc_state: AccState code.
+        takeover_request: the driver must take over (FAULT).
+        desired_gap_m: DGPT at the current speed, m.
+        dgpt_version: version of the table in use.
+        adaptation_count: adaptations applied so far.
+        fault_code: FaultCode of the last fault (0 none).
+        set_speed_mps: cruise set speed, m/s.
+        emergency: the emergency jerk exception was in force this cycle.
+        events: human-readable events of this cycle (state changes, faults, adaptations).
+    """
+
+    accel_request_mps2: float
+    request_active: bool
+    acc_state: AccState
+    takeover_request: bool
+    desired_gap_m: float
+    dgpt_version: int
+    adaptation_count: int
+    fault_code: FaultCode
+    set_speed_mps: float
+    emergency: bool
+    events: tuple[str, ...] = ()
+
+
+def all_finite(*xs: float) -> bool:
+    return all(math.isfinite(x) for x in xs)
+
+
+def input_fault(inp: NodeInputs) -> FaultCode:
+    """The first invalid safety-relevant input of ``inp`` (speed, pedals, radar, buttons)."""
+    if not (inp.speed_ok and all_finite(inp.v_mps, inp.a_mps2) and inp.v_mps >= 0.0):
+        return FaultCode.SPEED_INPUT
+    if not (inp.pedals_ok and all_finite(inp.accel_pedal, inp.brake_pedal)):
+        return FaultCode.PEDAL_INPUT
+    if not inp.radar_ok or (
+        inp.lead_valid and not all_finite(inp.gap_m, inp.rel_speed_mps, inp.lead_accel_mps2)
+    ):
+        return FaultCode.RADAR_INPUT
+    if not inp.hmi_ok:
+        return FaultCode.HMI_INPUT
+    return FaultCode.NONE
+
+
+__all__ = ["NodeInputs", "NodeOutputs", "all_finite", "input_fault"]
