@@ -31,7 +31,7 @@ from cloud_sync.features import FeatureConfig, Features, features_from_spec, mak
 from cloud_sync.mce_irl import CompiledMdp, DemoStats, objective
 from cloud_sync.mdp import Grid, GridConfig, build_transitions, grid_from_spec, make_grid
 from cloud_sync.triplog import Trip
-from ecu.dgpt import Dgpt, SafetyBounds, speed_axis
+from ecu.dgpt import Dgpt, SafetyBounds, clamp_to_bounds, speed_axis
 
 __all__ = ["IrlConfig", "LearnResult", "learn_dgpt", "fine_tune", "empirical_baseline"]
 
@@ -48,6 +48,8 @@ class IrlConfig:
     relative objective decrease). ``min_total_demo_s``: refuse less usable demonstration.
     ``min_coverage_s``: seconds within ±0.5 m/s for a speed bin to count as evidence.
     ``takeover_weight``: weight of an ACC trip's takeover samples against manual samples.
+    ``blend_window_mps``: when continuing from an earlier table, new evidence moves the table
+    within this distance of its speeds, blended by its amount; elsewhere the table is kept.
     """
 
     grid: GridConfig = field(default_factory=GridConfig)
@@ -65,6 +67,7 @@ class IrlConfig:
     gap_resolution_m: float = 0.25
     takeover_weight: float = 5.0
     dgpt_step_mps: float = 0.5
+    blend_window_mps: float = 2.0
 
     def __post_init__(self) -> None:
         if self.horizon_steps < 1:
@@ -183,7 +186,6 @@ def _extract(
     axis: np.ndarray,
     covered: np.ndarray,
     config: IrlConfig,
-    fallback: np.ndarray | None,
     support: tuple[np.ndarray, np.ndarray],
 ) -> np.ndarray:
     b = config.bounds
@@ -195,7 +197,7 @@ def _extract(
     hi = np.maximum(hi, lo + config.gap_resolution_m)
     reward = np.where((gaps[None, :] >= lo) & (gaps[None, :] <= hi), reward, -np.inf)
     raw = argmax_gap(reward, gaps)
-    return finish_table(axis, raw, covered, b, cutoff=config.lowpass_cutoff, fallback_m=fallback)
+    return finish_table(axis, raw, covered, b, cutoff=config.lowpass_cutoff)
 
 
 def empirical_baseline(
@@ -285,15 +287,24 @@ def learn_dgpt(
     axis = speed_axis(cfg.dgpt_step_mps)
     cov = coverage_s(axis, samples["v"], samples["dt"])
     covered = cov >= cfg.min_coverage_s
+    if init is not None:
+        # continuing: new evidence counts within ±blend_window of its speeds
+        cov_wide = coverage_s(axis, samples["v"], samples["dt"], cfg.blend_window_mps)
+        covered = cov_wide >= cfg.min_coverage_s
     if not covered.any():
         raise DemoError(
             f"no speed bin has {cfg.min_coverage_s:g} s of demonstration; cannot build a table"
         )
-    fallback = None
-    if init is not None:
-        fallback = np.interp(axis, init.speed_mps, init.gap_m)
     support = gap_support(axis, samples["v"], samples["g"])
-    gap = _extract(alpha, feats, axis, covered, cfg, fallback, support)
+    gap = _extract(alpha, feats, axis, covered, cfg, support)
+    if init is not None:
+        # blend into the earlier table by the amount of new evidence; untouched speeds
+        # (no new sample within ±blend_window) keep the earlier gaps exactly
+        previous = np.interp(axis, init.speed_mps, init.gap_m)
+        blend = np.clip(cov_wide / cfg.min_coverage_s, 0.0, 1.0)
+        gap = np.where(blend > 0.0, blend * gap + (1.0 - blend) * previous, previous)
+        gap = clamp_to_bounds(axis, gap, cfg.bounds)
+        covered = blend > 0.0
     data_digest = dm.digest(trips, w)
     meta: dict[str, Any] = {
         "method": METHOD,
