@@ -12,8 +12,8 @@ Transitions, first matching rule wins::
     ACTIVE, OVERRIDE --brake, brake_mode=cancel-->  STANDBY   (production behaviour)
     ACTIVE   --accelerator or brake-->              OVERRIDE  (brake: the paper's study)
     OVERRIDE --both pedals released-->              ACTIVE
-    STANDBY, FAULT --SET (or RESUME with a set speed), inputs valid >= 1 s, no brake-->
-                                                    ACTIVE, or OVERRIDE if the accelerator
+    STANDBY, FAULT --SET (STANDBY also: RESUME with a set speed), inputs valid >= 1 s,
+                     no brake-->                    ACTIVE, or OVERRIDE if the accelerator
                                                     is pressed
     FAULT    --cancel-->                            STANDBY
     otherwise                                       unchanged
@@ -101,8 +101,8 @@ def transition(state: AccState, ev: Events, brake_mode: BrakeMode = "resume") ->
         if not (ev.accel_pressed or ev.brake_pressed):
             return AccState.ACTIVE
         return AccState.OVERRIDE
-    # STANDBY or FAULT
-    engage = ev.set_edge or (ev.resume_edge and ev.has_set_speed)
+    # STANDBY or FAULT; after a fault only SET re-engages (a deliberate new set speed)
+    engage = ev.set_edge or (state is AccState.STANDBY and ev.resume_edge and ev.has_set_speed)
     if engage and ev.inputs_valid and ev.inputs_settled and not ev.brake_pressed:
         return AccState.OVERRIDE if ev.accel_pressed else AccState.ACTIVE
     if state is AccState.FAULT and ev.cancel_edge:

@@ -46,7 +46,7 @@ TABLE = [
     (S.FAULT, replace(ON, set_edge=True, inputs_settled=False), "resume", S.FAULT),
     (S.FAULT, replace(ON, set_edge=True), "resume", S.ACTIVE),
     (S.FAULT, replace(ON, cancel_edge=True), "resume", S.STANDBY),
-    (S.FAULT, replace(ON, resume_edge=True, has_set_speed=True), "resume", S.ACTIVE),
+    (S.FAULT, replace(ON, resume_edge=True, has_set_speed=True), "resume", S.FAULT),
 ]
 
 
@@ -82,7 +82,9 @@ def test_exhaustive_invariants(state: AccState, mode: str) -> None:
             assert new is S.FAULT
         if new is S.ACTIVE:  # engaged and nobody on a pedal, inputs valid
             assert ev.inputs_valid and not ev.accel_pressed and not ev.brake_pressed
-            if not engaged_before:
+            if state is S.FAULT:  # re-engage only by SET after 1 s of valid inputs
+                assert ev.inputs_settled and ev.set_edge
+            elif not engaged_before:
                 assert ev.inputs_settled and (ev.set_edge or (ev.resume_edge and ev.has_set_speed))
         if new is S.OVERRIDE:
             assert ev.accel_pressed or ev.brake_pressed
