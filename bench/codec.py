@@ -19,16 +19,40 @@ from dbc.e2e import e2e_crc
 
 SAMPLE = {
     "ego": {"speed_mps": 23.45, "accel_mps2": -0.71, "speed_valid": 1},
-    "pedals": {"accel_pedal_pct": 12.5, "accel_pressed": 1, "brake_pressed": 0,
-               "brake_pressure_bar": 0.0},
-    "radar": {"lead_valid": 1, "gap_m": 31.25, "rel_speed_mps": -1.37, "lead_accel_mps2": 0.42,
-              "lead_accel_valid": 1},
-    "hmi": {"main_switch": 1, "set": 0, "resume": 0, "cancel": 0, "gap_setting": 2,
-            "profile_id": 3},
-    "command": {"accel_request_mps2": -1.23, "request_active": 1, "acc_state": 2,
-                "takeover_request": 0},
-    "status": {"desired_gap_m": 35.5, "dgpt_version": 7, "adaptation_count": 4, "fault_code": 0,
-               "set_speed_mps": 27.5},
+    "pedals": {
+        "accel_pedal_pct": 12.5,
+        "accel_pressed": 1,
+        "brake_pressed": 0,
+        "brake_pressure_bar": 0.0,
+    },
+    "radar": {
+        "lead_valid": 1,
+        "gap_m": 31.25,
+        "rel_speed_mps": -1.37,
+        "lead_accel_mps2": 0.42,
+        "lead_accel_valid": 1,
+    },
+    "hmi": {
+        "main_switch": 1,
+        "set": 0,
+        "resume": 0,
+        "cancel": 0,
+        "gap_setting": 2,
+        "profile_id": 3,
+    },
+    "command": {
+        "accel_request_mps2": -1.23,
+        "request_active": 1,
+        "acc_state": 2,
+        "takeover_request": 0,
+    },
+    "status": {
+        "desired_gap_m": 35.5,
+        "dgpt_version": 7,
+        "adaptation_count": 4,
+        "fault_code": 0,
+        "set_speed_mps": 27.5,
+    },
 }
 
 
