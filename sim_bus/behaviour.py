@@ -12,7 +12,8 @@ accelerator. While pressing it drives by its own IDM+ (sign-restricted to the pe
 releases when the gap it anticipates ``anticipation_s`` ahead is within ``release_band`` of its
 preference, holding the pedal ``prolong_s`` longer (the anticipation and prolonging the paper
 observed). When ACC is not engaged (before SET, after a brake cancel, after a fault) it drives
-by hand, and presses SET/RESUME once the gap feels right with the pedals released.
+by hand, and presses SET (RESUME after a cancel) once the gap feels right with the pedals
+released.
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ DECEL_LIMIT_MPS2 = 8.0
 BUTTON_HOLD_S = 0.3
 RESUME_DELAY_S = 1.0
 MIN_PRESS_S = 0.4
-FAULT_RETRY_S = 5.0  # after a fault, the driver tries RESUME once it has lasted this long
+FAULT_RETRY_S = 5.0  # after a fault, the driver tries SET once it has lasted this long
 
 
 def idm_plus_accel(v_mps: float, v_lead_mps: float, gap_m: float, pref_gap_m: float,
@@ -185,7 +186,9 @@ class DriverAgent:
             self.a_cmd_mps2 = COAST_MPS2
             self._set_pedals(0.0, "none")
             if self.t_s >= self._button_until + BUTTON_HOLD_S:
-                self._press_button("resume" if self._engaged_once else "set")
+                # RESUME after a cancel; SET at first and after a fault (a new set speed)
+                again = self._engaged_once and acc_state == ACC_STANDBY
+                self._press_button("resume" if again else "set")
             return
         if can_engage and feels_right:
             self.a_cmd_mps2 = COAST_MPS2

@@ -135,7 +135,7 @@ BUILTIN_DRIVERS: dict[str, DriverParams] = {
         predefined_setting="medium"),
     "d3": DriverParams(
         "d3", "very cautious: long headway, brakes early, prolongs its presses",
-        standstill_m=5.0, headway_s=(2.5, 2.7, 2.9, 3.0), comfort_band=0.12,
+        standstill_m=5.0, headway_s=(2.3, 2.5, 2.7, 2.8), comfort_band=0.12,
         patience_s=1.0, patience_far_s=6.0, lookahead_s=2.0, ttc_brake_s=4.0, reaction_s=0.8,
         anticipation_s=0.3, prolong_s=1.0, accel_max_mps2=1.2, decel_comfort_mps2=1.8,
         acc_preference_factor=1.1, press_max_s=4.0, predefined_setting="high"),

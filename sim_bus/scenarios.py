@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import csv
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -228,8 +229,13 @@ def _scenario_a(manual: list[LeadProfile], seed: int, cfg: GeneratorConfig) -> L
 def canonical_profiles(seed: int = 0) -> dict[str, LeadProfile]:
     """The evaluation set: ``manual1``..``manual4``, ``A`` (seen) and ``B`` (unseen), 300 s.
 
-    Pure function of the seed and the shipped data.
+    Pure function of the seed and the shipped data (cached; the arrays are read-only).
     """
+    return dict(_canonical_profiles(int(seed)))
+
+
+@lru_cache(maxsize=8)
+def _canonical_profiles(seed: int) -> dict[str, LeadProfile]:
     cfg = GeneratorConfig()
     n_seg = int(np.ceil(cfg.duration_s / cfg.segment_s)) + 1
     ss = np.random.SeedSequence(seed)
@@ -247,6 +253,10 @@ def canonical_profiles(seed: int = 0) -> dict[str, LeadProfile]:
     rng = np.random.default_rng(ss.spawn(1)[0])
     seq = random_speed_sequence(5.0, 30.0, n_seg, rng, max_step_mps=6.0)
     out["B"] = synthesize(seq, int(rng.integers(2**31)), "B", cfg)
+    for prof in out.values():
+        for arr in (prof.t_s, prof.v_lead_mps, prof.raw_v_mps):
+            if arr is not None:
+                arr.flags.writeable = False
     return out
 
 
