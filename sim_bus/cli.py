@@ -31,6 +31,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--faults", default="", help="fault SPEC, e.g. 'radar:dropout=100-105'")
     p.add_argument("--duration", type=float, help="run only the first N seconds")
     p.add_argument("--log", type=Path, help="write the run as an MCAP trip log")
+    p.add_argument("--condition-factor", type=float, default=1.0,
+                   help="multiply the driver's preference, e.g. 1.2 for rain (default 1)")
     p.add_argument("--quiet", action="store_true", help="no progress line")
     return p
 
@@ -41,7 +43,7 @@ def main(argv: list[str] | None = None) -> int:
     import can
     import numpy as np
 
-    from sim_bus.drive import resolve_profile
+    from sim_bus.drive import resolve_profile, with_condition
     from sim_bus.drivers import GAP_SETTING_CODE, load_driver
     from sim_bus.errors import SimError
     from sim_bus.faults import parse_faults
@@ -51,7 +53,7 @@ def main(argv: list[str] | None = None) -> int:
     from sim_bus.world import World
 
     try:
-        driver = load_driver(args.driver)
+        driver = with_condition(load_driver(args.driver), args.condition_factor)
         faults = parse_faults(args.faults)
         profile = resolve_profile(args.scenario, args.seed)
         if args.duration is not None:

@@ -75,6 +75,19 @@ class DriveResult:
         return self.sim_s / self.wall_s if self.wall_s > 0 else math.inf
 
 
+def with_condition(driver: DriverParams, factor: float) -> DriverParams:
+    """The driver under a driving condition: its condition factor multiplied by ``factor``."""
+    import dataclasses
+
+    from sim_bus.errors import DriverError
+
+    if not (math.isfinite(factor) and factor > 0):
+        raise DriverError(f"condition factor must be a positive number, got {factor}")
+    if factor == 1.0:
+        return driver
+    return dataclasses.replace(driver, condition_factor=driver.condition_factor * factor)
+
+
 def predefined_table(driver: DriverParams) -> Dgpt:
     """The Predefined controller's table: the driver's chosen constant headway, d0 = 4 m."""
     from ecu.dgpt import predefined
@@ -228,6 +241,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--duration", type=float, help="simulate only the first N seconds")
     p.add_argument("--brake-mode", choices=("resume", "cancel"), default="resume",
                    help="brake press: override and resume (paper) or cancel (production)")
+    p.add_argument("--condition-factor", type=float, default=1.0,
+                   help="multiply the driver's preference, e.g. 1.2 for rain (default 1)")
     p.add_argument("--cache", type=Path, help="cache folder of learned IRL tables "
                    "(default ~/.cache/pacc)")
     return p
@@ -243,7 +258,8 @@ def main(argv: list[str] | None = None) -> int:
     from sim_bus.irl_table import irl_table
 
     try:
-        driver = load_driver(args.driver)
+        base = load_driver(args.driver)
+        driver = with_condition(base, args.condition_factor)
         parse_faults(args.faults)
         if args.duration is not None and not (args.duration > 0):
             raise SimError("--duration must be > 0")
@@ -260,7 +276,7 @@ def main(argv: list[str] | None = None) -> int:
             else:
                 print("learning the IRL table from the driver's manual trips "
                       "(cached) ...", file=sys.stderr)
-                table = irl_table(driver, args.seed, args.cache)
+                table = irl_table(base, args.seed, args.cache)  # learned in normal conditions
         else:
             table = predefined_table(driver)
         result = run_drive(cfg, driver, table, profile)

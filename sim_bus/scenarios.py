@@ -307,3 +307,37 @@ def load_profile_csv(path: Path, name: str | None = None) -> LeadProfile:
     n = int(np.floor((t[-1] - t[0]) / DT_S + 1e-9)) + 1
     grid = np.arange(n) * DT_S
     return LeadProfile(name or path.stem, grid, np.interp(grid + t[0], t, v))
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m sim_bus.scenarios list|export NAME PATH [--seed N]``: inspect or export."""
+    import argparse
+
+    p = argparse.ArgumentParser(prog="python -m sim_bus.scenarios",
+                                description="list or export the canonical lead profiles")
+    p.add_argument("command", choices=("list", "export"))
+    p.add_argument("name", nargs="?", help="profile to export (A, B, manual1..manual4)")
+    p.add_argument("path", nargs="?", type=Path, help="CSV file to write")
+    p.add_argument("--seed", type=int, default=0)
+    args = p.parse_args(argv)
+    profiles = canonical_profiles(args.seed)
+    if args.command == "list":
+        for name, prof in profiles.items():
+            v = prof.v_lead_mps
+            print(f"{name:8s} {prof.duration_s:6.1f} s  v {v.min():5.1f}..{v.max():5.1f} m/s  "
+                  f"mean {v.mean():5.1f} m/s  {len(prof.segments)} segments")
+        return 0
+    if args.name not in profiles or args.path is None:
+        print(f"error: export needs NAME (one of {sorted(profiles)}) and PATH")
+        return 2
+    try:
+        save_profile_csv(profiles[args.name], args.path)
+    except OSError as exc:
+        print(f"error: cannot write {args.path}: {exc}")
+        return 2
+    print(f"wrote {args.path}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -93,3 +93,35 @@ def test_sim_real_time_against_an_ecu_runtime(capsys: pytest.CaptureFixture[str]
 def test_sim_bad_bus(capsys: pytest.CaptureFixture[str]) -> None:
     assert cli.main(["-i", "no-such-interface", "-c", "x", "--duration", "1"]) == 2
     assert "cannot open the bus" in capsys.readouterr().err
+
+
+def test_scenarios_export_and_drive_the_csv(tmp_path: Path,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    from sim_bus import scenarios
+
+    path = tmp_path / "b.csv"
+    assert scenarios.main(["export", "B", str(path), "--seed", "2"]) == 0
+    assert scenarios.load_profile_csv(path).duration_s == pytest.approx(300.0)
+    assert scenarios.main(["export", "Q", str(path)]) == 2
+    assert scenarios.main(["list"]) == 0
+    assert "manual4" in capsys.readouterr().out
+    assert drive.main(["--scenario", str(path), "--duration", "5", "--driver", "d4"]) == 0
+    assert f"scenario {path}" in capsys.readouterr().out
+
+
+def test_condition_factor_lengthens_the_preference() -> None:
+    d = drive.with_condition(BUILTIN_DRIVERS["d2"], 1.25)
+    assert d.preferred_gap_m(20.0) - 4.0 == pytest.approx(
+        1.25 * (BUILTIN_DRIVERS["d2"].preferred_gap_m(20.0) - 4.0))
+    assert drive.with_condition(BUILTIN_DRIVERS["d2"], 1.0) is BUILTIN_DRIVERS["d2"]
+    assert drive.main(["--condition-factor", "0", "--duration", "5"]) == 2
+
+
+def test_sim_on_vcan0_if_present() -> None:
+    try:
+        bus = can.Bus(interface="socketcan", channel="vcan0")
+    except (OSError, can.CanError, ImportError, ValueError) as exc:
+        pytest.skip(f"no SocketCAN vcan0 here: {exc}")
+    bus.shutdown()
+    rc = cli.main(["-i", "socketcan", "-c", "vcan0", "--duration", "1", "--quiet"])
+    assert rc == 0  # no ECU on vcan0: the driver drives by hand, nothing collides

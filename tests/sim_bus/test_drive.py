@@ -149,3 +149,17 @@ def test_corrupt_crcs_are_counted_and_never_acted_on() -> None:
     assert np.array_equal(bad.log.a_request_mps2, dropped.log.a_request_mps2)
     assert np.array_equal(bad.log.gap_m, dropped.log.gap_m)
     assert not bad.collision
+
+
+def test_brake_cancel_mode_driver_resumes() -> None:
+    driver = BUILTIN_DRIVERS["d3"]
+    r = run_drive(DriveConfig(scenario="B", driver_id="d3", seed=5, duration_s=60.0,
+                              brake_mode="cancel"), driver, _table_from(driver, 0.6,
+                                                                        "predefined"),
+                  shorten(_profiles()["B"], 60.0))
+    s = r.log.acc_state
+    assert not r.collision
+    cancelled = (s[1:] == 1) & (s[:-1] >= 2)  # a brake press returned the ACC to standby
+    resumed = (s[1:] == 2) & (s[:-1] == 1)
+    assert cancelled.sum() >= 1 and resumed.sum() >= cancelled.sum()
+    assert r.metrics.acc_on_s > 55.0  # standby after a cancel still counts as ACC-ON time
