@@ -125,3 +125,18 @@ def test_sim_on_vcan0_if_present() -> None:
     bus.shutdown()
     rc = cli.main(["-i", "socketcan", "-c", "vcan0", "--duration", "1", "--quiet"])
     assert rc == 0  # no ECU on vcan0: the driver drives by hand, nothing collides
+
+
+def test_collision_is_reported_not_hidden(tmp_path: Path,
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    # a lead that stops dead (a recorded crash, say) while the radar frames freeze
+    csv = tmp_path / "wall.csv"
+    csv.write_text("t_s,v_lead_mps\n0,20\n10,20\n10.1,0\n30,0\n")
+    log = tmp_path / "crash.mcap"
+    rc = drive.main(["--scenario", str(csv), "--driver", "d1", "--faults",
+                     "radar:freeze=9-30", "--log", str(log)])
+    out = capsys.readouterr().out
+    assert rc == 1
+    assert "collisions     1 at t = " in out
+    trip = read_trip(log)
+    assert trip.meta["collision"] is True and trip.t_s[-1] < 25.0
