@@ -7,8 +7,12 @@
 (b) Synthetic: each built-in driver d1..d5 (sim_bus) drives manual1..manual4 by hand; the
     IRL table and the baseline against the driver's true g*(v), RMSE over the covered speeds
     (target ≤ 2 m).
+(c) Fine-tuning in closed loop (--fine-tune): each driver drives scenarios A and B with its
+    IRL table (pacc drive, controller irl); the takeovers of both trips fine-tune the table;
+    the same drives are repeated with the new version. PoI / NIM before and after, and the
+    RMSE of the table against the gap the driver wants under ACC over the touched speeds.
 
-    .venv/bin/python bench/irl_quality.py [--real-only | --synthetic-only]
+    .venv/bin/python bench/irl_quality.py [--real-only | --synthetic-only] [--fine-tune]
 """
 
 from __future__ import annotations
@@ -93,11 +97,62 @@ def synthetic() -> None:
     print()
 
 
+def fine_tuning() -> None:
+    from cloud_sync.demos import usable_mask
+    from cloud_sync.trainer import fine_tune
+    from cloud_sync.triplog import Trip
+    from ecu.dgpt import Dgpt
+    from sim_bus.drive import DriveConfig, log_to_trip, run_drive
+    from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
+    from sim_bus.manual import manual_trip
+    from sim_bus.scenarios import canonical_profiles
+
+    print("(c) fine-tuning from the takeovers of one ACC trip on each of A and B (seed 0)\n")
+    print(
+        "| driver | PoI % before -> after | NIM /min before -> after | takeover s | "
+        "touched (m/s) | RMSE to ACC preference (m) before -> after |"
+    )
+    print("|---|---|---|---|---|---|")
+    profiles = canonical_profiles(0)
+
+    def drives(driver: DriverParams, table: Dgpt) -> tuple[float, float, list[Trip]]:
+        trips: list[Trip] = []
+        poi: list[float] = []
+        nim: list[float] = []
+        for sc in ("A", "B"):
+            cfg = DriveConfig(scenario=sc, driver_id=driver.driver_id, controller="irl", seed=0)
+            r = run_drive(cfg, driver, table)
+            m = r.metrics.as_dict()
+            poi.append(float(m["poi_pct"]))
+            nim.append(float(m["nim_per_min"]))
+            trips.append(log_to_trip(r, driver))
+        return float(np.mean(poi)), float(np.mean(nim)), trips
+
+    for name, driver in BUILTIN_DRIVERS.items():
+        manual = [manual_trip(driver, profiles[f"manual{i + 1}"], i) for i in range(4)]
+        table = learn_dgpt(manual, driver_id=name).table
+        poi0, nim0, acc_trips = drives(driver, table)
+        take_s = sum(float(np.sum(usable_mask(t, 120.0))) * 0.1 for t in acc_trips)
+        ft = fine_tune(acc_trips, table)
+        poi1, nim1, _ = drives(driver, ft.table)
+        v, cov = table.speed_mps, ft.covered
+        want = driver.acc_preferred_gap_m(v)
+        touched = ", ".join(f"{a:g}-{c:g}" for a, c in ft.table.meta["covered_mps"]) or "none"
+        print(
+            f"| {name} | {poi0:.1f} -> {poi1:.1f} | {nim0:.2f} -> {nim1:.2f} | {take_s:.0f} | "
+            f"{touched} | {_rmse(table.gap_m[cov], want[cov]):.2f} -> "
+            f"{_rmse(ft.table.gap_m[cov], want[cov]):.2f} |"
+        )
+    print()
+
+
 def main(argv: list[str]) -> int:
     if "--synthetic-only" not in argv:
         real()
     if "--real-only" not in argv:
         synthetic()
+    if "--fine-tune" in argv:
+        fine_tuning()
     return 0
 
 

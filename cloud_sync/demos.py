@@ -1,11 +1,12 @@
 """Demonstrations: from trips to the segments, feature counts and start states IRL needs.
 
-A sample is usable when the driver is in control (``acc_state`` not 2 = Active: manual driving,
-standby after a brake, or an override), a lead is present (finite gap and lead speed, gap
-within ``max_gap_m``) and speed is finite and ≥ 0. The trip is resampled at the MDP's decision
-interval at every phase offset (a 10 Hz trip and 1 s decisions give ten interleaved
-sub-trajectories), the action of a step is the mean acceleration ``(v[t+1] − v[t])/dt``, and
-runs of consecutive usable samples are cut into segments of at most ``horizon`` steps.
+A sample is usable when the driver is in control (``acc_state`` not 2 = Active: manual
+driving, standby after a brake, or an override; in an ACC trip only after the first
+engagement), a lead is present (finite gap and lead speed, gap within ``max_gap_m``) and
+speed is finite and ≥ 0. The trip is resampled at the MDP's decision interval at every phase
+offset (a 10 Hz trip and 1 s decisions give ten interleaved sub-trajectories), the action of
+a step is the mean acceleration ``(v[t+1] − v[t])/dt``, and runs of consecutive usable samples
+are cut into segments of at most ``horizon`` steps.
 
 Each trip carries a weight; :func:`takeover_weighted` gives the driver's corrections in ACC
 trips (mode ``acc``/``takeover``) a larger weight than manual drives.
@@ -33,6 +34,7 @@ __all__ = [
     "digest",
     "takeover_weighted",
     "ACTIVE",
+    "is_acc_trip",
 ]
 
 ACTIVE = 2  # AccState Active: the ECU drives, not the driver
@@ -61,11 +63,24 @@ class Transitions:
         return int(self.v_mps.size)
 
 
+def is_acc_trip(trip: Trip) -> bool:
+    """Whether ``trip`` was driven with the ACC on (meta mode ``acc`` or ``takeover``)."""
+    return str(trip.meta.get("mode", "manual")) in ("acc", "takeover")
+
+
 def usable_mask(trip: Trip, max_gap_m: float) -> np.ndarray:
-    """Boolean (n,): the driver is in control and following a lead (see module docstring)."""
+    """Boolean (n,): the driver is in control and following a lead (see module docstring).
+
+    In an ACC trip only the driver's corrections count: samples not Active after the ACC
+    was first engaged (driving before the first engagement is not a correction).
+    """
+    in_control = trip.acc_state != ACTIVE
+    if is_acc_trip(trip):
+        engaged = np.cumsum(trip.acc_state == ACTIVE) > 0
+        in_control = in_control & engaged
     with np.errstate(invalid="ignore"):
         return np.asarray(
-            (trip.acc_state != ACTIVE)
+            in_control
             & np.isfinite(trip.v_mps)
             & np.isfinite(trip.gap_m)
             & np.isfinite(trip.v_lead_mps)
@@ -197,7 +212,4 @@ def digest(trips: Sequence[Trip], weights: Sequence[float]) -> str:
 def takeover_weighted(trips: Sequence[Trip], takeover_weight: float) -> list[float]:
     """Per-trip weights: ``takeover_weight`` for ACC trips (their usable samples are the
     driver's takeovers), 1 for manual drives."""
-    return [
-        takeover_weight if str(t.meta.get("mode", "manual")) in ("acc", "takeover") else 1.0
-        for t in trips
-    ]
+    return [takeover_weight if is_acc_trip(t) else 1.0 for t in trips]

@@ -49,7 +49,9 @@ class IrlConfig:
     ``min_coverage_s``: seconds within ±0.5 m/s for a speed bin to count as evidence.
     ``takeover_weight``: weight of an ACC trip's takeover samples against manual samples.
     ``blend_window_mps``: when continuing from an earlier table, new evidence moves the table
-    within this distance of its speeds, blended by its amount; elsewhere the table is kept.
+    within this distance of its speeds, blended by its amount (weight c/(c + blend_half_s)
+    for c seconds of new evidence); elsewhere the table is kept;
+    the argmax may range ±``init_support_ratio`` around the earlier gaps.
     """
 
     grid: GridConfig = field(default_factory=GridConfig)
@@ -68,6 +70,8 @@ class IrlConfig:
     takeover_weight: float = 5.0
     dgpt_step_mps: float = 0.5
     blend_window_mps: float = 2.0
+    blend_half_s: float = 10.0
+    init_support_ratio: float = 0.3
 
     def __post_init__(self) -> None:
         if self.horizon_steps < 1:
@@ -296,12 +300,19 @@ def learn_dgpt(
             f"no speed bin has {cfg.min_coverage_s:g} s of demonstration; cannot build a table"
         )
     support = gap_support(axis, samples["v"], samples["g"])
+    if init is not None:
+        # the earlier table's neighbourhood is known ground too (its data are not at hand)
+        before = np.interp(axis, init.speed_mps, init.gap_m)
+        support = (
+            np.fmin(support[0], before * (1.0 - cfg.init_support_ratio)),
+            np.fmax(support[1], before * (1.0 + cfg.init_support_ratio)),
+        )
     gap = _extract(alpha, feats, axis, covered, cfg, support)
     if init is not None:
         # blend into the earlier table by the amount of new evidence; untouched speeds
         # (no new sample within ±blend_window) keep the earlier gaps exactly
         previous = np.interp(axis, init.speed_mps, init.gap_m)
-        blend = np.clip(cov_wide / cfg.min_coverage_s, 0.0, 1.0)
+        blend = cov_wide / (cov_wide + cfg.blend_half_s)
         gap = np.where(blend > 0.0, blend * gap + (1.0 - blend) * previous, previous)
         gap = clamp_to_bounds(axis, gap, cfg.bounds)
         covered = blend > 0.0
