@@ -163,3 +163,17 @@ def test_brake_cancel_mode_driver_resumes() -> None:
     resumed = (s[1:] == 2) & (s[:-1] == 1)
     assert cancelled.sum() >= 1 and resumed.sum() >= cancelled.sum()
     assert r.metrics.acc_on_s > 55.0  # standby after a cancel still counts as ACC-ON time
+
+
+def test_bus_silence_faults_and_recovers() -> None:
+    driver = BUILTIN_DRIVERS["d4"]
+    prof = shorten(_profiles()["manual2"], 40.0)
+    r = run_drive(DriveConfig(scenario="manual2", driver_id="d4", seed=6, duration_s=40.0,
+                              faults="all:silence=15-17"), driver,
+                  _table_from(driver, 1.0, "predefined"), prof)
+    log = r.log
+    assert not r.collision and r.metrics.min_gap_m > SAFETY_MIN_GAP_M
+    fault_t = log.t_s[log.acc_state == 4]
+    assert fault_t.size and 15.0 < fault_t[0] < 16.5
+    assert sum(r.summary.faults.values()) >= 1  # counted by the ECU, by input
+    assert (log.acc_state[log.t_s > 30.0] == 2).any()  # SET again once the bus is back

@@ -6,6 +6,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from sim_bus.dataset import load_human_pairs
 from sim_bus.errors import ScenarioError
@@ -149,3 +151,15 @@ def test_bad_csv_gets_a_clear_error(tmp_path: Path, text: str, match: str) -> No
     with pytest.raises(ScenarioError, match=match):
         load_profile_csv(path)
     assert path.read_text() == text  # the input is left as it was
+
+
+@settings(max_examples=20)
+@given(seed=st.integers(0, 2**31 - 1),
+       speeds=st.lists(st.floats(3.0, 35.0), min_size=16, max_size=20))
+def test_any_synthesis_respects_the_bounds(seed: int, speeds: list[float]) -> None:
+    cfg = GeneratorConfig()
+    prof = synthesize(np.array(speeds), seed, "h", cfg)
+    a = np.diff(prof.v_lead_mps) / DT_S
+    assert a.max() <= cfg.accel_max_mps2 + 1e-9 and a.min() >= -cfg.decel_max_mps2 - 1e-9
+    assert np.all(prof.v_lead_mps >= 0) and len(prof.t_s) == 3001
+    assert np.array_equal(prof.v_lead_mps, synthesize(np.array(speeds), seed, "h").v_lead_mps)
