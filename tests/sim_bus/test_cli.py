@@ -140,3 +140,17 @@ def test_collision_is_reported_not_hidden(tmp_path: Path,
     assert "collisions     1 at t = " in out
     trip = read_trip(log)
     assert trip.meta["collision"] is True and trip.t_s[-1] < 25.0
+
+
+def test_irl_table_is_learned_from_manual_trips_and_cached(tmp_path: Path) -> None:
+    import numpy as np
+
+    driver = BUILTIN_DRIVERS["d1"]
+    table = irl_table(driver, 0, tmp_path)
+    files = list(tmp_path.glob("irl-d1-*.json"))
+    assert len(files) == 1 and table.source == "irl" and table.driver_id == "d1"
+    v = np.array([10.0, 15.0, 20.0, 25.0])  # speeds the manual profiles cover well
+    rel = table.lookup(v) / driver.preferred_gap_m(v) - 1.0
+    assert np.all(np.abs(rel) < 0.25), rel
+    again = irl_table(driver, 0, tmp_path)
+    assert np.array_equal(again.gap_m, table.gap_m)
