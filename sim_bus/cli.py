@@ -64,7 +64,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"pacc sim: error: {exc}", file=sys.stderr)
         return 2
     try:
-        bus = can.Bus(interface=args.interface, channel=args.channel, bitrate=args.bitrate)
+        # only given flags are passed: a None bitrate would hide the one of ~/.canrc
+        extra = {} if args.bitrate is None else {"bitrate": args.bitrate}
+        bus = can.Bus(interface=args.interface, channel=args.channel, **extra)
     except (can.CanError, ValueError, OSError, ImportError) as exc:
         print(f"pacc sim: error: cannot open the bus: {exc}", file=sys.stderr)
         return 2

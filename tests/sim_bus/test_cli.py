@@ -154,3 +154,19 @@ def test_irl_table_is_learned_from_manual_trips_and_cached(tmp_path: Path) -> No
     assert np.all(np.abs(rel) < 0.25), rel
     again = irl_table(driver, 0, tmp_path)
     assert np.array_equal(again.gap_m, table.gap_m)
+
+
+def test_sim_takes_the_bus_from_python_can_config(monkeypatch: pytest.MonkeyPatch,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    # no -i/-c/-b: python-can's own configuration (here CAN_INTERFACE/CAN_CHANNEL) applies
+    monkeypatch.setenv("CAN_INTERFACE", "virtual")
+    monkeypatch.setenv("CAN_CHANNEL", "test-pacc-sim-env")
+    listener = can.Bus(interface="virtual", channel="test-pacc-sim-env")
+    try:
+        assert cli.main(["--duration", "0.3", "--quiet", "--driver", "d2"]) == 0
+        n = 0
+        while listener.recv(0.0) is not None:
+            n += 1
+    finally:
+        listener.shutdown()
+    assert n >= 60  # ESC and PEDAL every 10 ms, RADAR, HMI
