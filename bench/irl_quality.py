@@ -12,7 +12,11 @@
     the same drives are repeated with the new version. PoI / NIM before and after, and the
     RMSE of the table against the gap the driver wants under ACC over the touched speeds.
 
+(d) Horizon sweep (--horizon-sweep): the synthetic RMSE of d1..d4 for segment horizons
+    3, 5, 10 and 15 decisions (why the default is 5).
+
     .venv/bin/python bench/irl_quality.py [--real-only | --synthetic-only] [--fine-tune]
+                                          [--horizon-sweep]
 """
 
 from __future__ import annotations
@@ -146,6 +150,30 @@ def fine_tuning() -> None:
     print()
 
 
+def horizon_sweep() -> None:
+    from cloud_sync.trainer import IrlConfig
+    from sim_bus.drivers import BUILTIN_DRIVERS
+    from sim_bus.manual import manual_trip
+    from sim_bus.scenarios import canonical_profiles
+
+    horizons = (3, 5, 10, 15)
+    print("(d) IRL RMSE (m) against g*(v) by segment horizon (decisions of 1 s)\n")
+    print("| driver | " + " | ".join(f"H = {h}" for h in horizons) + " |")
+    print("|---|" + "---|" * len(horizons))
+    profiles = canonical_profiles(0)
+    for name in ("d1", "d2", "d3", "d4"):
+        driver = BUILTIN_DRIVERS[name]
+        trips = [manual_trip(driver, profiles[f"manual{i + 1}"], i) for i in range(4)]
+        cells = []
+        for h in horizons:
+            res = learn_dgpt(trips, driver_id=name, config=IrlConfig(horizon_steps=h))
+            v, cov = res.table.speed_mps, res.covered
+            truth = driver.preferred_gap_m(v)
+            cells.append(f"{_rmse(res.table.gap_m[cov], truth[cov]):.2f} ({res.train_s:.1f} s)")
+        print(f"| {name} | " + " | ".join(cells) + " |")
+    print()
+
+
 def main(argv: list[str]) -> int:
     if "--synthetic-only" not in argv:
         real()
@@ -153,6 +181,8 @@ def main(argv: list[str]) -> int:
         synthetic()
     if "--fine-tune" in argv:
         fine_tuning()
+    if "--horizon-sweep" in argv:
+        horizon_sweep()
     return 0
 
 
