@@ -2,11 +2,11 @@
 
 A sample is usable when the driver is in control (``acc_state`` not 2 = Active: manual
 driving, standby after a brake, or an override; in an ACC trip only after the first
-engagement), a lead is present (finite gap and lead speed, gap within ``max_gap_m``) and
-speed is finite and ≥ 0. The trip is resampled at the MDP's decision interval at every phase
-offset (a 10 Hz trip and 1 s decisions give ten interleaved sub-trajectories), the action of
-a step is the mean acceleration ``(v[t+1] − v[t])/dt``, and runs of consecutive usable samples
-are cut into segments of at most ``horizon`` steps.
+engagement), a lead is present (finite gap and lead speed, gap within ``max_gap_m``) and the
+speeds are finite and within 0 … 70 m/s. The trip is resampled at the MDP's decision interval
+at every phase offset (a 10 Hz trip and 1 s decisions give ten interleaved sub-trajectories),
+the action of a step is the mean acceleration ``(v[t+1] − v[t])/dt``, and runs of consecutive
+usable samples are cut into segments of at most ``horizon`` steps.
 
 Each trip carries a weight; :func:`takeover_weighted` gives the driver's corrections in ACC
 trips (mode ``acc``/``takeover``) a larger weight than manual drives.
@@ -38,6 +38,7 @@ __all__ = [
 ]
 
 ACTIVE = 2  # AccState Active: the ECU drives, not the driver
+MAX_SPEED_MPS = 70.0  # faster samples are sensor garbage, not car following
 
 
 @dataclass(frozen=True)
@@ -85,13 +86,22 @@ def usable_mask(trip: Trip, max_gap_m: float) -> np.ndarray:
             & np.isfinite(trip.gap_m)
             & np.isfinite(trip.v_lead_mps)
             & (trip.v_mps >= -0.5)
+            & (trip.v_mps <= MAX_SPEED_MPS)
+            & (np.abs(trip.v_lead_mps) <= MAX_SPEED_MPS)
             & (trip.gap_m >= 0.0)
             & (trip.gap_m <= max_gap_m)
         )
 
 
-def check_demos(trips: Sequence[Trip], *, max_gap_m: float, min_total_s: float) -> float:
-    """Refuse unusable demonstrations with a clear :class:`DemoError`; return usable seconds."""
+def check_demos(
+    trips: Sequence[Trip], *, max_gap_m: float, min_total_s: float, dt_s: float = 1.0
+) -> float:
+    """Refuse unusable demonstrations with a clear :class:`DemoError`; return usable seconds.
+
+    Refused: no trip; a trip with fewer than two samples; a trip without one finite
+    speed/gap/lead-speed sample; a trip sampled more coarsely than the decision interval
+    ``dt_s`` or at a period that does not divide it; less than ``min_total_s`` usable seconds.
+    """
     if len(trips) == 0:
         raise DemoError("no demonstrations given (empty list of trips)")
     total = 0.0
@@ -103,6 +113,12 @@ def check_demos(trips: Sequence[Trip], *, max_gap_m: float, min_total_s: float) 
         if not finite.any():
             raise DemoError(f"{name}: demonstration is NaN-filled (no finite speed/gap sample)")
         dt = float(np.median(np.diff(trip.t_s)))
+        stride = max(int(round(dt_s / dt)), 1)
+        if abs(stride * dt - dt_s) > 0.1 * dt_s:
+            raise DemoError(
+                f"{name}: sampled every {dt:g} s, which does not divide the {dt_s:g} s decision "
+                "interval (resample the trip, e.g. to 10 Hz)"
+            )
         total += float(usable_mask(trip, max_gap_m).sum()) * dt
     if total < min_total_s:
         raise DemoError(

@@ -262,7 +262,9 @@ def learn_dgpt(
     w = list(weights) if weights is not None else dm.takeover_weighted(trips, cfg.takeover_weight)
     if len(w) != len(trips):
         raise DemoError(f"{len(w)} weights for {len(trips)} trips")
-    usable_s = dm.check_demos(trips, max_gap_m=cfg.max_gap_m, min_total_s=cfg.min_total_demo_s)
+    usable_s = dm.check_demos(
+        trips, max_gap_m=cfg.max_gap_m, min_total_s=cfg.min_total_demo_s, dt_s=cfg.grid.dt_s
+    )
     samples = _samples(trips, cfg.max_gap_m)
     prior = _prior_from(init)
     if prior is not None:

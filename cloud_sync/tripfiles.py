@@ -72,16 +72,8 @@ def read_csv_trip(
         "source": path.name,
     }
     try:
-        return Trip(
-            t_s=t,
-            v_mps=v,
-            gap_m=col.get("spacing", np.zeros(0)),
-            v_lead_mps=col.get("v_leader", np.zeros(0)),
-            a_mps2=a,
-            accel_pedal=np.full(n, np.nan),
-            brake_pedal=np.full(n, np.nan),
-            acc_state=np.zeros(n, dtype=np.int64),
-            meta=meta,
+        return Trip.manual(
+            t, v, col.get("spacing", np.zeros(0)), col.get("v_leader", np.zeros(0)), a, meta
         )
     except TripLogError as exc:
         raise TripLogError(f"{path}: {exc}") from exc

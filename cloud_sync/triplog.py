@@ -142,6 +142,31 @@ class Trip:
             raise TripLogError("Trip.meta must be a dict")
         object.__setattr__(self, "meta", dict(self.meta))
 
+    @classmethod
+    def manual(
+        cls,
+        t_s: np.ndarray,
+        v_mps: np.ndarray,
+        gap_m: np.ndarray,
+        v_lead_mps: np.ndarray,
+        a_mps2: np.ndarray,
+        meta: dict[str, Any] | None = None,
+    ) -> Trip:
+        """A manual-driving trip from the car-following arrays (t, v, g, v_f, a), each (n,):
+        pedals not recorded (NaN), ``acc_state`` 0, ``meta["mode"] = "manual"``."""
+        n = np.asarray(t_s).shape[0] if np.ndim(t_s) else 0
+        return cls(
+            t_s=t_s,
+            v_mps=v_mps,
+            gap_m=gap_m,
+            v_lead_mps=v_lead_mps,
+            a_mps2=a_mps2,
+            accel_pedal=np.full(n, np.nan),
+            brake_pedal=np.full(n, np.nan),
+            acc_state=np.zeros(n, dtype=np.int64),
+            meta={"mode": "manual", **(meta or {})},
+        )
+
     def __len__(self) -> int:
         return int(self.t_s.shape[0])
 

@@ -7,6 +7,8 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
 
 from cloud_sync.demos import (
     check_demos,
@@ -93,3 +95,45 @@ def test_takeover_weights_and_digest(follower: Callable[..., Trip]) -> None:
     v = a.v_mps.copy()
     v[5] += 0.01
     assert d1 != digest([replace(a, v_mps=v), b], [1.0, 5.0])
+
+
+def test_refuses_coarse_sampling(follower: Callable[..., Trip]) -> None:
+    t = follower(4, minutes=3.0)
+    coarse = Trip.manual(
+        t.t_s[::20],
+        t.v_mps[::20],
+        t.gap_m[::20],
+        t.v_lead_mps[::20],
+        t.a_mps2[::20],
+        {"source": "coarse.csv"},
+    )
+    with pytest.raises(DemoError, match="coarse.csv: sampled every 2 s"):
+        learn_dgpt([coarse], driver_id="x")
+
+
+@settings(max_examples=6, deadline=None)
+@given(
+    seed=st.integers(0, 1000),
+    nan_frac=st.floats(0.0, 0.9),
+    spike=st.sampled_from([-5.0, 0.0, 500.0, np.inf]),
+)
+@example(seed=1, nan_frac=0.1, spike=500.0)
+@example(seed=2, nan_frac=0.95, spike=np.inf)
+def test_corrupted_demos_give_bounded_table_or_demo_error(
+    follower: Callable[..., Trip], seed: int, nan_frac: float, spike: float
+) -> None:
+    """Bad samples never crash the learner nor leave the safety bounds."""
+    t = follower(seed, minutes=2.0)
+    rng = np.random.default_rng(seed)
+    gap = t.gap_m.copy()
+    v = t.v_mps.copy()
+    gap[rng.random(gap.size) < nan_frac] = np.nan
+    v[rng.random(v.size) < 0.05] = spike
+    bad = replace(t, gap_m=gap, v_mps=v)
+    try:
+        res = learn_dgpt([bad], driver_id="x", seed=seed)
+    except DemoError as exc:
+        assert str(exc)
+        return
+    res.table.check_bounds()
+    assert np.all(np.isfinite(res.table.gap_m))
