@@ -1,9 +1,9 @@
 """Quality of the learned DGPTs, printed as Markdown tables (copied into docs/irl.md).
 
 (a) Real data: the eight human-driven follower pairs of OpenACC AstaZero
-    (/work/shared/data/openacc_astazero): the IRL table of each driver against the empirical
-    steady-state gaps of the same driver (the baseline table): RMSE over the speeds both
-    cover, and the mean time gap g/v per speed band.
+    (/work/shared/data/openacc_astazero, else sim_bus's shipped copy of them): the IRL
+    table of each driver against the empirical steady-state gaps of the same driver (the
+    baseline table): RMSE over the speeds both cover, and the mean time gap g/v per band.
 (b) Synthetic: each built-in driver d1..d5 (sim_bus) drives manual1..manual4 by hand; the
     IRL table and the baseline against the driver's true g*(v), RMSE over the covered speeds
     (target ≤ 2 m).
@@ -29,6 +29,7 @@ import numpy as np
 
 from cloud_sync.trainer import learn_dgpt
 from cloud_sync.tripfiles import read_csv_trip
+from cloud_sync.triplog import Trip
 
 DATA = Path("/work/shared/data/openacc_astazero")
 BANDS = ((10.0, 15.0), (15.0, 20.0), (20.0, 25.0), (25.0, 30.0))
@@ -38,18 +39,28 @@ def _rmse(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.sqrt(np.mean((a - b) ** 2))) if a.size else float("nan")
 
 
-def real() -> None:
+def _human_trips() -> list[tuple[str, Trip]]:
+    """The eight human pairs: from the shared CSVs, else from sim_bus's shipped copy."""
     files = sorted(DATA.glob("oa_pair_*.csv"))
-    if not files:
-        print(f"(a) skipped: {DATA} not present")
-        return
+    if files:
+        return [(f.stem.replace("oa_pair_040719_", ""), read_csv_trip(f)) for f in files]
+    from sim_bus.dataset import load_human_pairs
+
+    out = []
+    for p in load_human_pairs():
+        t = np.arange(p.v_follower_mps.size) * p.dt_s
+        a = np.gradient(p.v_follower_mps, t)
+        trip = Trip.manual(t, p.v_follower_mps, p.gap_m, p.v_leader_mps, a, {"source": p.pair_id})
+        out.append((p.pair_id.replace("040719_", ""), trip))
+    return out
+
+
+def real() -> None:
     print("(a) OpenACC AstaZero, human drivers: IRL DGPT vs empirical steady-state gaps\n")
     head = " | ".join(f"{lo:g}-{hi:g} m/s IRL/emp" for lo, hi in BANDS)
     print(f"| pair | covered (m/s) | RMSE (m) | time gap g/v (s): {head} | train (s) |")
     print("|---|---|---|" + "---|" * len(BANDS) + "---|")
-    for f in files:
-        pair = f.stem.replace("oa_pair_040719_", "")
-        trip = read_csv_trip(f, driver_id=pair)
+    for pair, trip in _human_trips():
         res = learn_dgpt([trip], driver_id=pair)
         t, b = res.table, res.baseline
         if b is None:
@@ -104,7 +115,6 @@ def synthetic() -> None:
 def fine_tuning() -> None:
     from cloud_sync.demos import usable_mask
     from cloud_sync.trainer import fine_tune
-    from cloud_sync.triplog import Trip
     from ecu.dgpt import Dgpt
     from sim_bus.drive import DriveConfig, log_to_trip, run_drive
     from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
