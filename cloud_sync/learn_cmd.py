@@ -5,7 +5,9 @@
 
 FILES are ``.mcap`` trip logs or ``.csv`` car-following pairs. With ``--init`` (an earlier
 IRL table) training continues from its reward weights, speeds without new evidence keep its
-gaps, and the output is its next version (fine-tuning from takeover trips).
+gaps, and the output is its next version; when some FILES are ACC trips (trip-log mode
+``acc``), this is fine-tuning from their takeovers (``cloud_sync.trainer.fine_tune``), the
+manual FILES counting as earlier demonstrations.
 """
 
 from __future__ import annotations
@@ -20,8 +22,9 @@ __all__ = ["add_subparser"]
 def _do_learn(args: argparse.Namespace) -> int:
     import numpy as np
 
+    from cloud_sync.demos import is_acc_trip
     from cloud_sync.errors import CloudSyncError
-    from cloud_sync.trainer import IrlConfig, learn_dgpt
+    from cloud_sync.trainer import METHOD, IrlConfig, fine_tune, learn_dgpt
     from cloud_sync.tripfiles import load_trip
     from ecu import EcuError
     from ecu.dgpt import load_dgpt, save_dgpt
@@ -30,15 +33,23 @@ def _do_learn(args: argparse.Namespace) -> int:
         trips = [load_trip(p) for p in args.demos]
         init = load_dgpt(args.init) if args.init else None
         config = IrlConfig(takeover_weight=args.takeover_weight)
-        result = learn_dgpt(
-            trips,
-            driver_id=args.driver,
-            condition=args.condition,
-            init=init,
-            seed=args.seed,
-            progress=not args.quiet,
-            config=config,
-        )
+        acc = [t for t in trips if is_acc_trip(t)]
+        if init is not None and acc and init.meta.get("method") == METHOD:
+            # ACC trips given with an IRL table: fine-tune from their takeovers
+            manual = [t for t in trips if not is_acc_trip(t)]
+            result = fine_tune(
+                acc, init, demos=manual, seed=args.seed, progress=not args.quiet, config=config
+            )
+        else:
+            result = learn_dgpt(
+                trips,
+                driver_id=args.driver,
+                condition=args.condition,
+                init=init,
+                seed=args.seed,
+                progress=not args.quiet,
+                config=config,
+            )
         save_dgpt(result.table, args.output)
         if args.plot:
             from cloud_sync.plot import plot_result

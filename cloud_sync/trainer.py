@@ -33,7 +33,7 @@ from cloud_sync.mdp import Grid, GridConfig, build_transitions, grid_from_spec, 
 from cloud_sync.triplog import Trip
 from ecu.dgpt import Dgpt, SafetyBounds, clamp_to_bounds, speed_axis
 
-__all__ = ["IrlConfig", "LearnResult", "learn_dgpt", "fine_tune", "empirical_baseline"]
+__all__ = ["IrlConfig", "LearnResult", "learn_dgpt", "fine_tune", "empirical_baseline", "METHOD"]
 
 METHOD = "mce_irl/1"
 

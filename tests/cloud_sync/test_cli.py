@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -101,3 +103,28 @@ def test_help_and_no_command(capsys: pytest.CaptureFixture[str]) -> None:
     assert exc.value.code == 0
     assert "--demos" in capsys.readouterr().out
     assert main([]) == 2
+
+
+def test_init_with_acc_trip_fine_tunes(
+    syn_trips: list[Trip], follower: Callable[..., Trip], tmp_path: Path
+) -> None:
+    manual = tmp_path / "manual.mcap"
+    write_trip(manual, syn_trips[0])
+    base = tmp_path / "v1.json"
+    assert main(["learn", "--demos", str(manual), "--driver", "d", "-o", str(base), "-q"]) == 0
+    t = follower(31, headway_s=1.0, minutes=2.0, v_lo=15.0, v_hi=20.0)
+    state = np.full(len(t), 2)
+    for start in range(0, len(t), 300):
+        state[start + 20 : start + 170] = 3
+    acc = tmp_path / "acc.mcap"
+    write_trip(acc, replace(t, acc_state=state, meta={**t.meta, "mode": "acc"}))
+    out = tmp_path / "v2.json"
+    rc = main(
+        ["learn", "--demos", str(acc), "--driver", "d", "--init", str(base), "-o", str(out), "-q"]
+    )
+    assert rc == 0
+    v1, v2 = load_dgpt(base), load_dgpt(out)
+    assert v2.version == 2 and v2.meta["n_trips"] == 1
+    band = (v2.speed_mps >= 16) & (v2.speed_mps <= 19)
+    assert np.mean(v2.gap_m[band]) < np.mean(v1.gap_m[band]) - 1.0  # towards 4 m + 1.0 s·v
+    assert np.array_equal(v2.gap_m[v2.speed_mps <= 10], v1.gap_m[v1.speed_mps <= 10])
