@@ -1,8 +1,13 @@
 """Cloud side of pacc: trip logs, and each driver's DGPT learned by inverse RL.
 
-Modules: :mod:`cloud_sync.triplog` (Trip, MCAP logs), :mod:`cloud_sync.tripfiles` (CSV,
-dispatch by suffix), :mod:`cloud_sync.errors` (the exception tree). The learning modules
-import numpy/scipy; import them explicitly.
+Modules, one concept each: :mod:`~cloud_sync.triplog` (Trip, MCAP trip logs),
+:mod:`~cloud_sync.tripfiles` (CSV pairs, dispatch by suffix), :mod:`~cloud_sync.demos`
+(trips → segments and feature counts), :mod:`~cloud_sync.mdp` (grid, sparse transitions),
+:mod:`~cloud_sync.features` (reward basis), :mod:`~cloud_sync.mce_irl` (soft value
+iteration, visitation, objective), :mod:`~cloud_sync.extract` (reward → table, baseline),
+:mod:`~cloud_sync.trainer` (``learn_dgpt``, ``fine_tune``), :mod:`~cloud_sync.plot`,
+:mod:`~cloud_sync.cli` (``pacc cloud``). Errors derive from :class:`CloudSyncError`. Only the
+error tree is imported here; the numerical modules import numpy/scipy, import them explicitly.
 """
 
 from __future__ import annotations
