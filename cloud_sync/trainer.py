@@ -297,9 +297,10 @@ def learn_dgpt(
         # continuing: new evidence counts within ±blend_window of its speeds
         cov_wide = coverage_s(axis, samples["v"], samples["dt"], cfg.blend_window_mps)
         covered = cov_wide >= cfg.min_coverage_s
-    if not covered.any():
+    if not (covered & (axis > 0.5)).any():
         raise DemoError(
-            f"no speed bin has {cfg.min_coverage_s:g} s of demonstration; cannot build a table"
+            f"no speed bin above standstill has {cfg.min_coverage_s:g} s of demonstration; "
+            "cannot build a table"
         )
     support = gap_support(axis, samples["v"], samples["g"])
     if init is not None:

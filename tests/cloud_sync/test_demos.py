@@ -137,3 +137,24 @@ def test_corrupted_demos_give_bounded_table_or_demo_error(
         return
     res.table.check_bounds()
     assert np.all(np.isfinite(res.table.gap_m))
+
+
+def test_refuses_standstill_only(follower: Callable[..., Trip]) -> None:
+    t = follower(5, minutes=2.0)
+    n = len(t)
+    still = Trip.manual(t.t_s, np.zeros(n), np.full(n, 5.0), np.zeros(n), np.zeros(n))
+    with pytest.raises(DemoError, match="no speed bin above standstill"):
+        learn_dgpt([still], driver_id="x")
+
+
+def test_constant_speed_gives_constant_time_gap_table(follower: Callable[..., Trip]) -> None:
+    t = follower(6, minutes=2.0)
+    n = len(t)
+    v = np.full(n, 20.0)
+    steady = Trip.manual(t.t_s, v, np.full(n, 34.0), v, np.zeros(n))
+    res = learn_dgpt([steady], driver_id="x")
+    table = res.table
+    assert table.lookup(20.0) == pytest.approx(34.0, abs=1.0)
+    # continued at the same time gap (34 - 4) / 20 = 1.5 s on both sides
+    assert table.lookup(10.0) == pytest.approx(4.0 + 1.5 * 10.0, abs=1.0)
+    assert table.lookup(30.0) == pytest.approx(4.0 + 1.5 * 30.0, abs=1.5)
