@@ -259,6 +259,10 @@ def learn_dgpt(
     short demonstrations, :class:`TrainingError` if the optimisation fails.
     """
     cfg = config if config is not None else IrlConfig()
+    if init is not None and init.driver_id != driver_id:
+        raise TrainingError(
+            f"the initial table belongs to driver {init.driver_id!r}, not {driver_id!r}"
+        )
     w = list(weights) if weights is not None else dm.takeover_weighted(trips, cfg.takeover_weight)
     if len(w) != len(trips):
         raise DemoError(f"{len(w)} weights for {len(trips)} trips")
@@ -341,17 +345,15 @@ def learn_dgpt(
     }
     if init is not None:
         meta["parent_version"] = init.version
-        table = init.with_gaps(gap, source="irl", meta=meta)
-    else:
-        table = Dgpt(
-            speed_mps=axis,
-            gap_m=gap,
-            version=1,
-            driver_id=driver_id,
-            condition=condition,
-            source="irl",
-            meta=meta,
-        )
+    table = Dgpt(
+        speed_mps=axis,
+        gap_m=gap,
+        version=init.version + 1 if init is not None else 1,
+        driver_id=driver_id,
+        condition=condition,
+        source="irl",
+        meta=meta,
+    )
     try:
         baseline: Dgpt | None = empirical_baseline(
             trips, driver_id=driver_id, condition=condition, config=cfg

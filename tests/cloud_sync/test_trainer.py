@@ -109,3 +109,8 @@ def test_baseline_same_format(syn_trips: list[Trip]) -> None:
     b = empirical_baseline(syn_trips, driver_id="syn")
     assert b.meta["method"] == "empirical" and b.speed_mps.size == 81
     b.check_bounds()
+
+
+def test_init_of_another_driver_refused(syn_trips: list[Trip], learned: LearnResult) -> None:
+    with pytest.raises(TrainingError, match="belongs to driver 'syn', not 'other'"):
+        learn_dgpt(syn_trips[:1], driver_id="other", init=learned.table)
