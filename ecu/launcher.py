@@ -9,6 +9,7 @@
 from __future__ import annotations
 
 import importlib
+import os
 import sys
 from collections.abc import Callable
 
@@ -59,7 +60,13 @@ def main(argv: list[str] | None = None) -> int:
     if name not in SUBCOMMANDS:
         print(f"{_USAGE}\npacc: error: unknown sub-command {name!r}", file=sys.stderr)
         return 2
-    return resolve(name)(rest)
+    try:
+        return resolve(name)(rest)
+    except BrokenPipeError:
+        # the reader of a pipe (``pacc drive | head``) closed early: not an error of ours;
+        # point stdout at devnull so the interpreter's final flush stays quiet
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
 
 
 if __name__ == "__main__":

@@ -3,15 +3,16 @@
 With ``--profile`` the given DGPT file is used. Without it, if the cloud trainer
 (``cloud_sync.trainer.learn_dgpt``) is installed, the table is learned from the driver's
 manual trips on the canonical profiles manual1..manual4 and cached (JSON DGPT) under the
-cache directory, keyed by the driver parameters, the seed and the trainer module's source
-hash; otherwise a DriveError asks for ``--profile``.
+cache directory, keyed by the driver parameters, the seed and a digest of the code that
+makes the table (every module of ``cloud_sync``, ``sim_bus`` and ``ecu``, whose trips,
+learner and table format it depends on); otherwise a DriveError asks for ``--profile``.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import hashlib
-import inspect
+import importlib.util
 import json
 import os
 from pathlib import Path
@@ -32,8 +33,23 @@ def default_cache_dir() -> Path:
     return Path(base) / "pacc"
 
 
+def code_digest(packages: tuple[str, ...] = ("cloud_sync", "sim_bus", "ecu")) -> str:
+    """SHA-256 over the Python sources of ``packages`` (sorted by path): the code version."""
+    digest = hashlib.sha256()
+    for name in packages:
+        spec = importlib.util.find_spec(name)
+        if spec is None or not spec.submodule_search_locations:
+            continue
+        for folder in spec.submodule_search_locations:
+            root = Path(folder)
+            for path in sorted(root.rglob("*.py")):
+                digest.update(str(path.relative_to(root.parent)).encode())
+                digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
 def cache_key(driver: DriverParams, seed: int, trainer_source: str) -> str:
-    """A hex key of (driver parameters, seed, trainer source): same inputs, same table."""
+    """A hex key of (driver parameters, seed, code digest): same inputs, same table."""
     payload = json.dumps({"driver": dataclasses.asdict(driver), "seed": seed,
                           "profiles": MANUAL_PROFILES, "trainer": trainer_source},
                          sort_keys=True, default=str)
@@ -53,11 +69,7 @@ def irl_table(driver: DriverParams, seed: int, cache_dir: Path | None = None) ->
     if learn is None:
         raise DriveError("no IRL table: pass --profile DGPT.json (cloud_sync.trainer has no "
                          "learn_dgpt)")
-    try:
-        source = inspect.getsource(trainer)
-    except (OSError, TypeError):
-        source = getattr(trainer, "__file__", "") or ""
-    key = cache_key(driver, seed, hashlib.sha256(source.encode()).hexdigest())
+    key = cache_key(driver, seed, code_digest())
     folder = cache_dir or default_cache_dir()
     path = folder / f"irl-{driver.driver_id}-{key}.json"
     if path.exists():

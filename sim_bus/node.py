@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 import can
 import numpy as np
 
+from dbc.endpoint import Frame
 from sim_bus.behaviour import ACC_OFF
 from sim_bus.faults import FaultPlan, FaultSpec
 from sim_bus.world import World
@@ -86,7 +87,7 @@ class SimNode:
         queue = getattr(bus, "queue", None)
         self._rx_queue = queue if callable(getattr(queue, "empty", None)) else None
         # one reusable message per role (the virtual bus copies what it sends)
-        self._msgs = {r: can.Message(arbitration_id=self._mc[r].frame_id,
+        self._msgs: dict[str, can.Message] = {r: Frame(arbitration_id=self._mc[r].frame_id,
                                      is_extended_id=self._mc[r].is_extended,
                                      dlc=self._mc[r].length) for r in TX_ROLES}
         self.commands_ok = 0

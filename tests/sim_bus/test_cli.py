@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import hashlib
-import inspect
 import threading
 from pathlib import Path
 
@@ -16,7 +14,7 @@ from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
 from sim_bus import cli, drive
 from sim_bus.drivers import BUILTIN_DRIVERS
-from sim_bus.irl_table import cache_key, irl_table
+from sim_bus.irl_table import cache_key, code_digest, irl_table
 
 
 def test_drive_prints_the_figures_and_logs(tmp_path: Path,
@@ -58,16 +56,15 @@ def test_drive_bad_options(argv: list[str], match: str,
 
 
 def test_irl_table_cache_hit_skips_learning(tmp_path: Path) -> None:
-    from cloud_sync import trainer
-
     driver = BUILTIN_DRIVERS["d4"]
-    src = hashlib.sha256(inspect.getsource(trainer).encode()).hexdigest()
+    src = code_digest()
     cached = predefined(2.2, driver_id="d4")
     save_dgpt(cached, tmp_path / f"irl-d4-{cache_key(driver, 5, src)}.json")
     table = irl_table(driver, 5, tmp_path)  # learning would take seconds; the hit is instant
     assert table.source == "predefined" and (table.gap_m == cached.gap_m).all()
     assert cache_key(driver, 5, src) != cache_key(driver, 6, src)
     assert cache_key(driver, 5, src) != cache_key(BUILTIN_DRIVERS["d3"], 5, src)
+    assert cache_key(driver, 5, src) != cache_key(driver, 5, "another code version")
 
 
 def test_sim_real_time_against_an_ecu_runtime(capsys: pytest.CaptureFixture[str]) -> None:
