@@ -1,7 +1,8 @@
 """The ``pacc`` console script: one command, sub-commands that live in their own packages.
 
 ``pacc ecu …`` is ``python -m ecu …``, ``pacc sim …`` is ``python -m sim_bus …``,
-``pacc drive …`` runs the ECU and the simulator in one process, ``pacc cloud …`` is
+``pacc drive …`` runs the ECU and the simulator in one process, ``pacc study …`` runs the
+paper's study (Table I) through them, ``pacc cloud …`` is
 ``python -m cloud_sync …``. Sub-command modules are imported only when chosen, so
 ``pacc --help`` does not import numpy, cantools or python-can.
 """
@@ -18,6 +19,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "ecu": ("ecu.cli", "run the ACC ECU node on a CAN bus"),
     "sim": ("sim_bus.cli", "run the bus simulator (lead, ego physics, driver) against an ECU"),
     "drive": ("sim_bus.drive", "ECU + simulator in one process, lockstep, print PoI/NIM"),
+    "study": ("sim_bus.study", "the paper's study (Table I) end to end: every driver x controller"),
     "cloud": ("cloud_sync.cli", "cloud side: learn a driver's DGPT by IRL, sync logs"),
 }
 
