@@ -1,9 +1,10 @@
 """Quality of the learned DGPTs, printed as Markdown tables (copied into docs/irl.md).
 
 (a) Real data: the eight human-driven follower pairs of OpenACC AstaZero
-    (/work/shared/data/openacc_astazero, else sim_bus's shipped copy of them): the IRL
-    table of each driver against the empirical steady-state gaps of the same driver (the
-    baseline table): RMSE over the speeds both cover, and the mean time gap g/v per band.
+    (../shared/data/openacc_astazero beside the repository, else sim_bus's shipped copy of
+    them): the IRL table of each driver against the empirical steady-state gaps of the same
+    driver (the baseline table): RMSE over the speeds both cover, and the mean time gap g/v
+    per band.
 (b) Synthetic: each built-in driver d1..d5 (sim_bus) drives manual1..manual4 by hand; the
     IRL table and the baseline against the driver's true g*(v), RMSE over the covered speeds
     (target ≤ 2 m).
@@ -31,7 +32,7 @@ from cloud_sync.trainer import learn_dgpt
 from cloud_sync.tripfiles import read_csv_trip
 from cloud_sync.triplog import Trip
 
-DATA = Path("/work/shared/data/openacc_astazero")
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "openacc_astazero"
 BANDS = ((10.0, 15.0), (15.0, 20.0), (20.0, 25.0), (25.0, 30.0))
 
 

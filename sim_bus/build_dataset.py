@@ -23,7 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-DEFAULT_SOURCE = Path("/work/shared/data/openacc_astazero")
+#: ../shared/data/openacc_astazero beside the repository
+DEFAULT_SOURCE = Path(__file__).resolve().parents[2] / "shared" / "data" / "openacc_astazero"
 DEFAULT_OUT = Path(__file__).resolve().parent / "data" / "openacc_human.npz"
 DT_S = 0.1
 ATTRIBUTION = (

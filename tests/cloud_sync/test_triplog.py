@@ -13,7 +13,8 @@ from hypothesis import strategies as st
 from cloud_sync.tripfiles import load_trip, read_csv_trip
 from cloud_sync.triplog import SAMPLE_TOPIC, Trip, TripLogError, read_trip, write_trip
 
-DATA = Path("/work/shared/data/openacc_astazero")
+# ../shared beside the repository (as on the development machines and in CI)
+DATA = Path(__file__).resolve().parents[3] / "shared" / "data" / "openacc_astazero"
 
 
 def make_trip(n: int = 50, seed: int = 0) -> Trip:
