@@ -10,7 +10,9 @@ In the manner of AUTOSAR E2E profile 1 (see docs/e2e.md for the exact definition
 * Alive counter: 4 bits, +1 modulo 16 per transmission. The receiver classifies each frame
   that passed the CRC as OK (delta 1), REPEATED (delta 0, the frame is dropped) or
   SKIPPED (delta > 1, n = delta − 1 frames lost, the frame is used and the loss counted).
-* Timeout: no usable frame for ``timeout_multiple`` × the DBC cycle time.
+* Timeout: no usable frame for ``timeout_multiple`` × the DBC cycle time. After a timeout
+  the first frame re-synchronises the counter, unless it repeats the last accepted counter
+  (a frozen sender must not revive itself once per timeout).
 """
 
 from __future__ import annotations
@@ -107,11 +109,13 @@ class E2EReceiver:
         """Classify a frame whose CRC was correct by its alive counter, received at ``now_s``.
 
         OK and SKIPPED frames are usable and refresh the timeout; REPEATED frames are not.
-        The first frame after start or after a timeout is accepted as OK.
+        The first frame after start, or the first after a timeout whose counter differs
+        from the last accepted one, is accepted as OK; a frozen sender (the same counter
+        forever) stays REPEATED and so stays timed out.
         """
         last = self.last_counter
         timed_out = self.last_ok_s is None or now_s - self.last_ok_s > self.timeout_s
-        if last is None or timed_out:
+        if last is None or (timed_out and counter != last):
             status = E2EStatus.OK
         else:
             delta = (counter - last) % COUNTER_MODULO

@@ -77,4 +77,19 @@ def test_repeated_frame_does_not_refresh_timeout() -> None:
 def test_first_frame_after_timeout_is_accepted() -> None:
     rx = E2EReceiver(cycle_s=0.01, timeout_multiple=10)
     rx.check_counter(3, 0.0)
-    assert rx.check_counter(3, 1.0) is E2EStatus.OK
+    assert rx.check_counter(9, 1.0) is E2EStatus.OK
+
+
+def test_frozen_sender_stays_timed_out() -> None:
+    """A sender stuck on one frame (same alive counter forever) is what the counter exists to
+    catch: the timeout must not re-accept the stale counter as a fresh start."""
+    rx = E2EReceiver(cycle_s=0.01, timeout_multiple=10)
+    assert rx.check_counter(3, 0.0) is E2EStatus.OK
+    stale = 0
+    for k in range(1, 300):
+        t = k * 0.01
+        assert rx.check_counter(3, t) is E2EStatus.REPEATED
+        stale += rx.timed_out(t)
+    assert stale >= 280 and rx.timed_out(3.0)
+    assert rx.check_counter(4, 3.0) is E2EStatus.OK  # the sender came back to life
+    assert not rx.timed_out(3.0)

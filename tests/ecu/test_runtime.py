@@ -277,3 +277,17 @@ def test_driver_profile_switch_keeps_last_good_table(tmp_path: Path) -> None:
         assert b.statuses[-1]["fault_code"] == 0
     finally:
         b.close()
+
+
+def test_frozen_esc_sender_faults(bench: Bench) -> None:
+    """ESC stuck repeating one frame (its alive counter frozen): the speed input times out
+    and the ECU goes to FAULT, although a frame keeps arriving every 10 ms."""
+    bench.peers.set("radar", gap_m=40.0)
+    bench.engage()
+    for _ in range(60):
+        bench.peers.outbox.counters["ego"] = 5  # the sender re-sends counter 5 forever
+        bench.run(0.01)
+    assert bench.node.state.name == "FAULT"
+    assert bench.node.faults and all(f.name == "SPEED_INPUT" for f in bench.node.faults)
+    assert bench.commands[-1]["takeover_request"] == 1
+    assert bench.rt.summary().e2e_errors["repeated_counter"] >= 50
