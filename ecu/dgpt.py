@@ -350,9 +350,14 @@ def dgpt_from_json_dict(obj: Any, bounds: SafetyBounds | None = None) -> Dgpt:
             isinstance(x, int | float) and not isinstance(x, bool) for x in seq
         ):
             raise DgptError(f"{key} must be a list of numbers")
+    try:
+        speed = np.asarray(obj["speed_mps"], dtype=np.float64)
+        gap = np.asarray(obj["gap_m"], dtype=np.float64)
+    except OverflowError:
+        raise DgptError("speed_mps or gap_m holds a number too large for a float") from None
     table = Dgpt(
-        speed_mps=np.asarray(obj["speed_mps"], dtype=np.float64),
-        gap_m=np.asarray(obj["gap_m"], dtype=np.float64),
+        speed_mps=speed,
+        gap_m=gap,
         version=obj["version"],
         driver_id=obj.get("driver_id", "guest"),
         condition=obj.get("condition", "default"),
@@ -368,12 +373,12 @@ def load_dgpt(path: str | os.PathLike[str], bounds: SafetyBounds | None = None) 
     """Read and validate a DGPT JSON file; :class:`DgptError` names the file and the defect."""
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        raw = p.read_bytes()
     except OSError as exc:
         raise DgptError(f"{p}: cannot read: {exc.strerror or exc}") from None
     try:
-        obj = json.loads(text, parse_constant=lambda c: float(c))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        obj = json.loads(raw.decode("utf-8"), parse_constant=lambda c: float(c))
+    except (ValueError, RecursionError) as exc:  # JSONDecodeError, int digit limit, nesting
         raise DgptError(f"{p}: not valid JSON: {exc}") from None
     try:
         return dgpt_from_json_dict(obj, bounds)

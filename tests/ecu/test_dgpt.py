@@ -140,6 +140,36 @@ def test_unreadable_and_non_json(tmp_path: Path) -> None:
         load_dgpt(_write(tmp_path, "[1, 2]"))
 
 
+def _good_text() -> str:
+    return json.dumps(_good())
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        _good_text().replace('"version": 0', '"version": ' + "9" * 5000),  # > 4300 digits
+        _good_text().replace('"gap_m": [4.0', '"gap_m": [1' + "0" * 400),  # int beyond float
+        '{"format": "pacc.dgpt/1", "meta": ' + "[" * 100_000 + "]" * 100_000 + "}",
+    ],
+    ids=["huge-int-literal", "int-overflows-float", "deep-nesting"],
+)
+def test_corrupt_numbers_and_nesting_refused_not_raised(tmp_path: Path, text: str) -> None:
+    """A corrupt profile must give DgptError (the runtime catches only that), not
+    ValueError / OverflowError / RecursionError escaping into the control loop."""
+    path = _write(tmp_path, text)
+    with pytest.raises(DgptError) as info:
+        load_dgpt(path)
+    assert str(path) in str(info.value)
+
+
+def test_binary_file_refused(tmp_path: Path) -> None:
+    path = tmp_path / "profile_1.json"
+    path.write_bytes(b"\xff\xfe\x00garbage\x80")
+    with pytest.raises(DgptError, match="not valid JSON") as info:
+        load_dgpt(path)
+    assert str(path) in str(info.value)
+
+
 def test_non_uniform_axis_refused() -> None:
     speed = speed_axis(0.5).copy()
     speed[5] += 0.1

@@ -291,3 +291,23 @@ def test_frozen_esc_sender_faults(bench: Bench) -> None:
     assert bench.node.faults and all(f.name == "SPEED_INPUT" for f in bench.node.faults)
     assert bench.commands[-1]["takeover_request"] == 1
     assert bench.rt.summary().e2e_errors["repeated_counter"] >= 50
+
+
+def test_corrupt_profile_file_is_refused_in_the_loop(tmp_path: Path) -> None:
+    """Profiles a disk or a download can corrupt: binary bytes, a number beyond float range.
+    The cycle goes on with the last good table and reports FaultCode Profile."""
+    (tmp_path / "profile_1.json").write_bytes(b"\xff\xfe\x00\x80garbage")
+    text = json.dumps(predefined(2.0).to_json_dict()).replace(
+        '"gap_m": [4.0', '"gap_m": [1' + "0" * 400
+    )
+    (tmp_path / "profile_2.json").write_text(text)
+    b = Bench(profile_dir=tmp_path)
+    try:
+        for pid in (1, 2):
+            b.run(0.5, profile_id=pid)
+            assert b.statuses[-1]["fault_code"] == 5
+            assert b.statuses[-1]["desired_gap_m"] == pytest.approx(34.0, abs=0.05)
+            assert any(f"profile {pid} refused" in e for e in b.events)
+        assert b.rt.cycles == 50
+    finally:
+        b.close()
