@@ -330,6 +330,8 @@ class Codec:
         self.by_id: dict[int, MessageCodec] = {}
         for role in binding.roles.values():
             mc = MessageCodec(db.get_message_by_name(role.message), role)
+            if mc.cycle_s <= 0:  # receivers time out by the period, senders send by it
+                raise DbcError(f"role {role.role}: message {mc.name} has no GenMsgCycleTime")
             self.by_role[role.role] = mc
             self.by_id[mc.frame_id] = mc
 

@@ -173,6 +173,15 @@ def test_wrong_dbc_is_refused(tmp_path: Path) -> None:
         load_codec(bad)
 
 
+def test_dbc_without_cycle_time_refused_at_load(tmp_path: Path) -> None:
+    """Receivers time out by the DBC period: a bound message without GenMsgCycleTime is a
+    wrong DBC for this network, refused when the codec is loaded (a DbcError)."""
+    bad = tmp_path / "nocycle.dbc"
+    bad.write_text(DBC_PATH.read_text().replace('BA_ "GenMsgCycleTime" BO_ 288 50;\n', ""))
+    with pytest.raises(DbcError, match="RADAR_Lead.*GenMsgCycleTime"):
+        load_codec(bad)
+
+
 def test_overlapping_signals_refused_strictly(tmp_path: Path) -> None:
     bad = tmp_path / "overlap.dbc"
     bad.write_text(DBC_PATH.read_text().replace("SG_ LongAccel : 32|16@1-",

@@ -121,6 +121,19 @@ def test_usage_and_bus_errors(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["-i", "virtual", "-c", "x", "--dbc", "/nonexistent.dbc"]) == 1
 
 
+def test_dbc_without_periods_is_a_clear_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A wrong DBC (no GenMsgCycleTime on an input) exits 1 with a message, no traceback."""
+    from dbc import DBC_PATH
+
+    dbc = tmp_path / "nocycle.dbc"
+    dbc.write_text(DBC_PATH.read_text().replace('BA_ "GenMsgCycleTime" BO_ 176 10;\n', ""))
+    assert main(["-i", "virtual", "-c", f"ecu-cli-{next(_ids)}", "--dbc", str(dbc)]) == 1
+    err = capsys.readouterr().err
+    assert "ESC_Speed" in err and "GenMsgCycleTime" in err
+
+
 def test_help_is_fast_and_lists_flags(capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as info:
         main(["--help"])
