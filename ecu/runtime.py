@@ -328,7 +328,15 @@ class EcuRuntime:
             return
         assert self.profile_dir is not None
         path = self.profile_dir / f"profile_{profile_id}.json"
-        if not path.exists():
+        try:
+            missing = not path.exists()
+        except OSError as exc:  # e.g. EACCES, ENAMETOOLONG: not "missing", unusable
+            node.report_profile_fault(
+                f"profile {profile_id} refused: {path}: {exc.strerror or exc}; keeping the "
+                f"last good DGPT ({node.table.driver_id} v{node.table.version})"
+            )
+            return
+        if missing:
             node.set_table(
                 node.table, f"profile {profile_id}: no {path}, keeping DGPT v{node.table.version}"
             )

@@ -311,3 +311,17 @@ def test_corrupt_profile_file_is_refused_in_the_loop(tmp_path: Path) -> None:
         assert b.rt.cycles == 50
     finally:
         b.close()
+
+
+def test_unusable_profile_directory_does_not_stop_the_loop(tmp_path: Path) -> None:
+    """Looking a profile up can fail with an OSError other than 'missing' (here a name too
+    long for the file system; EACCES alike): the profile is refused, the cycle goes on."""
+    b = Bench(profile_dir=tmp_path / ("x" * 300))
+    try:
+        b.run(0.5, profile_id=2)
+        assert b.rt.cycles == 25
+        assert b.statuses[-1]["fault_code"] == 5
+        assert b.statuses[-1]["desired_gap_m"] == pytest.approx(34.0, abs=0.05)
+        assert any("profile 2 refused" in e for e in b.events)
+    finally:
+        b.close()
