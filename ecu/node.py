@@ -28,6 +28,7 @@ import math
 from collections import Counter
 from collections.abc import Callable
 
+from ecu import EcuError
 from ecu.adaptation import Decision, Reason, TakeoverSummary, adapt
 from ecu.config import MAX_DT_S, ConfigError, EcuConfig
 from ecu.controller import (
@@ -315,9 +316,13 @@ class EcuNode:
             decision = Decision(applied=False, reason=Reason.INVALID_INPUT)
             label = self._record_decision(decision, events)
         else:
-            self._table, decision = adapt(
-                self._table, summary, self.config.adaptation_params, created_utc=self._utc_now()
-            )
+            try:
+                self._table, decision = adapt(
+                    self._table, summary, self.config.adaptation_params, created_utc=self._utc_now()
+                )
+            except (EcuError, ArithmeticError, ValueError) as exc:  # absurd finite inputs
+                log.warning("adaptation refused: %s", exc)
+                decision = Decision(applied=False, reason=Reason.INVALID_INPUT)
             label = self._record_decision(decision, events)
         if self.recorder is not None:
             self.recorder.release(now_s, label)

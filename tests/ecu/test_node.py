@@ -226,6 +226,39 @@ def test_nan_speed_is_a_fault_not_an_exception() -> None:
     assert math.isfinite(out.accel_request_mps2)
 
 
+def test_non_finite_time_does_not_freeze_the_request() -> None:
+    """One cycle stamped NaN or inf by a faulty host clock must not stop time for the node:
+    afterwards the radar is lost and the FAULT ramp still has to reach zero."""
+    for bad_t in (math.nan, math.inf):
+        node = EcuNode(EcuConfig(), predefined(1.5))
+        loop = Loop(node, v=20.0, gap=20.0, v_lead=18.0)  # too close and closing: braking
+        loop.engage()
+        out = loop.run(1.0)
+        assert out.request_active and out.accel_request_mps2 < -0.5
+        out = node.step(replace(loop.inp, v_mps=loop.v, lead_valid=True, gap_m=loop.gap), bad_t)
+        assert -3.5 <= out.accel_request_mps2 <= 2.0
+        out = loop.run(3.0, radar_ok=False)  # 3 s is ample for a ramp from > -3.5 m/s^2
+        assert out.acc_state is AccState.FAULT and out.takeover_request
+        assert not out.request_active and out.accel_request_mps2 == 0.0
+        # and the re-engagement hold time still runs out on the valid inputs that follow
+        loop.run(1.1)
+        assert loop.run(0.1, set_button=True).acc_state is AccState.ACTIVE
+
+
+def test_absurd_speed_at_takeover_release_is_no_exception() -> None:
+    """Finite but absurd inputs (a diverged host plant) at a pedal release: step() must not
+    raise out of the adaptation; the table stays inside its bounds."""
+    node = EcuNode(EcuConfig(), predefined(3.0))
+    loop = Loop(node, gap=64.0)
+    loop.engage()
+    loop.run(2.0, accel_pressed=True)
+    absurd = replace(loop.inp, v_mps=1e308, lead_valid=True, gap_m=60.0, rel_speed_mps=-1e308)
+    out = node.step(absurd, loop.t)
+    assert -3.5 <= out.accel_request_mps2 <= 2.0
+    assert node.adaptations == 0 and node.takeovers == 1
+    node.table.check_bounds()
+
+
 def test_profile_fault_reported() -> None:
     node = EcuNode(EcuConfig(), predefined(1.5))
     node.report_profile_fault()
