@@ -237,9 +237,16 @@ class EcuNode:
 
     def set_table(self, table: Dgpt, message: str = "") -> None:
         """Use ``table`` from the next cycle on (a driver profile switch); clears the profile
-        fault. The request's jerk limit smooths the change of the desired gap."""
+        fault; takeover segments started from now on carry the table's driver and condition
+        (unless ``trip_meta`` fixes them). The request's jerk limit smooths the change of the
+        desired gap."""
         self._table = table
         self._profile_fault = False
+        if self.recorder is not None:  # later takeover segments are the new driver's
+            ids = {"driver_id": table.driver_id, "condition": table.condition}
+            self.recorder.meta.update(
+                {k: v for k, v in ids.items() if k not in self.config.trip_meta}
+            )
         if message:
             self._pending_events.append(message)
 

@@ -110,7 +110,9 @@ class TakeoverRecorder:
         if self._segment is None:
             self._segment = list(self._ring)
             self._ring.clear()
-            self._seg_meta = {"takeovers": []}
+            # the metadata as of the segment's start: a later change (profile switch) is the
+            # next segment's
+            self._seg_meta = {**self.meta, "takeovers": []}
         self._release_s = None
         self._seg_meta["takeovers"].append({"start_s": t_s, "pedal": pedal})
 

@@ -259,6 +259,24 @@ def test_absurd_speed_at_takeover_release_is_no_exception() -> None:
     node.table.check_bounds()
 
 
+def test_takeover_segments_carry_the_driver_of_the_table_in_use() -> None:
+    """After a driver-profile switch the takeovers are the new driver's: the cloud fine-tunes
+    per driver, so a segment labelled with the startup driver would train the wrong model.
+    A segment already open at the switch keeps the driver it was recorded under."""
+    segments: list[Trip] = []
+    node = EcuNode(EcuConfig(), predefined(3.0, driver_id="d1"), segments.append)
+    loop = Loop(node, gap=64.0)
+    loop.engage()
+    loop.run(2.0, accel_pressed=True)
+    loop.run(1.0)
+    node.set_table(predefined(3.0, driver_id="d3", condition="rain"))  # post window open
+    loop.run(6.0)
+    loop.run(2.0, accel_pressed=True)
+    loop.run(6.0)
+    assert [seg.meta["driver_id"] for seg in segments] == ["d1", "d3"]
+    assert [seg.meta["condition"] for seg in segments] == ["default", "rain"]
+
+
 def test_profile_fault_reported() -> None:
     node = EcuNode(EcuConfig(), predefined(1.5))
     node.report_profile_fault()
