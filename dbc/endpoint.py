@@ -114,11 +114,17 @@ class Inbox:
     def accept_message(self, msg: can.Message, now_s: float | None = None) -> Decoded | None:
         """:meth:`accept` for a python-can message (its timestamp if ``now_s`` is None).
 
-        Error and remote frames are dropped and counted as WRONG_DLC of the unknown role.
+        Error and remote frames are dropped and counted as WRONG_DLC of the unknown role; a
+        frame whose IDE bit (11/29-bit id) differs from the DBC's is another frame: UNKNOWN_ID.
         """
         if msg.is_error_frame or msg.is_remote_frame:
             self.frames_in += 1
             self.counts[(UNKNOWN_ROLE, E2EStatus.WRONG_DLC)] += 1
+            return None
+        mc = self.codec.by_id.get(msg.arbitration_id)
+        if mc is not None and mc.is_extended != bool(msg.is_extended_id):
+            self.frames_in += 1
+            self.counts[(UNKNOWN_ROLE, E2EStatus.UNKNOWN_ID)] += 1
             return None
         return self.accept(msg.arbitration_id, msg.data, msg.timestamp if now_s is None else now_s)
 

@@ -29,7 +29,7 @@ def test_frames_cross_the_virtual_bus(buses: tuple[can.BusABC, can.BusABC]) -> N
     outbox, inbox = Outbox(CODEC), Inbox(CODEC, ["ego", "radar"])
     for i in range(20):
         tx.send(outbox.pack("ego", {**EGO, "speed_mps": 20.0 + i * 0.01}))
-    got = []
+    got: list[float] = []
     while (msg := rx.recv(timeout=0.1)) is not None:
         decoded = inbox.accept_message(msg, now_s=0.01 * len(got))
         assert decoded is not None
@@ -92,3 +92,22 @@ def test_outbox_refuses_bad_values_and_keeps_counter() -> None:
     with pytest.raises(EncodeError):
         outbox.encode("ego", {**EGO, "speed_mps": float("nan")})
     assert outbox.counters["ego"] == 0 and outbox.frames_out == 0
+
+
+def test_extended_id_frame_is_not_the_standard_one(buses: tuple[can.BusABC, can.BusABC]) -> None:
+    """29-bit id 0xB0 is another frame than 11-bit ESC_Speed 0xB0 (the IDE bit is part of the
+    identifier): its payload, CRC valid under data id 0xB0, must not feed the ego role."""
+    tx, rx = buses
+    outbox, inbox = Outbox(CODEC), Inbox(CODEC, ["ego"])
+    mc = CODEC.by_role["ego"]
+    assert not mc.is_extended
+    data = outbox.encode("ego", {**EGO, "speed_mps": 55.0})
+    tx.send(can.Message(arbitration_id=mc.frame_id, data=data, is_extended_id=True))
+    msg = rx.recv(timeout=1.0)
+    assert msg is not None and msg.is_extended_id
+    assert inbox.accept_message(msg, now_s=0.0) is None
+    assert inbox.latest("ego") is None and not inbox.fresh("ego", 0.0)
+    assert inbox.counts[(UNKNOWN_ROLE, E2EStatus.UNKNOWN_ID)] == 1
+    tx.send(outbox.pack("ego", EGO))  # the real 11-bit frame still gets through
+    msg = rx.recv(timeout=1.0)
+    assert msg is not None and inbox.accept_message(msg, now_s=0.01) is not None
