@@ -292,7 +292,7 @@ class Dgpt:
             "source": self.source,
             "version": self.version,
             "created_utc": self.created_utc,
-            "speed_mps": [round(float(v), 6) for v in self.speed_mps],
+            "speed_mps": [float(v) for v in self.speed_mps],  # exact: bounds are re-checked
             "gap_m": [float(g) for g in self.gap_m],
             "meta": self.meta,
         }

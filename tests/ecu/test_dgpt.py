@@ -92,6 +92,18 @@ def test_json_round_trip(tmp_path: Path) -> None:
     assert json.loads(path.read_text())["format"] == "pacc.dgpt/1"
 
 
+@pytest.mark.parametrize("step", [1 / 3, 1 / 7, 0.4, 0.1])
+def test_save_load_round_trip_at_the_bounds(tmp_path: Path, step: float) -> None:
+    """A valid table whose gaps sit exactly on a safety bound (what clamping produces) loads
+    back after saving, whatever speed step divides 40 m/s."""
+    for headway, standstill in ((5.0, 10.0), (0.8, 2.0)):
+        t = predefined(headway, standstill, step_mps=step)
+        path = tmp_path / "t.json"
+        save_dgpt(t, path)
+        back = load_dgpt(path)
+        assert back.lookup(17.3) == pytest.approx(t.lookup(17.3))
+
+
 def _write(tmp_path: Path, obj: object) -> Path:
     path = tmp_path / "bad.json"
     path.write_text(json.dumps(obj) if not isinstance(obj, str) else obj)
