@@ -116,7 +116,11 @@ def test_arbitrary_traffic_keeps_the_command_contract(
         peers = PeerNodes(peer_bus, CODEC)
         peers.set("radar", gap_m=30.0)
         # engage first (valid inputs for 1.2 s, SET), then the arbitrary phases
-        script = [({}, {}, 120), ({"hmi": {"set": 1}}, {}, 20), ({"hmi": {"set": 0}}, {}, 30)]
+        script: list[tuple[dict[str, dict[str, Any]], dict[str, str], int]] = [
+            ({}, {}, 120),
+            ({"hmi": {"set": 1}}, {}, 20),
+            ({"hmi": {"set": 0}}, {}, 30),
+        ]
         script += phases
         cmds: list[tuple[dict[str, Any], bool]] = []
         counters: list[int] = []
