@@ -7,8 +7,9 @@ Example::
 The node starts from ``--profile`` (a DGPT JSON file) or a predefined constant-headway table.
 An invalid profile is refused with a clear message; the ECU then runs on the predefined
 table, says so, and reports FaultCode Profile on ACC_Status. State changes, faults and
-adaptation decisions are printed as they happen; at exit (``--duration`` elapsed or Ctrl-C)
-a summary: cycles, frames in/out, E2E errors by kind, takeovers, adaptations, max cycle time.
+adaptation decisions are printed as they happen; at exit (``--duration`` elapsed, Ctrl-C or
+SIGTERM) the open takeover segment is written and a summary printed: cycles, frames in/out,
+E2E errors by kind, takeovers, adaptations, max cycle time.
 Exit codes: 0 run completed, 1 bus/DBC/takeover-directory error, 2 usage error.
 """
 
@@ -16,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
 from typing import Any
 
 
@@ -72,6 +74,23 @@ def _bus_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     if args.bitrate is not None:
         kwargs["bitrate"] = args.bitrate
     return kwargs
+
+
+def _stop_on_sigterm(stop: Callable[[], None]) -> Callable[[], None]:
+    """Make SIGTERM call ``stop`` (a service stop ends the run like Ctrl-C: the open takeover
+    segment is written, the profile saved); return a function restoring the old handler.
+    Off the main thread signals cannot be handled: nothing is installed."""
+    import signal
+
+    try:
+        previous = signal.signal(signal.SIGTERM, lambda signum, frame: stop())
+    except ValueError:  # not the main thread
+        return lambda: None
+
+    def restore() -> None:
+        signal.signal(signal.SIGTERM, previous if previous is not None else signal.SIG_DFL)
+
+    return restore
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -148,11 +167,13 @@ def _run(args: argparse.Namespace) -> int:
             profile_dir=args.profiles,
         )
         print(f"ECU running on {bus.channel_info} (Ctrl-C to stop)", flush=True)
+        restore_sigterm = _stop_on_sigterm(rt.stop)
         try:
             rt.run_realtime(args.duration)
         except KeyboardInterrupt:
             print("interrupted", flush=True)
         finally:
+            restore_sigterm()
             node.finish()
     print(rt.summary(), flush=True)
     if args.takeovers and node.recorder is not None:

@@ -89,6 +89,54 @@ def test_cli_runs_takeover_and_prints_summary(
     assert saved.version == 1 and saved.source == "adapted"
 
 
+_SIGTERM_SCRIPT = """
+import os, signal, sys, threading, time
+import can
+from dbc.codec import load_codec
+from ecu.cli import main
+from ecu.peers import PeerNodes
+
+def peers():
+    with can.Bus(interface="virtual", channel="sigterm") as bus:
+        p = PeerNodes(bus, load_codec())
+        p.set("radar", gap_m=60.0)
+        t0 = time.monotonic()
+        while (t := time.monotonic() - t0) < 4.0:
+            p.set("hmi", set=int(1.2 <= t < 1.4))
+            p.set("pedals", accel_pressed=int(1.6 <= t < 3.0))
+            p.send_due(t)
+            while bus.recv(0) is not None:
+                pass
+            time.sleep(0.002)
+    os.kill(os.getpid(), signal.SIGTERM)  # as a service manager stops the ECU
+
+threading.Thread(target=peers, daemon=True).start()
+sys.exit(main(["-i", "virtual", "-c", "sigterm", "--headway", "3",
+               "--takeovers", sys.argv[1], "--save-profile", sys.argv[2]]))
+"""
+
+
+def test_sigterm_stops_cleanly_keeping_takeovers_and_profile(tmp_path: Path) -> None:
+    """SIGTERM (systemd, docker stop) during a takeover's post window: the open segment is
+    written, the adapted profile saved and the summary printed, exit code 0."""
+    import subprocess
+    import sys
+
+    script = tmp_path / "run.py"
+    script.write_text(_SIGTERM_SCRIPT)
+    proc = subprocess.run(
+        [sys.executable, str(script), str(tmp_path / "to"), str(tmp_path / "p.json")],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert "takeover 1 (accel)" in proc.stdout and "takeovers:      1" in proc.stdout
+    assert len(list((tmp_path / "to").glob("takeover_*.mcap"))) == 1
+    saved = load_dgpt(tmp_path / "p.json")
+    assert saved.version == 1 and saved.source == "adapted"
+
+
 def test_invalid_profile_refused_falls_back(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
