@@ -179,8 +179,8 @@ def _run(args: argparse.Namespace) -> int:
     if args.takeovers and node.recorder is not None:
         rec = node.recorder
         print(
-            f"takeover segments: {rec.segments} written to {args.takeovers}"
-            f" ({rec.sink_errors} failed)"
+            f"takeover segments: {rec.segments - len(rec.pending)} of {rec.segments} written to"
+            f" {args.takeovers} ({rec.sink_errors} failed attempts)"
         )
     if args.save_profile:
         try:

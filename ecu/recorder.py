@@ -8,7 +8,9 @@ a post window of ``post_s`` seconds, then the segment is handed to the sink as a
 the post window extends the open segment (its post window restarts at the next release).
 
 The sink is I/O at the edge: any exception it raises is caught, logged and counted in
-:attr:`TakeoverRecorder.sink_errors`; recording never stops the control loop.
+:attr:`TakeoverRecorder.sink_errors`; recording never stops the control loop. A segment the
+sink refused is kept (up to :data:`MAX_PENDING` of them) and offered again, in order, at the
+next emit and at :meth:`TakeoverRecorder.flush`.
 :func:`directory_sink` writes each segment as an MCAP file into a directory.
 """
 
@@ -31,6 +33,8 @@ from ecu import EcuError
 log = logging.getLogger(__name__)
 
 TripSink = Callable[[Trip], None]
+#: Segments kept for a retry while the sink fails; beyond it the oldest is dropped (logged).
+MAX_PENDING = 64
 
 
 class RecorderError(EcuError):
@@ -87,6 +91,8 @@ class TakeoverRecorder:
         self._last_t: float = -math.inf
         self.segments = 0
         self.sink_errors = 0
+        #: segments the sink refused so far and not yet stored
+        self.pending: deque[Trip] = deque()
 
     @property
     def recording(self) -> bool:
@@ -126,9 +132,11 @@ class TakeoverRecorder:
             takeovers[-1].update(release_s=t_s, adaptation=decision)
 
     def flush(self) -> None:
-        """Emit the open segment now (end of trip)."""
+        """Emit the open segment now and retry the pending ones (end of trip)."""
         if self._segment is not None:
             self._emit()
+        else:
+            self._store_pending()
 
     def _emit(self) -> None:
         seg = self._segment or []
@@ -168,10 +176,31 @@ class TakeoverRecorder:
                 acc_state=np.asarray(cols[7], dtype=np.int64),
                 meta=meta,
             )
-            self.sink(trip)
-        except Exception as exc:  # noqa: BLE001 - I/O edge: never stop the control loop
+        except Exception as exc:  # noqa: BLE001 - never stop the control loop
             self.sink_errors += 1
-            log.error("takeover segment %d not stored: %s", meta["index"], exc)
+            log.error("takeover segment %d not built: %s", meta["index"], exc)
+            return
+        if len(self.pending) >= MAX_PENDING:
+            lost = self.pending.popleft()
+            log.error("takeover segment %s dropped: sink failing", lost.meta.get("index"))
+        self.pending.append(trip)
+        self._store_pending()
+
+    def _store_pending(self) -> None:
+        """Hand the pending segments to the sink, oldest first, until one fails."""
+        while self.pending:
+            trip = self.pending[0]
+            try:
+                self.sink(trip)
+            except Exception as exc:  # noqa: BLE001 - I/O edge: never stop the control loop
+                self.sink_errors += 1
+                log.error(
+                    "takeover segment %s not stored (kept for a retry): %s",
+                    trip.meta.get("index"),
+                    exc,
+                )
+                return
+            self.pending.popleft()
 
 
 def directory_sink(directory: str | os.PathLike[str]) -> TripSink:
@@ -201,4 +230,11 @@ def directory_sink(directory: str | os.PathLike[str]) -> TripSink:
     return write
 
 
-__all__ = ["RecorderError", "Sample", "TakeoverRecorder", "TripSink", "directory_sink"]
+__all__ = [
+    "MAX_PENDING",
+    "RecorderError",
+    "Sample",
+    "TakeoverRecorder",
+    "TripSink",
+    "directory_sink",
+]

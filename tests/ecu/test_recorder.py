@@ -79,6 +79,38 @@ def test_sink_failure_counted_not_raised() -> None:
     assert rec.sink_errors == 1 and rec.segments == 1
 
 
+def _takeover(rec: TakeoverRecorder, t0: float) -> None:
+    """History, a 2-s takeover from ``t0 + 10`` s and its full post window."""
+    feed(rec, t0, t0 + 10.0)
+    rec.start(t0 + 10.0, "accel")
+    feed(rec, t0 + 10.0, t0 + 12.0, state=3)
+    rec.release(t0 + 12.0, "applied")
+    feed(rec, t0 + 12.0, t0 + 18.0)
+
+
+def test_segment_survives_a_sink_failure_and_is_stored_later(tmp_path: Path) -> None:
+    """The takeover medium goes away for a while (here the directory is replaced by a file):
+    the segment is kept and stored at the next emit, or at the end of the trip."""
+    d = tmp_path / "to"
+    rec = TakeoverRecorder(directory_sink(d))
+    d.rmdir()
+    d.write_text("the medium is gone")
+    _takeover(rec, 0.0)
+    assert rec.sink_errors >= 1 and rec.segments == 1
+    d.unlink()
+    d.mkdir()
+    _takeover(rec, 30.0)  # the medium is back: both segments are written
+    files = sorted(d.glob("*.mcap"))
+    assert [read_trip(f).meta["index"] for f in files] == [0, 1]
+    d.rename(tmp_path / "away")
+    d.write_text("gone again")
+    _takeover(rec, 60.0)
+    d.unlink()
+    d.mkdir()
+    rec.flush()  # end of trip: the pending segment is stored
+    assert [read_trip(f).meta["index"] for f in d.glob("*.mcap")] == [2]
+
+
 def test_directory_sink_writes_mcap(tmp_path: Path) -> None:
     sink = directory_sink(tmp_path / "to")
     rec = TakeoverRecorder(sink, meta={"seed": 3})
