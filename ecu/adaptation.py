@@ -24,11 +24,16 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from enum import StrEnum
+from typing import Literal, get_args
 
 import numpy as np
 
 from ecu import EcuError
 from ecu.dgpt import Dgpt, SafetyBounds
+
+AdaptationMode = Literal["paper", "timegap"]
+#: the selectable adaptation modes (``AdaptationParams.mode``)
+ADAPTATION_MODES: tuple[str, ...] = get_args(AdaptationMode)
 
 
 class AdaptationError(EcuError):
@@ -61,6 +66,9 @@ class AdaptationParams:
     safe_tg_min_s: float = 0.8
     safe_tg_max_s: float = 5.0
     standstill_m: float = 4.0
+    mode: AdaptationMode = "paper"
+    spread_speed_mps: float = 6.0
+    min_speed_mps: float = 10.0
 
     def __post_init__(self) -> None:
         floats = (
@@ -70,11 +78,17 @@ class AdaptationParams:
             self.safe_tg_min_s,
             self.safe_tg_max_s,
             self.standstill_m,
+            self.spread_speed_mps,
+            self.min_speed_mps,
         )
         if not all(math.isfinite(x) and x >= 0.0 for x in floats):
             raise AdaptationError(f"adaptation parameters must be finite and >= 0: {self}")
         if self.window_size < 1 or self.window_size % 2 == 0:
             raise AdaptationError(f"window_size must be odd and >= 1, got {self.window_size}")
+        if self.mode not in ADAPTATION_MODES:
+            raise AdaptationError(f"mode must be one of {ADAPTATION_MODES}, got {self.mode!r}")
+        if self.mode == "timegap" and not (self.spread_speed_mps > 0 and self.min_speed_mps > 0):
+            raise AdaptationError("timegap mode needs spread_speed_mps > 0 and min_speed_mps > 0")
         if self.safe_tg_min_s > self.safe_tg_max_s:
             raise AdaptationError("safe_tg_min_s exceeds safe_tg_max_s")
 
@@ -93,6 +107,7 @@ class Reason(StrEnum):
     APPLIED = "applied"
     SHORT_TAKEOVER = "short_takeover"
     SPEED_DIFFERENCE = "speed_difference"
+    AGAINST_PEDAL = "against_pedal"
     NO_LEAD = "no_lead"
     INVALID_INPUT = "invalid_input"
 
@@ -107,6 +122,8 @@ class TakeoverSummary:
         v_lead_mps: lead speed v_f at release, m/s (NaN without a lead).
         gap_m: bumper-to-bumper gap at release, m (NaN without a lead).
         lead_valid: the radar tracked a lead at release.
+        pedal: the pedal that started the takeover: ``"accel"`` (the driver wanted a shorter
+            gap), ``"brake"`` (a longer one), ``"both"`` or ``""`` (unknown: no direction).
     """
 
     duration_s: float
@@ -114,6 +131,7 @@ class TakeoverSummary:
     v_lead_mps: float
     gap_m: float
     lead_valid: bool = True
+    pedal: str = ""
 
 
 @dataclass(frozen=True, slots=True)
@@ -176,6 +194,35 @@ def spread_weights(n_bins: int, centre: int, window_size: int) -> np.ndarray:
     return np.clip(w, 0.0, 1.0)
 
 
+def against_pedal(pedal: str, change_m: float) -> bool:
+    """The change (m) contradicts the pedal: the accelerator asks for a shorter gap, the
+    brake for a longer one; ``"both"`` or ``""`` constrain nothing."""
+    return (pedal == "accel" and change_m > 0.0) or (pedal == "brake" and change_m < 0.0)
+
+
+def timegap_weights(speed_mps: np.ndarray, v_mps: float, spread_speed_mps: float) -> np.ndarray:
+    """Gaussian update weights over speed, shape of ``speed_mps``: ``exp(-((v_i - v)/s)^2 / 2)``."""
+    return np.exp(-0.5 * ((speed_mps - v_mps) / spread_speed_mps) ** 2)
+
+
+def timegap_update(
+    table: Dgpt, v_mps: float, g_desire_m: float, params: AdaptationParams
+) -> np.ndarray:
+    """New gaps, shape ``(n,)``: the time-gap change at ``v_mps`` spread over speed.
+
+    The time gap above the standstill distance, ``h = (g - d0) / max(v, v_min)`` (s), changes
+    by ``dh = (g_desire - DGPT(v)) / max(v, v_min)`` at the release speed, and bin ``i`` by
+    ``w_i * dh`` with :func:`timegap_weights`: ``gap_i += w_i * dh * max(v_i, v_min)``. So the
+    interpolated table lands on ``g_desire`` at ``v`` and a preference that is a time gap
+    (roughly constant, slowly varying with speed) is learned at every speed from one takeover.
+    """
+    vmin = params.min_speed_mps
+    dh = (g_desire_m - float(table.lookup(v_mps))) / max(v_mps, vmin)
+    speed = table.speed_mps
+    w = timegap_weights(speed, v_mps, params.spread_speed_mps)
+    return np.asarray(table.gap_m + w * dh * np.maximum(speed, vmin))
+
+
 def safety_filter(speed_mps: np.ndarray, gap_m: np.ndarray, params: AdaptationParams) -> np.ndarray:
     """``gap_m`` (``(n,)``) clipped into the time-gap band of ``params`` at ``speed_mps``."""
     lo = params.standstill_m + params.safe_tg_min_s * speed_mps
@@ -202,8 +249,14 @@ def adapt(
     speed = table.speed_mps
     centre = int(round((summary.v_mps - float(speed[0])) / table.step_mps))
     centre = min(max(centre, 0), speed.size - 1)
-    delta = g_desire - float(table.gap_m[centre])
-    gap = table.gap_m + delta * spread_weights(speed.size, centre, params.window_size)
+    if params.mode == "timegap":
+        if against_pedal(summary.pedal, g_desire - float(table.lookup(summary.v_mps))):
+            return table, Decision(applied=False, reason=Reason.AGAINST_PEDAL,
+                                   g_desire_m=g_desire)
+        gap = timegap_update(table, summary.v_mps, g_desire, params)
+    else:
+        delta = g_desire - float(table.gap_m[centre])
+        gap = table.gap_m + delta * spread_weights(speed.size, centre, params.window_size)
     gap = safety_filter(speed, gap, params)
     new = table.with_gaps(gap, "adapted", created_utc=created_utc)
     decision = Decision(

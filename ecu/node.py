@@ -315,6 +315,7 @@ class EcuNode:
             v_lead_mps=inp.v_mps + inp.rel_speed_mps,
             gap_m=inp.gap_m,
             lead_valid=inp.lead_valid,
+            pedal=self._takeover_pedal,
         )
         self._takeover_start = None
         if not self.config.adaptation:
