@@ -2,6 +2,7 @@
 
     pacc drive --scenario B --driver d3 --controller predefined|predefined+oa|irl|irl+oa
                [--profile DGPT.json] [--seed N] [--faults SPEC] [--log run.mcap]
+               [--adaptation-mode paper|timegap]
 
 prints PoI, NIM, min gap, min time-to-collision, RMS jerk, takeovers, adaptations and
 collisions. A drive is a pure function of (configuration, seed, shipped data): the ECU and
@@ -22,6 +23,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 if TYPE_CHECKING:
+    from ecu.adaptation import AdaptationParams, Decision
     from ecu.dgpt import Dgpt
     from ecu.runtime import RuntimeSummary
     from sim_bus.drivers import DriverParams
@@ -31,6 +33,8 @@ if TYPE_CHECKING:
 
 Controller = Literal["predefined", "predefined+oa", "irl", "irl+oa"]
 CONTROLLERS: tuple[str, ...] = ("predefined", "predefined+oa", "irl", "irl+oa")
+#: ``ecu.adaptation.ADAPTATION_MODES``, repeated here so ``--help`` needs no numpy (tested)
+ADAPTATION_MODE_CHOICES: tuple[str, ...] = ("paper", "timegap")
 #: ACC set speed in the car-following study: above every lead speed, so the lead governs
 SET_SPEED_MPS = 40.0
 _channel_ids = itertools.count()
@@ -48,6 +52,16 @@ class DriveConfig:
     faults: str = ""
     brake_mode: Literal["resume", "cancel"] = "resume"
     engage_s: float = 1.5
+    adaptation: AdaptationParams | None = None  # None: the ECU's default AdaptationParams
+
+
+@dataclass(frozen=True)
+class AdaptationEvent:
+    """One adaptation decision of a drive: when (simulated s), what, and the table after it."""
+
+    t_s: float
+    decision: Decision
+    table: Dgpt
 
 
 @dataclass
@@ -67,6 +81,7 @@ class DriveResult:
     frames_sent: int
     frames_faulted: int
     final_table: Dgpt
+    adaptation_events: list[AdaptationEvent] = field(default_factory=list)
     extra: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -122,6 +137,7 @@ def run_drive(cfg: DriveConfig, driver: DriverParams, table: Dgpt,
     import numpy as np
 
     from dbc.codec import load_codec
+    from ecu.adaptation import AdaptationParams
     from ecu.node import EcuConfig, EcuNode
     from ecu.runtime import EcuRuntime
     from sim_bus.drivers import GAP_SETTING_CODE
@@ -143,6 +159,7 @@ def run_drive(cfg: DriveConfig, driver: DriverParams, table: Dgpt,
     world = World(driver, prof, cfg.seed, WorldConfig(engage_s=cfg.engage_s))
     channel = record_channel or f"pacc-drive-{id(cfg):x}-{next(_channel_ids)}"
     ecu_cfg = EcuConfig(adaptation=cfg.controller.endswith("+oa"), brake_mode=cfg.brake_mode,
+                        adaptation_params=cfg.adaptation or AdaptationParams(),
                         set_speed_mps=SET_SPEED_MPS,
                         trip_meta={"driver_id": driver.driver_id, "seed": cfg.seed,
                                    "scenario": prof.name, "controller": cfg.controller})
@@ -156,10 +173,16 @@ def run_drive(cfg: DriveConfig, driver: DriverParams, table: Dgpt,
         start = time.perf_counter()
         step = node.step
         advance = rt.advance_to
+        events: list[AdaptationEvent] = []
+        last = ecu.last_decision
         while not world.done:
             now = node.t_s
             step()
             advance(now)
+            if ecu.last_decision is not last:  # a takeover ended: trace its decision
+                last = ecu.last_decision
+                if last is not None:
+                    events.append(AdaptationEvent(now, last, ecu.table))
         wall = time.perf_counter() - start
         ecu.finish()
         summary = rt.summary()
@@ -174,7 +197,7 @@ def run_drive(cfg: DriveConfig, driver: DriverParams, table: Dgpt,
         collision_t_s=world.plant.collision_t_s, takeovers=ecu.takeovers,
         adaptations=ecu.adaptations, sim_s=world.t_s, wall_s=wall, log=log, summary=summary,
         frames_sent=node.frames_sent, frames_faulted=node.frames_faulted,
-        final_table=ecu.table)
+        final_table=ecu.table, adaptation_events=events)
 
 
 def log_to_trip(result: DriveResult, driver: DriverParams) -> Any:
@@ -208,8 +231,10 @@ def format_result(r: DriveResult) -> str:
     c = r.config
     col = f"1 at t = {r.collision_t_s:.2f} s" if r.collision else "0"
     lines = [
-        f"drive: scenario {c.scenario}, driver {c.driver_id}, controller {c.controller}, "
-        f"seed {c.seed}, {r.sim_s:.1f} s simulated in {r.wall_s:.2f} s "
+        f"drive: scenario {c.scenario}, driver {c.driver_id}, controller {c.controller}"
+        + (f" ({c.adaptation.mode} adaptation)" if c.adaptation is not None
+           and c.controller.endswith("+oa") else "")
+        + f", seed {c.seed}, {r.sim_s:.1f} s simulated in {r.wall_s:.2f} s "
         f"({r.realtime_factor:.0f}x real time)",
         f"  PoI            {m.poi_pct:7.2f} %   (ACC-ON {m.acc_on_s:.1f} s)",
         f"  NIM            {m.nim_per_min:7.2f} /min ({m.press_onsets} presses)",
@@ -245,7 +270,19 @@ def _parser() -> argparse.ArgumentParser:
                    help="multiply the driver's preference, e.g. 1.2 for rain (default 1)")
     p.add_argument("--cache", type=Path, help="cache folder of learned IRL tables "
                    "(default ~/.cache/pacc)")
+    p.add_argument("--adaptation-mode", choices=ADAPTATION_MODE_CHOICES,
+                   help="online adaptation of the +oa controllers: the paper's Algorithm 1 "
+                   "or the time-gap update (default: the ECU's, see docs/ecu.md)")
     return p
+
+
+def adaptation_params(mode: str | None) -> AdaptationParams | None:
+    """The adaptation parameters of ``--adaptation-mode`` (None: the ECU's defaults)."""
+    if mode is None:
+        return None
+    from ecu.adaptation import AdaptationParams
+
+    return AdaptationParams(mode=mode)  # type: ignore[arg-type]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -266,7 +303,8 @@ def main(argv: list[str] | None = None) -> int:
         cfg = DriveConfig(scenario=args.scenario, driver_id=driver.driver_id,
                           controller=args.controller, seed=args.seed,
                           duration_s=args.duration, faults=args.faults,
-                          brake_mode=args.brake_mode)
+                          brake_mode=args.brake_mode,
+                          adaptation=adaptation_params(args.adaptation_mode))
         profile = resolve_profile(args.scenario, args.seed)
         if args.controller.startswith("irl"):
             if args.profile is not None:

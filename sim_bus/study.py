@@ -29,9 +29,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from sim_bus.drive import CONTROLLERS
+from sim_bus.drive import ADAPTATION_MODE_CHOICES, CONTROLLERS
 
 if TYPE_CHECKING:
+    from ecu.adaptation import AdaptationParams
     from ecu.dgpt import Dgpt
 
 #: Averages of the paper's Table I (PoI %, NIM per minute), for comparison.
@@ -57,7 +58,8 @@ FIELDS = ("driver", "scenario", "controller", "trial", "seed", "poi_pct", "nim_p
 @dataclass(frozen=True)
 class StudyConfig:
     """What to run. ``seed`` fixes the scenarios and the IRL tables; trial k drives with
-    noise seed ``seed + k``. ``duration_s`` shortens every drive (None: the full 300 s)."""
+    noise seed ``seed + k``. ``duration_s`` shortens every drive (None: the full 300 s).
+    ``adaptation``: the online adaptation of the +oa controllers (None: the ECU's default)."""
 
     drivers: tuple[str, ...] = ("d1", "d2", "d3", "d4", "d5")
     scenarios: tuple[str, ...] = ("A", "B")
@@ -67,6 +69,7 @@ class StudyConfig:
     duration_s: float | None = None
     workers: int = 2
     logs: bool = True
+    adaptation: AdaptationParams | None = None
 
 
 @dataclass(frozen=True)
@@ -81,6 +84,7 @@ class DriveJob:
     duration_s: float | None
     table: Dgpt
     log_path: str | None
+    adaptation: AdaptationParams | None = None
 
 
 def run_job(job: DriveJob) -> dict[str, Any]:
@@ -93,7 +97,7 @@ def run_job(job: DriveJob) -> dict[str, Any]:
     seed = job.study_seed + job.trial
     cfg = DriveConfig(scenario=job.scenario, driver_id=driver.driver_id,
                       controller=job.controller, seed=seed,  # type: ignore[arg-type]
-                      duration_s=job.duration_s)
+                      duration_s=job.duration_s, adaptation=job.adaptation)
     profile = canonical_profiles(job.study_seed)[job.scenario]
     result = run_drive(cfg, driver, job.table, profile)
     if job.log_path is not None:
@@ -140,7 +144,7 @@ def plan(cfg: StudyConfig, tables: dict[tuple[str, str], Dgpt], out: Path) -> li
                            f"_t{trial}.mcap") if cfg.logs else None
                     jobs.append(DriveJob(name, scenario, controller, trial, cfg.seed,
                                          cfg.duration_s, tables[(name, kind)],
-                                         None if log is None else str(log)))
+                                         None if log is None else str(log), cfg.adaptation))
     return jobs
 
 
@@ -224,7 +228,8 @@ def format_table(cfg: StudyConfig, rows: Sequence[dict[str, Any]]) -> str:
            f"{len(cfg.drivers)} drivers × {len(cfg.scenarios)} scenarios × "
            f"{len(controllers)} controllers × {cfg.trials} trials = {len(rows)} drives, "
            f"study seed {cfg.seed}"
-           + ("" if cfg.duration_s is None else f", {cfg.duration_s:g} s each") + ".",
+           + ("" if cfg.duration_s is None else f", {cfg.duration_s:g} s each")
+           + ("" if cfg.adaptation is None else f", {cfg.adaptation.mode} adaptation") + ".",
            "PoI: % of ACC-ON time with a pedal pressed; NIM: pedal presses per minute.", "",
            *lines, ""]
     if "predefined" in avg:
@@ -322,6 +327,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, default=Path("out/study"), help="output folder")
     p.add_argument("--no-logs", action="store_true", help="do not write MCAP logs")
     p.add_argument("--cache", type=Path, help="cache folder of learned IRL tables")
+    p.add_argument("--adaptation-mode", choices=ADAPTATION_MODE_CHOICES,
+                   help="online adaptation of the +oa controllers (default: the ECU's, "
+                   "see docs/ecu.md)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     return p
 
@@ -330,13 +338,15 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc study``; 0 on success, 1 if a drive collided, 2 on bad input."""
     args = _parser().parse_args(argv)
     from ecu import EcuError
+    from sim_bus.drive import adaptation_params
     from sim_bus.drivers import load_driver
     from sim_bus.errors import SimError
 
     cfg = StudyConfig(drivers=_names(args.drivers), scenarios=_names(args.scenarios),
                       controllers=_names(args.controllers), trials=args.trials, seed=args.seed,
                       duration_s=args.duration, workers=max(1, args.workers),
-                      logs=not args.no_logs)
+                      logs=not args.no_logs,
+                      adaptation=adaptation_params(args.adaptation_mode))
     try:
         bad = [c for c in cfg.controllers if c not in CONTROLLERS]
         if bad or not cfg.controllers:

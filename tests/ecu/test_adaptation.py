@@ -8,12 +8,14 @@ import numpy as np
 import pytest
 
 from ecu.adaptation import (
+    ADAPTATION_MODES,
     AdaptationError,
     AdaptationParams,
     Reason,
     TakeoverSummary,
     adapt,
     spread_weights,
+    timegap_weights,
 )
 from ecu.dgpt import SafetyBounds, predefined
 
@@ -166,3 +168,104 @@ def test_spread_weights_shape() -> None:
     w = spread_weights(11, 0, 5)
     np.testing.assert_allclose(w[:4], [1.0, 2 / 3, 1 / 3, 0.0])
     assert w.shape == (11,)
+
+
+# -- mode "timegap": direction from the pedal, update in time-gap space over a speed range --
+
+TG = AdaptationParams(mode="timegap")  # spread 6 m/s, v_min 10 m/s, d0 4 m, K_T 1 s
+
+
+def test_modes_listed_and_validated() -> None:
+    assert ADAPTATION_MODES == ("paper", "timegap")
+    assert AdaptationParams().mode == "paper"
+    with pytest.raises(AdaptationError):
+        AdaptationParams(mode="magic")  # type: ignore[arg-type]
+    with pytest.raises(AdaptationError):
+        AdaptationParams(mode="timegap", spread_speed_mps=0.0)
+    with pytest.raises(AdaptationError):
+        AdaptationParams(mode="timegap", min_speed_mps=0.0)
+    with pytest.raises(AdaptationError):
+        AdaptationParams(spread_speed_mps=math.inf)
+
+
+def test_timegap_weights_hand_computed() -> None:
+    w = timegap_weights(np.array([20.0, 26.0, 14.0, 32.0]), 20.0, 6.0)
+    np.testing.assert_allclose(w, [1.0, math.exp(-0.5), math.exp(-0.5), math.exp(-2.0)])
+
+
+def test_timegap_closing_case_hand_computed() -> None:
+    t = predefined(2.0)  # gap = 4 + 2 v
+    new, d = adapt(t, summary(v=20.0, vf=18.0, g=35.0), TG)
+    # g_desire = 35 - 1 * 2 = 33; DGPT(20) = 44; dh = -11 / 20 = -0.55 s
+    assert d.applied and d.g_desire_m == pytest.approx(33.0) and d.bin_index == 40
+    assert new.gap_m[40] == pytest.approx(33.0)
+    assert d.delta_m == pytest.approx(-11.0)
+    # 26 m/s (bin 52): 56 - exp(-0.5) * 0.55 * 26
+    assert new.gap_m[52] == pytest.approx(56.0 - math.exp(-0.5) * 0.55 * 26.0)
+    # 14 m/s (bin 28): 32 - exp(-0.5) * 0.55 * 14
+    assert new.gap_m[28] == pytest.approx(32.0 - math.exp(-0.5) * 0.55 * 14.0)
+    # 5 m/s (bin 10), below v_min: 14 - exp(-0.5 * 2.5^2) * 0.55 * 10, then the 0.8 s floor
+    want = 14.0 - math.exp(-0.5 * 2.5**2) * 0.55 * 10.0
+    assert new.gap_m[10] == pytest.approx(max(want, 4.0 + 0.8 * 5.0))
+    # the time gap changes smoothly everywhere: no bin untouched near v, no step
+    assert np.all(np.diff(new.gap_m) > 0.0)
+
+
+def test_timegap_low_speed_uses_min_speed() -> None:
+    t = predefined(2.0)
+    new, d = adapt(t, summary(v=4.0, vf=4.0, g=15.0, duration=2.0), TG)
+    # not closing: g_desire = 15; DGPT(4) = 12; dh = 3 / max(4, 10) = 0.3 s
+    assert d.applied and new.gap_m[8] == pytest.approx(15.0)
+    assert new.gap_m[20] == pytest.approx(24.0 + math.exp(-0.5) * 0.3 * 10.0)  # 10 m/s
+    assert new.gap_m[32] == pytest.approx(36.0 + math.exp(-2.0) * 0.3 * 16.0)  # 16 m/s
+
+
+def test_timegap_interpolated_release_speed_lands_on_g_desire() -> None:
+    t = predefined(3.0)
+    new, d = adapt(t, summary(v=17.3, vf=17.3, g=40.0), TG)
+    assert d.applied and new.lookup(17.3) == pytest.approx(40.0, abs=0.05)
+
+
+@pytest.mark.parametrize(
+    ("pedal", "g", "applied"),
+    [
+        ("accel", 50.0, False),  # accelerator but a longer gap (44 -> 50): contradiction
+        ("accel", 40.0, True),
+        ("brake", 40.0, False),  # brake but a shorter gap: contradiction
+        ("brake", 50.0, True),
+        ("both", 50.0, True),
+        ("", 40.0, True),
+    ],
+)
+def test_timegap_direction_from_pedal(pedal: str, g: float, applied: bool) -> None:
+    t = predefined(2.0)
+    s = TakeoverSummary(duration_s=3.0, v_mps=20.0, v_lead_mps=20.0, gap_m=g, pedal=pedal)
+    new, d = adapt(t, s, TG)
+    assert d.applied is applied
+    if applied:
+        assert new.gap_m[40] == pytest.approx(g)
+    else:
+        assert new is t and d.reason is Reason.AGAINST_PEDAL
+        assert d.g_desire_m == pytest.approx(g) and "against_pedal" in str(d)
+
+
+def test_paper_mode_ignores_pedal() -> None:
+    t = predefined(2.0)
+    s = TakeoverSummary(duration_s=3.0, v_mps=20.0, v_lead_mps=20.0, gap_m=50.0, pedal="accel")
+    new, d = adapt(t, s, P)
+    assert d.applied and new.gap_m[40] == pytest.approx(50.0)
+
+
+def test_timegap_filters_and_safety_bounds() -> None:
+    t = predefined(2.0)
+    assert adapt(t, summary(duration=0.5), TG)[1].reason is Reason.SHORT_TAKEOVER
+    assert adapt(t, summary(vf=26.0), TG)[1].reason is Reason.SPEED_DIFFERENCE
+    assert adapt(t, summary(lead=False), TG)[1].reason is Reason.NO_LEAD
+    new, d = adapt(t, summary(g=300.0), TG)
+    assert d.applied and new.gap_m[40] == pytest.approx(4.0 + 5.0 * 20.0)
+    hi = 4.0 + 5.0 * new.speed_mps
+    lo = 4.0 + 0.8 * new.speed_mps
+    assert np.all(new.gap_m <= hi + 1e-9) and np.all(new.gap_m >= lo - 1e-9)
+    new.check_bounds(SafetyBounds())
+    low, _ = adapt(t, summary(g=1.0), TG)
+    assert np.all(low.gap_m >= lo - 1e-9)

@@ -177,3 +177,49 @@ def test_bus_silence_faults_and_recovers() -> None:
     assert fault_t.size and 15.0 < fault_t[0] < 16.5
     assert sum(r.summary.faults.values()) >= 1  # counted by the ECU, by input
     assert (log.acc_state[log.t_s > 30.0] == 2).any()  # SET again once the bus is back
+
+
+def test_adaptation_mode_reaches_the_ecu_and_is_traced() -> None:
+    """``DriveConfig.adaptation`` selects the ECU's adaptation; every decision is traced."""
+    from ecu.adaptation import AdaptationParams, Reason
+
+    driver = BUILTIN_DRIVERS["d3"]  # predefined 4 s against a ~2.8 s preference: presses
+    table = predefined_table(driver)
+    prof = shorten(_profiles()["B"], 60.0)
+    widths = {}
+    for mode in ("paper", "timegap"):
+        cfg = DriveConfig(scenario="B", driver_id="d3", controller="predefined+oa", seed=0,
+                          duration_s=60.0, adaptation=AdaptationParams(mode=mode))
+        r = run_drive(cfg, driver, table, prof)
+        applied = [e for e in r.adaptation_events if e.decision.applied]
+        assert len(applied) == r.adaptations >= 2, mode
+        assert [e.t_s for e in r.adaptation_events] == sorted(e.t_s for e in r.adaptation_events)
+        assert all(e.decision.reason in Reason for e in r.adaptation_events)
+        assert applied[-1].table is r.final_table
+        before = table
+        changed = []
+        for e in r.adaptation_events:
+            if e.decision.applied:
+                changed.append(int(np.count_nonzero(np.abs(e.table.gap_m - before.gap_m) > 1e-9)))
+                before = e.table
+            else:
+                assert e.table is before
+        widths[mode] = max(changed)
+    assert widths["paper"] <= 9  # the triangular window of Algorithm 1
+    assert widths["timegap"] > 30  # a time-gap change spread over +-6 m/s and beyond
+
+
+def test_mode_choices_match_the_ecu_and_cli_flag(capsys: pytest.CaptureFixture[str]) -> None:
+    from ecu.adaptation import ADAPTATION_MODES
+    from sim_bus.drive import ADAPTATION_MODE_CHOICES, adaptation_params, main
+
+    assert ADAPTATION_MODE_CHOICES == ADAPTATION_MODES
+    assert adaptation_params(None) is None
+    params = adaptation_params("timegap")
+    assert params is not None and params.mode == "timegap"
+    assert main(["--driver", "d3", "--controller", "predefined+oa", "--duration", "20",
+                 "--adaptation-mode", "timegap"]) == 0
+    assert "(timegap adaptation)" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as exc:
+        main(["--adaptation-mode", "magic"])
+    assert exc.value.code == 2

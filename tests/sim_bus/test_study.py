@@ -80,3 +80,24 @@ def test_bad_options(argv: list[str], message: str, tmp_path: Path,
                      capsys: pytest.CaptureFixture[str]) -> None:
     assert study.main([*argv, "--out", str(tmp_path), "-q"]) == 2
     assert message in capsys.readouterr().err
+
+
+def test_adaptation_mode_from_the_command_line(tmp_path: Path,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    from ecu.adaptation import AdaptationParams
+
+    cfg = StudyConfig(drivers=("d3",), scenarios=("B",), controllers=("predefined+oa",),
+                      trials=1, duration_s=30.0, adaptation=AdaptationParams(mode="timegap"))
+    jobs = study.plan(cfg, study.tables_for(cfg, None), tmp_path)
+    assert [j.adaptation for j in jobs] == [cfg.adaptation]
+    argv = ["--drivers", "d3", "--scenarios", "B", "--controllers", "predefined+oa",
+            "--trials", "1", "--duration", "30", "--no-logs", "-q", "--out"]
+    out: dict[str, list[dict[str, str]]] = {}
+    for mode in ("paper", "timegap"):
+        assert study.main([*argv, str(tmp_path / mode), "--adaptation-mode", mode]) == 0
+        assert f"{mode} adaptation" in capsys.readouterr().out
+        with (tmp_path / mode / "drives.csv").open() as fh:
+            out[mode] = list(csv.DictReader(fh))
+    # same drive, different adaptation: the ECU really used the mode
+    assert out["paper"][0]["poi_pct"] != out["timegap"][0]["poi_pct"] or \
+        out["paper"][0]["gap_error_rms_m"] != out["timegap"][0]["gap_error_rms_m"]
