@@ -159,13 +159,17 @@ def _run(args: argparse.Namespace) -> int:
         print(f"pacc ecu: error: cannot open the CAN bus: {exc}", file=sys.stderr)
         return 1
     with bus:
-        rt = EcuRuntime(
-            bus,
-            node,
-            codec,
-            on_event=lambda text: print(text, flush=True),
-            profile_dir=args.profiles,
-        )
+        try:
+            rt = EcuRuntime(
+                bus,
+                node,
+                codec,
+                on_event=lambda text: print(text, flush=True),
+                profile_dir=args.profiles,
+            )
+        except CodecError as exc:  # a DBC that cannot carry the outputs
+            print(f"pacc ecu: error: {exc}", file=sys.stderr)
+            return 1
         print(f"ECU running on {bus.channel_info} (Ctrl-C to stop)", flush=True)
         restore_sigterm = _stop_on_sigterm(rt.stop)
         try:

@@ -41,6 +41,7 @@ import can
 
 from ecu import EcuError
 from ecu.node import EcuNode, NodeInputs, NodeOutputs
+from ecu.state import AccState, FaultCode
 
 if TYPE_CHECKING:
     from dbc.codec import Codec
@@ -113,6 +114,10 @@ class EcuRuntime:
             runtime loads ``profile_dir/profile_<n>.json``; an invalid file is refused (the
             node keeps its last good table and reports FaultCode Profile), a missing one
             keeps the table; ``n = 0`` (guest) returns to the table the node started with.
+
+    Raises:
+        dbc.errors.DbcError: the codec's ACC_Command / ACC_Status cannot carry every output
+            (AccState FAULT, every FaultCode, the node's acceleration envelope).
     """
 
     def __init__(
@@ -155,6 +160,29 @@ class EcuRuntime:
         status = self.codec.by_role["status"]
         self._hi_gap = status.bounds("desired_gap_m")[1]
         self._hi_set = status.bounds("set_speed_mps")[1]
+        self._check_outputs_fit()
+
+    def _check_outputs_fit(self) -> None:
+        """Refuse a DBC that cannot carry every output (raise :class:`dbc.errors.DbcError`)."""
+        from dbc.errors import DbcError
+
+        ctl = self.node.config.controller
+        command, status = self.codec.by_role["command"], self.codec.by_role["status"]
+        needs = [
+            (command, "accel_request_mps2", ctl.accel_min_mps2, ctl.accel_max_mps2),
+            (command, "acc_state", 0, max(AccState)),
+            (command, "request_active", 0, 1),
+            (command, "takeover_request", 0, 1),
+            (status, "fault_code", 0, max(FaultCode)),
+        ]
+        for mc, key, lo, hi in needs:
+            have_lo, have_hi = mc.bounds(key)
+            if have_lo > lo + 1e-9 or have_hi < hi - 1e-9:
+                raise DbcError(
+                    f"{mc.name}: {key} range [{have_lo:g}, {have_hi:g}] cannot carry "
+                    f"[{lo:g}, {hi:g}] (AccState FAULT = {int(AccState.FAULT)}, FaultCode up "
+                    f"to {int(max(FaultCode))}, the acceleration envelope)"
+                )
 
     # -- lockstep ----------------------------------------------------------------------
 

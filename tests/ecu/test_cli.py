@@ -182,6 +182,22 @@ def test_dbc_without_periods_is_a_clear_error(
     assert "ESC_Speed" in err and "GenMsgCycleTime" in err
 
 
+def test_dbc_that_cannot_carry_fault_is_a_clear_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from dbc import DBC_PATH
+
+    dbc = tmp_path / "narrow.dbc"
+    dbc.write_text(
+        DBC_PATH.read_text().replace(
+            "SG_ AccState : 32|3@1+ (1,0) [0|4]", "SG_ AccState : 32|2@1+ (1,0) [0|3]"
+        )
+    )
+    assert main(["-i", "virtual", "-c", f"ecu-cli-{next(_ids)}", "--dbc", str(dbc)]) == 1
+    err = capsys.readouterr().err
+    assert "ACC_Command: acc_state range [0, 3] cannot carry [0, 4]" in err
+
+
 def test_help_is_fast_and_lists_flags(capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as info:
         main(["--help"])

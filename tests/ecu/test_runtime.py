@@ -325,3 +325,31 @@ def test_unusable_profile_directory_does_not_stop_the_loop(tmp_path: Path) -> No
         assert any("profile 2 refused" in e for e in b.events)
     finally:
         b.close()
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (("SG_ AccState : 32|3@1+ (1,0) [0|4]", "SG_ AccState : 32|2@1+ (1,0) [0|3]"), "FAULT"),
+        (("(0.01,0) [-10|5] \"m/s^2\" PT", "(0.01,0) [-2|5] \"m/s^2\" PT"), "-3.5"),
+        (("SG_ FaultCode : 12|4@1+ (1,0) [0|15]", "SG_ FaultCode : 12|4@1+ (1,0) [0|3]"), "6"),
+    ],
+    ids=["acc-state-without-fault", "accel-range-narrower-than-envelope", "fault-code-range"],
+)
+def test_dbc_that_cannot_carry_the_outputs_is_refused(
+    tmp_path: Path, edit: tuple[str, str], message: str
+) -> None:
+    """A DBC that loads but cannot carry every output (AccState FAULT, the full acceleration
+    envelope, every FaultCode) would silence ACC_Command in FAULT or cut braking authority:
+    the runtime refuses it when built, with a DbcError naming the signal."""
+    from dbc import DBC_PATH
+    from dbc.errors import DbcError
+
+    text = DBC_PATH.read_text()
+    assert edit[0] in text
+    path = tmp_path / "narrow.dbc"
+    path.write_text(text.replace(edit[0], edit[1]))
+    codec = load_codec(path)
+    with can.Bus(interface="virtual", channel=f"ecu-test-{next(_ids)}") as bus:
+        with pytest.raises(DbcError, match=message):
+            EcuRuntime(bus, EcuNode(EcuConfig(), predefined(1.5)), codec)
