@@ -190,10 +190,13 @@ class EcuRuntime:
         """Drain the bus into the Inbox at ``now_s`` and run every cycle due up to ``now_s``.
 
         Raises:
-            RuntimeClockError: ``now_s`` is not finite (a host bug; nothing is consumed).
+            RuntimeClockError: ``now_s`` is not finite, or so far from the first call that
+                the cycle grid overflows (a host bug; nothing is consumed).
         """
         if not math.isfinite(now_s):
             raise RuntimeClockError(f"advance_to: time must be finite, got {now_s}")
+        if self._t0 is not None and not math.isfinite((now_s - self._t0) / self.cycle_s):
+            raise RuntimeClockError(f"advance_to: {now_s} s is beyond the cycle grid")
         self._drain(now_s)
         if self._t0 is None:
             self._t0 = now_s

@@ -254,6 +254,19 @@ def test_bad_clock_rejected_and_jumps_skipped(bench: Bench) -> None:
     assert bench.rt.cycles - cycles <= 30
 
 
+@pytest.mark.parametrize("bad", [1e308, -1e308])
+def test_time_beyond_the_cycle_grid_is_a_clock_error(bench: Bench, bad: float) -> None:
+    """A finite time so far from the first call that the 20 ms grid overflows is a host bug
+    like NaN: RuntimeClockError, nothing consumed; the runtime then carries on."""
+    bench.run(0.5)
+    cycles = bench.rt.cycles
+    with pytest.raises(RuntimeClockError):
+        bench.rt.advance_to(bad)
+    assert bench.rt.cycles == cycles
+    bench.run(0.5)
+    assert bench.rt.cycles == cycles + 25
+
+
 def test_driver_profile_switch_keeps_last_good_table(tmp_path: Path) -> None:
     save_dgpt(predefined(3.0, driver_id="d3"), tmp_path / "profile_3.json")
     bad = predefined(2.0).to_json_dict()
