@@ -5,12 +5,15 @@ in their DBC ranges, muted roles, corrupted CRCs, frozen alive counters and raw 
 into an :class:`ecu.runtime.EcuRuntime` in lockstep. A third bus listens; every ACC_Command
 frame is decoded back with the codec and checked: E2E intact (CRC, counter +1), acceleration
 inside the envelope, jerk limited (the emergency exception only decreases), request active
-only in ACTIVE or during the FAULT ramp toward zero, takeover request exactly in FAULT.
+only in ACTIVE or during the FAULT ramp toward zero, takeover request exactly in FAULT. The
+HMI also switches driver profiles: a far table (a swap while ACTIVE), a corrupt one, none.
 """
 
 from __future__ import annotations
 
 import itertools
+import tempfile
+from pathlib import Path
 from typing import Any
 
 import can
@@ -18,7 +21,7 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from dbc.codec import load_codec
-from ecu.dgpt import predefined
+from ecu.dgpt import predefined, save_dgpt
 from ecu.node import EcuConfig, EcuNode
 from ecu.peers import PeerNodes
 from ecu.runtime import EcuRuntime
@@ -26,6 +29,9 @@ from ecu.state import AccState
 
 CODEC = load_codec()
 _ids = itertools.count()
+PROFILES = Path(tempfile.mkdtemp(prefix="pacc-fuzz-profiles-"))
+save_dgpt(predefined(4.0, driver_id="far"), PROFILES / "profile_1.json")  # a table swap
+(PROFILES / "profile_2.json").write_text('{"format": "pacc.dgpt/1", "gap_m": [1e999]}')
 LSB = 0.01  # AccelRequest resolution, m/s^2
 DT = 0.02
 
@@ -61,6 +67,7 @@ hmi = st.fixed_dictionaries(
         "set": st.sampled_from([0, 0, 1]),
         "resume": st.sampled_from([0, 0, 0, 1]),
         "cancel": st.sampled_from([0, 0, 0, 0, 1]),
+        "profile_id": st.sampled_from([0, 0, 1, 2, 3]),  # 1 far table, 2 corrupt, 3 missing
     }
 )
 phase = st.tuples(
@@ -112,7 +119,7 @@ def test_arbitrary_traffic_keeps_the_command_contract(
             EcuConfig(brake_mode=brake_mode, set_speed_mps=set_speed),  # type: ignore[arg-type]
             predefined(1.5),
         )
-        rt = EcuRuntime(ecu_bus, node, CODEC)
+        rt = EcuRuntime(ecu_bus, node, CODEC, profile_dir=PROFILES)
         peers = PeerNodes(peer_bus, CODEC)
         peers.set("radar", gap_m=30.0)
         # engage first (valid inputs for 1.2 s, SET), then the arbitrary phases
@@ -161,6 +168,7 @@ def test_arbitrary_traffic_keeps_the_command_contract(
         assert rt.send_errors == 0
         _check_commands(cmds)
         event(f"states seen: {sorted({c['acc_state'] for c, _ in cmds})}")
+        event(f"final table: {node.table.driver_id}")
     finally:
         for bus in (ecu_bus, peer_bus, listener):
             bus.shutdown()
