@@ -167,7 +167,7 @@ def _run(args: argparse.Namespace) -> int:
                 on_event=lambda text: print(text, flush=True),
                 profile_dir=args.profiles,
             )
-        except CodecError as exc:  # a DBC that cannot carry the outputs
+        except EcuError as exc:  # a DBC that cannot carry the outputs
             print(f"pacc ecu: error: {exc}", file=sys.stderr)
             return 1
         print(f"ECU running on {bus.channel_info} (Ctrl-C to stop)", flush=True)

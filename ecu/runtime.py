@@ -57,6 +57,10 @@ class RuntimeClockError(EcuError):
     """The runtime was given a time it cannot run to (not finite)."""
 
 
+class RuntimeCodecError(EcuError):
+    """The codec (DBC) cannot carry every output of the node."""
+
+
 @dataclass(frozen=True)
 class RuntimeSummary:
     """Counters of a run. ``max_cycle_s`` is the longest compute time of one cycle, s."""
@@ -116,7 +120,7 @@ class EcuRuntime:
             keeps the table; ``n = 0`` (guest) returns to the table the node started with.
 
     Raises:
-        dbc.errors.DbcError: the codec's ACC_Command / ACC_Status cannot carry every output
+        RuntimeCodecError: the codec's ACC_Command / ACC_Status cannot carry every output
             (AccState FAULT, every FaultCode, the node's acceleration envelope).
     """
 
@@ -163,9 +167,7 @@ class EcuRuntime:
         self._check_outputs_fit()
 
     def _check_outputs_fit(self) -> None:
-        """Refuse a DBC that cannot carry every output (raise :class:`dbc.errors.DbcError`)."""
-        from dbc.errors import DbcError
-
+        """Refuse a DBC that cannot carry every output (raise :class:`RuntimeCodecError`)."""
         ctl = self.node.config.controller
         command, status = self.codec.by_role["command"], self.codec.by_role["status"]
         needs = [
@@ -178,7 +180,7 @@ class EcuRuntime:
         for mc, key, lo, hi in needs:
             have_lo, have_hi = mc.bounds(key)
             if have_lo > lo + 1e-9 or have_hi < hi - 1e-9:
-                raise DbcError(
+                raise RuntimeCodecError(
                     f"{mc.name}: {key} range [{have_lo:g}, {have_hi:g}] cannot carry "
                     f"[{lo:g}, {hi:g}] (AccState FAULT = {int(AccState.FAULT)}, FaultCode up "
                     f"to {int(max(FaultCode))}, the acceleration envelope)"
@@ -406,4 +408,11 @@ class EcuRuntime:
         )
 
 
-__all__ = ["INPUT_ROLES", "MAX_CATCHUP_S", "EcuRuntime", "RuntimeClockError", "RuntimeSummary"]
+__all__ = [
+    "INPUT_ROLES",
+    "MAX_CATCHUP_S",
+    "EcuRuntime",
+    "RuntimeClockError",
+    "RuntimeCodecError",
+    "RuntimeSummary",
+]

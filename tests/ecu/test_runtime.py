@@ -354,9 +354,9 @@ def test_dbc_that_cannot_carry_the_outputs_is_refused(
 ) -> None:
     """A DBC that loads but cannot carry every output (AccState FAULT, the full acceleration
     envelope, every FaultCode) would silence ACC_Command in FAULT or cut braking authority:
-    the runtime refuses it when built, with a DbcError naming the signal."""
+    the runtime refuses it when built, with an error naming the signal."""
     from dbc import DBC_PATH
-    from dbc.errors import DbcError
+    from ecu.runtime import RuntimeCodecError
 
     text = DBC_PATH.read_text()
     assert edit[0] in text
@@ -364,5 +364,5 @@ def test_dbc_that_cannot_carry_the_outputs_is_refused(
     path.write_text(text.replace(edit[0], edit[1]))
     codec = load_codec(path)
     with can.Bus(interface="virtual", channel=f"ecu-test-{next(_ids)}") as bus:
-        with pytest.raises(DbcError, match=message):
+        with pytest.raises(RuntimeCodecError, match=message):
             EcuRuntime(bus, EcuNode(EcuConfig(), predefined(1.5)), codec)

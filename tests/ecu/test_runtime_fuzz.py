@@ -11,7 +11,9 @@ HMI also switches driver profiles: a far table (a swap while ACTIVE), a corrupt 
 
 from __future__ import annotations
 
+import atexit
 import itertools
+import shutil
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -30,6 +32,7 @@ from ecu.state import AccState
 CODEC = load_codec()
 _ids = itertools.count()
 PROFILES = Path(tempfile.mkdtemp(prefix="pacc-fuzz-profiles-"))
+atexit.register(shutil.rmtree, PROFILES, ignore_errors=True)
 save_dgpt(predefined(4.0, driver_id="far"), PROFILES / "profile_1.json")  # a table swap
 (PROFILES / "profile_2.json").write_text('{"format": "pacc.dgpt/1", "gap_m": [1e999]}')
 LSB = 0.01  # AccelRequest resolution, m/s^2
