@@ -37,6 +37,10 @@ class ControllerError(EcuError):
 
 Table = tuple[tuple[float, ...], tuple[float, ...]]
 
+#: Production ACC acceleration limits (ISO 15622), m/s^2: the envelope may only narrow them.
+ACCEL_MIN_MPS2 = -3.5
+ACCEL_MAX_MPS2 = 2.0
+
 
 def interp(x: float, table: Table) -> float:
     """Piecewise-linear lookup in a (breakpoints, values) table, ends held (scalar, fast)."""
@@ -71,7 +75,7 @@ class ControllerParams:
         k_lead_accel: feed-forward of the lead acceleration, dimensionless.
         k_cruise_per_s: speed-error gain of the cruise law, 1/s.
         integral_limit_m_s: clamp of the gap-error integral, m*s.
-        accel_min_mps2 / accel_max_mps2: acceleration envelope, m/s^2.
+        accel_min_mps2 / accel_max_mps2: acceleration envelope, m/s^2 (within -3.5 ... +2.0).
         jerk_max_mps3: rate limit of the request in normal operation, m/s^3.
         emergency_ttc_s: time-to-collision below which the emergency exception applies, s.
         emergency_jerk_mps3: rate limit of a *decreasing* request in an emergency, m/s^3.
@@ -104,6 +108,11 @@ class ControllerParams:
             raise ControllerError(f"controller parameters must be finite and >= 0: {self}")
         if not self.accel_min_mps2 < 0.0 < self.accel_max_mps2:
             raise ControllerError("need accel_min_mps2 < 0 < accel_max_mps2")
+        if self.accel_min_mps2 < ACCEL_MIN_MPS2 or self.accel_max_mps2 > ACCEL_MAX_MPS2:
+            raise ControllerError(
+                f"acceleration envelope [{self.accel_min_mps2:g}, {self.accel_max_mps2:g}] "
+                f"m/s^2 exceeds the production limits [{ACCEL_MIN_MPS2:g}, {ACCEL_MAX_MPS2:g}]"
+            )
         if self.emergency_jerk_mps3 < self.jerk_max_mps3:
             raise ControllerError("emergency_jerk_mps3 must be >= jerk_max_mps3")
 
@@ -191,6 +200,8 @@ def limit_command(
 
 
 __all__ = [
+    "ACCEL_MAX_MPS2",
+    "ACCEL_MIN_MPS2",
     "ControlInput",
     "ControllerError",
     "ControllerParams",

@@ -147,3 +147,20 @@ def test_parameters_validated() -> None:
         ControllerParams(emergency_jerk_mps3=1.0)
     with pytest.raises(ControllerError):
         ControllerParams(ki=((0.0,), (-1.0,)))
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        {"accel_min_mps2": -math.inf},
+        {"accel_max_mps2": math.inf},
+        {"accel_min_mps2": -1e300},
+        {"accel_max_mps2": 50.0},
+    ],
+)
+def test_envelope_outside_the_production_limits_refused(bad: dict[str, float]) -> None:
+    """The envelope may be narrowed, never widened beyond -3.5 ... +2.0 m/s^2 (ISO 15622):
+    an infinite or wider limit would let limit_command emit anything the jerk allows."""
+    with pytest.raises(ControllerError, match="envelope"):
+        ControllerParams(**bad)  # type: ignore[arg-type]
+    assert ControllerParams(accel_min_mps2=-3.0, accel_max_mps2=1.5).accel_max_mps2 == 1.5
