@@ -62,6 +62,11 @@ class EcuConfig:
             raise ConfigError("need 0 < cycle_s <= 0.1 s and status_period_s >= cycle_s")
         if not (math.isfinite(self.settle_s) and self.settle_s >= 0.0):
             raise ConfigError("settle_s must be finite and >= 0")
+        recorder = (self.record_period_s, self.pre_trigger_s, self.post_trigger_s)
+        if not (all(math.isfinite(x) and x >= 0.0 for x in recorder) and self.record_period_s > 0):
+            raise ConfigError(
+                "need finite record_period_s > 0, pre_trigger_s >= 0 and post_trigger_s >= 0"
+            )
         if self.set_speed_mps is not None and not 0.0 <= self.set_speed_mps <= 63.75:
             raise ConfigError("set_speed_mps must be within 0..63.75 m/s")
         self.adaptation_params.check_within(self.bounds)

@@ -293,6 +293,23 @@ def test_config_validated() -> None:
         EcuConfig(set_speed_mps=80.0)
 
 
+@pytest.mark.parametrize(
+    "bad",
+    [
+        {"pre_trigger_s": math.inf},
+        {"post_trigger_s": math.nan},
+        {"record_period_s": 0.0},
+        {"record_period_s": -0.1},
+        {"pre_trigger_s": -1.0},
+    ],
+)
+def test_recorder_periods_validated_with_the_config(bad: dict[str, float]) -> None:
+    """Recorder periods are configuration: refused by EcuConfig (ConfigError), not later as
+    an OverflowError or a RecorderError when the node is built."""
+    with pytest.raises(ConfigError, match="record_period_s"):
+        EcuConfig(**bad)  # type: ignore[arg-type]
+
+
 # -- property: the envelope holds for arbitrary input sequences ------------------------------
 
 floats = st.one_of(
