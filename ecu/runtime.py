@@ -228,11 +228,17 @@ class EcuRuntime:
         """Run 50 Hz cycles on ``time.monotonic`` for ``duration_s`` s (None: until stop()).
 
         Overruns of more than one period skip the missed cycles (counted in
-        ``skipped_cycles``) instead of bursting them.
+        ``skipped_cycles``) instead of bursting them. A :meth:`stop` that came before the
+        run ends it at once (a SIGTERM arriving as it starts is not lost).
         """
         if duration_s is not None and not duration_s >= 0.0:
             raise RuntimeClockError(f"run_realtime: duration must be >= 0 s, got {duration_s}")
-        self._stop.clear()
+        try:
+            self._run_realtime(duration_s)
+        finally:
+            self._stop.clear()  # consumed: the next run starts afresh
+
+    def _run_realtime(self, duration_s: float | None) -> None:
         clock = time.monotonic
         start = clock()
         self._t0 = start if self._t0 is None else self._t0
@@ -259,7 +265,8 @@ class EcuRuntime:
                 next_t += skipped * self.cycle_s
 
     def stop(self) -> None:
-        """Ask :meth:`run_realtime` to return after the current cycle (thread-safe)."""
+        """Ask :meth:`run_realtime` to return after the current cycle, or at once if called
+        before it starts (thread-safe, signal-safe)."""
         self._stop.set()
 
     # -- one cycle ---------------------------------------------------------------------

@@ -240,6 +240,23 @@ def test_realtime_mode_runs_and_stops() -> None:
         b.close()
 
 
+def test_stop_before_the_run_is_not_lost() -> None:
+    """stop() (a SIGTERM handler, another thread) just before run_realtime starts must still
+    end the run, and a later run works again."""
+    import time
+
+    b = Bench()
+    try:
+        b.rt.stop()
+        t0 = time.monotonic()
+        b.rt.run_realtime(3.0)
+        assert time.monotonic() - t0 < 1.0 and b.rt.cycles <= 1
+        b.rt.run_realtime(0.1)
+        assert b.rt.cycles >= 3
+    finally:
+        b.close()
+
+
 def test_bad_clock_rejected_and_jumps_skipped(bench: Bench) -> None:
     with pytest.raises(RuntimeClockError):
         bench.rt.advance_to(float("nan"))
