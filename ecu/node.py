@@ -18,7 +18,9 @@ Safety behaviour:
   OVERRIDE goes to FAULT: the request ramps to zero within the jerk limit while
   ``request_active`` stays 1, then goes inactive; ``takeover_request`` is set in FAULT;
 - every emitted request is inside the envelope and rate-limited, active or not;
-- outside ACTIVE (and the FAULT ramp) the request is inactive.
+- outside ACTIVE (and the FAULT ramp) the request is inactive;
+- a FAULT forgets the set speed: only SET re-engages afterwards (RESUME has nothing to
+  resume, also after CANCEL or the main switch off and on).
 """
 
 from __future__ import annotations
@@ -271,6 +273,8 @@ class EcuNode:
             self.faults[fault] += 1
             # ramp only a request that was being executed; after an override it stays off
             self._fault_ramp = old is AccState.ACTIVE
+            # forget the set speed: only SET re-engages, not RESUME after CANCEL or main off/on
+            self.set_speed_mps = 0.0
             events.append(f"fault: {fault.name} input invalid while {old.name}")
         if new in (AccState.ACTIVE, AccState.OVERRIDE) and old in (
             AccState.STANDBY,

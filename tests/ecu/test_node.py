@@ -184,6 +184,23 @@ def test_radar_loss_faults_with_ramp_and_needs_settle_to_reengage() -> None:
     assert out.acc_state is AccState.ACTIVE and out.fault_code is FaultCode.NONE
 
 
+def test_after_a_fault_only_set_re_engages_even_via_cancel_or_main_switch() -> None:
+    """RESUME must not bring back the set speed of before a FAULT: neither after CANCEL
+    (FAULT -> STANDBY) nor after the main switch off and on. SET re-engages."""
+    for detour in ({"cancel_button": True}, {"main_switch": False}):
+        node = EcuNode(EcuConfig(), predefined(1.5))
+        loop = Loop(node, v=20.0, gap=40.0, v_lead=20.0)
+        loop.engage()
+        loop.run(1.0)
+        assert loop.run(0.1, radar_ok=False).acc_state is AccState.FAULT
+        loop.run(0.5)
+        loop.run(0.1, **detour)
+        loop.run(1.5)  # inputs valid for well over the hold time
+        out = loop.run(0.1, resume_button=True)
+        assert out.acc_state is AccState.STANDBY and not out.request_active, detour
+        assert loop.run(0.1, set_button=True).acc_state is AccState.ACTIVE
+
+
 def test_fault_during_override_keeps_request_inactive() -> None:
     node = EcuNode(EcuConfig(set_speed_mps=30.0), predefined(1.5))
     loop = Loop(node, v=20.0, gap=60.0)
