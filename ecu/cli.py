@@ -150,6 +150,17 @@ def _run(args: argparse.Namespace) -> int:
     except (CodecError, EcuError) as exc:
         print(f"pacc ecu: error: {exc}", file=sys.stderr)
         return 1
+    if args.save_profile:  # refuse now, not after the drive when the table would be lost
+        import os
+        from pathlib import Path
+
+        parent = Path(args.save_profile).resolve().parent
+        if not (parent.is_dir() and os.access(parent, os.W_OK)):
+            print(
+                f"pacc ecu: error: --save-profile: {parent} is not a writable directory",
+                file=sys.stderr,
+            )
+            return 1
     node = EcuNode(config, table, sink)
     if profile_fault:
         node.report_profile_fault()

@@ -198,6 +198,20 @@ def test_dbc_that_cannot_carry_fault_is_a_clear_error(
     assert "ACC_Command: acc_state range [0, 3] cannot carry [0, 4]" in err
 
 
+def test_unwritable_save_profile_refused_before_the_drive(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--save-profile into a directory that does not exist: refused at start (exit 1), not
+    after the whole drive when the adapted table would be lost."""
+    target = tmp_path / "no-such-dir" / "p.json"
+    rc = main(["-i", "virtual", "-c", f"ecu-cli-{next(_ids)}", "--duration", "0.3",
+               "--save-profile", str(target)])
+    captured = capsys.readouterr()
+    assert rc == 1
+    assert "ECU running" not in captured.out
+    assert str(target.parent) in captured.err
+
+
 def test_help_is_fast_and_lists_flags(capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as info:
         main(["--help"])
