@@ -76,6 +76,18 @@ def _bus_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     return kwargs
 
 
+def _say(text: object) -> None:
+    """Print ``text`` to stdout now. If the reader has gone (``pacc ecu | head``, a dead log
+    pipe) the ECU keeps running: stdout is pointed at devnull and the run goes on to its end,
+    writing takeovers and the profile."""
+    import os
+
+    try:
+        print(text, flush=True)
+    except BrokenPipeError:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+
+
 def _stop_on_sigterm(stop: Callable[[], None]) -> Callable[[], None]:
     """Make SIGTERM call ``stop`` (a service stop ends the run like Ctrl-C: the open takeover
     segment is written, the profile saved); return a function restoring the old handler.
@@ -131,7 +143,7 @@ def _run(args: argparse.Namespace) -> int:
     if args.profile:
         try:
             table = load_dgpt(args.profile, config.bounds)
-            print(f"profile: {args.profile} ({table.driver_id}, {table.source}, v{table.version})")
+            _say(f"profile: {args.profile} ({table.driver_id}, {table.source}, v{table.version})")
         except DgptError as exc:
             profile_fault = True
             print(f"pacc ecu: profile refused: {exc}", file=sys.stderr)
@@ -141,7 +153,7 @@ def _run(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
     else:
-        print(f"profile: predefined {args.headway:g} s headway, {args.standstill:g} m standstill")
+        _say(f"profile: predefined {args.headway:g} s headway, {args.standstill:g} m standstill")
     sink: TripSink | None = None
     try:
         codec = load_codec(args.dbc) if args.dbc else load_codec()
@@ -175,32 +187,32 @@ def _run(args: argparse.Namespace) -> int:
                 bus,
                 node,
                 codec,
-                on_event=lambda text: print(text, flush=True),
+                on_event=_say,
                 profile_dir=args.profiles,
             )
         except EcuError as exc:  # a DBC that cannot carry the outputs
             print(f"pacc ecu: error: {exc}", file=sys.stderr)
             return 1
-        print(f"ECU running on {bus.channel_info} (Ctrl-C to stop)", flush=True)
+        _say(f"ECU running on {bus.channel_info} (Ctrl-C to stop)")
         restore_sigterm = _stop_on_sigterm(rt.stop)
         try:
             rt.run_realtime(args.duration)
         except KeyboardInterrupt:
-            print("interrupted", flush=True)
+            _say("interrupted")
         finally:
             restore_sigterm()
             node.finish()
-    print(rt.summary(), flush=True)
+    _say(rt.summary())
     if args.takeovers and node.recorder is not None:
         rec = node.recorder
-        print(
+        _say(
             f"takeover segments: {rec.segments - len(rec.pending)} of {rec.segments} written to"
             f" {args.takeovers} ({rec.sink_errors} failed attempts)"
         )
     if args.save_profile:
         try:
             save_dgpt(node.table, args.save_profile)
-            print(f"profile saved: {args.save_profile} (v{node.table.version})")
+            _say(f"profile saved: {args.save_profile} (v{node.table.version})")
         except DgptError as exc:
             print(f"pacc ecu: error: {exc}", file=sys.stderr)
             return 1

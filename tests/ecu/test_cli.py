@@ -137,6 +137,27 @@ def test_sigterm_stops_cleanly_keeping_takeovers_and_profile(tmp_path: Path) -> 
     assert saved.version == 1 and saved.source == "adapted"
 
 
+def test_closed_stdout_does_not_stop_the_ecu_or_lose_the_profile(tmp_path: Path) -> None:
+    """The reader of the ECU's output goes away (``pacc ecu | head``, a dead log pipe): the
+    ECU keeps running to the end and still saves the profile; no traceback."""
+    import subprocess
+    import sys
+
+    target = tmp_path / "p.json"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "ecu", "-i", "virtual", "-c", "closed-stdout", "--duration",
+         "1.0", "--save-profile", str(target)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    assert proc.stdout is not None and proc.stderr is not None
+    proc.stdout.close()  # the reader is gone before the first line
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=60) == 0, err
+    assert "Traceback" not in err
+    assert load_dgpt(target).version == 0
+
+
 def test_invalid_profile_refused_falls_back(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
