@@ -8,8 +8,10 @@ In the manner of AUTOSAR E2E profile 1 (see docs/e2e.md for the exact definition
   The data id is the CAN identifier (``frame_id & 0xFFFF``), so a frame received under
   another identifier (masquerade) fails the check.
 * Alive counter: 4 bits, +1 modulo 16 per transmission. The receiver classifies each frame
-  that passed the CRC as OK (delta 1), REPEATED (delta 0, the frame is dropped) or
-  SKIPPED (delta > 1, n = delta − 1 frames lost, the frame is used and the loss counted).
+  that passed the CRC as OK (delta 1), REPEATED (delta 0, the frame is dropped),
+  SKIPPED (1 < delta <= timeout_multiple + 1, n = delta − 1 frames lost, the frame is used
+  and the loss counted) or WRONG_SEQUENCE (a larger delta: more frames lost than the timeout
+  allows, so an old frame delivered out of order; dropped).
 * Timeout: no usable frame for ``timeout_multiple`` × the DBC cycle time. After a timeout
   the first frame re-synchronises the counter, unless it repeats the last accepted counter
   (a frozen sender must not revive itself once per timeout).
@@ -81,6 +83,7 @@ class E2EStatus(Enum):
     WRONG_DLC = "wrong_dlc"
     OUT_OF_RANGE = "out_of_range"
     UNKNOWN_ID = "unknown_id"
+    WRONG_SEQUENCE = "wrong_sequence"
 
 
 class E2EReceiver:
@@ -92,13 +95,23 @@ class E2EReceiver:
             frame (opendbc uses about 10).
     """
 
-    __slots__ = ("cycle_s", "timeout_s", "last_counter", "last_ok_s", "skipped", "counts")
+    __slots__ = (
+        "cycle_s",
+        "timeout_s",
+        "max_delta",
+        "last_counter",
+        "last_ok_s",
+        "skipped",
+        "counts",
+    )
 
     def __init__(self, cycle_s: float, timeout_multiple: float = 10.0) -> None:
         if cycle_s <= 0 or timeout_multiple <= 0:
             raise ValueError("cycle_s and timeout_multiple must be positive")
         self.cycle_s = cycle_s
         self.timeout_s = cycle_s * timeout_multiple
+        #: largest counter delta without a timeout: at most ``timeout_multiple`` frames lost
+        self.max_delta = min(COUNTER_MODULO - 1, int(timeout_multiple) + 1)
         self.last_counter: int | None = None
         self.last_ok_s: float | None = None
         #: frames lost according to the last SKIPPED result
@@ -108,7 +121,8 @@ class E2EReceiver:
     def check_counter(self, counter: int, now_s: float) -> E2EStatus:
         """Classify a frame whose CRC was correct by its alive counter, received at ``now_s``.
 
-        OK and SKIPPED frames are usable and refresh the timeout; REPEATED frames are not.
+        OK and SKIPPED frames are usable and refresh the timeout; REPEATED and
+        WRONG_SEQUENCE frames are not.
         The first frame after start, or the first after a timeout whose counter differs
         from the last accepted one, is accepted as OK; a frozen sender (the same counter
         forever) stays REPEATED and so stays timed out.
@@ -124,6 +138,9 @@ class E2EReceiver:
             elif delta == 0:
                 self.counts[E2EStatus.REPEATED] += 1
                 return E2EStatus.REPEATED
+            elif delta > self.max_delta:  # an old frame, late: not a loss the timeout allows
+                self.counts[E2EStatus.WRONG_SEQUENCE] += 1
+                return E2EStatus.WRONG_SEQUENCE
             else:
                 self.skipped = delta - 1
                 status = E2EStatus.SKIPPED

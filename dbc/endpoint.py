@@ -78,8 +78,9 @@ class Inbox:
     def accept(self, frame_id: int, data: bytes | bytearray, now_s: float) -> Decoded | None:
         """Check one frame received at ``now_s`` (s); return it if usable, else None.
 
-        Never raises for bad input: unknown ids, wrong DLC, wrong CRC, out-of-range values
-        and repeated counters are dropped and counted in :attr:`counts`.
+        Never raises for bad input: unknown ids, wrong DLC, wrong CRC, out-of-range values,
+        repeated counters and old frames out of sequence are dropped and counted in
+        :attr:`counts`.
         """
         self.frames_in += 1
         mc = self._by_id.get(frame_id)
@@ -100,7 +101,7 @@ class Inbox:
             if decoded.counter is not None:
                 status = receiver.check_counter(decoded.counter, now_s)
                 self.counts[(mc.role, status)] += 1
-                if status is E2EStatus.REPEATED:
+                if status in (E2EStatus.REPEATED, E2EStatus.WRONG_SEQUENCE):
                     return None
             else:
                 receiver.last_ok_s = now_s

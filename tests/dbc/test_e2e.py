@@ -48,13 +48,28 @@ def test_counter_ok_repeat_skip() -> None:
 
 @given(st.integers(0, 15), st.integers(1, 15))
 def test_any_gap_is_classified(start: int, delta: int) -> None:
-    rx = E2EReceiver(cycle_s=0.02)
+    rx = E2EReceiver(cycle_s=0.02)  # times out after 10 periods: at most 10 frames lost
     rx.check_counter(start, 0.0)
     status = rx.check_counter((start + delta) % 16, 0.02)
     if delta == 1:
         assert status is E2EStatus.OK
-    else:
+    elif delta <= 11:
         assert status is E2EStatus.SKIPPED and rx.skipped == delta - 1
+    else:  # more lost frames than the timeout allows: an old frame, out of order
+        assert status is E2EStatus.WRONG_SEQUENCE and rx.last_counter == start
+
+
+def test_late_old_frame_is_not_used() -> None:
+    """A frame delivered late, after a newer one (a gateway duplicate), has counter delta 15
+    (= -1): not 14 lost frames, which the 10-period timeout would have reported. It must not
+    be used nor refresh the timeout; the sequence goes on from the newer frame."""
+    rx = E2EReceiver(cycle_s=0.01, timeout_multiple=10)
+    assert rx.check_counter(5, 0.00) is E2EStatus.OK
+    assert rx.check_counter(6, 0.01) is E2EStatus.OK
+    assert rx.check_counter(5, 0.015) is E2EStatus.WRONG_SEQUENCE
+    assert rx.last_counter == 6 and rx.last_ok_s == 0.01
+    assert rx.check_counter(7, 0.02) is E2EStatus.OK
+    assert rx.counts[E2EStatus.WRONG_SEQUENCE] == 1
 
 
 @given(st.sampled_from([0.01, 0.02, 0.05, 0.1]), st.floats(1.0, 20.0))

@@ -76,6 +76,19 @@ def test_skipped_counter_is_used_and_counted() -> None:
     assert inbox.receivers["ego"].skipped == 2
 
 
+def test_late_duplicate_does_not_overwrite_newer_values() -> None:
+    outbox, inbox = Outbox(CODEC), Inbox(CODEC, ["ego"])
+    mc = CODEC.by_role["ego"]
+    old = outbox.encode("ego", {**EGO, "speed_mps": 10.0})
+    new = outbox.encode("ego", {**EGO, "speed_mps": 11.0})
+    assert inbox.accept(mc.frame_id, old, 0.00) is not None
+    assert inbox.accept(mc.frame_id, new, 0.01) is not None
+    assert inbox.accept(mc.frame_id, old, 0.015) is None  # the old frame again, late
+    latest = inbox.latest("ego")
+    assert latest is not None and latest["speed_mps"] == 11.0
+    assert inbox.errors() == {"wrong_sequence": 1}
+
+
 def test_timeout_uses_the_dbc_period() -> None:
     inbox = Inbox(CODEC, ["radar", "hmi"], timeout_multiple=4)
     outbox = Outbox(CODEC)
