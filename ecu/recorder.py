@@ -100,8 +100,11 @@ class TakeoverRecorder:
         return self._segment is not None
 
     def sample(self, s: Sample) -> None:
-        """Offer one sample; kept if ``period_s`` has passed since the last kept one."""
-        if s.t_s - self._last_t < self.period_s - 1e-6:
+        """Offer one sample; kept if ``period_s`` has passed since the last kept one.
+
+        A sample with a non-finite time is ignored (it would stop the recording for good).
+        """
+        if not (math.isfinite(s.t_s) and s.t_s - self._last_t >= self.period_s - 1e-6):
             return
         self._last_t = s.t_s
         if self._segment is None:

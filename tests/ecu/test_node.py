@@ -6,6 +6,7 @@ import math
 from dataclasses import replace
 from typing import Any
 
+import numpy as np
 import pytest
 from hypothesis import event, given
 from hypothesis import strategies as st
@@ -260,6 +261,25 @@ def test_non_finite_time_does_not_freeze_the_request() -> None:
         # and the re-engagement hold time still runs out on the valid inputs that follow
         loop.run(1.1)
         assert loop.run(0.1, set_button=True).acc_state is AccState.ACTIVE
+
+
+def test_one_non_finite_timestamp_does_not_cost_the_takeover_recordings() -> None:
+    """A cycle stamped inf or NaN must not poison the recorder: the takeovers around it and
+    after it are still written (Trip needs finite, increasing times)."""
+    for bad_t in (math.inf, math.nan):
+        segments: list[Trip] = []
+        node = EcuNode(EcuConfig(), predefined(3.0), segments.append)
+        loop = Loop(node, gap=64.0)
+        loop.engage()
+        loop.run(2.0)
+        node.step(replace(loop.inp, v_mps=loop.v, lead_valid=True, gap_m=loop.gap), bad_t)
+        for _ in range(2):
+            loop.run(2.0, accel_pressed=True)
+            loop.run(6.0)
+        node.finish()
+        assert node.takeovers == 2
+        assert len(segments) == 2, bad_t
+        assert all(np.all(np.isfinite(seg.t_s)) and len(seg) > 50 for seg in segments)
 
 
 def test_absurd_speed_at_takeover_release_is_no_exception() -> None:
