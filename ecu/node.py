@@ -113,12 +113,17 @@ class EcuNode:
         return self.decisions[Reason.APPLIED]
 
     def step(self, inp: NodeInputs, now_s: float) -> NodeOutputs:
-        """Run one control cycle at time ``now_s`` (s, monotonic); never raises on bad input."""
+        """Run one control cycle at time ``now_s`` (s, monotonic); never raises on bad input.
+
+        A non-finite ``now_s`` (a host clock fault) is taken as no time passing since the
+        previous cycle."""
         cfg = self.config
         events: list[str] = []
         if self._pending_events:
             events += self._pending_events
             self._pending_events.clear()
+        if not math.isfinite(now_s):  # a host clock fault: time stands still this cycle
+            now_s = self._last_now if self._last_now is not None else 0.0
         dt = cfg.cycle_s if self._last_now is None else now_s - self._last_now
         dt = min(max(dt, 0.0), MAX_DT_S) if math.isfinite(dt) else 0.0
         self._last_now = now_s

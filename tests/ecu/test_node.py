@@ -282,6 +282,18 @@ def test_one_non_finite_timestamp_does_not_cost_the_takeover_recordings() -> Non
         assert all(np.all(np.isfinite(seg.t_s)) and len(seg) > 50 for seg in segments)
 
 
+def test_non_finite_time_on_the_first_valid_cycle_does_not_block_engagement() -> None:
+    """The re-engagement hold time must not start at a NaN/inf instant (it would never end)."""
+    for bad_t in (math.nan, math.inf):
+        node = EcuNode(EcuConfig(), predefined(1.5))
+        loop = Loop(node)
+        node.step(NodeInputs(main_switch=True, speed_ok=False), 0.0)
+        node.step(replace(loop.inp, v_mps=20.0, lead_valid=True, gap_m=40.0), bad_t)
+        loop.t = 0.02
+        loop.run(1.2)
+        assert loop.run(0.1, set_button=True).acc_state is AccState.ACTIVE, bad_t
+
+
 def test_absurd_speed_at_takeover_release_is_no_exception() -> None:
     """Finite but absurd inputs (a diverged host plant) at a pedal release: step() must not
     raise out of the adaptation; the table stays inside its bounds."""
