@@ -1,7 +1,18 @@
-"""Online DGPT adaptation from one takeover: the paper's Algorithm 1, as read in PAPER-NOTES.
+"""Online DGPT adaptation from one takeover: the paper's Algorithm 1 and a measured successor.
 
-Runs once, at the moment a takeover ends (pedal released), with the ego speed ``v``, the lead
-speed ``v_f`` and the gap ``g`` at that moment and the takeover's duration ``p_t``:
+Two modes (``AdaptationParams.mode``; measurements in docs/ecu.md and bench/adaptation.py):
+
+- ``"paper"``: Algorithm 1 as read in PAPER-NOTES, unchanged (steps 1-4 below);
+- ``"timegap"`` (default): the same filter (1), prediction (2) and safety filter (4), plus a
+  direction check — an accelerator takeover may only shorten the table at ``v``, a brake
+  takeover only lengthen it (else skipped as ``against_pedal``: e.g. an accelerator press
+  during which the lead pulled away) — and, instead of step 3, the change is made in
+  time-gap space and spread over a wide speed range (:func:`timegap_update`), because the
+  measured error of a table is mostly a time-gap offset at every speed, and a local window
+  of +-2 m/s leaves the rest of a 5-30 m/s trip unlearned.
+
+Algorithm 1 runs once, at the moment a takeover ends (pedal released), with the ego speed
+``v``, the lead speed ``v_f`` and the gap ``g`` at that moment and the takeover's duration ``p_t``:
 
 1. Behaviour filter — update only when ``p_t > P_T`` and ``(v_f - v) < V_D`` (the printed
    ``update_flag`` is the skip condition; short takeovers are noise, a lead pulling away fast
@@ -42,7 +53,7 @@ class AdaptationError(EcuError):
 
 @dataclass(frozen=True)
 class AdaptationParams:
-    """Parameters of Algorithm 1 (defaults justified in docs/ecu.md and the tests).
+    """Parameters of the adaptation (defaults justified in docs/ecu.md and the tests).
 
     Attributes:
         min_takeover_s: P_T; takeovers this short or shorter are noise (1.0 s: a tap on a
@@ -57,6 +68,14 @@ class AdaptationParams:
         safe_tg_min_s: lower safety time gap (0.8 s: the shortest selectable production gap).
         safe_tg_max_s: upper safety time gap (5.0 s: above the paper's 4 s "high" setting).
         standstill_m: d0, the standstill distance of the safety filter (4 m).
+        mode: ``"timegap"`` (default: fewer interventions in the measured study) or
+            ``"paper"`` (Algorithm 1 unchanged; ``window_size`` applies only here).
+        spread_speed_mps: timegap mode: standard deviation of the Gaussian weight over speed
+            of one update (25 m/s: picked by measurement among 4, 6, 10, 15, 20, 25, 40; a
+            takeover at 10 m/s moves the time gap at 30 m/s by 73 % of the change).
+        min_speed_mps: timegap mode: speeds below this count as this speed when converting
+            gap to time gap (10 m/s: below it the standstill distance dominates the gap and a
+            slow takeover would be magnified into metres at motorway speed).
     """
 
     min_takeover_s: float = 1.0
@@ -66,8 +85,8 @@ class AdaptationParams:
     safe_tg_min_s: float = 0.8
     safe_tg_max_s: float = 5.0
     standstill_m: float = 4.0
-    mode: AdaptationMode = "paper"
-    spread_speed_mps: float = 6.0
+    mode: AdaptationMode = "timegap"
+    spread_speed_mps: float = 25.0
     min_speed_mps: float = 10.0
 
     def __post_init__(self) -> None:
@@ -206,20 +225,22 @@ def timegap_weights(speed_mps: np.ndarray, v_mps: float, spread_speed_mps: float
 
 
 def timegap_update(
-    table: Dgpt, v_mps: float, g_desire_m: float, params: AdaptationParams
+    table: Dgpt, centre: int, g_desire_m: float, params: AdaptationParams
 ) -> np.ndarray:
-    """New gaps, shape ``(n,)``: the time-gap change at ``v_mps`` spread over speed.
+    """New gaps, shape ``(n,)``: the time-gap change at bin ``centre`` spread over speed.
 
-    The time gap above the standstill distance, ``h = (g - d0) / max(v, v_min)`` (s), changes
-    by ``dh = (g_desire - DGPT(v)) / max(v, v_min)`` at the release speed, and bin ``i`` by
-    ``w_i * dh`` with :func:`timegap_weights`: ``gap_i += w_i * dh * max(v_i, v_min)``. So the
-    interpolated table lands on ``g_desire`` at ``v`` and a preference that is a time gap
-    (roughly constant, slowly varying with speed) is learned at every speed from one takeover.
+    With ``v_c`` the centre bin's speed and ``u(v) = max(v, v_min)``, the time gap above the
+    standstill distance changes by ``dh = (g_desire - DGPT[centre]) / u(v_c)`` (s) there, and
+    bin ``i`` by ``w_i * dh`` with :func:`timegap_weights` around ``v_c``:
+    ``gap_i += w_i * dh * u(v_i)``. So the centre bin lands on ``g_desire`` (as in the paper
+    mode) and a preference that is a time gap (constant or slowly varying with speed) is
+    learned at every speed from one takeover.
     """
     vmin = params.min_speed_mps
-    dh = (g_desire_m - float(table.lookup(v_mps))) / max(v_mps, vmin)
     speed = table.speed_mps
-    w = timegap_weights(speed, v_mps, params.spread_speed_mps)
+    v_c = float(speed[centre])
+    dh = (g_desire_m - float(table.gap_m[centre])) / max(v_c, vmin)
+    w = timegap_weights(speed, v_c, params.spread_speed_mps)
     return np.asarray(table.gap_m + w * dh * np.maximum(speed, vmin))
 
 
@@ -237,7 +258,7 @@ def adapt(
     *,
     created_utc: str | None = None,
 ) -> tuple[Dgpt, Decision]:
-    """Apply Algorithm 1 for one finished takeover; pure.
+    """Apply the adaptation (``params.mode``) for one finished takeover; pure.
 
     Returns the new table (``version + 1``, source ``adapted``) and the decision, or the same
     ``table`` object and a skip decision.
@@ -250,10 +271,10 @@ def adapt(
     centre = int(round((summary.v_mps - float(speed[0])) / table.step_mps))
     centre = min(max(centre, 0), speed.size - 1)
     if params.mode == "timegap":
-        if against_pedal(summary.pedal, g_desire - float(table.lookup(summary.v_mps))):
+        if against_pedal(summary.pedal, g_desire - float(table.gap_m[centre])):
             return table, Decision(applied=False, reason=Reason.AGAINST_PEDAL,
                                    g_desire_m=g_desire)
-        gap = timegap_update(table, summary.v_mps, g_desire, params)
+        gap = timegap_update(table, centre, g_desire, params)
     else:
         delta = g_desire - float(table.gap_m[centre])
         gap = table.gap_m + delta * spread_weights(speed.size, centre, params.window_size)
@@ -275,9 +296,14 @@ __all__ = [
     "Decision",
     "Reason",
     "TakeoverSummary",
+    "ADAPTATION_MODES",
+    "AdaptationMode",
     "adapt",
+    "against_pedal",
     "behaviour_filter",
     "predict_steady_gap",
     "safety_filter",
     "spread_weights",
+    "timegap_update",
+    "timegap_weights",
 ]

@@ -19,7 +19,7 @@ from ecu.adaptation import (
 )
 from ecu.dgpt import SafetyBounds, predefined
 
-P = AdaptationParams()  # P_T 1 s, K_T 1 s, V_D 5 m/s, window 9, TG 0.8..5 s, d0 4 m
+P = AdaptationParams(mode="paper")  # P_T 1 s, K_T 1 s, V_D 5 m/s, window 9, TG 0.8..5 s, d0 4 m
 
 
 def summary(
@@ -76,7 +76,7 @@ def test_large_speed_difference_skipped() -> None:
 @pytest.mark.parametrize("window", [1, 3, 5, 9, 15])
 def test_smoothing_width(window: int) -> None:
     t = predefined(2.0)
-    new, _ = adapt(t, summary(g=30.0), AdaptationParams(window_size=window))
+    new, _ = adapt(t, summary(g=30.0), AdaptationParams(mode="paper", window_size=window))
     changed = np.flatnonzero(np.abs(new.gap_m - t.gap_m) > 1e-12)
     assert changed.size == window
     assert changed.min() == 40 - (window - 1) // 2 and changed.max() == 40 + (window - 1) // 2
@@ -154,7 +154,8 @@ def test_default_window_keeps_table_slope_moderate() -> None:
     new, _ = adapt(t, summary(v=20.0, vf=18.0, g=35.0), P)
     slope = np.abs(np.diff(new.gap_m) / 0.5)
     assert slope.max() == pytest.approx(2.0 + 4.4)
-    one, _ = adapt(t, summary(v=20.0, vf=18.0, g=35.0), AdaptationParams(window_size=1))
+    one, _ = adapt(t, summary(v=20.0, vf=18.0, g=35.0),
+                   AdaptationParams(mode="paper", window_size=1))
     assert np.abs(np.diff(one.gap_m) / 0.5).max() == pytest.approx(22.0 + 2.0)
 
 
@@ -172,12 +173,14 @@ def test_spread_weights_shape() -> None:
 
 # -- mode "timegap": direction from the pedal, update in time-gap space over a speed range --
 
-TG = AdaptationParams(mode="timegap")  # spread 6 m/s, v_min 10 m/s, d0 4 m, K_T 1 s
+TG = AdaptationParams(mode="timegap", spread_speed_mps=6.0)  # v_min 10 m/s, d0 4 m, K_T 1 s
 
 
 def test_modes_listed_and_validated() -> None:
     assert ADAPTATION_MODES == ("paper", "timegap")
-    assert AdaptationParams().mode == "paper"
+    default = AdaptationParams()
+    assert default.mode == "timegap" and default.spread_speed_mps == 25.0
+    assert default.coast_down_s == P.coast_down_s and default.min_takeover_s == 1.0
     with pytest.raises(AdaptationError):
         AdaptationParams(mode="magic")  # type: ignore[arg-type]
     with pytest.raises(AdaptationError):
@@ -220,10 +223,15 @@ def test_timegap_low_speed_uses_min_speed() -> None:
     assert new.gap_m[32] == pytest.approx(36.0 + math.exp(-2.0) * 0.3 * 16.0)  # 16 m/s
 
 
-def test_timegap_interpolated_release_speed_lands_on_g_desire() -> None:
+def test_timegap_centre_bin_lands_on_g_desire() -> None:
     t = predefined(3.0)
     new, d = adapt(t, summary(v=17.3, vf=17.3, g=40.0), TG)
-    assert d.applied and new.lookup(17.3) == pytest.approx(40.0, abs=0.05)
+    # nearest bin 17.5 m/s (35): DGPT 56.5 -> 40, dh = -16.5 / 17.5 s around 17.5 m/s
+    assert d.applied and d.bin_index == 35 and new.gap_m[35] == pytest.approx(40.0)
+    assert d.delta_m == pytest.approx(-16.5)
+    assert new.gap_m[34] == pytest.approx(
+        55.0 - math.exp(-0.5 * (0.5 / 6.0) ** 2) * 16.5 / 17.5 * 17.0)
+    assert new.lookup(17.3) == pytest.approx(40.0, abs=1.0)
 
 
 @pytest.mark.parametrize(
@@ -269,3 +277,19 @@ def test_timegap_filters_and_safety_bounds() -> None:
     new.check_bounds(SafetyBounds())
     low, _ = adapt(t, summary(g=1.0), TG)
     assert np.all(low.gap_m >= lo - 1e-9)
+
+
+def test_default_timegap_keeps_table_slope_smooth() -> None:
+    """The same 11 m correction in the default mode: dh = -0.55 s spread with sigma 25 m/s
+    changes dDGPT/dv by at most |dh| * max|d(w v)/dv| = 0.55 * w(10) * (1 + 10 * 10 / 625)
+    ~ 0.59 s (at 10 m/s, where w = exp(-0.08)): far below the paper window's 4.4 s. Below
+    10 m/s the safety floor d0 + 0.8 v takes over (the lowered table reaches it)."""
+    t = predefined(2.0)
+    new, d = adapt(t, summary(v=20.0, vf=18.0, g=35.0), AdaptationParams())
+    assert d.applied and new.gap_m[40] == pytest.approx(33.0)
+    change = np.diff(new.gap_m - t.gap_m)[20:] / 0.5  # from 10 m/s up
+    assert np.all(new.gap_m[20:] > 4.0 + 0.8 * new.speed_mps[20:])  # no clipping there
+    bound = 0.55 * math.exp(-0.08) * (1.0 + 100.0 / 625.0)
+    assert np.abs(change).max() == pytest.approx(bound, rel=0.03)
+    # every speed learns: the time gap above d0 moves by 0.55 s * w(v)
+    assert new.gap_m[80] == pytest.approx(84.0 - 0.55 * math.exp(-0.5 * 0.64) * 40.0)

@@ -12,6 +12,7 @@ import can
 import pytest
 
 from dbc.codec import load_codec
+from ecu.adaptation import AdaptationParams
 from ecu.dgpt import predefined, save_dgpt
 from ecu.node import EcuConfig, EcuNode
 from ecu.peers import PeerNodes
@@ -139,7 +140,17 @@ def test_follow_closed_loop_on_the_bus(bench: Bench) -> None:
     assert bench.node.state.name == "ACTIVE"
 
 
-def test_accelerator_override_and_resume(bench: Bench) -> None:
+@pytest.fixture
+def paper_bench() -> Iterator[Bench]:
+    """Algorithm 1 as printed: the timegap default skips this accelerator release (the gap
+    is held at 60 m, longer than the table's 34 m: against the pedal)."""
+    b = Bench(EcuConfig(set_speed_mps=30.0, adaptation_params=AdaptationParams(mode="paper")))
+    yield b
+    b.close()
+
+
+def test_accelerator_override_and_resume(paper_bench: Bench) -> None:
+    bench = paper_bench
     bench.peers.set("radar", gap_m=60.0)
     bench.engage()
     bench.peers.set("pedals", accel_pressed=1, accel_pedal_pct=30.0)

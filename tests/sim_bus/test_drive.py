@@ -192,7 +192,7 @@ def test_adaptation_mode_reaches_the_ecu_and_is_traced() -> None:
                           duration_s=60.0, adaptation=AdaptationParams(mode=mode))
         r = run_drive(cfg, driver, table, prof)
         applied = [e for e in r.adaptation_events if e.decision.applied]
-        assert len(applied) == r.adaptations >= 2, mode
+        assert len(applied) == r.adaptations >= 1, mode
         assert [e.t_s for e in r.adaptation_events] == sorted(e.t_s for e in r.adaptation_events)
         assert all(e.decision.reason in Reason for e in r.adaptation_events)
         assert applied[-1].table is r.final_table
