@@ -27,7 +27,7 @@ import argparse
 import math
 import sys
 import time
-from collections import defaultdict
+from collections import Counter, defaultdict
 from typing import Any
 
 import numpy as np
@@ -124,6 +124,7 @@ def main(argv: list[str] | None = None) -> int:
     split = [x for x in args.modes.split(",") if x]
     summary: dict[str, list[tuple[float, float, float, float, float]]] = defaultdict(list)
     gd_err: dict[tuple[str, str, bool], list[float]] = defaultdict(list)
+    reasons: dict[str, Counter[str]] = defaultdict(Counter)
     start = time.perf_counter()
     for name in args.drivers.split(","):
         driver = load_driver(name)
@@ -148,6 +149,10 @@ def main(argv: list[str] | None = None) -> int:
                               "table error (visited, m) "
                               + " ".join(f"{e:5.1f}" for e in trace)
                               + f" | 5-30 m/s {flat:5.1f}")
+                        reasons[mode].update(e.decision.reason.value
+                                             for e in r.adaptation_events)
+                        reasons[mode]["cut at press_max_s"] += sum(x["cut"] for x in rows)
+                        reasons[mode]["takeovers"] += len(rows)
                         for row in rows:
                             gd = row["g_desire_m"] - row["pref_m"]
                             if math.isfinite(gd):
@@ -168,6 +173,9 @@ def main(argv: list[str] | None = None) -> int:
         a = np.asarray(vals)
         print(f"  {mode:8s} {pedal:5s} {'cut' if cut else 'released':8s} "
               f"{a.mean():+6.2f} / {np.sqrt(np.mean(a ** 2)):5.2f} / {a.size}")
+    print("\ndecisions per mode (and takeovers cut at the driver's press_max_s):")
+    for mode, counts in reasons.items():
+        print(f"  {mode:8s} " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
     print("\naverages per mode: PoI %, NIM /min, table error start -> end (visited), "
           "end (5-30 m/s)")
     base = summary.get("paper")
