@@ -163,7 +163,9 @@ def run_drive(cfg: DriveConfig, driver: DriverParams, table: Dgpt,
                         set_speed_mps=SET_SPEED_MPS,
                         trip_meta={"driver_id": driver.driver_id, "seed": cfg.seed,
                                    "scenario": prof.name, "controller": cfg.controller})
-    ecu = EcuNode(ecu_cfg, table, takeover_sink=takeover_sink)
+    # adapted tables get a fixed creation time: the drive stays a pure function of its inputs
+    ecu = EcuNode(ecu_cfg, table, takeover_sink=takeover_sink,
+                  utc_now=lambda: "2000-01-01T00:00:00Z")
     sim_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
     ecu_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
     try:
