@@ -23,6 +23,8 @@ from typing import Any
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``pacc ecu`` (python-can flag conventions)."""
+    from ecu.adaptation import ADAPTATION_MODES
+
     p = argparse.ArgumentParser(
         prog="pacc ecu",
         description="Run the personalized ACC ECU node on a CAN bus (50 Hz, real time).",
@@ -49,6 +51,13 @@ def build_parser() -> argparse.ArgumentParser:
         action=argparse.BooleanOptionalAction,
         default=True,
         help="online DGPT adaptation at each takeover release (default: on)",
+    )
+    p.add_argument(
+        "--adaptation-mode",
+        choices=ADAPTATION_MODES,
+        default="timegap",
+        help="online adaptation: the paper's Algorithm 1 ('paper') or the time-gap update "
+        "spread over speed ('timegap', default; docs/ecu.md)",
     )
     p.add_argument(
         "--brake",
@@ -121,6 +130,7 @@ def _run(args: argparse.Namespace) -> int:
 
     from dbc.codec import CodecError, load_codec
     from ecu import EcuError
+    from ecu.adaptation import AdaptationParams
     from ecu.dgpt import Dgpt, DgptError, load_dgpt, predefined, save_dgpt
     from ecu.node import EcuConfig, EcuNode
     from ecu.recorder import TripSink, directory_sink
@@ -132,7 +142,10 @@ def _run(args: argparse.Namespace) -> int:
     )
     try:
         config = EcuConfig(
-            adaptation=args.adaptation, brake_mode=args.brake, set_speed_mps=args.set_speed
+            adaptation=args.adaptation,
+            adaptation_params=AdaptationParams(mode=args.adaptation_mode),
+            brake_mode=args.brake,
+            set_speed_mps=args.set_speed,
         )
         fallback = predefined(args.headway, args.standstill)
     except EcuError as exc:
@@ -193,6 +206,8 @@ def _run(args: argparse.Namespace) -> int:
         except EcuError as exc:  # a DBC that cannot carry the outputs
             print(f"pacc ecu: error: {exc}", file=sys.stderr)
             return 1
+        mode = args.adaptation_mode if args.adaptation else "off"
+        _say(f"adaptation: {mode}; brake press: {args.brake}")
         _say(f"ECU running on {bus.channel_info} (Ctrl-C to stop)")
         restore_sigterm = _stop_on_sigterm(rt.stop)
         try:

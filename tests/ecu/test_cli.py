@@ -69,6 +69,7 @@ def test_cli_runs_takeover_and_prints_summary(
     peers.join()
     out = capsys.readouterr().out
     assert rc == 0
+    assert "adaptation: timegap; brake press: resume" in out
     assert "state OFF -> STANDBY" in out
     assert "state STANDBY -> ACTIVE" in out
     assert "state ACTIVE -> OVERRIDE" in out
@@ -145,8 +146,19 @@ def test_closed_stdout_does_not_stop_the_ecu_or_lose_the_profile(tmp_path: Path)
 
     target = tmp_path / "p.json"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "ecu", "-i", "virtual", "-c", "closed-stdout", "--duration",
-         "1.0", "--save-profile", str(target)],
+        [
+            sys.executable,
+            "-m",
+            "ecu",
+            "-i",
+            "virtual",
+            "-c",
+            "closed-stdout",
+            "--duration",
+            "1.0",
+            "--save-profile",
+            str(target),
+        ],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
     )
@@ -225,8 +237,18 @@ def test_unwritable_save_profile_refused_before_the_drive(
     """--save-profile into a directory that does not exist: refused at start (exit 1), not
     after the whole drive when the adapted table would be lost."""
     target = tmp_path / "no-such-dir" / "p.json"
-    rc = main(["-i", "virtual", "-c", f"ecu-cli-{next(_ids)}", "--duration", "0.3",
-               "--save-profile", str(target)])
+    rc = main(
+        [
+            "-i",
+            "virtual",
+            "-c",
+            f"ecu-cli-{next(_ids)}",
+            "--duration",
+            "0.3",
+            "--save-profile",
+            str(target),
+        ]
+    )
     captured = capsys.readouterr()
     assert rc == 1
     assert "ECU running" not in captured.out
@@ -250,3 +272,28 @@ def test_help_is_fast_and_lists_flags(capsys: pytest.CaptureFixture[str]) -> Non
         "--duration",
     ):
         assert flag in text
+
+
+@pytest.mark.parametrize(
+    ("flags", "line"),
+    [
+        (
+            ["--adaptation-mode", "paper", "--brake", "cancel"],
+            "adaptation: paper; brake press: cancel",
+        ),
+        (["--no-adaptation"], "adaptation: off; brake press: resume"),
+    ],
+)
+def test_cli_adaptation_and_brake_options(
+    flags: list[str], line: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    rc = main(["-i", "virtual", "-c", f"ecu-cli-{next(_ids)}", "--duration", "0.1", *flags])
+    assert rc == 0
+    assert line in capsys.readouterr().out
+
+
+def test_cli_refuses_unknown_adaptation_mode(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["--adaptation-mode", "magic"])
+    assert exc.value.code == 2
+    assert "invalid choice: 'magic'" in capsys.readouterr().err
