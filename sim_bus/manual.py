@@ -46,9 +46,11 @@ def manual_trip(driver: DriverParams, profile: LeadProfile, seed: int,
     m = (n + LOG_EVERY - 1) // LOG_EVERY
     cols = np.zeros((7, m))
     k = 0
+    condition_sum = 0.0  # the drifting condition factor, summed over the logged samples
     for i in range(n):
         vl = float(v_lead[i])
         if i % LOG_EVERY == 0:
+            condition_sum += agent.condition
             agent_out = agent.a_cmd_mps2
             cols[:, k] = (i * MANUAL_DT_S, car.v_mps, car.gap_m, vl, car.a_mps2,
                           max(agent_out, 0.0) / ACCEL_FULL_MPS2 if agent.accel_pressed else 0.0,
@@ -63,6 +65,9 @@ def manual_trip(driver: DriverParams, profile: LeadProfile, seed: int,
         "driver_id": driver.driver_id, "condition": condition, "mode": "manual",
         "scenario": profile.name, "seed": int(seed), "collision": bool(car.collided),
         "collision_t_s": car.collision_t_s, "source": "sim_bus.manual",
+        # mean of the driver's drifting condition factor over the trip (1.0 without drift):
+        # the preference it actually kept is preferred_gap_m(v, condition_mean), roughly
+        "condition_mean": condition_sum / k if k else 1.0,
     }
     return Trip(t_s=cols[0], v_mps=cols[1], gap_m=cols[2], v_lead_mps=cols[3], a_mps2=cols[4],
                 accel_pedal=np.clip(cols[5], 0.0, 1.0), brake_pedal=np.clip(cols[6], 0.0, 1.0),

@@ -84,3 +84,19 @@ def test_calibration_against_real_human_pairs() -> None:
                                      ).values()
     assert lo - 0.2 <= min(ours) and max(ours) <= hi + 0.2
     assert max(ours) - min(ours) > 0.6 * (hi - lo)
+
+
+def test_condition_mean_records_the_drift(profiles: dict[str, LeadProfile]) -> None:
+    """A drifting driver's trip records the mean condition factor it kept; others keep 1."""
+    p = shorten(profiles["manual2"], 120.0)
+    steady = manual_trip(BUILTIN_DRIVERS["d2"], p, seed=2)
+    drifting = manual_trip(BUILTIN_DRIVERS["d5"], p, seed=2)
+    assert steady.meta["condition_mean"] == 1.0
+    c = drifting.meta["condition_mean"]
+    assert c != 1.0 and np.exp(-0.3) <= c <= np.exp(0.4)  # the drift's clip in log space
+    # the realised preference explains the drifting driver's gaps better than the nominal one
+    d5 = BUILTIN_DRIVERS["d5"]
+    moving = drifting.v_mps > 5.0
+    nominal = np.abs(drifting.gap_m - d5.preferred_gap_m(drifting.v_mps))[moving].mean()
+    realised = np.abs(drifting.gap_m - d5.preferred_gap_m(drifting.v_mps, c))[moving].mean()
+    assert realised < nominal
