@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -72,8 +73,9 @@ class DriverParams:
         if len(speeds) != len(heads) or len(speeds) < 1:
             raise DriverError(f"{self.driver_id}: headway_speeds_mps and headway_s differ in "
                               "length or are empty")
-        if any(b <= a for a, b in zip(speeds, speeds[1:], strict=False)):
-            raise DriverError(f"{self.driver_id}: headway_speeds_mps must increase")
+        if any(not b > a for a, b in zip(speeds, speeds[1:], strict=False)) or not all(
+                math.isfinite(v) for v in speeds):
+            raise DriverError(f"{self.driver_id}: headway_speeds_mps must be finite and increase")
         if not all(0.3 <= h <= 6.0 for h in heads):
             raise DriverError(f"{self.driver_id}: headway_s must lie in 0.3..6.0 s")
         if not 0.5 <= self.standstill_m <= 15.0:
@@ -180,7 +182,7 @@ def driver_from_dict(raw: dict[str, Any], origin: str = "<dict>") -> DriverParam
         if "driver_id" not in data:
             raise DriverError(f"{origin}: driver_id is required (or a base driver)")
         return DriverParams(**_tuple_fields(data))
-    except TypeError as exc:
+    except (TypeError, ValueError) as exc:  # a wrong type or a non-numeric list entry
         raise DriverError(f"{origin}: {exc}") from exc
 
 

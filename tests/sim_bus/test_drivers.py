@@ -62,6 +62,10 @@ def test_load_json(tmp_path: Path) -> None:
     ('headway_s = [1.0, 1.0, 1.0, 1.0]\n', "driver_id is required"),
     ('driver_id = "x"\npredefined_setting = "huge"\n', "predefined_setting"),
     ("driver_id = \n", "Invalid"),
+    ('driver_id = "x"\nheadway_s = [1.0, "a", 1.0, 1.0]\n', "could not convert"),
+    ('driver_id = "x"\nheadway_speeds_mps = [5.0, nan, 25.0, 35.0]\n', "finite and increase"),
+    ('driver_id = "x"\nheadway_speeds_mps = [5.0, 15.0, 15.0, 35.0]\n', "finite and increase"),
+    ('driver_id = "x"\nstandstill_m = "4"\n', "not supported"),
 ])
 def test_bad_driver_files(tmp_path: Path, body: str, match: str) -> None:
     path = tmp_path / "bad.toml"
