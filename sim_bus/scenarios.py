@@ -287,7 +287,7 @@ def load_profile_csv(path: Path, name: str | None = None) -> LeadProfile:
     try:
         with path.open(newline="", encoding="utf-8-sig") as handle:
             rows = list(csv.DictReader(handle))
-    except OSError as exc:
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:  # unreadable, not text, not CSV
         raise ScenarioError(f"{path}: {exc}") from exc
     if not rows or not {"t_s", "v_lead_mps"} <= set(rows[0]):
         raise ScenarioError(f"{path}: need a header with columns t_s and v_lead_mps")

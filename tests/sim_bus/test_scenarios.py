@@ -142,6 +142,7 @@ def test_csv_import_resamples_to_10_hz(tmp_path: Path) -> None:
     ("t_s,v_lead_mps\n0,1\n0,2\n", "increasing"),
     ("t_s,v_lead_mps\n0,1\n2,-2\n", "negative"),
     ("t_s,v_lead_mps\n0,1\n2,abc\n", "non-numeric"),
+    ("t_s,v_lead_mps\n0,1\n2\n", "non-numeric"),  # a short row
     ("t_s,v_lead_mps\n0,1\n2,nan\n", "non-finite"),
     ("t_s,v_lead_mps\n0,1\n0.5,2\n", "shorter"),
 ])
@@ -151,6 +152,14 @@ def test_bad_csv_gets_a_clear_error(tmp_path: Path, text: str, match: str) -> No
     with pytest.raises(ScenarioError, match=match):
         load_profile_csv(path)
     assert path.read_text() == text  # the input is left as it was
+
+
+@pytest.mark.parametrize("data", [b"\xff\xfe\xfa\x00t_s\n", b"t_s,v_lead_mps\n0,1\n1,2\x00\n"])
+def test_binary_csv_gets_a_clear_error(tmp_path: Path, data: bytes) -> None:
+    path = tmp_path / "bin.csv"
+    path.write_bytes(data)
+    with pytest.raises(ScenarioError, match="bin.csv"):
+        load_profile_csv(path)
 
 
 @settings(max_examples=20)
