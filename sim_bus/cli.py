@@ -37,6 +37,17 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _check_writable(path: Path) -> None:
+    """Raise SimError unless ``path`` can be created or overwritten (a file, not a folder)."""
+    import os
+
+    from sim_bus.errors import SimError
+
+    parent = path.resolve().parent
+    if path.is_dir() or not (parent.is_dir() and os.access(parent, os.W_OK)):
+        raise SimError(f"--log {path}: not a writable file location")
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc sim``; returns the exit status."""
     args = _parser().parse_args(argv)
@@ -60,6 +71,8 @@ def main(argv: list[str] | None = None) -> int:
             if not args.duration > 0:
                 raise SimError("--duration must be > 0")
             profile = shorten(profile, args.duration)
+        if args.log is not None:  # refuse now, not after the drive when the run would be lost
+            _check_writable(args.log)
     except SimError as exc:
         print(f"pacc sim: error: {exc}", file=sys.stderr)
         return 2

@@ -92,6 +92,20 @@ def test_sim_bad_bus(capsys: pytest.CaptureFixture[str]) -> None:
     assert "cannot open the bus" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("where", ["no-such-dir/run.mcap", "."])
+def test_sim_refuses_an_unwritable_log_before_running(
+        where: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    listener = can.Bus(interface="virtual", channel="test-pacc-sim-log")
+    try:
+        rc = cli.main(["-i", "virtual", "-c", "test-pacc-sim-log", "--duration", "0.5",
+                       "--quiet", "--log", str(tmp_path / where)])
+        sent = listener.recv(0.0)
+    finally:
+        listener.shutdown()
+    assert rc == 2 and "--log" in capsys.readouterr().err
+    assert sent is None  # refused at start: no frame was ever sent
+
+
 def test_scenarios_export_and_drive_the_csv(tmp_path: Path,
                                             capsys: pytest.CaptureFixture[str]) -> None:
     from sim_bus import scenarios
