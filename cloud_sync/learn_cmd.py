@@ -30,6 +30,7 @@ def _do_learn(args: argparse.Namespace) -> int:
     from ecu.dgpt import load_dgpt, save_dgpt
 
     try:
+        _check_outputs(args.output, args.plot)  # now, not after training
         trips = [load_trip(p) for p in args.demos]
         init = load_dgpt(args.init) if args.init else None
         config = IrlConfig(takeover_weight=args.takeover_weight)
@@ -80,6 +81,35 @@ def _do_learn(args: argparse.Namespace) -> int:
     if args.plot:
         print(f"plot -> {args.plot}")
     return 0
+
+
+def _check_outputs(output: str, plot: str | None) -> None:
+    """Raise CloudSyncError unless ``output`` (and ``plot``) can be written, before training.
+
+    A path must name a file in an existing, writable folder; the plot's suffix must be an
+    image format matplotlib writes (png, pdf, svg, ...).
+    """
+    import os
+    from pathlib import Path
+
+    from cloud_sync.errors import CloudSyncError
+
+    for flag, name in (("-o", output), ("--plot", plot)):
+        if name is None:
+            continue
+        path = Path(name)
+        parent = path.resolve().parent
+        if path.is_dir() or not (parent.is_dir() and os.access(parent, os.W_OK)):
+            raise CloudSyncError(f"{flag} {name}: not a writable file location")
+    if plot is not None:
+        from matplotlib.figure import Figure
+
+        formats = Figure().canvas.get_supported_filetypes()
+        suffix = Path(plot).suffix.lower().lstrip(".")
+        if suffix not in formats:
+            raise CloudSyncError(
+                f"--plot {plot}: unknown image format {suffix!r} (one of {', '.join(formats)})"
+            )
 
 
 def add_subparser(subparsers: Any) -> None:

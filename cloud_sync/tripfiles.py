@@ -39,7 +39,7 @@ def read_csv_trip(
     try:
         with open(path, newline="") as stream:
             header = next(csv.reader(stream), None)
-    except OSError as exc:
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:  # unreadable, not text, not CSV
         raise TripLogError(f"{path}: cannot read CSV ({exc})") from exc
     if not header:
         raise TripLogError(f"{path}: empty CSV file")

@@ -97,6 +97,33 @@ def test_learn_refuses_bad_demos_with_message(
     assert "NaN-filled" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize(
+    "extra,match",
+    [
+        (["-o", "no-such-dir/x.json"], "-o"),
+        (["-o", "."], "-o"),
+        (["-o", "x.json", "--plot", "no-such-dir/p.png"], "--plot"),
+        (["-o", "x.json", "--plot", "p.xyz"], "unknown image format 'xyz'"),
+    ],
+)
+def test_learn_refuses_unwritable_outputs_before_training(
+    extra: list[str],
+    match: str,
+    syn_trips: list[Trip],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    demo = tmp_path / "m.mcap"
+    write_trip(demo, syn_trips[0])
+    rc = main(["learn", "--demos", str(demo), "--driver", "d", "-q", *extra])
+    captured = capsys.readouterr()
+    assert rc == 1 and match in captured.err
+    assert "IRL:" not in captured.out  # refused before any training
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.mcap"]  # nothing written
+
+
 def test_help_and_no_command(capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as exc:
         main(["learn", "--help"])

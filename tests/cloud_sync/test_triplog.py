@@ -138,6 +138,12 @@ def test_csv_reader_refuses_bad_files(tmp_path: Path) -> None:
     p.write_text("")
     with pytest.raises(TripLogError, match="empty"):
         read_csv_trip(p)
+    p.write_bytes(b"\xff\xfe\xfa\x00,\n")  # not text
+    with pytest.raises(TripLogError, match="a.csv: cannot read CSV"):
+        read_csv_trip(p)
+    p.write_text("t,v_follower,spacing,v_leader\n0,1,2,3\n0.1,1,2\n")  # a short row
+    with pytest.raises(TripLogError, match="ragged"):
+        read_csv_trip(p)
     q = tmp_path / "a.txt"
     q.write_text("x")
     with pytest.raises(TripLogError, match="unknown trip file type"):
