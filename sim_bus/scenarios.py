@@ -261,8 +261,16 @@ def _canonical_profiles(seed: int) -> dict[str, LeadProfile]:
 
 
 def shorten(profile: LeadProfile, duration_s: float) -> LeadProfile:
-    """The first ``duration_s`` seconds of a profile (for quick tests and demos)."""
-    n = min(len(profile.t_s), int(round(duration_s / DT_S)) + 1)
+    """The first ``duration_s`` seconds of a profile (for quick tests and demos).
+
+    ``duration_s`` must be at least one sample step (0.1 s); beyond the profile's end
+    (``inf`` included) the whole profile is kept. Raises ScenarioError otherwise.
+    """
+    if not duration_s >= DT_S:  # NaN too
+        raise ScenarioError(f"a drive lasts at least one profile step ({DT_S} s), "
+                            f"not {duration_s} s")
+    n = (len(profile.t_s) if duration_s >= profile.duration_s
+         else int(round(duration_s / DT_S)) + 1)
     raw = None if profile.raw_v_mps is None else profile.raw_v_mps[:n]
     return LeadProfile(profile.name, profile.t_s[:n], profile.v_lead_mps[:n],
                        profile.segments, raw)

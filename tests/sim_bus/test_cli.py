@@ -47,6 +47,7 @@ def test_drive_irl_with_profile(tmp_path: Path, capsys: pytest.CaptureFixture[st
     (["--scenario", "missing.csv"], "missing.csv"),
     (["--controller", "irl", "--profile", "nope.json"], "nope.json"),
     (["--duration", "-1"], "duration"),
+    (["--duration", "0.05"], "at least one profile step"),
 ])
 def test_drive_bad_options(argv: list[str], match: str,
                            capsys: pytest.CaptureFixture[str]) -> None:

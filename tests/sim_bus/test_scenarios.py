@@ -18,6 +18,7 @@ from sim_bus.scenarios import (
     load_profile_csv,
     random_speed_sequence,
     save_profile_csv,
+    shorten,
     synthesize,
 )
 
@@ -127,6 +128,16 @@ def test_csv_round_trip(tmp_path: Path, profiles: dict) -> None:
     back = load_profile_csv(path)
     assert np.allclose(back.v_lead_mps, profiles["B"].v_lead_mps, atol=1e-5)
     assert np.allclose(back.t_s, profiles["B"].t_s)
+
+
+def test_shorten_keeps_whole_steps_and_refuses_less_than_one(profiles: dict) -> None:
+    b = profiles["B"]
+    assert len(shorten(b, 0.1).t_s) == 2 and len(shorten(b, 20.0).t_s) == 201
+    for long in (300.0, 1e300, float("inf")):  # to or beyond the end: all of it
+        assert np.array_equal(shorten(b, long).v_lead_mps, b.v_lead_mps)
+    for bad in (0.05, 0.0, -1.0, float("nan")):
+        with pytest.raises(ScenarioError, match="at least one profile step"):
+            shorten(b, bad)
 
 
 def test_csv_import_resamples_to_10_hz(tmp_path: Path) -> None:
