@@ -6,6 +6,8 @@ manual trips on the canonical profiles manual1..manual4 and cached (JSON DGPT) u
 cache directory, keyed by the driver parameters, the seed and a digest of the code that
 makes the table (every module of ``cloud_sync``, ``sim_bus`` and ``ecu``, whose trips,
 learner and table format it depends on); otherwise a DriveError asks for ``--profile``.
+The cache only saves time: a folder that cannot be written means learning again next time,
+not an error.
 """
 
 from __future__ import annotations
@@ -72,7 +74,7 @@ def irl_table(driver: DriverParams, seed: int, cache_dir: Path | None = None) ->
     key = cache_key(driver, seed, code_digest())
     folder = cache_dir or default_cache_dir()
     path = folder / f"irl-{driver.driver_id}-{key}.json"
-    if path.exists():
+    if path.is_file():
         try:
             return load_dgpt(path)
         except DgptError:
@@ -85,8 +87,9 @@ def irl_table(driver: DriverParams, seed: int, cache_dir: Path | None = None) ->
              for i, name in enumerate(MANUAL_PROFILES)]
     result = learn(trips, driver_id=driver.driver_id, seed=seed)
     table: Dgpt = result.table
-    folder.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp")
-    save_dgpt(table, tmp)
-    tmp.replace(path)
+    try:  # save_dgpt writes atomically; the cache only saves time, so a failure is no error
+        folder.mkdir(parents=True, exist_ok=True)
+        save_dgpt(table, path)
+    except (OSError, DgptError):
+        pass  # an unwritable or contended cache folder: learned again next time
     return table

@@ -166,6 +166,12 @@ def test_irl_table_is_learned_from_manual_trips_and_cached(tmp_path: Path) -> No
     assert np.all(np.abs(rel) < 0.25), rel
     again = irl_table(driver, 0, tmp_path)
     assert np.array_equal(again.gap_m, table.gap_m)
+    # an unusable cache folder (here a file) costs a re-learn, not the drive
+    blocked = tmp_path / "not-a-dir"
+    blocked.write_text("x")
+    relearned = irl_table(driver, 0, blocked)
+    assert np.array_equal(relearned.gap_m, table.gap_m)  # learning is a pure function
+    assert blocked.read_text() == "x"
 
 
 def test_sim_takes_the_bus_from_python_can_config(monkeypatch: pytest.MonkeyPatch,
