@@ -15,6 +15,7 @@ cause, never read in part.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -210,16 +211,28 @@ def write_trip(path: str | os.PathLike[str], trip: Trip) -> None:
     """Write ``trip`` to ``path`` as an MCAP file (see the module docstring for the layout).
 
     The file is written to a temporary name and renamed, so a crash never leaves a partial log
-    under ``path``. Raises :class:`TripLogError` if ``meta`` is not JSON-serialisable.
+    under ``path`` (and a failed write removes the temporary file). Raises
+    :class:`TripLogError` if ``meta`` is not JSON-serialisable, OSError if ``path`` cannot be
+    written.
     """
-    from mcap.writer import Writer
-
     path = Path(path)
     try:
         meta_bytes = json.dumps(trip.meta, sort_keys=True, allow_nan=False).encode()
     except (TypeError, ValueError) as exc:
         raise TripLogError(f"Trip.meta is not JSON-serialisable: {exc}") from exc
     tmp = path.with_name(path.name + ".part")
+    try:
+        _write_mcap(tmp, trip, meta_bytes)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink(missing_ok=True)  # no partial file left beside the destination
+        raise
+
+
+def _write_mcap(tmp: Path, trip: Trip, meta_bytes: bytes) -> None:
+    from mcap.writer import Writer
+
     columns = [getattr(trip, k).tolist() for k in FLOAT_FIELDS]
     states = trip.acc_state.tolist()
     with open(tmp, "wb") as stream:
@@ -241,7 +254,6 @@ def write_trip(path: str | os.PathLike[str], trip: Trip) -> None:
             stamp = max(int(round(columns[0][i] * 1e9)), 0)
             writer.add_message(sample_ch, stamp, json.dumps(row).encode(), stamp, sequence=i)
         writer.finish()
-    os.replace(tmp, path)
 
 
 def read_trip(path: str | os.PathLike[str]) -> Trip:

@@ -99,6 +99,17 @@ def test_foreign_mcap_refused(tmp_path: Path) -> None:
         read_trip(path)
 
 
+def test_failed_write_leaves_no_file(tmp_path: Path) -> None:
+    target = tmp_path / "run.mcap"
+    target.mkdir()  # a folder in the way: the final rename fails
+    with pytest.raises(OSError):
+        write_trip(target, make_trip(20))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.mcap"]  # no run.mcap.part
+    assert target.is_dir() and not any(target.iterdir())
+    with pytest.raises(OSError):
+        write_trip(tmp_path / "missing" / "run.mcap", make_trip(20))
+
+
 def test_trip_validation() -> None:
     good = make_trip(10)
     with pytest.raises(TripLogError, match="differ in length"):
