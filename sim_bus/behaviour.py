@@ -97,7 +97,6 @@ class DriverAgent:
         self.set_button = False
         self.resume_button = False
         self.pref_gap_m = 0.0
-        self.presses = 0
 
     # -- perception ---------------------------------------------------------------------
     def _perceive(self, v: float, v_lead: float, gap: float) -> tuple[float, float, float]:
@@ -250,4 +249,3 @@ class DriverAgent:
         self.mode = mode
         self._press_t = 0.0
         self._ok_t = -1.0
-        self.presses += 1

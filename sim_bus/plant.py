@@ -130,11 +130,6 @@ class Plant:
         self._i += 1
         return self._sv * float(n[0]), self._sg * float(n[1])
 
-    @property
-    def state(self) -> PlantState:
-        """The current state as a frozen value."""
-        return PlantState(self.v_mps, self.a_mps2, self.gap_m, self.x_m)
-
     def advance(self, a_cmd_mps2: float, v_lead_mps: float, a_lead_mps2: float) -> None:
         """Advance one step of ``cfg.dt_s`` with the given command and lead motion."""
         cfg = self.cfg

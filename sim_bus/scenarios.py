@@ -54,11 +54,6 @@ class LeadProfile:
         """Duration of the profile (s)."""
         return float(self.t_s[-1] - self.t_s[0]) if len(self.t_s) else 0.0
 
-    def accel_mps2(self) -> np.ndarray:
-        """Lead acceleration (m/s²), shape (n,), by forward differences (last one repeated)."""
-        a = np.diff(self.v_lead_mps) / DT_S
-        return np.append(a, a[-1] if len(a) else 0.0)
-
     def resample(self, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
         """Lead speed and acceleration on a grid of step ``dt_s`` from 0 to the end, shape (m,).
 
