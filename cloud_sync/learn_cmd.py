@@ -31,9 +31,9 @@ def _do_learn(args: argparse.Namespace) -> int:
 
     try:
         _check_outputs(args.output, args.plot)  # now, not after training
+        config = IrlConfig(takeover_weight=args.takeover_weight)
         trips = [load_trip(p) for p in args.demos]
         init = load_dgpt(args.init) if args.init else None
-        config = IrlConfig(takeover_weight=args.takeover_weight)
         acc = [t for t in trips if is_acc_trip(t)]
         if init is not None and acc and init.meta.get("method") == METHOD:
             # ACC trips given with an IRL table: fine-tune from their takeovers

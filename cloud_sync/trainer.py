@@ -9,9 +9,10 @@ starting weights, which the convex objective forgets.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -80,6 +81,16 @@ class IrlConfig:
             raise TrainingError("l2 must be >= 0, max_iter >= 1, gtol and ftol > 0")
         if not 0 < self.lowpass_cutoff < 1:
             raise TrainingError("lowpass_cutoff must be in (0, 1)")
+        positive = ("max_gap_m", "min_coverage_s", "gap_resolution_m", "takeover_weight",
+                    "dgpt_step_mps", "blend_half_s")
+        for name in positive:  # finite and > 0 (NaN fails the comparison too)
+            value = getattr(self, name)
+            if not 0 < value < math.inf:
+                raise TrainingError(f"{name} must be a finite number > 0, got {value}")
+        for name in ("min_total_demo_s", "blend_window_mps", "init_support_ratio"):
+            value = getattr(self, name)
+            if not 0 <= value < math.inf:
+                raise TrainingError(f"{name} must be a finite number >= 0, got {value}")
 
 
 @dataclass(frozen=True)
@@ -401,12 +412,10 @@ def fine_tune(
     trips = [*takeover_trips, *demos]
     weights = [cfg.takeover_weight] * len(takeover_trips) + [1.0] * len(demos)
     # takeovers are short: accept any amount, the prior keeps the rest of the table
-    cfg_ft = IrlConfig(
-        **{
-            **cfg.__dict__,
-            "min_total_demo_s": min(cfg.min_total_demo_s, 5.0),
-            "min_coverage_s": min(cfg.min_coverage_s, 3.0),
-        }
+    cfg_ft = replace(
+        cfg,
+        min_total_demo_s=min(cfg.min_total_demo_s, 5.0),
+        min_coverage_s=min(cfg.min_coverage_s, 3.0),
     )
     return learn_dgpt(
         trips,

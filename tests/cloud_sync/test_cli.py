@@ -104,9 +104,10 @@ def test_learn_refuses_bad_demos_with_message(
         (["-o", "."], "-o"),
         (["-o", "x.json", "--plot", "no-such-dir/p.png"], "--plot"),
         (["-o", "x.json", "--plot", "p.xyz"], "unknown image format 'xyz'"),
+        (["-o", "x.json", "--takeover-weight", "nan"], "takeover_weight"),
     ],
 )
-def test_learn_refuses_unwritable_outputs_before_training(
+def test_learn_refuses_bad_outputs_and_options_before_training(
     extra: list[str],
     match: str,
     syn_trips: list[Trip],

@@ -10,7 +10,13 @@ import numpy as np
 import pytest
 
 from cloud_sync.errors import TrainingError
-from cloud_sync.trainer import LearnResult, empirical_baseline, fine_tune, learn_dgpt
+from cloud_sync.trainer import (
+    IrlConfig,
+    LearnResult,
+    empirical_baseline,
+    fine_tune,
+    learn_dgpt,
+)
 from cloud_sync.triplog import Trip
 from ecu.dgpt import SafetyBounds, load_dgpt, predefined, save_dgpt
 
@@ -114,3 +120,20 @@ def test_baseline_same_format(syn_trips: list[Trip]) -> None:
 def test_init_of_another_driver_refused(syn_trips: list[Trip], learned: LearnResult) -> None:
     with pytest.raises(TrainingError, match="belongs to driver 'syn', not 'other'"):
         learn_dgpt(syn_trips[:1], driver_id="other", init=learned.table)
+
+
+@pytest.mark.parametrize(
+    "field_name,value",
+    [
+        ("takeover_weight", float("nan")),
+        ("takeover_weight", -1.0),
+        ("takeover_weight", float("inf")),
+        ("min_coverage_s", 0.0),
+        ("gap_resolution_m", float("nan")),
+        ("min_total_demo_s", -5.0),
+        ("horizon_steps", 0),
+    ],
+)
+def test_bad_config_refused(field_name: str, value: float) -> None:
+    with pytest.raises(TrainingError, match=field_name):
+        IrlConfig(**{field_name: value})  # type: ignore[arg-type]
