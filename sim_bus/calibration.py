@@ -79,6 +79,9 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m sim_bus.calibration", description=__doc__)
     p.add_argument("--seed", type=int, default=0)
     args = p.parse_args(argv)
+    if args.seed < 0:
+        print(f"python -m sim_bus.calibration: error: --seed must be >= 0, got {args.seed}")
+        return 2
     print(markdown(args.seed))
     return 0
 

@@ -64,6 +64,8 @@ def main(argv: list[str] | None = None) -> int:
     from sim_bus.world import World
 
     try:
+        if args.seed < 0:
+            raise SimError(f"--seed must be >= 0, got {args.seed}")
         driver = with_condition(load_driver(args.driver), args.condition_factor)
         faults = parse_faults(args.faults)
         profile = resolve_profile(args.scenario, args.seed)

@@ -13,6 +13,7 @@ import numpy as np
 
 from sim_bus.behaviour import ACC_OFF, ACCEL_FULL_MPS2, DECEL_LIMIT_MPS2, DriverAgent
 from sim_bus.drivers import DriverParams
+from sim_bus.errors import DriveError
 from sim_bus.plant import Plant, PlantConfig, PlantState
 from sim_bus.scenarios import LeadProfile
 
@@ -32,6 +33,8 @@ def manual_trip(driver: DriverParams, profile: LeadProfile, seed: int,
     """
     from cloud_sync.triplog import Trip
 
+    if not seed >= 0:
+        raise DriveError(f"a seed is an integer >= 0, got {seed}")
     cfg = plant or PlantConfig(dt_s=MANUAL_DT_S)
     if abs(cfg.dt_s - MANUAL_DT_S) > 1e-12:
         raise ValueError(f"manual trips run at dt_s = {MANUAL_DT_S}")

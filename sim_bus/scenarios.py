@@ -224,8 +224,11 @@ def _scenario_a(manual: list[LeadProfile], seed: int, cfg: GeneratorConfig) -> L
 def canonical_profiles(seed: int = 0) -> dict[str, LeadProfile]:
     """The evaluation set: ``manual1``..``manual4``, ``A`` (seen) and ``B`` (unseen), 300 s.
 
-    Pure function of the seed and the shipped data (cached; the arrays are read-only).
+    Pure function of the seed (an integer >= 0; ScenarioError otherwise) and the shipped data
+    (cached; the arrays are read-only).
     """
+    if not seed >= 0:
+        raise ScenarioError(f"a seed is an integer >= 0, got {seed}")
     return dict(_canonical_profiles(int(seed)))
 
 
@@ -323,7 +326,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("path", nargs="?", type=Path, help="CSV file to write")
     p.add_argument("--seed", type=int, default=0)
     args = p.parse_args(argv)
-    profiles = canonical_profiles(args.seed)
+    try:
+        profiles = canonical_profiles(args.seed)
+    except ScenarioError as exc:
+        print(f"error: {exc}")
+        return 2
     if args.command == "list":
         for name, prof in profiles.items():
             v = prof.v_lead_mps

@@ -15,6 +15,7 @@ import numpy as np
 
 from sim_bus.behaviour import COAST_MPS2, DriverAgent
 from sim_bus.drivers import DriverParams
+from sim_bus.errors import DriveError
 from sim_bus.plant import Plant, PlantConfig, PlantState
 from sim_bus.scenarios import LeadProfile
 
@@ -58,10 +59,12 @@ class WorldLog:
 
 
 class World:
-    """Lead + plant + driver, advanced one tick at a time (pure function of its seed)."""
+    """Lead + plant + driver, advanced one tick at a time (pure function of its seed >= 0)."""
 
     def __init__(self, driver: DriverParams, profile: LeadProfile, seed: int,
                  cfg: WorldConfig | None = None, acc_mode: bool = True) -> None:
+        if not seed >= 0:
+            raise DriveError(f"a seed is an integer >= 0, got {seed}")
         self.cfg = cfg = cfg or WorldConfig()
         self.driver = driver
         self.profile = profile

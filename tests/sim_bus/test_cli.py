@@ -48,6 +48,7 @@ def test_drive_irl_with_profile(tmp_path: Path, capsys: pytest.CaptureFixture[st
     (["--controller", "irl", "--profile", "nope.json"], "nope.json"),
     (["--duration", "-1"], "duration"),
     (["--duration", "0.05"], "at least one profile step"),
+    (["--seed", "-1"], "seed"),
 ])
 def test_drive_bad_options(argv: list[str], match: str,
                            capsys: pytest.CaptureFixture[str]) -> None:
@@ -91,6 +92,24 @@ def test_sim_real_time_against_an_ecu_runtime(capsys: pytest.CaptureFixture[str]
 def test_sim_bad_bus(capsys: pytest.CaptureFixture[str]) -> None:
     assert cli.main(["-i", "no-such-interface", "-c", "x", "--duration", "1"]) == 2
     assert "cannot open the bus" in capsys.readouterr().err
+
+
+def test_negative_seed_is_a_clear_error(capsys: pytest.CaptureFixture[str]) -> None:
+    from sim_bus import calibration, scenarios
+    from sim_bus.errors import SimError
+    from sim_bus.manual import manual_trip
+    from sim_bus.world import World
+
+    assert cli.main(["-i", "virtual", "-c", "neg-seed", "--seed", "-1", "--duration", "1"]) == 2
+    assert "--seed must be >= 0" in capsys.readouterr().err
+    assert scenarios.main(["list", "--seed", "-2"]) == 2
+    assert calibration.main(["--seed", "-3"]) == 2
+    assert capsys.readouterr().out.count(">= 0") == 2
+    profile = scenarios.canonical_profiles(0)["B"]
+    with pytest.raises(SimError, match="seed"):
+        World(BUILTIN_DRIVERS["d1"], profile, -1)
+    with pytest.raises(SimError, match="seed"):
+        manual_trip(BUILTIN_DRIVERS["d1"], profile, -1)
 
 
 @pytest.mark.parametrize("where", ["no-such-dir/run.mcap", "."])
