@@ -209,14 +209,7 @@ def _run(args: argparse.Namespace) -> int:
         mode = args.adaptation_mode if args.adaptation else "off"
         _say(f"adaptation: {mode}; brake press: {args.brake}")
         _say(f"ECU running on {bus.channel_info} (Ctrl-C to stop)")
-        restore_sigterm = _stop_on_sigterm(rt.stop)
-        try:
-            rt.run_realtime(args.duration)
-        except KeyboardInterrupt:
-            _say("interrupted")
-        finally:
-            restore_sigterm()
-            node.finish()
+        bus_error = run_until_done(rt, args.duration)
     _say(rt.summary())
     if args.takeovers and node.recorder is not None:
         rec = node.recorder
@@ -231,7 +224,32 @@ def _run(args: argparse.Namespace) -> int:
         except DgptError as exc:
             print(f"pacc ecu: error: {exc}", file=sys.stderr)
             return 1
+    if bus_error is not None:
+        print(f"pacc ecu: error: the CAN bus failed: {bus_error}", file=sys.stderr)
+        return 1
     return 0
+
+
+def run_until_done(rt: Any, duration_s: float | None) -> str | None:
+    """Run ``rt`` (an EcuRuntime) in real time until ``duration_s``, Ctrl-C or SIGTERM.
+
+    The open takeover segment is always flushed. A failure of the bus itself
+    (``can.CanError`` from receive or send) ends the run like a stop, so the caller still
+    prints the summary and saves the profile; its text is returned (None: clean end).
+    """
+    import can
+
+    restore_sigterm = _stop_on_sigterm(rt.stop)
+    try:
+        rt.run_realtime(duration_s)
+    except KeyboardInterrupt:
+        _say("interrupted")
+    except can.CanError as exc:
+        return str(exc) or type(exc).__name__
+    finally:
+        restore_sigterm()
+        rt.node.finish()
+    return None
 
 
 if __name__ == "__main__":

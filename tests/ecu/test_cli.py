@@ -297,3 +297,33 @@ def test_cli_refuses_unknown_adaptation_mode(capsys: pytest.CaptureFixture[str])
         main(["--adaptation-mode", "magic"])
     assert exc.value.code == 2
     assert "invalid choice: 'magic'" in capsys.readouterr().err
+
+
+def test_bus_failure_ends_the_run_cleanly() -> None:
+    """A bus that fails under the runtime (here: shut down by another thread, so python-can's
+    virtual bus raises CanOperationError on receive) ends the run with the error text
+    instead of a traceback, and the open takeover segment is still flushed."""
+    import threading
+
+    import can
+
+    from ecu.cli import run_until_done
+    from ecu.dgpt import predefined
+    from ecu.node import EcuConfig, EcuNode
+    from ecu.runtime import EcuRuntime
+
+    bus = can.Bus(interface="virtual", channel=f"ecu-cli-{next(_ids)}")
+    flushed: list[bool] = []
+    node = EcuNode(EcuConfig(), predefined(1.5))
+    node.finish = lambda: flushed.append(True)  # type: ignore[method-assign]
+    rt = EcuRuntime(bus, node)
+    timer = threading.Timer(0.2, bus.shutdown)
+    timer.start()
+    try:
+        error = run_until_done(rt, 5.0)
+    finally:
+        timer.cancel()
+        bus.shutdown()
+    assert error is not None and "closed" in error.lower()
+    assert flushed == [True]
+    assert 5 <= rt.cycles < 100  # it ran, then stopped at the failure, not at 5 s
