@@ -267,9 +267,12 @@ def learn_dgpt(
     table of this method) the grid, the features and α are taken from it, α starts from and is
     pulled towards the earlier α, speeds without new evidence keep the earlier gaps, and the
     result is ``init.version + 1``. Raises :class:`DemoError` for empty, NaN-filled or too
-    short demonstrations, :class:`TrainingError` if the optimisation fails.
+    short demonstrations, :class:`TrainingError` for a negative seed or if the optimisation
+    fails.
     """
     cfg = config if config is not None else IrlConfig()
+    if not seed >= 0:  # numpy's generators take no negative seed
+        raise TrainingError(f"a seed is an integer >= 0, got {seed}")
     if init is not None and init.driver_id != driver_id:
         raise TrainingError(
             f"the initial table belongs to driver {init.driver_id!r}, not {driver_id!r}"

@@ -105,6 +105,7 @@ def test_learn_refuses_bad_demos_with_message(
         (["-o", "x.json", "--plot", "no-such-dir/p.png"], "--plot"),
         (["-o", "x.json", "--plot", "p.xyz"], "unknown image format 'xyz'"),
         (["-o", "x.json", "--takeover-weight", "nan"], "takeover_weight"),
+        (["-o", "x.json", "--seed", "-1"], "seed"),
     ],
 )
 def test_learn_refuses_bad_outputs_and_options_before_training(
