@@ -33,10 +33,13 @@ class PlantConfig:
     accel_max_mps2: float = 4.0
 
     def __post_init__(self) -> None:
-        if not (self.dt_s > 0 and self.actuator_tau_s >= 0):
-            raise ValueError("dt_s must be > 0 and actuator_tau_s >= 0")
-        if self.sigma_v_mps < 0 or self.sigma_g_m < 0:
-            raise ValueError("noise standard deviations must be >= 0")
+        # comparisons written so that NaN fails them too
+        if not (0 < self.dt_s < math.inf and 0 <= self.actuator_tau_s < math.inf):
+            raise ValueError("dt_s must be > 0 and actuator_tau_s >= 0 (finite)")
+        if not (0 <= self.sigma_v_mps < math.inf and 0 <= self.sigma_g_m < math.inf):
+            raise ValueError("noise standard deviations must be finite and >= 0")
+        if not -math.inf < self.accel_min_mps2 < 0 < self.accel_max_mps2 < math.inf:
+            raise ValueError("need finite accel_min_mps2 < 0 < accel_max_mps2")
 
 
 @dataclass(frozen=True)

@@ -83,8 +83,22 @@ def test_non_finite_command_is_treated_as_zero() -> None:
     assert car.v_mps == 20.0 and math.isfinite(car.gap_m)
 
 
-def test_bad_config_rejected() -> None:
+@pytest.mark.parametrize("field_name,value", [
+    ("dt_s", 0.0), ("dt_s", math.nan), ("actuator_tau_s", math.inf), ("sigma_v_mps", -1.0),
+    ("sigma_g_m", math.nan), ("accel_min_mps2", 1.0), ("accel_max_mps2", math.nan),
+])
+def test_bad_config_rejected(field_name: str, value: float) -> None:
     with pytest.raises(ValueError):
-        PlantConfig(dt_s=0.0)
+        PlantConfig(**{field_name: value})
+
+
+@pytest.mark.parametrize("field_name,value", [
+    ("driver_dt_s", 0.015), ("driver_dt_s", math.nan), ("engage_s", -1.0),
+    ("initial_gap_factor", 0.0), ("initial_gap_factor", math.inf),
+])
+def test_bad_world_config_rejected(field_name: str, value: float) -> None:
+    from sim_bus.world import WorldConfig
+
     with pytest.raises(ValueError):
-        PlantConfig(sigma_v_mps=-1.0)
+        WorldConfig(**{field_name: value})  # type: ignore[arg-type]
+    assert WorldConfig().driver_dt_s == 0.05  # the defaults are valid
