@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import re
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,6 +29,7 @@ PredefinedSetting = Literal["low", "medium", "high"]
 #: the paper's predefined headways (s) per setting, and the HMI GapSetting code of each
 PREDEFINED_HEADWAY_S: dict[str, float] = {"low": 1.0, "medium": 3.0, "high": 4.0}
 GAP_SETTING_CODE: dict[str, int] = {"low": 1, "medium": 2, "high": 3}
+_DRIVER_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 
 
 @dataclass(frozen=True)
@@ -69,6 +71,10 @@ class DriverParams:
     predefined_setting: PredefinedSetting = "medium"
 
     def __post_init__(self) -> None:
+        if not (isinstance(self.driver_id, str) and _DRIVER_ID.fullmatch(self.driver_id)):
+            # it names files (the IRL cache) and tables: no path separators, no surprises
+            raise DriverError(f"driver_id must be 1-64 letters, digits, '_', '-' or '.', "
+                              f"starting with a letter or digit; got {self.driver_id!r}")
         speeds, heads = self.headway_speeds_mps, self.headway_s
         if len(speeds) != len(heads) or len(speeds) < 1:
             raise DriverError(f"{self.driver_id}: headway_speeds_mps and headway_s differ in "

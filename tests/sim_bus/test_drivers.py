@@ -66,6 +66,9 @@ def test_load_json(tmp_path: Path) -> None:
     ('driver_id = "x"\nheadway_speeds_mps = [5.0, nan, 25.0, 35.0]\n', "finite and increase"),
     ('driver_id = "x"\nheadway_speeds_mps = [5.0, 15.0, 15.0, 35.0]\n', "finite and increase"),
     ('driver_id = "x"\nstandstill_m = "4"\n', "not supported"),
+    ('driver_id = "../../etc/x"\n', "driver_id must be"),
+    ('driver_id = 5\n', "driver_id must be"),
+    ('driver_id = ""\n', "driver_id must be"),
 ])
 def test_bad_driver_files(tmp_path: Path, body: str, match: str) -> None:
     path = tmp_path / "bad.toml"
