@@ -111,7 +111,8 @@ def main(argv: list[str] | None = None) -> int:
                       log.accel_pressed, log.brake_pressed, log.pref_gap_m)
     collided = world.plant.collided
     print(f"sim: scenario {args.scenario}, driver {driver.driver_id}, {world.t_s:.1f} s in "
-          f"{time.monotonic() - start:.1f} s wall; {node.commands_ok} ACC commands received")
+          f"{time.monotonic() - start:.1f} s wall; {node.commands_ok} ACC commands received"
+          + (f"; {node.send_errors} frames refused by the bus" if node.send_errors else ""))
     print(f"  PoI {m.poi_pct:.2f} %  NIM {m.nim_per_min:.2f} /min  min gap {m.min_gap_m:.2f} m  "
           f"min TTC {m.min_ttc_s:.2f} s  RMS jerk {m.rms_jerk_mps3:.3f} m/s^3  presses "
           f"{m.press_onsets}  collisions {1 if collided else 0}")

@@ -82,6 +82,7 @@ class SimNode:
         self.takeover_request = False
         self.status: dict[str, Any] | None = None
         self.frames_sent = 0
+        self.send_errors = 0  # frames the bus refused (can.CanError on send)
         self.fault_counts: Counter[tuple[str, str]] = Counter()
         # the virtual bus exposes its receive queue: peeking it saves a recv() call per tick
         queue = getattr(bus, "queue", None)
@@ -146,7 +147,11 @@ class SimNode:
         return vals
 
     def _send(self, msg: can.Message) -> None:
-        self.bus.send(msg)
+        try:
+            self.bus.send(msg)
+        except can.CanError:  # e.g. a full transmit queue on a real bus: the frame is lost
+            self.send_errors += 1
+            return
         self.frames_sent += 1
 
     def _transmit(self, now: float) -> None:
@@ -160,8 +165,12 @@ class SimNode:
                 msg = msgs[role]
                 msg.data = bytearray(encode(role, self._fill(role)))
                 msg.timestamp = now
-                send(msg)
-            self.frames_sent += len(due)
+                try:
+                    send(msg)
+                except can.CanError:  # lost, like a dropped frame; the simulation goes on
+                    self.send_errors += 1
+                    continue
+                self.frames_sent += 1
             return
         for role in due:
             vals = self._fill(role)

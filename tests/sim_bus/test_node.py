@@ -182,3 +182,30 @@ def test_delay_and_freeze(buses: tuple[can.BusABC, can.BusABC]) -> None:
             gaps.append(d.values["rel_speed_mps"])
     assert ego_first == pytest.approx(0.05)
     assert len(gaps) == 20 and len(set(gaps)) == 1  # frozen values, valid E2E
+
+
+def test_a_bus_that_refuses_frames_does_not_stop_the_simulation(channel: str) -> None:
+    """A send error (a full queue on a real bus; here a closed bus) loses frames, no more."""
+    bus = can.Bus(interface="virtual", channel=channel)
+    world = World(BUILTIN_DRIVERS["d2"], _flat(20.0), seed=0)
+    node = SimNode(bus, world)
+    for _ in range(50):
+        node.step()
+    sent = node.frames_sent
+    assert sent > 0 and node.send_errors == 0
+    bus.shutdown()  # from now on every send raises can.CanOperationError
+    for _ in range(50):
+        node.step()
+    assert node.frames_sent == sent
+    assert node.send_errors == 50 + 50 + 10 + 5  # ESC, PEDAL every tick, RADAR, HMI
+    assert world.tick == 100 and world.plant.v_mps > 0.0
+
+
+def test_faulty_path_counts_refused_frames_too(channel: str) -> None:
+    bus = can.Bus(interface="virtual", channel=channel)
+    world = World(BUILTIN_DRIVERS["d2"], _flat(20.0), seed=0)
+    node = SimNode(bus, world, faults=parse_faults("radar:crc=0.5"))
+    bus.shutdown()
+    for _ in range(10):
+        node.step()
+    assert node.frames_sent == 0 and node.send_errors == 10 + 10 + 2 + 1
