@@ -83,6 +83,7 @@ class SimNode:
         self.status: dict[str, Any] | None = None
         self.frames_sent = 0
         self.send_errors = 0  # frames the bus refused (can.CanError on send)
+        self.recv_errors = 0  # can.CanError on receive
         self.fault_counts: Counter[tuple[str, str]] = Counter()
         # the virtual bus exposes its receive queue: peeking it saves a recv() call per tick
         queue = getattr(bus, "queue", None)
@@ -100,7 +101,11 @@ class SimNode:
             return  # fast path on the virtual bus: nothing arrived since the last tick
         accept = self.inbox.accept
         while True:
-            msg = bus.recv(0.0)
+            try:
+                msg = bus.recv(0.0)
+            except can.CanError:  # a bus error (real bus): nothing more to read this tick
+                self.recv_errors += 1
+                break
             if msg is None:
                 break
             if msg.is_error_frame or msg.is_remote_frame:

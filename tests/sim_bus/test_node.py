@@ -193,9 +193,13 @@ def test_a_bus_that_refuses_frames_does_not_stop_the_simulation(channel: str) ->
         node.step()
     sent = node.frames_sent
     assert sent > 0 and node.send_errors == 0
-    bus.shutdown()  # from now on every send raises can.CanOperationError
+    peer = can.Bus(interface="virtual", channel=channel)
+    peer.send(_command(Outbox(load_codec()), 1, -1.0, 2, node.t_s))  # waiting in the queue
+    peer.shutdown()
+    bus.shutdown()  # from now on every send and receive raises can.CanOperationError
     for _ in range(50):
         node.step()
+    assert node.recv_errors >= 1 and node.commands_ok == 0
     assert node.frames_sent == sent
     assert node.send_errors == 50 + 50 + 10 + 5  # ESC, PEDAL every tick, RADAR, HMI
     assert world.tick == 100 and world.plant.v_mps > 0.0
