@@ -19,9 +19,12 @@ from __future__ import annotations
 
 import argparse
 import csv
+import warnings
 from pathlib import Path
 
 import numpy as np
+
+from sim_bus.errors import DataError
 
 #: ../shared/data/openacc_astazero beside the repository
 DEFAULT_SOURCE = Path(__file__).resolve().parents[2] / "shared" / "data" / "openacc_astazero"
@@ -36,18 +39,27 @@ ATTRIBUTION = (
 _COLUMNS = ("t", "v_follower", "v_leader", "spacing")
 
 
-class BuildError(RuntimeError):
+class BuildError(DataError):
     """The source folder does not hold usable pair files."""
 
 
 def _read_pair(path: Path) -> dict[str, np.ndarray]:
     """Read one pair CSV into float64 columns (t, v_follower, v_leader, spacing), shape (n,)."""
-    with path.open(newline="", encoding="utf-8-sig") as handle:
-        header = next(csv.reader(handle))
-    missing = [c for c in _COLUMNS if c not in header]
-    if missing:
-        raise BuildError(f"{path}: missing columns {missing}")
-    raw = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    try:
+        with path.open(newline="", encoding="utf-8-sig") as handle:
+            header = next(csv.reader(handle), [])
+        missing = [c for c in _COLUMNS if c not in header]
+        if missing:
+            raise BuildError(f"{path}: missing columns {missing}")
+        with warnings.catch_warnings():  # a header without rows: refused below, not warned
+            warnings.simplefilter("ignore", UserWarning)
+            raw = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    except (OSError, ValueError, csv.Error) as exc:  # unreadable, not text, ragged, non-numeric
+        raise BuildError(f"{path}: {exc}") from exc
+    if raw.shape[0] < 2:
+        raise BuildError(f"{path}: fewer than two samples")
+    if raw.shape[1] != len(header):
+        raise BuildError(f"{path}: {raw.shape[1]} values per row, header has {len(header)}")
     cols = {name: raw[:, header.index(name)] for name in _COLUMNS}
     if not all(np.all(np.isfinite(c)) for c in cols.values()):
         raise BuildError(f"{path}: non-finite values")
@@ -113,7 +125,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         sizes = build(args.source, args.out)
-    except (BuildError, OSError, ValueError) as exc:
+    except (BuildError, OSError) as exc:
         print(f"build_dataset: error: {exc}")
         return 1
     print(f"wrote {args.out}: {sizes['pairs']} pairs, {sizes['samples']} samples, "
