@@ -6,6 +6,7 @@ of the JRC OpenACC AstaZero campaign (Makridis et al., 2021) at 10 Hz.
 
 from __future__ import annotations
 
+import zipfile
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -41,7 +42,7 @@ def load_human_pairs(path: Path = DATA_PATH) -> tuple[HumanPair, ...]:
             ids = [str(s) for s in npz["pair_id"]]
             makes = [str(s) for s in npz["follower_make"]]
             dt_s = float(npz["dt_s"])
-    except (OSError, KeyError, ValueError) as exc:
+    except (OSError, KeyError, ValueError, zipfile.BadZipFile) as exc:  # BadZipFile: truncated
         raise DataError(f"cannot read the simulator data file {path}: {exc}") from exc
     if len(offsets) != len(ids) + 1 or offsets[-1] != len(v_lead):
         raise DataError(f"{path}: offsets do not match the arrays")

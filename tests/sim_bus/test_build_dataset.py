@@ -61,3 +61,16 @@ def test_bad_source_is_a_build_error(tmp_path: Path, text: bytes, match: str) ->
 def test_main_reports_a_bad_source(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["--source", str(tmp_path), "--out", str(tmp_path / "x.npz")]) == 1
     assert "no oa_pair_*.csv" in capsys.readouterr().out
+
+
+def test_damaged_data_file_is_a_data_error(tmp_path: Path) -> None:
+    from sim_bus.dataset import DATA_PATH
+    from sim_bus.errors import DataError
+
+    truncated = tmp_path / "truncated.npz"
+    truncated.write_bytes(DATA_PATH.read_bytes()[:5000])
+    junk = tmp_path / "junk.npz"
+    junk.write_bytes(b"not numpy at all")
+    for path in (truncated, junk, tmp_path / "missing.npz"):
+        with pytest.raises(DataError, match=path.name):
+            load_human_pairs(path)
