@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from cloud_sync.triplog import Trip, read_trip, write_trip
+from sim_bus.calibration import headway_by_band
 from sim_bus.dataset import load_human_pairs
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.manual import manual_trip
@@ -44,7 +47,8 @@ def test_manual_trip_is_deterministic(profiles: dict[str, LeadProfile]) -> None:
     assert not np.array_equal(a.gap_m, c.gap_m)
 
 
-def test_manual_trip_round_trips_through_mcap(tmp_path, profiles) -> None:  # type: ignore[no-untyped-def]
+def test_manual_trip_round_trips_through_mcap(tmp_path: Path,
+                                              profiles: dict[str, LeadProfile]) -> None:
     trip = manual_trip(BUILTIN_DRIVERS["d2"], shorten(profiles["manual1"], 30.0), seed=0)
     path = tmp_path / "m.mcap"
     write_trip(path, trip)
@@ -52,13 +56,20 @@ def test_manual_trip_round_trips_through_mcap(tmp_path, profiles) -> None:  # ty
     assert np.allclose(back.gap_m, trip.gap_m) and back.meta["mode"] == "manual"
 
 
-def _headway_by_band(v: np.ndarray, gap: np.ndarray, dv: np.ndarray) -> dict[int, float]:
-    out = {}
-    for lo in (10, 15, 20, 25):
-        m = (v >= lo) & (v < lo + 5) & (np.abs(dv) < 0.5)
-        if m.sum() > 100:
-            out[lo] = float(np.median(gap[m] / v[m]))
-    return out
+def _headway_by_band(v: np.ndarray, gap: np.ndarray, v_lead: np.ndarray) -> list[float]:
+    """The median steady time gaps of the bands with enough data (sim_bus.calibration)."""
+    return [x for x in headway_by_band(v, gap, v_lead) if x is not None]
+
+
+def test_headway_by_band_hand_counted() -> None:
+    v = np.concatenate([np.full(100, 12.0), np.full(99, 17.0), np.full(150, 22.0)])
+    gap = np.concatenate([np.full(100, 24.0), np.full(99, 34.0), np.full(150, 44.0)])
+    v_lead = v.copy()
+    v_lead[200:] += 1.0  # not steady: |v_lead - v| >= 0.5
+    v_lead[200:260] = v[200:260]  # 60 steady samples: fewer than MIN_SAMPLES
+    assert headway_by_band(v, gap, v_lead) == [2.0, None, None, None]  # 99 < 100 samples too
+    v_lead[200:300] = v[200:300]
+    assert headway_by_band(v, gap, v_lead) == [2.0, None, 2.0, None]
 
 
 def test_calibration_against_real_human_pairs() -> None:
@@ -71,8 +82,7 @@ def test_calibration_against_real_human_pairs() -> None:
     pairs = load_human_pairs()
     real: list[float] = []
     for p in pairs:
-        real += _headway_by_band(p.v_follower_mps, p.gap_m, p.v_leader_mps - p.v_follower_mps
-                                 ).values()
+        real += _headway_by_band(p.v_follower_mps, p.gap_m, p.v_leader_mps)
     lo, hi = min(real), max(real)
     ours: list[float] = []
     for d in BUILTIN_DRIVERS.values():
@@ -80,8 +90,7 @@ def test_calibration_against_real_human_pairs() -> None:
             n = len(p.v_leader_mps)
             prof = LeadProfile(p.pair_id, np.arange(n) * 0.1, p.v_leader_mps)
             trip = manual_trip(d, shorten(prof, 600.0), seed=0)
-            ours += _headway_by_band(trip.v_mps, trip.gap_m, trip.v_lead_mps - trip.v_mps
-                                     ).values()
+            ours += _headway_by_band(trip.v_mps, trip.gap_m, trip.v_lead_mps)
     assert lo - 0.2 <= min(ours) and max(ours) <= hi + 0.2
     assert max(ours) - min(ours) > 0.6 * (hi - lo)
 
