@@ -79,11 +79,26 @@ def _window(value: str, clause: str) -> tuple[float, float]:
     return a, b
 
 
+@dataclass
+class _Draft:
+    """The faults of one role while a SPEC is parsed (the mutable twin of FaultPlan)."""
+
+    values: dict[str, float] = field(default_factory=dict)  # drop, crc, counter, delay
+    freeze: list[tuple[float, float]] = field(default_factory=list)
+    silent: list[tuple[float, float]] = field(default_factory=list)
+
+    def plan(self) -> FaultPlan:
+        v = self.values
+        return FaultPlan(drop=v.get("drop", 0.0), crc=v.get("crc", 0.0),
+                         counter=v.get("counter", 0.0), delay_s=v.get("delay", 0.0),
+                         freeze=tuple(self.freeze), silent=tuple(self.silent))
+
+
 def parse_faults(text: str | None) -> FaultSpec:
     """Parse a SPEC (see module docstring); an empty or None SPEC means no faults."""
     if not text or not text.strip():
         return FaultSpec()
-    acc: dict[str, dict[str, object]] = {}
+    drafts: dict[str, _Draft] = {}
     for clause in (c.strip() for c in text.split(";")):
         if not clause:
             continue
@@ -98,22 +113,11 @@ def parse_faults(text: str | None) -> FaultSpec:
                 raise FaultSpecError(f"{clause!r}: expected KIND=VALUE, got {item!r}")
             kind, value = (s.strip() for s in item.split("=", 1))
             for tgt in targets:
-                plan = acc.setdefault(tgt, {})
-                _apply(plan, kind, value, clause)
-    plans = {}
-    for role, d in acc.items():
-        plans[role] = FaultPlan(
-            drop=float(d.get("drop", 0.0)),  # type: ignore[arg-type]
-            crc=float(d.get("crc", 0.0)),  # type: ignore[arg-type]
-            counter=float(d.get("counter", 0.0)),  # type: ignore[arg-type]
-            delay_s=float(d.get("delay", 0.0)),  # type: ignore[arg-type]
-            freeze=tuple(d.get("freeze", ())),  # type: ignore[arg-type]
-            silent=tuple(d.get("silent", ())),  # type: ignore[arg-type]
-        )
-    return FaultSpec(plans, text)
+                _apply(drafts.setdefault(tgt, _Draft()), kind, value, clause)
+    return FaultSpec({role: d.plan() for role, d in drafts.items()}, text)
 
 
-def _apply(plan: dict[str, object], kind: str, value: str, clause: str) -> None:
+def _apply(draft: _Draft, kind: str, value: str, clause: str) -> None:
     if kind in _PROB:
         try:
             p = float(value)
@@ -121,7 +125,7 @@ def _apply(plan: dict[str, object], kind: str, value: str, clause: str) -> None:
             raise FaultSpecError(f"{clause!r}: {kind} needs a probability, got {value!r}") from None
         if not 0.0 <= p <= 1.0:
             raise FaultSpecError(f"{clause!r}: {kind} probability must lie in 0..1")
-        plan[kind] = p
+        draft.values[kind] = p
     elif kind == "delay":
         try:
             d = float(value)
@@ -129,12 +133,9 @@ def _apply(plan: dict[str, object], kind: str, value: str, clause: str) -> None:
             raise FaultSpecError(f"{clause!r}: delay needs seconds, got {value!r}") from None
         if not 0.0 <= d <= 10.0:
             raise FaultSpecError(f"{clause!r}: delay must lie in 0..10 s")
-        plan["delay"] = d
+        draft.values["delay"] = d
     elif kind in _WINDOW:
-        key = "freeze" if kind == "freeze" else "silent"
-        windows = list(plan.get(key, ()))  # type: ignore[call-overload]
-        windows.append(_window(value, clause))
-        plan[key] = windows
+        (draft.freeze if kind == "freeze" else draft.silent).append(_window(value, clause))
     else:
         raise FaultSpecError(f"{clause!r}: unknown fault kind {kind!r} "
                              f"(one of {_PROB + ('delay',) + _WINDOW})")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from sim_bus.errors import FaultSpecError
-from sim_bus.faults import ROLES, parse_faults
+from sim_bus.faults import ROLES, FaultPlan, parse_faults
 
 
 def test_parse_full_spec() -> None:
@@ -20,6 +20,14 @@ def test_parse_full_spec() -> None:
     assert ped is not None and ped.counter == 0.01 and ped.frozen_at(3.5) == (3.0, 4.0)
     hmi = spec.plan("hmi")
     assert hmi is not None and hmi.silent_at(100.1) and not hmi.random
+
+
+def test_clauses_of_one_role_merge() -> None:
+    spec = parse_faults("radar:drop=0.1;radar:crc=0.2,dropout=1-2;radar:dropout=3-4;"
+                        "radar:drop=0.3;all:freeze=5-6")
+    assert spec.plan("radar") == FaultPlan(drop=0.3, crc=0.2, silent=((1.0, 2.0), (3.0, 4.0)),
+                                           freeze=((5.0, 6.0),))  # the later drop wins
+    assert all(spec.plan(r) == FaultPlan(freeze=((5.0, 6.0),)) for r in ROLES if r != "radar")
 
 
 def test_empty_spec_means_no_faults() -> None:
