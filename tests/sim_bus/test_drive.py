@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from ecu.dgpt import Dgpt, SafetyBounds, clamp_to_bounds, speed_axis
-from sim_bus.drive import CONTROLLERS, DriveConfig, predefined_table, run_drive
+from sim_bus.drive import CONTROLLERS, DriveConfig, DriveResult, predefined_table, run_drive
 from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
 from sim_bus.scenarios import canonical_profiles, shorten
 
@@ -137,7 +137,7 @@ def test_corrupt_crcs_are_counted_and_never_acted_on() -> None:
     driver = BUILTIN_DRIVERS["d1"]
     prof = shorten(_profiles()["B"], 40.0)
 
-    def run(faults: str):  # type: ignore[no-untyped-def]
+    def run(faults: str) -> DriveResult:
         return run_drive(DriveConfig(scenario="B", driver_id="d1", seed=4, duration_s=40.0,
                                      faults=faults), driver, predefined_table(driver), prof)
 
