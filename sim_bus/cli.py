@@ -126,6 +126,7 @@ def main(argv: list[str] | None = None) -> int:
                     brake_pedal=np.clip(log.brake_bar[sl] / 250.0, 0, 1),
                     acc_state=log.acc_state[sl],
                     meta={"driver_id": driver.driver_id, "condition": "dry", "mode": "acc",
+                          "condition_factor": args.condition_factor,
                           "scenario": args.scenario, "seed": args.seed,
                           "collision": collided, "source": "sim_bus.cli"})
         try:

@@ -6,6 +6,7 @@ import threading
 from pathlib import Path
 
 import can
+import numpy as np
 import pytest
 
 from cloud_sync.triplog import read_trip
@@ -112,6 +113,18 @@ def test_negative_seed_is_a_clear_error(capsys: pytest.CaptureFixture[str]) -> N
         manual_trip(BUILTIN_DRIVERS["d1"], profile, -1)
 
 
+def test_sim_writes_its_run_as_a_trip_log(tmp_path: Path) -> None:
+    log = tmp_path / "sim.mcap"
+    rc = cli.main(["-i", "virtual", "-c", "test-pacc-sim-trip", "--driver", "d3", "--seed", "4",
+                   "--duration", "1", "--quiet", "--condition-factor", "1.2", "--log", str(log)])
+    assert rc == 0
+    trip = read_trip(log)
+    assert trip.meta["driver_id"] == "d3" and trip.meta["seed"] == 4
+    assert trip.meta["mode"] == "acc" and trip.meta["condition_factor"] == 1.2
+    assert len(trip) == 10 and np.allclose(np.diff(trip.t_s), 0.1)  # 1 s at 10 Hz
+    assert np.all(trip.acc_state == 0)  # no ECU on this channel: the ACC never engaged
+
+
 @pytest.mark.parametrize("where", ["no-such-dir/run.mcap", "."])
 def test_sim_refuses_an_unwritable_log_before_running(
         where: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -174,8 +187,6 @@ def test_collision_is_reported_not_hidden(tmp_path: Path,
 
 
 def test_irl_table_is_learned_from_manual_trips_and_cached(tmp_path: Path) -> None:
-    import numpy as np
-
     driver = BUILTIN_DRIVERS["d1"]
     table = irl_table(driver, 0, tmp_path)
     files = list(tmp_path.glob("irl-d1-*.json"))
