@@ -22,6 +22,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import tempfile
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -389,11 +390,17 @@ def load_dgpt(path: str | os.PathLike[str], bounds: SafetyBounds | None = None) 
 def save_dgpt(table: Dgpt, path: str | os.PathLike[str]) -> None:
     """Write ``table`` as JSON to ``path`` atomically (temp file + rename)."""
     p = Path(path)
-    tmp = p.with_name(p.name + ".tmp")
+    text = json.dumps(table.to_json_dict(), indent=1) + "\n"
+    tmp: str | None = None
     try:
-        tmp.write_text(json.dumps(table.to_json_dict(), indent=1) + "\n", encoding="utf-8")
+        # a temp file of its own per writer, so two processes saving one path cannot collide
+        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
         os.replace(tmp, p)
     except OSError as exc:
+        if tmp is not None:
+            Path(tmp).unlink(missing_ok=True)
         raise DgptError(f"{p}: cannot write: {exc.strerror or exc}") from None
 
 

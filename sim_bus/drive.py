@@ -141,6 +141,7 @@ def run_drive(cfg: DriveConfig, driver: DriverParams, table: Dgpt,
     from ecu.node import EcuConfig, EcuNode
     from ecu.runtime import EcuRuntime
     from sim_bus.drivers import GAP_SETTING_CODE
+    from sim_bus.errors import DriveError
     from sim_bus.faults import parse_faults
     from sim_bus.metrics import drive_metrics
     from sim_bus.node import SimNode
@@ -149,6 +150,8 @@ def run_drive(cfg: DriveConfig, driver: DriverParams, table: Dgpt,
 
     if cfg.controller not in CONTROLLERS:
         raise ValueError(f"controller must be one of {CONTROLLERS}")
+    if cfg.seed < 0:
+        raise DriveError(f"seed must be >= 0, got {cfg.seed}")
     prof = profile or resolve_profile(cfg.scenario, cfg.seed)
     if cfg.duration_s is not None:
         prof = shorten(prof, cfg.duration_s)

@@ -198,3 +198,29 @@ def test_bounds_and_clamp() -> None:
     np.testing.assert_allclose(out, [2.0, 30.0, 110.0])
     with pytest.raises(DgptError):
         SafetyBounds(headway_min_s=3.0, headway_max_s=2.0)
+
+
+def test_save_leaves_no_temp_file_and_writers_do_not_share_one(tmp_path: Path) -> None:
+    import threading
+
+    from ecu.dgpt import load_dgpt, predefined, save_dgpt
+
+    target = tmp_path / "t.json"
+    tables = [predefined(1.0 + 0.5 * i) for i in range(4)]
+    errors: list[BaseException] = []
+
+    def write(t: object) -> None:
+        try:
+            for _ in range(25):
+                save_dgpt(t, target)  # type: ignore[arg-type]
+        except BaseException as exc:  # noqa: BLE001 - collected and asserted below
+            errors.append(exc)
+
+    threads = [threading.Thread(target=write, args=(t,)) for t in tables]
+    for th in threads:
+        th.start()
+    for th in threads:
+        th.join()
+    assert errors == []
+    assert load_dgpt(target).gap_m.tolist() in [t.gap_m.tolist() for t in tables]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.json"]

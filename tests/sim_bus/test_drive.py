@@ -235,3 +235,15 @@ def test_adapted_tables_are_reproducible() -> None:
     assert one.adaptations >= 1
     assert one.final_table.to_json_dict() == two.final_table.to_json_dict()
     assert one.final_table.created_utc == "2000-01-01T00:00:00Z"  # not the wall clock
+
+
+def test_negative_seed_is_a_clear_error_even_with_a_given_profile() -> None:
+    from sim_bus.drive import DriveConfig, predefined_table, run_drive
+    from sim_bus.drivers import BUILTIN_DRIVERS
+    from sim_bus.errors import DriveError
+    from sim_bus.scenarios import canonical_profiles, shorten
+
+    driver = BUILTIN_DRIVERS["d1"]
+    profile = shorten(canonical_profiles(0)["B"], 5.0)
+    with pytest.raises(DriveError, match="seed must be >= 0"):
+        run_drive(DriveConfig(seed=-1), driver, predefined_table(driver), profile)
