@@ -150,7 +150,8 @@ class E2EReceiver:
         return status
 
     def record(self, status: E2EStatus) -> None:
-        """Count a frame rejected before the counter check (wrong CRC, DLC or range)."""
+        """Count a frame not classified by :meth:`check_counter` (wrong CRC, DLC or range; OK
+        for a message without an alive counter)."""
         self.counts[status] += 1
 
     def timed_out(self, now_s: float) -> bool:

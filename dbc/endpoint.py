@@ -72,8 +72,20 @@ class Inbox:
             self._by_id[mc.frame_id] = mc
             self.receivers[role] = E2EReceiver(mc.cycle_s, timeout_multiple)
         self._latest: dict[str, dict[str, Value]] = {}
-        self.counts: Counter[tuple[str, E2EStatus]] = Counter()
+        #: outcomes of frames that belong to no consumed role (counted under UNKNOWN_ROLE)
+        self._unknown: Counter[E2EStatus] = Counter()
         self.frames_in = 0
+
+    @property
+    def counts(self) -> Counter[tuple[str, E2EStatus]]:
+        """Every outcome so far by (role, status): the receivers' counts, derived on demand."""
+        out: Counter[tuple[str, E2EStatus]] = Counter()
+        for role, receiver in self.receivers.items():
+            for status, n in receiver.counts.items():
+                out[(role, status)] += n
+        for status, n in self._unknown.items():
+            out[(UNKNOWN_ROLE, status)] += n
+        return out
 
     def accept(self, frame_id: int, data: bytes | bytearray, now_s: float) -> Decoded | None:
         """Check one frame received at ``now_s`` (s); return it if usable, else None.
@@ -86,7 +98,7 @@ class Inbox:
         mc = self._by_id.get(frame_id)
         if mc is None:
             if frame_id not in self.codec.by_id:
-                self.counts[(UNKNOWN_ROLE, E2EStatus.UNKNOWN_ID)] += 1
+                self._unknown[E2EStatus.UNKNOWN_ID] += 1
             return None
         receiver = self.receivers[mc.role]
         try:
@@ -99,17 +111,15 @@ class Inbox:
             status = E2EStatus.OUT_OF_RANGE
         else:
             if decoded.counter is not None:
-                status = receiver.check_counter(decoded.counter, now_s)
-                self.counts[(mc.role, status)] += 1
+                status = receiver.check_counter(decoded.counter, now_s)  # counts it too
                 if status in (E2EStatus.REPEATED, E2EStatus.WRONG_SEQUENCE):
                     return None
             else:
                 receiver.last_ok_s = now_s
-                self.counts[(mc.role, E2EStatus.OK)] += 1
+                receiver.record(E2EStatus.OK)
             self._latest[mc.role] = decoded.values
             return decoded
         receiver.record(status)
-        self.counts[(mc.role, status)] += 1
         return None
 
     def accept_message(self, msg: can.Message, now_s: float | None = None) -> Decoded | None:
@@ -120,12 +130,12 @@ class Inbox:
         """
         if msg.is_error_frame or msg.is_remote_frame:
             self.frames_in += 1
-            self.counts[(UNKNOWN_ROLE, E2EStatus.WRONG_DLC)] += 1
+            self._unknown[E2EStatus.WRONG_DLC] += 1
             return None
         mc = self.codec.by_id.get(msg.arbitration_id)
         if mc is not None and mc.is_extended != bool(msg.is_extended_id):
             self.frames_in += 1
-            self.counts[(UNKNOWN_ROLE, E2EStatus.UNKNOWN_ID)] += 1
+            self._unknown[E2EStatus.UNKNOWN_ID] += 1
             return None
         return self.accept(msg.arbitration_id, msg.data, msg.timestamp if now_s is None else now_s)
 
