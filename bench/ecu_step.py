@@ -26,8 +26,8 @@ import numpy as np
 from dbc.codec import load_codec
 from ecu.dgpt import predefined
 from ecu.node import EcuConfig, EcuNode, NodeInputs
-from ecu.peers import PeerNodes
 from ecu.runtime import EcuRuntime
+from tests.peers import PeerNodes
 
 DT = 0.02
 

@@ -23,7 +23,7 @@ from cloud_sync.features import FeatureConfig, make_features
 from cloud_sync.mce_irl import CompiledMdp, DemoStats, feature_expectations, objective, reward_table
 from cloud_sync.mdp import GridConfig, build_transitions, make_grid
 from cloud_sync.trainer import IrlConfig, learn_dgpt
-from cloud_sync.triplog import Trip
+from ecu.triplog import Trip
 
 
 def demonstrations() -> list[Trip]:

@@ -30,7 +30,7 @@ import numpy as np
 
 from cloud_sync.trainer import learn_dgpt
 from cloud_sync.tripfiles import read_csv_trip
-from cloud_sync.triplog import Trip
+from ecu.triplog import Trip
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "openacc_astazero"
 BANDS = ((10.0, 15.0), (15.0, 20.0), (20.0, 25.0), (25.0, 30.0))

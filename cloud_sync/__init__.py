@@ -1,6 +1,7 @@
-"""Cloud side of pacc: trip logs, and each driver's DGPT learned by inverse RL.
+"""Cloud side of pacc: each driver's DGPT learned by inverse RL from trip logs.
 
-Modules, one concept each: :mod:`~cloud_sync.triplog` (Trip, MCAP trip logs),
+The trip-log format (:mod:`ecu.triplog`) and the DGPT format (:mod:`ecu.dgpt`) live in the ECU
+package, which writes them; this package reads them. Modules, one concept each:
 :mod:`~cloud_sync.tripfiles` (CSV pairs, dispatch by suffix), :mod:`~cloud_sync.demos`
 (trips → segments and feature counts), :mod:`~cloud_sync.mdp` (grid, sparse transitions),
 :mod:`~cloud_sync.features` (reward basis), :mod:`~cloud_sync.mce_irl` (soft value
@@ -12,6 +13,6 @@ error tree is imported here; the numerical modules import numpy/scipy, import th
 
 from __future__ import annotations
 
-from cloud_sync.errors import CloudSyncError, DemoError, TrainingError, TripLogError
+from cloud_sync.errors import CloudSyncError, DemoError, TrainingError
 
-__all__ = ["CloudSyncError", "DemoError", "TrainingError", "TripLogError"]
+__all__ = ["CloudSyncError", "DemoError", "TrainingError"]

@@ -23,7 +23,7 @@ import numpy as np
 from cloud_sync.errors import DemoError
 from cloud_sync.mce_irl import CompiledMdp, DemoStats
 from cloud_sync.mdp import interp_weights
-from cloud_sync.triplog import Trip
+from ecu.triplog import Trip
 
 __all__ = [
     "Transitions",

@@ -5,13 +5,11 @@
 
 from __future__ import annotations
 
+from pacc.errors import PaccError
 
-class CloudSyncError(Exception):
+
+class CloudSyncError(PaccError):
     """Root of every error raised by :mod:`cloud_sync`."""
-
-
-class TripLogError(CloudSyncError):
-    """A trip log (MCAP or CSV) cannot be read or written: unknown, corrupt or truncated."""
 
 
 class DemoError(CloudSyncError):

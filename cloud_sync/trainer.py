@@ -31,8 +31,8 @@ from cloud_sync.extract import (
 from cloud_sync.features import FeatureConfig, Features, features_from_spec, make_features
 from cloud_sync.mce_irl import CompiledMdp, DemoStats, objective
 from cloud_sync.mdp import Grid, GridConfig, build_transitions, grid_from_spec, make_grid
-from cloud_sync.triplog import Trip
 from ecu.dgpt import Dgpt, SafetyBounds, clamp_to_bounds, speed_axis
+from ecu.triplog import Trip
 
 __all__ = ["IrlConfig", "LearnResult", "learn_dgpt", "fine_tune", "empirical_baseline", "METHOD"]
 

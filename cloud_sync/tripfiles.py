@@ -16,8 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from cloud_sync.errors import TripLogError
-from cloud_sync.triplog import Trip, read_trip
+from ecu.triplog import Trip, TripLogError, read_trip
 
 __all__ = ["read_csv_trip", "load_trip", "REQUIRED_CSV_COLUMNS"]
 

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from pacc.errors import PaccError
 
-class CodecError(Exception):
+
+class CodecError(PaccError):
     """Root of every error raised by the dbc package."""
 
 

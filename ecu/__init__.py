@@ -11,16 +11,19 @@ Modules, one concept each:
 - :mod:`ecu.signals` — ``NodeInputs`` / ``NodeOutputs``, the node's boundary values.
 - :mod:`ecu.node` — ``EcuNode.step(inputs, now) -> outputs``, pure of I/O.
 - :mod:`ecu.runtime` — wires a python-can bus, the codec, the clock and the log.
-- :mod:`ecu.peers` — scripted ESC/PEDAL/RADAR/HMI nodes for tests and benchmarks.
+- :mod:`ecu.triplog` — ``Trip`` and its MCAP trip-log format (written here, read by the cloud).
 - :mod:`ecu.cli` — ``pacc ecu`` / ``python -m ecu``.
 
-Every error raised by this package derives from :class:`EcuError`.
+Every error raised by this package derives from :class:`EcuError` (itself a
+:class:`pacc.errors.PaccError`).
 """
 
 from __future__ import annotations
 
+from pacc.errors import PaccError
 
-class EcuError(Exception):
+
+class EcuError(PaccError):
     """Root of every exception raised by the :mod:`ecu` package."""
 
 

@@ -117,7 +117,7 @@ def main(argv: list[str] | None = None) -> int:
           f"min TTC {m.min_ttc_s:.2f} s  RMS jerk {m.rms_jerk_mps3:.3f} m/s^3  presses "
           f"{m.press_onsets}  collisions {1 if collided else 0}")
     if args.log is not None:
-        from cloud_sync.triplog import Trip, TripLogError, write_trip
+        from ecu.triplog import Trip, TripLogError, write_trip
 
         sl = slice(None, None, 2)
         trip = Trip(t_s=log.t_s[sl], v_mps=log.v_mps[sl], gap_m=log.gap_m[sl],

@@ -209,7 +209,7 @@ def log_to_trip(result: DriveResult, driver: DriverParams) -> Any:
     """The drive's log as a cloud_sync Trip at 10 Hz (mode "acc")."""
     import numpy as np
 
-    from cloud_sync.triplog import Trip
+    from ecu.triplog import Trip
 
     log = result.log
     every = max(1, int(round(0.1 / float(np.median(np.diff(log.t_s)))))) if len(log.t_s) > 1 \
@@ -328,7 +328,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     print(format_result(result))
     if args.log is not None:
-        from cloud_sync.triplog import TripLogError, write_trip
+        from ecu.triplog import TripLogError, write_trip
 
         try:
             write_trip(args.log, log_to_trip(result, driver))

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from pacc.errors import PaccError
 
-class SimError(Exception):
+
+class SimError(PaccError):
     """Root of every error the simulator raises on purpose."""
 
 

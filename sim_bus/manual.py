@@ -18,7 +18,7 @@ from sim_bus.plant import Plant, PlantConfig, PlantState
 from sim_bus.scenarios import LeadProfile
 
 if TYPE_CHECKING:
-    from cloud_sync.triplog import Trip
+    from ecu.triplog import Trip
 
 MANUAL_DT_S = 0.05
 LOG_EVERY = 2  # 20 Hz steps -> 10 Hz samples
@@ -31,7 +31,7 @@ def manual_trip(driver: DriverParams, profile: LeadProfile, seed: int,
     The ego starts at the lead's speed at the driver's preferred gap. A collision (gap ≤ 0)
     ends the trip early and is recorded in ``meta["collision"]``.
     """
-    from cloud_sync.triplog import Trip
+    from ecu.triplog import Trip
 
     if not seed >= 0:
         raise DriveError(f"a seed is an integer >= 0, got {seed}")

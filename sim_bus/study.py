@@ -101,7 +101,7 @@ def run_job(job: DriveJob) -> dict[str, Any]:
     profile = canonical_profiles(job.study_seed)[job.scenario]
     result = run_drive(cfg, driver, job.table, profile)
     if job.log_path is not None:
-        from cloud_sync.triplog import write_trip
+        from ecu.triplog import write_trip
 
         write_trip(Path(job.log_path), log_to_trip(result, driver))
     m = result.metrics

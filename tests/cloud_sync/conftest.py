@@ -12,7 +12,7 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from cloud_sync.triplog import Trip
+from ecu.triplog import Trip
 
 
 def lead_speed(rng: np.random.Generator, n: int, dt: float, v_lo: float, v_hi: float) -> np.ndarray:

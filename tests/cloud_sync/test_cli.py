@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from cloud_sync.cli import main
-from cloud_sync.triplog import Trip, write_trip
 from ecu.dgpt import load_dgpt
-from ecu.launcher import main as pacc_main
+from ecu.triplog import Trip, write_trip
+from pacc.cli import main as pacc_main
 
 
 def _write_csv(trip: Trip, path: Path) -> None:

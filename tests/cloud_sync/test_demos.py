@@ -19,7 +19,7 @@ from cloud_sync.demos import (
 )
 from cloud_sync.errors import DemoError
 from cloud_sync.trainer import learn_dgpt
-from cloud_sync.triplog import Trip
+from ecu.triplog import Trip
 
 
 def nan_trip(n: int = 600) -> Trip:

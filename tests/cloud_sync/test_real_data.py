@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from cloud_sync.trainer import learn_dgpt
-from cloud_sync.triplog import Trip
+from ecu.triplog import Trip
 
 dataset = pytest.importorskip("sim_bus.dataset")
 

@@ -17,8 +17,8 @@ from cloud_sync.trainer import (
     fine_tune,
     learn_dgpt,
 )
-from cloud_sync.triplog import Trip
 from ecu.dgpt import SafetyBounds, load_dgpt, predefined, save_dgpt
+from ecu.triplog import Trip
 
 D0, T = 4.0, 1.6
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import os
 import threading
 import time
 from pathlib import Path
@@ -14,7 +15,7 @@ import pytest
 from dbc.codec import load_codec
 from ecu.cli import main
 from ecu.dgpt import load_dgpt
-from ecu.peers import PeerNodes
+from tests.peers import PeerNodes
 
 _ids = itertools.count()
 CODEC = load_codec()
@@ -95,12 +96,17 @@ import os, signal, sys, threading, time
 import can
 from dbc.codec import load_codec
 from ecu.cli import main
-from ecu.peers import PeerNodes
+from tests.peers import PeerNodes
 
 def peers():
     with can.Bus(interface="virtual", channel="sigterm") as bus:
         p = PeerNodes(bus, load_codec())
         p.set("radar", gap_m=60.0)
+        # the script's timeline starts at the ECU's first frame, not at the thread's start:
+        # on a loaded machine the ECU may take more than a second to import and open its bus
+        deadline = time.monotonic() + 30.0
+        while bus.recv(0.05) is None and time.monotonic() < deadline:
+            pass
         t0 = time.monotonic()
         while (t := time.monotonic() - t0) < 4.0:
             p.set("hmi", set=int(1.2 <= t < 1.4))
@@ -127,6 +133,7 @@ def test_sigterm_stops_cleanly_keeping_takeovers_and_profile(tmp_path: Path) -> 
     script.write_text(_SIGTERM_SCRIPT)
     proc = subprocess.run(
         [sys.executable, str(script), str(tmp_path / "to"), str(tmp_path / "p.json")],
+        env={**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])},
         capture_output=True,
         text=True,
         timeout=60,

@@ -11,10 +11,10 @@ import pytest
 from hypothesis import event, given
 from hypothesis import strategies as st
 
-from cloud_sync.triplog import Trip
 from ecu.dgpt import predefined
 from ecu.node import ConfigError, EcuConfig, EcuNode, NodeInputs, NodeOutputs
 from ecu.state import AccState, FaultCode
+from ecu.triplog import Trip
 
 DT = 0.02
 JERK = 2.5

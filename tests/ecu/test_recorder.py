@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from cloud_sync.triplog import Trip, read_trip
 from ecu.recorder import RecorderError, Sample, TakeoverRecorder, directory_sink
+from ecu.triplog import Trip, read_trip
 
 
 def feed(rec: TakeoverRecorder, t0: float, t1: float, state: int = 2, dt: float = 0.02) -> float:

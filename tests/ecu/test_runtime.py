@@ -15,8 +15,8 @@ from dbc.codec import load_codec
 from ecu.adaptation import AdaptationParams
 from ecu.dgpt import predefined, save_dgpt
 from ecu.node import EcuConfig, EcuNode
-from ecu.peers import PeerNodes
 from ecu.runtime import EcuRuntime, RuntimeClockError
+from tests.peers import PeerNodes
 
 _ids = itertools.count()
 CODEC = load_codec()

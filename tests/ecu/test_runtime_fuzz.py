@@ -1,6 +1,6 @@
 """Property: arbitrary peer traffic on a real virtual bus never breaks the ECU's output contract.
 
-Hypothesis drives ESC/PEDAL/RADAR/HMI through :class:`ecu.peers.PeerNodes` with values anywhere
+Hypothesis drives ESC/PEDAL/RADAR/HMI through :class:`tests.peers.PeerNodes` with values anywhere
 in their DBC ranges, muted roles, corrupted CRCs, frozen alive counters and raw garbage frames,
 into an :class:`ecu.runtime.EcuRuntime` in lockstep. A third bus listens; every ACC_Command
 frame is decoded back with the codec and checked: E2E intact (CRC, counter +1), acceleration
@@ -25,9 +25,9 @@ from hypothesis import strategies as st
 from dbc.codec import load_codec
 from ecu.dgpt import predefined, save_dgpt
 from ecu.node import EcuConfig, EcuNode
-from ecu.peers import PeerNodes
 from ecu.runtime import EcuRuntime
 from ecu.state import AccState
+from tests.peers import PeerNodes
 
 CODEC = load_codec()
 _ids = itertools.count()

@@ -7,8 +7,8 @@ import pytest
 
 from ecu.dgpt import predefined
 from ecu.node import EcuConfig, EcuNode
-from ecu.peers import PeerNodes
 from ecu.runtime import EcuRuntime
+from tests.peers import PeerNodes
 
 
 def _open_vcan() -> can.BusABC:

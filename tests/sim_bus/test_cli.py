@@ -9,10 +9,10 @@ import can
 import numpy as np
 import pytest
 
-from cloud_sync.triplog import read_trip
 from ecu.dgpt import predefined, save_dgpt
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
+from ecu.triplog import read_trip
 from sim_bus import cli, drive
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.irl_table import cache_key, code_digest, irl_table

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cloud_sync.triplog import Trip, read_trip, write_trip
+from ecu.triplog import Trip, read_trip, write_trip
 from sim_bus.calibration import headway_by_band
 from sim_bus.dataset import load_human_pairs
 from sim_bus.drivers import BUILTIN_DRIVERS

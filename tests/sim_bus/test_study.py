@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from cloud_sync.triplog import read_trip
 from ecu.dgpt import load_dgpt
+from ecu.triplog import read_trip
 from sim_bus import study
 from sim_bus.study import StudyConfig, format_table, reduction_pct, run_study
 

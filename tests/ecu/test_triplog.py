@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from cloud_sync.tripfiles import load_trip, read_csv_trip
-from cloud_sync.triplog import SAMPLE_TOPIC, Trip, TripLogError, read_trip, write_trip
+from ecu.triplog import SAMPLE_TOPIC, Trip, TripLogError, read_trip, write_trip
 
 # ../shared beside the repository (as on the development machines and in CI)
 DATA = Path(__file__).resolve().parents[3] / "shared" / "data" / "openacc_astazero"

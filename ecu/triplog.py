@@ -25,9 +25,15 @@ from typing import Any
 
 import numpy as np
 
-from cloud_sync.errors import TripLogError
+from ecu import EcuError
 
 __all__ = ["Trip", "TripLogError", "write_trip", "read_trip", "SAMPLE_TOPIC", "META_TOPIC"]
+
+
+
+class TripLogError(EcuError):
+    """A trip log (MCAP or CSV) cannot be read or written: unknown, corrupt or truncated."""
+
 
 SAMPLE_TOPIC = "/pacc/car_following"
 META_TOPIC = "/pacc/trip_meta"
