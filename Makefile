@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 OUT    ?= out
 
-.PHONY: demo test lint bench clean
+.PHONY: demo test test-fast lint format bench clean
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(sys.version_info < (3, 11))' || \
@@ -22,13 +22,24 @@ $(STAMP): pyproject.toml
 demo: $(STAMP)
 	$(BIN)/pacc study --out $(OUT)/study --cache $(OUT)/cache
 
+SOURCES := pacc dbc ecu cloud_sync sim_bus tools tests bench
+
 lint: $(STAMP)
-	$(BIN)/ruff check ecu sim_bus cloud_sync dbc tests bench
+	$(BIN)/ruff format --check $(SOURCES)
+	$(BIN)/ruff check $(SOURCES)
 	$(BIN)/mypy
 
 # pytest exits 5 when it collects no test: make treats that as a failure, so CI never passes on nothing.
+# -n auto: one pytest-xdist worker per core; `make test-fast` leaves out the tests marked slow.
 test: lint
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n auto
+
+test-fast: $(STAMP)
+	$(BIN)/python -m pytest -n auto -m 'not slow'
+
+format: $(STAMP)
+	$(BIN)/ruff format $(SOURCES)
+	$(BIN)/ruff check --fix $(SOURCES)
 
 bench: $(STAMP)
 	$(BIN)/python bench/codec.py

@@ -44,8 +44,9 @@ ACC_ENGAGED = (2, 3)  # ACTIVE, OVERRIDE
 
 def visited_weights(table: Dgpt, v_mps: np.ndarray) -> np.ndarray:
     """Time share of the drive spent nearest each speed bin, shape ``(n_bins,)``, sums to 1."""
-    idx = np.clip(np.rint((v_mps - table.speed_mps[0]) / table.step_mps), 0,
-                  table.speed_mps.size - 1).astype(int)
+    idx = np.clip(
+        np.rint((v_mps - table.speed_mps[0]) / table.step_mps), 0, table.speed_mps.size - 1
+    ).astype(int)
     w = np.bincount(idx, minlength=table.speed_mps.size).astype(float)
     return w / max(w.sum(), 1.0)
 
@@ -53,7 +54,7 @@ def visited_weights(table: Dgpt, v_mps: np.ndarray) -> np.ndarray:
 def table_error_m(table: Dgpt, driver: DriverParams, weights: np.ndarray) -> float:
     """RMS of DGPT - ACC preference over the speed bins, weighted by ``weights``, m."""
     err = table.gap_m - driver.acc_preferred_gap_m(table.speed_mps)
-    return float(np.sqrt(np.sum(weights * err ** 2)))
+    return float(np.sqrt(np.sum(weights * err**2)))
 
 
 def takeovers(result: DriveResult, driver: DriverParams) -> list[dict[str, Any]]:
@@ -70,16 +71,22 @@ def takeovers(result: DriveResult, driver: DriverParams) -> list[dict[str, Any]]
                 j += 1
             end = min(j + 1, n - 1)  # first released sample
             v = float(log.v_mps[end])
-            rows.append({
-                "start_s": float(log.t_s[i]), "release_s": float(log.t_s[end]),
-                "pedal": "brake" if log.brake_pressed[i] else "accel",
-                "duration_s": float(log.t_s[end] - log.t_s[i]),
-                "v_mps": v, "dv_mps": float(log.v_lead_mps[end] - v),
-                "gap_press_m": float(log.gap_m[i]), "gap_release_m": float(log.gap_m[end]),
-                "pref_m": float(driver.acc_preferred_gap_m(v)),
-                "cut": float(log.t_s[end] - log.t_s[i]) >= driver.press_max_s - 0.06,
-                "g_desire_m": math.nan, "reason": "-",
-            })
+            rows.append(
+                {
+                    "start_s": float(log.t_s[i]),
+                    "release_s": float(log.t_s[end]),
+                    "pedal": "brake" if log.brake_pressed[i] else "accel",
+                    "duration_s": float(log.t_s[end] - log.t_s[i]),
+                    "v_mps": v,
+                    "dv_mps": float(log.v_lead_mps[end] - v),
+                    "gap_press_m": float(log.gap_m[i]),
+                    "gap_release_m": float(log.gap_m[end]),
+                    "pref_m": float(driver.acc_preferred_gap_m(v)),
+                    "cut": float(log.t_s[end] - log.t_s[i]) >= driver.press_max_s - 0.06,
+                    "g_desire_m": math.nan,
+                    "reason": "-",
+                }
+            )
             i = j + 1
         else:
             i += 1
@@ -91,8 +98,9 @@ def takeovers(result: DriveResult, driver: DriverParams) -> list[dict[str, Any]]
     return rows
 
 
-def error_trace(result: DriveResult, initial: Dgpt, driver: DriverParams
-                ) -> tuple[list[float], float]:
+def error_trace(
+    result: DriveResult, initial: Dgpt, driver: DriverParams
+) -> tuple[list[float], float]:
     """Table error (m) at the start, after each quarter and at the end; the visited weights'
     error of the final table is the last entry. Also the final table's error at all speeds
     5..30 m/s (unweighted)."""
@@ -129,28 +137,36 @@ def main(argv: list[str] | None = None) -> int:
     for name in args.drivers.split(","):
         driver = load_driver(name)
         for controller in args.controllers.split(","):
-            initial = (irl_table(driver, args.seed, None) if controller.startswith("irl")
-                       else predefined_table(driver))
+            initial = (
+                irl_table(driver, args.seed, None)
+                if controller.startswith("irl")
+                else predefined_table(driver)
+            )
             for scenario in args.scenarios.split(","):
                 for mode in split:
                     params = AdaptationParams(mode=mode)
                     for trial in range(args.trials):
-                        cfg = DriveConfig(scenario=scenario, driver_id=name,
-                                          controller=controller,
-                                          seed=args.seed + trial, duration_s=args.duration,
-                                          adaptation=params)
+                        cfg = DriveConfig(
+                            scenario=scenario,
+                            driver_id=name,
+                            controller=controller,
+                            seed=args.seed + trial,
+                            duration_s=args.duration,
+                            adaptation=params,
+                        )
                         r = run_drive(cfg, driver, initial, profiles[scenario])
                         rows = takeovers(r, driver)
                         trace, flat = error_trace(r, initial, driver)
                         m = r.metrics
-                        print(f"{name} {scenario} {controller:13s} {mode:8s} t{trial}: "
-                              f"PoI {m.poi_pct:5.1f} % NIM {m.nim_per_min:4.1f} "
-                              f"takeovers {len(rows):2d} applied {r.adaptations:2d} | "
-                              "table error (visited, m) "
-                              + " ".join(f"{e:5.1f}" for e in trace)
-                              + f" | 5-30 m/s {flat:5.1f}")
-                        reasons[mode].update(e.decision.reason.value
-                                             for e in r.adaptation_events)
+                        print(
+                            f"{name} {scenario} {controller:13s} {mode:8s} t{trial}: "
+                            f"PoI {m.poi_pct:5.1f} % NIM {m.nim_per_min:4.1f} "
+                            f"takeovers {len(rows):2d} applied {r.adaptations:2d} | "
+                            "table error (visited, m) "
+                            + " ".join(f"{e:5.1f}" for e in trace)
+                            + f" | 5-30 m/s {flat:5.1f}"
+                        )
+                        reasons[mode].update(e.decision.reason.value for e in r.adaptation_events)
                         reasons[mode]["cut at press_max_s"] += sum(x["cut"] for x in rows)
                         reasons[mode]["takeovers"] += len(rows)
                         for row in rows:
@@ -158,36 +174,46 @@ def main(argv: list[str] | None = None) -> int:
                             if math.isfinite(gd):
                                 gd_err[(mode, row["pedal"], row["cut"])].append(gd)
                             if args.takeovers:
-                                print(f"    {row['start_s']:6.1f} s {row['pedal']:5s} "
-                                      f"{row['duration_s']:4.1f} s{'*' if row['cut'] else ' '} "
-                                      f"v {row['v_mps']:5.1f} dv {row['dv_mps']:+5.1f} "
-                                      f"gap {row['gap_press_m']:5.1f} -> "
-                                      f"{row['gap_release_m']:5.1f} pref {row['pref_m']:5.1f} "
-                                      f"g_desire {row['g_desire_m']:5.1f} {row['reason']}")
-                        summary[mode].append((m.poi_pct, m.nim_per_min, trace[0], trace[-1],
-                                              flat))
-    print(f"\n{sum(len(v) for v in summary.values())} drives in "
-          f"{time.perf_counter() - start:.1f} s  (* = press cut at press_max_s)")
+                                print(
+                                    f"    {row['start_s']:6.1f} s {row['pedal']:5s} "
+                                    f"{row['duration_s']:4.1f} s{'*' if row['cut'] else ' '} "
+                                    f"v {row['v_mps']:5.1f} dv {row['dv_mps']:+5.1f} "
+                                    f"gap {row['gap_press_m']:5.1f} -> "
+                                    f"{row['gap_release_m']:5.1f} pref {row['pref_m']:5.1f} "
+                                    f"g_desire {row['g_desire_m']:5.1f} {row['reason']}"
+                                )
+                        summary[mode].append((m.poi_pct, m.nim_per_min, trace[0], trace[-1], flat))
+    print(
+        f"\n{sum(len(v) for v in summary.values())} drives in "
+        f"{time.perf_counter() - start:.1f} s  (* = press cut at press_max_s)"
+    )
     print("\ng_desire - preference at the release speed (m): mean / RMS / count")
     for (mode, pedal, cut), vals in sorted(gd_err.items()):
         a = np.asarray(vals)
-        print(f"  {mode:8s} {pedal:5s} {'cut' if cut else 'released':8s} "
-              f"{a.mean():+6.2f} / {np.sqrt(np.mean(a ** 2)):5.2f} / {a.size}")
+        print(
+            f"  {mode:8s} {pedal:5s} {'cut' if cut else 'released':8s} "
+            f"{a.mean():+6.2f} / {np.sqrt(np.mean(a**2)):5.2f} / {a.size}"
+        )
     print("\ndecisions per mode (and takeovers cut at the driver's press_max_s):")
     for mode, counts in reasons.items():
         print(f"  {mode:8s} " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
-    print("\naverages per mode: PoI %, NIM /min, table error start -> end (visited), "
-          "end (5-30 m/s)")
+    print(
+        "\naverages per mode: PoI %, NIM /min, table error start -> end (visited), end (5-30 m/s)"
+    )
     base = summary.get("paper")
     for mode, figures in summary.items():
         a = np.asarray(figures).mean(axis=0)
         ratio = ""
         if base and mode != "paper":
             b = np.asarray(base).mean(axis=0)
-            ratio = (f"  | vs paper: PoI x{a[0] / b[0]:.2f}, NIM x{a[1] / b[1]:.2f}, "
-                     f"end error x{a[3] / b[3]:.2f}")
-        print(f"  {mode:8s} PoI {a[0]:5.1f}  NIM {a[1]:4.1f}  error {a[2]:5.1f} -> {a[3]:5.1f}"
-              f"  ({a[4]:5.1f}){ratio}")
+            ratio = (
+                f"  | vs paper: PoI x{a[0] / b[0]:.2f}, NIM x{a[1] / b[1]:.2f}, "
+                f"end error x{a[3] / b[3]:.2f}"
+            )
+        print(
+            f"  {mode:8s} PoI {a[0]:5.1f}  NIM {a[1]:4.1f}  error {a[2]:5.1f} -> {a[3]:5.1f}"
+            f"  ({a[4]:5.1f}){ratio}"
+        )
     return 0
 
 

@@ -94,8 +94,10 @@ def synthetic() -> None:
         "(b) built-in synthetic drivers, manual1..manual4 (4 x 300 s): RMSE against the true "
         "g*(v) over the covered speeds\n"
     )
-    print("| driver | covered (m/s) | IRL RMSE (m) | baseline RMSE (m) | IRL / baseline RMSE "
-          "vs the realised preference (m) | train (s) |")
+    print(
+        "| driver | covered (m/s) | IRL RMSE (m) | baseline RMSE (m) | IRL / baseline RMSE "
+        "vs the realised preference (m) | train (s) |"
+    )
     print("|---|---|---|---|---|---|")
     profiles = canonical_profiles(0)
     for name, driver in BUILTIN_DRIVERS.items():

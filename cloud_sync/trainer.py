@@ -81,8 +81,14 @@ class IrlConfig:
             raise TrainingError("l2 must be >= 0, max_iter >= 1, gtol and ftol > 0")
         if not 0 < self.lowpass_cutoff < 1:
             raise TrainingError("lowpass_cutoff must be in (0, 1)")
-        positive = ("max_gap_m", "min_coverage_s", "gap_resolution_m", "takeover_weight",
-                    "dgpt_step_mps", "blend_half_s")
+        positive = (
+            "max_gap_m",
+            "min_coverage_s",
+            "gap_resolution_m",
+            "takeover_weight",
+            "dgpt_step_mps",
+            "blend_half_s",
+        )
         for name in positive:  # finite and > 0 (NaN fails the comparison too)
             value = getattr(self, name)
             if not 0 < value < math.inf:

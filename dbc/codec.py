@@ -231,12 +231,17 @@ class MessageCodec:
             "encode_error": self._encode_error,
         }
         # decoder
-        d = ["def decode(data):", f"    if len(data) != {n}:",
-             f"        raise DlcError('{self.name}: DLC %d, expected {n}' % len(data))"]
+        d = [
+            "def decode(data):",
+            f"    if len(data) != {n}:",
+            f"        raise DlcError('{self.name}: DLC %d, expected {n}' % len(data))",
+        ]
         if self.crc_byte is not None:
             d += self._crc_lines("data", "    ")
-            d += [f"    if c != data[{self.crc_byte}]:",
-                  f"        raise CrcError('{self.name}: CRC mismatch')"]
+            d += [
+                f"    if c != data[{self.crc_byte}]:",
+                f"        raise CrcError('{self.name}: CRC mismatch')",
+            ]
         if need_le:
             d.append("    n_le = int.from_bytes(data, 'little')")
         if need_be:
@@ -255,22 +260,32 @@ class MessageCodec:
         # encoder
         e = ["def encode(values, counter=0):", "    try:"]
         e += [f"        r{i} = {_raw_from(f, f'values[{f.key!r}]')}" for i, f in enumerate(layouts)]
-        e += ["    except (KeyError, TypeError, ValueError, OverflowError) as exc:",
-              "        encode_error(values, exc)"]
+        e += [
+            "    except (KeyError, TypeError, ValueError, OverflowError) as exc:",
+            "        encode_error(values, exc)",
+        ]
         if checks:
             e.append(f"    if not ({' and '.join(checks)}):")
             e.append("        encode_error(values, None)")
-        le_terms = [f"((r{i} & {f.mask:#x}) << {f.shift})" if f.signed else f"(r{i} << {f.shift})"
-                    for i, f in enumerate(layouts) if not f.big_endian]
-        be_terms = [f"((r{i} & {f.mask:#x}) << {f.shift})" if f.signed else f"(r{i} << {f.shift})"
-                    for i, f in enumerate(layouts) if f.big_endian]
+        le_terms = [
+            f"((r{i} & {f.mask:#x}) << {f.shift})" if f.signed else f"(r{i} << {f.shift})"
+            for i, f in enumerate(layouts)
+            if not f.big_endian
+        ]
+        be_terms = [
+            f"((r{i} & {f.mask:#x}) << {f.shift})" if f.signed else f"(r{i} << {f.shift})"
+            for i, f in enumerate(layouts)
+            if f.big_endian
+        ]
         if counter:
             term = f"((counter & 0xF) << {counter.shift})"
             (be_terms if counter.big_endian else le_terms).append(term)
         e.append(f"    n_le = {' | '.join(le_terms) or '0'}")
         if be_terms:
-            e.append(f"    n_le |= int.from_bytes(({' | '.join(be_terms)}).to_bytes({n}, 'big'), "
-                     "'little')")
+            e.append(
+                f"    n_le |= int.from_bytes(({' | '.join(be_terms)}).to_bytes({n}, 'big'), "
+                "'little')"
+            )
         if self.crc_byte is not None:
             e.append(f"    b = n_le.to_bytes({n}, 'little')")
             e += self._crc_lines("b", "    ")

@@ -272,8 +272,7 @@ def adapt(
     centre = min(max(centre, 0), speed.size - 1)
     if params.mode == "timegap":
         if against_pedal(summary.pedal, g_desire - float(table.gap_m[centre])):
-            return table, Decision(applied=False, reason=Reason.AGAINST_PEDAL,
-                                   g_desire_m=g_desire)
+            return table, Decision(applied=False, reason=Reason.AGAINST_PEDAL, g_desire_m=g_desire)
         gap = timegap_update(table, centre, g_desire, params)
     else:
         delta = g_desire - float(table.gap_m[centre])

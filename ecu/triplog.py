@@ -30,7 +30,6 @@ from ecu import EcuError
 __all__ = ["Trip", "TripLogError", "write_trip", "read_trip", "SAMPLE_TOPIC", "META_TOPIC"]
 
 
-
 class TripLogError(EcuError):
     """A trip log (MCAP or CSV) cannot be read or written: unknown, corrupt or truncated."""
 

@@ -38,11 +38,13 @@ MIN_PRESS_S = 0.4
 FAULT_RETRY_S = 5.0  # after a fault, the driver tries SET once it has lasted this long
 
 
-def idm_plus_accel(v_mps: float, v_lead_mps: float, gap_m: float, pref_gap_m: float,
-                   p: DriverParams) -> float:
+def idm_plus_accel(
+    v_mps: float, v_lead_mps: float, gap_m: float, pref_gap_m: float, p: DriverParams
+) -> float:
     """IDM+ acceleration (m/s²) around the preferred gap, limited to [−8, a_max]."""
     s_star = pref_gap_m + v_mps * (v_mps - v_lead_mps) / (
-        2.0 * math.sqrt(p.accel_max_mps2 * p.decel_comfort_mps2))
+        2.0 * math.sqrt(p.accel_max_mps2 * p.decel_comfort_mps2)
+    )
     s_star = max(s_star, p.standstill_m * 0.5)
     s = max(gap_m, 0.1)
     free = 1.0 - (v_mps / p.desired_speed_mps) ** 4
@@ -60,8 +62,14 @@ class DriverAgent:
     ``acc_mode`` False: manual driving throughout (ACC off).
     """
 
-    def __init__(self, p: DriverParams, rng: np.random.Generator, dt_s: float = 0.05,
-                 acc_mode: bool = True, engage_s: float = 0.5) -> None:
+    def __init__(
+        self,
+        p: DriverParams,
+        rng: np.random.Generator,
+        dt_s: float = 0.05,
+        acc_mode: bool = True,
+        engage_s: float = 0.5,
+    ) -> None:
         self.p = p
         self.dt_s = dt_s
         self.acc_mode = acc_mode
@@ -75,7 +83,7 @@ class DriverAgent:
         self._log_c = 0.0
         self._noise = 0.0
         self._noise_k = math.exp(-dt_s / 1.0)
-        self._noise_s = p.accel_noise_mps2 * math.sqrt(1.0 - self._noise_k ** 2)
+        self._noise_s = p.accel_noise_mps2 * math.sqrt(1.0 - self._noise_k**2)
         self._sd_c = p.condition_drift_per_min * math.sqrt(dt_s / 60.0)
         self._tap_p = p.spurious_press_per_min * dt_s / 60.0
         self.t_s = 0.0
@@ -127,8 +135,13 @@ class DriverAgent:
             self._log_c = min(max(self._log_c + self._sd_c * zc, -0.3), 0.4)
             self.condition = math.exp(self._log_c)
         v, vl, g = self._perceive(v_mps, v_lead_mps, gap_m)
-        pref = float(p.standstill_m + p.condition_factor * self.condition
-                     * float(np.interp(v, p.headway_speeds_mps, p.headway_s)) * v)
+        pref = float(
+            p.standstill_m
+            + p.condition_factor
+            * self.condition
+            * float(np.interp(v, p.headway_speeds_mps, p.headway_s))
+            * v
+        )
         self.set_button = self.resume_button = False
         if self.t_s < self._button_until:
             self.set_button = self._button == "set"
@@ -172,15 +185,17 @@ class DriverAgent:
         self.set_button = name == "set"
         self.resume_button = name == "resume"
 
-    def _not_engaged(self, v: float, vl: float, g: float, pref: float, a: float,
-                     acc_state: int) -> None:
+    def _not_engaged(
+        self, v: float, vl: float, g: float, pref: float, a: float, acc_state: int
+    ) -> None:
         """ACC not engaged: drive by hand; engage (SET, then RESUME) once the gap feels right."""
         p = self.p
         band = max(p.comfort_band * pref, p.comfort_band_min_m)
         quiet = self.t_s - self._last_release_t >= RESUME_DELAY_S
         feels_right = abs(g - pref) <= band and vl - v > -1.0
         can_engage = self.t_s >= self.engage_s and (
-            acc_state == ACC_STANDBY or self._fault_t >= FAULT_RETRY_S)
+            acc_state == ACC_STANDBY or self._fault_t >= FAULT_RETRY_S
+        )
         if can_engage and feels_right and quiet:
             self.a_cmd_mps2 = COAST_MPS2
             self._set_pedals(0.0, "none")
@@ -196,8 +211,9 @@ class DriverAgent:
         self._drive_by_hand(a)
         self._last_release_t = self.t_s if not can_engage else self._last_release_t
 
-    def _supervise(self, v: float, vl: float, g: float, pref: float, a: float, u: float,
-                   engaged: bool) -> None:
+    def _supervise(
+        self, v: float, vl: float, g: float, pref: float, a: float, u: float, engaged: bool
+    ) -> None:
         """ACC engaged (or a press in progress): monitor, press, release."""
         p = self.p
         dt = self.dt_s

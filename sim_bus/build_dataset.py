@@ -128,8 +128,10 @@ def main(argv: list[str] | None = None) -> int:
     except (BuildError, OSError) as exc:
         print(f"build_dataset: error: {exc}")
         return 1
-    print(f"wrote {args.out}: {sizes['pairs']} pairs, {sizes['samples']} samples, "
-          f"{sizes['bytes'] / 1e6:.2f} MB")
+    print(
+        f"wrote {args.out}: {sizes['pairs']} pairs, {sizes['samples']} samples, "
+        f"{sizes['bytes'] / 1e6:.2f} MB"
+    )
     return 0
 
 

@@ -17,13 +17,18 @@ from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.manual import manual_trip
 from sim_bus.scenarios import LeadProfile
 
-BANDS_MPS: tuple[tuple[float, float], ...] = ((10.0, 15.0), (15.0, 20.0), (20.0, 25.0),
-                                              (25.0, 30.0))
+BANDS_MPS: tuple[tuple[float, float], ...] = (
+    (10.0, 15.0),
+    (15.0, 20.0),
+    (20.0, 25.0),
+    (25.0, 30.0),
+)
 MIN_SAMPLES = 100  # 10 s of steady following in a band
 
 
-def headway_by_band(v_mps: np.ndarray, gap_m: np.ndarray, v_lead_mps: np.ndarray
-                    ) -> list[float | None]:
+def headway_by_band(
+    v_mps: np.ndarray, gap_m: np.ndarray, v_lead_mps: np.ndarray
+) -> list[float | None]:
     """Median steady-state time gap (s) per band of BANDS_MPS; None with < 10 s of data."""
     steady = np.abs(v_lead_mps - v_mps) < 0.5
     out: list[float | None] = []
@@ -33,25 +38,35 @@ def headway_by_band(v_mps: np.ndarray, gap_m: np.ndarray, v_lead_mps: np.ndarray
     return out
 
 
-def calibration_rows(seed: int = 0) -> tuple[list[tuple[str, list[float | None]]],
-                                             list[tuple[str, list[float | None]]]]:
+def calibration_rows(
+    seed: int = 0,
+) -> tuple[list[tuple[str, list[float | None]]], list[tuple[str, list[float | None]]]]:
     """(real pair rows, built-in driver rows): name and the per-band median time gaps."""
     pairs = load_human_pairs()
-    real = [(f"{p.pair_id} ({p.follower_make})",
-             headway_by_band(p.v_follower_mps, p.gap_m, p.v_leader_mps)) for p in pairs]
+    real = [
+        (
+            f"{p.pair_id} ({p.follower_make})",
+            headway_by_band(p.v_follower_mps, p.gap_m, p.v_leader_mps),
+        )
+        for p in pairs
+    ]
     ours = []
     for d in BUILTIN_DRIVERS.values():
         v_all, g_all, vl_all = [], [], []
         for p in pairs:
             n = len(p.v_leader_mps)
-            trip = manual_trip(d, LeadProfile(p.pair_id, np.arange(n) * 0.1, p.v_leader_mps),
-                               seed)
+            trip = manual_trip(d, LeadProfile(p.pair_id, np.arange(n) * 0.1, p.v_leader_mps), seed)
             v_all.append(trip.v_mps)
             g_all.append(trip.gap_m)
             vl_all.append(trip.v_lead_mps)
-        ours.append((f"{d.driver_id}: {d.description.split(':')[0]}",
-                     headway_by_band(np.concatenate(v_all), np.concatenate(g_all),
-                                     np.concatenate(vl_all))))
+        ours.append(
+            (
+                f"{d.driver_id}: {d.description.split(':')[0]}",
+                headway_by_band(
+                    np.concatenate(v_all), np.concatenate(g_all), np.concatenate(vl_all)
+                ),
+            )
+        )
     return real, ours
 
 
@@ -68,8 +83,11 @@ def markdown(seed: int = 0) -> str:
     lines += [f"| real {name} | " + " | ".join(_fmt(x) for x in vals) + " |" for name, vals in real]
     cols = list(zip(*[vals for _, vals in real], strict=True))
     lo_hi = [[x for x in c if x is not None] for c in cols]
-    lines.append("| **real, range** | " + " | ".join(
-        f"**{min(c):.2f}–{max(c):.2f}**" if c else "–" for c in lo_hi) + " |")
+    lines.append(
+        "| **real, range** | "
+        + " | ".join(f"**{min(c):.2f}–{max(c):.2f}**" if c else "–" for c in lo_hi)
+        + " |"
+    )
     lines += [f"| sim {name} | " + " | ".join(_fmt(x) for x in vals) + " |" for name, vals in ours]
     return "\n".join(lines)
 

@@ -24,15 +24,22 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("-i", "--interface", help="python-can interface (default: python-can config)")
     p.add_argument("-c", "--channel", help="python-can channel (default: python-can config)")
     p.add_argument("-b", "--bitrate", type=int, help="bit rate (default: python-can config)")
-    p.add_argument("--scenario", default="B",
-                   help="A, B, manual1..manual4 or a CSV of t_s,v_lead_mps (default B)")
+    p.add_argument(
+        "--scenario",
+        default="B",
+        help="A, B, manual1..manual4 or a CSV of t_s,v_lead_mps (default B)",
+    )
     p.add_argument("--driver", default="d1", help="d1..d5 or a driver .toml/.json (default d1)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--faults", default="", help="fault SPEC, e.g. 'radar:dropout=100-105'")
     p.add_argument("--duration", type=float, help="run only the first N seconds")
     p.add_argument("--log", type=Path, help="write the run as an MCAP trip log")
-    p.add_argument("--condition-factor", type=float, default=1.0,
-                   help="multiply the driver's preference, e.g. 1.2 for rain (default 1)")
+    p.add_argument(
+        "--condition-factor",
+        type=float,
+        default=1.0,
+        help="multiply the driver's preference, e.g. 1.2 for rain (default 1)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress line")
     return p
 
@@ -87,8 +94,9 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     world = World(driver, profile, args.seed)
     rng = np.random.default_rng(np.random.SeedSequence([args.seed, 0x64726976]).spawn(1)[0])
-    node = SimNode(bus, world, faults=faults, rng=rng,
-                   gap_setting=GAP_SETTING_CODE[driver.predefined_setting])
+    node = SimNode(
+        bus, world, faults=faults, rng=rng, gap_setting=GAP_SETTING_CODE[driver.predefined_setting]
+    )
     start = time.monotonic()
     last_print = [start]
 
@@ -96,8 +104,11 @@ def main(argv: list[str] | None = None) -> int:
         now = time.monotonic()
         if not args.quiet and now - last_print[0] >= 5.0:
             last_print[0] = now
-            print(f"t {node.t_s:6.1f} s  v {world.plant.v_mps:5.1f} m/s  gap "
-                  f"{world.plant.gap_m:6.1f} m  AccState {node.acc_state}", file=sys.stderr)
+            print(
+                f"t {node.t_s:6.1f} s  v {world.plant.v_mps:5.1f} m/s  gap "
+                f"{world.plant.gap_m:6.1f} m  AccState {node.acc_state}",
+                file=sys.stderr,
+            )
         return False
 
     try:
@@ -107,28 +118,52 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         bus.shutdown()
     log = world.log()
-    m = drive_metrics(log.t_s, log.v_mps, log.gap_m, log.v_lead_mps, log.a_mps2, log.acc_state,
-                      log.accel_pressed, log.brake_pressed, log.pref_gap_m)
+    m = drive_metrics(
+        log.t_s,
+        log.v_mps,
+        log.gap_m,
+        log.v_lead_mps,
+        log.a_mps2,
+        log.acc_state,
+        log.accel_pressed,
+        log.brake_pressed,
+        log.pref_gap_m,
+    )
     collided = world.plant.collided
-    print(f"sim: scenario {args.scenario}, driver {driver.driver_id}, {world.t_s:.1f} s in "
-          f"{time.monotonic() - start:.1f} s wall; {node.commands_ok} ACC commands received"
-          + (f"; {node.send_errors} frames refused by the bus" if node.send_errors else ""))
-    print(f"  PoI {m.poi_pct:.2f} %  NIM {m.nim_per_min:.2f} /min  min gap {m.min_gap_m:.2f} m  "
-          f"min TTC {m.min_ttc_s:.2f} s  RMS jerk {m.rms_jerk_mps3:.3f} m/s^3  presses "
-          f"{m.press_onsets}  collisions {1 if collided else 0}")
+    print(
+        f"sim: scenario {args.scenario}, driver {driver.driver_id}, {world.t_s:.1f} s in "
+        f"{time.monotonic() - start:.1f} s wall; {node.commands_ok} ACC commands received"
+        + (f"; {node.send_errors} frames refused by the bus" if node.send_errors else "")
+    )
+    print(
+        f"  PoI {m.poi_pct:.2f} %  NIM {m.nim_per_min:.2f} /min  min gap {m.min_gap_m:.2f} m  "
+        f"min TTC {m.min_ttc_s:.2f} s  RMS jerk {m.rms_jerk_mps3:.3f} m/s^3  presses "
+        f"{m.press_onsets}  collisions {1 if collided else 0}"
+    )
     if args.log is not None:
         from ecu.triplog import Trip, TripLogError, write_trip
 
         sl = slice(None, None, 2)
-        trip = Trip(t_s=log.t_s[sl], v_mps=log.v_mps[sl], gap_m=log.gap_m[sl],
-                    v_lead_mps=log.v_lead_mps[sl], a_mps2=log.a_mps2[sl],
-                    accel_pedal=np.clip(log.accel_pct[sl] / 100.0, 0, 1),
-                    brake_pedal=np.clip(log.brake_bar[sl] / 250.0, 0, 1),
-                    acc_state=log.acc_state[sl],
-                    meta={"driver_id": driver.driver_id, "condition": "dry", "mode": "acc",
-                          "condition_factor": args.condition_factor,
-                          "scenario": args.scenario, "seed": args.seed,
-                          "collision": collided, "source": "sim_bus.cli"})
+        trip = Trip(
+            t_s=log.t_s[sl],
+            v_mps=log.v_mps[sl],
+            gap_m=log.gap_m[sl],
+            v_lead_mps=log.v_lead_mps[sl],
+            a_mps2=log.a_mps2[sl],
+            accel_pedal=np.clip(log.accel_pct[sl] / 100.0, 0, 1),
+            brake_pedal=np.clip(log.brake_bar[sl] / 250.0, 0, 1),
+            acc_state=log.acc_state[sl],
+            meta={
+                "driver_id": driver.driver_id,
+                "condition": "dry",
+                "mode": "acc",
+                "condition_factor": args.condition_factor,
+                "scenario": args.scenario,
+                "seed": args.seed,
+                "collision": collided,
+                "source": "sim_bus.cli",
+            },
+        )
         try:
             write_trip(args.log, trip)
         except (TripLogError, OSError) as exc:

@@ -107,8 +107,9 @@ def predefined_table(driver: DriverParams) -> Dgpt:
     """The Predefined controller's table: the driver's chosen constant headway, d0 = 4 m."""
     from ecu.dgpt import predefined
 
-    return predefined(driver.predefined_headway_s, driver_id=driver.driver_id,
-                      created_utc="2000-01-01T00:00:00Z")
+    return predefined(
+        driver.predefined_headway_s, driver_id=driver.driver_id, created_utc="2000-01-01T00:00:00Z"
+    )
 
 
 def resolve_profile(scenario: str, seed: int) -> LeadProfile:
@@ -120,14 +121,21 @@ def resolve_profile(scenario: str, seed: int) -> LeadProfile:
         return load_profile_csv(Path(scenario))
     profiles = canonical_profiles(seed)
     if scenario not in profiles:
-        raise ScenarioError(f"unknown scenario {scenario!r}: one of {sorted(profiles)} "
-                            "or a .csv file")
+        raise ScenarioError(
+            f"unknown scenario {scenario!r}: one of {sorted(profiles)} or a .csv file"
+        )
     return profiles[scenario]
 
 
-def run_drive(cfg: DriveConfig, driver: DriverParams, table: Dgpt,
-              profile: LeadProfile | None = None, *, takeover_sink: Any = None,
-              record_channel: str | None = None) -> DriveResult:
+def run_drive(
+    cfg: DriveConfig,
+    driver: DriverParams,
+    table: Dgpt,
+    profile: LeadProfile | None = None,
+    *,
+    takeover_sink: Any = None,
+    record_channel: str | None = None,
+) -> DriveResult:
     """Run one lockstep drive; never raises for a collision (it is reported).
 
     ``record_channel``: when given, the drive's virtual channel name (so a test can attach a
@@ -161,20 +169,34 @@ def run_drive(cfg: DriveConfig, driver: DriverParams, table: Dgpt,
     fault_rng = np.random.default_rng(ss.spawn(1)[0])
     world = World(driver, prof, cfg.seed, WorldConfig(engage_s=cfg.engage_s))
     channel = record_channel or f"pacc-drive-{id(cfg):x}-{next(_channel_ids)}"
-    ecu_cfg = EcuConfig(adaptation=cfg.controller.endswith("+oa"), brake_mode=cfg.brake_mode,
-                        adaptation_params=cfg.adaptation or AdaptationParams(),
-                        set_speed_mps=SET_SPEED_MPS,
-                        trip_meta={"driver_id": driver.driver_id, "seed": cfg.seed,
-                                   "scenario": prof.name, "controller": cfg.controller})
+    ecu_cfg = EcuConfig(
+        adaptation=cfg.controller.endswith("+oa"),
+        brake_mode=cfg.brake_mode,
+        adaptation_params=cfg.adaptation or AdaptationParams(),
+        set_speed_mps=SET_SPEED_MPS,
+        trip_meta={
+            "driver_id": driver.driver_id,
+            "seed": cfg.seed,
+            "scenario": prof.name,
+            "controller": cfg.controller,
+        },
+    )
     # adapted tables get a fixed creation time: the drive stays a pure function of its inputs
-    ecu = EcuNode(ecu_cfg, table, takeover_sink=takeover_sink,
-                  utc_now=lambda: "2000-01-01T00:00:00Z")
+    ecu = EcuNode(
+        ecu_cfg, table, takeover_sink=takeover_sink, utc_now=lambda: "2000-01-01T00:00:00Z"
+    )
     sim_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
     ecu_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
     try:
         rt = EcuRuntime(ecu_bus, ecu, codec=codec)
-        node = SimNode(sim_bus, world, codec=codec, faults=faults, rng=fault_rng,
-                       gap_setting=GAP_SETTING_CODE[driver.predefined_setting])
+        node = SimNode(
+            sim_bus,
+            world,
+            codec=codec,
+            faults=faults,
+            rng=fault_rng,
+            gap_setting=GAP_SETTING_CODE[driver.predefined_setting],
+        )
         start = time.perf_counter()
         step = node.step
         advance = rt.advance_to
@@ -195,14 +217,33 @@ def run_drive(cfg: DriveConfig, driver: DriverParams, table: Dgpt,
         sim_bus.shutdown()
         ecu_bus.shutdown()
     log = world.log()
-    metrics = drive_metrics(log.t_s, log.v_mps, log.gap_m, log.v_lead_mps, log.a_mps2,
-                            log.acc_state, log.accel_pressed, log.brake_pressed, log.pref_gap_m)
+    metrics = drive_metrics(
+        log.t_s,
+        log.v_mps,
+        log.gap_m,
+        log.v_lead_mps,
+        log.a_mps2,
+        log.acc_state,
+        log.accel_pressed,
+        log.brake_pressed,
+        log.pref_gap_m,
+    )
     return DriveResult(
-        config=cfg, metrics=metrics, collision=world.plant.collided,
-        collision_t_s=world.plant.collision_t_s, takeovers=ecu.takeovers,
-        adaptations=ecu.adaptations, sim_s=world.t_s, wall_s=wall, log=log, summary=summary,
-        frames_sent=node.frames_sent, frames_faulted=node.frames_faulted,
-        final_table=ecu.table, adaptation_events=events)
+        config=cfg,
+        metrics=metrics,
+        collision=world.plant.collided,
+        collision_t_s=world.plant.collision_t_s,
+        takeovers=ecu.takeovers,
+        adaptations=ecu.adaptations,
+        sim_s=world.t_s,
+        wall_s=wall,
+        log=log,
+        summary=summary,
+        frames_sent=node.frames_sent,
+        frames_faulted=node.frames_faulted,
+        final_table=ecu.table,
+        adaptation_events=events,
+    )
 
 
 def log_to_trip(result: DriveResult, driver: DriverParams) -> Any:
@@ -212,22 +253,34 @@ def log_to_trip(result: DriveResult, driver: DriverParams) -> Any:
     from ecu.triplog import Trip
 
     log = result.log
-    every = max(1, int(round(0.1 / float(np.median(np.diff(log.t_s)))))) if len(log.t_s) > 1 \
-        else 1
+    every = max(1, int(round(0.1 / float(np.median(np.diff(log.t_s)))))) if len(log.t_s) > 1 else 1
     sl = slice(None, None, every)
-    metrics = {k: (v if math.isfinite(v) else None)
-               for k, v in result.metrics.as_dict().items()}
-    meta: dict[str, Any] = {"driver_id": driver.driver_id, "condition": "dry", "mode": "acc",
-            "scenario": result.config.scenario, "seed": result.config.seed,
-            "controller": result.config.controller, "faults": result.config.faults,
-            "collision": result.collision, "metrics": metrics,
-            "takeovers": result.takeovers, "adaptations": result.adaptations,
-            "source": "sim_bus.drive"}
-    return Trip(t_s=log.t_s[sl], v_mps=log.v_mps[sl], gap_m=log.gap_m[sl],
-                v_lead_mps=log.v_lead_mps[sl], a_mps2=log.a_mps2[sl],
-                accel_pedal=np.clip(log.accel_pct[sl] / 100.0, 0.0, 1.0),
-                brake_pedal=np.clip(log.brake_bar[sl] / 250.0, 0.0, 1.0),
-                acc_state=log.acc_state[sl], meta=meta)
+    metrics = {k: (v if math.isfinite(v) else None) for k, v in result.metrics.as_dict().items()}
+    meta: dict[str, Any] = {
+        "driver_id": driver.driver_id,
+        "condition": "dry",
+        "mode": "acc",
+        "scenario": result.config.scenario,
+        "seed": result.config.seed,
+        "controller": result.config.controller,
+        "faults": result.config.faults,
+        "collision": result.collision,
+        "metrics": metrics,
+        "takeovers": result.takeovers,
+        "adaptations": result.adaptations,
+        "source": "sim_bus.drive",
+    }
+    return Trip(
+        t_s=log.t_s[sl],
+        v_mps=log.v_mps[sl],
+        gap_m=log.gap_m[sl],
+        v_lead_mps=log.v_lead_mps[sl],
+        a_mps2=log.a_mps2[sl],
+        accel_pedal=np.clip(log.accel_pct[sl] / 100.0, 0.0, 1.0),
+        brake_pedal=np.clip(log.brake_bar[sl] / 250.0, 0.0, 1.0),
+        acc_state=log.acc_state[sl],
+        meta=meta,
+    )
 
 
 def format_result(r: DriveResult) -> str:
@@ -237,8 +290,11 @@ def format_result(r: DriveResult) -> str:
     col = f"1 at t = {r.collision_t_s:.2f} s" if r.collision else "0"
     lines = [
         f"drive: scenario {c.scenario}, driver {c.driver_id}, controller {c.controller}"
-        + (f" ({c.adaptation.mode} adaptation)" if c.adaptation is not None
-           and c.controller.endswith("+oa") else "")
+        + (
+            f" ({c.adaptation.mode} adaptation)"
+            if c.adaptation is not None and c.controller.endswith("+oa")
+            else ""
+        )
         + f", seed {c.seed}, {r.sim_s:.1f} s simulated in {r.wall_s:.2f} s "
         f"({r.realtime_factor:.0f}x real time)",
         f"  PoI            {m.poi_pct:7.2f} %   (ACC-ON {m.acc_on_s:.1f} s)",
@@ -258,10 +314,16 @@ def format_result(r: DriveResult) -> str:
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="pacc drive", description=__doc__.split("\n\n")[0],
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--scenario", default="B",
-                   help="A, B, manual1..manual4 or a CSV of t_s,v_lead_mps (default B)")
+    p = argparse.ArgumentParser(
+        prog="pacc drive",
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument(
+        "--scenario",
+        default="B",
+        help="A, B, manual1..manual4 or a CSV of t_s,v_lead_mps (default B)",
+    )
     p.add_argument("--driver", default="d1", help="d1..d5 or a driver .toml/.json (default d1)")
     p.add_argument("--controller", default="predefined", choices=CONTROLLERS)
     p.add_argument("--profile", type=Path, help="DGPT JSON for the irl controllers")
@@ -269,15 +331,27 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--faults", default="", help="fault SPEC, e.g. 'radar:dropout=100-105'")
     p.add_argument("--log", type=Path, help="write the drive as an MCAP trip log")
     p.add_argument("--duration", type=float, help="simulate only the first N seconds")
-    p.add_argument("--brake-mode", choices=("resume", "cancel"), default="resume",
-                   help="brake press: override and resume (paper) or cancel (production)")
-    p.add_argument("--condition-factor", type=float, default=1.0,
-                   help="multiply the driver's preference, e.g. 1.2 for rain (default 1)")
-    p.add_argument("--cache", type=Path, help="cache folder of learned IRL tables "
-                   "(default ~/.cache/pacc)")
-    p.add_argument("--adaptation-mode", choices=ADAPTATION_MODE_CHOICES,
-                   help="online adaptation of the +oa controllers: the paper's Algorithm 1 "
-                   "or the time-gap update (default: the ECU's, see docs/ecu.md)")
+    p.add_argument(
+        "--brake-mode",
+        choices=("resume", "cancel"),
+        default="resume",
+        help="brake press: override and resume (paper) or cancel (production)",
+    )
+    p.add_argument(
+        "--condition-factor",
+        type=float,
+        default=1.0,
+        help="multiply the driver's preference, e.g. 1.2 for rain (default 1)",
+    )
+    p.add_argument(
+        "--cache", type=Path, help="cache folder of learned IRL tables (default ~/.cache/pacc)"
+    )
+    p.add_argument(
+        "--adaptation-mode",
+        choices=ADAPTATION_MODE_CHOICES,
+        help="online adaptation of the +oa controllers: the paper's Algorithm 1 "
+        "or the time-gap update (default: the ECU's, see docs/ecu.md)",
+    )
     return p
 
 
@@ -305,11 +379,16 @@ def main(argv: list[str] | None = None) -> int:
         parse_faults(args.faults)
         if args.duration is not None and not (args.duration > 0):
             raise SimError("--duration must be > 0")
-        cfg = DriveConfig(scenario=args.scenario, driver_id=driver.driver_id,
-                          controller=args.controller, seed=args.seed,
-                          duration_s=args.duration, faults=args.faults,
-                          brake_mode=args.brake_mode,
-                          adaptation=adaptation_params(args.adaptation_mode))
+        cfg = DriveConfig(
+            scenario=args.scenario,
+            driver_id=driver.driver_id,
+            controller=args.controller,
+            seed=args.seed,
+            duration_s=args.duration,
+            faults=args.faults,
+            brake_mode=args.brake_mode,
+            adaptation=adaptation_params(args.adaptation_mode),
+        )
         profile = resolve_profile(args.scenario, args.seed)
         if args.controller.startswith("irl"):
             if args.profile is not None:
@@ -317,8 +396,10 @@ def main(argv: list[str] | None = None) -> int:
 
                 table = load_dgpt(args.profile)
             else:
-                print("learning the IRL table from the driver's manual trips "
-                      "(cached) ...", file=sys.stderr)
+                print(
+                    "learning the IRL table from the driver's manual trips (cached) ...",
+                    file=sys.stderr,
+                )
                 table = irl_table(base, args.seed, args.cache)  # learned in normal conditions
         else:
             table = predefined_table(driver)

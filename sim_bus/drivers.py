@@ -73,14 +73,18 @@ class DriverParams:
     def __post_init__(self) -> None:
         if not (isinstance(self.driver_id, str) and _DRIVER_ID.fullmatch(self.driver_id)):
             # it names files (the IRL cache) and tables: no path separators, no surprises
-            raise DriverError(f"driver_id must be 1-64 letters, digits, '_', '-' or '.', "
-                              f"starting with a letter or digit; got {self.driver_id!r}")
+            raise DriverError(
+                f"driver_id must be 1-64 letters, digits, '_', '-' or '.', "
+                f"starting with a letter or digit; got {self.driver_id!r}"
+            )
         speeds, heads = self.headway_speeds_mps, self.headway_s
         if len(speeds) != len(heads) or len(speeds) < 1:
-            raise DriverError(f"{self.driver_id}: headway_speeds_mps and headway_s differ in "
-                              "length or are empty")
+            raise DriverError(
+                f"{self.driver_id}: headway_speeds_mps and headway_s differ in length or are empty"
+            )
         if any(not b > a for a, b in zip(speeds, speeds[1:], strict=False)) or not all(
-                math.isfinite(v) for v in speeds):
+            math.isfinite(v) for v in speeds
+        ):
             raise DriverError(f"{self.driver_id}: headway_speeds_mps must be finite and increase")
         if not all(0.3 <= h <= 6.0 for h in heads):
             raise DriverError(f"{self.driver_id}: headway_s must lie in 0.3..6.0 s")
@@ -90,27 +94,47 @@ class DriverParams:
             raise DriverError(f"{self.driver_id}: condition_factor must lie in 0.5..2")
         if not 0.5 <= self.acc_preference_factor <= 2.0:
             raise DriverError(f"{self.driver_id}: acc_preference_factor must lie in 0.5..2")
-        positive = ("patience_s", "patience_far_s", "reaction_s", "accel_max_mps2", "press_max_s",
-                    "decel_comfort_mps2", "desired_speed_mps", "comfort_band")
+        positive = (
+            "patience_s",
+            "patience_far_s",
+            "reaction_s",
+            "accel_max_mps2",
+            "press_max_s",
+            "decel_comfort_mps2",
+            "desired_speed_mps",
+            "comfort_band",
+        )
         for name in positive:
             if not getattr(self, name) > 0:
                 raise DriverError(f"{self.driver_id}: {name} must be > 0")
-        nonneg = ("condition_drift_per_min", "comfort_band_min_m", "lookahead_s", "ttc_brake_s",
-                  "release_band", "anticipation_s", "prolong_s", "refractory_s",
-                  "accel_noise_mps2", "spurious_press_per_min")
+        nonneg = (
+            "condition_drift_per_min",
+            "comfort_band_min_m",
+            "lookahead_s",
+            "ttc_brake_s",
+            "release_band",
+            "anticipation_s",
+            "prolong_s",
+            "refractory_s",
+            "accel_noise_mps2",
+            "spurious_press_per_min",
+        )
         for name in nonneg:
             if not getattr(self, name) >= 0:
                 raise DriverError(f"{self.driver_id}: {name} must be >= 0")
         if self.predefined_setting not in PREDEFINED_HEADWAY_S:
-            raise DriverError(f"{self.driver_id}: predefined_setting must be one of "
-                              f"{sorted(PREDEFINED_HEADWAY_S)}")
+            raise DriverError(
+                f"{self.driver_id}: predefined_setting must be one of "
+                f"{sorted(PREDEFINED_HEADWAY_S)}"
+            )
 
     def headway_at(self, v_mps: np.ndarray | float) -> np.ndarray:
         """The preferred time headway T(v) (s), same shape as ``v_mps``."""
         return np.asarray(np.interp(v_mps, self.headway_speeds_mps, self.headway_s))
 
-    def preferred_gap_m(self, v_mps: np.ndarray | float,
-                        condition_factor: float = 1.0) -> np.ndarray:
+    def preferred_gap_m(
+        self, v_mps: np.ndarray | float, condition_factor: float = 1.0
+    ) -> np.ndarray:
         """The hidden preferred gap g*(v) = d0 + c·T(v)·v (m), same shape as ``v_mps``.
 
         ``condition_factor`` multiplies the driver's own ``condition_factor``.
@@ -119,8 +143,9 @@ class DriverParams:
         c = self.condition_factor * condition_factor
         return self.standstill_m + c * self.headway_at(v) * v
 
-    def acc_preferred_gap_m(self, v_mps: np.ndarray | float,
-                            condition_factor: float = 1.0) -> np.ndarray:
+    def acc_preferred_gap_m(
+        self, v_mps: np.ndarray | float, condition_factor: float = 1.0
+    ) -> np.ndarray:
         """The gap the driver wants under ACC: ``acc_preference_factor · g*(v)`` (m)."""
         return self.acc_preference_factor * self.preferred_gap_m(v_mps, condition_factor)
 
@@ -132,32 +157,80 @@ class DriverParams:
 
 BUILTIN_DRIVERS: dict[str, DriverParams] = {
     "d1": DriverParams(
-        "d1", "close follower: short headway, impatient, brakes late",
-        standstill_m=3.0, headway_s=(1.15, 1.2, 1.25, 1.3), comfort_band=0.15,
-        patience_s=1.2, patience_far_s=2.5, reaction_s=0.5, anticipation_s=1.2,
-        accel_max_mps2=2.0, decel_comfort_mps2=2.5, press_max_s=2.5, predefined_setting="low"),
+        "d1",
+        "close follower: short headway, impatient, brakes late",
+        standstill_m=3.0,
+        headway_s=(1.15, 1.2, 1.25, 1.3),
+        comfort_band=0.15,
+        patience_s=1.2,
+        patience_far_s=2.5,
+        reaction_s=0.5,
+        anticipation_s=1.2,
+        accel_max_mps2=2.0,
+        decel_comfort_mps2=2.5,
+        press_max_s=2.5,
+        predefined_setting="low",
+    ),
     "d2": DriverParams(
-        "d2", "moderate: medium headway, average patience",
-        standstill_m=4.0, headway_s=(1.6, 1.7, 1.8, 1.9), comfort_band=0.15,
-        patience_s=1.5, patience_far_s=4.0, reaction_s=0.6, acc_preference_factor=1.1,
-        predefined_setting="medium"),
+        "d2",
+        "moderate: medium headway, average patience",
+        standstill_m=4.0,
+        headway_s=(1.6, 1.7, 1.8, 1.9),
+        comfort_band=0.15,
+        patience_s=1.5,
+        patience_far_s=4.0,
+        reaction_s=0.6,
+        acc_preference_factor=1.1,
+        predefined_setting="medium",
+    ),
     "d3": DriverParams(
-        "d3", "very cautious: long headway, brakes early, prolongs its presses",
-        standstill_m=5.0, headway_s=(2.3, 2.5, 2.7, 2.8), comfort_band=0.12,
-        patience_s=1.0, patience_far_s=6.0, lookahead_s=2.0, ttc_brake_s=4.0, reaction_s=0.8,
-        anticipation_s=0.3, prolong_s=1.0, accel_max_mps2=1.2, decel_comfort_mps2=1.8,
-        acc_preference_factor=1.1, press_max_s=4.0, predefined_setting="high"),
+        "d3",
+        "very cautious: long headway, brakes early, prolongs its presses",
+        standstill_m=5.0,
+        headway_s=(2.3, 2.5, 2.7, 2.8),
+        comfort_band=0.12,
+        patience_s=1.0,
+        patience_far_s=6.0,
+        lookahead_s=2.0,
+        ttc_brake_s=4.0,
+        reaction_s=0.8,
+        anticipation_s=0.3,
+        prolong_s=1.0,
+        accel_max_mps2=1.2,
+        decel_comfort_mps2=1.8,
+        acc_preference_factor=1.1,
+        press_max_s=4.0,
+        predefined_setting="high",
+    ),
     "d4": DriverParams(
-        "d4", "speed-dependent: close in town, far on the motorway",
-        standstill_m=4.0, headway_s=(1.2, 1.5, 2.3, 2.7), comfort_band=0.15,
-        patience_s=1.5, patience_far_s=3.5, reaction_s=0.6, acc_preference_factor=0.92,
-        predefined_setting="medium"),
+        "d4",
+        "speed-dependent: close in town, far on the motorway",
+        standstill_m=4.0,
+        headway_s=(1.2, 1.5, 2.3, 2.7),
+        comfort_band=0.15,
+        patience_s=1.5,
+        patience_far_s=3.5,
+        reaction_s=0.6,
+        acc_preference_factor=0.92,
+        predefined_setting="medium",
+    ),
     "d5": DriverParams(
-        "d5", "inconsistent: drifting preference, noisy control, random short taps",
-        standstill_m=4.0, headway_s=(1.7, 1.9, 2.1, 2.2), condition_drift_per_min=0.05,
-        comfort_band=0.18, patience_s=2.0, patience_far_s=4.0, reaction_s=0.7,
-        anticipation_s=0.6, prolong_s=0.6, accel_noise_mps2=0.3, spurious_press_per_min=0.5,
-        press_max_s=2.0, predefined_setting="medium"),
+        "d5",
+        "inconsistent: drifting preference, noisy control, random short taps",
+        standstill_m=4.0,
+        headway_s=(1.7, 1.9, 2.1, 2.2),
+        condition_drift_per_min=0.05,
+        comfort_band=0.18,
+        patience_s=2.0,
+        patience_far_s=4.0,
+        reaction_s=0.7,
+        anticipation_s=0.6,
+        prolong_s=0.6,
+        accel_noise_mps2=0.3,
+        spurious_press_per_min=0.5,
+        press_max_s=2.0,
+        predefined_setting="medium",
+    ),
 }
 
 
@@ -203,8 +276,9 @@ def load_driver(spec: str | Path) -> DriverParams:
         return BUILTIN_DRIVERS[text]
     path = Path(spec)
     if not path.exists():
-        raise DriverError(f"unknown driver {text!r}: not one of {sorted(BUILTIN_DRIVERS)} and "
-                          "no such file")
+        raise DriverError(
+            f"unknown driver {text!r}: not one of {sorted(BUILTIN_DRIVERS)} and no such file"
+        )
     try:
         if path.suffix.lower() == ".toml":
             raw: Any = tomllib.loads(path.read_text(encoding="utf-8"))

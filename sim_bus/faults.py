@@ -73,7 +73,8 @@ def _window(value: str, clause: str) -> tuple[float, float]:
         a, b = float(a_text), float(b_text)
     except ValueError:
         raise FaultSpecError(
-            f"{clause!r}: a window is START-END in seconds, got {value!r}") from None
+            f"{clause!r}: a window is START-END in seconds, got {value!r}"
+        ) from None
     if not (0 <= a < b):
         raise FaultSpecError(f"{clause!r}: window needs 0 <= START < END, got {value!r}")
     return a, b
@@ -89,9 +90,14 @@ class _Draft:
 
     def plan(self) -> FaultPlan:
         v = self.values
-        return FaultPlan(drop=v.get("drop", 0.0), crc=v.get("crc", 0.0),
-                         counter=v.get("counter", 0.0), delay_s=v.get("delay", 0.0),
-                         freeze=tuple(self.freeze), silent=tuple(self.silent))
+        return FaultPlan(
+            drop=v.get("drop", 0.0),
+            crc=v.get("crc", 0.0),
+            counter=v.get("counter", 0.0),
+            delay_s=v.get("delay", 0.0),
+            freeze=tuple(self.freeze),
+            silent=tuple(self.silent),
+        )
 
 
 def parse_faults(text: str | None) -> FaultSpec:
@@ -137,5 +143,6 @@ def _apply(draft: _Draft, kind: str, value: str, clause: str) -> None:
     elif kind in _WINDOW:
         (draft.freeze if kind == "freeze" else draft.silent).append(_window(value, clause))
     else:
-        raise FaultSpecError(f"{clause!r}: unknown fault kind {kind!r} "
-                             f"(one of {_PROB + ('delay',) + _WINDOW})")
+        raise FaultSpecError(
+            f"{clause!r}: unknown fault kind {kind!r} (one of {_PROB + ('delay',) + _WINDOW})"
+        )

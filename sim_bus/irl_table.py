@@ -52,9 +52,16 @@ def code_digest(packages: tuple[str, ...] = ("cloud_sync", "sim_bus", "ecu")) ->
 
 def cache_key(driver: DriverParams, seed: int, trainer_source: str) -> str:
     """A hex key of (driver parameters, seed, code digest): same inputs, same table."""
-    payload = json.dumps({"driver": dataclasses.asdict(driver), "seed": seed,
-                          "profiles": MANUAL_PROFILES, "trainer": trainer_source},
-                         sort_keys=True, default=str)
+    payload = json.dumps(
+        {
+            "driver": dataclasses.asdict(driver),
+            "seed": seed,
+            "profiles": MANUAL_PROFILES,
+            "trainer": trainer_source,
+        },
+        sort_keys=True,
+        default=str,
+    )
     return hashlib.sha256(payload.encode()).hexdigest()[:16]
 
 
@@ -65,12 +72,15 @@ def irl_table(driver: DriverParams, seed: int, cache_dir: Path | None = None) ->
     try:
         from cloud_sync import trainer
     except ImportError:
-        raise DriveError("no IRL table: pass --profile DGPT.json (the cloud trainer "
-                         "cloud_sync.trainer is not available)") from None
+        raise DriveError(
+            "no IRL table: pass --profile DGPT.json (the cloud trainer "
+            "cloud_sync.trainer is not available)"
+        ) from None
     learn = getattr(trainer, "learn_dgpt", None)
     if learn is None:
-        raise DriveError("no IRL table: pass --profile DGPT.json (cloud_sync.trainer has no "
-                         "learn_dgpt)")
+        raise DriveError(
+            "no IRL table: pass --profile DGPT.json (cloud_sync.trainer has no learn_dgpt)"
+        )
     key = cache_key(driver, seed, code_digest())
     folder = cache_dir or default_cache_dir()
     path = folder / f"irl-{driver.driver_id}-{key}.json"
@@ -83,8 +93,9 @@ def irl_table(driver: DriverParams, seed: int, cache_dir: Path | None = None) ->
     from sim_bus.scenarios import canonical_profiles
 
     profiles = canonical_profiles(seed)
-    trips = [manual_trip(driver, profiles[name], seed + i)
-             for i, name in enumerate(MANUAL_PROFILES)]
+    trips = [
+        manual_trip(driver, profiles[name], seed + i) for i, name in enumerate(MANUAL_PROFILES)
+    ]
     result = learn(trips, driver_id=driver.driver_id, seed=seed)
     table: Dgpt = result.table
     try:  # save_dgpt writes atomically; the cache only saves time, so a failure is no error

@@ -24,8 +24,13 @@ MANUAL_DT_S = 0.05
 LOG_EVERY = 2  # 20 Hz steps -> 10 Hz samples
 
 
-def manual_trip(driver: DriverParams, profile: LeadProfile, seed: int,
-                plant: PlantConfig | None = None, condition: str = "dry") -> Trip:
+def manual_trip(
+    driver: DriverParams,
+    profile: LeadProfile,
+    seed: int,
+    plant: PlantConfig | None = None,
+    condition: str = "dry",
+) -> Trip:
     """Drive ``profile`` by hand with ``driver``; return a cloud_sync Trip (10 Hz, mode manual).
 
     The ego starts at the lead's speed at the driver's preferred gap. A collision (gap ≤ 0)
@@ -55,9 +60,15 @@ def manual_trip(driver: DriverParams, profile: LeadProfile, seed: int,
         if i % LOG_EVERY == 0:
             condition_sum += agent.condition
             agent_out = agent.a_cmd_mps2
-            cols[:, k] = (i * MANUAL_DT_S, car.v_mps, car.gap_m, vl, car.a_mps2,
-                          max(agent_out, 0.0) / ACCEL_FULL_MPS2 if agent.accel_pressed else 0.0,
-                          -min(agent_out, 0.0) / DECEL_LIMIT_MPS2 if agent.brake_pressed else 0.0)
+            cols[:, k] = (
+                i * MANUAL_DT_S,
+                car.v_mps,
+                car.gap_m,
+                vl,
+                car.a_mps2,
+                max(agent_out, 0.0) / ACCEL_FULL_MPS2 if agent.accel_pressed else 0.0,
+                -min(agent_out, 0.0) / DECEL_LIMIT_MPS2 if agent.brake_pressed else 0.0,
+            )
             k += 1
         if car.collided:
             break
@@ -65,13 +76,26 @@ def manual_trip(driver: DriverParams, profile: LeadProfile, seed: int,
         car.advance(agent.a_cmd_mps2, vl, float(a_lead[i]))
     cols = cols[:, :k]
     meta = {
-        "driver_id": driver.driver_id, "condition": condition, "mode": "manual",
-        "scenario": profile.name, "seed": int(seed), "collision": bool(car.collided),
-        "collision_t_s": car.collision_t_s, "source": "sim_bus.manual",
+        "driver_id": driver.driver_id,
+        "condition": condition,
+        "mode": "manual",
+        "scenario": profile.name,
+        "seed": int(seed),
+        "collision": bool(car.collided),
+        "collision_t_s": car.collision_t_s,
+        "source": "sim_bus.manual",
         # mean of the driver's drifting condition factor over the trip (1.0 without drift):
         # the preference it actually kept is preferred_gap_m(v, condition_mean), roughly
         "condition_mean": condition_sum / k if k else 1.0,
     }
-    return Trip(t_s=cols[0], v_mps=cols[1], gap_m=cols[2], v_lead_mps=cols[3], a_mps2=cols[4],
-                accel_pedal=np.clip(cols[5], 0.0, 1.0), brake_pedal=np.clip(cols[6], 0.0, 1.0),
-                acc_state=np.zeros(k, dtype=np.int64), meta=meta)
+    return Trip(
+        t_s=cols[0],
+        v_mps=cols[1],
+        gap_m=cols[2],
+        v_lead_mps=cols[3],
+        a_mps2=cols[4],
+        accel_pedal=np.clip(cols[5], 0.0, 1.0),
+        brake_pedal=np.clip(cols[6], 0.0, 1.0),
+        acc_state=np.zeros(k, dtype=np.int64),
+        meta=meta,
+    )

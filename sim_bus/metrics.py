@@ -56,8 +56,9 @@ def press_onsets(pressed: np.ndarray) -> np.ndarray:
     return p & ~prev
 
 
-def poi_nim(t_s: np.ndarray, acc_state: np.ndarray, accel_pressed: np.ndarray,
-            brake_pressed: np.ndarray) -> tuple[float, float, float, int]:
+def poi_nim(
+    t_s: np.ndarray, acc_state: np.ndarray, accel_pressed: np.ndarray, brake_pressed: np.ndarray
+) -> tuple[float, float, float, int]:
     """(PoI %, NIM per min, ACC-ON seconds, onsets) of one drive; NaN figures if never ON."""
     t = np.asarray(t_s, dtype=np.float64)
     dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
@@ -92,16 +93,28 @@ def rms_jerk(t_s: np.ndarray, a_mps2: np.ndarray) -> float:
     return float(np.sqrt(np.mean(j * j)))
 
 
-def drive_metrics(t_s: np.ndarray, v_mps: np.ndarray, gap_m: np.ndarray, v_lead_mps: np.ndarray,
-                  a_mps2: np.ndarray, acc_state: np.ndarray, accel_pressed: np.ndarray,
-                  brake_pressed: np.ndarray, pref_gap_m: np.ndarray) -> DriveMetrics:
+def drive_metrics(
+    t_s: np.ndarray,
+    v_mps: np.ndarray,
+    gap_m: np.ndarray,
+    v_lead_mps: np.ndarray,
+    a_mps2: np.ndarray,
+    acc_state: np.ndarray,
+    accel_pressed: np.ndarray,
+    brake_pressed: np.ndarray,
+    pref_gap_m: np.ndarray,
+) -> DriveMetrics:
     """All figures of one drive; the gap error uses ACC-ON samples without a pedal pressed."""
     poi, nim, on_s, n_on = poi_nim(t_s, acc_state, accel_pressed, brake_pressed)
-    on = acc_on_mask(acc_state) & ~(np.asarray(accel_pressed, bool) | np.asarray(brake_pressed,
-                                                                                   bool))
+    on = acc_on_mask(acc_state) & ~(
+        np.asarray(accel_pressed, bool) | np.asarray(brake_pressed, bool)
+    )
     err = (np.asarray(gap_m) - np.asarray(pref_gap_m))[on]
     return DriveMetrics(
-        poi_pct=poi, nim_per_min=nim, acc_on_s=on_s, press_onsets=n_on,
+        poi_pct=poi,
+        nim_per_min=nim,
+        acc_on_s=on_s,
+        press_onsets=n_on,
         min_gap_m=float(np.min(gap_m)) if len(gap_m) else math.nan,
         min_ttc_s=min_ttc_s(gap_m, v_mps, v_lead_mps),
         rms_jerk_mps3=rms_jerk(t_s, a_mps2),

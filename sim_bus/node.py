@@ -39,10 +39,17 @@ class SimNode:
     caller); ``gap_setting`` 1..3 and ``profile_id`` 0..255 are sent on HMI_Buttons.
     """
 
-    def __init__(self, bus: can.BusABC, world: World, codec: Codec | None = None,
-                 faults: FaultSpec | None = None, rng: np.random.Generator | None = None,
-                 gap_setting: int = 2, profile_id: int = 0,
-                 command_timeout_s: float = 0.1) -> None:
+    def __init__(
+        self,
+        bus: can.BusABC,
+        world: World,
+        codec: Codec | None = None,
+        faults: FaultSpec | None = None,
+        rng: np.random.Generator | None = None,
+        gap_setting: int = 2,
+        profile_id: int = 0,
+        command_timeout_s: float = 0.1,
+    ) -> None:
         from dbc.codec import load_codec
         from dbc.endpoint import Inbox, Outbox
 
@@ -51,8 +58,9 @@ class SimNode:
         self.codec = codec or load_codec()
         self.outbox = Outbox(self.codec)
         cmd_cycle = self.codec.by_role["command"].cycle_s
-        self.inbox = Inbox(self.codec, ("command", "status"),
-                           timeout_multiple=command_timeout_s / cmd_cycle)
+        self.inbox = Inbox(
+            self.codec, ("command", "status"), timeout_multiple=command_timeout_s / cmd_cycle
+        )
         self.dt_s = world.cfg.plant.dt_s
         self.tick = 0
         self.t_s = 0.0
@@ -64,12 +72,27 @@ class SimNode:
         self._bounds = {(r, k): self._mc[r].bounds(k) for r in TX_ROLES for k in self._mc[r].fields}
         self._values: dict[str, dict[str, Any]] = {
             "ego": {"speed_mps": 0.0, "accel_mps2": 0.0, "speed_valid": 1},
-            "pedals": {"accel_pedal_pct": 0.0, "accel_pressed": 0, "brake_pressed": 0,
-                       "brake_pressure_bar": 0.0},
-            "radar": {"lead_valid": 1, "gap_m": 0.0, "rel_speed_mps": 0.0,
-                      "lead_accel_mps2": 0.0, "lead_accel_valid": 1},
-            "hmi": {"main_switch": 1, "set": 0, "resume": 0, "cancel": 0,
-                    "gap_setting": int(gap_setting), "profile_id": int(profile_id)},
+            "pedals": {
+                "accel_pedal_pct": 0.0,
+                "accel_pressed": 0,
+                "brake_pressed": 0,
+                "brake_pressure_bar": 0.0,
+            },
+            "radar": {
+                "lead_valid": 1,
+                "gap_m": 0.0,
+                "rel_speed_mps": 0.0,
+                "lead_accel_mps2": 0.0,
+                "lead_accel_valid": 1,
+            },
+            "hmi": {
+                "main_switch": 1,
+                "set": 0,
+                "resume": 0,
+                "cancel": 0,
+                "gap_setting": int(gap_setting),
+                "profile_id": int(profile_id),
+            },
         }
         self.faults = faults if faults is not None and faults.plans else None
         self._rng = rng or np.random.default_rng(0)
@@ -89,9 +112,14 @@ class SimNode:
         queue = getattr(bus, "queue", None)
         self._rx_queue = queue if callable(getattr(queue, "empty", None)) else None
         # one reusable message per role (the virtual bus copies what it sends)
-        self._msgs: dict[str, can.Message] = {r: Frame(arbitration_id=self._mc[r].frame_id,
-                                     is_extended_id=self._mc[r].is_extended,
-                                     dlc=self._mc[r].length) for r in TX_ROLES}
+        self._msgs: dict[str, can.Message] = {
+            r: Frame(
+                arbitration_id=self._mc[r].frame_id,
+                is_extended_id=self._mc[r].is_extended,
+                dlc=self._mc[r].length,
+            )
+            for r in TX_ROLES
+        }
         self.commands_ok = 0
 
     # -- receive ------------------------------------------------------------------------
@@ -137,8 +165,7 @@ class SimNode:
             vals["accel_pressed"] = 1 if agent.accel_pressed else 0
             vals["brake_pressed"] = 1 if agent.brake_pressed else 0
             vals["accel_pedal_pct"] = _clip(agent.accel_pct, b[("pedals", "accel_pedal_pct")])
-            vals["brake_pressure_bar"] = _clip(agent.brake_bar,
-                                               b[("pedals", "brake_pressure_bar")])
+            vals["brake_pressure_bar"] = _clip(agent.brake_bar, b[("pedals", "brake_pressure_bar")])
         elif role == "radar":
             gap = car.gap_m
             lo, hi = b[("radar", "gap_m")]
@@ -190,8 +217,9 @@ class SimNode:
                 msg.timestamp = now
                 self._send(msg)
 
-    def _transmit_faulty(self, role: str, vals: dict[str, Any], plan: FaultPlan,
-                         now: float) -> None:
+    def _transmit_faulty(
+        self, role: str, vals: dict[str, Any], plan: FaultPlan, now: float
+    ) -> None:
         """Send one frame of ``role`` through its fault plan.
 
         One uniform draw per frame decides the random faults (``u < counter``, ``u < crc``,

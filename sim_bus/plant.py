@@ -68,9 +68,18 @@ def step(
 ) -> PlantState:
     """One plant step of ``cfg.dt_s``; ``noise_v``, ``noise_g`` are N(0, 1) draws (pure)."""
     v, a, g, x = _step_floats(
-        state.v_mps, state.a_mps2, state.gap_m, state.x_m, a_cmd_mps2, v_lead_mps, a_lead_mps2,
-        cfg.dt_s, lag_factor(cfg.dt_s, cfg.actuator_tau_s), cfg.accel_min_mps2,
-        cfg.accel_max_mps2, _noise_scale(cfg) * cfg.sigma_v_mps * noise_v,
+        state.v_mps,
+        state.a_mps2,
+        state.gap_m,
+        state.x_m,
+        a_cmd_mps2,
+        v_lead_mps,
+        a_lead_mps2,
+        cfg.dt_s,
+        lag_factor(cfg.dt_s, cfg.actuator_tau_s),
+        cfg.accel_min_mps2,
+        cfg.accel_max_mps2,
+        _noise_scale(cfg) * cfg.sigma_v_mps * noise_v,
         _noise_scale(cfg) * cfg.sigma_g_m * noise_g,
     )
     return PlantState(v, a, g, x)
@@ -81,8 +90,19 @@ def _noise_scale(cfg: PlantConfig) -> float:
 
 
 def _step_floats(
-    v: float, a: float, g: float, x: float, a_cmd: float, v_f: float, a_f: float, dt: float,
-    k_lag: float, a_lo: float, a_hi: float, dv_noise: float, dg_noise: float,
+    v: float,
+    a: float,
+    g: float,
+    x: float,
+    a_cmd: float,
+    v_f: float,
+    a_f: float,
+    dt: float,
+    k_lag: float,
+    a_lo: float,
+    a_hi: float,
+    dv_noise: float,
+    dg_noise: float,
 ) -> tuple[float, float, float, float]:
     """Scalar core of :func:`step` (floats in, floats out, no allocation beyond the tuple)."""
     a_cmd = a_lo if a_cmd < a_lo else a_hi if a_cmd > a_hi else a_cmd
@@ -140,8 +160,19 @@ class Plant:
         if not math.isfinite(a_cmd_mps2):
             a_cmd_mps2 = 0.0
         self.v_mps, self.a_mps2, self.gap_m, self.x_m = _step_floats(
-            self.v_mps, self.a_mps2, self.gap_m, self.x_m, a_cmd_mps2, v_lead_mps, a_lead_mps2,
-            cfg.dt_s, self._k, cfg.accel_min_mps2, cfg.accel_max_mps2, nv, ng,
+            self.v_mps,
+            self.a_mps2,
+            self.gap_m,
+            self.x_m,
+            a_cmd_mps2,
+            v_lead_mps,
+            a_lead_mps2,
+            cfg.dt_s,
+            self._k,
+            cfg.accel_min_mps2,
+            cfg.accel_max_mps2,
+            nv,
+            ng,
         )
         self.t_s += cfg.dt_s
         if self.gap_m <= 0.0 and not self.collided:

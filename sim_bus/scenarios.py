@@ -114,8 +114,14 @@ def _library(sources: list[tuple[str, np.ndarray]], cfg: GeneratorConfig) -> _Li
         mean_l.append(windows[keep].mean(axis=1))
     if not idx_l or sum(len(x) for x in idx_l) == 0:
         raise ScenarioError("the sources hold no usable segment of the requested length")
-    return _Library(tuple(name for name, _ in sources), tuple(v for _, v in sources),
-                    np.concatenate(idx_l), np.concatenate(start_l), np.concatenate(mean_l), n)
+    return _Library(
+        tuple(name for name, _ in sources),
+        tuple(v for _, v in sources),
+        np.concatenate(idx_l),
+        np.concatenate(start_l),
+        np.concatenate(mean_l),
+        n,
+    )
 
 
 def real_sources() -> list[tuple[str, np.ndarray]]:
@@ -176,13 +182,14 @@ def synthesize(
             scale = target / float(lib.mean_mps[j])
         src = int(lib.source_index[j])
         s = int(lib.start[j])
-        pieces.append(scale * lib.speeds[src][s:s + lib.length])
+        pieces.append(scale * lib.speeds[src][s : s + lib.length])
         refs.append(SegmentRef(lib.names[src], s, lib.length, scale))
     raw = np.concatenate(pieces)
     n = int(round(cfg.duration_s / DT_S)) + 1
     if len(raw) < n:
-        raise ScenarioError(f"{len(speeds)} segments of {cfg.segment_s} s are shorter than "
-                            f"{cfg.duration_s} s")
+        raise ScenarioError(
+            f"{len(speeds)} segments of {cfg.segment_s} s are shorter than {cfg.duration_s} s"
+        )
     raw = raw[:n]
     return LeadProfile(name, np.arange(n) * DT_S, bound_filter(raw, cfg), tuple(refs), raw)
 
@@ -209,8 +216,12 @@ def random_speed_sequence(
 
 
 #: speed ranges of the four manual-driving profiles (m/s); together they cover 5-30 m/s
-MANUAL_RANGES_MPS: tuple[tuple[float, float], ...] = ((5.0, 12.0), (10.0, 18.0),
-                                                       (16.0, 24.0), (22.0, 30.0))
+MANUAL_RANGES_MPS: tuple[tuple[float, float], ...] = (
+    (5.0, 12.0),
+    (10.0, 18.0),
+    (16.0, 24.0),
+    (22.0, 30.0),
+)
 
 
 def _scenario_a(manual: list[LeadProfile], seed: int, cfg: GeneratorConfig) -> LeadProfile:
@@ -246,8 +257,7 @@ def _canonical_profiles(seed: int) -> dict[str, LeadProfile]:
         prof = synthesize(seq, int(rng.integers(2**31)), f"manual{k + 1}", cfg)
         manual.append(prof)
         out[prof.name] = prof
-    out["A"] = _scenario_a(manual, int(np.random.default_rng(children[-1]).integers(2**31)),
-                           cfg)
+    out["A"] = _scenario_a(manual, int(np.random.default_rng(children[-1]).integers(2**31)), cfg)
     rng = np.random.default_rng(ss.spawn(1)[0])
     seq = random_speed_sequence(5.0, 30.0, n_seg, rng, max_step_mps=6.0)
     out["B"] = synthesize(seq, int(rng.integers(2**31)), "B", cfg)
@@ -265,13 +275,12 @@ def shorten(profile: LeadProfile, duration_s: float) -> LeadProfile:
     (``inf`` included) the whole profile is kept. Raises ScenarioError otherwise.
     """
     if not duration_s >= DT_S:  # NaN too
-        raise ScenarioError(f"a drive lasts at least one profile step ({DT_S} s), "
-                            f"not {duration_s} s")
-    n = (len(profile.t_s) if duration_s >= profile.duration_s
-         else int(round(duration_s / DT_S)) + 1)
+        raise ScenarioError(
+            f"a drive lasts at least one profile step ({DT_S} s), not {duration_s} s"
+        )
+    n = len(profile.t_s) if duration_s >= profile.duration_s else int(round(duration_s / DT_S)) + 1
     raw = None if profile.raw_v_mps is None else profile.raw_v_mps[:n]
-    return LeadProfile(profile.name, profile.t_s[:n], profile.v_lead_mps[:n],
-                       profile.segments, raw)
+    return LeadProfile(profile.name, profile.t_s[:n], profile.v_lead_mps[:n], profile.segments, raw)
 
 
 def save_profile_csv(profile: LeadProfile, path: Path) -> None:
@@ -319,8 +328,9 @@ def main(argv: list[str] | None = None) -> int:
     """``python -m sim_bus.scenarios list|export NAME PATH [--seed N]``: inspect or export."""
     import argparse
 
-    p = argparse.ArgumentParser(prog="python -m sim_bus.scenarios",
-                                description="list or export the canonical lead profiles")
+    p = argparse.ArgumentParser(
+        prog="python -m sim_bus.scenarios", description="list or export the canonical lead profiles"
+    )
     p.add_argument("command", choices=("list", "export"))
     p.add_argument("name", nargs="?", help="profile to export (A, B, manual1..manual4)")
     p.add_argument("path", nargs="?", type=Path, help="CSV file to write")
@@ -334,8 +344,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "list":
         for name, prof in profiles.items():
             v = prof.v_lead_mps
-            print(f"{name:8s} {prof.duration_s:6.1f} s  v {v.min():5.1f}..{v.max():5.1f} m/s  "
-                  f"mean {v.mean():5.1f} m/s  {len(prof.segments)} segments")
+            print(
+                f"{name:8s} {prof.duration_s:6.1f} s  v {v.min():5.1f}..{v.max():5.1f} m/s  "
+                f"mean {v.mean():5.1f} m/s  {len(prof.segments)} segments"
+            )
         return 0
     if args.name not in profiles or args.path is None:
         print(f"error: export needs NAME (one of {sorted(profiles)}) and PATH")

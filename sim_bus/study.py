@@ -50,9 +50,26 @@ CONTROLLER_TITLES = {
 }
 SCENARIO_TITLES = {"A": "Seen (A)", "B": "Unseen (B)"}
 #: Per-drive columns of drives.csv.
-FIELDS = ("driver", "scenario", "controller", "trial", "seed", "poi_pct", "nim_per_min",
-          "press_onsets", "acc_on_s", "min_gap_m", "min_ttc_s", "rms_jerk_mps3",
-          "gap_error_rms_m", "takeovers", "adaptations", "collision", "sim_s", "wall_s")
+FIELDS = (
+    "driver",
+    "scenario",
+    "controller",
+    "trial",
+    "seed",
+    "poi_pct",
+    "nim_per_min",
+    "press_onsets",
+    "acc_on_s",
+    "min_gap_m",
+    "min_ttc_s",
+    "rms_jerk_mps3",
+    "gap_error_rms_m",
+    "takeovers",
+    "adaptations",
+    "collision",
+    "sim_s",
+    "wall_s",
+)
 
 
 @dataclass(frozen=True)
@@ -95,9 +112,14 @@ def run_job(job: DriveJob) -> dict[str, Any]:
 
     driver = load_driver(job.driver)
     seed = job.study_seed + job.trial
-    cfg = DriveConfig(scenario=job.scenario, driver_id=driver.driver_id,
-                      controller=job.controller, seed=seed,  # type: ignore[arg-type]
-                      duration_s=job.duration_s, adaptation=job.adaptation)
+    cfg = DriveConfig(
+        scenario=job.scenario,
+        driver_id=driver.driver_id,
+        controller=job.controller,
+        seed=seed,  # type: ignore[arg-type]
+        duration_s=job.duration_s,
+        adaptation=job.adaptation,
+    )
     profile = canonical_profiles(job.study_seed)[job.scenario]
     result = run_drive(cfg, driver, job.table, profile)
     if job.log_path is not None:
@@ -106,13 +128,24 @@ def run_job(job: DriveJob) -> dict[str, Any]:
         write_trip(Path(job.log_path), log_to_trip(result, driver))
     m = result.metrics
     return {
-        "driver": job.driver, "scenario": job.scenario, "controller": job.controller,
-        "trial": job.trial, "seed": seed, "poi_pct": m.poi_pct, "nim_per_min": m.nim_per_min,
-        "press_onsets": m.press_onsets, "acc_on_s": m.acc_on_s, "min_gap_m": m.min_gap_m,
-        "min_ttc_s": m.min_ttc_s, "rms_jerk_mps3": m.rms_jerk_mps3,
-        "gap_error_rms_m": m.gap_error_rms_m, "takeovers": result.takeovers,
-        "adaptations": result.adaptations, "collision": int(result.collision),
-        "sim_s": result.sim_s, "wall_s": result.wall_s,
+        "driver": job.driver,
+        "scenario": job.scenario,
+        "controller": job.controller,
+        "trial": job.trial,
+        "seed": seed,
+        "poi_pct": m.poi_pct,
+        "nim_per_min": m.nim_per_min,
+        "press_onsets": m.press_onsets,
+        "acc_on_s": m.acc_on_s,
+        "min_gap_m": m.min_gap_m,
+        "min_ttc_s": m.min_ttc_s,
+        "rms_jerk_mps3": m.rms_jerk_mps3,
+        "gap_error_rms_m": m.gap_error_rms_m,
+        "takeovers": result.takeovers,
+        "adaptations": result.adaptations,
+        "collision": int(result.collision),
+        "sim_s": result.sim_s,
+        "wall_s": result.wall_s,
     }
 
 
@@ -140,21 +173,35 @@ def plan(cfg: StudyConfig, tables: dict[tuple[str, str], Dgpt], out: Path) -> li
             for controller in cfg.controllers:
                 kind = "irl" if controller.startswith("irl") else "predefined"
                 for trial in range(cfg.trials):
-                    log = (out / "logs" / f"{name}_{scenario}_{controller.replace('+', '_')}"
-                           f"_t{trial}.mcap") if cfg.logs else None
-                    jobs.append(DriveJob(name, scenario, controller, trial, cfg.seed,
-                                         cfg.duration_s, tables[(name, kind)],
-                                         None if log is None else str(log), cfg.adaptation))
+                    log = (
+                        (
+                            out / "logs" / f"{name}_{scenario}_{controller.replace('+', '_')}"
+                            f"_t{trial}.mcap"
+                        )
+                        if cfg.logs
+                        else None
+                    )
+                    jobs.append(
+                        DriveJob(
+                            name,
+                            scenario,
+                            controller,
+                            trial,
+                            cfg.seed,
+                            cfg.duration_s,
+                            tables[(name, kind)],
+                            None if log is None else str(log),
+                            cfg.adaptation,
+                        )
+                    )
     return jobs
 
 
-def run_jobs(jobs: Sequence[DriveJob], workers: int, progress: bool = True
-             ) -> list[dict[str, Any]]:
+def run_jobs(jobs: Sequence[DriveJob], workers: int, progress: bool = True) -> list[dict[str, Any]]:
     """Run ``jobs`` on ``workers`` processes (1: in this process); rows in job order."""
     from tqdm import tqdm
 
-    bar = tqdm(total=len(jobs), desc="drives", unit="drive", disable=not progress,
-               file=sys.stderr)
+    bar = tqdm(total=len(jobs), desc="drives", unit="drive", disable=not progress, file=sys.stderr)
     try:
         if workers <= 1:
             rows = []
@@ -181,20 +228,25 @@ def cell_means(rows: Iterable[dict[str, Any]]) -> dict[tuple[str, str, str], tup
     acc: dict[tuple[str, str, str], list[tuple[float, float]]] = {}
     for r in rows:
         acc.setdefault((r["driver"], r["scenario"], r["controller"]), []).append(
-            (float(r["poi_pct"]), float(r["nim_per_min"])))
-    return {k: (sum(p for p, _ in v) / len(v), sum(n for _, n in v) / len(v))
-            for k, v in acc.items()}
+            (float(r["poi_pct"]), float(r["nim_per_min"]))
+        )
+    return {
+        k: (sum(p for p, _ in v) / len(v), sum(n for _, n in v) / len(v)) for k, v in acc.items()
+    }
 
 
-def averages(means: dict[tuple[str, str, str], tuple[float, float]]
-             ) -> dict[str, tuple[float, float]]:
+def averages(
+    means: dict[tuple[str, str, str], tuple[float, float]],
+) -> dict[str, tuple[float, float]]:
     """controller -> (PoI %, NIM) averaged over every driver and scenario cell."""
     out: dict[str, tuple[float, float]] = {}
     for controller in CONTROLLERS:
         cells = [v for (_, _, c), v in means.items() if c == controller]
         if cells:
-            out[controller] = (sum(p for p, _ in cells) / len(cells),
-                               sum(n for _, n in cells) / len(cells))
+            out[controller] = (
+                sum(p for p, _ in cells) / len(cells),
+                sum(n for _, n in cells) / len(cells),
+            )
     return out
 
 
@@ -208,8 +260,11 @@ def format_table(cfg: StudyConfig, rows: Sequence[dict[str, Any]]) -> str:
     the reductions against Predefined and the paper's averages beside ours."""
     means = cell_means(rows)
     controllers = [c for c in CONTROLLERS if c in cfg.controllers]
-    head = "| driver | scenario | " + " | ".join(
-        f"{CONTROLLER_TITLES[c]} PoI | NIM" for c in controllers) + " |"
+    head = (
+        "| driver | scenario | "
+        + " | ".join(f"{CONTROLLER_TITLES[c]} PoI | NIM" for c in controllers)
+        + " |"
+    )
     lines = [head, "|" + "---|" * (2 + 2 * len(controllers))]
     for name in cfg.drivers:
         for scenario in cfg.scenarios:
@@ -217,21 +272,38 @@ def format_table(cfg: StudyConfig, rows: Sequence[dict[str, Any]]) -> str:
             for c in controllers:
                 poi, nim = means[(name, scenario, c)]
                 cells.append(f"{poi:.1f} % | {nim:.1f}")
-            lines.append(f"| {name} | {SCENARIO_TITLES.get(scenario, scenario)} | "
-                         + " | ".join(cells) + " |")
+            lines.append(
+                f"| {name} | {SCENARIO_TITLES.get(scenario, scenario)} | "
+                + " | ".join(cells)
+                + " |"
+            )
     avg = averages(means)
-    lines.append("| **average** | | " + " | ".join(
-        f"**{avg[c][0]:.1f} %** | **{avg[c][1]:.1f}**" for c in controllers) + " |")
-    lines.append("| paper (average) | | " + " | ".join(
-        f"{PAPER_AVERAGES[c][0]:.1f} % | {PAPER_AVERAGES[c][1]:.1f}" for c in controllers) + " |")
-    out = ["# Table I — interventions per controller (synthetic drivers, CAN bus)", "",
-           f"{len(cfg.drivers)} drivers × {len(cfg.scenarios)} scenarios × "
-           f"{len(controllers)} controllers × {cfg.trials} trials = {len(rows)} drives, "
-           f"study seed {cfg.seed}"
-           + ("" if cfg.duration_s is None else f", {cfg.duration_s:g} s each")
-           + ("" if cfg.adaptation is None else f", {cfg.adaptation.mode} adaptation") + ".",
-           "PoI: % of ACC-ON time with a pedal pressed; NIM: pedal presses per minute.", "",
-           *lines, ""]
+    lines.append(
+        "| **average** | | "
+        + " | ".join(f"**{avg[c][0]:.1f} %** | **{avg[c][1]:.1f}**" for c in controllers)
+        + " |"
+    )
+    lines.append(
+        "| paper (average) | | "
+        + " | ".join(
+            f"{PAPER_AVERAGES[c][0]:.1f} % | {PAPER_AVERAGES[c][1]:.1f}" for c in controllers
+        )
+        + " |"
+    )
+    out = [
+        "# Table I — interventions per controller (synthetic drivers, CAN bus)",
+        "",
+        f"{len(cfg.drivers)} drivers × {len(cfg.scenarios)} scenarios × "
+        f"{len(controllers)} controllers × {cfg.trials} trials = {len(rows)} drives, "
+        f"study seed {cfg.seed}"
+        + ("" if cfg.duration_s is None else f", {cfg.duration_s:g} s each")
+        + ("" if cfg.adaptation is None else f", {cfg.adaptation.mode} adaptation")
+        + ".",
+        "PoI: % of ACC-ON time with a pedal pressed; NIM: pedal presses per minute.",
+        "",
+        *lines,
+        "",
+    ]
     if "predefined" in avg:
         base = avg["predefined"]
         out.append("Reduction against Predefined (ours; paper in brackets):")
@@ -241,16 +313,22 @@ def format_table(cfg: StudyConfig, rows: Sequence[dict[str, Any]]) -> str:
                 continue
             ours = (reduction_pct(base[0], avg[c][0]), reduction_pct(base[1], avg[c][1]))
             p = PAPER_AVERAGES
-            paper = (reduction_pct(p["predefined"][0], p[c][0]),
-                     reduction_pct(p["predefined"][1], p[c][1]))
-            out.append(f"- {CONTROLLER_TITLES[c]}: PoI {ours[0]:.1f} % ({paper[0]:.1f} %), "
-                       f"NIM {ours[1]:.1f} % ({paper[1]:.1f} %)")
+            paper = (
+                reduction_pct(p["predefined"][0], p[c][0]),
+                reduction_pct(p["predefined"][1], p[c][1]),
+            )
+            out.append(
+                f"- {CONTROLLER_TITLES[c]}: PoI {ours[0]:.1f} % ({paper[0]:.1f} %), "
+                f"NIM {ours[1]:.1f} % ({paper[1]:.1f} %)"
+            )
         out.append("")
     collisions = sum(int(r["collision"]) for r in rows)
     min_gap = min(float(r["min_gap_m"]) for r in rows)
     min_ttc = min(float(r["min_ttc_s"]) for r in rows)
-    out.append(f"Safety over all drives: {collisions} collisions, min gap {min_gap:.2f} m, "
-               f"min TTC {min_ttc:.2f} s.")
+    out.append(
+        f"Safety over all drives: {collisions} collisions, min gap {min_gap:.2f} m, "
+        f"min TTC {min_ttc:.2f} s."
+    )
     return "\n".join(out) + "\n"
 
 
@@ -276,8 +354,9 @@ def plot(path: Path, rows: Sequence[dict[str, Any]]) -> None:
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
     for ax, k, label in ((axes[0], 0, "PoI (%)"), (axes[1], 1, "NIM (presses / min)")):
         ax.bar(x - 0.2, [avg[c][k] for c in controllers], 0.4, label="pacc (synthetic drivers)")
-        ax.bar(x + 0.2, [PAPER_AVERAGES[c][k] for c in controllers], 0.4,
-               label="paper (human drivers)")
+        ax.bar(
+            x + 0.2, [PAPER_AVERAGES[c][k] for c in controllers], 0.4, label="paper (human drivers)"
+        )
         ax.set_xticks(x, [CONTROLLER_TITLES[c] for c in controllers], rotation=15)
         ax.set_ylabel(label)
         ax.grid(axis="y", alpha=0.3)
@@ -288,8 +367,9 @@ def plot(path: Path, rows: Sequence[dict[str, Any]]) -> None:
     plt.close(fig)
 
 
-def run_study(cfg: StudyConfig, out: Path, *, cache_dir: Path | None = None,
-              progress: bool = True) -> list[dict[str, Any]]:
+def run_study(
+    cfg: StudyConfig, out: Path, *, cache_dir: Path | None = None, progress: bool = True
+) -> list[dict[str, Any]]:
     """Learn the tables, run every drive, write the outputs to ``out``; the rows."""
     from ecu.dgpt import save_dgpt
 
@@ -314,22 +394,32 @@ def _names(text: str) -> tuple[str, ...]:
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="pacc study", description=__doc__.split("\n\n")[0])
-    p.add_argument("--drivers", default="d1,d2,d3,d4,d5", help="comma-separated (d1..d5 or "
-                   "driver files)")
+    p.add_argument(
+        "--drivers", default="d1,d2,d3,d4,d5", help="comma-separated (d1..d5 or driver files)"
+    )
     p.add_argument("--scenarios", default="A,B", help="comma-separated (default A,B)")
-    p.add_argument("--controllers", default=",".join(CONTROLLERS),
-                   help="comma-separated subset of " + ",".join(CONTROLLERS))
+    p.add_argument(
+        "--controllers",
+        default=",".join(CONTROLLERS),
+        help="comma-separated subset of " + ",".join(CONTROLLERS),
+    )
     p.add_argument("--trials", type=int, default=3, help="drives per cell (default 3)")
     p.add_argument("--seed", type=int, default=0, help="study seed (default 0)")
     p.add_argument("--duration", type=float, help="shorten every drive to N s")
-    p.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1),
-                   help="parallel drive processes (default: 2 or the core count)")
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=min(2, os.cpu_count() or 1),
+        help="parallel drive processes (default: 2 or the core count)",
+    )
     p.add_argument("--out", type=Path, default=Path("out/study"), help="output folder")
     p.add_argument("--no-logs", action="store_true", help="do not write MCAP logs")
     p.add_argument("--cache", type=Path, help="cache folder of learned IRL tables")
-    p.add_argument("--adaptation-mode", choices=ADAPTATION_MODE_CHOICES,
-                   help="online adaptation of the +oa controllers (default: the ECU's, "
-                   "see docs/ecu.md)")
+    p.add_argument(
+        "--adaptation-mode",
+        choices=ADAPTATION_MODE_CHOICES,
+        help="online adaptation of the +oa controllers (default: the ECU's, see docs/ecu.md)",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     return p
 
@@ -342,11 +432,17 @@ def main(argv: list[str] | None = None) -> int:
     from sim_bus.drivers import load_driver
     from sim_bus.errors import SimError
 
-    cfg = StudyConfig(drivers=_names(args.drivers), scenarios=_names(args.scenarios),
-                      controllers=_names(args.controllers), trials=args.trials, seed=args.seed,
-                      duration_s=args.duration, workers=max(1, args.workers),
-                      logs=not args.no_logs,
-                      adaptation=adaptation_params(args.adaptation_mode))
+    cfg = StudyConfig(
+        drivers=_names(args.drivers),
+        scenarios=_names(args.scenarios),
+        controllers=_names(args.controllers),
+        trials=args.trials,
+        seed=args.seed,
+        duration_s=args.duration,
+        workers=max(1, args.workers),
+        logs=not args.no_logs,
+        adaptation=adaptation_params(args.adaptation_mode),
+    )
     try:
         bad = [c for c in cfg.controllers if c not in CONTROLLERS]
         if bad or not cfg.controllers:
@@ -370,8 +466,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"pacc study: error: {exc}", file=sys.stderr)
         return 2
     print((args.out / "table1.md").read_text(encoding="utf-8"))
-    print(f"{len(rows)} drives in {time.perf_counter() - start:.1f} s; outputs in {args.out}/ "
-          "(table1.md, drives.csv, study.png, irl/, " + ("logs/)" if cfg.logs else "no logs)"))
+    print(
+        f"{len(rows)} drives in {time.perf_counter() - start:.1f} s; outputs in {args.out}/ "
+        "(table1.md, drives.csv, study.png, irl/, " + ("logs/)" if cfg.logs else "no logs)")
+    )
     return 1 if any(int(r["collision"]) for r in rows) else 0
 
 

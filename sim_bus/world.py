@@ -20,9 +20,21 @@ from sim_bus.errors import DriveError
 from sim_bus.plant import Plant, PlantConfig, PlantState
 from sim_bus.scenarios import LeadProfile
 
-_COLUMNS = ("t_s", "v_mps", "gap_m", "v_lead_mps", "a_mps2", "accel_pressed", "brake_pressed",
-            "acc_state", "pref_gap_m", "a_request_mps2", "request_active", "accel_pct",
-            "brake_bar")
+_COLUMNS = (
+    "t_s",
+    "v_mps",
+    "gap_m",
+    "v_lead_mps",
+    "a_mps2",
+    "accel_pressed",
+    "brake_pressed",
+    "acc_state",
+    "pref_gap_m",
+    "a_request_mps2",
+    "request_active",
+    "accel_pct",
+    "brake_bar",
+)
 
 
 @dataclass(frozen=True)
@@ -66,8 +78,14 @@ class WorldLog:
 class World:
     """Lead + plant + driver, advanced one tick at a time (pure function of its seed >= 0)."""
 
-    def __init__(self, driver: DriverParams, profile: LeadProfile, seed: int,
-                 cfg: WorldConfig | None = None, acc_mode: bool = True) -> None:
+    def __init__(
+        self,
+        driver: DriverParams,
+        profile: LeadProfile,
+        seed: int,
+        cfg: WorldConfig | None = None,
+        acc_mode: bool = True,
+    ) -> None:
         if not seed >= 0:
             raise DriveError(f"a seed is an integer >= 0, got {seed}")
         self.cfg = cfg = cfg or WorldConfig()
@@ -82,8 +100,9 @@ class World:
         v0 = self._v_lead[0]
         gap0 = float(driver.preferred_gap_m(v0)) * cfg.initial_gap_factor
         self.plant = Plant(cfg.plant, PlantState(v0, 0.0, gap0), rng_plant)
-        self.agent = DriverAgent(driver, rng_driver, dt_s=cfg.driver_dt_s, acc_mode=acc_mode,
-                                 engage_s=cfg.engage_s)
+        self.agent = DriverAgent(
+            driver, rng_driver, dt_s=cfg.driver_dt_s, acc_mode=acc_mode, engage_s=cfg.engage_s
+        )
         self._every = int(round(cfg.driver_dt_s / cfg.plant.dt_s))
         self.tick = 0
         self.t_s = 0.0
@@ -107,9 +126,20 @@ class World:
             agent.step(car.v_mps, self.v_lead_mps, car.gap_m, acc_state)
             if self._k < self._log.shape[1]:
                 self._log[:, self._k] = (
-                    self.t_s, car.v_mps, car.gap_m, self.v_lead_mps, car.a_mps2,
-                    agent.accel_pressed, agent.brake_pressed, acc_state, agent.pref_gap_m,
-                    a_request_mps2, request_active, agent.accel_pct, agent.brake_bar)
+                    self.t_s,
+                    car.v_mps,
+                    car.gap_m,
+                    self.v_lead_mps,
+                    car.a_mps2,
+                    agent.accel_pressed,
+                    agent.brake_pressed,
+                    acc_state,
+                    agent.pref_gap_m,
+                    a_request_mps2,
+                    request_active,
+                    agent.accel_pct,
+                    agent.brake_bar,
+                )
                 self._k += 1
         if agent.accel_pressed or agent.brake_pressed:
             a = agent.a_cmd_mps2

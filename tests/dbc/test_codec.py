@@ -35,8 +35,9 @@ def frames(draw: st.DrawFn, role: str | None = None) -> tuple[MessageCodec, dict
     mc = CODEC.by_role[draw(st.sampled_from(ROLES)) if role is None else role]
     values = {}
     for f in mc.layouts:
-        raw = draw(st.one_of(st.sampled_from([f.raw_min, f.raw_max]),
-                             st.integers(f.raw_min, f.raw_max)))
+        raw = draw(
+            st.one_of(st.sampled_from([f.raw_min, f.raw_max]), st.integers(f.raw_min, f.raw_max))
+        )
         values[f.key] = raw * f.scale + f.offset if not f.integral else raw
     return mc, values, draw(st.integers(0, 15))
 
@@ -144,8 +145,16 @@ def test_garbage_never_escapes_the_exception_root(frame_id: int, data: bytes) ->
 
 def test_malformed_kinds() -> None:
     mc = CODEC.by_role["radar"]
-    good = mc.encode({"lead_valid": 1, "gap_m": 20, "rel_speed_mps": 0, "lead_accel_mps2": 0,
-                      "lead_accel_valid": 0}, 1)
+    good = mc.encode(
+        {
+            "lead_valid": 1,
+            "gap_m": 20,
+            "rel_speed_mps": 0,
+            "lead_accel_mps2": 0,
+            "lead_accel_valid": 0,
+        },
+        1,
+    )
     with pytest.raises(DlcError, match="DLC 7, expected 8"):
         CODEC.decode(mc.frame_id, good[:7])
     with pytest.raises(DlcError):
@@ -167,8 +176,9 @@ def test_missing_dbc(tmp_path: Path) -> None:
 
 def test_wrong_dbc_is_refused(tmp_path: Path) -> None:
     bad = tmp_path / "bad.dbc"
-    bad.write_text(DBC_PATH.read_text().replace("BO_ 176 ESC_Speed: 8 ESC",
-                                                "BO_ 176 ESC_Speed: 8 ESC garbage"))
+    bad.write_text(
+        DBC_PATH.read_text().replace("BO_ 176 ESC_Speed: 8 ESC", "BO_ 176 ESC_Speed: 8 ESC garbage")
+    )
     with pytest.raises(DbcError, match="cannot load DBC"):
         load_codec(bad)
 
@@ -184,8 +194,9 @@ def test_dbc_without_cycle_time_refused_at_load(tmp_path: Path) -> None:
 
 def test_overlapping_signals_refused_strictly(tmp_path: Path) -> None:
     bad = tmp_path / "overlap.dbc"
-    bad.write_text(DBC_PATH.read_text().replace("SG_ LongAccel : 32|16@1-",
-                                                "SG_ LongAccel : 24|16@1-"))
+    bad.write_text(
+        DBC_PATH.read_text().replace("SG_ LongAccel : 32|16@1-", "SG_ LongAccel : 24|16@1-")
+    )
     with pytest.raises(DbcError):
         load_codec(bad)
 
@@ -222,9 +233,11 @@ def test_bad_binding_is_refused(tmp_path: Path, edit, message: str) -> None:  # 
 
 def test_motorola_signals(tmp_path: Path) -> None:
     """A big-endian (Motorola) layout, as many OEM DBCs use, decodes like cantools."""
-    text = DBC_PATH.read_text().replace(
-        "SG_ VehicleSpeed : 16|16@1+", "SG_ VehicleSpeed : 23|16@0+").replace(
-        "SG_ LongAccel : 32|16@1-", "SG_ LongAccel : 39|16@0-")
+    text = (
+        DBC_PATH.read_text()
+        .replace("SG_ VehicleSpeed : 16|16@1+", "SG_ VehicleSpeed : 23|16@0+")
+        .replace("SG_ LongAccel : 32|16@1-", "SG_ LongAccel : 39|16@0-")
+    )
     path = tmp_path / "moto.dbc"
     path.write_text(text)
     codec = load_codec(path)

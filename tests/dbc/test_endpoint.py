@@ -59,8 +59,12 @@ def test_bad_frames_are_dropped_and_counted() -> None:
     assert inbox.counts[("ego", E2EStatus.REPEATED)] == 1
     assert inbox.counts[("ego", E2EStatus.WRONG_DLC)] == 1
     assert inbox.counts[(UNKNOWN_ROLE, E2EStatus.UNKNOWN_ID)] == 1
-    assert inbox.errors() == {"wrong_crc": 1, "repeated_counter": 1, "wrong_dlc": 2,
-                              "unknown_id": 1}
+    assert inbox.errors() == {
+        "wrong_crc": 1,
+        "repeated_counter": 1,
+        "wrong_dlc": 2,
+        "unknown_id": 1,
+    }
     assert inbox.frames_in == 7
 
 
@@ -92,8 +96,13 @@ def test_late_duplicate_does_not_overwrite_newer_values() -> None:
 def test_timeout_uses_the_dbc_period() -> None:
     inbox = Inbox(CODEC, ["radar", "hmi"], timeout_multiple=4)
     outbox = Outbox(CODEC)
-    radar = {"lead_valid": 1, "gap_m": 30, "rel_speed_mps": 0, "lead_accel_mps2": 0,
-             "lead_accel_valid": 1}
+    radar = {
+        "lead_valid": 1,
+        "gap_m": 30,
+        "rel_speed_mps": 0,
+        "lead_accel_mps2": 0,
+        "lead_accel_valid": 1,
+    }
     inbox.accept(CODEC.by_role["radar"].frame_id, outbox.encode("radar", radar), 1.0)
     assert inbox.fresh("radar", 1.0 + 4 * 0.05 - 1e-6)
     assert not inbox.fresh("radar", 1.0 + 4 * 0.05 + 1e-6)

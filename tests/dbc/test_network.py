@@ -14,14 +14,32 @@ from dbc import BINDING_PATH, DBC_PATH
 # message -> (sender, period ms, {signal: (min, max, unit)})
 EXPECTED = {
     "ESC_Speed": ("ESC", 10, {"VehicleSpeed": (0, 90, "m/s"), "LongAccel": (-20, 20, "m/s^2")}),
-    "PEDAL_Status": ("PEDAL", 10, {"AccelPedalPos": (0, 100, "%"),
-                                   "BrakePressure": (0, 250, "bar")}),
-    "RADAR_Lead": ("RADAR", 50, {"LeadDistance": (0, 250, "m"), "LeadRelSpeed": (-50, 50, "m/s"),
-                                 "LeadAccel": (-15, 15, "m/s^2")}),
+    "PEDAL_Status": (
+        "PEDAL",
+        10,
+        {"AccelPedalPos": (0, 100, "%"), "BrakePressure": (0, 250, "bar")},
+    ),
+    "RADAR_Lead": (
+        "RADAR",
+        50,
+        {
+            "LeadDistance": (0, 250, "m"),
+            "LeadRelSpeed": (-50, 50, "m/s"),
+            "LeadAccel": (-15, 15, "m/s^2"),
+        },
+    ),
     "HMI_Buttons": ("HMI", 100, {"GapSetting": (1, 3, ""), "DriverProfileId": (0, 255, "")}),
     "ACC_Command": ("ACC", 20, {"AccelRequest": (-10, 5, "m/s^2"), "AccState": (0, 4, "")}),
-    "ACC_Status": ("ACC", 100, {"DesiredGap": (0, 250, "m"), "DgptVersion": (0, 65535, ""),
-                                "AdaptationCount": (0, 255, ""), "SetSpeed": (0, 63.75, "m/s")}),
+    "ACC_Status": (
+        "ACC",
+        100,
+        {
+            "DesiredGap": (0, 250, "m"),
+            "DgptVersion": (0, 65535, ""),
+            "AdaptationCount": (0, 255, ""),
+            "SetSpeed": (0, 63.75, "m/s"),
+        },
+    ),
 }
 
 
@@ -62,19 +80,38 @@ def test_resolutions(db: cantools.database.can.Database) -> None:
 
 
 def test_every_enum_has_a_value_table(db: cantools.database.can.Database) -> None:
-    enums = {"SpeedValid", "AccelPedalPressed", "BrakePressed", "LeadValid", "LeadAccelValid",
-             "MainSwitch", "SetButton", "ResumeButton", "CancelButton", "GapSetting",
-             "RequestActive", "TakeoverRequest", "AccState", "FaultCode"}
+    enums = {
+        "SpeedValid",
+        "AccelPedalPressed",
+        "BrakePressed",
+        "LeadValid",
+        "LeadAccelValid",
+        "MainSwitch",
+        "SetButton",
+        "ResumeButton",
+        "CancelButton",
+        "GapSetting",
+        "RequestActive",
+        "TakeoverRequest",
+        "AccState",
+        "FaultCode",
+    }
     found = {s.name for m in db.messages for s in m.signals if s.choices}
     assert enums <= found
     state = db.get_message_by_name("ACC_Command").get_signal_by_name("AccState")
     assert {int(k): str(v) for k, v in state.choices.items()} == {
-        0: "Off", 1: "Standby", 2: "Active", 3: "Override", 4: "Fault"}
+        0: "Off",
+        1: "Standby",
+        2: "Active",
+        3: "Override",
+        4: "Fault",
+    }
 
 
 def test_cantools_dump_succeeds() -> None:
-    exe = shutil.which("cantools") or shutil.which("cantools", path=str(__import__("pathlib").Path(
-        sys.executable).parent))
+    exe = shutil.which("cantools") or shutil.which(
+        "cantools", path=str(__import__("pathlib").Path(sys.executable).parent)
+    )
     cmd = [exe] if exe else [sys.executable, "-m", "cantools"]
     out = subprocess.run([*cmd, "dump", str(DBC_PATH)], capture_output=True, text=True, check=True)
     assert "ACC_Command" in out.stdout and "RADAR_Lead" in out.stdout

@@ -154,8 +154,9 @@ def test_default_window_keeps_table_slope_moderate() -> None:
     new, _ = adapt(t, summary(v=20.0, vf=18.0, g=35.0), P)
     slope = np.abs(np.diff(new.gap_m) / 0.5)
     assert slope.max() == pytest.approx(2.0 + 4.4)
-    one, _ = adapt(t, summary(v=20.0, vf=18.0, g=35.0),
-                   AdaptationParams(mode="paper", window_size=1))
+    one, _ = adapt(
+        t, summary(v=20.0, vf=18.0, g=35.0), AdaptationParams(mode="paper", window_size=1)
+    )
     assert np.abs(np.diff(one.gap_m) / 0.5).max() == pytest.approx(22.0 + 2.0)
 
 
@@ -230,7 +231,8 @@ def test_timegap_centre_bin_lands_on_g_desire() -> None:
     assert d.applied and d.bin_index == 35 and new.gap_m[35] == pytest.approx(40.0)
     assert d.delta_m == pytest.approx(-16.5)
     assert new.gap_m[34] == pytest.approx(
-        55.0 - math.exp(-0.5 * (0.5 / 6.0) ** 2) * 16.5 / 17.5 * 17.0)
+        55.0 - math.exp(-0.5 * (0.5 / 6.0) ** 2) * 16.5 / 17.5 * 17.0
+    )
     assert new.lookup(17.3) == pytest.approx(40.0, abs=1.0)
 
 

@@ -372,7 +372,7 @@ def test_unusable_profile_directory_does_not_stop_the_loop(tmp_path: Path) -> No
     ("edit", "message"),
     [
         (("SG_ AccState : 32|3@1+ (1,0) [0|4]", "SG_ AccState : 32|2@1+ (1,0) [0|3]"), "FAULT"),
-        (("(0.01,0) [-10|5] \"m/s^2\" PT", "(0.01,0) [-2|5] \"m/s^2\" PT"), "-3.5"),
+        (('(0.01,0) [-10|5] "m/s^2" PT', '(0.01,0) [-2|5] "m/s^2" PT'), "-3.5"),
         (("SG_ FaultCode : 12|4@1+ (1,0) [0|15]", "SG_ FaultCode : 12|4@1+ (1,0) [0|3]"), "6"),
     ],
     ids=["acc-state-without-fault", "accel-range-narrower-than-envelope", "fault-code-range"],

@@ -19,8 +19,9 @@ def _pair_csv(path: Path, n: int, v0: float) -> np.ndarray:
     v_f = v0 + 0.01 * np.arange(n)
     v_l = v_f + 0.5
     gap = 20.0 + 0.05 * np.arange(n)
-    rows = [HEADER] + [f"{t[i]:.1f},0,{v_f[i]:.4f},0,0,{v_l[i]:.4f},0,4.5,{gap[i]:.4f},0.5"
-                       for i in range(n)]
+    rows = [HEADER] + [
+        f"{t[i]:.1f},0,{v_f[i]:.4f},0,0,{v_l[i]:.4f},0,4.5,{gap[i]:.4f},0.5" for i in range(n)
+    ]
     path.write_text("\n".join(rows) + "\n")
     return np.stack([v_l, v_f, gap])
 
@@ -39,16 +40,19 @@ def test_build_round_trips_through_the_reader(tmp_path: Path) -> None:
         assert p.dt_s == pytest.approx(0.1)
 
 
-@pytest.mark.parametrize("text,match", [
-    (b"", "missing columns"),
-    (b"t,v_follower,v_leader\n0,1,2\n", "missing columns"),
-    (b"t,v_follower,v_leader,spacing\n", "fewer than two samples"),
-    (b"t,v_follower,v_leader,spacing\n0,1,2,3\n0.3,1,2,3\n", "not sampled at"),
-    (b"t,v_follower,v_leader,spacing\n0,1,2,3\n0.1,1,nan,3\n", "non-finite"),
-    (b"t,v_follower,v_leader,spacing\n0,1,2,3\n0.1,1,x,3\n", "oa_pair_bad.csv"),
-    (b"t,v_follower,v_leader,spacing\n0,1,2,3\n0.1,1,2\n", "oa_pair_bad.csv"),
-    (b"\xff\xfe\x00\x01garbage", "oa_pair_bad.csv"),
-])
+@pytest.mark.parametrize(
+    "text,match",
+    [
+        (b"", "missing columns"),
+        (b"t,v_follower,v_leader\n0,1,2\n", "missing columns"),
+        (b"t,v_follower,v_leader,spacing\n", "fewer than two samples"),
+        (b"t,v_follower,v_leader,spacing\n0,1,2,3\n0.3,1,2,3\n", "not sampled at"),
+        (b"t,v_follower,v_leader,spacing\n0,1,2,3\n0.1,1,nan,3\n", "non-finite"),
+        (b"t,v_follower,v_leader,spacing\n0,1,2,3\n0.1,1,x,3\n", "oa_pair_bad.csv"),
+        (b"t,v_follower,v_leader,spacing\n0,1,2,3\n0.1,1,2\n", "oa_pair_bad.csv"),
+        (b"\xff\xfe\x00\x01garbage", "oa_pair_bad.csv"),
+    ],
+)
 def test_bad_source_is_a_build_error(tmp_path: Path, text: bytes, match: str) -> None:
     (tmp_path / "oa_pair_bad.csv").write_bytes(text)
     out = tmp_path / "data.npz"

@@ -18,15 +18,38 @@ from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.irl_table import cache_key, code_digest, irl_table
 
 
-def test_drive_prints_the_figures_and_logs(tmp_path: Path,
-                                           capsys: pytest.CaptureFixture[str]) -> None:
+def test_drive_prints_the_figures_and_logs(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     log = tmp_path / "run.mcap"
-    rc = drive.main(["--scenario", "A", "--driver", "d3", "--controller", "predefined+oa",
-                     "--seed", "1", "--duration", "20", "--log", str(log)])
+    rc = drive.main(
+        [
+            "--scenario",
+            "A",
+            "--driver",
+            "d3",
+            "--controller",
+            "predefined+oa",
+            "--seed",
+            "1",
+            "--duration",
+            "20",
+            "--log",
+            str(log),
+        ]
+    )
     out = capsys.readouterr().out
     assert rc == 0
-    for word in ("PoI", "NIM", "min gap", "min TTC", "RMS jerk", "takeovers", "adaptations",
-                 "collisions     0"):
+    for word in (
+        "PoI",
+        "NIM",
+        "min gap",
+        "min TTC",
+        "RMS jerk",
+        "takeovers",
+        "adaptations",
+        "collisions     0",
+    ):
         assert word in out
     trip = read_trip(log)
     assert trip.meta["mode"] == "acc" and trip.meta["controller"] == "predefined+oa"
@@ -36,23 +59,37 @@ def test_drive_prints_the_figures_and_logs(tmp_path: Path,
 def test_drive_irl_with_profile(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     path = tmp_path / "t.json"
     save_dgpt(predefined(1.8, driver_id="d2"), path)
-    rc = drive.main(["--controller", "irl", "--driver", "d2", "--profile", str(path),
-                     "--duration", "10", "--scenario", "manual2"])
+    rc = drive.main(
+        [
+            "--controller",
+            "irl",
+            "--driver",
+            "d2",
+            "--profile",
+            str(path),
+            "--duration",
+            "10",
+            "--scenario",
+            "manual2",
+        ]
+    )
     assert rc == 0 and "controller irl" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("argv,match", [
-    (["--driver", "d9"], "unknown driver"),
-    (["--faults", "radar:drop=7"], "0..1"),
-    (["--scenario", "Z"], "unknown scenario"),
-    (["--scenario", "missing.csv"], "missing.csv"),
-    (["--controller", "irl", "--profile", "nope.json"], "nope.json"),
-    (["--duration", "-1"], "duration"),
-    (["--duration", "0.05"], "at least one profile step"),
-    (["--seed", "-1"], "seed"),
-])
-def test_drive_bad_options(argv: list[str], match: str,
-                           capsys: pytest.CaptureFixture[str]) -> None:
+@pytest.mark.parametrize(
+    "argv,match",
+    [
+        (["--driver", "d9"], "unknown driver"),
+        (["--faults", "radar:drop=7"], "0..1"),
+        (["--scenario", "Z"], "unknown scenario"),
+        (["--scenario", "missing.csv"], "missing.csv"),
+        (["--controller", "irl", "--profile", "nope.json"], "nope.json"),
+        (["--duration", "-1"], "duration"),
+        (["--duration", "0.05"], "at least one profile step"),
+        (["--seed", "-1"], "seed"),
+    ],
+)
+def test_drive_bad_options(argv: list[str], match: str, capsys: pytest.CaptureFixture[str]) -> None:
     assert drive.main(argv) == 2
     err = capsys.readouterr().err
     assert "error" in err and match in err
@@ -77,8 +114,21 @@ def test_sim_real_time_against_an_ecu_runtime(capsys: pytest.CaptureFixture[str]
     thread = threading.Thread(target=rt.run_realtime, args=(4.0,), daemon=True)
     thread.start()
     try:
-        rc = cli.main(["-i", "virtual", "-c", channel, "--scenario", "manual2", "--driver", "d2",
-                       "--duration", "3", "--quiet"])
+        rc = cli.main(
+            [
+                "-i",
+                "virtual",
+                "-c",
+                channel,
+                "--scenario",
+                "manual2",
+                "--driver",
+                "d2",
+                "--duration",
+                "3",
+                "--quiet",
+            ]
+        )
     finally:
         rt.stop()
         thread.join(5.0)
@@ -115,8 +165,25 @@ def test_negative_seed_is_a_clear_error(capsys: pytest.CaptureFixture[str]) -> N
 
 def test_sim_writes_its_run_as_a_trip_log(tmp_path: Path) -> None:
     log = tmp_path / "sim.mcap"
-    rc = cli.main(["-i", "virtual", "-c", "test-pacc-sim-trip", "--driver", "d3", "--seed", "4",
-                   "--duration", "1", "--quiet", "--condition-factor", "1.2", "--log", str(log)])
+    rc = cli.main(
+        [
+            "-i",
+            "virtual",
+            "-c",
+            "test-pacc-sim-trip",
+            "--driver",
+            "d3",
+            "--seed",
+            "4",
+            "--duration",
+            "1",
+            "--quiet",
+            "--condition-factor",
+            "1.2",
+            "--log",
+            str(log),
+        ]
+    )
     assert rc == 0
     trip = read_trip(log)
     assert trip.meta["driver_id"] == "d3" and trip.meta["seed"] == 4
@@ -127,11 +194,23 @@ def test_sim_writes_its_run_as_a_trip_log(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("where", ["no-such-dir/run.mcap", "."])
 def test_sim_refuses_an_unwritable_log_before_running(
-        where: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    where: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     listener = can.Bus(interface="virtual", channel="test-pacc-sim-log")
     try:
-        rc = cli.main(["-i", "virtual", "-c", "test-pacc-sim-log", "--duration", "0.5",
-                       "--quiet", "--log", str(tmp_path / where)])
+        rc = cli.main(
+            [
+                "-i",
+                "virtual",
+                "-c",
+                "test-pacc-sim-log",
+                "--duration",
+                "0.5",
+                "--quiet",
+                "--log",
+                str(tmp_path / where),
+            ]
+        )
         sent = listener.recv(0.0)
     finally:
         listener.shutdown()
@@ -139,8 +218,9 @@ def test_sim_refuses_an_unwritable_log_before_running(
     assert sent is None  # refused at start: no frame was ever sent
 
 
-def test_scenarios_export_and_drive_the_csv(tmp_path: Path,
-                                            capsys: pytest.CaptureFixture[str]) -> None:
+def test_scenarios_export_and_drive_the_csv(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     from sim_bus import scenarios
 
     path = tmp_path / "b.csv"
@@ -156,7 +236,8 @@ def test_scenarios_export_and_drive_the_csv(tmp_path: Path,
 def test_condition_factor_lengthens_the_preference() -> None:
     d = drive.with_condition(BUILTIN_DRIVERS["d2"], 1.25)
     assert d.preferred_gap_m(20.0) - 4.0 == pytest.approx(
-        1.25 * (BUILTIN_DRIVERS["d2"].preferred_gap_m(20.0) - 4.0))
+        1.25 * (BUILTIN_DRIVERS["d2"].preferred_gap_m(20.0) - 4.0)
+    )
     assert drive.with_condition(BUILTIN_DRIVERS["d2"], 1.0) is BUILTIN_DRIVERS["d2"]
     assert drive.main(["--condition-factor", "0", "--duration", "5"]) == 2
 
@@ -171,14 +252,25 @@ def test_sim_on_vcan0_if_present() -> None:
     assert rc == 0  # no ECU on vcan0: the driver drives by hand, nothing collides
 
 
-def test_collision_is_reported_not_hidden(tmp_path: Path,
-                                          capsys: pytest.CaptureFixture[str]) -> None:
+def test_collision_is_reported_not_hidden(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     # a lead that stops dead (a recorded crash, say) while the radar frames freeze
     csv = tmp_path / "wall.csv"
     csv.write_text("t_s,v_lead_mps\n0,20\n10,20\n10.1,0\n30,0\n")
     log = tmp_path / "crash.mcap"
-    rc = drive.main(["--scenario", str(csv), "--driver", "d1", "--faults",
-                     "radar:freeze=9-30", "--log", str(log)])
+    rc = drive.main(
+        [
+            "--scenario",
+            str(csv),
+            "--driver",
+            "d1",
+            "--faults",
+            "radar:freeze=9-30",
+            "--log",
+            str(log),
+        ]
+    )
     out = capsys.readouterr().out
     assert rc == 1
     assert "collisions     1 at t = " in out
@@ -204,8 +296,9 @@ def test_irl_table_is_learned_from_manual_trips_and_cached(tmp_path: Path) -> No
     assert blocked.read_text() == "x"
 
 
-def test_sim_takes_the_bus_from_python_can_config(monkeypatch: pytest.MonkeyPatch,
-                                                  capsys: pytest.CaptureFixture[str]) -> None:
+def test_sim_takes_the_bus_from_python_can_config(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
     # no -i/-c/-b: python-can's own configuration (here CAN_INTERFACE/CAN_CHANNEL) applies
     monkeypatch.setenv("CAN_INTERFACE", "virtual")
     monkeypatch.setenv("CAN_CHANNEL", "test-pacc-sim-env")

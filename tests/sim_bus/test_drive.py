@@ -31,19 +31,32 @@ def _table_from(driver: DriverParams, factor: float, source: str = "irl") -> Dgp
     """
     v = speed_axis()
     gap = clamp_to_bounds(v, factor * driver.acc_preferred_gap_m(v), SafetyBounds())
-    return Dgpt(speed_mps=v, gap_m=gap, version=1, driver_id=driver.driver_id,
-                condition="dry", source=source,  # type: ignore[arg-type]
-                created_utc="2000-01-01T00:00:00Z", meta={})
+    return Dgpt(
+        speed_mps=v,
+        gap_m=gap,
+        version=1,
+        driver_id=driver.driver_id,
+        condition="dry",
+        source=source,  # type: ignore[arg-type]
+        created_utc="2000-01-01T00:00:00Z",
+        meta={},
+    )
 
 
 @pytest.mark.parametrize("driver_id", sorted(BUILTIN_DRIVERS))
 def test_every_driver_with_every_controller_is_safe(driver_id: str) -> None:
     driver = BUILTIN_DRIVERS[driver_id]
     for controller in CONTROLLERS:
-        table = (_table_from(driver, 1.08) if controller.startswith("irl")
-                 else predefined_table(driver))
-        cfg = DriveConfig(scenario="B", driver_id=driver_id, controller=controller,  # type: ignore[arg-type]
-                          seed=1, duration_s=40.0)
+        table = (
+            _table_from(driver, 1.08) if controller.startswith("irl") else predefined_table(driver)
+        )
+        cfg = DriveConfig(
+            scenario="B",
+            driver_id=driver_id,
+            controller=controller,  # type: ignore[arg-type]
+            seed=1,
+            duration_s=40.0,
+        )
         r = run_drive(cfg, driver, table, shorten(_profiles()["B"], 40.0))
         log = r.log
         assert not r.collision, (controller, r.collision_t_s)
@@ -61,8 +74,12 @@ def test_every_driver_with_every_controller_is_safe(driver_id: str) -> None:
 def _intervention(driver: DriverParams, factor: float) -> tuple[int, int, float]:
     table = _table_from(driver, factor, source="predefined")
     prof = shorten(_profiles()["manual3"], 90.0)
-    r = run_drive(DriveConfig(scenario="manual3", driver_id=driver.driver_id, seed=2,
-                              duration_s=90.0), driver, table, prof)
+    r = run_drive(
+        DriveConfig(scenario="manual3", driver_id=driver.driver_id, seed=2, duration_s=90.0),
+        driver,
+        table,
+        prof,
+    )
     log = r.log
     on = np.asarray(log.acc_state) >= 2
     acc = int((np.diff(log.accel_pressed.astype(int)) == 1)[on[1:]].sum())
@@ -86,9 +103,19 @@ def _frames(seed: int, channel: str) -> list[tuple[float, int, bytes]]:
     driver = BUILTIN_DRIVERS["d5"]  # noisiest driver: random taps, drift, noise
     listener = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
     try:
-        run_drive(DriveConfig(scenario="B", driver_id="d5", controller="predefined+oa",
-                              seed=seed, duration_s=15.0, faults="ego:drop=0.05"),
-                  driver, predefined_table(driver), record_channel=channel)
+        run_drive(
+            DriveConfig(
+                scenario="B",
+                driver_id="d5",
+                controller="predefined+oa",
+                seed=seed,
+                duration_s=15.0,
+                faults="ego:drop=0.05",
+            ),
+            driver,
+            predefined_table(driver),
+            record_channel=channel,
+        )
         out = []
         while (m := listener.recv(0.0)) is not None:
             out.append((m.timestamp, m.arbitration_id, bytes(m.data)))
@@ -109,9 +136,18 @@ def test_same_seed_same_frames() -> None:
 def test_radar_dropout_faults_ramps_out_and_driver_takes_over() -> None:
     driver = BUILTIN_DRIVERS["d2"]
     prof = shorten(_profiles()["manual4"], 45.0)
-    r = run_drive(DriveConfig(scenario="manual4", driver_id="d2", seed=3, duration_s=45.0,
-                              faults="radar:dropout=20-26"), driver,
-                  _table_from(driver, 1.0, "predefined"), prof)
+    r = run_drive(
+        DriveConfig(
+            scenario="manual4",
+            driver_id="d2",
+            seed=3,
+            duration_s=45.0,
+            faults="radar:dropout=20-26",
+        ),
+        driver,
+        _table_from(driver, 1.0, "predefined"),
+        prof,
+    )
     log = r.log
     assert not r.collision and r.metrics.min_gap_m > SAFETY_MIN_GAP_M
     t = log.t_s
@@ -138,8 +174,12 @@ def test_corrupt_crcs_are_counted_and_never_acted_on() -> None:
     prof = shorten(_profiles()["B"], 40.0)
 
     def run(faults: str) -> DriveResult:
-        return run_drive(DriveConfig(scenario="B", driver_id="d1", seed=4, duration_s=40.0,
-                                     faults=faults), driver, predefined_table(driver), prof)
+        return run_drive(
+            DriveConfig(scenario="B", driver_id="d1", seed=4, duration_s=40.0, faults=faults),
+            driver,
+            predefined_table(driver),
+            prof,
+        )
 
     bad = run("radar:crc=0.2")
     dropped = run("radar:drop=0.2")  # the same frames (one draw per frame), never sent
@@ -153,10 +193,12 @@ def test_corrupt_crcs_are_counted_and_never_acted_on() -> None:
 
 def test_brake_cancel_mode_driver_resumes() -> None:
     driver = BUILTIN_DRIVERS["d3"]
-    r = run_drive(DriveConfig(scenario="B", driver_id="d3", seed=5, duration_s=60.0,
-                              brake_mode="cancel"), driver, _table_from(driver, 0.6,
-                                                                        "predefined"),
-                  shorten(_profiles()["B"], 60.0))
+    r = run_drive(
+        DriveConfig(scenario="B", driver_id="d3", seed=5, duration_s=60.0, brake_mode="cancel"),
+        driver,
+        _table_from(driver, 0.6, "predefined"),
+        shorten(_profiles()["B"], 60.0),
+    )
     s = r.log.acc_state
     assert not r.collision
     cancelled = (s[1:] == 1) & (s[:-1] >= 2)  # a brake press returned the ACC to standby
@@ -168,9 +210,14 @@ def test_brake_cancel_mode_driver_resumes() -> None:
 def test_bus_silence_faults_and_recovers() -> None:
     driver = BUILTIN_DRIVERS["d4"]
     prof = shorten(_profiles()["manual2"], 40.0)
-    r = run_drive(DriveConfig(scenario="manual2", driver_id="d4", seed=6, duration_s=40.0,
-                              faults="all:silence=15-17"), driver,
-                  _table_from(driver, 1.0, "predefined"), prof)
+    r = run_drive(
+        DriveConfig(
+            scenario="manual2", driver_id="d4", seed=6, duration_s=40.0, faults="all:silence=15-17"
+        ),
+        driver,
+        _table_from(driver, 1.0, "predefined"),
+        prof,
+    )
     log = r.log
     assert not r.collision and r.metrics.min_gap_m > SAFETY_MIN_GAP_M
     fault_t = log.t_s[log.acc_state == 4]
@@ -188,8 +235,14 @@ def test_adaptation_mode_reaches_the_ecu_and_is_traced() -> None:
     prof = shorten(_profiles()["B"], 60.0)
     widths = {}
     for mode in ("paper", "timegap"):
-        cfg = DriveConfig(scenario="B", driver_id="d3", controller="predefined+oa", seed=0,
-                          duration_s=60.0, adaptation=AdaptationParams(mode=mode))
+        cfg = DriveConfig(
+            scenario="B",
+            driver_id="d3",
+            controller="predefined+oa",
+            seed=0,
+            duration_s=60.0,
+            adaptation=AdaptationParams(mode=mode),
+        )
         r = run_drive(cfg, driver, table, prof)
         applied = [e for e in r.adaptation_events if e.decision.applied]
         assert len(applied) == r.adaptations >= 1, mode
@@ -217,8 +270,21 @@ def test_mode_choices_match_the_ecu_and_cli_flag(capsys: pytest.CaptureFixture[s
     assert adaptation_params(None) is None
     params = adaptation_params("timegap")
     assert params is not None and params.mode == "timegap"
-    assert main(["--driver", "d3", "--controller", "predefined+oa", "--duration", "20",
-                 "--adaptation-mode", "timegap"]) == 0
+    assert (
+        main(
+            [
+                "--driver",
+                "d3",
+                "--controller",
+                "predefined+oa",
+                "--duration",
+                "20",
+                "--adaptation-mode",
+                "timegap",
+            ]
+        )
+        == 0
+    )
     assert "(timegap adaptation)" in capsys.readouterr().out
     with pytest.raises(SystemExit) as exc:
         main(["--adaptation-mode", "magic"])
@@ -228,8 +294,9 @@ def test_mode_choices_match_the_ecu_and_cli_flag(capsys: pytest.CaptureFixture[s
 def test_adapted_tables_are_reproducible() -> None:
     """Two runs of the same +OA drive give identical final tables, metadata included."""
     driver = BUILTIN_DRIVERS["d2"]
-    cfg = DriveConfig(scenario="B", driver_id="d2", controller="predefined+oa", seed=2,
-                      duration_s=40.0)
+    cfg = DriveConfig(
+        scenario="B", driver_id="d2", controller="predefined+oa", seed=2, duration_s=40.0
+    )
     prof = shorten(_profiles()["B"], 40.0)
     one, two = (run_drive(cfg, driver, predefined_table(driver), prof) for _ in range(2))
     assert one.adaptations >= 1

@@ -9,8 +9,10 @@ from sim_bus.faults import ROLES, FaultPlan, parse_faults
 
 
 def test_parse_full_spec() -> None:
-    spec = parse_faults("radar:dropout=20-25,crc=0.1;ego:delay=0.02,drop=0.05;"
-                        "pedals:counter=0.01,freeze=3-4;all:silence=100-100.5")
+    spec = parse_faults(
+        "radar:dropout=20-25,crc=0.1;ego:delay=0.02,drop=0.05;"
+        "pedals:counter=0.01,freeze=3-4;all:silence=100-100.5"
+    )
     r = spec.plan("radar")
     assert r is not None and r.crc == 0.1 and (20.0, 25.0) in r.silent
     assert r.silent_at(22.0) and not r.silent_at(25.0) and r.silent_at(100.2)
@@ -23,10 +25,12 @@ def test_parse_full_spec() -> None:
 
 
 def test_clauses_of_one_role_merge() -> None:
-    spec = parse_faults("radar:drop=0.1;radar:crc=0.2,dropout=1-2;radar:dropout=3-4;"
-                        "radar:drop=0.3;all:freeze=5-6")
-    assert spec.plan("radar") == FaultPlan(drop=0.3, crc=0.2, silent=((1.0, 2.0), (3.0, 4.0)),
-                                           freeze=((5.0, 6.0),))  # the later drop wins
+    spec = parse_faults(
+        "radar:drop=0.1;radar:crc=0.2,dropout=1-2;radar:dropout=3-4;radar:drop=0.3;all:freeze=5-6"
+    )
+    assert spec.plan("radar") == FaultPlan(
+        drop=0.3, crc=0.2, silent=((1.0, 2.0), (3.0, 4.0)), freeze=((5.0, 6.0),)
+    )  # the later drop wins
     assert all(spec.plan(r) == FaultPlan(freeze=((5.0, 6.0),)) for r in ROLES if r != "radar")
 
 
@@ -35,17 +39,20 @@ def test_empty_spec_means_no_faults() -> None:
     assert all(parse_faults(" ; ").plan(r) is None for r in ROLES)
 
 
-@pytest.mark.parametrize("text,match", [
-    ("radar", "ROLE:KIND"),
-    ("wheel:drop=0.1", "unknown role"),
-    ("radar:drop", "KIND=VALUE"),
-    ("radar:drop=2", "0..1"),
-    ("radar:drop=x", "probability"),
-    ("radar:dropout=5", "START-END"),
-    ("radar:dropout=5-3", "START < END"),
-    ("radar:delay=-1", "0..10"),
-    ("radar:melt=1", "unknown fault kind"),
-])
+@pytest.mark.parametrize(
+    "text,match",
+    [
+        ("radar", "ROLE:KIND"),
+        ("wheel:drop=0.1", "unknown role"),
+        ("radar:drop", "KIND=VALUE"),
+        ("radar:drop=2", "0..1"),
+        ("radar:drop=x", "probability"),
+        ("radar:dropout=5", "START-END"),
+        ("radar:dropout=5-3", "START < END"),
+        ("radar:delay=-1", "0..10"),
+        ("radar:melt=1", "unknown fault kind"),
+    ],
+)
 def test_bad_specs(text: str, match: str) -> None:
     with pytest.raises(FaultSpecError, match=match):
         parse_faults(text)

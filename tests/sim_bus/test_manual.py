@@ -21,8 +21,9 @@ def profiles() -> dict[str, LeadProfile]:
 
 
 @pytest.mark.parametrize("driver_id", sorted(BUILTIN_DRIVERS))
-def test_manual_trip_follows_own_preference(driver_id: str,
-                                            profiles: dict[str, LeadProfile]) -> None:
+def test_manual_trip_follows_own_preference(
+    driver_id: str, profiles: dict[str, LeadProfile]
+) -> None:
     d = BUILTIN_DRIVERS[driver_id]
     trip = manual_trip(d, profiles["manual3"], seed=1)
     assert isinstance(trip, Trip)
@@ -47,8 +48,9 @@ def test_manual_trip_is_deterministic(profiles: dict[str, LeadProfile]) -> None:
     assert not np.array_equal(a.gap_m, c.gap_m)
 
 
-def test_manual_trip_round_trips_through_mcap(tmp_path: Path,
-                                              profiles: dict[str, LeadProfile]) -> None:
+def test_manual_trip_round_trips_through_mcap(
+    tmp_path: Path, profiles: dict[str, LeadProfile]
+) -> None:
     trip = manual_trip(BUILTIN_DRIVERS["d2"], shorten(profiles["manual1"], 30.0), seed=0)
     path = tmp_path / "m.mcap"
     write_trip(path, trip)

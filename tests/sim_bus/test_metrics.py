@@ -56,7 +56,16 @@ def test_drive_metrics_gap_error_uses_unpressed_acc_on_samples() -> None:
     pressed = np.zeros(n, bool)
     pressed[:50] = True
     gap = np.where(np.arange(n) < 50, 100.0, 32.0)
-    m = drive_metrics(t, np.full(n, 20.0), gap, np.full(n, 20.0), np.zeros(n), state, pressed,
-                      np.zeros(n, bool), np.full(n, 30.0))
+    m = drive_metrics(
+        t,
+        np.full(n, 20.0),
+        gap,
+        np.full(n, 20.0),
+        np.zeros(n),
+        state,
+        pressed,
+        np.zeros(n, bool),
+        np.full(n, 30.0),
+    )
     assert m.gap_error_mean_m == pytest.approx(2.0) and m.gap_error_rms_m == pytest.approx(2.0)
     assert m.min_gap_m == 32.0 and m.poi_pct == pytest.approx(50.0)

@@ -75,16 +75,26 @@ def test_frames_at_dbc_periods_with_valid_e2e(buses: tuple[can.BusABC, can.BusAB
 
 
 def _command(outbox: Outbox, active: int, accel: float, state: int, t: float) -> can.Message:
-    return outbox.pack("command", {"accel_request_mps2": accel, "request_active": active,
-                                   "acc_state": state, "takeover_request": 0}, timestamp=t)
+    return outbox.pack(
+        "command",
+        {
+            "accel_request_mps2": accel,
+            "request_active": active,
+            "acc_state": state,
+            "takeover_request": 0,
+        },
+        timestamp=t,
+    )
 
 
 def test_request_applied_only_while_active_fresh_and_no_pedal(
-        buses: tuple[can.BusABC, can.BusABC]) -> None:
+    buses: tuple[can.BusABC, can.BusABC],
+) -> None:
     sim_bus, ecu_bus = buses
     codec = load_codec()
-    world = World(BUILTIN_DRIVERS["d2"], _flat(20.0), seed=0,
-                  cfg=WorldConfig(engage_s=100.0))  # the driver never presses SET here
+    world = World(
+        BUILTIN_DRIVERS["d2"], _flat(20.0), seed=0, cfg=WorldConfig(engage_s=100.0)
+    )  # the driver never presses SET here
     node = SimNode(sim_bus, world, codec=codec)
     out = Outbox(codec)
 
@@ -122,8 +132,9 @@ def test_request_applied_only_while_active_fresh_and_no_pedal(
 def test_pedal_press_overrides_the_request(buses: tuple[can.BusABC, can.BusABC]) -> None:
     sim_bus, ecu_bus = buses
     codec = load_codec()
-    world = World(BUILTIN_DRIVERS["d1"], _flat(20.0), seed=0,
-                  cfg=WorldConfig(initial_gap_factor=0.4))  # far too close: the driver brakes
+    world = World(
+        BUILTIN_DRIVERS["d1"], _flat(20.0), seed=0, cfg=WorldConfig(initial_gap_factor=0.4)
+    )  # far too close: the driver brakes
     node = SimNode(sim_bus, world, codec=codec)
     out = Outbox(codec)
     braked = False

@@ -14,10 +14,15 @@ from sim_bus.plant import Plant, PlantConfig, PlantState, lag_factor, step
 EXACT = PlantConfig(dt_s=0.01, actuator_tau_s=0.0, sigma_v_mps=0.0, sigma_g_m=0.0)
 
 
-@given(v0=st.floats(5.0, 30.0), vf=st.floats(0.0, 35.0), a=st.floats(-1.0, 1.5),
-       g0=st.floats(20.0, 100.0))
-def test_constant_acceleration_matches_closed_form(v0: float, vf: float, a: float,
-                                                   g0: float) -> None:
+@given(
+    v0=st.floats(5.0, 30.0),
+    vf=st.floats(0.0, 35.0),
+    a=st.floats(-1.0, 1.5),
+    g0=st.floats(20.0, 100.0),
+)
+def test_constant_acceleration_matches_closed_form(
+    v0: float, vf: float, a: float, g0: float
+) -> None:
     car = Plant(EXACT, PlantState(v0, 0.0, g0), np.random.default_rng(0))
     n = 300  # 3 s: the speed stays positive for these ranges
     for _ in range(n):
@@ -83,19 +88,33 @@ def test_non_finite_command_is_treated_as_zero() -> None:
     assert car.v_mps == 20.0 and math.isfinite(car.gap_m)
 
 
-@pytest.mark.parametrize("field_name,value", [
-    ("dt_s", 0.0), ("dt_s", math.nan), ("actuator_tau_s", math.inf), ("sigma_v_mps", -1.0),
-    ("sigma_g_m", math.nan), ("accel_min_mps2", 1.0), ("accel_max_mps2", math.nan),
-])
+@pytest.mark.parametrize(
+    "field_name,value",
+    [
+        ("dt_s", 0.0),
+        ("dt_s", math.nan),
+        ("actuator_tau_s", math.inf),
+        ("sigma_v_mps", -1.0),
+        ("sigma_g_m", math.nan),
+        ("accel_min_mps2", 1.0),
+        ("accel_max_mps2", math.nan),
+    ],
+)
 def test_bad_config_rejected(field_name: str, value: float) -> None:
     with pytest.raises(ValueError):
         PlantConfig(**{field_name: value})
 
 
-@pytest.mark.parametrize("field_name,value", [
-    ("driver_dt_s", 0.015), ("driver_dt_s", math.nan), ("engage_s", -1.0),
-    ("initial_gap_factor", 0.0), ("initial_gap_factor", math.inf),
-])
+@pytest.mark.parametrize(
+    "field_name,value",
+    [
+        ("driver_dt_s", 0.015),
+        ("driver_dt_s", math.nan),
+        ("engage_s", -1.0),
+        ("initial_gap_factor", 0.0),
+        ("initial_gap_factor", math.inf),
+    ],
+)
 def test_bad_world_config_rejected(field_name: str, value: float) -> None:
     from sim_bus.world import WorldConfig
 

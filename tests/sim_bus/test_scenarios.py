@@ -52,13 +52,31 @@ def test_manual_profiles_cover_5_to_30(profiles: dict) -> None:
 
 
 def test_requested_average_speeds_are_met() -> None:
-    speeds = np.array([8.0, 14.0, 20.0, 26.0, 20.0, 14.0, 8.0, 12.0, 18.0, 24.0, 28.0, 22.0,
-                       16.0, 10.0, 15.0, 25.0])
+    speeds = np.array(
+        [
+            8.0,
+            14.0,
+            20.0,
+            26.0,
+            20.0,
+            14.0,
+            8.0,
+            12.0,
+            18.0,
+            24.0,
+            28.0,
+            22.0,
+            16.0,
+            10.0,
+            15.0,
+            25.0,
+        ]
+    )
     prof = synthesize(speeds, seed=5, name="t")
     n = int(GeneratorConfig().segment_s / DT_S)
     raw = prof.raw_v_mps
     assert raw is not None
-    means = [raw[i * n:(i + 1) * n].mean() for i in range(len(raw) // n)]
+    means = [raw[i * n : (i + 1) * n].mean() for i in range(len(raw) // n)]
     assert np.allclose(means, speeds[: len(means)], atol=GeneratorConfig().tolerance_mps + 1e-6)
 
 
@@ -66,7 +84,7 @@ def test_scenario_a_slows_from_30_to_5(profiles: dict) -> None:
     v = profiles["A"].v_lead_mps
     assert v[:300].mean() > 25.0
     assert v[-300:].mean() < 10.0
-    means = v[: 3000].reshape(10, 300).mean(axis=1)
+    means = v[:3000].reshape(10, 300).mean(axis=1)
     assert np.sum(np.diff(means) < 0) >= 7  # mostly decreasing
 
 
@@ -75,8 +93,8 @@ def test_scenario_a_is_drawn_from_the_manual_profiles(profiles: dict) -> None:
     assert {s.source for s in a.segments} <= {"manual1", "manual2", "manual3", "manual4"}
     pos = 0
     for seg in a.segments:
-        src = profiles[seg.source].v_lead_mps[seg.start:seg.start + seg.length]
-        piece = a.raw_v_mps[pos:pos + seg.length]
+        src = profiles[seg.source].v_lead_mps[seg.start : seg.start + seg.length]
+        piece = a.raw_v_mps[pos : pos + seg.length]
         assert np.allclose(piece, seg.scale * src[: len(piece)])
         pos += seg.length
         if pos >= len(a.raw_v_mps):
@@ -89,8 +107,8 @@ def test_segments_really_come_from_the_data(profiles: dict) -> None:
         prof = profiles[name]
         pos = 0
         for seg in prof.segments:
-            src = pairs[seg.source].v_leader_mps[seg.start:seg.start + seg.length]
-            piece = prof.raw_v_mps[pos:pos + seg.length]
+            src = pairs[seg.source].v_leader_mps[seg.start : seg.start + seg.length]
+            piece = prof.raw_v_mps[pos : pos + seg.length]
             assert np.allclose(piece, seg.scale * src[: len(piece)])
             pos += seg.length
             if pos >= len(prof.raw_v_mps):
@@ -148,15 +166,18 @@ def test_csv_import_resamples_to_10_hz(tmp_path: Path) -> None:
     assert prof.v_lead_mps[1] == pytest.approx(10.4)
 
 
-@pytest.mark.parametrize("text,match", [
-    ("time,speed\n0,1\n1,2\n", "columns"),
-    ("t_s,v_lead_mps\n0,1\n0,2\n", "increasing"),
-    ("t_s,v_lead_mps\n0,1\n2,-2\n", "negative"),
-    ("t_s,v_lead_mps\n0,1\n2,abc\n", "non-numeric"),
-    ("t_s,v_lead_mps\n0,1\n2\n", "non-numeric"),  # a short row
-    ("t_s,v_lead_mps\n0,1\n2,nan\n", "non-finite"),
-    ("t_s,v_lead_mps\n0,1\n0.5,2\n", "shorter"),
-])
+@pytest.mark.parametrize(
+    "text,match",
+    [
+        ("time,speed\n0,1\n1,2\n", "columns"),
+        ("t_s,v_lead_mps\n0,1\n0,2\n", "increasing"),
+        ("t_s,v_lead_mps\n0,1\n2,-2\n", "negative"),
+        ("t_s,v_lead_mps\n0,1\n2,abc\n", "non-numeric"),
+        ("t_s,v_lead_mps\n0,1\n2\n", "non-numeric"),  # a short row
+        ("t_s,v_lead_mps\n0,1\n2,nan\n", "non-finite"),
+        ("t_s,v_lead_mps\n0,1\n0.5,2\n", "shorter"),
+    ],
+)
 def test_bad_csv_gets_a_clear_error(tmp_path: Path, text: str, match: str) -> None:
     path = tmp_path / "bad.csv"
     path.write_text(text)
@@ -174,8 +195,9 @@ def test_binary_csv_gets_a_clear_error(tmp_path: Path, data: bytes) -> None:
 
 
 @settings(max_examples=20)
-@given(seed=st.integers(0, 2**31 - 1),
-       speeds=st.lists(st.floats(3.0, 35.0), min_size=16, max_size=20))
+@given(
+    seed=st.integers(0, 2**31 - 1), speeds=st.lists(st.floats(3.0, 35.0), min_size=16, max_size=20)
+)
 def test_any_synthesis_respects_the_bounds(seed: int, speeds: list[float]) -> None:
     cfg = GeneratorConfig()
     prof = synthesize(np.array(speeds), seed, "h", cfg)

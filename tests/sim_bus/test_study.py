@@ -12,8 +12,15 @@ from ecu.triplog import read_trip
 from sim_bus import study
 from sim_bus.study import StudyConfig, format_table, reduction_pct, run_study
 
-SMALL = StudyConfig(drivers=("d1", "d4"), scenarios=("B",), controllers=("predefined", "irl+oa"),
-                    trials=1, seed=3, duration_s=25.0, workers=1)
+SMALL = StudyConfig(
+    drivers=("d1", "d4"),
+    scenarios=("B",),
+    controllers=("predefined", "irl+oa"),
+    trials=1,
+    seed=3,
+    duration_s=25.0,
+    workers=1,
+)
 
 
 @pytest.fixture(scope="module")
@@ -27,8 +34,12 @@ def _without_wall(rows: list[dict]) -> list[dict]:
 
 def test_small_study_outputs_and_determinism(tmp_path: Path, cache: Path) -> None:
     one = run_study(SMALL, tmp_path / "w1", cache_dir=cache, progress=False)
-    two = run_study(StudyConfig(**{**SMALL.__dict__, "workers": 2, "logs": False}),
-                    tmp_path / "w2", cache_dir=cache, progress=False)
+    two = run_study(
+        StudyConfig(**{**SMALL.__dict__, "workers": 2, "logs": False}),
+        tmp_path / "w2",
+        cache_dir=cache,
+        progress=False,
+    )
     assert len(one) == 4
     assert _without_wall(one) == _without_wall(two)  # workers do not change results
     out = tmp_path / "w1"
@@ -51,17 +62,26 @@ def test_small_study_outputs_and_determinism(tmp_path: Path, cache: Path) -> Non
 
 
 def test_table_arithmetic() -> None:
-    cfg = StudyConfig(drivers=("d1",), scenarios=("A", "B"), controllers=("predefined", "irl"),
-                      trials=2)
+    cfg = StudyConfig(
+        drivers=("d1",), scenarios=("A", "B"), controllers=("predefined", "irl"), trials=2
+    )
     rows = []
     for scenario, base in (("A", 20.0), ("B", 10.0)):
         for trial, extra in ((0, 0.0), (1, 2.0)):
-            common = {"driver": "d1", "scenario": scenario, "trial": trial, "collision": 0,
-                      "min_gap_m": 9.0, "min_ttc_s": 5.0}
-            rows.append({**common, "controller": "predefined", "poi_pct": base + extra,
-                         "nim_per_min": 4.0})
-            rows.append({**common, "controller": "irl", "poi_pct": base / 2 + extra,
-                         "nim_per_min": 2.0})
+            common = {
+                "driver": "d1",
+                "scenario": scenario,
+                "trial": trial,
+                "collision": 0,
+                "min_gap_m": 9.0,
+                "min_ttc_s": 5.0,
+            }
+            rows.append(
+                {**common, "controller": "predefined", "poi_pct": base + extra, "nim_per_min": 4.0}
+            )
+            rows.append(
+                {**common, "controller": "irl", "poi_pct": base / 2 + extra, "nim_per_min": 2.0}
+            )
     text = format_table(cfg, rows)
     assert "| d1 | Seen (A) | 21.0 % | 4.0 | 11.0 % | 2.0 |" in text
     assert "| **average** | | **16.0 %** | **4.0** | **8.5 %** | **2.0** |" in text
@@ -70,28 +90,52 @@ def test_table_arithmetic() -> None:
     assert reduction_pct(0.0, 1.0) != reduction_pct(0.0, 1.0)  # nan when the base is zero
 
 
-@pytest.mark.parametrize(("argv", "message"), [
-    (["--controllers", "pid"], "unknown controllers"),
-    (["--scenarios", "Z"], "unknown scenarios"),
-    (["--drivers", "nobody.toml"], "nobody.toml"),
-    (["--trials", "0"], "--trials"),
-])
-def test_bad_options(argv: list[str], message: str, tmp_path: Path,
-                     capsys: pytest.CaptureFixture[str]) -> None:
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--controllers", "pid"], "unknown controllers"),
+        (["--scenarios", "Z"], "unknown scenarios"),
+        (["--drivers", "nobody.toml"], "nobody.toml"),
+        (["--trials", "0"], "--trials"),
+    ],
+)
+def test_bad_options(
+    argv: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     assert study.main([*argv, "--out", str(tmp_path), "-q"]) == 2
     assert message in capsys.readouterr().err
 
 
-def test_adaptation_mode_from_the_command_line(tmp_path: Path,
-                                               capsys: pytest.CaptureFixture[str]) -> None:
+def test_adaptation_mode_from_the_command_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     from ecu.adaptation import AdaptationParams
 
-    cfg = StudyConfig(drivers=("d3",), scenarios=("B",), controllers=("predefined+oa",),
-                      trials=1, duration_s=30.0, adaptation=AdaptationParams(mode="timegap"))
+    cfg = StudyConfig(
+        drivers=("d3",),
+        scenarios=("B",),
+        controllers=("predefined+oa",),
+        trials=1,
+        duration_s=30.0,
+        adaptation=AdaptationParams(mode="timegap"),
+    )
     jobs = study.plan(cfg, study.tables_for(cfg, None), tmp_path)
     assert [j.adaptation for j in jobs] == [cfg.adaptation]
-    argv = ["--drivers", "d3", "--scenarios", "B", "--controllers", "predefined+oa",
-            "--trials", "1", "--duration", "30", "--no-logs", "-q", "--out"]
+    argv = [
+        "--drivers",
+        "d3",
+        "--scenarios",
+        "B",
+        "--controllers",
+        "predefined+oa",
+        "--trials",
+        "1",
+        "--duration",
+        "30",
+        "--no-logs",
+        "-q",
+        "--out",
+    ]
     out: dict[str, list[dict[str, str]]] = {}
     for mode in ("paper", "timegap"):
         assert study.main([*argv, str(tmp_path / mode), "--adaptation-mode", mode]) == 0
@@ -99,5 +143,7 @@ def test_adaptation_mode_from_the_command_line(tmp_path: Path,
         with (tmp_path / mode / "drives.csv").open() as fh:
             out[mode] = list(csv.DictReader(fh))
     # same drive, different adaptation: the ECU really used the mode
-    assert out["paper"][0]["poi_pct"] != out["timegap"][0]["poi_pct"] or \
-        out["paper"][0]["gap_error_rms_m"] != out["timegap"][0]["gap_error_rms_m"]
+    assert (
+        out["paper"][0]["poi_pct"] != out["timegap"][0]["poi_pct"]
+        or out["paper"][0]["gap_error_rms_m"] != out["timegap"][0]["gap_error_rms_m"]
+    )
