@@ -1,0 +1,169 @@
+"""The vehicle's spool: atomic batches named by digest, recovery, quota eviction, crash safety."""
+
+from __future__ import annotations
+
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cloud_sync.spool import EVICTION_ORDER, Spool, SpoolError, file_digest
+from ecu.triplog import Trip, read_trip
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def make_trip(mode: str, n: int = 50, seed: int = 0) -> Trip:
+    """A small trip at 10 Hz whose bytes depend on ``seed``."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * 0.1
+    v = 20.0 + rng.normal(0.0, 0.5, n)
+    return Trip(
+        t_s=t,
+        v_mps=v,
+        gap_m=40.0 + rng.normal(0.0, 1.0, n),
+        v_lead_mps=v + rng.normal(0.0, 0.2, n),
+        a_mps2=rng.normal(0.0, 0.3, n),
+        accel_pedal=np.zeros(n),
+        brake_pedal=np.zeros(n),
+        acc_state=np.zeros(n, dtype=np.int64),
+        meta={"driver_id": "d1", "mode": mode, "seed": seed},
+    )
+
+
+def test_a_batch_is_named_by_its_digest_and_survives_a_reopen(tmp_path: Path) -> None:
+    spool = Spool(tmp_path)
+    first = spool.put_trip(make_trip("takeover", seed=1))
+    second = spool.put_trip(make_trip("manual", seed=2))
+    assert first.path.name == f"{1:012d}-takeover-{first.digest}.mcap"
+    assert file_digest(first.path) == first.digest
+    assert read_trip(second.path).meta["mode"] == "manual"
+    reopened = Spool(tmp_path)
+    assert [(b.seq, b.kind, b.digest) for b in reopened.pending()] == [
+        (1, "takeover", first.digest),
+        (2, "manual", second.digest),
+    ]
+    assert reopened.put_trip(make_trip("acc", seed=3)).seq == 3  # numbering continues
+
+
+def test_the_same_trip_twice_is_one_batch(tmp_path: Path) -> None:
+    spool = Spool(tmp_path)
+    a = spool.put_trip(make_trip("takeover", seed=5))
+    b = spool.put_trip(make_trip("takeover", seed=5))
+    assert a == b and len(spool.pending()) == 1
+    assert len(list(tmp_path.glob("*.mcap"))) == 1
+
+
+def test_ack_deletes_only_the_acknowledged_batch(tmp_path: Path) -> None:
+    spool = Spool(tmp_path)
+    keep = spool.put_trip(make_trip("takeover", seed=1))
+    done = spool.put_trip(make_trip("takeover", seed=2))
+    assert spool.ack(done.digest) is True
+    assert spool.ack(done.digest) is False  # a repeated ack changes nothing
+    assert spool.ack("0" * 64) is False
+    assert spool.pending() == [keep] and not done.path.exists() and keep.path.exists()
+    assert spool.stats.acked == 1
+
+
+def test_leftovers_of_a_crash_are_removed_and_a_corrupt_batch_quarantined(tmp_path: Path) -> None:
+    spool = Spool(tmp_path)
+    good = spool.put_trip(make_trip("takeover", seed=1))
+    bad = spool.put_trip(make_trip("takeover", seed=2))
+    (tmp_path / ".incoming" / "half.mcap").write_bytes(b"\x89MCAP0\r\n half a file")
+    data = bytearray(bad.path.read_bytes())
+    data[len(data) // 2] ^= 0xFF  # one flipped byte
+    bad.path.write_bytes(bytes(data))
+    reopened = Spool(tmp_path)
+    assert reopened.pending() == [good]
+    assert reopened.stats.partials_removed == 1 and reopened.stats.quarantined == 1
+    assert (tmp_path / "quarantine" / bad.path.name).exists()
+    assert list((tmp_path / ".incoming").iterdir()) == []
+
+
+def test_quota_evicts_manual_trips_first_and_takeovers_last(tmp_path: Path) -> None:
+    size = Spool(tmp_path / "probe").put_trip(make_trip("manual", seed=0)).size_bytes
+    spool = Spool(tmp_path / "s", quota_bytes=int(size * 3.5))  # room for three batches
+    takeover = spool.put_trip(make_trip("takeover", seed=1))
+    manual_old = spool.put_trip(make_trip("manual", seed=2))
+    acc = spool.put_trip(make_trip("acc", seed=3))
+    newest = spool.put_trip(make_trip("takeover", seed=4))  # over quota: oldest manual goes
+    assert manual_old not in spool.pending()
+    assert spool.pending() == [takeover, acc, newest]
+    spool.put_trip(make_trip("takeover", seed=5))  # then the ACC trip, takeovers last
+    assert acc not in spool.pending() and takeover in spool.pending()
+    assert spool.stats.evicted == {"manual": 1, "acc": 1}
+    assert spool.size_bytes() <= spool.quota_bytes
+    assert EVICTION_ORDER[-1] == "takeover"
+
+
+def test_a_batch_larger_than_the_quota_is_refused(tmp_path: Path) -> None:
+    spool = Spool(tmp_path, quota_bytes=100)
+    with pytest.raises(SpoolError, match="exceeds the whole quota"):
+        spool.put_trip(make_trip("takeover"))
+    assert spool.pending() == [] and list((tmp_path / ".incoming").iterdir()) == []
+
+
+def test_a_file_that_is_not_a_trip_log_is_refused(tmp_path: Path) -> None:
+    junk = tmp_path / "junk.mcap"
+    junk.write_bytes(b"not an mcap file")
+    spool = Spool(tmp_path / "s")
+    with pytest.raises(SpoolError, match=r"not spooled: .*junk\.mcap"):
+        spool.put_file(junk)
+    assert spool.pending() == []
+
+
+def test_bad_settings_are_refused(tmp_path: Path) -> None:
+    with pytest.raises(SpoolError, match="quota_bytes"):
+        Spool(tmp_path, quota_bytes=0)
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(SpoolError, match="cannot create spool"):
+        Spool(tmp_path / "file" / "spool")
+
+
+_WRITER = """
+import sys
+from pathlib import Path
+from cloud_sync.spool import Spool
+from tests.cloud_sync.test_spool import make_trip
+spool = Spool(sys.argv[1])
+print("ready", flush=True)
+seed = int(sys.argv[2])
+while True:
+    spool.put_trip(make_trip("takeover", n=400, seed=seed))
+    seed += 1
+"""
+
+
+@pytest.mark.slow
+def test_sigkill_at_random_points_leaves_only_whole_batches(tmp_path: Path) -> None:
+    """A writer killed at 16 random instants: after each, every batch under a final name
+    reads back and matches its digest, and reopening clears the half-written ones."""
+    rng = random.Random(8)
+    script = tmp_path / "writer.py"
+    script.write_text(_WRITER)
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    spool_dir = tmp_path / "spool"
+    for kill in range(16):
+        proc = subprocess.Popen(
+            [sys.executable, str(script), str(spool_dir), str(kill * 1000)],
+            stdout=subprocess.PIPE,
+            env=env,
+        )
+        assert proc.stdout is not None
+        assert proc.stdout.readline().strip() == b"ready"
+        time.sleep(rng.uniform(0.0, 0.3))
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        spool = Spool(spool_dir)
+        for batch in spool.pending():
+            assert file_digest(batch.path) == batch.digest
+            assert len(read_trip(batch.path)) == 400
+        assert spool.stats.quarantined == 0
+        assert list((spool_dir / ".incoming").iterdir()) == []
+    assert len(Spool(spool_dir).pending()) > 0
