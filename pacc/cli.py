@@ -54,7 +54,8 @@ def main(argv: list[str] | None = None) -> int:
         print(_help())
         return 0 if args else 2
     if args[0] == "--version":
-        from importlib.metadata import version
+        # importlib.metadata costs ~10 ms of start-up, only --version needs it
+        from importlib.metadata import version  # noqa: PLC0415
 
         print(f"pacc {version('pacc')}")
         return 0
