@@ -9,7 +9,8 @@ Writing is atomic: the batch is written under ``.incoming/``, flushed with fsync
 the spool and the folder is fsynced, so after a crash at any instant a batch is either whole
 under its final name or absent; leftovers in ``.incoming/`` are removed when the spool opens
 (counted in :attr:`SpoolStats.partials_removed`). A batch leaves the spool only when the cloud
-acknowledged it (:meth:`Spool.ack`) or when the quota evicts it.
+acknowledged it (:meth:`Spool.ack`), when the quota evicts it, or when the cloud refused it for
+good (:meth:`Spool.reject` moves it to ``rejected/`` with the reason: kept, not retried).
 
 Quota policy: when the batches exceed ``quota_bytes``, the oldest manual trips go first, then
 the oldest ACC trips, takeovers last (they carry the driver's corrections); the batch just
@@ -48,6 +49,7 @@ _NAME = re.compile(
 )
 _INCOMING = ".incoming"
 _QUARANTINE = "quarantine"
+_REJECTED = "rejected"
 _CHUNK = 1 << 20
 
 
@@ -75,6 +77,7 @@ class SpoolStats:
     evicted: Counter[str] = field(default_factory=Counter)
     partials_removed: int = 0
     quarantined: int = 0
+    rejected: int = 0
 
 
 def file_digest(path: Path) -> str:
@@ -262,6 +265,26 @@ class Spool:
         """Bytes the pending batches occupy."""
         with self._lock:
             return sum(b.size_bytes for b in self._batches.values())
+
+    def reject(self, digest: str, reason: str) -> bool:
+        """The cloud refused batch ``digest`` for good (not a retryable failure): move it to
+        ``rejected/`` with a ``.reason`` file beside it, so it neither blocks the queue nor is
+        lost. False if no such batch is pending."""
+        with self._lock:
+            batch = self._batches.get(digest)
+            if batch is None:
+                return False
+            target = self.root / _REJECTED
+            target.mkdir(exist_ok=True)
+            (target / f"{batch.path.name}.reason").write_text(reason + "\n", encoding="utf-8")
+            batch.path.replace(target / batch.path.name)
+            _fsync_dir(self.root)
+            del self._batches[digest]
+            self.stats.rejected += 1
+            log.error(
+                "spool: batch %d (%s) rejected by the cloud: %s", batch.seq, batch.kind, reason
+            )
+            return True
 
     def ack(self, digest: str) -> bool:
         """The cloud holds batch ``digest``: delete it. False if no such batch is pending."""

@@ -1,0 +1,91 @@
+"""The vehicle's HTTP client of ``pacc cloud serve``, as a :class:`cloud_sync.api.CloudApi`.
+
+Transport failures (refused connection, timeout, a dropped connection) and 5xx answers become
+:class:`~cloud_sync.api.CloudUnavailableError`, the one error worth a retry; 4xx answers become
+the error of their status. Retrying is the uploader's business, not the client's.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import httpx
+
+from cloud_sync.api import ERRORS_BY_STATUS, CloudError, CloudUnavailableError, Receipt
+
+#: seconds to connect, and to wait for an answer (an upload waits for its ingest)
+DEFAULT_TIMEOUT_S = 30.0
+
+
+class HttpCloud:
+    """One vehicle's connection to a running cloud service.
+
+    Args:
+        url: the service's base URL, e.g. ``http://127.0.0.1:8080``.
+        token: the vehicle's token.
+        timeout_s: connect and read timeout, s.
+    """
+
+    def __init__(self, url: str, token: str, *, timeout_s: float = DEFAULT_TIMEOUT_S) -> None:
+        self.url = url.rstrip("/")
+        self._http = httpx.Client(
+            base_url=self.url,
+            headers={"Authorization": f"Bearer {token}"} if token.strip() else {},
+            timeout=timeout_s,
+        )
+
+    def close(self) -> None:
+        """Close the connection pool."""
+        self._http.close()
+
+    def __enter__(self) -> HttpCloud:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def _call(self, method: str, path: str, **kwargs: Any) -> httpx.Response:
+        try:
+            response = self._http.request(method, path, **kwargs)
+        except httpx.TransportError as exc:
+            raise CloudUnavailableError(f"{self.url}{path}: {type(exc).__name__}: {exc}") from exc
+        if response.status_code >= 500:
+            raise CloudUnavailableError(
+                f"{self.url}{path}: HTTP {response.status_code}: {response.text[:200]}"
+            )
+        if response.status_code >= 400:
+            try:
+                detail = str(response.json().get("detail", response.text))
+            except ValueError:
+                detail = response.text[:200]
+            error = ERRORS_BY_STATUS.get(response.status_code, CloudError)
+            raise error(f"HTTP {response.status_code}: {detail}")
+        return response
+
+    def upload(self, data: bytes) -> Receipt:
+        """Deliver one batch; the receipt the service answered with."""
+        body = self._call(
+            "POST",
+            "/v1/batches",
+            content=data,
+            headers={"Content-Type": "application/octet-stream"},
+        ).json()
+        return Receipt(
+            digest=str(body["digest"]),
+            driver_id=str(body["driver_id"]),
+            kind=str(body["kind"]),
+            duplicate=bool(body["duplicate"]),
+        )
+
+    def latest_dgpt(self, driver_id: str, condition: str = "default") -> bytes:
+        """The newest signed DGPT of one of this vehicle's drivers."""
+        return self._call(
+            "GET", f"/v1/drivers/{driver_id}/dgpt", params={"condition": condition}
+        ).content
+
+    def public_key_pem(self) -> bytes:
+        """The cloud's public signing key (PEM)."""
+        return self._call("GET", "/v1/key").content
+
+
+__all__ = ["DEFAULT_TIMEOUT_S", "HttpCloud"]

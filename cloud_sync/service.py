@@ -1,0 +1,343 @@
+"""The cloud service's rules, free of any transport: who may do what, ingest, learning, publishing.
+
+- **Vehicles and drivers**: :meth:`CloudService.register_vehicle` returns a fresh token (the
+  cloud keeps only its SHA-256); :meth:`register_driver` binds a driver to one vehicle. A
+  vehicle reads and writes only its own drivers.
+- **Ingest**: an upload is size-checked, parsed as a pacc trip log (a corrupt, truncated or
+  foreign file is refused and stored nowhere), attributed to ``meta["driver_id"]`` and
+  ``meta["condition"]`` and stored once per SHA-256 (a repeated upload is acknowledged as a
+  duplicate: at-least-once delivery becomes exactly-once storage).
+- **Learning jobs**: every new batch schedules a job for its (driver, condition) on the
+  executor, off the request path. A job is a pure function of the stored batches: the first
+  version comes from the manual trips (:func:`cloud_sync.trainer.learn_dgpt`); later batches
+  (takeover segments, more manual trips) fine-tune the newest version
+  (:func:`cloud_sync.trainer.fine_tune`). Trips are ordered by digest, so the result does not
+  depend on arrival order. Too little data is not an error: the job waits for more.
+- **Publishing**: each version is signed (Ed25519, :mod:`cloud_sync.signing`) and kept.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import os
+import secrets
+import tempfile
+import threading
+from collections.abc import Callable, Iterable
+from concurrent.futures import Executor, Future
+from dataclasses import dataclass, field, replace
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PrivateKey
+
+from cloud_sync.api import (
+    AuthError,
+    BadBatchError,
+    ForbiddenError,
+    NotFoundError,
+    PayloadTooLargeError,
+    Receipt,
+)
+from cloud_sync.errors import DemoError
+from cloud_sync.signing import (
+    load_private_key,
+    new_private_key,
+    public_pem,
+    save_private_key,
+    sign_dgpt,
+    verify_dgpt,
+)
+from cloud_sync.spool import kind_of
+from cloud_sync.store import BatchRow, CloudStore, VersionRow
+from cloud_sync.trainer import IrlConfig, fine_tune, learn_dgpt
+from ecu.dgpt import Dgpt
+from ecu.triplog import Trip, TripLogError, read_trip
+
+log = logging.getLogger(__name__)
+
+#: default upload limit, bytes (a 10-minute manual trip at 10 Hz is about 0.3 MB)
+DEFAULT_MAX_UPLOAD_BYTES = 16 * 1024 * 1024
+
+
+def _sha256(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def _utc_now() -> str:
+    return datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+class InlineExecutor(Executor):
+    """Runs each job at once in the caller's thread: deterministic, for tests and the study."""
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
+        """Run ``fn(*args, **kwargs)`` now; the returned future is already done."""
+        future: Future[Any] = Future()
+        try:
+            future.set_result(fn(*args, **kwargs))
+        except BaseException as exc:  # the future carries it, as a pool's would
+            future.set_exception(exc)
+        return future
+
+
+@dataclass(frozen=True)
+class ServiceConfig:
+    """Settings of the service.
+
+    Attributes:
+        max_upload_bytes: the largest accepted batch, bytes.
+        seed: the learning jobs' seed (every job is a pure function of seed and data).
+        irl: IRL settings (None: the trainer's defaults).
+    """
+
+    max_upload_bytes: int = DEFAULT_MAX_UPLOAD_BYTES
+    seed: int = 0
+    irl: IrlConfig | None = None
+
+
+@dataclass
+class _JobState:
+    running: bool = False
+    dirty: bool = False
+    futures: list[Future[Any]] = field(default_factory=list)
+
+
+class CloudService:
+    """The cloud (see the module docstring). Thread-safe.
+
+    Args:
+        store: the data folder.
+        key: the signing key.
+        executor: where learning jobs run (None: inline, in the uploading thread).
+        config: limits and learning settings.
+    """
+
+    def __init__(
+        self,
+        store: CloudStore,
+        key: Ed25519PrivateKey,
+        executor: Executor | None = None,
+        config: ServiceConfig | None = None,
+    ) -> None:
+        self.store = store
+        self.key = key
+        self.executor = executor if executor is not None else InlineExecutor()
+        self.config = config if config is not None else ServiceConfig()
+        self._jobs: dict[tuple[str, str], _JobState] = {}
+        self._jobs_lock = threading.Lock()
+        #: errors of learning jobs, newest last (a job never takes the service down)
+        self.job_errors: list[str] = []
+
+    @classmethod
+    def open(
+        cls,
+        data_dir: str | os.PathLike[str],
+        executor: Executor | None = None,
+        config: ServiceConfig | None = None,
+    ) -> CloudService:
+        """The service over ``data_dir``, creating the folder and its signing key if new."""
+        store = CloudStore(data_dir)
+        keys = Path(data_dir) / "keys"
+        keys.mkdir(exist_ok=True)
+        if not (keys / "cloud.key").exists():
+            key = new_private_key()
+            save_private_key(key, keys / "cloud.key")
+            (keys / "cloud.pub").write_bytes(public_pem(key))
+        return cls(store, load_private_key(keys / "cloud.key"), executor, config)
+
+    # -- vehicles and drivers -----------------------------------------------------------
+
+    def register_vehicle(self, vehicle_id: str) -> str:
+        """Register a vehicle; return its token (shown once, stored as a hash)."""
+        token = secrets.token_urlsafe(32)
+        self.store.add_vehicle(vehicle_id, _sha256(token.encode()))
+        return token
+
+    def register_driver(self, vehicle_id: str, driver_id: str) -> None:
+        """Bind ``driver_id`` to ``vehicle_id`` (StoreError if taken or unknown vehicle)."""
+        self.store.add_driver(driver_id, vehicle_id)
+
+    def authenticate(self, token: str | None) -> str:
+        """The vehicle holding ``token``; :class:`AuthError` if none."""
+        vehicle = self.store.vehicle_by_token(_sha256(token.encode())) if token else None
+        if vehicle is None:
+            raise AuthError("unknown or missing vehicle token")
+        return vehicle
+
+    def _own(self, vehicle_id: str, driver_id: str) -> None:
+        if self.store.driver_vehicle(driver_id) != vehicle_id:
+            raise ForbiddenError(f"driver {driver_id!r} is not registered to this vehicle")
+
+    # -- ingest -------------------------------------------------------------------------
+
+    def upload(self, vehicle_id: str, data: bytes) -> Receipt:
+        """Ingest one batch from ``vehicle_id`` (see the module docstring)."""
+        if len(data) > self.config.max_upload_bytes:
+            raise PayloadTooLargeError(
+                f"{len(data)} bytes exceed the limit of {self.config.max_upload_bytes}"
+            )
+        trip = _parse_trip(data)
+        driver_id = trip.meta.get("driver_id")
+        if not isinstance(driver_id, str) or not driver_id:
+            raise BadBatchError("the trip log names no driver_id in its metadata")
+        self._own(vehicle_id, driver_id)
+        condition = str(trip.meta.get("condition") or "default")
+        digest = _sha256(data)
+        row = BatchRow(
+            seq=0,
+            digest=digest,
+            vehicle_id=vehicle_id,
+            driver_id=driver_id,
+            condition=condition,
+            kind=kind_of(trip),
+            size_bytes=len(data),
+            received_utc=_utc_now(),
+            used_in_version=None,
+        )
+        added = self.store.add_batch(row, data)
+        if added:
+            self.schedule(driver_id, condition)
+        return Receipt(digest=digest, driver_id=driver_id, kind=row.kind, duplicate=not added)
+
+    # -- learning -----------------------------------------------------------------------
+
+    def schedule(self, driver_id: str, condition: str) -> None:
+        """Run a learning job for the driver soon; jobs of one key never overlap."""
+        key = (driver_id, condition)
+        with self._jobs_lock:
+            state = self._jobs.setdefault(key, _JobState())
+            if state.running:
+                state.dirty = True  # the running job will run once more
+                return
+            state.running = True
+        state.futures.append(self.executor.submit(self._job_loop, key))
+
+    def _job_loop(self, key: tuple[str, str]) -> None:
+        state = self._jobs[key]
+        while True:
+            try:
+                self.learn_once(*key)
+            except Exception as exc:  # a job's failure is reported, never raised at a client
+                self.job_errors.append(f"{key[0]}/{key[1]}: {type(exc).__name__}: {exc}")
+                log.exception("learning job %s/%s failed", *key)
+            with self._jobs_lock:
+                if not state.dirty:
+                    state.running = False
+                    return
+                state.dirty = False
+
+    def wait_idle(self, timeout_s: float | None = None) -> None:
+        """Block until every learning job scheduled so far has finished."""
+        for state in list(self._jobs.values()):
+            for future in list(state.futures):
+                future.result(timeout=timeout_s)
+
+    def learn_once(self, driver_id: str, condition: str) -> int | None:
+        """Learn the driver's next table from the unused batches; the new version or None.
+
+        New manual trips: the table is learned again from every manual trip (learn_dgpt),
+        then fine-tuned with every takeover batch so far. Only new takeover (or ACC)
+        batches: the newest version is fine-tuned with them. Trips are taken in digest order,
+        so a version is a pure function of the stored batches and the seed.
+        """
+        unused = self.store.batches(driver_id, condition, unused_only=True)
+        if not unused:
+            return None
+        cfg = self.config
+        previous = self.latest_table(driver_id, condition)
+        relearn = previous is None or any(b.kind == "manual" for b in unused)
+        batches = self.store.batches(driver_id, condition) if relearn else unused
+        manual = self._trips(b for b in batches if b.kind == "manual")
+        corrections = self._trips(b for b in batches if b.kind != "manual")
+        try:
+            if relearn:
+                if not manual:
+                    return None  # the first table needs manual driving
+                table = learn_dgpt(
+                    manual, driver_id=driver_id, condition=condition, seed=cfg.seed, config=cfg.irl
+                ).table
+            else:
+                assert previous is not None
+                table = previous
+            if corrections:
+                table = fine_tune(corrections, table, seed=cfg.seed, config=cfg.irl).table
+        except DemoError as exc:  # not enough evidence yet: wait for more batches
+            log.info("learning %s/%s waits for data: %s", driver_id, condition, exc)
+            return None
+        return self._publish(table, [b.digest for b in unused])
+
+    def _trips(self, batches: Iterable[BatchRow]) -> list[Trip]:
+        """The trips of ``batches`` in digest order."""
+        ordered = sorted(batches, key=_digest)
+        return [read_trip_bytes(self.store.read_blob(b.digest)) for b in ordered]
+
+    def _publish(self, table: Dgpt, used: list[str]) -> int:
+        versions = self.store.versions(table.driver_id, table.condition)
+        if versions and table.version <= versions[-1].version:
+            table = replace(table, version=versions[-1].version + 1)  # versions only grow
+        row = VersionRow(
+            driver_id=table.driver_id,
+            condition=table.condition,
+            version=table.version,
+            source=table.source,
+            created_utc=table.created_utc,
+            n_batches=len(used),
+        )
+        self.store.add_version(row, sign_dgpt(table, self.key), used)
+        log.info("published DGPT %s/%s v%d", row.driver_id, row.condition, row.version)
+        return table.version
+
+    # -- publishing ---------------------------------------------------------------------
+
+    def latest_signed(self, vehicle_id: str, driver_id: str, condition: str = "default") -> bytes:
+        """The newest signed table of one of the vehicle's drivers (NotFoundError if none)."""
+        self._own(vehicle_id, driver_id)
+        versions = self.store.versions(driver_id, condition)
+        if not versions:
+            raise NotFoundError(f"no DGPT for driver {driver_id!r} under {condition!r} yet")
+        return self.store.read_version(versions[-1])
+
+    def latest_table(self, driver_id: str, condition: str) -> Dgpt | None:
+        """The newest published table (verified with the cloud's own key), or None."""
+        versions = self.store.versions(driver_id, condition)
+        if not versions:
+            return None
+        return verify_dgpt(self.store.read_version(versions[-1]), self.key.public_key())
+
+    def public_key_pem(self) -> bytes:
+        """The public half of the signing key (PEM)."""
+        return public_pem(self.key)
+
+
+def _digest(batch: BatchRow) -> str:
+    return batch.digest
+
+
+def read_trip_bytes(data: bytes) -> Trip:
+    """Parse MCAP trip-log bytes (through a temporary file: the reader wants a path)."""
+    fd, name = tempfile.mkstemp(suffix=".mcap")
+    try:
+        with os.fdopen(fd, "wb") as stream:
+            stream.write(data)
+        return read_trip(name)
+    finally:
+        Path(name).unlink(missing_ok=True)
+
+
+def _parse_trip(data: bytes) -> Trip:
+    try:
+        return read_trip_bytes(data)
+    except TripLogError as exc:
+        raise BadBatchError(f"not a pacc trip log: {exc}") from exc
+
+
+__all__ = [
+    "DEFAULT_MAX_UPLOAD_BYTES",
+    "CloudService",
+    "InlineExecutor",
+    "ServiceConfig",
+    "read_trip_bytes",
+]

@@ -1,0 +1,274 @@
+"""The cloud's storage: an SQLite index and content-addressed files under one data folder.
+
+Layout of ``data_dir``::
+
+    index.sqlite                     vehicles, drivers, batches, DGPT versions (WAL mode)
+    blobs/<d[:2]>/<digest>.mcap      every uploaded batch, named by its SHA-256
+    dgpt/<driver>/<condition>/v<version>.json   every signed DGPT version, never overwritten
+    keys/cloud.key, keys/cloud.pub   the signing key pair (see cloud_sync.signing)
+
+Files are written to a temporary name, fsynced and renamed before their row is committed, so
+a row never points at a partial file; a file without a row (a crash between the two) is
+written again by the next upload of the same batch. Every DGPT version is kept. One store
+object may be shared by threads (one connection behind a lock).
+"""
+
+from __future__ import annotations
+
+import os
+import sqlite3
+import threading
+import uuid
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+from cloud_sync.errors import CloudSyncError
+
+SCHEMA = """
+CREATE TABLE IF NOT EXISTS vehicles (
+    vehicle_id TEXT PRIMARY KEY,
+    token_sha256 TEXT NOT NULL UNIQUE
+);
+CREATE TABLE IF NOT EXISTS drivers (
+    driver_id TEXT PRIMARY KEY,
+    vehicle_id TEXT NOT NULL REFERENCES vehicles(vehicle_id)
+);
+CREATE TABLE IF NOT EXISTS batches (
+    seq INTEGER PRIMARY KEY AUTOINCREMENT,
+    digest TEXT NOT NULL UNIQUE,
+    vehicle_id TEXT NOT NULL,
+    driver_id TEXT NOT NULL,
+    condition TEXT NOT NULL,
+    kind TEXT NOT NULL,
+    size_bytes INTEGER NOT NULL,
+    received_utc TEXT NOT NULL,
+    used_in_version INTEGER
+);
+CREATE INDEX IF NOT EXISTS batches_by_driver ON batches(driver_id, condition, used_in_version);
+CREATE TABLE IF NOT EXISTS dgpt_versions (
+    driver_id TEXT NOT NULL,
+    condition TEXT NOT NULL,
+    version INTEGER NOT NULL,
+    source TEXT NOT NULL,
+    created_utc TEXT NOT NULL,
+    n_batches INTEGER NOT NULL,
+    PRIMARY KEY (driver_id, condition, version)
+);
+"""
+
+
+class StoreError(CloudSyncError):
+    """The cloud's data folder cannot be opened or written."""
+
+
+@dataclass(frozen=True)
+class BatchRow:
+    """One stored batch (a trip log) and what it was used for."""
+
+    seq: int
+    digest: str
+    vehicle_id: str
+    driver_id: str
+    condition: str
+    kind: str
+    size_bytes: int
+    received_utc: str
+    used_in_version: int | None
+
+
+@dataclass(frozen=True)
+class VersionRow:
+    """One published DGPT version."""
+
+    driver_id: str
+    condition: str
+    version: int
+    source: str
+    created_utc: str
+    n_batches: int
+
+
+def _write_atomic(path: Path, data: bytes) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.part")
+    try:
+        with tmp.open("wb") as stream:
+            stream.write(data)
+            stream.flush()
+            os.fsync(stream.fileno())
+        tmp.replace(path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+class CloudStore:
+    """The data folder of one cloud (see the module docstring)."""
+
+    def __init__(self, data_dir: str | os.PathLike[str]) -> None:
+        self.root = Path(data_dir)
+        try:
+            self.root.mkdir(parents=True, exist_ok=True)
+            self._db = sqlite3.connect(
+                self.root / "index.sqlite", check_same_thread=False, isolation_level=None
+            )
+            self._db.execute("PRAGMA journal_mode=WAL")
+            self._db.execute("PRAGMA foreign_keys=ON")
+            self._db.executescript(SCHEMA)
+        except (OSError, sqlite3.Error) as exc:
+            raise StoreError(f"cannot open the cloud data folder {self.root}: {exc}") from exc
+        self._lock = threading.RLock()
+
+    def close(self) -> None:
+        """Close the index."""
+        with self._lock:
+            self._db.close()
+
+    @contextmanager
+    def _tx(self) -> Iterator[sqlite3.Connection]:
+        with self._lock:
+            self._db.execute("BEGIN IMMEDIATE")
+            try:
+                yield self._db
+            except BaseException:
+                self._db.execute("ROLLBACK")
+                raise
+            self._db.execute("COMMIT")
+
+    # -- vehicles and drivers -----------------------------------------------------------
+
+    def add_vehicle(self, vehicle_id: str, token_sha256: str) -> None:
+        """Register a vehicle with the SHA-256 of its token; StoreError if it exists."""
+        try:
+            with self._tx() as db:
+                db.execute("INSERT INTO vehicles VALUES (?, ?)", (vehicle_id, token_sha256))
+        except sqlite3.IntegrityError as exc:
+            raise StoreError(f"vehicle {vehicle_id!r} is already registered") from exc
+
+    def vehicle_by_token(self, token_sha256: str) -> str | None:
+        """The vehicle whose token hashes to ``token_sha256``, or None."""
+        with self._lock:
+            row = self._db.execute(
+                "SELECT vehicle_id FROM vehicles WHERE token_sha256 = ?", (token_sha256,)
+            ).fetchone()
+        return None if row is None else str(row[0])
+
+    def add_driver(self, driver_id: str, vehicle_id: str) -> None:
+        """Register ``driver_id`` to ``vehicle_id``; StoreError if unknown vehicle or taken."""
+        try:
+            with self._tx() as db:
+                db.execute("INSERT INTO drivers VALUES (?, ?)", (driver_id, vehicle_id))
+        except sqlite3.IntegrityError as exc:
+            raise StoreError(
+                f"driver {driver_id!r} cannot be registered to {vehicle_id!r}: "
+                "unknown vehicle or driver already registered"
+            ) from exc
+
+    def driver_vehicle(self, driver_id: str) -> str | None:
+        """The vehicle ``driver_id`` is registered to, or None."""
+        with self._lock:
+            row = self._db.execute(
+                "SELECT vehicle_id FROM drivers WHERE driver_id = ?", (driver_id,)
+            ).fetchone()
+        return None if row is None else str(row[0])
+
+    # -- batches ------------------------------------------------------------------------
+
+    def blob_path(self, digest: str) -> Path:
+        """Where batch ``digest`` is stored."""
+        return self.root / "blobs" / digest[:2] / f"{digest}.mcap"
+
+    def add_batch(self, row: BatchRow, data: bytes) -> bool:
+        """Store a batch's bytes and its row; False (nothing changed) if already stored."""
+        with self._lock:
+            known = self._db.execute(
+                "SELECT 1 FROM batches WHERE digest = ?", (row.digest,)
+            ).fetchone()
+            if known is not None:
+                return False
+            _write_atomic(self.blob_path(row.digest), data)
+            with self._tx() as db:
+                db.execute(
+                    "INSERT INTO batches (digest, vehicle_id, driver_id, condition, kind, "
+                    "size_bytes, received_utc) VALUES (?, ?, ?, ?, ?, ?, ?)",
+                    (
+                        row.digest,
+                        row.vehicle_id,
+                        row.driver_id,
+                        row.condition,
+                        row.kind,
+                        row.size_bytes,
+                        row.received_utc,
+                    ),
+                )
+            return True
+
+    def batches(
+        self, driver_id: str, condition: str, *, unused_only: bool = False
+    ) -> list[BatchRow]:
+        """The driver's batches under ``condition`` in arrival order."""
+        sql = "SELECT * FROM batches WHERE driver_id = ? AND condition = ?"
+        if unused_only:
+            sql += " AND used_in_version IS NULL"
+        with self._lock:
+            rows = self._db.execute(sql + " ORDER BY seq", (driver_id, condition)).fetchall()
+        return [BatchRow(*r) for r in rows]
+
+    def batch_count(self) -> int:
+        """How many batches the cloud holds."""
+        with self._lock:
+            return int(self._db.execute("SELECT COUNT(*) FROM batches").fetchone()[0])
+
+    def read_blob(self, digest: str) -> bytes:
+        """The bytes of batch ``digest``."""
+        return self.blob_path(digest).read_bytes()
+
+    # -- DGPT versions ------------------------------------------------------------------
+
+    def version_path(self, driver_id: str, condition: str, version: int) -> Path:
+        """Where a signed DGPT version is stored."""
+        return self.root / "dgpt" / driver_id / condition / f"v{version}.json"
+
+    def add_version(self, row: VersionRow, signed: bytes, used: list[str]) -> None:
+        """Publish a signed DGPT version and mark the batches ``used`` for it."""
+        _write_atomic(self.version_path(row.driver_id, row.condition, row.version), signed)
+        try:
+            with self._tx() as db:
+                db.execute(
+                    "INSERT INTO dgpt_versions VALUES (?, ?, ?, ?, ?, ?)",
+                    (
+                        row.driver_id,
+                        row.condition,
+                        row.version,
+                        row.source,
+                        row.created_utc,
+                        row.n_batches,
+                    ),
+                )
+                db.executemany(
+                    "UPDATE batches SET used_in_version = ? WHERE digest = ?",
+                    [(row.version, d) for d in used],
+                )
+        except sqlite3.IntegrityError as exc:
+            raise StoreError(
+                f"DGPT {row.driver_id}/{row.condition} v{row.version} exists already"
+            ) from exc
+
+    def versions(self, driver_id: str, condition: str) -> list[VersionRow]:
+        """Every published version of the driver's table under ``condition``, oldest first."""
+        with self._lock:
+            rows = self._db.execute(
+                "SELECT * FROM dgpt_versions WHERE driver_id = ? AND condition = ? "
+                "ORDER BY version",
+                (driver_id, condition),
+            ).fetchall()
+        return [VersionRow(*r) for r in rows]
+
+    def read_version(self, row: VersionRow) -> bytes:
+        """The signed bytes of a published version."""
+        return self.version_path(row.driver_id, row.condition, row.version).read_bytes()
+
+
+__all__ = ["BatchRow", "CloudStore", "StoreError", "VersionRow"]

@@ -1,0 +1,234 @@
+"""One test suite, two backends: the embedded cloud (LocalCloud) and the HTTP service on
+127.0.0.1 (uvicorn in a thread, HttpCloud). Both must give the same answers."""
+
+from __future__ import annotations
+
+import dataclasses
+import socket
+import threading
+import time
+from collections.abc import Callable, Iterator
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import httpx
+import numpy as np
+import pytest
+import uvicorn
+
+from cloud_sync.api import (
+    AuthError,
+    BadBatchError,
+    CloudApi,
+    CloudUnavailableError,
+    ForbiddenError,
+    NotFoundError,
+    PayloadTooLargeError,
+)
+from cloud_sync.client import HttpCloud
+from cloud_sync.local import LocalCloud
+from cloud_sync.server import create_app
+from cloud_sync.service import CloudService, ServiceConfig
+from cloud_sync.signing import load_public_key, verify_dgpt
+from ecu.state import AccState
+from ecu.triplog import Trip, write_trip
+from tests.cloud_sync.conftest import follower_trip
+
+LIMIT = 2 * 1024 * 1024
+
+
+def trip_bytes(trip: Trip, tmp: Path) -> bytes:
+    path = tmp / f"{id(trip)}.mcap"
+    write_trip(path, trip)
+    return path.read_bytes()
+
+
+def retag(trip: Trip, **meta: object) -> Trip:
+    return dataclasses.replace(trip, meta={**trip.meta, **meta})
+
+
+def takeover_of(trip: Trip) -> Trip:
+    """The trip as a takeover segment: ACC active for its first 10 s, then the driver."""
+    state = np.full(len(trip), int(AccState.OVERRIDE), dtype=np.int64)
+    state[:100] = int(AccState.ACTIVE)
+    return dataclasses.replace(trip, acc_state=state, meta={**trip.meta, "mode": "takeover"})
+
+
+class Served:
+    """A uvicorn server of the app in a thread, on an ephemeral loopback port."""
+
+    def __init__(self, service: CloudService) -> None:
+        self.sock = socket.socket()
+        self.sock.bind(("127.0.0.1", 0))
+        self.url = f"http://127.0.0.1:{self.sock.getsockname()[1]}"
+        config = uvicorn.Config(create_app(service), log_level="warning", lifespan="off")
+        self.server = uvicorn.Server(config)
+        self.thread = threading.Thread(
+            target=self.server.run, kwargs={"sockets": [self.sock]}, daemon=True
+        )
+        self.thread.start()
+        deadline = time.monotonic() + 10.0
+        while not self.server.started and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert self.server.started
+
+    def stop(self) -> None:
+        self.server.should_exit = True
+        self.thread.join(10.0)
+        self.sock.close()
+
+
+@pytest.fixture
+def cloud(tmp_path: Path) -> Iterator[CloudService]:
+    pool = ThreadPoolExecutor(max_workers=1)
+    service = CloudService.open(
+        tmp_path / "cloud", executor=pool, config=ServiceConfig(max_upload_bytes=LIMIT)
+    )
+    service.register_vehicle("car-b")  # another vehicle, with a driver of its own
+    service.register_driver("car-b", "other")
+    yield service
+    pool.shutdown(wait=True)
+    service.store.close()
+
+
+Connect = Callable[[str], CloudApi]
+
+
+@pytest.fixture(params=["local", "http"])
+def connect(request: pytest.FixtureRequest, cloud: CloudService) -> Iterator[Connect]:
+    """A factory: token -> this backend's client of ``cloud``."""
+    if request.param == "local":
+        yield lambda token: LocalCloud(cloud, token)
+        return
+    served = Served(cloud)
+    clients: list[HttpCloud] = []
+
+    def make(token: str) -> CloudApi:
+        clients.append(HttpCloud(served.url, token, timeout_s=30.0))
+        return clients[-1]
+
+    yield make
+    for c in clients:
+        c.close()
+    served.stop()
+
+
+@pytest.fixture
+def token(cloud: CloudService) -> str:
+    token = cloud.register_vehicle("car-a")
+    cloud.register_driver("car-a", "syn")
+    return token
+
+
+def test_an_upload_is_stored_once_and_acknowledged_by_digest(
+    connect: Connect, cloud: CloudService, token: str, tmp_path: Path
+) -> None:
+    data = trip_bytes(follower_trip(0, minutes=0.5), tmp_path)
+    api = connect(token)
+    first = api.upload(data)
+    again = api.upload(data)
+    assert (first.driver_id, first.kind, first.duplicate) == ("syn", "manual", False)
+    assert again.duplicate and again.digest == first.digest
+    assert cloud.store.batch_count() == 1
+    assert cloud.store.read_blob(first.digest) == data
+
+
+def test_a_wrong_token_is_401(connect: Connect, tmp_path: Path) -> None:
+    data = trip_bytes(follower_trip(0, minutes=0.2), tmp_path)
+    with pytest.raises(AuthError):
+        connect("not-a-token").upload(data)
+    with pytest.raises(AuthError):
+        connect("").latest_dgpt("syn")
+
+
+def test_another_vehicles_driver_is_403(
+    connect: Connect, cloud: CloudService, token: str, tmp_path: Path
+) -> None:
+    foreign = retag(follower_trip(0, minutes=0.2), driver_id="other")
+    api = connect(token)
+    with pytest.raises(ForbiddenError):
+        api.upload(trip_bytes(foreign, tmp_path))
+    with pytest.raises(ForbiddenError):
+        api.latest_dgpt("other")
+    assert cloud.store.batch_count() == 0
+
+
+def test_an_oversized_upload_is_413_and_stored_nowhere(
+    connect: Connect, cloud: CloudService, token: str
+) -> None:
+    with pytest.raises(PayloadTooLargeError):
+        connect(token).upload(b"\0" * (LIMIT + 1))
+    assert cloud.store.batch_count() == 0
+
+
+@pytest.mark.parametrize("damage", ["truncated", "garbage", "empty"])
+def test_a_corrupt_upload_is_422_and_stored_nowhere(
+    damage: str, connect: Connect, cloud: CloudService, token: str, tmp_path: Path
+) -> None:
+    data = trip_bytes(follower_trip(0, minutes=0.2), tmp_path)
+    bad = {"truncated": data[: len(data) // 2], "garbage": b"PK\3\4 not mcap", "empty": b""}
+    with pytest.raises(BadBatchError):
+        connect(token).upload(bad[damage])
+    assert cloud.store.batch_count() == 0
+    assert not list((cloud.store.root / "blobs").rglob("*.mcap"))
+
+
+def test_a_trip_without_a_driver_is_422(connect: Connect, token: str, tmp_path: Path) -> None:
+    anonymous = dataclasses.replace(follower_trip(0, minutes=0.2), meta={"mode": "manual"})
+    with pytest.raises(BadBatchError, match="driver_id"):
+        connect(token).upload(trip_bytes(anonymous, tmp_path))
+
+
+def test_no_table_yet_is_404(connect: Connect, token: str) -> None:
+    with pytest.raises(NotFoundError):
+        connect(token).latest_dgpt("syn")
+
+
+def test_an_unreachable_cloud_is_unavailable() -> None:
+    with socket.socket() as s:  # a port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    with (
+        HttpCloud(f"http://127.0.0.1:{port}", "t", timeout_s=2.0) as api,
+        pytest.raises(CloudUnavailableError),
+    ):
+        api.upload(b"x")
+
+
+@pytest.mark.slow
+def test_manual_trips_learn_a_signed_table_and_takeovers_fine_tune_it(
+    connect: Connect, cloud: CloudService, token: str, tmp_path: Path
+) -> None:
+    """The loop's cloud half: manual trips -> v1 signed; a takeover batch -> v2 signed."""
+    api = connect(token)
+    for seed in range(3):
+        api.upload(trip_bytes(follower_trip(seed, minutes=4.0), tmp_path))
+    cloud.wait_idle(120.0)
+    public = load_public_key(api.public_key_pem())
+    first = verify_dgpt(api.latest_dgpt("syn"), public)
+    assert (first.driver_id, first.source) == ("syn", "irl")
+    at_20 = first.lookup(20.0)
+    assert 4.0 + 1.6 * 20.0 - 6.0 < at_20 < 4.0 + 1.6 * 20.0 + 6.0  # the follower's 36 m
+    closer = follower_trip(11, minutes=2.0, headway_s=1.0, v_lo=15.0, v_hi=25.0)
+    receipt = api.upload(trip_bytes(takeover_of(closer), tmp_path))
+    assert receipt.kind == "takeover"
+    cloud.wait_idle(120.0)
+    second = verify_dgpt(api.latest_dgpt("syn"), public)
+    assert second.version > first.version
+    assert second.lookup(20.0) < at_20  # the takeovers asked for less gap
+    assert [v.version for v in cloud.store.versions("syn", "default")] == [
+        first.version,
+        second.version,
+    ]
+    assert cloud.job_errors == []
+
+
+def test_openapi_description_lists_the_routes(cloud: CloudService) -> None:
+    served = Served(cloud)
+    try:
+        spec = httpx.get(f"{served.url}/openapi.json", timeout=10.0).json()
+    finally:
+        served.stop()
+    assert {"/v1/batches", "/v1/drivers/{driver_id}/dgpt", "/v1/key", "/v1/health"} <= set(
+        spec["paths"]
+    )
