@@ -94,7 +94,7 @@ class Uploader:
             retry=retry_if_exception_type(CloudUnavailableError),
             wait=wait_random_exponential(multiplier=cfg.backoff_s, max=cfg.backoff_max_s),
             stop=lambda _: self._stop.is_set(),
-            sleep=self._stop.wait,
+            sleep=self._sleep,
             before_sleep=self._count_retry,
             reraise=True,
         )
@@ -113,6 +113,10 @@ class Uploader:
         self.stats.uploaded += 1
         self.stats.duplicates += int(receipt.duplicate)
         return True
+
+    def _sleep(self, seconds: float) -> None:
+        """Wait between attempts; stop() ends the wait at once."""
+        self._stop.wait(seconds)
 
     def _count_retry(self, state: RetryCallState) -> None:
         self.stats.retries += 1
