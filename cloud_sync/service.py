@@ -267,14 +267,15 @@ class CloudService:
         except DemoError as exc:  # not enough evidence yet: wait for more batches
             log.info("learning %s/%s waits for data: %s", driver_id, condition, exc)
             return None
-        return self._publish(table, [b.digest for b in unused])
+        return self.publish(table, [b.digest for b in unused])
 
     def _trips(self, batches: Iterable[BatchRow]) -> list[Trip]:
         """The trips of ``batches`` in digest order."""
         ordered = sorted(batches, key=_digest)
         return [read_trip_bytes(self.store.read_blob(b.digest)) for b in ordered]
 
-    def _publish(self, table: Dgpt, used: list[str]) -> int:
+    def publish(self, table: Dgpt, used: list[str]) -> int:
+        """Sign and keep ``table`` as the next version; mark the batches ``used``."""
         versions = self.store.versions(table.driver_id, table.condition)
         if versions and table.version <= versions[-1].version:
             table = replace(table, version=versions[-1].version + 1)  # versions only grow
