@@ -1,6 +1,6 @@
 """Demonstrations: from trips to the segments, feature counts and start states IRL needs.
 
-A sample is usable when the driver is in control (``acc_state`` not 2 = Active: manual
+A sample is usable when the driver is in control (``acc_state`` not Active: manual
 driving, standby after a brake, or an override; in an ACC trip only after the first
 engagement), a lead is present (finite gap and lead speed, gap within ``max_gap_m``) and the
 speeds are finite and within 0 … 70 m/s. The trip is resampled at the MDP's decision interval
@@ -23,22 +23,39 @@ import numpy as np
 from cloud_sync.errors import DemoError
 from cloud_sync.mce_irl import CompiledMdp, DemoStats
 from cloud_sync.mdp import interp_weights
+from ecu.state import AccState
 from ecu.triplog import Trip
 
 __all__ = [
+    "Samples",
     "Transitions",
     "usable_mask",
+    "pooled_samples",
     "check_demos",
     "extract_transitions",
     "demo_stats",
     "digest",
     "takeover_weighted",
-    "ACTIVE",
     "is_acc_trip",
 ]
 
-ACTIVE = 2  # AccState Active: the ECU drives, not the driver
 MAX_SPEED_MPS = 70.0  # faster samples are sensor garbage, not car following
+
+
+@dataclass(frozen=True)
+class Samples:
+    """The usable samples of a set of trips, concatenated; each array of shape (k,).
+
+    ``v_mps, gap_m`` ego speed and gap, ``dv_mps`` the relative speed ``v_lead − v``,
+    ``a_mps2`` the ego acceleration (+inf where the trip has none, so it never counts as
+    steady), ``dt_s`` the time each sample stands for (its step to the next sample).
+    """
+
+    v_mps: np.ndarray
+    gap_m: np.ndarray
+    dv_mps: np.ndarray
+    a_mps2: np.ndarray
+    dt_s: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -75,9 +92,9 @@ def usable_mask(trip: Trip, max_gap_m: float) -> np.ndarray:
     In an ACC trip only the driver's corrections count: samples not Active after the ACC
     was first engaged (driving before the first engagement is not a correction).
     """
-    in_control = trip.acc_state != ACTIVE
+    in_control = trip.acc_state != AccState.ACTIVE  # Active: the ECU drives, not the driver
     if is_acc_trip(trip):
-        engaged = np.cumsum(trip.acc_state == ACTIVE) > 0
+        engaged = np.cumsum(trip.acc_state == AccState.ACTIVE) > 0
         in_control = in_control & engaged
     with np.errstate(invalid="ignore"):
         return np.asarray(
@@ -91,6 +108,23 @@ def usable_mask(trip: Trip, max_gap_m: float) -> np.ndarray:
             & (trip.gap_m >= 0.0)
             & (trip.gap_m <= max_gap_m)
         )
+
+
+def pooled_samples(trips: Sequence[Trip], max_gap_m: float) -> Samples:
+    """The usable samples (:func:`usable_mask`) of every trip with two samples or more."""
+    cols: dict[str, list[np.ndarray]] = {k: [] for k in Samples.__dataclass_fields__}
+    for trip in trips:
+        if len(trip) < 2:
+            continue
+        m = usable_mask(trip, max_gap_m)
+        dt = np.diff(trip.t_s, append=trip.t_s[-1] + np.median(np.diff(trip.t_s)))
+        a = np.where(np.isfinite(trip.a_mps2), trip.a_mps2, np.inf)
+        cols["v_mps"].append(trip.v_mps[m])
+        cols["gap_m"].append(trip.gap_m[m])
+        cols["dv_mps"].append((trip.v_lead_mps - trip.v_mps)[m])
+        cols["a_mps2"].append(a[m])
+        cols["dt_s"].append(dt[m])
+    return Samples(**{k: np.concatenate(v) if v else np.zeros(0) for k, v in cols.items()})
 
 
 def check_demos(
@@ -206,13 +240,7 @@ def demo_stats(mdp: CompiledMdp, tr: Transitions, horizon: int) -> DemoStats:
     f_dv = (1 - wd) * feats.f_dv[di0] + wd * feats.f_dv[di1]
     f_a = (1 - wa) * feats.f_a[ai0] + wa * feats.f_a[ai1]
     mu = np.concatenate([feats.counts(m_vg), [float(w @ f_dv), float(w @ f_a)]])
-    return DemoStats(
-        mu=mu,
-        p0=p0,
-        n_segments=int(starts.sum()),
-        n_pairs=tr.n,
-        visitation_vg=m_vg,
-    )
+    return DemoStats(mu=mu, p0=p0, n_segments=int(starts.sum()))
 
 
 def digest(trips: Sequence[Trip], weights: Sequence[float]) -> str:

@@ -1,15 +1,20 @@
-"""From a reward (or from raw data) to a DGPT: argmax, low-pass, coverage, continuation, bounds.
+"""From a reward (or from raw data) to a DGPT: argmax, low-pass, continuation, bounds.
 
 All functions are pure and work on the DGPT speed axis (``ecu.dgpt.speed_axis``, shape (n,)).
 
-- :func:`coverage_s`: seconds of usable demonstration within ±``half_window_mps`` of each bin.
-- :func:`argmax_gap`: ``DGPT(v) = argmax_g r(v, g)`` over a fine gap grid inside the bounds.
+- :func:`irl_gaps`: the table of a reward: :func:`argmax_gap` inside the safety band and the
+  demonstrated gap range (:func:`gap_support`), then :func:`finish_table`.
+- :func:`argmax_gap`: ``DGPT(v) = argmax_g r(v, g)`` over a fine gap grid.
+- :func:`gap_support`: the gap range demonstrated near each speed (where the reward is known).
 - :func:`lowpass`: zero-phase Butterworth filter (``scipy.signal.filtfilt``) along the axis.
 - :func:`continue_time_gap`: bins without evidence get ``d0 + T(v)·v``, where the time gap
   ``T = (g − d0)/v`` is interpolated between covered bins and held constant beyond them (or,
   with a fallback table, the fallback's gaps are kept there).
+- :func:`finish_table`: raw per-bin gaps → table: continuation, low-pass, continuation, clamp.
 - :func:`steady_state_gaps`: the empirical baseline, the median gap of near-steady samples
   (|dv| and |a| small) per speed bin.
+
+Where the evidence is (coverage) and how a table continues an earlier one: :mod:`cloud_sync.blend`.
 """
 
 from __future__ import annotations
@@ -17,30 +22,18 @@ from __future__ import annotations
 import numpy as np
 from scipy import signal
 
+from cloud_sync.features import Features
 from ecu.dgpt import SafetyBounds, clamp_to_bounds
 
 __all__ = [
-    "coverage_s",
+    "irl_gaps",
     "argmax_gap",
     "lowpass",
     "continue_time_gap",
     "steady_state_gaps",
     "finish_table",
     "gap_support",
-    "reference_line",
 ]
-
-
-def coverage_s(
-    axis_mps: np.ndarray, v_mps: np.ndarray, dt_s: np.ndarray, half_window_mps: float = 0.5
-) -> np.ndarray:
-    """Seconds of data per bin: Σ dt over samples with ``|v − v_i| ≤ half_window``; (n,)."""
-    order = np.argsort(v_mps)
-    v_sorted = v_mps[order]
-    cum = np.concatenate([[0.0], np.cumsum(dt_s[order])])
-    lo = np.searchsorted(v_sorted, axis_mps - half_window_mps, side="left")
-    hi = np.searchsorted(v_sorted, axis_mps + half_window_mps, side="right")
-    return np.asarray(cum[hi] - cum[lo])
 
 
 def gap_support(
@@ -68,22 +61,6 @@ def gap_support(
             q = np.quantile(g[a:b], [quantile, 1.0 - quantile])
             lo[i], hi[i] = q[0] - margin_m, q[1] + margin_m
     return lo, hi
-
-
-def reference_line(
-    v_mps: np.ndarray, gap_m: np.ndarray, dv_mps: np.ndarray, a_mps2: np.ndarray
-) -> tuple[float, float]:
-    """Least-squares line ``g ≈ c0 + c1·v`` through near-steady samples (all samples if fewer
-    than 20 are steady); ``c1`` clipped to 0…5 s. Returns ``(c0_m, c1_s)``."""
-    steady = (np.abs(dv_mps) <= 1.0) & (np.abs(a_mps2) <= 0.5)
-    if steady.sum() < 20:
-        steady = np.ones(v_mps.size, dtype=bool)
-    v, g = v_mps[steady], gap_m[steady]
-    if v.size < 2 or float(np.ptp(v)) < 1e-6:
-        return float(np.median(g)) if g.size else 0.0, 0.0
-    c1, c0 = np.polyfit(v, g, 1)
-    c1 = float(np.clip(c1, 0.0, 5.0))
-    return float(np.median(g - c1 * v)), c1
 
 
 def argmax_gap(reward_fn_vg: np.ndarray, gaps_m: np.ndarray) -> np.ndarray:
@@ -183,3 +160,30 @@ def finish_table(
     smooth = lowpass(clamp_to_bounds(axis_mps, filled, bounds), cutoff)
     final = continue_time_gap(axis_mps, smooth, covered, bounds.standstill_m, fallback_m)
     return np.asarray(clamp_to_bounds(axis_mps, final, bounds))
+
+
+def irl_gaps(
+    alpha: np.ndarray,
+    features: Features,
+    axis_mps: np.ndarray,
+    covered: np.ndarray,
+    support: tuple[np.ndarray, np.ndarray],
+    *,
+    bounds: SafetyBounds,
+    resolution_m: float,
+    cutoff: float,
+) -> np.ndarray:
+    """The table (n,) of the reward with weights ``alpha`` (K,) on ``features``.
+
+    At each speed the argmax is taken over gaps every ``resolution_m`` inside the safety band
+    and the demonstrated range ``support`` ((lo, hi), (n,) each, NaN: unlimited), at least one
+    step wide; the raw gaps are then finished (:func:`finish_table`, ``covered`` (n,) bool).
+    """
+    gaps = np.arange(bounds.lower_m(0.0), float(bounds.upper_m(axis_mps[-1])) + 1e-9, resolution_m)
+    reward = features.reward_vg(alpha, axis_mps, gaps)
+    lo = np.fmax(bounds.lower_m(axis_mps), np.nan_to_num(support[0], nan=-np.inf))[:, None]
+    hi = np.fmin(bounds.upper_m(axis_mps), np.nan_to_num(support[1], nan=np.inf))[:, None]
+    hi = np.maximum(hi, lo + resolution_m)
+    reward = np.where((gaps[None, :] >= lo) & (gaps[None, :] <= hi), reward, -np.inf)
+    raw = argmax_gap(reward, gaps)
+    return finish_table(axis_mps, raw, covered, bounds, cutoff=cutoff)

@@ -94,11 +94,6 @@ class Features:
         )
         return np.asarray(np.einsum("kj,klj->kl", bv @ A, bg))
 
-    def reward_grid(self, alpha: np.ndarray) -> np.ndarray:
-        """The (v, g) reward on the grid's (n_v, n_gap) points."""
-        A, _, _ = self.split(alpha)
-        return np.asarray(np.einsum("kj,klj->kl", self.Bv @ A, self.Bg))
-
     def counts(self, m_vg: np.ndarray) -> np.ndarray:
         """(v, g) feature counts (n_cv·n_cg,) of a grid visitation ``m_vg`` (n_v, n_gap)."""
         return np.asarray(np.einsum("kl,ki,klj->ij", m_vg, self.Bv, self.Bg).ravel())

@@ -63,15 +63,12 @@ class DemoStats:
         mu: (K,) expected feature counts per segment.
         p0: (H, S) initial-state distribution, row ``h−1`` for segments of ``h`` steps;
             ``p0.sum() == 1``.
-        n_segments: number of segments. n_pairs: number of state-action pairs.
-        visitation_vg: (n_v, n_gap) weighted demonstrated (v, g) visitation per segment.
+        n_segments: number of segments.
     """
 
     mu: np.ndarray
     p0: np.ndarray
     n_segments: int
-    n_pairs: int
-    visitation_vg: np.ndarray
 
     @property
     def horizon(self) -> int:

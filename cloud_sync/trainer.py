@@ -1,42 +1,40 @@
-"""The IRL trainer: trips in, a driver's DGPT out (a thin layer over the pure modules).
+"""The IRL trainer: trips in, a driver's DGPT out (a thin composition of the pure phases).
 
 :func:`learn_dgpt` learns from demonstrations (manual drives, plus the takeovers of ACC trips,
 weighted); :func:`fine_tune` continues from an earlier IRL table with new takeovers;
 :func:`empirical_baseline` is the comparison table. Every result is a pure function of
 (configuration, seed, data): the optimiser is deterministic and the seed only draws the
 starting weights, which the convex objective forgets.
+
+The phases of :func:`learn_dgpt`, one module each: the demonstrations
+(:mod:`~cloud_sync.demos`), the evidence per speed (:mod:`~cloud_sync.blend`), the reward model
+(:mod:`~cloud_sync.model`), the fit (:mod:`~cloud_sync.fit`), the extraction of the table
+(:mod:`~cloud_sync.extract`) and, continuing an earlier table, the blend into it
+(:mod:`~cloud_sync.blend`).
 """
 
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
-from scipy import optimize
 
 from cloud_sync import demos as dm
+from cloud_sync.blend import Evidence, blend, covered_ranges, evidence
 from cloud_sync.errors import DemoError, TrainingError
-from cloud_sync.extract import (
-    argmax_gap,
-    coverage_s,
-    finish_table,
-    gap_support,
-    reference_line,
-    steady_state_gaps,
-)
-from cloud_sync.features import FeatureConfig, Features, features_from_spec, make_features
-from cloud_sync.mce_irl import CompiledMdp, DemoStats, objective
-from cloud_sync.mdp import Grid, GridConfig, build_transitions, grid_from_spec, make_grid
-from ecu.dgpt import Dgpt, SafetyBounds, clamp_to_bounds, speed_axis
+from cloud_sync.extract import finish_table, irl_gaps, steady_state_gaps
+from cloud_sync.features import FeatureConfig
+from cloud_sync.fit import Fit, fit_alpha, start_alpha
+from cloud_sync.mce_irl import CompiledMdp, DemoStats
+from cloud_sync.mdp import GridConfig
+from cloud_sync.model import METHOD, RewardModel, compile_model, fresh_model, model_of_table
+from ecu.dgpt import Dgpt, SafetyBounds, speed_axis
 from ecu.triplog import Trip
 
 __all__ = ["IrlConfig", "LearnResult", "learn_dgpt", "fine_tune", "empirical_baseline", "METHOD"]
-
-METHOD = "mce_irl/1"
 
 
 @dataclass(frozen=True)
@@ -130,97 +128,6 @@ class LearnResult:
         return self.mdp.features.reward_vg(self.alpha, v_mps, gap_m)
 
 
-def _samples(trips: Sequence[Trip], max_gap_m: float) -> dict[str, np.ndarray]:
-    """Usable samples of all trips, concatenated: v, gap, dv, a, dt (each (k,))."""
-    out: dict[str, list[np.ndarray]] = {"v": [], "g": [], "dv": [], "a": [], "dt": []}
-    for trip in trips:
-        if len(trip) < 2:
-            continue
-        m = dm.usable_mask(trip, max_gap_m)
-        dt = np.diff(trip.t_s, append=trip.t_s[-1] + np.median(np.diff(trip.t_s)))
-        out["v"].append(trip.v_mps[m])
-        out["g"].append(trip.gap_m[m])
-        out["dv"].append((trip.v_lead_mps - trip.v_mps)[m])
-        a = np.where(np.isfinite(trip.a_mps2), trip.a_mps2, np.inf)
-        out["a"].append(a[m])
-        out["dt"].append(dt[m])
-    return {k: np.concatenate(v) if v else np.zeros(0) for k, v in out.items()}
-
-
-def _prior_from(init: Dgpt | None) -> tuple[Grid, Features, np.ndarray] | None:
-    """The grid, features and α stored in an earlier IRL table, if it has them."""
-    if init is None or init.meta.get("method") != METHOD:
-        return None
-    try:
-        grid = grid_from_spec(init.meta["grid"])
-        feats = features_from_spec(grid, init.meta["features"])
-        alpha = np.asarray(init.meta["alpha"], dtype=np.float64)
-    except (KeyError, TypeError, ValueError, TrainingError) as exc:
-        raise TrainingError(f"initial DGPT has unusable IRL metadata: {exc}") from exc
-    if alpha.shape != (feats.n_features,) or not np.all(np.isfinite(alpha)):
-        raise TrainingError("initial DGPT: alpha does not match its feature spec")
-    return grid, feats, alpha
-
-
-def _optimise(
-    mdp: CompiledMdp,
-    stats: DemoStats,
-    alpha0: np.ndarray,
-    prior: np.ndarray | None,
-    config: IrlConfig,
-    progress: bool,
-) -> tuple[np.ndarray, list[float], optimize.OptimizeResult]:
-    history: list[float] = []
-    bar: Any = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=config.max_iter, desc="IRL", unit="it", leave=False)
-
-    def fun(alpha: np.ndarray) -> tuple[float, np.ndarray]:
-        return objective(alpha, mdp, stats, l2=config.l2, prior=prior)
-
-    def callback(intermediate_result: optimize.OptimizeResult) -> None:
-        history.append(float(intermediate_result.fun))
-        if bar is not None:
-            bar.update(1)
-            bar.set_postfix(f=f"{intermediate_result.fun:.4f}")
-
-    try:
-        res = optimize.minimize(
-            fun,
-            alpha0,
-            jac=True,
-            method="L-BFGS-B",
-            callback=callback,
-            options={"maxiter": config.max_iter, "gtol": config.gtol, "ftol": config.ftol},
-        )
-    finally:
-        if bar is not None:
-            bar.close()
-    return np.asarray(res.x), history, res
-
-
-def _extract(
-    result_alpha: np.ndarray,
-    feats: Features,
-    axis: np.ndarray,
-    covered: np.ndarray,
-    config: IrlConfig,
-    support: tuple[np.ndarray, np.ndarray],
-) -> np.ndarray:
-    b = config.bounds
-    gaps = np.arange(b.lower_m(0.0), float(b.upper_m(axis[-1])) + 1e-9, config.gap_resolution_m)
-    reward = feats.reward_vg(result_alpha, axis, gaps)
-    # the argmax is taken inside the safe band and the demonstrated gap range at each speed
-    lo = np.fmax(b.lower_m(axis), np.nan_to_num(support[0], nan=-np.inf))[:, None]
-    hi = np.fmin(b.upper_m(axis), np.nan_to_num(support[1], nan=np.inf))[:, None]
-    hi = np.maximum(hi, lo + config.gap_resolution_m)
-    reward = np.where((gaps[None, :] >= lo) & (gaps[None, :] <= hi), reward, -np.inf)
-    raw = argmax_gap(reward, gaps)
-    return finish_table(axis, raw, covered, b, cutoff=config.lowpass_cutoff)
-
-
 def empirical_baseline(
     trips: Sequence[Trip],
     *,
@@ -231,10 +138,10 @@ def empirical_baseline(
     """The empirical steady-state table (same format; meta ``method = empirical``)."""
     cfg = config if config is not None else IrlConfig()
     dm.check_demos(trips, max_gap_m=cfg.max_gap_m, min_total_s=cfg.min_total_demo_s)
-    s = _samples(trips, cfg.max_gap_m)
+    s = dm.pooled_samples(trips, cfg.max_gap_m)
     axis = speed_axis(cfg.dgpt_step_mps)
-    raw, count = steady_state_gaps(axis, s["v"], s["g"], s["dv"], s["a"])
-    dt = float(np.median(s["dt"])) if s["dt"].size else 0.1
+    raw, count = steady_state_gaps(axis, s.v_mps, s.gap_m, s.dv_mps, s.a_mps2)
+    dt = float(np.median(s.dt_s)) if s.dt_s.size else 0.1
     covered = (count * dt >= cfg.min_coverage_s / 4.0) & np.isfinite(raw)
     if not covered.any():
         raise DemoError("no speed bin has enough steady-state following for the baseline")
@@ -277,94 +184,54 @@ def learn_dgpt(
     fails.
     """
     cfg = config if config is not None else IrlConfig()
-    if not seed >= 0:  # numpy's generators take no negative seed
-        raise TrainingError(f"a seed is an integer >= 0, got {seed}")
-    if init is not None and init.driver_id != driver_id:
-        raise TrainingError(
-            f"the initial table belongs to driver {init.driver_id!r}, not {driver_id!r}"
-        )
-    w = list(weights) if weights is not None else dm.takeover_weighted(trips, cfg.takeover_weight)
-    if len(w) != len(trips):
-        raise DemoError(f"{len(w)} weights for {len(trips)} trips")
+    w = _trip_weights(trips, weights, init, driver_id=driver_id, seed=seed, config=cfg)
     usable_s = dm.check_demos(
         trips, max_gap_m=cfg.max_gap_m, min_total_s=cfg.min_total_demo_s, dt_s=cfg.grid.dt_s
     )
-    samples = _samples(trips, cfg.max_gap_m)
-    prior = _prior_from(init)
-    if prior is not None:
-        grid, feats, alpha_prev = prior
-    else:
-        grid = make_grid(
-            cfg.grid,
-            float(np.percentile(samples["v"], 99.9)),
-            float(np.percentile(samples["g"], 99.5)),
-        )
-        c0, c1 = reference_line(samples["v"], samples["g"], samples["dv"], samples["a"])
-        feats = make_features(grid, cfg.features, c0, c1)
-        alpha_prev = None
-    mdp = CompiledMdp.build(grid, feats, build_transitions(grid, cfg.grid))
+    samples = dm.pooled_samples(trips, cfg.max_gap_m)
+    axis = speed_axis(cfg.dgpt_step_mps)
+    ev = evidence(
+        axis,
+        samples,
+        min_coverage_s=cfg.min_coverage_s,
+        previous_m=None if init is None else np.interp(axis, init.speed_mps, init.gap_m),
+        window_mps=cfg.blend_window_mps,
+        support_ratio=cfg.init_support_ratio,
+    )
+    model = model_of_table(init)
+    if model is None:
+        model = fresh_model(samples, cfg.grid, cfg.features)
+    mdp = compile_model(model, cfg.grid)
     tr = dm.extract_transitions(
-        trips, w, dt_s=grid.dt_s, horizon=cfg.horizon_steps, max_gap_m=cfg.max_gap_m
+        trips, w, dt_s=model.grid.dt_s, horizon=cfg.horizon_steps, max_gap_m=cfg.max_gap_m
     )
     stats = dm.demo_stats(mdp, tr, cfg.horizon_steps)
-    rng = np.random.default_rng(seed)
-    alpha0 = alpha_prev.copy() if alpha_prev is not None else np.zeros(feats.n_features)
-    alpha0 = alpha0 + rng.normal(0.0, 1e-3, feats.n_features)
-    t0 = time.perf_counter()
-    alpha, history, res = _optimise(mdp, stats, alpha0, alpha_prev, cfg, progress)
-    train_s = time.perf_counter() - t0
-
-    axis = speed_axis(cfg.dgpt_step_mps)
-    cov = coverage_s(axis, samples["v"], samples["dt"])
-    covered = cov >= cfg.min_coverage_s
-    if init is not None:
-        # continuing: new evidence counts within ±blend_window of its speeds
-        cov_wide = coverage_s(axis, samples["v"], samples["dt"], cfg.blend_window_mps)
-        covered = cov_wide >= cfg.min_coverage_s
-    if not (covered & (axis > 0.5)).any():
-        raise DemoError(
-            f"no speed bin above standstill has {cfg.min_coverage_s:g} s of demonstration; "
-            "cannot build a table"
-        )
-    support = gap_support(axis, samples["v"], samples["g"])
-    if init is not None:
-        # the earlier table's neighbourhood is known ground too (its data are not at hand)
-        before = np.interp(axis, init.speed_mps, init.gap_m)
-        support = (
-            np.fmin(support[0], before * (1.0 - cfg.init_support_ratio)),
-            np.fmax(support[1], before * (1.0 + cfg.init_support_ratio)),
-        )
-    gap = _extract(alpha, feats, axis, covered, cfg, support)
-    if init is not None:
-        # blend into the earlier table by the amount of new evidence; untouched speeds
-        # (no new sample within ±blend_window) keep the earlier gaps exactly
-        previous = np.interp(axis, init.speed_mps, init.gap_m)
-        blend = cov_wide / (cov_wide + cfg.blend_half_s)
-        gap = np.where(blend > 0.0, blend * gap + (1.0 - blend) * previous, previous)
-        gap = clamp_to_bounds(axis, gap, cfg.bounds)
-        covered = blend > 0.0
+    fit = fit_alpha(
+        mdp,
+        stats,
+        start_alpha(model.features.n_features, model.prior_alpha, seed),
+        prior=model.prior_alpha,
+        l2=cfg.l2,
+        max_iter=cfg.max_iter,
+        gtol=cfg.gtol,
+        ftol=cfg.ftol,
+        progress=progress,
+    )
+    learned = irl_gaps(
+        fit.alpha,
+        model.features,
+        axis,
+        ev.covered,
+        ev.support,
+        bounds=cfg.bounds,
+        resolution_m=cfg.gap_resolution_m,
+        cutoff=cfg.lowpass_cutoff,
+    )
+    gap, covered = blend(axis, learned, ev, half_s=cfg.blend_half_s, bounds=cfg.bounds)
     data_digest = dm.digest(trips, w)
-    meta: dict[str, Any] = {
-        "method": METHOD,
-        "training_digest": data_digest,
-        "seed": int(seed),
-        "n_trips": len(trips),
-        "usable_demo_s": round(usable_s, 3),
-        "n_segments": stats.n_segments,
-        "coverage_s": [round(float(c), 2) for c in cov],
-        "min_coverage_s": cfg.min_coverage_s,
-        "covered_mps": _ranges(axis, covered),
-        "alpha": [float(a) for a in alpha],
-        "grid": grid.spec(),
-        "features": feats.spec(),
-        "horizon_steps": cfg.horizon_steps,
-        "l2": cfg.l2,
-        "iterations": int(res.nit),
-        "converged": bool(res.success),
-        "objective": float(res.fun),
-    }
-    if init is not None:
-        meta["parent_version"] = init.version
+    meta = _irl_meta(
+        cfg, seed, len(trips), data_digest, usable_s, stats, ev, covered, model, fit, init
+    )
     table = Dgpt(
         speed_mps=axis,
         gap_m=gap,
@@ -374,24 +241,18 @@ def learn_dgpt(
         source="irl",
         meta=meta,
     )
-    try:
-        baseline: Dgpt | None = empirical_baseline(
-            trips, driver_id=driver_id, condition=condition, config=cfg
-        )
-    except DemoError:
-        baseline = None  # e.g. takeovers alone hold no steady-state following
     return LearnResult(
         table=table,
-        baseline=baseline,
-        alpha=alpha,
+        baseline=_baseline_if_any(trips, driver_id, condition, cfg),
+        alpha=fit.alpha,
         mdp=mdp,
-        coverage_s=cov,
+        coverage_s=ev.coverage_s,
         covered=covered,
-        history=history,
-        n_iter=int(res.nit),
-        converged=bool(res.success),
-        message=str(res.message),
-        train_s=train_s,
+        history=fit.history,
+        n_iter=fit.n_iter,
+        converged=fit.converged,
+        message=fit.message,
+        train_s=fit.train_s,
         digest=data_digest,
     )
 
@@ -413,7 +274,7 @@ def fine_tune(
     ``init``'s gaps. ``init`` must be an IRL table of this method (it carries α and the grid).
     """
     cfg = config if config is not None else IrlConfig()
-    if _prior_from(init) is None:
+    if model_of_table(init) is None:
         raise TrainingError(
             "fine-tuning needs an IRL table of this method as init (its alpha and grid); "
             f"got source={init.source!r}, method={init.meta.get('method')!r}"
@@ -438,11 +299,79 @@ def fine_tune(
     )
 
 
-def _ranges(axis: np.ndarray, mask: np.ndarray) -> list[list[float]]:
-    """Contiguous True ranges of ``mask`` as [[v_from, v_to], ...] (m/s)."""
-    out: list[list[float]] = []
-    padded = np.concatenate([[False], mask, [False]]).astype(np.int8)
-    edges = np.flatnonzero(np.diff(padded))
-    for a, b in zip(edges[::2], edges[1::2], strict=True):
-        out.append([float(axis[a]), float(axis[b - 1])])
-    return out
+def _trip_weights(
+    trips: Sequence[Trip],
+    weights: Sequence[float] | None,
+    init: Dgpt | None,
+    *,
+    driver_id: str,
+    seed: int,
+    config: IrlConfig,
+) -> list[float]:
+    """The per-trip weights of a :func:`learn_dgpt` call, after refusing a negative seed, an
+    ``init`` of another driver and a weight list of the wrong length."""
+    if not seed >= 0:  # numpy's generators take no negative seed
+        raise TrainingError(f"a seed is an integer >= 0, got {seed}")
+    if init is not None and init.driver_id != driver_id:
+        raise TrainingError(
+            f"the initial table belongs to driver {init.driver_id!r}, not {driver_id!r}"
+        )
+    w = (
+        list(weights)
+        if weights is not None
+        else dm.takeover_weighted(trips, config.takeover_weight)
+    )
+    if len(w) != len(trips):
+        raise DemoError(f"{len(w)} weights for {len(trips)} trips")
+    return w
+
+
+def _irl_meta(
+    cfg: IrlConfig,
+    seed: int,
+    n_trips: int,
+    data_digest: str,
+    usable_s: float,
+    stats: DemoStats,
+    ev: Evidence,
+    covered: np.ndarray,
+    model: RewardModel,
+    fit: Fit,
+    init: Dgpt | None,
+) -> dict[str, Any]:
+    """The metadata of a learned table: data, evidence, the model (read back by
+    :func:`cloud_sync.model.model_of_table`) and the optimiser's outcome."""
+    axis = speed_axis(cfg.dgpt_step_mps)
+    meta: dict[str, Any] = {
+        "method": METHOD,
+        "training_digest": data_digest,
+        "seed": int(seed),
+        "n_trips": n_trips,
+        "usable_demo_s": round(usable_s, 3),
+        "n_segments": stats.n_segments,
+        "coverage_s": [round(float(c), 2) for c in ev.coverage_s],
+        "min_coverage_s": cfg.min_coverage_s,
+        "covered_mps": covered_ranges(axis, covered),
+        "alpha": [float(a) for a in fit.alpha],
+        "grid": model.grid.spec(),
+        "features": model.features.spec(),
+        "horizon_steps": cfg.horizon_steps,
+        "l2": cfg.l2,
+        "iterations": fit.n_iter,
+        "converged": fit.converged,
+        "objective": fit.objective,
+    }
+    if init is not None:
+        meta["parent_version"] = init.version
+    return meta
+
+
+def _baseline_if_any(
+    trips: Sequence[Trip], driver_id: str, condition: str, cfg: IrlConfig
+) -> Dgpt | None:
+    """The empirical baseline, or None when the data hold no steady-state following (e.g.
+    takeovers alone)."""
+    try:
+        return empirical_baseline(trips, driver_id=driver_id, condition=condition, config=cfg)
+    except DemoError:
+        return None

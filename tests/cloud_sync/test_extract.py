@@ -1,4 +1,4 @@
-"""DGPT extraction: coverage, continuation, low-pass, baseline, bounds."""
+"""DGPT extraction: argmax, support, continuation, low-pass, baseline, bounds."""
 
 from __future__ import annotations
 
@@ -10,25 +10,14 @@ from hypothesis import strategies as st
 from cloud_sync.extract import (
     argmax_gap,
     continue_time_gap,
-    coverage_s,
     finish_table,
     gap_support,
     lowpass,
-    reference_line,
     steady_state_gaps,
 )
 from ecu.dgpt import SafetyBounds, speed_axis
 
 AXIS = speed_axis(0.5)
-
-
-def test_coverage_counts_seconds_in_window() -> None:
-    v = np.array([10.0, 10.2, 10.4, 20.0])
-    cov = coverage_s(AXIS, v, np.full(4, 0.1))
-    assert cov[20] == pytest.approx(0.3)  # 10 m/s: all three
-    assert cov[21] == pytest.approx(0.3)  # 10.5 m/s: 10.0..11.0
-    assert cov[40] == pytest.approx(0.1)
-    assert cov[0] == 0.0
 
 
 def test_time_gap_continuation_holds_edge_headway() -> None:
@@ -71,13 +60,11 @@ def test_steady_state_baseline_uses_only_steady_samples() -> None:
     assert np.isnan(gap[0]) and count[0] == 0
 
 
-def test_argmax_support_and_reference_line() -> None:
+def test_argmax_and_support() -> None:
     r = -((np.arange(10.0)[None, :] - np.array([[2.0], [7.0]])) ** 2)
     assert np.allclose(argmax_gap(r, np.arange(10.0)), [2.0, 7.0])
     v = np.linspace(5, 25, 400)
     g = 3.0 + 1.4 * v
-    c0, c1 = reference_line(v, g, np.zeros_like(v), np.zeros_like(v))
-    assert c0 == pytest.approx(3.0) and c1 == pytest.approx(1.4)
     lo, hi = gap_support(AXIS, v, g, margin_m=0.0)
     assert np.isnan(lo[0]) and lo[30] == pytest.approx(3.0 + 1.4 * 14.0, abs=0.1)
     assert hi[30] == pytest.approx(3.0 + 1.4 * 16.0, abs=0.1)

@@ -120,7 +120,7 @@ def _model_stats(alpha: np.ndarray, horizon: int, seed: int) -> DemoStats:
     p0[horizon - 1] = rng.dirichlet(np.ones(MDP.grid.n_states))
     _, pi = soft_value_iteration(MDP.P, reward_table(MDP, alpha), horizon)
     mu = feature_expectations(MDP, state_action_visitation(MDP.PT, pi, p0))
-    return DemoStats(mu=mu, p0=p0, n_segments=1, n_pairs=horizon, visitation_vg=np.zeros(1))
+    return DemoStats(mu=mu, p0=p0, n_segments=1)
 
 
 def test_gradient_zero_when_demos_are_the_models_own_expectation() -> None:
