@@ -3,14 +3,17 @@
 Like the paper's figure of reward and desired gap: a heatmap of ``r(v, g)`` (the (v, g) part of
 the recovered reward, normalised per speed so every column shows where its maximum lies),
 the DGPT curve on it, the empirical baseline dashed, and the speeds without evidence shaded.
-Rendered with matplotlib's Agg backend (no display needed).
+Drawn on a bare :class:`matplotlib.figure.Figure` (no pyplot, no global backend state, no
+display needed); this module is imported only when a figure is asked for.
 """
 
 from __future__ import annotations
 
 import os
 
+import matplotlib as mpl
 import numpy as np
+from matplotlib.figure import Figure
 
 from cloud_sync.trainer import LearnResult
 
@@ -19,11 +22,6 @@ __all__ = ["plot_result"]
 
 def plot_result(result: LearnResult, path: str | os.PathLike[str]) -> None:
     """Write the figure of ``result`` to ``path`` (format from the suffix, e.g. ``.png``)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     table = result.table
     v = table.speed_mps
     g_top = float(max(np.max(table.gap_m), np.max(result.mdp.grid.gap_m))) * 1.05
@@ -33,8 +31,9 @@ def plot_result(result: LearnResult, path: str | os.PathLike[str]) -> None:
     span = np.maximum(r.max(axis=1, keepdims=True) - lo, 1e-12)
     r_norm = (r - lo) / span
     r_norm[~result.covered] = np.nan  # no evidence: the reward there means nothing
-    cmap = matplotlib.colormaps["viridis"].with_extremes(bad="lightgrey")
-    fig, ax = plt.subplots(figsize=(8, 5), dpi=110)
+    cmap = mpl.colormaps["viridis"].with_extremes(bad="lightgrey")
+    fig = Figure(figsize=(8, 5), dpi=110)
+    ax = fig.subplots()
     mesh = ax.pcolormesh(v, g, np.ma.masked_invalid(r_norm.T), shading="auto", cmap=cmap)
     fig.colorbar(mesh, ax=ax, label="recovered reward r(v, g), normalised per speed")
     ax.plot(v, table.gap_m, color="red", lw=2.2, label=f"DGPT (IRL, v{table.version})")
@@ -55,4 +54,3 @@ def plot_result(result: LearnResult, path: str | os.PathLike[str]) -> None:
     ax.legend(loc="upper left", fontsize=8)
     fig.tight_layout()
     fig.savefig(path)
-    plt.close(fig)

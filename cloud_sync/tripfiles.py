@@ -36,7 +36,7 @@ def read_csv_trip(
     """
     path = Path(path)
     try:
-        with open(path, newline="") as stream:
+        with path.open(newline="") as stream:
             header = next(csv.reader(stream), None)
     except (OSError, UnicodeDecodeError, csv.Error) as exc:  # unreadable, not text, not CSV
         raise TripLogError(f"{path}: cannot read CSV ({exc})") from exc
