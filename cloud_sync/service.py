@@ -250,12 +250,12 @@ class CloudService:
         previous = self.latest_table(driver_id, condition)
         relearn = previous is None or any(b.kind == "manual" for b in unused)
         batches = self.store.batches(driver_id, condition) if relearn else unused
+        if relearn and not any(b.kind == "manual" for b in batches):
+            return None  # the first table needs manual driving; read nothing until then
         manual = self._trips(b for b in batches if b.kind == "manual")
         corrections = self._trips(b for b in batches if b.kind != "manual")
         try:
             if relearn:
-                if not manual:
-                    return None  # the first table needs manual driving
                 table = learn_dgpt(
                     manual, driver_id=driver_id, condition=condition, seed=cfg.seed, config=cfg.irl
                 ).table
