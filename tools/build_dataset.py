@@ -1,6 +1,7 @@
 """Build ``sim_bus/data/openacc_human.npz`` from the JRC OpenACC human-driven pairs.
 
-Run as ``python -m sim_bus.build_dataset [--source DIR] [--out FILE]``. The source is the
+Run from the repository root as ``python -m tools.build_dataset [--source DIR] [--out FILE]``
+(a maintainer's tool: not part of the installed package). The source is the
 folder of leader->follower pair CSVs (10 Hz, SI units) extracted from the JRC OpenACC
 AstaZero campaign (Makridis, Mattas, Anesiadou, Ciuffo, "OpenACC. An open database of
 car-following experiments to study the properties of commercial ACC systems", Transportation
@@ -24,11 +25,13 @@ from pathlib import Path
 
 import numpy as np
 
+from sim_bus.dataset import DATA_PATH
 from sim_bus.errors import DataError
 
 #: ../shared/data/openacc_astazero beside the repository
 DEFAULT_SOURCE = Path(__file__).resolve().parents[2] / "shared" / "data" / "openacc_astazero"
-DEFAULT_OUT = Path(__file__).resolve().parent / "data" / "openacc_human.npz"
+#: the file the simulator reads (sim_bus.dataset)
+DEFAULT_OUT = DATA_PATH
 DT_S = 0.1
 ATTRIBUTION = (
     "Derived from the JRC OpenACC database (European Commission Joint Research Centre), "
@@ -119,7 +122,7 @@ def build(source: Path, out: Path) -> dict[str, int]:
 
 def main(argv: list[str] | None = None) -> int:
     """Command line: build the shipped data file; return 0 on success, 1 on a bad source."""
-    parser = argparse.ArgumentParser(prog="python -m sim_bus.build_dataset", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m tools.build_dataset", description=__doc__)
     parser.add_argument("--source", type=Path, default=DEFAULT_SOURCE, help="pair CSV folder")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help="output .npz")
     args = parser.parse_args(argv)

@@ -1,9 +1,10 @@
-"""Calibrate the built-in drivers against the real human pairs: ``python -m sim_bus.calibration``.
+"""Calibrate the built-in drivers against the real human pairs: ``python -m tools.calibration``.
 
 Measures the steady-state time gap (gap / follower speed, samples with |v_lead − v| < 0.5 m/s)
 per 5 m/s speed band, median per follower: for each real human-driven pair of the shipped
 OpenACC data, and for each built-in driver following the same real leader traces by hand
-(sim_bus.manual, seed 0). Prints a Markdown table (used in docs/drivers.md).
+(sim_bus.manual, seed 0). Prints a Markdown table (used in docs/drivers.md). A maintainer's
+tool, run from the repository root; not part of the installed package.
 """
 
 from __future__ import annotations
@@ -94,11 +95,11 @@ def markdown(seed: int = 0) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     """Print the calibration table."""
-    p = argparse.ArgumentParser(prog="python -m sim_bus.calibration", description=__doc__)
+    p = argparse.ArgumentParser(prog="python -m tools.calibration", description=__doc__)
     p.add_argument("--seed", type=int, default=0)
     args = p.parse_args(argv)
     if args.seed < 0:
-        print(f"python -m sim_bus.calibration: error: --seed must be >= 0, got {args.seed}")
+        print(f"python -m tools.calibration: error: --seed must be >= 0, got {args.seed}")
         return 2
     print(markdown(args.seed))
     return 0

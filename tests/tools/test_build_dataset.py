@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim_bus.build_dataset import BuildError, build, main
-from sim_bus.dataset import load_human_pairs
+from sim_bus.dataset import DATA_PATH, load_human_pairs
 from sim_bus.errors import SimError
+from tools.build_dataset import DEFAULT_OUT, BuildError, build, main
 
 HEADER = "t,x_follower,v_follower,a_follower,x_leader,v_leader,a_leader,leader_length,spacing,dv"
 
@@ -67,14 +67,5 @@ def test_main_reports_a_bad_source(tmp_path: Path, capsys: pytest.CaptureFixture
     assert "no oa_pair_*.csv" in capsys.readouterr().out
 
 
-def test_damaged_data_file_is_a_data_error(tmp_path: Path) -> None:
-    from sim_bus.dataset import DATA_PATH
-    from sim_bus.errors import DataError
-
-    truncated = tmp_path / "truncated.npz"
-    truncated.write_bytes(DATA_PATH.read_bytes()[:5000])
-    junk = tmp_path / "junk.npz"
-    junk.write_bytes(b"not numpy at all")
-    for path in (truncated, junk, tmp_path / "missing.npz"):
-        with pytest.raises(DataError, match=path.name):
-            load_human_pairs(path)
+def test_default_output_is_the_file_the_simulator_reads() -> None:
+    assert DEFAULT_OUT == DATA_PATH

@@ -1,0 +1,58 @@
+"""The calibration tool: steady time gaps per speed band, ours against the real human pairs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sim_bus.dataset import load_human_pairs
+from sim_bus.drivers import BUILTIN_DRIVERS
+from sim_bus.manual import manual_trip
+from sim_bus.scenarios import LeadProfile, shorten
+from tools import calibration
+from tools.calibration import headway_by_band
+
+
+def _headway_by_band(v: np.ndarray, gap: np.ndarray, v_lead: np.ndarray) -> list[float]:
+    """The median steady time gaps of the bands with enough data (tools.calibration)."""
+    return [x for x in headway_by_band(v, gap, v_lead) if x is not None]
+
+
+def test_headway_by_band_hand_counted() -> None:
+    v = np.concatenate([np.full(100, 12.0), np.full(99, 17.0), np.full(150, 22.0)])
+    gap = np.concatenate([np.full(100, 24.0), np.full(99, 34.0), np.full(150, 44.0)])
+    v_lead = v.copy()
+    v_lead[200:] += 1.0  # not steady: |v_lead - v| >= 0.5
+    v_lead[200:260] = v[200:260]  # 60 steady samples: fewer than MIN_SAMPLES
+    assert headway_by_band(v, gap, v_lead) == [2.0, None, None, None]  # 99 < 100 samples too
+    v_lead[200:300] = v[200:300]
+    assert headway_by_band(v, gap, v_lead) == [2.0, None, 2.0, None]
+
+
+@pytest.mark.slow
+def test_calibration_against_real_human_pairs() -> None:
+    """Our drivers, following the real leaders by hand, keep human-like headways.
+
+    Real pairs: median time gaps 1.4-3.4 s per 5 m/s band. Every built-in driver's band
+    medians must lie within the range the real followers span (widened by 0.2 s), and the
+    drivers together must span most of it.
+    """
+    pairs = load_human_pairs()
+    real: list[float] = []
+    for p in pairs:
+        real += _headway_by_band(p.v_follower_mps, p.gap_m, p.v_leader_mps)
+    lo, hi = min(real), max(real)
+    ours: list[float] = []
+    for d in BUILTIN_DRIVERS.values():
+        for p in pairs[:2] + pairs[4:5]:
+            n = len(p.v_leader_mps)
+            prof = LeadProfile(p.pair_id, np.arange(n) * 0.1, p.v_leader_mps)
+            trip = manual_trip(d, shorten(prof, 600.0), seed=0)
+            ours += _headway_by_band(trip.v_mps, trip.gap_m, trip.v_lead_mps)
+    assert lo - 0.2 <= min(ours) and max(ours) <= hi + 0.2
+    assert max(ours) - min(ours) > 0.6 * (hi - lo)
+
+
+def test_main_refuses_a_negative_seed(capsys: pytest.CaptureFixture[str]) -> None:
+    assert calibration.main(["--seed", "-3"]) == 2
+    assert "--seed must be >= 0" in capsys.readouterr().out
