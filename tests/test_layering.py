@@ -1,9 +1,13 @@
-"""The packages depend one way: pacc.errors ← dbc ← ecu ← cloud_sync ← sim_bus ← pacc.cli ← tools.
+"""Packages depend one way: pacc.errors ← dbc ← ecu ← cloud_sync ← sim_bus ← entry points ← tools.
 
-A module may import modules of its own layer or of a lower one, never of a higher one; the
-check reads every ``import`` statement (top-level and lazy ones inside functions) with ``ast``,
-so an import that only runs on some path is caught too. ``tests`` and ``bench`` sit above
-everything and are not importable from the shipped packages.
+The entry points are the modules behind the ``pacc`` sub-commands (``pacc.cli.SUBCOMMANDS``:
+``ecu.cli``, ``sim_bus.cli``, ``cloud_sync.cli`` ...), the ``__main__`` modules and
+``pacc.cli`` itself: they only wire the libraries together (``pacc ecu`` may hand its takeover
+recorder a cloud_sync spool), so they sit above every library. A module may import modules of
+its own layer or of a lower one, never of a higher one; the check reads every ``import``
+statement (top-level and lazy ones inside functions) with ``ast``, so an import that only runs
+on some path is caught too. ``tests`` and ``bench`` sit above everything and are not
+importable from the shipped packages.
 """
 
 from __future__ import annotations
@@ -16,6 +20,7 @@ import pytest
 from cloud_sync.errors import CloudSyncError
 from dbc.errors import CodecError
 from ecu import EcuError
+from pacc.cli import SUBCOMMANDS
 from pacc.errors import PaccError
 from sim_bus.errors import SimError
 
@@ -34,12 +39,19 @@ LAYERS: tuple[tuple[str, int], ...] = (
     ("bench", 7),
 )
 SHIPPED = ("pacc", "dbc", "ecu", "cloud_sync", "sim_bus")
+#: the entry points: every sub-command's module and every package's __main__
+ENTRY_POINTS: tuple[tuple[str, int], ...] = tuple(
+    (module, 5)
+    for module in sorted(
+        {module for module, _ in SUBCOMMANDS.values()} | {f"{p}.__main__" for p in SHIPPED}
+    )
+)
 
 
 def layer_of(module: str) -> int | None:
     """The layer of dotted ``module`` (None: a third-party or standard-library module)."""
     best: tuple[int, int] | None = None  # (prefix length, layer)
-    for prefix, layer in LAYERS:
+    for prefix, layer in LAYERS + ENTRY_POINTS:
         if (module == prefix or module.startswith(prefix + ".")) and (
             best is None or len(prefix) > best[0]
         ):
@@ -88,13 +100,15 @@ def test_imports_point_down_the_layers(package: str) -> None:
 
 
 def test_the_check_catches_an_upward_import(tmp_path: Path) -> None:
-    tree = ast.parse("def f():\n    from sim_bus.drive import main\n\nimport numpy\n")
+    tree = ast.parse("def f():\n    from sim_bus.world import World\n\nimport numpy\n")
     found = imported_modules(tree)
-    assert (2, "sim_bus.drive.main") in found
-    assert layer_of("sim_bus.drive.main") == 4 > (layer_of("ecu.node") or 0)
+    assert (2, "sim_bus.world.World") in found
+    assert layer_of("sim_bus.world.World") == 4 > (layer_of("ecu.node") or 0)
     assert layer_of("numpy") is None
     assert layer_of("pacc.errors") == 0 and layer_of("pacc.cli") == 5
     assert layer_of("ecu_other") is None  # a prefix must end at a dot
+    assert layer_of("ecu.cli") == 5 > (layer_of("cloud_sync.spool") or 0)  # an entry point
+    assert layer_of("ecu.runtime") == 2
 
 
 def test_the_project_root_error_imports_nothing() -> None:
