@@ -15,6 +15,8 @@ from ecu.state import BrakeMode
 
 #: Largest time step the controller integrates over in one call, s.
 MAX_DT_S = 0.1
+#: Highest cruise set speed of a production ACC, m/s (180 km/h; many cars stop at 160-210).
+MAX_SET_SPEED_MPS = 50.0
 
 
 class ConfigError(EcuError):
@@ -35,8 +37,12 @@ class EcuConfig:
         cycle_s: control period, s (ACC_Command every cycle).
         status_period_s: ACC_Status period, s.
         settle_s: inputs must be valid this long before SET re-engages, s.
-        set_speed_mps: if given, SET engages with this set speed (car-following studies set it
-            above every lead speed); None: SET takes the current speed.
+        set_speed_mps: if given, SET engages with this set speed, m/s (car-following studies
+            set it above every lead speed); None: SET takes the current speed, capped at
+            ``max_set_speed_mps``.
+        max_set_speed_mps: the highest set speed the ACC accepts, m/s (default 50 m/s =
+            180 km/h, a production value). A property of the function, not of the network:
+            the runtime refuses a DBC whose ``ACC_Status`` cannot carry it.
         record_period_s / pre_trigger_s / post_trigger_s: takeover recorder, s.
         trip_meta: metadata copied into every takeover segment (driver_id, seed, ...).
     """
@@ -50,6 +56,7 @@ class EcuConfig:
     status_period_s: float = 0.1
     settle_s: float = 1.0
     set_speed_mps: float | None = None
+    max_set_speed_mps: float = MAX_SET_SPEED_MPS
     record_period_s: float = 0.1
     pre_trigger_s: float = 5.0
     post_trigger_s: float = 5.0
@@ -67,9 +74,12 @@ class EcuConfig:
             raise ConfigError(
                 "need finite record_period_s > 0, pre_trigger_s >= 0 and post_trigger_s >= 0"
             )
-        if self.set_speed_mps is not None and not 0.0 <= self.set_speed_mps <= 63.75:
-            raise ConfigError("set_speed_mps must be within 0..63.75 m/s")
+        if not (math.isfinite(self.max_set_speed_mps) and self.max_set_speed_mps > 0.0):
+            raise ConfigError("max_set_speed_mps must be finite and > 0")
+        top = self.max_set_speed_mps
+        if self.set_speed_mps is not None and not 0.0 <= self.set_speed_mps <= top:
+            raise ConfigError(f"set_speed_mps must be within 0..max_set_speed_mps ({top:g} m/s)")
         self.adaptation_params.check_within(self.bounds)
 
 
-__all__ = ["MAX_DT_S", "ConfigError", "EcuConfig"]
+__all__ = ["MAX_DT_S", "MAX_SET_SPEED_MPS", "ConfigError", "EcuConfig"]

@@ -2,9 +2,11 @@
 
 One call per 20 ms control cycle: read the checked inputs (the runtime builds
 :class:`NodeInputs` from the bus; tests and the simulator may build them directly), run the
-engagement state machine, the controller and the envelope, track takeovers (record them,
-adapt the DGPT at pedal release) and return :class:`NodeOutputs`. The node never touches a
-bus, a clock or a file; the only I/O is the optional takeover sink, injected.
+engagement state machine, track takeovers (record them, adapt the DGPT at pedal release),
+plan, control within the envelope and return :class:`NodeOutputs`. Each phase is a pure
+function of :mod:`ecu.phases`; the node holds the state between cycles and wires them. The
+node never touches a bus, a clock or a file; the only I/O is the optional takeover sink,
+injected.
 
 Usage (the simulator drives it in lockstep through :class:`ecu.runtime.EcuRuntime`)::
 
@@ -26,23 +28,32 @@ Safety behaviour:
 from __future__ import annotations
 
 import logging
-import math
 from collections import Counter
 from collections.abc import Callable
 
 from ecu import EcuError
 from ecu.adaptation import Decision, Reason, TakeoverSummary, adapt
-from ecu.config import MAX_DT_S, ConfigError, EcuConfig
-from ecu.controller import (
-    ControlInput,
-    desired_accel,
-    limit_command,
-    time_to_collision_s,
-)
+from ecu.config import ConfigError, EcuConfig
 from ecu.dgpt import Dgpt, utc_now_iso
-from ecu.recorder import Sample, TakeoverRecorder, TripSink
-from ecu.signals import NodeInputs, NodeOutputs, all_finite, input_fault
-from ecu.state import AccState, Events, FaultCode, transition
+from ecu.phases import (
+    Command,
+    ControlMemory,
+    Engagement,
+    InputCheck,
+    Plan,
+    check_inputs,
+    control,
+    cycle_time,
+    enter_state,
+    outputs,
+    plan,
+    reported_fault,
+    sample_of,
+    takeover_pedal,
+)
+from ecu.recorder import TakeoverRecorder, TripSink
+from ecu.signals import NodeInputs, NodeOutputs, input_fault
+from ecu.state import AccState, FaultCode, transition
 
 log = logging.getLogger(__name__)
 
@@ -76,8 +87,7 @@ class EcuNode:
         #: FAULT entries by the input that caused them
         self.faults: Counter[FaultCode] = Counter()
         self.takeovers = 0
-        self._integral = 0.0
-        self._prev_accel = 0.0
+        self._control_mem = ControlMemory()
         self._fault_ramp = False
         self._last_now: float | None = None
         self._valid_since: float | None = None
@@ -116,118 +126,30 @@ class EcuNode:
         """Run one control cycle at time ``now_s`` (s, monotonic); never raises on bad input.
 
         A non-finite ``now_s`` (a host clock fault) is taken as no time passing since the
-        previous cycle."""
-        cfg = self.config
-        events: list[str] = []
-        if self._pending_events:
-            events += self._pending_events
-            self._pending_events.clear()
-        if not math.isfinite(now_s):  # a host clock fault: time stands still this cycle
-            now_s = self._last_now if self._last_now is not None else 0.0
-        dt = cfg.cycle_s if self._last_now is None else now_s - self._last_now
-        dt = min(max(dt, 0.0), MAX_DT_S) if math.isfinite(dt) else 0.0
+        previous cycle. The phases are the pure functions of :mod:`ecu.phases`, in order."""
+        events = self._pending_events
+        self._pending_events = []
+        now_s, dt = cycle_time(now_s, self._last_now, self.config.cycle_s)
         self._last_now = now_s
-
-        fault = input_fault(inp)
-        valid = fault is FaultCode.NONE
-        if valid:
-            if self._valid_since is None:
-                self._valid_since = now_s
-        else:
-            self._valid_since = None
-        settled = self._valid_since is not None and now_s - self._valid_since >= cfg.settle_s - 1e-9
-
-        # Buttons: levels -> rising edges; a stale HMI counts as all released.
-        levels = (
-            (inp.set_button, inp.resume_button, inp.cancel_button) if inp.hmi_ok else (False,) * 3
-        )
-        set_edge, resume_edge, cancel_edge = (
-            lv and not prev for lv, prev in zip(levels, self._buttons, strict=True)
-        )
-        self._buttons = levels
-        pedals_known = inp.pedals_ok and all_finite(inp.accel_pedal, inp.brake_pedal)
-        accel = inp.accel_pressed if pedals_known else False
-        brake = inp.brake_pressed if pedals_known else False
-        ev = Events(
-            main_on=inp.main_switch if inp.hmi_ok else self.state is not AccState.OFF,
-            set_edge=set_edge,
-            resume_edge=resume_edge,
-            cancel_edge=cancel_edge,
-            accel_pressed=accel,
-            brake_pressed=brake,
-            inputs_valid=valid,
-            inputs_settled=settled,
-            has_set_speed=self.set_speed_mps > 0.0,
-        )
+        check = self._check_inputs(inp, now_s)
         old = self.state
-        new = transition(old, ev, cfg.brake_mode)
+        new = transition(old, check.events, self.config.brake_mode)
         if new is not old:
-            self._on_change(old, new, fault, set_edge, inp, events)
+            self._enter(old, new, check, inp, events)
         self.state = new
-
-        self._track_takeover(old, new, accel, brake, valid, inp, now_s, events)
-
-        v = inp.v_mps if all_finite(inp.v_mps) else 0.0
-        table = self._table
-        desired_gap = table.lookup(v)
-        emergency = False
-        if new is AccState.ACTIVE:
-            obs = ControlInput(
-                v_mps=v,
-                a_mps2=inp.a_mps2,
-                set_speed_mps=self.set_speed_mps,
-                lead_valid=inp.lead_valid,
-                gap_m=inp.gap_m,
-                rel_speed_mps=inp.rel_speed_mps,
-                lead_accel_mps2=inp.lead_accel_mps2 if inp.lead_accel_valid else 0.0,
-                desired_gap_m=desired_gap,
-                desired_gap_slope_s=table.slope(v),
-            )
-            target, self._integral = desired_accel(
-                cfg.controller, obs, self._integral, dt, integrate=True
-            )
-            ttc = time_to_collision_s(inp.lead_valid, inp.gap_m, inp.rel_speed_mps)
-            emergency = ttc < cfg.controller.emergency_ttc_s and target < self._prev_accel
-            accel_cmd = limit_command(
-                cfg.controller, self._prev_accel, target, dt, emergency=emergency
-            )
-            active = True
-        else:
-            accel_cmd = limit_command(cfg.controller, self._prev_accel, 0.0, dt, emergency=False)
-            active = new is AccState.FAULT and self._fault_ramp and accel_cmd != 0.0
-            if new is AccState.FAULT and self._fault_ramp and not active:
-                self._fault_ramp = False
-                events.append("fault ramp complete: request inactive")
-        self._prev_accel = accel_cmd
-
+        self._track_takeover(old, new, check, inp, now_s, events)
+        p = plan(self._table, inp.v_mps)
+        command = self._control(new, inp, p, dt, events)
         if self.recorder is not None:
-            self.recorder.sample(
-                Sample(
-                    t_s=now_s,
-                    v_mps=inp.v_mps,
-                    gap_m=inp.gap_m if inp.lead_valid else math.nan,
-                    v_lead_mps=inp.v_mps + inp.rel_speed_mps if inp.lead_valid else math.nan,
-                    a_mps2=inp.a_mps2,
-                    accel_pedal=inp.accel_pedal,
-                    brake_pedal=inp.brake_pedal,
-                    acc_state=int(new),
-                )
-            )
-        return NodeOutputs(
-            accel_request_mps2=accel_cmd,
-            request_active=active,
-            acc_state=new,
-            takeover_request=new is AccState.FAULT,
-            desired_gap_m=desired_gap if math.isfinite(desired_gap) else 0.0,
-            dgpt_version=table.version,
+            self.recorder.sample(sample_of(inp, now_s, new))
+        return outputs(
+            new,
+            command,
+            p,
+            table=self._table,
             adaptation_count=self.adaptations,
-            fault_code=(
-                FaultCode.PROFILE
-                if self._profile_fault and self.fault_code is FaultCode.NONE
-                else self.fault_code
-            ),
+            fault_code=reported_fault(self.fault_code, self._profile_fault),
             set_speed_mps=self.set_speed_mps,
-            emergency=emergency,
             events=tuple(events),
         )
 
@@ -264,60 +186,92 @@ class EcuNode:
 
     # -- internals -------------------------------------------------------------------------
 
-    def _on_change(
-        self,
-        old: AccState,
-        new: AccState,
-        fault: FaultCode,
-        set_edge: bool,
-        inp: NodeInputs,
-        events: list[str],
+    def _check_inputs(self, inp: NodeInputs, now_s: float) -> InputCheck:
+        check = check_inputs(
+            inp,
+            now_s,
+            state=self.state,
+            buttons=self._buttons,
+            valid_since_s=self._valid_since,
+            settle_s=self.config.settle_s,
+            has_set_speed=self.set_speed_mps > 0.0,
+        )
+        self._valid_since = check.valid_since_s
+        self._buttons = check.buttons
+        return check
+
+    def _enter(
+        self, old: AccState, new: AccState, check: InputCheck, inp: NodeInputs, events: list[str]
     ) -> None:
+        mem, reset = enter_state(
+            old,
+            new,
+            Engagement(self.fault_code, self.set_speed_mps, self._fault_ramp),
+            fault=check.fault,
+            set_edge=check.events.set_edge,
+            v_mps=inp.v_mps,
+            config=self.config,
+        )
+        self.fault_code, self.set_speed_mps, self._fault_ramp = (
+            mem.fault_code,
+            mem.set_speed_mps,
+            mem.fault_ramp,
+        )
+        if reset:
+            self._control_mem = ControlMemory(0.0, self._control_mem.prev_accel_mps2)
         if new is AccState.FAULT:
-            self.fault_code = fault
-            self.faults[fault] += 1
-            # ramp only a request that was being executed; after an override it stays off
-            self._fault_ramp = old is AccState.ACTIVE
-            # forget the set speed: only SET re-engages, not RESUME after CANCEL or main off/on
-            self.set_speed_mps = 0.0
-            events.append(f"fault: {fault.name} input invalid while {old.name}")
-        if new in (AccState.ACTIVE, AccState.OVERRIDE) and old in (
-            AccState.STANDBY,
-            AccState.FAULT,
-        ):
-            self._integral = 0.0
-            self._fault_ramp = False
-            self.fault_code = FaultCode.NONE
-            if set_edge or self.set_speed_mps <= 0.0:
-                speed = self.config.set_speed_mps
-                self.set_speed_mps = min(inp.v_mps, 63.75) if speed is None else speed
+            self.faults[check.fault] += 1
+            events.append(f"fault: {check.fault.name} input invalid while {old.name}")
         events.append(f"state {old.name} -> {new.name}")
         log.info("ACC state %s -> %s", old.name, new.name)
+
+    def _control(
+        self, state: AccState, inp: NodeInputs, p: Plan, dt: float, events: list[str]
+    ) -> Command:
+        command, self._control_mem = control(
+            self.config,
+            state,
+            inp,
+            p,
+            set_speed_mps=self.set_speed_mps,
+            fault_ramp=self._fault_ramp,
+            mem=self._control_mem,
+            dt_s=dt,
+        )
+        if command.ramp_done:
+            self._fault_ramp = False
+            events.append("fault ramp complete: request inactive")
+        return command
 
     def _track_takeover(
         self,
         old: AccState,
         new: AccState,
-        accel: bool,
-        brake: bool,
-        valid: bool,
+        check: InputCheck,
         inp: NodeInputs,
         now_s: float,
         events: list[str],
     ) -> None:
-        pressed = accel or brake
+        """A pedal pressed while ACTIVE starts a takeover; its release ends it (adaptation)."""
+        accel, brake = check.events.accel_pressed, check.events.brake_pressed
         if self._takeover_start is None:
-            if old is AccState.ACTIVE and pressed and new is not AccState.ACTIVE:
-                self._takeover_start = now_s
-                pedal = "both" if accel and brake else ("accel" if accel else "brake")
-                self._takeover_pedal = pedal
-                self.takeovers += 1
-                events.append(f"takeover {self.takeovers} ({self._takeover_pedal})")
-                if self.recorder is not None:
-                    self.recorder.start(now_s, self._takeover_pedal)
-            return
-        if pressed:
-            return
+            if old is AccState.ACTIVE and (accel or brake) and new is not AccState.ACTIVE:
+                self._start_takeover(takeover_pedal(accel, brake), now_s, events)
+        elif not (accel or brake):
+            self._release_takeover(new, check.valid, inp, now_s, events)
+
+    def _start_takeover(self, pedal: str, now_s: float, events: list[str]) -> None:
+        self._takeover_start = now_s
+        self._takeover_pedal = pedal
+        self.takeovers += 1
+        events.append(f"takeover {self.takeovers} ({pedal})")
+        if self.recorder is not None:
+            self.recorder.start(now_s, pedal)
+
+    def _release_takeover(
+        self, new: AccState, valid: bool, inp: NodeInputs, now_s: float, events: list[str]
+    ) -> None:
+        assert self._takeover_start is not None
         summary = TakeoverSummary(
             duration_s=now_s - self._takeover_start,
             v_mps=inp.v_mps,
@@ -333,16 +287,20 @@ class EcuNode:
             decision = Decision(applied=False, reason=Reason.INVALID_INPUT)
             label = self._record_decision(decision, events)
         else:
-            try:
-                self._table, decision = adapt(
-                    self._table, summary, self.config.adaptation_params, created_utc=self._utc_now()
-                )
-            except (EcuError, ArithmeticError, ValueError) as exc:  # absurd finite inputs
-                log.warning("adaptation refused: %s", exc)
-                decision = Decision(applied=False, reason=Reason.INVALID_INPUT)
-            label = self._record_decision(decision, events)
+            label = self._record_decision(self._adapt(summary), events)
         if self.recorder is not None:
             self.recorder.release(now_s, label)
+
+    def _adapt(self, summary: TakeoverSummary) -> Decision:
+        """Run the adaptation on the finished takeover; the table changes if it applies."""
+        try:
+            self._table, decision = adapt(
+                self._table, summary, self.config.adaptation_params, created_utc=self._utc_now()
+            )
+        except (EcuError, ArithmeticError, ValueError) as exc:  # absurd finite inputs
+            log.warning("adaptation refused: %s", exc)
+            decision = Decision(applied=False, reason=Reason.INVALID_INPUT)
+        return decision
 
     def _record_decision(self, decision: Decision, events: list[str]) -> str:
         self.decisions[decision.reason] += 1

@@ -1,0 +1,244 @@
+"""The ECU's bus I/O: frames -> :class:`NodeInputs`, :class:`NodeOutputs` -> frames.
+
+The only ECU module that knows roles and logical fields of the network (the codec below it
+knows signal names and CAN ids; the node above it knows neither). Received frames go through
+an :class:`dbc.endpoint.Inbox` (decode, E2E check, freshness); outputs leave through an
+:class:`dbc.endpoint.Outbox` (alive counter and CRC). Pedal fractions are scaled by the DBC's
+full scale (:class:`ecu.pedals.PedalScale`). A codec that cannot carry every output of the
+node is refused when the port is built (:func:`check_outputs_fit`).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import can
+
+from dbc.codec import Codec, EncodeError, MessageCodec
+from dbc.endpoint import Inbox, Outbox
+from ecu import EcuError
+from ecu.config import EcuConfig
+from ecu.pedals import PedalScale
+from ecu.signals import NodeInputs, NodeOutputs
+from ecu.state import AccState, FaultCode
+
+log = logging.getLogger(__name__)
+
+#: The roles the ECU receives.
+INPUT_ROLES = ("ego", "pedals", "radar", "hmi")
+
+
+class RuntimeCodecError(EcuError):
+    """The codec (DBC) cannot carry every output of the node."""
+
+
+def check_outputs_fit(codec: Codec, config: EcuConfig) -> None:
+    """Refuse a codec that cannot carry every output of a node configured by ``config``:
+    AccState FAULT, every FaultCode, the acceleration envelope and the highest set speed.
+
+    Raises:
+        RuntimeCodecError: naming the message, the field, its range and what it must carry.
+    """
+    ctl = config.controller
+    command, status = codec.by_role["command"], codec.by_role["status"]
+    needs: list[tuple[MessageCodec, str, float, float]] = [
+        (command, "accel_request_mps2", ctl.accel_min_mps2, ctl.accel_max_mps2),
+        (command, "acc_state", 0, max(AccState)),
+        (command, "request_active", 0, 1),
+        (command, "takeover_request", 0, 1),
+        (status, "fault_code", 0, max(FaultCode)),
+        (status, "set_speed_mps", 0.0, config.max_set_speed_mps),
+    ]
+    for mc, key, lo, hi in needs:
+        have_lo, have_hi = mc.bounds(key)
+        if have_lo > lo + 1e-9 or have_hi < hi - 1e-9:
+            raise RuntimeCodecError(
+                f"{mc.name}: {key} range [{have_lo:g}, {have_hi:g}] cannot carry "
+                f"[{lo:g}, {hi:g}] (AccState FAULT = {int(AccState.FAULT)}, FaultCode up "
+                f"to {int(max(FaultCode))}, the acceleration envelope, max_set_speed_mps "
+                f"{config.max_set_speed_mps:g})"
+            )
+
+
+def inputs_from(inbox: Inbox, now_s: float, pedals: PedalScale) -> NodeInputs:
+    """The node's inputs from ``inbox`` at ``now_s``: latest values plus freshness.
+
+    A role that never delivered a usable frame is not ok; one that stopped is not ok once it
+    timed out (its last values are still reported).
+    """
+    inp = NodeInputs()
+    ego = inbox.latest("ego")
+    if ego is not None:
+        inp.v_mps = float(ego["speed_mps"])
+        inp.a_mps2 = float(ego["accel_mps2"])
+        inp.speed_ok = bool(ego["speed_valid"]) and inbox.fresh("ego", now_s)
+    else:
+        inp.speed_ok = False
+    ped = inbox.latest("pedals")
+    if ped is not None:
+        inp.accel_pedal = pedals.accel(float(ped["accel_pedal_pct"]))
+        inp.brake_pedal = pedals.brake(float(ped["brake_pressure_bar"]))
+        inp.accel_pressed = bool(ped["accel_pressed"])
+        inp.brake_pressed = bool(ped["brake_pressed"])
+        inp.pedals_ok = inbox.fresh("pedals", now_s)
+    else:
+        inp.pedals_ok = False
+    radar = inbox.latest("radar")
+    if radar is not None:
+        inp.lead_valid = bool(radar["lead_valid"])
+        inp.gap_m = float(radar["gap_m"])
+        inp.rel_speed_mps = float(radar["rel_speed_mps"])
+        inp.lead_accel_mps2 = float(radar["lead_accel_mps2"])
+        inp.lead_accel_valid = bool(radar["lead_accel_valid"])
+        inp.radar_ok = inbox.fresh("radar", now_s)
+    else:
+        inp.radar_ok = False
+    hmi = inbox.latest("hmi")
+    if hmi is not None:
+        inp.main_switch = bool(hmi["main_switch"])
+        inp.set_button = bool(hmi["set"])
+        inp.resume_button = bool(hmi["resume"])
+        inp.cancel_button = bool(hmi["cancel"])
+        inp.hmi_ok = inbox.fresh("hmi", now_s)
+    else:
+        inp.hmi_ok = False
+    return inp
+
+
+def _clamp(x: float, lo: float, hi: float) -> float:
+    """``x`` clipped to [lo, hi]; NaN gives ``lo``."""
+    return lo if not x >= lo else (hi if x > hi else x)
+
+
+@dataclass(frozen=True, slots=True)
+class OutputLimits:
+    """The ranges the output frames can carry (from the codec), physical units."""
+
+    accel_lo_mps2: float
+    accel_hi_mps2: float
+    gap_hi_m: float
+    set_speed_hi_mps: float
+
+    @classmethod
+    def from_codec(cls, codec: Codec) -> OutputLimits:
+        lo, hi = codec.by_role["command"].bounds("accel_request_mps2")
+        status = codec.by_role["status"]
+        return cls(
+            accel_lo_mps2=lo,
+            accel_hi_mps2=hi,
+            gap_hi_m=status.bounds("desired_gap_m")[1],
+            set_speed_hi_mps=status.bounds("set_speed_mps")[1],
+        )
+
+
+def command_values(out: NodeOutputs, limits: OutputLimits) -> dict[str, Any]:
+    """The ``command`` role's fields of ``out`` (ACC_Command, every cycle)."""
+    return {
+        "accel_request_mps2": _clamp(
+            out.accel_request_mps2, limits.accel_lo_mps2, limits.accel_hi_mps2
+        ),
+        "request_active": int(out.request_active),
+        "acc_state": int(out.acc_state),
+        "takeover_request": int(out.takeover_request),
+    }
+
+
+def status_values(out: NodeOutputs, limits: OutputLimits) -> dict[str, Any]:
+    """The ``status`` role's fields of ``out`` (ACC_Status; counters wrap or saturate)."""
+    return {
+        "desired_gap_m": _clamp(out.desired_gap_m, 0.0, limits.gap_hi_m),
+        "dgpt_version": out.dgpt_version & 0xFFFF,
+        "adaptation_count": min(out.adaptation_count, 255),
+        "fault_code": int(out.fault_code),
+        "set_speed_mps": _clamp(out.set_speed_mps, 0.0, limits.set_speed_hi_mps),
+    }
+
+
+class BusIO:
+    """The ECU's port on one bus: an Inbox for the input roles, an Outbox for its outputs.
+
+    Args:
+        bus: an open python-can bus (the caller owns and closes it).
+        codec: the network codec.
+        config: the node's configuration (what the outputs must be able to carry).
+        timeout_multiple: an input role times out after this many of its DBC periods.
+
+    Raises:
+        RuntimeCodecError: the codec cannot carry every output (:func:`check_outputs_fit`).
+    """
+
+    def __init__(
+        self, bus: can.BusABC, codec: Codec, config: EcuConfig, timeout_multiple: float = 10.0
+    ) -> None:
+        check_outputs_fit(codec, config)
+        self.bus = bus
+        self.codec = codec
+        self.inbox = Inbox(codec, roles=INPUT_ROLES, timeout_multiple=timeout_multiple)
+        self.outbox = Outbox(codec)
+        self.pedals = PedalScale.from_codec(codec)
+        self.limits = OutputLimits.from_codec(codec)
+        self.send_errors = 0
+
+    # -- receive -------------------------------------------------------------------------
+
+    def drain(self, now_s: float) -> None:
+        """Feed every frame waiting on the bus to the Inbox, stamped ``now_s``."""
+        recv = self.bus.recv
+        accept = self.inbox.accept_message
+        while True:
+            msg = recv(0)
+            if msg is None:
+                return
+            accept(msg, now_s)
+
+    def receive(self, timeout_s: float, clock: Callable[[], float]) -> float:
+        """Wait up to ``timeout_s`` for one frame and accept it stamped with its arrival time
+        (``clock()``); return ``clock()`` after the wait."""
+        msg = self.bus.recv(timeout=timeout_s)
+        now = clock()
+        if msg is not None:
+            self.inbox.accept_message(msg, now)
+        return now
+
+    def read_inputs(self, now_s: float) -> NodeInputs:
+        """The node's inputs at ``now_s`` (:func:`inputs_from`)."""
+        return inputs_from(self.inbox, now_s, self.pedals)
+
+    def profile_request(self, inputs: NodeInputs) -> int | None:
+        """The driver profile the HMI asks for (``DriverProfileId``), None while it is stale."""
+        if not inputs.hmi_ok:
+            return None
+        hmi = self.inbox.latest("hmi")
+        return None if hmi is None else int(hmi["profile_id"])
+
+    # -- send ----------------------------------------------------------------------------
+
+    def send(self, t_s: float, out: NodeOutputs, *, status: bool) -> None:
+        """Send ACC_Command (and ACC_Status if ``status``) stamped ``t_s``; never raises: an
+        encode or bus failure is logged and counted in :attr:`send_errors`."""
+        try:
+            self.bus.send(
+                self.outbox.pack("command", command_values(out, self.limits), timestamp=t_s)
+            )
+            if status:
+                self.bus.send(
+                    self.outbox.pack("status", status_values(out, self.limits), timestamp=t_s)
+                )
+        except (EncodeError, can.CanError) as exc:
+            self.send_errors += 1
+            log.error("t=%.2f send failed: %s", t_s, exc)
+
+
+__all__ = [
+    "INPUT_ROLES",
+    "BusIO",
+    "OutputLimits",
+    "RuntimeCodecError",
+    "check_outputs_fit",
+    "command_values",
+    "inputs_from",
+    "status_values",
+]

@@ -1,0 +1,334 @@
+"""The phases of one control cycle, as pure functions; :class:`ecu.node.EcuNode` runs them.
+
+One cycle, in order (the openpilot split: read -> transition -> plan -> control -> outputs)::
+
+    cycle_time      the cycle's time and integration step (a host clock fault: time stands still)
+    check_inputs    input validity, the re-engagement hold, button edges -> state-machine Events
+    transition      (ecu.state) the next AccState
+    enter_state     what entering that state does: fault code, set speed, controller reset
+    takeover        (stateful, in the node) press -> takeover; release -> adaptation, recording
+    plan            the DGPT's desired gap and its slope at the current speed
+    control         PID and envelope while ACTIVE; the FAULT ramp toward zero otherwise
+    sample_of       the recorder's sample of this cycle
+    outputs         NodeOutputs
+
+The takeover phase runs before the plan on purpose: an adaptation applied at a pedal release
+is the table the same cycle plans with.
+
+Every function here is pure: values in, values out; no clock, no bus, no logging.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from ecu.config import MAX_DT_S, EcuConfig
+from ecu.controller import ControlInput, desired_accel, limit_command, time_to_collision_s
+from ecu.dgpt import Dgpt
+from ecu.recorder import Sample
+from ecu.signals import NodeInputs, NodeOutputs, all_finite, input_fault
+from ecu.state import AccState, Events, FaultCode
+
+#: Margin of the re-engagement hold time against float round-off, s.
+SETTLE_EPS_S = 1e-9
+ENGAGED = (AccState.ACTIVE, AccState.OVERRIDE)
+DISENGAGED = (AccState.STANDBY, AccState.FAULT)
+
+
+# -- 1. clock ---------------------------------------------------------------------------------
+
+
+def cycle_time(now_s: float, last_now_s: float | None, cycle_s: float) -> tuple[float, float]:
+    """``(now_s, dt_s)`` of a cycle called at ``now_s`` after one at ``last_now_s`` (s).
+
+    A non-finite ``now_s`` (a host clock fault) is taken as no time passing; the first cycle
+    integrates over one period; ``dt_s`` is clipped to ``[0, MAX_DT_S]``.
+    """
+    if not math.isfinite(now_s):
+        now_s = last_now_s if last_now_s is not None else 0.0
+    dt = cycle_s if last_now_s is None else now_s - last_now_s
+    dt = min(max(dt, 0.0), MAX_DT_S) if math.isfinite(dt) else 0.0
+    return now_s, dt
+
+
+# -- 2. inputs ---------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class InputCheck:
+    """The checked inputs of one cycle.
+
+    Attributes:
+        fault: the first invalid safety-relevant input (``FaultCode.NONE``: all valid).
+        valid_since_s: since when the inputs have been valid without a break, s (None: not
+            valid now).
+        buttons: the HMI button levels (set, resume, cancel) of this cycle.
+        events: the state machine's inputs.
+    """
+
+    fault: FaultCode
+    valid_since_s: float | None
+    buttons: tuple[bool, bool, bool]
+    events: Events
+
+    @property
+    def valid(self) -> bool:
+        """Every safety-relevant input is fresh, passed E2E and finite."""
+        return self.fault is FaultCode.NONE
+
+
+def check_inputs(
+    inp: NodeInputs,
+    now_s: float,
+    *,
+    state: AccState,
+    buttons: tuple[bool, bool, bool],
+    valid_since_s: float | None,
+    settle_s: float,
+    has_set_speed: bool,
+) -> InputCheck:
+    """Validity, the hold time before re-engagement (``settle_s``), rising button edges
+    (``buttons``: last cycle's levels) and pedals, as the state machine's :class:`Events`.
+
+    A stale HMI counts as every button released and the main switch unchanged; unknown
+    pedals (stale, failed E2E or non-finite) count as released.
+    """
+    fault = input_fault(inp)
+    since = (now_s if valid_since_s is None else valid_since_s) if fault is FaultCode.NONE else None
+    settled = since is not None and now_s - since >= settle_s - SETTLE_EPS_S
+    levels = (inp.set_button, inp.resume_button, inp.cancel_button) if inp.hmi_ok else (False,) * 3
+    set_edge, resume_edge, cancel_edge = (
+        lv and not prev for lv, prev in zip(levels, buttons, strict=True)
+    )
+    pedals_known = inp.pedals_ok and all_finite(inp.accel_pedal, inp.brake_pedal)
+    events = Events(
+        main_on=inp.main_switch if inp.hmi_ok else state is not AccState.OFF,
+        set_edge=set_edge,
+        resume_edge=resume_edge,
+        cancel_edge=cancel_edge,
+        accel_pressed=inp.accel_pressed if pedals_known else False,
+        brake_pressed=inp.brake_pressed if pedals_known else False,
+        inputs_valid=fault is FaultCode.NONE,
+        inputs_settled=settled,
+        has_set_speed=has_set_speed,
+    )
+    return InputCheck(fault=fault, valid_since_s=since, buttons=levels, events=events)
+
+
+# -- 3. state entry -----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class Engagement:
+    """What the node remembers about engagement across cycles.
+
+    Attributes:
+        fault_code: reason of the last FAULT (``NONE`` once re-engaged).
+        set_speed_mps: cruise set speed, m/s (0: none; RESUME has nothing to resume).
+        fault_ramp: an executed request is ramping to zero in FAULT.
+    """
+
+    fault_code: FaultCode = FaultCode.NONE
+    set_speed_mps: float = 0.0
+    fault_ramp: bool = False
+
+
+def enter_state(
+    old: AccState,
+    new: AccState,
+    mem: Engagement,
+    *,
+    fault: FaultCode,
+    set_edge: bool,
+    v_mps: float,
+    config: EcuConfig,
+) -> tuple[Engagement, bool]:
+    """The engagement memory after the change ``old -> new`` (``new is not old``), and
+    whether the controller starts afresh (its integral reset).
+
+    - FAULT records the fault, ramps only a request that was being executed (after an
+      override it stays off) and forgets the set speed: only SET re-engages afterwards;
+    - engaging from STANDBY or FAULT clears the fault; SET (or engaging without a set speed)
+      takes ``config.set_speed_mps``, else the current speed up to ``config.max_set_speed_mps``.
+    """
+    if new is AccState.FAULT:
+        mem = Engagement(fault_code=fault, set_speed_mps=0.0, fault_ramp=old is AccState.ACTIVE)
+    if new in ENGAGED and old in DISENGAGED:
+        speed = mem.set_speed_mps
+        if set_edge or speed <= 0.0:
+            fixed = config.set_speed_mps
+            speed = min(v_mps, config.max_set_speed_mps) if fixed is None else fixed
+        return Engagement(fault_code=FaultCode.NONE, set_speed_mps=speed, fault_ramp=False), True
+    return mem, False
+
+
+# -- 4. takeover -------------------------------------------------------------------------------
+
+
+def takeover_pedal(accel: bool, brake: bool) -> str:
+    """The pedal of a takeover: ``"accel"``, ``"brake"`` or ``"both"``."""
+    if accel and brake:
+        return "both"
+    return "accel" if accel else "brake"
+
+
+# -- 5. plan -----------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class Plan:
+    """The DGPT at the current speed: desired gap, m, and its slope d(gap)/d(speed), s."""
+
+    v_mps: float
+    desired_gap_m: float
+    desired_gap_slope_s: float
+
+
+def plan(table: Dgpt, v_mps: float) -> Plan:
+    """Look the desired gap up at ``v_mps`` (a non-finite speed counts as 0 m/s)."""
+    v = v_mps if all_finite(v_mps) else 0.0
+    return Plan(v_mps=v, desired_gap_m=table.lookup(v), desired_gap_slope_s=table.slope(v))
+
+
+# -- 6. control --------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class ControlMemory:
+    """The controller's state across cycles: gap-error integral (m*s), last request (m/s^2)."""
+
+    integral_m_s: float = 0.0
+    prev_accel_mps2: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class Command:
+    """The request of one cycle.
+
+    Attributes:
+        accel_mps2: requested acceleration, m/s^2 (inside the envelope, rate-limited).
+        active: the powertrain shall execute it.
+        emergency: the emergency jerk exception was in force.
+        ramp_done: the FAULT ramp reached zero this cycle (the request goes inactive).
+    """
+
+    accel_mps2: float
+    active: bool
+    emergency: bool = False
+    ramp_done: bool = False
+
+
+def control(
+    config: EcuConfig,
+    state: AccState,
+    inp: NodeInputs,
+    p: Plan,
+    *,
+    set_speed_mps: float,
+    fault_ramp: bool,
+    mem: ControlMemory,
+    dt_s: float,
+) -> tuple[Command, ControlMemory]:
+    """The request of this cycle and the controller's next memory.
+
+    ACTIVE: the PID gap law capped by cruise, then the envelope (emergency exception when a
+    closing lead is within ``emergency_ttc_s`` and the request decreases). Otherwise the
+    request ramps toward zero at the jerk limit; it stays active only in FAULT while an
+    executed request is still ramping (``fault_ramp``).
+    """
+    ctl = config.controller
+    prev = mem.prev_accel_mps2
+    if state is AccState.ACTIVE:
+        obs = ControlInput(
+            v_mps=p.v_mps,
+            a_mps2=inp.a_mps2,
+            set_speed_mps=set_speed_mps,
+            lead_valid=inp.lead_valid,
+            gap_m=inp.gap_m,
+            rel_speed_mps=inp.rel_speed_mps,
+            lead_accel_mps2=inp.lead_accel_mps2 if inp.lead_accel_valid else 0.0,
+            desired_gap_m=p.desired_gap_m,
+            desired_gap_slope_s=p.desired_gap_slope_s,
+        )
+        target, integral = desired_accel(ctl, obs, mem.integral_m_s, dt_s, integrate=True)
+        ttc = time_to_collision_s(inp.lead_valid, inp.gap_m, inp.rel_speed_mps)
+        emergency = ttc < ctl.emergency_ttc_s and target < prev
+        accel = limit_command(ctl, prev, target, dt_s, emergency=emergency)
+        return Command(accel, active=True, emergency=emergency), ControlMemory(integral, accel)
+    accel = limit_command(ctl, prev, 0.0, dt_s, emergency=False)
+    ramping = state is AccState.FAULT and fault_ramp
+    active = ramping and accel != 0.0
+    command = Command(accel, active=active, ramp_done=ramping and not active)
+    return command, ControlMemory(mem.integral_m_s, accel)
+
+
+# -- 7. recording and 8. outputs ---------------------------------------------------------------
+
+
+def sample_of(inp: NodeInputs, now_s: float, state: AccState) -> Sample:
+    """The takeover recorder's sample of this cycle (gap and lead speed NaN without a lead)."""
+    return Sample(
+        t_s=now_s,
+        v_mps=inp.v_mps,
+        gap_m=inp.gap_m if inp.lead_valid else math.nan,
+        v_lead_mps=inp.v_mps + inp.rel_speed_mps if inp.lead_valid else math.nan,
+        a_mps2=inp.a_mps2,
+        accel_pedal=inp.accel_pedal,
+        brake_pedal=inp.brake_pedal,
+        acc_state=int(state),
+    )
+
+
+def reported_fault(fault_code: FaultCode, profile_fault: bool) -> FaultCode:
+    """The FaultCode on the status: the last input fault, else PROFILE if a profile was
+    refused, else NONE."""
+    if profile_fault and fault_code is FaultCode.NONE:
+        return FaultCode.PROFILE
+    return fault_code
+
+
+def outputs(
+    state: AccState,
+    command: Command,
+    p: Plan,
+    *,
+    table: Dgpt,
+    adaptation_count: int,
+    fault_code: FaultCode,
+    set_speed_mps: float,
+    events: tuple[str, ...],
+) -> NodeOutputs:
+    """The node's outputs of this cycle (a non-finite desired gap is reported as 0 m)."""
+    gap = p.desired_gap_m
+    return NodeOutputs(
+        accel_request_mps2=command.accel_mps2,
+        request_active=command.active,
+        acc_state=state,
+        takeover_request=state is AccState.FAULT,
+        desired_gap_m=gap if math.isfinite(gap) else 0.0,
+        dgpt_version=table.version,
+        adaptation_count=adaptation_count,
+        fault_code=fault_code,
+        set_speed_mps=set_speed_mps,
+        emergency=command.emergency,
+        events=events,
+    )
+
+
+__all__ = [
+    "Command",
+    "ControlMemory",
+    "Engagement",
+    "InputCheck",
+    "Plan",
+    "check_inputs",
+    "control",
+    "cycle_time",
+    "enter_state",
+    "outputs",
+    "plan",
+    "reported_fault",
+    "sample_of",
+    "takeover_pedal",
+]
