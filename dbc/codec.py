@@ -171,7 +171,8 @@ class MessageCodec:
         role: logical role (``"radar"``); name: DBC message name; frame_id: CAN id;
         length: DLC in bytes; cycle_s: period from GenMsgCycleTime (s, 0 if none);
         fields: logical field names in DBC order; protected: carries CRC and counter;
-        data_id: 16-bit E2E data id.
+        crc_byte: index of the E2E CRC byte in the payload, from the binding's CRC signal
+        (None: unprotected); data_id: 16-bit E2E data id.
     """
 
     def __init__(self, message: Any, role: RoleBinding) -> None:
@@ -294,7 +295,6 @@ class MessageCodec:
             e.append(f"    return n_le.to_bytes({n}, 'little')")
         source = "\n".join(d + e) + "\n"
         exec(compile(source, f"<codec {self.name}>", "exec"), ns)  # noqa: S102 - generated above
-        self.source = source
         return ns["encode"], ns["decode"]
 
     # -- slow paths (errors only) ----------------------------------------------------------

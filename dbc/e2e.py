@@ -9,8 +9,8 @@ In the manner of AUTOSAR E2E profile 1 (see docs/e2e.md for the exact definition
   another identifier (masquerade) fails the check.
 * Alive counter: 4 bits, +1 modulo 16 per transmission. The receiver classifies each frame
   that passed the CRC as OK (delta 1), REPEATED (delta 0, the frame is dropped),
-  SKIPPED (1 < delta <= timeout_multiple + 1, n = delta − 1 frames lost, the frame is used
-  and the loss counted) or WRONG_SEQUENCE (a larger delta: more frames lost than the timeout
+  SKIPPED (1 < delta <= timeout_multiple + 1: delta − 1 frames were lost; the frame is used
+  and counted as SKIPPED) or WRONG_SEQUENCE (a larger delta: more frames lost than the timeout
   allows, so an old frame delivered out of order; dropped).
 * Timeout: no usable frame for ``timeout_multiple`` × the DBC cycle time. After a timeout
   the first frame re-synchronises the counter, unless it repeats the last accepted counter
@@ -79,7 +79,6 @@ class E2EStatus(Enum):
     WRONG_CRC = "wrong_crc"
     REPEATED = "repeated_counter"
     SKIPPED = "skipped_counter"
-    TIMEOUT = "timeout"
     WRONG_DLC = "wrong_dlc"
     OUT_OF_RANGE = "out_of_range"
     UNKNOWN_ID = "unknown_id"
@@ -101,7 +100,6 @@ class E2EReceiver:
         "max_delta",
         "last_counter",
         "last_ok_s",
-        "skipped",
         "counts",
     )
 
@@ -114,8 +112,6 @@ class E2EReceiver:
         self.max_delta = min(COUNTER_MODULO - 1, int(timeout_multiple) + 1)
         self.last_counter: int | None = None
         self.last_ok_s: float | None = None
-        #: frames lost according to the last SKIPPED result
-        self.skipped = 0
         self.counts: Counter[E2EStatus] = Counter()
 
     def check_counter(self, counter: int, now_s: float) -> E2EStatus:
@@ -142,7 +138,6 @@ class E2EReceiver:
                 self.counts[E2EStatus.WRONG_SEQUENCE] += 1
                 return E2EStatus.WRONG_SEQUENCE
             else:
-                self.skipped = delta - 1
                 status = E2EStatus.SKIPPED
         self.last_counter = counter
         self.last_ok_s = now_s

@@ -94,11 +94,6 @@ class TakeoverRecorder:
         #: segments the sink refused so far and not yet stored
         self.pending: deque[Trip] = deque()
 
-    @property
-    def recording(self) -> bool:
-        """A segment is open."""
-        return self._segment is not None
-
     def sample(self, s: Sample) -> None:
         """Offer one sample; kept if ``period_s`` has passed since the last kept one.
 

@@ -51,7 +51,6 @@ class FaultCode(IntEnum):
     RADAR_INPUT = 3
     HMI_INPUT = 4
     PROFILE = 5
-    INTERNAL = 6
 
 
 @dataclass(frozen=True, slots=True)

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from ecu import EcuError
+from ecu.state import AccState
 
 __all__ = ["Trip", "TripLogError", "write_trip", "read_trip", "SAMPLE_TOPIC", "META_TOPIC"]
 
@@ -50,7 +51,8 @@ FLOAT_FIELDS: tuple[str, ...] = (
     "accel_pedal",
     "brake_pedal",
 )
-_ACC_STATE_MAX = 4  # AccState codes 0 Off .. 4 Fault
+#: the largest AccState code (FAULT): one definition, ecu.state
+_ACC_STATE_MAX = int(max(AccState))
 
 _NUM = {"type": ["number", "null"]}
 SAMPLE_SCHEMA: dict[str, Any] = {

@@ -77,7 +77,7 @@ def test_skipped_counter_is_used_and_counted() -> None:
     decoded = inbox.accept(mc.frame_id, outbox.encode("ego", EGO), 0.03)
     assert decoded is not None
     assert inbox.counts[("ego", E2EStatus.SKIPPED)] == 1
-    assert inbox.receivers["ego"].skipped == 2
+    assert inbox.latest("ego") == decoded.values and inbox.receivers["ego"].last_counter == 3
 
 
 def test_late_duplicate_does_not_overwrite_newer_values() -> None:
