@@ -14,12 +14,12 @@ physics and does not need this.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import can
 
-if TYPE_CHECKING:
-    from dbc.codec import Codec
+from dbc.codec import Codec, load_codec
+from dbc.endpoint import Outbox
 
 PEER_ROLES = ("ego", "pedals", "radar", "hmi")
 
@@ -33,9 +33,6 @@ class PeerNodes:
     """
 
     def __init__(self, bus: can.BusABC, codec: Codec | None = None) -> None:
-        from dbc.codec import load_codec
-        from dbc.endpoint import Outbox
-
         self.bus = bus
         self.codec = codec if codec is not None else load_codec()
         self.outbox = Outbox(self.codec)
@@ -80,7 +77,14 @@ class PeerNodes:
             self.muted.discard(role)
 
     def corrupt(self, role: str, frames: int = 1) -> None:
-        """Send the next ``frames`` frames of ``role`` with a wrong CRC byte."""
+        """Send the next ``frames`` frames of ``role`` with a wrong CRC byte (the byte the
+        codec's binding names; the rest of the payload is left intact).
+
+        Raises:
+            ValueError: ``role`` carries no CRC.
+        """
+        if self.codec.by_role[role].crc_byte is None:
+            raise ValueError(f"role {role} carries no CRC to corrupt")
         self._corrupt[role] = self._corrupt.get(role, 0) + frames
 
     def send_garbage(self, timestamp: float = 0.0) -> None:
@@ -100,12 +104,12 @@ class PeerNodes:
 
     def send(self, role: str, timestamp: float = 0.0) -> None:
         """Send one frame of ``role`` now (counter and CRC from the Outbox)."""
+        mc = self.codec.by_role[role]
         data = bytearray(self.outbox.encode(role, self.values[role]))
         left = self._corrupt.get(role, 0)
-        if left > 0:
-            data[0] ^= 0x5A  # CRC8 is byte 0 of every pacc frame
+        if left > 0 and mc.crc_byte is not None:
+            data[mc.crc_byte] ^= 0x5A  # wherever the DBC puts the role's CRC
             self._corrupt[role] = left - 1
-        mc = self.codec.by_role[role]
         self.bus.send(
             can.Message(
                 arbitration_id=mc.frame_id,

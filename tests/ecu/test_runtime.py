@@ -12,10 +12,14 @@ import can
 import pytest
 
 from dbc.codec import load_codec
+from dbc import DBC_PATH
 from ecu.adaptation import AdaptationParams
+from ecu.config import ConfigError
 from ecu.dgpt import predefined, save_dgpt
-from ecu.node import EcuConfig, EcuNode
-from ecu.runtime import EcuRuntime, RuntimeClockError
+from ecu.node import EcuConfig, EcuNode, NodeInputs
+from ecu.runtime import EcuRuntime, RuntimeClockError, RuntimeCodecError
+from ecu.state import AccState
+from ecu.triplog import Trip
 from tests.peers import PeerNodes
 
 _ids = itertools.count()
@@ -373,9 +377,18 @@ def test_unusable_profile_directory_does_not_stop_the_loop(tmp_path: Path) -> No
     [
         (("SG_ AccState : 32|3@1+ (1,0) [0|4]", "SG_ AccState : 32|2@1+ (1,0) [0|3]"), "FAULT"),
         (('(0.01,0) [-10|5] "m/s^2" PT', '(0.01,0) [-2|5] "m/s^2" PT'), "-3.5"),
-        (("SG_ FaultCode : 12|4@1+ (1,0) [0|15]", "SG_ FaultCode : 12|4@1+ (1,0) [0|3]"), "6"),
+        (("SG_ FaultCode : 12|4@1+ (1,0) [0|15]", "SG_ FaultCode : 12|4@1+ (1,0) [0|3]"), "5"),
+        (
+            ("SG_ SetSpeed : 56|8@1+ (0.25,0) [0|63.75]", "SG_ SetSpeed : 56|8@1+ (0.2,0) [0|40]"),
+            "50",
+        ),
     ],
-    ids=["acc-state-without-fault", "accel-range-narrower-than-envelope", "fault-code-range"],
+    ids=[
+        "acc-state-without-fault",
+        "accel-range-narrower-than-envelope",
+        "fault-code-range",
+        "set-speed-below-max-set-speed",
+    ],
 )
 def test_dbc_that_cannot_carry_the_outputs_is_refused(
     tmp_path: Path, edit: tuple[str, str], message: str
@@ -383,14 +396,86 @@ def test_dbc_that_cannot_carry_the_outputs_is_refused(
     """A DBC that loads but cannot carry every output (AccState FAULT, the full acceleration
     envelope, every FaultCode) would silence ACC_Command in FAULT or cut braking authority:
     the runtime refuses it when built, with an error naming the signal."""
-    from dbc import DBC_PATH
-    from ecu.runtime import RuntimeCodecError
-
     text = DBC_PATH.read_text()
     assert edit[0] in text
     path = tmp_path / "narrow.dbc"
     path.write_text(text.replace(edit[0], edit[1]))
     codec = load_codec(path)
+    with (
+        can.Bus(interface="virtual", channel=f"ecu-test-{next(_ids)}") as bus,
+        pytest.raises(RuntimeCodecError, match=message),
+    ):
+        EcuRuntime(bus, EcuNode(EcuConfig(), predefined(1.5)), codec)
+
+
+# -- one pedal, one value: the DBC's full scale ------------------------------------------------
+
+
+def test_brake_pressure_is_a_fraction_of_the_dbc_full_scale(bench: Bench) -> None:
+    """The brake pedal is the pressure over the DBC's full scale (250 bar), the scale the
+    simulator's trip logs use: 125 bar is half the pedal, not 1.25 clipped to 1."""
+    full = CODEC.by_role["pedals"].bounds("brake_pressure_bar")[1]
+    assert full == 250.0
+    bench.peers.set("pedals", brake_pressed=1, brake_pressure_bar=75.0, accel_pedal_pct=40.0)
+    bench.run(0.1)
+    inputs = bench.rt.read_inputs(bench.t)
+    assert inputs.pedals_ok
+    assert inputs.brake_pedal == pytest.approx(75.0 / full)
+    assert inputs.accel_pedal == pytest.approx(0.4)
+
+
+def test_recorded_takeover_segment_holds_the_brake_fraction(tmp_path: Path) -> None:
+    segments: list[Trip] = []
+    channel = f"ecu-test-{next(_ids)}"
+    with (
+        can.Bus(interface="virtual", channel=channel) as ecu_bus,
+        can.Bus(interface="virtual", channel=channel) as peer_bus,
+    ):
+        node = EcuNode(EcuConfig(set_speed_mps=30.0), predefined(1.5), segments.append)
+        rt = EcuRuntime(ecu_bus, node, CODEC)
+        peers = PeerNodes(peer_bus, CODEC)
+        peers.set("radar", gap_m=30.0)
+        t = 0.0
+        for k, (hmi_set, bar) in enumerate(
+            [(0, 0.0)] * 120 + [(1, 0.0)] * 20 + [(0, 0.0)] * 30 + [(0, 100.0)] * 200
+        ):
+            t = (k + 1) * 0.01
+            peers.set("hmi", set=hmi_set)
+            peers.set("pedals", brake_pressed=int(bar > 0), brake_pressure_bar=bar)
+            peers.send_due(t)
+            rt.advance_to(t)
+        node.finish()
+    assert node.takeovers == 1 and len(segments) == 1
+    braking = segments[0].brake_pedal[segments[0].acc_state == 3]
+    assert braking.size > 10
+    assert braking == pytest.approx(100.0 / 250.0)
+
+
+# -- DBC limits stay below the node: the node's max set speed must fit the network -----------
+
+
+def test_engaging_above_the_max_set_speed_caps_it() -> None:
+    node = EcuNode(EcuConfig(max_set_speed_mps=45.0), predefined(1.5))
+    inp = NodeInputs(v_mps=48.0, main_switch=True)
+    for k in range(60):
+        node.step(inp, k * 0.02)
+    out = node.step(NodeInputs(v_mps=48.0, main_switch=True, set_button=True), 1.2)
+    assert out.acc_state is AccState.ACTIVE
+    assert out.set_speed_mps == 45.0
+
+
+def test_max_set_speed_is_a_production_value_not_the_signal_maximum() -> None:
+    assert EcuConfig().max_set_speed_mps == 50.0  # 180 km/h
+    assert CODEC.by_role["status"].bounds("set_speed_mps")[1] == 63.75
+    with pytest.raises(ConfigError, match="set_speed_mps"):
+        EcuConfig(set_speed_mps=55.0)
+    EcuConfig(set_speed_mps=55.0, max_set_speed_mps=60.0)  # a faster car may allow it
+
+
+def test_a_max_set_speed_the_dbc_cannot_carry_is_refused() -> None:
     with can.Bus(interface="virtual", channel=f"ecu-test-{next(_ids)}") as bus:
-        with pytest.raises(RuntimeCodecError, match=message):
-            EcuRuntime(bus, EcuNode(EcuConfig(), predefined(1.5)), codec)
+        fits = EcuNode(EcuConfig(max_set_speed_mps=63.75), predefined(1.5))
+        EcuRuntime(bus, fits, CODEC)
+        too_fast = EcuNode(EcuConfig(max_set_speed_mps=70.0), predefined(1.5))
+        with pytest.raises(RuntimeCodecError, match="set_speed_mps range \\[0, 63.75\\]"):
+            EcuRuntime(bus, too_fast, CODEC)
