@@ -11,6 +11,7 @@ import pytest
 
 from cloud_sync.cli import main
 from ecu.dgpt import load_dgpt
+from ecu.state import AccState
 from ecu.triplog import Trip, write_trip
 from pacc.cli import main as pacc_main
 
@@ -22,6 +23,7 @@ def _write_csv(trip: Trip, path: Path) -> None:
     )
 
 
+@pytest.mark.slow
 def test_learn_from_mcap_and_csv_then_continue(
     syn_trips: list[Trip], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -134,6 +136,7 @@ def test_help_and_no_command(capsys: pytest.CaptureFixture[str]) -> None:
     assert main([]) == 2
 
 
+@pytest.mark.slow
 def test_init_with_acc_trip_fine_tunes(
     syn_trips: list[Trip], follower: Callable[..., Trip], tmp_path: Path
 ) -> None:
@@ -142,9 +145,9 @@ def test_init_with_acc_trip_fine_tunes(
     base = tmp_path / "v1.json"
     assert main(["learn", "--demos", str(manual), "--driver", "d", "-o", str(base), "-q"]) == 0
     t = follower(31, headway_s=1.0, minutes=2.0, v_lo=15.0, v_hi=20.0)
-    state = np.full(len(t), 2)
+    state = np.full(len(t), AccState.ACTIVE)
     for start in range(0, len(t), 300):
-        state[start + 20 : start + 170] = 3
+        state[start + 20 : start + 170] = AccState.OVERRIDE
     acc = tmp_path / "acc.mcap"
     write_trip(acc, replace(t, acc_state=state, meta={**t.meta, "mode": "acc"}))
     out = tmp_path / "v2.json"

@@ -19,6 +19,7 @@ from cloud_sync.demos import (
 )
 from cloud_sync.errors import DemoError
 from cloud_sync.trainer import learn_dgpt
+from ecu.state import AccState
 from ecu.triplog import Trip
 
 
@@ -62,7 +63,7 @@ def test_refuses_too_short(follower: Callable[..., Trip]) -> None:
 def test_usable_mask_excludes_acc_active_and_missing_lead(follower: Callable[..., Trip]) -> None:
     t = follower(1, minutes=0.2)
     state = np.zeros(len(t), dtype=np.int64)
-    state[10:20] = 2
+    state[10:20] = AccState.ACTIVE
     gap = t.gap_m.copy()
     gap[30:35] = np.nan
     t2 = replace(t, acc_state=state, gap_m=gap)
@@ -111,6 +112,7 @@ def test_refuses_coarse_sampling(follower: Callable[..., Trip]) -> None:
         learn_dgpt([coarse], driver_id="x")
 
 
+@pytest.mark.slow
 @settings(max_examples=6, deadline=None)
 @given(
     seed=st.integers(0, 1000),

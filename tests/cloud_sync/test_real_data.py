@@ -7,21 +7,19 @@ import pytest
 
 from cloud_sync.trainer import learn_dgpt
 from ecu.triplog import Trip
-
-dataset = pytest.importorskip("sim_bus.dataset")
+from sim_bus.dataset import load_human_pairs
 
 
 def pair_trip(pair_id_part: str) -> Trip:
-    pairs = [p for p in dataset.load_human_pairs() if pair_id_part in p.pair_id]
-    if not pairs:
-        pytest.skip(f"no shipped pair matching {pair_id_part}")
-    p = pairs[0]
+    """The shipped pair whose id contains ``pair_id_part``, as a manual trip."""
+    (p,) = [p for p in load_human_pairs() if pair_id_part in p.pair_id]
     n = p.v_follower_mps.size
     t = np.arange(n) * p.dt_s
     a = np.gradient(p.v_follower_mps, t)
     return Trip.manual(t, p.v_follower_mps, p.gap_m, p.v_leader_mps, a, {"source": p.pair_id})
 
 
+@pytest.mark.slow
 def test_close_human_follower_agrees_with_its_steady_state_gaps() -> None:
     """platoon 3, follower 5: IRL and the empirical steady-state gaps agree (~1.8 m)."""
     trip = pair_trip("platoon3_f5")

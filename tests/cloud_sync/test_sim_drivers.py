@@ -5,18 +5,18 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-drivers = pytest.importorskip("sim_bus.drivers")
-manual = pytest.importorskip("sim_bus.manual")
-scenarios = pytest.importorskip("sim_bus.scenarios")
+from cloud_sync.trainer import learn_dgpt
+from sim_bus.drivers import BUILTIN_DRIVERS
+from sim_bus.manual import manual_trip
+from sim_bus.scenarios import canonical_profiles
 
-from cloud_sync.trainer import learn_dgpt  # noqa: E402
 
-
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["d1", "d4"])
 def test_builtin_driver_preference_recovered_within_2_m(name: str) -> None:
-    driver = drivers.BUILTIN_DRIVERS[name]
-    profiles = scenarios.canonical_profiles(0)
-    trips = [manual.manual_trip(driver, profiles[f"manual{i + 1}"], i) for i in range(4)]
+    driver = BUILTIN_DRIVERS[name]
+    profiles = canonical_profiles(0)
+    trips = [manual_trip(driver, profiles[f"manual{i + 1}"], i) for i in range(4)]
     res = learn_dgpt(trips, driver_id=name, seed=0)
     v, cov = res.table.speed_mps, res.covered
     truth = driver.preferred_gap_m(v)
@@ -24,5 +24,5 @@ def test_builtin_driver_preference_recovered_within_2_m(name: str) -> None:
     err = float(np.sqrt(np.mean((res.table.gap_m[cov] - truth[cov]) ** 2)))
     assert err <= 2.0
     # d1 (1.2 s) and d4 (1.2..2.7 s) are told apart: the other one's truth is far
-    other = drivers.BUILTIN_DRIVERS["d4" if name == "d1" else "d1"].preferred_gap_m(v)
+    other = BUILTIN_DRIVERS["d4" if name == "d1" else "d1"].preferred_gap_m(v)
     assert float(np.sqrt(np.mean((res.table.gap_m[cov] - other[cov]) ** 2))) > 4.0

@@ -18,6 +18,7 @@ from cloud_sync.trainer import (
     learn_dgpt,
 )
 from ecu.dgpt import SafetyBounds, load_dgpt, predefined, save_dgpt
+from ecu.state import AccState
 from ecu.triplog import Trip
 
 D0, T = 4.0, 1.6
@@ -32,6 +33,7 @@ def rmse(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.sqrt(np.mean((a - b) ** 2)))
 
 
+@pytest.mark.slow
 def test_recovers_known_preference(learned: LearnResult) -> None:
     table, cov = learned.table, learned.covered
     truth = D0 + T * table.speed_mps
@@ -43,6 +45,7 @@ def test_recovers_known_preference(learned: LearnResult) -> None:
     assert rmse(learned.baseline.gap_m[cov], truth[cov]) <= 2.0
 
 
+@pytest.mark.slow
 def test_output_table_is_a_valid_irl_dgpt(learned: LearnResult, tmp_path: Path) -> None:
     t = learned.table
     assert t.source == "irl" and t.driver_id == "syn" and t.condition == "dry"
@@ -59,6 +62,7 @@ def test_output_table_is_a_valid_irl_dgpt(learned: LearnResult, tmp_path: Path) 
     assert np.allclose(back.gap_m, t.gap_m) and back.meta["alpha"] == meta["alpha"]
 
 
+@pytest.mark.slow
 def test_uncovered_speeds_follow_time_gap_continuation(learned: LearnResult) -> None:
     t, cov = learned.table, learned.covered
     top = int(np.flatnonzero(cov)[-1])
@@ -69,6 +73,7 @@ def test_uncovered_speeds_follow_time_gap_continuation(learned: LearnResult) -> 
     assert t.gap_m[0] == pytest.approx(4.0)
 
 
+@pytest.mark.slow
 def test_pure_function_of_config_seed_and_data(syn_trips: list[Trip], learned: LearnResult) -> None:
     again = learn_dgpt(syn_trips[:2], driver_id="syn", seed=0)
     same = learn_dgpt(syn_trips[:2], driver_id="syn", seed=0)
@@ -79,6 +84,7 @@ def test_pure_function_of_config_seed_and_data(syn_trips: list[Trip], learned: L
     assert np.max(np.abs(other_seed.table.gap_m - again.table.gap_m)) < 0.5
 
 
+@pytest.mark.slow
 def test_fine_tune_moves_toward_takeovers_and_keeps_uncovered(
     learned: LearnResult, follower: Callable[..., Trip]
 ) -> None:
@@ -86,9 +92,9 @@ def test_fine_tune_moves_toward_takeovers_and_keeps_uncovered(
     trips = []
     for seed in (21, 22):
         t = follower(seed, headway_s=1.0, minutes=2.0, v_lo=15.0, v_hi=20.0)
-        state = np.full(len(t), 2)
+        state = np.full(len(t), AccState.ACTIVE)
         for start in range(0, len(t), 300):
-            state[start : start + 150] = 3  # 15-s override every 30 s
+            state[start : start + 150] = AccState.OVERRIDE  # 15 s every 30 s
         trips.append(replace(t, acc_state=state, meta={**t.meta, "mode": "acc"}))
     init = learned.table
     res = fine_tune(trips, init, seed=0)
@@ -117,9 +123,9 @@ def test_baseline_same_format(syn_trips: list[Trip]) -> None:
     b.check_bounds()
 
 
-def test_init_of_another_driver_refused(syn_trips: list[Trip], learned: LearnResult) -> None:
+def test_init_of_another_driver_refused(syn_trips: list[Trip]) -> None:
     with pytest.raises(TrainingError, match="belongs to driver 'syn', not 'other'"):
-        learn_dgpt(syn_trips[:1], driver_id="other", init=learned.table)
+        learn_dgpt(syn_trips[:1], driver_id="other", init=predefined(1.5, driver_id="syn"))
 
 
 @pytest.mark.parametrize(
