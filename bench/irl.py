@@ -24,13 +24,12 @@ from cloud_sync.mce_irl import CompiledMdp, DemoStats, feature_expectations, obj
 from cloud_sync.mdp import GridConfig, build_transitions, make_grid
 from cloud_sync.trainer import IrlConfig, learn_dgpt
 from ecu.triplog import Trip
+from sim_bus.drivers import BUILTIN_DRIVERS
+from sim_bus.manual import manual_trip
+from sim_bus.scenarios import canonical_profiles
 
 
 def demonstrations() -> list[Trip]:
-    from sim_bus.drivers import BUILTIN_DRIVERS
-    from sim_bus.manual import manual_trip
-    from sim_bus.scenarios import canonical_profiles
-
     profiles = canonical_profiles(0)
     d2 = BUILTIN_DRIVERS["d2"]
     return [manual_trip(d2, profiles[f"manual{i + 1}"], i) for i in range(4)]

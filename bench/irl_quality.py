@@ -28,9 +28,16 @@ from pathlib import Path
 
 import numpy as np
 
-from cloud_sync.trainer import learn_dgpt
+from cloud_sync.demos import usable_mask
+from cloud_sync.trainer import IrlConfig, fine_tune, learn_dgpt
 from cloud_sync.tripfiles import read_csv_trip
+from ecu.dgpt import Dgpt
 from ecu.triplog import Trip
+from sim_bus.dataset import load_human_pairs
+from sim_bus.drive import DriveConfig, log_to_trip, run_drive
+from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
+from sim_bus.manual import manual_trip
+from sim_bus.scenarios import canonical_profiles
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "openacc_astazero"
 BANDS = ((10.0, 15.0), (15.0, 20.0), (20.0, 25.0), (25.0, 30.0))
@@ -45,8 +52,6 @@ def _human_trips() -> list[tuple[str, Trip]]:
     files = sorted(DATA.glob("oa_pair_*.csv"))
     if files:
         return [(f.stem.replace("oa_pair_040719_", ""), read_csv_trip(f)) for f in files]
-    from sim_bus.dataset import load_human_pairs
-
     out = []
     for p in load_human_pairs():
         t = np.arange(p.v_follower_mps.size) * p.dt_s
@@ -86,10 +91,6 @@ def real() -> None:
 
 
 def synthetic() -> None:
-    from sim_bus.drivers import BUILTIN_DRIVERS
-    from sim_bus.manual import manual_trip
-    from sim_bus.scenarios import canonical_profiles
-
     print(
         "(b) built-in synthetic drivers, manual1..manual4 (4 x 300 s): RMSE against the true "
         "g*(v) over the covered speeds\n"
@@ -123,14 +124,6 @@ def synthetic() -> None:
 
 
 def fine_tuning() -> None:
-    from cloud_sync.demos import usable_mask
-    from cloud_sync.trainer import fine_tune
-    from ecu.dgpt import Dgpt
-    from sim_bus.drive import DriveConfig, log_to_trip, run_drive
-    from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
-    from sim_bus.manual import manual_trip
-    from sim_bus.scenarios import canonical_profiles
-
     print("(c) fine-tuning from the takeovers of one ACC trip on each of A and B (seed 0)\n")
     print(
         "| driver | PoI % before -> after | NIM /min before -> after | takeover s | "
@@ -171,11 +164,6 @@ def fine_tuning() -> None:
 
 
 def horizon_sweep() -> None:
-    from cloud_sync.trainer import IrlConfig
-    from sim_bus.drivers import BUILTIN_DRIVERS
-    from sim_bus.manual import manual_trip
-    from sim_bus.scenarios import canonical_profiles
-
     horizons = (3, 5, 10, 15)
     print("(d) IRL RMSE (m) against g*(v) by segment horizon (decisions of 1 s)\n")
     print("| driver | " + " | ".join(f"H = {h}" for h in horizons) + " |")
