@@ -187,9 +187,8 @@ def behaviour_filter(summary: TakeoverSummary, params: AdaptationParams) -> Reas
         return Reason.INVALID_INPUT
     if not summary.lead_valid:
         return Reason.NO_LEAD
-    if not (math.isfinite(summary.v_lead_mps) and math.isfinite(summary.gap_m)):
-        return Reason.INVALID_INPUT
-    if summary.gap_m < 0.0 or summary.v_lead_mps < 0.0:
+    lead = (summary.v_lead_mps, summary.gap_m)
+    if not all(math.isfinite(x) and x >= 0.0 for x in lead):
         return Reason.INVALID_INPUT
     if summary.duration_s <= params.min_takeover_s:
         return Reason.SHORT_TAKEOVER
@@ -248,7 +247,7 @@ def safety_filter(speed_mps: np.ndarray, gap_m: np.ndarray, params: AdaptationPa
     """``gap_m`` (``(n,)``) clipped into the time-gap band of ``params`` at ``speed_mps``."""
     lo = params.standstill_m + params.safe_tg_min_s * speed_mps
     hi = params.standstill_m + params.safe_tg_max_s * speed_mps
-    return np.clip(gap_m, lo, hi)
+    return np.asarray(np.clip(gap_m, lo, hi))
 
 
 def adapt(

@@ -16,15 +16,27 @@ Exit codes: 0 run completed, 1 bus/DBC/takeover-directory error, 2 usage error.
 from __future__ import annotations
 
 import argparse
+import logging
+import os
+import signal
 import sys
 from collections.abc import Callable
-from typing import Any
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from dbc.codec import Codec, CodecError, load_codec
+from ecu import EcuError
+from ecu.adaptation import ADAPTATION_MODES, AdaptationParams
+from ecu.dgpt import Dgpt, DgptError, load_dgpt, predefined, save_dgpt
+from ecu.node import EcuConfig, EcuNode
+from ecu.recorder import TripSink, directory_sink
+
+if TYPE_CHECKING:
+    from ecu.runtime import EcuRuntime
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``pacc ecu`` (python-can flag conventions)."""
-    from ecu.adaptation import ADAPTATION_MODES
-
     p = argparse.ArgumentParser(
         prog="pacc ecu",
         description="Run the personalized ACC ECU node on a CAN bus (50 Hz, real time).",
@@ -89,8 +101,6 @@ def _say(text: object) -> None:
     """Print ``text`` to stdout now. If the reader has gone (``pacc ecu | head``, a dead log
     pipe) the ECU keeps running: stdout is pointed at devnull and the run goes on to its end,
     writing takeovers and the profile."""
-    import os
-
     try:
         print(text, flush=True)
     except BrokenPipeError:
@@ -101,8 +111,6 @@ def _stop_on_sigterm(stop: Callable[[], None]) -> Callable[[], None]:
     """Make SIGTERM call ``stop`` (a service stop ends the run like Ctrl-C: the open takeover
     segment is written, the profile saved); return a function restoring the old handler.
     Off the main thread signals cannot be handled: nothing is installed."""
-    import signal
-
     try:
         previous = signal.signal(signal.SIGTERM, lambda signum, frame: stop())
     except ValueError:  # not the main thread
@@ -123,94 +131,38 @@ def main(argv: list[str] | None = None) -> int:
     return _run(args)
 
 
+class _Exit(Exception):
+    """Ends ``pacc ecu`` with ``code`` after printing ``message`` to stderr."""
+
+    def __init__(self, code: int, message: str) -> None:
+        super().__init__(message)
+        self.code = code
+        self.message = message
+
+
 def _run(args: argparse.Namespace) -> int:
-    import logging
-
-    import can
-
-    from dbc.codec import CodecError, load_codec
-    from ecu import EcuError
-    from ecu.adaptation import AdaptationParams
-    from ecu.dgpt import Dgpt, DgptError, load_dgpt, predefined, save_dgpt
-    from ecu.node import EcuConfig, EcuNode
-    from ecu.recorder import TripSink, directory_sink
-    from ecu.runtime import EcuRuntime
-
     logging.basicConfig(
         level=logging.INFO if args.verbose else logging.WARNING,
         format="%(levelname)s %(name)s: %(message)s",
     )
     try:
-        config = EcuConfig(
-            adaptation=args.adaptation,
-            adaptation_params=AdaptationParams(mode=args.adaptation_mode),
-            brake_mode=args.brake,
-            set_speed_mps=args.set_speed,
-        )
-        fallback = predefined(args.headway, args.standstill)
-    except EcuError as exc:
-        print(f"pacc ecu: error: {exc}", file=sys.stderr)
-        return 2
-    table: Dgpt = fallback
-    profile_fault = False
-    if args.profile:
-        try:
-            table = load_dgpt(args.profile, config.bounds)
-            _say(f"profile: {args.profile} ({table.driver_id}, {table.source}, v{table.version})")
-        except DgptError as exc:
-            profile_fault = True
-            print(f"pacc ecu: profile refused: {exc}", file=sys.stderr)
-            print(
-                f"pacc ecu: running on the predefined table ({args.headway:g} s headway, "
-                f"{args.standstill:g} m standstill) instead",
-                file=sys.stderr,
-            )
-    else:
-        _say(f"profile: predefined {args.headway:g} s headway, {args.standstill:g} m standstill")
-    sink: TripSink | None = None
-    try:
-        codec = load_codec(args.dbc) if args.dbc else load_codec()
-        if args.takeovers:
-            sink = directory_sink(args.takeovers)
-    except (CodecError, EcuError) as exc:
-        print(f"pacc ecu: error: {exc}", file=sys.stderr)
-        return 1
-    if args.save_profile:  # refuse now, not after the drive when the table would be lost
-        import os
-        from pathlib import Path
+        return _serve(args)
+    except _Exit as exc:
+        print(exc.message, file=sys.stderr)
+        return exc.code
 
-        parent = Path(args.save_profile).resolve().parent
-        if not (parent.is_dir() and os.access(parent, os.W_OK)):
-            print(
-                f"pacc ecu: error: --save-profile: {parent} is not a writable directory",
-                file=sys.stderr,
-            )
-            return 1
+
+def _serve(args: argparse.Namespace) -> int:
+    """Build the node, run it on the bus until done, report and save; raise :class:`_Exit`."""
+    config, fallback = _config(args)
+    table, profile_fault = _initial_table(args, config, fallback)
+    codec, sink = _codec_and_sink(args)
+    if args.save_profile:  # refuse now, not after the drive when the table would be lost
+        _check_writable_parent(args.save_profile)
     node = EcuNode(config, table, sink)
     if profile_fault:
         node.report_profile_fault()
-    try:
-        bus = can.Bus(**_bus_kwargs(args))
-    except (can.CanError, OSError, ValueError, ImportError) as exc:
-        print(f"pacc ecu: error: cannot open the CAN bus: {exc}", file=sys.stderr)
-        return 1
-    with bus:
-        try:
-            rt = EcuRuntime(
-                bus,
-                node,
-                codec,
-                on_event=_say,
-                profile_dir=args.profiles,
-            )
-        except EcuError as exc:  # a DBC that cannot carry the outputs
-            print(f"pacc ecu: error: {exc}", file=sys.stderr)
-            return 1
-        mode = args.adaptation_mode if args.adaptation else "off"
-        _say(f"adaptation: {mode}; brake press: {args.brake}")
-        _say(f"ECU running on {bus.channel_info} (Ctrl-C to stop)")
-        bus_error = run_until_done(rt, args.duration)
-    _say(rt.summary())
+    bus_error = _run_on_bus(args, node, codec)
     if args.takeovers and node.recorder is not None:
         rec = node.recorder
         _say(
@@ -220,24 +172,98 @@ def _run(args: argparse.Namespace) -> int:
     if args.save_profile:
         try:
             save_dgpt(node.table, args.save_profile)
-            _say(f"profile saved: {args.save_profile} (v{node.table.version})")
         except DgptError as exc:
-            print(f"pacc ecu: error: {exc}", file=sys.stderr)
-            return 1
+            raise _Exit(1, f"pacc ecu: error: {exc}") from None
+        _say(f"profile saved: {args.save_profile} (v{node.table.version})")
     if bus_error is not None:
-        print(f"pacc ecu: error: the CAN bus failed: {bus_error}", file=sys.stderr)
-        return 1
+        raise _Exit(1, f"pacc ecu: error: the CAN bus failed: {bus_error}")
     return 0
 
 
-def run_until_done(rt: Any, duration_s: float | None) -> str | None:
+def _config(args: argparse.Namespace) -> tuple[EcuConfig, Dgpt]:
+    """The node's configuration and the predefined fallback table (usage errors: exit 2)."""
+    try:
+        config = EcuConfig(
+            adaptation=args.adaptation,
+            adaptation_params=AdaptationParams(mode=args.adaptation_mode),
+            brake_mode=args.brake,
+            set_speed_mps=args.set_speed,
+        )
+        return config, predefined(args.headway, args.standstill)
+    except EcuError as exc:
+        raise _Exit(2, f"pacc ecu: error: {exc}") from None
+
+
+def _initial_table(
+    args: argparse.Namespace, config: EcuConfig, fallback: Dgpt
+) -> tuple[Dgpt, bool]:
+    """The table to start with, and whether ``--profile`` was refused (then: the fallback)."""
+    if not args.profile:
+        _say(f"profile: predefined {args.headway:g} s headway, {args.standstill:g} m standstill")
+        return fallback, False
+    try:
+        table = load_dgpt(args.profile, config.bounds)
+    except DgptError as exc:
+        print(f"pacc ecu: profile refused: {exc}", file=sys.stderr)
+        print(
+            f"pacc ecu: running on the predefined table ({args.headway:g} s headway, "
+            f"{args.standstill:g} m standstill) instead",
+            file=sys.stderr,
+        )
+        return fallback, True
+    _say(f"profile: {args.profile} ({table.driver_id}, {table.source}, v{table.version})")
+    return table, False
+
+
+def _codec_and_sink(args: argparse.Namespace) -> tuple[Codec, TripSink | None]:
+    """The network codec (``--dbc`` or the packaged one) and the takeover sink."""
+    try:
+        codec = load_codec(args.dbc) if args.dbc else load_codec()
+        sink = directory_sink(args.takeovers) if args.takeovers else None
+    except (CodecError, EcuError) as exc:
+        raise _Exit(1, f"pacc ecu: error: {exc}") from None
+    return codec, sink
+
+
+def _check_writable_parent(target: str) -> None:
+    parent = Path(target).resolve().parent
+    if not (parent.is_dir() and os.access(parent, os.W_OK)):
+        raise _Exit(1, f"pacc ecu: error: --save-profile: {parent} is not a writable directory")
+
+
+def _run_on_bus(args: argparse.Namespace, node: EcuNode, codec: Codec) -> str | None:
+    """Open the bus, run the node on it until done and print the summary; return the bus
+    failure's text (None: clean end)."""
+    # python-can and the runtime cost ~0.3 s of start-up that --help and usage errors skip
+    import can  # noqa: PLC0415
+
+    from ecu.runtime import EcuRuntime  # noqa: PLC0415
+
+    try:
+        bus = can.Bus(**_bus_kwargs(args))
+    except (can.CanError, OSError, ValueError, ImportError) as exc:
+        raise _Exit(1, f"pacc ecu: error: cannot open the CAN bus: {exc}") from None
+    with bus:
+        try:
+            rt = EcuRuntime(bus, node, codec, on_event=_say, profile_dir=args.profiles)
+        except EcuError as exc:  # a DBC that cannot carry the outputs
+            raise _Exit(1, f"pacc ecu: error: {exc}") from None
+        mode = args.adaptation_mode if args.adaptation else "off"
+        _say(f"adaptation: {mode}; brake press: {args.brake}")
+        _say(f"ECU running on {bus.channel_info} (Ctrl-C to stop)")
+        bus_error = run_until_done(rt, args.duration)
+    _say(rt.summary())
+    return bus_error
+
+
+def run_until_done(rt: EcuRuntime, duration_s: float | None) -> str | None:
     """Run ``rt`` (an EcuRuntime) in real time until ``duration_s``, Ctrl-C or SIGTERM.
 
     The open takeover segment is always flushed. A failure of the bus itself
     (``can.CanError`` from receive or send) ends the run like a stop, so the caller still
     prints the summary and saves the profile; its text is returned (None: clean end).
     """
-    import can
+    import can  # noqa: PLC0415 - see _run_on_bus: python-can only when the ECU runs
 
     restore_sigterm = _stop_on_sigterm(rt.stop)
     try:

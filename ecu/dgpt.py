@@ -235,9 +235,11 @@ class Dgpt:
         of any shape gives an array of the same shape. A NaN speed gives NaN.
         """
         if isinstance(v_mps, np.ndarray):
-            return np.interp(v_mps, self.speed_mps, self.gap_m)
+            return cast(FloatArray, np.interp(v_mps, self.speed_mps, self.gap_m))
         gaps: tuple[float, ...] = self._gaps  # type: ignore[attr-defined]
-        x = (float(v_mps) - self._v0) / self._dv  # type: ignore[attr-defined]
+        v0: float = self._v0  # type: ignore[attr-defined]
+        dv: float = self._dv  # type: ignore[attr-defined]
+        x = (float(v_mps) - v0) / dv
         if not x > 0.0:
             return gaps[0] if x <= 0.0 else math.nan
         last = len(gaps) - 1
@@ -250,12 +252,14 @@ class Dgpt:
     def slope(self, v_mps: float) -> float:
         """d(gap)/d(speed) of the interpolant at ``v_mps``, in s (0 beyond the axis ends)."""
         gaps: tuple[float, ...] = self._gaps  # type: ignore[attr-defined]
-        x = (float(v_mps) - self._v0) / self._dv  # type: ignore[attr-defined]
+        v0: float = self._v0  # type: ignore[attr-defined]
+        dv: float = self._dv  # type: ignore[attr-defined]
+        x = (float(v_mps) - v0) / dv
         last = len(gaps) - 1
         if not 0.0 <= x < last:
             return 0.0
         i = int(x)
-        return (gaps[i + 1] - gaps[i]) / self._dv  # type: ignore[attr-defined]
+        return (gaps[i + 1] - gaps[i]) / dv
 
     def with_gaps(
         self,
@@ -378,7 +382,7 @@ def load_dgpt(path: str | os.PathLike[str], bounds: SafetyBounds | None = None) 
     except OSError as exc:
         raise DgptError(f"{p}: cannot read: {exc.strerror or exc}") from None
     try:
-        obj = json.loads(raw.decode("utf-8"), parse_constant=lambda c: float(c))
+        obj = json.loads(raw.decode("utf-8"), parse_constant=float)
     except (ValueError, RecursionError) as exc:  # JSONDecodeError, int digit limit, nesting
         raise DgptError(f"{p}: not valid JSON: {exc}") from None
     try:
@@ -397,7 +401,7 @@ def save_dgpt(table: Dgpt, path: str | os.PathLike[str]) -> None:
         fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
             fh.write(text)
-        os.replace(tmp, p)
+        Path(tmp).replace(p)
     except OSError as exc:
         if tmp is not None:
             Path(tmp).unlink(missing_ok=True)

@@ -87,20 +87,22 @@ def transition(state: AccState, ev: Events, brake_mode: BrakeMode = "resume") ->
     if state is AccState.OFF:
         return AccState.STANDBY
     if state in (AccState.ACTIVE, AccState.OVERRIDE):
-        if not ev.inputs_valid:
-            return AccState.FAULT
-        if ev.cancel_edge:
-            return AccState.STANDBY
-        if ev.brake_pressed and brake_mode == "cancel":
-            return AccState.STANDBY
-        if state is AccState.ACTIVE:
-            if ev.accel_pressed or ev.brake_pressed:
-                return AccState.OVERRIDE
-            return AccState.ACTIVE
-        if not (ev.accel_pressed or ev.brake_pressed):
-            return AccState.ACTIVE
-        return AccState.OVERRIDE
-    # STANDBY or FAULT; after a fault only SET re-engages (a deliberate new set speed)
+        return _from_engaged(ev, brake_mode)
+    return _from_disengaged(state, ev)
+
+
+def _from_engaged(ev: Events, brake_mode: BrakeMode) -> AccState:
+    """ACTIVE or OVERRIDE, main switch on: a pedal pressed overrides, released resumes."""
+    if not ev.inputs_valid:
+        return AccState.FAULT
+    if ev.cancel_edge or (ev.brake_pressed and brake_mode == "cancel"):
+        return AccState.STANDBY
+    return AccState.OVERRIDE if ev.accel_pressed or ev.brake_pressed else AccState.ACTIVE
+
+
+def _from_disengaged(state: AccState, ev: Events) -> AccState:
+    """STANDBY or FAULT, main switch on; after a fault only SET re-engages (a deliberate new
+    set speed)."""
     engage = ev.set_edge or (state is AccState.STANDBY and ev.resume_edge and ev.has_set_speed)
     if engage and ev.inputs_valid and ev.inputs_settled and not ev.brake_pressed:
         return AccState.OVERRIDE if ev.accel_pressed else AccState.ACTIVE

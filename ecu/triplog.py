@@ -88,6 +88,27 @@ def _as_float_array(name: str, value: Any) -> np.ndarray:
     return arr
 
 
+def _as_state_array(value: Any) -> np.ndarray:
+    """``value`` as a read-only int64 array of AccState codes (1-D, finite integers)."""
+    raw = np.asarray(value)
+    if raw.ndim != 1:
+        raise TripLogError(f"Trip.acc_state must be 1-D, got shape {raw.shape}")
+    if raw.size and not np.all(np.isfinite(raw.astype(np.float64))):
+        raise TripLogError("Trip.acc_state must be finite integers")
+    state = raw.astype(np.int64)
+    if raw.size and not np.array_equal(state, raw):
+        raise TripLogError("Trip.acc_state must hold integer AccState codes")
+    state.setflags(write=False)
+    return state
+
+
+def _check_fraction(name: str, arr: np.ndarray) -> None:
+    """Refuse a pedal column with a known value outside 0..1 (NaN: not recorded)."""
+    known = arr[~np.isnan(arr)]
+    if known.size and (known.min() < 0.0 or known.max() > 1.0):
+        raise TripLogError(f"Trip.{name} outside 0..1")
+
+
 @dataclass(frozen=True, eq=False)
 class Trip:
     """One car-following trip, arrays of shape ``(n,)``.
@@ -114,19 +135,13 @@ class Trip:
     brake_pedal: np.ndarray
     acc_state: np.ndarray
     meta: dict[str, Any] = field(default_factory=dict)
+    #: equal trips compare by value; arrays are not hashable, so neither is a trip
+    __hash__ = None  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         for name in FLOAT_FIELDS:
             object.__setattr__(self, name, _as_float_array(name, getattr(self, name)))
-        raw_state = np.asarray(self.acc_state)
-        if raw_state.ndim != 1:
-            raise TripLogError(f"Trip.acc_state must be 1-D, got shape {raw_state.shape}")
-        if raw_state.size and not np.all(np.isfinite(raw_state.astype(np.float64))):
-            raise TripLogError("Trip.acc_state must be finite integers")
-        state = raw_state.astype(np.int64)
-        if raw_state.size and not np.array_equal(state, raw_state):
-            raise TripLogError("Trip.acc_state must hold integer AccState codes")
-        state.setflags(write=False)
+        state = _as_state_array(self.acc_state)
         object.__setattr__(self, "acc_state", state)
         n = self.t_s.shape[0]
         for name in (*FLOAT_FIELDS, "acc_state"):
@@ -142,10 +157,7 @@ class Trip:
         if n and (state.min() < 0 or state.max() > _ACC_STATE_MAX):
             raise TripLogError(f"Trip.acc_state outside 0..{_ACC_STATE_MAX}")
         for name in ("accel_pedal", "brake_pedal"):
-            arr = getattr(self, name)
-            known = arr[~np.isnan(arr)]
-            if known.size and (known.min() < 0.0 or known.max() > 1.0):
-                raise TripLogError(f"Trip.{name} outside 0..1")
+            _check_fraction(name, getattr(self, name))
         if not isinstance(self.meta, dict):
             raise TripLogError("Trip.meta must be a dict")
         object.__setattr__(self, "meta", dict(self.meta))
@@ -205,10 +217,11 @@ def _unnum(x: Any, where: str) -> float:
 
 
 def _compression() -> Any:
-    from mcap.writer import CompressionType
+    # mcap costs ~0.1 s of start-up; only writing and reading a trip need it
+    from mcap.writer import CompressionType  # noqa: PLC0415
 
     try:
-        import zstandard  # noqa: F401
+        import zstandard  # noqa: F401, PLC0415 - a probe: is the optional codec installed?
     except ImportError:  # pragma: no cover - zstandard ships with mcap
         return CompressionType.NONE
     return CompressionType.ZSTD
@@ -230,7 +243,7 @@ def write_trip(path: str | os.PathLike[str], trip: Trip) -> None:
     tmp = path.with_name(path.name + ".part")
     try:
         _write_mcap(tmp, trip, meta_bytes)
-        os.replace(tmp, path)
+        tmp.replace(path)
     except BaseException:
         with contextlib.suppress(OSError):
             tmp.unlink(missing_ok=True)  # no partial file left beside the destination
@@ -238,11 +251,11 @@ def write_trip(path: str | os.PathLike[str], trip: Trip) -> None:
 
 
 def _write_mcap(tmp: Path, trip: Trip, meta_bytes: bytes) -> None:
-    from mcap.writer import Writer
+    from mcap.writer import Writer  # noqa: PLC0415 - see _compression
 
     columns = [getattr(trip, k).tolist() for k in FLOAT_FIELDS]
     states = trip.acc_state.tolist()
-    with open(tmp, "wb") as stream:
+    with tmp.open("wb") as stream:
         writer = Writer(stream, compression=_compression())
         writer.start(profile=PROFILE, library="pacc.cloud_sync")
         sample_schema = writer.register_schema(
@@ -260,7 +273,7 @@ def _write_mcap(tmp: Path, trip: Trip, meta_bytes: bytes) -> None:
             row["acc_state"] = int(states[i])
             stamp = max(int(round(columns[0][i] * 1e9)), 0)
             writer.add_message(sample_ch, stamp, json.dumps(row).encode(), stamp, sequence=i)
-        writer.finish()
+        writer.finish()  # type: ignore[no-untyped-call]
 
 
 def read_trip(path: str | os.PathLike[str]) -> Trip:
@@ -269,33 +282,47 @@ def read_trip(path: str | os.PathLike[str]) -> Trip:
     Raises :class:`TripLogError` with the file name and the cause if the file is missing, not
     MCAP, truncated (no footer), has a bad CRC, or holds no ``/pacc/car_following`` channel.
     """
-    from mcap.records import Channel, Footer, Message, Schema
-    from mcap.stream_reader import StreamReader
-
     path = Path(path)
-    schemas: dict[int, Schema] = {}
-    channels: dict[int, Channel] = {}
-    rows: list[dict[str, Any]] = []
-    meta: dict[str, Any] | None = None
-    seen_footer = False
+    found = _scan(path)
+    if not found.footer:
+        raise TripLogError(f"{path}: truncated trip log (no MCAP footer)")
+    topics = {c.topic: c for c in found.channels.values()}
+    if SAMPLE_TOPIC not in topics:
+        raise TripLogError(
+            f"{path}: not a pacc trip log (no {SAMPLE_TOPIC} channel; topics: "
+            f"{sorted(topics) or 'none'})"
+        )
+    sch = found.schemas.get(topics[SAMPLE_TOPIC].schema_id)
+    if sch is None or sch.name != SAMPLE_SCHEMA_NAME:
+        raise TripLogError(f"{path}: {SAMPLE_TOPIC} does not use schema {SAMPLE_SCHEMA_NAME}")
+    meta = found.meta
+    if meta is not None and not isinstance(meta, dict):
+        raise TripLogError(f"{path}: {META_TOPIC} message is not a JSON object")
+    return _trip_from_rows(found.rows, meta or {}, str(path))
+
+
+@dataclass
+class _Records:
+    """What one sequential pass over an MCAP file found."""
+
+    schemas: dict[int, Any] = field(default_factory=dict)
+    channels: dict[int, Any] = field(default_factory=dict)
+    rows: list[dict[str, Any]] = field(default_factory=list)
+    meta: Any = None
+    footer: bool = False
+
+
+def _scan(path: Path) -> _Records:
+    """Read ``path`` record by record (CRCs checked); :class:`TripLogError` if unreadable."""
+    # see _compression: mcap only when a trip is read
+    from mcap import records  # noqa: PLC0415
+    from mcap.stream_reader import StreamReader  # noqa: PLC0415
+
+    found = _Records()
     try:
-        with open(path, "rb") as stream:
-            reader = StreamReader(stream, validate_crcs=True)
-            for record in reader.records:
-                if isinstance(record, Schema):
-                    schemas[record.id] = record
-                elif isinstance(record, Channel):
-                    channels[record.id] = record
-                elif isinstance(record, Message):
-                    channel = channels.get(record.channel_id)
-                    if channel is None:
-                        raise TripLogError(f"{path}: message on unknown channel")
-                    if channel.topic == SAMPLE_TOPIC:
-                        rows.append(json.loads(record.data))
-                    elif channel.topic == META_TOPIC:
-                        meta = json.loads(record.data)
-                elif isinstance(record, Footer):
-                    seen_footer = True
+        with path.open("rb") as stream:
+            for record in StreamReader(stream, validate_crcs=True).records:
+                _take(record, found, path, records)
     except TripLogError:
         raise
     except FileNotFoundError as exc:
@@ -304,20 +331,25 @@ def read_trip(path: str | os.PathLike[str]) -> Trip:
         kind = type(exc).__name__
         reason = "truncated" if kind in ("EndOfFile", "error") else "corrupt or not MCAP"
         raise TripLogError(f"{path}: {reason} trip log ({kind}: {exc})") from exc
-    if not seen_footer:
-        raise TripLogError(f"{path}: truncated trip log (no MCAP footer)")
-    topics = {c.topic: c for c in channels.values()}
-    if SAMPLE_TOPIC not in topics:
-        raise TripLogError(
-            f"{path}: not a pacc trip log (no {SAMPLE_TOPIC} channel; topics: "
-            f"{sorted(topics) or 'none'})"
-        )
-    sch = schemas.get(topics[SAMPLE_TOPIC].schema_id)
-    if sch is None or sch.name != SAMPLE_SCHEMA_NAME:
-        raise TripLogError(f"{path}: {SAMPLE_TOPIC} does not use schema {SAMPLE_SCHEMA_NAME}")
-    if meta is not None and not isinstance(meta, dict):
-        raise TripLogError(f"{path}: {META_TOPIC} message is not a JSON object")
-    return _trip_from_rows(rows, meta or {}, str(path))
+    return found
+
+
+def _take(record: Any, found: _Records, path: Path, kinds: Any) -> None:
+    """File one MCAP record into ``found`` (``kinds``: the ``mcap.records`` module)."""
+    if isinstance(record, kinds.Schema):
+        found.schemas[record.id] = record
+    elif isinstance(record, kinds.Channel):
+        found.channels[record.id] = record
+    elif isinstance(record, kinds.Message):
+        channel = found.channels.get(record.channel_id)
+        if channel is None:
+            raise TripLogError(f"{path}: message on unknown channel")
+        if channel.topic == SAMPLE_TOPIC:
+            found.rows.append(json.loads(record.data))
+        elif channel.topic == META_TOPIC:
+            found.meta = json.loads(record.data)
+    elif isinstance(record, kinds.Footer):
+        found.footer = True
 
 
 def _trip_from_rows(rows: list[dict[str, Any]], meta: dict[str, Any], where: str) -> Trip:
