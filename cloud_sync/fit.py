@@ -3,7 +3,7 @@
 - :func:`start_alpha`: the starting weights, the prior α (or zeros) plus N(0, 10⁻³) noise
   drawn from the seed; the objective is convex, so the seed moves the start, not the answer.
 - :func:`fit_alpha`: minimise :func:`cloud_sync.mce_irl.objective` from there; returns the
-  weights, the objective per iteration and the optimiser's outcome as a :class:`Fit`.
+  weights and the optimiser's outcome as a :class:`Fit`.
 """
 
 from __future__ import annotations
@@ -25,13 +25,12 @@ class Fit:
     """The outcome of :func:`fit_alpha`.
 
     Attributes:
-        alpha: (K,) reward weights. history: objective value per L-BFGS iteration.
-        n_iter: iterations. converged: the stopping rule was met. message: the optimiser's
-        reason to stop. objective: the final objective value. train_s: wall time, s.
+        alpha: (K,) reward weights. n_iter: iterations. converged: the stopping rule was met.
+        message: the optimiser's reason to stop. objective: the final objective value.
+        train_s: wall time, s.
     """
 
     alpha: np.ndarray
-    history: list[float]
     n_iter: int
     converged: bool
     message: str
@@ -64,14 +63,12 @@ def fit_alpha(
     component) or at a relative decrease of the objective below ``ftol``. ``progress`` shows a
     tqdm bar. Raises :class:`~cloud_sync.errors.TrainingError` if the objective diverges.
     """
-    history: list[float] = []
     bar = tqdm(total=max_iter, desc="IRL", unit="it", leave=False) if progress else None
 
     def fun(alpha: np.ndarray) -> tuple[float, np.ndarray]:
         return objective(alpha, mdp, stats, l2=l2, prior=prior)
 
-    def callback(intermediate_result: optimize.OptimizeResult) -> None:
-        history.append(float(intermediate_result.fun))
+    def show(intermediate_result: optimize.OptimizeResult) -> None:
         if bar is not None:
             bar.update(1)
             bar.set_postfix(f=f"{intermediate_result.fun:.4f}")
@@ -83,7 +80,7 @@ def fit_alpha(
             alpha0,
             jac=True,
             method="L-BFGS-B",
-            callback=callback,
+            callback=show if bar is not None else None,
             options={"maxiter": max_iter, "gtol": gtol, "ftol": ftol},
         )
     finally:
@@ -91,7 +88,6 @@ def fit_alpha(
             bar.close()
     return Fit(
         alpha=np.asarray(res.x),
-        history=history,
         n_iter=int(res.nit),
         converged=bool(res.success),
         message=str(res.message),

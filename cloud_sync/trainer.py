@@ -102,26 +102,24 @@ class LearnResult:
     """A learned table and how it was obtained.
 
     Attributes:
-        table: the DGPT (source ``irl``). baseline: the empirical steady-state table (None
-            when the data hold no steady-state following, e.g. takeovers alone).
+        table: the DGPT (source ``irl``; its meta hold the data digest, the coverage per speed
+            bin and the model). baseline: the empirical steady-state table (None when the data
+            hold no steady-state following, e.g. takeovers alone).
         alpha: (K,) reward weights. mdp: the compiled MDP (grid, features, transitions).
-        coverage_s: (n,) seconds of demonstration per DGPT speed bin. covered: (n,) bool.
-        history: objective value per L-BFGS iteration. n_iter, converged, message: the
-        optimiser's outcome. train_s: wall time of the optimisation, s. digest: SHA-256 of data.
+        covered: (n,) bool, the speed bins the demonstrations set (the others are continued
+            or, continuing an earlier table, kept). n_iter, converged, message: the
+            optimiser's outcome. train_s: wall time of the optimisation, s.
     """
 
     table: Dgpt
     baseline: Dgpt | None
     alpha: np.ndarray
     mdp: CompiledMdp
-    coverage_s: np.ndarray
     covered: np.ndarray
-    history: list[float]
     n_iter: int
     converged: bool
     message: str
     train_s: float
-    digest: str
 
     def reward_vg(self, v_mps: np.ndarray, gap_m: np.ndarray) -> np.ndarray:
         """The recovered (v, g) reward on the outer product of (n,) and (m,): (n, m)."""
@@ -228,9 +226,8 @@ def learn_dgpt(
         cutoff=cfg.lowpass_cutoff,
     )
     gap, covered = blend(axis, learned, ev, half_s=cfg.blend_half_s, bounds=cfg.bounds)
-    data_digest = dm.digest(trips, w)
     meta = _irl_meta(
-        cfg, seed, len(trips), data_digest, usable_s, stats, ev, covered, model, fit, init
+        cfg, seed, len(trips), dm.digest(trips, w), usable_s, stats, ev, covered, model, fit, init
     )
     table = Dgpt(
         speed_mps=axis,
@@ -246,14 +243,11 @@ def learn_dgpt(
         baseline=_baseline_if_any(trips, driver_id, condition, cfg),
         alpha=fit.alpha,
         mdp=mdp,
-        coverage_s=ev.coverage_s,
         covered=covered,
-        history=fit.history,
         n_iter=fit.n_iter,
         converged=fit.converged,
         message=fit.message,
         train_s=fit.train_s,
-        digest=data_digest,
     )
 
 

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from itertools import pairwise
-
 import numpy as np
 import pytest
 
@@ -61,9 +59,8 @@ def test_fit_stops_at_the_stationary_point_of_the_dual() -> None:
     _, count_gap = objective(fit.alpha, MDP, stats, l2=0.0)  # μ_model − μ_D
     assert np.allclose(count_gap, -0.01 * fit.alpha, atol=1e-6)
     f0, _ = objective(alpha0, MDP, stats, l2=0.01)
-    assert fit.objective == pytest.approx(fit.history[-1]) and fit.objective < f0
-    assert len(fit.history) == fit.n_iter
-    assert all(b <= a + 1e-12 for a, b in pairwise(fit.history))
+    assert fit.objective == pytest.approx(objective(fit.alpha, MDP, stats, l2=0.01)[0])
+    assert fit.objective < f0 and fit.n_iter >= 1
 
 
 def test_strong_l2_pulls_the_fit_to_the_prior() -> None:
