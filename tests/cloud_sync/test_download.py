@@ -10,7 +10,7 @@ import pytest
 
 from cloud_sync.client import HttpCloud
 from cloud_sync.local import LocalCloud
-from cloud_sync.profiles import ProfileDownloader, may_swap
+from cloud_sync.download import ProfileDownloader, may_swap
 from cloud_sync.service import CloudService
 from cloud_sync.signing import load_public_key
 from ecu.dgpt import Dgpt, SafetyBounds, predefined
