@@ -48,7 +48,7 @@ def visited_weights(table: Dgpt, v_mps: np.ndarray) -> np.ndarray:
         np.rint((v_mps - table.speed_mps[0]) / table.step_mps), 0, table.speed_mps.size - 1
     ).astype(int)
     w = np.bincount(idx, minlength=table.speed_mps.size).astype(float)
-    return w / max(w.sum(), 1.0)
+    return np.asarray(w / max(w.sum(), 1.0))
 
 
 def table_error_m(table: Dgpt, driver: DriverParams, weights: np.ndarray) -> float:
@@ -116,6 +116,29 @@ def error_trace(
     return trace, table_error_m(result.final_table, driver, flat)
 
 
+def _takeover_rows(
+    rows: list[dict[str, Any]],
+    mode: str,
+    gd_err: dict[tuple[str, str, bool], list[float]],
+    *,
+    verbose: bool,
+) -> None:
+    """Collect g_desire - preference (m) per (mode, pedal, cut); print each row if verbose."""
+    for row in rows:
+        gd = row["g_desire_m"] - row["pref_m"]
+        if math.isfinite(gd):
+            gd_err[(mode, row["pedal"], row["cut"])].append(gd)
+        if verbose:
+            print(
+                f"    {row['start_s']:6.1f} s {row['pedal']:5s} "
+                f"{row['duration_s']:4.1f} s{'*' if row['cut'] else ' '} "
+                f"v {row['v_mps']:5.1f} dv {row['dv_mps']:+5.1f} "
+                f"gap {row['gap_press_m']:5.1f} -> "
+                f"{row['gap_release_m']:5.1f} pref {row['pref_m']:5.1f} "
+                f"g_desire {row['g_desire_m']:5.1f} {row['reason']}"
+            )
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the drives and print the instrumentation; 0 on success."""
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -169,19 +192,7 @@ def main(argv: list[str] | None = None) -> int:
                         reasons[mode].update(e.decision.reason.value for e in r.adaptation_events)
                         reasons[mode]["cut at press_max_s"] += sum(x["cut"] for x in rows)
                         reasons[mode]["takeovers"] += len(rows)
-                        for row in rows:
-                            gd = row["g_desire_m"] - row["pref_m"]
-                            if math.isfinite(gd):
-                                gd_err[(mode, row["pedal"], row["cut"])].append(gd)
-                            if args.takeovers:
-                                print(
-                                    f"    {row['start_s']:6.1f} s {row['pedal']:5s} "
-                                    f"{row['duration_s']:4.1f} s{'*' if row['cut'] else ' '} "
-                                    f"v {row['v_mps']:5.1f} dv {row['dv_mps']:+5.1f} "
-                                    f"gap {row['gap_press_m']:5.1f} -> "
-                                    f"{row['gap_release_m']:5.1f} pref {row['pref_m']:5.1f} "
-                                    f"g_desire {row['g_desire_m']:5.1f} {row['reason']}"
-                                )
+                        _takeover_rows(rows, mode, gd_err, verbose=args.takeovers)
                         summary[mode].append((m.poi_pct, m.nim_per_min, trace[0], trace[-1], flat))
     print(
         f"\n{sum(len(v) for v in summary.values())} drives in "

@@ -13,11 +13,12 @@ from __future__ import annotations
 import argparse
 import time
 from collections.abc import Callable
+from typing import Any
 
 from dbc.codec import load_codec
 from dbc.e2e import e2e_crc
 
-SAMPLE = {
+SAMPLE: dict[str, dict[str, Any]] = {
     "ego": {"speed_mps": 23.45, "accel_mps2": -0.71, "speed_valid": 1},
     "pedals": {
         "accel_pedal_pct": 12.5,
@@ -84,6 +85,7 @@ def main() -> None:
         binding = codec.binding.roles[role]
         msg = codec.db.get_message_by_name(mc.name)
         named = {binding.fields[k]: v for k, v in SAMPLE[role].items()}
+        assert binding.crc is not None and binding.counter is not None and mc.crc_byte is not None
         named[binding.counter] = 5
         named[binding.crc] = 0
         theirs.append((msg, named, mc.data_id, mc.crc_byte, binding.crc, binding.counter))

@@ -1,6 +1,7 @@
 """Benchmark of the ACC ECU: step() time, lockstep cycle cost, real-time cycle jitter.
 
-Run: ``.venv/bin/python bench/ecu_step.py [--seconds 60] [--steps 20000]``
+Run from the repository root (it plays the peers with ``tests/peers.py``):
+``.venv/bin/python -m bench.ecu_step [--seconds 60] [--steps 20000]``
 
 1. ``step()`` of an engaged node following a lead on a minimal plant (no bus): p50 / p99,
    against a named peer measured in the same run: cantools ``Database.decode_message`` of one

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import cantools
 import pytest
@@ -23,17 +24,19 @@ from dbc.codec import (
     UnknownFrameError,
     load_codec,
 )
+from dbc.e2e import e2e_crc
 
 CODEC = load_codec()
 ROLES = sorted(CODEC.by_role)
-DB = cantools.database.load_file(str(DBC_PATH), strict=True)
+#: cantools, the independent reader (Any: its load_file returns a union of database kinds)
+DB: Any = cantools.database.load_file(str(DBC_PATH), strict=True)
 
 
 @st.composite
-def frames(draw: st.DrawFn, role: str | None = None) -> tuple[MessageCodec, dict, int]:
+def frames(draw: st.DrawFn, role: str | None = None) -> tuple[MessageCodec, dict[str, Any], int]:
     """A message codec, physical values on its raw grid (boundaries included), a counter."""
     mc = CODEC.by_role[draw(st.sampled_from(ROLES)) if role is None else role]
-    values = {}
+    values: dict[str, Any] = {}
     for f in mc.layouts:
         raw = draw(
             st.one_of(st.sampled_from([f.raw_min, f.raw_max]), st.integers(f.raw_min, f.raw_max))
@@ -43,7 +46,7 @@ def frames(draw: st.DrawFn, role: str | None = None) -> tuple[MessageCodec, dict
 
 
 @given(frames())
-def test_round_trip_every_message(frame: tuple[MessageCodec, dict, int]) -> None:
+def test_round_trip_every_message(frame: tuple[MessageCodec, dict[str, Any], int]) -> None:
     mc, values, counter = frame
     data = mc.encode(values, counter)
     assert len(data) == mc.length
@@ -56,7 +59,7 @@ def test_round_trip_every_message(frame: tuple[MessageCodec, dict, int]) -> None
 
 
 @given(frames())
-def test_agrees_with_cantools(frame: tuple[MessageCodec, dict, int]) -> None:
+def test_agrees_with_cantools(frame: tuple[MessageCodec, dict[str, Any], int]) -> None:
     """An independent implementation reads our frames the same way."""
     mc, values, counter = frame
     data = mc.encode(values, counter)
@@ -69,7 +72,7 @@ def test_agrees_with_cantools(frame: tuple[MessageCodec, dict, int]) -> None:
 
 @settings(max_examples=50)
 @given(frames())
-def test_every_single_bit_flip_is_detected(frame: tuple[MessageCodec, dict, int]) -> None:
+def test_every_single_bit_flip_is_detected(frame: tuple[MessageCodec, dict[str, Any], int]) -> None:
     mc, values, counter = frame
     data = mc.encode(values, counter)
     for bit in range(8 * len(data)):
@@ -103,7 +106,7 @@ def test_physical_rounding_to_resolution() -> None:
         ({"accel_mps2": 0.0, "speed_valid": 1}, "missing field 'speed_mps'"),
     ],
 )
-def test_encode_refuses_bad_values(values: dict, message: str) -> None:
+def test_encode_refuses_bad_values(values: dict[str, Any], message: str) -> None:
     with pytest.raises(EncodeError, match=message):
         CODEC.encode("ego", values)
 
@@ -114,8 +117,6 @@ def test_encode_unknown_role() -> None:
 
 
 def _with_crc(mc: MessageCodec, payload: bytearray) -> bytes:
-    from dbc.e2e import e2e_crc
-
     assert mc.crc_byte is not None
     payload[mc.crc_byte] = e2e_crc(mc.data_id, payload, mc.crc_byte)
     return bytes(payload)
@@ -241,7 +242,7 @@ def test_motorola_signals(tmp_path: Path) -> None:
     path = tmp_path / "moto.dbc"
     path.write_text(text)
     codec = load_codec(path)
-    db = cantools.database.load_file(str(path), strict=True)
+    db: Any = cantools.database.load_file(str(path), strict=True)
     values = {"speed_mps": 27.81, "accel_mps2": -3.33, "speed_valid": 1}
     data = codec.encode("ego", values, 9)
     theirs = db.get_message_by_name("ESC_Speed").decode(data, decode_choices=False)

@@ -2,17 +2,21 @@
 
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import cantools
 import pytest
 
 from dbc import BINDING_PATH, DBC_PATH
 
+ROOT = Path(__file__).resolve().parents[2]
+
 # message -> (sender, period ms, {signal: (min, max, unit)})
-EXPECTED = {
+EXPECTED: dict[str, tuple[str, int, dict[str, tuple[float, float, str]]]] = {
     "ESC_Speed": ("ESC", 10, {"VehicleSpeed": (0, 90, "m/s"), "LongAccel": (-20, 20, "m/s^2")}),
     "PEDAL_Status": (
         "PEDAL",
@@ -45,11 +49,42 @@ EXPECTED = {
 
 @pytest.fixture(scope="module")
 def db() -> cantools.database.can.Database:
-    return cantools.database.load_file(str(DBC_PATH), strict=True)
+    loaded = cantools.database.load_file(str(DBC_PATH), strict=True)
+    assert isinstance(loaded, cantools.database.can.Database)
+    return loaded
 
 
-def test_packaged_files_exist() -> None:
-    assert DBC_PATH.is_file() and BINDING_PATH.is_file()
+@pytest.mark.slow
+def test_installed_package_holds_the_network_files(tmp_path: Path) -> None:
+    """What an install holds, not what the checkout holds: setuptools builds the packages
+    from the project's configuration (pyproject's package-data) into a fresh folder, and
+    there the codec loads the DBC and binding that ship with it."""
+    src = tmp_path / "src"
+    src.mkdir()
+    for name in ("pyproject.toml", "README.md"):
+        shutil.copy(ROOT / name, src / name)
+    for package in ("pacc", "dbc", "ecu"):
+        shutil.copytree(ROOT / package, src / package, ignore=shutil.ignore_patterns("__pycache__"))
+    lib = tmp_path / "lib"
+    build = [sys.executable, "-c", "from setuptools import setup; setup()"]
+    subprocess.run(
+        [*build, "-q", "build_py", "--build-lib", str(lib)],
+        cwd=src,
+        capture_output=True,
+        check=True,
+    )
+    for name in (DBC_PATH.name, BINDING_PATH.name, "py.typed"):
+        assert (lib / "dbc" / name).is_file(), name
+    probe = "import dbc, dbc.codec; print(dbc.DBC_PATH); dbc.codec.load_codec()"
+    out = subprocess.run(
+        [sys.executable, "-c", probe],
+        cwd=tmp_path,
+        env={**os.environ, "PYTHONPATH": str(lib)},
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert Path(out.stdout.strip()) == lib / "dbc" / DBC_PATH.name
 
 
 def test_nodes(db: cantools.database.can.Database) -> None:
@@ -99,6 +134,7 @@ def test_every_enum_has_a_value_table(db: cantools.database.can.Database) -> Non
     found = {s.name for m in db.messages for s in m.signals if s.choices}
     assert enums <= found
     state = db.get_message_by_name("ACC_Command").get_signal_by_name("AccState")
+    assert state.choices is not None
     assert {int(k): str(v) for k, v in state.choices.items()} == {
         0: "Off",
         1: "Standby",
@@ -110,7 +146,7 @@ def test_every_enum_has_a_value_table(db: cantools.database.can.Database) -> Non
 
 def test_cantools_dump_succeeds() -> None:
     exe = shutil.which("cantools") or shutil.which(
-        "cantools", path=str(__import__("pathlib").Path(sys.executable).parent)
+        "cantools", path=str(Path(sys.executable).parent)
     )
     cmd = [exe] if exe else [sys.executable, "-m", "cantools"]
     out = subprocess.run([*cmd, "dump", str(DBC_PATH)], capture_output=True, text=True, check=True)

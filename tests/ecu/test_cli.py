@@ -5,6 +5,8 @@ from __future__ import annotations
 import itertools
 import json
 import os
+import subprocess
+import sys
 import threading
 import time
 from pathlib import Path
@@ -12,9 +14,12 @@ from pathlib import Path
 import can
 import pytest
 
+from dbc import DBC_PATH
 from dbc.codec import load_codec
-from ecu.cli import main
-from ecu.dgpt import load_dgpt
+from ecu.cli import main, run_until_done
+from ecu.dgpt import load_dgpt, predefined
+from ecu.node import EcuConfig, EcuNode
+from ecu.runtime import EcuRuntime
 from tests.peers import PeerNodes
 
 _ids = itertools.count()
@@ -22,7 +27,12 @@ CODEC = load_codec()
 
 
 class Peers(threading.Thread):
-    """Plays ESC/PEDAL/RADAR/HMI in real time: SET at 1.2 s, accelerator 1.6..3.0 s."""
+    """Plays ESC/PEDAL/RADAR/HMI in real time: SET at 1.2 s, accelerator 1.6..3.0 s.
+
+    The timeline starts at the ECU's first frame, not at the thread's start: on a loaded
+    machine (pytest -n 2 on two cores) the ECU may take a while to open its bus, and SET
+    needs a second of valid inputs before it.
+    """
 
     def __init__(self, channel: str, seconds: float) -> None:
         super().__init__(daemon=True)
@@ -33,6 +43,9 @@ class Peers(threading.Thread):
         with can.Bus(interface="virtual", channel=self.channel) as bus:
             peers = PeerNodes(bus, CODEC)
             peers.set("radar", gap_m=60.0)
+            deadline = time.monotonic() + 30.0
+            while bus.recv(0.05) is None and time.monotonic() < deadline:
+                pass
             t0 = time.monotonic()
             while (t := time.monotonic() - t0) < self.seconds:
                 peers.set("hmi", set=int(1.2 <= t < 1.4))
@@ -45,11 +58,12 @@ class Peers(threading.Thread):
                 time.sleep(0.002)
 
 
+@pytest.mark.slow
 def test_cli_runs_takeover_and_prints_summary(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     channel = f"ecu-cli-{next(_ids)}"
-    peers = Peers(channel, 3.8)
+    peers = Peers(channel, 4.2)
     peers.start()
     rc = main(
         [
@@ -60,7 +74,7 @@ def test_cli_runs_takeover_and_prints_summary(
             "--headway",
             "3",
             "--duration",
-            "3.5",
+            "4.0",
             "--takeovers",
             str(tmp_path / "to"),
             "--save-profile",
@@ -123,12 +137,10 @@ sys.exit(main(["-i", "virtual", "-c", "sigterm", "--headway", "3",
 """
 
 
+@pytest.mark.slow
 def test_sigterm_stops_cleanly_keeping_takeovers_and_profile(tmp_path: Path) -> None:
     """SIGTERM (systemd, docker stop) during a takeover's post window: the open segment is
     written, the adapted profile saved and the summary printed, exit code 0."""
-    import subprocess
-    import sys
-
     script = tmp_path / "run.py"
     script.write_text(_SIGTERM_SCRIPT)
     proc = subprocess.run(
@@ -137,6 +149,7 @@ def test_sigterm_stops_cleanly_keeping_takeovers_and_profile(tmp_path: Path) -> 
         capture_output=True,
         text=True,
         timeout=60,
+        check=False,
     )
     assert proc.returncode == 0, proc.stderr
     assert "takeover 1 (accel)" in proc.stdout and "takeovers:      1" in proc.stdout
@@ -148,9 +161,6 @@ def test_sigterm_stops_cleanly_keeping_takeovers_and_profile(tmp_path: Path) -> 
 def test_closed_stdout_does_not_stop_the_ecu_or_lose_the_profile(tmp_path: Path) -> None:
     """The reader of the ECU's output goes away (``pacc ecu | head``, a dead log pipe): the
     ECU keeps running to the end and still saves the profile; no traceback."""
-    import subprocess
-    import sys
-
     target = tmp_path / "p.json"
     proc = subprocess.Popen(
         [
@@ -213,8 +223,6 @@ def test_dbc_without_periods_is_a_clear_error(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """A wrong DBC (no GenMsgCycleTime on an input) exits 1 with a message, no traceback."""
-    from dbc import DBC_PATH
-
     dbc = tmp_path / "nocycle.dbc"
     dbc.write_text(DBC_PATH.read_text().replace('BA_ "GenMsgCycleTime" BO_ 176 10;\n', ""))
     assert main(["-i", "virtual", "-c", f"ecu-cli-{next(_ids)}", "--dbc", str(dbc)]) == 1
@@ -225,8 +233,6 @@ def test_dbc_without_periods_is_a_clear_error(
 def test_dbc_that_cannot_carry_fault_is_a_clear_error(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from dbc import DBC_PATH
-
     dbc = tmp_path / "narrow.dbc"
     dbc.write_text(
         DBC_PATH.read_text().replace(
@@ -310,15 +316,6 @@ def test_bus_failure_ends_the_run_cleanly() -> None:
     """A bus that fails under the runtime (here: shut down by another thread, so python-can's
     virtual bus raises CanOperationError on receive) ends the run with the error text
     instead of a traceback, and the open takeover segment is still flushed."""
-    import threading
-
-    import can
-
-    from ecu.cli import run_until_done
-    from ecu.dgpt import predefined
-    from ecu.node import EcuConfig, EcuNode
-    from ecu.runtime import EcuRuntime
-
     bus = can.Bus(interface="virtual", channel=f"ecu-cli-{next(_ids)}")
     flushed: list[bool] = []
     node = EcuNode(EcuConfig(), predefined(1.5))
@@ -326,6 +323,7 @@ def test_bus_failure_ends_the_run_cleanly() -> None:
     rt = EcuRuntime(bus, node)
     timer = threading.Timer(0.2, bus.shutdown)
     timer.start()
+    t0 = time.monotonic()
     try:
         error = run_until_done(rt, 5.0)
     finally:
@@ -333,4 +331,5 @@ def test_bus_failure_ends_the_run_cleanly() -> None:
         bus.shutdown()
     assert error is not None and "closed" in error.lower()
     assert flushed == [True]
-    assert 5 <= rt.cycles < 100  # it ran, then stopped at the failure, not at 5 s
+    # it ran, then stopped at the failure, not at 5 s (cycle counts vary under load)
+    assert rt.cycles >= 1 and time.monotonic() - t0 < 4.0

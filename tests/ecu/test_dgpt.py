@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -201,10 +202,6 @@ def test_bounds_and_clamp() -> None:
 
 
 def test_save_leaves_no_temp_file_and_writers_do_not_share_one(tmp_path: Path) -> None:
-    import threading
-
-    from ecu.dgpt import load_dgpt, predefined, save_dgpt
-
     target = tmp_path / "t.json"
     tables = [predefined(1.0 + 0.5 * i) for i in range(4)]
     errors: list[BaseException] = []

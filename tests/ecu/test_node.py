@@ -404,6 +404,7 @@ engage = st.builds(  # valid inputs, main on: held, then SET pressed
 )
 
 
+@pytest.mark.slow
 @given(
     start=engage,
     hold=st.integers(1, 150),

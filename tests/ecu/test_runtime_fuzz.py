@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 import can
+import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
@@ -100,6 +101,33 @@ def _check_commands(cmds: list[tuple[dict[str, Any], bool]]) -> None:
         prev_a, prev_active, prev_state = a, active, state
 
 
+def _inject(peers: PeerNodes, role_modes: dict[str, str], t: float) -> None:
+    """This tick's faults: corrupted CRCs, frozen counters, garbage frames."""
+    for role in ROLES:
+        mode = role_modes.get(role, "ok")
+        if mode == "corrupt":
+            peers.corrupt(role)
+        elif mode == "freeze":
+            peers.outbox.counters[role] = 7
+    if "garbage" in role_modes.values():
+        peers.send_garbage(t)
+
+
+def _read_commands(listener: can.BusABC, counters: list[int]) -> list[dict[str, Any]]:
+    """The ACC_Command frames waiting on ``listener``, decoded (CRC checked); their alive
+    counters are appended to ``counters``."""
+    got = []
+    while (msg := listener.recv(0)) is not None:
+        mc = CODEC.by_id.get(msg.arbitration_id)
+        if mc is not None and mc.role == "command":
+            decoded = CODEC.decode(msg.arbitration_id, msg.data)
+            got.append(decoded.values)
+            assert decoded.counter is not None
+            counters.append(decoded.counter)
+    return got
+
+
+@pytest.mark.slow
 @settings(
     max_examples=40,
     deadline=None,
@@ -143,26 +171,12 @@ def test_arbitrary_traffic_keeps_the_command_contract(
             for _ in range(ticks):
                 k += 1
                 t = k * 0.01
-                for role in ROLES:
-                    mode = role_modes.get(role, "ok")
-                    if mode == "corrupt":
-                        peers.corrupt(role)
-                    elif mode == "freeze":
-                        peers.outbox.counters[role] = 7
-                if "garbage" in role_modes.values():
-                    peers.send_garbage(t)
+                _inject(peers, role_modes, t)
                 peers.send_due(t)
                 cycles = rt.cycles
                 rt.advance_to(t)
                 ran = rt.cycles - cycles
-                got = []
-                while (msg := listener.recv(0)) is not None:
-                    mc = CODEC.by_id.get(msg.arbitration_id)
-                    if mc is not None and mc.role == "command":
-                        decoded = CODEC.decode(msg.arbitration_id, msg.data)  # CRC checked
-                        got.append(decoded.values)
-                        assert decoded.counter is not None
-                        counters.append(decoded.counter)
+                got = _read_commands(listener, counters)
                 assert len(got) == ran <= 1
                 if got:
                     assert rt.last_outputs is not None

@@ -7,7 +7,8 @@ from dataclasses import fields, replace
 
 import pytest
 
-from ecu.state import AccState, Events, transition
+from dbc.codec import load_codec
+from ecu.state import AccState, Events, FaultCode, transition
 
 S = AccState
 ON = Events(main_on=True)
@@ -62,6 +63,22 @@ ALL_EVENTS = [
 ]
 
 
+def _check_engaged(state: AccState, ev: Events, new: AccState, mode: str) -> None:
+    """The rules of a transition into ACTIVE or OVERRIDE."""
+    engaged_before = state in (S.ACTIVE, S.OVERRIDE)
+    if new is S.ACTIVE:  # engaged and nobody on a pedal, inputs valid
+        assert ev.inputs_valid and not ev.accel_pressed and not ev.brake_pressed
+        if state is S.FAULT:  # re-engage only by SET after 1 s of valid inputs
+            assert ev.inputs_settled and ev.set_edge
+        elif not engaged_before:
+            assert ev.inputs_settled and (ev.set_edge or (ev.resume_edge and ev.has_set_speed))
+    if new is S.OVERRIDE:
+        assert ev.accel_pressed or ev.brake_pressed
+        assert ev.inputs_valid
+        if mode == "cancel":
+            assert not ev.brake_pressed
+
+
 @pytest.mark.parametrize("mode", ["resume", "cancel"])
 @pytest.mark.parametrize("state", list(AccState))
 def test_exhaustive_invariants(state: AccState, mode: str) -> None:
@@ -80,17 +97,7 @@ def test_exhaustive_invariants(state: AccState, mode: str) -> None:
             assert (engaged_before and not ev.inputs_valid) or state is S.FAULT
         if engaged_before and not ev.inputs_valid:
             assert new is S.FAULT
-        if new is S.ACTIVE:  # engaged and nobody on a pedal, inputs valid
-            assert ev.inputs_valid and not ev.accel_pressed and not ev.brake_pressed
-            if state is S.FAULT:  # re-engage only by SET after 1 s of valid inputs
-                assert ev.inputs_settled and ev.set_edge
-            elif not engaged_before:
-                assert ev.inputs_settled and (ev.set_edge or (ev.resume_edge and ev.has_set_speed))
-        if new is S.OVERRIDE:
-            assert ev.accel_pressed or ev.brake_pressed
-            assert ev.inputs_valid
-            if mode == "cancel":
-                assert not ev.brake_pressed
+        _check_engaged(state, ev, new, mode)
         if state in (S.STANDBY, S.FAULT) and new in (S.ACTIVE, S.OVERRIDE):
             assert not ev.brake_pressed
         if state is S.STANDBY:
@@ -105,9 +112,15 @@ def test_exhaustive_invariants(state: AccState, mode: str) -> None:
     assert seen == expected_reachable[state]
 
 
-def test_codes_match_dbc() -> None:
-    from dbc.codec import load_codec
+def _value_table(message: str, signal: str) -> dict[int, str]:
+    choices = load_codec().db.get_message_by_name(message).get_signal_by_name(signal).choices
+    return {int(k): str(v).replace(" ", "").upper() for k, v in choices.items()}
 
-    assert [int(s) for s in AccState] == [0, 1, 2, 3, 4]
-    mc = load_codec().by_role["command"]
-    assert mc.bounds("acc_state") == (0, 4)
+
+def test_codes_match_the_dbc_value_tables() -> None:
+    """AccState and FaultCode are the one definition of the codes; the DBC's value tables
+    name the same codes (no code the ECU never sends, e.g. a dead INTERNAL fault)."""
+    assert _value_table("ACC_Command", "AccState") == {int(s): s.name for s in AccState}
+    faults = {int(f): f.name.replace("_", "") for f in FaultCode}
+    assert _value_table("ACC_Status", "FaultCode") == faults
+    assert load_codec().by_role["command"].bounds("acc_state") == (0, int(max(AccState)))

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from mcap.writer import Writer
 
 from cloud_sync.tripfiles import load_trip, read_csv_trip
 from ecu.triplog import SAMPLE_TOPIC, Trip, TripLogError, read_trip, write_trip
@@ -85,16 +86,14 @@ def test_corrupt_file_refused(tmp_path: Path) -> None:
 
 
 def test_foreign_mcap_refused(tmp_path: Path) -> None:
-    from mcap.writer import Writer
-
     path = tmp_path / "other.mcap"
-    with open(path, "wb") as f:
+    with path.open("wb") as f:
         w = Writer(f)
         w.start()
         sid = w.register_schema("x", "jsonschema", b"{}")
         cid = w.register_channel("/other", "json", sid)
         w.add_message(cid, 0, json.dumps({"a": 1}).encode(), 0)
-        w.finish()
+        w.finish()  # type: ignore[no-untyped-call]
     with pytest.raises(TripLogError, match=f"no {SAMPLE_TOPIC} channel"):
         read_trip(path)
 
