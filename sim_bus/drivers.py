@@ -71,12 +71,19 @@ class DriverParams:
     predefined_setting: PredefinedSetting = "medium"
 
     def __post_init__(self) -> None:
+        self._check_id()
+        self._check_preference()
+        self._check_habits()
+
+    def _check_id(self) -> None:
         if not (isinstance(self.driver_id, str) and _DRIVER_ID.fullmatch(self.driver_id)):
             # it names files (the IRL cache) and tables: no path separators, no surprises
             raise DriverError(
                 f"driver_id must be 1-64 letters, digits, '_', '-' or '.', "
                 f"starting with a letter or digit; got {self.driver_id!r}"
             )
+
+    def _check_preference(self) -> None:
         speeds, heads = self.headway_speeds_mps, self.headway_s
         if len(speeds) != len(heads) or len(speeds) < 1:
             raise DriverError(
@@ -94,6 +101,8 @@ class DriverParams:
             raise DriverError(f"{self.driver_id}: condition_factor must lie in 0.5..2")
         if not 0.5 <= self.acc_preference_factor <= 2.0:
             raise DriverError(f"{self.driver_id}: acc_preference_factor must lie in 0.5..2")
+
+    def _check_habits(self) -> None:
         positive = (
             "patience_s",
             "patience_far_s",

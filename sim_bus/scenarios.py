@@ -16,6 +16,7 @@ slowing to 5 m/s) and Scenario B (unseen: newly synthesized), 300 s each.
 
 from __future__ import annotations
 
+import argparse
 import csv
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -212,7 +213,8 @@ def random_speed_sequence(
     span = x.max() - x.min()
     if span < 1e-9:
         return np.linspace(lo_mps, hi_mps, n)
-    return lo_mps + (x - x.min()) * (hi_mps - lo_mps) / span
+    scaled: np.ndarray = lo_mps + (x - x.min()) * (hi_mps - lo_mps) / span
+    return scaled
 
 
 #: speed ranges of the four manual-driving profiles (m/s); together they cover 5-30 m/s
@@ -326,8 +328,6 @@ def load_profile_csv(path: Path, name: str | None = None) -> LeadProfile:
 
 def main(argv: list[str] | None = None) -> int:
     """``python -m sim_bus.scenarios list|export NAME PATH [--seed N]``: inspect or export."""
-    import argparse
-
     p = argparse.ArgumentParser(
         prog="python -m sim_bus.scenarios", description="list or export the canonical lead profiles"
     )

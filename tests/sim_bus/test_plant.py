@@ -10,6 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from sim_bus.plant import Plant, PlantConfig, PlantState, lag_factor, step
+from sim_bus.world import WorldConfig
 
 EXACT = PlantConfig(dt_s=0.01, actuator_tau_s=0.0, sigma_v_mps=0.0, sigma_g_m=0.0)
 
@@ -116,8 +117,6 @@ def test_bad_config_rejected(field_name: str, value: float) -> None:
     ],
 )
 def test_bad_world_config_rejected(field_name: str, value: float) -> None:
-    from sim_bus.world import WorldConfig
-
     with pytest.raises(ValueError):
         WorldConfig(**{field_name: value})  # type: ignore[arg-type]
     assert WorldConfig().driver_dt_s == 0.05  # the defaults are valid

@@ -14,6 +14,7 @@ from sim_bus.errors import ScenarioError
 from sim_bus.scenarios import (
     DT_S,
     GeneratorConfig,
+    LeadProfile,
     canonical_profiles,
     load_profile_csv,
     random_speed_sequence,
@@ -24,11 +25,11 @@ from sim_bus.scenarios import (
 
 
 @pytest.fixture(scope="module")
-def profiles() -> dict:
+def profiles() -> dict[str, LeadProfile]:
     return canonical_profiles(0)
 
 
-def test_canonical_set_shape(profiles: dict) -> None:
+def test_canonical_set_shape(profiles: dict[str, LeadProfile]) -> None:
     assert set(profiles) == {"manual1", "manual2", "manual3", "manual4", "A", "B"}
     for p in profiles.values():
         assert len(p.t_s) == 3001 and p.duration_s == pytest.approx(300.0)
@@ -36,7 +37,7 @@ def test_canonical_set_shape(profiles: dict) -> None:
         assert np.all(np.isfinite(p.v_lead_mps)) and np.all(p.v_lead_mps >= 0)
 
 
-def test_acceleration_within_bounds(profiles: dict) -> None:
+def test_acceleration_within_bounds(profiles: dict[str, LeadProfile]) -> None:
     cfg = GeneratorConfig()
     for p in profiles.values():
         a = np.diff(p.v_lead_mps) / DT_S
@@ -44,7 +45,7 @@ def test_acceleration_within_bounds(profiles: dict) -> None:
         assert a.min() >= -cfg.decel_max_mps2 - 1e-9
 
 
-def test_manual_profiles_cover_5_to_30(profiles: dict) -> None:
+def test_manual_profiles_cover_5_to_30(profiles: dict[str, LeadProfile]) -> None:
     v = np.concatenate([profiles[f"manual{k}"].v_lead_mps for k in range(1, 5)])
     hist, _ = np.histogram(v, bins=np.arange(5.0, 31.0, 5.0))
     assert np.all(hist > 100), hist  # every 5 m/s band visited for > 10 s
@@ -80,7 +81,7 @@ def test_requested_average_speeds_are_met() -> None:
     assert np.allclose(means, speeds[: len(means)], atol=GeneratorConfig().tolerance_mps + 1e-6)
 
 
-def test_scenario_a_slows_from_30_to_5(profiles: dict) -> None:
+def test_scenario_a_slows_from_30_to_5(profiles: dict[str, LeadProfile]) -> None:
     v = profiles["A"].v_lead_mps
     assert v[:300].mean() > 25.0
     assert v[-300:].mean() < 10.0
@@ -88,9 +89,10 @@ def test_scenario_a_slows_from_30_to_5(profiles: dict) -> None:
     assert np.sum(np.diff(means) < 0) >= 7  # mostly decreasing
 
 
-def test_scenario_a_is_drawn_from_the_manual_profiles(profiles: dict) -> None:
+def test_scenario_a_is_drawn_from_the_manual_profiles(profiles: dict[str, LeadProfile]) -> None:
     a = profiles["A"]
     assert {s.source for s in a.segments} <= {"manual1", "manual2", "manual3", "manual4"}
+    assert a.raw_v_mps is not None  # a profile built from segments keeps them unfiltered
     pos = 0
     for seg in a.segments:
         src = profiles[seg.source].v_lead_mps[seg.start : seg.start + seg.length]
@@ -101,10 +103,11 @@ def test_scenario_a_is_drawn_from_the_manual_profiles(profiles: dict) -> None:
             break
 
 
-def test_segments_really_come_from_the_data(profiles: dict) -> None:
+def test_segments_really_come_from_the_data(profiles: dict[str, LeadProfile]) -> None:
     pairs = {p.pair_id: p for p in load_human_pairs()}
     for name in ("manual2", "B"):
         prof = profiles[name]
+        assert prof.raw_v_mps is not None
         pos = 0
         for seg in prof.segments:
             src = pairs[seg.source].v_leader_mps[seg.start : seg.start + seg.length]
@@ -140,7 +143,7 @@ def test_bad_speed_sequence_rejected() -> None:
         synthesize(np.array([10.0]), 0, "x")  # 20 s of segments < 300 s
 
 
-def test_csv_round_trip(tmp_path: Path, profiles: dict) -> None:
+def test_csv_round_trip(tmp_path: Path, profiles: dict[str, LeadProfile]) -> None:
     path = tmp_path / "b.csv"
     save_profile_csv(profiles["B"], path)
     back = load_profile_csv(path)
@@ -148,7 +151,9 @@ def test_csv_round_trip(tmp_path: Path, profiles: dict) -> None:
     assert np.allclose(back.t_s, profiles["B"].t_s)
 
 
-def test_shorten_keeps_whole_steps_and_refuses_less_than_one(profiles: dict) -> None:
+def test_shorten_keeps_whole_steps_and_refuses_less_than_one(
+    profiles: dict[str, LeadProfile],
+) -> None:
     b = profiles["B"]
     assert len(shorten(b, 0.1).t_s) == 2 and len(shorten(b, 20.0).t_s) == 201
     for long in (300.0, 1e300, float("inf")):  # to or beyond the end: all of it
