@@ -22,16 +22,20 @@ import math
 
 import numpy as np
 
+from dbc.codec import load_codec
+from ecu.pedals import PedalScale
+from ecu.state import AccState
 from sim_bus.drivers import DriverParams
 
-#: AccState codes on the bus
-ACC_OFF, ACC_STANDBY, ACC_ACTIVE, ACC_OVERRIDE, ACC_FAULT = 0, 1, 2, 3, 4
 #: acceleration of a coasting car with no pedal pressed (drag, engine braking), m/s²
 COAST_MPS2 = -0.3
 #: manual pedal mapping: full accelerator gives this acceleration; brake pressure per m/s²
+#: (the pedals' full scale, 100 % and 250 bar, is the network's: ecu.pedals.PedalScale)
 ACCEL_FULL_MPS2 = 3.0
 BRAKE_BAR_PER_MPS2 = 12.0
 DECEL_LIMIT_MPS2 = 8.0
+#: the AccState codes in which the ACC drives the car
+_ENGAGED = (AccState.ACTIVE, AccState.OVERRIDE)
 BUTTON_HOLD_S = 0.3
 RESUME_DELAY_S = 1.0
 MIN_PRESS_S = 0.4
@@ -59,7 +63,8 @@ class DriverAgent:
     Outputs after :meth:`step`: ``a_cmd_mps2`` (the acceleration its pedals ask for, used when
     a pedal is pressed or ACC is not engaged), ``accel_pressed``, ``brake_pressed``,
     ``accel_pct``, ``brake_bar``, ``set_button``, ``resume_button``, ``pref_gap_m``.
-    ``acc_mode`` False: manual driving throughout (ACC off).
+    ``acc_mode`` False: manual driving throughout (ACC off). ``pedals``: the pedals' full
+    scale (default: the packaged network's), which bounds ``accel_pct`` and ``brake_bar``.
     """
 
     def __init__(
@@ -69,7 +74,11 @@ class DriverAgent:
         dt_s: float = 0.05,
         acc_mode: bool = True,
         engage_s: float = 0.5,
+        pedals: PedalScale | None = None,
     ) -> None:
+        scale = pedals if pedals is not None else PedalScale.from_codec(load_codec())
+        self._accel_full_pct = scale.accel_full_pct
+        self._brake_full_bar = scale.brake_full_bar
         self.p = p
         self.dt_s = dt_s
         self.acc_mode = acc_mode
@@ -146,8 +155,8 @@ class DriverAgent:
         if self.t_s < self._button_until:
             self.set_button = self._button == "set"
             self.resume_button = self._button == "resume"
-        engaged = acc_state in (ACC_ACTIVE, ACC_OVERRIDE)
-        self._fault_t = self._fault_t + dt if acc_state == ACC_FAULT else 0.0
+        engaged = acc_state in _ENGAGED
+        self._fault_t = self._fault_t + dt if acc_state == AccState.FAULT else 0.0
         if engaged:
             self._engaged_once = True
         supervising = self.acc_mode and (engaged or self.mode != "idle")
@@ -170,10 +179,10 @@ class DriverAgent:
         if which == "brake":
             self.accel_pressed, self.brake_pressed = False, True
             self.accel_pct = 0.0
-            self.brake_bar = min(max(-a * BRAKE_BAR_PER_MPS2, 1.0), 250.0)
+            self.brake_bar = min(max(-a * BRAKE_BAR_PER_MPS2, 1.0), self._brake_full_bar)
         elif which == "accel":
             self.accel_pressed, self.brake_pressed = True, False
-            self.accel_pct = min(max(a / ACCEL_FULL_MPS2 * 100.0, 1.0), 100.0)
+            self.accel_pct = min(max(a / ACCEL_FULL_MPS2 * 100.0, 1.0), self._accel_full_pct)
             self.brake_bar = 0.0
         else:
             self.accel_pressed = self.brake_pressed = False
@@ -194,14 +203,14 @@ class DriverAgent:
         quiet = self.t_s - self._last_release_t >= RESUME_DELAY_S
         feels_right = abs(g - pref) <= band and vl - v > -1.0
         can_engage = self.t_s >= self.engage_s and (
-            acc_state == ACC_STANDBY or self._fault_t >= FAULT_RETRY_S
+            acc_state == AccState.STANDBY or self._fault_t >= FAULT_RETRY_S
         )
         if can_engage and feels_right and quiet:
             self.a_cmd_mps2 = COAST_MPS2
             self._set_pedals(0.0, "none")
             if self.t_s >= self._button_until + BUTTON_HOLD_S:
                 # RESUME after a cancel; SET at first and after a fault (a new set speed)
-                again = self._engaged_once and acc_state == ACC_STANDBY
+                again = self._engaged_once and acc_state == AccState.STANDBY
                 self._press_button("resume" if again else "set")
             return
         if can_engage and feels_right:
@@ -225,9 +234,7 @@ class DriverAgent:
             self._close_t = self._close_t + dt if (g < pref - band or g_pred < pref - band) else 0.0
             self._far_t = self._far_t + dt if g > pref + band and closing <= 0.3 else 0.0
             rested = self.t_s - self._last_release_t >= p.refractory_s
-            if ttc < p.ttc_brake_s or g < 0.5 * pref:
-                self._start("brake")
-            elif rested and self._close_t >= p.patience_s:
+            if ttc < p.ttc_brake_s or g < 0.5 * pref or (rested and self._close_t >= p.patience_s):
                 self._start("brake")
             elif rested and self._far_t >= p.patience_far_s:
                 self._start("accel")

@@ -14,9 +14,26 @@ At the end (or on Ctrl-C) it prints the same figures as ``pacc drive``. Exit sta
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
+
+import can
+
+from ecu.pedals import PedalScale
+from ecu.triplog import TripLogError, write_trip
+from sim_bus.drive import resolve_profile, with_condition
+from sim_bus.drivers import GAP_SETTING_CODE, DriverParams, load_driver
+from sim_bus.errors import SimError
+from sim_bus.faults import FaultSpec, fault_rng, parse_faults
+from sim_bus.node import SimNode
+from sim_bus.scenarios import LeadProfile, shorten
+from sim_bus.trip import world_trip
+from sim_bus.world import World
+
+#: seconds between two progress lines
+PROGRESS_EVERY_S = 5.0
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -46,42 +63,54 @@ def _parser() -> argparse.ArgumentParser:
 
 def _check_writable(path: Path) -> None:
     """Raise SimError unless ``path`` can be created or overwritten (a file, not a folder)."""
-    import os
-
-    from sim_bus.errors import SimError
-
     parent = path.resolve().parent
     if path.is_dir() or not (parent.is_dir() and os.access(parent, os.W_OK)):
         raise SimError(f"--log {path}: not a writable file location")
 
 
+def _setup(args: argparse.Namespace) -> tuple[DriverParams, FaultSpec, LeadProfile]:
+    """The driver, the faults and the lead profile of the run; SimError on bad options."""
+    if args.seed < 0:
+        raise SimError(f"--seed must be >= 0, got {args.seed}")
+    driver = with_condition(load_driver(args.driver), args.condition_factor)
+    faults = parse_faults(args.faults)
+    profile = resolve_profile(args.scenario, args.seed)
+    if args.duration is not None:
+        if not args.duration > 0:
+            raise SimError("--duration must be > 0")
+        profile = shorten(profile, args.duration)
+    if args.log is not None:  # refuse now, not after the drive when the run would be lost
+        _check_writable(args.log)
+    return driver, faults, profile
+
+
+def _run(node: SimNode, duration_s: float, quiet: bool) -> None:
+    """Run ``node`` in real time, a progress line every few seconds unless ``quiet``."""
+    world = node.world
+    last_print = [time.monotonic()]
+
+    def progress() -> bool:
+        now = time.monotonic()
+        if not quiet and now - last_print[0] >= PROGRESS_EVERY_S:
+            last_print[0] = now
+            print(
+                f"t {node.t_s:6.1f} s  v {world.plant.v_mps:5.1f} m/s  gap "
+                f"{world.plant.gap_m:6.1f} m  AccState {node.acc_state}",
+                file=sys.stderr,
+            )
+        return False
+
+    try:
+        node.run_realtime(duration_s, stop=progress)
+    except KeyboardInterrupt:
+        print("pacc sim: interrupted", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc sim``; returns the exit status."""
     args = _parser().parse_args(argv)
-    import can
-    import numpy as np
-
-    from sim_bus.drive import resolve_profile, with_condition
-    from sim_bus.drivers import GAP_SETTING_CODE, load_driver
-    from sim_bus.errors import SimError
-    from sim_bus.faults import parse_faults
-    from sim_bus.metrics import drive_metrics
-    from sim_bus.node import SimNode
-    from sim_bus.scenarios import shorten
-    from sim_bus.world import World
-
     try:
-        if args.seed < 0:
-            raise SimError(f"--seed must be >= 0, got {args.seed}")
-        driver = with_condition(load_driver(args.driver), args.condition_factor)
-        faults = parse_faults(args.faults)
-        profile = resolve_profile(args.scenario, args.seed)
-        if args.duration is not None:
-            if not args.duration > 0:
-                raise SimError("--duration must be > 0")
-            profile = shorten(profile, args.duration)
-        if args.log is not None:  # refuse now, not after the drive when the run would be lost
-            _check_writable(args.log)
+        driver, faults, profile = _setup(args)
     except SimError as exc:
         print(f"pacc sim: error: {exc}", file=sys.stderr)
         return 2
@@ -93,42 +122,20 @@ def main(argv: list[str] | None = None) -> int:
         print(f"pacc sim: error: cannot open the bus: {exc}", file=sys.stderr)
         return 2
     world = World(driver, profile, args.seed)
-    rng = np.random.default_rng(np.random.SeedSequence([args.seed, 0x64726976]).spawn(1)[0])
     node = SimNode(
-        bus, world, faults=faults, rng=rng, gap_setting=GAP_SETTING_CODE[driver.predefined_setting]
+        bus,
+        world,
+        faults=faults,
+        rng=fault_rng(args.seed),
+        gap_setting=GAP_SETTING_CODE[driver.predefined_setting],
     )
     start = time.monotonic()
-    last_print = [start]
-
-    def progress() -> bool:
-        now = time.monotonic()
-        if not args.quiet and now - last_print[0] >= 5.0:
-            last_print[0] = now
-            print(
-                f"t {node.t_s:6.1f} s  v {world.plant.v_mps:5.1f} m/s  gap "
-                f"{world.plant.gap_m:6.1f} m  AccState {node.acc_state}",
-                file=sys.stderr,
-            )
-        return False
-
     try:
-        node.run_realtime(profile.duration_s, stop=progress)
-    except KeyboardInterrupt:
-        print("pacc sim: interrupted", file=sys.stderr)
+        _run(node, profile.duration_s, args.quiet)
     finally:
         bus.shutdown()
     log = world.log()
-    m = drive_metrics(
-        log.t_s,
-        log.v_mps,
-        log.gap_m,
-        log.v_lead_mps,
-        log.a_mps2,
-        log.acc_state,
-        log.accel_pressed,
-        log.brake_pressed,
-        log.pref_gap_m,
-    )
+    m = log.metrics()
     collided = world.plant.collided
     print(
         f"sim: scenario {args.scenario}, driver {driver.driver_id}, {world.t_s:.1f} s in "
@@ -141,31 +148,14 @@ def main(argv: list[str] | None = None) -> int:
         f"{m.press_onsets}  collisions {1 if collided else 0}"
     )
     if args.log is not None:
-        from ecu.triplog import Trip, TripLogError, write_trip
-
-        sl = slice(None, None, 2)
-        trip = Trip(
-            t_s=log.t_s[sl],
-            v_mps=log.v_mps[sl],
-            gap_m=log.gap_m[sl],
-            v_lead_mps=log.v_lead_mps[sl],
-            a_mps2=log.a_mps2[sl],
-            accel_pedal=np.clip(log.accel_pct[sl] / 100.0, 0, 1),
-            brake_pedal=np.clip(log.brake_bar[sl] / 250.0, 0, 1),
-            acc_state=log.acc_state[sl],
-            meta={
-                "driver_id": driver.driver_id,
-                "condition": "dry",
-                "mode": "acc",
-                "condition_factor": args.condition_factor,
-                "scenario": args.scenario,
-                "seed": args.seed,
-                "collision": collided,
-                "source": "sim_bus.cli",
-            },
-        )
+        meta = {
+            "scenario": args.scenario,
+            "seed": args.seed,
+            "collision": collided,
+            "source": "sim_bus.cli",
+        }
         try:
-            write_trip(args.log, trip)
+            write_trip(args.log, world_trip(log, driver, PedalScale.from_codec(node.codec), meta))
         except (TripLogError, OSError) as exc:
             print(f"pacc sim: error: cannot write {args.log}: {exc}", file=sys.stderr)
             return 2

@@ -14,29 +14,41 @@ ended in a collision, 2 on bad options or input files.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import itertools
 import math
 import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal
+from typing import Any, Literal, get_args
 
-if TYPE_CHECKING:
-    from ecu.adaptation import AdaptationParams, Decision
-    from ecu.dgpt import Dgpt
-    from ecu.runtime import RuntimeSummary
-    from sim_bus.drivers import DriverParams
-    from sim_bus.metrics import DriveMetrics
-    from sim_bus.scenarios import LeadProfile
-    from sim_bus.world import WorldLog
+import can
+
+from dbc.codec import load_codec
+from ecu import EcuError
+from ecu.adaptation import ADAPTATION_MODES, AdaptationParams, Decision
+from ecu.dgpt import Dgpt, load_dgpt, predefined
+from ecu.node import EcuConfig, EcuNode
+from ecu.pedals import PedalScale
+from ecu.runtime import EcuRuntime, RuntimeSummary
+from ecu.triplog import Trip, TripLogError, write_trip
+from sim_bus.drivers import GAP_SETTING_CODE, DriverParams, load_driver
+from sim_bus.errors import DriveError, DriverError, ScenarioError, SimError
+from sim_bus.faults import fault_rng, parse_faults
+from sim_bus.irl_table import irl_table
+from sim_bus.metrics import DriveMetrics
+from sim_bus.node import SimNode
+from sim_bus.scenarios import LeadProfile, canonical_profiles, load_profile_csv, shorten
+from sim_bus.trip import world_trip
+from sim_bus.world import World, WorldConfig, WorldLog
 
 Controller = Literal["predefined", "predefined+oa", "irl", "irl+oa"]
-CONTROLLERS: tuple[str, ...] = ("predefined", "predefined+oa", "irl", "irl+oa")
-#: ``ecu.adaptation.ADAPTATION_MODES``, repeated here so ``--help`` needs no numpy (tested)
-ADAPTATION_MODE_CHOICES: tuple[str, ...] = ("paper", "timegap")
+CONTROLLERS: tuple[str, ...] = get_args(Controller)
 #: ACC set speed in the car-following study: above every lead speed, so the lead governs
 SET_SPEED_MPS = 40.0
+#: creation time of every table a drive makes (predefined, adapted): drives stay pure
+FIXED_UTC = "2000-01-01T00:00:00Z"
 _channel_ids = itertools.count()
 
 
@@ -92,10 +104,6 @@ class DriveResult:
 
 def with_condition(driver: DriverParams, factor: float) -> DriverParams:
     """The driver under a driving condition: its condition factor multiplied by ``factor``."""
-    import dataclasses
-
-    from sim_bus.errors import DriverError
-
     if not (math.isfinite(factor) and factor > 0):
         raise DriverError(f"condition factor must be a positive number, got {factor}")
     if factor == 1.0:
@@ -105,18 +113,13 @@ def with_condition(driver: DriverParams, factor: float) -> DriverParams:
 
 def predefined_table(driver: DriverParams) -> Dgpt:
     """The Predefined controller's table: the driver's chosen constant headway, d0 = 4 m."""
-    from ecu.dgpt import predefined
-
     return predefined(
-        driver.predefined_headway_s, driver_id=driver.driver_id, created_utc="2000-01-01T00:00:00Z"
+        driver.predefined_headway_s, driver_id=driver.driver_id, created_utc=FIXED_UTC
     )
 
 
 def resolve_profile(scenario: str, seed: int) -> LeadProfile:
     """A canonical profile name (A, B, manual1..4) or a CSV file of ``t_s,v_lead_mps``."""
-    from sim_bus.errors import ScenarioError
-    from sim_bus.scenarios import canonical_profiles, load_profile_csv
-
     if scenario.lower().endswith(".csv"):
         return load_profile_csv(Path(scenario))
     profiles = canonical_profiles(seed)
@@ -141,21 +144,6 @@ def run_drive(
     ``record_channel``: when given, the drive's virtual channel name (so a test can attach a
     listener that sees every frame); by default a private, unique channel.
     """
-    import can
-    import numpy as np
-
-    from dbc.codec import load_codec
-    from ecu.adaptation import AdaptationParams
-    from ecu.node import EcuConfig, EcuNode
-    from ecu.runtime import EcuRuntime
-    from sim_bus.drivers import GAP_SETTING_CODE
-    from sim_bus.errors import DriveError
-    from sim_bus.faults import parse_faults
-    from sim_bus.metrics import drive_metrics
-    from sim_bus.node import SimNode
-    from sim_bus.scenarios import shorten
-    from sim_bus.world import World, WorldConfig
-
     if cfg.controller not in CONTROLLERS:
         raise ValueError(f"controller must be one of {CONTROLLERS}")
     if cfg.seed < 0:
@@ -165,26 +153,10 @@ def run_drive(
         prof = shorten(prof, cfg.duration_s)
     faults = parse_faults(cfg.faults)
     codec = load_codec()
-    ss = np.random.SeedSequence([cfg.seed, 0x64726976])
-    fault_rng = np.random.default_rng(ss.spawn(1)[0])
+    rng = fault_rng(cfg.seed)
     world = World(driver, prof, cfg.seed, WorldConfig(engage_s=cfg.engage_s))
     channel = record_channel or f"pacc-drive-{id(cfg):x}-{next(_channel_ids)}"
-    ecu_cfg = EcuConfig(
-        adaptation=cfg.controller.endswith("+oa"),
-        brake_mode=cfg.brake_mode,
-        adaptation_params=cfg.adaptation or AdaptationParams(),
-        set_speed_mps=SET_SPEED_MPS,
-        trip_meta={
-            "driver_id": driver.driver_id,
-            "seed": cfg.seed,
-            "scenario": prof.name,
-            "controller": cfg.controller,
-        },
-    )
-    # adapted tables get a fixed creation time: the drive stays a pure function of its inputs
-    ecu = EcuNode(
-        ecu_cfg, table, takeover_sink=takeover_sink, utc_now=lambda: "2000-01-01T00:00:00Z"
-    )
+    ecu = _ecu_node(cfg, driver, table, prof.name, takeover_sink)
     sim_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
     ecu_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
     try:
@@ -194,22 +166,11 @@ def run_drive(
             world,
             codec=codec,
             faults=faults,
-            rng=fault_rng,
+            rng=rng,
             gap_setting=GAP_SETTING_CODE[driver.predefined_setting],
         )
         start = time.perf_counter()
-        step = node.step
-        advance = rt.advance_to
-        events: list[AdaptationEvent] = []
-        last = ecu.last_decision
-        while not world.done:
-            now = node.t_s
-            step()
-            advance(now)
-            if ecu.last_decision is not last:  # a takeover ended: trace its decision
-                last = ecu.last_decision
-                if last is not None:
-                    events.append(AdaptationEvent(now, last, ecu.table))
+        events = _lockstep(node, rt, ecu, world)
         wall = time.perf_counter() - start
         ecu.finish()
         summary = rt.summary()
@@ -217,20 +178,9 @@ def run_drive(
         sim_bus.shutdown()
         ecu_bus.shutdown()
     log = world.log()
-    metrics = drive_metrics(
-        log.t_s,
-        log.v_mps,
-        log.gap_m,
-        log.v_lead_mps,
-        log.a_mps2,
-        log.acc_state,
-        log.accel_pressed,
-        log.brake_pressed,
-        log.pref_gap_m,
-    )
     return DriveResult(
         config=cfg,
-        metrics=metrics,
+        metrics=log.metrics(),
         collision=world.plant.collided,
         collision_t_s=world.plant.collision_t_s,
         takeovers=ecu.takeovers,
@@ -246,20 +196,48 @@ def run_drive(
     )
 
 
-def log_to_trip(result: DriveResult, driver: DriverParams) -> Any:
-    """The drive's log as a cloud_sync Trip at 10 Hz (mode "acc")."""
-    import numpy as np
+def _ecu_node(
+    cfg: DriveConfig, driver: DriverParams, table: Dgpt, scenario: str, takeover_sink: Any
+) -> EcuNode:
+    """The ECU of a drive: ``cfg``'s controller and adaptation, the study's set speed."""
+    ecu_cfg = EcuConfig(
+        adaptation=cfg.controller.endswith("+oa"),
+        brake_mode=cfg.brake_mode,
+        adaptation_params=cfg.adaptation or AdaptationParams(),
+        set_speed_mps=SET_SPEED_MPS,
+        trip_meta={
+            "driver_id": driver.driver_id,
+            "seed": cfg.seed,
+            "scenario": scenario,
+            "controller": cfg.controller,
+        },
+    )
+    # adapted tables get a fixed creation time: the drive stays a pure function of its inputs
+    return EcuNode(ecu_cfg, table, takeover_sink=takeover_sink, utc_now=lambda: FIXED_UTC)
 
-    from ecu.triplog import Trip
 
-    log = result.log
-    every = max(1, int(round(0.1 / float(np.median(np.diff(log.t_s)))))) if len(log.t_s) > 1 else 1
-    sl = slice(None, None, every)
+def _lockstep(node: SimNode, rt: EcuRuntime, ecu: EcuNode, world: World) -> list[AdaptationEvent]:
+    """Step the simulator and then the ECU to the same instant until the world is done; the
+    adaptation decisions, each traced when its takeover ends."""
+    step = node.step
+    advance = rt.advance_to
+    events: list[AdaptationEvent] = []
+    last = ecu.last_decision
+    while not world.done:
+        now = node.t_s
+        step()
+        advance(now)
+        if ecu.last_decision is not last:  # a takeover ended: trace its decision
+            last = ecu.last_decision
+            if last is not None:
+                events.append(AdaptationEvent(now, last, ecu.table))
+    return events
+
+
+def log_to_trip(result: DriveResult, driver: DriverParams) -> Trip:
+    """The drive's log as an ACC trip at 10 Hz (sim_bus.trip), with the drive's figures."""
     metrics = {k: (v if math.isfinite(v) else None) for k, v in result.metrics.as_dict().items()}
     meta: dict[str, Any] = {
-        "driver_id": driver.driver_id,
-        "condition": "dry",
-        "mode": "acc",
         "scenario": result.config.scenario,
         "seed": result.config.seed,
         "controller": result.config.controller,
@@ -270,17 +248,7 @@ def log_to_trip(result: DriveResult, driver: DriverParams) -> Any:
         "adaptations": result.adaptations,
         "source": "sim_bus.drive",
     }
-    return Trip(
-        t_s=log.t_s[sl],
-        v_mps=log.v_mps[sl],
-        gap_m=log.gap_m[sl],
-        v_lead_mps=log.v_lead_mps[sl],
-        a_mps2=log.a_mps2[sl],
-        accel_pedal=np.clip(log.accel_pct[sl] / 100.0, 0.0, 1.0),
-        brake_pedal=np.clip(log.brake_bar[sl] / 250.0, 0.0, 1.0),
-        acc_state=log.acc_state[sl],
-        meta=meta,
-    )
+    return world_trip(result.log, driver, PedalScale.from_codec(load_codec()), meta)
 
 
 def format_result(r: DriveResult) -> str:
@@ -348,7 +316,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--adaptation-mode",
-        choices=ADAPTATION_MODE_CHOICES,
+        choices=ADAPTATION_MODES,
         help="online adaptation of the +oa controllers: the paper's Algorithm 1 "
         "or the time-gap update (default: the ECU's, see docs/ecu.md)",
     )
@@ -359,20 +327,12 @@ def adaptation_params(mode: str | None) -> AdaptationParams | None:
     """The adaptation parameters of ``--adaptation-mode`` (None: the ECU's defaults)."""
     if mode is None:
         return None
-    from ecu.adaptation import AdaptationParams
-
     return AdaptationParams(mode=mode)  # type: ignore[arg-type]
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc drive``; returns the exit status."""
     args = _parser().parse_args(argv)
-    from ecu import EcuError
-    from sim_bus.drivers import load_driver
-    from sim_bus.errors import SimError
-    from sim_bus.faults import parse_faults
-    from sim_bus.irl_table import irl_table
-
     try:
         base = load_driver(args.driver)
         driver = with_condition(base, args.condition_factor)
@@ -392,8 +352,6 @@ def main(argv: list[str] | None = None) -> int:
         profile = resolve_profile(args.scenario, args.seed)
         if args.controller.startswith("irl"):
             if args.profile is not None:
-                from ecu.dgpt import load_dgpt
-
                 table = load_dgpt(args.profile)
             else:
                 print(
@@ -409,8 +367,6 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     print(format_result(result))
     if args.log is not None:
-        from ecu.triplog import TripLogError, write_trip
-
         try:
             write_trip(args.log, log_to_trip(result, driver))
         except (TripLogError, OSError) as exc:

@@ -20,9 +20,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from sim_bus.errors import FaultSpecError
 
+#: the roles the simulator transmits, each with its own fault plan
 ROLES = ("ego", "pedals", "radar", "hmi")
+#: second entropy word of the fault Generator's seed ("driv")
+_FAULT_STREAM = 0x64726976
 _PROB = ("drop", "crc", "counter")
 _WINDOW = ("freeze", "dropout", "silence")
 
@@ -146,3 +151,8 @@ def _apply(draft: _Draft, kind: str, value: str, clause: str) -> None:
         raise FaultSpecError(
             f"{clause!r}: unknown fault kind {kind!r} (one of {_PROB + ('delay',) + _WINDOW})"
         )
+
+
+def fault_rng(seed: int) -> np.random.Generator:
+    """The Generator of the random faults of a run with ``seed`` (>= 0), lockstep or real time."""
+    return np.random.default_rng(np.random.SeedSequence([seed, _FAULT_STREAM]).spawn(1)[0])

@@ -1,13 +1,15 @@
-"""The IRL table of a driver for ``pacc drive --controller irl|irl+oa``.
+"""The IRL table of a driver for ``pacc drive --controller irl|irl+oa`` and ``pacc study``.
 
-With ``--profile`` the given DGPT file is used. Without it, if the cloud trainer
-(``cloud_sync.trainer.learn_dgpt``) is installed, the table is learned from the driver's
-manual trips on the canonical profiles manual1..manual4 and cached (JSON DGPT) under the
-cache directory, keyed by the driver parameters, the seed and a digest of the code that
-makes the table (every module of ``cloud_sync``, ``sim_bus`` and ``ecu``, whose trips,
-learner and table format it depends on); otherwise a DriveError asks for ``--profile``.
+With ``--profile`` the given DGPT file is used. Without it the table is learned by the cloud
+trainer (``cloud_sync.trainer.learn_dgpt``) from the driver's manual trips on the canonical
+profiles manual1..manual4 and cached (JSON DGPT) under the cache directory, keyed by the
+driver parameters, the seed and a digest of the code that makes the table (every module of
+``cloud_sync``, ``sim_bus`` and ``ecu``, whose trips, learner and table format it depends on).
 The cache only saves time: a folder that cannot be written means learning again next time,
 not an error.
+
+It lives beside ``sim_bus.drive`` rather than in the study harness (``sim_bus.study``): the
+drive needs it and the study depends on the drive, not the other way round.
 """
 
 from __future__ import annotations
@@ -18,13 +20,11 @@ import importlib.util
 import json
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING
 
+from ecu.dgpt import Dgpt, DgptError, load_dgpt, save_dgpt
 from sim_bus.drivers import DriverParams
-from sim_bus.errors import DriveError
-
-if TYPE_CHECKING:
-    from ecu.dgpt import Dgpt
+from sim_bus.manual import manual_trip
+from sim_bus.scenarios import canonical_profiles
 
 MANUAL_PROFILES = ("manual1", "manual2", "manual3", "manual4")
 
@@ -67,20 +67,6 @@ def cache_key(driver: DriverParams, seed: int, trainer_source: str) -> str:
 
 def irl_table(driver: DriverParams, seed: int, cache_dir: Path | None = None) -> Dgpt:
     """Learn (or read from the cache) the driver's IRL table from its manual trips."""
-    from ecu.dgpt import DgptError, load_dgpt, save_dgpt
-
-    try:
-        from cloud_sync import trainer
-    except ImportError:
-        raise DriveError(
-            "no IRL table: pass --profile DGPT.json (the cloud trainer "
-            "cloud_sync.trainer is not available)"
-        ) from None
-    learn = getattr(trainer, "learn_dgpt", None)
-    if learn is None:
-        raise DriveError(
-            "no IRL table: pass --profile DGPT.json (cloud_sync.trainer has no learn_dgpt)"
-        )
     key = cache_key(driver, seed, code_digest())
     folder = cache_dir or default_cache_dir()
     path = folder / f"irl-{driver.driver_id}-{key}.json"
@@ -89,14 +75,14 @@ def irl_table(driver: DriverParams, seed: int, cache_dir: Path | None = None) ->
             return load_dgpt(path)
         except DgptError:
             path.unlink(missing_ok=True)  # a damaged cache entry is rebuilt
-    from sim_bus.manual import manual_trip
-    from sim_bus.scenarios import canonical_profiles
+    # the trainer (scipy) costs about a second of start-up; only a table to learn needs it
+    from cloud_sync.trainer import learn_dgpt  # noqa: PLC0415
 
     profiles = canonical_profiles(seed)
     trips = [
         manual_trip(driver, profiles[name], seed + i) for i, name in enumerate(MANUAL_PROFILES)
     ]
-    result = learn(trips, driver_id=driver.driver_id, seed=seed)
+    result = learn_dgpt(trips, driver_id=driver.driver_id, seed=seed)
     table: Dgpt = result.table
     try:  # save_dgpt writes atomically; the cache only saves time, so a failure is no error
         folder.mkdir(parents=True, exist_ok=True)

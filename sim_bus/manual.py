@@ -2,23 +2,24 @@
 
 These trips are what the cloud's IRL learns from. Pure physics and the driver's IDM+
 (sim_bus.behaviour), at 20 Hz, logged at 10 Hz; a pure function of (driver, profile, seed,
-plant configuration).
+plant configuration). The pedals are the ones the driver presses (``accel_pct``,
+``brake_bar`` of :class:`~sim_bus.behaviour.DriverAgent`) as fractions of the network's full
+scale, exactly as in an ACC drive's trip (sim_bus.trip) and the ECU's takeover logs.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
-from sim_bus.behaviour import ACC_OFF, ACCEL_FULL_MPS2, DECEL_LIMIT_MPS2, DriverAgent
+from dbc.codec import load_codec
+from ecu.pedals import PedalScale
+from ecu.state import AccState
+from ecu.triplog import Trip
+from sim_bus.behaviour import DriverAgent
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import DriveError
 from sim_bus.plant import Plant, PlantConfig, PlantState
 from sim_bus.scenarios import LeadProfile
-
-if TYPE_CHECKING:
-    from ecu.triplog import Trip
 
 MANUAL_DT_S = 0.05
 LOG_EVERY = 2  # 20 Hz steps -> 10 Hz samples
@@ -36,8 +37,6 @@ def manual_trip(
     The ego starts at the lead's speed at the driver's preferred gap. A collision (gap ≤ 0)
     ends the trip early and is recorded in ``meta["collision"]``.
     """
-    from ecu.triplog import Trip
-
     if not seed >= 0:
         raise DriveError(f"a seed is an integer >= 0, got {seed}")
     cfg = plant or PlantConfig(dt_s=MANUAL_DT_S)
@@ -49,7 +48,8 @@ def manual_trip(
     v0 = float(v_lead[0])
     gap0 = float(driver.preferred_gap_m(v0))
     car = Plant(cfg, PlantState(v0, 0.0, gap0), rng_plant)
-    agent = DriverAgent(driver, rng_driver, dt_s=MANUAL_DT_S, acc_mode=False)
+    pedals = PedalScale.from_codec(load_codec())
+    agent = DriverAgent(driver, rng_driver, dt_s=MANUAL_DT_S, acc_mode=False, pedals=pedals)
     n = len(v_lead)
     m = (n + LOG_EVERY - 1) // LOG_EVERY
     cols = np.zeros((7, m))
@@ -59,20 +59,19 @@ def manual_trip(
         vl = float(v_lead[i])
         if i % LOG_EVERY == 0:
             condition_sum += agent.condition
-            agent_out = agent.a_cmd_mps2
             cols[:, k] = (
                 i * MANUAL_DT_S,
                 car.v_mps,
                 car.gap_m,
                 vl,
                 car.a_mps2,
-                max(agent_out, 0.0) / ACCEL_FULL_MPS2 if agent.accel_pressed else 0.0,
-                -min(agent_out, 0.0) / DECEL_LIMIT_MPS2 if agent.brake_pressed else 0.0,
+                pedals.accel(agent.accel_pct),
+                pedals.brake(agent.brake_bar),
             )
             k += 1
         if car.collided:
             break
-        agent.step(car.v_mps, vl, car.gap_m, ACC_OFF)
+        agent.step(car.v_mps, vl, car.gap_m, AccState.OFF)
         car.advance(agent.a_cmd_mps2, vl, float(a_lead[i]))
     cols = cols[:, :k]
     meta = {
@@ -94,8 +93,8 @@ def manual_trip(
         gap_m=cols[2],
         v_lead_mps=cols[3],
         a_mps2=cols[4],
-        accel_pedal=np.clip(cols[5], 0.0, 1.0),
-        brake_pedal=np.clip(cols[6], 0.0, 1.0),
-        acc_state=np.zeros(k, dtype=np.int64),
+        accel_pedal=cols[5],
+        brake_pedal=cols[6],
+        acc_state=np.full(k, AccState.OFF, dtype=np.int64),
         meta=meta,
     )

@@ -19,7 +19,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-ACC_STANDBY, ACC_ACTIVE, ACC_OVERRIDE = 1, 2, 3
+from ecu.state import AccState
 
 
 @dataclass(frozen=True)
@@ -44,16 +44,18 @@ class DriveMetrics:
 def acc_on_mask(acc_state: np.ndarray) -> np.ndarray:
     """Boolean (n,): ACC-ON samples (Active/Override, and Standby after the first engagement)."""
     s = np.asarray(acc_state)
-    engaged = (s == ACC_ACTIVE) | (s == ACC_OVERRIDE)
+    engaged = (s == AccState.ACTIVE) | (s == AccState.OVERRIDE)
     after_first = np.cumsum(engaged) > 0
-    return engaged | ((s == ACC_STANDBY) & after_first)
+    on: np.ndarray = engaged | ((s == AccState.STANDBY) & after_first)
+    return on
 
 
 def press_onsets(pressed: np.ndarray) -> np.ndarray:
     """Boolean (n,): True where a press starts (pressed now, not pressed one sample before)."""
     p = np.asarray(pressed, dtype=bool)
     prev = np.concatenate([[False], p[:-1]])
-    return p & ~prev
+    onsets: np.ndarray = p & ~prev
+    return onsets
 
 
 def poi_nim(

@@ -16,20 +16,19 @@ import heapq
 import math
 import time
 from collections import Counter
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import can
 import numpy as np
 
-from dbc.endpoint import Frame
-from sim_bus.behaviour import ACC_OFF
-from sim_bus.faults import FaultPlan, FaultSpec
+from dbc.codec import Codec, load_codec
+from dbc.endpoint import Frame, Inbox, Outbox
+from ecu.state import AccState
+from sim_bus.faults import ROLES, FaultPlan, FaultSpec
 from sim_bus.world import World
 
-if TYPE_CHECKING:
-    from dbc.codec import Codec
-
-TX_ROLES = ("ego", "pedals", "radar", "hmi")
+#: the roles the simulator sends (the ones faults apply to)
+TX_ROLES = ROLES
 
 
 class SimNode:
@@ -50,9 +49,6 @@ class SimNode:
         profile_id: int = 0,
         command_timeout_s: float = 0.1,
     ) -> None:
-        from dbc.codec import load_codec
-        from dbc.endpoint import Inbox, Outbox
-
         self.bus = bus
         self.world = world
         self.codec = codec or load_codec()
@@ -101,7 +97,7 @@ class SimNode:
         self._seq = 0
         self.request_active = False
         self.a_request_mps2 = 0.0
-        self.acc_state = ACC_OFF
+        self.acc_state: int = AccState.OFF
         self.takeover_request = False
         self.status: dict[str, Any] | None = None
         self.frames_sent = 0
@@ -269,7 +265,7 @@ class SimNode:
         fresh = self.inbox.fresh("command", now) if self.commands_ok else False
         active = self.request_active and fresh
         a = self.a_request_mps2 if active and math.isfinite(self.a_request_mps2) else 0.0
-        return active, a, self.acc_state if fresh else ACC_OFF
+        return active, a, self.acc_state if fresh else AccState.OFF
 
     def step(self) -> None:
         """One lockstep tick: take in commands, send due frames, advance the world by dt."""
@@ -296,6 +292,6 @@ class SimNode:
 def _clip(x: float, bounds: tuple[float, float]) -> float:
     """``x`` limited to ``bounds``; NaN becomes the lower bound (never an EncodeError)."""
     lo, hi = bounds
-    if x != x:
+    if math.isnan(x):
         return lo
     return lo if x < lo else hi if x > hi else x

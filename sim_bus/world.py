@@ -17,6 +17,7 @@ import numpy as np
 from sim_bus.behaviour import COAST_MPS2, DriverAgent
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import DriveError
+from sim_bus.metrics import DriveMetrics, drive_metrics
 from sim_bus.plant import Plant, PlantConfig, PlantState
 from sim_bus.scenarios import LeadProfile
 
@@ -73,6 +74,20 @@ class WorldLog:
     request_active: np.ndarray
     accel_pct: np.ndarray
     brake_bar: np.ndarray
+
+    def metrics(self) -> DriveMetrics:
+        """The drive's figures (PoI, NIM, safety; sim_bus.metrics) from these samples."""
+        return drive_metrics(
+            self.t_s,
+            self.v_mps,
+            self.gap_m,
+            self.v_lead_mps,
+            self.a_mps2,
+            self.acc_state,
+            self.accel_pressed,
+            self.brake_pressed,
+            self.pref_gap_m,
+        )
 
 
 class World:

@@ -9,17 +9,28 @@ import can
 import numpy as np
 import pytest
 
+from ecu.adaptation import AdaptationParams, Reason
 from ecu.dgpt import Dgpt, SafetyBounds, clamp_to_bounds, speed_axis
-from sim_bus.drive import CONTROLLERS, DriveConfig, DriveResult, predefined_table, run_drive
+from ecu.state import AccState
+from sim_bus.drive import (
+    CONTROLLERS,
+    DriveConfig,
+    DriveResult,
+    adaptation_params,
+    main,
+    predefined_table,
+    run_drive,
+)
 from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
-from sim_bus.scenarios import canonical_profiles, shorten
+from sim_bus.errors import DriveError
+from sim_bus.scenarios import LeadProfile, canonical_profiles, shorten
 
 SAFETY_MIN_GAP_M = 2.0  # SafetyBounds.standstill_min_m: the smallest gap the DGPT allows
 JERK_LIMIT_MPS3 = 2.5
 
 
 @lru_cache(maxsize=1)
-def _profiles() -> dict:
+def _profiles() -> dict[str, LeadProfile]:
     return canonical_profiles(0)
 
 
@@ -43,6 +54,7 @@ def _table_from(driver: DriverParams, factor: float, source: str = "irl") -> Dgp
     )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("driver_id", sorted(BUILTIN_DRIVERS))
 def test_every_driver_with_every_controller_is_safe(driver_id: str) -> None:
     driver = BUILTIN_DRIVERS[driver_id]
@@ -81,13 +93,14 @@ def _intervention(driver: DriverParams, factor: float) -> tuple[int, int, float]
         prof,
     )
     log = r.log
-    on = np.asarray(log.acc_state) >= 2
+    on = np.asarray(log.acc_state) >= AccState.ACTIVE
     acc = int((np.diff(log.accel_pressed.astype(int)) == 1)[on[1:]].sum())
     brk = int((np.diff(log.brake_pressed.astype(int)) == 1)[on[1:]].sum())
     assert not r.collision
     return acc, brk, r.metrics.poi_pct
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("driver_id", ["d1", "d2", "d3"])
 def test_driver_sanity_against_the_table(driver_id: str) -> None:
     driver = BUILTIN_DRIVERS[driver_id]
@@ -133,6 +146,7 @@ def test_same_seed_same_frames() -> None:
     assert a != c
 
 
+@pytest.mark.slow
 def test_radar_dropout_faults_ramps_out_and_driver_takes_over() -> None:
     driver = BUILTIN_DRIVERS["d2"]
     prof = shorten(_profiles()["manual4"], 45.0)
@@ -151,7 +165,7 @@ def test_radar_dropout_faults_ramps_out_and_driver_takes_over() -> None:
     log = r.log
     assert not r.collision and r.metrics.min_gap_m > SAFETY_MIN_GAP_M
     t = log.t_s
-    fault = log.acc_state == 4
+    fault = log.acc_state == AccState.FAULT
     assert fault.any()
     t_fault = t[np.argmax(fault)]
     assert 20.0 < t_fault < 21.0  # radar times out after 10 periods (0.5 s)
@@ -166,9 +180,10 @@ def test_radar_dropout_faults_ramps_out_and_driver_takes_over() -> None:
     during = (t > t_fault + 1.5) & (t < t_fault + 4.5)  # it tries RESUME after 5 s of fault
     assert (log.accel_pressed | log.brake_pressed)[during].all()
     # after the radar is back, the driver resumes and the ACC is active again
-    assert (log.acc_state[t > 33.0] == 2).any()
+    assert (log.acc_state[t > 33.0] == AccState.ACTIVE).any()
 
 
+@pytest.mark.slow
 def test_corrupt_crcs_are_counted_and_never_acted_on() -> None:
     driver = BUILTIN_DRIVERS["d1"]
     prof = shorten(_profiles()["B"], 40.0)
@@ -201,8 +216,8 @@ def test_brake_cancel_mode_driver_resumes() -> None:
     )
     s = r.log.acc_state
     assert not r.collision
-    cancelled = (s[1:] == 1) & (s[:-1] >= 2)  # a brake press returned the ACC to standby
-    resumed = (s[1:] == 2) & (s[:-1] == 1)
+    cancelled = (s[1:] == AccState.STANDBY) & (s[:-1] >= AccState.ACTIVE)  # brake: standby
+    resumed = (s[1:] == AccState.ACTIVE) & (s[:-1] == AccState.STANDBY)
     assert cancelled.sum() >= 1 and resumed.sum() >= cancelled.sum()
     assert r.metrics.acc_on_s > 55.0  # standby after a cancel still counts as ACC-ON time
 
@@ -220,16 +235,17 @@ def test_bus_silence_faults_and_recovers() -> None:
     )
     log = r.log
     assert not r.collision and r.metrics.min_gap_m > SAFETY_MIN_GAP_M
-    fault_t = log.t_s[log.acc_state == 4]
+    fault_t = log.t_s[log.acc_state == AccState.FAULT]
     assert fault_t.size and 15.0 < fault_t[0] < 16.5
     assert sum(r.summary.faults.values()) >= 1  # counted by the ECU, by input
-    assert (log.acc_state[log.t_s > 30.0] == 2).any()  # SET again once the bus is back
+    assert (
+        log.acc_state[log.t_s > 30.0] == AccState.ACTIVE
+    ).any()  # SET again once the bus is back
 
 
+@pytest.mark.slow
 def test_adaptation_mode_reaches_the_ecu_and_is_traced() -> None:
     """``DriveConfig.adaptation`` selects the ECU's adaptation; every decision is traced."""
-    from ecu.adaptation import AdaptationParams, Reason
-
     driver = BUILTIN_DRIVERS["d3"]  # predefined 4 s against a ~2.8 s preference: presses
     table = predefined_table(driver)
     prof = shorten(_profiles()["B"], 60.0)
@@ -262,11 +278,7 @@ def test_adaptation_mode_reaches_the_ecu_and_is_traced() -> None:
     assert widths["timegap"] > 30  # a time-gap change spread over +-6 m/s and beyond
 
 
-def test_mode_choices_match_the_ecu_and_cli_flag(capsys: pytest.CaptureFixture[str]) -> None:
-    from ecu.adaptation import ADAPTATION_MODES
-    from sim_bus.drive import ADAPTATION_MODE_CHOICES, adaptation_params, main
-
-    assert ADAPTATION_MODE_CHOICES == ADAPTATION_MODES
+def test_adaptation_mode_flag_reaches_the_drive(capsys: pytest.CaptureFixture[str]) -> None:
     assert adaptation_params(None) is None
     params = adaptation_params("timegap")
     assert params is not None and params.mode == "timegap"
@@ -291,6 +303,7 @@ def test_mode_choices_match_the_ecu_and_cli_flag(capsys: pytest.CaptureFixture[s
     assert exc.value.code == 2
 
 
+@pytest.mark.slow
 def test_adapted_tables_are_reproducible() -> None:
     """Two runs of the same +OA drive give identical final tables, metadata included."""
     driver = BUILTIN_DRIVERS["d2"]
@@ -305,11 +318,6 @@ def test_adapted_tables_are_reproducible() -> None:
 
 
 def test_negative_seed_is_a_clear_error_even_with_a_given_profile() -> None:
-    from sim_bus.drive import DriveConfig, predefined_table, run_drive
-    from sim_bus.drivers import BUILTIN_DRIVERS
-    from sim_bus.errors import DriveError
-    from sim_bus.scenarios import canonical_profiles, shorten
-
     driver = BUILTIN_DRIVERS["d1"]
     profile = shorten(canonical_profiles(0)["B"], 5.0)
     with pytest.raises(DriveError, match="seed must be >= 0"):

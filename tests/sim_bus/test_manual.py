@@ -7,7 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dbc.codec import load_codec
+from ecu.pedals import PedalScale
+from ecu.state import AccState
 from ecu.triplog import Trip, read_trip, write_trip
+from sim_bus.behaviour import BRAKE_BAR_PER_MPS2, DECEL_LIMIT_MPS2
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.manual import manual_trip
 from sim_bus.scenarios import LeadProfile, canonical_profiles, shorten
@@ -28,7 +32,7 @@ def test_manual_trip_follows_own_preference(
     assert trip.meta["mode"] == "manual" and trip.meta["driver_id"] == driver_id
     assert not trip.meta["collision"]
     assert len(trip.t_s) == 3001 and np.allclose(np.diff(trip.t_s), 0.1)
-    assert np.all(trip.acc_state == 0)
+    assert np.all(trip.acc_state == AccState.OFF)
     assert np.all((trip.accel_pedal >= 0) & (trip.accel_pedal <= 1))
     assert np.all((trip.brake_pedal >= 0) & (trip.brake_pedal <= 1))
     rel = (trip.gap_m - d.preferred_gap_m(trip.v_mps)) / d.preferred_gap_m(trip.v_mps)
@@ -70,3 +74,19 @@ def test_condition_mean_records_the_drift(profiles: dict[str, LeadProfile]) -> N
     nominal = np.abs(drifting.gap_m - d5.preferred_gap_m(drifting.v_mps))[moving].mean()
     realised = np.abs(drifting.gap_m - d5.preferred_gap_m(drifting.v_mps, c))[moving].mean()
     assert realised < nominal
+
+
+def test_manual_pedals_are_the_drivers_on_the_network_scale(
+    profiles: dict[str, LeadProfile],
+) -> None:
+    """By hand the driver presses the same pedals as under ACC (sim_bus.behaviour): the trip
+    holds them as fractions of the DBC's full scale, as the ECU's and the drive's logs do."""
+    trip = manual_trip(BUILTIN_DRIVERS["d1"], shorten(profiles["manual3"], 120.0), seed=1)
+    pedals = PedalScale.from_codec(load_codec())
+    accel = trip.accel_pedal[trip.accel_pedal > 0]
+    brake = trip.brake_pedal[trip.brake_pedal > 0]
+    assert accel.size and brake.size
+    assert not np.any((trip.accel_pedal > 0) & (trip.brake_pedal > 0))  # one foot
+    # the least press is 1 % / 1 bar; the hardest brake asks DECEL_LIMIT_MPS2
+    assert accel.min() >= pedals.accel(1.0) and brake.min() >= pedals.brake(1.0)
+    assert brake.max() <= pedals.brake(DECEL_LIMIT_MPS2 * BRAKE_BAR_PER_MPS2)

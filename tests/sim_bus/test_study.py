@@ -3,14 +3,20 @@
 from __future__ import annotations
 
 import csv
+import math
 from pathlib import Path
+from typing import Any
 
 import pytest
 
-from ecu.dgpt import load_dgpt
+from ecu.adaptation import AdaptationParams
+from ecu.dgpt import Dgpt, load_dgpt, predefined
 from ecu.triplog import read_trip
-from sim_bus import study
-from sim_bus.study import StudyConfig, format_table, reduction_pct, run_study
+from sim_bus.drivers import DriverParams
+from sim_bus.study import StudyConfig, main, run_study
+from sim_bus.study import run as study_run
+from sim_bus.study.config import validate
+from sim_bus.study.report import format_table, reduction_pct
 
 SMALL = StudyConfig(
     drivers=("d1", "d4"),
@@ -28,10 +34,11 @@ def cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return tmp_path_factory.mktemp("irl-cache")
 
 
-def _without_wall(rows: list[dict]) -> list[dict]:
+def _without_wall(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return [{k: v for k, v in r.items() if k != "wall_s"} for r in rows]
 
 
+@pytest.mark.slow
 def test_small_study_outputs_and_determinism(tmp_path: Path, cache: Path) -> None:
     one = run_study(SMALL, tmp_path / "w1", cache_dir=cache, progress=False)
     two = run_study(
@@ -87,7 +94,8 @@ def test_table_arithmetic() -> None:
     assert "| **average** | | **16.0 %** | **4.0** | **8.5 %** | **2.0** |" in text
     assert "IRL: PoI 46.9 % (28.6 %), NIM 50.0 % (40.2 %)" in text
     assert "0 collisions, min gap 9.00 m" in text
-    assert reduction_pct(0.0, 1.0) != reduction_pct(0.0, 1.0)  # nan when the base is zero
+    assert math.isnan(reduction_pct(0.0, 1.0))  # nan when the base is zero
+    assert reduction_pct(20.0, 15.0) == pytest.approx(25.0)
 
 
 @pytest.mark.parametrize(
@@ -102,15 +110,14 @@ def test_table_arithmetic() -> None:
 def test_bad_options(
     argv: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    assert study.main([*argv, "--out", str(tmp_path), "-q"]) == 2
+    assert main([*argv, "--out", str(tmp_path), "-q"]) == 2
     assert message in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_adaptation_mode_from_the_command_line(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from ecu.adaptation import AdaptationParams
-
     cfg = StudyConfig(
         drivers=("d3",),
         scenarios=("B",),
@@ -119,7 +126,8 @@ def test_adaptation_mode_from_the_command_line(
         duration_s=30.0,
         adaptation=AdaptationParams(mode="timegap"),
     )
-    jobs = study.plan(cfg, study.tables_for(cfg, None), tmp_path)
+    drivers = validate(cfg)
+    jobs = study_run.plan(cfg, drivers, study_run.tables_for(cfg, drivers, None), tmp_path)
     assert [j.adaptation for j in jobs] == [cfg.adaptation]
     argv = [
         "--drivers",
@@ -136,14 +144,100 @@ def test_adaptation_mode_from_the_command_line(
         "-q",
         "--out",
     ]
-    out: dict[str, list[dict[str, str]]] = {}
-    for mode in ("paper", "timegap"):
-        assert study.main([*argv, str(tmp_path / mode), "--adaptation-mode", mode]) == 0
-        assert f"{mode} adaptation" in capsys.readouterr().out
-        with (tmp_path / mode / "drives.csv").open() as fh:
-            out[mode] = list(csv.DictReader(fh))
-    # same drive, different adaptation: the ECU really used the mode
-    assert (
-        out["paper"][0]["poi_pct"] != out["timegap"][0]["poi_pct"]
-        or out["paper"][0]["gap_error_rms_m"] != out["timegap"][0]["gap_error_rms_m"]
-    )
+    rows: dict[str, dict[str, str]] = {}
+    for mode in ("paper", "timegap", None):
+        flag = [] if mode is None else ["--adaptation-mode", mode]
+        assert main([*argv, str(tmp_path / str(mode)), *flag]) == 0
+        if mode is not None:
+            assert f"{mode} adaptation" in capsys.readouterr().out
+        with (tmp_path / str(mode) / "drives.csv").open() as fh:
+            (row,) = csv.DictReader(fh)
+        rows[str(mode)] = {k: v for k, v in row.items() if k != "wall_s"}
+    # the same drive with another adaptation differs; without the flag it is the ECU's default
+    assert int(rows["paper"]["adaptations"]) >= 1
+    assert rows["paper"] != rows["timegap"]
+    assert rows["None"] == rows[AdaptationParams().mode]
+
+
+# -- drivers given as files: everything named by driver id, under --out -----------------
+
+QUICK = [
+    "--scenarios",
+    "B",
+    "--controllers",
+    "predefined,irl",
+    "--trials",
+    "1",
+    "--duration",
+    "5",
+    "--workers",
+    "1",
+    "-q",
+]
+
+
+@pytest.fixture
+def learned(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """The drivers whose IRL table the study asked for (a predefined stand-in, no learning)."""
+    calls: list[str] = []
+
+    def fake_irl_table(driver: DriverParams, seed: int, cache_dir: Path | None) -> Dgpt:
+        calls.append(driver.driver_id)
+        return predefined(2.5, driver_id=driver.driver_id, created_utc="2000-01-01T00:00:00Z")
+
+    monkeypatch.setattr(study_run, "irl_table", fake_irl_table)
+    return calls
+
+
+def _driver_file(folder: Path, driver_id: str) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"{driver_id}-file.toml"
+    path.write_text(f'[driver]\nbase = "d2"\ndriver_id = "{driver_id}"\n')
+    return path
+
+
+def _check_named_by_id(out: Path, driver_id: str) -> None:
+    assert load_dgpt(out / "irl" / f"{driver_id}.json").driver_id == driver_id
+    with (out / "drives.csv").open() as fh:
+        assert {r["driver"] for r in csv.DictReader(fh)} == {driver_id}
+    assert f"| {driver_id} | Unseen (B) |" in (out / "table1.md").read_text()
+    logs = sorted(p.name for p in (out / "logs").iterdir())
+    assert logs == [f"{driver_id}_B_irl_t0.mcap", f"{driver_id}_B_predefined_t0.mcap"]
+
+
+def test_driver_file_by_absolute_path_writes_only_under_out(
+    tmp_path: Path, learned: list[str]
+) -> None:
+    path = _driver_file(tmp_path / "elsewhere", "alice")
+    out = tmp_path / "out"
+    assert main(["--drivers", str(path.resolve()), *QUICK, "--out", str(out)]) == 0
+    assert learned == ["alice"]
+    assert sorted(p.name for p in path.parent.iterdir()) == [path.name]  # nothing beside it
+    _check_named_by_id(out, "alice")
+
+
+def test_driver_file_by_relative_path_with_a_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, learned: list[str]
+) -> None:
+    _driver_file(tmp_path / "drivers", "bob")
+    monkeypatch.chdir(tmp_path)
+    assert main(["--drivers", "drivers/bob-file.toml", *QUICK, "--out", "out"]) == 0
+    assert learned == ["bob"]
+    _check_named_by_id(tmp_path / "out", "bob")
+
+
+@pytest.mark.parametrize("problem", ["same id twice", "out is a file"])
+def test_errors_come_before_learning(
+    problem: str, tmp_path: Path, learned: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    drivers = "d1"
+    out = tmp_path / "out"
+    if problem == "same id twice":
+        drivers = f"d1,{_driver_file(tmp_path / 'drivers', 'd1')}"
+        message = "two drivers have the id 'd1'"
+    else:
+        out.write_text("not a folder")
+        message = str(out)
+    assert main(["--drivers", drivers, *QUICK, "--out", str(out)]) == 2
+    assert message in capsys.readouterr().err
+    assert learned == []

@@ -1,0 +1,34 @@
+"""``pacc study``: the paper's human-in-the-loop study (its Table I), end to end on the bus.
+
+For every synthetic driver the IRL table is learned from its manual drives on the four
+manual profiles (``cloud_sync.trainer`` via :func:`sim_bus.irl_table.irl_table`, cached);
+then every driver × scenario (A seen, B unseen) × controller (Predefined, Predefined + OA,
+IRL, IRL + OA) × trial is one lockstep closed-loop drive through the python-can virtual bus
+with the DBC codec and the full ECU (:func:`sim_bus.drive.run_drive`). Each cell averages
+its trials, as the paper's cells average three.
+
+Every drive is a pure function of (driver, scenario, controller, study seed, trial): the
+scenarios and the IRL tables come from the study seed, the drive's noise from
+``seed + trial``. Drives run in a process pool and the results do not depend on the number
+of workers.
+
+The harness sits on top of the simulator (it only calls ``sim_bus.drive``), one concept per
+module:
+
+- :mod:`sim_bus.study.config`: :class:`StudyConfig` and its validation, which resolves the
+  drivers (built-in names or driver files) to their ids before anything is learned or run;
+- :mod:`sim_bus.study.run`: the tables, the plan of drives, the worker pool, the outputs;
+- :mod:`sim_bus.study.report`: Table I in Markdown, ``drives.csv`` and the plot;
+- :mod:`sim_bus.study.cli`: the command line (``main(argv)``, also ``python -m sim_bus.study``).
+
+Output folder: ``table1.md`` (the table, averages, reductions, the paper's figures beside
+ours), ``drives.csv`` (one row per drive), ``study.png`` (averages, ours vs the paper),
+``irl/<driver_id>.json`` (the learned tables) and ``logs/*.mcap`` (every drive as a trip log).
+Everything is named by driver id, whatever path a driver file was given by.
+"""
+
+from sim_bus.study.cli import main
+from sim_bus.study.config import StudyConfig
+from sim_bus.study.run import run_study
+
+__all__ = ["StudyConfig", "main", "run_study"]

@@ -1,0 +1,82 @@
+"""The command line of ``pacc study`` (also ``python -m sim_bus.study``): ``main(argv)``."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+from ecu import EcuError
+from ecu.adaptation import ADAPTATION_MODES
+from sim_bus.drive import CONTROLLERS, adaptation_params
+from sim_bus.errors import SimError
+from sim_bus.study.config import StudyConfig
+from sim_bus.study.run import run_study
+
+_DESCRIPTION = "the paper's human-in-the-loop study (its Table I), end to end on the bus"
+
+
+def _names(text: str) -> tuple[str, ...]:
+    return tuple(x.strip() for x in text.split(",") if x.strip())
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="pacc study", description=_DESCRIPTION)
+    p.add_argument(
+        "--drivers", default="d1,d2,d3,d4,d5", help="comma-separated (d1..d5 or driver files)"
+    )
+    p.add_argument("--scenarios", default="A,B", help="comma-separated (default A,B)")
+    p.add_argument(
+        "--controllers",
+        default=",".join(CONTROLLERS),
+        help="comma-separated subset of " + ",".join(CONTROLLERS),
+    )
+    p.add_argument("--trials", type=int, default=3, help="drives per cell (default 3)")
+    p.add_argument("--seed", type=int, default=0, help="study seed (default 0)")
+    p.add_argument("--duration", type=float, help="shorten every drive to N s")
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=min(2, os.cpu_count() or 1),
+        help="parallel drive processes (default: 2 or the core count)",
+    )
+    p.add_argument("--out", type=Path, default=Path("out/study"), help="output folder")
+    p.add_argument("--no-logs", action="store_true", help="do not write MCAP logs")
+    p.add_argument("--cache", type=Path, help="cache folder of learned IRL tables")
+    p.add_argument(
+        "--adaptation-mode",
+        choices=ADAPTATION_MODES,
+        help="online adaptation of the +oa controllers (default: the ECU's, see docs/ecu.md)",
+    )
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``pacc study``; 0 on success, 1 if a drive collided, 2 on bad input."""
+    args = _parser().parse_args(argv)
+    cfg = StudyConfig(
+        drivers=_names(args.drivers),
+        scenarios=_names(args.scenarios),
+        controllers=_names(args.controllers),
+        trials=args.trials,
+        seed=args.seed,
+        duration_s=args.duration,
+        workers=max(1, args.workers),
+        logs=not args.no_logs,
+        adaptation=adaptation_params(args.adaptation_mode),
+    )
+    try:
+        start = time.perf_counter()
+        rows = run_study(cfg, args.out, cache_dir=args.cache, progress=not args.quiet)
+    except (SimError, EcuError, OSError) as exc:
+        print(f"pacc study: error: {exc}", file=sys.stderr)
+        return 2
+    print((args.out / "table1.md").read_text(encoding="utf-8"))
+    print(
+        f"{len(rows)} drives in {time.perf_counter() - start:.1f} s; outputs in {args.out}/ "
+        "(table1.md, drives.csv, study.png, irl/, " + ("logs/)" if cfg.logs else "no logs)")
+    )
+    return 1 if any(int(r["collision"]) for r in rows) else 0

@@ -1,0 +1,59 @@
+"""What a study runs (:class:`StudyConfig`) and its validation before anything runs."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ecu.adaptation import AdaptationParams
+from sim_bus.drive import CONTROLLERS
+from sim_bus.drivers import DriverParams, load_driver
+from sim_bus.errors import SimError
+from sim_bus.scenarios import canonical_profiles
+
+
+@dataclass(frozen=True)
+class StudyConfig:
+    """What to run. ``drivers``: built-in names (d1..d5) or driver files (.toml/.json).
+    ``seed`` fixes the scenarios and the IRL tables; trial k drives with noise seed
+    ``seed + k``. ``duration_s`` shortens every drive (None: the full 300 s).
+    ``adaptation``: the online adaptation of the +oa controllers (None: the ECU's default)."""
+
+    drivers: tuple[str, ...] = ("d1", "d2", "d3", "d4", "d5")
+    scenarios: tuple[str, ...] = ("A", "B")
+    controllers: tuple[str, ...] = CONTROLLERS
+    trials: int = 3
+    seed: int = 0
+    duration_s: float | None = None
+    workers: int = 2
+    logs: bool = True
+    adaptation: AdaptationParams | None = None
+
+
+def validate(cfg: StudyConfig) -> dict[str, DriverParams]:
+    """The study's drivers by driver id, in ``cfg.drivers`` order, once ``cfg`` is known to
+    be runnable; SimError naming the defect otherwise (an unknown controller or scenario, a
+    bad driver file, two drivers with one id, no trial, a duration <= 0)."""
+    bad = [c for c in cfg.controllers if c not in CONTROLLERS]
+    if bad or not cfg.controllers:
+        raise SimError(f"unknown controllers {bad}: choose from {', '.join(CONTROLLERS)}")
+    if not cfg.drivers or not cfg.scenarios:
+        raise SimError("give at least one driver and one scenario")
+    if cfg.trials < 1:
+        raise SimError("--trials must be >= 1")
+    if cfg.duration_s is not None and not cfg.duration_s > 0:
+        raise SimError("--duration must be > 0")
+    if cfg.seed < 0:
+        raise SimError(f"--seed must be >= 0, got {cfg.seed}")
+    unknown = [s for s in cfg.scenarios if s not in canonical_profiles(cfg.seed)]
+    if unknown:
+        raise SimError(f"unknown scenarios {unknown}: A, B or manual1..manual4")
+    drivers: dict[str, DriverParams] = {}
+    for spec in cfg.drivers:
+        driver = load_driver(spec)
+        if driver.driver_id in drivers:
+            raise SimError(
+                f"two drivers have the id {driver.driver_id!r} ({spec!r} and an earlier one): "
+                "the study names its tables, rows and logs by driver id"
+            )
+        drivers[driver.driver_id] = driver
+    return drivers

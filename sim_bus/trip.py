@@ -1,0 +1,69 @@
+"""The trip log of a simulator run: the world's samples as an :class:`ecu.triplog.Trip`.
+
+One function for every writer of a simulated ACC trip (``pacc drive --log``, ``pacc sim
+--log``, the study's ``logs/``): samples at 10 Hz, pedals as fractions of the network's full
+scale (:class:`ecu.pedals.PedalScale`, the scaling the ECU's own logs use), and the driving
+condition named from the driver's condition factor, so that the cloud, which learns one table
+per (driver, condition), never files a rain drive as a dry one.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from ecu.pedals import PedalScale
+from ecu.triplog import Trip
+from sim_bus.drivers import DriverParams
+from sim_bus.world import WorldLog
+
+#: sample period of a trip log, s
+TRIP_DT_S = 0.1
+#: the condition of the nominal condition factor 1
+NOMINAL_CONDITION = "dry"
+
+
+def condition_name(condition_factor: float) -> str:
+    """The trip's condition: ``"dry"`` for the factor 1, else ``"factor-<f>"`` (``"factor-1.2"``).
+
+    A condition factor multiplies the driver's preferred time gap (rain lengthens it); the
+    simulator has no other name for it, so a trip under another factor is its own condition.
+    """
+    return NOMINAL_CONDITION if condition_factor == 1.0 else f"factor-{condition_factor:g}"
+
+
+def world_trip(
+    log: WorldLog, driver: DriverParams, pedals: PedalScale, meta: Mapping[str, Any]
+) -> Trip:
+    """The ACC trip (``mode`` "acc") of a simulator run, decimated to :data:`TRIP_DT_S`.
+
+    ``log``: the world's samples, shape (m,) each. ``driver``: the driver that drove (its
+    ``condition_factor`` names the condition). ``meta``: what the writer adds (scenario, seed,
+    source, ...); it may not override the driver, the condition or the mode.
+    """
+    every = max(1, round(TRIP_DT_S / float(np.median(np.diff(log.t_s))))) if len(log.t_s) > 1 else 1
+    sl = slice(None, None, every)
+    accel = np.vectorize(pedals.accel, otypes=[np.float64])
+    brake = np.vectorize(pedals.brake, otypes=[np.float64])
+    own = {
+        "driver_id": driver.driver_id,
+        "condition": condition_name(driver.condition_factor),
+        "condition_factor": driver.condition_factor,
+        "mode": "acc",
+    }
+    clash = sorted(set(own) & set(meta))
+    if clash:
+        raise ValueError(f"world_trip: meta may not set {clash}")
+    return Trip(
+        t_s=log.t_s[sl],
+        v_mps=log.v_mps[sl],
+        gap_m=log.gap_m[sl],
+        v_lead_mps=log.v_lead_mps[sl],
+        a_mps2=log.a_mps2[sl],
+        accel_pedal=accel(log.accel_pct[sl]),
+        brake_pedal=brake(log.brake_bar[sl]),
+        acc_state=log.acc_state[sl],
+        meta={**own, **meta},
+    )
