@@ -23,16 +23,26 @@ import time
 
 import can
 
+from dbc.codec import load_codec
 from dbc.e2e import CRC8_TABLE
 from sim_bus.drive import DriveConfig, predefined_table, run_drive
 from sim_bus.drivers import BUILTIN_DRIVERS
+from sim_bus.node import TX_ROLES
 
 SIM_S = 300.0
 TICK_S = 0.01
-#: (frame id, every n ticks) of the simulator side and of the ECU side, as in pacc.dbc
-SIM_FRAMES = ((0xB0, 1), (0xC0, 1), (0x120, 5), (0x1A0, 10))
-ECU_FRAMES = ((0x2E0, 2), (0x3E0, 10))
+#: roles the ECU sends (the simulator's are sim_bus.node.TX_ROLES)
+ECU_ROLES = ("command", "status")
+#: the bare bus's own 8-byte layout, CRC first: a peer with no codec, not the DBC's layout
 _PACK = struct.Struct("<BBHhh")
+
+
+def schedule(roles: tuple[str, ...]) -> tuple[tuple[int, int], ...]:
+    """(frame id, every n ticks) of ``roles``, read from the packaged DBC."""
+    codec = load_codec()
+    return tuple(
+        (codec.by_role[r].frame_id, max(1, round(codec.by_role[r].cycle_s / TICK_S))) for r in roles
+    )
 
 
 def _crc(data: bytes | bytearray) -> int:
@@ -60,20 +70,22 @@ def _drain(bus: can.BusABC) -> int:
 
 def bare_bus(seconds: float = SIM_S) -> float:
     """Simulated seconds per wall second of the bare bus (struct codec, table CRC)."""
+    sim_frames = schedule(TX_ROLES)
+    ecu_frames = schedule(ECU_ROLES)
     a = can.Bus(interface="virtual", channel="bench-bare", preserve_timestamps=True)
     b = can.Bus(interface="virtual", channel="bench-bare", preserve_timestamps=True)
-    counters = [0] * 6
+    counters = [0] * (len(sim_frames) + len(ecu_frames))
     try:
         start = time.perf_counter()
         for tick in range(int(round(seconds / TICK_S))):
             t = tick * TICK_S
             _drain(a)
-            for k, (fid, every) in enumerate(SIM_FRAMES):
+            for k, (fid, every) in enumerate(sim_frames):
                 if tick % every == 0:
                     counters[k] = (counters[k] + 1) & 0xF
                     a.send(_frame(fid, counters[k], tick, t))
             _drain(b)
-            for k, (fid, every) in enumerate(ECU_FRAMES, start=4):
+            for k, (fid, every) in enumerate(ecu_frames, start=len(sim_frames)):
                 if tick % every == 0:
                     counters[k] = (counters[k] + 1) & 0xF
                     b.send(_frame(fid, counters[k], tick, t))
