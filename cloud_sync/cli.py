@@ -9,17 +9,18 @@ from __future__ import annotations
 
 import argparse
 
-from cloud_sync import learn_cmd
+from cloud_sync import learn_cmd, serve_cmd, sync_cmd
 
 __all__ = ["main", "build_parser"]
 
-SUBCOMMAND_MODULES = (learn_cmd,)
+SUBCOMMAND_MODULES = (learn_cmd, serve_cmd, sync_cmd)
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``pacc cloud`` parser with every sub-command registered."""
     parser = argparse.ArgumentParser(
-        prog="pacc cloud", description="Cloud side of pacc: learn each driver's DGPT by IRL."
+        prog="pacc cloud",
+        description="Cloud side of pacc: learn each driver's DGPT by IRL, serve it, sync to it.",
     )
     subparsers = parser.add_subparsers(title="sub-commands", dest="command", metavar="COMMAND")
     for module in SUBCOMMAND_MODULES:
