@@ -9,8 +9,13 @@ Modules, one concept each:
 - :mod:`ecu.recorder` — takeover recorder (pre-trigger ring buffer, segments to a sink).
 - :mod:`ecu.config` — ``EcuConfig``, the node's frozen configuration.
 - :mod:`ecu.signals` — ``NodeInputs`` / ``NodeOutputs``, the node's boundary values.
+- :mod:`ecu.pedals` — ``PedalScale``, pedal fractions from the DBC's full scale.
+- :mod:`ecu.phases` — the phases of one control cycle, pure functions.
 - :mod:`ecu.node` — ``EcuNode.step(inputs, now) -> outputs``, pure of I/O.
-- :mod:`ecu.runtime` — wires a python-can bus, the codec, the clock and the log.
+- :mod:`ecu.busio` — frames <-> node values (Inbox/Outbox), the DBC fit check.
+- :mod:`ecu.profiles` — driver profiles selected by the HMI.
+- :mod:`ecu.clocks` — the cycle grid in lockstep or real time.
+- :mod:`ecu.runtime` — ``EcuRuntime``, wiring bus I/O, profiles and clocks to a node.
 - :mod:`ecu.triplog` — ``Trip`` and its MCAP trip-log format (written here, read by the cloud).
 - :mod:`ecu.cli` — ``pacc ecu`` / ``python -m ecu``.
 
