@@ -8,9 +8,9 @@ is the last good table for offline use and is verified again whenever it is read
 else is refused and reported (:attr:`ProfileDownloader.refusals`), and the last good table
 stays in use.
 
-Swapping a new table into a running ECU is the caller's decision; :func:`may_swap` states the
-rule: never while the ACC is ACTIVE (the driver would feel the gap jump under control), at
-any other state.
+Swapping a new table into a running ECU is the ECU's business: ``EcuRuntime.offer_table``
+swaps it in at a cycle where :func:`ecu.profiles.may_swap` holds (never while the ACC is
+ACTIVE).
 """
 
 from __future__ import annotations
@@ -26,14 +26,8 @@ from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PublicKey
 from cloud_sync.api import CloudApi, CloudError, CloudUnavailableError, NotFoundError
 from cloud_sync.signing import SignatureError, verify_dgpt
 from ecu.dgpt import Dgpt, SafetyBounds
-from ecu.state import AccState
 
 log = logging.getLogger(__name__)
-
-
-def may_swap(state: AccState) -> bool:
-    """True when a downloaded table may replace the ECU's: any state but ACTIVE."""
-    return state is not AccState.ACTIVE
 
 
 @dataclass
@@ -146,4 +140,4 @@ class ProfileDownloader:
         log.error("profile refused: %s", reason)
 
 
-__all__ = ["FetchReport", "ProfileDownloader", "may_swap"]
+__all__ = ["FetchReport", "ProfileDownloader"]

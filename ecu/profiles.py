@@ -4,15 +4,21 @@
 its last good table and reports FaultCode PROFILE), a missing one keeps the table; ``n = 0``
 (guest) returns to the table the node started with. File I/O happens here, at the edge,
 between two cycles; nothing here raises into the control loop.
+
+A table that arrives from elsewhere (the cloud's download thread) is *offered*
+(:class:`TableOffer`) and swapped in by the cycle itself, and only while :func:`may_swap`
+holds: never while the ACC is ACTIVE, so the driver never feels the gap jump under control.
 """
 
 from __future__ import annotations
 
 import os
+import threading
 from pathlib import Path
 
-from ecu.dgpt import DgptError, load_dgpt
+from ecu.dgpt import Dgpt, DgptError, load_dgpt
 from ecu.node import EcuNode
+from ecu.state import AccState
 
 #: The profile id of the guest (the node's startup table).
 GUEST_PROFILE = 0
@@ -74,4 +80,45 @@ class ProfileSwitcher:
         )
 
 
-__all__ = ["GUEST_PROFILE", "ProfileSwitcher", "profile_path"]
+def may_swap(state: AccState) -> bool:
+    """True when a new table may replace the node's: in any state but ACTIVE."""
+    return state is not AccState.ACTIVE
+
+
+class TableOffer:
+    """A one-slot mailbox for a table from another thread; the newest offer wins.
+
+    :meth:`offer` is thread-safe and cheap; :meth:`apply` runs in the control cycle and swaps
+    the pending table in when :func:`may_swap` allows (it stays pending otherwise).
+    """
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._pending: tuple[Dgpt, str] | None = None
+        #: tables swapped in so far
+        self.applied = 0
+
+    def offer(self, table: Dgpt, message: str) -> None:
+        """Hand ``table`` to the node at its next safe cycle (replaces an older offer)."""
+        with self._lock:
+            self._pending = (table, message)
+
+    @property
+    def pending(self) -> bool:
+        """True while an offered table waits for a safe cycle."""
+        return self._pending is not None
+
+    def apply(self, node: EcuNode) -> bool:
+        """Swap the pending table in if ``node`` is not ACTIVE; True when it did."""
+        if self._pending is None or not may_swap(node.state):
+            return False
+        with self._lock:
+            pending, self._pending = self._pending, None
+        if pending is None:
+            return False
+        node.set_table(*pending)
+        self.applied += 1
+        return True
+
+
+__all__ = ["GUEST_PROFILE", "ProfileSwitcher", "TableOffer", "may_swap", "profile_path"]

@@ -41,8 +41,9 @@ from dbc.codec import Codec, load_codec
 from dbc.endpoint import Inbox, Outbox
 from ecu.busio import INPUT_ROLES, BusIO, RuntimeCodecError
 from ecu.clocks import MAX_CATCHUP_S, CycleClock, RuntimeClockError
+from ecu.dgpt import Dgpt
 from ecu.node import EcuNode, NodeInputs, NodeOutputs
-from ecu.profiles import ProfileSwitcher
+from ecu.profiles import ProfileSwitcher, TableOffer
 
 log = logging.getLogger(__name__)
 
@@ -125,6 +126,8 @@ class EcuRuntime:
         self.clock = CycleClock(node.config.cycle_s)
         self.profile_dir = Path(profile_dir) if profile_dir is not None else None
         self.profiles = ProfileSwitcher(node, profile_dir) if profile_dir is not None else None
+        #: tables offered from other threads (the cloud download), swapped in when safe
+        self.table_offer = TableOffer()
         self.on_event = on_event
         self.cycle_s = node.config.cycle_s
         self._status_every = max(1, int(round(node.config.status_period_s / self.cycle_s)))
@@ -181,6 +184,10 @@ class EcuRuntime:
         """
         self.clock.run_realtime(duration_s, self.io, self._cycle)
 
+    def offer_table(self, table: Dgpt, message: str) -> None:
+        """Swap ``table`` in at the next cycle where the ACC is not ACTIVE (thread-safe)."""
+        self.table_offer.offer(table, message)
+
     def stop(self) -> None:
         """Ask :meth:`run_realtime` to return after the current cycle, or at once if called
         before it starts (thread-safe, signal-safe)."""
@@ -198,6 +205,7 @@ class EcuRuntime:
         inputs = self.io.read_inputs(t)
         if self.profiles is not None:
             self.profiles.request(self.io.profile_request(inputs))
+        self.table_offer.apply(self.node)
         out = self.node.step(inputs, t)
         self.last_outputs = out
         self.io.send(t, out, status=k % self._status_every == 0)

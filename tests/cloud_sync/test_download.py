@@ -9,12 +9,11 @@ from pathlib import Path
 import pytest
 
 from cloud_sync.client import HttpCloud
+from cloud_sync.download import ProfileDownloader
 from cloud_sync.local import LocalCloud
-from cloud_sync.download import ProfileDownloader, may_swap
 from cloud_sync.service import CloudService
 from cloud_sync.signing import load_public_key
 from ecu.dgpt import Dgpt, SafetyBounds, predefined
-from ecu.state import AccState
 from tests.cloud_sync.test_uploader import free_port
 
 
@@ -107,8 +106,3 @@ def test_a_signed_table_outside_the_vehicles_bounds_is_refused(
     assert dl.fetch("d1") is None
     assert "refused" in dl.report.refusals[-1]
     assert dl.last_good("d1") is None  # nothing was kept
-
-
-def test_no_swap_while_active() -> None:
-    assert not may_swap(AccState.ACTIVE)
-    assert all(may_swap(s) for s in AccState if s is not AccState.ACTIVE)
