@@ -20,6 +20,7 @@ from sim_bus.drivers import DriverParams
 from sim_bus.errors import DriveError
 from sim_bus.plant import Plant, PlantConfig, PlantState
 from sim_bus.scenarios import LeadProfile
+from sim_bus.trip import condition_name
 
 MANUAL_DT_S = 0.05
 LOG_EVERY = 2  # 20 Hz steps -> 10 Hz samples
@@ -30,12 +31,13 @@ def manual_trip(
     profile: LeadProfile,
     seed: int,
     plant: PlantConfig | None = None,
-    condition: str = "dry",
+    condition: str | None = None,
 ) -> Trip:
     """Drive ``profile`` by hand with ``driver``; return a cloud_sync Trip (10 Hz, mode manual).
 
     The ego starts at the lead's speed at the driver's preferred gap. A collision (gap ≤ 0)
-    ends the trip early and is recorded in ``meta["collision"]``.
+    ends the trip early and is recorded in ``meta["collision"]``. ``condition``: the trip's
+    condition (default: named from the driver's condition factor, sim_bus.trip).
     """
     if not seed >= 0:
         raise DriveError(f"a seed is an integer >= 0, got {seed}")
@@ -76,7 +78,10 @@ def manual_trip(
     cols = cols[:, :k]
     meta = {
         "driver_id": driver.driver_id,
-        "condition": condition,
+        "condition": condition
+        if condition is not None
+        else condition_name(driver.condition_factor),
+        "condition_factor": driver.condition_factor,
         "mode": "manual",
         "scenario": profile.name,
         "seed": int(seed),

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +31,7 @@ def test_manual_trip_follows_own_preference(
     trip = manual_trip(d, profiles["manual3"], seed=1)
     assert isinstance(trip, Trip)
     assert trip.meta["mode"] == "manual" and trip.meta["driver_id"] == driver_id
+    assert trip.meta["condition"] == "dry" and trip.meta["condition_factor"] == 1.0
     assert not trip.meta["collision"]
     assert len(trip.t_s) == 3001 and np.allclose(np.diff(trip.t_s), 0.1)
     assert np.all(trip.acc_state == AccState.OFF)
@@ -90,3 +92,13 @@ def test_manual_pedals_are_the_drivers_on_the_network_scale(
     # the least press is 1 % / 1 bar; the hardest brake asks DECEL_LIMIT_MPS2
     assert accel.min() >= pedals.accel(1.0) and brake.min() >= pedals.brake(1.0)
     assert brake.max() <= pedals.brake(DECEL_LIMIT_MPS2 * BRAKE_BAR_PER_MPS2)
+
+
+def test_manual_trip_condition_follows_the_condition_factor(
+    profiles: dict[str, LeadProfile],
+) -> None:
+    wet = dataclasses.replace(BUILTIN_DRIVERS["d2"], condition_factor=1.2)
+    trip = manual_trip(wet, shorten(profiles["manual1"], 10.0), seed=0)
+    assert trip.meta["condition"] == "factor-1.2" and trip.meta["condition_factor"] == 1.2
+    named = manual_trip(wet, shorten(profiles["manual1"], 10.0), seed=0, condition="rain")
+    assert named.meta["condition"] == "rain"
