@@ -32,6 +32,7 @@ from ecu.node import EcuConfig, EcuNode
 from ecu.recorder import TripSink, directory_sink
 
 if TYPE_CHECKING:
+    from cloud_sync.vehicle import VehicleLink
     from ecu.runtime import EcuRuntime
 
 
@@ -86,6 +87,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--takeovers", metavar="DIR", help="write takeover segments (MCAP) here")
     p.add_argument("--save-profile", metavar="PATH", help="write the final DGPT here at exit")
     p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
+    cloud = p.add_argument_group("cloud (docs/cloud.md): takeovers up, verified tables down")
+    cloud.add_argument("--cloud", metavar="URL|DIR", help="the cloud service, or a folder")
+    cloud.add_argument("--vehicle", metavar="ID", help="this vehicle's id (with --cloud)")
+    cloud.add_argument("--token-file", metavar="F", help="file holding the vehicle's token")
+    cloud.add_argument(
+        "--trust",
+        metavar="KEY.pub",
+        help="the cloud's public key (default for a folder: "
+        "DIR/keys/cloud.pub; required for a URL)",
+    )
+    cloud.add_argument("--driver", metavar="ID", help="download this driver's table")
+    cloud.add_argument("--condition", default="default", help="driving condition of --driver")
+    cloud.add_argument("--spool", metavar="DIR", default="pacc-spool", help="the spool folder")
+    cloud.add_argument(
+        "--sync-every", type=float, default=60.0, metavar="S", help="download period, s (60)"
+    )
     p.add_argument("-v", "--verbose", action="store_true", help="log at INFO level")
     return p
 
@@ -155,14 +172,22 @@ def _run(args: argparse.Namespace) -> int:
 def _serve(args: argparse.Namespace) -> int:
     """Build the node, run it on the bus until done, report and save; raise :class:`_Exit`."""
     config, fallback = _config(args)
+    link = _cloud_link(args, config) if args.cloud else None
     table, profile_fault = _initial_table(args, config, fallback)
+    if link is not None and not args.profile:
+        table = _cloud_table(link, table)
     codec, sink = _codec_and_sink(args)
     if args.save_profile:  # refuse now, not after the drive when the table would be lost
         _check_writable_parent(args.save_profile)
-    node = EcuNode(config, table, sink)
+    node = EcuNode(config, table, link.sink if link is not None else sink)
     if profile_fault:
         node.report_profile_fault()
-    bus_error = _run_on_bus(args, node, codec)
+    try:
+        bus_error = _run_on_bus(args, node, codec, link)
+    finally:
+        if link is not None:
+            link.stop()
+            _say(link.report())
     if args.takeovers and node.recorder is not None:
         rec = node.recorder
         _say(
@@ -231,7 +256,61 @@ def _check_writable_parent(target: str) -> None:
         raise _Exit(1, f"pacc ecu: error: --save-profile: {parent} is not a writable directory")
 
 
-def _run_on_bus(args: argparse.Namespace, node: EcuNode, codec: Codec) -> str | None:
+def _cloud_link(args: argparse.Namespace, config: EcuConfig) -> VehicleLink:
+    """The vehicle's cloud link of ``--cloud`` (usage and set-up errors raise _Exit)."""
+    # the cloud side (httpx, cryptography, the embedded service) is only for --cloud runs
+    from cloud_sync.connect import connect, is_url, read_token  # noqa: PLC0415
+    from cloud_sync.download import ProfileDownloader  # noqa: PLC0415
+    from cloud_sync.errors import CloudSyncError  # noqa: PLC0415
+    from cloud_sync.signing import load_public_key  # noqa: PLC0415
+    from cloud_sync.spool import Spool  # noqa: PLC0415
+    from cloud_sync.vehicle import VehicleLink  # noqa: PLC0415
+
+    if not (args.vehicle and args.token_file):
+        raise _Exit(2, "pacc ecu: error: --cloud needs --vehicle ID and --token-file F")
+    if args.takeovers:
+        raise _Exit(2, "pacc ecu: error: --cloud spools the takeovers: drop --takeovers")
+    if not args.sync_every > 0:
+        raise _Exit(2, "pacc ecu: error: --sync-every must be > 0")
+    trust = args.trust or (None if is_url(args.cloud) else Path(args.cloud) / "keys" / "cloud.pub")
+    if args.driver and trust is None:
+        raise _Exit(2, "pacc ecu: error: --driver with a cloud URL needs --trust KEY.pub")
+    try:
+        cloud = connect(args.cloud, read_token(args.token_file))
+        downloader = None
+        if args.driver:
+            assert trust is not None
+            downloader = ProfileDownloader(
+                cloud, load_public_key(trust), Path(args.spool) / "profiles", config.bounds
+            )
+        link = VehicleLink(
+            cloud,
+            Spool(args.spool),
+            args.vehicle,
+            downloader=downloader,
+            driver_id=args.driver,
+            condition=args.condition,
+            sync_every_s=args.sync_every,
+        )
+    except (CloudSyncError, OSError) as exc:
+        raise _Exit(1, f"pacc ecu: error: {exc}") from None
+    _say(f"cloud: {args.cloud} as vehicle {args.vehicle}, spool {args.spool}")
+    return link
+
+
+def _cloud_table(link: VehicleLink, table: Dgpt) -> Dgpt:
+    """The driver's newest verified cloud table, else ``table``."""
+    cloud_table = link.initial_table()
+    if cloud_table is None:
+        _say("cloud: no verified table for the driver yet; keeping the start table")
+        return table
+    _say(f"profile: cloud {cloud_table.driver_id} {cloud_table.source} v{cloud_table.version}")
+    return cloud_table
+
+
+def _run_on_bus(
+    args: argparse.Namespace, node: EcuNode, codec: Codec, link: VehicleLink | None = None
+) -> str | None:
     """Open the bus, run the node on it until done and print the summary; return the bus
     failure's text (None: clean end)."""
     # python-can and the runtime cost ~0.3 s of start-up that --help and usage errors skip
@@ -248,6 +327,8 @@ def _run_on_bus(args: argparse.Namespace, node: EcuNode, codec: Codec) -> str | 
             rt = EcuRuntime(bus, node, codec, on_event=_say, profile_dir=args.profiles)
         except EcuError as exc:  # a DBC that cannot carry the outputs
             raise _Exit(1, f"pacc ecu: error: {exc}") from None
+        if link is not None:
+            link.start(rt.offer_table)
         mode = args.adaptation_mode if args.adaptation else "off"
         _say(f"adaptation: {mode}; brake press: {args.brake}")
         _say(f"ECU running on {bus.channel_info} (Ctrl-C to stop)")
