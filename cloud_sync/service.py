@@ -83,6 +83,36 @@ class InlineExecutor(Executor):
         return future
 
 
+class DeferredExecutor(Executor):
+    """Queues jobs until :meth:`run_pending` (the embedded cloud learns when a table is asked
+    for, so a sync pass of many batches learns once, not once per batch)."""
+
+    def __init__(self) -> None:
+        self._queue: list[tuple[Future[Any], Callable[..., Any], tuple[Any, ...]]] = []
+        self._lock = threading.Lock()
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
+        """Queue ``fn(*args)``; its future completes in :meth:`run_pending`."""
+        if kwargs:
+            raise TypeError("DeferredExecutor.submit takes positional arguments only")
+        future: Future[Any] = Future()
+        with self._lock:
+            self._queue.append((future, fn, args))
+        return future
+
+    def run_pending(self) -> None:
+        """Run every queued job in the caller's thread, oldest first."""
+        while True:
+            with self._lock:
+                if not self._queue:
+                    return
+                future, fn, args = self._queue.pop(0)
+            try:
+                future.set_result(fn(*args))
+            except BaseException as exc:  # the future carries it, as a pool's would
+                future.set_exception(exc)
+
+
 @dataclass(frozen=True)
 class ServiceConfig:
     """Settings of the service.
@@ -213,7 +243,8 @@ class CloudService:
                 state.dirty = True  # the running job will run once more
                 return
             state.running = True
-        state.futures.append(self.executor.submit(self._job_loop, key))
+        future = self.executor.submit(self._job_loop, key)
+        state.futures = [f for f in state.futures if not f.done()] + [future]
 
     def _job_loop(self, key: tuple[str, str]) -> None:
         state = self._jobs[key]
@@ -230,7 +261,10 @@ class CloudService:
                 state.dirty = False
 
     def wait_idle(self, timeout_s: float | None = None) -> None:
-        """Block until every learning job scheduled so far has finished."""
+        """Block until every learning job scheduled so far has finished (a deferred
+        executor's queue runs now, in this thread)."""
+        if isinstance(self.executor, DeferredExecutor):
+            self.executor.run_pending()
         for state in list(self._jobs.values()):
             for future in list(state.futures):
                 future.result(timeout=timeout_s)
@@ -338,6 +372,7 @@ def _parse_trip(data: bytes) -> Trip:
 __all__ = [
     "DEFAULT_MAX_UPLOAD_BYTES",
     "CloudService",
+    "DeferredExecutor",
     "InlineExecutor",
     "ServiceConfig",
     "read_trip_bytes",

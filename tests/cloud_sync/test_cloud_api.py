@@ -197,10 +197,11 @@ def test_an_unreachable_cloud_is_unavailable() -> None:
 
 @pytest.mark.slow
 def test_manual_trips_learn_a_signed_table_and_takeovers_fine_tune_it(
-    connect: Connect, cloud: CloudService, token: str, tmp_path: Path
+    cloud: CloudService, token: str, tmp_path: Path
 ) -> None:
-    """The loop's cloud half: manual trips -> v1 signed; a takeover batch -> v2 signed."""
-    api = connect(token)
+    """The loop's cloud half: manual trips -> v1 signed; a takeover batch -> v2 signed.
+    (Learning does not depend on the transport: the embedded backend only.)"""
+    api = LocalCloud(cloud, token)
     for seed in range(3):
         api.upload(trip_bytes(follower_trip(seed, minutes=4.0), tmp_path))
     cloud.wait_idle(120.0)

@@ -54,7 +54,7 @@ def test_sync_into_an_embedded_cloud_learns_and_fetches_a_verified_table(
     trips = []
     for seed in range(3):
         trips.append(tmp_path / f"manual{seed}.mcap")
-        write_trip(trips[-1], follower_trip(seed, minutes=4.0))
+        write_trip(trips[-1], follower_trip(seed, minutes=2.0))
     args = ["sync", "--spool", str(tmp_path / "spool"), "--cloud", str(data)]
     args += ["--token-file", str(token), "--add", *map(str, trips)]
     args += ["--fetch", "syn", "--trust", str(data / "keys" / "cloud.pub")]
