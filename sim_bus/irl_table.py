@@ -22,6 +22,7 @@ import os
 from pathlib import Path
 
 from ecu.dgpt import Dgpt, DgptError, load_dgpt, save_dgpt
+from ecu.triplog import Trip
 from sim_bus.drivers import DriverParams
 from sim_bus.manual import manual_trip
 from sim_bus.scenarios import canonical_profiles
@@ -65,6 +66,12 @@ def cache_key(driver: DriverParams, seed: int, trainer_source: str) -> str:
     return hashlib.sha256(payload.encode()).hexdigest()[:16]
 
 
+def manual_trips(driver: DriverParams, seed: int) -> list[Trip]:
+    """The driver's manual (ACC OFF) trips on manual1..manual4: the IRL demonstrations."""
+    profiles = canonical_profiles(seed)
+    return [manual_trip(driver, profiles[name], seed + i) for i, name in enumerate(MANUAL_PROFILES)]
+
+
 def irl_table(driver: DriverParams, seed: int, cache_dir: Path | None = None) -> Dgpt:
     """Learn (or read from the cache) the driver's IRL table from its manual trips."""
     key = cache_key(driver, seed, code_digest())
@@ -78,11 +85,7 @@ def irl_table(driver: DriverParams, seed: int, cache_dir: Path | None = None) ->
     # the trainer (scipy) costs about a second of start-up; only a table to learn needs it
     from cloud_sync.trainer import learn_dgpt  # noqa: PLC0415
 
-    profiles = canonical_profiles(seed)
-    trips = [
-        manual_trip(driver, profiles[name], seed + i) for i, name in enumerate(MANUAL_PROFILES)
-    ]
-    result = learn_dgpt(trips, driver_id=driver.driver_id, seed=seed)
+    result = learn_dgpt(manual_trips(driver, seed), driver_id=driver.driver_id, seed=seed)
     table: Dgpt = result.table
     try:  # save_dgpt writes atomically; the cache only saves time, so a failure is no error
         folder.mkdir(parents=True, exist_ok=True)

@@ -8,6 +8,7 @@ import sys
 import time
 from pathlib import Path
 
+from cloud_sync.errors import CloudSyncError
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES
 from sim_bus.drive import CONTROLLERS, adaptation_params
@@ -50,6 +51,24 @@ def _parser() -> argparse.ArgumentParser:
         choices=ADAPTATION_MODES,
         help="online adaptation of the +oa controllers (default: the ECU's, see docs/ecu.md)",
     )
+    cloud = p.add_argument_group("the vehicle-cloud loop (docs/cloud.md)")
+    cloud.add_argument(
+        "--cloud",
+        metavar="URL|DIR",
+        help="learn the IRL tables in this cloud (default: a fresh embedded one in OUT/cloud)",
+    )
+    cloud.add_argument("--token-file", help="with --cloud: the vehicle's token file")
+    cloud.add_argument("--trust", help="with --cloud: the cloud's public key (PEM)")
+    cloud.add_argument(
+        "--direct", action="store_true", help="no cloud: learn in-process (cached in --cache)"
+    )
+    cloud.add_argument(
+        "--incremental",
+        type=int,
+        default=0,
+        metavar="N",
+        help="instead of Table I: N IRL+OA trips per driver, the cloud fine-tuning between",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     return p
 
@@ -67,16 +86,31 @@ def main(argv: list[str] | None = None) -> int:
         workers=max(1, args.workers),
         logs=not args.no_logs,
         adaptation=adaptation_params(args.adaptation_mode),
+        cloud=args.cloud,
+        token_file=args.token_file,
+        trust=args.trust,
+        direct=args.direct,
+        incremental=args.incremental,
     )
     try:
         start = time.perf_counter()
         rows = run_study(cfg, args.out, cache_dir=args.cache, progress=not args.quiet)
-    except (SimError, EcuError, OSError) as exc:
+    except (SimError, EcuError, CloudSyncError, OSError) as exc:
         print(f"pacc study: error: {exc}", file=sys.stderr)
         return 2
-    print((args.out / "table1.md").read_text(encoding="utf-8"))
-    print(
-        f"{len(rows)} drives in {time.perf_counter() - start:.1f} s; outputs in {args.out}/ "
-        "(table1.md, drives.csv, study.png, irl/, " + ("logs/)" if cfg.logs else "no logs)")
-    )
+    took = time.perf_counter() - start
+    if cfg.incremental:
+        print((args.out / "incremental.md").read_text(encoding="utf-8"))
+        print(
+            f"{len(rows)} drives in {took:.1f} s; outputs in {args.out}/ "
+            "(incremental.md, incremental.csv, incremental.png, cloud/)"
+        )
+    else:
+        print((args.out / "table1.md").read_text(encoding="utf-8"))
+        print(
+            f"{len(rows)} drives in {took:.1f} s; outputs in {args.out}/ "
+            "(table1.md, drives.csv, study.png, irl/, "
+            + ("logs/" if cfg.logs else "no logs")
+            + (")" if cfg.direct else ", cloud/)")
+        )
     return 1 if any(int(r["collision"]) for r in rows) else 0

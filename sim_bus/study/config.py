@@ -16,7 +16,12 @@ class StudyConfig:
     """What to run. ``drivers``: built-in names (d1..d5) or driver files (.toml/.json).
     ``seed`` fixes the scenarios and the IRL tables; trial k drives with noise seed
     ``seed + k``. ``duration_s`` shortens every drive (None: the full 300 s).
-    ``adaptation``: the online adaptation of the +oa controllers (None: the ECU's default)."""
+    ``adaptation``: the online adaptation of the +oa controllers (None: the ECU's default).
+    ``cloud``: where the IRL tables are learned: None, a fresh embedded cloud under
+    ``OUT/cloud``; a URL or folder of a cloud where the drivers are registered to the vehicle
+    of ``token_file``, whose tables are verified with ``trust``. ``direct``: no cloud, learn
+    in-process (cached). ``incremental``: N > 0 runs the incremental-learning experiment
+    (N trips per driver through the cloud) instead of Table I."""
 
     drivers: tuple[str, ...] = ("d1", "d2", "d3", "d4", "d5")
     scenarios: tuple[str, ...] = ("A", "B")
@@ -27,6 +32,20 @@ class StudyConfig:
     workers: int = 2
     logs: bool = True
     adaptation: AdaptationParams | None = None
+    cloud: str | None = None
+    token_file: str | None = None
+    trust: str | None = None
+    direct: bool = False
+    incremental: int = 0
+
+
+def _validate_cloud(cfg: StudyConfig) -> None:
+    if cfg.incremental < 0:
+        raise SimError("--incremental must be >= 0")
+    if cfg.direct and (cfg.cloud is not None or cfg.incremental):
+        raise SimError("--direct learns without a cloud: not with --cloud or --incremental")
+    if cfg.cloud is not None and not (cfg.token_file and cfg.trust):
+        raise SimError("--cloud needs --token-file F and --trust KEY.pub")
 
 
 def validate(cfg: StudyConfig) -> dict[str, DriverParams]:
@@ -44,6 +63,7 @@ def validate(cfg: StudyConfig) -> dict[str, DriverParams]:
         raise SimError("--duration must be > 0")
     if cfg.seed < 0:
         raise SimError(f"--seed must be >= 0, got {cfg.seed}")
+    _validate_cloud(cfg)
     unknown = [s for s in cfg.scenarios if s not in canonical_profiles(cfg.seed)]
     if unknown:
         raise SimError(f"unknown scenarios {unknown}: A, B or manual1..manual4")

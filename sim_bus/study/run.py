@@ -24,6 +24,12 @@ from sim_bus.drivers import DriverParams
 from sim_bus.irl_table import irl_table
 from sim_bus.scenarios import canonical_profiles
 from sim_bus.study.config import StudyConfig, validate
+from sim_bus.study.incremental_report import (
+    format_incremental,
+    plot_incremental,
+    write_incremental_csv,
+)
+from sim_bus.study.loop import StudyCloud, cloud_irl_tables, run_incremental
 from sim_bus.study.report import format_table, plot, write_csv
 
 
@@ -81,16 +87,32 @@ def run_job(job: DriveJob) -> dict[str, Any]:
     }
 
 
+def study_cloud(cfg: StudyConfig, drivers: Mapping[str, DriverParams], out: Path) -> StudyCloud:
+    """The study's cloud: the one of ``cfg.cloud``, or a fresh embedded one under ``out``."""
+    if cfg.cloud is None:
+        return StudyCloud.embedded(out, drivers, cfg.seed)
+    assert cfg.token_file is not None and cfg.trust is not None  # validate() checked
+    return StudyCloud.remote(cfg.cloud, Path(cfg.token_file), Path(cfg.trust), out)
+
+
 def tables_for(
-    cfg: StudyConfig, drivers: Mapping[str, DriverParams], cache_dir: Path | None
+    cfg: StudyConfig,
+    drivers: Mapping[str, DriverParams],
+    cache_dir: Path | None,
+    cloud: StudyCloud | None = None,
 ) -> dict[tuple[str, str], Dgpt]:
-    """(driver id, "predefined" | "irl") -> the control table: predefined or learned by IRL."""
+    """(driver id, "predefined" | "irl") -> the control table: predefined, or learned by IRL
+    in ``cloud`` (uploaded manual trips, downloaded verified table) or in-process (cached)."""
     tables: dict[tuple[str, str], Dgpt] = {}
+    needs_irl = any(c.startswith("irl") for c in cfg.controllers)
+    learned = cloud_irl_tables(cloud, drivers, cfg.seed) if cloud and needs_irl else {}
     for driver_id, driver in drivers.items():
         if any(c.startswith("predefined") for c in cfg.controllers):
             tables[(driver_id, "predefined")] = predefined_table(driver)
-        if any(c.startswith("irl") for c in cfg.controllers):
-            tables[(driver_id, "irl")] = irl_table(driver, cfg.seed, cache_dir)
+        if needs_irl:
+            tables[(driver_id, "irl")] = learned.get(driver_id) or irl_table(
+                driver, cfg.seed, cache_dir
+            )
     return tables
 
 
@@ -160,7 +182,16 @@ def run_study(
     (out / "irl").mkdir(exist_ok=True)
     if cfg.logs:
         (out / "logs").mkdir(exist_ok=True)
-    tables = tables_for(cfg, drivers, cache_dir)
+    cloud = None if cfg.direct else study_cloud(cfg, drivers, out)
+    if cfg.incremental:
+        assert cloud is not None
+        irl = cloud_irl_tables(cloud, drivers, cfg.seed)
+        rows = run_incremental(cfg, drivers, cloud, irl)
+        write_incremental_csv(out / "incremental.csv", rows)
+        (out / "incremental.md").write_text(format_incremental(rows), encoding="utf-8")
+        plot_incremental(out / "incremental.png", rows)
+        return rows
+    tables = tables_for(cfg, drivers, cache_dir, cloud)
     for (driver_id, kind), table in tables.items():
         if kind == "irl":
             save_dgpt(table, out / "irl" / f"{driver_id}.json")

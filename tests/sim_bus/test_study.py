@@ -26,6 +26,7 @@ SMALL = StudyConfig(
     seed=3,
     duration_s=25.0,
     workers=1,
+    direct=True,  # learned in-process and cached: the cloud loop has tests of its own
 )
 
 
@@ -162,6 +163,7 @@ def test_adaptation_mode_from_the_command_line(
 # -- drivers given as files: everything named by driver id, under --out -----------------
 
 QUICK = [
+    "--direct",  # the fake learner below stands in for the in-process one
     "--scenarios",
     "B",
     "--controllers",

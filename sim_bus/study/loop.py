@@ -1,0 +1,182 @@
+"""The study through the vehicle–cloud loop, and the paper's incremental learning measured.
+
+:class:`StudyCloud` is the study's vehicle: each driver's manual trips go through the spool and
+the uploader into the cloud (embedded under ``OUT/cloud`` by default, or a running
+``pacc cloud serve``), the cloud learns the driver's table, and the IRL controllers drive with
+the table the vehicle downloaded and verified (signature and safety bounds).
+
+:func:`run_incremental` is the paper's incremental learning, which the paper describes but
+never measures: N consecutive IRL + OA trips per driver; after each trip the takeover segments
+sync up, the cloud fine-tunes, and the next trip starts from the version it downloads. One
+row per (driver, trip): the table version it drove with, PoI, NIM, takeovers.
+"""
+
+from __future__ import annotations
+
+import shutil
+import threading
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from cloud_sync.api import CloudApi, CloudError
+from cloud_sync.connect import connect, read_token
+from cloud_sync.download import ProfileDownloader
+from cloud_sync.errors import CloudSyncError
+from cloud_sync.local import LocalCloud
+from cloud_sync.service import CloudService, DeferredExecutor, ServiceConfig
+from cloud_sync.signing import load_public_key
+from cloud_sync.spool import Spool
+from cloud_sync.uploader import Uploader, UploaderConfig
+from ecu.dgpt import Dgpt
+from ecu.triplog import Trip
+from sim_bus.drive import DriveConfig, run_drive
+from sim_bus.drivers import DriverParams
+from sim_bus.errors import SimError
+from sim_bus.irl_table import manual_trips
+from sim_bus.scenarios import canonical_profiles
+from sim_bus.study.config import StudyConfig
+
+#: the vehicle id the study registers in its embedded cloud
+STUDY_VEHICLE = "study"
+#: how long the study waits for a cloud that does not answer, s
+SYNC_TIMEOUT_S = 120.0
+
+
+@dataclass
+class StudyCloud:
+    """The study's link to a cloud: upload trips, download verified tables."""
+
+    api: CloudApi
+    downloader: ProfileDownloader
+    spool: Spool
+
+    @classmethod
+    def embedded(cls, out: Path, drivers: Mapping[str, DriverParams], seed: int) -> StudyCloud:
+        """A fresh embedded cloud under ``out/cloud`` (a previous study's is replaced) with
+        the study's vehicle and every driver registered."""
+        for folder in (out / "cloud", out / "spool"):
+            shutil.rmtree(folder, ignore_errors=True)
+        service = CloudService.open(out / "cloud", DeferredExecutor(), ServiceConfig(seed=seed))
+        token = service.register_vehicle(STUDY_VEHICLE)
+        for driver_id in drivers:
+            service.register_driver(STUDY_VEHICLE, driver_id)
+        public = load_public_key(service.public_key_pem())
+        api = LocalCloud(service, token)
+        return cls(
+            api, ProfileDownloader(api, public, out / "spool" / "profiles"), Spool(out / "spool")
+        )
+
+    @classmethod
+    def remote(cls, target: str, token_file: Path, trust: Path, out: Path) -> StudyCloud:
+        """A running cloud (URL) or another folder; the drivers must be registered there
+        to the vehicle of ``token_file`` (``pacc cloud register``)."""
+        try:
+            api = connect(target, read_token(token_file))
+            public = load_public_key(trust)
+        except CloudSyncError as exc:
+            raise SimError(f"study cloud: {exc}") from exc
+        return cls(
+            api, ProfileDownloader(api, public, out / "spool" / "profiles"), Spool(out / "spool")
+        )
+
+    def upload(self, trips: list[Trip]) -> int:
+        """Spool ``trips`` and upload until the spool is empty; the batches uploaded.
+
+        Raises:
+            SimError: the cloud refused a batch, or did not take them in SYNC_TIMEOUT_S.
+        """
+        for trip in trips:
+            self.spool.put_trip(trip)
+        uploader = Uploader(self.spool, self.api, UploaderConfig(backoff_max_s=5.0))
+        timer = threading.Timer(SYNC_TIMEOUT_S, uploader.stop)
+        timer.start()
+        try:
+            done = uploader.drain()
+        finally:
+            timer.cancel()
+        if uploader.stats.rejected or self.spool.pending():
+            raise SimError(
+                f"study cloud: {uploader.stats.rejected} batch(es) refused, "
+                f"{len(self.spool.pending())} not taken (see {self.spool.root})"
+            )
+        return done
+
+    def table(self, driver_id: str, condition: str) -> Dgpt | None:
+        """The newest verified table of the driver, downloaded now or the last good one."""
+        try:
+            fresh = self.downloader.fetch(driver_id, condition)
+        except CloudError as exc:  # fetch reports, but a bug must not pass silently
+            raise SimError(f"study cloud: {exc}") from exc
+        return fresh or self.downloader.last_good(driver_id, condition)
+
+    def refusals(self) -> list[str]:
+        """Why downloaded tables were refused, if any."""
+        return list(self.downloader.report.refusals)
+
+
+def cloud_irl_tables(
+    cloud: StudyCloud, drivers: Mapping[str, DriverParams], seed: int
+) -> dict[str, Dgpt]:
+    """Driver id -> the IRL table the vehicle downloaded after uploading the manual trips."""
+    tables: dict[str, Dgpt] = {}
+    for driver_id, driver in drivers.items():
+        trips = manual_trips(driver, seed)
+        cloud.upload(trips)
+        condition = str(trips[0].meta.get("condition", "default"))
+        table = cloud.table(driver_id, condition)
+        if table is None:
+            raise SimError(
+                f"study cloud: no usable table for {driver_id} after its manual trips "
+                f"({'; '.join(cloud.refusals()) or 'the cloud learned none'})"
+            )
+        tables[driver_id] = table
+    return tables
+
+
+def run_incremental(
+    cfg: StudyConfig,
+    drivers: Mapping[str, DriverParams],
+    cloud: StudyCloud,
+    tables: Mapping[str, Dgpt],
+) -> list[dict[str, Any]]:
+    """``cfg.incremental`` consecutive IRL + OA trips per driver on scenario B (trip k with
+    noise seed ``cfg.seed + k``); after each, its takeovers go up and the next trip drives
+    with the fine-tuned version downloaded. Rows in (driver, trip) order."""
+    profile = canonical_profiles(cfg.seed)["B"]
+    rows: list[dict[str, Any]] = []
+    for driver_id, driver in drivers.items():
+        table = tables[driver_id]
+        for trip in range(cfg.incremental):
+            segments: list[Trip] = []
+            run_cfg = DriveConfig(
+                scenario="B",
+                driver_id=driver_id,
+                controller="irl+oa",
+                seed=cfg.seed + trip,
+                duration_s=cfg.duration_s,
+                adaptation=cfg.adaptation,
+            )
+            result = run_drive(run_cfg, driver, table, profile, takeover_sink=segments.append)
+            m = result.metrics
+            rows.append(
+                {
+                    "driver": driver_id,
+                    "trip": trip + 1,
+                    "dgpt_version": table.version,
+                    "poi_pct": m.poi_pct,
+                    "nim_per_min": m.nim_per_min,
+                    "takeovers": result.takeovers,
+                    "uploaded": cloud.upload(segments),
+                    "min_ttc_s": m.min_ttc_s,
+                    "collision": int(result.collision),
+                }
+            )
+            newer = cloud.table(driver_id, table.condition)
+            if newer is not None and newer.version > table.version:
+                table = newer
+    return rows
+
+
+__all__ = ["STUDY_VEHICLE", "StudyCloud", "cloud_irl_tables", "run_incremental"]

@@ -1,0 +1,70 @@
+"""``pacc study`` through the vehicle-cloud loop: manual trips up, verified tables down, and
+the incremental-learning experiment (takeovers up, fine-tuned versions down)."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import pytest
+
+from cloud_sync.service import CloudService
+from ecu.dgpt import load_dgpt
+from sim_bus.errors import SimError
+from sim_bus.study import StudyConfig, main, run_study
+from sim_bus.study.config import validate
+
+
+@pytest.mark.slow
+def test_study_learns_its_irl_tables_in_the_embedded_cloud(tmp_path: Path) -> None:
+    cfg = StudyConfig(
+        drivers=("d2",),
+        scenarios=("B",),
+        controllers=("irl",),
+        trials=1,
+        seed=1,
+        duration_s=20.0,
+        workers=1,
+        logs=False,
+    )
+    rows = run_study(cfg, tmp_path, progress=False)
+    assert len(rows) == 1 and rows[0]["driver"] == "d2"
+    service = CloudService.open(tmp_path / "cloud")
+    kinds = [b.kind for b in service.store.batches("d2", "dry")]
+    assert kinds == ["manual"] * 4  # the four manual trips went up through the spool
+    versions = service.store.versions("d2", "dry")
+    table = load_dgpt(tmp_path / "irl" / "d2.json")
+    assert (table.source, table.version) == ("irl", versions[-1].version)
+    assert list((tmp_path / "spool").glob("*.mcap")) == []  # all acknowledged
+    cached = tmp_path / "spool" / "profiles" / "d2" / "dry.signed.json"
+    assert cached.is_file()  # the vehicle keeps the verified table it drove with
+
+
+@pytest.mark.slow
+def test_incremental_learning_fine_tunes_between_trips(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = ["--drivers", "d3", "--incremental", "3", "--duration", "60", "--seed", "2"]
+    assert main([*argv, "--out", str(tmp_path), "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "Incremental learning" in out and "incremental.png" in out
+    with (tmp_path / "incremental.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert [int(r["trip"]) for r in rows] == [1, 2, 3]
+    versions = [int(r["dgpt_version"]) for r in rows]
+    assert versions == sorted(versions)  # each trip drives the newest version
+    service = CloudService.open(tmp_path / "cloud")
+    takeovers = [b for b in service.store.batches("d3", "dry") if b.kind == "takeover"]
+    assert len(takeovers) == sum(int(r["uploaded"]) for r in rows)
+    if takeovers:  # each trip's takeovers made a new version for the next one
+        assert versions[-1] > versions[0]
+    assert (tmp_path / "incremental.png").stat().st_size > 0
+
+
+def test_cloud_options_are_checked_before_anything_runs() -> None:
+    with pytest.raises(SimError, match="--token-file F and --trust"):
+        validate(StudyConfig(cloud="http://127.0.0.1:9"))
+    with pytest.raises(SimError, match="not with --cloud or --incremental"):
+        validate(StudyConfig(direct=True, incremental=2))
+    with pytest.raises(SimError, match="--incremental must be >= 0"):
+        validate(StudyConfig(incremental=-1))
