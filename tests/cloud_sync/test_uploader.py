@@ -27,12 +27,20 @@ FAST = UploaderConfig(backoff_s=0.02, backoff_max_s=0.2, poll_s=0.05)
 Scope = dict[str, Any]
 
 
-class Flaky:
-    """ASGI wrapper: answers the first ``fail`` requests with 503 and stalls the next
-    ``stall`` ones past the client's timeout, then passes everything to the real app."""
+class DroppedError(RuntimeError):
+    """Raised inside the app after the response started: uvicorn drops the connection."""
 
-    def __init__(self, app: Any, *, fail: int = 0, stall: int = 0, stall_s: float = 2.0) -> None:
-        self.app, self.fail, self.stall, self.stall_s = app, fail, stall, stall_s
+
+class Flaky:
+    """ASGI wrapper: answers the first ``fail`` upload requests with 503, drops the
+    connection of the next ``drop`` ones in the middle of the answer (after the batch was
+    stored: the ack is lost, the vehicle must send it again), stalls the next ``stall`` ones
+    past the client's timeout, then passes everything to the real app."""
+
+    def __init__(
+        self, app: Any, *, fail: int = 0, drop: int = 0, stall: int = 0, stall_s: float = 2.0
+    ) -> None:
+        self.app, self.fail, self.drop, self.stall, self.stall_s = app, fail, drop, stall, stall_s
         self.seen = 0
 
     async def __call__(self, scope: Scope, receive: Any, send: Any) -> None:
@@ -42,9 +50,24 @@ class Flaky:
                 await send({"type": "http.response.start", "status": 503, "headers": []})
                 await send({"type": "http.response.body", "body": b"down for maintenance"})
                 return
-            if self.seen <= self.fail + self.stall:
+            if self.seen <= self.fail + self.drop:
+                await self.app(scope, receive, self._cut(send))
+                return
+            if self.seen <= self.fail + self.drop + self.stall:
                 await asyncio.sleep(self.stall_s)
         await self.app(scope, receive, send)
+
+    @staticmethod
+    def _cut(send: Any) -> Any:
+        """A send that starts the answer, then fails before its body: a dropped connection."""
+
+        async def cut(message: dict[str, Any]) -> None:
+            if message["type"] == "http.response.body":
+                raise DroppedError("connection dropped mid-answer")
+            headers = [(k, v) for k, v in message.get("headers", []) if k != b"content-length"]
+            await send({**message, "headers": [*headers, (b"content-length", b"1000")]})
+
+        return cut
 
 
 class Server:
@@ -125,13 +148,14 @@ def test_a_batch_the_cloud_already_holds_is_acknowledged_as_duplicate(
     assert uploader.stats.duplicates == 1 and service.store.batch_count() == 1
 
 
-def test_outage_then_5xx_then_slow_answers_lose_nothing(
+@pytest.mark.slow
+def test_outage_5xx_dropped_and_slow_answers_lose_nothing(
     tmp_path: Path, cloud: tuple[CloudService, str]
 ) -> None:
     service, token = cloud
     spool = spool_with(tmp_path, 4)
     port = free_port()
-    flaky = Flaky(create_app(service), fail=3, stall=2, stall_s=1.5)
+    flaky = Flaky(create_app(service), fail=3, drop=2, stall=2, stall_s=1.5)
     server = Server(flaky, port)
     client = HttpCloud(f"http://127.0.0.1:{port}", token, timeout_s=0.5)
     uploader = Uploader(spool, client, FAST)
@@ -147,7 +171,8 @@ def test_outage_then_5xx_then_slow_answers_lose_nothing(
         server.stop()
     assert spool.pending() == []
     assert service.store.batch_count() == 4  # each once, though some were sent twice
-    assert flaky.seen >= 4 + 3 + 2
+    assert flaky.seen >= 4 + 3 + 2 + 2
+    assert uploader.stats.duplicates >= 1  # a dropped ack: stored once, acknowledged later
 
 
 def test_a_refused_batch_is_set_aside_and_the_queue_goes_on(
