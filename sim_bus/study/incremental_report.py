@@ -84,12 +84,14 @@ def plot_incremental(path: Path, rows: Sequence[dict[str, Any]]) -> None:
     ):
         for driver in sorted({str(r["driver"]) for r in rows}):
             sel = [r for r in rows if r["driver"] == driver]
-            ax.plot([r["trip"] for r in sel], [float(r[key]) for r in sel], alpha=0.4, lw=1)
+            trips = [int(r["trip"]) for r in sel]
+            ax.plot(trips, [float(r[key]) for r in sel], alpha=0.5, lw=1, label=driver)
         ax.plot([c[0] for c in curve], [c[k] for c in curve], "k-o", lw=2.5, label="mean")
+        ax.set_xticks([c[0] for c in curve])
         ax.set_xlabel("trip (each after the cloud fine-tuned on the previous takeovers)")
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
-    axes[0].legend()
+    axes[0].legend(fontsize=8)
     fig.suptitle("Incremental learning through the cloud (IRL + OA)")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
