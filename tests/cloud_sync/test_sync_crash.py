@@ -72,7 +72,7 @@ def test_sigkill_while_spooling_and_uploading_loses_and_duplicates_nothing(
                 vehicle(spool_dir, log, url, token, first_seed=kill * 1000)
             finally:
                 os._exit(1)
-        time.sleep(rng.uniform(0.0, 0.15))
+        time.sleep(rng.uniform(0.0, 0.1))
         os.kill(pid, signal.SIGKILL)
         os.waitpid(pid, 0)
         # the restart: whatever is under a final name now is committed

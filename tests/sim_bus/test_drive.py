@@ -101,7 +101,7 @@ def _intervention(driver: DriverParams, factor: float) -> tuple[int, int, float]
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("driver_id", ["d1", "d2", "d3"])
+@pytest.mark.parametrize("driver_id", ["d1", "d3"])  # the extremes; d2 lies between them
 def test_driver_sanity_against_the_table(driver_id: str) -> None:
     driver = BUILTIN_DRIVERS[driver_id]
     acc, brk, poi = _intervention(driver, 1.0)
