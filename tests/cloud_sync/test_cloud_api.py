@@ -202,8 +202,8 @@ def test_manual_trips_learn_a_signed_table_and_takeovers_fine_tune_it(
     """The loop's cloud half: manual trips -> v1 signed; a takeover batch -> v2 signed.
     (Learning does not depend on the transport: the embedded backend only.)"""
     api = LocalCloud(cloud, token)
-    for seed in range(3):
-        api.upload(trip_bytes(follower_trip(seed, minutes=4.0), tmp_path))
+    for seed in range(2):
+        api.upload(trip_bytes(follower_trip(seed, minutes=3.0), tmp_path))
     cloud.wait_idle(120.0)
     public = load_public_key(api.public_key_pem())
     first = verify_dgpt(api.latest_dgpt("syn"), public)
