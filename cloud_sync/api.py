@@ -21,6 +21,7 @@ Only :class:`CloudUnavailableError` is worth a retry; the others are answers.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -83,6 +84,16 @@ ERRORS_BY_STATUS: dict[int, type[CloudError]] = {
 }
 
 
+_PLAIN_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
+
+
+def is_plain_name(value: object) -> bool:
+    """True for a driver id or condition the cloud accepts: 1-64 characters of letters,
+    digits, ``_ . -``, starting with a letter or digit (so never ``..``, ``/`` or absolute:
+    these names become folder names in the cloud's store and on the vehicle)."""
+    return isinstance(value, str) and _PLAIN_NAME.match(value) is not None
+
+
 @dataclass(frozen=True)
 class Receipt:
     """The cloud's acknowledgement of one uploaded batch.
@@ -127,4 +138,5 @@ __all__ = [
     "NotFoundError",
     "PayloadTooLargeError",
     "Receipt",
+    "is_plain_name",
 ]

@@ -8,6 +8,7 @@ the error of their status. Retrying is the uploader's business, not the client's
 from __future__ import annotations
 
 from typing import Any
+from urllib.parse import quote
 
 import httpx
 
@@ -80,7 +81,7 @@ class HttpCloud:
     def latest_dgpt(self, driver_id: str, condition: str = "default") -> bytes:
         """The newest signed DGPT of one of this vehicle's drivers."""
         return self._call(
-            "GET", f"/v1/drivers/{driver_id}/dgpt", params={"condition": condition}
+            "GET", f"/v1/drivers/{quote(driver_id, safe='')}/dgpt", params={"condition": condition}
         ).content
 
     def public_key_pem(self) -> bytes:

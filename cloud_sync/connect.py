@@ -20,13 +20,14 @@ def is_url(target: str) -> bool:
     return target.startswith(("http://", "https://"))
 
 
-def connect(target: str, token: str) -> CloudApi:
-    """The cloud at ``target`` (URL or folder) as seen by the vehicle holding ``token``."""
+def connect(target: str, token: str, *, timeout_s: float = 30.0) -> CloudApi:
+    """The cloud at ``target`` (URL or folder) as seen by the vehicle holding ``token``;
+    ``timeout_s`` bounds each HTTP call (connect and answer), s."""
     # each backend costs start-up the other does not need (httpx; numpy, scipy, the trainer)
     if is_url(target):
         from cloud_sync.client import HttpCloud  # noqa: PLC0415
 
-        return HttpCloud(target, token)
+        return HttpCloud(target, token, timeout_s=timeout_s)
     from cloud_sync.local import LocalCloud  # noqa: PLC0415
 
     return LocalCloud.open(target, token)

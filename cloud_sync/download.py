@@ -23,7 +23,13 @@ from pathlib import Path
 
 from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PublicKey
 
-from cloud_sync.api import CloudApi, CloudError, CloudUnavailableError, NotFoundError
+from cloud_sync.api import (
+    CloudApi,
+    CloudError,
+    CloudUnavailableError,
+    NotFoundError,
+    is_plain_name,
+)
 from cloud_sync.signing import SignatureError, verify_dgpt
 from ecu.dgpt import Dgpt, SafetyBounds
 
@@ -65,7 +71,10 @@ class ProfileDownloader:
         self.report = FetchReport()
 
     def cache_path(self, driver_id: str, condition: str) -> Path:
-        """Where the last good signed table of (driver, condition) is kept."""
+        """Where the last good signed table of (driver, condition) is kept (ValueError for a
+        name that is not plain: it would leave the cache folder)."""
+        if not (is_plain_name(driver_id) and is_plain_name(condition)):
+            raise ValueError(f"not plain names: {driver_id!r}, {condition!r}")
         return self.cache_dir / driver_id / f"{condition}.signed.json"
 
     def last_good(self, driver_id: str, condition: str = "default") -> Dgpt | None:
@@ -74,6 +83,9 @@ class ProfileDownloader:
         try:
             data = path.read_bytes()
         except FileNotFoundError:
+            return None
+        except OSError as exc:
+            self._refuse(f"cached table {path} unreadable: {exc.strerror or exc}")
             return None
         try:
             return verify_dgpt(data, self.public_key, self.bounds)
@@ -95,7 +107,10 @@ class ProfileDownloader:
         if cached is not None and cached.version >= table.version:
             self.report.unchanged += 1
             return None
-        self._keep(driver_id, condition, data)
+        try:
+            self._keep(driver_id, condition, data)
+        except OSError as exc:  # a full disk: use the table, say it is not kept for offline
+            self._refuse(f"verified table not cached ({exc.strerror or exc}); used this run only")
         self.report.fetched += 1
         return table
 
@@ -129,11 +144,14 @@ class ProfileDownloader:
         path = self.cache_path(driver_id, condition)
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.part")
-        with tmp.open("wb") as stream:
-            stream.write(data)
-            stream.flush()
-            os.fsync(stream.fileno())
-        tmp.replace(path)
+        try:
+            with tmp.open("wb") as stream:
+                stream.write(data)
+                stream.flush()
+                os.fsync(stream.fileno())
+            tmp.replace(path)
+        finally:
+            tmp.unlink(missing_ok=True)
 
     def _refuse(self, reason: str) -> None:
         self.report.refusals.append(reason)

@@ -25,6 +25,7 @@ from typing import Any
 
 from fastapi import FastAPI, Request
 from fastapi.responses import JSONResponse, Response
+from starlette.concurrency import run_in_threadpool
 
 from cloud_sync.api import CloudError, PayloadTooLargeError
 from cloud_sync.service import CloudService
@@ -66,7 +67,7 @@ def create_app(service: CloudService) -> FastAPI:
     async def upload(request: Request) -> JSONResponse:
         vehicle = service.authenticate(_token(request))
         data = await _body(request, service.config.max_upload_bytes)
-        receipt = service.upload(vehicle, data)
+        receipt = await run_in_threadpool(service.upload, vehicle, data)  # parse, fsync, index
         return JSONResponse(asdict(receipt), status_code=200 if receipt.duplicate else 201)
 
     @app.get("/v1/drivers/{driver_id}/dgpt")

@@ -40,6 +40,7 @@ from cloud_sync.api import (
     NotFoundError,
     PayloadTooLargeError,
     Receipt,
+    is_plain_name,
 )
 from cloud_sync.errors import DemoError
 from cloud_sync.signing import (
@@ -51,7 +52,7 @@ from cloud_sync.signing import (
     verify_dgpt,
 )
 from cloud_sync.spool import kind_of
-from cloud_sync.store import BatchRow, CloudStore, VersionRow
+from cloud_sync.store import BatchRow, CloudStore, StoreError, VersionRow
 from cloud_sync.trainer import IrlConfig, fine_tune, learn_dgpt
 from ecu.dgpt import Dgpt
 from ecu.triplog import Trip, TripLogError, read_trip
@@ -176,7 +177,9 @@ class CloudService:
             key = new_private_key()
             save_private_key(key, keys / "cloud.key")
             (keys / "cloud.pub").write_bytes(public_pem(key))
-        return cls(store, load_private_key(keys / "cloud.key"), executor, config)
+        service = cls(store, load_private_key(keys / "cloud.key"), executor, config)
+        service.resume()
+        return service
 
     # -- vehicles and drivers -----------------------------------------------------------
 
@@ -187,7 +190,10 @@ class CloudService:
         return token
 
     def register_driver(self, vehicle_id: str, driver_id: str) -> None:
-        """Bind ``driver_id`` to ``vehicle_id`` (StoreError if taken or unknown vehicle)."""
+        """Bind ``driver_id`` to ``vehicle_id`` (StoreError if taken, unknown vehicle, or not
+        a plain name)."""
+        if not is_plain_name(driver_id):
+            raise StoreError(f"driver id {driver_id!r} is not a plain name (letters, digits, _.-)")
         self.store.add_driver(driver_id, vehicle_id)
 
     def authenticate(self, token: str | None) -> str:
@@ -213,8 +219,11 @@ class CloudService:
         driver_id = trip.meta.get("driver_id")
         if not isinstance(driver_id, str) or not driver_id:
             raise BadBatchError("the trip log names no driver_id in its metadata")
+        condition = trip.meta.get("condition") or "default"
+        for what, name in (("driver_id", driver_id), ("condition", condition)):
+            if not is_plain_name(name):
+                raise BadBatchError(f"{what} {name!r} is not a plain name (letters, digits, _.-)")
         self._own(vehicle_id, driver_id)
-        condition = str(trip.meta.get("condition") or "default")
         digest = _sha256(data)
         row = BatchRow(
             seq=0,
@@ -243,8 +252,20 @@ class CloudService:
                 state.dirty = True  # the running job will run once more
                 return
             state.running = True
-        future = self.executor.submit(self._job_loop, key)
-        state.futures = [f for f in state.futures if not f.done()] + [future]
+        try:  # outside the lock: an inline executor runs the job (which takes it) right here
+            future = self.executor.submit(self._job_loop, key)
+        except Exception:  # a pool shut down: the key must be schedulable again
+            with self._jobs_lock:
+                state.running = False
+            raise
+        with self._jobs_lock:
+            state.futures = [f for f in state.futures if not f.done()] + [future]
+
+    def resume(self) -> None:
+        """Schedule every (driver, condition) with batches not learned from yet: the jobs a
+        crash or a restart dropped (called by :meth:`open`)."""
+        for driver_id, condition in self.store.unused_keys():
+            self.schedule(driver_id, condition)
 
     def _job_loop(self, key: tuple[str, str]) -> None:
         state = self._jobs[key]
@@ -265,9 +286,10 @@ class CloudService:
         executor's queue runs now, in this thread)."""
         if isinstance(self.executor, DeferredExecutor):
             self.executor.run_pending()
-        for state in list(self._jobs.values()):
-            for future in list(state.futures):
-                future.result(timeout=timeout_s)
+        with self._jobs_lock:
+            futures = [f for state in self._jobs.values() for f in state.futures]
+        for future in futures:
+            future.result(timeout=timeout_s)
 
     def learn_once(self, driver_id: str, condition: str) -> int | None:
         """Learn the driver's next table from the unused batches; the new version or None.
@@ -330,6 +352,8 @@ class CloudService:
     def latest_signed(self, vehicle_id: str, driver_id: str, condition: str = "default") -> bytes:
         """The newest signed table of one of the vehicle's drivers (NotFoundError if none)."""
         self._own(vehicle_id, driver_id)
+        if not is_plain_name(condition):
+            raise NotFoundError(f"no condition {condition!r}: conditions are plain names")
         versions = self.store.versions(driver_id, condition)
         if not versions:
             raise NotFoundError(f"no DGPT for driver {driver_id!r} under {condition!r} yet")

@@ -135,8 +135,16 @@ def verify_dgpt(
 
     Raises:
         SignatureError: malformed envelope, another key, a bad signature (tampered), or a
-            table that is malformed or outside ``bounds``.
+            table that is malformed or outside ``bounds``; nothing else, whatever the bytes
+            (non-ASCII signatures, lone surrogates, absurd nesting included).
     """
+    try:
+        return _verify(data, public_key, bounds)
+    except (ValueError, RecursionError) as exc:  # UnicodeError and binascii.Error included
+        raise SignatureError(f"signed table is malformed ({type(exc).__name__}: {exc})") from exc
+
+
+def _verify(data: bytes, public_key: Ed25519PublicKey, bounds: SafetyBounds | None) -> Dgpt:
     obj = _envelope(data)
     if obj["key_id"] != key_id(public_key):
         raise SignatureError(

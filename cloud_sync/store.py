@@ -90,18 +90,36 @@ class VersionRow:
     n_batches: int
 
 
-def _write_atomic(path: Path, data: bytes) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
+def _fsync_dir(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _write_temp(path: Path, data: bytes) -> Path:
+    """``data`` in a fsynced temporary file beside ``path`` (folders made and fsynced)."""
+    if not path.parent.is_dir():
+        path.parent.mkdir(parents=True, exist_ok=True)
+        _fsync_dir(path.parent.parent)
     tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.part")
     try:
         with tmp.open("wb") as stream:
             stream.write(data)
             stream.flush()
             os.fsync(stream.fileno())
-        tmp.replace(path)
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+    return tmp
+
+
+def _write_atomic(path: Path, data: bytes) -> None:
+    """``data`` under ``path`` whole or not at all, durable once this returns."""
+    tmp = _write_temp(path, data)
+    tmp.replace(path)
+    _fsync_dir(path.parent)
 
 
 class CloudStore:
@@ -187,6 +205,8 @@ class CloudStore:
                 "SELECT 1 FROM batches WHERE digest = ?", (row.digest,)
             ).fetchone()
             if known is not None:
+                if not self.blob_path(row.digest).is_file():  # lost after its row: heal it
+                    _write_atomic(self.blob_path(row.digest), data)
                 return False
             _write_atomic(self.blob_path(row.digest), data)
             with self._tx() as db:
@@ -216,6 +236,15 @@ class CloudStore:
             rows = self._db.execute(sql + " ORDER BY seq", (driver_id, condition)).fetchall()
         return [BatchRow(*r) for r in rows]
 
+    def unused_keys(self) -> list[tuple[str, str]]:
+        """(driver, condition) pairs with batches no version was learned from yet."""
+        with self._lock:
+            rows = self._db.execute(
+                "SELECT DISTINCT driver_id, condition FROM batches "
+                "WHERE used_in_version IS NULL ORDER BY driver_id, condition"
+            ).fetchall()
+        return [(str(d), str(c)) for d, c in rows]
+
     def batch_count(self) -> int:
         """How many batches the cloud holds."""
         with self._lock:
@@ -228,12 +257,22 @@ class CloudStore:
     # -- DGPT versions ------------------------------------------------------------------
 
     def version_path(self, driver_id: str, condition: str, version: int) -> Path:
-        """Where a signed DGPT version is stored."""
-        return self.root / "dgpt" / driver_id / condition / f"v{version}.json"
+        """Where a signed DGPT version is stored (StoreError for a name that would leave
+        the folder: the service admits only plain names, this is the second guard)."""
+        base = (self.root / "dgpt").resolve()
+        path = (base / driver_id / condition / f"v{version}.json").resolve()
+        if not path.is_relative_to(base) or len(path.relative_to(base).parts) != 3:
+            raise StoreError(f"DGPT name {driver_id!r}/{condition!r} is not a plain name")
+        return path
 
     def add_version(self, row: VersionRow, signed: bytes, used: list[str]) -> None:
-        """Publish a signed DGPT version and mark the batches ``used`` for it."""
-        _write_atomic(self.version_path(row.driver_id, row.condition, row.version), signed)
+        """Publish a signed DGPT version and mark the batches ``used`` for it.
+
+        The row is inserted first, in the transaction that then puts the file in place, so a
+        version that exists already is refused (StoreError) without touching its file.
+        """
+        final = self.version_path(row.driver_id, row.condition, row.version)
+        tmp = _write_temp(final, signed)
         try:
             with self._tx() as db:
                 db.execute(
@@ -251,10 +290,14 @@ class CloudStore:
                     "UPDATE batches SET used_in_version = ? WHERE digest = ?",
                     [(row.version, d) for d in used],
                 )
+                tmp.replace(final)  # inside the transaction: no row without its file
+                _fsync_dir(final.parent)
         except sqlite3.IntegrityError as exc:
             raise StoreError(
                 f"DGPT {row.driver_id}/{row.condition} v{row.version} exists already"
             ) from exc
+        finally:
+            tmp.unlink(missing_ok=True)
 
     def versions(self, driver_id: str, condition: str) -> list[VersionRow]:
         """Every published version of the driver's table under ``condition``, oldest first."""

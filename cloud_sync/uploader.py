@@ -4,8 +4,11 @@ Each pending batch (oldest first) is uploaded; the spool deletes it only after t
 receipt names the same digest (at-least-once delivery; the cloud's de-duplication by digest
 makes the storage exactly-once). A retryable failure (:class:`CloudUnavailableError`: no
 network, timeout, dropped connection, 5xx) is retried with exponential backoff and full jitter
-(tenacity's ``wait_random_exponential``); a final answer (401, 403, 413, 422) moves the batch
-to the spool's ``rejected/`` folder with the reason, so one bad batch never blocks the queue.
+(tenacity's ``wait_random_exponential``). Only an answer about the batch itself (413 too
+large, 422 not a trip log) moves it to the spool's ``rejected/`` folder with the reason, so one
+bad batch never blocks the queue. An answer about the vehicle's set-up keeps the batch: 401
+(token) ends the pass, 403 (driver not registered yet) and any other 4xx skip the batch for
+this pass; they are counted in :attr:`UploadStats.held` and tried again on the next pass.
 
 The thread never touches the control loop: the ECU only writes batches into the spool (a file
 rename), and :meth:`Uploader.notify` wakes the thread. :meth:`Uploader.stop` ends it promptly,
@@ -25,7 +28,14 @@ from tenacity import (
     wait_random_exponential,
 )
 
-from cloud_sync.api import CloudApi, CloudError, CloudUnavailableError
+from cloud_sync.api import (
+    AuthError,
+    BadBatchError,
+    CloudApi,
+    CloudError,
+    CloudUnavailableError,
+    PayloadTooLargeError,
+)
 from cloud_sync.spool import Batch, Spool
 
 log = logging.getLogger(__name__)
@@ -53,6 +63,7 @@ class UploadStats:
     uploaded: int = 0
     duplicates: int = 0
     rejected: int = 0
+    held: int = 0
     retries: int = 0
 
 
@@ -79,8 +90,12 @@ class Uploader:
         for batch in self.spool.pending():
             if self._stop.is_set():
                 break
-            if self._deliver(batch):
-                done += 1
+            try:
+                done += int(self._deliver(batch))
+            except AuthError as exc:  # every batch would get the same answer: stop the pass
+                self.stats.held += 1
+                log.error("upload refused, token not accepted: %s (batches kept)", exc)
+                break
         return done
 
     def _deliver(self, batch: Batch) -> bool:
@@ -102,9 +117,15 @@ class Uploader:
             receipt = retrying(self.cloud.upload, data)
         except CloudUnavailableError:
             return False  # stopped while the cloud was away: the batch stays spooled
-        except CloudError as exc:
+        except (PayloadTooLargeError, BadBatchError) as exc:  # about this batch: set aside
             self.spool.reject(batch.digest, f"HTTP {exc.status}: {exc}")
             self.stats.rejected += 1
+            return False
+        except AuthError:
+            raise
+        except CloudError as exc:  # about the set-up (403 ...): keep it for the next pass
+            self.stats.held += 1
+            log.error("batch %d kept, the cloud answered HTTP %d: %s", batch.seq, exc.status, exc)
             return False
         if receipt.digest != batch.digest:  # never delete on a receipt for other bytes
             log.error("receipt digest %s for batch %s: kept", receipt.digest, batch.digest)

@@ -270,13 +270,16 @@ def _cloud_link(args: argparse.Namespace, config: EcuConfig) -> VehicleLink:
         raise _Exit(2, "pacc ecu: error: --cloud needs --vehicle ID and --token-file F")
     if args.takeovers:
         raise _Exit(2, "pacc ecu: error: --cloud spools the takeovers: drop --takeovers")
+    if args.driver and args.profile:
+        raise _Exit(2, "pacc ecu: error: --driver (the cloud's tables) or --profile, not both")
     if not args.sync_every > 0:
         raise _Exit(2, "pacc ecu: error: --sync-every must be > 0")
     trust = args.trust or (None if is_url(args.cloud) else Path(args.cloud) / "keys" / "cloud.pub")
     if args.driver and trust is None:
         raise _Exit(2, "pacc ecu: error: --driver with a cloud URL needs --trust KEY.pub")
     try:
-        cloud = connect(args.cloud, read_token(args.token_file))
+        # short calls: the start-up download must not hold the control loop back for long
+        cloud = connect(args.cloud, read_token(args.token_file), timeout_s=5.0)
         downloader = None
         if args.driver:
             assert trust is not None
@@ -299,8 +302,12 @@ def _cloud_link(args: argparse.Namespace, config: EcuConfig) -> VehicleLink:
 
 
 def _cloud_table(link: VehicleLink, table: Dgpt) -> Dgpt:
-    """The driver's newest verified cloud table, else ``table``."""
-    cloud_table = link.initial_table()
+    """The driver's newest verified cloud table, else ``table`` (never raises)."""
+    try:
+        cloud_table = link.initial_table()
+    except Exception as exc:  # the start table must not depend on the cloud's health
+        _say(f"cloud: start-up download failed ({type(exc).__name__}: {exc})")
+        cloud_table = None
     if cloud_table is None:
         _say("cloud: no verified table for the driver yet; keeping the start table")
         return table

@@ -7,7 +7,8 @@ between two cycles; nothing here raises into the control loop.
 
 A table that arrives from elsewhere (the cloud's download thread) is *offered*
 (:class:`TableOffer`) and swapped in by the cycle itself, and only while :func:`may_swap`
-holds: never while the ACC is ACTIVE, so the driver never feels the gap jump under control.
+holds: never while the ACC is ACTIVE, so the driver never feels the gap jump under control;
+and never while the HMI has another driver's profile selected (the runtime checks).
 """
 
 from __future__ import annotations
@@ -42,6 +43,11 @@ class ProfileSwitcher:
         self.profile_dir = Path(profile_dir)
         self._guest_table = node.table
         self._profile_id: int | None = None
+
+    @property
+    def selected(self) -> int | None:
+        """The profile id the HMI selected last (None: none yet)."""
+        return self._profile_id
 
     def request(self, profile_id: int | None) -> None:
         """The HMI asks for ``profile_id`` (None: no valid HMI, nothing changes)."""

@@ -43,7 +43,7 @@ from ecu.busio import INPUT_ROLES, BusIO, RuntimeCodecError
 from ecu.clocks import MAX_CATCHUP_S, CycleClock, RuntimeClockError
 from ecu.dgpt import Dgpt
 from ecu.node import EcuNode, NodeInputs, NodeOutputs
-from ecu.profiles import ProfileSwitcher, TableOffer
+from ecu.profiles import GUEST_PROFILE, ProfileSwitcher, TableOffer
 
 log = logging.getLogger(__name__)
 
@@ -205,7 +205,8 @@ class EcuRuntime:
         inputs = self.io.read_inputs(t)
         if self.profiles is not None:
             self.profiles.request(self.io.profile_request(inputs))
-        self.table_offer.apply(self.node)
+        if self.profiles is None or self.profiles.selected in (None, GUEST_PROFILE):
+            self.table_offer.apply(self.node)  # not under another driver's HMI profile
         out = self.node.step(inputs, t)
         self.last_outputs = out
         self.io.send(t, out, status=k % self._status_every == 0)

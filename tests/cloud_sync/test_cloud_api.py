@@ -179,6 +179,22 @@ def test_a_trip_without_a_driver_is_422(connect: Connect, token: str, tmp_path: 
         connect(token).upload(trip_bytes(anonymous, tmp_path))
 
 
+@pytest.mark.parametrize(
+    ("key", "value"),
+    [("condition", "../../../escaped"), ("condition", "/etc/x"), ("driver_id", "../syn")],
+)
+def test_names_that_would_leave_the_store_are_422(
+    key: str, value: str, connect: Connect, cloud: CloudService, token: str, tmp_path: Path
+) -> None:
+    """driver_id and condition become folder names: only plain names get in."""
+    trip = retag(follower_trip(0, minutes=0.2), **{key: value})
+    with pytest.raises(BadBatchError, match="not a plain name"):
+        connect(token).upload(trip_bytes(trip, tmp_path))
+    assert cloud.store.batch_count() == 0
+    with pytest.raises(NotFoundError):
+        connect(token).latest_dgpt("syn", "../other")
+
+
 def test_no_table_yet_is_404(connect: Connect, token: str) -> None:
     with pytest.raises(NotFoundError):
         connect(token).latest_dgpt("syn")

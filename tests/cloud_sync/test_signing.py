@@ -103,3 +103,24 @@ def test_bad_key_files_are_clear_errors(tmp_path: Path) -> None:
     (tmp_path / "pub-as-private.pem").write_bytes(public_pem(new_private_key()))
     with pytest.raises(SignatureError, match="not a PEM private key"):
         load_private_key(tmp_path / "pub-as-private.pem")
+
+
+@pytest.mark.parametrize(
+    "envelope",
+    [
+        {"signature": "é", "dgpt": "{}"},  # not ASCII: base64 raises ValueError
+        {"signature": "AAAA", "dgpt": "\ud800"},  # a lone surrogate cannot be encoded
+    ],
+)
+def test_malformed_envelopes_are_signature_errors(envelope: dict[str, str]) -> None:
+    key = new_private_key()
+    data = json.dumps(
+        {"format": "pacc.signed-dgpt/1", "key_id": key_id(key.public_key()), **envelope}
+    ).encode()
+    with pytest.raises(SignatureError):
+        verify_dgpt(data, key.public_key())
+
+
+def test_absurd_nesting_is_a_signature_error() -> None:
+    with pytest.raises(SignatureError):
+        verify_dgpt(b"[" * 100_000 + b"]" * 100_000, new_private_key().public_key())

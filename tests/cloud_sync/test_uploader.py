@@ -175,19 +175,37 @@ def test_outage_5xx_dropped_and_slow_answers_lose_nothing(
     assert uploader.stats.duplicates >= 1  # a dropped ack: stored once, acknowledged later
 
 
-def test_a_refused_batch_is_set_aside_and_the_queue_goes_on(
+def test_a_bad_batch_is_set_aside_and_a_not_yet_registered_driver_is_kept(
     tmp_path: Path, cloud: tuple[CloudService, str]
 ) -> None:
+    """422 (no driver_id: the batch itself is bad) -> rejected/ with the reason; 403 (driver
+    not registered yet: the set-up) -> kept and uploaded once the driver is registered."""
     service, token = cloud
     spool = Spool(tmp_path / "spool")
-    other_driver = {"driver_id": "x", "mode": "takeover"}
-    foreign = spool.put_trip(dataclasses.replace(make_trip("takeover", seed=1), meta=other_driver))
-    spool.put_trip(make_trip("takeover", seed=2))
+    later = spool.put_trip(
+        dataclasses.replace(
+            make_trip("takeover", seed=1), meta={"driver_id": "x", "mode": "takeover"}
+        )
+    )
+    bad = spool.put_trip(dataclasses.replace(make_trip("takeover", seed=2), meta={"mode": "x"}))
+    spool.put_trip(make_trip("takeover", seed=3))
     uploader = Uploader(spool, LocalCloud(service, token), FAST)
-    assert uploader.drain() == 1
-    assert uploader.stats.rejected == 1 and spool.pending() == []
-    reason = (tmp_path / "spool" / "rejected" / f"{foreign.path.name}.reason").read_text()
-    assert "HTTP 403" in reason
+    assert uploader.drain() == 1  # the good one; the queue went on past the other two
+    assert uploader.stats.rejected == 1 and uploader.stats.held == 1
+    assert spool.pending() == [later]
+    reason = (tmp_path / "spool" / "rejected" / f"{bad.path.name}.reason").read_text()
+    assert "HTTP 422" in reason
+    service.register_driver("car-a", "x")
+    assert uploader.drain() == 1 and spool.pending() == []
+
+
+def test_a_wrong_token_keeps_every_batch(tmp_path: Path, cloud: tuple[CloudService, str]) -> None:
+    service, token = cloud
+    spool = spool_with(tmp_path, 3)
+    typo = Uploader(spool, LocalCloud(service, "x" + token), FAST)
+    assert typo.drain() == 0 and typo.stats.held == 1  # the pass stopped at the first 401
+    assert len(spool.pending()) == 3 and typo.stats.rejected == 0
+    assert Uploader(spool, LocalCloud(service, token), FAST).drain() == 3
 
 
 def test_stop_cuts_a_backoff_short(tmp_path: Path) -> None:

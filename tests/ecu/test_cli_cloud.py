@@ -61,3 +61,6 @@ def test_cloud_flags_are_checked_before_the_bus_opens(
     assert "needs --trust" in capsys.readouterr().err
     assert main([*base, "--takeovers", str(tmp_path), "--duration", "0"]) == 2
     assert "drop --takeovers" in capsys.readouterr().err
+    profile = ["--profile", str(tmp_path / "p.json"), "--trust", str(tmp_path / "k.pub")]
+    assert main([*base, "--driver", "d1", *profile, "--duration", "0"]) == 2
+    assert "not both" in capsys.readouterr().err

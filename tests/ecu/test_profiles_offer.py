@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import threading
+from pathlib import Path
 
 import can
 
@@ -51,3 +52,25 @@ def test_a_table_offered_from_another_thread_reaches_the_running_node() -> None:
             rt.advance_to(k * 0.02)
     assert node.table is new  # ACC was never ACTIVE (no SET): swapped at the first cycle
     assert rt.table_offer.applied == 1
+
+
+def test_no_offer_is_applied_under_another_drivers_hmi_profile(tmp_path: Path) -> None:
+    codec = load_codec()
+    node = EcuNode(EcuConfig(), predefined(2.0, created_utc="x"))
+    with (
+        can.Bus(interface="virtual", channel="offer-hmi", preserve_timestamps=True) as peers_bus,
+        can.Bus(interface="virtual", channel="offer-hmi", preserve_timestamps=True) as ecu_bus,
+    ):
+        peers = PeerNodes(peers_bus, codec)
+        peers.set("hmi", profile_id=2)  # another driver sits in the car
+        rt = EcuRuntime(ecu_bus, node, codec, profile_dir=tmp_path)
+        rt.offer_table(predefined(1.0, driver_id="cloud", created_utc="x"), "downloaded")
+        for k in range(20):
+            peers.send_due(k * 0.02)
+            rt.advance_to(k * 0.02)
+        assert rt.table_offer.pending and node.table.driver_id != "cloud"
+        peers.set("hmi", profile_id=0)  # back to the guest/owner profile: now it may swap
+        for k in range(20, 40):
+            peers.send_due(k * 0.02)
+            rt.advance_to(k * 0.02)
+    assert node.table.driver_id == "cloud"
