@@ -1,111 +1,306 @@
-"""The binding table: pacc's logical roles and fields → DBC messages and signals.
+"""The binding table: pacc's logical roles and fields → a vehicle's messages and signals.
 
-A binding is data (``dbc/pacc.binding.toml``), so that driving another vehicle's network
-means writing a new DBC and a new table, not new code. Loading validates the table
-against the DBC: every message and signal must exist, every signal of a bound message
-must be bound, and the CRC must be a byte-aligned 8-bit signal.
+A binding is data (``dbc/pacc.binding.toml``, ``dbc/bindings/*.toml``), so that driving
+another vehicle's network means writing a table, not code (docs/vehicles.md). Version 2:
+
+* a role spans one or more messages (``[[roles.ego]]`` once per message);
+* a field is a signal name, or a table ``{ signal, unit, invert, range }`` (the signal's
+  unit, converted to the field's; a 1-bit flag of opposite sense; the usable range in the
+  field's unit when the DBC's is missing or wrong), or ``{ const = value }`` for a quantity
+  the vehicle does not carry;
+* ``constants`` fix other signals of a sent message (``PERMIT_BRAKING = 1``), ``unused``
+  names the signals pacc neither reads nor sets (they are sent as raw 0);
+* ``checksum`` (``pacc_crc8``, ``toyota``, ``honda``, ``none``) with ``checksum_signal``, and
+  ``counter`` (an alive-counter signal), per message;
+* ``cycle_ms`` gives the period a DBC without ``GenMsgCycleTime`` lacks.
+
+Version 1 tables (one ``[roles.x]`` with ``message``, ``crc``, ``counter`` and ``fields`` of
+signal names) still load: ``crc`` means ``checksum = "pacc_crc8"``.
+
+Loading checks the table against pacc's schema (:mod:`dbc.schema`): a required role or field
+that is not bound is a :class:`BindingError` at start, never a KeyError in the control loop.
 """
 
 from __future__ import annotations
 
+import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from dbc.errors import DbcError
+from dbc.checksums import KINDS
+from dbc.errors import BindingError
+from dbc.schema import OPTIONAL_ROLES, REQUIRED_ROLES, ROLES
 
-#: Roles the ECU and the simulator use; a binding must define all of them.
-REQUIRED_ROLES: tuple[str, ...] = ("ego", "pedals", "radar", "hmi", "command", "status")
+
+@dataclass(frozen=True)
+class FieldBinding:
+    """One logical field bound to one signal.
+
+    Attributes:
+        key: logical field name; signal: DBC signal name; unit: the signal's unit (None:
+        the DBC's); invert: a 1-bit flag whose 1 means the field's 0; range: usable
+        [min, max] in the field's unit (None: the DBC's).
+    """
+
+    key: str
+    signal: str
+    unit: str | None = None
+    invert: bool = False
+    range: tuple[float, float] | None = None
+
+
+@dataclass(frozen=True)
+class PartBinding:
+    """One message of a role: its bound fields, E2E signals, constants and period."""
+
+    message: str
+    fields: dict[str, FieldBinding]
+    checksum: str = "none"
+    checksum_signal: str | None = None
+    counter: str | None = None
+    constants: dict[str, float] = field(default_factory=dict)
+    unused: tuple[str, ...] = ()
+    cycle_ms: float | None = None
+
+    def signals(self) -> list[str]:
+        """Every signal this part names (fields, checksum, counter, constants, unused)."""
+        named = [f.signal for f in self.fields.values()] + list(self.constants)
+        named += [s for s in (self.checksum_signal, self.counter) if s]
+        return named + list(self.unused)
 
 
 @dataclass(frozen=True)
 class RoleBinding:
-    """One role: its DBC message, its E2E signals and its logical field → signal map."""
+    """One role: its messages (parts) and the fields held constant (``{ const = v }``)."""
 
     role: str
-    message: str
-    fields: dict[str, str]
-    crc: str | None = None
-    counter: str | None = None
+    parts: tuple[PartBinding, ...]
+    consts: dict[str, float] = field(default_factory=dict)
 
     @property
-    def protected(self) -> bool:
-        """True when the message carries a CRC and an alive counter."""
-        return self.crc is not None and self.counter is not None
+    def message(self) -> str:
+        """The first message of the role."""
+        return self.parts[0].message
+
+    def bound(self) -> set[str]:
+        """Every field this role gives a value: signal-bound or constant."""
+        keys = set(self.consts)
+        for part in self.parts:
+            keys |= set(part.fields)
+        return keys
 
 
 @dataclass(frozen=True)
 class Binding:
-    """A whole vehicle binding: the DBC it belongs to and its roles."""
+    """A whole vehicle binding: the DBC file it belongs to and its roles."""
 
     dbc: str
     roles: dict[str, RoleBinding]
+    path: Path | None = None
 
 
-def _role_from_table(role: str, table: Any, where: str) -> RoleBinding:
-    if not isinstance(table, dict):
-        raise DbcError(f"{where}: [roles.{role}] must be a table")
-    message = table.get("message")
-    fields = table.get("fields")
-    if not isinstance(message, str) or not message:
-        raise DbcError(f"{where}: roles.{role}.message must be a message name")
-    if not isinstance(fields, dict) or not all(
-        isinstance(k, str) and isinstance(v, str) for k, v in fields.items()
-    ):
-        raise DbcError(f"{where}: roles.{role}.fields must map field names to signal names")
-    crc, counter = table.get("crc"), table.get("counter")
-    if (crc is None) != (counter is None):
-        raise DbcError(f"{where}: roles.{role}: give both crc and counter, or neither")
-    for key in ("crc", "counter"):
-        value = table.get(key)
-        if value is not None and not isinstance(value, str):
-            raise DbcError(f"{where}: roles.{role}.{key} must be a signal name")
-    unknown = set(table) - {"message", "fields", "crc", "counter"}
+def _num(value: Any, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise BindingError(f"{where} must be a finite number")
+    return float(value)
+
+
+def _field(
+    key: str, spec: Any, where: str, consts: dict[str, float]
+) -> FieldBinding | None:
+    """Parse one field entry; a ``{ const = v }`` lands in ``consts`` (returns None)."""
+    if isinstance(spec, str):
+        return FieldBinding(key=key, signal=spec)
+    if not isinstance(spec, dict):
+        raise BindingError(f"{where}: field {key} must be a signal name or a table")
+    unknown = set(spec) - {"signal", "unit", "invert", "range", "const"}
     if unknown:
-        raise DbcError(f"{where}: roles.{role}: unknown keys {sorted(unknown)}")
-    return RoleBinding(role=role, message=message, fields=dict(fields), crc=crc, counter=counter)
+        raise BindingError(f"{where}: field {key}: unknown keys {sorted(unknown)}")
+    if "const" in spec:
+        if set(spec) != {"const"}:
+            raise BindingError(f"{where}: field {key}: a const takes no other key")
+        consts[key] = _num(spec["const"], f"{where}: field {key}.const")
+        return None
+    signal, unit, invert, rng = (spec.get(k) for k in ("signal", "unit", "invert", "range"))
+    if not isinstance(signal, str) or not signal:
+        raise BindingError(f"{where}: field {key}.signal must be a signal name")
+    if unit is not None and not isinstance(unit, str):
+        raise BindingError(f"{where}: field {key}.unit must be a string")
+    if invert is not None and not isinstance(invert, bool):
+        raise BindingError(f"{where}: field {key}.invert must be true or false")
+    bounds = None
+    if rng is not None:
+        if not (isinstance(rng, list) and len(rng) == 2):
+            raise BindingError(f"{where}: field {key}.range must be [min, max]")
+        lo, hi = (_num(v, f"{where}: field {key}.range") for v in rng)
+        if lo > hi:
+            raise BindingError(f"{where}: field {key}.range is empty")
+        bounds = (lo, hi)
+    return FieldBinding(key=key, signal=signal, unit=unit, invert=bool(invert), range=bounds)
+
+
+_PART_KEYS = {
+    "message",
+    "fields",
+    "checksum",
+    "checksum_signal",
+    "counter",
+    "constants",
+    "unused",
+    "cycle_ms",
+    "crc",
+}
+
+
+def _names(value: Any, where: str) -> tuple[str, ...]:
+    if not (isinstance(value, list) and all(isinstance(v, str) for v in value)):
+        raise BindingError(f"{where} must be a list of signal names")
+    return tuple(value)
+
+
+def _part(table: Any, where: str, consts: dict[str, float]) -> PartBinding:
+    if not isinstance(table, dict):
+        raise BindingError(f"{where} must be a table")
+    unknown = set(table) - _PART_KEYS
+    if unknown:
+        raise BindingError(f"{where}: unknown keys {sorted(unknown)}")
+    message = table.get("message")
+    if not isinstance(message, str) or not message:
+        raise BindingError(f"{where}.message must be a message name")
+    fields_raw = table.get("fields", {})
+    if not isinstance(fields_raw, dict):
+        raise BindingError(f"{where}.fields must map field names to signals")
+    fields = {}
+    for key, spec in fields_raw.items():
+        fb = _field(key, spec, where, consts)
+        if fb is not None:
+            fields[key] = fb
+    crc, counter = table.get("crc"), table.get("counter")
+    checksum = table.get("checksum", "none")
+    checksum_signal = table.get("checksum_signal")
+    if crc is not None:  # version 1: pacc's CRC-8 and counter, both or neither
+        if "checksum" in table or checksum_signal is not None:
+            raise BindingError(f"{where}: crc (version 1) or checksum, not both")
+        if counter is None:
+            raise BindingError(f"{where}: give both crc and counter, or neither")
+        checksum, checksum_signal = "pacc_crc8", crc
+    for name, value in (("checksum_signal", checksum_signal), ("counter", counter)):
+        if value is not None and not isinstance(value, str):
+            raise BindingError(f"{where}.{name} must be a signal name")
+    if checksum not in KINDS:
+        raise BindingError(f"{where}: checksum {checksum!r} is not one of {', '.join(KINDS)}")
+    if (checksum == "none") != (checksum_signal is None):
+        raise BindingError(f"{where}: a checksum needs its checksum_signal, and only then")
+    constants_raw = table.get("constants", {})
+    if not isinstance(constants_raw, dict):
+        raise BindingError(f"{where}.constants must map signal names to values")
+    constants = {k: _num(v, f"{where}.constants.{k}") for k, v in constants_raw.items()}
+    cycle = table.get("cycle_ms")
+    cycle_ms = None if cycle is None else _num(cycle, f"{where}.cycle_ms")
+    if cycle_ms is not None and cycle_ms <= 0:
+        raise BindingError(f"{where}.cycle_ms must be > 0")
+    return PartBinding(
+        message=message,
+        fields=fields,
+        checksum=checksum,
+        checksum_signal=checksum_signal,
+        counter=counter,
+        constants=constants,
+        unused=_names(table.get("unused", []), f"{where}.unused"),
+        cycle_ms=cycle_ms,
+    )
+
+
+def _role(role: str, raw: Any, where: str) -> RoleBinding:
+    if role not in ROLES:
+        raise BindingError(f"{where}: unknown role {role!r} (one of {', '.join(ROLES)})")
+    tables = raw if isinstance(raw, list) else [raw]
+    if not tables:
+        raise BindingError(f"{where}: role {role} has no message")
+    consts: dict[str, float] = {}
+    parts = tuple(
+        _part(t, f"{where}: roles.{role}" + (f"[{i}]" if len(tables) > 1 else ""), consts)
+        for i, t in enumerate(tables)
+    )
+    rb = RoleBinding(role=role, parts=parts, consts=consts)
+    seen: dict[str, str] = {}
+    for part in parts:
+        for key in part.fields:
+            if key in seen or key in consts:
+                raise BindingError(f"{where}: role {role}: field {key} is bound twice")
+            seen[key] = part.message
+    schema = ROLES[role]
+    unknown = rb.bound() - set(schema)
+    if unknown:
+        raise BindingError(
+            f"{where}: role {role}: unknown fields {sorted(unknown)} (pacc's are {', '.join(schema)})"
+        )
+    missing = [k for k, spec in schema.items() if spec.required and k not in rb.bound()]
+    if missing:
+        raise BindingError(f"{where}: role {role}: required fields {missing} are not bound")
+    return rb
+
+
+def parse_binding(raw: dict[str, Any], where: str, path: Path | None = None) -> Binding:
+    """A binding from a parsed TOML document; raise :class:`BindingError` if malformed."""
+    unknown = set(raw) - {"version", "dbc", "roles", "vehicle", "source"}
+    if unknown:
+        raise BindingError(f"{where}: unknown keys {sorted(unknown)}")
+    roles_raw = raw.get("roles")
+    if not isinstance(roles_raw, dict) or not roles_raw:
+        raise BindingError(f"{where}: no [roles.*] tables")
+    roles = {name: _role(name, table, where) for name, table in roles_raw.items()}
+    missing = [r for r in REQUIRED_ROLES if r not in roles]
+    if missing:
+        raise BindingError(
+            f"{where}: missing roles {missing} (required: {', '.join(REQUIRED_ROLES)}; "
+            f"optional: {', '.join(OPTIONAL_ROLES)})"
+        )
+    dbc = raw.get("dbc", "")
+    if not isinstance(dbc, str):
+        raise BindingError(f"{where}: dbc must be a file name")
+    return Binding(dbc=dbc, roles=roles, path=path)
 
 
 def load_binding(path: str | Path) -> Binding:
-    """Read a binding table from TOML; raise :class:`DbcError` with the reason if malformed."""
+    """Read a binding table from TOML; raise :class:`BindingError` with the reason."""
     path = Path(path)
     try:
         raw = tomllib.loads(path.read_text(encoding="utf-8"))
     except OSError as exc:
-        raise DbcError(f"cannot read binding {path}: {exc.strerror or exc}") from exc
+        raise BindingError(f"cannot read binding {path}: {exc.strerror or exc}") from exc
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise DbcError(f"binding {path} is not valid TOML: {exc}") from exc
-    roles_raw = raw.get("roles")
-    if not isinstance(roles_raw, dict) or not roles_raw:
-        raise DbcError(f"{path}: no [roles.*] tables")
-    roles = {name: _role_from_table(name, table, str(path)) for name, table in roles_raw.items()}
-    missing = [r for r in REQUIRED_ROLES if r not in roles]
-    if missing:
-        raise DbcError(f"{path}: missing roles {missing}")
-    return Binding(dbc=str(raw.get("dbc", "")), roles=roles)
+        raise BindingError(f"binding {path} is not valid TOML: {exc}") from exc
+    return parse_binding(raw, str(path), path)
 
 
 def check_against(binding: Binding, db: Any) -> None:
-    """Validate ``binding`` against a cantools Database ``db``; raise :class:`DbcError`."""
+    """Validate ``binding`` against a cantools Database ``db``: every named message and
+    signal exists and every signal of a bound message is named (a field, the checksum, the
+    counter, a constant or ``unused``); raise :class:`BindingError`."""
     for role in binding.roles.values():
-        try:
-            message = db.get_message_by_name(role.message)
-        except KeyError:
-            raise DbcError(f"role {role.role}: no message {role.message!r} in the DBC") from None
-        names = {s.name for s in message.signals}
-        bound = list(role.fields.values()) + [s for s in (role.crc, role.counter) if s]
-        for signal in bound:
-            if signal not in names:
-                raise DbcError(f"role {role.role}: no signal {signal!r} in {role.message}")
-        unbound = names - set(bound)
-        if unbound:
-            raise DbcError(f"role {role.role}: signals {sorted(unbound)} of {role.message} unbound")
-        if role.crc is not None:
-            crc = message.get_signal_by_name(role.crc)
-            if crc.length != 8 or crc.start % 8 != (0 if crc.byte_order == "little_endian" else 7):
-                raise DbcError(f"role {role.role}: CRC {role.crc} must be one whole byte")
-        if role.counter is not None:
-            counter = message.get_signal_by_name(role.counter)
-            if counter.length != 4 or counter.is_signed:
-                raise DbcError(f"role {role.role}: counter {role.counter} must be 4-bit unsigned")
+        for part in role.parts:
+            try:
+                message = db.get_message_by_name(part.message)
+            except KeyError:
+                raise BindingError(
+                    f"role {role.role}: no message {part.message!r} in the DBC"
+                ) from None
+            names = {s.name for s in message.signals}
+            named = part.signals()
+            for signal in named:
+                if signal not in names:
+                    raise BindingError(
+                        f"role {role.role}: no signal {signal!r} in {part.message}"
+                    )
+            twice = sorted({s for s in named if named.count(s) > 1})
+            if twice:
+                raise BindingError(f"role {role.role}: {part.message}: {twice} named twice")
+            unbound = names - set(named)
+            if unbound:
+                raise BindingError(
+                    f"role {role.role}: signals {sorted(unbound)} of {part.message} unbound "
+                    "(bind them, fix them in constants or list them in unused)"
+                )

@@ -1,6 +1,6 @@
 """The frame codec shared by the ECU and the simulator.
 
-The DBC is loaded once (cantools, ``strict=True``) and bound to logical roles and fields by
+The DBC is loaded once (cantools) and bound to logical roles and fields by
 the binding table (:mod:`dbc.binding`). For every message, an encoder and a decoder are
 compiled once into straight-line Python (shifts and masks on one integer, an unrolled
 table CRC), which is what makes them several times faster than cantools' generic
@@ -13,17 +13,17 @@ names: code above the codec knows roles and fields only.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 from typing import Any, NamedTuple
 
 from dbc import BINDING_PATH, DBC_PATH
-from dbc.binding import Binding, RoleBinding, check_against, load_binding
+from dbc import checksums
+from dbc.binding import Binding, PartBinding, check_against, load_binding
 from dbc.e2e import CRC8_INIT, CRC8_TABLE, CRC8_XOROUT, crc8_update, data_id_of
 from dbc.errors import (
+    BindingError,
     CodecError,
     CrcError,
     DbcError,
@@ -33,8 +33,12 @@ from dbc.errors import (
     RangeError,
     UnknownFrameError,
 )
+from dbc.layout import FieldLayout, extract, layout, physical, placed_le, raw_from
+from dbc.schema import ROLES
+from dbc.units import UnitError, conversion
 
 __all__ = [
+    "BindingError",
     "Codec",
     "CodecError",
     "CrcError",
@@ -45,8 +49,10 @@ __all__ = [
     "EncodeError",
     "MessageCodec",
     "RangeError",
+    "RoleCodec",
     "UnknownFrameError",
     "load_codec",
+    "network_paths",
 ]
 
 Value = float | int
@@ -60,148 +66,101 @@ class Decoded(NamedTuple):
     counter: int | None
 
 
-@dataclass(frozen=True)
-class FieldLayout:
-    """Where one signal sits in the payload and how raw maps to physical.
-
-    ``shift`` is the position of the signal's least significant bit in the payload read as
-    one little-endian (Intel) or big-endian (Motorola) integer, per ``big_endian``.
-    """
-
-    key: str
-    shift: int
-    length: int
-    signed: bool
-    scale: float
-    offset: float
-    raw_min: int
-    raw_max: int
-    big_endian: bool
-
-    @property
-    def mask(self) -> int:
-        return (1 << self.length) - 1
-
-    @property
-    def narrows(self) -> bool:
-        """True when the DBC range is narrower than what the bits can hold."""
-        lo = -(1 << (self.length - 1)) if self.signed else 0
-        hi = (1 << (self.length - 1)) - 1 if self.signed else (1 << self.length) - 1
-        return self.raw_min > lo or self.raw_max < hi
-
-    @property
-    def integral(self) -> bool:
-        """True when raw and physical coincide (decode yields an int)."""
-        return self.scale == 1 and self.offset == 0
-
-
-def _raw_bounds(signal: Any) -> tuple[int, int]:
-    """Raw-value bounds of a cantools signal: its DBC [min, max] intersected with its bits."""
-    length = signal.length
-    if signal.is_signed:
-        lo, hi = -(1 << (length - 1)), (1 << (length - 1)) - 1
-    else:
-        lo, hi = 0, (1 << length) - 1
-    scale, offset = float(signal.scale), float(signal.offset)
-    if scale <= 0:
-        raise DbcError(f"signal {signal.name}: only positive scales are supported")
-    if signal.minimum is not None:
-        lo = max(lo, math.ceil(round((float(signal.minimum) - offset) / scale, 6)))
-    if signal.maximum is not None:
-        hi = min(hi, math.floor(round((float(signal.maximum) - offset) / scale, 6)))
-    if lo > hi:
-        raise DbcError(f"signal {signal.name}: empty range")
-    return lo, hi
-
-
-def _layout(signal: Any, key: str, length_bytes: int) -> FieldLayout:
-    if signal.is_float:
-        raise DbcError(f"signal {signal.name}: IEEE float signals are not supported")
-    big = signal.byte_order == "big_endian"
-    if big:
-        msb = (length_bytes - 1 - signal.start // 8) * 8 + signal.start % 8
-        shift = msb - signal.length + 1
-    else:
-        shift = signal.start
-    if shift < 0 or shift + signal.length > 8 * length_bytes:
-        raise DbcError(f"signal {signal.name}: does not fit in {length_bytes} bytes")
-    raw_min, raw_max = _raw_bounds(signal)
-    return FieldLayout(
-        key=key,
-        shift=shift,
-        length=signal.length,
-        signed=bool(signal.is_signed),
-        scale=float(signal.scale),
-        offset=float(signal.offset),
-        raw_min=raw_min,
-        raw_max=raw_max,
-        big_endian=big,
-    )
-
-
-def _extract(f: FieldLayout) -> str:
-    """Source of an expression giving the raw value of ``f`` from ``n_le``/``n_be``."""
-    src = f"(({'n_be' if f.big_endian else 'n_le'} >> {f.shift}) & {f.mask:#x})"
-    if f.signed:
-        sign = 1 << (f.length - 1)
-        src = f"(({src} ^ {sign:#x}) - {sign:#x})"
-    return src
-
-
-def _physical(f: FieldLayout, raw: str) -> str:
-    if f.integral:
-        return raw
-    src = f"{raw} * {f.scale!r}"
-    return f"({src} + {f.offset!r})" if f.offset else src
-
-
-def _raw_from(f: FieldLayout, value: str) -> str:
-    if f.integral:
-        return f"round({value})"
-    inv = 1.0 / f.scale
-    body = f"({value} - {f.offset!r})" if f.offset else value
-    # multiply by the inverse when it is exact (0.01 -> 100.0), divide otherwise
-    return f"round({body} * {inv!r})" if inv == round(inv) else f"round({body} / {f.scale!r})"
-
-
 class MessageCodec:
-    """Compiled encoder/decoder of one bound message.
+    """Compiled encoder/decoder of one bound message (one part of a role).
 
     Attributes:
-        role: logical role (``"radar"``); name: DBC message name; frame_id: CAN id;
-        length: DLC in bytes; cycle_s: period from GenMsgCycleTime (s, 0 if none);
-        fields: logical field names in DBC order; protected: carries CRC and counter;
-        crc_byte: index of the E2E CRC byte in the payload, from the binding's CRC signal
-        (None: unprotected); data_id: 16-bit E2E data id.
+        role: logical role (``"radar"``); key: the role for its first message,
+        ``role#i`` for its i-th further one (the key of its alive counter and E2E state);
+        name: DBC message name; frame_id: CAN id; length: DLC in bytes; cycle_s: period
+        (binding ``cycle_ms`` or GenMsgCycleTime, s, 0 if none); fields: logical field
+        names in DBC order; checksum: its kind (:mod:`dbc.checksums`); protected: carries
+        a checksum; crc_byte: index of the byte holding the checksum (None: none);
+        counter_modulo: alive counter period (0: no counter); data_id: 16-bit E2E data id.
     """
 
-    def __init__(self, message: Any, role: RoleBinding) -> None:
-        self.role = role.role
+    def __init__(self, message: Any, part: PartBinding, role: str, key: str | None = None) -> None:
+        self.role = role
+        self.key = key or role
         self.name: str = message.name
         self.frame_id: int = message.frame_id
         self.is_extended: bool = bool(message.is_extended_frame)
         self.length: int = message.length
-        self.cycle_s: float = (message.cycle_time or 0) / 1000.0
+        cycle_ms = part.cycle_ms if part.cycle_ms is not None else (message.cycle_time or 0)
+        self.cycle_s: float = cycle_ms / 1000.0
         self.data_id = data_id_of(self.frame_id)
-        by_signal = {signal: key for key, signal in role.fields.items()}
-        self.layouts: tuple[FieldLayout, ...] = tuple(
-            _layout(s, by_signal[s.name], self.length)
-            for s in message.signals
-            if s.name in by_signal
-        )
+        by_signal = {fb.signal: fb for fb in part.fields.values()}
+        layouts = []
+        for s in message.signals:
+            fb = by_signal.get(s.name)
+            if fb is None:
+                continue
+            try:
+                factor = conversion(fb.key, fb.unit if fb.unit is not None else s.unit)
+            except UnitError as exc:
+                raise BindingError(f"role {role}: {self.name}.{s.name}: {exc}") from None
+            layouts.append(
+                layout(
+                    s, fb.key, self.length, factor=factor, invert=fb.invert, override=fb.range
+                )
+            )
+        self.layouts: tuple[FieldLayout, ...] = tuple(layouts)
         self.fields: tuple[str, ...] = tuple(f.key for f in self.layouts)
-        self.protected = role.protected
+        self.checksum = part.checksum
         self.crc_byte: int | None = None
+        self._cs: FieldLayout | None = None
+        self._cs_shift = 0
+        self._cs_fn: checksums.Checksum | None = None
+        if part.checksum_signal is not None:
+            self._bind_checksum(message.get_signal_by_name(part.checksum_signal))
+        self.protected = self._cs is not None
         self._counter: FieldLayout | None = None
-        if role.protected:
-            crc = _layout(message.get_signal_by_name(role.crc), "_crc", self.length)
-            byte = crc.shift // 8
-            self.crc_byte = self.length - 1 - byte if crc.big_endian else byte
-            counter_signal = message.get_signal_by_name(role.counter)
-            self._counter = _layout(counter_signal, "_counter", self.length)
+        self.counter_modulo = 0
+        if part.counter is not None:
+            self._counter = layout(message.get_signal_by_name(part.counter), "_counter", self.length)
+            if self._counter.signed or not 1 <= self._counter.length <= 8:
+                raise BindingError(f"{self.name}: counter {part.counter} must be 1-8 bit unsigned")
+            self.counter_modulo = 1 << self._counter.length
+        self._const_le = 0
+        const_layouts = []
+        for name, value in part.constants.items():
+            sig = message.get_signal_by_name(name)
+            cl = layout(sig, name, self.length)
+            raw = round((value - cl.offset) / cl.scale)
+            if not cl.raw_min <= raw <= cl.raw_max:
+                raise BindingError(f"{self.name}: constant {name} = {value:g} outside its range")
+            self._const_le |= placed_le(cl, raw, self.length)
+            const_layouts.append(cl)
+        self._check_overlaps([*self.layouts, *const_layouts])
         self.encode: Callable[[Mapping[str, Any], int], bytes]
         self.decode: Callable[[bytes | bytearray], Decoded]
         self.encode, self.decode = self._compile()
+
+    def _bind_checksum(self, signal: Any) -> None:
+        cs = layout(signal, "_checksum", self.length)
+        self._cs = cs
+        self._cs_shift = cs.le_shift(self.length)
+        byte = self._cs_shift // 8
+        last = self.length - 1
+        need = {
+            "pacc_crc8": (cs.length == 8 and self._cs_shift % 8 == 0, "one whole byte"),
+            "toyota": (cs.length == 8 and self._cs_shift == 8 * last, "the whole last byte"),
+            "honda": (cs.length == 4 and self._cs_shift == 8 * last, "the last byte's low nibble"),
+        }
+        ok, where = need[self.checksum]
+        if not ok:
+            raise BindingError(f"{self.name}: a {self.checksum} checksum must be {where}")
+        self.crc_byte = byte
+        self._cs_fn = checksums.make(self.checksum, self.frame_id, self.length, byte)
+
+    def _check_overlaps(self, layouts: list[FieldLayout]) -> None:
+        used: dict[int, str] = {}
+        extra = [x for x in (self._cs, self._counter) if x is not None]
+        for f in [*layouts, *extra]:
+            for bit in f.le_bits(self.length):
+                if bit in used:
+                    raise DbcError(f"{self.name}: bound signals {used[bit]} and {f.key} overlap")
+                used[bit] = f.key
 
     # -- code generation ---------------------------------------------------------------
     def _crc_lines(self, buf: str, indent: str) -> list[str]:
@@ -215,14 +174,96 @@ class MessageCodec:
         lines.append(f"{indent}c ^= {CRC8_XOROUT:#x}")
         return lines
 
+    def _decode_source(self) -> list[str]:
+        layouts, counter, n = list(self.layouts), self._counter, self.length
+        generic = self._cs is not None and self.checksum != "pacc_crc8"
+        need_le = generic or any(not f.big_endian for f in layouts) or (
+            counter is not None and not counter.big_endian
+        )
+        need_be = any(f.big_endian for f in layouts) or (counter is not None and counter.big_endian)
+        d = [
+            "def decode(data):",
+            f"    if len(data) != {n}:",
+            f"        raise DlcError('{self.name}: DLC %d, expected {n}' % len(data))",
+        ]
+        if self.checksum == "pacc_crc8":
+            d += self._crc_lines("data", "    ")
+            d += [
+                f"    if c != data[{self.crc_byte}]:",
+                f"        raise CrcError('{self.name}: CRC mismatch')",
+            ]
+        if need_le:
+            d.append("    n_le = int.from_bytes(data, 'little')")
+        if generic:
+            assert self._cs is not None
+            s, m = self._cs_shift, self._cs.mask
+            d += [
+                f"    if (n_le >> {s}) & {m:#x} != CS((n_le & {~(m << s):#x}).to_bytes({n}, "
+                "'little')):",
+                f"        raise CrcError('{self.name}: {self.checksum} checksum mismatch')",
+            ]
+        if need_be:
+            d.append("    n_be = int.from_bytes(data, 'big')")
+        for i, f in enumerate(layouts):
+            d.append(f"    r{i} = {extract(f)}")
+        # on decode, bounds that the bit width already enforces need no test
+        narrowing = [
+            f"{f.raw_min} <= r{i} <= {f.raw_max}" for i, f in enumerate(layouts) if f.narrows
+        ]
+        if narrowing:
+            d.append(f"    if not ({' and '.join(narrowing)}):")
+            d.append("        range_error(data)")
+        items = ", ".join(f"{f.key!r}: {physical(f, f'r{i}')}" for i, f in enumerate(layouts))
+        cnt = extract(counter) if counter else "None"
+        d.append(f"    return Decoded(role, {{{items}}}, {cnt})")
+        return d
+
+    def _encode_source(self) -> list[str]:
+        layouts, counter, n = list(self.layouts), self._counter, self.length
+        e = ["def encode(values, counter=0):", "    try:"]
+        e += [f"        r{i} = {raw_from(f, f'values[{f.key!r}]')}" for i, f in enumerate(layouts)]
+        e += [
+            "    except (KeyError, TypeError, ValueError, OverflowError) as exc:",
+            "        encode_error(values, exc)",
+        ]
+        checks = [f"{f.raw_min} <= r{i} <= {f.raw_max}" for i, f in enumerate(layouts)]
+        if checks:
+            e.append(f"    if not ({' and '.join(checks)}):")
+            e.append("        encode_error(values, None)")
+
+        def term(i: int, f: FieldLayout) -> str:
+            return f"((r{i} & {f.mask:#x}) << {f.shift})" if f.signed else f"(r{i} << {f.shift})"
+
+        le_terms = [term(i, f) for i, f in enumerate(layouts) if not f.big_endian]
+        be_terms = [term(i, f) for i, f in enumerate(layouts) if f.big_endian]
+        if counter:
+            cterm = f"((counter & {counter.mask:#x}) << {counter.shift})"
+            (be_terms if counter.big_endian else le_terms).append(cterm)
+        if self._const_le:
+            le_terms.append(f"{self._const_le:#x}")
+        e.append(f"    n_le = {' | '.join(le_terms) or '0'}")
+        if be_terms:
+            e.append(
+                f"    n_le |= int.from_bytes(({' | '.join(be_terms)}).to_bytes({n}, 'big'), "
+                "'little')"
+            )
+        if self.checksum == "pacc_crc8":
+            e.append(f"    b = n_le.to_bytes({n}, 'little')")
+            e += self._crc_lines("b", "    ")
+            e.append(f"    return (n_le | (c << {8 * self.crc_byte})).to_bytes({n}, 'little')")  # type: ignore[operator]
+        elif self._cs is not None:
+            e.append(
+                f"    return (n_le | (CS(n_le.to_bytes({n}, 'little')) << {self._cs_shift}))"
+                f".to_bytes({n}, 'little')"
+            )
+        else:
+            e.append(f"    return n_le.to_bytes({n}, 'little')")
+        return e
+
     def _compile(self) -> tuple[Any, Any]:
-        layouts = list(self.layouts)
-        counter = self._counter
-        need_le = any(not f.big_endian for f in layouts) or (counter and not counter.big_endian)
-        need_be = any(f.big_endian for f in layouts) or (counter and counter.big_endian)
-        n = self.length
         ns: dict[str, Any] = {
             "T": CRC8_TABLE,
+            "CS": self._cs_fn,
             "Decoded": Decoded,
             "DlcError": DlcError,
             "CrcError": CrcError,
@@ -231,69 +272,7 @@ class MessageCodec:
             "range_error": self._range_error,
             "encode_error": self._encode_error,
         }
-        # decoder
-        d = [
-            "def decode(data):",
-            f"    if len(data) != {n}:",
-            f"        raise DlcError('{self.name}: DLC %d, expected {n}' % len(data))",
-        ]
-        if self.crc_byte is not None:
-            d += self._crc_lines("data", "    ")
-            d += [
-                f"    if c != data[{self.crc_byte}]:",
-                f"        raise CrcError('{self.name}: CRC mismatch')",
-            ]
-        if need_le:
-            d.append("    n_le = int.from_bytes(data, 'little')")
-        if need_be:
-            d.append("    n_be = int.from_bytes(data, 'big')")
-        for i, f in enumerate(layouts):
-            d.append(f"    r{i} = {_extract(f)}")
-        checks = [f"{f.raw_min} <= r{i} <= {f.raw_max}" for i, f in enumerate(layouts)]
-        # on decode, bounds that the bit width already enforces need no test
-        narrowing = [c for c, f in zip(checks, layouts, strict=True) if f.narrows]
-        if narrowing:
-            d.append(f"    if not ({' and '.join(narrowing)}):")
-            d.append("        range_error(data)")
-        items = ", ".join(f"{f.key!r}: {_physical(f, f'r{i}')}" for i, f in enumerate(layouts))
-        cnt = _extract(counter) if counter else "None"
-        d.append(f"    return Decoded(role, {{{items}}}, {cnt})")
-        # encoder
-        e = ["def encode(values, counter=0):", "    try:"]
-        e += [f"        r{i} = {_raw_from(f, f'values[{f.key!r}]')}" for i, f in enumerate(layouts)]
-        e += [
-            "    except (KeyError, TypeError, ValueError, OverflowError) as exc:",
-            "        encode_error(values, exc)",
-        ]
-        if checks:
-            e.append(f"    if not ({' and '.join(checks)}):")
-            e.append("        encode_error(values, None)")
-        le_terms = [
-            f"((r{i} & {f.mask:#x}) << {f.shift})" if f.signed else f"(r{i} << {f.shift})"
-            for i, f in enumerate(layouts)
-            if not f.big_endian
-        ]
-        be_terms = [
-            f"((r{i} & {f.mask:#x}) << {f.shift})" if f.signed else f"(r{i} << {f.shift})"
-            for i, f in enumerate(layouts)
-            if f.big_endian
-        ]
-        if counter:
-            term = f"((counter & 0xF) << {counter.shift})"
-            (be_terms if counter.big_endian else le_terms).append(term)
-        e.append(f"    n_le = {' | '.join(le_terms) or '0'}")
-        if be_terms:
-            e.append(
-                f"    n_le |= int.from_bytes(({' | '.join(be_terms)}).to_bytes({n}, 'big'), "
-                "'little')"
-            )
-        if self.crc_byte is not None:
-            e.append(f"    b = n_le.to_bytes({n}, 'little')")
-            e += self._crc_lines("b", "    ")
-            e.append(f"    return (n_le | (c << {8 * self.crc_byte})).to_bytes({n}, 'little')")
-        else:
-            e.append(f"    return n_le.to_bytes({n}, 'little')")
-        source = "\n".join(d + e) + "\n"
+        source = "\n".join(self._decode_source() + self._encode_source()) + "\n"
         exec(compile(source, f"<codec {self.name}>", "exec"), ns)  # noqa: S102 - generated above
         return ns["encode"], ns["decode"]
 
@@ -305,6 +284,8 @@ class MessageCodec:
             raw = ((n_be if f.big_endian else n_le) >> f.shift) & f.mask
             if f.signed and raw >> (f.length - 1):
                 raw -= 1 << f.length
+            if f.invert:
+                raw ^= 1
             if not f.raw_min <= raw <= f.raw_max:
                 bad.append(f"{f.key}={raw * f.scale + f.offset:g}")
         raise RangeError(f"{self.name}: out of DBC range: {', '.join(bad)}")
@@ -320,43 +301,109 @@ class MessageCodec:
             except (TypeError, ValueError, OverflowError):
                 bad.append(f"{f.key}={value!r} is not a finite number")
                 continue
+            if f.invert:
+                raw ^= 1
             if not f.raw_min <= raw <= f.raw_max:
-                lo = f.raw_min * f.scale + f.offset
-                hi = f.raw_max * f.scale + f.offset
+                lo, hi = self.bounds(f.key)
                 bad.append(f"{f.key}={value!r} outside [{lo:g}, {hi:g}]")
         raise EncodeError(f"{self.name}: {'; '.join(bad) or exc}")
 
     def bounds(self, key: str) -> tuple[float, float]:
-        """Physical [min, max] of field ``key`` (what encode accepts)."""
+        """Logical [min, max] of field ``key`` (what encode accepts)."""
         for f in self.layouts:
             if f.key == key:
+                if f.invert:
+                    return 0.0, 1.0
                 return f.raw_min * f.scale + f.offset, f.raw_max * f.scale + f.offset
         raise KeyError(key)
 
 
+class RoleCodec:
+    """One role: its messages (parts), and the values of fields no signal carries.
+
+    Attributes:
+        role: the role; parts: its message codecs, the first one first; defaults: logical
+        values of the fields bound to a constant or left out (optional), which receivers
+        assume; fields: every field the role gives a value (signal-bound or default).
+    """
+
+    def __init__(self, role: str, parts: tuple[MessageCodec, ...], consts: dict[str, float]):
+        self.role = role
+        self.parts = parts
+        self.defaults: dict[str, Value] = {
+            k: spec.default for k, spec in ROLES[role].items() if not any(k in p.fields for p in parts)
+        }
+        self.defaults.update(consts)
+        self.fields: tuple[str, ...] = tuple(
+            [f for p in parts for f in p.fields] + list(self.defaults)
+        )
+
+    def part_of(self, key: str) -> MessageCodec | None:
+        """The message carrying field ``key`` (None: a constant or an unbound field)."""
+        for p in self.parts:
+            if key in p.fields:
+                return p
+        return None
+
+    def bounds(self, key: str) -> tuple[float, float]:
+        """Logical [min, max] of ``key``: its signal's, or (v, v) for a default ``v``."""
+        part = self.part_of(key)
+        if part is not None:
+            return part.bounds(key)
+        if key in self.defaults:
+            v = float(self.defaults[key])
+            return v, v
+        raise KeyError(key)
+
+    @property
+    def cycle_s(self) -> float:
+        """The shortest period of the role's messages, s."""
+        return min(p.cycle_s for p in self.parts)
+
+
 class Codec:
-    """All bound messages of one vehicle network, by role and by frame id."""
+    """All bound messages of one vehicle network, by role and by frame id.
+
+    ``by_role[role]`` is the role's first message; ``roles[role]`` the whole role.
+    """
 
     def __init__(self, db: Any, binding: Binding) -> None:
         check_against(binding, db)
         self.db = db
         self.binding = binding
         self.by_role: dict[str, MessageCodec] = {}
+        self.roles: dict[str, RoleCodec] = {}
         self.by_id: dict[int, MessageCodec] = {}
-        for role in binding.roles.values():
-            mc = MessageCodec(db.get_message_by_name(role.message), role)
-            if mc.cycle_s <= 0:  # receivers time out by the period, senders send by it
-                raise DbcError(f"role {role.role}: message {mc.name} has no GenMsgCycleTime")
-            self.by_role[role.role] = mc
-            self.by_id[mc.frame_id] = mc
+        for rb in binding.roles.values():
+            parts = []
+            for i, part in enumerate(rb.parts):
+                key = rb.role if i == 0 else f"{rb.role}#{i}"
+                mc = MessageCodec(db.get_message_by_name(part.message), part, rb.role, key)
+                if mc.cycle_s <= 0:  # receivers time out by the period, senders send by it
+                    raise DbcError(
+                        f"role {rb.role}: message {mc.name} has no GenMsgCycleTime "
+                        "(give cycle_ms in the binding)"
+                    )
+                if mc.frame_id in self.by_id:
+                    raise BindingError(f"message {mc.name} is bound twice")
+                self.by_id[mc.frame_id] = mc
+                parts.append(mc)
+            self.by_role[rb.role] = parts[0]
+            self.roles[rb.role] = RoleCodec(rb.role, tuple(parts), rb.consts)
+
+    def parts(self) -> list[MessageCodec]:
+        """Every bound message, role by role."""
+        return [p for rc in self.roles.values() for p in rc.parts]
 
     def encode(self, role: str, values: Mapping[str, Any], counter: int = 0) -> bytes:
-        """Payload of ``role`` with ``values`` (physical units), alive ``counter`` and CRC."""
+        """Payload of a one-message ``role`` with ``values``, alive ``counter`` and checksum."""
         try:
-            mc = self.by_role[role]
+            rc = self.roles[role]
         except KeyError:
             raise EncodeError(f"no role {role!r} in the binding") from None
-        return mc.encode(values, counter)
+        if len(rc.parts) != 1:
+            raise EncodeError(f"role {role} spans {len(rc.parts)} messages: encode each part")
+        return rc.parts[0].encode(values, counter)
 
     def decode(self, frame_id: int, data: bytes | bytearray) -> Decoded:
         """Decode and check one frame; raise a :class:`DecodeError` subclass if unusable."""
@@ -370,8 +417,10 @@ def _load_db(dbc_path: Path) -> Any:
     # cantools costs ~0.3 s of start-up: only loading a DBC needs it (not `pacc ecu --help`)
     import cantools  # noqa: PLC0415
 
+    # not strict: real networks overlap signals pacc does not use (opendbc's Toyota PCS_HUD);
+    # the codec checks the signals the binding names (fit, overlap, ranges) itself
     try:
-        return cantools.database.load_file(str(dbc_path), database_format="dbc", strict=True)
+        return cantools.database.load_file(str(dbc_path), database_format="dbc", strict=False)
     except FileNotFoundError as exc:
         raise DbcError(f"DBC file not found: {dbc_path}") from exc
     except Exception as exc:  # cantools raises its own ParseError, ValueError, UnicodeError…
@@ -384,12 +433,51 @@ def _load_codec(dbc_path: Path, binding_path: Path) -> Codec:
     return Codec(_load_db(dbc_path), binding)
 
 
-def load_codec(dbc_path: str | Path | None = None, binding_path: str | Path | None = None) -> Codec:
-    """The codec of a DBC and binding (defaults: the packaged pacc network), loaded once.
+def network_paths(
+    dbc_path: str | Path | None = None, binding_path: str | Path | None = None
+) -> tuple[Path, Path]:
+    """The (DBC, binding) files of a network, as the command line gives them.
+
+    Neither: the packaged pacc network. A binding alone: the DBC its ``dbc`` key names,
+    beside the binding file. Both: the binding must name that DBC's file. A DBC alone is
+    refused: a binding written for another network would not fit it.
 
     Raises:
-        DbcError: the DBC or the binding cannot be read, parsed or matched.
+        BindingError: a DBC without a binding, or a binding that names another DBC.
     """
+    if binding_path is None:
+        if dbc_path is not None:
+            raise BindingError(
+                f"--dbc {dbc_path} needs --binding FILE: the table that maps pacc's roles to "
+                "that network's messages (docs/vehicles.md)"
+            )
+        return DBC_PATH, BINDING_PATH
+    binding_file = Path(binding_path).resolve()
+    named = load_binding(binding_file).dbc
+    if dbc_path is None:
+        if not named:
+            raise BindingError(f"{binding_path} names no dbc file: give --dbc")
+        return (binding_file.parent / named).resolve(), binding_file
+    dbc_file = Path(dbc_path).resolve()
+    if named and Path(named).name != dbc_file.name:
+        raise BindingError(f"{binding_path} binds {named}, not {dbc_file.name}")
+    return dbc_file, binding_file
+
+
+def load_codec(dbc_path: str | Path | None = None, binding_path: str | Path | None = None) -> Codec:
+    """The codec of a DBC and binding, loaded once.
+
+    Defaults: the packaged pacc DBC and binding; a binding alone brings the DBC it names
+    (beside it). The library, unlike the command line, lets a test pair an edited pacc DBC
+    with the packaged binding: :meth:`Codec` still checks that they fit.
+
+    Raises:
+        DbcError: the DBC or the binding cannot be read, parsed or matched (a
+            :class:`BindingError` for the binding).
+    """
+    if binding_path is not None and dbc_path is None:
+        dbc, binding = network_paths(None, binding_path)
+        return _load_codec(dbc, binding)
     dbc = Path(dbc_path).resolve() if dbc_path else DBC_PATH
     binding = Path(binding_path).resolve() if binding_path else BINDING_PATH
     return _load_codec(dbc, binding)

@@ -35,3 +35,7 @@ class CrcError(DecodeError):
 
 class RangeError(DecodeError):
     """A decoded signal lies outside its DBC [minimum, maximum]."""
+
+
+class BindingError(DbcError):
+    """Load time: the binding table is malformed, or does not fit the DBC or pacc's roles."""

@@ -64,10 +64,11 @@ def test_agrees_with_cantools(frame: tuple[MessageCodec, dict[str, Any], int]) -
     mc, values, counter = frame
     data = mc.encode(values, counter)
     theirs = DB.get_message_by_name(mc.name).decode(data, decode_choices=False)
-    binding = CODEC.binding.roles[mc.role]
-    assert theirs[binding.counter] == counter
-    for key, signal in binding.fields.items():
-        assert math.isclose(theirs[signal], values[key], rel_tol=1e-9, abs_tol=1e-9), key
+    part = CODEC.binding.roles[mc.role].parts[0]
+    assert part.counter is not None
+    assert theirs[part.counter] == counter
+    for key, fb in part.fields.items():
+        assert math.isclose(theirs[fb.signal], values[key], rel_tol=1e-9, abs_tol=1e-9), key
 
 
 @settings(max_examples=50)
@@ -218,10 +219,14 @@ def test_other_vehicle_dbc_with_renamed_message_needs_matching_binding(tmp_path:
 @pytest.mark.parametrize(
     ("edit", "message"),
     [
-        (lambda s: s.replace('crc = "CRC8"\n', "", 1), "both crc and counter"),
+        (lambda s: s.replace('crc = "CRC8"\n', "", 1), "CRC8.*unbound"),
+        (lambda s: s.replace('counter = "AliveCounter"\n', "", 1), "both crc and counter"),
         (lambda s: s.replace('speed_valid = "SpeedValid"', 'speed_valid = "Nope"'), "no signal"),
         (lambda s: s.replace(', speed_valid = "SpeedValid"', ""), "unbound"),
-        (lambda s: s.replace("[roles.status]", "[roles.statusx]"), "missing roles"),
+        (lambda s: s.replace("[roles.status]", "[roles.statusx]"), "unknown role"),
+        (lambda s: s.replace("[roles.radar]", "[roles.status2]"), "unknown role"),
+        (lambda s: s.replace('gap_m = "LeadDistance", ', ""), "required fields"),
+        (lambda s: s.replace("speed_valid = ", "speed_ok = "), "unknown fields"),
         (lambda s: s + "\n[[[", "not valid TOML"),
     ],
 )
