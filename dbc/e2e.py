@@ -92,9 +92,11 @@ class E2EReceiver:
         cycle_s: the message's transmission period (s), from the DBC's GenMsgCycleTime.
         timeout_multiple: the message times out after this many periods without a usable
             frame (opendbc uses about 10).
+        counter_modulo: the alive counter's period (16 for pacc's 4-bit counter; 2**bits).
     """
 
     __slots__ = (
+        "modulo",
         "cycle_s",
         "timeout_s",
         "max_delta",
@@ -103,13 +105,16 @@ class E2EReceiver:
         "counts",
     )
 
-    def __init__(self, cycle_s: float, timeout_multiple: float = 10.0) -> None:
-        if cycle_s <= 0 or timeout_multiple <= 0:
-            raise ValueError("cycle_s and timeout_multiple must be positive")
+    def __init__(
+        self, cycle_s: float, timeout_multiple: float = 10.0, counter_modulo: int = COUNTER_MODULO
+    ) -> None:
+        if cycle_s <= 0 or timeout_multiple <= 0 or counter_modulo < 2:
+            raise ValueError("cycle_s and timeout_multiple must be positive, counter_modulo >= 2")
+        self.modulo = counter_modulo
         self.cycle_s = cycle_s
         self.timeout_s = cycle_s * timeout_multiple
         #: largest counter delta without a timeout: at most ``timeout_multiple`` frames lost
-        self.max_delta = min(COUNTER_MODULO - 1, int(timeout_multiple) + 1)
+        self.max_delta = min(counter_modulo - 1, int(timeout_multiple) + 1)
         self.last_counter: int | None = None
         self.last_ok_s: float | None = None
         self.counts: Counter[E2EStatus] = Counter()
@@ -128,7 +133,7 @@ class E2EReceiver:
         if last is None or (timed_out and counter != last):
             status = E2EStatus.OK
         else:
-            delta = (counter - last) % COUNTER_MODULO
+            delta = (counter - last) % self.modulo
             if delta == 1:
                 status = E2EStatus.OK
             elif delta == 0:

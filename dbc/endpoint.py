@@ -13,7 +13,7 @@ from typing import Any
 
 import can
 
-from dbc.codec import Codec, Decoded, Value
+from dbc.codec import Codec, Decoded, MessageCodec, RoleCodec, Value
 from dbc.e2e import E2EReceiver, E2EStatus
 from dbc.errors import CrcError, DlcError, EncodeError, RangeError
 
@@ -63,14 +63,30 @@ class Inbox:
     def __init__(self, codec: Codec, roles: Iterable[str], timeout_multiple: float = 10.0) -> None:
         self.codec = codec
         self.roles = tuple(roles)
-        self._by_id = {}
+        self._by_id: dict[int, MessageCodec] = {}
+        #: E2E state per message, keyed by MessageCodec.key (the role for its first message)
         self.receivers: dict[str, E2EReceiver] = {}
+        self._role_of: dict[str, str] = {}
+        self._keys: dict[str, tuple[str, ...]] = {}
+        #: roles over several messages or with defaults: merged before they are reported
+        self._merge: dict[str, RoleCodec] = {}
+        self._partial: dict[str, dict[str, Value]] = {}
+        self._seen: dict[str, set[str]] = {}
         for role in self.roles:
-            mc = codec.by_role[role]
-            if mc.cycle_s <= 0:
-                raise ValueError(f"role {role}: message {mc.name} has no GenMsgCycleTime")
-            self._by_id[mc.frame_id] = mc
-            self.receivers[role] = E2EReceiver(mc.cycle_s, timeout_multiple)
+            rc = codec.roles[role]
+            for mc in rc.parts:
+                if mc.cycle_s <= 0:
+                    raise ValueError(f"role {role}: message {mc.name} has no GenMsgCycleTime")
+                self._by_id[mc.frame_id] = mc
+                self.receivers[mc.key] = E2EReceiver(
+                    mc.cycle_s, timeout_multiple, mc.counter_modulo or 16
+                )
+                self._role_of[mc.key] = role
+            self._keys[role] = tuple(mc.key for mc in rc.parts)
+            if len(rc.parts) > 1 or rc.defaults:
+                self._merge[role] = rc
+                self._partial[role] = {}
+                self._seen[role] = set()
         self._latest: dict[str, dict[str, Value]] = {}
         #: outcomes of frames that belong to no consumed role (counted under UNKNOWN_ROLE)
         self._unknown: Counter[E2EStatus] = Counter()
@@ -80,9 +96,9 @@ class Inbox:
     def counts(self) -> Counter[tuple[str, E2EStatus]]:
         """Every outcome so far by (role, status): the receivers' counts, derived on demand."""
         out: Counter[tuple[str, E2EStatus]] = Counter()
-        for role, receiver in self.receivers.items():
+        for key, receiver in self.receivers.items():
             for status, n in receiver.counts.items():
-                out[(role, status)] += n
+                out[(self._role_of[key], status)] += n
         for status, n in self._unknown.items():
             out[(UNKNOWN_ROLE, status)] += n
         return out
@@ -100,7 +116,7 @@ class Inbox:
             if frame_id not in self.codec.by_id:
                 self._unknown[E2EStatus.UNKNOWN_ID] += 1
             return None
-        receiver = self.receivers[mc.role]
+        receiver = self.receivers[mc.key]
         try:
             decoded = mc.decode(data)
         except CrcError:
@@ -117,10 +133,24 @@ class Inbox:
             else:
                 receiver.last_ok_s = now_s
                 receiver.record(E2EStatus.OK)
-            self._latest[mc.role] = decoded.values
+            if mc.role in self._merge:
+                self._merge_part(mc, decoded.values)
+            else:
+                self._latest[mc.role] = decoded.values
             return decoded
         receiver.record(status)
         return None
+
+    def _merge_part(self, mc: MessageCodec, values: dict[str, Value]) -> None:
+        """Fold one message's values into its role; the role is reported (a new dict, with
+        its defaults) once every message of it has arrived."""
+        role = mc.role
+        partial = self._partial[role]
+        partial.update(values)
+        seen = self._seen[role]
+        seen.add(mc.key)
+        if len(seen) == len(self._keys[role]):
+            self._latest[role] = {**self._merge[role].defaults, **partial}
 
     def accept_message(self, msg: can.Message, now_s: float | None = None) -> Decoded | None:
         """:meth:`accept` for a python-can message (its timestamp if ``now_s`` is None).
@@ -144,8 +174,13 @@ class Inbox:
         return self._latest.get(role)
 
     def fresh(self, role: str, now_s: float) -> bool:
-        """True when ``role`` delivered a usable frame within its timeout before ``now_s``."""
-        return not self.receivers[role].timed_out(now_s)
+        """True when every message of ``role`` delivered a usable frame within its timeout
+        before ``now_s``."""
+        keys = self._keys[role]
+        receivers = self.receivers
+        if len(keys) == 1:
+            return not receivers[keys[0]].timed_out(now_s)
+        return not any(receivers[key].timed_out(now_s) for key in keys)
 
     def errors(self) -> dict[str, int]:
         """Counts of every non-OK outcome by kind, summed over roles."""
@@ -157,35 +192,60 @@ class Inbox:
 
 
 class Outbox:
-    """Send side of a node: one alive counter per role, CRC filled by the codec."""
+    """Send side of a node: one alive counter per message, checksum filled by the codec.
+
+    ``counters`` is keyed by :attr:`MessageCodec.key` (the role for a role's first message).
+    """
 
     def __init__(self, codec: Codec) -> None:
         self.codec = codec
-        self.counters: dict[str, int] = {role: 0 for role in codec.by_role}
+        self.counters: dict[str, int] = {mc.key: 0 for mc in codec.parts()}
         self.frames_out = 0
 
-    def encode(self, role: str, values: Mapping[str, Any]) -> bytes:
-        """Payload of ``role`` with the next alive counter; raise EncodeError on bad values.
+    def encode_part(self, mc: MessageCodec, values: Mapping[str, Any]) -> bytes:
+        """Payload of message ``mc`` with the next alive counter; raise EncodeError on bad
+        values. The counter advances only when the frame was built."""
+        counter = self.counters[mc.key]
+        data = mc.encode(values, counter)
+        if mc.counter_modulo:
+            self.counters[mc.key] = (counter + 1) % mc.counter_modulo
+        self.frames_out += 1
+        return data
 
-        The counter advances only when the frame was built.
-        """
+    def encode(self, role: str, values: Mapping[str, Any]) -> bytes:
+        """Payload of ``role``'s first (for most networks: only) message; see
+        :meth:`encode_part`."""
         try:
             mc = self.codec.by_role[role]
         except KeyError:
             raise EncodeError(f"no role {role!r} in the binding") from None
-        counter = self.counters[role]
-        data = mc.encode(values, counter)
-        self.counters[role] = (counter + 1) & 0xF
-        self.frames_out += 1
-        return data
+        return self.encode_part(mc, values)
 
-    def pack(self, role: str, values: Mapping[str, Any], timestamp: float = 0.0) -> can.Message:
-        """:meth:`encode` wrapped in a python-can message (a :class:`Frame`) for ``bus.send``."""
-        data = self.encode(role, values)
-        mc = self.codec.by_role[role]
+    def pack_part(
+        self, mc: MessageCodec, values: Mapping[str, Any], timestamp: float = 0.0
+    ) -> can.Message:
+        """:meth:`encode_part` wrapped in a python-can message (a :class:`Frame`)."""
         return Frame(
             arbitration_id=mc.frame_id,
-            data=data,
+            data=self.encode_part(mc, values),
             is_extended_id=mc.is_extended,
             timestamp=timestamp,
         )
+
+    def pack(self, role: str, values: Mapping[str, Any], timestamp: float = 0.0) -> can.Message:
+        """:meth:`encode` wrapped in a python-can message (a :class:`Frame`) for ``bus.send``."""
+        try:
+            mc = self.codec.by_role[role]
+        except KeyError:
+            raise EncodeError(f"no role {role!r} in the binding") from None
+        return self.pack_part(mc, values, timestamp)
+
+    def pack_all(
+        self, role: str, values: Mapping[str, Any], timestamp: float = 0.0
+    ) -> list[can.Message]:
+        """One frame per message of ``role`` (each takes the fields it carries)."""
+        try:
+            parts = self.codec.roles[role].parts
+        except KeyError:
+            raise EncodeError(f"no role {role!r} in the binding") from None
+        return [self.pack_part(mc, values, timestamp) for mc in parts]

@@ -11,13 +11,14 @@ node is refused when the port is built (:func:`check_outputs_fit`).
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import can
 
-from dbc.codec import Codec, EncodeError, MessageCodec
+from dbc.codec import Codec, EncodeError, RoleCodec
 from dbc.endpoint import Inbox, Outbox
 from ecu import EcuError
 from ecu.config import EcuConfig
@@ -43,8 +44,8 @@ def check_outputs_fit(codec: Codec, config: EcuConfig) -> None:
         RuntimeCodecError: naming the message, the field, its range and what it must carry.
     """
     ctl = config.controller
-    command, status = codec.by_role["command"], codec.by_role["status"]
-    needs: list[tuple[MessageCodec, str, float, float]] = [
+    command, status = codec.roles["command"], codec.roles.get("status")
+    needs: list[tuple[RoleCodec | None, str, float, float]] = [
         (command, "accel_request_mps2", ctl.accel_min_mps2, ctl.accel_max_mps2),
         (command, "acc_state", 0, max(AccState)),
         (command, "request_active", 0, 1),
@@ -52,7 +53,10 @@ def check_outputs_fit(codec: Codec, config: EcuConfig) -> None:
         (status, "fault_code", 0, max(FaultCode)),
         (status, "set_speed_mps", 0.0, config.max_set_speed_mps),
     ]
-    for mc, key, lo, hi in needs:
+    for rc, key, lo, hi in needs:
+        mc = None if rc is None else rc.part_of(key)
+        if mc is None:  # the network does not carry this output (docs/vehicles.md)
+            continue
         have_lo, have_hi = mc.bounds(key)
         if have_lo > lo + 1e-9 or have_hi < hi - 1e-9:
             raise RuntimeCodecError(
@@ -124,13 +128,18 @@ class OutputLimits:
 
     @classmethod
     def from_codec(cls, codec: Codec) -> OutputLimits:
-        lo, hi = codec.by_role["command"].bounds("accel_request_mps2")
-        status = codec.by_role["status"]
+        lo, hi = codec.roles["command"].bounds("accel_request_mps2")
+        status = codec.roles.get("status")
+
+        def top(key: str) -> float:
+            mc = None if status is None else status.part_of(key)
+            return math.inf if mc is None else mc.bounds(key)[1]
+
         return cls(
             accel_lo_mps2=lo,
             accel_hi_mps2=hi,
-            gap_hi_m=status.bounds("desired_gap_m")[1],
-            set_speed_hi_mps=status.bounds("set_speed_mps")[1],
+            gap_hi_m=top("desired_gap_m"),
+            set_speed_hi_mps=top("set_speed_mps"),
         )
 
 
@@ -181,6 +190,9 @@ class BusIO:
         self.pedals = PedalScale.from_codec(codec)
         self.limits = OutputLimits.from_codec(codec)
         self.send_errors = 0
+        self._command = codec.roles["command"].parts
+        status = codec.roles.get("status")
+        self._status = () if status is None else status.parts
 
     # -- receive -------------------------------------------------------------------------
 
@@ -219,14 +231,15 @@ class BusIO:
     def send(self, t_s: float, out: NodeOutputs, *, status: bool) -> None:
         """Send ACC_Command (and ACC_Status if ``status``) stamped ``t_s``; never raises: an
         encode or bus failure is logged and counted in :attr:`send_errors`."""
+        send, pack = self.bus.send, self.outbox.pack_part
         try:
-            self.bus.send(
-                self.outbox.pack("command", command_values(out, self.limits), timestamp=t_s)
-            )
-            if status:
-                self.bus.send(
-                    self.outbox.pack("status", status_values(out, self.limits), timestamp=t_s)
-                )
+            values = command_values(out, self.limits)
+            for mc in self._command:
+                send(pack(mc, values, t_s))
+            if status and self._status:
+                values = status_values(out, self.limits)
+                for mc in self._status:
+                    send(pack(mc, values, t_s))
         except (EncodeError, can.CanError) as exc:
             self.send_errors += 1
             log.error("t=%.2f send failed: %s", t_s, exc)

@@ -42,11 +42,13 @@ class PedalScale:
 
     @classmethod
     def from_codec(cls, codec: Codec) -> PedalScale:
-        """Full scale = the DBC maximum of each bound pedal field."""
-        pedals = codec.by_role[PEDALS_ROLE]
+        """Full scale = the DBC maximum of each bound pedal field (a network without a brake
+        pressure signal reports 0 bar: its full scale is then 1 bar, the fraction 0)."""
+        pedals = codec.roles[PEDALS_ROLE]
+        brake = pedals.part_of(BRAKE_FIELD)
         return cls(
             accel_full_pct=pedals.bounds(ACCEL_FIELD)[1],
-            brake_full_bar=pedals.bounds(BRAKE_FIELD)[1],
+            brake_full_bar=1.0 if brake is None else brake.bounds(BRAKE_FIELD)[1],
         )
 
     def accel(self, pct: float) -> float:

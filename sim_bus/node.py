@@ -21,7 +21,7 @@ from typing import Any
 import can
 import numpy as np
 
-from dbc.codec import Codec, load_codec
+from dbc.codec import Codec, MessageCodec, load_codec
 from dbc.endpoint import Frame, Inbox, Outbox
 from ecu.state import AccState
 from sim_bus.faults import ROLES, FaultPlan, FaultSpec
@@ -55,17 +55,21 @@ class SimNode:
         self.outbox = Outbox(self.codec)
         cmd_cycle = self.codec.by_role["command"].cycle_s
         self.inbox = Inbox(
-            self.codec, ("command", "status"), timeout_multiple=command_timeout_s / cmd_cycle
+            self.codec,
+            tuple(r for r in ("command", "status") if r in self.codec.roles),
+            timeout_multiple=command_timeout_s / cmd_cycle,
         )
         self.dt_s = world.cfg.plant.dt_s
         self.tick = 0
         self.t_s = 0.0
-        self._mc = {r: self.codec.by_role[r] for r in TX_ROLES}
-        self._every = {r: max(1, int(round(self._mc[r].cycle_s / self.dt_s))) for r in TX_ROLES}
-        hyper = math.lcm(*self._every.values())
-        #: roles due at tick k are ``_due[k % hyper]`` (the DBC periods as a tick schedule)
-        self._due = [tuple(r for r in TX_ROLES if k % self._every[r] == 0) for k in range(hyper)]
-        self._bounds = {(r, k): self._mc[r].bounds(k) for r in TX_ROLES for k in self._mc[r].fields}
+        roles = {r: self.codec.roles[r] for r in TX_ROLES}
+        #: the messages the simulator sends, role by role (most networks: one per role)
+        self._parts: tuple[MessageCodec, ...] = tuple(p for r in TX_ROLES for p in roles[r].parts)
+        every = {p.key: max(1, int(round(p.cycle_s / self.dt_s))) for p in self._parts}
+        hyper = math.lcm(*every.values())
+        #: messages due at tick k are ``_due[k % hyper]`` (the periods as a tick schedule)
+        self._due = [tuple(p for p in self._parts if k % every[p.key] == 0) for k in range(hyper)]
+        self._bounds = {(r, k): roles[r].bounds(k) for r in TX_ROLES for k in roles[r].fields}
         self._values: dict[str, dict[str, Any]] = {
             "ego": {"speed_mps": 0.0, "accel_mps2": 0.0, "speed_valid": 1},
             "pedals": {
@@ -109,12 +113,8 @@ class SimNode:
         self._rx_queue = queue if callable(getattr(queue, "empty", None)) else None
         # one reusable message per role (the virtual bus copies what it sends)
         self._msgs: dict[str, can.Message] = {
-            r: Frame(
-                arbitration_id=self._mc[r].frame_id,
-                is_extended_id=self._mc[r].is_extended,
-                dlc=self._mc[r].length,
-            )
-            for r in TX_ROLES
+            p.key: Frame(arbitration_id=p.frame_id, is_extended_id=p.is_extended, dlc=p.length)
+            for p in self._parts
         }
         self.commands_ok = 0
 
@@ -187,11 +187,11 @@ class SimNode:
         faults = self.faults
         if faults is None:  # the hot path: reused messages, no fault logic
             send = self.bus.send
-            encode = self.outbox.encode
+            encode = self.outbox.encode_part
             msgs = self._msgs
-            for role in due:
-                msg = msgs[role]
-                msg.data = bytearray(encode(role, self._fill(role)))
+            for mc in due:
+                msg = msgs[mc.key]
+                msg.data = bytearray(encode(mc, self._fill(mc.role)))
                 msg.timestamp = now
                 try:
                     send(msg)
@@ -200,13 +200,13 @@ class SimNode:
                     continue
                 self.frames_sent += 1
             return
-        for role in due:
-            vals = self._fill(role)
-            plan = faults.plan(role)
+        for mc in due:
+            vals = self._fill(mc.role)
+            plan = faults.plan(mc.role)
             if plan is None:
-                self._send(self.outbox.pack(role, vals, timestamp=now))
+                self._send(self.outbox.pack_part(mc, vals, timestamp=now))
             else:
-                self._transmit_faulty(role, vals, plan, now)
+                self._transmit_faulty(mc, vals, plan, now)
         if self._pending:
             while self._pending and self._pending[0][0] <= now + 1e-9:
                 _, _, msg = heapq.heappop(self._pending)
@@ -214,31 +214,32 @@ class SimNode:
                 self._send(msg)
 
     def _transmit_faulty(
-        self, role: str, vals: dict[str, Any], plan: FaultPlan, now: float
+        self, mc: MessageCodec, vals: dict[str, Any], plan: FaultPlan, now: float
     ) -> None:
-        """Send one frame of ``role`` through its fault plan.
+        """Send one frame of message ``mc`` through its role's fault plan.
 
         One uniform draw per frame decides the random faults (``u < counter``, ``u < crc``,
         ``u < drop``), so with one seed the same frames are hit whatever the kind.
         """
         counts = self.fault_counts
+        role = mc.role
         if plan.silent_at(now):
             counts[(role, "silent")] += 1
             return
         window = plan.frozen_at(now)
         if window is not None:
-            key = f"{role}@{window[0]}"
+            key = f"{mc.key}@{window[0]}"
             if key not in self._frozen:
                 self._frozen[key] = dict(vals)
             vals = self._frozen[key]
             counts[(role, "frozen")] += 1
         u = float(self._rng.random()) if plan.random else 1.0
-        if u < plan.counter:  # repeat the previous alive counter
-            self.outbox.counters[role] = (self.outbox.counters[role] - 1) & 0xF
+        if u < plan.counter and mc.counter_modulo:  # repeat the previous alive counter
+            counters = self.outbox.counters
+            counters[mc.key] = (counters[mc.key] - 1) % mc.counter_modulo
             counts[(role, "counter")] += 1
-        msg = self.outbox.pack(role, vals, timestamp=now)
+        msg = self.outbox.pack_part(mc, vals, timestamp=now)
         if u < plan.crc:  # a payload byte flipped on the wire: the CRC no longer matches
-            mc = self._mc[role]
             data = bytearray(msg.data)
             i = 2 if mc.crc_byte != 2 else 3
             data[i] ^= 0x5A
