@@ -82,13 +82,14 @@ def main() -> None:
     theirs = []
     for role in roles:
         mc = codec.by_role[role]
-        binding = codec.binding.roles[role]
+        part = codec.binding.roles[role].parts[0]
         msg = codec.db.get_message_by_name(mc.name)
-        named = {binding.fields[k]: v for k, v in SAMPLE[role].items()}
-        assert binding.crc is not None and binding.counter is not None and mc.crc_byte is not None
-        named[binding.counter] = 5
-        named[binding.crc] = 0
-        theirs.append((msg, named, mc.data_id, mc.crc_byte, binding.crc, binding.counter))
+        named: dict[str, float] = {part.fields[k].signal: v for k, v in SAMPLE[role].items()}
+        crc, counter = part.checksum_signal, part.counter
+        assert crc is not None and counter is not None and mc.crc_byte is not None
+        named[counter] = 5
+        named[crc] = 0
+        theirs.append((msg, named, mc.data_id, mc.crc_byte, crc, counter))
 
     def cantools_round_trip() -> None:
         for msg, named, data_id, crc_byte, crc_name, _ in theirs:

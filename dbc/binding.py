@@ -107,9 +107,7 @@ def _num(value: Any, where: str) -> float:
     return float(value)
 
 
-def _field(
-    key: str, spec: Any, where: str, consts: dict[str, float]
-) -> FieldBinding | None:
+def _field(key: str, spec: Any, where: str, consts: dict[str, float]) -> FieldBinding | None:
     """Parse one field entry; a ``{ const = v }`` lands in ``consts`` (returns None)."""
     if isinstance(spec, str):
         return FieldBinding(key=key, signal=spec)
@@ -160,6 +158,27 @@ def _names(value: Any, where: str) -> tuple[str, ...]:
     return tuple(value)
 
 
+def _e2e(table: dict[str, Any], where: str) -> tuple[str, str | None, str | None]:
+    """(checksum kind, checksum signal, counter signal) of a part table."""
+    crc, counter = table.get("crc"), table.get("counter")
+    checksum = table.get("checksum", "none")
+    checksum_signal = table.get("checksum_signal")
+    if crc is not None:  # version 1: pacc's CRC-8 and counter, both or neither
+        if "checksum" in table or checksum_signal is not None:
+            raise BindingError(f"{where}: crc (version 1) or checksum, not both")
+        if counter is None:
+            raise BindingError(f"{where}: give both crc and counter, or neither")
+        checksum, checksum_signal = "pacc_crc8", crc
+    for name, value in (("checksum_signal", checksum_signal), ("counter", counter)):
+        if value is not None and not isinstance(value, str):
+            raise BindingError(f"{where}.{name} must be a signal name")
+    if checksum not in KINDS:
+        raise BindingError(f"{where}: checksum {checksum!r} is not one of {', '.join(KINDS)}")
+    if (checksum == "none") != (checksum_signal is None):
+        raise BindingError(f"{where}: a checksum needs its checksum_signal, and only then")
+    return checksum, checksum_signal, counter
+
+
 def _part(table: Any, where: str, consts: dict[str, float]) -> PartBinding:
     if not isinstance(table, dict):
         raise BindingError(f"{where} must be a table")
@@ -177,22 +196,7 @@ def _part(table: Any, where: str, consts: dict[str, float]) -> PartBinding:
         fb = _field(key, spec, where, consts)
         if fb is not None:
             fields[key] = fb
-    crc, counter = table.get("crc"), table.get("counter")
-    checksum = table.get("checksum", "none")
-    checksum_signal = table.get("checksum_signal")
-    if crc is not None:  # version 1: pacc's CRC-8 and counter, both or neither
-        if "checksum" in table or checksum_signal is not None:
-            raise BindingError(f"{where}: crc (version 1) or checksum, not both")
-        if counter is None:
-            raise BindingError(f"{where}: give both crc and counter, or neither")
-        checksum, checksum_signal = "pacc_crc8", crc
-    for name, value in (("checksum_signal", checksum_signal), ("counter", counter)):
-        if value is not None and not isinstance(value, str):
-            raise BindingError(f"{where}.{name} must be a signal name")
-    if checksum not in KINDS:
-        raise BindingError(f"{where}: checksum {checksum!r} is not one of {', '.join(KINDS)}")
-    if (checksum == "none") != (checksum_signal is None):
-        raise BindingError(f"{where}: a checksum needs its checksum_signal, and only then")
+    checksum, checksum_signal, counter = _e2e(table, where)
     constants_raw = table.get("constants", {})
     if not isinstance(constants_raw, dict):
         raise BindingError(f"{where}.constants must map signal names to values")
@@ -235,7 +239,8 @@ def _role(role: str, raw: Any, where: str) -> RoleBinding:
     unknown = rb.bound() - set(schema)
     if unknown:
         raise BindingError(
-            f"{where}: role {role}: unknown fields {sorted(unknown)} (pacc's are {', '.join(schema)})"
+            f"{where}: role {role}: unknown fields {sorted(unknown)} "
+            f"(pacc's are {', '.join(schema)})"
         )
     missing = [k for k, spec in schema.items() if spec.required and k not in rb.bound()]
     if missing:
@@ -292,9 +297,7 @@ def check_against(binding: Binding, db: Any) -> None:
             named = part.signals()
             for signal in named:
                 if signal not in names:
-                    raise BindingError(
-                        f"role {role.role}: no signal {signal!r} in {part.message}"
-                    )
+                    raise BindingError(f"role {role.role}: no signal {signal!r} in {part.message}")
             twice = sorted({s for s in named if named.count(s) > 1})
             if twice:
                 raise BindingError(f"role {role.role}: {part.message}: {twice} named twice")

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from dbc.e2e import crc8_update, e2e_crc
+from dbc.e2e import e2e_crc
 
 #: a checksum bound to one message: payload (checksum bits zero) -> checksum value
 Checksum = Callable[[bytes], int]
@@ -86,4 +86,4 @@ def make(kind: str, frame_id: int, length: int, byte: int) -> Checksum | None:
     raise ValueError(f"unknown checksum {kind!r} (one of {', '.join(KINDS)})")
 
 
-__all__ = ["KINDS", "Checksum", "crc8_update", "honda", "make", "pacc_crc8", "toyota"]
+__all__ = ["KINDS", "Checksum", "honda", "make", "pacc_crc8", "toyota"]

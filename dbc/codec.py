@@ -18,8 +18,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any, NamedTuple
 
-from dbc import BINDING_PATH, DBC_PATH
-from dbc import checksums
+from dbc import BINDING_PATH, DBC_PATH, checksums
 from dbc.binding import Binding, PartBinding, check_against, load_binding
 from dbc.e2e import CRC8_INIT, CRC8_TABLE, CRC8_XOROUT, crc8_update, data_id_of
 from dbc.errors import (
@@ -100,9 +99,7 @@ class MessageCodec:
             except UnitError as exc:
                 raise BindingError(f"role {role}: {self.name}.{s.name}: {exc}") from None
             layouts.append(
-                layout(
-                    s, fb.key, self.length, factor=factor, invert=fb.invert, override=fb.range
-                )
+                layout(s, fb.key, self.length, factor=factor, invert=fb.invert, override=fb.range)
             )
         self.layouts: tuple[FieldLayout, ...] = tuple(layouts)
         self.fields: tuple[str, ...] = tuple(f.key for f in self.layouts)
@@ -117,7 +114,9 @@ class MessageCodec:
         self._counter: FieldLayout | None = None
         self.counter_modulo = 0
         if part.counter is not None:
-            self._counter = layout(message.get_signal_by_name(part.counter), "_counter", self.length)
+            self._counter = layout(
+                message.get_signal_by_name(part.counter), "_counter", self.length
+            )
             if self._counter.signed or not 1 <= self._counter.length <= 8:
                 raise BindingError(f"{self.name}: counter {part.counter} must be 1-8 bit unsigned")
             self.counter_modulo = 1 << self._counter.length
@@ -177,8 +176,10 @@ class MessageCodec:
     def _decode_source(self) -> list[str]:
         layouts, counter, n = list(self.layouts), self._counter, self.length
         generic = self._cs is not None and self.checksum != "pacc_crc8"
-        need_le = generic or any(not f.big_endian for f in layouts) or (
-            counter is not None and not counter.big_endian
+        need_le = (
+            generic
+            or any(not f.big_endian for f in layouts)
+            or (counter is not None and not counter.big_endian)
         )
         need_be = any(f.big_endian for f in layouts) or (counter is not None and counter.big_endian)
         d = [
@@ -331,7 +332,9 @@ class RoleCodec:
         self.role = role
         self.parts = parts
         self.defaults: dict[str, Value] = {
-            k: spec.default for k, spec in ROLES[role].items() if not any(k in p.fields for p in parts)
+            k: spec.default
+            for k, spec in ROLES[role].items()
+            if not any(k in p.fields for p in parts)
         }
         self.defaults.update(consts)
         self.fields: tuple[str, ...] = tuple(

@@ -78,13 +78,13 @@ def bit_bounds(length: int, signed: bool) -> tuple[int, int]:
     return 0, (1 << length) - 1
 
 
-def _raw_range(
-    signal: Any, factor: float, override: tuple[float, float] | None
-) -> tuple[int, int]:
+def _raw_range(signal: Any, factor: float, override: tuple[float, float] | None) -> tuple[int, int]:
     """Usable raw range: ``override`` (logical units) or the DBC's [min, max] (a [0|0]
     range counts as none, as DBC editors write it), intersected with the bits."""
     lo, hi = bit_bounds(signal.length, bool(signal.is_signed))
     scale, offset = float(signal.scale), float(signal.offset)
+    pmin: float | None
+    pmax: float | None
     if override is not None:
         pmin, pmax = override[0] / factor, override[1] / factor
     else:

@@ -10,7 +10,8 @@ table, says so, and reports FaultCode Profile on ACC_Status. State changes, faul
 adaptation decisions are printed as they happen; at exit (``--duration`` elapsed, Ctrl-C or
 SIGTERM) the open takeover segment is written and a summary printed: cycles, frames in/out,
 E2E errors by kind, takeovers, adaptations, max cycle time.
-Exit codes: 0 run completed, 1 bus/DBC/takeover-directory error, 2 usage error.
+Exit codes: 0 run completed, 1 bus/DBC/takeover-directory error, 2 usage error (also
+``--dbc`` without a ``--binding`` that names it).
 """
 
 from __future__ import annotations
@@ -24,7 +25,9 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from dbc.codec import Codec, CodecError, load_codec
+from dbc.codec import Codec, CodecError
+from dbc.errors import BindingError
+from dbc.network import add_network_arguments, codec_of, network_of
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES, AdaptationParams
 from ecu.dgpt import Dgpt, DgptError, load_dgpt, predefined, save_dgpt
@@ -46,7 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
     bus.add_argument("-i", "--interface", help="python-can interface, e.g. virtual, socketcan")
     bus.add_argument("-c", "--channel", help="channel, e.g. vcan0")
     bus.add_argument("-b", "--bitrate", type=int, help="bitrate, bit/s")
-    bus.add_argument("--dbc", help="DBC file (default: the packaged dbc/pacc.dbc)")
+    add_network_arguments(p)
     table = p.add_mutually_exclusive_group()
     table.add_argument("--profile", metavar="DGPT.json", help="driver gap preference table")
     table.add_argument(
@@ -145,6 +148,11 @@ def main(argv: list[str] | None = None) -> int:
     if args.duration is not None and not args.duration >= 0.0:
         print("pacc ecu: error: --duration must be >= 0", file=sys.stderr)
         return 2
+    try:
+        network_of(args)
+    except BindingError as exc:  # --dbc without a binding for it: a usage error
+        print(f"pacc ecu: error: {exc}", file=sys.stderr)
+        return 2
     return _run(args)
 
 
@@ -241,9 +249,9 @@ def _initial_table(
 
 
 def _codec_and_sink(args: argparse.Namespace) -> tuple[Codec, TripSink | None]:
-    """The network codec (``--dbc`` or the packaged one) and the takeover sink."""
+    """The network codec (``--dbc``/``--binding`` or the packaged one) and the takeover sink."""
     try:
-        codec = load_codec(args.dbc) if args.dbc else load_codec()
+        codec = codec_of(args)
         sink = directory_sink(args.takeovers) if args.takeovers else None
     except (CodecError, EcuError) as exc:
         raise _Exit(1, f"pacc ecu: error: {exc}") from None

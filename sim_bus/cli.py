@@ -21,6 +21,8 @@ from pathlib import Path
 
 import can
 
+from dbc.errors import DbcError
+from dbc.network import add_network_arguments, codec_of
 from ecu.pedals import PedalScale
 from ecu.triplog import TripLogError, write_trip
 from sim_bus.drive import resolve_profile, with_condition
@@ -58,6 +60,7 @@ def _parser() -> argparse.ArgumentParser:
         help="multiply the driver's preference, e.g. 1.2 for rain (default 1)",
     )
     p.add_argument("--quiet", action="store_true", help="no progress line")
+    add_network_arguments(p)
     return p
 
 
@@ -111,7 +114,8 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
         driver, faults, profile = _setup(args)
-    except SimError as exc:
+        codec = codec_of(args)
+    except (SimError, DbcError) as exc:
         print(f"pacc sim: error: {exc}", file=sys.stderr)
         return 2
     try:
@@ -125,6 +129,7 @@ def main(argv: list[str] | None = None) -> int:
     node = SimNode(
         bus,
         world,
+        codec=codec,
         faults=faults,
         rng=fault_rng(args.seed),
         gap_setting=GAP_SETTING_CODE[driver.predefined_setting],

@@ -25,7 +25,9 @@ from typing import Any, Literal, get_args
 
 import can
 
-from dbc.codec import load_codec
+from dbc.codec import Codec, load_codec, network_paths
+from dbc.errors import DbcError
+from dbc.network import add_network_arguments
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES, AdaptationParams, Decision
 from ecu.dgpt import Dgpt, load_dgpt, predefined
@@ -65,6 +67,8 @@ class DriveConfig:
     brake_mode: Literal["resume", "cancel"] = "resume"
     engage_s: float = 1.5
     adaptation: AdaptationParams | None = None  # None: the ECU's default AdaptationParams
+    dbc: str | None = None  # the vehicle network's DBC and binding (None: pacc's; docs/vehicles.md)
+    binding: str | None = None
 
 
 @dataclass(frozen=True)
@@ -152,7 +156,7 @@ def run_drive(
     if cfg.duration_s is not None:
         prof = shorten(prof, cfg.duration_s)
     faults = parse_faults(cfg.faults)
-    codec = load_codec()
+    codec = drive_codec(cfg)
     rng = fault_rng(cfg.seed)
     world = World(driver, prof, cfg.seed, WorldConfig(engage_s=cfg.engage_s))
     channel = record_channel or f"pacc-drive-{id(cfg):x}-{next(_channel_ids)}"
@@ -194,6 +198,15 @@ def run_drive(
         final_table=ecu.table,
         adaptation_events=events,
     )
+
+
+def drive_codec(cfg: DriveConfig) -> Codec:
+    """The codec of the drive's vehicle network (``cfg.dbc``/``cfg.binding``), loaded once.
+
+    Raises:
+        DbcError: the network cannot be loaded (a BindingError for a DBC without binding).
+    """
+    return load_codec(*network_paths(cfg.dbc, cfg.binding))
 
 
 def _ecu_node(
@@ -248,7 +261,8 @@ def log_to_trip(result: DriveResult, driver: DriverParams) -> Trip:
         "adaptations": result.adaptations,
         "source": "sim_bus.drive",
     }
-    return world_trip(result.log, driver, PedalScale.from_codec(load_codec()), meta)
+    pedals = PedalScale.from_codec(drive_codec(result.config))
+    return world_trip(result.log, driver, pedals, meta)
 
 
 def format_result(r: DriveResult) -> str:
@@ -320,6 +334,7 @@ def _parser() -> argparse.ArgumentParser:
         help="online adaptation of the +oa controllers: the paper's Algorithm 1 "
         "or the time-gap update (default: the ECU's, see docs/ecu.md)",
     )
+    add_network_arguments(p)
     return p
 
 
@@ -348,7 +363,10 @@ def main(argv: list[str] | None = None) -> int:
             faults=args.faults,
             brake_mode=args.brake_mode,
             adaptation=adaptation_params(args.adaptation_mode),
+            dbc=args.dbc,
+            binding=args.binding,
         )
+        drive_codec(cfg)  # a DBC without its binding: refused before any learning
         profile = resolve_profile(args.scenario, args.seed)
         if args.controller.startswith("irl"):
             if args.profile is not None:
@@ -362,7 +380,7 @@ def main(argv: list[str] | None = None) -> int:
         else:
             table = predefined_table(driver)
         result = run_drive(cfg, driver, table, profile)
-    except (SimError, EcuError, OSError) as exc:
+    except (SimError, EcuError, DbcError, OSError) as exc:
         print(f"pacc drive: error: {exc}", file=sys.stderr)
         return 2
     print(format_result(result))

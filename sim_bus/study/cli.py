@@ -9,6 +9,8 @@ import time
 from pathlib import Path
 
 from cloud_sync.errors import CloudSyncError
+from dbc.errors import DbcError
+from dbc.network import add_network_arguments, codec_of
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES
 from sim_bus.drive import CONTROLLERS, adaptation_params
@@ -70,6 +72,7 @@ def _parser() -> argparse.ArgumentParser:
         help="instead of Table I: N IRL+OA trips per driver, the cloud fine-tuning between",
     )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    add_network_arguments(p)
     return p
 
 
@@ -91,11 +94,14 @@ def main(argv: list[str] | None = None) -> int:
         trust=args.trust,
         direct=args.direct,
         incremental=args.incremental,
+        dbc=args.dbc,
+        binding=args.binding,
     )
     try:
+        codec_of(args)  # a DBC without its binding, a binding that does not fit: refused now
         start = time.perf_counter()
         rows = run_study(cfg, args.out, cache_dir=args.cache, progress=not args.quiet)
-    except (SimError, EcuError, CloudSyncError, OSError) as exc:
+    except (SimError, EcuError, CloudSyncError, DbcError, OSError) as exc:
         print(f"pacc study: error: {exc}", file=sys.stderr)
         return 2
     took = time.perf_counter() - start

@@ -21,7 +21,8 @@ class StudyConfig:
     ``OUT/cloud``; a URL or folder of a cloud where the drivers are registered to the vehicle
     of ``token_file``, whose tables are verified with ``trust``. ``direct``: no cloud, learn
     in-process (cached). ``incremental``: N > 0 runs the incremental-learning experiment
-    (N trips per driver through the cloud) instead of Table I."""
+    (N trips per driver through the cloud) instead of Table I. ``dbc``/``binding``: the
+    vehicle network every drive runs on (docs/vehicles.md; None: the packaged pacc network)."""
 
     drivers: tuple[str, ...] = ("d1", "d2", "d3", "d4", "d5")
     scenarios: tuple[str, ...] = ("A", "B")
@@ -37,6 +38,8 @@ class StudyConfig:
     trust: str | None = None
     direct: bool = False
     incremental: int = 0
+    dbc: str | None = None  # the vehicle network of every drive (None: pacc's)
+    binding: str | None = None
 
 
 def _validate_cloud(cfg: StudyConfig) -> None:

@@ -157,6 +157,8 @@ def run_incremental(
                 seed=cfg.seed + trip,
                 duration_s=cfg.duration_s,
                 adaptation=cfg.adaptation,
+                dbc=cfg.dbc,
+                binding=cfg.binding,
             )
             result = run_drive(run_cfg, driver, table, profile, takeover_sink=segments.append)
             m = result.metrics

@@ -46,6 +46,8 @@ class DriveJob:
     table: Dgpt
     log_path: str | None
     adaptation: AdaptationParams | None = None
+    dbc: str | None = None
+    binding: str | None = None
 
 
 def run_job(job: DriveJob) -> dict[str, Any]:
@@ -59,6 +61,8 @@ def run_job(job: DriveJob) -> dict[str, Any]:
         seed=seed,
         duration_s=job.duration_s,
         adaptation=job.adaptation,
+        dbc=job.dbc,
+        binding=job.binding,
     )
     profile = canonical_profiles(job.study_seed)[job.scenario]
     result = run_drive(cfg, driver, job.table, profile)
@@ -146,6 +150,8 @@ def plan(
                             tables[(driver_id, kind)],
                             str(log) if cfg.logs else None,
                             cfg.adaptation,
+                            cfg.dbc,
+                            cfg.binding,
                         )
                     )
     return jobs

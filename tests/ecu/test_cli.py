@@ -14,7 +14,7 @@ from pathlib import Path
 import can
 import pytest
 
-from dbc import DBC_PATH
+from dbc import BINDING_PATH, DBC_PATH
 from dbc.codec import load_codec
 from ecu.cli import main, run_until_done
 from ecu.dgpt import load_dgpt, predefined
@@ -216,16 +216,40 @@ def test_usage_and_bus_errors(capsys: pytest.CaptureFixture[str]) -> None:
     assert "outside the safety bounds" in capsys.readouterr().err
     assert main(["-i", "no_such_interface", "-c", "x", "--duration", "0"]) == 1
     assert "cannot open the CAN bus" in capsys.readouterr().err
-    assert main(["-i", "virtual", "-c", "x", "--dbc", "/nonexistent.dbc"]) == 1
+    assert main(["-i", "virtual", "-c", "x", "--dbc", "/nonexistent.dbc"]) == 2
+    assert "--dbc /nonexistent.dbc needs --binding" in capsys.readouterr().err
+
+
+def _network(tmp_path: Path, name: str, text: str) -> list[str]:
+    """``--dbc`` and ``--binding`` of an edited pacc DBC with the pacc binding naming it."""
+    dbc = tmp_path / name
+    dbc.write_text(text)
+    binding = tmp_path / f"{name}.binding.toml"
+    binding.write_text(BINDING_PATH.read_text().replace('dbc = "pacc.dbc"', f'dbc = "{name}"'))
+    return ["--dbc", str(dbc), "--binding", str(binding)]
+
+
+def test_dbc_needs_the_binding_that_names_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--dbc alone, or with a binding written for another DBC, is a usage error (exit 2)."""
+    other = tmp_path / "other.dbc"
+    other.write_text(DBC_PATH.read_text())
+    argv = ["-i", "virtual", "-c", f"ecu-cli-{next(_ids)}", "--duration", "0"]
+    assert main([*argv, "--dbc", str(other)]) == 2
+    assert "needs --binding" in capsys.readouterr().err
+    assert main([*argv, "--dbc", str(other), "--binding", str(BINDING_PATH)]) == 2
+    assert "binds pacc.dbc, not other.dbc" in capsys.readouterr().err
+    assert main([*argv, *_network(tmp_path, "other.dbc", DBC_PATH.read_text())]) == 0
 
 
 def test_dbc_without_periods_is_a_clear_error(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """A wrong DBC (no GenMsgCycleTime on an input) exits 1 with a message, no traceback."""
-    dbc = tmp_path / "nocycle.dbc"
-    dbc.write_text(DBC_PATH.read_text().replace('BA_ "GenMsgCycleTime" BO_ 176 10;\n', ""))
-    assert main(["-i", "virtual", "-c", f"ecu-cli-{next(_ids)}", "--dbc", str(dbc)]) == 1
+    text = DBC_PATH.read_text().replace('BA_ "GenMsgCycleTime" BO_ 176 10;\n', "")
+    network = _network(tmp_path, "nocycle.dbc", text)
+    assert main(["-i", "virtual", "-c", f"ecu-cli-{next(_ids)}", *network]) == 1
     err = capsys.readouterr().err
     assert "ESC_Speed" in err and "GenMsgCycleTime" in err
 
@@ -233,13 +257,11 @@ def test_dbc_without_periods_is_a_clear_error(
 def test_dbc_that_cannot_carry_fault_is_a_clear_error(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    dbc = tmp_path / "narrow.dbc"
-    dbc.write_text(
-        DBC_PATH.read_text().replace(
-            "SG_ AccState : 32|3@1+ (1,0) [0|4]", "SG_ AccState : 32|2@1+ (1,0) [0|3]"
-        )
+    text = DBC_PATH.read_text().replace(
+        "SG_ AccState : 32|3@1+ (1,0) [0|4]", "SG_ AccState : 32|2@1+ (1,0) [0|3]"
     )
-    assert main(["-i", "virtual", "-c", f"ecu-cli-{next(_ids)}", "--dbc", str(dbc)]) == 1
+    network = _network(tmp_path, "narrow.dbc", text)
+    assert main(["-i", "virtual", "-c", f"ecu-cli-{next(_ids)}", *network]) == 1
     err = capsys.readouterr().err
     assert "ACC_Command: acc_state range [0, 3] cannot carry [0, 4]" in err
 
