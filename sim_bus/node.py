@@ -138,14 +138,16 @@ class SimNode:
             if d is None:
                 continue
             if d.role == "command":
-                v = d.values
+                v = self.inbox.latest("command")  # every message of the role, merged
+                if v is None:
+                    continue
                 self.commands_ok += 1
                 self.request_active = bool(v["request_active"])
                 self.a_request_mps2 = float(v["accel_request_mps2"])
                 self.acc_state = int(v["acc_state"])
                 self.takeover_request = bool(v["takeover_request"])
             elif d.role == "status":
-                self.status = d.values
+                self.status = self.inbox.latest("status")
 
     # -- transmit -----------------------------------------------------------------------
     def _fill(self, role: str) -> dict[str, Any]:
