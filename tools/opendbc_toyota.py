@@ -60,7 +60,7 @@ def assemble(top: str = DEFAULT_PART, folder: Path | None = None) -> str:
             raise OpendbcError(f"cannot read opendbc part {path}: {exc}") from None
 
     text = read(f"{top}.dbc")
-    pieces = [f'CM_ "assembled by pacc tools/opendbc_toyota.py from opendbc (MIT licence)";\n']
+    pieces = ['CM_ "assembled by pacc tools/opendbc_toyota.py from opendbc (MIT licence)";\n']
     for match in _IMPORT.finditer(text):
         pieces.append(f'\nCM_ "opendbc part {match["name"]}";\n')
         pieces.append(read(match["name"]))
