@@ -1,6 +1,7 @@
 """End-to-end protection of CAN frames: CRC-8 SAE J1850 and the alive-counter receiver check.
 
-In the manner of AUTOSAR E2E profile 1 (see docs/e2e.md for the exact definition):
+pacc's own scheme (``pacc_crc8`` in binding tables; not AUTOSAR E2E profile 1, whose CRC
+start and XOR values and counter range differ: docs/e2e.md):
 
 * CRC: CRC-8 SAE J1850 — polynomial 0x1D, initial value 0xFF, no reflection, final XOR 0xFF
   (check value ``crc8_j1850(b"123456789") == 0x4B``) — computed over the 16-bit data id

@@ -1,0 +1,129 @@
+"""Binding v2 on the pacc network: units, inverted flags, constants, optional roles."""
+
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+
+import can
+import pytest
+
+from dbc import BINDING_PATH, DBC_PATH
+from dbc.codec import load_codec, network_paths
+from dbc.errors import BindingError
+from ecu.dgpt import predefined
+from ecu.node import EcuConfig, EcuNode
+from ecu.runtime import EcuRuntime
+from tests.peers import PeerNodes
+
+_ids = itertools.count()
+SPEED = 'SG_ VehicleSpeed : 16|16@1+ (0.01,0) [0|90] "m/s" ACC'
+EGO_V1 = (
+    'fields = { speed_mps = "VehicleSpeed", accel_mps2 = "LongAccel", speed_valid = "SpeedValid" }'
+)
+
+
+def _network(tmp_path: Path, dbc_text: str, binding_text: str) -> tuple[Path, Path]:
+    dbc, binding = tmp_path / "v.dbc", tmp_path / "v.binding.toml"
+    dbc.write_text(dbc_text)
+    binding.write_text(binding_text.replace('dbc = "pacc.dbc"', 'dbc = "v.dbc"'))
+    return dbc, binding
+
+
+def test_kmh_signal_decodes_to_mps(tmp_path: Path) -> None:
+    """A km/h speed signal is converted by its DBC unit: 20 m/s travels as 72.00 km/h."""
+    text = DBC_PATH.read_text()
+    assert SPEED in text
+    kmh = text.replace(SPEED, 'SG_ VehicleSpeed : 16|16@1+ (0.01,0) [0|250] "km/h" ACC')
+    codec = load_codec(*_network(tmp_path, kmh, BINDING_PATH.read_text()))
+    data = codec.encode("ego", {"speed_mps": 20.0, "accel_mps2": 0.0, "speed_valid": 1})
+    assert int.from_bytes(data[2:4], "little") == 7200
+    assert codec.decode(0xB0, data).values["speed_mps"] == pytest.approx(20.0)
+    assert codec.roles["ego"].bounds("speed_mps")[1] == pytest.approx(250 / 3.6)
+
+
+@pytest.mark.parametrize(
+    ("unit", "message"), [('""', "has no unit, give one"), ('"m"', "unit 'm' is not one of")]
+)
+def test_missing_or_wrong_unit_is_a_binding_error(tmp_path: Path, unit: str, message: str) -> None:
+    text = DBC_PATH.read_text().replace(SPEED, SPEED.replace('"m/s"', unit))
+    with pytest.raises(BindingError, match=message):
+        load_codec(*_network(tmp_path, text, BINDING_PATH.read_text()))
+
+
+def test_binding_states_the_unit_the_dbc_lacks(tmp_path: Path) -> None:
+    text = DBC_PATH.read_text().replace(SPEED, SPEED.replace('"m/s"', '""'))
+    binding = BINDING_PATH.read_text().replace(
+        'speed_mps = "VehicleSpeed"', 'speed_mps = { signal = "VehicleSpeed", unit = "mph" }'
+    )
+    codec = load_codec(*_network(tmp_path, text, binding))
+    data = codec.encode("ego", {"speed_mps": 0.44704 * 50, "accel_mps2": 0.0, "speed_valid": 1})
+    assert int.from_bytes(data[2:4], "little") == 5000  # 50.00 mph
+
+
+def test_inverted_flag_and_constants(tmp_path: Path) -> None:
+    """``invert`` flips a 1-bit flag; a ``const`` field is reported without a signal, and a
+    constant fixes the signal it names in every frame sent."""
+    binding = BINDING_PATH.read_text().replace(
+        EGO_V1,
+        'fields = { speed_mps = "VehicleSpeed", accel_mps2 = { signal = "LongAccel" }, '
+        "speed_valid = { const = 1 } }\nconstants = { SpeedValid = 1 }",
+    )
+    codec = load_codec(*_network(tmp_path, DBC_PATH.read_text(), binding))
+    data = codec.encode("ego", {"speed_mps": 3.0, "accel_mps2": 0.5, "speed_valid": 0})
+    assert data[1] & 0x10  # SpeedValid (bit 12) fixed at 1 whatever the caller says
+    assert codec.roles["ego"].defaults == {"speed_valid": 1.0}
+    flipped = BINDING_PATH.read_text().replace(
+        '"SpeedValid"', '{ signal = "SpeedValid", invert = true }'
+    )
+    (tmp_path / "flipped").mkdir()
+    codec = load_codec(*_network(tmp_path / "flipped", DBC_PATH.read_text(), flipped))
+    data = codec.encode("ego", {"speed_mps": 3.0, "accel_mps2": 0.5, "speed_valid": 1})
+    assert not data[1] & 0x10
+    assert codec.decode(0xB0, data).values["speed_valid"] == 1
+
+
+def test_v2_form_of_the_pacc_binding_encodes_the_same_frames(tmp_path: Path) -> None:
+    v2 = BINDING_PATH.read_text().replace(
+        'crc = "CRC8"', 'checksum = "pacc_crc8"\nchecksum_signal = "CRC8"'
+    )
+    v2 = v2.replace("[roles.", "[[roles.").replace("]\nmessage", "]]\nmessage")
+    ours, theirs = load_codec(*_network(tmp_path, DBC_PATH.read_text(), v2)), load_codec()
+    values = {"speed_mps": 12.34, "accel_mps2": -1.5, "speed_valid": 1}
+    for counter in range(16):
+        assert ours.encode("ego", values, counter) == theirs.encode("ego", values, counter)
+
+
+def test_network_without_status_runs_the_ecu(tmp_path: Path) -> None:
+    """The status role is optional: a network without it runs the ECU, which sends only its
+    command (no KeyError for desired_gap_m)."""
+    text = BINDING_PATH.read_text()
+    binding = text[: text.index("[roles.status]")]
+    codec = load_codec(*_network(tmp_path, DBC_PATH.read_text(), binding))
+    assert "status" not in codec.roles
+    channel = f"v2-{next(_ids)}"
+    with (
+        can.Bus(interface="virtual", channel=channel) as ecu_bus,
+        can.Bus(interface="virtual", channel=channel) as peer_bus,
+        can.Bus(interface="virtual", channel=channel) as listener,
+    ):
+        rt = EcuRuntime(ecu_bus, EcuNode(EcuConfig(set_speed_mps=25.0), predefined(1.5)), codec)
+        peers = PeerNodes(peer_bus, codec)
+        for k in range(1, 101):
+            peers.send_due(k * 0.01)
+            rt.advance_to(k * 0.01)
+        ids = set()
+        while (msg := listener.recv(0)) is not None:
+            ids.add(msg.arbitration_id)
+    assert 0x2E0 in ids and 0x3E0 not in ids
+    assert rt.summary().e2e_errors == {}
+
+
+def test_network_paths_rules(tmp_path: Path) -> None:
+    assert network_paths() == (DBC_PATH, BINDING_PATH)
+    assert network_paths(None, BINDING_PATH) == (DBC_PATH, BINDING_PATH)
+    with pytest.raises(BindingError, match="needs --binding"):
+        network_paths(DBC_PATH, None)
+    other = tmp_path / "other.dbc"
+    with pytest.raises(BindingError, match="binds pacc.dbc, not other.dbc"):
+        network_paths(other, BINDING_PATH)

@@ -1,0 +1,47 @@
+"""The pluggable checksums against opendbc's own functions (an independent implementation)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from dbc import checksums
+from dbc.e2e import e2e_crc
+
+pytest.importorskip("opendbc.car.toyota.toyotacan")
+from opendbc.car.honda.hondacan import honda_checksum  # noqa: E402
+from opendbc.car.toyota.toyotacan import toyota_checksum  # noqa: E402
+
+RNG = np.random.default_rng(3)
+IDS = [0x0B4, 0x1D2, 0x2E6, 0x343, 0x7FF, 0x18DAF110, 0x1FFFFFFF]
+
+
+@pytest.mark.parametrize("frame_id", IDS)
+@pytest.mark.parametrize("length", [1, 5, 8])
+def test_toyota_matches_opendbc(frame_id: int, length: int) -> None:
+    fn = checksums.toyota(frame_id, length)
+    for _ in range(200):
+        payload = bytearray(RNG.integers(0, 256, length, dtype=np.uint8).tobytes())
+        zeroed = bytes(payload[:-1]) + b"\0"
+        assert fn(zeroed) == toyota_checksum(frame_id, None, payload)
+
+
+@pytest.mark.parametrize("frame_id", IDS)
+@pytest.mark.parametrize("length", [1, 4, 8])
+def test_honda_matches_opendbc(frame_id: int, length: int) -> None:
+    fn = checksums.honda(frame_id, length)
+    for _ in range(200):
+        payload = bytearray(RNG.integers(0, 256, length, dtype=np.uint8).tobytes())
+        zeroed = bytes(payload[:-1]) + bytes([payload[-1] & 0xF0])
+        assert fn(zeroed) == honda_checksum(frame_id, None, payload)
+
+
+def test_make_dispatches_by_name() -> None:
+    payload = bytes([1, 2, 3, 0])
+    assert checksums.make("none", 0x100, 4, 3) is None
+    toyota = checksums.make("toyota", 0x100, 4, 3)
+    assert toyota is not None and toyota(payload) == (1 + 2 + 3 + 0x01 + 0x00 + 4) & 0xFF
+    crc = checksums.make("pacc_crc8", 0x100, 4, 3)
+    assert crc is not None and crc(payload) == e2e_crc(0x100, payload, 3)
+    with pytest.raises(ValueError, match="unknown checksum"):
+        checksums.make("crc32", 0x100, 4, 3)
