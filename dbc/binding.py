@@ -10,8 +10,8 @@ another vehicle's network means writing a table, not code (docs/vehicles.md). Ve
   the vehicle does not carry;
 * ``constants`` fix other signals of a sent message (``PERMIT_BRAKING = 1``), ``unused``
   names the signals pacc neither reads nor sets (they are sent as raw 0);
-* ``checksum`` (``pacc_crc8``, ``toyota``, ``honda``, ``none``) with ``checksum_signal``, and
-  ``counter`` (an alive-counter signal), per message;
+* ``checksum`` (``pacc_crc8``, ``autosar_p01``, ``toyota``, ``honda``, ``none``) with
+  ``checksum_signal``, and ``counter`` (an alive-counter signal), per message;
 * ``cycle_ms`` gives the period a DBC without ``GenMsgCycleTime`` lacks.
 
 Version 1 tables (one ``[roles.x]`` with ``message``, ``crc``, ``counter`` and ``fields`` of

@@ -20,7 +20,7 @@ from typing import Any, NamedTuple
 
 from dbc import BINDING_PATH, DBC_PATH, checksums
 from dbc.binding import Binding, PartBinding, check_against, load_binding
-from dbc.e2e import CRC8_INIT, CRC8_TABLE, CRC8_XOROUT, crc8_update, data_id_of
+from dbc.e2e import CRC8_TABLE, crc8_update, data_id_of
 from dbc.errors import (
     BindingError,
     CodecError,
@@ -114,26 +114,31 @@ class MessageCodec:
         self._counter: FieldLayout | None = None
         self.counter_modulo = 0
         if part.counter is not None:
-            self._counter = layout(
-                message.get_signal_by_name(part.counter), "_counter", self.length
-            )
-            if self._counter.signed or not 1 <= self._counter.length <= 8:
-                raise BindingError(f"{self.name}: counter {part.counter} must be 1-8 bit unsigned")
-            self.counter_modulo = 1 << self._counter.length
+            self._bind_counter(message.get_signal_by_name(part.counter))
         self._const_le = 0
-        const_layouts = []
-        for name, value in part.constants.items():
-            sig = message.get_signal_by_name(name)
-            cl = layout(sig, name, self.length)
-            raw = round((value - cl.offset) / cl.scale)
-            if not cl.raw_min <= raw <= cl.raw_max:
-                raise BindingError(f"{self.name}: constant {name} = {value:g} outside its range")
-            self._const_le |= placed_le(cl, raw, self.length)
-            const_layouts.append(cl)
+        const_layouts = [self._bind_constant(message, n, v) for n, v in part.constants.items()]
         self._check_overlaps([*self.layouts, *const_layouts])
         self.encode: Callable[[Mapping[str, Any], int], bytes]
         self.decode: Callable[[bytes | bytearray], Decoded]
         self.encode, self.decode = self._compile()
+
+    def _bind_counter(self, signal: Any) -> None:
+        counter = layout(signal, "_counter", self.length)
+        if counter.signed or not 1 <= counter.length <= 8:
+            raise BindingError(f"{self.name}: counter {signal.name} must be 1-8 bit unsigned")
+        self._counter = counter
+        self.counter_modulo = checksums.COUNTER_MODULO.get(self.checksum, 1 << counter.length)
+        if self.counter_modulo > 1 << counter.length:
+            raise BindingError(f"{self.name}: counter {signal.name} is too narrow")
+
+    def _bind_constant(self, message: Any, name: str, value: float) -> FieldLayout:
+        """Fix signal ``name`` at ``value`` (physical) in every frame encoded."""
+        cl = layout(message.get_signal_by_name(name), name, self.length)
+        raw = round((value - cl.offset) / cl.scale)
+        if not cl.raw_min <= raw <= cl.raw_max:
+            raise BindingError(f"{self.name}: constant {name} = {value:g} outside its range")
+        self._const_le |= placed_le(cl, raw, self.length)
+        return cl
 
     def _bind_checksum(self, signal: Any) -> None:
         cs = layout(signal, "_checksum", self.length)
@@ -143,6 +148,7 @@ class MessageCodec:
         last = self.length - 1
         need = {
             "pacc_crc8": (cs.length == 8 and self._cs_shift % 8 == 0, "one whole byte"),
+            "autosar_p01": (cs.length == 8 and self._cs_shift % 8 == 0, "one whole byte"),
             "toyota": (cs.length == 8 and self._cs_shift == 8 * last, "the whole last byte"),
             "honda": (cs.length == 4 and self._cs_shift == 8 * last, "the last byte's low nibble"),
         }
@@ -165,17 +171,19 @@ class MessageCodec:
     def _crc_lines(self, buf: str, indent: str) -> list[str]:
         """Unrolled CRC over the data id (precomputed) and every byte but the CRC byte."""
         assert self.crc_byte is not None
-        start = crc8_update(CRC8_INIT, bytes((self.data_id & 0xFF, self.data_id >> 8)))
+        init, xorout = checksums.TABLE_CRCS[self.checksum]
+        start = crc8_update(init, bytes((self.data_id & 0xFF, self.data_id >> 8)))
         lines = [f"{indent}c = {start:#x}"]
         lines += [
             f"{indent}c = T[c ^ {buf}[{i}]]" for i in range(self.length) if i != self.crc_byte
         ]
-        lines.append(f"{indent}c ^= {CRC8_XOROUT:#x}")
+        if xorout:
+            lines.append(f"{indent}c ^= {xorout:#x}")
         return lines
 
     def _decode_source(self) -> list[str]:
         layouts, counter, n = list(self.layouts), self._counter, self.length
-        generic = self._cs is not None and self.checksum != "pacc_crc8"
+        generic = self._cs is not None and self.checksum not in checksums.TABLE_CRCS
         need_le = (
             generic
             or any(not f.big_endian for f in layouts)
@@ -187,7 +195,7 @@ class MessageCodec:
             f"    if len(data) != {n}:",
             f"        raise DlcError('{self.name}: DLC %d, expected {n}' % len(data))",
         ]
-        if self.checksum == "pacc_crc8":
+        if self.checksum in checksums.TABLE_CRCS:
             d += self._crc_lines("data", "    ")
             d += [
                 f"    if c != data[{self.crc_byte}]:",
@@ -216,6 +224,9 @@ class MessageCodec:
             d.append("        range_error(data)")
         items = ", ".join(f"{f.key!r}: {physical(f, f'r{i}')}" for i, f in enumerate(layouts))
         cnt = extract(counter) if counter else "None"
+        if counter and self.counter_modulo < 1 << counter.length:  # AUTOSAR P01: 15 invalid
+            d.append(f"    if {cnt} >= {self.counter_modulo}:")
+            d.append(f"        raise RangeError('{self.name}: alive counter out of range')")
         d.append(f"    return Decoded(role, {{{items}}}, {cnt})")
         return d
 
@@ -248,7 +259,7 @@ class MessageCodec:
                 f"    n_le |= int.from_bytes(({' | '.join(be_terms)}).to_bytes({n}, 'big'), "
                 "'little')"
             )
-        if self.checksum == "pacc_crc8":
+        if self.checksum in checksums.TABLE_CRCS:
             e.append(f"    b = n_le.to_bytes({n}, 'little')")
             e += self._crc_lines("b", "    ")
             e.append(f"    return (n_le | (c << {8 * self.crc_byte})).to_bytes({n}, 'little')")  # type: ignore[operator]
@@ -268,6 +279,7 @@ class MessageCodec:
             "Decoded": Decoded,
             "DlcError": DlcError,
             "CrcError": CrcError,
+            "RangeError": RangeError,
             "EncodeError": EncodeError,
             "role": self.role,
             "range_error": self._range_error,

@@ -10,6 +10,7 @@ import pytest
 
 from dbc import BINDING_PATH, DBC_PATH
 from dbc.codec import load_codec, network_paths
+from dbc.endpoint import Inbox, Outbox
 from dbc.errors import BindingError
 from ecu.dgpt import predefined
 from ecu.node import EcuConfig, EcuNode
@@ -127,3 +128,36 @@ def test_network_paths_rules(tmp_path: Path) -> None:
     other = tmp_path / "other.dbc"
     with pytest.raises(BindingError, match="binds pacc.dbc, not other.dbc"):
         network_paths(other, BINDING_PATH)
+
+
+def test_autosar_p01_frames_interoperate_with_autosar_e2e(tmp_path: Path) -> None:
+    """A message bound with ``checksum = "autosar_p01"`` (pacc.dbc's CRC in byte 0 and
+    counter in byte 1's low nibble are profile 1's default layout) is protected exactly as
+    the autosar-e2e package protects it: its check accepts our frames, counters run
+    0..14, and our inbox accepts its frames in sequence; counter 15 is refused."""
+    p01 = pytest.importorskip("e2e.p01")
+    binding = BINDING_PATH.read_text().replace(
+        '[roles.ego]\nmessage = "ESC_Speed"\ncrc = "CRC8"',
+        '[roles.ego]\nmessage = "ESC_Speed"\nchecksum = "autosar_p01"\nchecksum_signal = "CRC8"',
+    )
+    assert 'checksum = "autosar_p01"' in binding
+    codec = load_codec(*_network(tmp_path, DBC_PATH.read_text(), binding))
+    outbox = Outbox(codec)
+    values = {"speed_mps": 12.34, "accel_mps2": -1.5, "speed_valid": 1}
+    counters = []
+    for _ in range(20):
+        data = outbox.encode("ego", values)
+        assert p01.e2e_p01_check(bytearray(data), 0xB0)
+        counters.append(data[1] & 0xF)
+    assert counters == [*range(15), *range(5)]
+    theirs = bytearray(codec.encode("ego", values, 14))
+    inbox = Inbox(codec, ["ego"])
+    for k in range(30):
+        p01.e2e_p01_protect(theirs, 0xB0, increment_counter=True)  # 0, 1, ... 14, 0, ...
+        assert inbox.accept(0xB0, bytes(theirs), 0.01 * k) is not None, k
+    assert inbox.errors() == {}
+    bad = bytearray(theirs)
+    bad[1] |= 0x0F  # counter 15: not a profile-1 counter
+    p01.e2e_p01_protect(bad, 0xB0, increment_counter=False)
+    assert inbox.accept(0xB0, bytes(bad), 0.5) is None
+    assert inbox.errors() == {"out_of_range": 1}

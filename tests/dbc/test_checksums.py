@@ -45,3 +45,16 @@ def test_make_dispatches_by_name() -> None:
     assert crc is not None and crc(payload) == e2e_crc(0x100, payload, 3)
     with pytest.raises(ValueError, match="unknown checksum"):
         checksums.make("crc32", 0x100, 4, 3)
+
+
+def test_autosar_p01_matches_autosar_e2e() -> None:
+    """pacc's AUTOSAR E2E profile 1 CRC against the autosar-e2e package's (data id mode
+    BOTH, CRC in byte 0)."""
+    p01 = pytest.importorskip("e2e.p01")
+    for _ in range(500):
+        length = int(RNG.integers(2, 9))
+        data = bytearray(RNG.integers(0, 256, length, dtype=np.uint8).tobytes())
+        data_id = int(RNG.integers(0, 0x10000))
+        p01.e2e_p01_protect(data, data_id, increment_counter=False)
+        fn = checksums.autosar_p01(data_id, length, 0)
+        assert fn(bytes(data)) == data[0]
