@@ -73,7 +73,12 @@ def test_installed_package_holds_the_network_files(tmp_path: Path) -> None:
         capture_output=True,
         check=True,
     )
-    for name in (DBC_PATH.name, BINDING_PATH.name, "py.typed"):
+    for name in (
+        DBC_PATH.name,
+        BINDING_PATH.name,
+        "py.typed",
+        "bindings/toyota_nodsu.binding.toml",
+    ):
         assert (lib / "dbc" / name).is_file(), name
     probe = "import dbc, dbc.codec; print(dbc.DBC_PATH); dbc.codec.load_codec()"
     out = subprocess.run(
