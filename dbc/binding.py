@@ -4,10 +4,10 @@ A binding is data (``dbc/pacc.binding.toml``, ``dbc/bindings/*.toml``), so that 
 another vehicle's network means writing a table, not code (docs/vehicles.md). Version 2:
 
 * a role spans one or more messages (``[[roles.ego]]`` once per message);
-* a field is a signal name, or a table ``{ signal, unit, invert, range }`` (the signal's
-  unit, converted to the field's; a 1-bit flag of opposite sense; the usable range in the
-  field's unit when the DBC's is missing or wrong), or ``{ const = value }`` for a quantity
-  the vehicle does not carry;
+* a field is a signal name, or a table ``{ signal, unit, scale, invert, range }`` (the
+  signal's unit, converted to the field's; a further factor; a 1-bit flag of opposite
+  sense; the usable range in the field's unit when the DBC's is missing or wrong), or
+  ``{ const = value }`` for a quantity the vehicle does not carry;
 * ``constants`` fix other signals of a sent message (``PERMIT_BRAKING = 1``), ``unused``
   names the signals pacc neither reads nor sets (they are sent as raw 0);
 * ``checksum`` (``pacc_crc8``, ``autosar_p01``, ``toyota``, ``honda``, ``none``) with
@@ -41,7 +41,8 @@ class FieldBinding:
     Attributes:
         key: logical field name; signal: DBC signal name; unit: the signal's unit (None:
         the DBC's); invert: a 1-bit flag whose 1 means the field's 0; range: usable
-        [min, max] in the field's unit (None: the DBC's).
+        [min, max] in the field's unit (None: the DBC's); scale: a further factor from
+        the signal's value to the field's (after the unit conversion; > 0).
     """
 
     key: str
@@ -49,6 +50,7 @@ class FieldBinding:
     unit: str | None = None
     invert: bool = False
     range: tuple[float, float] | None = None
+    scale: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -107,13 +109,22 @@ def _num(value: Any, where: str) -> float:
     return float(value)
 
 
+def _range(rng: Any, where: str) -> tuple[float, float]:
+    if not (isinstance(rng, list) and len(rng) == 2):
+        raise BindingError(f"{where} must be [min, max]")
+    lo, hi = (_num(v, where) for v in rng)
+    if lo > hi:
+        raise BindingError(f"{where} is empty")
+    return lo, hi
+
+
 def _field(key: str, spec: Any, where: str, consts: dict[str, float]) -> FieldBinding | None:
     """Parse one field entry; a ``{ const = v }`` lands in ``consts`` (returns None)."""
     if isinstance(spec, str):
         return FieldBinding(key=key, signal=spec)
     if not isinstance(spec, dict):
         raise BindingError(f"{where}: field {key} must be a signal name or a table")
-    unknown = set(spec) - {"signal", "unit", "invert", "range", "const"}
+    unknown = set(spec) - {"signal", "unit", "invert", "range", "const", "scale"}
     if unknown:
         raise BindingError(f"{where}: field {key}: unknown keys {sorted(unknown)}")
     if "const" in spec:
@@ -128,15 +139,13 @@ def _field(key: str, spec: Any, where: str, consts: dict[str, float]) -> FieldBi
         raise BindingError(f"{where}: field {key}.unit must be a string")
     if invert is not None and not isinstance(invert, bool):
         raise BindingError(f"{where}: field {key}.invert must be true or false")
-    bounds = None
-    if rng is not None:
-        if not (isinstance(rng, list) and len(rng) == 2):
-            raise BindingError(f"{where}: field {key}.range must be [min, max]")
-        lo, hi = (_num(v, f"{where}: field {key}.range") for v in rng)
-        if lo > hi:
-            raise BindingError(f"{where}: field {key}.range is empty")
-        bounds = (lo, hi)
-    return FieldBinding(key=key, signal=signal, unit=unit, invert=bool(invert), range=bounds)
+    bounds = None if rng is None else _range(rng, f"{where}: field {key}.range")
+    scale = _num(spec.get("scale", 1.0), f"{where}: field {key}.scale")
+    if scale <= 0:
+        raise BindingError(f"{where}: field {key}.scale must be > 0")
+    return FieldBinding(
+        key=key, signal=signal, unit=unit, invert=bool(invert), range=bounds, scale=scale
+    )
 
 
 _PART_KEYS = {

@@ -95,7 +95,8 @@ class MessageCodec:
             if fb is None:
                 continue
             try:
-                factor = conversion(fb.key, fb.unit if fb.unit is not None else s.unit)
+                unit = fb.unit if fb.unit is not None else s.unit
+                factor = conversion(fb.key, unit) * fb.scale
             except UnitError as exc:
                 raise BindingError(f"role {role}: {self.name}.{s.name}: {exc}") from None
             layouts.append(

@@ -161,3 +161,26 @@ def test_autosar_p01_frames_interoperate_with_autosar_e2e(tmp_path: Path) -> Non
     p01.e2e_p01_protect(bad, 0xB0, increment_counter=False)
     assert inbox.accept(0xB0, bytes(bad), 0.5) is None
     assert inbox.errors() == {"out_of_range": 1}
+
+
+def test_scale_is_a_further_factor(tmp_path: Path) -> None:
+    """``scale = 2``: the field is twice the signal's value (after its unit)."""
+    binding = BINDING_PATH.read_text().replace(
+        'gap_m = "LeadDistance"', 'gap_m = { signal = "LeadDistance", scale = 2 }'
+    )
+    codec = load_codec(*_network(tmp_path, DBC_PATH.read_text(), binding))
+    radar = {
+        "lead_valid": 1,
+        "gap_m": 30.0,
+        "rel_speed_mps": 0.0,
+        "lead_accel_mps2": 0.0,
+        "lead_accel_valid": 1,
+    }
+    data = codec.encode("radar", radar)
+    assert int.from_bytes(data[2:4], "little") == 300  # 15 m at 0.05 m per bit
+    assert codec.decode(0x120, data).values["gap_m"] == pytest.approx(30.0)
+    assert codec.roles["radar"].bounds("gap_m") == (0.0, 500.0)
+    bad = binding.replace("scale = 2", "scale = 0")
+    (tmp_path / "bad").mkdir()  # load_codec caches by path: a new folder for a new table
+    with pytest.raises(BindingError, match="scale must be > 0"):
+        load_codec(*_network(tmp_path / "bad", DBC_PATH.read_text(), bad))
