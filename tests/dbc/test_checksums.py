@@ -2,10 +2,17 @@
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
+from typing import Any
+
+import cantools
 import numpy as np
 import pytest
 
 from dbc import checksums
+from dbc.binding import FieldBinding, PartBinding
+from dbc.codec import MessageCodec
 from dbc.e2e import e2e_crc
 
 pytest.importorskip("opendbc.car.toyota.toyotacan")
@@ -58,3 +65,36 @@ def test_autosar_p01_matches_autosar_e2e() -> None:
         p01.e2e_p01_protect(data, data_id, increment_counter=False)
         fn = checksums.autosar_p01(data_id, length, 0)
         assert fn(bytes(data)) == data[0]
+
+
+def test_honda_message_with_its_2_bit_counter_matches_opendbcs_packer(tmp_path: Path) -> None:
+    """A Honda message (opendbc's Civic ENGINE_DATA: kph speed, a 2-bit COUNTER, the 4-bit
+    checksum) bound with ``checksum = "honda"``: our frames are byte for byte the ones
+    opendbc's CANPacker makes, counters wrapping at 4."""
+    from opendbc import get_generated_dbcs  # noqa: PLC0415 - present: importorskip above
+    from opendbc.can.packer import CANPacker  # noqa: PLC0415
+
+    text = get_generated_dbcs()["honda_civic_touring_2016_can_generated"]
+    # cantools cannot parse opendbc's signal comments without a signal name: drop them
+    path = tmp_path / "honda_civic_touring_2016_can_generated.dbc"
+    path.write_text(re.sub(r'^CM_ SG_ \d+ ".*\n', "", text, flags=re.MULTILINE))
+    db: Any = cantools.database.load_file(str(path), strict=False)
+    part = PartBinding(
+        message="ENGINE_DATA",
+        fields={"speed_mps": FieldBinding("speed_mps", "XMISSION_SPEED")},
+        checksum="honda",
+        checksum_signal="CHECKSUM",
+        counter="COUNTER",
+        unused=("ENGINE_RPM", "XMISSION_SPEED2", "ODOMETER"),
+        cycle_ms=10,
+    )
+    mc = MessageCodec(db.get_message_by_name("ENGINE_DATA"), part, "ego")
+    assert mc.counter_modulo == 4
+    packer = CANPacker(str(path))
+    for k in range(10):
+        kph = 3.6 * 0.5 * k
+        ours = mc.encode({"speed_mps": kph / 3.6}, k % mc.counter_modulo)  # the Outbox's count
+        theirs = bytes(packer.pack(0x158, {"XMISSION_SPEED": kph}))
+        assert ours == theirs, k
+        assert mc.decode(theirs).values["speed_mps"] == pytest.approx(kph / 3.6)
+        assert mc.decode(theirs).counter == k % 4
