@@ -22,7 +22,7 @@ pytest.importorskip("can_remote")
 
 pytestmark = pytest.mark.slow
 ROOT = Path(__file__).resolve().parents[2]
-RUN_S = 4.0
+RUN_S = 3.0
 
 
 def _free_port() -> int:

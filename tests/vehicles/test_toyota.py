@@ -228,9 +228,9 @@ def test_pacc_drive_on_the_toyota_network(
     """The closed loop runs from the command line on the Toyota network."""
     from sim_bus.drive import main  # noqa: PLC0415 - the entry point, on top of the layers
 
-    argv = ["--driver", "d2", "--duration", "40"]
+    argv = ["--driver", "d2", "--duration", "20"]
     assert main([*argv, "--dbc", str(toyota_dbc), "--binding", str(BINDING)]) == 0
     toyota = capsys.readouterr().out
     assert "ECU E2E errors none" in toyota and "collisions     0" in toyota
     acc_on_s = float(toyota.split("ACC-ON")[1].split("s)")[0])
-    assert acc_on_s > 30.0  # engaged through DSU_CRUISE.SET_BTN, held through PCM_CRUISE
+    assert acc_on_s > 15.0  # engaged through DSU_CRUISE.SET_BTN, held through PCM_CRUISE
