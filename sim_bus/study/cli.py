@@ -13,6 +13,7 @@ from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES
 from sim_bus.drive import CONTROLLERS, adaptation_params
 from sim_bus.errors import SimError
+from sim_bus.study.collect import StudyInterrupted
 from sim_bus.study.config import StudyConfig
 from sim_bus.study.run import run_study
 
@@ -42,6 +43,12 @@ def _parser() -> argparse.ArgumentParser:
         type=int,
         default=min(2, os.cpu_count() or 1),
         help="parallel drive processes (default: 2 or the core count)",
+    )
+    p.add_argument(
+        "--scheduler",
+        metavar="local|tcp://HOST:8786",
+        help="run the drives on Dask: 'local' starts a LocalCluster of --workers processes, "
+        "an address joins that cluster (docs/scale.md; needs pacc[dask])",
     )
     p.add_argument("--out", type=Path, default=Path("out/study"), help="output folder")
     p.add_argument("--no-logs", action="store_true", help="do not write MCAP logs")
@@ -91,10 +98,14 @@ def main(argv: list[str] | None = None) -> int:
         trust=args.trust,
         direct=args.direct,
         incremental=args.incremental,
+        scheduler=args.scheduler,
     )
     try:
         start = time.perf_counter()
         rows = run_study(cfg, args.out, cache_dir=args.cache, progress=not args.quiet)
+    except StudyInterrupted as exc:
+        print(f"pacc study: {exc}", file=sys.stderr)
+        return 130
     except (SimError, EcuError, CloudSyncError, OSError) as exc:
         print(f"pacc study: error: {exc}", file=sys.stderr)
         return 2

@@ -21,7 +21,10 @@ class StudyConfig:
     ``OUT/cloud``; a URL or folder of a cloud where the drivers are registered to the vehicle
     of ``token_file``, whose tables are verified with ``trust``. ``direct``: no cloud, learn
     in-process (cached). ``incremental``: N > 0 runs the incremental-learning experiment
-    (N trips per driver through the cloud) instead of Table I."""
+    (N trips per driver through the cloud) instead of Table I. ``scheduler``: where the drives
+    run: None, ``workers`` local processes; ``"local"``, a Dask ``LocalCluster`` of
+    ``workers`` processes; a Dask scheduler's address (``tcp://HOST:8786``), that cluster
+    (docs/scale.md)."""
 
     drivers: tuple[str, ...] = ("d1", "d2", "d3", "d4", "d5")
     scenarios: tuple[str, ...] = ("A", "B")
@@ -37,6 +40,7 @@ class StudyConfig:
     trust: str | None = None
     direct: bool = False
     incremental: int = 0
+    scheduler: str | None = None
 
 
 def _validate_cloud(cfg: StudyConfig) -> None:
@@ -44,6 +48,10 @@ def _validate_cloud(cfg: StudyConfig) -> None:
         raise SimError("--incremental must be >= 0")
     if cfg.direct and (cfg.cloud is not None or cfg.incremental):
         raise SimError("--direct learns without a cloud: not with --cloud or --incremental")
+    if cfg.scheduler is not None and cfg.incremental:
+        raise SimError("--incremental drives one trip after another: not with --scheduler")
+    if cfg.scheduler is not None and not cfg.scheduler.strip():
+        raise SimError("--scheduler needs 'local' or a Dask scheduler address (tcp://HOST:8786)")
     if cfg.cloud is not None and not (cfg.token_file and cfg.trust):
         raise SimError("--cloud needs --token-file F and --trust KEY.pub")
 

@@ -1,28 +1,32 @@
-"""Running a study: the control tables, the plan of drives, the worker pool, the outputs.
+"""Running a study: the control tables, the plan of drives, the engine, the outputs.
 
-Every drive is a :class:`DriveJob`, everything a worker process needs (picklable); the rows
-come back in plan order whatever the number of workers.
+Every drive is a :class:`DriveJob`. To the engine (:mod:`cloud_sync.engine`: in-process, local
+processes or a Dask cluster) the study ships what the drives share once, as
+:class:`StudyData` (drivers, tables, lead profiles), and each drive as a small
+:class:`DriveTask`; the rows stream back as drives finish and come out in plan order whatever
+the engine and its number of workers.
 """
 
 from __future__ import annotations
 
-import multiprocessing
 import sys
-from collections.abc import Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from tqdm import tqdm
 
+from cloud_sync.engine import Engine, open_engine
 from ecu.adaptation import AdaptationParams
 from ecu.dgpt import Dgpt, save_dgpt
-from ecu.triplog import write_trip
+from ecu.triplog import Trip, write_trip
 from sim_bus.drive import DriveConfig, log_to_trip, predefined_table, run_drive
 from sim_bus.drivers import DriverParams
+from sim_bus.errors import SimError
 from sim_bus.irl_table import irl_table
-from sim_bus.scenarios import canonical_profiles
+from sim_bus.scenarios import LeadProfile, canonical_profiles
+from sim_bus.study.collect import RowJournal, RowKey, collect
 from sim_bus.study.config import StudyConfig, validate
 from sim_bus.study.incremental_report import (
     format_incremental,
@@ -30,7 +34,7 @@ from sim_bus.study.incremental_report import (
     write_incremental_csv,
 )
 from sim_bus.study.loop import StudyCloud, cloud_irl_tables, run_incremental
-from sim_bus.study.report import format_table, plot, write_csv
+from sim_bus.study.report import format_table, plot
 
 
 @dataclass(frozen=True)
@@ -48,8 +52,12 @@ class DriveJob:
     adaptation: AdaptationParams | None = None
 
 
-def run_job(job: DriveJob) -> dict[str, Any]:
-    """Run one drive (in a worker process) and return its row of drives.csv."""
+def run_job(
+    job: DriveJob, profile: LeadProfile | None = None
+) -> tuple[dict[str, Any], Trip | None]:
+    """Run one drive (on a worker): its row of drives.csv and, if ``job.log_path`` is set,
+    its trip log to write there. ``profile``: the lead profile of ``job.scenario`` (None: made
+    here from the study seed)."""
     driver = job.driver
     seed = job.study_seed + job.trial
     cfg = DriveConfig(
@@ -60,12 +68,12 @@ def run_job(job: DriveJob) -> dict[str, Any]:
         duration_s=job.duration_s,
         adaptation=job.adaptation,
     )
-    profile = canonical_profiles(job.study_seed)[job.scenario]
+    if profile is None:
+        profile = canonical_profiles(job.study_seed)[job.scenario]
     result = run_drive(cfg, driver, job.table, profile)
-    if job.log_path is not None:
-        write_trip(Path(job.log_path), log_to_trip(result, driver))
+    trip = log_to_trip(result, driver) if job.log_path is not None else None
     m = result.metrics
-    return {
+    row = {
         "driver": driver.driver_id,
         "scenario": job.scenario,
         "controller": job.controller,
@@ -85,6 +93,84 @@ def run_job(job: DriveJob) -> dict[str, Any]:
         "sim_s": result.sim_s,
         "wall_s": result.wall_s,
     }
+    return row, trip
+
+
+@dataclass(frozen=True)
+class StudyData:
+    """What the drives share, shipped to each worker once: drivers and tables (indexed by
+    :class:`DriveTask`) and the lead profile of each (study seed, scenario)."""
+
+    drivers: tuple[DriverParams, ...]
+    tables: tuple[Dgpt, ...]
+    profiles: Mapping[tuple[int, str], LeadProfile]
+
+
+@dataclass(frozen=True)
+class DriveTask:
+    """One drive as the engine sees it: a :class:`DriveJob` whose driver and table are
+    indices into :class:`StudyData` (a few hundred bytes on the wire). The worker returns
+    the trip log and the caller writes it at ``log_path``, so workers need no shared disk."""
+
+    driver: int
+    table: int
+    scenario: str
+    controller: str
+    trial: int
+    study_seed: int
+    duration_s: float | None
+    log_path: str | None
+    adaptation: AdaptationParams | None
+
+
+def split(jobs: Sequence[DriveJob]) -> tuple[StudyData, list[DriveTask]]:
+    """The data ``jobs`` share (each driver, table and profile once) and the light tasks."""
+    drivers: dict[int, int] = {}
+    tables: dict[int, int] = {}
+    driver_list: list[DriverParams] = []
+    table_list: list[Dgpt] = []
+    profiles: dict[tuple[int, str], LeadProfile] = {}
+    tasks = []
+    for job in jobs:
+        if id(job.driver) not in drivers:
+            drivers[id(job.driver)] = len(driver_list)
+            driver_list.append(job.driver)
+        if id(job.table) not in tables:
+            tables[id(job.table)] = len(table_list)
+            table_list.append(job.table)
+        key = (job.study_seed, job.scenario)
+        if key not in profiles:
+            profiles[key] = canonical_profiles(job.study_seed)[job.scenario]
+        tasks.append(
+            DriveTask(
+                drivers[id(job.driver)],
+                tables[id(job.table)],
+                job.scenario,
+                job.controller,
+                job.trial,
+                job.study_seed,
+                job.duration_s,
+                job.log_path,
+                job.adaptation,
+            )
+        )
+    return StudyData(tuple(driver_list), tuple(table_list), profiles), tasks
+
+
+def run_task(data: StudyData, task: DriveTask) -> tuple[dict[str, Any], Trip | None]:
+    """:func:`run_job` of ``task`` with the shared data put back (the engine's task)."""
+    job = DriveJob(
+        data.drivers[task.driver],
+        task.scenario,
+        task.controller,
+        task.trial,
+        task.study_seed,
+        task.duration_s,
+        data.tables[task.table],
+        task.log_path,
+        task.adaptation,
+    )
+    return run_job(job, data.profiles[(task.study_seed, task.scenario)])
 
 
 def study_cloud(cfg: StudyConfig, drivers: Mapping[str, DriverParams], out: Path) -> StudyCloud:
@@ -151,52 +237,112 @@ def plan(
     return jobs
 
 
-def run_jobs(jobs: Sequence[DriveJob], workers: int, progress: bool = True) -> list[dict[str, Any]]:
-    """Run ``jobs`` on ``workers`` processes (1: in this process); rows in job order."""
+def _job_key(job: DriveJob) -> RowKey:
+    return (job.driver.driver_id, job.scenario, job.controller, job.trial)
+
+
+def run_jobs(
+    jobs: Sequence[DriveJob],
+    workers: int,
+    progress: bool = True,
+    *,
+    engine: Engine | None = None,
+    csv_path: Path | None = None,
+) -> list[dict[str, Any]]:
+    """Run ``jobs`` on ``engine`` (None: ``workers`` local processes, 1: this process); rows
+    in job order. Each finished drive's log is written at once and, with ``csv_path``, its
+    row appended there (rewritten in job order at the end, or with the finished rows on
+    Ctrl-C: :class:`~sim_bus.study.collect.StudyInterrupted`)."""
+    data, tasks = split(jobs)
+    keys = [_job_key(job) for job in jobs]
+    if len(set(keys)) != len(keys):
+        raise SimError("two drives of the plan share a (driver, scenario, controller, trial)")
     bar = tqdm(total=len(jobs), desc="drives", unit="drive", disable=not progress, file=sys.stderr)
-    rows: list[dict[str, Any]] = []
+    own = engine is None
+    running = open_engine(None, workers) if engine is None else engine
+    journal = RowJournal(csv_path) if csv_path is not None else None
     try:
-        if workers <= 1:
-            for job in jobs:
-                rows.append(run_job(job))
-                bar.update()
-            return rows
-        ctx = multiprocessing.get_context("spawn" if sys.platform != "linux" else "fork")
-        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-            for row in pool.map(run_job, jobs, chunksize=1):
-                rows.append(row)
-                bar.update()
-        return rows
+        return collect(
+            _rows(running.map_unordered(run_task, data, tasks), jobs, bar), keys, journal=journal
+        )
     finally:
         bar.close()
+        if own:
+            running.close()
+
+
+def _rows(
+    results: Iterator[tuple[int, tuple[dict[str, Any], Trip | None]]],
+    jobs: Sequence[DriveJob],
+    bar: tqdm[Any],
+) -> Iterator[tuple[int, dict[str, Any]]]:
+    """(index, row) of each finished drive, its trip log written first (atomically)."""
+    try:
+        for index, (row, trip) in results:
+            log_path = jobs[index].log_path
+            if trip is not None and log_path is not None:
+                write_trip(Path(log_path), trip)
+            bar.update()
+            yield index, row
+    finally:
+        close = getattr(results, "close", None)
+        if close is not None:
+            close()
 
 
 def run_study(
-    cfg: StudyConfig, out: Path, *, cache_dir: Path | None = None, progress: bool = True
+    cfg: StudyConfig,
+    out: Path,
+    *,
+    cache_dir: Path | None = None,
+    progress: bool = True,
+    engine: Engine | None = None,
 ) -> list[dict[str, Any]]:
     """Check ``cfg`` and make the output folders, then learn the tables, run every drive and
-    write the outputs to ``out``; the rows. Every error of the configuration or the output
-    folder (SimError, OSError) comes before anything is learned."""
+    write the outputs to ``out``; the rows. Every error of the configuration, the output
+    folder or the engine (SimError, OSError, EngineError) comes before anything is learned.
+    ``engine``: where the drives run (None: the one ``cfg.scheduler`` and ``cfg.workers``
+    name, opened here and closed at the end)."""
     drivers = validate(cfg)
     out.mkdir(parents=True, exist_ok=True)
     (out / "irl").mkdir(exist_ok=True)
     if cfg.logs:
         (out / "logs").mkdir(exist_ok=True)
+    if cfg.incremental:  # trips one after another, each on the previous trip's table
+        return _run_incremental(cfg, drivers, out)
+    if engine is not None:
+        return _run_table1(cfg, drivers, out, cache_dir, progress, engine)
+    with open_engine(cfg.scheduler, cfg.workers) as own:
+        return _run_table1(cfg, drivers, out, cache_dir, progress, own)
+
+
+def _run_incremental(
+    cfg: StudyConfig, drivers: Mapping[str, DriverParams], out: Path
+) -> list[dict[str, Any]]:
+    cloud = study_cloud(cfg, drivers, out)
+    irl = cloud_irl_tables(cloud, drivers, cfg.seed)
+    rows = run_incremental(cfg, drivers, cloud, irl)
+    write_incremental_csv(out / "incremental.csv", rows)
+    (out / "incremental.md").write_text(format_incremental(rows), encoding="utf-8")
+    plot_incremental(out / "incremental.png", rows)
+    return rows
+
+
+def _run_table1(
+    cfg: StudyConfig,
+    drivers: Mapping[str, DriverParams],
+    out: Path,
+    cache_dir: Path | None,
+    progress: bool,
+    engine: Engine,
+) -> list[dict[str, Any]]:
     cloud = None if cfg.direct else study_cloud(cfg, drivers, out)
-    if cfg.incremental:
-        assert cloud is not None
-        irl = cloud_irl_tables(cloud, drivers, cfg.seed)
-        rows = run_incremental(cfg, drivers, cloud, irl)
-        write_incremental_csv(out / "incremental.csv", rows)
-        (out / "incremental.md").write_text(format_incremental(rows), encoding="utf-8")
-        plot_incremental(out / "incremental.png", rows)
-        return rows
     tables = tables_for(cfg, drivers, cache_dir, cloud)
     for (driver_id, kind), table in tables.items():
         if kind == "irl":
             save_dgpt(table, out / "irl" / f"{driver_id}.json")
-    rows = run_jobs(plan(cfg, drivers, tables, out), cfg.workers, progress)
-    write_csv(out / "drives.csv", rows)
+    jobs = plan(cfg, drivers, tables, out)
+    rows = run_jobs(jobs, cfg.workers, progress, engine=engine, csv_path=out / "drives.csv")
     (out / "table1.md").write_text(format_table(cfg, rows), encoding="utf-8")
     plot(out / "study.png", rows)
     return rows
