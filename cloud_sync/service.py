@@ -13,6 +13,10 @@
   (takeover segments, more manual trips) fine-tune the newest version
   (:func:`cloud_sync.trainer.fine_tune`). Trips are ordered by digest, so the result does not
   depend on arrival order. Too little data is not an error: the job waits for more.
+- **Where jobs run**: the executor runs the job loop (reading the store, publishing); the
+  training itself, :func:`train_table`, a pure function of trips, seed and settings, runs on
+  the compute engine (:mod:`cloud_sync.engine`; None: in the job's thread), e.g. a Dask
+  cluster (``pacc cloud serve --scheduler``), which gets the trips with the task.
 - **Publishing**: each version is signed (Ed25519, :mod:`cloud_sync.signing`) and kept.
 """
 
@@ -42,6 +46,7 @@ from cloud_sync.api import (
     Receipt,
     is_plain_name,
 )
+from cloud_sync.engine import Engine
 from cloud_sync.errors import DemoError
 from cloud_sync.signing import (
     load_private_key,
@@ -144,6 +149,8 @@ class CloudService:
         key: the signing key.
         executor: where learning jobs run (None: inline, in the uploading thread).
         config: limits and learning settings.
+        compute: where a job's training runs (None: in the job's thread); the service does
+            not close it.
     """
 
     def __init__(
@@ -152,7 +159,9 @@ class CloudService:
         key: Ed25519PrivateKey,
         executor: Executor | None = None,
         config: ServiceConfig | None = None,
+        compute: Engine | None = None,
     ) -> None:
+        self.compute = compute
         self.store = store
         self.key = key
         self.executor = executor if executor is not None else InlineExecutor()
@@ -168,6 +177,7 @@ class CloudService:
         data_dir: str | os.PathLike[str],
         executor: Executor | None = None,
         config: ServiceConfig | None = None,
+        compute: Engine | None = None,
     ) -> CloudService:
         """The service over ``data_dir``, creating the folder and its signing key if new."""
         store = CloudStore(data_dir)
@@ -177,7 +187,7 @@ class CloudService:
             key = new_private_key()
             save_private_key(key, keys / "cloud.key")
             (keys / "cloud.pub").write_bytes(public_pem(key))
-        service = cls(store, load_private_key(keys / "cloud.key"), executor, config)
+        service = cls(store, load_private_key(keys / "cloud.key"), executor, config, compute)
         service.resume()
         return service
 
@@ -310,16 +320,12 @@ class CloudService:
             return None  # the first table needs manual driving; read nothing until then
         manual = self._trips(b for b in batches if b.kind == "manual")
         corrections = self._trips(b for b in batches if b.kind != "manual")
+        args = (manual, corrections, None if relearn else previous, driver_id, condition)
         try:
-            if relearn:
-                table = learn_dgpt(
-                    manual, driver_id=driver_id, condition=condition, seed=cfg.seed, config=cfg.irl
-                ).table
+            if self.compute is None:
+                table = train_table(*args, cfg.seed, cfg.irl)
             else:
-                assert previous is not None
-                table = previous
-            if corrections:
-                table = fine_tune(corrections, table, seed=cfg.seed, config=cfg.irl).table
+                table = self.compute.call(train_table, *args, cfg.seed, cfg.irl)
         except DemoError as exc:  # not enough evidence yet: wait for more batches
             log.info("learning %s/%s waits for data: %s", driver_id, condition, exc)
             return None
@@ -371,6 +377,29 @@ class CloudService:
         return public_pem(self.key)
 
 
+def train_table(
+    manual: list[Trip],
+    corrections: list[Trip],
+    previous: Dgpt | None,
+    driver_id: str,
+    condition: str,
+    seed: int,
+    irl: IrlConfig | None,
+) -> Dgpt:
+    """A learning job's training, pure: a table learned from the ``manual`` trips (or
+    ``previous`` when None is to be relearned), then fine-tuned with the ``corrections``
+    (takeover and ACC trips). DemoError if the data are not enough yet."""
+    if previous is None:
+        table = learn_dgpt(
+            manual, driver_id=driver_id, condition=condition, seed=seed, config=irl
+        ).table
+    else:
+        table = previous
+    if corrections:
+        table = fine_tune(corrections, table, seed=seed, config=irl).table
+    return table
+
+
 def _digest(batch: BatchRow) -> str:
     return batch.digest
 
@@ -400,4 +429,5 @@ __all__ = [
     "InlineExecutor",
     "ServiceConfig",
     "read_trip_bytes",
+    "train_table",
 ]
