@@ -42,6 +42,7 @@ class DaskEngine(Engine):
     """Tasks on a Dask cluster through ``client``; closes ``cluster`` too if it owns one."""
 
     name = "dask"
+    distributed = True
 
     def __init__(self, client: Client, cluster: LocalCluster | None = None) -> None:
         self.client = client

@@ -45,6 +45,9 @@ class Engine(ABC):
 
     #: short name for messages ("inline", "processes", "dask")
     name: str = "engine"
+    #: whether :meth:`call` runs elsewhere (a cluster), so that callers gain by calling it
+    #: from several threads at once (the cloud's learning jobs); False: it runs in-thread
+    distributed: bool = False
 
     @property
     @abstractmethod

@@ -63,6 +63,7 @@ def _do_serve(args: argparse.Namespace) -> int:
         )
         return 2
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
+    logging.getLogger("distributed").setLevel(logging.WARNING)  # its INFO is every connection
     compute = None
     try:
         if args.scheduler is not None:

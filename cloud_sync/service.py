@@ -29,7 +29,7 @@ import secrets
 import tempfile
 import threading
 from collections.abc import Callable, Iterable
-from concurrent.futures import Executor, Future
+from concurrent.futures import Executor, Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
@@ -91,11 +91,14 @@ class InlineExecutor(Executor):
 
 class DeferredExecutor(Executor):
     """Queues jobs until :meth:`run_pending` (the embedded cloud learns when a table is asked
-    for, so a sync pass of many batches learns once, not once per batch)."""
+    for, so a sync pass of many batches learns once, not once per batch). ``threads`` > 1
+    runs the queued jobs that many at a time (jobs of different drivers are independent;
+    worth it when their training runs elsewhere, on a Dask cluster)."""
 
-    def __init__(self) -> None:
+    def __init__(self, threads: int = 1) -> None:
         self._queue: list[tuple[Future[Any], Callable[..., Any], tuple[Any, ...]]] = []
         self._lock = threading.Lock()
+        self.threads = max(1, threads)
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
         """Queue ``fn(*args)``; its future completes in :meth:`run_pending`."""
@@ -107,16 +110,26 @@ class DeferredExecutor(Executor):
         return future
 
     def run_pending(self) -> None:
-        """Run every queued job in the caller's thread, oldest first."""
+        """Run every queued job, oldest first: in the caller's thread, or ``threads`` at a
+        time in a pool of threads."""
         while True:
             with self._lock:
-                if not self._queue:
-                    return
-                future, fn, args = self._queue.pop(0)
-            try:
-                future.set_result(fn(*args))
-            except BaseException as exc:  # the future carries it, as a pool's would
-                future.set_exception(exc)
+                batch, self._queue = self._queue, []
+            if not batch:
+                return
+            if self.threads == 1 or len(batch) == 1:
+                for job in batch:
+                    _complete(*job)
+            else:
+                with ThreadPoolExecutor(min(self.threads, len(batch)), "pacc-deferred") as pool:
+                    list(pool.map(lambda job: _complete(*job), batch))
+
+
+def _complete(future: Future[Any], fn: Callable[..., Any], args: tuple[Any, ...]) -> None:
+    try:
+        future.set_result(fn(*args))
+    except BaseException as exc:  # the future carries it, as a pool's would
+        future.set_exception(exc)
 
 
 @dataclass(frozen=True)

@@ -35,10 +35,17 @@ from sim_bus.study.loop import StudyCloud, cloud_irl_tables, run_incremental
 from sim_bus.study.report import format_table, plot
 
 
-def study_cloud(cfg: StudyConfig, drivers: Mapping[str, DriverParams], out: Path) -> StudyCloud:
-    """The study's cloud: the one of ``cfg.cloud``, or a fresh embedded one under ``out``."""
+def study_cloud(
+    cfg: StudyConfig,
+    drivers: Mapping[str, DriverParams],
+    out: Path,
+    engine: Engine | None = None,
+) -> StudyCloud:
+    """The study's cloud: the one of ``cfg.cloud``, or a fresh embedded one under ``out``
+    (training on ``engine`` if it is distributed)."""
     if cfg.cloud is None:
-        return StudyCloud.embedded(out, drivers, cfg.seed)
+        compute = engine if engine is not None and engine.distributed else None
+        return StudyCloud.embedded(out, drivers, cfg.seed, compute)
     assert cfg.token_file is not None and cfg.trust is not None  # validate() checked
     return StudyCloud.remote(cfg.cloud, Path(cfg.token_file), Path(cfg.trust), out)
 
@@ -198,7 +205,7 @@ def _run_table1(
     progress: bool,
     engine: Engine,
 ) -> list[dict[str, Any]]:
-    cloud = None if cfg.direct else study_cloud(cfg, drivers, out)
+    cloud = None if cfg.direct else study_cloud(cfg, drivers, out, engine)
     tables = tables_for(cfg, drivers, cache_dir, cloud)
     for (driver_id, kind), table in tables.items():
         if kind == "irl":

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import signal
+import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
@@ -14,7 +15,7 @@ import pytest
 
 from cloud_sync.engine import Engine, InlineEngine, ProcessEngine, open_engine
 from cloud_sync.errors import CloudSyncError, EngineError
-from cloud_sync.service import CloudService, ServiceConfig
+from cloud_sync.service import CloudService, DeferredExecutor, ServiceConfig
 from cloud_sync.trainer import IrlConfig
 from ecu.triplog import write_trip
 from tests.cloud_sync.conftest import follower_trip
@@ -125,3 +126,23 @@ def test_learning_jobs_train_on_dask_as_in_process(dask_cluster: Engine, tmp_pat
     assert inline is not None and dask is not None
     assert dask.version == inline.version == len(blobs)
     assert np.array_equal(dask.gap_m, inline.gap_m)  # bit-identical tables
+
+
+def test_a_deferred_executor_runs_queued_jobs_side_by_side() -> None:
+    barrier = threading.Barrier(2, timeout=10.0)  # broken unless both jobs run at once
+
+    def job(name: str) -> str:
+        barrier.wait()
+        return name
+
+    deferred = DeferredExecutor(threads=2)
+    futures = [deferred.submit(job, "a"), deferred.submit(job, "b")]
+    assert not any(f.done() for f in futures)
+    deferred.run_pending()
+    assert [f.result() for f in futures] == ["a", "b"]
+    alone = DeferredExecutor()  # one thread: the caller's, in order
+    order: list[int] = []
+    for i in range(3):
+        alone.submit(order.append, i)
+    alone.run_pending()
+    assert order == [0, 1, 2]
