@@ -27,7 +27,7 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from types import TracebackType
-from typing import Any, TypeVar
+from typing import Any, Self, TypeVar
 
 from cloud_sync.errors import EngineError
 
@@ -70,7 +70,7 @@ class Engine(ABC):
     def close(self) -> None:  # noqa: B027 - most engines hold nothing to release
         """Release the engine's workers (idempotent)."""
 
-    def __enter__(self) -> Engine:
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(
