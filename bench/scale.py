@@ -12,7 +12,8 @@ Run: ``.venv/bin/python bench/scale.py [--workers 2] [--drivers d1,d2,d3,d4,d5] 
   (``pacc study --scheduler local``), after one warm-up drive per worker (the cluster's start
   and the workers' first imports are printed apart: a study pays them once);
 - the two alternate, ROUNDS rounds (pool, Dask, pool, Dask ...: a shared machine's load
-  falls on both), each round's times printed, the ratio of the best of each;
+  falls on both), each round's times printed with the share of the workers' time spent
+  inside drives ("busy"), the ratio of the best of each;
 - per-task overhead: no-op tasks through each engine, ms per task (wall time × workers /
   tasks), and the drive runs' difference spread over their drives.
 
@@ -112,8 +113,10 @@ def bench_learning(names: tuple[str, ...], workers: int) -> int:
     return 0 if same else 1
 
 
-def _mean_wall(rows: list[dict[str, Any]]) -> float:
-    return sum(float(r["wall_s"]) for r in rows) / len(rows)
+def _busy(rows: list[dict[str, Any]], wall_s: float, workers: int) -> float:
+    """The share of the workers' time spent inside drives (their own wall_s): what the
+    engine leaves to the work, whatever the load of a shared machine."""
+    return sum(float(r["wall_s"]) for r in rows) / (wall_s * workers)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -162,8 +165,8 @@ def main(argv: list[str] | None = None) -> int:
                 dask_times.append(dask_s)
                 print(
                     f"round {rnd + 1}: process pool {pool_s:.2f} s ({n / pool_s:.2f} drives/s, "
-                    f"mean drive {_mean_wall(pool_rows):.2f} s), dask {dask_s:.2f} s "
-                    f"({n / dask_s:.2f} drives/s, mean drive {_mean_wall(dask_rows):.2f} s)"
+                    f"busy {_busy(pool_rows, pool_s, args.workers):.0%}), dask {dask_s:.2f} s "
+                    f"({n / dask_s:.2f} drives/s, busy {_busy(dask_rows, dask_s, args.workers):.0%})"
                 )
             pool_task_ms = per_task_ms(pool)
             dask_task_ms = per_task_ms(dask)
