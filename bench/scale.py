@@ -163,10 +163,12 @@ def main(argv: list[str] | None = None) -> int:
                 dask_s, dask_rows = timed_drives(dask, jobs, args.workers)
                 pool_times.append(pool_s)
                 dask_times.append(dask_s)
+                pool_busy = _busy(pool_rows, pool_s, args.workers)
+                dask_busy = _busy(dask_rows, dask_s, args.workers)
                 print(
                     f"round {rnd + 1}: process pool {pool_s:.2f} s ({n / pool_s:.2f} drives/s, "
-                    f"busy {_busy(pool_rows, pool_s, args.workers):.0%}), dask {dask_s:.2f} s "
-                    f"({n / dask_s:.2f} drives/s, busy {_busy(dask_rows, dask_s, args.workers):.0%})"
+                    f"busy {pool_busy:.0%}), dask {dask_s:.2f} s ({n / dask_s:.2f} drives/s, "
+                    f"busy {dask_busy:.0%})"
                 )
             pool_task_ms = per_task_ms(pool)
             dask_task_ms = per_task_ms(dask)
