@@ -3,9 +3,9 @@
 :class:`DriveJob` is one drive of the study with everything it needs; :func:`split` turns the
 plan into :class:`StudyData` (drivers, tables and lead profiles, each once: what an engine ships
 to every worker once) and light :class:`DriveTask` items; :func:`run_task` is the function the
-workers run. It lives outside ``sim_bus.study`` so that a worker imports the drive and nothing
-of the study harness (its cloud loop, the trainer, the report): a fresh Dask worker is ready in
-half the time.
+workers run (and :func:`manual_trips_task`, a driver's manual trips). It lives outside
+``sim_bus.study`` so that a worker imports the drive and nothing of the study harness (its
+cloud loop, the trainer, the report): a fresh Dask worker is ready sooner.
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ from ecu.dgpt import Dgpt
 from ecu.triplog import Trip
 from sim_bus.drive import DriveConfig, log_to_trip, run_drive
 from sim_bus.drivers import DriverParams
+from sim_bus.irl_table import manual_trips
 from sim_bus.scenarios import LeadProfile, canonical_profiles
 
 
@@ -158,4 +159,17 @@ def run_task(data: StudyData, task: DriveTask) -> tuple[dict[str, Any], Trip | N
     return run_job(job, data.profiles[(task.study_seed, task.scenario)])
 
 
-__all__ = ["DriveJob", "DriveTask", "StudyData", "run_job", "run_task", "split"]
+def manual_trips_task(seed: int, driver: DriverParams) -> list[Trip]:
+    """The driver's manual (ACC OFF) trips, the IRL demonstrations: an engine task."""
+    return manual_trips(driver, seed)
+
+
+__all__ = [
+    "DriveJob",
+    "DriveTask",
+    "StudyData",
+    "manual_trips_task",
+    "run_job",
+    "run_task",
+    "split",
+]

@@ -33,6 +33,7 @@ from cloud_sync.uploader import Uploader, UploaderConfig
 from ecu.dgpt import Dgpt
 from ecu.triplog import Trip
 from sim_bus.drive import DriveConfig, run_drive
+from sim_bus.drive_tasks import manual_trips_task
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import SimError
 from sim_bus.irl_table import manual_trips
@@ -129,14 +130,21 @@ class StudyCloud:
 
 
 def cloud_irl_tables(
-    cloud: StudyCloud, drivers: Mapping[str, DriverParams], seed: int
+    cloud: StudyCloud,
+    drivers: Mapping[str, DriverParams],
+    seed: int,
+    engine: Engine | None = None,
 ) -> dict[str, Dgpt]:
     """Driver id -> the IRL table the vehicle downloaded after uploading the manual trips.
-    Every driver's trips go up first, so an embedded cloud with a distributed engine learns
-    the drivers side by side at the first download."""
+    Every driver's trips go up first (in driver order), so an embedded cloud with a
+    distributed engine learns the drivers side by side at the first download; a distributed
+    ``engine`` also drives the manual trips."""
+    made: dict[int, list[Trip]] = {}
+    if engine is not None and engine.distributed:
+        made = dict(engine.map_unordered(manual_trips_task, seed, list(drivers.values())))
     conditions: dict[str, str] = {}
-    for driver_id, driver in drivers.items():
-        trips = manual_trips(driver, seed)
+    for index, (driver_id, driver) in enumerate(drivers.items()):
+        trips = made.pop(index) if index in made else manual_trips(driver, seed)
         cloud.upload(trips)
         conditions[driver_id] = str(trips[0].meta.get("condition", "default"))
     tables: dict[str, Dgpt] = {}

@@ -55,12 +55,14 @@ def tables_for(
     drivers: Mapping[str, DriverParams],
     cache_dir: Path | None,
     cloud: StudyCloud | None = None,
+    engine: Engine | None = None,
 ) -> dict[tuple[str, str], Dgpt]:
     """(driver id, "predefined" | "irl") -> the control table: predefined, or learned by IRL
-    in ``cloud`` (uploaded manual trips, downloaded verified table) or in-process (cached)."""
+    in ``cloud`` (uploaded manual trips, downloaded verified table; the trips made on
+    ``engine`` if it is distributed) or in-process (cached)."""
     tables: dict[tuple[str, str], Dgpt] = {}
     needs_irl = any(c.startswith("irl") for c in cfg.controllers)
-    learned = cloud_irl_tables(cloud, drivers, cfg.seed) if cloud and needs_irl else {}
+    learned = cloud_irl_tables(cloud, drivers, cfg.seed, engine) if cloud and needs_irl else {}
     for driver_id, driver in drivers.items():
         if any(c.startswith("predefined") for c in cfg.controllers):
             tables[(driver_id, "predefined")] = predefined_table(driver)
@@ -206,7 +208,7 @@ def _run_table1(
     engine: Engine,
 ) -> list[dict[str, Any]]:
     cloud = None if cfg.direct else study_cloud(cfg, drivers, out, engine)
-    tables = tables_for(cfg, drivers, cache_dir, cloud)
+    tables = tables_for(cfg, drivers, cache_dir, cloud, engine)
     for (driver_id, kind), table in tables.items():
         if kind == "irl":
             save_dgpt(table, out / "irl" / f"{driver_id}.json")
