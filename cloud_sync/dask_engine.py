@@ -51,14 +51,15 @@ class DaskEngine(Engine):
     @classmethod
     def local(cls, workers: int) -> DaskEngine:
         """A fresh ``LocalCluster`` of ``workers`` single-threaded worker processes (each under
-        a nanny that restarts it if it dies), no dashboard."""
+        a nanny that restarts it if it dies), its HTTP server (and dashboard,
+        if bokeh is installed) on a free port."""
         if workers < 1:
             raise EngineError(f"a LocalCluster needs >= 1 worker, got {workers}")
         cluster = LocalCluster(
             n_workers=workers,
             threads_per_worker=1,
             processes=True,
-            dashboard_address=None,
+            dashboard_address=":0",  # any free port: several clusters on one machine
             silence_logs=logging.ERROR,
         )
         try:
