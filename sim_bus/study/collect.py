@@ -79,9 +79,9 @@ def collect(
 
     ``keys[i]`` is task i's row key; a row whose key does not match its task, or a second row
     for one key, is a SimError. Each row goes to ``on_row`` (logs, progress) and ``journal``
-    as it arrives. Ctrl-C (KeyboardInterrupt) closes ``results`` (the engine cancels what has
-    not run), rewrites the journal with the rows that finished, in task order, and raises
-    :class:`StudyInterrupted`.
+    as it arrives. Ctrl-C (KeyboardInterrupt) or a task's error closes ``results`` (the engine
+    cancels what has not run) and rewrites the journal with the rows that finished, in task
+    order; Ctrl-C then raises :class:`StudyInterrupted`, an error itself.
     """
     by_index: dict[int, dict[str, Any]] = {}
     try:
@@ -97,16 +97,17 @@ def collect(
                 on_row(index, row)
             if journal is not None:
                 journal.append(row)
-    except KeyboardInterrupt:
+    except BaseException as exc:
         close = getattr(results, "close", None)
         if close is not None:
             close()
         kept = _in_order(by_index)
-        if journal is not None:
+        if journal is not None:  # what finished stays, in plan order, whatever stopped us
             journal.finish(kept)
-        raise StudyInterrupted(
-            len(kept), len(keys), journal.path if journal is not None else None
-        ) from None
+        if isinstance(exc, KeyboardInterrupt):
+            path = journal.path if journal is not None else None
+            raise StudyInterrupted(len(kept), len(keys), path) from None
+        raise
     missing = [keys[i] for i in range(len(keys)) if i not in by_index]
     if missing:
         raise SimError(f"{len(missing)} drive(s) never came back, e.g. {missing[0]}")
