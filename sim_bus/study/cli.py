@@ -47,8 +47,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--scheduler",
         metavar="local|tcp://HOST:8786",
-        help="run the drives on Dask: 'local' starts a LocalCluster of --workers processes, "
-        "an address joins that cluster (docs/scale.md; needs pacc[dask])",
+        help="run the drives and the learning on Dask: 'local' starts a LocalCluster of "
+        "--workers processes, an address joins that cluster (docs/scale.md; needs pacc[dask])",
     )
     p.add_argument("--out", type=Path, default=Path("out/study"), help="output folder")
     p.add_argument("--no-logs", action="store_true", help="do not write MCAP logs")
