@@ -19,9 +19,9 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "default"))
 
 @pytest.fixture(scope="session")
 def dask_cluster() -> Iterator[Engine]:
-    """One Dask LocalCluster of 2 single-threaded worker processes (each under a nanny) for
-    every test that needs one; those tests carry ``xdist_group("dask")``, so under
-    pytest-xdist (``--dist loadgroup``) they share one cluster in one xdist worker."""
+    """One Dask LocalCluster of 2 single-threaded worker processes (each under a nanny),
+    shared by the tests that need one within a test process (under pytest-xdist: at most
+    one per xdist worker that runs such a test)."""
     # Dask costs ~1 s of import: only the sessions that run a distributed test pay it
     from cloud_sync.dask_engine import DaskEngine  # noqa: PLC0415
 

@@ -104,7 +104,6 @@ class Counting(Engine):
         return self.inner.call(fn, *args)
 
 
-@pytest.mark.xdist_group("dask")
 def test_learning_jobs_train_on_dask_as_in_process(dask_cluster: Engine, tmp_path: Path) -> None:
     config = ServiceConfig(seed=2, irl=IrlConfig(max_iter=3))  # a short fit: same on both
     write_trip(tmp_path / "manual.mcap", follower_trip(0, minutes=1.2))

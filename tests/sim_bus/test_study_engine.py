@@ -55,7 +55,6 @@ def inline(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[dict[st
     return out, run_study(TINY, out, progress=False, engine=InlineEngine())
 
 
-@pytest.mark.xdist_group("dask")
 def test_dask_gives_the_rows_of_the_in_process_run(
     inline: tuple[Path, list[dict[str, Any]]], dask_cluster: Engine, tmp_path: Path
 ) -> None:
@@ -113,7 +112,6 @@ class KillOnce(Engine):
         raise AssertionError("no worker was running a task")
 
 
-@pytest.mark.xdist_group("dask")
 def test_a_worker_killed_mid_run_still_gives_every_row_once(
     inline: tuple[Path, list[dict[str, Any]]], dask_cluster: Engine, tmp_path: Path
 ) -> None:
