@@ -18,3 +18,8 @@ class DemoError(CloudSyncError):
 
 class TrainingError(CloudSyncError):
     """The IRL optimisation failed (non-finite objective, bad configuration)."""
+
+
+class EngineError(CloudSyncError):
+    """The compute engine cannot run the work: no scheduler at the address, Dask missing,
+    a task that kept killing its workers, a worker pool that kept breaking."""

@@ -2,12 +2,15 @@
 
     pacc cloud register --data DIR --vehicle ID [--driver D ...] --token-file F
     pacc cloud serve --data DIR [--host 127.0.0.1] [--port 8080] [--workers 1]
-                     [--max-upload-mb 16] [--seed 0]
+                     [--max-upload-mb 16] [--seed 0] [--scheduler local|tcp://HOST:8786]
 
 ``register`` creates the data folder and its signing key if new, registers the vehicle and its
 drivers, writes the vehicle's token to F (mode 0600) and names the public key file the vehicle
 must trust (``DIR/keys/cloud.pub``). ``serve`` answers HTTP on HOST:PORT (see
-:mod:`cloud_sync.server`) and runs learning jobs on a pool of WORKERS threads.
+:mod:`cloud_sync.server`) and runs learning jobs on a pool of WORKERS threads; with
+``--scheduler`` each job's training runs on a Dask cluster (``local``: a LocalCluster of
+WORKERS processes started here; an address: that cluster), the job threads as many as the
+cluster's workers (docs/scale.md).
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from cloud_sync.connect import write_token
+from cloud_sync.engine import open_engine
 from cloud_sync.errors import CloudSyncError
 
 __all__ = ["add_subparser"]
@@ -59,16 +63,29 @@ def _do_serve(args: argparse.Namespace) -> int:
         )
         return 2
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
-    pool = ThreadPoolExecutor(max_workers=args.workers, thread_name_prefix="pacc-learn")
+    logging.getLogger("distributed").setLevel(logging.WARNING)  # its INFO is every connection
+    compute = None
+    try:
+        if args.scheduler is not None:
+            compute = open_engine(args.scheduler, args.workers)
+    except CloudSyncError as exc:
+        print(f"pacc cloud serve: error: {exc}")
+        return 2
+    threads = max(args.workers, compute.workers if compute is not None else 1)
+    pool = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="pacc-learn")
     config = ServiceConfig(max_upload_bytes=int(args.max_upload_mb * 1024 * 1024), seed=args.seed)
     try:
-        service = CloudService.open(args.data, executor=pool, config=config)
+        service = CloudService.open(args.data, executor=pool, config=config, compute=compute)
     except (CloudSyncError, OSError) as exc:
         print(f"pacc cloud serve: error: {exc}")
+        pool.shutdown(wait=True)
+        if compute is not None:
+            compute.close()
         return 1
+    where = f" training on Dask at {args.scheduler}" if compute is not None else ""
     print(
         f"pacc cloud serving {args.data} on http://{args.host}:{args.port} "
-        f"(OpenAPI at /docs), {args.workers} learning worker(s)",
+        f"(OpenAPI at /docs), {threads} learning worker(s){where}",
         flush=True,
     )
     # uvicorn shuts down gracefully on SIGTERM/SIGINT, then raises the signal again under the
@@ -80,6 +97,8 @@ def _do_serve(args: argparse.Namespace) -> int:
     finally:
         pool.shutdown(wait=True)
         service.store.close()
+        if compute is not None:
+            compute.close()
     print("pacc cloud stopped", flush=True)
     return 0
 
@@ -100,4 +119,10 @@ def add_subparser(subparsers: Any) -> None:
     srv.add_argument("--workers", type=int, default=1, help="learning job threads")
     srv.add_argument("--max-upload-mb", type=float, default=16.0, help="upload size limit, MiB")
     srv.add_argument("--seed", type=int, default=0, help="seed of every learning job")
+    srv.add_argument(
+        "--scheduler",
+        metavar="local|tcp://HOST:8786",
+        help="train on Dask: 'local' starts a LocalCluster of --workers processes, an address "
+        "joins that cluster (docs/scale.md; needs pacc[dask])",
+    )
     srv.set_defaults(func=_do_serve)

@@ -13,6 +13,10 @@
   (takeover segments, more manual trips) fine-tune the newest version
   (:func:`cloud_sync.trainer.fine_tune`). Trips are ordered by digest, so the result does not
   depend on arrival order. Too little data is not an error: the job waits for more.
+- **Where jobs run**: the executor runs the job loop (reading the store, publishing); the
+  training itself, :func:`train_table`, a pure function of trips, seed and settings, runs on
+  the compute engine (:mod:`cloud_sync.engine`; None: in the job's thread), e.g. a Dask
+  cluster (``pacc cloud serve --scheduler``), which gets the trips with the task.
 - **Publishing**: each version is signed (Ed25519, :mod:`cloud_sync.signing`) and kept.
 """
 
@@ -25,7 +29,7 @@ import secrets
 import tempfile
 import threading
 from collections.abc import Callable, Iterable
-from concurrent.futures import Executor, Future
+from concurrent.futures import Executor, Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
@@ -42,6 +46,7 @@ from cloud_sync.api import (
     Receipt,
     is_plain_name,
 )
+from cloud_sync.engine import Engine
 from cloud_sync.errors import DemoError
 from cloud_sync.signing import (
     load_private_key,
@@ -86,11 +91,14 @@ class InlineExecutor(Executor):
 
 class DeferredExecutor(Executor):
     """Queues jobs until :meth:`run_pending` (the embedded cloud learns when a table is asked
-    for, so a sync pass of many batches learns once, not once per batch)."""
+    for, so a sync pass of many batches learns once, not once per batch). ``threads`` > 1
+    runs the queued jobs that many at a time (jobs of different drivers are independent;
+    worth it when their training runs elsewhere, on a Dask cluster)."""
 
-    def __init__(self) -> None:
+    def __init__(self, threads: int = 1) -> None:
         self._queue: list[tuple[Future[Any], Callable[..., Any], tuple[Any, ...]]] = []
         self._lock = threading.Lock()
+        self.threads = max(1, threads)
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
         """Queue ``fn(*args)``; its future completes in :meth:`run_pending`."""
@@ -102,16 +110,26 @@ class DeferredExecutor(Executor):
         return future
 
     def run_pending(self) -> None:
-        """Run every queued job in the caller's thread, oldest first."""
+        """Run every queued job, oldest first: in the caller's thread, or ``threads`` at a
+        time in a pool of threads."""
         while True:
             with self._lock:
-                if not self._queue:
-                    return
-                future, fn, args = self._queue.pop(0)
-            try:
-                future.set_result(fn(*args))
-            except BaseException as exc:  # the future carries it, as a pool's would
-                future.set_exception(exc)
+                batch, self._queue = self._queue, []
+            if not batch:
+                return
+            if self.threads == 1 or len(batch) == 1:
+                for job in batch:
+                    _complete(*job)
+            else:
+                with ThreadPoolExecutor(min(self.threads, len(batch)), "pacc-deferred") as pool:
+                    list(pool.map(lambda job: _complete(*job), batch))
+
+
+def _complete(future: Future[Any], fn: Callable[..., Any], args: tuple[Any, ...]) -> None:
+    try:
+        future.set_result(fn(*args))
+    except BaseException as exc:  # the future carries it, as a pool's would
+        future.set_exception(exc)
 
 
 @dataclass(frozen=True)
@@ -144,6 +162,8 @@ class CloudService:
         key: the signing key.
         executor: where learning jobs run (None: inline, in the uploading thread).
         config: limits and learning settings.
+        compute: where a job's training runs (None: in the job's thread); the service does
+            not close it.
     """
 
     def __init__(
@@ -152,7 +172,9 @@ class CloudService:
         key: Ed25519PrivateKey,
         executor: Executor | None = None,
         config: ServiceConfig | None = None,
+        compute: Engine | None = None,
     ) -> None:
+        self.compute = compute
         self.store = store
         self.key = key
         self.executor = executor if executor is not None else InlineExecutor()
@@ -168,6 +190,7 @@ class CloudService:
         data_dir: str | os.PathLike[str],
         executor: Executor | None = None,
         config: ServiceConfig | None = None,
+        compute: Engine | None = None,
     ) -> CloudService:
         """The service over ``data_dir``, creating the folder and its signing key if new."""
         store = CloudStore(data_dir)
@@ -177,7 +200,7 @@ class CloudService:
             key = new_private_key()
             save_private_key(key, keys / "cloud.key")
             (keys / "cloud.pub").write_bytes(public_pem(key))
-        service = cls(store, load_private_key(keys / "cloud.key"), executor, config)
+        service = cls(store, load_private_key(keys / "cloud.key"), executor, config, compute)
         service.resume()
         return service
 
@@ -310,16 +333,12 @@ class CloudService:
             return None  # the first table needs manual driving; read nothing until then
         manual = self._trips(b for b in batches if b.kind == "manual")
         corrections = self._trips(b for b in batches if b.kind != "manual")
+        args = (manual, corrections, None if relearn else previous, driver_id, condition)
         try:
-            if relearn:
-                table = learn_dgpt(
-                    manual, driver_id=driver_id, condition=condition, seed=cfg.seed, config=cfg.irl
-                ).table
+            if self.compute is None:
+                table = train_table(*args, cfg.seed, cfg.irl)
             else:
-                assert previous is not None
-                table = previous
-            if corrections:
-                table = fine_tune(corrections, table, seed=cfg.seed, config=cfg.irl).table
+                table = self.compute.call(train_table, *args, cfg.seed, cfg.irl)
         except DemoError as exc:  # not enough evidence yet: wait for more batches
             log.info("learning %s/%s waits for data: %s", driver_id, condition, exc)
             return None
@@ -371,6 +390,29 @@ class CloudService:
         return public_pem(self.key)
 
 
+def train_table(
+    manual: list[Trip],
+    corrections: list[Trip],
+    previous: Dgpt | None,
+    driver_id: str,
+    condition: str,
+    seed: int,
+    irl: IrlConfig | None,
+) -> Dgpt:
+    """A learning job's training, pure: a table learned from the ``manual`` trips (or
+    ``previous`` when None is to be relearned), then fine-tuned with the ``corrections``
+    (takeover and ACC trips). DemoError if the data are not enough yet."""
+    if previous is None:
+        table = learn_dgpt(
+            manual, driver_id=driver_id, condition=condition, seed=seed, config=irl
+        ).table
+    else:
+        table = previous
+    if corrections:
+        table = fine_tune(corrections, table, seed=seed, config=irl).table
+    return table
+
+
 def _digest(batch: BatchRow) -> str:
     return batch.digest
 
@@ -400,4 +442,5 @@ __all__ = [
     "InlineExecutor",
     "ServiceConfig",
     "read_trip_bytes",
+    "train_table",
 ]

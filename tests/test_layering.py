@@ -34,6 +34,9 @@ LAYERS: tuple[tuple[str, int], ...] = (
     ("cloud_sync", 3),
     ("sim_bus", 4),
     ("pacc", 5),
+    # the study's drives as engine tasks: it runs sim_bus.drive (an entry point) and is kept
+    # out of the sim_bus.study package only so that a worker does not import the harness
+    ("sim_bus.drive_tasks", 5),
     ("tools", 6),
     ("tests", 7),
     ("bench", 7),

@@ -9,15 +9,18 @@ its trials, as the paper's cells average three.
 
 Every drive is a pure function of (driver, scenario, controller, study seed, trial): the
 scenarios and the IRL tables come from the study seed, the drive's noise from
-``seed + trial``. Drives run in a process pool and the results do not depend on the number
-of workers.
+``seed + trial``. Drives run on an engine (:mod:`cloud_sync.engine`: this process, a local
+process pool, or a Dask cluster with ``--scheduler``) and the results depend on neither the
+engine nor its number of workers.
 
 The harness sits on top of the simulator (it only calls ``sim_bus.drive``), one concept per
 module:
 
 - :mod:`sim_bus.study.config`: :class:`StudyConfig` and its validation, which resolves the
   drivers (built-in names or driver files) to their ids before anything is learned or run;
-- :mod:`sim_bus.study.run`: the tables, the plan of drives, the worker pool, the outputs;
+- :mod:`sim_bus.study.run`: the tables, the plan of drives, the engine, the outputs (each
+  drive an engine task of :mod:`sim_bus.drive_tasks`);
+- :mod:`sim_bus.study.collect`: the rows as drives finish, keyed, into ``drives.csv``;
 - :mod:`sim_bus.study.report`: Table I in Markdown, ``drives.csv`` and the plot;
 - :mod:`sim_bus.study.cli`: the command line (``main(argv)``, also ``python -m sim_bus.study``).
 

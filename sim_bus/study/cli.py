@@ -15,6 +15,7 @@ from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES
 from sim_bus.drive import CONTROLLERS, adaptation_params
 from sim_bus.errors import SimError
+from sim_bus.study.collect import StudyInterrupted
 from sim_bus.study.config import StudyConfig
 from sim_bus.study.run import run_study
 
@@ -44,6 +45,12 @@ def _parser() -> argparse.ArgumentParser:
         type=int,
         default=min(2, os.cpu_count() or 1),
         help="parallel drive processes (default: 2 or the core count)",
+    )
+    p.add_argument(
+        "--scheduler",
+        metavar="local|tcp://HOST:8786",
+        help="run the drives and the learning on Dask: 'local' starts a LocalCluster of "
+        "--workers processes, an address joins that cluster (docs/scale.md; needs pacc[dask])",
     )
     p.add_argument("--out", type=Path, default=Path("out/study"), help="output folder")
     p.add_argument("--no-logs", action="store_true", help="do not write MCAP logs")
@@ -96,11 +103,15 @@ def main(argv: list[str] | None = None) -> int:
         incremental=args.incremental,
         dbc=args.dbc,
         binding=args.binding,
+        scheduler=args.scheduler,
     )
     try:
         codec_of(args)  # a DBC without its binding, a binding that does not fit: refused now
         start = time.perf_counter()
         rows = run_study(cfg, args.out, cache_dir=args.cache, progress=not args.quiet)
+    except StudyInterrupted as exc:
+        print(f"pacc study: {exc}", file=sys.stderr)
+        return 130
     except (SimError, EcuError, CloudSyncError, DbcError, OSError) as exc:
         print(f"pacc study: error: {exc}", file=sys.stderr)
         return 2

@@ -22,7 +22,10 @@ class StudyConfig:
     of ``token_file``, whose tables are verified with ``trust``. ``direct``: no cloud, learn
     in-process (cached). ``incremental``: N > 0 runs the incremental-learning experiment
     (N trips per driver through the cloud) instead of Table I. ``dbc``/``binding``: the
-    vehicle network every drive runs on (docs/vehicles.md; None: the packaged pacc network)."""
+    vehicle network every drive runs on (docs/vehicles.md; None: the packaged pacc network).
+    ``scheduler``: where the drives run: None, ``workers`` local processes; ``"local"``, a
+    Dask ``LocalCluster`` of ``workers`` processes; a Dask scheduler's address
+    (``tcp://HOST:8786``), that cluster (docs/scale.md)."""
 
     drivers: tuple[str, ...] = ("d1", "d2", "d3", "d4", "d5")
     scenarios: tuple[str, ...] = ("A", "B")
@@ -40,6 +43,7 @@ class StudyConfig:
     incremental: int = 0
     dbc: str | None = None  # the vehicle network of every drive (None: pacc's)
     binding: str | None = None
+    scheduler: str | None = None
 
 
 def _validate_cloud(cfg: StudyConfig) -> None:
@@ -47,6 +51,10 @@ def _validate_cloud(cfg: StudyConfig) -> None:
         raise SimError("--incremental must be >= 0")
     if cfg.direct and (cfg.cloud is not None or cfg.incremental):
         raise SimError("--direct learns without a cloud: not with --cloud or --incremental")
+    if cfg.scheduler is not None and cfg.incremental:
+        raise SimError("--incremental drives one trip after another: not with --scheduler")
+    if cfg.scheduler is not None and not cfg.scheduler.strip():
+        raise SimError("--scheduler needs 'local' or a Dask scheduler address (tcp://HOST:8786)")
     if cfg.cloud is not None and not (cfg.token_file and cfg.trust):
         raise SimError("--cloud needs --token-file F and --trust KEY.pub")
 

@@ -23,6 +23,7 @@ from typing import Any
 from cloud_sync.api import CloudApi, CloudError
 from cloud_sync.connect import connect, read_token
 from cloud_sync.download import ProfileDownloader
+from cloud_sync.engine import Engine
 from cloud_sync.errors import CloudSyncError
 from cloud_sync.local import LocalCloud
 from cloud_sync.service import CloudService, DeferredExecutor, ServiceConfig
@@ -32,6 +33,7 @@ from cloud_sync.uploader import Uploader, UploaderConfig
 from ecu.dgpt import Dgpt
 from ecu.triplog import Trip
 from sim_bus.drive import DriveConfig, run_drive
+from sim_bus.drive_tasks import manual_trips_task
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import SimError
 from sim_bus.irl_table import manual_trips
@@ -53,12 +55,23 @@ class StudyCloud:
     spool: Spool
 
     @classmethod
-    def embedded(cls, out: Path, drivers: Mapping[str, DriverParams], seed: int) -> StudyCloud:
+    def embedded(
+        cls,
+        out: Path,
+        drivers: Mapping[str, DriverParams],
+        seed: int,
+        compute: Engine | None = None,
+    ) -> StudyCloud:
         """A fresh embedded cloud under ``out/cloud`` (a previous study's is replaced) with
-        the study's vehicle and every driver registered."""
+        the study's vehicle and every driver registered. ``compute``: where its learning jobs
+        train (None: in this thread); a distributed engine trains as many drivers at once as
+        it has workers."""
         for folder in (out / "cloud", out / "spool"):
             shutil.rmtree(folder, ignore_errors=True)
-        service = CloudService.open(out / "cloud", DeferredExecutor(), ServiceConfig(seed=seed))
+        threads = compute.workers if compute is not None and compute.distributed else 1
+        service = CloudService.open(
+            out / "cloud", DeferredExecutor(threads), ServiceConfig(seed=seed), compute
+        )
         token = service.register_vehicle(STUDY_VEHICLE)
         for driver_id in drivers:
             service.register_driver(STUDY_VEHICLE, driver_id)
@@ -117,14 +130,25 @@ class StudyCloud:
 
 
 def cloud_irl_tables(
-    cloud: StudyCloud, drivers: Mapping[str, DriverParams], seed: int
+    cloud: StudyCloud,
+    drivers: Mapping[str, DriverParams],
+    seed: int,
+    engine: Engine | None = None,
 ) -> dict[str, Dgpt]:
-    """Driver id -> the IRL table the vehicle downloaded after uploading the manual trips."""
-    tables: dict[str, Dgpt] = {}
-    for driver_id, driver in drivers.items():
-        trips = manual_trips(driver, seed)
+    """Driver id -> the IRL table the vehicle downloaded after uploading the manual trips.
+    Every driver's trips go up first (in driver order), so an embedded cloud with a
+    distributed engine learns the drivers side by side at the first download; a distributed
+    ``engine`` also drives the manual trips."""
+    made: dict[int, list[Trip]] = {}
+    if engine is not None and engine.distributed:
+        made = dict(engine.map_unordered(manual_trips_task, seed, list(drivers.values())))
+    conditions: dict[str, str] = {}
+    for index, (driver_id, driver) in enumerate(drivers.items()):
+        trips = made.pop(index) if index in made else manual_trips(driver, seed)
         cloud.upload(trips)
-        condition = str(trips[0].meta.get("condition", "default"))
+        conditions[driver_id] = str(trips[0].meta.get("condition", "default"))
+    tables: dict[str, Dgpt] = {}
+    for driver_id, condition in conditions.items():
         table = cloud.table(driver_id, condition)
         if table is None:
             raise SimError(

@@ -1,28 +1,30 @@
-"""Running a study: the control tables, the plan of drives, the worker pool, the outputs.
+"""Running a study: the control tables, the plan of drives, the engine, the outputs.
 
-Every drive is a :class:`DriveJob`, everything a worker process needs (picklable); the rows
-come back in plan order whatever the number of workers.
+Every drive is a :class:`DriveJob`. To the engine (:mod:`cloud_sync.engine`: in-process, local
+processes or a Dask cluster) the study ships what the drives share once, as
+:class:`StudyData` (drivers, tables, lead profiles), and each drive as a small
+:class:`DriveTask`; the rows stream back as drives finish and come out in plan order whatever
+the engine and its number of workers.
 """
 
 from __future__ import annotations
 
-import multiprocessing
 import sys
-from collections.abc import Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from tqdm import tqdm
 
-from ecu.adaptation import AdaptationParams
+from cloud_sync.engine import Engine, open_engine
 from ecu.dgpt import Dgpt, save_dgpt
-from ecu.triplog import write_trip
-from sim_bus.drive import DriveConfig, log_to_trip, predefined_table, run_drive
+from ecu.triplog import Trip, write_trip
+from sim_bus.drive import predefined_table
+from sim_bus.drive_tasks import DriveJob, run_task, split
 from sim_bus.drivers import DriverParams
+from sim_bus.errors import SimError
 from sim_bus.irl_table import irl_table
-from sim_bus.scenarios import canonical_profiles
+from sim_bus.study.collect import RowJournal, RowKey, collect
 from sim_bus.study.config import StudyConfig, validate
 from sim_bus.study.incremental_report import (
     format_incremental,
@@ -30,71 +32,20 @@ from sim_bus.study.incremental_report import (
     write_incremental_csv,
 )
 from sim_bus.study.loop import StudyCloud, cloud_irl_tables, run_incremental
-from sim_bus.study.report import format_table, plot, write_csv
+from sim_bus.study.report import format_table, plot
 
 
-@dataclass(frozen=True)
-class DriveJob:
-    """One drive of the study; everything a worker process needs, picklable."""
-
-    driver: DriverParams
-    scenario: str
-    controller: str
-    trial: int
-    study_seed: int
-    duration_s: float | None
-    table: Dgpt
-    log_path: str | None
-    adaptation: AdaptationParams | None = None
-    dbc: str | None = None
-    binding: str | None = None
-
-
-def run_job(job: DriveJob) -> dict[str, Any]:
-    """Run one drive (in a worker process) and return its row of drives.csv."""
-    driver = job.driver
-    seed = job.study_seed + job.trial
-    cfg = DriveConfig(
-        scenario=job.scenario,
-        driver_id=driver.driver_id,
-        controller=job.controller,  # type: ignore[arg-type]
-        seed=seed,
-        duration_s=job.duration_s,
-        adaptation=job.adaptation,
-        dbc=job.dbc,
-        binding=job.binding,
-    )
-    profile = canonical_profiles(job.study_seed)[job.scenario]
-    result = run_drive(cfg, driver, job.table, profile)
-    if job.log_path is not None:
-        write_trip(Path(job.log_path), log_to_trip(result, driver))
-    m = result.metrics
-    return {
-        "driver": driver.driver_id,
-        "scenario": job.scenario,
-        "controller": job.controller,
-        "trial": job.trial,
-        "seed": seed,
-        "poi_pct": m.poi_pct,
-        "nim_per_min": m.nim_per_min,
-        "press_onsets": m.press_onsets,
-        "acc_on_s": m.acc_on_s,
-        "min_gap_m": m.min_gap_m,
-        "min_ttc_s": m.min_ttc_s,
-        "rms_jerk_mps3": m.rms_jerk_mps3,
-        "gap_error_rms_m": m.gap_error_rms_m,
-        "takeovers": result.takeovers,
-        "adaptations": result.adaptations,
-        "collision": int(result.collision),
-        "sim_s": result.sim_s,
-        "wall_s": result.wall_s,
-    }
-
-
-def study_cloud(cfg: StudyConfig, drivers: Mapping[str, DriverParams], out: Path) -> StudyCloud:
-    """The study's cloud: the one of ``cfg.cloud``, or a fresh embedded one under ``out``."""
+def study_cloud(
+    cfg: StudyConfig,
+    drivers: Mapping[str, DriverParams],
+    out: Path,
+    engine: Engine | None = None,
+) -> StudyCloud:
+    """The study's cloud: the one of ``cfg.cloud``, or a fresh embedded one under ``out``
+    (training on ``engine`` if it is distributed)."""
     if cfg.cloud is None:
-        return StudyCloud.embedded(out, drivers, cfg.seed)
+        compute = engine if engine is not None and engine.distributed else None
+        return StudyCloud.embedded(out, drivers, cfg.seed, compute)
     assert cfg.token_file is not None and cfg.trust is not None  # validate() checked
     return StudyCloud.remote(cfg.cloud, Path(cfg.token_file), Path(cfg.trust), out)
 
@@ -104,12 +55,14 @@ def tables_for(
     drivers: Mapping[str, DriverParams],
     cache_dir: Path | None,
     cloud: StudyCloud | None = None,
+    engine: Engine | None = None,
 ) -> dict[tuple[str, str], Dgpt]:
     """(driver id, "predefined" | "irl") -> the control table: predefined, or learned by IRL
-    in ``cloud`` (uploaded manual trips, downloaded verified table) or in-process (cached)."""
+    in ``cloud`` (uploaded manual trips, downloaded verified table; the trips made on
+    ``engine`` if it is distributed) or in-process (cached)."""
     tables: dict[tuple[str, str], Dgpt] = {}
     needs_irl = any(c.startswith("irl") for c in cfg.controllers)
-    learned = cloud_irl_tables(cloud, drivers, cfg.seed) if cloud and needs_irl else {}
+    learned = cloud_irl_tables(cloud, drivers, cfg.seed, engine) if cloud and needs_irl else {}
     for driver_id, driver in drivers.items():
         if any(c.startswith("predefined") for c in cfg.controllers):
             tables[(driver_id, "predefined")] = predefined_table(driver)
@@ -157,52 +110,112 @@ def plan(
     return jobs
 
 
-def run_jobs(jobs: Sequence[DriveJob], workers: int, progress: bool = True) -> list[dict[str, Any]]:
-    """Run ``jobs`` on ``workers`` processes (1: in this process); rows in job order."""
+def _job_key(job: DriveJob) -> RowKey:
+    return (job.driver.driver_id, job.scenario, job.controller, job.trial)
+
+
+def run_jobs(
+    jobs: Sequence[DriveJob],
+    workers: int,
+    progress: bool = True,
+    *,
+    engine: Engine | None = None,
+    csv_path: Path | None = None,
+) -> list[dict[str, Any]]:
+    """Run ``jobs`` on ``engine`` (None: ``workers`` local processes, 1: this process); rows
+    in job order. Each finished drive's log is written at once and, with ``csv_path``, its
+    row appended there (rewritten in job order at the end, or with the finished rows on
+    Ctrl-C: :class:`~sim_bus.study.collect.StudyInterrupted`)."""
+    data, tasks = split(jobs)
+    keys = [_job_key(job) for job in jobs]
+    if len(set(keys)) != len(keys):
+        raise SimError("two drives of the plan share a (driver, scenario, controller, trial)")
     bar = tqdm(total=len(jobs), desc="drives", unit="drive", disable=not progress, file=sys.stderr)
-    rows: list[dict[str, Any]] = []
+    own = engine is None
+    running = open_engine(None, workers) if engine is None else engine
+    journal = RowJournal(csv_path) if csv_path is not None else None
     try:
-        if workers <= 1:
-            for job in jobs:
-                rows.append(run_job(job))
-                bar.update()
-            return rows
-        ctx = multiprocessing.get_context("spawn" if sys.platform != "linux" else "fork")
-        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-            for row in pool.map(run_job, jobs, chunksize=1):
-                rows.append(row)
-                bar.update()
-        return rows
+        return collect(
+            _rows(running.map_unordered(run_task, data, tasks), jobs, bar), keys, journal=journal
+        )
     finally:
         bar.close()
+        if own:
+            running.close()
+
+
+def _rows(
+    results: Iterator[tuple[int, tuple[dict[str, Any], Trip | None]]],
+    jobs: Sequence[DriveJob],
+    bar: tqdm[Any],
+) -> Iterator[tuple[int, dict[str, Any]]]:
+    """(index, row) of each finished drive, its trip log written first (atomically)."""
+    try:
+        for index, (row, trip) in results:
+            log_path = jobs[index].log_path
+            if trip is not None and log_path is not None:
+                write_trip(Path(log_path), trip)
+            bar.update()
+            yield index, row
+    finally:
+        close = getattr(results, "close", None)
+        if close is not None:
+            close()
 
 
 def run_study(
-    cfg: StudyConfig, out: Path, *, cache_dir: Path | None = None, progress: bool = True
+    cfg: StudyConfig,
+    out: Path,
+    *,
+    cache_dir: Path | None = None,
+    progress: bool = True,
+    engine: Engine | None = None,
 ) -> list[dict[str, Any]]:
     """Check ``cfg`` and make the output folders, then learn the tables, run every drive and
-    write the outputs to ``out``; the rows. Every error of the configuration or the output
-    folder (SimError, OSError) comes before anything is learned."""
+    write the outputs to ``out``; the rows. Every error of the configuration, the output
+    folder or the engine (SimError, OSError, EngineError) comes before anything is learned.
+    ``engine``: where the drives run (None: the one ``cfg.scheduler`` and ``cfg.workers``
+    name, opened here and closed at the end)."""
     drivers = validate(cfg)
     out.mkdir(parents=True, exist_ok=True)
     (out / "irl").mkdir(exist_ok=True)
     if cfg.logs:
         (out / "logs").mkdir(exist_ok=True)
-    cloud = None if cfg.direct else study_cloud(cfg, drivers, out)
-    if cfg.incremental:
-        assert cloud is not None
-        irl = cloud_irl_tables(cloud, drivers, cfg.seed)
-        rows = run_incremental(cfg, drivers, cloud, irl)
-        write_incremental_csv(out / "incremental.csv", rows)
-        (out / "incremental.md").write_text(format_incremental(rows), encoding="utf-8")
-        plot_incremental(out / "incremental.png", rows)
-        return rows
-    tables = tables_for(cfg, drivers, cache_dir, cloud)
+    if cfg.incremental:  # trips one after another, each on the previous trip's table
+        return _run_incremental(cfg, drivers, out)
+    if engine is not None:
+        return _run_table1(cfg, drivers, out, cache_dir, progress, engine)
+    with open_engine(cfg.scheduler, cfg.workers) as own:
+        return _run_table1(cfg, drivers, out, cache_dir, progress, own)
+
+
+def _run_incremental(
+    cfg: StudyConfig, drivers: Mapping[str, DriverParams], out: Path
+) -> list[dict[str, Any]]:
+    cloud = study_cloud(cfg, drivers, out)
+    irl = cloud_irl_tables(cloud, drivers, cfg.seed)
+    rows = run_incremental(cfg, drivers, cloud, irl)
+    write_incremental_csv(out / "incremental.csv", rows)
+    (out / "incremental.md").write_text(format_incremental(rows), encoding="utf-8")
+    plot_incremental(out / "incremental.png", rows)
+    return rows
+
+
+def _run_table1(
+    cfg: StudyConfig,
+    drivers: Mapping[str, DriverParams],
+    out: Path,
+    cache_dir: Path | None,
+    progress: bool,
+    engine: Engine,
+) -> list[dict[str, Any]]:
+    cloud = None if cfg.direct else study_cloud(cfg, drivers, out, engine)
+    tables = tables_for(cfg, drivers, cache_dir, cloud, engine)
     for (driver_id, kind), table in tables.items():
         if kind == "irl":
             save_dgpt(table, out / "irl" / f"{driver_id}.json")
-    rows = run_jobs(plan(cfg, drivers, tables, out), cfg.workers, progress)
-    write_csv(out / "drives.csv", rows)
+    jobs = plan(cfg, drivers, tables, out)
+    rows = run_jobs(jobs, cfg.workers, progress, engine=engine, csv_path=out / "drives.csv")
     (out / "table1.md").write_text(format_table(cfg, rows), encoding="utf-8")
     plot(out / "study.png", rows)
     return rows

@@ -1,0 +1,200 @@
+"""Benchmark: a study's drives on a Dask LocalCluster against the local process pool.
+
+Run: ``.venv/bin/python bench/scale.py [--workers 2] [--drivers d1,d2,d3,d4,d5] [--trials 2]
+[--duration 60]``.
+
+- the plan: every driver × scenario B × (predefined, predefined + OA) × trials, each a
+  DURATION-s lockstep drive through the virtual bus with the full ECU, trip logs written
+  (predefined tables: nothing to learn, the drives alone are measured);
+- local process pool (the named peer, ``pacc study --workers N``): the plan through
+  ``sim_bus.study.run.run_jobs`` on :class:`cloud_sync.engine.ProcessEngine`;
+- Dask: the same plan on a ``LocalCluster`` of N single-threaded worker processes
+  (``pacc study --scheduler local``), after one warm-up drive per worker (the cluster's start
+  and the workers' first imports are printed apart: a study pays them once);
+- the two alternate, ROUNDS rounds (pool, Dask, pool, Dask ...: a shared machine's load
+  falls on both), each round's times printed with the share of the workers' time spent
+  inside drives ("busy"), the ratio of the best of each;
+- per-task overhead: no-op tasks through each engine, ms per task (wall time × workers /
+  tasks), and the drive runs' difference spread over their drives.
+
+Both runs must give the same rows (wall time aside), or the script fails. The last line is
+``scale: R x the process pool`` (drives per second, Dask over the pool; goal >= 0.9).
+
+``--learn``: instead, per-driver learning: each driver's four manual trips uploaded to a fresh
+embedded cloud (``sim_bus.study.loop.StudyCloud``) and its IRL table learned and downloaded,
+in this thread (the named peer, as ``pacc study`` without ``--scheduler``) and on the Dask
+LocalCluster (drivers side by side); seconds per driver, the same tables on both, the bytes
+the cloud stores per driver. Last line ``learn: R x in-process``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from cloud_sync.dask_engine import DaskEngine
+from cloud_sync.engine import Engine, ProcessEngine
+from sim_bus.irl_table import manual_trips
+from sim_bus.study import run as study_run
+from sim_bus.study.config import StudyConfig, validate
+from sim_bus.study.loop import StudyCloud
+
+NOOP_TASKS = 400
+
+
+def noop(shared: bytes, task: int) -> int:
+    """A task that does nothing but read the shared data: the engine's own cost."""
+    return task + len(shared)
+
+
+def per_task_ms(engine: Engine, tasks: int = NOOP_TASKS) -> float:
+    """Wall time × workers / tasks of ``tasks`` no-op tasks, ms."""
+    start = time.perf_counter()
+    done = sum(1 for _ in engine.map_unordered(noop, b"x" * 1024, list(range(tasks))))
+    took = time.perf_counter() - start
+    assert done == tasks
+    return took * engine.workers / tasks * 1e3
+
+
+def timed_drives(
+    engine: Engine, jobs: list[Any], workers: int
+) -> tuple[float, list[dict[str, Any]]]:
+    """Wall seconds of the plan on ``engine`` and its rows."""
+    start = time.perf_counter()
+    rows = study_run.run_jobs(jobs, workers, progress=False, engine=engine)
+    return time.perf_counter() - start, rows
+
+
+def _without_wall(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    return [{k: v for k, v in r.items() if k != "wall_s"} for r in rows]
+
+
+def learn_seconds(
+    drivers: dict[str, Any], out: Path, compute: Engine | None
+) -> tuple[float, float, dict[str, Any]]:
+    """Wall seconds to make and upload every driver's manual trips to a fresh embedded cloud,
+    then to learn and download every table (as ``cloud_irl_tables``); the tables."""
+    cloud = StudyCloud.embedded(out, drivers, 0, compute)
+    start = time.perf_counter()
+    conditions = {}
+    for driver_id, driver in drivers.items():
+        trips = manual_trips(driver, 0)
+        cloud.upload(trips)
+        conditions[driver_id] = str(trips[0].meta.get("condition", "default"))
+    uploaded = time.perf_counter()
+    tables = {d: cloud.table(d, c) for d, c in conditions.items()}
+    return uploaded - start, time.perf_counter() - uploaded, tables
+
+
+def folder_bytes(folder: Path) -> int:
+    """Bytes of the files under ``folder``."""
+    return sum(p.stat().st_size for p in folder.rglob("*") if p.is_file())
+
+
+def bench_learning(names: tuple[str, ...], workers: int) -> int:
+    """The ``--learn`` benchmark (module docstring); 1 if the tables differ."""
+    drivers = validate(StudyConfig(drivers=names, controllers=("irl",), direct=True))
+    with tempfile.TemporaryDirectory() as tmp:
+        up_s, inline_s, inline = learn_seconds(drivers, Path(tmp) / "inline", None)
+        with DaskEngine.local(workers) as dask:
+            dask.client.run(importlib.import_module, "cloud_sync.trainer")  # first imports
+            _, dask_s, remote = learn_seconds(drivers, Path(tmp) / "dask", dask)
+        blobs = folder_bytes(Path(tmp) / "inline" / "cloud" / "blobs")
+        versions = folder_bytes(Path(tmp) / "inline" / "cloud" / "dgpt")
+        index = (Path(tmp) / "inline" / "cloud" / "index.sqlite").stat().st_size
+    n = len(drivers)
+    same = all((inline[d].gap_m == remote[d].gap_m).all() for d in drivers)
+    print(f"learning {n} drivers (4 manual trips each, 20 min of 10 Hz demonstrations)")
+    print(f"making and uploading the trips (in this process): {up_s / n:.2f} s per driver")
+    print(f"in-process: {inline_s:.1f} s, {inline_s / n:.2f} s per driver")
+    print(f"dask LocalCluster ({workers} workers): {dask_s:.1f} s, {dask_s / n:.2f} s per driver")
+    print(f"tables identical: {same}")
+    print(
+        f"stored per driver: {blobs / n / 1e6:.2f} MB of trips, {versions / n / 1e3:.1f} kB of "
+        f"signed tables (one version), index {index / 1e3:.0f} kB for all {n}"
+    )
+    print(f"learn: {inline_s / dask_s:.2f}x in-process")
+    return 0 if same else 1
+
+
+def _busy(rows: list[dict[str, Any]], wall_s: float, workers: int) -> float:
+    """The share of the workers' time spent inside drives (their own wall_s): what the
+    engine leaves to the work, whatever the load of a shared machine."""
+    return sum(float(r["wall_s"]) for r in rows) / (wall_s * workers)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the benchmark; 1 if the two engines' rows differ."""
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--drivers", default="d1,d2,d3,d4,d5")
+    p.add_argument("--trials", type=int, default=2)
+    p.add_argument("--duration", type=float, default=60.0, help="simulated s per drive")
+    p.add_argument("--rounds", type=int, default=2, help="alternating runs of each engine")
+    p.add_argument("--learn", action="store_true", help="benchmark per-driver learning instead")
+    args = p.parse_args(argv)
+    if args.learn:
+        return bench_learning(tuple(args.drivers.split(",")), args.workers)
+    cfg = StudyConfig(
+        drivers=tuple(args.drivers.split(",")),
+        scenarios=("B",),
+        controllers=("predefined", "predefined+oa"),
+        trials=args.trials,
+        duration_s=args.duration,
+        workers=args.workers,
+        direct=True,
+    )
+    drivers = validate(cfg)
+    tables = study_run.tables_for(cfg, drivers, None)
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp)
+        (out / "logs").mkdir()
+        jobs = study_run.plan(cfg, drivers, tables, out)
+        n = len(jobs)
+        print(f"plan: {n} drives of {args.duration:.0f} s, {args.workers} workers, logs written")
+
+        pool = ProcessEngine(args.workers)
+        start = time.perf_counter()
+        with DaskEngine.local(args.workers) as dask:
+            started = time.perf_counter() - start
+            warm = time.perf_counter()
+            timed_drives(dask, jobs[: args.workers], args.workers)  # first imports per worker
+            warm_s = time.perf_counter() - warm
+            print(f"dask LocalCluster: start {started:.2f} s, warm-up {warm_s:.2f} s (once)")
+            pool_times, dask_times = [], []
+            for rnd in range(args.rounds):
+                pool_s, pool_rows = timed_drives(pool, jobs, args.workers)
+                dask_s, dask_rows = timed_drives(dask, jobs, args.workers)
+                pool_times.append(pool_s)
+                dask_times.append(dask_s)
+                pool_busy = _busy(pool_rows, pool_s, args.workers)
+                dask_busy = _busy(dask_rows, dask_s, args.workers)
+                print(
+                    f"round {rnd + 1}: process pool {pool_s:.2f} s ({n / pool_s:.2f} drives/s, "
+                    f"busy {pool_busy:.0%}), dask {dask_s:.2f} s ({n / dask_s:.2f} drives/s, "
+                    f"busy {dask_busy:.0%})"
+                )
+            pool_task_ms = per_task_ms(pool)
+            dask_task_ms = per_task_ms(dask)
+        pool_s, dask_s = min(pool_times), min(dask_times)
+
+    if _without_wall(dask_rows) != _without_wall(pool_rows):
+        print("the two engines gave different rows", file=sys.stderr)
+        return 1
+    print(f"rows: {n} identical on both engines (wall time aside)")
+    spread_ms = (dask_s - pool_s) * args.workers / n * 1e3
+    print(
+        f"per-task overhead (no-op tasks): dask {dask_task_ms:.2f} ms, pool {pool_task_ms:.2f} ms; "
+        f"in the drive runs: dask {spread_ms:+.1f} ms per drive against the pool"
+    )
+    print(f"scale: {pool_s / dask_s:.2f}x the process pool (drives/s, goal >= 0.9)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

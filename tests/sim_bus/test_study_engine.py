@@ -1,0 +1,173 @@
+"""A study on the engines: the same rows in-process and on a Dask LocalCluster, every row
+exactly once when a worker is killed mid-run, the finished rows kept on Ctrl-C."""
+
+from __future__ import annotations
+
+import csv
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
+from typing import Any, TypeVar
+
+import pytest
+
+from cloud_sync.engine import Engine, InlineEngine
+from ecu.triplog import read_trip
+from sim_bus.study import StudyConfig, main, run_study
+from sim_bus.study.collect import row_key
+
+S = TypeVar("S")
+T = TypeVar("T")
+R = TypeVar("R")
+
+ROOT = Path(__file__).resolve().parents[2]
+
+#: 4 short drives with predefined tables (no learning): 2 drivers × 2 controllers
+TINY = StudyConfig(
+    drivers=("d1", "d3"),
+    scenarios=("B",),
+    controllers=("predefined", "predefined+oa"),
+    trials=1,
+    seed=5,
+    duration_s=15.0,
+    workers=2,
+    direct=True,
+)
+
+
+def _without_wall(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    return [{k: v for k, v in r.items() if k != "wall_s"} for r in rows]
+
+
+def _csv_without_wall(path: Path) -> list[dict[str, str]]:
+    with path.open(newline="") as fh:
+        return [{k: v for k, v in r.items() if k != "wall_s"} for r in csv.DictReader(fh)]
+
+
+@pytest.fixture(scope="module")
+def inline(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[dict[str, Any]]]:
+    """The tiny study in this process: the reference rows."""
+    out = tmp_path_factory.mktemp("inline")
+    return out, run_study(TINY, out, progress=False, engine=InlineEngine())
+
+
+def test_dask_gives_the_rows_of_the_in_process_run(
+    inline: tuple[Path, list[dict[str, Any]]], dask_cluster: Engine, tmp_path: Path
+) -> None:
+    ref_out, ref = inline
+    rows = run_study(TINY, tmp_path, progress=False, engine=dask_cluster)
+    assert len(rows) == 4 and len({row_key(r) for r in rows}) == 4
+    assert _without_wall(rows) == _without_wall(ref)  # bit-identical figures, plan order
+    assert _csv_without_wall(tmp_path / "drives.csv") == _csv_without_wall(ref_out / "drives.csv")
+    logs = sorted(p.name for p in (tmp_path / "logs").iterdir())
+    assert logs == sorted(p.name for p in (ref_out / "logs").iterdir()) and len(logs) == 4
+    ours, theirs = read_trip(tmp_path / "logs" / logs[0]), read_trip(ref_out / "logs" / logs[0])
+    assert (ours.gap_m == theirs.gap_m).all() and ours.meta == theirs.meta
+
+
+class KillOnce(Engine):
+    """The Dask engine, but after the first result it SIGKILLs a worker process that is
+    running a task (its nanny starts a new one; the scheduler reruns the task)."""
+
+    name = "dask-kill"
+
+    def __init__(self, inner: Engine) -> None:
+        # the import costs ~1 s: only the sessions with a distributed test pay it
+        from cloud_sync.dask_engine import DaskEngine  # noqa: PLC0415
+
+        assert isinstance(inner, DaskEngine)
+        self.inner: DaskEngine = inner
+        self.killed_pid: int | None = None
+        self.killed_keys: list[str] = []
+
+    @property
+    def workers(self) -> int:
+        return self.inner.workers
+
+    def map_unordered(
+        self, fn: Callable[[S, T], R], shared: S, tasks: Sequence[T]
+    ) -> Iterator[tuple[int, R]]:
+        for item in self.inner.map_unordered(fn, shared, tasks):
+            yield item
+            if self.killed_pid is None:
+                self._kill_a_busy_worker()
+
+    def _kill_a_busy_worker(self) -> None:
+        client = self.inner.client
+        deadline = time.monotonic() + 10.0
+        while time.monotonic() < deadline:
+            busy = {addr: keys for addr, keys in client.processing().items() if keys}
+            if busy:
+                addr, keys = next(iter(busy.items()))
+                pid = client.run(os.getpid, workers=[addr])[addr]
+                self.killed_keys = [str(k) for k in keys]
+                os.kill(pid, signal.SIGKILL)
+                self.killed_pid = pid
+                return
+            time.sleep(0.01)
+        raise AssertionError("no worker was running a task")
+
+
+def test_a_worker_killed_mid_run_still_gives_every_row_once(
+    inline: tuple[Path, list[dict[str, Any]]], dask_cluster: Engine, tmp_path: Path
+) -> None:
+    _, ref = inline
+    engine = KillOnce(dask_cluster)
+    cfg = StudyConfig(**{**TINY.__dict__, "logs": False})
+    rows = run_study(cfg, tmp_path, progress=False, engine=engine)
+    assert engine.killed_pid is not None and engine.killed_keys  # it was mid-task
+    assert _without_wall(rows) == _without_wall(ref)  # none lost, none twice, same figures
+    with (tmp_path / "drives.csv").open(newline="") as fh:
+        assert [row_key(r) for r in csv.DictReader(fh)] == [row_key(r) for r in ref]
+    client = dask_cluster.client  # type: ignore[attr-defined]
+    client.wait_for_workers(2, timeout=60)  # the nanny restarted it
+    pids = set(client.run(os.getpid).values())
+    assert len(pids) == 2 and engine.killed_pid not in pids
+
+
+def test_ctrl_c_keeps_the_finished_rows_in_plan_order(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    argv = ["--direct", "--drivers", "d1,d3", "--scenarios", "B"]
+    argv += ["--controllers", "predefined", "--trials", "4", "--duration", "15", "--seed", "5"]
+    argv += ["--workers", "1", "--no-logs", "-q", "--out", str(out)]
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pacc", "study", *argv],
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    csv_path = out / "drives.csv"
+    deadline = time.monotonic() + 60.0
+    while time.monotonic() < deadline and proc.poll() is None:
+        if csv_path.is_file() and len(csv_path.read_text().splitlines()) >= 3:  # 2 rows
+            break
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    with csv_path.open(newline="") as fh:
+        kept = list(csv.DictReader(fh))
+    assert 2 <= len(kept) < 8
+    assert f"interrupted: {len(kept)} of 8 drives finished and kept in {csv_path}" in err
+    order = [("d1", str(t)) for t in range(4)] + [("d3", str(t)) for t in range(4)]
+    assert [(r["driver"], r["trial"]) for r in kept] == order[: len(kept)]  # plan order
+    assert all(float(r["sim_s"]) == pytest.approx(15.0, abs=0.2) for r in kept)  # whole rows
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--scheduler", " "], "--scheduler needs 'local' or a Dask scheduler address"),
+        (["--scheduler", "local", "--incremental", "2"], "not with --scheduler"),
+    ],
+)
+def test_bad_scheduler_options(
+    argv: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main([*argv, "--out", str(tmp_path), "-q"]) == 2
+    assert message in capsys.readouterr().err
