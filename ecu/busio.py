@@ -181,6 +181,8 @@ class BusIO:
         self.pedals = PedalScale.from_codec(codec)
         self.limits = OutputLimits.from_codec(codec)
         self.send_errors = 0
+        #: called with (time, frame, received) for every frame in and out (a bus recorder)
+        self.tap: Callable[[float, can.Message, bool], None] | None = None
 
     # -- receive -------------------------------------------------------------------------
 
@@ -188,11 +190,14 @@ class BusIO:
         """Feed every frame waiting on the bus to the Inbox, stamped ``now_s``."""
         recv = self.bus.recv
         accept = self.inbox.accept_message
+        tap = self.tap
         while True:
             msg = recv(0)
             if msg is None:
                 return
             accept(msg, now_s)
+            if tap is not None:
+                tap(now_s, msg, True)
 
     def receive(self, timeout_s: float, clock: Callable[[], float]) -> float:
         """Wait up to ``timeout_s`` for one frame and accept it stamped with its arrival time
@@ -201,6 +206,8 @@ class BusIO:
         now = clock()
         if msg is not None:
             self.inbox.accept_message(msg, now)
+            if self.tap is not None:
+                self.tap(now, msg, True)
         return now
 
     def read_inputs(self, now_s: float) -> NodeInputs:
@@ -220,16 +227,19 @@ class BusIO:
         """Send ACC_Command (and ACC_Status if ``status``) stamped ``t_s``; never raises: an
         encode or bus failure is logged and counted in :attr:`send_errors`."""
         try:
-            self.bus.send(
-                self.outbox.pack("command", command_values(out, self.limits), timestamp=t_s)
-            )
+            self._send(self.outbox.pack("command", command_values(out, self.limits), timestamp=t_s))
             if status:
-                self.bus.send(
+                self._send(
                     self.outbox.pack("status", status_values(out, self.limits), timestamp=t_s)
                 )
         except (EncodeError, can.CanError) as exc:
             self.send_errors += 1
             log.error("t=%.2f send failed: %s", t_s, exc)
+
+    def _send(self, msg: can.Message) -> None:
+        self.bus.send(msg)
+        if self.tap is not None:
+            self.tap(msg.timestamp, msg, False)
 
 
 __all__ = [

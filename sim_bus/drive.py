@@ -25,12 +25,14 @@ from typing import Any, Literal, get_args
 
 import can
 
-from dbc.codec import load_codec
+from dbc.codec import Codec, load_codec
 from ecu import EcuError
+from ecu.canlog import WORLD_TOPIC, CanLogWriter, TimeBase
 from ecu.adaptation import ADAPTATION_MODES, AdaptationParams, Decision
 from ecu.dgpt import Dgpt, load_dgpt, predefined
 from ecu.node import EcuConfig, EcuNode
 from ecu.pedals import PedalScale
+from ecu.recording import open_recording
 from ecu.runtime import EcuRuntime, RuntimeSummary
 from ecu.triplog import Trip, TripLogError, write_trip
 from sim_bus.drivers import GAP_SETTING_CODE, DriverParams, load_driver
@@ -41,7 +43,7 @@ from sim_bus.metrics import DriveMetrics
 from sim_bus.node import SimNode
 from sim_bus.scenarios import LeadProfile, canonical_profiles, load_profile_csv, shorten
 from sim_bus.trip import world_trip
-from sim_bus.world import World, WorldConfig, WorldLog
+from sim_bus.world import WORLD_COLUMNS, World, WorldConfig, WorldLog
 
 Controller = Literal["predefined", "predefined+oa", "irl", "irl+oa"]
 CONTROLLERS: tuple[str, ...] = get_args(Controller)
@@ -138,11 +140,15 @@ def run_drive(
     *,
     takeover_sink: Any = None,
     record_channel: str | None = None,
+    can_log: Path | None = None,
+    utc_start_ns: int | None = None,
 ) -> DriveResult:
     """Run one lockstep drive; never raises for a collision (it is reported).
 
     ``record_channel``: when given, the drive's virtual channel name (so a test can attach a
-    listener that sees every frame); by default a private, unique channel.
+    listener that sees every frame); by default a private, unique channel. ``can_log``: record
+    the ECU's bus traffic, its internals and the simulated world to this MCAP file
+    (:mod:`ecu.canlog`), simulated time 0 stamped ``utc_start_ns`` (default: now).
     """
     if cfg.controller not in CONTROLLERS:
         raise ValueError(f"controller must be one of {CONTROLLERS}")
@@ -159,8 +165,12 @@ def run_drive(
     ecu = _ecu_node(cfg, driver, table, prof.name, takeover_sink)
     sim_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
     ecu_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
+    recorder: CanLogWriter | None = None
     try:
         rt = EcuRuntime(ecu_bus, ecu, codec=codec)
+        if can_log is not None:
+            recorder = _drive_recorder(can_log, cfg, ecu, table, codec, utc_start_ns)
+            rt.record_to(recorder)
         node = SimNode(
             sim_bus,
             world,
@@ -174,10 +184,15 @@ def run_drive(
         wall = time.perf_counter() - start
         ecu.finish()
         summary = rt.summary()
+        log = world.log()
+        if recorder is not None:
+            record_world(recorder, log)
+            recorder.close()
     finally:
         sim_bus.shutdown()
         ecu_bus.shutdown()
-    log = world.log()
+        if recorder is not None and not recorder.closed:
+            recorder.close()
     return DriveResult(
         config=cfg,
         metrics=log.metrics(),
@@ -194,6 +209,35 @@ def run_drive(
         final_table=ecu.table,
         adaptation_events=events,
     )
+
+
+def _drive_recorder(
+    path: Path,
+    cfg: DriveConfig,
+    ecu: EcuNode,
+    table: Dgpt,
+    codec: Codec,
+    utc_start_ns: int | None,
+) -> CanLogWriter:
+    """The bus recorder of a drive: the ECU's port, simulated time 0 at ``utc_start_ns``."""
+    base = TimeBase(time.time_ns() if utc_start_ns is None else utc_start_ns, 0.0)
+    settings = {k: str(v) for k, v in dataclasses.asdict(cfg).items()}
+    return open_recording(
+        path,
+        codec,
+        base,
+        node="drive",
+        config=ecu.config,
+        table=table,
+        metadata={"drive": settings},
+    )
+
+
+def record_world(recorder: CanLogWriter, log: WorldLog) -> None:
+    """The simulated world of a drive (:class:`WorldLog`) on ``/sim/world``."""
+    columns = {name: getattr(log, name).tolist() for name in WORLD_COLUMNS}
+    recorder.series(WORLD_TOPIC, WORLD_COLUMNS, "the simulated world: plant, lead, driver")
+    recorder.write_series(WORLD_TOPIC, columns, log.t_s.tolist())
 
 
 def _ecu_node(

@@ -1,0 +1,433 @@
+"""The bus recorder: every CAN frame, decoded per DBC message, and node internals, in MCAP.
+
+One MCAP file per recording (``pacc ecu|sim|drive --can-log FILE``), JSON-encoded messages
+with JSON schemas, zstd-compressed chunks:
+
+- ``/can/raw`` (schema ``pacc.CanFrames``): every frame the node received (``rx``) or sent,
+  in blocks: ``t_s`` (the node's clock, s: simulated time in lockstep, the monotonic clock in
+  real time), ``id``, ``flags`` (bit 0 extended id, 1 received, 2 CAN FD, 3 error frame,
+  4 remote frame, 5 bit-rate switch, 6 error state indicator), ``dlc`` and ``data`` (hex);
+- ``/can/<Message>`` (schema ``dbc.<Message>``, generated from the DBC by
+  :func:`dbc.columns.message_schema`): the frames of one DBC message decoded, ``t_s`` plus one
+  array per signal (physical units; cantools' values);
+- node internals on their own channels, also columns: ``/ecu/inputs`` and ``/ecu/outputs``
+  (the node's checked inputs and its outputs of every control cycle: request, state, desired
+  gap, table version …), ``/sim/world`` (the simulated truth); ``/ecu/events`` one message per
+  event text (state changes, faults, adaptations).
+
+A message holds a block: what one channel collected during ``block_s`` of the node's clock
+(1 s by default), one array element per frame or cycle. Writing one MCAP message and one JSON
+document per frame would cost more than the drive it records; a block costs one of each
+(bench/canlog.py measures it against python-can's BLF writer). Every message's ``log_time``
+is real UTC: the recording's :class:`TimeBase` maps the node's clock onto the wall clock
+(lockstep: the UTC of the drive's start plus the simulated time). The DBC, the binding, the
+ECU configuration and its starting table are MCAP attachments; what ran (node, command line,
+time base, drive settings) are MCAP metadata records. The file is written as ``FILE.part``
+and renamed when closed.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import operator
+import os
+import time
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, fields
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import can
+import numpy as np
+
+from dbc.columns import MessageColumns, message_schema
+from ecu import EcuError
+from ecu.signals import NodeInputs, NodeOutputs
+
+__all__ = [
+    "FLAG_ERROR",
+    "FLAG_EXTENDED",
+    "FLAG_FD",
+    "FLAG_REMOTE",
+    "FLAG_RX",
+    "FORMAT",
+    "RAW_TOPIC",
+    "CanLogError",
+    "CanLogWriter",
+    "TimeBase",
+    "frame_flags",
+]
+
+FORMAT = "pacc.canlog/1"
+RAW_TOPIC = "/can/raw"
+RAW_SCHEMA_NAME = "pacc.CanFrames"
+EVENTS_TOPIC = "/ecu/events"
+INPUTS_TOPIC = "/ecu/inputs"
+OUTPUTS_TOPIC = "/ecu/outputs"
+WORLD_TOPIC = "/sim/world"
+#: metadata record of every recording: format, node, time base, start time
+META_RECORD = "pacc"
+
+FLAG_EXTENDED = 1
+FLAG_RX = 2
+FLAG_FD = 4
+FLAG_ERROR = 8
+FLAG_REMOTE = 16
+FLAG_BRS = 32
+FLAG_ESI = 64
+
+INPUT_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(NodeInputs))
+OUTPUT_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(NodeOutputs) if f.name != "events")
+_get_inputs = operator.attrgetter(*INPUT_FIELDS)
+_get_outputs = operator.attrgetter(*OUTPUT_FIELDS)
+
+
+class CanLogError(EcuError):
+    """A bus recording cannot be written or read (path, format, contents)."""
+
+
+def _cols(desc: str, **props: Any) -> dict[str, Any]:
+    return {"type": "array", "description": desc, **props}
+
+
+RAW_SCHEMA: dict[str, Any] = {
+    "$schema": "https://json-schema.org/draft/2020-12/schema",
+    "title": RAW_SCHEMA_NAME,
+    "description": "A block of CAN frames, one array element per frame, in bus order",
+    "type": "object",
+    "properties": {
+        "t_s": _cols("time on the recording node's clock, s", items={"type": "number"}),
+        "id": _cols("arbitration id", items={"type": "integer"}),
+        "flags": _cols(
+            "bit 0 extended id, 1 received (else sent), 2 CAN FD, 3 error frame, "
+            "4 remote frame, 5 bit-rate switch, 6 error state indicator",
+            items={"type": "integer"},
+        ),
+        "dlc": _cols("data length code", items={"type": "integer"}),
+        "data": _cols("payload, hexadecimal", items={"type": "string"}),
+    },
+    "required": ["t_s", "id", "flags", "dlc", "data"],
+}
+
+
+def series_schema(title: str, description: str, columns: Sequence[str]) -> dict[str, Any]:
+    """The JSON schema of a block of samples: ``t_s`` plus one array per column."""
+    props: dict[str, Any] = {
+        "t_s": _cols("sample time on the node's clock, s", items={"type": "number"})
+    }
+    for name in columns:
+        props[name] = _cols(name, items={"type": ["number", "boolean", "null"]})
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "title": title,
+        "description": description,
+        "type": "object",
+        "properties": props,
+        "required": ["t_s", *columns],
+    }
+
+
+EVENT_SCHEMA: dict[str, Any] = {
+    "$schema": "https://json-schema.org/draft/2020-12/schema",
+    "title": "pacc.EcuEvent",
+    "description": "One event of the ECU node: state change, fault, adaptation decision",
+    "type": "object",
+    "properties": {"t_s": {"type": "number"}, "text": {"type": "string"}},
+    "required": ["t_s", "text"],
+}
+
+
+@dataclass(frozen=True)
+class TimeBase:
+    """Maps a node's clock (s) onto UTC: ``utc_ns = utc_origin_ns + (t - clock_origin_s)``.
+
+    Lockstep drives: the clock is simulated time from 0 and the origin the drive's start on
+    the wall clock. Real time: the monotonic clock and the wall clock read together.
+    """
+
+    utc_origin_ns: int
+    clock_origin_s: float
+
+    @classmethod
+    def now(cls, clock_s: float) -> TimeBase:
+        """The node's clock reads ``clock_s`` now."""
+        return cls(time.time_ns(), clock_s)
+
+    def utc_ns(self, t_s: float) -> int:
+        """UTC of node time ``t_s``, ns since the epoch (clamped at 0)."""
+        if not math.isfinite(t_s):
+            return self.utc_origin_ns
+        return max(0, self.utc_origin_ns + int(round((t_s - self.clock_origin_s) * 1e9)))
+
+    def iso(self, t_s: float) -> str:
+        """UTC of node time ``t_s`` as ISO 8601 with microseconds."""
+        ns = self.utc_ns(t_s)
+        dt = datetime.fromtimestamp(ns // 1000 / 1e6, tz=UTC)
+        return dt.strftime("%Y-%m-%dT%H:%M:%S.%fZ")
+
+
+def frame_flags(msg: can.Message, rx: bool) -> int:
+    """The ``flags`` bit field of ``msg`` (see the module docstring)."""
+    return (
+        (FLAG_EXTENDED if msg.is_extended_id else 0)
+        | (FLAG_RX if rx else 0)
+        | (FLAG_FD if msg.is_fd else 0)
+        | (FLAG_ERROR if msg.is_error_frame else 0)
+        | (FLAG_REMOTE if msg.is_remote_frame else 0)
+        | (FLAG_BRS if msg.bitrate_switch else 0)
+        | (FLAG_ESI if msg.error_state_indicator else 0)
+    )
+
+
+def _finite_or_none(col: list[Any]) -> list[Any]:
+    """``col`` with NaN and infinities as ``None`` (JSON has neither)."""
+    try:
+        if math.isfinite(sum(col)):  # one C-level pass: the common case, nothing to replace
+            return col
+    except TypeError:  # None or text in the column
+        pass
+    return [None if isinstance(v, float) and not math.isfinite(v) else v for v in col]
+
+
+class _Series:
+    """One channel of sampled internals: rows collected until the next block."""
+
+    def __init__(self, channel: int, columns: tuple[str, ...]) -> None:
+        self.channel = channel
+        self.columns = columns
+        self.rows: list[tuple[Any, ...]] = []
+        self.seq = 0
+
+
+class CanLogWriter:
+    """Writes one recording (module docstring). Not thread-safe: one node's thread feeds it.
+
+    Args:
+        path: the MCAP file to write (``path.part`` until :meth:`close`).
+        db: the cantools database of the network (``None``: raw frames only).
+        time_base: maps the node's clock to UTC.
+        node: who records (``ecu``, ``sim``, ``drive``, ``export``).
+        attachments: name -> bytes, stored as MCAP attachments (DBC, binding, config …).
+        metadata: record name -> {key: text}, stored as MCAP metadata records.
+        block_s: length of a block on the node's clock, s.
+
+    Raises:
+        CanLogError: ``path`` cannot be created.
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        db: Any,
+        time_base: TimeBase,
+        *,
+        node: str,
+        attachments: Mapping[str, bytes] | None = None,
+        metadata: Mapping[str, Mapping[str, str]] | None = None,
+        block_s: float = 1.0,
+    ) -> None:
+        # mcap costs ~0.1 s of start-up: only a recording needs it
+        from mcap.writer import CompressionType, Writer  # noqa: PLC0415
+
+        self.path = Path(path)
+        self._tmp = self.path.with_name(self.path.name + ".part")
+        if self.path.is_dir():
+            raise CanLogError(f"{self.path}: is a directory, not a recording file")
+        try:
+            self._stream = self._tmp.open("wb")
+        except OSError as exc:
+            raise CanLogError(f"{self.path}: cannot write the recording: {exc.strerror}") from None
+        self.time_base = time_base
+        self.block_s = block_s
+        self._writer = Writer(self._stream, compression=CompressionType.ZSTD)
+        self._writer.start(profile=FORMAT, library="pacc.ecu.canlog")
+        raw_schema = self._schema(RAW_SCHEMA_NAME, RAW_SCHEMA)
+        self._raw_channel = self._writer.register_channel(RAW_TOPIC, "json", raw_schema)
+        self._raw_seq = 0
+        self._decoders: dict[tuple[int, bool], tuple[MessageColumns, int]] = {}
+        self._decoded_seq: dict[int, int] = {}
+        if db is not None:
+            for message in db.messages:
+                sid = self._schema(f"dbc.{message.name}", message_schema(message))
+                ch = self._writer.register_channel(f"/can/{message.name}", "json", sid)
+                key = (message.frame_id, bool(message.is_extended_frame))
+                self._decoders[key] = (MessageColumns(message), ch)
+                self._decoded_seq[ch] = 0
+        self._series: dict[str, _Series] = {}
+        self._events_channel: int | None = None
+        self._events_seq = 0
+        #: (t_s, id, flags, dlc, data) of the open block
+        self._frames: list[tuple[float, int, int, int, bytes]] = []
+        self._block_t0: float | None = None
+        self.frames = 0
+        self.closed = False
+        start = {
+            "format": FORMAT,
+            "node": node,
+            "utc_origin_ns": str(time_base.utc_origin_ns),
+            "clock_origin_s": repr(time_base.clock_origin_s),
+            "start_utc": time_base.iso(time_base.clock_origin_s),
+        }
+        self._writer.add_metadata(META_RECORD, start)
+        for name, record in (metadata or {}).items():
+            self._writer.add_metadata(name, {str(k): str(v) for k, v in record.items()})
+        for name, data in (attachments or {}).items():
+            self.attach(name, data)
+
+    def _schema(self, name: str, schema: Mapping[str, Any]) -> int:
+        sid: int = self._writer.register_schema(name, "jsonschema", json.dumps(schema).encode())
+        return sid
+
+    # -- what a node feeds ---------------------------------------------------------------
+
+    def attach(self, name: str, data: bytes, media_type: str = "text/plain") -> None:
+        """Store ``data`` as the attachment ``name`` (stamped with the origin's UTC)."""
+        stamp = self.time_base.utc_origin_ns
+        self._writer.add_attachment(stamp, stamp, name, media_type, data)
+
+    def frame(self, t_s: float, msg: can.Message, rx: bool) -> None:
+        """One frame received (``rx``) or sent at ``t_s`` on the node's clock."""
+        self._frames.append(
+            (t_s, msg.arbitration_id, frame_flags(msg, rx), msg.dlc, bytes(msg.data))
+        )
+        if self._block_t0 is None:
+            self._block_t0 = t_s
+
+    def series(self, topic: str, columns: Sequence[str], description: str = "") -> None:
+        """Declare the sampled channel ``topic`` with ``columns`` (besides ``t_s``)."""
+        if topic in self._series:
+            return
+        title = "pacc." + topic.strip("/").replace("/", ".")
+        sid = self._schema(title, series_schema(title, description or topic, columns))
+        channel = self._writer.register_channel(topic, "json", sid)
+        self._series[topic] = _Series(channel, tuple(columns))
+
+    def sample(self, topic: str, t_s: float, values: tuple[Any, ...]) -> None:
+        """One sample of a declared channel: ``values`` in its column order."""
+        self._series[topic].rows.append((t_s, *values))
+        if self._block_t0 is None:
+            self._block_t0 = t_s
+
+    def event(self, t_s: float, text: str) -> None:
+        """One event text (written at once: events are rare)."""
+        if self._events_channel is None:
+            sid = self._schema("pacc.EcuEvent", EVENT_SCHEMA)
+            self._events_channel = self._writer.register_channel(EVENTS_TOPIC, "json", sid)
+        stamp = self.time_base.utc_ns(t_s)
+        data = json.dumps({"t_s": t_s, "text": text}).encode()
+        self._writer.add_message(self._events_channel, stamp, data, stamp, self._events_seq)
+        self._events_seq += 1
+
+    def cycle(self, t_s: float, inputs: NodeInputs, outputs: NodeOutputs) -> None:
+        """One ECU control cycle: its inputs and outputs on ``/ecu/inputs`` and
+        ``/ecu/outputs``, its events on ``/ecu/events``; closes the block when it is due."""
+        if INPUTS_TOPIC not in self._series:
+            self.series(INPUTS_TOPIC, INPUT_FIELDS, "the ECU node's checked inputs per cycle")
+            self.series(OUTPUTS_TOPIC, OUTPUT_FIELDS, "the ECU node's outputs per cycle")
+        self._series[INPUTS_TOPIC].rows.append((t_s, *_get_inputs(inputs)))
+        self._series[OUTPUTS_TOPIC].rows.append((t_s, *_get_outputs(outputs)))
+        for text in outputs.events:
+            self.event(t_s, text)
+        self.tick(t_s)
+
+    def tick(self, t_s: float) -> None:
+        """Close the open block if it is ``block_s`` old at ``t_s``."""
+        if self._block_t0 is not None and t_s - self._block_t0 >= self.block_s:
+            self.flush()
+
+    # -- blocks --------------------------------------------------------------------------
+
+    def flush(self) -> None:
+        """Write the open block of every channel."""
+        if self._frames:
+            self._write_frames(self._frames)
+            self._frames = []
+        for s in self._series.values():
+            if s.rows:
+                self._write_series(s)
+        self._block_t0 = None
+
+    def _write_frames(self, frames: list[tuple[float, int, int, int, bytes]]) -> None:
+        t, ids, flags, dlcs, datas = (list(c) for c in zip(*frames, strict=True))
+        stamp = self.time_base.utc_ns(t[0])
+        doc = {"t_s": t, "id": ids, "flags": flags, "dlc": dlcs, "data": [d.hex() for d in datas]}
+        self._writer.add_message(
+            self._raw_channel, stamp, json.dumps(doc).encode(), stamp, self._raw_seq
+        )
+        self._raw_seq += 1
+        self.frames += len(frames)
+        if self._decoders:
+            self._write_decoded(t, ids, flags, datas)
+
+    def _write_decoded(
+        self, t: list[float], ids: list[int], flags: list[int], datas: list[bytes]
+    ) -> None:
+        id_arr = np.asarray(ids, dtype=np.int64)
+        flag_arr = np.asarray(flags, dtype=np.int64)
+        len_arr = np.fromiter(map(len, datas), dtype=np.int64, count=len(datas))
+        usable = (flag_arr & (FLAG_ERROR | FLAG_REMOTE)) == 0
+        extended = (flag_arr & FLAG_EXTENDED) != 0
+        for (frame_id, ext), (dec, channel) in self._decoders.items():
+            mask = (id_arr == frame_id) & usable & (extended == ext) & (len_arr == dec.length)
+            idx = np.flatnonzero(mask).tolist()  # a wrong length stays in /can/raw only
+            if not idx:
+                continue
+            doc: dict[str, Any] = {"t_s": [t[i] for i in idx]}
+            doc.update(dec.decode([datas[i] for i in idx]))
+            stamp = self.time_base.utc_ns(doc["t_s"][0])
+            seq = self._decoded_seq[channel]
+            self._writer.add_message(channel, stamp, json.dumps(doc).encode(), stamp, seq)
+            self._decoded_seq[channel] = seq + 1
+
+    def _write_series(self, s: _Series) -> None:
+        cols = [list(c) for c in zip(*s.rows, strict=True)]
+        s.rows = []
+        doc = {"t_s": cols[0]}
+        for name, col in zip(s.columns, cols[1:], strict=True):
+            doc[name] = _finite_or_none(col)
+        stamp = self.time_base.utc_ns(cols[0][0])
+        self._writer.add_message(s.channel, stamp, json.dumps(doc).encode(), stamp, s.seq)
+        s.seq += 1
+
+    def write_series(self, topic: str, columns: Mapping[str, Iterable[Any]], t_s: Iterable[float]) -> None:
+        """Write whole columns at once (e.g. the simulated world after a drive), in blocks of
+        ``block_s``; ``topic`` must be declared with the columns' names."""
+        s = self._series[topic]
+        rows = list(zip(t_s, *(columns[k] for k in s.columns), strict=True))
+        start = 0
+        while start < len(rows):
+            t0 = rows[start][0]
+            end = start
+            while end < len(rows) and rows[end][0] - t0 < self.block_s:
+                end += 1
+            s.rows = rows[start:end]
+            self._write_series(s)
+            start = end
+
+    # -- end -----------------------------------------------------------------------------
+
+    def close(self) -> None:
+        """Write what is open, finish the file and rename it to ``path``."""
+        if self.closed:
+            return
+        self.closed = True
+        try:
+            self.flush()
+            self._writer.finish()  # type: ignore[no-untyped-call]
+            self._stream.close()
+            self._tmp.replace(self.path)
+        except OSError as exc:
+            self._stream.close()
+            raise CanLogError(f"{self.path}: cannot finish the recording: {exc}") from exc
+
+    def __enter__(self) -> CanLogWriter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+#: A frame tap: (time on the node's clock, frame, received) -> None.
+FrameTap = Callable[[float, can.Message, bool], None]
