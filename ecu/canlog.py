@@ -295,6 +295,11 @@ class CanLogWriter:
         if self._block_t0 is None:
             self._block_t0 = t_s
 
+    def frame_and_tick(self, t_s: float, msg: can.Message, rx: bool) -> None:
+        """:meth:`frame`, then :meth:`tick`: a tap for a node without control cycles."""
+        self.frame(t_s, msg, rx)
+        self.tick(t_s)
+
     def series(self, topic: str, columns: Sequence[str], description: str = "") -> None:
         """Declare the sampled channel ``topic`` with ``columns`` (besides ``t_s``)."""
         if topic in self._series:

@@ -21,9 +21,12 @@ from pathlib import Path
 
 import can
 
+from ecu import EcuError
+from ecu.canlog import TimeBase
 from ecu.pedals import PedalScale
+from ecu.recording import open_recording
 from ecu.triplog import TripLogError, write_trip
-from sim_bus.drive import resolve_profile, with_condition
+from sim_bus.drive import record_world, resolve_profile, with_condition
 from sim_bus.drivers import GAP_SETTING_CODE, DriverParams, load_driver
 from sim_bus.errors import SimError
 from sim_bus.faults import FaultSpec, fault_rng, parse_faults
@@ -51,6 +54,13 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--faults", default="", help="fault SPEC, e.g. 'radar:dropout=100-105'")
     p.add_argument("--duration", type=float, help="run only the first N seconds")
     p.add_argument("--log", type=Path, help="write the run as an MCAP trip log")
+    p.add_argument(
+        "--can-log",
+        type=Path,
+        metavar="FILE",
+        help="record every frame in and out (raw and decoded) and the simulated world to "
+        "this MCAP file",
+    )
     p.add_argument(
         "--condition-factor",
         type=float,
@@ -81,6 +91,8 @@ def _setup(args: argparse.Namespace) -> tuple[DriverParams, FaultSpec, LeadProfi
         profile = shorten(profile, args.duration)
     if args.log is not None:  # refuse now, not after the drive when the run would be lost
         _check_writable(args.log)
+    if args.can_log is not None:
+        _check_writable(args.can_log)
     return driver, faults, profile
 
 
@@ -129,12 +141,33 @@ def main(argv: list[str] | None = None) -> int:
         rng=fault_rng(args.seed),
         gap_setting=GAP_SETTING_CODE[driver.predefined_setting],
     )
+    base = TimeBase.now(0.0)  # simulated time 0 is now
+    try:
+        recorder = (
+            open_recording(args.can_log, node.codec, base, node="sim")
+            if args.can_log is not None
+            else None
+        )
+    except EcuError as exc:
+        bus.shutdown()
+        print(f"pacc sim: error: {exc}", file=sys.stderr)
+        return 2
+    if recorder is not None:
+        node.tap = recorder.frame_and_tick
     start = time.monotonic()
     try:
         _run(node, profile.duration_s, args.quiet)
     finally:
         bus.shutdown()
     log = world.log()
+    if recorder is not None:
+        record_world(recorder, log)
+        try:
+            recorder.close()
+        except EcuError as exc:
+            print(f"pacc sim: error: {exc}", file=sys.stderr)
+            return 2
+        print(f"bus recording: {recorder.frames} frames written to {args.can_log}")
     m = log.metrics()
     collided = world.plant.collided
     print(
@@ -153,6 +186,7 @@ def main(argv: list[str] | None = None) -> int:
             "seed": args.seed,
             "collision": collided,
             "source": "sim_bus.cli",
+            "start_utc": base.iso(0.0),
         }
         try:
             write_trip(args.log, world_trip(log, driver, PedalScale.from_codec(node.codec), meta))

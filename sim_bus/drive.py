@@ -2,6 +2,7 @@
 
     pacc drive --scenario B --driver d3 --controller predefined|predefined+oa|irl|irl+oa
                [--profile DGPT.json] [--seed N] [--faults SPEC] [--log run.mcap]
+               [--can-log bus.mcap]
                [--adaptation-mode paper|timegap]
 
 prints PoI, NIM, min gap, min time-to-collision, RMS jerk, takeovers, adaptations and
@@ -97,6 +98,8 @@ class DriveResult:
     final_table: Dgpt
     adaptation_events: list[AdaptationEvent] = field(default_factory=list)
     extra: dict[str, Any] = field(default_factory=dict)
+    #: UTC of simulated time 0 (ISO 8601): when the drive ran
+    start_utc: str = ""
 
     @property
     def realtime_factor(self) -> float:
@@ -165,11 +168,12 @@ def run_drive(
     ecu = _ecu_node(cfg, driver, table, prof.name, takeover_sink)
     sim_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
     ecu_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
+    base = TimeBase(time.time_ns() if utc_start_ns is None else utc_start_ns, 0.0)
     recorder: CanLogWriter | None = None
     try:
         rt = EcuRuntime(ecu_bus, ecu, codec=codec)
         if can_log is not None:
-            recorder = _drive_recorder(can_log, cfg, ecu, table, codec, utc_start_ns)
+            recorder = _drive_recorder(can_log, cfg, ecu, table, codec, base)
             rt.record_to(recorder)
         node = SimNode(
             sim_bus,
@@ -208,6 +212,7 @@ def run_drive(
         frames_faulted=node.frames_faulted,
         final_table=ecu.table,
         adaptation_events=events,
+        start_utc=base.iso(0.0),
     )
 
 
@@ -217,10 +222,9 @@ def _drive_recorder(
     ecu: EcuNode,
     table: Dgpt,
     codec: Codec,
-    utc_start_ns: int | None,
+    base: TimeBase,
 ) -> CanLogWriter:
-    """The bus recorder of a drive: the ECU's port, simulated time 0 at ``utc_start_ns``."""
-    base = TimeBase(time.time_ns() if utc_start_ns is None else utc_start_ns, 0.0)
+    """The bus recorder of a drive: the ECU's port, simulated time on ``base``."""
     settings = {k: str(v) for k, v in dataclasses.asdict(cfg).items()}
     return open_recording(
         path,
@@ -291,6 +295,7 @@ def log_to_trip(result: DriveResult, driver: DriverParams) -> Trip:
         "takeovers": result.takeovers,
         "adaptations": result.adaptations,
         "source": "sim_bus.drive",
+        "start_utc": result.start_utc,
     }
     return world_trip(result.log, driver, PedalScale.from_codec(load_codec()), meta)
 
@@ -342,6 +347,13 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--faults", default="", help="fault SPEC, e.g. 'radar:dropout=100-105'")
     p.add_argument("--log", type=Path, help="write the drive as an MCAP trip log")
+    p.add_argument(
+        "--can-log",
+        type=Path,
+        metavar="FILE",
+        help="record the ECU's bus traffic (raw and decoded), its internals and the "
+        "simulated world to this MCAP file",
+    )
     p.add_argument("--duration", type=float, help="simulate only the first N seconds")
     p.add_argument(
         "--brake-mode",
@@ -405,7 +417,7 @@ def main(argv: list[str] | None = None) -> int:
                 table = irl_table(base, args.seed, args.cache)  # learned in normal conditions
         else:
             table = predefined_table(driver)
-        result = run_drive(cfg, driver, table, profile)
+        result = run_drive(cfg, driver, table, profile, can_log=args.can_log)
     except (SimError, EcuError, OSError) as exc:
         print(f"pacc drive: error: {exc}", file=sys.stderr)
         return 2
@@ -417,6 +429,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"pacc drive: error: cannot write {args.log}: {exc}", file=sys.stderr)
             return 2
         print(f"  log            {args.log}")
+    if args.can_log is not None:
+        print(f"  bus recording  {args.can_log}")
     return 1 if result.collision else 0
 
 

@@ -46,6 +46,7 @@ class DriveJob:
     table: Dgpt
     log_path: str | None
     adaptation: AdaptationParams | None = None
+    can_log_path: str | None = None
 
 
 def run_job(job: DriveJob) -> dict[str, Any]:
@@ -61,7 +62,8 @@ def run_job(job: DriveJob) -> dict[str, Any]:
         adaptation=job.adaptation,
     )
     profile = canonical_profiles(job.study_seed)[job.scenario]
-    result = run_drive(cfg, driver, job.table, profile)
+    can_log = Path(job.can_log_path) if job.can_log_path is not None else None
+    result = run_drive(cfg, driver, job.table, profile, can_log=can_log)
     if job.log_path is not None:
         write_trip(Path(job.log_path), log_to_trip(result, driver))
     m = result.metrics
@@ -134,7 +136,8 @@ def plan(
             for controller in cfg.controllers:
                 kind = "irl" if controller.startswith("irl") else "predefined"
                 for trial in range(cfg.trials):
-                    log = out / "logs" / log_name(driver_id, scenario, controller, trial)
+                    name = log_name(driver_id, scenario, controller, trial)
+                    log = out / "logs" / name
                     jobs.append(
                         DriveJob(
                             driver,
@@ -146,6 +149,7 @@ def plan(
                             tables[(driver_id, kind)],
                             str(log) if cfg.logs else None,
                             cfg.adaptation,
+                            str(out / "can" / name) if cfg.can_logs else None,
                         )
                     )
     return jobs
@@ -182,6 +186,8 @@ def run_study(
     (out / "irl").mkdir(exist_ok=True)
     if cfg.logs:
         (out / "logs").mkdir(exist_ok=True)
+    if cfg.can_logs:
+        (out / "can").mkdir(exist_ok=True)
     cloud = None if cfg.direct else study_cloud(cfg, drivers, out)
     if cfg.incremental:
         assert cloud is not None
