@@ -16,13 +16,14 @@ a decoded channel, bound or not.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-__all__ = ["MessageColumns", "message_schema"]
+__all__ = ["MessageColumns", "message_columns"]
 
 #: The time column of every decoded block, s (the recording node's clock).
 TIME_KEY = "t_s"
@@ -88,45 +89,51 @@ class MessageColumns:
         )
         self._columns = tuple(_column(s) for s in message.signals) if self.vectorised else ()
 
-    def decode(self, payloads: Sequence[bytes]) -> dict[str, list[Any]]:
+    def decode(self, payloads: Sequence[bytes]) -> dict[str, np.ndarray]:
         """Every signal of the message over ``payloads`` (each exactly ``length`` bytes),
-        physical values, as lists of length ``len(payloads)`` (``None``: not carried)."""
-        if not payloads:
-            return {name: [] for name in self.signal_names}
+        physical values, arrays of shape ``(len(payloads),)``: int64 where cantools gives
+        integers, else float64 (NaN: a signal the frame does not carry)."""
         if not self.vectorised:
             return self._decode_each(payloads)
         n = len(payloads)
         buf = np.zeros((n, 8), dtype=np.uint8)
-        buf[:, : self.length] = np.frombuffer(b"".join(payloads), dtype=np.uint8).reshape(
-            n, self.length
-        )
+        if n:
+            buf[:, : self.length] = np.frombuffer(b"".join(payloads), dtype=np.uint8).reshape(
+                n, self.length
+            )
         little = buf.view("<u8").reshape(n)
         big = buf.view(">u8").reshape(n)
-        out: dict[str, list[Any]] = {}
+        out: dict[str, np.ndarray] = {}
         for c in self._columns:
             word = big if c.big_endian else little
             raw = ((word >> np.uint64(c.shift)) & np.uint64(c.mask)).astype(np.int64)
             if c.signed:
                 raw = np.where(raw >= (1 << (c.length - 1)), raw - (1 << c.length), raw)
             if c.scale == 1 and c.offset == 0:
-                out[c.name] = raw.tolist()
+                out[c.name] = raw
             elif c.integral:
-                out[c.name] = (raw * int(c.scale) + int(c.offset)).tolist()
+                out[c.name] = raw * int(c.scale) + int(c.offset)
             else:
-                out[c.name] = (raw * float(c.scale) + float(c.offset)).tolist()
+                out[c.name] = raw * float(c.scale) + float(c.offset)
         return out
 
-    def _decode_each(self, payloads: Sequence[bytes]) -> dict[str, list[Any]]:
-        out: dict[str, list[Any]] = {name: [] for name in self.signal_names}
+    def _decode_each(self, payloads: Sequence[bytes]) -> dict[str, np.ndarray]:
+        cols: dict[str, list[float]] = {name: [] for name in self.signal_names}
         for data in payloads:
             values = self.message.decode(data, decode_choices=False, scaling=True)
-            for name, col in out.items():
+            for name, col in cols.items():
                 value = values.get(name)
-                col.append(value if isinstance(value, int | float) else None)
-        return out
+                col.append(float(value) if isinstance(value, int | float) else math.nan)
+        return {name: np.asarray(col, dtype=np.float64) for name, col in cols.items()}
+
+    def dtypes(self) -> dict[str, str]:
+        """Signal name -> the dtype :meth:`decode` gives it (``<i8`` or ``<f8``)."""
+        if not self.vectorised:
+            return dict.fromkeys(self.signal_names, "<f8")
+        return {c.name: "<i8" if c.integral else "<f8" for c in self._columns}
 
 
-def _signal_schema(signal: Any) -> dict[str, Any]:
+def _signal_description(signal: Any) -> str:
     parts = []
     if signal.unit:
         parts.append(f"unit {signal.unit}")
@@ -137,34 +144,14 @@ def _signal_schema(signal: Any) -> dict[str, Any]:
     comment = signal.comment if isinstance(signal.comment, str) else None
     if comment:
         parts.append(comment)
-    kind = "integer" if _column(signal).integral and not signal.is_float else "number"
-    return {
-        "type": "array",
-        "items": {"type": [kind, "null"]},
-        "description": "; ".join(parts) or signal.name,
-    }
+    return "; ".join(parts) or signal.name
 
 
-def message_schema(message: Any) -> dict[str, Any]:
-    """The JSON schema of a decoded block of ``message``: ``t_s`` plus one array per signal,
-    each signal's unit, range, choices and comment from the DBC in its description."""
-    props: dict[str, Any] = {
-        TIME_KEY: {
-            "type": "array",
-            "items": {"type": "number"},
-            "description": "receive/send time of each frame on the recording node's clock, s",
-        }
-    }
-    for signal in message.signals:
-        props[signal.name] = _signal_schema(signal)
-    return {
-        "$schema": "https://json-schema.org/draft/2020-12/schema",
-        "title": f"dbc.{message.name}",
-        "description": (
-            f"{message.name} (frame id {message.frame_id:#x}, {message.length} bytes) decoded "
-            "from the DBC, one array element per frame"
-        ),
-        "type": "object",
-        "properties": props,
-        "required": [TIME_KEY, *(s.name for s in message.signals)],
-    }
+def message_columns(columns: MessageColumns) -> dict[str, tuple[str, str]]:
+    """Column name -> (dtype, description) of a decoded block of ``columns``' message: the
+    time ``t_s`` and every signal with its unit, range, choices and comment from the DBC."""
+    out = {TIME_KEY: ("<f8", "receive/send time of each frame on the recording node's clock, s")}
+    dtypes = columns.dtypes()
+    for signal in columns.message.signals:
+        out[signal.name] = (dtypes[signal.name], _signal_description(signal))
+    return out

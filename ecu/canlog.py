@@ -42,8 +42,9 @@ from typing import Any
 import can
 import numpy as np
 
-from dbc.columns import MessageColumns, message_schema
+from dbc.columns import MessageColumns, message_columns
 from ecu import EcuError
+from ecu.blocks import block_schema, encode_block
 from ecu.signals import NodeInputs, NodeOutputs
 
 __all__ = [
@@ -67,6 +68,8 @@ EVENTS_TOPIC = "/ecu/events"
 INPUTS_TOPIC = "/ecu/inputs"
 OUTPUTS_TOPIC = "/ecu/outputs"
 WORLD_TOPIC = "/sim/world"
+#: default block length, s of the node's clock (longer blocks spread the per-block costs)
+BLOCK_S = 5.0
 #: metadata record of every recording: format, node, time base, start time
 META_RECORD = "pacc"
 
@@ -88,45 +91,29 @@ class CanLogError(EcuError):
     """A bus recording cannot be written or read (path, format, contents)."""
 
 
-def _cols(desc: str, **props: Any) -> dict[str, Any]:
-    return {"type": "array", "description": desc, **props}
-
-
-RAW_SCHEMA: dict[str, Any] = {
-    "$schema": "https://json-schema.org/draft/2020-12/schema",
-    "title": RAW_SCHEMA_NAME,
-    "description": "A block of CAN frames, one array element per frame, in bus order",
-    "type": "object",
-    "properties": {
-        "t_s": _cols("time on the recording node's clock, s", items={"type": "number"}),
-        "id": _cols("arbitration id", items={"type": "integer"}),
-        "flags": _cols(
-            "bit 0 extended id, 1 received (else sent), 2 CAN FD, 3 error frame, "
-            "4 remote frame, 5 bit-rate switch, 6 error state indicator",
-            items={"type": "integer"},
-        ),
-        "dlc": _cols("data length code", items={"type": "integer"}),
-        "data": _cols("payload, hexadecimal", items={"type": "string"}),
-    },
-    "required": ["t_s", "id", "flags", "dlc", "data"],
+#: /can/raw columns: name -> (dtype, description); ``data`` is every payload joined
+RAW_COLUMNS: dict[str, tuple[str, str]] = {
+    "t_s": ("<f8", "time on the recording node's clock, s"),
+    "id": ("<u4", "arbitration id"),
+    "flags": (
+        "|u1",
+        "bit 0 extended id, 1 received (else sent), 2 CAN FD, 3 error frame, 4 remote frame, "
+        "5 bit-rate switch, 6 error state indicator",
+    ),
+    "dlc": ("|u1", "data length code"),
+    "len": ("|u1", "payload length, bytes"),
+    "data": ("|u1", "the payloads, one after the other (len bytes each; not n values)"),
 }
+RAW_SCHEMA = block_schema(
+    RAW_SCHEMA_NAME, "A block of CAN frames, one row per frame, in bus order", RAW_COLUMNS
+)
 
 
-def series_schema(title: str, description: str, columns: Sequence[str]) -> dict[str, Any]:
-    """The JSON schema of a block of samples: ``t_s`` plus one array per column."""
-    props: dict[str, Any] = {
-        "t_s": _cols("sample time on the node's clock, s", items={"type": "number"})
-    }
-    for name in columns:
-        props[name] = _cols(name, items={"type": ["number", "boolean", "null"]})
-    return {
-        "$schema": "https://json-schema.org/draft/2020-12/schema",
-        "title": title,
-        "description": description,
-        "type": "object",
-        "properties": props,
-        "required": ["t_s", *columns],
-    }
+def series_columns(columns: Sequence[str]) -> dict[str, tuple[str, str]]:
+    """Block columns of a sampled channel: ``t_s`` plus float64 columns (booleans 0/1)."""
+    out = {"t_s": ("<f8", "sample time on the node's clock, s")}
+    out.update({name: ("<f8", name) for name in columns})
+    return out
 
 
 EVENT_SCHEMA: dict[str, Any] = {
@@ -181,16 +168,6 @@ def frame_flags(msg: can.Message, rx: bool) -> int:
     )
 
 
-def _finite_or_none(col: list[Any]) -> list[Any]:
-    """``col`` with NaN and infinities as ``None`` (JSON has neither)."""
-    try:
-        if math.isfinite(sum(col)):  # one C-level pass: the common case, nothing to replace
-            return col
-    except TypeError:  # None or text in the column
-        pass
-    return [None if isinstance(v, float) and not math.isfinite(v) else v for v in col]
-
-
 class _Series:
     """One channel of sampled internals: rows collected until the next block."""
 
@@ -226,7 +203,7 @@ class CanLogWriter:
         node: str,
         attachments: Mapping[str, bytes] | None = None,
         metadata: Mapping[str, Mapping[str, str]] | None = None,
-        block_s: float = 1.0,
+        block_s: float = BLOCK_S,
     ) -> None:
         # mcap costs ~0.1 s of start-up: only a recording needs it
         from mcap.writer import CompressionType, Writer  # noqa: PLC0415
@@ -250,10 +227,16 @@ class CanLogWriter:
         self._decoded_seq: dict[int, int] = {}
         if db is not None:
             for message in db.messages:
-                sid = self._schema(f"dbc.{message.name}", message_schema(message))
+                dec = MessageColumns(message)
+                title = f"dbc.{message.name}"
+                desc = (
+                    f"{message.name} (frame id {message.frame_id:#x}, {message.length} bytes) "
+                    "decoded from the DBC, one row per frame"
+                )
+                sid = self._schema(title, block_schema(title, desc, message_columns(dec)))
                 ch = self._writer.register_channel(f"/can/{message.name}", "json", sid)
                 key = (message.frame_id, bool(message.is_extended_frame))
-                self._decoders[key] = (MessageColumns(message), ch)
+                self._decoders[key] = (dec, ch)
                 self._decoded_seq[ch] = 0
         self._series: dict[str, _Series] = {}
         self._events_channel: int | None = None
@@ -289,9 +272,12 @@ class CanLogWriter:
 
     def frame(self, t_s: float, msg: can.Message, rx: bool) -> None:
         """One frame received (``rx``) or sent at ``t_s`` on the node's clock."""
-        self._frames.append(
-            (t_s, msg.arbitration_id, frame_flags(msg, rx), msg.dlc, bytes(msg.data))
-        )
+        flags = FLAG_RX if rx else 0
+        if msg.is_extended_id:
+            flags |= FLAG_EXTENDED
+        if msg.is_fd or msg.is_error_frame or msg.is_remote_frame:
+            flags = frame_flags(msg, rx)
+        self._frames.append((t_s, msg.arbitration_id, flags, msg.dlc, bytes(msg.data)))
         if self._block_t0 is None:
             self._block_t0 = t_s
 
@@ -305,7 +291,8 @@ class CanLogWriter:
         if topic in self._series:
             return
         title = "pacc." + topic.strip("/").replace("/", ".")
-        sid = self._schema(title, series_schema(title, description or topic, columns))
+        schema = block_schema(title, description or topic, series_columns(columns))
+        sid = self._schema(title, schema)
         channel = self._writer.register_channel(topic, "json", sid)
         self._series[topic] = _Series(channel, tuple(columns))
 
@@ -355,48 +342,65 @@ class CanLogWriter:
         self._block_t0 = None
 
     def _write_frames(self, frames: list[tuple[float, int, int, int, bytes]]) -> None:
-        t, ids, flags, dlcs, datas = (list(c) for c in zip(*frames, strict=True))
-        stamp = self.time_base.utc_ns(t[0])
-        doc = {"t_s": t, "id": ids, "flags": flags, "dlc": dlcs, "data": [d.hex() for d in datas]}
-        self._writer.add_message(
-            self._raw_channel, stamp, json.dumps(doc).encode(), stamp, self._raw_seq
+        t, ids, flags, dlcs, datas = zip(*frames, strict=True)
+        t_arr = np.array(t, dtype="<f8")
+        id_arr = np.array(ids, dtype="<u4")
+        flag_arr = np.array(flags, dtype=np.uint8)
+        len_arr = np.fromiter(map(len, datas), dtype=np.uint8, count=len(datas))
+        payload = b"".join(datas)
+        doc = encode_block(
+            {
+                "t_s": t_arr,
+                "id": id_arr,
+                "flags": flag_arr,
+                "dlc": np.array(dlcs, dtype=np.uint8),
+                "len": len_arr,
+                "data": np.frombuffer(payload, dtype=np.uint8),
+            },
+            ragged=("data",),
         )
+        stamp = self.time_base.utc_ns(t[0])
+        self._writer.add_message(self._raw_channel, stamp, doc, stamp, self._raw_seq)
         self._raw_seq += 1
         self.frames += len(frames)
         if self._decoders:
-            self._write_decoded(t, ids, flags, datas)
+            self._write_decoded(t_arr, id_arr, flag_arr, len_arr, datas)
 
     def _write_decoded(
-        self, t: list[float], ids: list[int], flags: list[int], datas: list[bytes]
+        self,
+        t: np.ndarray,
+        ids: np.ndarray,
+        flags: np.ndarray,
+        lens: np.ndarray,
+        datas: Sequence[bytes],
     ) -> None:
-        id_arr = np.asarray(ids, dtype=np.int64)
-        flag_arr = np.asarray(flags, dtype=np.int64)
-        len_arr = np.fromiter(map(len, datas), dtype=np.int64, count=len(datas))
-        usable = (flag_arr & (FLAG_ERROR | FLAG_REMOTE)) == 0
-        extended = (flag_arr & FLAG_EXTENDED) != 0
+        usable = (flags & (FLAG_ERROR | FLAG_REMOTE)) == 0
+        extended = (flags & FLAG_EXTENDED) != 0
         for (frame_id, ext), (dec, channel) in self._decoders.items():
-            mask = (id_arr == frame_id) & usable & (extended == ext) & (len_arr == dec.length)
-            idx = np.flatnonzero(mask).tolist()  # a wrong length stays in /can/raw only
-            if not idx:
+            mask = (ids == frame_id) & usable & (extended == ext) & (lens == dec.length)
+            idx = np.flatnonzero(mask)  # a wrong length stays in /can/raw only
+            if not len(idx):
                 continue
-            doc: dict[str, Any] = {"t_s": [t[i] for i in idx]}
-            doc.update(dec.decode([datas[i] for i in idx]))
-            stamp = self.time_base.utc_ns(doc["t_s"][0])
+            cols = {"t_s": t[idx]}
+            cols.update(dec.decode([datas[i] for i in idx.tolist()]))
+            stamp = self.time_base.utc_ns(float(t[idx[0]]))
             seq = self._decoded_seq[channel]
-            self._writer.add_message(channel, stamp, json.dumps(doc).encode(), stamp, seq)
+            self._writer.add_message(channel, stamp, encode_block(cols), stamp, seq)
             self._decoded_seq[channel] = seq + 1
 
     def _write_series(self, s: _Series) -> None:
-        cols = [list(c) for c in zip(*s.rows, strict=True)]
+        table = np.array(s.rows, dtype=np.float64)  # booleans 0/1, NaN kept
         s.rows = []
-        doc = {"t_s": cols[0]}
-        for name, col in zip(s.columns, cols[1:], strict=True):
-            doc[name] = _finite_or_none(col)
-        stamp = self.time_base.utc_ns(cols[0][0])
-        self._writer.add_message(s.channel, stamp, json.dumps(doc).encode(), stamp, s.seq)
+        cols = {"t_s": table[:, 0]}
+        for j, name in enumerate(s.columns, start=1):
+            cols[name] = table[:, j]
+        stamp = self.time_base.utc_ns(float(table[0, 0]))
+        self._writer.add_message(s.channel, stamp, encode_block(cols), stamp, s.seq)
         s.seq += 1
 
-    def write_series(self, topic: str, columns: Mapping[str, Iterable[Any]], t_s: Iterable[float]) -> None:
+    def write_series(
+        self, topic: str, columns: Mapping[str, Iterable[Any]], t_s: Iterable[float]
+    ) -> None:
         """Write whole columns at once (e.g. the simulated world after a drive), in blocks of
         ``block_s``; ``topic`` must be declared with the columns' names."""
         s = self._series[topic]

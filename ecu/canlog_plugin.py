@@ -24,7 +24,7 @@ import can
 from can.io.generic import MessageReader, MessageWriter
 
 from dbc import DBC_PATH
-from ecu.canlog import CanLogError, CanLogWriter, TimeBase
+from ecu.canlog import BLOCK_S, CanLogError, CanLogWriter, TimeBase
 from ecu.canlog_read import messages, read_canlog
 from ecu.recording import DBC_ATTACHMENT
 
@@ -55,7 +55,7 @@ class McapWriter(MessageWriter):
         block_s: block length, s of message time.
     """
 
-    def __init__(self, file: Any, dbc: str | None = None, block_s: float = 1.0, **kwargs: Any) -> None:  # noqa: ARG002
+    def __init__(self, file: Any, dbc: str | None = None, block_s: float = BLOCK_S, **kwargs: Any) -> None:  # noqa: ARG002
         if not isinstance(file, str | Path):
             raise CanLogError("a pacc recording is written to a path, not an open file")
         import cantools  # noqa: PLC0415 - only a writer with decoded channels needs it

@@ -33,6 +33,7 @@ from ecu.canlog import (
     CanLogError,
     TimeBase,
 )
+from ecu.blocks import BlockError, decode_block
 
 __all__ = ["CanLog", "Frames", "messages", "read_canlog"]
 
@@ -63,7 +64,7 @@ class CanLog:
     path: Path
     frames: Frames
     #: DBC message name -> signal (and ``t_s``) -> values, every block joined
-    decoded: dict[str, dict[str, list[Any]]]
+    decoded: dict[str, dict[str, np.ndarray]]
     #: internals topic (``/ecu/outputs`` …) -> column -> values
     series: dict[str, dict[str, np.ndarray]]
     events: list[tuple[float, str]]
@@ -80,7 +81,7 @@ class _Collect:
     def __init__(self) -> None:
         self.schemas: dict[int, Any] = {}
         self.channels: dict[int, Any] = {}
-        self.blocks: dict[str, list[dict[str, Any]]] = {}
+        self.blocks: dict[str, list[bytes]] = {}
         self.events: list[tuple[float, str]] = []
         self.metadata: dict[str, dict[str, str]] = {}
         self.attachments: dict[str, bytes] = {}
@@ -101,11 +102,11 @@ def _scan(path: Path) -> _Collect:
                     ch = found.channels.get(record.channel_id)
                     if ch is None:
                         raise CanLogError(f"{path}: message on an unknown channel")
-                    doc = json.loads(record.data)
                     if ch.topic == EVENTS_TOPIC:
+                        doc = json.loads(record.data)
                         found.events.append((float(doc["t_s"]), str(doc["text"])))
                     else:
-                        found.blocks.setdefault(ch.topic, []).append(doc)
+                        found.blocks.setdefault(ch.topic, []).append(record.data)
                 elif isinstance(record, records.Metadata):
                     found.metadata[record.name] = dict(record.metadata)
                 elif isinstance(record, records.Attachment):
@@ -125,38 +126,35 @@ def _scan(path: Path) -> _Collect:
     return found
 
 
-def _join(blocks: list[dict[str, Any]]) -> dict[str, list[Any]]:
-    out: dict[str, list[Any]] = {}
-    for doc in blocks:
-        for k, v in doc.items():
-            out.setdefault(k, []).extend(v)
-    return out
+def _join(blocks: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """The blocks of one channel joined column by column."""
+    names = list(blocks[0]) if blocks else []
+    return {k: np.concatenate([b[k] for b in blocks]) for k in names}
 
 
-def _frames(blocks: list[dict[str, Any]], path: Path) -> Frames:
-    cols = _join(blocks)
+def _frames(blocks: list[dict[str, np.ndarray]], path: Path) -> Frames:
+    if not blocks:
+        empty = np.zeros(0, dtype=np.int64)
+        return Frames(np.zeros(0), empty, empty, empty, [])
     try:
-        data = [bytes.fromhex(h) for h in cols.get("data", [])]
-        frames = Frames(
-            t_s=np.asarray(cols.get("t_s", []), dtype=np.float64),
-            id=np.asarray(cols.get("id", []), dtype=np.int64),
-            flags=np.asarray(cols.get("flags", []), dtype=np.int64),
-            dlc=np.asarray(cols.get("dlc", []), dtype=np.int64),
-            data=data,
+        cols = _join(blocks)
+        lens = cols["len"].astype(np.int64)
+        payload = cols["data"].tobytes()
+        ends = np.cumsum(lens).tolist()
+        if (ends[-1] if ends else 0) != len(payload):
+            raise CanLogError(f"{path}: {RAW_TOPIC} payload lengths do not add up")
+        starts = [0, *ends[:-1]]
+        return Frames(
+            t_s=cols["t_s"].astype(np.float64),
+            id=cols["id"].astype(np.int64),
+            flags=cols["flags"].astype(np.int64),
+            dlc=cols["dlc"].astype(np.int64),
+            data=[payload[a:b] for a, b in zip(starts, ends, strict=True)],
         )
-    except (ValueError, TypeError) as exc:
+    except KeyError as exc:
+        raise CanLogError(f"{path}: {RAW_TOPIC} block lacks column {exc}") from None
+    except ValueError as exc:  # columns of different lengths
         raise CanLogError(f"{path}: bad {RAW_TOPIC} block: {exc}") from None
-    n = len(data)
-    if not (len(frames.t_s) == len(frames.id) == len(frames.flags) == len(frames.dlc) == n):
-        raise CanLogError(f"{path}: {RAW_TOPIC} columns differ in length")
-    return frames
-
-
-def _series(cols: dict[str, list[Any]]) -> dict[str, np.ndarray]:
-    return {
-        k: np.asarray([np.nan if x is None else x for x in v], dtype=np.float64)
-        for k, v in cols.items()
-    }
 
 
 def read_canlog(path: str | os.PathLike[str]) -> CanLog:
@@ -181,18 +179,26 @@ def read_canlog(path: str | os.PathLike[str]) -> CanLog:
         base = TimeBase(int(meta["utc_origin_ns"]), float(meta["clock_origin_s"]))
     except (KeyError, ValueError) as exc:
         raise CanLogError(f"{path}: bad time base in the metadata: {exc}") from None
-    decoded: dict[str, dict[str, list[Any]]] = {}
+    try:
+        blocks = {k: [decode_block(b) for b in v] for k, v in found.blocks.items()}
+    except BlockError as exc:
+        raise CanLogError(f"{path}: corrupt block: {exc}") from None
+    decoded: dict[str, dict[str, np.ndarray]] = {}
     series: dict[str, dict[str, np.ndarray]] = {}
-    for topic, blocks in found.blocks.items():
+    for topic, topic_blocks in blocks.items():
         if topic == RAW_TOPIC:
             continue
+        try:
+            joined = _join(topic_blocks)
+        except (ValueError, KeyError) as exc:
+            raise CanLogError(f"{path}: blocks of {topic} do not match: {exc}") from None
         if topic.startswith("/can/"):
-            decoded[topic.removeprefix("/can/")] = _join(blocks)
+            decoded[topic.removeprefix("/can/")] = joined
         else:
-            series[topic] = _series(_join(blocks))
+            series[topic] = joined
     return CanLog(
         path=path,
-        frames=_frames(found.blocks.get(RAW_TOPIC, []), path),
+        frames=_frames(blocks.get(RAW_TOPIC, []), path),
         decoded=decoded,
         series=series,
         events=found.events,

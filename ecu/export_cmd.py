@@ -45,7 +45,9 @@ def convert(src: Path, dst: Path, dbc: str | None = None) -> int:
         raise FileNotFoundError(f"{src}: no such file")
     kwargs = {"dbc": dbc} if dbc and dst.suffix.lower() == ".mcap" else {}
     n = 0
-    with can.LogReader(src) as reader, can.Logger(dst, **kwargs) as writer:
+    # an ASC file keeps its start time in its header: read absolute times, not offsets
+    absolute = {"relative_timestamp": False} if src.suffix.lower() == ".asc" else {}
+    with can.LogReader(src, **absolute) as reader, can.Logger(dst, **kwargs) as writer:
         for msg in reader:
             writer.on_message_received(msg)
             n += 1
