@@ -82,9 +82,7 @@ def main() -> None:
             on.append(_drive(args.sim_s, d / "drive.mcap"))
     rt_off, rt_on = statistics.median(off), statistics.median(on)
     print(f"frames: {n} of a {args.sim_s:g}-s drive (scenario B, d2, predefined+oa)")
-    print(
-        f"python-can BLFWriter:           {n / blf_s:10,.0f} frames/s  {blf_b:6.2f} bytes/frame"
-    )
+    print(f"python-can BLFWriter:           {n / blf_s:10,.0f} frames/s  {blf_b:6.2f} bytes/frame")
     print(
         f"pacc recorder (raw + decoded):  {n / mcap_s:10,.0f} frames/s  {mcap_b:6.2f} bytes/frame"
         f"  ({mcap_b / blf_b:.2f}x BLF's bytes)"

@@ -55,7 +55,9 @@ class McapWriter(MessageWriter):
         block_s: block length, s of message time.
     """
 
-    def __init__(self, file: Any, dbc: str | None = None, block_s: float = BLOCK_S, **kwargs: Any) -> None:  # noqa: ARG002
+    def __init__(
+        self, file: Any, dbc: str | None = None, block_s: float = BLOCK_S, **kwargs: Any
+    ) -> None:  # noqa: ARG002
         if not isinstance(file, str | Path):
             raise CanLogError("a pacc recording is written to a path, not an open file")
         import cantools  # noqa: PLC0415 - only a writer with decoded channels needs it

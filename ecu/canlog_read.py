@@ -18,6 +18,7 @@ from typing import Any
 import can
 import numpy as np
 
+from ecu.blocks import BlockError, decode_block
 from ecu.canlog import (
     EVENTS_TOPIC,
     FLAG_BRS,
@@ -33,7 +34,6 @@ from ecu.canlog import (
     CanLogError,
     TimeBase,
 )
-from ecu.blocks import BlockError, decode_block
 
 __all__ = ["CanLog", "Frames", "messages", "read_canlog"]
 
@@ -54,7 +54,8 @@ class Frames:
     @property
     def rx(self) -> np.ndarray:
         """True for the frames the recording node received, shape ``(n,)``."""
-        return (self.flags & FLAG_RX) != 0
+        rx: np.ndarray = (self.flags & FLAG_RX) != 0
+        return rx
 
 
 @dataclass
@@ -87,6 +88,17 @@ class _Collect:
         self.attachments: dict[str, bytes] = {}
         self.footer = False
 
+    def message(self, record: Any, path: Path) -> None:
+        """File one MCAP message record: an event, or a block kept encoded for later."""
+        ch = self.channels.get(record.channel_id)
+        if ch is None:
+            raise CanLogError(f"{path}: message on an unknown channel")
+        if ch.topic == EVENTS_TOPIC:
+            doc = json.loads(record.data)
+            self.events.append((float(doc["t_s"]), str(doc["text"])))
+        else:
+            self.blocks.setdefault(ch.topic, []).append(record.data)
+
 
 def _scan(path: Path) -> _Collect:
     from mcap import records  # noqa: PLC0415 - mcap only when a recording is read
@@ -96,17 +108,10 @@ def _scan(path: Path) -> _Collect:
     try:
         with path.open("rb") as stream:
             for record in StreamReader(stream, validate_crcs=True).records:
-                if isinstance(record, records.Channel):
+                if isinstance(record, records.Message):
+                    found.message(record, path)
+                elif isinstance(record, records.Channel):
                     found.channels[record.id] = record
-                elif isinstance(record, records.Message):
-                    ch = found.channels.get(record.channel_id)
-                    if ch is None:
-                        raise CanLogError(f"{path}: message on an unknown channel")
-                    if ch.topic == EVENTS_TOPIC:
-                        doc = json.loads(record.data)
-                        found.events.append((float(doc["t_s"]), str(doc["text"])))
-                    else:
-                        found.blocks.setdefault(ch.topic, []).append(record.data)
                 elif isinstance(record, records.Metadata):
                     found.metadata[record.name] = dict(record.metadata)
                 elif isinstance(record, records.Attachment):

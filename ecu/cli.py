@@ -263,7 +263,9 @@ def _codec_and_sink(args: argparse.Namespace) -> tuple[Codec, TripSink | None]:
     return codec, sink
 
 
-def _recorder(args: argparse.Namespace, codec: Codec, node: EcuNode, base: TimeBase) -> CanLogWriter:
+def _recorder(
+    args: argparse.Namespace, codec: Codec, node: EcuNode, base: TimeBase
+) -> CanLogWriter:
     """The bus recorder of ``--can-log`` (opened now: a bad path fails before the run)."""
     try:
         return open_recording(

@@ -72,8 +72,10 @@ class ReplayResult:
         for i, (a, b) in enumerate(zip(self.sent, self.recorded, strict=False)):
             if a != b:
                 return i
-        return None if len(self.sent) == len(self.recorded) else min(
-            len(self.sent), len(self.recorded)
+        return (
+            None
+            if len(self.sent) == len(self.recorded)
+            else min(len(self.sent), len(self.recorded))
         )
 
 
@@ -176,7 +178,9 @@ def replay_through_ecu(log: CanLog, node: EcuNode | None = None) -> ReplayResult
     f = log.frames
     recorded = [
         (t, fid, data)
-        for t, fid, rx, data in zip(f.t_s.tolist(), f.id.tolist(), f.rx.tolist(), f.data, strict=True)
+        for t, fid, rx, data in zip(
+            f.t_s.tolist(), f.id.tolist(), f.rx.tolist(), f.data, strict=True
+        )
         if not rx
     ]
     return ReplayResult(summary, sent, recorded, states, events)

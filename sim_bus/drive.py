@@ -28,8 +28,8 @@ import can
 
 from dbc.codec import Codec, load_codec
 from ecu import EcuError
-from ecu.canlog import WORLD_TOPIC, CanLogWriter, TimeBase
 from ecu.adaptation import ADAPTATION_MODES, AdaptationParams, Decision
+from ecu.canlog import WORLD_TOPIC, CanLogWriter, TimeBase
 from ecu.dgpt import Dgpt, load_dgpt, predefined
 from ecu.node import EcuConfig, EcuNode
 from ecu.pedals import PedalScale

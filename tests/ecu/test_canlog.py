@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import can
 import cantools
@@ -55,18 +56,31 @@ def _frames(n: int, seed: int) -> list[tuple[float, can.Message, bool]]:
         v[first] = float(v[first]) + float(rng.uniform(-1, 1))
         frames.append((t, out.pack(role, v, timestamp=t), role != "command"))
     frames.append((n * 0.01, can.Message(arbitration_id=0x1ABCDEF, data=b"\x01\x02"), True))
-    frames.append((n * 0.01, can.Message(arbitration_id=0x0B0, data=b"\x01", is_extended_id=False), True))
+    frames.append(
+        (n * 0.01, can.Message(arbitration_id=0x0B0, data=b"\x01", is_extended_id=False), True)
+    )
     frames.append((n * 0.01, can.Message(is_error_frame=True, arbitration_id=0, data=b""), True))
     frames.append(
-        (n * 0.01, can.Message(arbitration_id=0x120, is_remote_frame=True, dlc=8, is_extended_id=False), False)
+        (
+            n * 0.01,
+            can.Message(arbitration_id=0x120, is_remote_frame=True, dlc=8, is_extended_id=False),
+            False,
+        )
     )
     return frames
 
 
-def _record(path: Path, frames: list[tuple[float, can.Message, bool]], block_s: float = 1.0) -> None:
+def _record(
+    path: Path, frames: list[tuple[float, can.Message, bool]], block_s: float = 1.0
+) -> None:
     table = predefined(1.5)
     rec = open_recording(
-        path, load_codec(), TimeBase(UTC0_NS, 0.0), node="test", config=EcuConfig(), table=table,
+        path,
+        load_codec(),
+        TimeBase(UTC0_NS, 0.0),
+        node="test",
+        config=EcuConfig(),
+        table=table,
         metadata={"drive": {"seed": "3"}},
     )
     rec.block_s = block_s
@@ -91,7 +105,7 @@ def test_frames_in_equal_frames_out_and_decoded_values_are_cantools(tmp_path: Pa
     assert f.rx.tolist() == [rx for _, _, rx in frames]
     assert bool(f.flags[-4] & FLAG_EXTENDED) and bool(f.flags[-2] & FLAG_ERROR)
     assert bool(f.flags[-1] & FLAG_REMOTE) and not f.flags[-1] & FLAG_RX
-    db = cantools.database.load_file(str(DBC_PATH), database_format="dbc", strict=True)
+    db: Any = cantools.database.load_file(str(DBC_PATH), database_format="dbc", strict=True)
     for name in ("ESC_Speed", "RADAR_Lead", "ACC_Command"):
         message = db.get_message_by_name(name)
         mine = [(t, m) for t, m, _ in frames if m.arbitration_id == message.frame_id]

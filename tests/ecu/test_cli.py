@@ -333,3 +333,34 @@ def test_bus_failure_ends_the_run_cleanly() -> None:
     assert flushed == [True]
     # it ran, then stopped at the failure, not at 5 s (cycle counts vary under load)
     assert rt.cycles >= 1 and time.monotonic() - t0 < 4.0
+
+
+@pytest.mark.slow
+def test_cli_can_log_records_the_run_and_takeovers_carry_utc(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from ecu.canlog_read import read_canlog  # noqa: PLC0415
+    from ecu.replay import replay_through_ecu  # noqa: PLC0415
+    from ecu.triplog import read_trip  # noqa: PLC0415
+
+    channel = f"ecu-cli-{next(_ids)}"
+    peers = Peers(channel, 4.2)
+    peers.start()
+    before = time.time()
+    argv = ["-i", "virtual", "-c", channel, "--headway", "3", "--duration", "4.0"]
+    rec = tmp_path / "bus.mcap"
+    rc = main([*argv, "--takeovers", str(tmp_path / "to"), "--can-log", str(rec)])
+    peers.join()
+    assert rc == 0
+    assert f"frames written to {rec}" in capsys.readouterr().out
+    log = read_canlog(rec)
+    assert log.node == "ecu" and (~log.frames.rx).sum() >= 150  # 50 Hz commands for ~4 s
+    assert log.frames.rx.sum() > 500 and "ACC_Command" in log.decoded
+    assert any("takeover 1" in text for _, text in log.events)
+    segment = read_trip(next((tmp_path / "to").glob("takeover_*.mcap")))
+    start = segment.meta["start_utc"]  # the wall clock, not the boot clock
+    assert start[:10] == time.strftime("%Y-%m-%d", time.gmtime(before))
+    # a real-time run replays on its first cycle's grid: close, not necessarily exact
+    result = replay_through_ecu(log)
+    assert abs(len(result.sent) - len(result.recorded)) <= 10
+    assert "ACTIVE" in [s for _, s in result.states]

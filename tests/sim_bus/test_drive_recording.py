@@ -5,6 +5,7 @@ from __future__ import annotations
 import threading
 from functools import lru_cache
 from pathlib import Path
+from typing import Any
 
 import can
 import cantools
@@ -15,23 +16,22 @@ from mcap.reader import make_reader
 from dbc import DBC_PATH
 from ecu import replay_cmd
 from ecu.canlog_read import CanLog, read_canlog
+from ecu.dgpt import predefined
 from ecu.export_cmd import main as export_main
 from ecu.node import EcuConfig, EcuNode
 from ecu.plot_cmd import main as plot_main
 from ecu.replay import play, replay_through_ecu
 from ecu.runtime import EcuRuntime
-from ecu.dgpt import predefined
 from pacc.cli import main as pacc_main
 from sim_bus import cli as sim_cli
-from sim_bus.drive import DriveConfig, main as drive_main, predefined_table, run_drive
+from sim_bus.drive import DriveConfig, predefined_table, run_drive
+from sim_bus.drive import main as drive_main
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.study.config import StudyConfig
 from sim_bus.study.run import DriveJob, run_job
 
 #: d2 with online adaptation: a takeover at 10.2 s, the adaptation at its release (13.2 s)
-CFG = DriveConfig(
-    scenario="B", driver_id="d2", controller="predefined+oa", seed=1, duration_s=20.0
-)
+CFG = DriveConfig(scenario="B", driver_id="d2", controller="predefined+oa", seed=1, duration_s=20.0)
 UTC0_NS = 1_790_000_000_000_000_000
 
 
@@ -63,7 +63,9 @@ def _recorded(tmp: str) -> tuple[Path, list[tuple[float, int, bytes]]]:
 
 
 @pytest.fixture(scope="module")
-def recorded(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[tuple[float, int, bytes]]]:
+def recorded(
+    tmp_path_factory: pytest.TempPathFactory,
+) -> tuple[Path, list[tuple[float, int, bytes]]]:
     return _recorded(str(tmp_path_factory.mktemp("rec")))
 
 
@@ -87,7 +89,7 @@ def test_a_changed_input_frame_changes_the_replay(
     f = log.frames
     # the radar's frames from 5 s on report the lead 20 m closer: the ECU must act differently
     radar = [i for i in range(len(f)) if f.id[i] == 0x120 and f.t_s[i] >= 5.0]
-    codec_db = cantools.database.load_file(str(DBC_PATH), database_format="dbc")
+    codec_db: Any = cantools.database.load_file(str(DBC_PATH), database_format="dbc")
     from dbc.codec import load_codec  # noqa: PLC0415
 
     codec = load_codec()
@@ -154,11 +156,11 @@ def test_export_round_trip_frames_in_equal_frames_out(
     tolerance_s = 1e-3 if suffix == ".asc" else 1e-5  # ASC: the start time in ms
     want = np.array([src.time_base.utc_ns(t) / 1e9 for t in src.frames.t_s.tolist()])
     assert np.max(np.abs(log.frames.t_s - want)) < tolerance_s
-    db = cantools.database.load_file(str(DBC_PATH), database_format="dbc", strict=True)
+    db: Any = cantools.database.load_file(str(DBC_PATH), database_format="dbc", strict=True)
     _decoded_equal_cantools(log, db)
 
 
-def _decoded_equal_cantools(log: CanLog, db: cantools.database.Database) -> None:
+def _decoded_equal_cantools(log: CanLog, db: Any) -> None:
     for message in db.messages:
         rows = [d for i, d in enumerate(log.frames.data) if log.frames.id[i] == message.frame_id]
         cols = log.decoded[message.name]
@@ -221,7 +223,14 @@ def test_drive_cli_can_log_and_utc_trip_log(
 def test_study_job_records_its_drive(tmp_path: Path) -> None:
     driver = BUILTIN_DRIVERS["d4"]
     job = DriveJob(
-        driver, "B", "predefined", 0, 0, 2.0, predefined_table(driver), None,
+        driver,
+        "B",
+        "predefined",
+        0,
+        0,
+        2.0,
+        predefined_table(driver),
+        None,
         can_log_path=str(tmp_path / "d4.mcap"),
     )
     run_job(job)
@@ -261,8 +270,19 @@ def test_play_sends_the_recorded_inputs(
     f = log.frames
     short = CanLog(
         log.path,
-        type(f)(f.t_s[keep], f.id[keep], f.flags[keep], f.dlc[keep], [d for d, k in zip(f.data, keep) if k]),
-        {}, {}, [], log.metadata, log.attachments, log.time_base,
+        type(f)(
+            f.t_s[keep],
+            f.id[keep],
+            f.flags[keep],
+            f.dlc[keep],
+            [d for d, k in zip(f.data, keep, strict=False) if k],
+        ),
+        {},
+        {},
+        [],
+        log.metadata,
+        log.attachments,
+        log.time_base,
     )
     sender = can.Bus(interface="virtual", channel="test-play")
     listener = can.Bus(interface="virtual", channel="test-play")
@@ -274,5 +294,5 @@ def test_play_sends_the_recorded_inputs(
     finally:
         sender.shutdown()
         listener.shutdown()
-    want = [d for d, r, k in zip(f.data, f.rx.tolist(), keep.tolist()) if r and k]
+    want = [d for d, r, k in zip(f.data, f.rx.tolist(), keep.tolist(), strict=False) if r and k]
     assert result.frames_sent == len(want) and got == want
