@@ -312,14 +312,17 @@ class CanLogWriter:
         self._writer.add_message(self._events_channel, stamp, data, stamp, self._events_seq)
         self._events_seq += 1
 
-    def cycle(self, t_s: float, inputs: NodeInputs, outputs: NodeOutputs) -> None:
-        """One ECU control cycle: its inputs and outputs on ``/ecu/inputs`` and
-        ``/ecu/outputs``, its events on ``/ecu/events``; closes the block when it is due."""
+    def cycle(self, t_s: float, inputs: NodeInputs, outputs: NodeOutputs, k: int = -1) -> None:
+        """ECU control cycle ``k``: its inputs and outputs on ``/ecu/inputs`` and
+        ``/ecu/outputs`` (``cycle`` the index on the node's cycle grid), its events on
+        ``/ecu/events``; closes the block when it is due."""
         if INPUTS_TOPIC not in self._series:
             self.series(INPUTS_TOPIC, INPUT_FIELDS, "the ECU node's checked inputs per cycle")
-            self.series(OUTPUTS_TOPIC, OUTPUT_FIELDS, "the ECU node's outputs per cycle")
+            self.series(
+                OUTPUTS_TOPIC, ("cycle", *OUTPUT_FIELDS), "the ECU node's outputs per cycle"
+            )
         self._series[INPUTS_TOPIC].rows.append((t_s, *_get_inputs(inputs)))
-        self._series[OUTPUTS_TOPIC].rows.append((t_s, *_get_outputs(outputs)))
+        self._series[OUTPUTS_TOPIC].rows.append((t_s, k, *_get_outputs(outputs)))
         for text in outputs.events:
             self.event(t_s, text)
         self.tick(t_s)

@@ -2,12 +2,12 @@
 
 - :func:`replay_through_ecu` rebuilds the ECU the recording names (its attached DBC, binding,
   configuration and starting table), puts every frame the recorded node received onto a
-  python-can ``virtual`` bus at its recorded time and advances the ECU to that time and to
-  every recorded cycle time (:meth:`ecu.runtime.EcuRuntime.advance_to`). Deterministic; for a
-  lockstep recording (``pacc drive``) the ECU sends the recorded frames again, bit for bit
-  (tested). A real-time recording (``pacc ecu``) ran its cycles on the wall clock, not on a
-  grid: its replay runs them on the grid of its first cycle, so small differences are
-  expected and reported.
+  python-can ``virtual`` bus, accepted at its recorded time, and runs every recorded control
+  cycle at its recorded time and index (:meth:`ecu.runtime.EcuRuntime.cycle_at`), after the
+  frames received up to then. Deterministic, for lockstep (``pacc drive``) and real-time
+  (``pacc ecu``) recordings alike: the ECU sends the recorded frames again, bit for bit
+  (tested for both). What came from outside the bus is not in the recording and is not
+  replayed: a driver profile loaded from ``--profiles``, a table downloaded from the cloud.
 - :func:`play` sends the frames onto any python-can bus with their recorded spacing (like
   python-can's ``can.player``, through :class:`can.MessageSync`), and decodes the ACC
   commands another node (``pacc ecu``) answers with.
@@ -28,7 +28,14 @@ import can
 from dbc import BINDING_PATH, DBC_PATH
 from dbc.codec import Codec, load_codec
 from dbc.endpoint import Frame, Inbox
-from ecu.canlog import CanLogError
+from ecu.canlog import (
+    FLAG_ERROR,
+    FLAG_EXTENDED,
+    FLAG_REMOTE,
+    FLAG_RX,
+    OUTPUTS_TOPIC,
+    CanLogError,
+)
 from ecu.canlog_read import CanLog, messages
 from ecu.dgpt import Dgpt, dgpt_from_json_dict, predefined
 from ecu.node import EcuNode
@@ -110,41 +117,47 @@ def _ecu_of(log: CanLog) -> EcuNode:
     return EcuNode(config, table, utc_now=lambda: REPLAY_UTC)
 
 
-def _schedule(log: CanLog) -> list[tuple[float, list[can.Message]]]:
-    """(time, frames received then) for every recorded reception and cycle time, in order."""
+def _received(log: CanLog) -> list[tuple[float, can.Message]]:
+    """(time, frame) of every frame the recorded node received, in bus order."""
     f = log.frames
-    rx = f.rx.tolist()
-    received: dict[float, list[can.Message]] = {}
-    times: set[float] = set()
-    for i, (t, fid, fl, data) in enumerate(
-        zip(f.t_s.tolist(), f.id.tolist(), f.flags.tolist(), f.data, strict=True)
+    out = []
+    for t, fid, fl, data in zip(
+        f.t_s.tolist(), f.id.tolist(), f.flags.tolist(), f.data, strict=True
     ):
-        times.add(t)
-        if rx[i]:
-            received.setdefault(t, []).append(
-                Frame(
-                    arbitration_id=fid,
-                    is_extended_id=bool(fl & 1),
-                    data=data,
-                    timestamp=t,
-                    is_remote_frame=bool(fl & 16),
-                    is_error_frame=bool(fl & 8),
-                )
+        if fl & FLAG_RX:
+            msg = Frame(
+                arbitration_id=fid,
+                is_extended_id=bool(fl & FLAG_EXTENDED),
+                data=data,
+                timestamp=t,
+                is_remote_frame=bool(fl & FLAG_REMOTE),
+                is_error_frame=bool(fl & FLAG_ERROR),
             )
-    outputs = log.series.get("/ecu/outputs")
-    if outputs is not None:
-        times.update(outputs["t_s"].tolist())
-    return [(t, received.get(t, [])) for t in sorted(times)]
+            out.append((t, msg))
+    return out
+
+
+def _cycles(log: CanLog) -> list[tuple[float, int]]:
+    """(time, index) of every recorded control cycle."""
+    outputs = log.series.get(OUTPUTS_TOPIC)
+    if outputs is None or "cycle" not in outputs:
+        raise CanLogError(f"{log.path}: the recording holds no ECU cycles ({OUTPUTS_TOPIC})")
+    return list(zip(outputs["t_s"].tolist(), outputs["cycle"].astype(int).tolist(), strict=True))
 
 
 def replay_through_ecu(log: CanLog, node: EcuNode | None = None) -> ReplayResult:
-    """Run the recording's received frames through the ECU in lockstep (module docstring).
+    """Run the recording's received frames and cycles through the ECU (module docstring).
+
+    Every received frame is put on a virtual bus and accepted at its recorded time; every
+    recorded cycle runs at its recorded time with its index, after the frames received up
+    to then. Lockstep (``pacc drive``) and real-time (``pacc ecu``) recordings alike.
 
     Raises:
-        CanLogError: the recording names no ECU (no attached configuration).
+        CanLogError: the recording names no ECU (no attached configuration, no cycles).
     """
     node = node if node is not None else _ecu_of(log)
     codec = codec_of(log)
+    cycles = _cycles(log)
     channel = f"pacc-replay-{next(_channels)}"
     sent: list[tuple[float, int, bytes]] = []
 
@@ -159,11 +172,14 @@ def replay_through_ecu(log: CanLog, node: EcuNode | None = None) -> ReplayResult
     try:
         rt = EcuRuntime(ecu_bus, node, codec)
         rt.io.tap = tap
-        last = None
-        for t, frames in _schedule(log):
-            for msg in frames:
-                feeder.send(msg)
-            rt.advance_to(t)
+        received = _received(log)
+        i, last = 0, None
+        for t, k in cycles:
+            while i < len(received) and received[i][0] <= t:  # a frame stamped t: before it
+                feeder.send(received[i][1])
+                rt.io.drain(received[i][0])
+                i += 1
+            rt.cycle_at(t, k)
             out = rt.last_outputs
             if out is not None:
                 events.extend((t, text) for text in out.events)

@@ -1,15 +1,16 @@
-"""``pacc replay LOG``: a bus recording through the ECU (lockstep) or onto a bus (real time).
+"""``pacc replay LOG``: a bus recording through the ECU (deterministic) or onto a bus (real time).
 
-    pacc replay drive.mcap --ecu               # lockstep: the recorded ECU over its inputs
+    pacc replay drive.mcap --ecu               # the recorded ECU over its recorded inputs
     pacc replay drive.mcap -i virtual -c bus0 --frames rx   # real time, e.g. to a pacc ecu
 
 ``--ecu`` rebuilds the ECU from the recording (its DBC, binding, configuration and starting
-table are attached), feeds it every frame its node received at the recorded times and
-compares the frames it sends with the recorded ones; it prints the ACC state changes, the
-events and the summary. Exit status 0 when the ECU sent the recorded frames exactly, 1 when
-they differ (the first difference is printed), 2 on a bad recording or options.
-Without ``--ecu`` the frames go onto the bus with their recorded spacing (python-can's
-player), and the ACC commands another ECU answers with are counted by state.
+table are attached), feeds it every frame its node received at the recorded time, runs every
+recorded control cycle at its recorded time, and compares the frames it sends with the
+recorded ones (:mod:`ecu.replay`); it prints the ACC state changes, the events and the
+summary. Exit status 0 when the ECU sent the recorded frames exactly, 1 when they differ (the
+first difference is printed), 2 on a bad recording or options. Without ``--ecu`` the frames
+go onto the bus with their recorded spacing (python-can's player), and the ACC commands
+another ECU answers with are counted by state.
 """
 
 from __future__ import annotations
@@ -27,12 +28,14 @@ MAX_STATES_SHOWN = 12
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="pacc replay",
-        description="replay a bus recording through the ECU in lockstep (--ecu) or onto a "
+        description="replay a bus recording through the ECU (--ecu, deterministic) or onto a "
         "CAN bus in real time",
     )
     p.add_argument("log", type=Path, metavar="LOG", help="a pacc bus recording (.mcap)")
     p.add_argument(
-        "--ecu", action="store_true", help="lockstep through the recorded ECU, compare frames"
+        "--ecu",
+        action="store_true",
+        help="through the recorded ECU at the recorded times; compare its frames",
     )
     p.add_argument("--events", action="store_true", help="--ecu: print every ECU event")
     bus = p.add_argument_group("real time (omitted: python-can's own configuration applies)")
@@ -59,7 +62,7 @@ def _ecu(args: argparse.Namespace) -> int:
     print(
         f"replay: {args.log} (recorded by {log.node or '?'} from "
         f"{log.metadata.get('pacc', {}).get('start_utc', '?')}), {len(log.frames)} frames, "
-        "lockstep through the ECU"
+        "through the ECU"
     )
     print(f"  fed to the ECU   {n_rx} received frames at their recorded times")
     diff = result.first_difference()

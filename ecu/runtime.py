@@ -192,6 +192,11 @@ class EcuRuntime:
         """
         self.clock.run_realtime(duration_s, self.io, self._cycle)
 
+    def cycle_at(self, t_s: float, k: int) -> None:
+        """Run control cycle ``k`` at ``t_s`` now, on a clock the caller keeps (a replay of a
+        recording's cycles: :mod:`ecu.replay`); frames must have been accepted before."""
+        self._cycle(t_s, k)
+
     def offer_table(self, table: Dgpt, message: str) -> None:
         """Swap ``table`` in at the next cycle where the ACC is not ACTIVE (thread-safe)."""
         self.table_offer.offer(table, message)
@@ -219,7 +224,7 @@ class EcuRuntime:
         self.last_outputs = out
         self.io.send(t, out, status=k % self._status_every == 0)
         if self.recorder is not None:
-            self.recorder.cycle(t, inputs, out)
+            self.recorder.cycle(t, inputs, out, k)
         self.cycles += 1
         for text in out.events:
             log.debug("t=%.2f %s", t, text)
