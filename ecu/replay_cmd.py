@@ -124,7 +124,7 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc replay``; returns the exit status."""
     args = _parser().parse_args(argv)
     if args.ecu and (args.interface or args.channel or args.bitrate):
-        print("pacc replay: error: --ecu runs in lockstep: no bus options", file=sys.stderr)
+        print("pacc replay: error: --ecu needs no bus: drop the bus options", file=sys.stderr)
         return 2
     try:
         return _ecu(args) if args.ecu else _realtime(args)
