@@ -120,7 +120,7 @@ def _ecu_of(log: CanLog) -> EcuNode:
 def _received(log: CanLog) -> list[tuple[float, can.Message]]:
     """(time, frame) of every frame the recorded node received, in bus order."""
     f = log.frames
-    out = []
+    out: list[tuple[float, can.Message]] = []
     for t, fid, fl, data in zip(
         f.t_s.tolist(), f.id.tolist(), f.flags.tolist(), f.data, strict=True
     ):

@@ -351,12 +351,13 @@ def test_cli_can_log_records_the_run_and_takeovers_carry_utc(
     rec = tmp_path / "bus.mcap"
     rc = main([*argv, "--takeovers", str(tmp_path / "to"), "--can-log", str(rec)])
     peers.join()
+    out = capsys.readouterr().out
     assert rc == 0
-    assert f"frames written to {rec}" in capsys.readouterr().out
+    assert f"frames written to {rec}" in out
     log = read_canlog(rec)
     assert log.node == "ecu" and (~log.frames.rx).sum() >= 150  # 50 Hz commands for ~4 s
     assert log.frames.rx.sum() > 500 and "ACC_Command" in log.decoded
-    assert any("takeover 1" in text for _, text in log.events)
+    assert any("takeover 1" in text for _, text in log.events), (log.events, out)
     segment = read_trip(next((tmp_path / "to").glob("takeover_*.mcap")))
     start = segment.meta["start_utc"]  # the wall clock, not the boot clock
     assert start[:10] == time.strftime("%Y-%m-%d", time.gmtime(before))
