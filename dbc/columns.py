@@ -1,4 +1,4 @@
-"""Column-wise decoding of many frames of one DBC message, and the JSON schema of the result.
+"""Column-wise decoding of many frames of one DBC message, and what its columns mean.
 
 The bus recorder (:mod:`ecu.canlog`) decodes a block of frames at a time: the payloads of one
 message become an ``(n, 8)`` byte array, read as one 64-bit integer per frame (little- or
@@ -7,8 +7,8 @@ big-endian, as the signal), and each signal is a shift, a mask, a sign extension
 (``raw * scale + offset`` in float64; integers when scale is 1 and offset 0, or both are
 integers), so the values equal ``cantools``' ``Message.decode(data, decode_choices=False)``
 frame by frame (tested). Messages this cannot vectorise — multiplexed ones, IEEE float
-signals, payloads longer than 8 bytes — are decoded frame by frame with cantools, with
-``None`` for a signal a frame does not carry.
+signals, payloads longer than 8 bytes — are decoded frame by frame with cantools, with NaN
+for a signal a frame does not carry.
 
 Works on the cantools message itself, not on pacc's binding: every message of any DBC gets
 a decoded channel, bound or not.

@@ -1,42 +1,34 @@
 """The bus recorder: every CAN frame, decoded per DBC message, and node internals, in MCAP.
 
-One MCAP file per recording (``pacc ecu|sim|drive --can-log FILE``), JSON-encoded messages
-with JSON schemas, zstd-compressed chunks:
+One MCAP file per recording (``pacc ecu|sim|drive --can-log FILE``), zstd-compressed chunks,
+JSON-encoded messages with JSON schemas (the layout: :mod:`ecu.canlog_format`):
 
-- ``/can/raw`` (schema ``pacc.CanFrames``): every frame the node received (``rx``) or sent,
-  in blocks: ``t_s`` (the node's clock, s: simulated time in lockstep, the monotonic clock in
-  real time), ``id``, ``flags`` (bit 0 extended id, 1 received, 2 CAN FD, 3 error frame,
-  4 remote frame, 5 bit-rate switch, 6 error state indicator), ``dlc`` and ``data`` (hex);
-- ``/can/<Message>`` (schema ``dbc.<Message>``, generated from the DBC by
-  :func:`dbc.columns.message_schema`): the frames of one DBC message decoded, ``t_s`` plus one
-  array per signal (physical units; cantools' values);
-- node internals on their own channels, also columns: ``/ecu/inputs`` and ``/ecu/outputs``
-  (the node's checked inputs and its outputs of every control cycle: request, state, desired
-  gap, table version …), ``/sim/world`` (the simulated truth); ``/ecu/events`` one message per
-  event text (state changes, faults, adaptations).
+- ``/can/raw``: every frame the node received (``rx``) or sent, in bus order;
+- ``/can/<Message>`` (schema ``dbc.<Message>``, generated from the DBC): the frames of one
+  DBC message decoded (:mod:`dbc.columns`: cantools' values, column by column);
+- node internals on their own channels: ``/ecu/inputs`` and ``/ecu/outputs`` (the node's
+  checked inputs and its outputs of every control cycle: request, state, desired gap, table
+  version …), ``/sim/world`` (the simulated truth); ``/ecu/events`` one message per event.
 
-A message holds a block: what one channel collected during ``block_s`` of the node's clock
-(1 s by default), one array element per frame or cycle. Writing one MCAP message and one JSON
-document per frame would cost more than the drive it records; a block costs one of each
-(bench/canlog.py measures it against python-can's BLF writer). Every message's ``log_time``
-is real UTC: the recording's :class:`TimeBase` maps the node's clock onto the wall clock
-(lockstep: the UTC of the drive's start plus the simulated time). The DBC, the binding, the
-ECU configuration and its starting table are MCAP attachments; what ran (node, command line,
-time base, drive settings) are MCAP metadata records. The file is written as ``FILE.part``
-and renamed when closed.
+A message holds a block: what one channel collected during ``block_s`` of the node's clock,
+one row per frame or cycle, every column a base64 little-endian array (:mod:`ecu.blocks`).
+One MCAP message and one JSON text per frame would cost more than the drive being recorded;
+a block costs one of each per channel (bench/canlog.py measures the recorder against
+python-can's BLF writer). Every message's ``log_time`` is real UTC: the recording's
+:class:`~ecu.canlog_format.TimeBase` maps the node's clock onto the wall clock (lockstep: the
+UTC of the drive's start plus the simulated time). The DBC, the binding, the ECU
+configuration and its starting table are MCAP attachments; what ran (node, time base, drive
+settings) are MCAP metadata records. The file is written as ``FILE.part`` and renamed when
+closed.
 """
 
 from __future__ import annotations
 
 import itertools
 import json
-import math
 import operator
 import os
-import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass, fields
-from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -44,129 +36,60 @@ import can
 import numpy as np
 
 from dbc.columns import MessageColumns, message_columns
-from ecu import EcuError
 from ecu.blocks import block_schema, encode_block
+from ecu.canlog_format import (
+    BLOCK_S,
+    EVENT_SCHEMA,
+    EVENTS_TOPIC,
+    FLAG_BRS,
+    FLAG_ERROR,
+    FLAG_ESI,
+    FLAG_EXTENDED,
+    FLAG_FD,
+    FLAG_REMOTE,
+    FLAG_RX,
+    FORMAT,
+    INPUT_FIELDS,
+    INPUTS_TOPIC,
+    META_RECORD,
+    OUTPUT_FIELDS,
+    OUTPUTS_TOPIC,
+    RAW_SCHEMA,
+    RAW_SCHEMA_NAME,
+    RAW_TOPIC,
+    WORLD_TOPIC,
+    CanLogError,
+    TimeBase,
+    frame_flags,
+    series_columns,
+)
 from ecu.signals import NodeInputs, NodeOutputs
 
 __all__ = [
+    "BLOCK_S",
+    "EVENTS_TOPIC",
+    "FLAG_BRS",
     "FLAG_ERROR",
+    "FLAG_ESI",
     "FLAG_EXTENDED",
     "FLAG_FD",
     "FLAG_REMOTE",
     "FLAG_RX",
     "FORMAT",
+    "INPUTS_TOPIC",
+    "META_RECORD",
+    "OUTPUTS_TOPIC",
     "RAW_TOPIC",
+    "WORLD_TOPIC",
     "CanLogError",
     "CanLogWriter",
+    "FrameTap",
     "TimeBase",
     "frame_flags",
 ]
 
-FORMAT = "pacc.canlog/1"
-RAW_TOPIC = "/can/raw"
-RAW_SCHEMA_NAME = "pacc.CanFrames"
-EVENTS_TOPIC = "/ecu/events"
-INPUTS_TOPIC = "/ecu/inputs"
-OUTPUTS_TOPIC = "/ecu/outputs"
-WORLD_TOPIC = "/sim/world"
-#: default block length, s of the node's clock (longer blocks spread the per-block costs)
-BLOCK_S = 10.0
-#: metadata record of every recording: format, node, time base, start time
-META_RECORD = "pacc"
-
-FLAG_EXTENDED = 1
-FLAG_RX = 2
-FLAG_FD = 4
-FLAG_ERROR = 8
-FLAG_REMOTE = 16
-FLAG_BRS = 32
-FLAG_ESI = 64
-
-INPUT_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(NodeInputs))
-OUTPUT_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(NodeOutputs) if f.name != "events")
 _get_inputs = operator.attrgetter(*INPUT_FIELDS)
 _get_outputs = operator.attrgetter(*OUTPUT_FIELDS)
-
-
-class CanLogError(EcuError):
-    """A bus recording cannot be written or read (path, format, contents)."""
-
-
-#: /can/raw columns: name -> (dtype, description); ``data`` is every payload joined
-RAW_COLUMNS: dict[str, tuple[str, str]] = {
-    "t_s": ("<f8", "time on the recording node's clock, s"),
-    "id": ("<u4", "arbitration id"),
-    "flags": (
-        "|u1",
-        "bit 0 extended id, 1 received (else sent), 2 CAN FD, 3 error frame, 4 remote frame, "
-        "5 bit-rate switch, 6 error state indicator",
-    ),
-    "dlc": ("|u1", "data length code"),
-    "len": ("|u1", "payload length, bytes"),
-    "data": ("|u1", "the payloads, one after the other (len bytes each; not n values)"),
-}
-RAW_SCHEMA = block_schema(
-    RAW_SCHEMA_NAME, "A block of CAN frames, one row per frame, in bus order", RAW_COLUMNS
-)
-
-
-def series_columns(columns: Sequence[str]) -> dict[str, tuple[str, str]]:
-    """Block columns of a sampled channel: ``t_s`` plus float64 columns (booleans 0/1)."""
-    out = {"t_s": ("<f8", "sample time on the node's clock, s")}
-    out.update({name: ("<f8", name) for name in columns})
-    return out
-
-
-EVENT_SCHEMA: dict[str, Any] = {
-    "$schema": "https://json-schema.org/draft/2020-12/schema",
-    "title": "pacc.EcuEvent",
-    "description": "One event of the ECU node: state change, fault, adaptation decision",
-    "type": "object",
-    "properties": {"t_s": {"type": "number"}, "text": {"type": "string"}},
-    "required": ["t_s", "text"],
-}
-
-
-@dataclass(frozen=True)
-class TimeBase:
-    """Maps a node's clock (s) onto UTC: ``utc_ns = utc_origin_ns + (t - clock_origin_s)``.
-
-    Lockstep drives: the clock is simulated time from 0 and the origin the drive's start on
-    the wall clock. Real time: the monotonic clock and the wall clock read together.
-    """
-
-    utc_origin_ns: int
-    clock_origin_s: float
-
-    @classmethod
-    def now(cls, clock_s: float) -> TimeBase:
-        """The node's clock reads ``clock_s`` now."""
-        return cls(time.time_ns(), clock_s)
-
-    def utc_ns(self, t_s: float) -> int:
-        """UTC of node time ``t_s``, ns since the epoch (clamped at 0)."""
-        if not math.isfinite(t_s):
-            return self.utc_origin_ns
-        return max(0, self.utc_origin_ns + int(round((t_s - self.clock_origin_s) * 1e9)))
-
-    def iso(self, t_s: float) -> str:
-        """UTC of node time ``t_s`` as ISO 8601 with microseconds."""
-        ns = self.utc_ns(t_s)
-        dt = datetime.fromtimestamp(ns // 1000 / 1e6, tz=UTC)
-        return dt.strftime("%Y-%m-%dT%H:%M:%S.%fZ")
-
-
-def frame_flags(msg: can.Message, rx: bool) -> int:
-    """The ``flags`` bit field of ``msg`` (see the module docstring)."""
-    return (
-        (FLAG_EXTENDED if msg.is_extended_id else 0)
-        | (FLAG_RX if rx else 0)
-        | (FLAG_FD if msg.is_fd else 0)
-        | (FLAG_ERROR if msg.is_error_frame else 0)
-        | (FLAG_REMOTE if msg.is_remote_frame else 0)
-        | (FLAG_BRS if msg.bitrate_switch else 0)
-        | (FLAG_ESI if msg.error_state_indicator else 0)
-    )
 
 
 class _Series:

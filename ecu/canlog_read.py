@@ -19,7 +19,7 @@ import can
 import numpy as np
 
 from ecu.blocks import BlockError, decode_block
-from ecu.canlog import (
+from ecu.canlog_format import (
     EVENTS_TOPIC,
     FLAG_BRS,
     FLAG_ERROR,

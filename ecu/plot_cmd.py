@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ecu import EcuError
-from ecu.canlog import INPUTS_TOPIC, OUTPUTS_TOPIC, WORLD_TOPIC, CanLogError
+from ecu.canlog_format import INPUTS_TOPIC, OUTPUTS_TOPIC, WORLD_TOPIC, CanLogError
 from ecu.canlog_read import CanLog, read_canlog
 from ecu.state import AccState
 

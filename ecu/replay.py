@@ -28,7 +28,7 @@ import can
 from dbc import BINDING_PATH, DBC_PATH
 from dbc.codec import Codec, load_codec
 from dbc.endpoint import Frame, Inbox
-from ecu.canlog import (
+from ecu.canlog_format import (
     FLAG_ERROR,
     FLAG_EXTENDED,
     FLAG_REMOTE,
