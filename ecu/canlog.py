@@ -170,14 +170,9 @@ class CanLogWriter:
         self._block_t0: float | None = None
         self.frames = 0
         self.closed = False
-        start = {
-            "format": FORMAT,
-            "node": node,
-            "utc_origin_ns": str(time_base.utc_origin_ns),
-            "clock_origin_s": repr(time_base.clock_origin_s),
-            "start_utc": time_base.iso(time_base.clock_origin_s),
-        }
-        self._writer.add_metadata(META_RECORD, start)
+        self.node = node
+        #: the node's clock at the first frame or sample (the recording's start)
+        self.first_t_s: float | None = None
         for name, record in (metadata or {}).items():
             self._writer.add_metadata(name, {str(k): str(v) for k, v in record.items()})
         for name, data in (attachments or {}).items():
@@ -247,6 +242,8 @@ class CanLogWriter:
             )
         self._series[INPUTS_TOPIC].rows.append((t_s, *_get_inputs(inputs)))
         self._series[OUTPUTS_TOPIC].rows.append((t_s, k, *_get_outputs(outputs)))
+        if self._block_t0 is None:
+            self._block_t0 = t_s
         for text in outputs.events:
             self.event(t_s, text)
         self.tick(t_s)
@@ -260,6 +257,8 @@ class CanLogWriter:
 
     def flush(self) -> None:
         """Write the open block of every channel."""
+        if self.first_t_s is None:
+            self.first_t_s = self._block_t0
         if self._frames:
             self._write_frames(self._frames)
             self._frames = []
@@ -353,8 +352,18 @@ class CanLogWriter:
         if self.closed:
             return
         self.closed = True
+        base = self.time_base
+        first = self.first_t_s if self.first_t_s is not None else base.clock_origin_s
+        start = {
+            "format": FORMAT,
+            "node": self.node,
+            "utc_origin_ns": str(base.utc_origin_ns),
+            "clock_origin_s": repr(base.clock_origin_s),
+            "start_utc": base.iso(first),
+        }
         try:
             self.flush()
+            self._writer.add_metadata(META_RECORD, start)
             self._writer.finish()  # type: ignore[no-untyped-call]
             self._stream.close()
             self._tmp.replace(self.path)
