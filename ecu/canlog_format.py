@@ -16,13 +16,14 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
 from datetime import UTC, datetime
-from typing import Any
-
-import can
+from typing import TYPE_CHECKING, Any
 
 from ecu import EcuError
 from ecu.blocks import block_schema
 from ecu.signals import NodeInputs, NodeOutputs
+
+if TYPE_CHECKING:  # python-can costs start-up time `pacc ecu --help` does without
+    import can
 
 __all__ = [
     "BLOCK_S",

@@ -28,14 +28,14 @@ from typing import TYPE_CHECKING, Any
 from dbc.codec import Codec, CodecError, load_codec
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES, AdaptationParams
-from ecu.canlog import CanLogWriter, TimeBase
+from ecu.canlog_format import TimeBase
 from ecu.dgpt import Dgpt, DgptError, load_dgpt, predefined, save_dgpt
 from ecu.node import EcuConfig, EcuNode
 from ecu.recorder import TripSink, directory_sink
-from ecu.recording import open_recording
 
 if TYPE_CHECKING:
     from cloud_sync.vehicle import VehicleLink
+    from ecu.canlog import CanLogWriter
     from ecu.runtime import EcuRuntime
 
 
@@ -267,6 +267,8 @@ def _recorder(
     args: argparse.Namespace, codec: Codec, node: EcuNode, base: TimeBase
 ) -> CanLogWriter:
     """The bus recorder of ``--can-log`` (opened now: a bad path fails before the run)."""
+    from ecu.recording import open_recording  # noqa: PLC0415 - python-can, mcap: only to record
+
     try:
         return open_recording(
             args.can_log,

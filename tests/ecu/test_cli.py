@@ -365,3 +365,9 @@ def test_cli_can_log_records_the_run_and_takeovers_carry_utc(
     result = replay_through_ecu(log)
     assert result.identical and len(result.sent) >= 150
     assert "OVERRIDE" in [s for _, s in result.states]
+
+
+def test_help_path_imports_neither_python_can_nor_mcap() -> None:
+    code = "import sys, ecu.cli; print(sorted({'can', 'mcap', 'cantools'} & set(sys.modules)))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
