@@ -24,8 +24,10 @@ closed.
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import json
+import logging
 import operator
 import os
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -88,6 +90,7 @@ __all__ = [
     "frame_flags",
 ]
 
+log = logging.getLogger(__name__)
 _get_inputs = operator.attrgetter(*INPUT_FIELDS)
 _get_outputs = operator.attrgetter(*OUTPUT_FIELDS)
 
@@ -170,6 +173,8 @@ class CanLogWriter:
         self._block_t0: float | None = None
         self.frames = 0
         self.closed = False
+        #: why recording stopped (a failed write), None while it works; raised by close()
+        self.error: str | None = None
         self.node = node
         #: the node's clock at the first frame or sample (the recording's start)
         self.first_t_s: float | None = None
@@ -191,6 +196,8 @@ class CanLogWriter:
 
     def frame(self, t_s: float, msg: can.Message, rx: bool) -> None:
         """One frame received (``rx``) or sent at ``t_s`` on the node's clock."""
+        if self.error is not None:
+            return
         flags = FLAG_RX if rx else 0
         if msg.is_extended_id:
             flags |= FLAG_EXTENDED
@@ -234,7 +241,16 @@ class CanLogWriter:
     def cycle(self, t_s: float, inputs: NodeInputs, outputs: NodeOutputs, k: int = -1) -> None:
         """ECU control cycle ``k``: its inputs and outputs on ``/ecu/inputs`` and
         ``/ecu/outputs`` (``cycle`` the index on the node's cycle grid), its events on
-        ``/ecu/events``; closes the block when it is due."""
+        ``/ecu/events``; closes the block when it is due. Never raises: a failed write stops
+        the recording (:attr:`error`), not the node."""
+        if self.error is not None:
+            return
+        try:
+            self._cycle(t_s, inputs, outputs, k)
+        except Exception as exc:  # noqa: BLE001 - I/O at the edge: never stop the control loop
+            self._fail(t_s, exc)
+
+    def _cycle(self, t_s: float, inputs: NodeInputs, outputs: NodeOutputs, k: int) -> None:
         if INPUTS_TOPIC not in self._series:
             self.series(INPUTS_TOPIC, INPUT_FIELDS, "the ECU node's checked inputs per cycle")
             self.series(
@@ -246,12 +262,25 @@ class CanLogWriter:
             self._block_t0 = t_s
         for text in outputs.events:
             self.event(t_s, text)
-        self.tick(t_s)
-
-    def tick(self, t_s: float) -> None:
-        """Close the open block if it is ``block_s`` old at ``t_s``."""
         if self._block_t0 is not None and t_s - self._block_t0 >= self.block_s:
             self.flush()
+
+    def tick(self, t_s: float) -> None:
+        """Close the open block if it is ``block_s`` old at ``t_s``. Never raises: a failed
+        write stops the recording (:attr:`error`), not the node."""
+        if self._block_t0 is not None and t_s - self._block_t0 >= self.block_s:
+            try:
+                self.flush()
+            except Exception as exc:  # noqa: BLE001 - I/O at the edge: never stop the node
+                self._fail(t_s, exc)
+
+    def _fail(self, t_s: float, exc: Exception) -> None:
+        """Stop recording after a failed write; :meth:`close` reports it."""
+        self.error = f"recording stopped at t = {t_s:.3f} s: {type(exc).__name__}: {exc}"
+        log.error("%s: %s", self.path, self.error)
+        self._frames = []
+        for s in self._series.values():
+            s.rows = []
 
     # -- blocks --------------------------------------------------------------------------
 
@@ -352,6 +381,10 @@ class CanLogWriter:
         if self.closed:
             return
         self.closed = True
+        if self.error is not None:
+            with contextlib.suppress(Exception):
+                self._stream.close()
+            raise CanLogError(f"{self.path}: {self.error}; what was written is in {self._tmp.name}")
         base = self.time_base
         first = self.first_t_s if self.first_t_s is not None else base.clock_origin_s
         start = {
@@ -368,7 +401,8 @@ class CanLogWriter:
             self._stream.close()
             self._tmp.replace(self.path)
         except OSError as exc:
-            self._stream.close()
+            with contextlib.suppress(OSError):
+                self._stream.close()
             raise CanLogError(f"{self.path}: cannot finish the recording: {exc}") from exc
 
     def __enter__(self) -> CanLogWriter:

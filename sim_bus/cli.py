@@ -160,14 +160,6 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         bus.shutdown()
     log = world.log()
-    if recorder is not None:
-        record_world(recorder, log)
-        try:
-            recorder.close()
-        except EcuError as exc:
-            print(f"pacc sim: error: {exc}", file=sys.stderr)
-            return 2
-        print(f"bus recording: {recorder.frames} frames written to {args.can_log}")
     m = log.metrics()
     collided = world.plant.collided
     print(
@@ -180,6 +172,7 @@ def main(argv: list[str] | None = None) -> int:
         f"min TTC {m.min_ttc_s:.2f} s  RMS jerk {m.rms_jerk_mps3:.3f} m/s^3  presses "
         f"{m.press_onsets}  collisions {1 if collided else 0}"
     )
+    status = 1 if collided else 0
     if args.log is not None:
         meta = {
             "scenario": args.scenario,
@@ -192,8 +185,17 @@ def main(argv: list[str] | None = None) -> int:
             write_trip(args.log, world_trip(log, driver, PedalScale.from_codec(node.codec), meta))
         except (TripLogError, OSError) as exc:
             print(f"pacc sim: error: cannot write {args.log}: {exc}", file=sys.stderr)
-            return 2
-    return 1 if collided else 0
+            status = 2
+    if recorder is not None:
+        try:
+            record_world(recorder, log)
+            recorder.close()
+        except (EcuError, OSError) as exc:
+            print(f"pacc sim: error: bus recording failed: {exc}", file=sys.stderr)
+            status = 2
+        else:
+            print(f"bus recording: {recorder.frames} frames written to {args.can_log}")
+    return status
 
 
 if __name__ == "__main__":

@@ -15,6 +15,7 @@ ended in a collision, 2 on bad options or input files.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import itertools
 import math
@@ -170,6 +171,7 @@ def run_drive(
     ecu_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
     base = TimeBase(time.time_ns() if utc_start_ns is None else utc_start_ns, 0.0)
     recorder: CanLogWriter | None = None
+    can_log_error: str | None = None
     try:
         rt = EcuRuntime(ecu_bus, ecu, codec=codec)
         if can_log is not None:
@@ -189,14 +191,13 @@ def run_drive(
         ecu.finish()
         summary = rt.summary()
         log = world.log()
-        if recorder is not None:
-            record_world(recorder, log)
-            recorder.close()
+        can_log_error = _finish_recording(recorder, log) if recorder is not None else None
     finally:
         sim_bus.shutdown()
         ecu_bus.shutdown()
-        if recorder is not None and not recorder.closed:
-            recorder.close()
+        if recorder is not None and not recorder.closed:  # the drive failed: keep what ran
+            with contextlib.suppress(EcuError, OSError):
+                recorder.close()
     return DriveResult(
         config=cfg,
         metrics=log.metrics(),
@@ -213,6 +214,7 @@ def run_drive(
         final_table=ecu.table,
         adaptation_events=events,
         start_utc=base.iso(0.0),
+        extra={"can_log_error": can_log_error} if can_log_error else {},
     )
 
 
@@ -235,6 +237,17 @@ def _drive_recorder(
         table=table,
         metadata={"drive": settings},
     )
+
+
+def _finish_recording(recorder: CanLogWriter, log: WorldLog) -> str | None:
+    """Add the world to the recording and close it; the failure's text (None: written).
+    A failed recording does not cost the drive's results."""
+    try:
+        record_world(recorder, log)
+        recorder.close()
+    except (EcuError, OSError) as exc:
+        return str(exc)
+    return None
 
 
 def record_world(recorder: CanLogWriter, log: WorldLog) -> None:
@@ -430,6 +443,10 @@ def main(argv: list[str] | None = None) -> int:
             return 2
         print(f"  log            {args.log}")
     if args.can_log is not None:
+        failed = result.extra.get("can_log_error")
+        if failed:
+            print(f"pacc drive: error: bus recording failed: {failed}", file=sys.stderr)
+            return 2
         print(f"  bus recording  {args.can_log}")
     return 1 if result.collision else 0
 

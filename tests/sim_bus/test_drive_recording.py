@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 import threading
 from functools import lru_cache
 from pathlib import Path
@@ -331,3 +333,29 @@ def test_replay_cli_in_real_time_onto_a_bus(
     argv = [str(path), "-i", "virtual", "-c", "test-replay-rt", "--frames", "rx"]
     assert replay_cmd.main(argv) == 0
     assert f"replay: {n_rx} frames of {path} sent" in capsys.readouterr().out
+
+
+_FULL_DISK = """
+import resource, signal, sys
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails with EFBIG
+resource.setrlimit(resource.RLIMIT_FSIZE, (200_000, resource.RLIM_INFINITY))
+from sim_bus.drive import main
+sys.exit(main(["--duration", "60", "--can-log", sys.argv[1]]))
+"""
+
+
+@pytest.mark.slow
+def test_a_failing_recording_costs_neither_the_drive_nor_its_results(tmp_path: Path) -> None:
+    path = tmp_path / "bus.mcap"
+    proc = subprocess.run(
+        [sys.executable, "-c", _FULL_DISK, str(path)],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 2, proc.stderr
+    assert "PoI" in proc.stdout and "collisions     0" in proc.stdout  # the drive ran through
+    assert "bus recording failed" in proc.stderr and "recording stopped at t = " in proc.stderr
+    assert "File too large" in proc.stderr
+    assert not path.exists() and (tmp_path / "bus.mcap.part").exists()
