@@ -25,7 +25,6 @@ closed.
 from __future__ import annotations
 
 import contextlib
-import itertools
 import json
 import logging
 import operator
@@ -96,12 +95,14 @@ _get_outputs = operator.attrgetter(*OUTPUT_FIELDS)
 
 
 class _Series:
-    """One channel of sampled internals: rows collected until the next block."""
+    """One channel of sampled internals: the values of the open block, row after row in one
+    flat list (no tuple per row: fewer objects for the garbage collector to track)."""
 
     def __init__(self, channel: int, columns: tuple[str, ...]) -> None:
         self.channel = channel
         self.columns = columns
-        self.rows: list[tuple[Any, ...]] = []
+        self.width = 1 + len(columns)  # t_s first
+        self.values: list[Any] = []
         self.seq = 0
 
 
@@ -169,7 +170,12 @@ class CanLogWriter:
         self._events_channel: int | None = None
         self._events_seq = 0
         #: (t_s, id, flags, dlc, data) of the open block
-        self._frames: list[tuple[float, int, int, int, bytes]] = []
+        # the open block's frames, one list per column (no tuple per frame)
+        self._ft: list[float] = []
+        self._fid: list[int] = []
+        self._ffl: list[int] = []
+        self._fdlc: list[int] = []
+        self._fdata: list[bytes] = []
         self._block_t0: float | None = None
         self.frames = 0
         self.closed = False
@@ -203,7 +209,11 @@ class CanLogWriter:
             flags |= FLAG_EXTENDED
         if msg.is_fd or msg.is_error_frame or msg.is_remote_frame:
             flags = frame_flags(msg, rx)
-        self._frames.append((t_s, msg.arbitration_id, flags, msg.dlc, bytes(msg.data)))
+        self._ft.append(t_s)
+        self._fid.append(msg.arbitration_id)
+        self._ffl.append(flags)
+        self._fdlc.append(msg.dlc)
+        self._fdata.append(bytes(msg.data))
         if self._block_t0 is None:
             self._block_t0 = t_s
 
@@ -224,7 +234,9 @@ class CanLogWriter:
 
     def sample(self, topic: str, t_s: float, values: tuple[Any, ...]) -> None:
         """One sample of a declared channel: ``values`` in its column order."""
-        self._series[topic].rows.append((t_s, *values))
+        row = self._series[topic].values
+        row.append(t_s)
+        row.extend(values)
         if self._block_t0 is None:
             self._block_t0 = t_s
 
@@ -256,8 +268,13 @@ class CanLogWriter:
             self.series(
                 OUTPUTS_TOPIC, ("cycle", *OUTPUT_FIELDS), "the ECU node's outputs per cycle"
             )
-        self._series[INPUTS_TOPIC].rows.append((t_s, *_get_inputs(inputs)))
-        self._series[OUTPUTS_TOPIC].rows.append((t_s, k, *_get_outputs(outputs)))
+        ins = self._series[INPUTS_TOPIC].values
+        ins.append(t_s)
+        ins.extend(_get_inputs(inputs))
+        outs = self._series[OUTPUTS_TOPIC].values
+        outs.append(t_s)
+        outs.append(k)
+        outs.extend(_get_outputs(outputs))
         if self._block_t0 is None:
             self._block_t0 = t_s
         for text in outputs.events:
@@ -278,9 +295,12 @@ class CanLogWriter:
         """Stop recording after a failed write; :meth:`close` reports it."""
         self.error = f"recording stopped at t = {t_s:.3f} s: {type(exc).__name__}: {exc}"
         log.error("%s: %s", self.path, self.error)
-        self._frames = []
+        self._clear_frames()
         for s in self._series.values():
-            s.rows = []
+            s.values = []
+
+    def _clear_frames(self) -> None:
+        self._ft, self._fid, self._ffl, self._fdlc, self._fdata = [], [], [], [], []
 
     # -- blocks --------------------------------------------------------------------------
 
@@ -288,17 +308,23 @@ class CanLogWriter:
         """Write the open block of every channel."""
         if self.first_t_s is None:
             self.first_t_s = self._block_t0
-        if self._frames:
-            self._write_frames(self._frames)
-            self._frames = []
+        if self._ft:
+            self._write_frames(self._ft, self._fid, self._ffl, self._fdlc, self._fdata)
+            self._clear_frames()
         for s in self._series.values():
-            if s.rows:
+            if s.values:
                 self._write_series(s)
         self._block_t0 = None
 
-    def _write_frames(self, frames: list[tuple[float, int, int, int, bytes]]) -> None:
-        n = len(frames)
-        t, ids, flags, dlcs, datas = zip(*frames, strict=True)
+    def _write_frames(
+        self,
+        t: list[float],
+        ids: list[int],
+        flags: list[int],
+        dlcs: list[int],
+        datas: list[bytes],
+    ) -> None:
+        n = len(t)
         t_arr = np.fromiter(t, np.float64, n)
         id_arr = np.fromiter(ids, np.uint32, n)
         flag_arr = np.fromiter(flags, np.uint8, n)
@@ -318,7 +344,7 @@ class CanLogWriter:
         stamp = self.time_base.utc_ns(t[0])
         self._writer.add_message(self._raw_channel, stamp, doc, stamp, self._raw_seq)
         self._raw_seq += 1
-        self.frames += len(frames)
+        self.frames += n
         if self._decoders:
             self._write_decoded(t_arr, id_arr, flag_arr, len_arr, datas)
 
@@ -345,11 +371,13 @@ class CanLogWriter:
             self._decoded_seq[channel] = seq + 1
 
     def _write_series(self, s: _Series) -> None:
-        n, m = len(s.rows), len(s.rows[0])
-        # booleans 0/1, NaN kept; one C-level pass (np.array over tuples is slower)
-        flat = np.fromiter(itertools.chain.from_iterable(s.rows), np.float64, n * m)
-        table = flat.reshape(n, m)
-        s.rows = []
+        # booleans 0/1, NaN kept; one C-level pass over the flat list
+        table = np.fromiter(s.values, np.float64, len(s.values)).reshape(-1, s.width)
+        s.values = []
+        self._write_table(s, table)
+
+    def _write_table(self, s: _Series, table: np.ndarray) -> None:
+        """One block of ``s`` from ``table``, shape ``(n, s.width)``, ``t_s`` first."""
         cols = {"t_s": table[:, 0]}
         for j, name in enumerate(s.columns, start=1):
             cols[name] = table[:, j]
@@ -363,15 +391,15 @@ class CanLogWriter:
         """Write whole columns at once (e.g. the simulated world after a drive), in blocks of
         ``block_s``; ``topic`` must be declared with the columns' names."""
         s = self._series[topic]
-        rows = list(zip(t_s, *(columns[k] for k in s.columns), strict=True))
+        t = np.asarray(list(t_s), dtype=np.float64)
+        table = np.column_stack(
+            [t, *(np.asarray(list(columns[k]), dtype=np.float64) for k in s.columns)]
+        )
         start = 0
-        while start < len(rows):
-            t0 = rows[start][0]
-            end = start
-            while end < len(rows) and rows[end][0] - t0 < self.block_s:
-                end += 1
-            s.rows = rows[start:end]
-            self._write_series(s)
+        while start < len(t):
+            end = int(np.searchsorted(t, t[start] + self.block_s, side="left"))
+            end = max(end, start + 1)
+            self._write_table(s, table[start:end])
             start = end
 
     # -- end -----------------------------------------------------------------------------
