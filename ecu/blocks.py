@@ -29,7 +29,7 @@ def encode_block(columns: Mapping[str, np.ndarray], ragged: Collection[str] = ()
     columns named in ``ragged`` may have any length (listed under ``"ragged"``)."""
     n = None
     dtypes: dict[str, str] = {}
-    doc: dict[str, Any] = {}
+    parts: list[str] = []
     for name, arr in columns.items():
         a = np.ascontiguousarray(arr)
         if a.dtype.byteorder == ">":
@@ -41,11 +41,15 @@ def encode_block(columns: Mapping[str, np.ndarray], ragged: Collection[str] = ()
         elif len(a) != n:
             raise BlockError(f"column {name} has {len(a)} rows, not {n}")
         dtypes[name] = a.dtype.str
-        doc[name] = base64.b64encode(a.tobytes()).decode("ascii")
+        # base64 needs no JSON escaping: joined as text, not scanned by json.dumps
+        parts.append(f"{json.dumps(name)}:\"{base64.b64encode(a.tobytes()).decode('ascii')}\"")
     head: dict[str, Any] = {"n": n or 0, "dtypes": dtypes}
     if ragged:
         head["ragged"] = sorted(ragged)
-    return json.dumps({**head, **doc}).encode()
+    text = json.dumps(head)
+    if parts:
+        text = text[:-1] + "," + ",".join(parts) + "}"
+    return text.encode("ascii")
 
 
 def decode_block(data: bytes | str | Mapping[str, Any]) -> dict[str, np.ndarray]:
