@@ -193,14 +193,15 @@ def _serve(args: argparse.Namespace) -> int:
     if profile_fault:
         node.report_profile_fault()
     recorder = _recorder(args, codec, node, base) if args.can_log else None
+    recording_error = None
     try:
         bus_error = _run_on_bus(args, node, codec, link, recorder)
     finally:
         if link is not None:
             link.stop()
             _say(link.report())
-        if recorder is not None:
-            _close_recorder(recorder)
+        if recorder is not None:  # before anything can fail: the recording is kept
+            recording_error = _close_recorder(recorder)
     if args.takeovers and node.recorder is not None:
         rec = node.recorder
         _say(
@@ -215,6 +216,8 @@ def _serve(args: argparse.Namespace) -> int:
         _say(f"profile saved: {args.save_profile} (v{node.table.version})")
     if bus_error is not None:
         raise _Exit(1, f"pacc ecu: error: the CAN bus failed: {bus_error}")
+    if recording_error is not None:  # after the takeovers and the profile are saved
+        raise _Exit(1, f"pacc ecu: error: {recording_error}")
     return 0
 
 
@@ -284,12 +287,14 @@ def _recorder(
         raise _Exit(1, f"pacc ecu: error: {exc}") from None
 
 
-def _close_recorder(recorder: CanLogWriter) -> None:
+def _close_recorder(recorder: CanLogWriter) -> str | None:
+    """Close the recording; the failure's text (None: written)."""
     try:
         recorder.close()
     except EcuError as exc:
-        raise _Exit(1, f"pacc ecu: error: {exc}") from None
+        return str(exc)
     _say(f"bus recording: {recorder.frames} frames written to {recorder.path}")
+    return None
 
 
 def _check_writable_parent(target: str) -> None:
