@@ -42,7 +42,7 @@ def encode_block(columns: Mapping[str, np.ndarray], ragged: Collection[str] = ()
             raise BlockError(f"column {name} has {len(a)} rows, not {n}")
         dtypes[name] = a.dtype.str
         # base64 needs no JSON escaping: joined as text, not scanned by json.dumps
-        parts.append(f"{json.dumps(name)}:\"{base64.b64encode(a.tobytes()).decode('ascii')}\"")
+        parts.append(f'{json.dumps(name)}:"{base64.b64encode(a.tobytes()).decode("ascii")}"')
     head: dict[str, Any] = {"n": n or 0, "dtypes": dtypes}
     if ragged:
         head["ragged"] = sorted(ragged)
