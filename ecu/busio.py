@@ -193,6 +193,8 @@ class BusIO:
         self._command = codec.roles["command"].parts
         status = codec.roles.get("status")
         self._status = () if status is None else status.parts
+        #: called with (time, frame, received) for every frame in and out (a bus recorder)
+        self.tap: Callable[[float, can.Message, bool], None] | None = None
 
     # -- receive -------------------------------------------------------------------------
 
@@ -200,11 +202,14 @@ class BusIO:
         """Feed every frame waiting on the bus to the Inbox, stamped ``now_s``."""
         recv = self.bus.recv
         accept = self.inbox.accept_message
+        tap = self.tap
         while True:
             msg = recv(0)
             if msg is None:
                 return
             accept(msg, now_s)
+            if tap is not None:
+                tap(now_s, msg, True)
 
     def receive(self, timeout_s: float, clock: Callable[[], float]) -> float:
         """Wait up to ``timeout_s`` for one frame and accept it stamped with its arrival time
@@ -213,6 +218,8 @@ class BusIO:
         now = clock()
         if msg is not None:
             self.inbox.accept_message(msg, now)
+            if self.tap is not None:
+                self.tap(now, msg, True)
         return now
 
     def read_inputs(self, now_s: float) -> NodeInputs:
@@ -231,7 +238,7 @@ class BusIO:
     def send(self, t_s: float, out: NodeOutputs, *, status: bool) -> None:
         """Send ACC_Command (and ACC_Status if ``status``) stamped ``t_s``; never raises: an
         encode or bus failure is logged and counted in :attr:`send_errors`."""
-        send, pack = self.bus.send, self.outbox.pack_part
+        send, pack = self._send, self.outbox.pack_part
         try:
             values = command_values(out, self.limits)
             for mc in self._command:
@@ -243,6 +250,11 @@ class BusIO:
         except (EncodeError, can.CanError) as exc:
             self.send_errors += 1
             log.error("t=%.2f send failed: %s", t_s, exc)
+
+    def _send(self, msg: can.Message) -> None:
+        self.bus.send(msg)
+        if self.tap is not None:
+            self.tap(msg.timestamp, msg, False)
 
 
 __all__ = [

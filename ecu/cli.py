@@ -21,6 +21,7 @@ import logging
 import os
 import signal
 import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -30,12 +31,14 @@ from dbc.errors import BindingError
 from dbc.network import add_network_arguments, codec_of, network_of
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES, AdaptationParams
+from ecu.canlog_format import TimeBase
 from ecu.dgpt import Dgpt, DgptError, load_dgpt, predefined, save_dgpt
 from ecu.node import EcuConfig, EcuNode
 from ecu.recorder import TripSink, directory_sink
 
 if TYPE_CHECKING:
     from cloud_sync.vehicle import VehicleLink
+    from ecu.canlog import CanLogWriter
     from ecu.runtime import EcuRuntime
 
 
@@ -88,6 +91,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--set-speed", type=float, metavar="MPS", help="SET engages at this speed")
     p.add_argument("--takeovers", metavar="DIR", help="write takeover segments (MCAP) here")
+    p.add_argument(
+        "--can-log",
+        metavar="FILE",
+        help="record every frame in and out (raw and decoded) and the node's internals to "
+        "this MCAP file (pacc replay, pacc plot, pacc export)",
+    )
     p.add_argument("--save-profile", metavar="PATH", help="write the final DGPT here at exit")
     p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
     cloud = p.add_argument_group("cloud (docs/cloud.md): takeovers up, verified tables down")
@@ -187,15 +196,20 @@ def _serve(args: argparse.Namespace) -> int:
     codec, sink = _codec_and_sink(args)
     if args.save_profile:  # refuse now, not after the drive when the table would be lost
         _check_writable_parent(args.save_profile)
-    node = EcuNode(config, table, link.sink if link is not None else sink)
+    base = TimeBase.now(time.monotonic())  # the real-time clock against the wall clock
+    node = EcuNode(config, table, link.sink if link is not None else sink, utc_of=base.iso)
     if profile_fault:
         node.report_profile_fault()
+    recorder = _recorder(args, codec, node, base) if args.can_log else None
+    recording_error = None
     try:
-        bus_error = _run_on_bus(args, node, codec, link)
+        bus_error = _run_on_bus(args, node, codec, link, recorder)
     finally:
         if link is not None:
             link.stop()
             _say(link.report())
+        if recorder is not None:  # before anything can fail: the recording is kept
+            recording_error = _close_recorder(recorder)
     if args.takeovers and node.recorder is not None:
         rec = node.recorder
         _say(
@@ -210,6 +224,8 @@ def _serve(args: argparse.Namespace) -> int:
         _say(f"profile saved: {args.save_profile} (v{node.table.version})")
     if bus_error is not None:
         raise _Exit(1, f"pacc ecu: error: the CAN bus failed: {bus_error}")
+    if recording_error is not None:  # after the takeovers and the profile are saved
+        raise _Exit(1, f"pacc ecu: error: {recording_error}")
     return 0
 
 
@@ -256,6 +272,37 @@ def _codec_and_sink(args: argparse.Namespace) -> tuple[Codec, TripSink | None]:
     except (CodecError, EcuError) as exc:
         raise _Exit(1, f"pacc ecu: error: {exc}") from None
     return codec, sink
+
+
+def _recorder(
+    args: argparse.Namespace, codec: Codec, node: EcuNode, base: TimeBase
+) -> CanLogWriter:
+    """The bus recorder of ``--can-log`` (opened now: a bad path fails before the run)."""
+    from ecu.recording import open_recording  # noqa: PLC0415 - python-can, mcap: only to record
+
+    try:
+        return open_recording(
+            args.can_log,
+            codec,
+            base,
+            node="ecu",
+            config=node.config,
+            table=node.table,
+            dbc_path=args.dbc,
+            binding_path=getattr(args, "binding", None),
+        )
+    except EcuError as exc:
+        raise _Exit(1, f"pacc ecu: error: {exc}") from None
+
+
+def _close_recorder(recorder: CanLogWriter) -> str | None:
+    """Close the recording; the failure's text (None: written)."""
+    try:
+        recorder.close()
+    except EcuError as exc:
+        return str(exc)
+    _say(f"bus recording: {recorder.frames} frames written to {recorder.path}")
+    return None
 
 
 def _check_writable_parent(target: str) -> None:
@@ -324,7 +371,11 @@ def _cloud_table(link: VehicleLink, table: Dgpt) -> Dgpt:
 
 
 def _run_on_bus(
-    args: argparse.Namespace, node: EcuNode, codec: Codec, link: VehicleLink | None = None
+    args: argparse.Namespace,
+    node: EcuNode,
+    codec: Codec,
+    link: VehicleLink | None = None,
+    recorder: CanLogWriter | None = None,
 ) -> str | None:
     """Open the bus, run the node on it until done and print the summary; return the bus
     failure's text (None: clean end)."""
@@ -344,6 +395,7 @@ def _run_on_bus(
             raise _Exit(1, f"pacc ecu: error: {exc}") from None
         if link is not None:
             link.start(rt.offer_table)
+        rt.record_to(recorder)
         mode = args.adaptation_mode if args.adaptation else "off"
         _say(f"adaptation: {mode}; brake press: {args.brake}")
         _say(f"ECU running on {bus.channel_info} (Ctrl-C to stop)")

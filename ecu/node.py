@@ -67,6 +67,8 @@ class EcuNode:
         takeover_sink: receives each recorded takeover segment; None disables recording.
         utc_now: clock giving the ISO 8601 ``created_utc`` of adapted tables (injected so a
             lockstep drive can make its tables reproducible; default: the wall clock).
+        utc_of: maps the node's clock (s) to ISO 8601 UTC, for the takeover segments'
+            ``start_utc`` (None: segments carry the node's clock only, as lockstep drives).
     """
 
     def __init__(
@@ -76,6 +78,7 @@ class EcuNode:
         takeover_sink: TripSink | None = None,
         *,
         utc_now: Callable[[], str] = utc_now_iso,
+        utc_of: Callable[[float], str] | None = None,
     ) -> None:
         self.config = config
         self._utc_now = utc_now
@@ -110,6 +113,7 @@ class EcuNode:
                     "brake_mode": config.brake_mode,
                     **dict(config.trip_meta),
                 },
+                utc_of=utc_of,
             )
 
     @property

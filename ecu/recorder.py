@@ -67,6 +67,9 @@ class TakeoverRecorder:
         pre_s: pre-trigger length, s.
         post_s: post-release length, s.
         meta: metadata copied into every segment (driver_id, condition, seed, ...).
+        utc_of: maps a sample time (the node's clock, s) to ISO 8601 UTC; when given, every
+            segment's ``meta["start_utc"]`` is its first sample's, and the trip log is
+            stamped with real UTC (a real-time ECU, whose clock is the boot clock).
     """
 
     def __init__(
@@ -77,6 +80,7 @@ class TakeoverRecorder:
         pre_s: float = 5.0,
         post_s: float = 5.0,
         meta: Mapping[str, Any] | None = None,
+        utc_of: Callable[[float], str] | None = None,
     ) -> None:
         if not (period_s > 0.0 and pre_s >= 0.0 and post_s >= 0.0):
             raise RecorderError("recorder periods must be positive")
@@ -84,6 +88,7 @@ class TakeoverRecorder:
         self.period_s = period_s
         self.post_s = post_s
         self.meta = dict(meta or {})
+        self.utc_of = utc_of
         self._ring: deque[Sample] = deque(maxlen=max(1, int(round(pre_s / period_s))))
         self._segment: list[Sample] | None = None
         self._seg_meta: dict[str, Any] = {}
@@ -143,6 +148,8 @@ class TakeoverRecorder:
         if not seg:
             return
         meta = {**self.meta, **self._seg_meta, "mode": "takeover", "index": self.segments}
+        if self.utc_of is not None:
+            meta["start_utc"] = self.utc_of(seg[0].t_s)
         cols = list(
             zip(
                 *(

@@ -40,6 +40,7 @@ import can
 from dbc.codec import Codec, load_codec
 from dbc.endpoint import Inbox, Outbox
 from ecu.busio import INPUT_ROLES, BusIO, RuntimeCodecError
+from ecu.canlog import CanLogWriter
 from ecu.clocks import MAX_CATCHUP_S, CycleClock, RuntimeClockError
 from ecu.dgpt import Dgpt
 from ecu.node import EcuNode, NodeInputs, NodeOutputs
@@ -135,6 +136,13 @@ class EcuRuntime:
         #: longest compute time of one cycle, s
         self.max_cycle_s = 0.0
         self.last_outputs: NodeOutputs | None = None
+        self.recorder: CanLogWriter | None = None
+
+    def record_to(self, recorder: CanLogWriter | None) -> None:
+        """Record every frame in and out and every cycle's inputs, outputs and events to
+        ``recorder`` (:mod:`ecu.canlog`; None: stop recording). The caller closes it."""
+        self.recorder = recorder
+        self.io.tap = recorder.frame if recorder is not None else None
 
     # -- the parts -----------------------------------------------------------------------
 
@@ -184,6 +192,11 @@ class EcuRuntime:
         """
         self.clock.run_realtime(duration_s, self.io, self._cycle)
 
+    def cycle_at(self, t_s: float, k: int) -> None:
+        """Run control cycle ``k`` at ``t_s`` now, on a clock the caller keeps (a replay of a
+        recording's cycles: :mod:`ecu.replay`); frames must have been accepted before."""
+        self._cycle(t_s, k)
+
     def offer_table(self, table: Dgpt, message: str) -> None:
         """Swap ``table`` in at the next cycle where the ACC is not ACTIVE (thread-safe)."""
         self.table_offer.offer(table, message)
@@ -210,6 +223,8 @@ class EcuRuntime:
         out = self.node.step(inputs, t)
         self.last_outputs = out
         self.io.send(t, out, status=k % self._status_every == 0)
+        if self.recorder is not None:
+            self.recorder.cycle(t, inputs, out, k)
         self.cycles += 1
         for text in out.events:
             log.debug("t=%.2f %s", t, text)

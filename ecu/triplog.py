@@ -8,6 +8,11 @@ equal length ``n``. On disk it is an MCAP file with JSON schema-encoded messages
   "acc_state"}``; a missing value (NaN) is written as ``null``;
 - topic ``/pacc/trip_meta``, schema ``pacc.TripMeta``: one message, the ``meta`` dict.
 
+Each message's MCAP ``log_time`` is UTC when ``meta["start_utc"]`` (ISO 8601, the UTC of the
+first sample) is given: that instant plus the sample's offset from the first sample. Without
+it ``t_s`` itself is the log time (trips whose clock is not the wall clock and that must stay
+byte-identical run to run, such as the simulator's manual trips).
+
 :func:`read_trip` reads the file sequentially, checks the CRCs, and requires the MCAP footer, so
 a truncated or corrupted file is refused with :class:`TripLogError` naming the file and the
 cause, never read in part.
@@ -20,6 +25,7 @@ import json
 import math
 import os
 from dataclasses import dataclass, field
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -266,14 +272,32 @@ def _write_mcap(tmp: Path, trip: Trip, meta_bytes: bytes) -> None:
         )
         sample_ch = writer.register_channel(SAMPLE_TOPIC, "json", sample_schema)
         meta_ch = writer.register_channel(META_TOPIC, "json", meta_schema)
-        t0_ns = int(round(float(trip.t_s[0]) * 1e9)) if len(trip) else 0
-        writer.add_message(meta_ch, max(t0_ns, 0), meta_bytes, max(t0_ns, 0))
+        origin_ns, t_first = _stamp_origin(trip)
+        t0_ns = max(origin_ns, 0)
+        writer.add_message(meta_ch, t0_ns, meta_bytes, t0_ns)
         for i in range(len(trip)):
             row = {k: _num(col[i]) for k, col in zip(FLOAT_FIELDS, columns, strict=True)}
             row["acc_state"] = int(states[i])
-            stamp = max(int(round(columns[0][i] * 1e9)), 0)
+            stamp = max(origin_ns + int(round((columns[0][i] - t_first) * 1e9)), 0)
             writer.add_message(sample_ch, stamp, json.dumps(row).encode(), stamp, sequence=i)
         writer.finish()  # type: ignore[no-untyped-call]
+
+
+def _stamp_origin(trip: Trip) -> tuple[int, float]:
+    """(log time of the first sample in ns, its ``t_s``): UTC from ``meta["start_utc"]``
+    when given and valid, else ``t_s`` itself."""
+    t_first = float(trip.t_s[0]) if len(trip) else 0.0
+    start = trip.meta.get("start_utc")
+    if isinstance(start, str):
+        try:
+            when = datetime.fromisoformat(start.replace("Z", "+00:00"))
+        except ValueError:
+            when = None
+        if when is not None and when.tzinfo is not None:
+            delta = when - datetime(1970, 1, 1, tzinfo=UTC)
+            us = (delta.days * 86400 + delta.seconds) * 1_000_000 + delta.microseconds
+            return us * 1000, t_first
+    return int(round(t_first * 1e9)), t_first
 
 
 def read_trip(path: str | os.PathLike[str]) -> Trip:

@@ -21,6 +21,9 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "drive": ("sim_bus.drive", "ECU + simulator in one process, lockstep, print PoI/NIM"),
     "study": ("sim_bus.study", "the paper's study (Table I) end to end: every driver x controller"),
     "cloud": ("cloud_sync.cli", "cloud side: learn a driver's DGPT by IRL, sync logs"),
+    "export": ("ecu.export_cmd", "convert CAN logs: pacc MCAP <-> .log/.asc/.blf/.trc/.csv"),
+    "replay": ("ecu.replay_cmd", "replay a bus recording through the ECU or onto a bus"),
+    "plot": ("ecu.plot_cmd", "plot one recorded drive: speed, gap, pedals, ACC state"),
 }
 
 _USAGE = "usage: pacc [-h] {" + ",".join(SUBCOMMANDS) + "} ..."

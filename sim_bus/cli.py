@@ -23,9 +23,12 @@ import can
 
 from dbc.errors import DbcError
 from dbc.network import add_network_arguments, codec_of
+from ecu import EcuError
+from ecu.canlog import TimeBase
 from ecu.pedals import PedalScale
+from ecu.recording import open_recording
 from ecu.triplog import TripLogError, write_trip
-from sim_bus.drive import resolve_profile, with_condition
+from sim_bus.drive import record_world, resolve_profile, with_condition
 from sim_bus.drivers import GAP_SETTING_CODE, DriverParams, load_driver
 from sim_bus.errors import SimError
 from sim_bus.faults import FaultSpec, fault_rng, parse_faults
@@ -53,6 +56,13 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--faults", default="", help="fault SPEC, e.g. 'radar:dropout=100-105'")
     p.add_argument("--duration", type=float, help="run only the first N seconds")
     p.add_argument("--log", type=Path, help="write the run as an MCAP trip log")
+    p.add_argument(
+        "--can-log",
+        type=Path,
+        metavar="FILE",
+        help="record every frame in and out (raw and decoded) and the simulated world to "
+        "this MCAP file",
+    )
     p.add_argument(
         "--condition-factor",
         type=float,
@@ -84,6 +94,8 @@ def _setup(args: argparse.Namespace) -> tuple[DriverParams, FaultSpec, LeadProfi
         profile = shorten(profile, args.duration)
     if args.log is not None:  # refuse now, not after the drive when the run would be lost
         _check_writable(args.log)
+    if args.can_log is not None:
+        _check_writable(args.can_log)
     return driver, faults, profile
 
 
@@ -134,6 +146,19 @@ def main(argv: list[str] | None = None) -> int:
         rng=fault_rng(args.seed),
         gap_setting=GAP_SETTING_CODE[driver.predefined_setting],
     )
+    base = TimeBase.now(0.0)  # simulated time 0 is now
+    try:
+        recorder = (
+            open_recording(args.can_log, node.codec, base, node="sim")
+            if args.can_log is not None
+            else None
+        )
+    except EcuError as exc:
+        bus.shutdown()
+        print(f"pacc sim: error: {exc}", file=sys.stderr)
+        return 2
+    if recorder is not None:
+        node.tap = recorder.frame_and_tick
     start = time.monotonic()
     try:
         _run(node, profile.duration_s, args.quiet)
@@ -152,19 +177,30 @@ def main(argv: list[str] | None = None) -> int:
         f"min TTC {m.min_ttc_s:.2f} s  RMS jerk {m.rms_jerk_mps3:.3f} m/s^3  presses "
         f"{m.press_onsets}  collisions {1 if collided else 0}"
     )
+    status = 1 if collided else 0
     if args.log is not None:
         meta = {
             "scenario": args.scenario,
             "seed": args.seed,
             "collision": collided,
             "source": "sim_bus.cli",
+            "start_utc": base.iso(0.0),
         }
         try:
             write_trip(args.log, world_trip(log, driver, PedalScale.from_codec(node.codec), meta))
         except (TripLogError, OSError) as exc:
             print(f"pacc sim: error: cannot write {args.log}: {exc}", file=sys.stderr)
-            return 2
-    return 1 if collided else 0
+            status = 2
+    if recorder is not None:
+        try:
+            record_world(recorder, log)
+            recorder.close()
+        except (EcuError, OSError) as exc:
+            print(f"pacc sim: error: bus recording failed: {exc}", file=sys.stderr)
+            status = 2
+        else:
+            print(f"bus recording: {recorder.frames} frames written to {args.can_log}")
+    return status
 
 
 if __name__ == "__main__":

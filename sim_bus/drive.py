@@ -2,6 +2,7 @@
 
     pacc drive --scenario B --driver d3 --controller predefined|predefined+oa|irl|irl+oa
                [--profile DGPT.json] [--seed N] [--faults SPEC] [--log run.mcap]
+               [--can-log bus.mcap]
                [--adaptation-mode paper|timegap]
 
 prints PoI, NIM, min gap, min time-to-collision, RMS jerk, takeovers, adaptations and
@@ -14,6 +15,7 @@ ended in a collision, 2 on bad options or input files.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import itertools
 import math
@@ -30,9 +32,11 @@ from dbc.errors import DbcError
 from dbc.network import add_network_arguments
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES, AdaptationParams, Decision
+from ecu.canlog import WORLD_TOPIC, CanLogWriter, TimeBase
 from ecu.dgpt import Dgpt, load_dgpt, predefined
 from ecu.node import EcuConfig, EcuNode
 from ecu.pedals import PedalScale
+from ecu.recording import open_recording
 from ecu.runtime import EcuRuntime, RuntimeSummary
 from ecu.triplog import Trip, TripLogError, write_trip
 from sim_bus.drivers import GAP_SETTING_CODE, DriverParams, load_driver
@@ -43,7 +47,7 @@ from sim_bus.metrics import DriveMetrics
 from sim_bus.node import SimNode
 from sim_bus.scenarios import LeadProfile, canonical_profiles, load_profile_csv, shorten
 from sim_bus.trip import world_trip
-from sim_bus.world import World, WorldConfig, WorldLog
+from sim_bus.world import WORLD_COLUMNS, World, WorldConfig, WorldLog
 
 Controller = Literal["predefined", "predefined+oa", "irl", "irl+oa"]
 CONTROLLERS: tuple[str, ...] = get_args(Controller)
@@ -99,6 +103,8 @@ class DriveResult:
     final_table: Dgpt
     adaptation_events: list[AdaptationEvent] = field(default_factory=list)
     extra: dict[str, Any] = field(default_factory=dict)
+    #: UTC of simulated time 0 (ISO 8601): when the drive ran
+    start_utc: str = ""
 
     @property
     def realtime_factor(self) -> float:
@@ -142,11 +148,15 @@ def run_drive(
     *,
     takeover_sink: Any = None,
     record_channel: str | None = None,
+    can_log: Path | None = None,
+    utc_start_ns: int | None = None,
 ) -> DriveResult:
     """Run one lockstep drive; never raises for a collision (it is reported).
 
     ``record_channel``: when given, the drive's virtual channel name (so a test can attach a
-    listener that sees every frame); by default a private, unique channel.
+    listener that sees every frame); by default a private, unique channel. ``can_log``: record
+    the ECU's bus traffic, its internals and the simulated world to this MCAP file
+    (:mod:`ecu.canlog`), simulated time 0 stamped ``utc_start_ns`` (default: now).
     """
     if cfg.controller not in CONTROLLERS:
         raise ValueError(f"controller must be one of {CONTROLLERS}")
@@ -163,8 +173,14 @@ def run_drive(
     ecu = _ecu_node(cfg, driver, table, prof.name, takeover_sink)
     sim_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
     ecu_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
+    base = TimeBase(time.time_ns() if utc_start_ns is None else utc_start_ns, 0.0)
+    recorder: CanLogWriter | None = None
+    can_log_error: str | None = None
     try:
         rt = EcuRuntime(ecu_bus, ecu, codec=codec)
+        if can_log is not None:
+            recorder = _drive_recorder(can_log, cfg, ecu, table, codec, base)
+            rt.record_to(recorder)
         node = SimNode(
             sim_bus,
             world,
@@ -178,10 +194,14 @@ def run_drive(
         wall = time.perf_counter() - start
         ecu.finish()
         summary = rt.summary()
+        log = world.log()
+        can_log_error = _finish_recording(recorder, log) if recorder is not None else None
     finally:
         sim_bus.shutdown()
         ecu_bus.shutdown()
-    log = world.log()
+        if recorder is not None and not recorder.closed:  # the drive failed: keep what ran
+            with contextlib.suppress(EcuError, OSError):
+                recorder.close()
     return DriveResult(
         config=cfg,
         metrics=log.metrics(),
@@ -197,6 +217,8 @@ def run_drive(
         frames_faulted=node.frames_faulted,
         final_table=ecu.table,
         adaptation_events=events,
+        start_utc=base.iso(0.0),
+        extra={"can_log_error": can_log_error} if can_log_error else {},
     )
 
 
@@ -207,6 +229,45 @@ def drive_codec(cfg: DriveConfig) -> Codec:
         DbcError: the network cannot be loaded (a BindingError for a DBC without binding).
     """
     return load_codec(*network_paths(cfg.dbc, cfg.binding))
+
+
+def _drive_recorder(
+    path: Path,
+    cfg: DriveConfig,
+    ecu: EcuNode,
+    table: Dgpt,
+    codec: Codec,
+    base: TimeBase,
+) -> CanLogWriter:
+    """The bus recorder of a drive: the ECU's port, simulated time on ``base``."""
+    settings = {k: str(v) for k, v in dataclasses.asdict(cfg).items()}
+    return open_recording(
+        path,
+        codec,
+        base,
+        node="drive",
+        config=ecu.config,
+        table=table,
+        metadata={"drive": settings},
+    )
+
+
+def _finish_recording(recorder: CanLogWriter, log: WorldLog) -> str | None:
+    """Add the world to the recording and close it; the failure's text (None: written).
+    A failed recording does not cost the drive's results."""
+    try:
+        record_world(recorder, log)
+        recorder.close()
+    except (EcuError, OSError) as exc:
+        return str(exc)
+    return None
+
+
+def record_world(recorder: CanLogWriter, log: WorldLog) -> None:
+    """The simulated world of a drive (:class:`WorldLog`) on ``/sim/world``."""
+    columns = {name: getattr(log, name).tolist() for name in WORLD_COLUMNS}
+    recorder.series(WORLD_TOPIC, WORLD_COLUMNS, "the simulated world: plant, lead, driver")
+    recorder.write_series(WORLD_TOPIC, columns, log.t_s.tolist())
 
 
 def _ecu_node(
@@ -260,6 +321,7 @@ def log_to_trip(result: DriveResult, driver: DriverParams) -> Trip:
         "takeovers": result.takeovers,
         "adaptations": result.adaptations,
         "source": "sim_bus.drive",
+        "start_utc": result.start_utc,
     }
     pedals = PedalScale.from_codec(drive_codec(result.config))
     return world_trip(result.log, driver, pedals, meta)
@@ -312,6 +374,13 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--faults", default="", help="fault SPEC, e.g. 'radar:dropout=100-105'")
     p.add_argument("--log", type=Path, help="write the drive as an MCAP trip log")
+    p.add_argument(
+        "--can-log",
+        type=Path,
+        metavar="FILE",
+        help="record the ECU's bus traffic (raw and decoded), its internals and the "
+        "simulated world to this MCAP file",
+    )
     p.add_argument("--duration", type=float, help="simulate only the first N seconds")
     p.add_argument(
         "--brake-mode",
@@ -379,7 +448,7 @@ def main(argv: list[str] | None = None) -> int:
                 table = irl_table(base, args.seed, args.cache)  # learned in normal conditions
         else:
             table = predefined_table(driver)
-        result = run_drive(cfg, driver, table, profile)
+        result = run_drive(cfg, driver, table, profile, can_log=args.can_log)
     except (SimError, EcuError, DbcError, OSError) as exc:
         print(f"pacc drive: error: {exc}", file=sys.stderr)
         return 2
@@ -391,6 +460,12 @@ def main(argv: list[str] | None = None) -> int:
             print(f"pacc drive: error: cannot write {args.log}: {exc}", file=sys.stderr)
             return 2
         print(f"  log            {args.log}")
+    if args.can_log is not None:
+        failed = result.extra.get("can_log_error")
+        if failed:
+            print(f"pacc drive: error: bus recording failed: {failed}", file=sys.stderr)
+            return 2
+        print(f"  bus recording  {args.can_log}")
     return 1 if result.collision else 0
 
 

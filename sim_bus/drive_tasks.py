@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from ecu.adaptation import AdaptationParams
@@ -38,6 +39,7 @@ class DriveJob:
     adaptation: AdaptationParams | None = None
     dbc: str | None = None  # the vehicle network (None: pacc's)
     binding: str | None = None
+    can_log_path: str | None = None  # the drive's bus recording (written by the worker)
 
 
 def run_job(
@@ -60,7 +62,8 @@ def run_job(
     )
     if profile is None:
         profile = canonical_profiles(job.study_seed)[job.scenario]
-    result = run_drive(cfg, driver, job.table, profile)
+    can_log = Path(job.can_log_path) if job.can_log_path is not None else None
+    result = run_drive(cfg, driver, job.table, profile, can_log=can_log)
     trip = log_to_trip(result, driver) if job.log_path is not None else None
     m = result.metrics
     row = {
@@ -113,6 +116,7 @@ class DriveTask:
     adaptation: AdaptationParams | None
     dbc: str | None = None
     binding: str | None = None
+    can_log_path: str | None = None
 
 
 def split(jobs: Sequence[DriveJob]) -> tuple[StudyData, list[DriveTask]]:
@@ -146,6 +150,7 @@ def split(jobs: Sequence[DriveJob]) -> tuple[StudyData, list[DriveTask]]:
                 job.adaptation,
                 job.dbc,
                 job.binding,
+                job.can_log_path,
             )
         )
     return StudyData(tuple(driver_list), tuple(table_list), profiles), tasks
@@ -165,6 +170,7 @@ def run_task(data: StudyData, task: DriveTask) -> tuple[dict[str, Any], Trip | N
         task.adaptation,
         task.dbc,
         task.binding,
+        task.can_log_path,
     )
     return run_job(job, data.profiles[(task.study_seed, task.scenario)])
 

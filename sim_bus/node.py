@@ -16,6 +16,7 @@ import heapq
 import math
 import time
 from collections import Counter
+from collections.abc import Callable
 from typing import Any
 
 import can
@@ -117,6 +118,8 @@ class SimNode:
             for p in self._parts
         }
         self.commands_ok = 0
+        #: called with (time, frame, received) for every frame in and out (a bus recorder)
+        self.tap: Callable[[float, can.Message, bool], None] | None = None
 
     # -- receive ------------------------------------------------------------------------
     def _receive(self, now: float) -> None:
@@ -124,6 +127,7 @@ class SimNode:
         if self._rx_queue is not None and self._rx_queue.empty():
             return  # fast path on the virtual bus: nothing arrived since the last tick
         accept = self.inbox.accept
+        tap = self.tap
         while True:
             try:
                 msg = bus.recv(0.0)
@@ -132,6 +136,8 @@ class SimNode:
                 break
             if msg is None:
                 break
+            if tap is not None:
+                tap(now, msg, True)
             if msg.is_error_frame or msg.is_remote_frame:
                 continue
             d = accept(msg.arbitration_id, msg.data, now)
@@ -183,6 +189,8 @@ class SimNode:
             self.send_errors += 1
             return
         self.frames_sent += 1
+        if self.tap is not None:
+            self.tap(msg.timestamp, msg, False)
 
     def _transmit(self, now: float) -> None:
         due = self._due[self.tick % len(self._due)]
@@ -191,6 +199,7 @@ class SimNode:
             send = self.bus.send
             encode = self.outbox.encode_part
             msgs = self._msgs
+            tap = self.tap
             for mc in due:
                 msg = msgs[mc.key]
                 msg.data = bytearray(encode(mc, self._fill(mc.role)))
@@ -201,6 +210,8 @@ class SimNode:
                     self.send_errors += 1
                     continue
                 self.frames_sent += 1
+                if tap is not None:
+                    tap(now, msg, False)
             return
         for mc in due:
             vals = self._fill(mc.role)

@@ -38,6 +38,10 @@ _COLUMNS = (
 )
 
 
+#: the logged columns but time (the /sim/world channel of a bus recording)
+WORLD_COLUMNS: tuple[str, ...] = _COLUMNS[1:]
+
+
 @dataclass(frozen=True)
 class WorldConfig:
     """Simulation settings: plant (its ``dt_s`` is the tick), driver rate, engagement time."""

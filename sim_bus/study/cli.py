@@ -54,6 +54,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--out", type=Path, default=Path("out/study"), help="output folder")
     p.add_argument("--no-logs", action="store_true", help="do not write MCAP logs")
+    p.add_argument(
+        "--can-logs",
+        action="store_true",
+        help="also record every drive's bus traffic, decoded, with the ECU's internals "
+        "(MCAP, OUT/can/; pacc replay, pacc plot)",
+    )
     p.add_argument("--cache", type=Path, help="cache folder of learned IRL tables")
     p.add_argument(
         "--adaptation-mode",
@@ -95,6 +101,7 @@ def main(argv: list[str] | None = None) -> int:
         duration_s=args.duration,
         workers=max(1, args.workers),
         logs=not args.no_logs,
+        can_logs=args.can_logs,
         adaptation=adaptation_params(args.adaptation_mode),
         cloud=args.cloud,
         token_file=args.token_file,
@@ -128,6 +135,7 @@ def main(argv: list[str] | None = None) -> int:
             f"{len(rows)} drives in {took:.1f} s; outputs in {args.out}/ "
             "(table1.md, drives.csv, study.png, irl/, "
             + ("logs/" if cfg.logs else "no logs")
+            + (", can/" if cfg.can_logs else "")
             + (")" if cfg.direct else ", cloud/)")
         )
     return 1 if any(int(r["collision"]) for r in rows) else 0

@@ -35,6 +35,7 @@ class StudyConfig:
     duration_s: float | None = None
     workers: int = 2
     logs: bool = True
+    can_logs: bool = False  # also record every drive's bus traffic (MCAP) under can/
     adaptation: AdaptationParams | None = None
     cloud: str | None = None
     token_file: str | None = None

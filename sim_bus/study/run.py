@@ -91,7 +91,8 @@ def plan(
             for controller in cfg.controllers:
                 kind = "irl" if controller.startswith("irl") else "predefined"
                 for trial in range(cfg.trials):
-                    log = out / "logs" / log_name(driver_id, scenario, controller, trial)
+                    name = log_name(driver_id, scenario, controller, trial)
+                    log = out / "logs" / name
                     jobs.append(
                         DriveJob(
                             driver,
@@ -105,6 +106,7 @@ def plan(
                             cfg.adaptation,
                             cfg.dbc,
                             cfg.binding,
+                            str(out / "can" / name) if cfg.can_logs else None,
                         )
                     )
     return jobs
@@ -181,6 +183,8 @@ def run_study(
     (out / "irl").mkdir(exist_ok=True)
     if cfg.logs:
         (out / "logs").mkdir(exist_ok=True)
+    if cfg.can_logs:
+        (out / "can").mkdir(exist_ok=True)
     if cfg.incremental:  # trips one after another, each on the previous trip's table
         return _run_incremental(cfg, drivers, out)
     if engine is not None:

@@ -355,3 +355,41 @@ def test_bus_failure_ends_the_run_cleanly() -> None:
     assert flushed == [True]
     # it ran, then stopped at the failure, not at 5 s (cycle counts vary under load)
     assert rt.cycles >= 1 and time.monotonic() - t0 < 4.0
+
+
+@pytest.mark.slow
+def test_cli_can_log_records_the_run_and_takeovers_carry_utc(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from ecu.canlog_read import read_canlog  # noqa: PLC0415
+    from ecu.replay import replay_through_ecu  # noqa: PLC0415
+    from ecu.triplog import read_trip  # noqa: PLC0415
+
+    channel = f"ecu-cli-{next(_ids)}"
+    peers = Peers(channel, 4.2)
+    peers.start()
+    before = time.time()
+    argv = ["-i", "virtual", "-c", channel, "--headway", "3", "--duration", "4.0"]
+    rec = tmp_path / "bus.mcap"
+    rc = main([*argv, "--takeovers", str(tmp_path / "to"), "--can-log", str(rec)])
+    peers.join()
+    out = capsys.readouterr().out
+    assert rc == 0
+    assert f"frames written to {rec}" in out
+    log = read_canlog(rec)
+    assert log.node == "ecu" and (~log.frames.rx).sum() >= 150  # 50 Hz commands for ~4 s
+    assert log.frames.rx.sum() > 500 and "ACC_Command" in log.decoded
+    assert any("takeover 1" in text for _, text in log.events), (log.events, out)
+    segment = read_trip(next((tmp_path / "to").glob("takeover_*.mcap")))
+    start = segment.meta["start_utc"]  # the wall clock, not the boot clock
+    assert start[:10] == time.strftime("%Y-%m-%d", time.gmtime(before))
+    # its cycles at their recorded times: the replayed ECU sends what it sent, bit for bit
+    result = replay_through_ecu(log)
+    assert result.identical and len(result.sent) >= 150
+    assert "OVERRIDE" in [s for _, s in result.states]
+
+
+def test_help_path_imports_neither_python_can_nor_mcap() -> None:
+    code = "import sys, ecu.cli; print(sorted({'can', 'mcap', 'cantools'} & set(sys.modules)))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"

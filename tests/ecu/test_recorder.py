@@ -139,3 +139,40 @@ def test_directory_sink_refuses_a_file(tmp_path: Path) -> None:
     f.write_text("x")
     with pytest.raises(RecorderError, match="cannot create"):
         directory_sink(f)
+
+
+def test_segments_of_a_real_time_ecu_are_stamped_with_utc(tmp_path: Path) -> None:
+    from mcap.reader import make_reader  # noqa: PLC0415
+
+    from ecu.canlog import TimeBase  # noqa: PLC0415
+
+    base = TimeBase(1_790_000_000_000_000_000, 5000.0)  # boot clock 5000 s = that UTC
+    rec = TakeoverRecorder(directory_sink(tmp_path), utc_of=base.iso)
+    feed(rec, 5000.0, 5010.0)
+    rec.start(5010.0, "accel")
+    feed(rec, 5010.0, 5012.0, state=3)
+    rec.release(5012.0, "applied")
+    rec.flush()
+    path = tmp_path / "takeover_0000.mcap"
+    trip = read_trip(path)
+    assert trip.meta["start_utc"] == base.iso(5005.0) == "2026-09-21T14:13:25.000000Z"
+    with path.open("rb") as fh:
+        stamps = sorted(m.log_time for _, _, m in make_reader(fh).iter_messages())
+    # the first sample at its UTC, the others at their offsets from it
+    assert stamps[0] == base.utc_ns(5005.0) and stamps[-1] == base.utc_ns(trip.t_s[-1])
+    assert trip.t_s[0] == pytest.approx(5005.0)  # the samples keep the node's clock
+
+
+def test_segments_without_a_utc_map_keep_their_old_stamps(tmp_path: Path) -> None:
+    from mcap.reader import make_reader  # noqa: PLC0415
+
+    rec = TakeoverRecorder(directory_sink(tmp_path))
+    feed(rec, 0.0, 10.0)
+    rec.start(10.0, "brake")
+    rec.release(11.0, "applied")
+    rec.flush()
+    path = tmp_path / "takeover_0000.mcap"
+    assert "start_utc" not in read_trip(path).meta
+    with path.open("rb") as fh:
+        first = min(m.log_time for _, _, m in make_reader(fh).iter_messages())
+    assert first == 5_000_000_000  # t_s itself: lockstep segments stay byte-identical

@@ -1,0 +1,114 @@
+"""Benchmark: the MCAP bus recorder against python-can's BLF writer, and its cost to a drive.
+
+Run: ``.venv/bin/python bench/canlog.py [--sim-s 120] [--repeats 3]``.
+
+- frames: the frames of one lockstep drive (scenario B, driver d2, predefined+OA,
+  ``--sim-s`` simulated seconds), read back from its recording as python-can messages;
+- recorder: :class:`ecu.canlog.CanLogWriter` writing them all — ``/can/raw``, every DBC
+  message decoded on its channel, zstd chunks — frames per second and bytes per frame;
+- the named peer: python-can's ``can.BLFWriter`` (zlib-compressed Vector BLF, raw frames
+  only) on the same messages, same measures;
+- the drive: ``run_drive`` with and without ``can_log``, alternating, ``--repeats`` each;
+  the real-time factors (simulated s per wall s of the whole call) and their ratio.
+
+Best of ``--repeats`` for the writers and for the drives' real-time factors (the machine is
+shared: the best run is the one least disturbed), the medians printed beside.
+The last line is ``canlog: N x python-can BLF writer``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import can
+
+from dbc.codec import load_codec
+from ecu.canlog import CanLogWriter, TimeBase
+from ecu.canlog_read import messages, read_canlog
+from sim_bus.drive import DriveConfig, predefined_table, run_drive
+from sim_bus.drivers import BUILTIN_DRIVERS
+
+
+def _drive(sim_s: float, can_log: Path | None) -> tuple[float, float]:
+    """One drive; its real-time factors over the whole ``run_drive`` call (the recorder's
+    opening, its last blocks and the simulated world included, not only the loop): against
+    the wall clock and against this process's CPU time (less disturbed by the machine's
+    other loads)."""
+    driver = BUILTIN_DRIVERS["d2"]
+    cfg = DriveConfig(
+        scenario="B", driver_id="d2", controller="predefined+oa", seed=1, duration_s=sim_s
+    )
+    table = predefined_table(driver)
+    start, cpu = time.perf_counter(), time.process_time()
+    result = run_drive(cfg, driver, table, can_log=can_log)
+    wall_s, cpu_s = time.perf_counter() - start, time.process_time() - cpu
+    return result.sim_s / wall_s, result.sim_s / cpu_s
+
+
+def _blf(msgs: list[can.Message], path: Path) -> float:
+    start = time.perf_counter()
+    writer = can.BLFWriter(path)
+    for m in msgs:
+        writer.on_message_received(m)
+    writer.stop()
+    return time.perf_counter() - start
+
+
+def _mcap(msgs: list[can.Message], path: Path) -> float:
+    db = load_codec().db
+    start = time.perf_counter()
+    writer = CanLogWriter(path, db, TimeBase(0, 0.0), node="bench")
+    for m in msgs:
+        writer.frame(m.timestamp, m, m.is_rx)
+        writer.tick(m.timestamp)
+    writer.close()
+    return time.perf_counter() - start
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sim-s", type=float, default=120.0, help="simulated s per drive")
+    parser.add_argument("--repeats", type=int, default=3, help="runs of each side")
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        _drive(args.sim_s, d / "drive.mcap")
+        msgs = list(messages(read_canlog(d / "drive.mcap")))
+        n = len(msgs)
+        blf_s = min(_blf(msgs, d / "x.blf") for _ in range(args.repeats))
+        mcap_s = min(_mcap(msgs, d / "x.mcap") for _ in range(args.repeats))
+        blf_b = (d / "x.blf").stat().st_size / n
+        mcap_b = (d / "x.mcap").stat().st_size / n
+        off: list[tuple[float, float]] = []
+        on: list[tuple[float, float]] = []
+        for _ in range(args.repeats):
+            off.append(_drive(args.sim_s, None))
+            on.append(_drive(args.sim_s, d / "drive.mcap"))
+    rt_off, rt_on = max(x[0] for x in off), max(x[0] for x in on)
+    med_off = statistics.median(x[0] for x in off)
+    med_on = statistics.median(x[0] for x in on)
+    cpu_off, cpu_on = max(x[1] for x in off), max(x[1] for x in on)
+    print(f"frames: {n} of a {args.sim_s:g}-s drive (scenario B, d2, predefined+oa)")
+    print(f"python-can BLFWriter:           {n / blf_s:10,.0f} frames/s  {blf_b:6.2f} bytes/frame")
+    print(
+        f"pacc recorder (raw + decoded):  {n / mcap_s:10,.0f} frames/s  {mcap_b:6.2f} bytes/frame"
+        f"  ({mcap_b / blf_b:.2f}x BLF's bytes)"
+    )
+    print(
+        f"drive real-time factor, best: {rt_off:.1f}x recording off, {rt_on:.1f}x on "
+        f"({rt_on / rt_off:.3f} of off); median: {med_off:.1f}x off, {med_on:.1f}x on "
+        f"({med_on / med_off:.3f} of off)"
+    )
+    print(
+        f"drive real-time factor on CPU time, best: {cpu_off:.1f}x off, {cpu_on:.1f}x on "
+        f"({cpu_on / cpu_off:.3f} of off)"
+    )
+    print(f"canlog: {blf_s / mcap_s:.2f}x python-can BLF writer")
+
+
+if __name__ == "__main__":
+    main()
