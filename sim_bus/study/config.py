@@ -21,7 +21,9 @@ class StudyConfig:
     ``OUT/cloud``; a URL or folder of a cloud where the drivers are registered to the vehicle
     of ``token_file``, whose tables are verified with ``trust``. ``direct``: no cloud, learn
     in-process (cached). ``incremental``: N > 0 runs the incremental-learning experiment
-    (N trips per driver through the cloud) instead of Table I."""
+    (N trips per driver through the cloud) instead of Table I. ``population``: N > 0 runs
+    Table I over N drivers drawn with ``seed`` (:mod:`sim_bus.study.population`) instead of
+    ``drivers``."""
 
     drivers: tuple[str, ...] = ("d1", "d2", "d3", "d4", "d5")
     scenarios: tuple[str, ...] = ("A", "B")
@@ -37,6 +39,7 @@ class StudyConfig:
     trust: str | None = None
     direct: bool = False
     incremental: int = 0
+    population: int = 0
 
 
 def _validate_cloud(cfg: StudyConfig) -> None:
