@@ -6,9 +6,9 @@ worker pool: its tables (predefined; IRL learned in-process from its manual trip
 in ``pacc study --direct``), then every scenario × controller × trial drive
 (:func:`sim_bus.study.run.run_job`, no trip logs). A finished driver's rows are appended to
 ``OUT/population.jsonl`` at once, so a run that is stopped resumes where it was: a second run
-with the same configuration skips the drivers already there (a different configuration in
-the same folder is refused). The report (:mod:`sim_bus.study.population_report`) comes from
-the rows of all N drivers.
+with the same configuration skips the drivers already there, and a larger N extends it (a
+different configuration in the same folder is refused). The report
+(:mod:`sim_bus.study.population_report`) comes from the rows of all N drivers.
 """
 
 from __future__ import annotations
@@ -84,9 +84,9 @@ def run_driver(job: DriverJob) -> list[dict[str, Any]]:
 
 
 def fingerprint(cfg: StudyConfig) -> dict[str, Any]:
-    """What makes two population runs the same run (JSON-serialisable)."""
+    """What makes two population runs the same run (JSON-serialisable). Not the number of
+    drivers: the first N drivers of a seed are the same whatever N, so a run can be extended."""
     return {
-        "population": cfg.population,
         "seed": cfg.seed,
         "scenarios": list(cfg.scenarios),
         "controllers": list(cfg.controllers),
