@@ -40,7 +40,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--duration",
         type=float,
-        help="shorten every drive to N s (default: the whole 300 s; with --population: 180)",
+        help="shorten every drive to N s (default: the whole 300 s; with --population: 120)",
     )
     p.add_argument(
         "--workers",
@@ -100,7 +100,7 @@ def main(argv: list[str] | None = None) -> int:
         controllers=_names(args.controllers),
         trials=args.trials if args.trials is not None else (1 if pop else 3),
         seed=args.seed,
-        duration_s=args.duration if args.duration is not None or not pop else 180.0,
+        duration_s=args.duration if args.duration is not None or not pop else 120.0,
         workers=max(1, args.workers),
         logs=not args.no_logs,
         adaptation=adaptation_params(args.adaptation_mode),
