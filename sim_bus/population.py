@@ -38,6 +38,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -134,8 +135,9 @@ def calibrate(pairs: Sequence[HumanPair]) -> PopulationPrior:
     )
 
 
+@lru_cache(maxsize=1)
 def shipped_prior() -> PopulationPrior:
-    """:func:`calibrate` on the shipped real human pairs."""
+    """:func:`calibrate` on the shipped real human pairs (computed once per process)."""
     return calibrate(load_human_pairs())
 
 
