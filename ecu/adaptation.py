@@ -101,6 +101,9 @@ class AdaptationParams:
         min_speed_mps: timegap mode: speeds below this count as this speed when converting
             gap to time gap (10 m/s: below it the standstill distance dominates the gap and a
             slow takeover would be magnified into metres at motorway speed).
+        step_fraction: the share of the change made by one update, in (0, 1] (1: the centre
+            bin lands on ``g_desire``, the paper's full step; less damps the overshoot of a
+            release gap that is itself a noisy estimate, measured in docs/ecu.md).
     """
 
     min_takeover_s: float = 1.0
@@ -113,6 +116,7 @@ class AdaptationParams:
     mode: AdaptationMode = "timegap"
     spread_speed_mps: float = 25.0
     min_speed_mps: float = 10.0
+    step_fraction: float = 1.0
 
     def __post_init__(self) -> None:
         floats = (
@@ -128,6 +132,8 @@ class AdaptationParams:
             raise AdaptationError(f"adaptation parameters must be finite and >= 0: {self}")
         if self.window_size < 1 or self.window_size % 2 == 0:
             raise AdaptationError(f"window_size must be odd and >= 1, got {self.window_size}")
+        if not 0.0 < self.step_fraction <= 1.0:
+            raise AdaptationError(f"step_fraction must be in (0, 1], got {self.step_fraction}")
         if self.short_press_count < 1:
             raise AdaptationError(f"short_press_count must be >= 1, got {self.short_press_count}")
         if self.short_press_min_s > self.min_takeover_s:
@@ -297,14 +303,15 @@ def timegap_update(
     With ``v_c`` the centre bin's speed and ``u(v) = max(v, v_min)``, the time gap above the
     standstill distance changes by ``dh = (g_desire - DGPT[centre]) / u(v_c)`` (s) there, and
     bin ``i`` by ``w_i * dh`` with :func:`timegap_weights` around ``v_c``:
-    ``gap_i += w_i * dh * u(v_i)``. So the centre bin lands on ``g_desire`` (as in the paper
+    ``gap_i += w_i * dh * u(v_i)`` (``dh`` times ``step_fraction``). So with a full step the
+    centre bin lands on ``g_desire`` (as in the paper
     mode) and a preference that is a time gap (constant or slowly varying with speed) is
     learned at every speed from one takeover.
     """
     vmin = params.min_speed_mps
     speed = table.speed_mps
     v_c = float(speed[centre])
-    dh = (g_desire_m - float(table.gap_m[centre])) / max(v_c, vmin)
+    dh = params.step_fraction * (g_desire_m - float(table.gap_m[centre])) / max(v_c, vmin)
     w = timegap_weights(speed, v_c, params.spread_speed_mps)
     return np.asarray(table.gap_m + w * dh * np.maximum(speed, vmin))
 
@@ -352,7 +359,7 @@ def adapt(
     if params.mode == "timegap":
         gap = timegap_update(table, centre, g_desire, params)
     else:
-        delta = g_desire - float(table.gap_m[centre])
+        delta = params.step_fraction * (g_desire - float(table.gap_m[centre]))
         gap = table.gap_m + delta * spread_weights(speed.size, centre, params.window_size)
     gap = safety_filter(speed, gap, bounds if bounds is not None else SafetyBounds())
     gap = with_pedal(table.gap_m, gap, summary.pedal)

@@ -402,3 +402,16 @@ def test_short_run_does_not_admit_touches() -> None:
     t = predefined(2.0)
     _, d = adapt(t, short("accel", duration=0.2), AdaptationParams(), short_run=True)
     assert d.reason is Reason.SHORT_TAKEOVER
+
+
+@pytest.mark.parametrize("mode", ADAPTATION_MODES)
+def test_step_fraction_moves_part_of_the_way(mode: str) -> None:
+    t = predefined(2.0)  # 44 m at 20 m/s
+    full, _ = adapt(t, summary(g=30.0), AdaptationParams(mode=mode))  # type: ignore[arg-type]
+    half, d = adapt(t, summary(g=30.0), AdaptationParams(mode=mode, step_fraction=0.5))  # type: ignore[arg-type]
+    assert full.gap_m[40] == pytest.approx(30.0)
+    assert half.gap_m[40] == pytest.approx(37.0) and d.delta_m == pytest.approx(-7.0)
+    above = slice(20, None)  # from 10 m/s up, where neither reaches the safety floor
+    assert np.allclose((half.gap_m - t.gap_m)[above], 0.5 * (full.gap_m - t.gap_m)[above])
+    with pytest.raises(AdaptationError):
+        AdaptationParams(step_fraction=0.0)
