@@ -103,7 +103,7 @@ class AdaptationParams:
             slow takeover would be magnified into metres at motorway speed).
         step_fraction: the share of the change made by one update, in (0, 1] (1: the centre
             bin lands on ``g_desire``, the paper's full step; less damps the overshoot of a
-            release gap that is itself a noisy estimate, measured in docs/ecu.md).
+            release gap that is itself a noisy estimate: docs/ecu.md, not yet measured).
     """
 
     min_takeover_s: float = 1.0
