@@ -14,6 +14,7 @@ from sim_bus.study.population import ROWS_FILE, run_population
 ARGS = ["--controllers", "predefined,predefined+oa", "--duration", "20", "--workers", "1"]
 
 
+@pytest.mark.slow  # whole drives, as the other study tests
 def test_population_study_reports_and_resumes(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -47,6 +48,7 @@ def test_population_study_reports_and_resumes(
     assert [",".join(r.split(",")[:-1]) for r in again] == strip
 
 
+@pytest.mark.slow
 def test_population_refuses_bad_options(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = str(tmp_path / "x")
     assert main(["--population", "2", "--drivers", "d1", "--out", out]) == 2
