@@ -16,12 +16,25 @@
 (d) Horizon sweep (--horizon-sweep): the synthetic RMSE of d1..d4 for segment horizons
     3, 5, 10 and 15 decisions (why the default is 5).
 
+(e) Held-out prediction (--held-out [N] [--seed S] [--csv FILE ...]): does the learned table
+    predict a driver's gaps on data it was not trained on at least as well as the empirical
+    steady-state baseline (the median gap per speed bin) trained on the same data? Time split
+    per driver: every trip trains on its first 70 % and is tested on its last 30 % (the real
+    human pairs, any car-following CSV with the columns of cloud_sync.tripfiles, and the
+    manual trips manual1..manual4 of N drawn drivers of population seed S, sim_bus.population,
+    default 20 of seed 2). Error: mean absolute difference between the table at the ego speed
+    and the actual gap over the test part's near-steady samples (|v_lead - v| < 0.5 m/s,
+    |a| < 0.3 m/s^2) at speeds both tables cover (elsewhere both state the same prior). The
+    peer is the baseline; the last line is the IRL win rate (error <= the baseline's), real
+    and synthetic separately.
+
     .venv/bin/python bench/irl_quality.py [--real-only | --synthetic-only] [--fine-tune]
-                                          [--horizon-sweep]
+                                          [--horizon-sweep] [--held-out [N] [--seed S]]
 """
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
 from pathlib import Path
@@ -37,6 +50,7 @@ from sim_bus.dataset import load_human_pairs
 from sim_bus.drive import DriveConfig, log_to_trip, run_drive
 from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
 from sim_bus.manual import manual_trip
+from sim_bus.population import draw_population
 from sim_bus.scenarios import canonical_profiles
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "openacc_astazero"
@@ -182,7 +196,103 @@ def horizon_sweep() -> None:
     print()
 
 
+TRAIN_FRACTION = 0.7
+_TRIP_ARRAYS = ("t_s", "v_mps", "gap_m", "v_lead_mps", "a_mps2", "accel_pedal", "brake_pedal")
+
+
+def _part(trip: Trip, start: int, stop: int) -> Trip:
+    """Samples ``start:stop`` of a trip (a time split)."""
+    arrays = {name: getattr(trip, name)[start:stop] for name in _TRIP_ARRAYS}
+    return dataclasses.replace(trip, **arrays, acc_state=trip.acc_state[start:stop])
+
+
+def held_out_error(table: Dgpt, test: Trip, covered: np.ndarray) -> float:
+    """Mean |DGPT(v) - g| (m) over the near-steady samples of ``test`` at speeds whose DGPT
+    bin is ``covered`` ((n,) bool on the table's axis)."""
+    v, g, vl, a = test.v_mps, test.gap_m, test.v_lead_mps, test.a_mps2
+    axis = table.speed_mps
+    bins = np.clip(np.round((v - axis[0]) / table.step_mps).astype(np.int64), 0, axis.size - 1)
+    steady = np.isfinite(g) & (np.abs(vl - v) < 0.5) & (np.abs(a) < 0.3) & covered[bins]
+    if not steady.any():
+        return float("nan")
+    return float(np.mean(np.abs(table.lookup(v[steady]) - g[steady])))
+
+
+def _held_out_row(name: str, train: list[Trip], test: list[Trip]) -> tuple[float, float] | None:
+    res = learn_dgpt(train, driver_id=name)
+    if res.baseline is None:
+        print(f"| {name} | no steady-state following to train the baseline | | | |")
+        return None
+    both = res.covered & np.asarray(res.baseline.meta["covered"], dtype=bool)
+    t_irl = [held_out_error(res.table, t, both) for t in test]
+    t_base = [held_out_error(res.baseline, t, both) for t in test]
+    if all(np.isnan(x) for x in t_irl):
+        print(f"| {name} | no near-steady test sample at a covered speed | | | |")
+        return None
+    irl, base = float(np.nanmean(t_irl)), float(np.nanmean(t_base))
+    ranges = ", ".join(f"{a:g}-{c:g}" for a, c in res.table.meta["covered_mps"])
+    print(f"| {name} | {ranges} | {irl:.2f} | {base:.2f} | {'yes' if irl <= base else 'no'} |")
+    return irl, base
+
+
+def held_out(n: int, seed: int, csvs: list[Path]) -> None:
+    print(
+        "(e) held-out gap error (m), IRL table vs the empirical baseline trained on the same data\n"
+    )
+    head = (
+        "| driver | covered (m/s) | IRL (m) | baseline (m) | IRL <= baseline |\n"
+        "|---|---|---|---|---|"
+    )
+    results: dict[str, list[tuple[float, float]]] = {"real": [], "synthetic": []}
+    print("Real drivers (first 70 % of each trip to train, last 30 % to test):\n")
+    print(head)
+    real_trips = _human_trips() + [(f.stem, read_csv_trip(f)) for f in csvs]
+    for name, trip in real_trips:
+        cut = int(TRAIN_FRACTION * trip.t_s.size)
+        row = _held_out_row(name, [_part(trip, 0, cut)], [_part(trip, cut, trip.t_s.size)])
+        if row is not None:
+            results["real"].append(row)
+    print(f"\nDrawn drivers of population seed {seed} (manual1..4, 70 % / 30 % of each):\n")
+    print(head)
+    profiles = canonical_profiles(seed)
+    for driver in draw_population(n, seed):
+        trips = [manual_trip(driver, profiles[f"manual{i + 1}"], seed + i) for i in range(4)]
+        cuts = [int(TRAIN_FRACTION * t.t_s.size) for t in trips]
+        train = [_part(t, 0, c) for t, c in zip(trips, cuts, strict=True)]
+        test = [_part(t, c, t.t_s.size) for t, c in zip(trips, cuts, strict=True)]
+        row = _held_out_row(driver.driver_id, train, test)
+        if row is not None:
+            results["synthetic"].append(row)
+    print()
+    for kind, rows in results.items():
+        if rows:
+            irl = np.array([r[0] for r in rows])
+            base = np.array([r[1] for r in rows])
+            print(
+                f"{kind}: mean held-out error IRL {irl.mean():.2f} m, baseline "
+                f"{base.mean():.2f} m; IRL <= baseline on {int(np.sum(irl <= base))} of "
+                f"{len(rows)} drivers"
+            )
+    wins = {k: np.mean([r[0] <= r[1] for r in v]) for k, v in results.items() if v}
+    print(
+        "held-out: IRL win rate against the empirical baseline: "
+        + ", ".join(f"{k} {100 * w:.0f} %" for k, w in wins.items())
+    )
+
+
+def _option(argv: list[str], name: str, default: int) -> int:
+    if name in argv:
+        i = argv.index(name)
+        if i + 1 < len(argv) and argv[i + 1].isdigit():
+            return int(argv[i + 1])
+    return default
+
+
 def main(argv: list[str]) -> int:
+    if "--held-out" in argv:
+        csvs = [Path(a) for a in argv if a.endswith(".csv")]
+        held_out(_option(argv, "--held-out", 20), _option(argv, "--seed", 2), csvs)
+        return 0
     if "--synthetic-only" not in argv:
         real()
     if "--real-only" not in argv:

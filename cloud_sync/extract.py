@@ -8,8 +8,10 @@ All functions are pure and work on the DGPT speed axis (``ecu.dgpt.speed_axis``,
 - :func:`gap_support`: the gap range demonstrated near each speed (where the reward is known).
 - :func:`lowpass`: zero-phase Butterworth filter (``scipy.signal.filtfilt``) along the axis.
 - :func:`continue_time_gap`: bins without evidence get ``d0 + T(v)·v``, where the time gap
-  ``T = (g − d0)/v`` is interpolated between covered bins and held constant beyond them (or,
-  with a fallback table, the fallback's gaps are kept there).
+  ``T = (g − d0)/v`` is interpolated between covered bins of at least
+  :data:`CONTINUE_MIN_SPEED_MPS` and held constant beyond them; with no covered bin that fast,
+  the stated prior :data:`PRIOR_HEADWAY_S` (or, with a fallback table, the fallback's gaps
+  are kept there). :func:`outside_coverage` names the rule a table used.
 - :func:`finish_table`: raw per-bin gaps → table: continuation, low-pass, continuation, clamp.
 - :func:`steady_state_gaps`: the empirical baseline, the median gap of near-steady samples
   (|dv| and |a| small) per speed bin.
@@ -25,7 +27,18 @@ from scipy import signal
 from cloud_sync.features import Features
 from ecu.dgpt import SafetyBounds, clamp_to_bounds
 
+#: covered bins slower than this do not set the time gap continued to other speeds, m/s:
+#: below it the standstill distance dominates the gap and (g − d0)/v is mostly noise (issue
+#: 11: a table learned from stop-and-go data below 5 m/s stated gaps at 30 m/s)
+CONTINUE_MIN_SPEED_MPS = 8.0
+#: the prior time gap of speeds no usable evidence reaches, s (openpilot's "standard"
+#: personality is 1.45 s; the real OpenACC followers keep 1.4-3.4 s)
+PRIOR_HEADWAY_S = 1.5
+
 __all__ = [
+    "CONTINUE_MIN_SPEED_MPS",
+    "PRIOR_HEADWAY_S",
+    "outside_coverage",
     "irl_gaps",
     "argmax_gap",
     "lowpass",
@@ -92,21 +105,39 @@ def continue_time_gap(
 ) -> np.ndarray:
     """Replace the gaps of uncovered bins (``covered`` False) by a time-gap continuation.
 
-    Without ``fallback_m``: the time gap ``T_i = (g_i − d0)/v_i`` of covered bins with v > 0 is
-    interpolated linearly over speed and held beyond the covered range; an uncovered bin gets
-    ``d0 + T(v)·v`` (so a standstill bin gets ``d0``). With ``fallback_m`` (n,): uncovered bins
-    keep the fallback's gaps (an earlier table), covered bins take ``gap_m``.
-    If nothing is covered, the result is the fallback, or ``gap_m`` unchanged.
+    Without ``fallback_m``: the time gap ``T_i = (g_i − d0)/v_i`` of covered bins with
+    ``v >= CONTINUE_MIN_SPEED_MPS`` is interpolated linearly over speed and held beyond them;
+    an uncovered bin gets ``d0 + T(v)·v`` (so a standstill bin gets ``d0``). Without such a
+    bin (nothing covered, or only slow speeds) an uncovered bin gets the prior
+    ``d0 + PRIOR_HEADWAY_S·v``: a table never states a gap at speeds far from its data that
+    the data do not support. With ``fallback_m`` (n,): uncovered bins keep the fallback's gaps
+    (an earlier table), covered bins take ``gap_m``.
     """
     out = np.array(gap_m, dtype=np.float64)
     if fallback_m is not None:
+        if not covered.any():
+            return out
         return np.where(covered, out, fallback_m)
-    use = covered & (axis_mps > 0.5)
+    use = covered & (axis_mps >= CONTINUE_MIN_SPEED_MPS)
     if not use.any():
-        return out
+        return np.where(covered, out, standstill_m + PRIOR_HEADWAY_S * axis_mps)
     headway = (out[use] - standstill_m) / axis_mps[use]
     t_all = np.interp(axis_mps, axis_mps[use], headway)
     return np.where(covered, out, standstill_m + t_all * axis_mps)
+
+
+def outside_coverage(axis_mps: np.ndarray, covered: np.ndarray) -> str:
+    """The rule :func:`continue_time_gap` applied to the uncovered speeds (for a table's meta)."""
+    if covered.all():
+        return "none: every speed covered"
+    if (covered & (axis_mps >= CONTINUE_MIN_SPEED_MPS)).any():
+        return (
+            f"time gap of the covered speeds >= {CONTINUE_MIN_SPEED_MPS:g} m/s, interpolated "
+            "and held constant beyond them"
+        )
+    return (
+        f"prior time gap {PRIOR_HEADWAY_S:g} s (no covered speed >= {CONTINUE_MIN_SPEED_MPS:g} m/s)"
+    )
 
 
 def steady_state_gaps(

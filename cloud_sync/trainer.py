@@ -25,7 +25,7 @@ import numpy as np
 from cloud_sync import demos as dm
 from cloud_sync.blend import Evidence, blend, covered_ranges, evidence
 from cloud_sync.errors import DemoError, TrainingError
-from cloud_sync.extract import finish_table, irl_gaps, steady_state_gaps
+from cloud_sync.extract import finish_table, irl_gaps, outside_coverage, steady_state_gaps
 from cloud_sync.features import FeatureConfig
 from cloud_sync.fit import Fit, fit_alpha, start_alpha
 from cloud_sync.mce_irl import CompiledMdp, DemoStats
@@ -155,6 +155,7 @@ def empirical_baseline(
             "method": "empirical",
             "steady_samples": count.tolist(),
             "covered": covered.tolist(),
+            "outside_coverage": outside_coverage(axis, covered),
             "training_digest": dm.digest(trips, [1.0] * len(trips)),
         },
     )
@@ -346,6 +347,7 @@ def _irl_meta(
         "coverage_s": [round(float(c), 2) for c in ev.coverage_s],
         "min_coverage_s": cfg.min_coverage_s,
         "covered_mps": covered_ranges(axis, covered),
+        "outside_coverage": outside_coverage(axis, covered),
         "alpha": [float(a) for a in fit.alpha],
         "grid": model.grid.spec(),
         "features": model.features.spec(),

@@ -33,7 +33,7 @@ class EcuConfig:
             ``"cancel"`` (brake returns to STANDBY: production behaviour).
         adaptation_params: Algorithm 1 parameters.
         controller: PID gains and envelope.
-        bounds: DGPT safety bounds (for loading tables).
+        bounds: DGPT safety bounds (for loading tables, and the adaptation's safety filter).
         cycle_s: control period, s (ACC_Command every cycle).
         status_period_s: ACC_Status period, s.
         settle_s: inputs must be valid this long before SET re-engages, s.
@@ -79,7 +79,6 @@ class EcuConfig:
         top = self.max_set_speed_mps
         if self.set_speed_mps is not None and not 0.0 <= self.set_speed_mps <= top:
             raise ConfigError(f"set_speed_mps must be within 0..max_set_speed_mps ({top:g} m/s)")
-        self.adaptation_params.check_within(self.bounds)
 
 
 __all__ = ["MAX_DT_S", "MAX_SET_SPEED_MPS", "ConfigError", "EcuConfig"]

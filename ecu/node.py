@@ -32,7 +32,14 @@ from collections import Counter
 from collections.abc import Callable
 
 from ecu import EcuError
-from ecu.adaptation import Decision, Reason, TakeoverSummary, adapt
+from ecu.adaptation import (
+    Decision,
+    Reason,
+    ShortPresses,
+    TakeoverSummary,
+    adapt,
+    count_short_press,
+)
 from ecu.config import ConfigError, EcuConfig
 from ecu.dgpt import Dgpt, utc_now_iso
 from ecu.phases import (
@@ -97,6 +104,7 @@ class EcuNode:
         self._buttons = (False, False, False)
         self._takeover_start: float | None = None
         self._takeover_pedal = ""
+        self._short_presses = ShortPresses()  # the run of short presses (adaptation evidence)
         self.last_decision: Decision | None = None
         self._profile_fault = False
         self._pending_events: list[str] = []
@@ -291,15 +299,24 @@ class EcuNode:
             decision = Decision(applied=False, reason=Reason.INVALID_INPUT)
             label = self._record_decision(decision, events)
         else:
-            label = self._record_decision(self._adapt(summary), events)
+            label = self._record_decision(self._adapt(summary, now_s), events)
         if self.recorder is not None:
             self.recorder.release(now_s, label)
 
-    def _adapt(self, summary: TakeoverSummary) -> Decision:
+    def _adapt(self, summary: TakeoverSummary, now_s: float) -> Decision:
         """Run the adaptation on the finished takeover; the table changes if it applies."""
+        params = self.config.adaptation_params
+        self._short_presses, short_run = count_short_press(
+            self._short_presses, summary, now_s, params
+        )
         try:
             self._table, decision = adapt(
-                self._table, summary, self.config.adaptation_params, created_utc=self._utc_now()
+                self._table,
+                summary,
+                params,
+                bounds=self.config.bounds,
+                short_run=short_run,
+                created_utc=self._utc_now(),
             )
         except (EcuError, ArithmeticError, ValueError) as exc:  # absurd finite inputs
             log.warning("adaptation refused: %s", exc)

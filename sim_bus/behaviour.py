@@ -38,7 +38,6 @@ DECEL_LIMIT_MPS2 = 8.0
 _ENGAGED = (AccState.ACTIVE, AccState.OVERRIDE)
 BUTTON_HOLD_S = 0.3
 RESUME_DELAY_S = 1.0
-MIN_PRESS_S = 0.4
 FAULT_RETRY_S = 5.0  # after a fault, the driver tries SET once it has lasted this long
 
 
@@ -258,7 +257,7 @@ class DriverAgent:
         if ok and self._ok_t < 0.0:
             self._ok_t = self._press_t
         hold = 0.0 if self.mode == "tap" else p.prolong_s
-        done = ok and self._press_t - self._ok_t >= hold and self._press_t >= MIN_PRESS_S
+        done = ok and self._press_t - self._ok_t >= hold and self._press_t >= p.press_min_s
         if done or self._press_t >= p.press_max_s:
             self.mode = "idle"
             self._last_release_t = self.t_s

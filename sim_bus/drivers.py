@@ -62,6 +62,7 @@ class DriverParams:
     prolong_s: float = 0.3
     refractory_s: float = 1.0  # minimum time between two presses
     press_max_s: float = 3.0  # a press lasts at most this long (drivers nudge in bursts)
+    press_min_s: float = 0.4  # and at least this long (a brief presser: 0.3 s)
     # manual driving: IDM+ around the preference
     accel_max_mps2: float = 1.5
     decel_comfort_mps2: float = 2.0
@@ -109,6 +110,7 @@ class DriverParams:
             "reaction_s",
             "accel_max_mps2",
             "press_max_s",
+            "press_min_s",
             "decel_comfort_mps2",
             "desired_speed_mps",
             "comfort_band",
@@ -131,6 +133,8 @@ class DriverParams:
         for name in nonneg:
             if not getattr(self, name) >= 0:
                 raise DriverError(f"{self.driver_id}: {name} must be >= 0")
+        if self.press_min_s > self.press_max_s:
+            raise DriverError(f"{self.driver_id}: press_min_s exceeds press_max_s")
         if self.predefined_setting not in PREDEFINED_HEADWAY_S:
             raise DriverError(
                 f"{self.driver_id}: predefined_setting must be one of "

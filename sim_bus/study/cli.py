@@ -17,6 +17,7 @@ from sim_bus.drive import CONTROLLERS, adaptation_params
 from sim_bus.errors import SimError
 from sim_bus.study.collect import StudyInterrupted
 from sim_bus.study.config import StudyConfig
+from sim_bus.study.population import run_population
 from sim_bus.study.run import run_study
 
 _DESCRIPTION = "the paper's human-in-the-loop study (its Table I), end to end on the bus"
@@ -29,17 +30,21 @@ def _names(text: str) -> tuple[str, ...]:
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="pacc study", description=_DESCRIPTION)
     p.add_argument(
-        "--drivers", default="d1,d2,d3,d4,d5", help="comma-separated (d1..d5 or driver files)"
+        "--drivers", help="comma-separated (d1..d5 or driver files; default d1,d2,d3,d4,d5)"
     )
-    p.add_argument("--scenarios", default="A,B", help="comma-separated (default A,B)")
+    p.add_argument("--scenarios", help="comma-separated (default A,B; with --population: B)")
     p.add_argument(
         "--controllers",
         default=",".join(CONTROLLERS),
         help="comma-separated subset of " + ",".join(CONTROLLERS),
     )
-    p.add_argument("--trials", type=int, default=3, help="drives per cell (default 3)")
+    p.add_argument("--trials", type=int, help="drives per cell (default 3; with --population: 1)")
     p.add_argument("--seed", type=int, default=0, help="study seed (default 0)")
-    p.add_argument("--duration", type=float, help="shorten every drive to N s")
+    p.add_argument(
+        "--duration",
+        type=float,
+        help="shorten every drive to N s (default: the whole 300 s; with --population: 120)",
+    )
     p.add_argument(
         "--workers",
         type=int,
@@ -84,6 +89,13 @@ def _parser() -> argparse.ArgumentParser:
         metavar="N",
         help="instead of Table I: N IRL+OA trips per driver, the cloud fine-tuning between",
     )
+    p.add_argument(
+        "--population",
+        type=int,
+        default=0,
+        metavar="N",
+        help="instead of d1..d5: N drivers drawn with --seed (docs/study.md), resumable",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     add_network_arguments(p)
     return p
@@ -92,13 +104,19 @@ def _parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc study``; 0 on success, 1 if a drive collided, 2 on bad input."""
     args = _parser().parse_args(argv)
+    pop = args.population != 0
+    if pop and args.drivers is not None:
+        print(
+            "pacc study: error: --population draws its drivers: not with --drivers", file=sys.stderr
+        )
+        return 2
     cfg = StudyConfig(
-        drivers=_names(args.drivers),
-        scenarios=_names(args.scenarios),
+        drivers=_names(args.drivers or "d1,d2,d3,d4,d5"),
+        scenarios=_names(args.scenarios or ("B" if pop else "A,B")),
         controllers=_names(args.controllers),
-        trials=args.trials,
+        trials=args.trials if args.trials is not None else (1 if pop else 3),
         seed=args.seed,
-        duration_s=args.duration,
+        duration_s=args.duration if args.duration is not None or not pop else 120.0,
         workers=max(1, args.workers),
         logs=not args.no_logs,
         can_logs=args.can_logs,
@@ -111,10 +129,19 @@ def main(argv: list[str] | None = None) -> int:
         dbc=args.dbc,
         binding=args.binding,
         scheduler=args.scheduler,
+        population=args.population,
     )
     try:
         codec_of(args)  # a DBC without its binding, a binding that does not fit: refused now
         start = time.perf_counter()
+        if pop:
+            rows = run_population(cfg, args.out, cache_dir=args.cache, progress=not args.quiet)
+            print((args.out / "population.md").read_text(encoding="utf-8"))
+            print(
+                f"{len(rows)} drives in {time.perf_counter() - start:.1f} s; outputs in "
+                f"{args.out}/ (population.md, drives.csv, population.jsonl)"
+            )
+            return 1 if any(int(r["collision"]) for r in rows) else 0
         rows = run_study(cfg, args.out, cache_dir=args.cache, progress=not args.quiet)
     except StudyInterrupted as exc:
         print(f"pacc study: {exc}", file=sys.stderr)

@@ -25,7 +25,9 @@ class StudyConfig:
     vehicle network every drive runs on (docs/vehicles.md; None: the packaged pacc network).
     ``scheduler``: where the drives run: None, ``workers`` local processes; ``"local"``, a
     Dask ``LocalCluster`` of ``workers`` processes; a Dask scheduler's address
-    (``tcp://HOST:8786``), that cluster (docs/scale.md)."""
+    (``tcp://HOST:8786``), that cluster (docs/scale.md).
+    ``population``: N > 0 runs Table I over N drivers drawn with ``seed``
+    (:mod:`sim_bus.study.population`) instead of ``drivers``."""
 
     drivers: tuple[str, ...] = ("d1", "d2", "d3", "d4", "d5")
     scenarios: tuple[str, ...] = ("A", "B")
@@ -45,6 +47,7 @@ class StudyConfig:
     dbc: str | None = None  # the vehicle network of every drive (None: pacc's)
     binding: str | None = None
     scheduler: str | None = None
+    population: int = 0
 
 
 def _validate_cloud(cfg: StudyConfig) -> None:

@@ -8,12 +8,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from cloud_sync.extract import (
+    PRIOR_HEADWAY_S,
     argmax_gap,
     continue_time_gap,
     finish_table,
     gap_support,
     irl_gaps,
     lowpass,
+    outside_coverage,
     steady_state_gaps,
 )
 from cloud_sync.features import Features
@@ -30,6 +32,23 @@ def test_time_gap_continuation_holds_edge_headway() -> None:
     fallback = np.full(AXIS.size, 33.0)
     out2 = continue_time_gap(AXIS, gap, covered, 4.0, fallback)
     assert np.all(out2[~covered] == 33.0) and np.allclose(out2[covered], gap[covered])
+
+
+def test_slow_evidence_is_not_continued_to_motorway_speeds() -> None:
+    """Issue 11: a table whose data lie below 5 m/s (stop-and-go) states the prior time gap
+    above them, not the time gap of its slow data (here 3 s) continued to 30 m/s; a table
+    with evidence from 8 m/s up continues its own time gap; the meta names the rule."""
+    covered = AXIS <= 5.0
+    gap = np.where(covered, 4.0 + 3.0 * AXIS, 0.0)
+    out = continue_time_gap(AXIS, gap, covered, 4.0)
+    assert np.allclose(out[covered], gap[covered])
+    assert out[60] == pytest.approx(4.0 + PRIOR_HEADWAY_S * 30.0)
+    assert "prior time gap" in outside_coverage(AXIS, covered)
+    wide = AXIS <= 12.0
+    out = continue_time_gap(AXIS, np.where(wide, 4.0 + 2.2 * AXIS, 0.0), wide, 4.0)
+    assert out[60] == pytest.approx(4.0 + 2.2 * 30.0)
+    assert "held constant" in outside_coverage(AXIS, wide)
+    assert outside_coverage(AXIS, np.ones(AXIS.size, dtype=bool)).startswith("none")
 
 
 def test_lowpass_keeps_lines_and_damps_noise() -> None:

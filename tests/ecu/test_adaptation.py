@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -12,14 +13,17 @@ from ecu.adaptation import (
     AdaptationError,
     AdaptationParams,
     Reason,
+    ShortPresses,
     TakeoverSummary,
     adapt,
+    count_short_press,
     spread_weights,
     timegap_weights,
 )
 from ecu.dgpt import SafetyBounds, predefined
 
-P = AdaptationParams(mode="paper")  # P_T 1 s, K_T 1 s, V_D 5 m/s, window 9, TG 0.8..5 s, d0 4 m
+P = AdaptationParams(mode="paper")  # P_T 1 s, K_T 1 s, V_D 5 m/s, window 9
+#: the one safety band of tables and adaptation: 2 m + 0.8 s·v … 10 m + 5 s·v
 
 
 def summary(
@@ -87,9 +91,9 @@ def test_clamp_at_lower_bound() -> None:
     t = predefined(2.0)
     new, d = adapt(t, summary(v=20.0, vf=20.0, g=15.0), P)
     assert d.applied and d.g_desire_m == pytest.approx(15.0)
-    assert new.gap_m[40] == pytest.approx(4.0 + 0.8 * 20.0)  # 20 m, the 0.8 s time gap
-    assert d.delta_m == pytest.approx(20.0 - 44.0)
-    # bin 41 (20.5 m/s): 45 - 29 * 0.8 = 21.8 m, above its bound 20.4 m: kept
+    assert new.gap_m[40] == pytest.approx(2.0 + 0.8 * 20.0)  # 18 m, the table's own bound
+    assert d.delta_m == pytest.approx(18.0 - 44.0)
+    # bin 41 (20.5 m/s): 45 - 29 * 0.8 = 21.8 m, above its bound 18.4 m: kept
     assert new.gap_m[41] == pytest.approx(21.8)
 
 
@@ -97,15 +101,25 @@ def test_clamp_at_upper_bound() -> None:
     t = predefined(4.0)
     new, d = adapt(t, summary(v=20.0, vf=20.0, g=150.0), P)
     assert d.applied
-    assert new.gap_m[40] == pytest.approx(4.0 + 5.0 * 20.0)  # 104 m, the 5 s time gap
+    assert new.gap_m[40] == pytest.approx(10.0 + 5.0 * 20.0)  # 110 m, the table's upper bound
 
 
 def test_safety_filter_covers_every_bin() -> None:
-    t = predefined(0.8, standstill_m=2.0)  # legal table, below the filter's d0 = 4 m
-    new, _ = adapt(t, summary(v=30.0, vf=30.0, g=30.0), P)
-    lo = 4.0 + 0.8 * new.speed_mps
-    assert np.all(new.gap_m >= lo - 1e-9)
+    t = predefined(1.0, standstill_m=2.0)
+    new, _ = adapt(t, summary(v=30.0, vf=30.0, g=20.0), P)
+    lo = 2.0 + 0.8 * new.speed_mps
+    assert np.all(new.gap_m >= lo - 1e-9) and new.gap_m[60] == pytest.approx(lo[60])
     new.check_bounds(SafetyBounds())
+
+
+def test_filter_is_the_tables_own_bound() -> None:
+    """A custom SafetyBounds is the adaptation's band too: no second, higher floor."""
+    bounds = SafetyBounds(standstill_m=3.0, headway_min_s=1.0, standstill_min_m=3.0)
+    t = predefined(2.0)
+    new, _ = adapt(t, summary(g=1.0), AdaptationParams(), bounds=bounds)
+    assert np.all(new.gap_m >= 3.0 + 1.0 * new.speed_mps - 1e-9)
+    assert new.gap_m[40] == pytest.approx(23.0)
+    new.check_bounds(bounds)
 
 
 def test_invalid_and_no_lead_skipped() -> None:
@@ -127,11 +141,11 @@ def test_parameters_validated() -> None:
     with pytest.raises(AdaptationError):
         AdaptationParams(window_size=4)
     with pytest.raises(AdaptationError):
-        AdaptationParams(safe_tg_min_s=3.0, safe_tg_max_s=2.0)
+        AdaptationParams(short_press_min_s=1.5, min_takeover_s=1.0)
     with pytest.raises(AdaptationError):
         AdaptationParams(coast_down_s=math.nan)
     with pytest.raises(AdaptationError):
-        AdaptationParams(safe_tg_max_s=6.0).check_within(SafetyBounds())
+        AdaptationParams(short_press_count=0)
 
 
 # -- the defaults, justified ---------------------------------------------------------------
@@ -259,10 +273,13 @@ def test_timegap_direction_from_pedal(pedal: str, g: float, applied: bool) -> No
         assert d.g_desire_m == pytest.approx(g) and "against_pedal" in str(d)
 
 
-def test_paper_mode_ignores_pedal() -> None:
+def test_paper_mode_respects_the_pedal_too() -> None:
+    """Issue 11: in both modes an accelerator press never lengthens the table."""
     t = predefined(2.0)
     s = TakeoverSummary(duration_s=3.0, v_mps=20.0, v_lead_mps=20.0, gap_m=50.0, pedal="accel")
     new, d = adapt(t, s, P)
+    assert not d.applied and d.reason is Reason.AGAINST_PEDAL and new is t
+    new, d = adapt(t, dataclasses.replace(s, pedal=""), P)
     assert d.applied and new.gap_m[40] == pytest.approx(50.0)
 
 
@@ -272,9 +289,9 @@ def test_timegap_filters_and_safety_bounds() -> None:
     assert adapt(t, summary(vf=26.0), TG)[1].reason is Reason.SPEED_DIFFERENCE
     assert adapt(t, summary(lead=False), TG)[1].reason is Reason.NO_LEAD
     new, d = adapt(t, summary(g=300.0), TG)
-    assert d.applied and new.gap_m[40] == pytest.approx(4.0 + 5.0 * 20.0)
-    hi = 4.0 + 5.0 * new.speed_mps
-    lo = 4.0 + 0.8 * new.speed_mps
+    assert d.applied and new.gap_m[40] == pytest.approx(10.0 + 5.0 * 20.0)
+    hi = 10.0 + 5.0 * new.speed_mps
+    lo = 2.0 + 0.8 * new.speed_mps
     assert np.all(new.gap_m <= hi + 1e-9) and np.all(new.gap_m >= lo - 1e-9)
     new.check_bounds(SafetyBounds())
     low, _ = adapt(t, summary(g=1.0), TG)
@@ -295,3 +312,106 @@ def test_default_timegap_keeps_table_slope_smooth() -> None:
     assert np.abs(change).max() == pytest.approx(bound, rel=0.03)
     # every speed learns: the time gap above d0 moves by 0.55 s * w(v)
     assert new.gap_m[80] == pytest.approx(84.0 - 0.55 * math.exp(-0.5 * 0.64) * 40.0)
+
+
+# -- issue 11: one safety bound, the pedal's direction, short presses as evidence ------------
+
+
+@pytest.mark.parametrize("mode", ADAPTATION_MODES)
+def test_close_follower_press_for_less_never_lengthens_the_table(mode: str) -> None:
+    """The issue's case: a close follower's table at the table's own floor (2 m + 0.8 s·v)
+    and one accelerator press asking for 0.5 m less. The earlier 4-m floor of the adaptation
+    lifted the whole table by up to 2 m; now no bin grows and the floor is the table's."""
+    t = predefined(0.8, standstill_m=2.0)
+    g = float(t.lookup(20.0)) - 0.5
+    s = TakeoverSummary(duration_s=2.0, v_mps=20.0, v_lead_mps=20.0, gap_m=g, pedal="accel")
+    new, d = adapt(t, s, AdaptationParams(mode=mode))  # type: ignore[arg-type]
+    assert d.applied
+    assert np.all(new.gap_m <= t.gap_m + 1e-12)
+    new.check_bounds(SafetyBounds())
+
+
+@pytest.mark.parametrize("mode", ADAPTATION_MODES)
+@pytest.mark.parametrize("pedal", ["accel", "brake"])
+def test_no_bin_moves_against_the_pedal(mode: str, pedal: str) -> None:
+    """Over random tables (inside the bounds) and takeovers: after the accelerator no bin is
+    longer, after the brake none shorter, and every bin stays inside the bounds."""
+    rng = np.random.default_rng(11)
+    bounds = SafetyBounds()
+    params = AdaptationParams(mode=mode)  # type: ignore[arg-type]
+    for _ in range(200):
+        base = predefined(float(rng.uniform(0.8, 4.0)), standstill_m=float(rng.uniform(2, 10)))
+        wiggle = base.gap_m + rng.normal(0.0, 3.0, base.gap_m.size)
+        t = base.with_gaps(
+            np.clip(wiggle, bounds.lower_m(base.speed_mps), bounds.upper_m(base.speed_mps))
+        )
+        v = float(rng.uniform(0.0, 35.0))
+        s = TakeoverSummary(
+            duration_s=2.0,
+            v_mps=v,
+            v_lead_mps=v + float(rng.uniform(-3.0, 3.0)),
+            gap_m=float(rng.uniform(1.0, 150.0)),
+            pedal=pedal,
+        )
+        new, d = adapt(t, s, params, bounds=bounds)
+        change = new.gap_m - t.gap_m
+        if pedal == "accel":
+            assert np.all(change <= 1e-12)
+        else:
+            assert np.all(change >= -1e-12)
+        if not d.applied:
+            assert new is t
+        new.check_bounds(bounds)
+
+
+def short(pedal: str, duration: float = 0.5, g: float = 30.0) -> TakeoverSummary:
+    return TakeoverSummary(duration_s=duration, v_mps=20.0, v_lead_mps=20.0, gap_m=g, pedal=pedal)
+
+
+def test_short_presses_of_one_pedal_count_as_evidence() -> None:
+    params = AdaptationParams()  # two short presses within 30 s
+    state = ShortPresses()
+    state, run = count_short_press(state, short("accel"), 10.0, params)
+    assert not run and state.count == 1 and state.pedal == "accel"
+    state, run = count_short_press(state, short("accel"), 25.0, params)
+    assert run and state == ShortPresses()  # the run is used up
+    t = predefined(2.0)
+    assert adapt(t, short("accel"), params)[1].reason is Reason.SHORT_TAKEOVER
+    new, d = adapt(t, short("accel"), params, short_run=True)
+    assert d.applied and new.gap_m[40] == pytest.approx(30.0)
+
+
+@pytest.mark.parametrize(
+    ("second", "end_s", "count"),
+    [
+        (short("brake"), 20.0, 1),  # the other pedal: a new run of its own
+        (short("accel"), 50.0, 1),  # too late: a new run from this press
+        (short("accel", duration=0.2), 20.0, 0),  # a touch: no evidence, the run ends
+        (short("accel", duration=2.0), 20.0, 0),  # a long takeover (itself an update) ends it
+        (short("both"), 20.0, 0),  # no single direction: the run ends
+    ],
+)
+def test_short_press_runs_break(second: TakeoverSummary, end_s: float, count: int) -> None:
+    params = AdaptationParams()
+    state, _ = count_short_press(ShortPresses(), short("accel"), 10.0, params)
+    state, run = count_short_press(state, second, end_s, params)
+    assert not run and state.count == count
+
+
+def test_short_run_does_not_admit_touches() -> None:
+    t = predefined(2.0)
+    _, d = adapt(t, short("accel", duration=0.2), AdaptationParams(), short_run=True)
+    assert d.reason is Reason.SHORT_TAKEOVER
+
+
+@pytest.mark.parametrize("mode", ADAPTATION_MODES)
+def test_step_fraction_moves_part_of_the_way(mode: str) -> None:
+    t = predefined(2.0)  # 44 m at 20 m/s
+    full, _ = adapt(t, summary(g=30.0), AdaptationParams(mode=mode))  # type: ignore[arg-type]
+    half, d = adapt(t, summary(g=30.0), AdaptationParams(mode=mode, step_fraction=0.5))  # type: ignore[arg-type]
+    assert full.gap_m[40] == pytest.approx(30.0)
+    assert half.gap_m[40] == pytest.approx(37.0) and d.delta_m == pytest.approx(-7.0)
+    above = slice(20, None)  # from 10 m/s up, where neither reaches the safety floor
+    assert np.allclose((half.gap_m - t.gap_m)[above], 0.5 * (full.gap_m - t.gap_m)[above])
+    with pytest.raises(AdaptationError):
+        AdaptationParams(step_fraction=0.0)

@@ -440,3 +440,18 @@ def test_every_command_inside_envelope(
             t += DT
             states.add(out.acc_state)
     event(f"reached {max(states).name}")
+
+
+def test_two_short_accelerator_presses_adapt_once() -> None:
+    """Issue 11: a driver who only presses briefly (0.5 s < P_T) is heard: the second short
+    accelerator press in a row updates the table towards the shorter gap."""
+    node = EcuNode(EcuConfig(), predefined(3.0))
+    loop = Loop(node, gap=40.0)  # table 64 m at 20 m/s: the driver wants less
+    loop.engage()
+    loop.run(0.5, accel_pressed=True)
+    loop.run(3.0)
+    assert node.takeovers == 1 and node.adaptations == 0
+    loop.run(0.5, accel_pressed=True)
+    loop.run(0.1)
+    assert node.takeovers == 2 and node.adaptations == 1
+    assert node.table.lookup(20.0) < 64.0 - 10.0

@@ -147,8 +147,7 @@ def test_follow_closed_loop_on_the_bus(bench: Bench) -> None:
 
 @pytest.fixture
 def paper_bench() -> Iterator[Bench]:
-    """Algorithm 1 as printed: the timegap default skips this accelerator release (the gap
-    is held at 60 m, longer than the table's 34 m: against the pedal)."""
+    """Algorithm 1's local window (the paper mode)."""
     b = Bench(EcuConfig(set_speed_mps=30.0, adaptation_params=AdaptationParams(mode="paper")))
     yield b
     b.close()
@@ -156,7 +155,7 @@ def paper_bench() -> Iterator[Bench]:
 
 def test_accelerator_override_and_resume(paper_bench: Bench) -> None:
     bench = paper_bench
-    bench.peers.set("radar", gap_m=60.0)
+    bench.peers.set("radar", gap_m=25.0)  # shorter than the table's 34 m: the driver wants it
     bench.engage()
     bench.peers.set("pedals", accel_pressed=1, accel_pedal_pct=30.0)
     bench.run(2.0)
@@ -166,8 +165,8 @@ def test_accelerator_override_and_resume(paper_bench: Bench) -> None:
     assert bench.commands[-1]["acc_state"] == 2 and bench.commands[-1]["request_active"] == 1
     s = bench.rt.summary()
     assert s.takeovers == 1 and s.adaptations == 1 and s.dgpt_version == 1
-    # v = v_f at release: the table now holds the 60 m gap at 20 m/s
-    assert bench.statuses[-1]["desired_gap_m"] == pytest.approx(60.0, abs=0.05)
+    # v = v_f at release: the table now holds the 25 m gap at 20 m/s
+    assert bench.statuses[-1]["desired_gap_m"] == pytest.approx(25.0, abs=0.05)
     assert bench.statuses[-1]["adaptation_count"] == 1
 
 

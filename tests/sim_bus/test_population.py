@@ -1,0 +1,71 @@
+"""The drawn driver population: calibration on the real pairs, determinism, validity."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from sim_bus.dataset import load_human_pairs
+from sim_bus.drivers import DriverParams
+from sim_bus.errors import DriverError
+from sim_bus.population import (
+    BREAKPOINTS_MPS,
+    band_headways,
+    calibrate,
+    draw_driver,
+    draw_population,
+    nearest_setting,
+    shipped_prior,
+)
+
+
+def test_calibration_reads_the_real_followers() -> None:
+    prior = shipped_prior()
+    assert prior.n_followers == 8
+    # the real followers stop 1-5 m behind their leader and keep 1.2-3.6 s above it
+    assert 2.0 < prior.standstill_mean_m < 5.0
+    assert 1.2 < np.exp(prior.log_headway_mean) < 3.0
+    assert prior.slope_sd_s_per_mps > 0 and prior.shape_sd_s > 0.05
+    pair = load_human_pairs()[2]  # the platoon 10 Mercedes: a flat 1.2-1.3 s above d0
+    heads = [h for _, h in band_headways(pair, 4.0)]
+    assert len(heads) == 4 and max(heads) - min(heads) < 0.3
+
+
+def test_calibration_needs_data() -> None:
+    with pytest.raises(DriverError, match="stopped"):
+        calibrate(load_human_pairs()[-1:])
+
+
+def test_drivers_are_a_pure_function_of_seed_and_index() -> None:
+    a = draw_population(12, 1)
+    assert a == draw_population(12, 1)
+    assert draw_population(5, 1) == a[:5]  # a run can be extended
+    assert draw_population(5, 2) != a[:5]
+    assert len({d.driver_id for d in a}) == 12 and a[3].driver_id == "p1-0003"
+    assert draw_driver(shipped_prior(), 1, 3) == a[3]
+
+
+def test_drawn_drivers_are_valid_and_diverse() -> None:
+    pop = draw_population(200, 1)
+    for d in pop:
+        DriverParams(**dataclasses.asdict(d))  # passes the driver's own validation
+        assert d.headway_speeds_mps == BREAKPOINTS_MPS
+        assert 0.3 <= d.press_min_s <= 0.6 and d.press_max_s > d.press_min_s
+    heads = np.array([d.headway_s for d in pop])
+    median_at_15_25 = np.median(heads[:, 1:3])
+    assert 1.4 < median_at_15_25 < 2.6  # the real followers' middle
+    non_monotonic = sum(bool(np.any(np.diff(h) < 0)) for h in heads)
+    assert 20 < non_monotonic < 180  # some, as the real followers (2 of 8), not all
+    assert {d.predefined_setting for d in pop} >= {"low", "medium"}
+    assert 10 < sum(d.spurious_press_per_min > 0 for d in pop) < 80
+    assert max(d.reaction_s for d in pop) > 1.2 and min(d.reaction_s for d in pop) < 0.6
+
+
+def test_bad_population_refused() -> None:
+    with pytest.raises(DriverError):
+        draw_population(0, 1)
+    with pytest.raises(DriverError):
+        draw_population(3, -1)
+    assert nearest_setting(1.9) == "low" and nearest_setting(2.2) == "medium"

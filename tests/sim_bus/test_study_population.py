@@ -1,0 +1,61 @@
+"""``pacc study --population``: the report, resuming a stopped run, refused options."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from sim_bus.study.cli import main
+from sim_bus.study.config import StudyConfig
+from sim_bus.study.population import ROWS_FILE, run_population
+
+ARGS = ["--controllers", "predefined,predefined+oa", "--duration", "20", "--workers", "1"]
+
+
+@pytest.mark.slow  # whole drives, as the other study tests
+def test_population_study_reports_and_resumes(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "pop"
+    code = main(["--population", "2", "--seed", "3", "--out", str(out), "-q", *ARGS])
+    assert code == 0
+    text = capsys.readouterr().out
+    assert "Population study — 2 drawn drivers, population seed 3" in text
+    assert "Predefined + OA vs Predefined" in text and "Holm" in text
+    assert "no collision: met (0)" in text
+    lines = (out / ROWS_FILE).read_text(encoding="utf-8").splitlines()
+    assert len(lines) == 3 and json.loads(lines[0])["config"]["seed"] == 3
+    first = (out / "drives.csv").read_text(encoding="utf-8")
+    assert first.count("\n") == 1 + 2 * 2  # header + 2 drivers x 2 controllers
+    # a run killed after its first driver (and half a line of the second) resumes
+    (out / ROWS_FILE).write_text("\n".join(lines[:2]) + "\n" + lines[2][:40], encoding="utf-8")
+    cfg = StudyConfig(
+        scenarios=("B",),
+        controllers=("predefined", "predefined+oa"),
+        trials=1,
+        seed=3,
+        duration_s=20.0,
+        workers=1,
+        population=2,
+    )
+    rows = run_population(cfg, out, progress=False)
+    assert len(rows) == 4
+    again = (out / "drives.csv").read_text(encoding="utf-8").splitlines()
+    # the re-run driver gives the same row except its wall time
+    strip = [",".join(r.split(",")[:-1]) for r in first.splitlines()]
+    assert [",".join(r.split(",")[:-1]) for r in again] == strip
+
+
+@pytest.mark.slow
+def test_population_refuses_bad_options(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = str(tmp_path / "x")
+    assert main(["--population", "2", "--drivers", "d1", "--out", out]) == 2
+    assert main(["--population", "-1", "--out", out, "-q"]) == 2
+    assert "--population must be >= 1" in capsys.readouterr().err
+    assert main(["--population", "1", "--seed", "1", "--out", out, "-q", *ARGS]) == 0
+    # another configuration in the same folder is refused, the rows stay
+    assert main(["--population", "1", "--seed", "2", "--out", out, "-q", *ARGS]) == 2
+    assert "another population run" in capsys.readouterr().err
+    assert len((tmp_path / "x" / ROWS_FILE).read_text(encoding="utf-8").splitlines()) == 2
