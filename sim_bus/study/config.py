@@ -63,25 +63,34 @@ def _validate_cloud(cfg: StudyConfig) -> None:
         raise SimError("--cloud needs --token-file F and --trust KEY.pub")
 
 
-def validate(cfg: StudyConfig) -> dict[str, DriverParams]:
-    """The study's drivers by driver id, in ``cfg.drivers`` order, once ``cfg`` is known to
-    be runnable; SimError naming the defect otherwise (an unknown controller or scenario, a
-    bad driver file, two drivers with one id, no trial, a duration <= 0)."""
+def validate_drives(cfg: StudyConfig) -> None:
+    """SimError naming the defect of the drives ``cfg`` asks for (an unknown controller or
+    scenario, no scenario, no trial, a duration <= 0, a negative seed); shared by Table I
+    over named drivers and over a drawn population."""
     bad = [c for c in cfg.controllers if c not in CONTROLLERS]
     if bad or not cfg.controllers:
         raise SimError(f"unknown controllers {bad}: choose from {', '.join(CONTROLLERS)}")
-    if not cfg.drivers or not cfg.scenarios:
-        raise SimError("give at least one driver and one scenario")
+    if not cfg.scenarios:
+        raise SimError("give at least one scenario")
     if cfg.trials < 1:
         raise SimError("--trials must be >= 1")
     if cfg.duration_s is not None and not cfg.duration_s > 0:
         raise SimError("--duration must be > 0")
     if cfg.seed < 0:
         raise SimError(f"--seed must be >= 0, got {cfg.seed}")
-    _validate_cloud(cfg)
     unknown = [s for s in cfg.scenarios if s not in canonical_profiles(cfg.seed)]
     if unknown:
         raise SimError(f"unknown scenarios {unknown}: A, B or manual1..manual4")
+
+
+def validate(cfg: StudyConfig) -> dict[str, DriverParams]:
+    """The study's drivers by driver id, in ``cfg.drivers`` order, once ``cfg`` is known to
+    be runnable; SimError naming the defect otherwise (an unknown controller or scenario, a
+    bad driver file, two drivers with one id, no trial, a duration <= 0)."""
+    if not cfg.drivers:
+        raise SimError("give at least one driver")
+    validate_drives(cfg)
+    _validate_cloud(cfg)
     drivers: dict[str, DriverParams] = {}
     for spec in cfg.drivers:
         driver = load_driver(spec)

@@ -25,14 +25,13 @@ from tqdm import tqdm
 
 from cloud_sync.engine import open_engine
 from ecu.adaptation import AdaptationParams
-from sim_bus.drive import CONTROLLERS, predefined_table
+from sim_bus.drive import predefined_table
 from sim_bus.drive_tasks import DriveJob, run_job
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import SimError
 from sim_bus.irl_table import irl_table
 from sim_bus.population import draw_population
-from sim_bus.scenarios import canonical_profiles
-from sim_bus.study.config import StudyConfig
+from sim_bus.study.config import StudyConfig, validate_drives
 from sim_bus.study.population_report import format_population
 from sim_bus.study.report import write_csv
 
@@ -100,26 +99,13 @@ def fingerprint(cfg: StudyConfig) -> dict[str, Any]:
 
 def validate_population(cfg: StudyConfig) -> tuple[DriverParams, ...]:
     """The drawn drivers, once ``cfg`` is known to be a runnable population study."""
-    bad = [c for c in cfg.controllers if c not in CONTROLLERS]
-    if bad or not cfg.controllers:
-        raise SimError(f"unknown controllers {bad}: choose from {', '.join(CONTROLLERS)}")
-    if not cfg.scenarios:
-        raise SimError("give at least one scenario")
-    if cfg.trials < 1:
-        raise SimError("--trials must be >= 1")
-    if cfg.duration_s is not None and not cfg.duration_s > 0:
-        raise SimError("--duration must be > 0")
-    if cfg.seed < 0:
-        raise SimError(f"--seed must be >= 0, got {cfg.seed}")
+    validate_drives(cfg)
     if cfg.population < 1:
         raise SimError(f"--population must be >= 1, got {cfg.population}")
     if cfg.cloud is not None or cfg.incremental:
         raise SimError("--population learns in-process: not with --cloud or --incremental")
     if cfg.can_logs:
         raise SimError("--population keeps no logs: not with --can-logs")
-    unknown = [s for s in cfg.scenarios if s not in canonical_profiles(cfg.seed)]
-    if unknown:
-        raise SimError(f"unknown scenarios {unknown}: A, B or manual1..manual4")
     return draw_population(cfg.population, cfg.seed)
 
 
