@@ -63,13 +63,20 @@ def test_console_script_and_python_m_agree() -> None:
 def test_help_is_fast() -> None:
     """``pacc --help`` starts in well under the 0.1 s budget: it imports only pacc.cli.
     Measured as the interpreter's own import time of pacc.cli (-X importtime), not as a
-    wall-clock race: the whole import chain must stay below 20 ms of the budget."""
+    wall-clock race: the whole import chain must stay below 20 ms of the budget. The best of
+    three runs, so that a busy machine (a parallel test worker) does not decide."""
+    best = min(_import_time_us("pacc.cli") for _ in range(3))
+    assert best < 20_000, best
+
+
+def _import_time_us(module: str) -> int:
+    """The cumulative import time of ``module`` in a fresh interpreter, in microseconds."""
     out = subprocess.run(
-        [sys.executable, "-X", "importtime", "-c", "import pacc.cli"],
+        [sys.executable, "-X", "importtime", "-c", f"import {module}"],
         capture_output=True,
         text=True,
         check=True,
     )
     rows = [line.split("|") for line in out.stderr.splitlines() if line.startswith("import time:")]
     cumulative_us = {r[2].strip(): int(r[1]) for r in rows if r[1].strip().isdigit()}
-    assert cumulative_us["pacc.cli"] < 20_000, cumulative_us["pacc.cli"]
+    return cumulative_us[module]
