@@ -383,10 +383,12 @@ class Codec:
     ``by_role[role]`` is the role's first message; ``roles[role]`` the whole role.
     """
 
-    def __init__(self, db: Any, binding: Binding) -> None:
+    def __init__(self, db: Any, binding: Binding, dbc_path: Path | None = None) -> None:
         check_against(binding, db)
         self.db = db
         self.binding = binding
+        #: the DBC file the network was loaded from (None: built from a database in memory)
+        self.dbc_path = dbc_path
         self.by_role: dict[str, MessageCodec] = {}
         self.roles: dict[str, RoleCodec] = {}
         self.by_id: dict[int, MessageCodec] = {}
@@ -446,7 +448,7 @@ def _load_db(dbc_path: Path) -> Any:
 @lru_cache(maxsize=8)
 def _load_codec(dbc_path: Path, binding_path: Path) -> Codec:
     binding = load_binding(binding_path)
-    return Codec(_load_db(dbc_path), binding)
+    return Codec(_load_db(dbc_path), binding, dbc_path)
 
 
 def network_paths(

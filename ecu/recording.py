@@ -85,15 +85,17 @@ def open_recording(
     metadata: Mapping[str, Mapping[str, str]] | None = None,
 ) -> CanLogWriter:
     """A :class:`CanLogWriter` for a node on ``codec``'s network, with the DBC and binding
-    files (default: the packaged ones) attached, and the ECU's ``config`` and starting
+    files (default: the files ``codec`` was loaded from) attached, and the ECU's ``config`` and starting
     ``table`` when it runs one.
 
     Raises:
         CanLogError: the file cannot be written, or an attached file cannot be read.
     """
+    dbc_file = Path(dbc_path) if dbc_path else (codec.dbc_path or DBC_PATH)
+    binding_file = Path(binding_path) if binding_path else (codec.binding.path or BINDING_PATH)
     attachments = {
-        DBC_ATTACHMENT: _read(Path(dbc_path) if dbc_path else DBC_PATH, "DBC"),
-        BINDING_ATTACHMENT: _read(Path(binding_path) if binding_path else BINDING_PATH, "binding"),
+        DBC_ATTACHMENT: _read(dbc_file, "DBC"),
+        BINDING_ATTACHMENT: _read(binding_file, "binding"),
     }
     if config is not None:
         attachments[CONFIG_ATTACHMENT] = config_to_json(config).encode()

@@ -223,14 +223,19 @@ def test_cycle_time_is_required_where_the_dbc_has_none(tmp_path: Path, toyota_db
 
 
 def test_pacc_drive_on_the_toyota_network(
-    toyota_dbc: Path, capsys: pytest.CaptureFixture[str]
+    toyota_dbc: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """The closed loop runs from the command line on the Toyota network."""
-    from sim_bus.drive import main  # noqa: PLC0415 - the entry point, on top of the layers
+    """The closed loop runs from the command line on the Toyota network, and its bus
+    recording (which carries the Toyota DBC and binding) replays through the ECU exactly."""
+    from ecu.replay_cmd import main as replay  # noqa: PLC0415 - entry points, on top
+    from sim_bus.drive import main  # noqa: PLC0415
 
-    argv = ["--driver", "d2", "--duration", "20"]
+    argv = ["--driver", "d2", "--duration", "20", "--can-log", str(tmp_path / "t.mcap")]
     assert main([*argv, "--dbc", str(toyota_dbc), "--binding", str(BINDING)]) == 0
     toyota = capsys.readouterr().out
     assert "ECU E2E errors none" in toyota and "collisions     0" in toyota
     acc_on_s = float(toyota.split("ACC-ON")[1].split("s)")[0])
     assert acc_on_s > 15.0  # engaged through DSU_CRUISE.SET_BTN, held through PCM_CRUISE
+    assert replay([str(tmp_path / "t.mcap"), "--ecu"]) == 0
+    out = capsys.readouterr().out
+    assert "identical to the recording (2000 of 2000)" in out and "E2E errors:     none" in out
