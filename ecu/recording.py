@@ -85,8 +85,8 @@ def open_recording(
     metadata: Mapping[str, Mapping[str, str]] | None = None,
 ) -> CanLogWriter:
     """A :class:`CanLogWriter` for a node on ``codec``'s network, with the DBC and binding
-    files (default: the files ``codec`` was loaded from) attached, and the ECU's ``config`` and starting
-    ``table`` when it runs one.
+    files (default: the files ``codec`` was loaded from) attached, and the ECU's ``config``
+    and starting ``table`` when it runs one.
 
     Raises:
         CanLogError: the file cannot be written, or an attached file cannot be read.
