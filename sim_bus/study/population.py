@@ -23,7 +23,7 @@ from typing import Any
 
 from tqdm import tqdm
 
-from cloud_sync.engine import open_engine
+from cloud_sync.engine import Engine, open_engine
 from ecu.adaptation import AdaptationParams
 from sim_bus.drive import predefined_table
 from sim_bus.drive_tasks import DriveJob, run_job
@@ -149,9 +149,15 @@ def driver_task(_shared: None, job: DriverJob) -> list[dict[str, Any]]:
 
 
 def run_population(
-    cfg: StudyConfig, out: Path, *, cache_dir: Path | None = None, progress: bool = True
+    cfg: StudyConfig,
+    out: Path,
+    *,
+    cache_dir: Path | None = None,
+    progress: bool = True,
+    engine: Engine | None = None,
 ) -> list[dict[str, Any]]:
-    """Run (or resume) the population study of ``cfg`` into ``out``; every row, in driver
+    """Run (or resume) the population study of ``cfg`` into ``out`` on ``engine`` (None: the
+    one ``cfg.scheduler`` and ``cfg.workers`` name, opened here); every row, in driver
     order. Writes ``population.jsonl``, ``drives.csv`` and ``population.md``."""
     drivers = validate_population(cfg)
     out.mkdir(parents=True, exist_ok=True)
@@ -184,14 +190,17 @@ def run_population(
         disable=not progress,
         file=sys.stderr,
     )
+    own = engine is None
+    running = open_engine(cfg.scheduler, cfg.workers) if engine is None else engine
     try:
-        with open_engine(cfg.scheduler, cfg.workers) as engine:  # --scheduler: docs/scale.md
-            for _, rows in engine.map_unordered(driver_task, None, todo):
-                done[str(rows[0]["driver"])] = rows
-                _append(path, {"driver": rows[0]["driver"], "rows": rows})
-                bar.update()
+        for _, rows in running.map_unordered(driver_task, None, todo):
+            done[str(rows[0]["driver"])] = rows
+            _append(path, {"driver": rows[0]["driver"], "rows": rows})
+            bar.update()
     finally:
         bar.close()
+        if own:
+            running.close()
     rows_all = [r for d in drivers for r in done[d.driver_id]]
     write_csv(out / "drives.csv", rows_all)
     (out / "population.md").write_text(format_population(cfg, rows_all), encoding="utf-8")

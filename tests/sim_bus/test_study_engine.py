@@ -19,6 +19,7 @@ from cloud_sync.engine import Engine, InlineEngine
 from ecu.triplog import read_trip
 from sim_bus.study import StudyConfig, main, run_study
 from sim_bus.study.collect import row_key
+from sim_bus.study.population import run_population
 
 S = TypeVar("S")
 T = TypeVar("T")
@@ -174,3 +175,22 @@ def test_bad_scheduler_options(
 ) -> None:
     assert main([*argv, "--out", str(tmp_path), "-q"]) == 2
     assert message in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_a_population_study_on_dask_gives_the_in_process_rows(
+    dask_cluster: Engine, tmp_path: Path
+) -> None:
+    """``pacc study --population`` runs its drivers on the same engine seam."""
+    cfg = StudyConfig(
+        population=2,
+        seed=5,
+        scenarios=("B",),
+        controllers=("predefined", "irl+oa"),
+        trials=1,
+        duration_s=8.0,
+    )
+    cache = tmp_path / "cache"
+    ref = run_population(cfg, tmp_path / "inline", cache_dir=cache, engine=InlineEngine())
+    rows = run_population(cfg, tmp_path / "dask", cache_dir=cache, engine=dask_cluster)
+    assert len(rows) == 4 and _without_wall(rows) == _without_wall(ref)
