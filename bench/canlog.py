@@ -27,7 +27,8 @@ from pathlib import Path
 import can
 
 from dbc.codec import load_codec
-from ecu.canlog import CanLogWriter, TimeBase
+from ecu.canlog import CanLogWriter
+from ecu.canlog_format import TimeBase
 from ecu.canlog_read import messages, read_canlog
 from sim_bus.drive import DriveConfig, predefined_table, run_drive
 from sim_bus.drivers import BUILTIN_DRIVERS

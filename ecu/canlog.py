@@ -42,11 +42,8 @@ from ecu.canlog_format import (
     BLOCK_S,
     EVENT_SCHEMA,
     EVENTS_TOPIC,
-    FLAG_BRS,
     FLAG_ERROR,
-    FLAG_ESI,
     FLAG_EXTENDED,
-    FLAG_FD,
     FLAG_REMOTE,
     FLAG_RX,
     FORMAT,
@@ -58,7 +55,6 @@ from ecu.canlog_format import (
     RAW_SCHEMA,
     RAW_SCHEMA_NAME,
     RAW_TOPIC,
-    WORLD_TOPIC,
     CanLogError,
     TimeBase,
     frame_flags,
@@ -66,28 +62,7 @@ from ecu.canlog_format import (
 )
 from ecu.signals import NodeInputs, NodeOutputs
 
-__all__ = [
-    "BLOCK_S",
-    "EVENTS_TOPIC",
-    "FLAG_BRS",
-    "FLAG_ERROR",
-    "FLAG_ESI",
-    "FLAG_EXTENDED",
-    "FLAG_FD",
-    "FLAG_REMOTE",
-    "FLAG_RX",
-    "FORMAT",
-    "INPUTS_TOPIC",
-    "META_RECORD",
-    "OUTPUTS_TOPIC",
-    "RAW_TOPIC",
-    "WORLD_TOPIC",
-    "CanLogError",
-    "CanLogWriter",
-    "FrameTap",
-    "TimeBase",
-    "frame_flags",
-]
+__all__ = ["CanLogWriter", "FrameTap"]
 
 log = logging.getLogger(__name__)
 _get_inputs = operator.attrgetter(*INPUT_FIELDS)

@@ -24,7 +24,8 @@ import can
 from can.io.generic import MessageReader, MessageWriter
 
 from dbc import DBC_PATH
-from ecu.canlog import BLOCK_S, CanLogError, CanLogWriter, TimeBase
+from ecu.canlog import CanLogWriter
+from ecu.canlog_format import BLOCK_S, CanLogError, TimeBase
 from ecu.canlog_read import messages, read_canlog
 from ecu.recording import DBC_ATTACHMENT
 

@@ -18,7 +18,8 @@ from typing import Any
 from dbc import BINDING_PATH, DBC_PATH
 from dbc.codec import Codec
 from ecu.adaptation import AdaptationParams
-from ecu.canlog import CanLogError, CanLogWriter, TimeBase
+from ecu.canlog import CanLogWriter
+from ecu.canlog_format import CanLogError, TimeBase
 from ecu.config import ConfigError, EcuConfig
 from ecu.controller import ControllerParams
 from ecu.dgpt import Dgpt, SafetyBounds

@@ -24,7 +24,7 @@ import can
 from dbc.errors import DbcError
 from dbc.network import add_network_arguments, codec_of
 from ecu import EcuError
-from ecu.canlog import TimeBase
+from ecu.canlog_format import TimeBase
 from ecu.pedals import PedalScale
 from ecu.recording import open_recording
 from ecu.triplog import TripLogError, write_trip

@@ -32,7 +32,8 @@ from dbc.errors import DbcError
 from dbc.network import add_network_arguments
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES, AdaptationParams, Decision
-from ecu.canlog import WORLD_TOPIC, CanLogWriter, TimeBase
+from ecu.canlog import CanLogWriter
+from ecu.canlog_format import WORLD_TOPIC, TimeBase
 from ecu.dgpt import Dgpt, load_dgpt, predefined
 from ecu.node import EcuConfig, EcuNode
 from ecu.pedals import PedalScale

@@ -15,7 +15,14 @@ from mcap.reader import make_reader
 from dbc import BINDING_PATH, DBC_PATH
 from dbc.codec import load_codec
 from dbc.endpoint import Outbox
-from ecu.canlog import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, FLAG_RX, CanLogError, TimeBase
+from ecu.canlog_format import (
+    FLAG_ERROR,
+    FLAG_EXTENDED,
+    FLAG_REMOTE,
+    FLAG_RX,
+    CanLogError,
+    TimeBase,
+)
 from ecu.canlog_read import messages, read_canlog
 from ecu.config import EcuConfig
 from ecu.controller import ControllerParams
