@@ -7,6 +7,7 @@ from pathlib import Path
 
 import can
 import pytest
+from e2e import p01
 
 from dbc import BINDING_PATH, DBC_PATH
 from dbc.codec import load_codec, network_paths
@@ -135,7 +136,6 @@ def test_autosar_p01_frames_interoperate_with_autosar_e2e(tmp_path: Path) -> Non
     counter in byte 1's low nibble are profile 1's default layout) is protected exactly as
     the autosar-e2e package protects it: its check accepts our frames, counters run
     0..14, and our inbox accepts its frames in sequence; counter 15 is refused."""
-    p01 = pytest.importorskip("e2e.p01")
     binding = BINDING_PATH.read_text().replace(
         '[roles.ego]\nmessage = "ESC_Speed"\ncrc = "CRC8"',
         '[roles.ego]\nmessage = "ESC_Speed"\nchecksum = "autosar_p01"\nchecksum_signal = "CRC8"',

@@ -3,26 +3,34 @@
 from __future__ import annotations
 
 import re
+import sys
 from pathlib import Path
 from typing import Any
 
 import cantools
 import numpy as np
 import pytest
+from e2e import p01
 
 from dbc import checksums
 from dbc.binding import FieldBinding, PartBinding
 from dbc.codec import MessageCodec
 from dbc.e2e import e2e_crc
 
-pytest.importorskip("opendbc.car.toyota.toyotacan")
-from opendbc.car.honda.hondacan import honda_checksum  # noqa: E402
-from opendbc.car.toyota.toyotacan import toyota_checksum  # noqa: E402
+#: opendbc's wheel exists for Python < 3.13 only (the dev dependency's marker): the tests
+#: against it are skipped there, and fail (not skip) where it should be but is missing
+needs_opendbc = pytest.mark.skipif(
+    sys.version_info >= (3, 13), reason="opendbc's wheel supports Python < 3.13"
+)
+if sys.version_info < (3, 13):
+    from opendbc.car.honda.hondacan import honda_checksum
+    from opendbc.car.toyota.toyotacan import toyota_checksum
 
 RNG = np.random.default_rng(3)
 IDS = [0x0B4, 0x1D2, 0x2E6, 0x343, 0x7FF, 0x18DAF110, 0x1FFFFFFF]
 
 
+@needs_opendbc
 @pytest.mark.parametrize("frame_id", IDS)
 @pytest.mark.parametrize("length", [1, 5, 8])
 def test_toyota_matches_opendbc(frame_id: int, length: int) -> None:
@@ -33,6 +41,7 @@ def test_toyota_matches_opendbc(frame_id: int, length: int) -> None:
         assert fn(zeroed) == toyota_checksum(frame_id, None, payload)
 
 
+@needs_opendbc
 @pytest.mark.parametrize("frame_id", IDS)
 @pytest.mark.parametrize("length", [1, 4, 8])
 def test_honda_matches_opendbc(frame_id: int, length: int) -> None:
@@ -57,7 +66,6 @@ def test_make_dispatches_by_name() -> None:
 def test_autosar_p01_matches_autosar_e2e() -> None:
     """pacc's AUTOSAR E2E profile 1 CRC against the autosar-e2e package's (data id mode
     BOTH, CRC in byte 0)."""
-    p01 = pytest.importorskip("e2e.p01")
     for _ in range(500):
         length = int(RNG.integers(2, 9))
         data = bytearray(RNG.integers(0, 256, length, dtype=np.uint8).tobytes())
@@ -67,11 +75,12 @@ def test_autosar_p01_matches_autosar_e2e() -> None:
         assert fn(bytes(data)) == data[0]
 
 
+@needs_opendbc
 def test_honda_message_with_its_2_bit_counter_matches_opendbcs_packer(tmp_path: Path) -> None:
     """A Honda message (opendbc's Civic ENGINE_DATA: kph speed, a 2-bit COUNTER, the 4-bit
     checksum) bound with ``checksum = "honda"``: our frames are byte for byte the ones
     opendbc's CANPacker makes, counters wrapping at 4."""
-    from opendbc import get_generated_dbcs  # noqa: PLC0415 - present: importorskip above
+    from opendbc import get_generated_dbcs  # noqa: PLC0415 - present: needs_opendbc
     from opendbc.can.packer import CANPacker  # noqa: PLC0415
 
     text = get_generated_dbcs()["honda_civic_touring_2016_can_generated"]
