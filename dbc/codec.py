@@ -157,7 +157,8 @@ class MessageCodec:
         if not ok:
             raise BindingError(f"{self.name}: a {self.checksum} checksum must be {where}")
         self.crc_byte = byte
-        self._cs_fn = checksums.make(self.checksum, self.frame_id, self.length, byte)
+        if self.checksum not in checksums.TABLE_CRCS:  # table CRCs are generated inline
+            self._cs_fn = checksums.make(self.checksum, self.frame_id, self.length, byte)
 
     def _check_overlaps(self, layouts: list[FieldLayout]) -> None:
         used: dict[int, str] = {}

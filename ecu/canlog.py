@@ -144,7 +144,6 @@ class CanLogWriter:
         self._series: dict[str, _Series] = {}
         self._events_channel: int | None = None
         self._events_seq = 0
-        #: (t_s, id, flags, dlc, data) of the open block
         # the open block's frames, one list per column (no tuple per frame)
         self._ft: list[float] = []
         self._fid: list[int] = []
@@ -254,7 +253,7 @@ class CanLogWriter:
             self._block_t0 = t_s
         for text in outputs.events:
             self.event(t_s, text)
-        if self._block_t0 is not None and t_s - self._block_t0 >= self.block_s:
+        if t_s - self._block_t0 >= self.block_s:
             self.flush()
 
     def tick(self, t_s: float) -> None:
