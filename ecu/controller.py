@@ -20,7 +20,10 @@ Envelope (:func:`limit_command`): every emitted request lies in ``[accel_min, ac
 Emergency exception: when a valid lead is closing with a time-to-collision below
 ``emergency_ttc_s`` (3 s), the request may *decrease* at up to ``emergency_jerk_mps3``
 (10 m/s^3) so braking builds quickly; the acceleration bounds still hold and releasing the
-brake stays limited to ``jerk_max``.
+brake stays limited to ``jerk_max``. In the same condition the request is at most
+:func:`closing_limit_mps2` against the table's lower safety bound at the lead's speed (issue
+11): the PID alone eased its braking once the lead stopped slowing, while the gap was still
+closing at 4 m/s with 1.9 s to collision.
 """
 
 from __future__ import annotations
@@ -40,6 +43,8 @@ Table = tuple[tuple[float, ...], tuple[float, ...]]
 #: Production ACC acceleration limits (ISO 15622), m/s^2: the envelope may only narrow them.
 ACCEL_MIN_MPS2 = -3.5
 ACCEL_MAX_MPS2 = 2.0
+#: smallest gap margin (m) above the floor reckoned with by :func:`closing_limit_mps2`
+MIN_MARGIN_M = 0.5
 
 
 def interp(x: float, table: Table) -> float:
@@ -151,6 +156,20 @@ def time_to_collision_s(lead_valid: bool, gap_m: float, rel_speed_mps: float) ->
     return max(gap_m, 0.0) / -rel_speed_mps
 
 
+def closing_limit_mps2(
+    gap_m: float, rel_speed_mps: float, lead_accel_mps2: float, floor_gap_m: float
+) -> float:
+    """The constant acceleration (m/s^2) that matches the lead's speed just as the gap shrinks
+    to ``floor_gap_m``: ``a_f - dv^2 / (2 (g - g_floor))`` with ``dv`` the closing speed
+    (the deceleration rate to avoid a crash, measured against the floor instead of contact).
+    ``inf`` when not closing; the margin ``g - g_floor`` counts as at least ``MIN_MARGIN_M``.
+    """
+    if rel_speed_mps >= 0.0:
+        return math.inf
+    margin = max(gap_m - floor_gap_m, MIN_MARGIN_M)
+    return lead_accel_mps2 - rel_speed_mps * rel_speed_mps / (2.0 * margin)
+
+
 def desired_accel(
     params: ControllerParams,
     obs: ControlInput,
@@ -205,6 +224,7 @@ __all__ = [
     "ControlInput",
     "ControllerError",
     "ControllerParams",
+    "closing_limit_mps2",
     "desired_accel",
     "interp",
     "limit_command",

@@ -24,7 +24,13 @@ import math
 from dataclasses import dataclass
 
 from ecu.config import MAX_DT_S, EcuConfig
-from ecu.controller import ControlInput, desired_accel, limit_command, time_to_collision_s
+from ecu.controller import (
+    ControlInput,
+    closing_limit_mps2,
+    desired_accel,
+    limit_command,
+    time_to_collision_s,
+)
 from ecu.dgpt import Dgpt
 from ecu.recorder import Sample
 from ecu.signals import NodeInputs, NodeOutputs, all_finite, input_fault
@@ -233,7 +239,8 @@ def control(
     """The request of this cycle and the controller's next memory.
 
     ACTIVE: the PID gap law capped by cruise, then the envelope (emergency exception when a
-    closing lead is within ``emergency_ttc_s`` and the request decreases). Otherwise the
+    closing lead is within ``emergency_ttc_s`` and the request decreases; there the request is
+    also at most the closing limit against the table's lower safety bound at the lead's speed). Otherwise the
     request ramps toward zero at the jerk limit; it stays active only in FAULT while an
     executed request is still ramping (``fault_ramp``).
     """
@@ -253,6 +260,10 @@ def control(
         )
         target, integral = desired_accel(ctl, obs, mem.integral_m_s, dt_s, integrate=True)
         ttc = time_to_collision_s(inp.lead_valid, inp.gap_m, inp.rel_speed_mps)
+        if ttc < ctl.emergency_ttc_s:  # brake at least as hard as the closing speed needs
+            floor = config.bounds.lower_m(p.v_mps + inp.rel_speed_mps)
+            limit = closing_limit_mps2(inp.gap_m, inp.rel_speed_mps, obs.lead_accel_mps2, floor)
+            target = min(target, limit)
         emergency = ttc < ctl.emergency_ttc_s and target < prev
         accel = limit_command(ctl, prev, target, dt_s, emergency=emergency)
         return Command(accel, active=True, emergency=emergency), ControlMemory(integral, accel)

@@ -2,16 +2,20 @@
 
 Manual following (ACC off) is IDM+ (Schakel et al., 2010) around the driver's own preferred
 gap: ``a = a_max·min(1 − (v/v0)⁴, 1 − (s*/s)²)`` with ``s* = g*(v) + v·(v − v_f)/(2√(a_max·b))``;
-its equilibrium gap in car following is exactly g*(v). The driver perceives the world
-``reaction_s`` late and its control is noisy (AR(1), ``accel_noise_mps2``).
+its equilibrium gap in car following is exactly g*(v). The driver sees the lead (gap, speed)
+``reaction_s`` late but feels its own speed at once, and its control is noisy (AR(1),
+``accel_noise_mps2``). It also estimates the lead's acceleration from what it sees (its brake
+lights, low-passed over ``LEAD_ACCEL_TAU_S``).
 
 Under ACC the driver monitors the gap. Too close (or closing so fast that the gap predicted
 ``lookahead_s`` ahead is too close) for longer than ``patience_s``, or time-to-collision below
 ``ttc_brake_s``: it brakes. Too far for longer than ``patience_far_s``: it presses the
-accelerator. While pressing it drives by its own IDM+ (sign-restricted to the pedal). It
-releases when the gap it anticipates ``anticipation_s`` ahead is within ``release_band`` of its
-preference, holding the pedal ``prolong_s`` longer (the anticipation and prolonging the paper
-observed). When ACC is not engaged (before SET, after a brake cancel, after a fault) it drives
+accelerator, unless the lead is closing in or seen braking. While pressing it drives by its own
+IDM+ (sign-restricted to the pedal); an accelerator press ends at once when that IDM+ asks to
+slow down or the lead is seen braking (issue 11: before, a driver 1 s late kept pressing
+toward a braking lead until the time-to-collision was 1.2 s). Otherwise it releases when the
+gap it anticipates ``anticipation_s`` ahead is within ``release_band`` of its preference,
+holding the pedal ``prolong_s`` longer (the anticipation and prolonging the paper observed). When ACC is not engaged (before SET, after a brake cancel, after a fault) it drives
 by hand, and presses SET (RESUME after a cancel) once the gap feels right with the pedals
 released.
 """
@@ -19,6 +23,7 @@ released.
 from __future__ import annotations
 
 import math
+from collections import deque
 
 import numpy as np
 
@@ -36,6 +41,15 @@ BRAKE_BAR_PER_MPS2 = 12.0
 DECEL_LIMIT_MPS2 = 8.0
 #: the AccState codes in which the ACC drives the car
 _ENGAGED = (AccState.ACTIVE, AccState.OVERRIDE)
+#: a lead slowing harder than this (its brake lights, seen ``reaction_s`` late) ends an
+#: accelerator press and keeps one from starting, m/s²; coasting is about -0.3
+LEAD_BRAKING_MPS2 = -0.5
+#: time constant of the driver's estimate of the lead's acceleration, s
+LEAD_ACCEL_TAU_S = 0.3
+#: while pressing a pedal the driver watches the lead: it sees it at most this late, s (an
+#: expected event; Green, "How long does it take to stop?", Transportation Human Factors 2(3),
+#: 2000, puts a fully aware driver's brake reaction at about 0.7-0.75 s)
+ATTENTIVE_REACTION_S = 0.75
 BUTTON_HOLD_S = 0.3
 RESUME_DELAY_S = 1.0
 FAULT_RETRY_S = 5.0  # after a fault, the driver tries SET once it has lasted this long
@@ -84,12 +98,17 @@ class DriverAgent:
         self.engage_s = engage_s
         self._rng = rng
         n_delay = max(0, int(round(p.reaction_s / dt_s)))
-        self._buf: list[tuple[float, float, float]] = []
-        self._n_delay = n_delay
-        self._head = 0
+        n_attentive = max(0, int(round(min(p.reaction_s, ATTENTIVE_REACTION_S) / dt_s)))
+        # the lead's (speed, gap) of the last n_delay + 1 steps, newest last
+        self._seen: deque[tuple[float, float]] = deque(maxlen=n_delay + 1)
+        self._lag = (n_delay, n_attentive)  # steps back: (general, while pressing)
         self.condition = 1.0
         self._log_c = 0.0
         self._noise = 0.0
+        self._vl_seen = [math.nan, math.nan]  # per channel: general, while pressing
+        self._accel_seen = [0.0, 0.0]
+        self.lead_accel_seen_mps2 = 0.0
+        self._accel_k = dt_s / (LEAD_ACCEL_TAU_S + dt_s)
         self._noise_k = math.exp(-dt_s / 1.0)
         self._noise_s = p.accel_noise_mps2 * math.sqrt(1.0 - self._noise_k**2)
         self._sd_c = p.condition_drift_per_min * math.sqrt(dt_s / 60.0)
@@ -115,17 +134,25 @@ class DriverAgent:
         self.pref_gap_m = 0.0
 
     # -- perception ---------------------------------------------------------------------
-    def _perceive(self, v: float, v_lead: float, gap: float) -> tuple[float, float, float]:
-        """Return the state seen ``reaction_s`` ago (ring buffer of the true states)."""
-        if self._n_delay == 0:
-            return v, v_lead, gap
-        if len(self._buf) < self._n_delay:
-            self._buf.append((v, v_lead, gap))
-            return self._buf[0]
-        old = self._buf[self._head]
-        self._buf[self._head] = (v, v_lead, gap)
-        self._head = (self._head + 1) % self._n_delay
-        return old
+    def _perceive(self, v_lead: float, gap: float) -> tuple[float, float]:
+        """The lead's (speed m/s, gap m) as the driver sees it now: ``reaction_s`` late, at
+        most ``ATTENTIVE_REACTION_S`` late while it presses a pedal; also updates
+        ``lead_accel_seen_mps2``, the lead's acceleration seen on the same channel."""
+        seen = self._seen
+        seen.append((v_lead, gap))
+        out = (v_lead, gap)
+        for channel, lag in enumerate(self._lag):
+            vl, g = seen[max(len(seen) - 1 - lag, 0)]
+            last = self._vl_seen[channel]
+            if not math.isnan(last):
+                a = self._accel_seen[channel]
+                a += self._accel_k * ((vl - last) / self.dt_s - a)
+                self._accel_seen[channel] = a
+            self._vl_seen[channel] = vl
+            if channel == int(self.mode != "idle"):
+                out = (vl, g)
+                self.lead_accel_seen_mps2 = self._accel_seen[channel]
+        return out
 
     def _draws(self) -> tuple[float, float, float]:
         z = self._rng.standard_normal(2)
@@ -142,7 +169,8 @@ class DriverAgent:
         if self._sd_c > 0.0:
             self._log_c = min(max(self._log_c + self._sd_c * zc, -0.3), 0.4)
             self.condition = math.exp(self._log_c)
-        v, vl, g = self._perceive(v_mps, v_lead_mps, gap_m)
+        vl, g = self._perceive(v_lead_mps, gap_m)
+        v = v_mps  # own speed is felt at once; the lead is seen late
         pref = float(
             p.standstill_m
             + p.condition_factor
@@ -231,7 +259,8 @@ class DriverAgent:
         if self.mode == "idle":
             g_pred = g - max(closing, 0.0) * p.lookahead_s
             self._close_t = self._close_t + dt if (g < pref - band or g_pred < pref - band) else 0.0
-            self._far_t = self._far_t + dt if g > pref + band and closing <= 0.3 else 0.0
+            steady = closing <= 0.3 and self.lead_accel_seen_mps2 > LEAD_BRAKING_MPS2
+            self._far_t = self._far_t + dt if g > pref + band and steady else 0.0
             rested = self.t_s - self._last_release_t >= p.refractory_s
             if ttc < p.ttc_brake_s or g < 0.5 * pref or (rested and self._close_t >= p.patience_s):
                 self._start("brake")
@@ -249,6 +278,10 @@ class DriverAgent:
             self.a_cmd_mps2 = min(a, -0.5)
             ok = g_ant >= pref * (1.0 - p.release_band) and ttc > p.ttc_brake_s
         elif self.mode == "accel":
+            if a < 0.0 or self.lead_accel_seen_mps2 <= LEAD_BRAKING_MPS2:
+                # its own following model asks to slow down, or the lead brakes: lift off
+                self._release(a)
+                return
             self.a_cmd_mps2 = max(a, 0.3)
             ok = g_ant <= pref * (1.0 + p.release_band)
         else:  # a short random tap of the accelerator
@@ -259,13 +292,17 @@ class DriverAgent:
         hold = 0.0 if self.mode == "tap" else p.prolong_s
         done = ok and self._press_t - self._ok_t >= hold and self._press_t >= p.press_min_s
         if done or self._press_t >= p.press_max_s:
-            self.mode = "idle"
-            self._last_release_t = self.t_s
-            self._close_t = self._far_t = 0.0
-            self.a_cmd_mps2 = a
-            self._set_pedals(0.0, "none")
+            self._release(a)
             return
         self._set_pedals(self.a_cmd_mps2, "brake" if self.mode == "brake" else "accel")
+
+    def _release(self, a: float) -> None:
+        """End the press: pedals released, ``a`` (m/s²) is what the driver would do by hand."""
+        self.mode = "idle"
+        self._last_release_t = self.t_s
+        self._close_t = self._far_t = 0.0
+        self.a_cmd_mps2 = a
+        self._set_pedals(0.0, "none")
 
     def _start(self, mode: str) -> None:
         self.mode = mode

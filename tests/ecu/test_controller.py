@@ -10,6 +10,7 @@ from ecu.controller import (
     ControlInput,
     ControllerError,
     ControllerParams,
+    closing_limit_mps2,
     desired_accel,
     interp,
     limit_command,
@@ -130,6 +131,23 @@ def test_emergency_relaxes_only_braking_jerk() -> None:
     dt = 0.02
     assert limit_command(P, 0.0, -3.0, dt, emergency=True) == pytest.approx(-10.0 * dt)
     assert limit_command(P, -3.0, 1.0, dt, emergency=True) == pytest.approx(-3.0 + 2.5 * dt)
+
+
+def test_closing_limit_matches_the_lead_speed_at_the_floor() -> None:
+    """Closing at 4 m/s with 8 m to the floor: -1 m/s^2 stops the closing exactly there
+    (16 / (2 * 8)); the lead's own deceleration adds; not closing or at the floor: bounded."""
+    assert closing_limit_mps2(14.0, -4.0, 0.0, 6.0) == pytest.approx(-1.0)
+    assert closing_limit_mps2(14.0, -4.0, -2.0, 6.0) == pytest.approx(-3.0)
+    assert closing_limit_mps2(14.0, 0.5, 0.0, 6.0) == math.inf
+    assert closing_limit_mps2(5.0, -4.0, 0.0, 6.0) == pytest.approx(-16.0)  # 0.5 m margin
+    v, gap, dv, a = 0.0, 14.0, 4.0, closing_limit_mps2(14.0, -4.0, 0.0, 6.0)
+    for _ in range(4000):  # integrate the closing under that deceleration
+        gap -= dv * 0.001
+        dv += a * 0.001
+        v += 0.001
+        if dv <= 0.0:
+            break
+    assert gap == pytest.approx(6.0, abs=0.01)
 
 
 def test_time_to_collision() -> None:

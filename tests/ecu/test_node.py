@@ -89,6 +89,24 @@ def test_cruise_without_lead_holds_set_speed() -> None:
     assert loop.v == pytest.approx(25.0, abs=0.3)
 
 
+@pytest.mark.parametrize(("v", "gap", "v_lead"), [(9.0, 11.0, 5.0), (12.0, 14.0, 7.0)])
+def test_braking_is_held_while_the_gap_closes_fast(v: float, gap: float, v_lead: float) -> None:
+    """Traced in issue 11: the driver releases the accelerator 11 m behind a lead that has
+    just slowed to 5 m/s, closing at 4 m/s. The PID eased its braking once the lead stopped
+    slowing; the closing limit holds it until the closing stops near the table's lower
+    safety bound at the lead's speed (within the 0.3-s actuator lag: 0.8 m; the PID alone
+    ended 1.0 and 1.5 m below it)."""
+    node = EcuNode(EcuConfig(set_speed_mps=30.0), predefined(1.0))
+    loop = Loop(node, v=v, gap=40.0, v_lead=v)
+    loop.engage()
+    loop.gap, loop.v_lead = gap, v_lead
+    least = gap
+    for _ in range(int(6.0 / DT)):
+        loop.run(DT)
+        least = min(least, loop.gap)
+    assert least >= node.config.bounds.lower_m(v_lead) - 0.8
+
+
 def test_accelerator_takeover_adapts_and_records() -> None:
     segments: list[Trip] = []
     node = EcuNode(EcuConfig(trip_meta={"seed": 7}), predefined(3.0), segments.append)

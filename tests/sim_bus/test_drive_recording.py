@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 import threading
@@ -114,7 +115,7 @@ def test_pacc_replay_cli(
     assert pacc_main(["replay", str(recorded[0]), "--ecu"]) == 0
     out = capsys.readouterr().out
     assert "identical to the recording (1200 of 1200)" in out
-    assert "10.16 s OVERRIDE" in out and "adaptations:" in out
+    assert re.search(r"ACTIVE, \d+\.\d\d s OVERRIDE", out) and "adaptations:" in out
     assert replay_cmd.main([str(recorded[0]), "--ecu", "-i", "virtual"]) == 2
     assert replay_cmd.main([str(recorded[0].with_name("none.mcap")), "--ecu"]) == 2
     assert "no such recording" in capsys.readouterr().err

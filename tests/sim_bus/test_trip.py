@@ -95,7 +95,7 @@ def test_the_ecu_and_the_simulator_log_one_brake_value() -> None:
     )
     trip = log_to_trip(result, driver)
     braked = [s for s in segments if np.nanmax(s.brake_pedal) > 0.05]
-    assert len(braked) >= 3
+    assert len(braked) >= 2
     for seg in braked:
         during = (trip.t_s >= seg.t_s[0]) & (trip.t_s <= seg.t_s[-1])
         ecu_max = float(np.nanmax(seg.brake_pedal))

@@ -1,0 +1,73 @@
+"""The synthetic driver's perception and pedal decisions under ACC (sim_bus.behaviour)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ecu.state import AccState
+from sim_bus.behaviour import ATTENTIVE_REACTION_S, DriverAgent
+from sim_bus.drivers import DriverParams
+
+DT = 0.05
+
+
+def _agent(**habits: float) -> DriverAgent:
+    p = DriverParams(
+        "t",
+        standstill_m=2.0,
+        headway_speeds_mps=(10.0, 30.0),
+        headway_s=(1.0, 1.0),
+        comfort_band_min_m=1.0,
+        accel_noise_mps2=0.0,
+        **habits,  # type: ignore[arg-type]
+    )
+    return DriverAgent(p, np.random.default_rng(0), dt_s=DT)
+
+
+def _steps(agent: DriverAgent, seconds: float, v: float, v_lead: float, gap: float) -> None:
+    for _ in range(int(round(seconds / DT))):
+        agent.step(v, v_lead, gap, AccState.ACTIVE)
+
+
+def test_accelerator_press_lifts_off_at_once_when_the_lead_closes_in() -> None:
+    """A press the driver would hold 2 s at least and 1 s past its goal ends as soon as the
+    driver sees that the lead closes in (its own model asks to slow down); while pressing it
+    watches the lead, so it sees it ATTENTIVE_REACTION_S late, not reaction_s (1 s)."""
+    a = _agent(reaction_s=1.0, patience_far_s=0.5, press_min_s=2.0, prolong_s=1.0, press_max_s=5.0)
+    _steps(a, 3.0, 15.0, 15.0, 40.0)  # far behind (preference 17 m): it presses
+    assert a.accel_pressed
+    held = 0.0
+    while a.accel_pressed and held < 5.0:
+        a.step(15.0, 8.0, 25.0, AccState.OVERRIDE)  # the lead slows: closing at 7 m/s
+        held += DT
+    assert not a.accel_pressed
+    assert held <= ATTENTIVE_REACTION_S + 2 * DT  # not reaction_s, press_min_s or prolong_s
+
+
+def test_own_speed_is_felt_without_the_reaction_delay() -> None:
+    """The ego speeds up toward a steady lead: the time-to-collision reckoned with the speed
+    felt now is below ttc_brake_s at once, so the driver brakes before reaction_s is over."""
+    a = _agent(reaction_s=1.5, ttc_brake_s=3.5)
+    _steps(a, 2.0, 15.0, 15.0, 17.0)  # settled at its preferred gap
+    assert not (a.brake_pressed or a.accel_pressed)
+    a.step(20.0, 15.0, 17.0, AccState.ACTIVE)  # closing at 5 m/s: TTC 3.4 s
+    assert a.brake_pressed
+
+
+def test_brake_lights_end_a_press_and_keep_one_from_starting() -> None:
+    """The lead slows at 1 m/s² (its brake lights), still far away: seen reaction_s late, the
+    press ends though the gap is still too large, and no new one starts while it brakes."""
+    a = _agent(reaction_s=0.5, patience_far_s=0.5, press_min_s=2.0, prolong_s=1.0, press_max_s=5.0)
+    _steps(a, 3.0, 15.0, 15.0, 60.0)
+    assert a.accel_pressed
+    v_lead, held = 15.0, 0.0
+    while a.accel_pressed and held < 5.0:
+        v_lead -= 1.0 * DT
+        a.step(15.0, v_lead, 60.0, AccState.OVERRIDE)
+        held += DT
+    assert held <= 0.5 + 0.3 + 2 * DT  # reaction plus the estimate's time constant
+    assert a.lead_accel_seen_mps2 < -0.5
+    for _ in range(40):  # 2 s more of a braking lead, gap still far too large
+        v_lead -= 1.0 * DT
+        a.step(15.0, v_lead, 60.0, AccState.ACTIVE)
+        assert not a.accel_pressed
