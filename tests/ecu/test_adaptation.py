@@ -194,7 +194,7 @@ TG = AdaptationParams(mode="timegap", spread_speed_mps=6.0)  # v_min 10 m/s, d0 
 def test_modes_listed_and_validated() -> None:
     assert ADAPTATION_MODES == ("paper", "timegap")
     default = AdaptationParams()
-    assert default.mode == "timegap" and default.spread_speed_mps == 25.0
+    assert default.mode == "timegap" and default.spread_speed_mps == 15.0
     assert default.coast_down_s == P.coast_down_s and default.min_takeover_s == 1.0
     with pytest.raises(AdaptationError):
         AdaptationParams(mode="magic")  # type: ignore[arg-type]
@@ -299,12 +299,12 @@ def test_timegap_filters_and_safety_bounds() -> None:
 
 
 def test_default_timegap_keeps_table_slope_smooth() -> None:
-    """The same 11 m correction in the default mode: dh = -0.55 s spread with sigma 25 m/s
+    """The same 11 m correction in timegap mode: dh = -0.55 s spread with sigma 25 m/s
     changes dDGPT/dv by at most |dh| * max|d(w v)/dv| = 0.55 * w(10) * (1 + 10 * 10 / 625)
     ~ 0.59 s (at 10 m/s, where w = exp(-0.08)): far below the paper window's 4.4 s. Below
     10 m/s the safety floor d0 + 0.8 v takes over (the lowered table reaches it)."""
     t = predefined(2.0)
-    new, d = adapt(t, summary(v=20.0, vf=18.0, g=35.0), AdaptationParams())
+    new, d = adapt(t, summary(v=20.0, vf=18.0, g=35.0), AdaptationParams(spread_speed_mps=25.0))
     assert d.applied and new.gap_m[40] == pytest.approx(33.0)
     change = np.diff(new.gap_m - t.gap_m)[20:] / 0.5  # from 10 m/s up
     assert np.all(new.gap_m[20:] > 4.0 + 0.8 * new.speed_mps[20:])  # no clipping there
