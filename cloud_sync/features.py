@@ -5,12 +5,13 @@ The reward of the MDP is linear in ``K = n_cv·n_cg + 2`` features:
     r(s, a) = Σ_ij α_ij·φ_i(v)·ψ_j(g − ℓ(v))  +  α_dv·(−(dv/dv_max)²)  +  α_a·(−(a/a_max)²)
 
 with ``φ_i(v) = exp(−½((v − c_i)/w_v)²)`` on centres every ``v_spacing_mps`` and ``ψ_j``
-likewise over the gap offset ``u = g − ℓ(v)`` from a reference line ``ℓ(v) = c0 + c1·v``
-(fitted to the demonstrations by the trainer; ``c0 = c1 = 0`` gives plain (v, g) RBFs).
-Shearing the basis along the data's mean gap line keeps a diagonal preference ridge aligned
-with the gap axis, so the finite RBF width in speed does not pull the argmax towards the more
-visited speeds. The (v, g) part is the preference surface from which the DGPT is extracted;
-the comfort terms let the model explain smooth driving without bending it. Feature counts of
+likewise over a gap coordinate ``u``. By default (:func:`make_time_gap_features`) ``u`` is the
+time gap ``g/max(v, v_floor)`` on fixed centres: nothing is fitted to the data, and a
+preference ridge ``g ≈ d0 + T·v`` (or a non-monotonic one) runs nearly along the basis. The
+earlier ``offset`` basis (:func:`make_features`) takes ``u = g − ℓ(v)`` from a reference line
+``ℓ(v) = c0 + c1·v`` fitted to the demonstrations (``c0 = c1 = 0`` gives plain (v, g) RBFs).
+The (v, g) part is the preference the DGPT comes from (through the policy it induces); the
+comfort terms let the model explain smooth driving without bending it. Feature counts of
 a visitation ``M`` (n_v × n_gap) are ``Σ_kl M_kl·Bv_ki·Bg_klj`` (one einsum).
 
 Parameter vector layout: ``alpha[:n_cv·n_cg]`` is ``A.ravel()`` (A of shape (n_cv, n_cg)),

@@ -9,7 +9,8 @@ starting weights, which the convex objective forgets.
 The phases of :func:`learn_dgpt`, one module each: the demonstrations
 (:mod:`~cloud_sync.demos`), the evidence per speed (:mod:`~cloud_sync.blend`), the reward model
 (:mod:`~cloud_sync.model`), the fit (:mod:`~cloud_sync.fit`), the extraction of the table
-(:mod:`~cloud_sync.extract`) and, continuing an earlier table, the blend into it
+(:mod:`~cloud_sync.policy_gap`, the gap the learned policy keeps, then
+:mod:`~cloud_sync.extract`) and, continuing an earlier table, the blend into it
 (:mod:`~cloud_sync.blend`).
 """
 
