@@ -30,6 +30,11 @@
 
     .venv/bin/python bench/irl_quality.py [--real-only | --synthetic-only] [--fine-tune]
                                           [--horizon-sweep] [--held-out [N] [--seed S]]
+                                          [--old]
+
+--old measures the earlier learner (the argmax of the reward on RBFs sheared along a line
+fitted to the data) instead of the default (the gap the learned policy keeps, on time-gap
+RBFs), for before/after comparisons.
 """
 
 from __future__ import annotations
@@ -42,6 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from cloud_sync.demos import usable_mask
+from cloud_sync.features import FeatureConfig
 from cloud_sync.trainer import IrlConfig, fine_tune, learn_dgpt
 from cloud_sync.tripfiles import read_csv_trip
 from ecu.dgpt import Dgpt
@@ -52,6 +58,11 @@ from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
 from sim_bus.manual import manual_trip
 from sim_bus.population import draw_population
 from sim_bus.scenarios import canonical_profiles
+
+#: the learner measured: the default, or with --old the earlier one (argmax of the reward on
+#: RBFs sheared along a line fitted to the data), for before/after comparisons
+LEARNER = {"config": IrlConfig()}
+OLD_CONFIG = IrlConfig(extraction="argmax", features=FeatureConfig(gap_basis="offset"))
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "openacc_astazero"
 BANDS = ((10.0, 15.0), (15.0, 20.0), (20.0, 25.0), (25.0, 30.0))
@@ -81,7 +92,7 @@ def real() -> None:
     print(f"| pair | covered (m/s) | RMSE (m) | time gap g/v (s): {head} | train (s) |")
     print("|---|---|---|" + "---|" * len(BANDS) + "---|")
     for pair, trip in _human_trips():
-        res = learn_dgpt([trip], driver_id=pair)
+        res = learn_dgpt([trip], driver_id=pair, config=LEARNER["config"])
         t, b = res.table, res.baseline
         if b is None:
             print(f"| {pair} | no steady-state following for the baseline |")
@@ -118,7 +129,7 @@ def synthetic() -> None:
     for name, driver in BUILTIN_DRIVERS.items():
         trips = [manual_trip(driver, profiles[f"manual{i + 1}"], i) for i in range(4)]
         t0 = time.perf_counter()
-        res = learn_dgpt(trips, driver_id=name)
+        res = learn_dgpt(trips, driver_id=name, config=LEARNER["config"])
         wall = time.perf_counter() - t0
         v, cov = res.table.speed_mps, res.covered
         truth = driver.preferred_gap_m(v)
@@ -161,7 +172,7 @@ def fine_tuning() -> None:
 
     for name, driver in BUILTIN_DRIVERS.items():
         manual = [manual_trip(driver, profiles[f"manual{i + 1}"], i) for i in range(4)]
-        table = learn_dgpt(manual, driver_id=name).table
+        table = learn_dgpt(manual, driver_id=name, config=LEARNER["config"]).table
         poi0, nim0, acc_trips = drives(driver, table)
         take_s = sum(float(np.sum(usable_mask(t, 120.0))) * 0.1 for t in acc_trips)
         ft = fine_tune(acc_trips, table)
@@ -188,7 +199,11 @@ def horizon_sweep() -> None:
         trips = [manual_trip(driver, profiles[f"manual{i + 1}"], i) for i in range(4)]
         cells = []
         for h in horizons:
-            res = learn_dgpt(trips, driver_id=name, config=IrlConfig(horizon_steps=h))
+            res = learn_dgpt(
+                trips,
+                driver_id=name,
+                config=dataclasses.replace(LEARNER["config"], horizon_steps=h),
+            )
             v, cov = res.table.speed_mps, res.covered
             truth = driver.preferred_gap_m(v)
             cells.append(f"{_rmse(res.table.gap_m[cov], truth[cov]):.2f} ({res.train_s:.1f} s)")
@@ -219,7 +234,7 @@ def held_out_error(table: Dgpt, test: Trip, covered: np.ndarray) -> float:
 
 
 def _held_out_row(name: str, train: list[Trip], test: list[Trip]) -> tuple[float, float] | None:
-    res = learn_dgpt(train, driver_id=name)
+    res = learn_dgpt(train, driver_id=name, config=LEARNER["config"])
     if res.baseline is None:
         print(f"| {name} | no steady-state following to train the baseline | | | |")
         return None
@@ -289,6 +304,9 @@ def _option(argv: list[str], name: str, default: int) -> int:
 
 
 def main(argv: list[str]) -> int:
+    if "--old" in argv:
+        LEARNER["config"] = OLD_CONFIG
+        print("(the earlier learner: argmax of the reward, offset basis along a fitted line)\n")
     if "--held-out" in argv:
         csvs = [Path(a) for a in argv if a.endswith(".csv")]
         held_out(_option(argv, "--held-out", 20), _option(argv, "--seed", 2), csvs)

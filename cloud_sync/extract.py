@@ -46,6 +46,7 @@ __all__ = [
     "steady_state_gaps",
     "finish_table",
     "gap_support",
+    "search_range",
 ]
 
 
@@ -212,9 +213,22 @@ def irl_gaps(
     """
     gaps = np.arange(bounds.lower_m(0.0), float(bounds.upper_m(axis_mps[-1])) + 1e-9, resolution_m)
     reward = features.reward_vg(alpha, axis_mps, gaps)
-    lo = np.fmax(bounds.lower_m(axis_mps), np.nan_to_num(support[0], nan=-np.inf))[:, None]
-    hi = np.fmin(bounds.upper_m(axis_mps), np.nan_to_num(support[1], nan=np.inf))[:, None]
-    hi = np.maximum(hi, lo + resolution_m)
-    reward = np.where((gaps[None, :] >= lo) & (gaps[None, :] <= hi), reward, -np.inf)
+    lo, hi = search_range(axis_mps, support, bounds, resolution_m)
+    reward = np.where(
+        (gaps[None, :] >= lo[:, None]) & (gaps[None, :] <= hi[:, None]), reward, -np.inf
+    )
     raw = argmax_gap(reward, gaps)
     return finish_table(axis_mps, raw, covered, bounds, cutoff=cutoff)
+
+
+def search_range(
+    axis_mps: np.ndarray,
+    support: tuple[np.ndarray, np.ndarray],
+    bounds: SafetyBounds,
+    min_width_m: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The gaps a table may take at each speed: the demonstrated range ``support`` ((lo, hi),
+    (n,) each, NaN: unlimited) inside the safety band, at least ``min_width_m`` wide; (n,) each."""
+    lo = np.fmax(bounds.lower_m(axis_mps), np.nan_to_num(support[0], nan=-np.inf))
+    hi = np.fmin(bounds.upper_m(axis_mps), np.nan_to_num(support[1], nan=np.inf))
+    return np.asarray(lo), np.asarray(np.maximum(hi, lo + min_width_m))

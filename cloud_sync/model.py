@@ -18,7 +18,13 @@ import numpy as np
 
 from cloud_sync.demos import Samples
 from cloud_sync.errors import TrainingError
-from cloud_sync.features import FeatureConfig, Features, features_from_spec, make_features
+from cloud_sync.features import (
+    FeatureConfig,
+    Features,
+    features_from_spec,
+    make_features,
+    make_time_gap_features,
+)
 from cloud_sync.mce_irl import CompiledMdp
 from cloud_sync.mdp import Grid, GridConfig, build_transitions, grid_from_spec, make_grid
 from ecu.dgpt import Dgpt
@@ -64,13 +70,16 @@ def reference_line(
 def fresh_model(
     samples: Samples, grid_config: GridConfig, feature_config: FeatureConfig
 ) -> RewardModel:
-    """A grid up to the samples' 99.9 % speed and 99.5 % gap quantiles, and RBFs around their
-    :func:`reference_line`; no prior α."""
+    """A grid up to the samples' 99.9 % speed and 99.5 % gap quantiles, and the basis of
+    ``feature_config`` on it: time-gap RBFs (fitted to nothing), or, with the ``offset`` basis,
+    RBFs around the samples' :func:`reference_line`; no prior α."""
     grid = make_grid(
         grid_config,
         float(np.percentile(samples.v_mps, 99.9)),
         float(np.percentile(samples.gap_m, 99.5)),
     )
+    if feature_config.gap_basis == "time_gap":
+        return RewardModel(grid=grid, features=make_time_gap_features(grid, feature_config))
     c0, c1 = reference_line(samples.v_mps, samples.gap_m, samples.dv_mps, samples.a_mps2)
     return RewardModel(grid=grid, features=make_features(grid, feature_config, c0, c1))
 

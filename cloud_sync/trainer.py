@@ -9,7 +9,8 @@ starting weights, which the convex objective forgets.
 The phases of :func:`learn_dgpt`, one module each: the demonstrations
 (:mod:`~cloud_sync.demos`), the evidence per speed (:mod:`~cloud_sync.blend`), the reward model
 (:mod:`~cloud_sync.model`), the fit (:mod:`~cloud_sync.fit`), the extraction of the table
-(:mod:`~cloud_sync.extract`) and, continuing an earlier table, the blend into it
+(:mod:`~cloud_sync.policy_gap`, the gap the learned policy keeps, then
+:mod:`~cloud_sync.extract`) and, continuing an earlier table, the blend into it
 (:mod:`~cloud_sync.blend`).
 """
 
@@ -25,16 +26,36 @@ import numpy as np
 from cloud_sync import demos as dm
 from cloud_sync.blend import Evidence, blend, covered_ranges, evidence
 from cloud_sync.errors import DemoError, TrainingError
-from cloud_sync.extract import finish_table, irl_gaps, outside_coverage, steady_state_gaps
+from cloud_sync.extract import (
+    finish_table,
+    irl_gaps,
+    outside_coverage,
+    search_range,
+    steady_state_gaps,
+)
 from cloud_sync.features import FeatureConfig
 from cloud_sync.fit import Fit, fit_alpha, start_alpha
 from cloud_sync.mce_irl import CompiledMdp, DemoStats
 from cloud_sync.mdp import GridConfig
 from cloud_sync.model import METHOD, RewardModel, compile_model, fresh_model, model_of_table
+from cloud_sync.policy_gap import steady_drift, steady_gaps
 from ecu.dgpt import Dgpt, SafetyBounds, speed_axis
 from ecu.triplog import Trip
 
-__all__ = ["IrlConfig", "LearnResult", "learn_dgpt", "fine_tune", "empirical_baseline", "METHOD"]
+__all__ = [
+    "IrlConfig",
+    "LearnResult",
+    "learn_dgpt",
+    "fine_tune",
+    "empirical_baseline",
+    "METHOD",
+    "EXTRACTIONS",
+]
+
+#: how a table is read from the fitted reward: ``policy`` (default), the gap the soft-optimal
+#: policy keeps in steady following (:mod:`cloud_sync.policy_gap`); ``argmax``, the gap of
+#: highest (v, g) reward (:func:`cloud_sync.extract.irl_gaps`; kept for comparison)
+EXTRACTIONS = ("policy", "argmax")
 
 
 @dataclass(frozen=True)
@@ -50,7 +71,8 @@ class IrlConfig:
     ``blend_window_mps``: when continuing from an earlier table, new evidence moves the table
     within this distance of its speeds, blended by its amount (weight c/(c + blend_half_s)
     for c seconds of new evidence); elsewhere the table is kept;
-    the argmax may range ±``init_support_ratio`` around the earlier gaps.
+    the table's gaps may range ±``init_support_ratio`` around the earlier gaps.
+    ``extraction``: how the table is read from the reward, one of :data:`EXTRACTIONS`.
     """
 
     grid: GridConfig = field(default_factory=GridConfig)
@@ -71,8 +93,13 @@ class IrlConfig:
     blend_window_mps: float = 2.0
     blend_half_s: float = 10.0
     init_support_ratio: float = 0.3
+    extraction: str = "policy"
 
     def __post_init__(self) -> None:
+        if self.extraction not in EXTRACTIONS:
+            raise TrainingError(
+                f"extraction must be one of {', '.join(EXTRACTIONS)}, got {self.extraction!r}"
+            )
         if self.horizon_steps < 1:
             raise TrainingError("horizon_steps must be >= 1")
         if not (self.l2 >= 0 and self.max_iter >= 1 and self.gtol > 0 and self.ftol > 0):
@@ -216,16 +243,7 @@ def learn_dgpt(
         ftol=cfg.ftol,
         progress=progress,
     )
-    learned = irl_gaps(
-        fit.alpha,
-        model.features,
-        axis,
-        ev.covered,
-        ev.support,
-        bounds=cfg.bounds,
-        resolution_m=cfg.gap_resolution_m,
-        cutoff=cfg.lowpass_cutoff,
-    )
+    learned = _extract(cfg, fit.alpha, mdp, axis, ev)
     gap, covered = blend(axis, learned, ev, half_s=cfg.blend_half_s, bounds=cfg.bounds)
     meta = _irl_meta(
         cfg, seed, len(trips), dm.digest(trips, w), usable_s, stats, ev, covered, model, fit, init
@@ -294,6 +312,27 @@ def fine_tune(
     )
 
 
+def _extract(
+    cfg: IrlConfig, alpha: np.ndarray, mdp: CompiledMdp, axis: np.ndarray, ev: Evidence
+) -> np.ndarray:
+    """The table (n,) of the fitted weights ``alpha`` under ``cfg.extraction``."""
+    if cfg.extraction == "argmax":
+        return irl_gaps(
+            alpha,
+            mdp.features,
+            axis,
+            ev.covered,
+            ev.support,
+            bounds=cfg.bounds,
+            resolution_m=cfg.gap_resolution_m,
+            cutoff=cfg.lowpass_cutoff,
+        )
+    drift, value = steady_drift(mdp, alpha, cfg.horizon_steps)
+    support = search_range(axis, ev.support, cfg.bounds, cfg.gap_resolution_m)
+    raw = steady_gaps(drift, value, mdp.grid.v_mps, mdp.grid.gap_m, axis, support)
+    return finish_table(axis, raw, ev.covered, cfg.bounds, cutoff=cfg.lowpass_cutoff)
+
+
 def _trip_weights(
     trips: Sequence[Trip],
     weights: Sequence[float] | None,
@@ -352,6 +391,7 @@ def _irl_meta(
         "grid": model.grid.spec(),
         "features": model.features.spec(),
         "horizon_steps": cfg.horizon_steps,
+        "extraction": cfg.extraction,
         "l2": cfg.l2,
         "iterations": fit.n_iter,
         "converged": fit.converged,

@@ -1,6 +1,6 @@
 """A small synthetic car follower with a known gap preference, for the IRL tests.
 
-The follower tracks ``g*(v) = d0 + T·v`` with an IDM-like law,
+The follower tracks ``g*(v) = d0 + T·v`` (or any given preference ``g*(v)``) with an IDM-like law,
 ``a = k_g·(g − g*(v)) + k_v·(v_lead − v) + ε`` (ε an AR(1) disturbance), behind a lead
 whose speed ramps between random targets. Everything is drawn from a seeded Generator.
 """
@@ -37,18 +37,24 @@ def follower_trip(
     v_lo: float = 5.0,
     v_hi: float = 30.0,
     noise: float = 0.3,
+    preference: Callable[[float], float] | None = None,
 ) -> Trip:
-    """A 10 Hz manual trip of the synthetic follower (preference ``d0 + headway_s·v``)."""
+    """A 10 Hz manual trip of the synthetic follower (preference ``d0 + headway_s·v``, or
+    ``preference(v)`` in m for v in m/s when given)."""
+
+    def want(v_mps: float) -> float:
+        return preference(v_mps) if preference is not None else d0 + headway_s * v_mps
+
     dt = 0.1
     rng = np.random.default_rng(seed)
     n = int(minutes * 60 / dt)
     vl = lead_speed(rng, n, dt, v_lo, v_hi)
     v, g, a = np.empty(n), np.empty(n), np.empty(n)
-    v[0], g[0] = vl[0], d0 + headway_s * vl[0]
+    v[0], g[0] = vl[0], want(float(vl[0]))
     eps = 0.0
     for i in range(n):
         eps = 0.95 * eps + noise * np.sqrt(1 - 0.95**2) * float(rng.normal())
-        acc = 0.08 * (g[i] - (d0 + headway_s * v[i])) + 0.5 * (vl[i] - v[i]) + eps
+        acc = 0.08 * (g[i] - want(float(v[i]))) + 0.5 * (vl[i] - v[i]) + eps
         a[i] = float(np.clip(acc, -3.5, 2.0))
         if i + 1 < n:
             v[i + 1] = max(v[i] + a[i] * dt, 0.0)

@@ -9,7 +9,7 @@ import pytest
 
 from cloud_sync.demos import Samples
 from cloud_sync.errors import TrainingError
-from cloud_sync.features import FeatureConfig
+from cloud_sync.features import FeatureConfig, gap_basis
 from cloud_sync.mdp import GridConfig
 from cloud_sync.model import (
     METHOD,
@@ -63,8 +63,39 @@ def test_fresh_model_spans_the_data_and_has_no_prior() -> None:
     model = fresh_model(line_samples(), GridConfig(), FeatureConfig())
     assert model.prior_alpha is None
     assert model.grid.v_mps[-1] >= 25.0 and model.grid.gap_m[-1] >= 3.0 + 1.4 * 25.0
+    # the default basis is fitted to nothing: time-gap centres fixed at 0 ... 6 s
+    feats = model.features
+    assert feats.ref_c0_m == 0.0 and feats.ref_c1_s == 0.0
+    assert feats.time_gap_floor_mps == 5.0
+    assert feats.gap_centres_m[0] == 0.0 and feats.gap_centres_m[-1] == pytest.approx(6.0)
+    other = fresh_model(line_samples(), GridConfig(), FeatureConfig())
+    shifted = replace(line_samples(), gap_m=line_samples().gap_m + 10.0)
+    assert np.array_equal(fresh_model(shifted, GridConfig(), FeatureConfig()).features.Bv, feats.Bv)
+    assert np.array_equal(other.features.gap_centres_m, feats.gap_centres_m)
+
+
+def test_offset_basis_is_sheared_along_the_fitted_line() -> None:
+    model = fresh_model(line_samples(), GridConfig(), FeatureConfig(gap_basis="offset"))
     assert model.features.ref_c0_m == pytest.approx(3.0)
     assert model.features.ref_c1_s == pytest.approx(1.4)
+    assert model.features.time_gap_floor_mps == 0.0
+
+
+def test_time_gap_basis_peaks_on_its_time_gap() -> None:
+    feats = fresh_model(line_samples(), GridConfig(), FeatureConfig()).features
+    centres = feats.gap_centres_m
+    # at 20 m/s a 30 m gap is 1.5 s: the basis function centred on 1.5 s is the largest
+    bg = gap_basis(np.array([20.0, 2.0]), np.array([30.0, 7.5]), centres, 0.25, 0.0, 0.0, 5.0)
+    assert centres[int(np.argmax(bg[0, 0]))] == pytest.approx(1.5)
+    # below the 5 m/s floor the gap is scaled by the floor: 7.5 m at 2 m/s reads as 1.5 s
+    assert centres[int(np.argmax(bg[1, 1]))] == pytest.approx(1.5)
+
+
+def test_bad_feature_config_refused() -> None:
+    with pytest.raises(TrainingError, match="gap_basis"):
+        FeatureConfig(gap_basis="sheared")
+    with pytest.raises(TrainingError, match="time_gap_floor_mps"):
+        FeatureConfig(time_gap_floor_mps=0.0)
 
 
 def test_model_of_a_table_round_trips() -> None:

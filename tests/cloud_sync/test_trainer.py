@@ -46,6 +46,31 @@ def test_recovers_known_preference(learned: LearnResult) -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.slow
+def test_non_monotonic_preference_recovered_without_a_fitted_line(
+    follower: Callable[..., Trip],
+) -> None:
+    """A driver whose gap peaks at 17 m/s (45 m) and shrinks at both ends (35 m at 8 and
+    26 m/s): the time-gap basis is fitted to nothing, and the table rises and falls again."""
+
+    def hump(v: float) -> float:
+        return 45.0 - 0.12 * (v - 17.0) ** 2
+
+    trips = [follower(s, preference=hump, v_lo=5.0, v_hi=28.0) for s in range(4)]
+    res = learn_dgpt(trips, driver_id="hump")
+    feats = res.table.meta["features"]
+    assert feats["ref_c0_m"] == 0.0 and feats["ref_c1_s"] == 0.0
+    assert feats["time_gap_floor_mps"] > 0.0 and res.table.meta["extraction"] == "policy"
+    v, g, cov = res.table.speed_mps, res.table.gap_m, res.covered
+    assert cov[(v >= 8.0) & (v <= 27.0)].all()
+    truth = np.array([hump(float(x)) for x in v])
+    assert rmse(g[cov], truth[cov]) <= 5.5
+    inner = (v >= 8.0) & (v <= 27.0)
+    peak = int(np.argmax(np.where(inner, g, -np.inf)))
+    assert 15.0 <= v[peak] <= 23.0
+    assert g[peak] - g[v == 8.0][0] >= 8.0 and g[peak] - g[v == 27.0][0] >= 3.0
+
+
 def test_output_table_is_a_valid_irl_dgpt(learned: LearnResult, tmp_path: Path) -> None:
     t = learned.table
     assert t.source == "irl" and t.driver_id == "syn" and t.condition == "dry"
@@ -139,8 +164,9 @@ def test_init_of_another_driver_refused(syn_trips: list[Trip]) -> None:
         ("gap_resolution_m", float("nan")),
         ("min_total_demo_s", -5.0),
         ("horizon_steps", 0),
+        ("extraction", "mode"),
     ],
 )
-def test_bad_config_refused(field_name: str, value: float) -> None:
+def test_bad_config_refused(field_name: str, value: float | str) -> None:
     with pytest.raises(TrainingError, match=field_name):
         IrlConfig(**{field_name: value})  # type: ignore[arg-type]
