@@ -239,10 +239,10 @@ def control(
     """The request of this cycle and the controller's next memory.
 
     ACTIVE: the PID gap law capped by cruise, then the envelope (emergency exception when a
-    closing lead is within ``emergency_ttc_s`` and the request decreases; there the request is
-    also at most the closing limit against the table's lower safety bound at the lead's speed). Otherwise the
-    request ramps toward zero at the jerk limit; it stays active only in FAULT while an
-    executed request is still ramping (``fault_ramp``).
+    closing lead is within ``emergency_ttc_s`` and the request decreases; there the request
+    is also at most the closing limit against the table's lower safety bound at the lead's
+    speed). Otherwise the request ramps toward zero at the jerk limit; it stays active only
+    in FAULT while an executed request is still ramping (``fault_ramp``).
     """
     ctl = config.controller
     prev = mem.prev_accel_mps2

@@ -15,9 +15,9 @@ IDM+ (sign-restricted to the pedal); an accelerator press ends at once when that
 slow down or the lead is seen braking (issue 11: before, a driver 1 s late kept pressing
 toward a braking lead until the time-to-collision was 1.2 s). Otherwise it releases when the
 gap it anticipates ``anticipation_s`` ahead is within ``release_band`` of its preference,
-holding the pedal ``prolong_s`` longer (the anticipation and prolonging the paper observed). When ACC is not engaged (before SET, after a brake cancel, after a fault) it drives
-by hand, and presses SET (RESUME after a cancel) once the gap feels right with the pedals
-released.
+holding the pedal ``prolong_s`` longer (the anticipation and prolonging the paper observed).
+When ACC is not engaged (before SET, after a brake cancel, after a fault) it drives by hand,
+and presses SET (RESUME after a cancel) once the gap feels right with the pedals released.
 """
 
 from __future__ import annotations
