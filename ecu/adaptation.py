@@ -103,8 +103,8 @@ class AdaptationParams:
             gap to time gap (10 m/s: below it the standstill distance dominates the gap and a
             slow takeover would be magnified into metres at motorway speed).
         step_fraction: the share of the change made by one update, in (0, 1] (1: the centre
-            bin lands on ``g_desire``, the paper's full step; less damps the overshoot of a
-            release gap that is itself a noisy estimate: docs/ecu.md, not yet measured).
+            bin lands on ``g_desire``, the paper's full step; 0.5 was worse on population
+            seed 1, docs/ecu.md).
     """
 
     min_takeover_s: float = 1.0
