@@ -175,7 +175,7 @@ def fine_tuning() -> None:
         table = learn_dgpt(manual, driver_id=name, config=LEARNER["config"]).table
         poi0, nim0, acc_trips = drives(driver, table)
         take_s = sum(float(np.sum(usable_mask(t, 120.0))) * 0.1 for t in acc_trips)
-        ft = fine_tune(acc_trips, table)
+        ft = fine_tune(acc_trips, table, config=LEARNER["config"])
         poi1, nim1, _ = drives(driver, ft.table)
         v, cov = table.speed_mps, ft.covered
         want = driver.acc_preferred_gap_m(v)

@@ -68,7 +68,9 @@ def steady_gaps(
     ``drift`` and ``value`` are (n_v, n_gap) on the grid axes ``grid_v_mps`` (n_v,) and
     ``grid_gap_m`` (n_gap,); ``support`` is the demonstrated gap range (lo, hi) per axis speed,
     (n,) each. NaN where the support is NaN (no demonstration near that speed) or the speed
-    lies above the grid.
+    lies above the grid. (The trainer passes :func:`cloud_sync.extract.search_range`, which
+    is never NaN: there uncovered speeds get a gap at the edge of the range, and
+    :func:`cloud_sync.extract.finish_table` replaces them by the stated prior.)
     """
     out = np.full(axis_mps.size, np.nan)
     g = grid_gap_m

@@ -261,7 +261,7 @@ def control(
         target, integral = desired_accel(ctl, obs, mem.integral_m_s, dt_s, integrate=True)
         ttc = time_to_collision_s(inp.lead_valid, inp.gap_m, inp.rel_speed_mps)
         if ttc < ctl.emergency_ttc_s:  # brake at least as hard as the closing speed needs
-            floor = config.bounds.lower_m(p.v_mps + inp.rel_speed_mps)
+            floor = config.bounds.lower_m(max(p.v_mps + inp.rel_speed_mps, 0.0))
             limit = closing_limit_mps2(inp.gap_m, inp.rel_speed_mps, obs.lead_accel_mps2, floor)
             target = min(target, limit)
         emergency = ttc < ctl.emergency_ttc_s and target < prev

@@ -143,12 +143,13 @@ class DriverAgent:
         out = (v_lead, gap)
         for channel, lag in enumerate(self._lag):
             vl, g = seen[max(len(seen) - 1 - lag, 0)]
-            last = self._vl_seen[channel]
-            if not math.isnan(last):
-                a = self._accel_seen[channel]
-                a += self._accel_k * ((vl - last) / self.dt_s - a)
-                self._accel_seen[channel] = a
-            self._vl_seen[channel] = vl
+            if math.isfinite(vl):  # a non-finite sample must not poison the estimate for good
+                last = self._vl_seen[channel]
+                if not math.isnan(last):
+                    a = self._accel_seen[channel]
+                    a += self._accel_k * ((vl - last) / self.dt_s - a)
+                    self._accel_seen[channel] = a
+                self._vl_seen[channel] = vl
             if channel == int(self.mode != "idle"):
                 out = (vl, g)
                 self.lead_accel_seen_mps2 = self._accel_seen[channel]

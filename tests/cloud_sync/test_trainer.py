@@ -46,7 +46,6 @@ def test_recovers_known_preference(learned: LearnResult) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.slow
 def test_non_monotonic_preference_recovered_without_a_fitted_line(
     follower: Callable[..., Trip],
 ) -> None:
@@ -71,6 +70,7 @@ def test_non_monotonic_preference_recovered_without_a_fitted_line(
     assert g[peak] - g[v == 8.0][0] >= 8.0 and g[peak] - g[v == 27.0][0] >= 3.0
 
 
+@pytest.mark.slow
 def test_output_table_is_a_valid_irl_dgpt(learned: LearnResult, tmp_path: Path) -> None:
     t = learned.table
     assert t.source == "irl" and t.driver_id == "syn" and t.condition == "dry"

@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 
 from ecu.dgpt import predefined
 from ecu.node import ConfigError, EcuConfig, EcuNode, NodeInputs, NodeOutputs
+from ecu.phases import ControlMemory, Plan, control
 from ecu.state import AccState, FaultCode
 from ecu.triplog import Trip
 
@@ -473,3 +474,23 @@ def test_two_short_accelerator_presses_adapt_once() -> None:
     loop.run(0.1)
     assert node.takeovers == 2 and node.adaptations == 1
     assert node.table.lookup(20.0) < 64.0 - 10.0
+
+
+def test_closing_floor_is_the_standstill_bound_when_the_lead_speed_reads_negative() -> None:
+    """Radar noise near standstill can make v + rel negative: the floor of the closing limit
+    is then the standstill bound (2 m), not less, so the limit does not weaken (review of
+    issue 11: -0.91 instead of -2.0 m/s^2 for v 0.5, rel -2, gap 3)."""
+    cfg = EcuConfig()
+    inp = NodeInputs(main_switch=True, v_mps=0.5, lead_valid=True, gap_m=3.0, rel_speed_mps=-2.0)
+    p = Plan(v_mps=0.5, desired_gap_m=float(cfg.bounds.lower_m(0.5)), desired_gap_slope_s=0.8)
+    cmd, _ = control(
+        cfg,
+        AccState.ACTIVE,
+        inp,
+        p,
+        set_speed_mps=30.0,
+        fault_ramp=False,
+        mem=ControlMemory(prev_accel_mps2=-2.0),
+        dt_s=DT,
+    )
+    assert cmd.active and cmd.accel_mps2 == pytest.approx(-2.0)

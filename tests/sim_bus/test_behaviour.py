@@ -44,6 +44,24 @@ def test_accelerator_press_lifts_off_at_once_when_the_lead_closes_in() -> None:
     assert held <= ATTENTIVE_REACTION_S + 2 * DT  # not reaction_s, press_min_s or prolong_s
 
 
+def test_accelerator_press_ends_when_its_own_model_asks_to_slow_down() -> None:
+    """The lead slows gently (0.4 m/s², no brake lights by the driver's threshold): the press
+    ends when the closing makes the driver's own IDM+ ask for less than zero, long before
+    press_max_s and before the gap reaches the preference."""
+    a = _agent(reaction_s=0.5, patience_far_s=0.5, press_min_s=0.3, prolong_s=1.0, press_max_s=20.0)
+    _steps(a, 3.0, 15.0, 15.0, 30.0)
+    assert a.accel_pressed
+    v_lead, gap, t = 15.0, 30.0, 0.0
+    while a.accel_pressed and t < 20.0:
+        v_lead -= 0.4 * DT
+        gap += (v_lead - 15.0) * DT
+        a.step(15.0, v_lead, gap, AccState.OVERRIDE)
+        t += DT
+    assert not a.accel_pressed and t < 15.0
+    assert a.lead_accel_seen_mps2 > -0.5  # not the brake-light rule
+    assert gap > a.pref_gap_m * 1.06  # not the release rule: the gap is still too long
+
+
 def test_own_speed_is_felt_without_the_reaction_delay() -> None:
     """The ego speeds up toward a steady lead: the time-to-collision reckoned with the speed
     felt now is below ttc_brake_s at once, so the driver brakes before reaction_s is over."""
@@ -67,7 +85,8 @@ def test_brake_lights_end_a_press_and_keep_one_from_starting() -> None:
         held += DT
     assert held <= 0.5 + 0.3 + 2 * DT  # reaction plus the estimate's time constant
     assert a.lead_accel_seen_mps2 < -0.5
-    for _ in range(40):  # 2 s more of a braking lead, gap still far too large
+    for _ in range(40):  # 2 s more of a braking lead, gap still far too large, not closing
         v_lead -= 1.0 * DT
-        a.step(15.0, v_lead, 60.0, AccState.ACTIVE)
+        a.step(v_lead, v_lead, 60.0, AccState.ACTIVE)
         assert not a.accel_pressed
+        assert a._far_t == 0.0  # the "too far" patience does not even start to run
