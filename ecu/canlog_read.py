@@ -34,6 +34,7 @@ from ecu.canlog_format import (
     CanLogError,
     TimeBase,
 )
+from ecu.mcap_errors import mcap_errors
 
 __all__ = ["CanLog", "Frames", "messages", "read_canlog"]
 
@@ -105,29 +106,18 @@ def _scan(path: Path) -> _Collect:
     from mcap.stream_reader import StreamReader  # noqa: PLC0415
 
     found = _Collect()
-    try:
-        with path.open("rb") as stream:
-            for record in StreamReader(stream, validate_crcs=True).records:
-                if isinstance(record, records.Message):
-                    found.message(record, path)
-                elif isinstance(record, records.Channel):
-                    found.channels[record.id] = record
-                elif isinstance(record, records.Metadata):
-                    found.metadata[record.name] = dict(record.metadata)
-                elif isinstance(record, records.Attachment):
-                    found.attachments[record.name] = bytes(record.data)
-                elif isinstance(record, records.Footer):
-                    found.footer = True
-    except CanLogError:
-        raise
-    except FileNotFoundError:
-        raise CanLogError(f"{path}: no such recording") from None
-    except IsADirectoryError:
-        raise CanLogError(f"{path}: is a directory, not a recording") from None
-    except Exception as exc:  # noqa: BLE001 - mcap raises many types on corrupt input
-        kind = type(exc).__name__
-        reason = "truncated" if kind in ("EndOfFile", "error") else "corrupt or not MCAP"
-        raise CanLogError(f"{path}: {reason} recording ({kind}: {exc})") from exc
+    with mcap_errors(path, "recording", CanLogError), path.open("rb") as stream:
+        for record in StreamReader(stream, validate_crcs=True).records:
+            if isinstance(record, records.Message):
+                found.message(record, path)
+            elif isinstance(record, records.Channel):
+                found.channels[record.id] = record
+            elif isinstance(record, records.Metadata):
+                found.metadata[record.name] = dict(record.metadata)
+            elif isinstance(record, records.Attachment):
+                found.attachments[record.name] = bytes(record.data)
+            elif isinstance(record, records.Footer):
+                found.footer = True
     return found
 
 

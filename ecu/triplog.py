@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from ecu import EcuError
+from ecu.mcap_errors import mcap_errors
 from ecu.state import AccState
 
 __all__ = ["Trip", "TripLogError", "write_trip", "read_trip", "SAMPLE_TOPIC", "META_TOPIC"]
@@ -343,18 +344,9 @@ def _scan(path: Path) -> _Records:
     from mcap.stream_reader import StreamReader  # noqa: PLC0415
 
     found = _Records()
-    try:
-        with path.open("rb") as stream:
-            for record in StreamReader(stream, validate_crcs=True).records:
-                _take(record, found, path, records)
-    except TripLogError:
-        raise
-    except FileNotFoundError as exc:
-        raise TripLogError(f"{path}: no such trip log") from exc
-    except Exception as exc:  # noqa: BLE001 - mcap raises many types on corrupt input
-        kind = type(exc).__name__
-        reason = "truncated" if kind in ("EndOfFile", "error") else "corrupt or not MCAP"
-        raise TripLogError(f"{path}: {reason} trip log ({kind}: {exc})") from exc
+    with mcap_errors(path, "trip log", TripLogError), path.open("rb") as stream:
+        for record in StreamReader(stream, validate_crcs=True).records:
+            _take(record, found, path, records)
     return found
 
 
