@@ -33,11 +33,11 @@ from typing import Any
 import numpy as np
 
 from ecu.adaptation import ADAPTATION_MODES, AdaptationParams
-from ecu.dgpt import Dgpt
-from sim_bus.drive import DriveConfig, DriveResult, predefined_table, run_drive
+from pacc.vocab.dgpt import Dgpt
 from sim_bus.drivers import DriverParams, load_driver
-from sim_bus.irl_table import irl_table
 from sim_bus.scenarios import canonical_profiles
+from sim_bus.study.drive import DriveConfig, DriveResult, predefined_table, run_drive
+from sim_bus.study.irl_table import irl_table
 
 ACC_ENGAGED = (2, 3)  # ACTIVE, OVERRIDE
 

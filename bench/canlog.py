@@ -4,7 +4,7 @@ Run: ``.venv/bin/python bench/canlog.py [--sim-s 120] [--repeats 3]``.
 
 - frames: the frames of one lockstep drive (scenario B, driver d2, predefined+OA,
   ``--sim-s`` simulated seconds), read back from its recording as python-can messages;
-- recorder: :class:`ecu.canlog.CanLogWriter` writing them all — ``/can/raw``, every DBC
+- recorder: :class:`ecu.buslog.writer.CanLogWriter` writing them all — ``/can/raw``, every DBC
   message decoded on its channel, zstd chunks — frames per second and bytes per frame;
 - the named peer: python-can's ``can.BLFWriter`` (zlib-compressed Vector BLF, raw frames
   only) on the same messages, same measures;
@@ -27,11 +27,11 @@ from pathlib import Path
 import can
 
 from dbc.codec import load_codec
-from ecu.canlog import CanLogWriter
-from ecu.canlog_format import TimeBase
-from ecu.canlog_read import messages, read_canlog
-from sim_bus.drive import DriveConfig, predefined_table, run_drive
+from ecu.buslog.format import TimeBase
+from ecu.buslog.reader import messages, read_canlog
+from ecu.buslog.writer import CanLogWriter
 from sim_bus.drivers import BUILTIN_DRIVERS
+from sim_bus.study.drive import DriveConfig, predefined_table, run_drive
 
 
 def _drive(sim_s: float, can_log: Path | None) -> tuple[float, float]:

@@ -2,7 +2,7 @@
 
 Run: ``.venv/bin/python bench/drive.py [--scenario B] [--driver d2] [--controller ...]``.
 
-- drive: ``sim_bus.drive.run_drive`` — the full ECU (EcuNode + EcuRuntime, DBC codec, E2E)
+- drive: ``sim_bus.study.drive.run_drive`` — the full ECU (EcuNode + EcuRuntime, DBC codec, E2E)
   and the simulator (plant, driver, bus node) on the python-can virtual bus, 300 s of
   scenario B: simulated seconds per wall second;
 - bare bus (the named peer): the same frames at the same DBC periods on the same virtual
@@ -25,9 +25,9 @@ import can
 
 from dbc.codec import load_codec
 from dbc.e2e import CRC8_TABLE
-from sim_bus.drive import DriveConfig, predefined_table, run_drive
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.node import TX_ROLES
+from sim_bus.study.drive import DriveConfig, predefined_table, run_drive
 
 SIM_S = 300.0
 TICK_S = 0.01

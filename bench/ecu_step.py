@@ -25,9 +25,9 @@ import can
 import numpy as np
 
 from dbc.codec import load_codec
-from ecu.dgpt import predefined
 from ecu.node import EcuConfig, EcuNode, NodeInputs
 from ecu.runtime import EcuRuntime
+from pacc.vocab.dgpt import predefined
 from tests.peers import PeerNodes
 
 DT = 0.02

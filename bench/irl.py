@@ -18,12 +18,18 @@ import numpy as np
 import scipy.sparse as sp
 from scipy import optimize
 
-from cloud_sync import demos as dm
-from cloud_sync.features import FeatureConfig, make_features
-from cloud_sync.mce_irl import CompiledMdp, DemoStats, feature_expectations, objective, reward_table
-from cloud_sync.mdp import GridConfig, build_transitions, make_grid
-from cloud_sync.trainer import IrlConfig, learn_dgpt
-from ecu.triplog import Trip
+from cloud_sync.irl import demos as dm
+from cloud_sync.irl.features import FeatureConfig, make_features
+from cloud_sync.irl.mce_irl import (
+    CompiledMdp,
+    DemoStats,
+    feature_expectations,
+    objective,
+    reward_table,
+)
+from cloud_sync.irl.mdp import GridConfig, build_transitions, make_grid
+from cloud_sync.irl.trainer import IrlConfig, learn_dgpt
+from pacc.vocab.triplog import Trip
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.manual import manual_trip
 from sim_bus.scenarios import canonical_profiles
@@ -38,7 +44,7 @@ def demonstrations() -> list[Trip]:
 def dense_objective(
     alpha: np.ndarray, mdp: CompiledMdp, P: np.ndarray, stats: DemoStats, l2: float
 ) -> tuple[float, np.ndarray]:
-    """The same dual and gradient as ``cloud_sync.mce_irl.objective``, dense arrays."""
+    """The same dual and gradient as ``cloud_sync.irl.mce_irl.objective``, dense arrays."""
     r = reward_table(mdp, alpha)
     n_s, n_a = r.shape
     H = stats.horizon

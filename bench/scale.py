@@ -7,7 +7,7 @@ Run: ``.venv/bin/python bench/scale.py [--workers 2] [--drivers d1,d2,d3,d4,d5] 
   DURATION-s lockstep drive through the virtual bus with the full ECU, trip logs written
   (predefined tables: nothing to learn, the drives alone are measured);
 - local process pool (the named peer, ``pacc study --workers N``): the plan through
-  ``sim_bus.study.run.run_jobs`` on :class:`cloud_sync.engine.ProcessEngine`;
+  ``sim_bus.study.run.run_jobs`` on :class:`cloud_sync.engine.base.ProcessEngine`;
 - Dask: the same plan on a ``LocalCluster`` of N single-threaded worker processes
   (``pacc study --scheduler local``), after one warm-up drive per worker (the cluster's start
   and the workers' first imports are printed apart: a study pays them once);
@@ -37,11 +37,11 @@ import time
 from pathlib import Path
 from typing import Any
 
-from cloud_sync.dask_engine import DaskEngine
-from cloud_sync.engine import Engine, ProcessEngine
-from sim_bus.irl_table import manual_trips
+from cloud_sync.engine.base import Engine, ProcessEngine
+from cloud_sync.engine.dask_backend import DaskEngine
 from sim_bus.study import run as study_run
 from sim_bus.study.config import StudyConfig, validate
+from sim_bus.study.irl_table import manual_trips
 from sim_bus.study.loop import StudyCloud
 
 NOOP_TASKS = 400
@@ -102,7 +102,7 @@ def bench_learning(names: tuple[str, ...], workers: int) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         up_s, inline_s, inline = learn_seconds(drivers, Path(tmp) / "inline", None)
         with DaskEngine.local(workers) as dask:
-            dask.client.run(importlib.import_module, "cloud_sync.trainer")  # first imports
+            dask.client.run(importlib.import_module, "cloud_sync.irl.trainer")  # first imports
             _, dask_s, remote = learn_seconds(drivers, Path(tmp) / "dask", dask)
         blobs = folder_bytes(Path(tmp) / "inline" / "cloud" / "blobs")
         versions = folder_bytes(Path(tmp) / "inline" / "cloud" / "dgpt")

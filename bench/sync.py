@@ -30,14 +30,14 @@ import uvicorn
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from cloud_sync.client import HttpCloud  # noqa: E402
-from cloud_sync.local import LocalCloud  # noqa: E402
-from cloud_sync.server import create_app  # noqa: E402
-from cloud_sync.service import CloudService  # noqa: E402
-from cloud_sync.spool import Spool  # noqa: E402
-from cloud_sync.uploader import Uploader, UploaderConfig  # noqa: E402
-from ecu.state import AccState  # noqa: E402
-from ecu.triplog import Trip  # noqa: E402
+from cloud_sync.service.http import create_app  # noqa: E402
+from cloud_sync.service.local import LocalCloud  # noqa: E402
+from cloud_sync.service.rules import CloudService  # noqa: E402
+from cloud_sync.vehicle.client import HttpCloud  # noqa: E402
+from cloud_sync.vehicle.spool import Spool  # noqa: E402
+from cloud_sync.vehicle.uploader import Uploader, UploaderConfig  # noqa: E402
+from pacc.vocab.acc_state import AccState  # noqa: E402
+from pacc.vocab.triplog import Trip  # noqa: E402
 from tests.cloud_sync.conftest import follower_trip  # noqa: E402
 
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from cloud_sync.cli import main
+from pacc.commands.cloud import main
 
 if __name__ == "__main__":
     raise SystemExit(main())

@@ -1,7 +1,8 @@
 """The contract between a vehicle and the cloud, whatever carries it.
 
-Two backends implement :class:`CloudApi`: :class:`cloud_sync.local.LocalCloud` (the service
-in-process over a local folder: the zero-set-up default) and :class:`cloud_sync.client.HttpCloud`
+Two backends implement :class:`CloudApi`: :class:`cloud_sync.service.local.LocalCloud` (the service
+in-process over a local folder: the zero-set-up default) and
+:class:`cloud_sync.vehicle.client.HttpCloud`
 (a running ``pacc cloud serve``). Both raise the same errors, each with the HTTP status the
 service answers with, so one test suite checks both:
 

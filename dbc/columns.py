@@ -1,6 +1,6 @@
 """Column-wise decoding of many frames of one DBC message, and what its columns mean.
 
-The bus recorder (:mod:`ecu.canlog`) decodes a block of frames at a time: the payloads of one
+The bus recorder (:mod:`ecu.buslog.writer`) decodes a block of frames at a time: the payloads of one
 message become an ``(n, 8)`` byte array, read as one 64-bit integer per frame (little- or
 big-endian, as the signal), and each signal is a shift, a mask, a sign extension and
 ``raw * scale + offset`` over the whole column (numpy). The arithmetic is cantools' own

@@ -2,22 +2,22 @@
 
 Modules, one concept each:
 
-- :mod:`ecu.dgpt` — the Driving Gap Preference Table (desired gap per speed), JSON I/O.
 - :mod:`ecu.adaptation` — online DGPT adaptation from one takeover (Algorithm 1).
 - :mod:`ecu.controller` — PID gap controller with the acceleration/jerk envelope.
 - :mod:`ecu.state` — engagement state machine (pure transition function).
 - :mod:`ecu.recorder` — takeover recorder (pre-trigger ring buffer, segments to a sink).
 - :mod:`ecu.config` — ``EcuConfig``, the node's frozen configuration.
 - :mod:`ecu.signals` — ``NodeInputs`` / ``NodeOutputs``, the node's boundary values.
-- :mod:`ecu.pedals` — ``PedalScale``, pedal fractions from the DBC's full scale.
 - :mod:`ecu.phases` — the phases of one control cycle, pure functions.
 - :mod:`ecu.node` — ``EcuNode.step(inputs, now) -> outputs``, pure of I/O.
 - :mod:`ecu.busio` — frames <-> node values (Inbox/Outbox), the DBC fit check.
 - :mod:`ecu.profiles` — driver profiles selected by the HMI.
 - :mod:`ecu.clocks` — the cycle grid in lockstep or real time.
 - :mod:`ecu.runtime` — ``EcuRuntime``, wiring bus I/O, profiles and clocks to a node.
-- :mod:`ecu.triplog` — ``Trip`` and its MCAP trip-log format (written here, read by the cloud).
-- :mod:`ecu.cli` — ``pacc ecu`` / ``python -m ecu``.
+
+The sub-package :mod:`ecu.buslog` records the bus (MCAP), reads, replays and converts it. The
+formats the ECU shares with the simulator and the cloud (DGPT, trip logs, ACC state, pedals)
+live in :mod:`pacc.vocab`; the command line is :mod:`pacc.commands.ecu`.
 
 Every error raised by this package derives from :class:`EcuError` (itself a
 :class:`pacc.errors.PaccError`).

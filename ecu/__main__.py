@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ecu.cli import main
+from pacc.commands.ecu import main
 
 if __name__ == "__main__":
     raise SystemExit(main())

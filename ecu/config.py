@@ -10,8 +10,8 @@ from typing import Any
 from ecu import EcuError
 from ecu.adaptation import AdaptationParams
 from ecu.controller import ControllerParams
-from ecu.dgpt import SafetyBounds
 from ecu.state import BrakeMode
+from pacc.vocab.dgpt import SafetyBounds
 
 #: Largest time step the controller integrates over in one call, s.
 MAX_DT_S = 0.1

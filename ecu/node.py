@@ -41,7 +41,6 @@ from ecu.adaptation import (
     count_short_press,
 )
 from ecu.config import ConfigError, EcuConfig
-from ecu.dgpt import Dgpt, utc_now_iso
 from ecu.phases import (
     Command,
     ControlMemory,
@@ -60,7 +59,10 @@ from ecu.phases import (
 )
 from ecu.recorder import TakeoverRecorder, TripSink
 from ecu.signals import NodeInputs, NodeOutputs, input_fault
-from ecu.state import AccState, FaultCode, transition
+from ecu.state import transition
+from pacc.vocab import FormatError
+from pacc.vocab.acc_state import AccState, FaultCode
+from pacc.vocab.dgpt import Dgpt, utc_now_iso
 
 log = logging.getLogger(__name__)
 
@@ -318,7 +320,7 @@ class EcuNode:
                 short_run=short_run,
                 created_utc=self._utc_now(),
             )
-        except (EcuError, ArithmeticError, ValueError) as exc:  # absurd finite inputs
+        except (EcuError, FormatError, ArithmeticError, ValueError) as exc:  # absurd finite inputs
             log.warning("adaptation refused: %s", exc)
             decision = Decision(applied=False, reason=Reason.INVALID_INPUT)
         return decision

@@ -31,10 +31,11 @@ from ecu.controller import (
     limit_command,
     time_to_collision_s,
 )
-from ecu.dgpt import Dgpt
 from ecu.recorder import Sample
 from ecu.signals import NodeInputs, NodeOutputs, all_finite, input_fault
-from ecu.state import AccState, Events, FaultCode
+from ecu.state import Events
+from pacc.vocab.acc_state import AccState, FaultCode
+from pacc.vocab.dgpt import Dgpt
 
 #: Margin of the re-engagement hold time against float round-off, s.
 SETTLE_EPS_S = 1e-9

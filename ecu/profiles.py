@@ -17,9 +17,9 @@ import os
 import threading
 from pathlib import Path
 
-from ecu.dgpt import Dgpt, DgptError, load_dgpt
 from ecu.node import EcuNode
-from ecu.state import AccState
+from pacc.vocab.acc_state import AccState
+from pacc.vocab.dgpt import Dgpt, DgptError, load_dgpt
 
 #: The profile id of the guest (the node's startup table).
 GUEST_PROFILE = 0

@@ -4,7 +4,7 @@ The node feeds one sample per cycle; the recorder keeps one every ``period_s`` (
 default) in a ring buffer holding the last ``pre_s`` seconds. When a takeover starts the
 buffer becomes the head of a new segment; samples are appended through the pedal release and
 a post window of ``post_s`` seconds, then the segment is handed to the sink as a
-:class:`ecu.triplog.Trip` with ``meta["mode"] == "takeover"``. A new takeover during
+:class:`pacc.vocab.triplog.Trip` with ``meta["mode"] == "takeover"``. A new takeover during
 the post window extends the open segment (its post window restarts at the next release).
 
 The sink is I/O at the edge: any exception it raises is caught, logged and counted in
@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from ecu import EcuError
-from ecu.triplog import Trip, write_trip
+from pacc.vocab.triplog import Trip, write_trip
 
 log = logging.getLogger(__name__)
 

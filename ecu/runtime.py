@@ -40,11 +40,11 @@ import can
 from dbc.codec import Codec, load_codec
 from dbc.endpoint import Inbox, Outbox
 from ecu.busio import INPUT_ROLES, BusIO, RuntimeCodecError
-from ecu.canlog import CanLogWriter
+from ecu.buslog.writer import CanLogWriter
 from ecu.clocks import MAX_CATCHUP_S, CycleClock, RuntimeClockError
-from ecu.dgpt import Dgpt
 from ecu.node import EcuNode, NodeInputs, NodeOutputs
 from ecu.profiles import GUEST_PROFILE, ProfileSwitcher, TableOffer
+from pacc.vocab.dgpt import Dgpt
 
 log = logging.getLogger(__name__)
 
@@ -140,7 +140,7 @@ class EcuRuntime:
 
     def record_to(self, recorder: CanLogWriter | None) -> None:
         """Record every frame in and out and every cycle's inputs, outputs and events to
-        ``recorder`` (:mod:`ecu.canlog`; None: stop recording). The caller closes it."""
+        ``recorder`` (:mod:`ecu.buslog.writer`; None: stop recording). The caller closes it."""
         self.recorder = recorder
         self.io.tap = recorder.frame if recorder is not None else None
 
@@ -194,7 +194,7 @@ class EcuRuntime:
 
     def cycle_at(self, t_s: float, k: int) -> None:
         """Run control cycle ``k`` at ``t_s`` now, on a clock the caller keeps (a replay of a
-        recording's cycles: :mod:`ecu.replay`); frames must have been accepted before."""
+        recording's cycles: :mod:`ecu.buslog.replay`); frames must have been accepted before."""
         self._cycle(t_s, k)
 
     def offer_table(self, table: Dgpt, message: str) -> None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ecu.state import AccState, FaultCode
+from pacc.vocab.acc_state import AccState, FaultCode
 
 
 @dataclass(slots=True)

@@ -26,31 +26,11 @@ re-engagement hold time (1 s).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import IntEnum
 from typing import Literal
 
+from pacc.vocab.acc_state import AccState, FaultCode
+
 BrakeMode = Literal["resume", "cancel"]
-
-
-class AccState(IntEnum):
-    """ACC engagement state; values are the DBC ``AccState`` codes."""
-
-    OFF = 0
-    STANDBY = 1
-    ACTIVE = 2
-    OVERRIDE = 3
-    FAULT = 4
-
-
-class FaultCode(IntEnum):
-    """Reason of the last FAULT; values are the DBC ``FaultCode`` codes."""
-
-    NONE = 0
-    SPEED_INPUT = 1
-    PEDAL_INPUT = 2
-    RADAR_INPUT = 3
-    HMI_INPUT = 4
-    PROFILE = 5
 
 
 @dataclass(frozen=True, slots=True)

@@ -16,14 +16,17 @@ from collections.abc import Callable
 
 #: sub-command -> (module with ``main(argv) -> int``, one-line help)
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
-    "ecu": ("ecu.cli", "run the ACC ECU node on a CAN bus"),
-    "sim": ("sim_bus.cli", "run the bus simulator (lead, ego physics, driver) against an ECU"),
-    "drive": ("sim_bus.drive", "ECU + simulator in one process, lockstep, print PoI/NIM"),
-    "study": ("sim_bus.study", "the paper's study (Table I) end to end: every driver x controller"),
-    "cloud": ("cloud_sync.cli", "cloud side: learn a driver's DGPT by IRL, sync logs"),
-    "export": ("ecu.export_cmd", "convert CAN logs: pacc MCAP <-> .log/.asc/.blf/.trc/.csv"),
-    "replay": ("ecu.replay_cmd", "replay a bus recording through the ECU or onto a bus"),
-    "plot": ("ecu.plot_cmd", "plot one recorded drive: speed, gap, pedals, ACC state"),
+    "ecu": ("pacc.commands.ecu", "run the ACC ECU node on a CAN bus"),
+    "sim": (
+        "pacc.commands.sim",
+        "run the bus simulator (lead, ego physics, driver) against an ECU",
+    ),
+    "drive": ("pacc.commands.drive", "ECU + simulator in one process, lockstep, print PoI/NIM"),
+    "study": ("pacc.commands.study", "the paper's study (Table I) end to end: every driver x controller"),
+    "cloud": ("pacc.commands.cloud", "cloud side: learn a driver's DGPT by IRL, sync logs"),
+    "export": ("pacc.commands.export", "convert CAN logs: pacc MCAP <-> .log/.asc/.blf/.trc/.csv"),
+    "replay": ("pacc.commands.replay", "replay a bus recording through the ECU or onto a bus"),
+    "plot": ("pacc.commands.plot", "plot one recorded drive: speed, gap, pedals, ACC state"),
 }
 
 _USAGE = "usage: pacc [-h] {" + ",".join(SUBCOMMANDS) + "} ..."

@@ -1,15 +1,25 @@
 """pacc bus simulator: ego physics, real-data lead scenarios, synthetic drivers, faults.
 
 The simulator plays every node but the ACC ECU (ESC, PEDAL, RADAR, HMI) on a python-can bus
-and closes the loop through the ACC command frames. Sub-modules, one concept each:
-``plant`` (ego dynamics), ``scenarios`` (lead speed profiles from the shipped OpenACC data),
-``drivers`` (driver parameters, built-in drivers), ``behaviour`` (what a driver does each
-step), ``manual`` (ACC-off demonstrations), ``world`` (lead + plant + driver, the drive log),
-``trip`` (a run's log as a trip), ``faults`` (fault injection), ``node`` (the bus node),
-``metrics`` (PoI, NIM, safety figures), ``drive`` (``pacc drive``), ``irl_table`` (the
-learned table of the irl controllers), ``cli`` (``pacc sim``). On top of them, the sub-package
-``study`` (``pacc study``, the paper's Table I). Maintainer tools (building the data file,
-calibrating the drivers) live in ``tools/`` at the repository root, outside the wheel.
+and closes the loop through the ACC command frames. Modules, one concept each:
+
+- :mod:`sim_bus.plant` — ego longitudinal dynamics;
+- :mod:`sim_bus.dataset` — the shipped real-data file;
+- :mod:`sim_bus.scenarios` — lead speed profiles from the shipped OpenACC data;
+- :mod:`sim_bus.drivers` — driver parameters, built-in drivers;
+- :mod:`sim_bus.population` — drivers drawn from distributions calibrated on real pairs;
+- :mod:`sim_bus.behaviour` — what a driver does each step;
+- :mod:`sim_bus.manual` — ACC-off demonstrations;
+- :mod:`sim_bus.world` — lead + plant + driver, the drive log;
+- :mod:`sim_bus.trip` — a run's log as a trip;
+- :mod:`sim_bus.faults` — fault injection;
+- :mod:`sim_bus.node` — the bus node;
+- :mod:`sim_bus.metrics` — PoI, NIM, safety figures;
+- :mod:`sim_bus.errors` — the error tree, rooted at :class:`SimError`.
+
+On top of them, and of the ECU and the cloud, the sub-package :mod:`sim_bus.study` is the
+harness: one drive (``pacc drive``), the paper's Table I (``pacc study``). Maintainer tools
+(building the data file, calibrating the drivers) live in ``tools/`` outside the wheel.
 """
 
 from sim_bus.errors import SimError

@@ -28,14 +28,14 @@ from collections import deque
 import numpy as np
 
 from dbc.codec import load_codec
-from ecu.pedals import PedalScale
-from ecu.state import AccState
+from pacc.vocab.acc_state import AccState
+from pacc.vocab.pedals import PedalScale
 from sim_bus.drivers import DriverParams
 
 #: acceleration of a coasting car with no pedal pressed (drag, engine braking), m/s²
 COAST_MPS2 = -0.3
 #: manual pedal mapping: full accelerator gives this acceleration; brake pressure per m/s²
-#: (the pedals' full scale, 100 % and 250 bar, is the network's: ecu.pedals.PedalScale)
+#: (the pedals' full scale, 100 % and 250 bar, is the network's: pacc.vocab.pedals.PedalScale)
 ACCEL_FULL_MPS2 = 3.0
 BRAKE_BAR_PER_MPS2 = 12.0
 DECEL_LIMIT_MPS2 = 8.0

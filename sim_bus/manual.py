@@ -12,9 +12,9 @@ from __future__ import annotations
 import numpy as np
 
 from dbc.codec import load_codec
-from ecu.pedals import PedalScale
-from ecu.state import AccState
-from ecu.triplog import Trip
+from pacc.vocab.acc_state import AccState
+from pacc.vocab.pedals import PedalScale
+from pacc.vocab.triplog import Trip
 from sim_bus.behaviour import DriverAgent
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import DriveError

@@ -19,7 +19,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from ecu.state import AccState
+from pacc.vocab.acc_state import AccState
 
 
 @dataclass(frozen=True)

@@ -24,7 +24,7 @@ import numpy as np
 
 from dbc.codec import Codec, MessageCodec, load_codec
 from dbc.endpoint import Frame, Inbox, Outbox
-from ecu.state import AccState
+from pacc.vocab.acc_state import AccState
 from sim_bus.faults import ROLES, FaultPlan, FaultSpec
 from sim_bus.world import World
 

@@ -1,8 +1,8 @@
-"""The trip log of a simulator run: the world's samples as an :class:`ecu.triplog.Trip`.
+"""The trip log of a simulator run: the world's samples as an :class:`pacc.vocab.triplog.Trip`.
 
 One function for every writer of a simulated ACC trip (``pacc drive --log``, ``pacc sim
 --log``, the study's ``logs/``): samples at 10 Hz, pedals as fractions of the network's full
-scale (:class:`ecu.pedals.PedalScale`, the scaling the ECU's own logs use), and the driving
+scale (:class:`pacc.vocab.pedals.PedalScale`, the scaling the ECU's own logs use), and the driving
 condition named from the driver's condition factor, so that the cloud, which learns one table
 per (driver, condition), never files a rain drive as a dry one.
 """
@@ -14,8 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from ecu.pedals import PedalScale
-from ecu.triplog import Trip
+from pacc.vocab.pedals import PedalScale
+from pacc.vocab.triplog import Trip
 from sim_bus.drivers import DriverParams
 from sim_bus.world import WorldLog
 

@@ -10,7 +10,7 @@ from collections.abc import Iterator
 import pytest
 from hypothesis import settings
 
-from cloud_sync.engine import Engine
+from cloud_sync.engine.base import Engine
 
 settings.register_profile("default", deadline=None, max_examples=100)
 settings.register_profile("thorough", deadline=None, max_examples=1000)
@@ -23,7 +23,7 @@ def dask_cluster() -> Iterator[Engine]:
     shared by the tests that need one within a test process (under pytest-xdist: at most
     one per xdist worker that runs such a test)."""
     # Dask costs ~1 s of import: only the sessions that run a distributed test pay it
-    from cloud_sync.dask_engine import DaskEngine  # noqa: PLC0415
+    from cloud_sync.engine.dask_backend import DaskEngine  # noqa: PLC0415
 
     engine = DaskEngine.local(2)
     try:

@@ -1,13 +1,19 @@
-"""Packages depend one way: pacc.errors ← dbc ← ecu ← cloud_sync ← sim_bus ← entry points ← tools.
+"""The packages' shape is a diamond, and every import is checked against it.
 
-The entry points are the modules behind the ``pacc`` sub-commands (``pacc.cli.SUBCOMMANDS``:
-``ecu.cli``, ``sim_bus.cli``, ``cloud_sync.cli`` ...), the ``__main__`` modules and
-``pacc.cli`` itself: they only wire the libraries together (``pacc ecu`` may hand its takeover
-recorder a cloud_sync spool), so they sit above every library. A module may import modules of
-its own layer or of a lower one, never of a higher one; the check reads every ``import``
-statement (top-level and lazy ones inside functions) with ``ast``, so an import that only runs
-on some path is caught too. ``tests`` and ``bench`` sit above everything and are not
-importable from the shipped packages.
+::
+
+    pacc.errors <- dbc <- pacc.vocab <- ecu, sim_bus, cloud_sync <- sim_bus.study <- commands
+
+- ``pacc.errors`` imports nothing; ``dbc`` (the vehicle network) only it; ``pacc.vocab`` (the
+  DGPT and trip-log formats, ACC state, pedals) both.
+- ``ecu``, ``sim_bus`` (the simulator) and ``cloud_sync`` are siblings: each imports the
+  vocabulary and the network, never another sibling.
+- ``sim_bus.study`` is the harness: it wires the three together (one drive, the studies).
+- The commands (``pacc.commands``, ``pacc.cli``, every ``__main__``) may import anything shipped;
+  ``tools`` too; ``tests`` and ``bench`` sit above everything and nothing shipped imports them.
+
+The check reads every ``import`` statement (top-level and lazy ones inside functions) with
+``ast``, so an import that only runs on some path is caught too. There are no exceptions.
 """
 
 from __future__ import annotations
@@ -20,46 +26,55 @@ import pytest
 from cloud_sync.errors import CloudSyncError
 from dbc.errors import CodecError
 from ecu import EcuError
-from pacc.cli import SUBCOMMANDS
 from pacc.errors import PaccError
+from pacc.vocab import FormatError
 from sim_bus.errors import SimError
 
 ROOT = Path(__file__).resolve().parents[1]
 
-#: (module prefix, layer): the longest matching prefix gives a module's layer, low to high
-LAYERS: tuple[tuple[str, int], ...] = (
-    ("pacc.errors", 0),
-    ("dbc", 1),
-    ("ecu", 2),
-    ("cloud_sync", 3),
-    ("sim_bus", 4),
-    ("pacc", 5),
-    # the study's drives as engine tasks: it runs sim_bus.drive (an entry point) and is kept
-    # out of the sim_bus.study package only so that a worker does not import the harness
-    ("sim_bus.drive_tasks", 5),
-    ("tools", 6),
-    ("tests", 7),
-    ("bench", 7),
-)
+#: module prefix -> room; the longest matching prefix gives a module's room
+ROOMS: dict[str, str] = {
+    "pacc.errors": "errors",
+    "dbc": "network",
+    "pacc.vocab": "vocab",
+    "ecu": "ecu",
+    "sim_bus": "simulator",
+    "cloud_sync": "cloud",
+    "sim_bus.study": "harness",
+    "pacc": "commands",  # pacc.cli, pacc.commands, pacc.__main__, pacc.__init__
+    "pacc.commands": "commands",
+    "tools": "tools",
+    "tests": "tests",
+    "bench": "bench",
+}
+_BASE = {"errors", "network", "vocab"}
+#: room -> the rooms its modules may import (its own always)
+ALLOWED: dict[str, set[str]] = {
+    "errors": set(),
+    "network": {"errors"},
+    "vocab": {"errors", "network"},
+    "ecu": _BASE,
+    "simulator": _BASE,
+    "cloud": _BASE,
+    "harness": _BASE | {"ecu", "simulator", "cloud"},
+    "commands": _BASE | {"ecu", "simulator", "cloud", "harness"},
+    "tools": _BASE | {"ecu", "simulator", "cloud", "harness", "commands"},
+    "tests": set(ROOMS.values()),
+    "bench": set(ROOMS.values()),
+}
 SHIPPED = ("pacc", "dbc", "ecu", "cloud_sync", "sim_bus")
-#: the entry points: every sub-command's module and every package's __main__
-ENTRY_POINTS: tuple[tuple[str, int], ...] = tuple(
-    (module, 5)
-    for module in sorted(
-        {module for module, _ in SUBCOMMANDS.values()} | {f"{p}.__main__" for p in SHIPPED}
+
+
+def room_of(module: str) -> str | None:
+    """The room of dotted ``module`` (None: a third-party or standard-library module).
+
+    Every package's ``__main__`` is a command, whatever package it sits in."""
+    if module.endswith(".__main__"):
+        return "commands"
+    best = max(
+        (p for p in ROOMS if module == p or module.startswith(p + ".")), key=len, default=None
     )
-)
-
-
-def layer_of(module: str) -> int | None:
-    """The layer of dotted ``module`` (None: a third-party or standard-library module)."""
-    best: tuple[int, int] | None = None  # (prefix length, layer)
-    for prefix, layer in LAYERS + ENTRY_POINTS:
-        if (module == prefix or module.startswith(prefix + ".")) and (
-            best is None or len(prefix) > best[0]
-        ):
-            best = (len(prefix), layer)
-    return None if best is None else best[1]
+    return None if best is None else ROOMS[best]
 
 
 def module_name(path: Path) -> str:
@@ -83,35 +98,38 @@ def imported_modules(tree: ast.AST) -> list[tuple[int, str]]:
 
 
 def violations(package: str) -> list[str]:
-    """Every import in ``package`` that reaches a higher layer, as 'file:line: a -> b'."""
+    """Every import in ``package`` its room may not make, as 'file:line: a -> b'."""
     bad: list[str] = []
     for path in sorted((ROOT / package).rglob("*.py")):
         importer = module_name(path)
-        own = layer_of(importer)
+        own = room_of(importer)
         assert own is not None, importer
         tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
         for line, target in imported_modules(tree):
-            theirs = layer_of(target)
-            if theirs is not None and theirs > own:
+            theirs = room_of(target)
+            if theirs is not None and theirs != own and theirs not in ALLOWED[own]:
                 bad.append(f"{path.relative_to(ROOT)}:{line}: {importer} -> {target}")
     return bad
 
 
 @pytest.mark.parametrize("package", [*SHIPPED, "tools"])
-def test_imports_point_down_the_layers(package: str) -> None:
+def test_imports_follow_the_diamond(package: str) -> None:
     assert violations(package) == []
 
 
-def test_the_check_catches_an_upward_import(tmp_path: Path) -> None:
+def test_the_check_catches_a_sibling_and_an_upward_import() -> None:
     tree = ast.parse("def f():\n    from sim_bus.world import World\n\nimport numpy\n")
     found = imported_modules(tree)
     assert (2, "sim_bus.world.World") in found
-    assert layer_of("sim_bus.world.World") == 4 > (layer_of("ecu.node") or 0)
-    assert layer_of("numpy") is None
-    assert layer_of("pacc.errors") == 0 and layer_of("pacc.cli") == 5
-    assert layer_of("ecu_other") is None  # a prefix must end at a dot
-    assert layer_of("ecu.cli") == 5 > (layer_of("cloud_sync.spool") or 0)  # an entry point
-    assert layer_of("ecu.runtime") == 2
+    assert room_of("sim_bus.world.World") == "simulator"
+    assert "simulator" not in ALLOWED["ecu"]  # siblings do not import each other
+    assert "harness" not in ALLOWED["cloud"]  # nor the harness above them
+    assert room_of("numpy") is None
+    assert room_of("pacc.errors") == "errors" and room_of("pacc.cli") == "commands"
+    assert room_of("pacc.vocab.dgpt") == "vocab"
+    assert room_of("ecu_other") is None  # a prefix must end at a dot
+    assert room_of("sim_bus.study.drive") == "harness"
+    assert room_of("ecu.__main__") == "commands"
 
 
 def test_the_project_root_error_imports_nothing() -> None:
@@ -120,5 +138,5 @@ def test_the_project_root_error_imports_nothing() -> None:
 
 
 def test_every_package_error_root_is_a_pacc_error() -> None:
-    for root in (CodecError, EcuError, CloudSyncError, SimError):
+    for root in (CodecError, EcuError, CloudSyncError, SimError, FormatError):
         assert issubclass(root, PaccError), root

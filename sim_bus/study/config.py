@@ -5,10 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ecu.adaptation import AdaptationParams
-from sim_bus.drive import CONTROLLERS
 from sim_bus.drivers import DriverParams, load_driver
 from sim_bus.errors import SimError
 from sim_bus.scenarios import canonical_profiles
+from sim_bus.study.drive import CONTROLLERS
 
 
 @dataclass(frozen=True)

@@ -21,24 +21,24 @@ from pathlib import Path
 from typing import Any
 
 from cloud_sync.api import CloudApi, CloudError
-from cloud_sync.connect import connect, read_token
-from cloud_sync.download import ProfileDownloader
-from cloud_sync.engine import Engine
+from cloud_sync.engine.base import Engine
 from cloud_sync.errors import CloudSyncError
-from cloud_sync.local import LocalCloud
-from cloud_sync.service import CloudService, DeferredExecutor, ServiceConfig
+from cloud_sync.service.local import LocalCloud
+from cloud_sync.service.rules import CloudService, DeferredExecutor, ServiceConfig
 from cloud_sync.signing import load_public_key
-from cloud_sync.spool import Spool
-from cloud_sync.uploader import Uploader, UploaderConfig
-from ecu.dgpt import Dgpt
-from ecu.triplog import Trip
-from sim_bus.drive import DriveConfig, run_drive
-from sim_bus.drive_tasks import manual_trips_task
+from cloud_sync.vehicle.connect import connect, read_token
+from cloud_sync.vehicle.download import ProfileDownloader
+from cloud_sync.vehicle.spool import Spool
+from cloud_sync.vehicle.uploader import Uploader, UploaderConfig
+from pacc.vocab.dgpt import Dgpt
+from pacc.vocab.triplog import Trip
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import SimError
-from sim_bus.irl_table import manual_trips
 from sim_bus.scenarios import canonical_profiles
 from sim_bus.study.config import StudyConfig
+from sim_bus.study.drive import DriveConfig, run_drive
+from sim_bus.study.irl_table import manual_trips
+from sim_bus.study.tasks import manual_trips_task
 
 #: the vehicle id the study registers in its embedded cloud
 STUDY_VEHICLE = "study"

@@ -23,17 +23,17 @@ from typing import Any
 
 from tqdm import tqdm
 
-from cloud_sync.engine import Engine, open_engine
+from cloud_sync.engine.base import Engine, open_engine
 from ecu.adaptation import AdaptationParams
-from sim_bus.drive import predefined_table
-from sim_bus.drive_tasks import DriveJob, run_job
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import SimError
-from sim_bus.irl_table import irl_table
 from sim_bus.population import draw_population
 from sim_bus.study.config import StudyConfig, validate_drives
+from sim_bus.study.drive import predefined_table
+from sim_bus.study.irl_table import irl_table
 from sim_bus.study.population_report import format_population
 from sim_bus.study.report import write_csv
+from sim_bus.study.tasks import DriveJob, run_job
 
 ROWS_FILE = "population.jsonl"
 

@@ -14,8 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from sim_bus.drive import CONTROLLERS
 from sim_bus.study.config import StudyConfig
+from sim_bus.study.drive import CONTROLLERS
 from sim_bus.study.report import CONTROLLER_TITLES
 from sim_bus.study.stats import Paired, bootstrap_ci, holm, paired_comparison
 

@@ -14,8 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from sim_bus.drive import CONTROLLERS
 from sim_bus.study.config import StudyConfig
+from sim_bus.study.drive import CONTROLLERS
 
 #: Averages of the paper's Table I (PoI %, NIM per minute), for comparison.
 PAPER_AVERAGES: dict[str, tuple[float, float]] = {

@@ -1,6 +1,6 @@
 """Running a study: the control tables, the plan of drives, the engine, the outputs.
 
-Every drive is a :class:`DriveJob`. To the engine (:mod:`cloud_sync.engine`: in-process, local
+Every drive is a :class:`DriveJob`. To the engine (:mod:`cloud_sync.engine.base`: in-process, local
 processes or a Dask cluster) the study ships what the drives share once, as
 :class:`StudyData` (drivers, tables, lead profiles), and each drive as a small
 :class:`DriveTask`; the rows stream back as drives finish and come out in plan order whatever
@@ -16,23 +16,23 @@ from typing import Any
 
 from tqdm import tqdm
 
-from cloud_sync.engine import Engine, open_engine
-from ecu.dgpt import Dgpt, save_dgpt
-from ecu.triplog import Trip, write_trip
-from sim_bus.drive import predefined_table
-from sim_bus.drive_tasks import DriveJob, run_task, split
+from cloud_sync.engine.base import Engine, open_engine
+from pacc.vocab.dgpt import Dgpt, save_dgpt
+from pacc.vocab.triplog import Trip, write_trip
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import SimError
-from sim_bus.irl_table import irl_table
 from sim_bus.study.collect import RowJournal, RowKey, collect
 from sim_bus.study.config import StudyConfig, validate
+from sim_bus.study.drive import predefined_table
 from sim_bus.study.incremental_report import (
     format_incremental,
     plot_incremental,
     write_incremental_csv,
 )
+from sim_bus.study.irl_table import irl_table
 from sim_bus.study.loop import StudyCloud, cloud_irl_tables, run_incremental
 from sim_bus.study.report import format_table, plot
+from sim_bus.study.tasks import DriveJob, run_task, split
 
 
 def study_cloud(

@@ -12,7 +12,7 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from ecu.triplog import Trip
+from pacc.vocab.triplog import Trip
 
 
 def lead_speed(rng: np.random.Generator, n: int, dt: float, v_lo: float, v_hi: float) -> np.ndarray:

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cloud_sync.blend import blend, coverage_s, covered_ranges, evidence
-from cloud_sync.demos import Samples
 from cloud_sync.errors import DemoError
-from ecu.dgpt import SafetyBounds, speed_axis
+from cloud_sync.irl.blend import blend, coverage_s, covered_ranges, evidence
+from cloud_sync.irl.demos import Samples
+from pacc.vocab.dgpt import SafetyBounds, speed_axis
 
 AXIS = speed_axis(0.5)
 

@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cloud_sync.cli import main
-from ecu.dgpt import load_dgpt
-from ecu.state import AccState
-from ecu.triplog import Trip, write_trip
 from pacc.cli import main as pacc_main
+from pacc.commands.cloud import main
+from pacc.vocab.acc_state import AccState
+from pacc.vocab.dgpt import load_dgpt
+from pacc.vocab.triplog import Trip, write_trip
 
 
 def _write_csv(trip: Trip, path: Path) -> None:

@@ -25,13 +25,13 @@ from cloud_sync.api import (
     NotFoundError,
     PayloadTooLargeError,
 )
-from cloud_sync.client import HttpCloud
-from cloud_sync.local import LocalCloud
-from cloud_sync.server import create_app
-from cloud_sync.service import CloudService, ServiceConfig
+from cloud_sync.service.http import create_app
+from cloud_sync.service.local import LocalCloud
+from cloud_sync.service.rules import CloudService, ServiceConfig
 from cloud_sync.signing import load_public_key, verify_dgpt
-from ecu.state import AccState
-from ecu.triplog import Trip, write_trip
+from cloud_sync.vehicle.client import HttpCloud
+from pacc.vocab.acc_state import AccState
+from pacc.vocab.triplog import Trip, write_trip
 from tests.cloud_sync.conftest import follower_trip
 
 LIMIT = 2 * 1024 * 1024

@@ -13,9 +13,9 @@ from pathlib import Path
 import httpx
 import pytest
 
-from cloud_sync.cli import main
-from cloud_sync.service import CloudService
-from ecu.triplog import write_trip
+from cloud_sync.service.rules import CloudService
+from pacc.commands.cloud import main
+from pacc.vocab.triplog import write_trip
 from tests.cloud_sync.conftest import follower_trip
 from tests.cloud_sync.test_uploader import free_port
 

@@ -10,17 +10,17 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cloud_sync.demos import (
+from cloud_sync.errors import DemoError
+from cloud_sync.irl.demos import (
     check_demos,
     digest,
     extract_transitions,
     takeover_weighted,
     usable_mask,
 )
-from cloud_sync.errors import DemoError
-from cloud_sync.trainer import learn_dgpt
-from ecu.state import AccState
-from ecu.triplog import Trip
+from cloud_sync.irl.trainer import learn_dgpt
+from pacc.vocab.acc_state import AccState
+from pacc.vocab.triplog import Trip
 
 
 def nan_trip(n: int = 600) -> Trip:

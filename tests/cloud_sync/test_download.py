@@ -8,12 +8,12 @@ from pathlib import Path
 
 import pytest
 
-from cloud_sync.client import HttpCloud
-from cloud_sync.download import ProfileDownloader
-from cloud_sync.local import LocalCloud
-from cloud_sync.service import CloudService
+from cloud_sync.service.local import LocalCloud
+from cloud_sync.service.rules import CloudService
 from cloud_sync.signing import load_public_key
-from ecu.dgpt import Dgpt, SafetyBounds, predefined
+from cloud_sync.vehicle.client import HttpCloud
+from cloud_sync.vehicle.download import ProfileDownloader
+from pacc.vocab.dgpt import Dgpt, SafetyBounds, predefined
 from tests.cloud_sync.test_uploader import free_port
 
 

@@ -13,11 +13,11 @@ from typing import Any, TypeVar
 import numpy as np
 import pytest
 
-from cloud_sync.engine import Engine, InlineEngine, ProcessEngine, open_engine
+from cloud_sync.engine.base import Engine, InlineEngine, ProcessEngine, open_engine
 from cloud_sync.errors import CloudSyncError, EngineError
-from cloud_sync.service import CloudService, DeferredExecutor, ServiceConfig
-from cloud_sync.trainer import IrlConfig
-from ecu.triplog import write_trip
+from cloud_sync.irl.trainer import IrlConfig
+from cloud_sync.service.rules import CloudService, DeferredExecutor, ServiceConfig
+from pacc.vocab.triplog import write_trip
 from tests.cloud_sync.conftest import follower_trip
 
 S = TypeVar("S")
@@ -64,7 +64,7 @@ def test_a_killed_pool_worker_costs_a_rerun_not_a_result() -> None:
 
 def test_no_scheduler_at_the_address_is_an_engine_error() -> None:
     # the import costs ~1 s: only this test and the distributed ones pay it
-    from cloud_sync.dask_engine import DaskEngine  # noqa: PLC0415
+    from cloud_sync.engine.dask_backend import DaskEngine  # noqa: PLC0415
 
     start = time.monotonic()
     with pytest.raises(EngineError, match="no Dask scheduler answers at tcp://127.0.0.1:9"):

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cloud_sync.extract import (
+from cloud_sync.irl.extract import (
     PRIOR_HEADWAY_S,
     argmax_gap,
     continue_time_gap,
@@ -18,8 +18,8 @@ from cloud_sync.extract import (
     outside_coverage,
     steady_state_gaps,
 )
-from cloud_sync.features import Features
-from ecu.dgpt import SafetyBounds, speed_axis
+from cloud_sync.irl.features import Features
+from pacc.vocab.dgpt import SafetyBounds, speed_axis
 
 AXIS = speed_axis(0.5)
 

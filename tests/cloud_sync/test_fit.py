@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cloud_sync.features import FeatureConfig, make_features
-from cloud_sync.fit import fit_alpha, start_alpha
-from cloud_sync.mce_irl import (
+from cloud_sync.irl.features import FeatureConfig, make_features
+from cloud_sync.irl.fit import fit_alpha, start_alpha
+from cloud_sync.irl.mce_irl import (
     CompiledMdp,
     DemoStats,
     feature_expectations,
@@ -16,7 +16,7 @@ from cloud_sync.mce_irl import (
     soft_value_iteration,
     state_action_visitation,
 )
-from cloud_sync.mdp import GridConfig, build_transitions, make_grid
+from cloud_sync.irl.mdp import GridConfig, build_transitions, make_grid
 
 SMALL = GridConfig(v_margin_mps=1.0, gap_margin_m=2.0, dv_max_mps=2.0)
 GRID = make_grid(SMALL, v_max_mps=4.0, gap_max_m=10.0)

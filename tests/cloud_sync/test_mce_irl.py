@@ -9,8 +9,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from cloud_sync.errors import TrainingError
-from cloud_sync.features import FeatureConfig, make_features
-from cloud_sync.mce_irl import (
+from cloud_sync.irl.features import FeatureConfig, make_features
+from cloud_sync.irl.mce_irl import (
     CompiledMdp,
     DemoStats,
     feature_expectations,
@@ -19,7 +19,7 @@ from cloud_sync.mce_irl import (
     soft_value_iteration,
     state_action_visitation,
 )
-from cloud_sync.mdp import GridConfig, build_transitions, interp_weights, make_grid
+from cloud_sync.irl.mdp import GridConfig, build_transitions, interp_weights, make_grid
 
 SMALL = GridConfig(v_margin_mps=1.0, gap_margin_m=2.0, dv_max_mps=2.0)
 

@@ -7,11 +7,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from cloud_sync.demos import Samples
 from cloud_sync.errors import TrainingError
-from cloud_sync.features import FeatureConfig, gap_basis
-from cloud_sync.mdp import GridConfig
-from cloud_sync.model import (
+from cloud_sync.irl.demos import Samples
+from cloud_sync.irl.features import FeatureConfig, gap_basis
+from cloud_sync.irl.mdp import GridConfig
+from cloud_sync.irl.model import (
     METHOD,
     RewardModel,
     compile_model,
@@ -19,7 +19,7 @@ from cloud_sync.model import (
     model_of_table,
     reference_line,
 )
-from ecu.dgpt import Dgpt, predefined
+from pacc.vocab.dgpt import Dgpt, predefined
 
 
 def line_samples(n: int = 400) -> Samples:

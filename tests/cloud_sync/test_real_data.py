@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cloud_sync.trainer import learn_dgpt
-from ecu.triplog import Trip
+from cloud_sync.irl.trainer import learn_dgpt
+from pacc.vocab.triplog import Trip
 from sim_bus.dataset import load_human_pairs
 
 

@@ -19,7 +19,7 @@ from cloud_sync.signing import (
     sign_dgpt,
     verify_dgpt,
 )
-from ecu.dgpt import SafetyBounds, predefined
+from pacc.vocab.dgpt import SafetyBounds, predefined
 
 
 def test_a_signed_table_verifies_to_the_same_table() -> None:

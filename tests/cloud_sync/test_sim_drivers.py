@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cloud_sync.trainer import learn_dgpt
+from cloud_sync.irl.trainer import learn_dgpt
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.manual import manual_trip
 from sim_bus.scenarios import canonical_profiles

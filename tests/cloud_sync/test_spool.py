@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cloud_sync.spool import EVICTION_ORDER, Spool, SpoolError, file_digest
-from ecu.triplog import Trip, read_trip
+from cloud_sync.vehicle.spool import EVICTION_ORDER, Spool, SpoolError, file_digest
+from pacc.vocab.triplog import Trip, read_trip
 
 
 def make_trip(mode: str, n: int = 50, seed: int = 0) -> Trip:

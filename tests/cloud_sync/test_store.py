@@ -7,12 +7,12 @@ from pathlib import Path
 
 import pytest
 
-from cloud_sync.local import LocalCloud
-from cloud_sync.service import CloudService
+from cloud_sync.service.local import LocalCloud
+from cloud_sync.service.rules import CloudService
+from cloud_sync.service.store import StoreError, VersionRow
 from cloud_sync.signing import verify_dgpt
-from cloud_sync.store import StoreError, VersionRow
-from ecu.dgpt import predefined
-from ecu.triplog import write_trip
+from pacc.vocab.dgpt import predefined
+from pacc.vocab.triplog import write_trip
 from tests.cloud_sync.conftest import follower_trip
 
 

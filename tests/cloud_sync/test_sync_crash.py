@@ -14,10 +14,10 @@ from pathlib import Path
 
 import pytest
 
-from cloud_sync.client import HttpCloud
-from cloud_sync.service import CloudService
-from cloud_sync.spool import Spool
-from cloud_sync.uploader import Uploader, UploaderConfig
+from cloud_sync.service.rules import CloudService
+from cloud_sync.vehicle.client import HttpCloud
+from cloud_sync.vehicle.spool import Spool
+from cloud_sync.vehicle.uploader import Uploader, UploaderConfig
 from tests.cloud_sync.test_cloud_api import Served
 from tests.cloud_sync.test_spool import make_trip
 

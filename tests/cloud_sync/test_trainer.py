@@ -10,16 +10,16 @@ import numpy as np
 import pytest
 
 from cloud_sync.errors import TrainingError
-from cloud_sync.trainer import (
+from cloud_sync.irl.trainer import (
     IrlConfig,
     LearnResult,
     empirical_baseline,
     fine_tune,
     learn_dgpt,
 )
-from ecu.dgpt import SafetyBounds, load_dgpt, predefined, save_dgpt
-from ecu.state import AccState
-from ecu.triplog import Trip
+from pacc.vocab.acc_state import AccState
+from pacc.vocab.dgpt import SafetyBounds, load_dgpt, predefined, save_dgpt
+from pacc.vocab.triplog import Trip
 
 D0, T = 4.0, 1.6
 

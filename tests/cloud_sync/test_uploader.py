@@ -14,12 +14,12 @@ from typing import Any
 import pytest
 import uvicorn
 
-from cloud_sync.client import HttpCloud
-from cloud_sync.local import LocalCloud
-from cloud_sync.server import create_app
-from cloud_sync.service import CloudService
-from cloud_sync.spool import Spool
-from cloud_sync.uploader import Uploader, UploaderConfig
+from cloud_sync.service.http import create_app
+from cloud_sync.service.local import LocalCloud
+from cloud_sync.service.rules import CloudService
+from cloud_sync.vehicle.client import HttpCloud
+from cloud_sync.vehicle.spool import Spool
+from cloud_sync.vehicle.uploader import Uploader, UploaderConfig
 from tests.cloud_sync.test_spool import make_trip
 
 FAST = UploaderConfig(backoff_s=0.02, backoff_max_s=0.2, poll_s=0.05)

@@ -20,7 +20,7 @@ from ecu.adaptation import (
     spread_weights,
     timegap_weights,
 )
-from ecu.dgpt import SafetyBounds, predefined
+from pacc.vocab.dgpt import SafetyBounds, predefined
 
 P = AdaptationParams(mode="paper")  # P_T 1 s, K_T 1 s, V_D 5 m/s, window 9
 #: the one safety band of tables and adaptation: 2 m + 0.8 s·v … 10 m + 5 s·v

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from ecu.blocks import BlockError, block_schema, decode_block, encode_block
+from ecu.buslog.blocks import BlockError, block_schema, decode_block, encode_block
 
 
 def test_round_trip_keeps_values_and_dtypes_exactly() -> None:

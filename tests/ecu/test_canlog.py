@@ -15,7 +15,7 @@ from mcap.reader import make_reader
 from dbc import BINDING_PATH, DBC_PATH
 from dbc.codec import load_codec
 from dbc.endpoint import Outbox
-from ecu.canlog_format import (
+from ecu.buslog.format import (
     FLAG_ERROR,
     FLAG_EXTENDED,
     FLAG_REMOTE,
@@ -23,12 +23,12 @@ from ecu.canlog_format import (
     CanLogError,
     TimeBase,
 )
-from ecu.canlog_read import messages, read_canlog
+from ecu.buslog.reader import messages, read_canlog
+from ecu.buslog.recording import config_from_json, config_to_json, open_recording
 from ecu.config import EcuConfig
 from ecu.controller import ControllerParams
-from ecu.dgpt import predefined
-from ecu.recording import config_from_json, config_to_json, open_recording
-from ecu.triplog import Trip, write_trip
+from pacc.vocab.dgpt import predefined
+from pacc.vocab.triplog import Trip, write_trip
 
 UTC0_NS = 1_790_000_000_000_000_000  # 2026-09-21T...Z
 

@@ -16,10 +16,10 @@ import pytest
 
 from dbc import BINDING_PATH, DBC_PATH
 from dbc.codec import load_codec
-from ecu.cli import main, run_until_done
-from ecu.dgpt import load_dgpt, predefined
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
+from pacc.commands.ecu import main, run_until_done
+from pacc.vocab.dgpt import load_dgpt, predefined
 from tests.peers import PeerNodes
 
 _ids = itertools.count()
@@ -109,7 +109,7 @@ _SIGTERM_SCRIPT = """
 import os, signal, sys, threading, time
 import can
 from dbc.codec import load_codec
-from ecu.cli import main
+from pacc.commands.ecu import main
 from tests.peers import PeerNodes
 
 def peers():
@@ -361,9 +361,9 @@ def test_bus_failure_ends_the_run_cleanly() -> None:
 def test_cli_can_log_records_the_run_and_takeovers_carry_utc(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from ecu.canlog_read import read_canlog  # noqa: PLC0415
-    from ecu.replay import replay_through_ecu  # noqa: PLC0415
-    from ecu.triplog import read_trip  # noqa: PLC0415
+    from ecu.buslog.reader import read_canlog  # noqa: PLC0415
+    from ecu.buslog.replay import replay_through_ecu  # noqa: PLC0415
+    from pacc.vocab.triplog import read_trip  # noqa: PLC0415
 
     channel = f"ecu-cli-{next(_ids)}"
     peers = Peers(channel, 4.2)
@@ -390,6 +390,9 @@ def test_cli_can_log_records_the_run_and_takeovers_carry_utc(
 
 
 def test_help_path_imports_neither_python_can_nor_mcap() -> None:
-    code = "import sys, ecu.cli; print(sorted({'can', 'mcap', 'cantools'} & set(sys.modules)))"
+    code = (
+        "import sys, pacc.commands.ecu; "
+        "print(sorted({'can', 'mcap', 'cantools'} & set(sys.modules)))"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"

@@ -8,10 +8,10 @@ from pathlib import Path
 
 import pytest
 
-from cloud_sync.connect import write_token
-from cloud_sync.service import CloudService
-from ecu.cli import main
-from ecu.dgpt import Dgpt, predefined
+from cloud_sync.service.rules import CloudService
+from cloud_sync.vehicle.connect import write_token
+from pacc.commands.ecu import main
+from pacc.vocab.dgpt import Dgpt, predefined
 from tests.ecu.test_cli import Peers
 
 

@@ -11,8 +11,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from ecu import EcuError
-from ecu.dgpt import (
+from pacc.vocab import FormatError
+from pacc.vocab.dgpt import (
     Dgpt,
     DgptError,
     SafetyBounds,
@@ -141,7 +141,7 @@ def test_invalid_files_refused_with_clear_message(
     with pytest.raises(DgptError, match=message) as info:
         load_dgpt(path)
     assert str(path) in str(info.value)
-    assert isinstance(info.value, EcuError)
+    assert isinstance(info.value, FormatError)
 
 
 def test_unreadable_and_non_json(tmp_path: Path) -> None:

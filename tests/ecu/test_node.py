@@ -11,11 +11,11 @@ import pytest
 from hypothesis import event, given
 from hypothesis import strategies as st
 
-from ecu.dgpt import predefined
 from ecu.node import ConfigError, EcuConfig, EcuNode, NodeInputs, NodeOutputs
 from ecu.phases import ControlMemory, Plan, control
-from ecu.state import AccState, FaultCode
-from ecu.triplog import Trip
+from pacc.vocab.acc_state import AccState, FaultCode
+from pacc.vocab.dgpt import predefined
+from pacc.vocab.triplog import Trip
 
 DT = 0.02
 JERK = 2.5

@@ -7,7 +7,7 @@ import math
 import pytest
 
 from dbc.codec import load_codec
-from ecu.pedals import PedalScale
+from pacc.vocab.pedals import PedalScale
 
 
 def test_full_scale_is_the_dbc_maximum_of_each_pedal_field() -> None:

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from ecu.recorder import RecorderError, Sample, TakeoverRecorder, directory_sink
-from ecu.triplog import Trip, read_trip
+from pacc.vocab.triplog import Trip, read_trip
 
 
 def feed(rec: TakeoverRecorder, t0: float, t1: float, state: int = 2, dt: float = 0.02) -> float:
@@ -144,7 +144,7 @@ def test_directory_sink_refuses_a_file(tmp_path: Path) -> None:
 def test_segments_of_a_real_time_ecu_are_stamped_with_utc(tmp_path: Path) -> None:
     from mcap.reader import make_reader  # noqa: PLC0415
 
-    from ecu.canlog_format import TimeBase  # noqa: PLC0415
+    from ecu.buslog.format import TimeBase  # noqa: PLC0415
 
     base = TimeBase(1_790_000_000_000_000_000, 5000.0)  # boot clock 5000 s = that UTC
     rec = TakeoverRecorder(directory_sink(tmp_path), utc_of=base.iso)

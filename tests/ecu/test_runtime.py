@@ -16,11 +16,11 @@ from dbc import DBC_PATH
 from dbc.codec import load_codec
 from ecu.adaptation import AdaptationParams
 from ecu.config import ConfigError
-from ecu.dgpt import predefined, save_dgpt
 from ecu.node import EcuConfig, EcuNode, NodeInputs
 from ecu.runtime import EcuRuntime, RuntimeClockError, RuntimeCodecError
-from ecu.state import AccState
-from ecu.triplog import Trip
+from pacc.vocab.acc_state import AccState
+from pacc.vocab.dgpt import predefined, save_dgpt
+from pacc.vocab.triplog import Trip
 from tests.peers import PeerNodes
 
 _ids = itertools.count()

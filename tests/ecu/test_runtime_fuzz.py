@@ -24,10 +24,10 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from dbc.codec import load_codec
-from ecu.dgpt import predefined, save_dgpt
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
-from ecu.state import AccState
+from pacc.vocab.acc_state import AccState
+from pacc.vocab.dgpt import predefined, save_dgpt
 from tests.peers import PeerNodes
 
 CODEC = load_codec()

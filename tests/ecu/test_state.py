@@ -8,7 +8,8 @@ from dataclasses import fields, replace
 import pytest
 
 from dbc.codec import load_codec
-from ecu.state import AccState, Events, FaultCode, transition
+from ecu.state import Events, transition
+from pacc.vocab.acc_state import AccState, FaultCode
 
 S = AccState
 ON = Events(main_on=True)

@@ -8,10 +8,10 @@ from pathlib import Path
 import pytest
 
 from dbc import BINDING_PATH, DBC_PATH
-from ecu.cli import main as ecu_main
-from sim_bus.cli import main as sim_main
-from sim_bus.drive import main as drive_main
-from sim_bus.study.cli import main as study_main
+from pacc.commands.drive import main as drive_main
+from pacc.commands.ecu import main as ecu_main
+from pacc.commands.sim import main as sim_main
+from pacc.commands.study import main as study_main
 
 COMMANDS: dict[str, Callable[[list[str] | None], int]] = {
     "ecu": ecu_main,

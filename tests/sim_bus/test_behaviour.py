@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ecu.state import AccState
+from pacc.vocab.acc_state import AccState
 from sim_bus.behaviour import ATTENTIVE_REACTION_S, DriverAgent
 from sim_bus.drivers import DriverParams
 

@@ -9,16 +9,19 @@ import can
 import numpy as np
 import pytest
 
-from ecu.dgpt import predefined, save_dgpt
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
-from ecu.state import AccState
-from ecu.triplog import read_trip
-from sim_bus import cli, drive, scenarios
+from pacc.commands import drive
+from pacc.commands import sim as cli
+from pacc.vocab.acc_state import AccState
+from pacc.vocab.dgpt import predefined, save_dgpt
+from pacc.vocab.triplog import read_trip
+from sim_bus import scenarios
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.errors import SimError
-from sim_bus.irl_table import cache_key, code_digest, irl_table
 from sim_bus.manual import manual_trip
+from sim_bus.study.drive import with_condition
+from sim_bus.study.irl_table import cache_key, code_digest, irl_table
 from sim_bus.world import World
 
 
@@ -232,11 +235,11 @@ def test_scenarios_export_and_drive_the_csv(
 
 
 def test_condition_factor_lengthens_the_preference(tmp_path: Path) -> None:
-    d = drive.with_condition(BUILTIN_DRIVERS["d2"], 1.25)
+    d = with_condition(BUILTIN_DRIVERS["d2"], 1.25)
     assert d.preferred_gap_m(20.0) - 4.0 == pytest.approx(
         1.25 * (BUILTIN_DRIVERS["d2"].preferred_gap_m(20.0) - 4.0)
     )
-    assert drive.with_condition(BUILTIN_DRIVERS["d2"], 1.0) is BUILTIN_DRIVERS["d2"]
+    assert with_condition(BUILTIN_DRIVERS["d2"], 1.0) is BUILTIN_DRIVERS["d2"]
     assert drive.main(["--condition-factor", "0", "--duration", "5"]) == 2
     log = tmp_path / "rain.mcap"
     assert drive.main(["--condition-factor", "1.2", "--duration", "5", "--log", str(log)]) == 0

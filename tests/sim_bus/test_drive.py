@@ -10,20 +10,20 @@ import numpy as np
 import pytest
 
 from ecu.adaptation import AdaptationParams, Reason
-from ecu.dgpt import Dgpt, SafetyBounds, clamp_to_bounds, speed_axis
-from ecu.state import AccState
-from sim_bus.drive import (
+from pacc.commands.drive import main
+from pacc.vocab.acc_state import AccState
+from pacc.vocab.dgpt import Dgpt, SafetyBounds, clamp_to_bounds, speed_axis
+from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
+from sim_bus.errors import DriveError
+from sim_bus.scenarios import LeadProfile, canonical_profiles, shorten
+from sim_bus.study.drive import (
     CONTROLLERS,
     DriveConfig,
     DriveResult,
     adaptation_params,
-    main,
     predefined_table,
     run_drive,
 )
-from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
-from sim_bus.errors import DriveError
-from sim_bus.scenarios import LeadProfile, canonical_profiles, shorten
 
 SAFETY_MIN_GAP_M = 2.0  # SafetyBounds.standstill_min_m: the smallest gap the DGPT allows
 JERK_LIMIT_MPS3 = 2.5

@@ -17,21 +17,21 @@ import pytest
 from mcap.reader import make_reader
 
 from dbc import DBC_PATH
-from ecu import replay_cmd
-from ecu.canlog_read import CanLog, read_canlog
-from ecu.dgpt import predefined
-from ecu.export_cmd import main as export_main
+from ecu.buslog.reader import CanLog, read_canlog
+from ecu.buslog.replay import play, replay_through_ecu
 from ecu.node import EcuConfig, EcuNode
-from ecu.plot_cmd import main as plot_main
-from ecu.replay import play, replay_through_ecu
 from ecu.runtime import EcuRuntime
 from pacc.cli import main as pacc_main
-from sim_bus import cli as sim_cli
-from sim_bus.drive import DriveConfig, predefined_table, run_drive
-from sim_bus.drive import main as drive_main
-from sim_bus.drive_tasks import DriveJob, run_job
+from pacc.commands import replay as replay_cmd
+from pacc.commands import sim as sim_cli
+from pacc.commands.drive import main as drive_main
+from pacc.commands.export import main as export_main
+from pacc.commands.plot import main as plot_main
+from pacc.vocab.dgpt import predefined
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.study.config import StudyConfig
+from sim_bus.study.drive import DriveConfig, predefined_table, run_drive
+from sim_bus.study.tasks import DriveJob, run_job
 
 #: d2 with online adaptation: a takeover at 10.2 s, the adaptation at its release (13.2 s)
 CFG = DriveConfig(scenario="B", driver_id="d2", controller="predefined+oa", seed=1, duration_s=20.0)
@@ -340,7 +340,7 @@ _FULL_DISK = """
 import resource, signal, sys
 signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails with EFBIG
 resource.setrlimit(resource.RLIMIT_FSIZE, (200_000, resource.RLIM_INFINITY))
-from sim_bus.drive import main
+from pacc.commands.drive import main
 sys.exit(main(["--duration", "60", "--can-log", sys.argv[1]]))
 """
 

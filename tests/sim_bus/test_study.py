@@ -10,13 +10,14 @@ from typing import Any
 import pytest
 
 from ecu.adaptation import AdaptationParams
-from ecu.dgpt import Dgpt, load_dgpt, predefined
-from ecu.triplog import read_trip
+from pacc.commands.study import main
+from pacc.vocab.dgpt import Dgpt, load_dgpt, predefined
+from pacc.vocab.triplog import read_trip
 from sim_bus.drivers import DriverParams
-from sim_bus.study import StudyConfig, main, run_study
 from sim_bus.study import run as study_run
-from sim_bus.study.config import validate
+from sim_bus.study.config import StudyConfig, validate
 from sim_bus.study.report import format_table, reduction_pct
+from sim_bus.study.run import run_study
 
 SMALL = StudyConfig(
     drivers=("d1", "d4"),

@@ -15,11 +15,13 @@ from typing import Any, TypeVar
 
 import pytest
 
-from cloud_sync.engine import Engine, InlineEngine
-from ecu.triplog import read_trip
-from sim_bus.study import StudyConfig, main, run_study
+from cloud_sync.engine.base import Engine, InlineEngine
+from pacc.commands.study import main
+from pacc.vocab.triplog import read_trip
 from sim_bus.study.collect import row_key
+from sim_bus.study.config import StudyConfig
 from sim_bus.study.population import run_population
+from sim_bus.study.run import run_study
 
 S = TypeVar("S")
 T = TypeVar("T")
@@ -81,7 +83,7 @@ class KillOnce(Engine):
 
     def __init__(self, inner: Engine) -> None:
         # the import costs ~1 s: only the sessions with a distributed test pay it
-        from cloud_sync.dask_engine import DaskEngine  # noqa: PLC0415
+        from cloud_sync.engine.dask_backend import DaskEngine  # noqa: PLC0415
 
         assert isinstance(inner, DaskEngine)
         self.inner: DaskEngine = inner

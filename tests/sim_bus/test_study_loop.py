@@ -8,11 +8,12 @@ from pathlib import Path
 
 import pytest
 
-from cloud_sync.service import CloudService
-from ecu.dgpt import load_dgpt
+from cloud_sync.service.rules import CloudService
+from pacc.commands.study import main
+from pacc.vocab.dgpt import load_dgpt
 from sim_bus.errors import SimError
-from sim_bus.study import StudyConfig, main, run_study
-from sim_bus.study.config import validate
+from sim_bus.study.config import StudyConfig, validate
+from sim_bus.study.run import run_study
 
 
 @pytest.mark.slow

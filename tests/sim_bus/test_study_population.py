@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from sim_bus.study.cli import main
+from pacc.commands.study import main
 from sim_bus.study.config import StudyConfig
 from sim_bus.study.population import ROWS_FILE, run_population
 

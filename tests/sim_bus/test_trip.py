@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 
 from dbc.codec import load_codec
-from ecu.dgpt import Dgpt, SafetyBounds, clamp_to_bounds, speed_axis
-from ecu.pedals import PedalScale
-from ecu.state import AccState
-from ecu.triplog import Trip
-from sim_bus.drive import DriveConfig, log_to_trip, run_drive
+from pacc.vocab.acc_state import AccState
+from pacc.vocab.dgpt import Dgpt, SafetyBounds, clamp_to_bounds, speed_axis
+from pacc.vocab.pedals import PedalScale
+from pacc.vocab.triplog import Trip
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.scenarios import canonical_profiles, shorten
+from sim_bus.study.drive import DriveConfig, log_to_trip, run_drive
 from sim_bus.trip import condition_name, world_trip
 from sim_bus.world import WorldLog
 

@@ -22,10 +22,10 @@ from dbc.codec import Codec, CrcError, load_codec
 from dbc.e2e import E2EStatus
 from dbc.endpoint import Inbox, Outbox
 from dbc.errors import BindingError, DbcError
-from ecu.dgpt import predefined
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
-from ecu.state import AccState
+from pacc.vocab.acc_state import AccState
+from pacc.vocab.dgpt import predefined
 from tools.opendbc_toyota import assemble
 
 pytest.importorskip("opendbc.can.packer")
@@ -227,8 +227,8 @@ def test_pacc_drive_on_the_toyota_network(
 ) -> None:
     """The closed loop runs from the command line on the Toyota network, and its bus
     recording (which carries the Toyota DBC and binding) replays through the ECU exactly."""
-    from ecu.replay_cmd import main as replay  # noqa: PLC0415 - entry points, on top
-    from sim_bus.drive import main  # noqa: PLC0415
+    from pacc.commands.drive import main  # noqa: PLC0415
+    from pacc.commands.replay import main as replay  # noqa: PLC0415 - entry points, on top
 
     argv = ["--driver", "d2", "--duration", "20", "--can-log", str(tmp_path / "t.mcap")]
     assert main([*argv, "--dbc", str(toyota_dbc), "--binding", str(BINDING)]) == 0

@@ -1,0 +1,235 @@
+"""From a reward (or from raw data) to a DGPT: argmax, low-pass, continuation, bounds.
+
+All functions are pure and work on the DGPT speed axis (``pacc.vocab.dgpt.speed_axis``, shape (n,)).
+
+- :func:`irl_gaps`: the table of a reward: :func:`argmax_gap` inside the safety band and the
+  demonstrated gap range (:func:`gap_support`), then :func:`finish_table`.
+- :func:`argmax_gap`: ``DGPT(v) = argmax_g r(v, g)`` over a fine gap grid.
+- :func:`gap_support`: the gap range demonstrated near each speed (where the reward is known).
+- :func:`lowpass`: zero-phase Butterworth filter (``scipy.signal.filtfilt``) along the axis.
+- :func:`continue_time_gap`: bins without evidence get ``d0 + T(v)·v``, where the time gap
+  ``T = (g − d0)/v`` is interpolated between covered bins of at least
+  :data:`CONTINUE_MIN_SPEED_MPS` and held constant beyond them; with no covered bin that fast,
+  the stated prior :data:`PRIOR_HEADWAY_S` (or, with a fallback table, the fallback's gaps
+  are kept there). :func:`outside_coverage` names the rule a table used.
+- :func:`finish_table`: raw per-bin gaps → table: continuation, low-pass, continuation, clamp.
+- :func:`steady_state_gaps`: the empirical baseline, the median gap of near-steady samples
+  (|dv| and |a| small) per speed bin.
+
+Where the evidence is (coverage) and how a table continues an earlier one:
+:mod:`cloud_sync.irl.blend`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import signal
+
+from cloud_sync.irl.features import Features
+from pacc.vocab.dgpt import SafetyBounds, clamp_to_bounds
+
+#: covered bins slower than this do not set the time gap continued to other speeds, m/s:
+#: below it the standstill distance dominates the gap and (g − d0)/v is mostly noise (issue
+#: 11: a table learned from stop-and-go data below 5 m/s stated gaps at 30 m/s)
+CONTINUE_MIN_SPEED_MPS = 8.0
+#: the prior time gap of speeds no usable evidence reaches, s (openpilot's "standard"
+#: personality is 1.45 s; the real OpenACC followers keep 1.4-3.4 s)
+PRIOR_HEADWAY_S = 1.5
+
+__all__ = [
+    "CONTINUE_MIN_SPEED_MPS",
+    "PRIOR_HEADWAY_S",
+    "outside_coverage",
+    "irl_gaps",
+    "argmax_gap",
+    "lowpass",
+    "continue_time_gap",
+    "steady_state_gaps",
+    "finish_table",
+    "gap_support",
+    "search_range",
+]
+
+
+def gap_support(
+    axis_mps: np.ndarray,
+    v_mps: np.ndarray,
+    gap_m: np.ndarray,
+    *,
+    half_window_mps: float = 1.0,
+    quantile: float = 0.01,
+    margin_m: float = 2.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The demonstrated gap range per bin: the ``quantile``…``1 − quantile`` range of gaps
+    within ±half_window of each bin, widened by ``margin_m``; NaN where no sample. (n,) each.
+
+    The reward is identified only where the demonstrations are; the argmax is taken there.
+    """
+    order = np.argsort(v_mps)
+    v, g = v_mps[order], gap_m[order]
+    lo_i = np.searchsorted(v, axis_mps - half_window_mps, side="left")
+    hi_i = np.searchsorted(v, axis_mps + half_window_mps, side="right")
+    lo = np.full(axis_mps.size, np.nan)
+    hi = np.full(axis_mps.size, np.nan)
+    for i, (a, b) in enumerate(zip(lo_i.tolist(), hi_i.tolist(), strict=True)):
+        if b > a:
+            q = np.quantile(g[a:b], [quantile, 1.0 - quantile])
+            lo[i], hi[i] = q[0] - margin_m, q[1] + margin_m
+    return lo, hi
+
+
+def argmax_gap(reward_fn_vg: np.ndarray, gaps_m: np.ndarray) -> np.ndarray:
+    """Per row of ``reward_fn_vg`` (n, m) evaluated at ``gaps_m`` (m,), the maximising gap (n,)."""
+    return np.asarray(gaps_m[np.argmax(reward_fn_vg, axis=1)])
+
+
+def lowpass(gap_m: np.ndarray, cutoff: float = 0.1, order: int = 2) -> np.ndarray:
+    """Zero-phase Butterworth low-pass of ``gap_m`` (n,) along the axis.
+
+    ``cutoff`` is the normalised cut-off frequency (1 = Nyquist, i.e. 1/(2 bins)); 0.1 keeps
+    variations slower than about 20 bins (10 m/s at 0.5 m/s per bin).
+    """
+    b, a = signal.butter(order, cutoff)
+    x = np.arange(gap_m.size, dtype=np.float64)
+    slope, icpt = np.polyfit(x, gap_m, 1)
+    trend = icpt + slope * x  # filtered separately: a straight table passes unchanged
+    resid = gap_m - trend
+    padlen = min(3 * max(len(a), len(b)) * 4, gap_m.size - 1)
+    return np.asarray(trend + signal.filtfilt(b, a, resid, padlen=padlen))
+
+
+def continue_time_gap(
+    axis_mps: np.ndarray,
+    gap_m: np.ndarray,
+    covered: np.ndarray,
+    standstill_m: float,
+    fallback_m: np.ndarray | None = None,
+) -> np.ndarray:
+    """Replace the gaps of uncovered bins (``covered`` False) by a time-gap continuation.
+
+    Without ``fallback_m``: the time gap ``T_i = (g_i − d0)/v_i`` of covered bins with
+    ``v >= CONTINUE_MIN_SPEED_MPS`` is interpolated linearly over speed and held beyond them;
+    an uncovered bin gets ``d0 + T(v)·v`` (so a standstill bin gets ``d0``). Without such a
+    bin (nothing covered, or only slow speeds) an uncovered bin gets the prior
+    ``d0 + PRIOR_HEADWAY_S·v``: a table never states a gap at speeds far from its data that
+    the data do not support. With ``fallback_m`` (n,): uncovered bins keep the fallback's gaps
+    (an earlier table), covered bins take ``gap_m``.
+    """
+    out = np.array(gap_m, dtype=np.float64)
+    if fallback_m is not None:
+        if not covered.any():
+            return out
+        return np.where(covered, out, fallback_m)
+    use = covered & (axis_mps >= CONTINUE_MIN_SPEED_MPS)
+    if not use.any():
+        return np.where(covered, out, standstill_m + PRIOR_HEADWAY_S * axis_mps)
+    headway = (out[use] - standstill_m) / axis_mps[use]
+    t_all = np.interp(axis_mps, axis_mps[use], headway)
+    return np.where(covered, out, standstill_m + t_all * axis_mps)
+
+
+def outside_coverage(axis_mps: np.ndarray, covered: np.ndarray) -> str:
+    """The rule :func:`continue_time_gap` applied to the uncovered speeds (for a table's meta)."""
+    if covered.all():
+        return "none: every speed covered"
+    if (covered & (axis_mps >= CONTINUE_MIN_SPEED_MPS)).any():
+        return (
+            f"time gap of the covered speeds >= {CONTINUE_MIN_SPEED_MPS:g} m/s, interpolated "
+            "and held constant beyond them"
+        )
+    return (
+        f"prior time gap {PRIOR_HEADWAY_S:g} s (no covered speed >= {CONTINUE_MIN_SPEED_MPS:g} m/s)"
+    )
+
+
+def steady_state_gaps(
+    axis_mps: np.ndarray,
+    v_mps: np.ndarray,
+    gap_m: np.ndarray,
+    dv_mps: np.ndarray,
+    a_mps2: np.ndarray,
+    *,
+    max_abs_dv_mps: float = 0.5,
+    max_abs_a_mps2: float = 0.3,
+    half_window_mps: float = 0.5,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The empirical baseline: median gap of steady-state samples per speed bin.
+
+    Inputs are sample arrays of shape (k,). Returns ``(gap_m, count)`` of shape (n,): the median
+    gap of samples with ``|dv| ≤ max_abs_dv`` and ``|a| ≤ max_abs_a`` within ±half_window of
+    each bin (NaN where none), and the number of such samples.
+    """
+    steady = (np.abs(dv_mps) <= max_abs_dv_mps) & (np.abs(a_mps2) <= max_abs_a_mps2)
+    v, g = v_mps[steady], gap_m[steady]
+    order = np.argsort(v)
+    v, g = v[order], g[order]
+    lo = np.searchsorted(v, axis_mps - half_window_mps, side="left")
+    hi = np.searchsorted(v, axis_mps + half_window_mps, side="right")
+    out = np.full(axis_mps.size, np.nan)
+    for i, (a, b) in enumerate(zip(lo.tolist(), hi.tolist(), strict=True)):
+        if b > a:
+            out[i] = float(np.median(g[a:b]))
+    return out, (hi - lo).astype(np.int64)
+
+
+def finish_table(
+    axis_mps: np.ndarray,
+    raw_gap_m: np.ndarray,
+    covered: np.ndarray,
+    bounds: SafetyBounds,
+    *,
+    cutoff: float = 0.1,
+    fallback_m: np.ndarray | None = None,
+) -> np.ndarray:
+    """Raw per-bin gaps → the final table (n,): continuation, low-pass, continuation, clamp.
+
+    Uncovered bins are first filled by continuation so the filter sees no holes; after the
+    filter the covered bins keep their filtered values and the uncovered ones are continued
+    again from them (or taken from ``fallback_m``); last, everything is clamped to ``bounds``.
+    """
+    raw = np.where(np.isfinite(raw_gap_m), raw_gap_m, 0.0)
+    covered = covered & np.isfinite(raw_gap_m)
+    filled = continue_time_gap(axis_mps, raw, covered, bounds.standstill_m, fallback_m)
+    smooth = lowpass(clamp_to_bounds(axis_mps, filled, bounds), cutoff)
+    final = continue_time_gap(axis_mps, smooth, covered, bounds.standstill_m, fallback_m)
+    return np.asarray(clamp_to_bounds(axis_mps, final, bounds))
+
+
+def irl_gaps(
+    alpha: np.ndarray,
+    features: Features,
+    axis_mps: np.ndarray,
+    covered: np.ndarray,
+    support: tuple[np.ndarray, np.ndarray],
+    *,
+    bounds: SafetyBounds,
+    resolution_m: float,
+    cutoff: float,
+) -> np.ndarray:
+    """The table (n,) of the reward with weights ``alpha`` (K,) on ``features``.
+
+    At each speed the argmax is taken over gaps every ``resolution_m`` inside the safety band
+    and the demonstrated range ``support`` ((lo, hi), (n,) each, NaN: unlimited), at least one
+    step wide; the raw gaps are then finished (:func:`finish_table`, ``covered`` (n,) bool).
+    """
+    gaps = np.arange(bounds.lower_m(0.0), float(bounds.upper_m(axis_mps[-1])) + 1e-9, resolution_m)
+    reward = features.reward_vg(alpha, axis_mps, gaps)
+    lo, hi = search_range(axis_mps, support, bounds, resolution_m)
+    reward = np.where(
+        (gaps[None, :] >= lo[:, None]) & (gaps[None, :] <= hi[:, None]), reward, -np.inf
+    )
+    raw = argmax_gap(reward, gaps)
+    return finish_table(axis_mps, raw, covered, bounds, cutoff=cutoff)
+
+
+def search_range(
+    axis_mps: np.ndarray,
+    support: tuple[np.ndarray, np.ndarray],
+    bounds: SafetyBounds,
+    min_width_m: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The gaps a table may take at each speed: the demonstrated range ``support`` ((lo, hi),
+    (n,) each, NaN: unlimited) inside the safety band, at least ``min_width_m`` wide; (n,) each."""
+    lo = np.fmax(bounds.lower_m(axis_mps), np.nan_to_num(support[0], nan=-np.inf))
+    hi = np.fmin(bounds.upper_m(axis_mps), np.nan_to_num(support[1], nan=np.inf))
+    return np.asarray(lo), np.asarray(np.maximum(hi, lo + min_width_m))

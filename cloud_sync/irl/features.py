@@ -1,0 +1,274 @@
+"""Reward features: Gaussian radial basis functions over (v, g), plus two comfort terms.
+
+The reward of the MDP is linear in ``K = n_cv·n_cg + 2`` features:
+
+    r(s, a) = Σ_ij α_ij·φ_i(v)·ψ_j(g − ℓ(v))  +  α_dv·(−(dv/dv_max)²)  +  α_a·(−(a/a_max)²)
+
+with ``φ_i(v) = exp(−½((v − c_i)/w_v)²)`` on centres every ``v_spacing_mps`` and ``ψ_j``
+likewise over a gap coordinate ``u``. By default (:func:`make_time_gap_features`) ``u`` is the
+time gap ``g/max(v, v_floor)`` on fixed centres: nothing is fitted to the data, and a
+preference ridge ``g ≈ d0 + T·v`` (or a non-monotonic one) runs nearly along the basis. The
+earlier ``offset`` basis (:func:`make_features`) takes ``u = g − ℓ(v)`` from a reference line
+``ℓ(v) = c0 + c1·v`` fitted to the demonstrations (``c0 = c1 = 0`` gives plain (v, g) RBFs).
+The (v, g) part is the preference the DGPT comes from (through the policy it induces); the
+comfort terms let the model explain smooth driving without bending it. Feature counts of
+a visitation ``M`` (n_v × n_gap) are ``Σ_kl M_kl·Bv_ki·Bg_klj`` (one einsum).
+
+Parameter vector layout: ``alpha[:n_cv·n_cg]`` is ``A.ravel()`` (A of shape (n_cv, n_cg)),
+then ``alpha_dv``, ``alpha_a``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from cloud_sync.errors import TrainingError
+from cloud_sync.irl.mdp import Grid
+
+__all__ = [
+    "FeatureConfig",
+    "Features",
+    "make_features",
+    "make_time_gap_features",
+    "features_from_spec",
+    "GAP_BASES",
+]
+
+#: the gap coordinate of the RBFs: ``time_gap`` (default), ``g/max(v, floor)`` on fixed
+#: centres, nothing fitted to the data; ``offset``, ``g − ℓ(v)`` from a reference line fitted
+#: to the demonstrations (the earlier basis, kept for comparison and for tables that carry it)
+GAP_BASES = ("time_gap", "offset")
+
+
+@dataclass(frozen=True)
+class FeatureConfig:
+    """RBF layout: centre spacings and width as a multiple of the spacing.
+
+    ``gap_basis`` (one of :data:`GAP_BASES`) picks the gap coordinate. Time gap: centres every
+    ``time_gap_spacing_s`` over 0 … ``time_gap_max_s``, the time gap taken as
+    ``g/max(v, time_gap_floor_mps)`` (below the floor speed the gap itself counts, scaled).
+    Offset: centres every ``gap_spacing_m`` over ±``offset_range_m`` around the fitted line.
+    """
+
+    v_spacing_mps: float = 2.0
+    gap_spacing_m: float = 3.0
+    width_ratio: float = 1.0
+    offset_range_m: float = 30.0
+    gap_basis: str = "time_gap"
+    time_gap_spacing_s: float = 0.25
+    time_gap_max_s: float = 6.0
+    time_gap_floor_mps: float = 5.0
+
+    def __post_init__(self) -> None:
+        if self.gap_basis not in GAP_BASES:
+            raise TrainingError(
+                f"FeatureConfig.gap_basis must be one of {', '.join(GAP_BASES)}, "
+                f"got {self.gap_basis!r}"
+            )
+        for name in (
+            "v_spacing_mps",
+            "gap_spacing_m",
+            "width_ratio",
+            "time_gap_spacing_s",
+            "time_gap_max_s",
+            "time_gap_floor_mps",
+        ):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise TrainingError(f"FeatureConfig.{name} must be finite and > 0, got {value}")
+
+
+@dataclass(frozen=True)
+class Features:
+    """RBF centres and widths, and the basis evaluated on a grid.
+
+    Attributes:
+        v_centres_mps: (n_cv,) speed centres. gap_centres_m: (n_cg,) gap-offset centres.
+        v_width_mps, gap_width_m: Gaussian widths. ref_c0_m, ref_c1_s: the reference line.
+        Bv: (n_v, n_cv) speed basis on the grid. Bg: (n_v, n_gap, n_cg) gap basis on the grid.
+        f_dv: (n_dv,) comfort feature of dv. f_a: (n_actions,) comfort feature of a.
+    """
+
+    v_centres_mps: np.ndarray
+    gap_centres_m: np.ndarray
+    v_width_mps: float
+    gap_width_m: float
+    Bv: np.ndarray
+    Bg: np.ndarray
+    f_dv: np.ndarray
+    f_a: np.ndarray
+    ref_c0_m: float = 0.0
+    ref_c1_s: float = 0.0
+    time_gap_floor_mps: float = 0.0
+
+    @property
+    def n_rbf(self) -> int:
+        """Number of (v, g) RBF features."""
+        return int(self.v_centres_mps.size * self.gap_centres_m.size)
+
+    @property
+    def n_features(self) -> int:
+        """Total number of features K."""
+        return self.n_rbf + 2
+
+    def split(self, alpha: np.ndarray) -> tuple[np.ndarray, float, float]:
+        """``alpha`` (K,) → (A of shape (n_cv, n_cg), alpha_dv, alpha_a)."""
+        if alpha.shape != (self.n_features,):
+            raise TrainingError(f"alpha has shape {alpha.shape}, expected ({self.n_features},)")
+        A = alpha[: self.n_rbf].reshape(self.v_centres_mps.size, self.gap_centres_m.size)
+        return A, float(alpha[self.n_rbf]), float(alpha[self.n_rbf + 1])
+
+    def reward_vg(self, alpha: np.ndarray, v_mps: np.ndarray, gap_m: np.ndarray) -> np.ndarray:
+        """The (v, g) reward on the outer product of ``v_mps`` (n,) and ``gap_m`` (m,): (n, m)."""
+        A, _, _ = self.split(alpha)
+        bv = rbf(v_mps, self.v_centres_mps, self.v_width_mps)
+        bg = gap_basis(
+            v_mps,
+            gap_m,
+            self.gap_centres_m,
+            self.gap_width_m,
+            self.ref_c0_m,
+            self.ref_c1_s,
+            self.time_gap_floor_mps,
+        )
+        return np.asarray(np.einsum("kj,klj->kl", bv @ A, bg))
+
+    def counts(self, m_vg: np.ndarray) -> np.ndarray:
+        """(v, g) feature counts (n_cv·n_cg,) of a grid visitation ``m_vg`` (n_v, n_gap)."""
+        return np.asarray(np.einsum("kl,ki,klj->ij", m_vg, self.Bv, self.Bg).ravel())
+
+    def spec(self) -> dict[str, float | list[float]]:
+        """JSON-serialisable description (centres and widths)."""
+        return {
+            "v_centres_mps": [float(c) for c in self.v_centres_mps],
+            "gap_centres_m": [float(c) for c in self.gap_centres_m],
+            "v_width_mps": float(self.v_width_mps),
+            "gap_width_m": float(self.gap_width_m),
+            "ref_c0_m": float(self.ref_c0_m),
+            "ref_c1_s": float(self.ref_c1_s),
+            "time_gap_floor_mps": float(self.time_gap_floor_mps),
+        }
+
+
+def rbf(x: np.ndarray, centres: np.ndarray, width: float) -> np.ndarray:
+    """Gaussian RBFs of ``x`` (n,) at ``centres`` (k,): shape (n, k), values in (0, 1]."""
+    z = (np.asarray(x, dtype=np.float64)[:, None] - centres[None, :]) / width
+    return np.asarray(np.exp(-0.5 * z * z))
+
+
+def gap_basis(
+    v_mps: np.ndarray,
+    gap_m: np.ndarray,
+    centres: np.ndarray,
+    width: float,
+    c0: float,
+    c1: float,
+    time_gap_floor_mps: float = 0.0,
+) -> np.ndarray:
+    """Gap RBFs of ``gap_m`` (m,) at each speed of ``v_mps`` (n,): shape (n, m, k).
+
+    With ``time_gap_floor_mps`` > 0 the coordinate is the time gap ``g/max(v, floor)`` (s);
+    otherwise the gap offset ``g − (c0 + c1·v)`` (m).
+    """
+    g = np.asarray(gap_m, dtype=np.float64)[None, :]
+    v = np.asarray(v_mps, dtype=np.float64)[:, None]
+    time_gap = time_gap_floor_mps > 0.0
+    u = g / np.maximum(v, time_gap_floor_mps) if time_gap else g - (c0 + c1 * v)
+    z = (u[:, :, None] - centres[None, None, :]) / width
+    return np.asarray(np.exp(-0.5 * z * z))
+
+
+def _comfort(grid: Grid) -> tuple[np.ndarray, np.ndarray]:
+    dv_max = float(np.max(np.abs(grid.dv_mps)))
+    a_max = float(np.max(np.abs(grid.accels_mps2)))
+    return -((grid.dv_mps / dv_max) ** 2), -((grid.accels_mps2 / a_max) ** 2)
+
+
+def _build(
+    grid: Grid,
+    vc: np.ndarray,
+    gc: np.ndarray,
+    wv: float,
+    wg: float,
+    c0: float,
+    c1: float,
+    floor: float = 0.0,
+) -> Features:
+    f_dv, f_a = _comfort(grid)
+    return Features(
+        v_centres_mps=vc,
+        gap_centres_m=gc,
+        v_width_mps=wv,
+        gap_width_m=wg,
+        Bv=rbf(grid.v_mps, vc, wv),
+        Bg=gap_basis(grid.v_mps, grid.gap_m, gc, wg, c0, c1, floor),
+        f_dv=f_dv,
+        f_a=f_a,
+        ref_c0_m=c0,
+        ref_c1_s=c1,
+        time_gap_floor_mps=floor,
+    )
+
+
+def make_features(
+    grid: Grid, config: FeatureConfig, ref_c0_m: float = 0.0, ref_c1_s: float = 0.0
+) -> Features:
+    """RBFs at the configured spacings: speed centres over the grid's speed range, gap-offset
+    centres over ±``offset_range_m`` around the reference line ``ref_c0_m + ref_c1_s·v``
+    (with the plain line ``0 + 0·v``, over the grid's gap range)."""
+    vc = np.arange(grid.v_mps[0], grid.v_mps[-1] + 1e-9, config.v_spacing_mps)
+    if ref_c0_m == 0.0 and ref_c1_s == 0.0:
+        gc = np.arange(grid.gap_m[0], grid.gap_m[-1] + 1e-9, config.gap_spacing_m)
+    else:
+        half = config.offset_range_m
+        gc = np.arange(-half, half + 1e-9, config.gap_spacing_m)
+    return _build(
+        grid,
+        vc,
+        gc,
+        config.width_ratio * config.v_spacing_mps,
+        config.width_ratio * config.gap_spacing_m,
+        ref_c0_m,
+        ref_c1_s,
+    )
+
+
+def make_time_gap_features(grid: Grid, config: FeatureConfig) -> Features:
+    """RBFs over speed (as :func:`make_features`) times RBFs over the time gap
+    ``g/max(v, config.time_gap_floor_mps)``, centres every ``time_gap_spacing_s`` over
+    0 … ``time_gap_max_s`` (s): fixed, fitted to nothing, so any smooth preference g*(v) —
+    non-monotonic ones too — is a ridge of the basis."""
+    vc = np.arange(grid.v_mps[0], grid.v_mps[-1] + 1e-9, config.v_spacing_mps)
+    gc = np.arange(0.0, config.time_gap_max_s + 1e-9, config.time_gap_spacing_s)
+    return _build(
+        grid,
+        vc,
+        gc,
+        config.width_ratio * config.v_spacing_mps,
+        config.width_ratio * config.time_gap_spacing_s,
+        0.0,
+        0.0,
+        config.time_gap_floor_mps,
+    )
+
+
+def features_from_spec(grid: Grid, spec: dict[str, object]) -> Features:
+    """Rebuild :class:`Features` on ``grid`` from :meth:`Features.spec`."""
+    try:
+        vc = np.asarray(spec["v_centres_mps"], dtype=np.float64)
+        gc = np.asarray(spec["gap_centres_m"], dtype=np.float64)
+        wv = float(spec["v_width_mps"])  # type: ignore[arg-type]
+        wg = float(spec["gap_width_m"])  # type: ignore[arg-type]
+        c0 = float(spec.get("ref_c0_m", 0.0))  # type: ignore[arg-type]
+        c1 = float(spec.get("ref_c1_s", 0.0))  # type: ignore[arg-type]
+        floor = float(spec.get("time_gap_floor_mps", 0.0))  # type: ignore[arg-type]
+    except (KeyError, TypeError, ValueError) as exc:
+        raise TrainingError(f"invalid feature spec: {exc}") from exc
+    if vc.ndim != 1 or gc.ndim != 1 or not (wv > 0 and wg > 0 and floor >= 0):
+        raise TrainingError(
+            "invalid feature spec: centres must be 1-D, widths > 0, time-gap floor >= 0"
+        )
+    return _build(grid, vc, gc, wv, wg, c0, c1, floor)

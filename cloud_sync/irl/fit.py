@@ -1,0 +1,96 @@
+"""The IRL optimisation: reward weights α that explain the demonstrations (L-BFGS-B).
+
+- :func:`start_alpha`: the starting weights, the prior α (or zeros) plus N(0, 10⁻³) noise
+  drawn from the seed; the objective is convex, so the seed moves the start, not the answer.
+- :func:`fit_alpha`: minimise :func:`cloud_sync.irl.mce_irl.objective` from there; returns the
+  weights and the optimiser's outcome as a :class:`Fit`.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import optimize
+from tqdm import tqdm
+
+from cloud_sync.irl.mce_irl import CompiledMdp, DemoStats, objective
+
+__all__ = ["Fit", "start_alpha", "fit_alpha"]
+
+
+@dataclass(frozen=True)
+class Fit:
+    """The outcome of :func:`fit_alpha`.
+
+    Attributes:
+        alpha: (K,) reward weights. n_iter: iterations. converged: the stopping rule was met.
+        message: the optimiser's reason to stop. objective: the final objective value.
+        train_s: wall time, s.
+    """
+
+    alpha: np.ndarray
+    n_iter: int
+    converged: bool
+    message: str
+    objective: float
+    train_s: float
+
+
+def start_alpha(n_features: int, prior: np.ndarray | None, seed: int) -> np.ndarray:
+    """``prior`` (or zeros), shape (K,), plus N(0, 10⁻³) noise from ``default_rng(seed)``."""
+    rng = np.random.default_rng(seed)
+    alpha0 = prior.copy() if prior is not None else np.zeros(n_features)
+    return np.asarray(alpha0 + rng.normal(0.0, 1e-3, n_features))
+
+
+def fit_alpha(
+    mdp: CompiledMdp,
+    stats: DemoStats,
+    alpha0: np.ndarray,
+    *,
+    prior: np.ndarray | None,
+    l2: float,
+    max_iter: int,
+    gtol: float,
+    ftol: float,
+    progress: bool = False,
+) -> Fit:
+    """Minimise the MCE-IRL dual from ``alpha0`` (K,), the L2 term pulling towards ``prior``.
+
+    L-BFGS-B stops after ``max_iter`` iterations, at a projected gradient ≤ ``gtol`` (max
+    component) or at a relative decrease of the objective below ``ftol``. ``progress`` shows a
+    tqdm bar. Raises :class:`~cloud_sync.errors.TrainingError` if the objective diverges.
+    """
+    bar = tqdm(total=max_iter, desc="IRL", unit="it", leave=False) if progress else None
+
+    def fun(alpha: np.ndarray) -> tuple[float, np.ndarray]:
+        return objective(alpha, mdp, stats, l2=l2, prior=prior)
+
+    def show(intermediate_result: optimize.OptimizeResult) -> None:
+        if bar is not None:
+            bar.update(1)
+            bar.set_postfix(f=f"{intermediate_result.fun:.4f}")
+
+    t0 = time.perf_counter()
+    try:
+        res = optimize.minimize(
+            fun,
+            alpha0,
+            jac=True,
+            method="L-BFGS-B",
+            callback=show if bar is not None else None,
+            options={"maxiter": max_iter, "gtol": gtol, "ftol": ftol},
+        )
+    finally:
+        if bar is not None:
+            bar.close()
+    return Fit(
+        alpha=np.asarray(res.x),
+        n_iter=int(res.nit),
+        converged=bool(res.success),
+        message=str(res.message),
+        objective=float(res.fun),
+        train_s=time.perf_counter() - t0,
+    )

@@ -1,0 +1,414 @@
+"""The IRL trainer: trips in, a driver's DGPT out (a thin composition of the pure phases).
+
+:func:`learn_dgpt` learns from demonstrations (manual drives, plus the takeovers of ACC trips,
+weighted); :func:`fine_tune` continues from an earlier IRL table with new takeovers;
+:func:`empirical_baseline` is the comparison table. Every result is a pure function of
+(configuration, seed, data): the optimiser is deterministic and the seed only draws the
+starting weights, which the convex objective forgets.
+
+The phases of :func:`learn_dgpt`, one module each: the demonstrations
+(:mod:`~cloud_sync.irl.demos`), the evidence per speed (:mod:`~cloud_sync.irl.blend`), the reward
+model
+(:mod:`~cloud_sync.irl.model`), the fit (:mod:`~cloud_sync.irl.fit`), the extraction of the table
+(:mod:`~cloud_sync.irl.policy_gap`, the gap the learned policy keeps, then
+:mod:`~cloud_sync.irl.extract`) and, continuing an earlier table, the blend into it
+(:mod:`~cloud_sync.irl.blend`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from cloud_sync.errors import DemoError, TrainingError
+from cloud_sync.irl import demos as dm
+from cloud_sync.irl.blend import Evidence, blend, covered_ranges, evidence
+from cloud_sync.irl.extract import (
+    finish_table,
+    irl_gaps,
+    outside_coverage,
+    search_range,
+    steady_state_gaps,
+)
+from cloud_sync.irl.features import FeatureConfig
+from cloud_sync.irl.fit import Fit, fit_alpha, start_alpha
+from cloud_sync.irl.mce_irl import CompiledMdp, DemoStats
+from cloud_sync.irl.mdp import GridConfig
+from cloud_sync.irl.model import METHOD, RewardModel, compile_model, fresh_model, model_of_table
+from cloud_sync.irl.policy_gap import steady_drift, steady_gaps
+from pacc.vocab.dgpt import Dgpt, SafetyBounds, speed_axis
+from pacc.vocab.triplog import Trip
+
+__all__ = [
+    "IrlConfig",
+    "LearnResult",
+    "learn_dgpt",
+    "fine_tune",
+    "empirical_baseline",
+    "METHOD",
+    "EXTRACTIONS",
+]
+
+#: how a table is read from the fitted reward: ``policy`` (default), the gap the soft-optimal
+#: policy keeps in steady following (:mod:`cloud_sync.irl.policy_gap`); ``argmax``, the gap of
+#: highest (v, g) reward (:func:`cloud_sync.irl.extract.irl_gaps`; kept for comparison)
+EXTRACTIONS = ("policy", "argmax")
+
+
+@dataclass(frozen=True)
+class IrlConfig:
+    """Everything that decides a learned table (units in names).
+
+    ``horizon_steps``: the longest demonstration segment (decisions). ``l2``: weight of the
+    quadratic penalty on α (towards the previous α when fine-tuning). ``max_iter``/``gtol``/
+    ``ftol``: the L-BFGS stopping rule (iterations; max |gradient component| per segment;
+    relative objective decrease). ``min_total_demo_s``: refuse less usable demonstration.
+    ``min_coverage_s``: seconds within ±0.5 m/s for a speed bin to count as evidence.
+    ``takeover_weight``: weight of an ACC trip's takeover samples against manual samples.
+    ``blend_window_mps``: when continuing from an earlier table, new evidence moves the table
+    within this distance of its speeds, blended by its amount (weight c/(c + blend_half_s)
+    for c seconds of new evidence); elsewhere the table is kept;
+    the table's gaps may range ±``init_support_ratio`` around the earlier gaps.
+    ``extraction``: how the table is read from the reward, one of :data:`EXTRACTIONS`.
+    """
+
+    grid: GridConfig = field(default_factory=GridConfig)
+    features: FeatureConfig = field(default_factory=FeatureConfig)
+    bounds: SafetyBounds = field(default_factory=SafetyBounds)
+    horizon_steps: int = 5
+    l2: float = 0.01
+    max_iter: int = 150
+    gtol: float = 1e-3
+    ftol: float = 1e-7
+    max_gap_m: float = 120.0
+    min_total_demo_s: float = 60.0
+    min_coverage_s: float = 10.0
+    lowpass_cutoff: float = 0.1
+    gap_resolution_m: float = 0.25
+    takeover_weight: float = 5.0
+    dgpt_step_mps: float = 0.5
+    blend_window_mps: float = 2.0
+    blend_half_s: float = 10.0
+    init_support_ratio: float = 0.3
+    extraction: str = "policy"
+
+    def __post_init__(self) -> None:
+        if self.extraction not in EXTRACTIONS:
+            raise TrainingError(
+                f"extraction must be one of {', '.join(EXTRACTIONS)}, got {self.extraction!r}"
+            )
+        if self.horizon_steps < 1:
+            raise TrainingError("horizon_steps must be >= 1")
+        if not (self.l2 >= 0 and self.max_iter >= 1 and self.gtol > 0 and self.ftol > 0):
+            raise TrainingError("l2 must be >= 0, max_iter >= 1, gtol and ftol > 0")
+        if not 0 < self.lowpass_cutoff < 1:
+            raise TrainingError("lowpass_cutoff must be in (0, 1)")
+        positive = (
+            "max_gap_m",
+            "min_coverage_s",
+            "gap_resolution_m",
+            "takeover_weight",
+            "dgpt_step_mps",
+            "blend_half_s",
+        )
+        for name in positive:  # finite and > 0 (NaN fails the comparison too)
+            value = getattr(self, name)
+            if not 0 < value < math.inf:
+                raise TrainingError(f"{name} must be a finite number > 0, got {value}")
+        for name in ("min_total_demo_s", "blend_window_mps", "init_support_ratio"):
+            value = getattr(self, name)
+            if not 0 <= value < math.inf:
+                raise TrainingError(f"{name} must be a finite number >= 0, got {value}")
+
+
+@dataclass(frozen=True)
+class LearnResult:
+    """A learned table and how it was obtained.
+
+    Attributes:
+        table: the DGPT (source ``irl``; its meta hold the data digest, the coverage per speed
+            bin and the model). baseline: the empirical steady-state table (None when the data
+            hold no steady-state following, e.g. takeovers alone).
+        alpha: (K,) reward weights. mdp: the compiled MDP (grid, features, transitions).
+        covered: (n,) bool, the speed bins the demonstrations set (the others are continued
+            or, continuing an earlier table, kept). n_iter, converged, message: the
+            optimiser's outcome. train_s: wall time of the optimisation, s.
+    """
+
+    table: Dgpt
+    baseline: Dgpt | None
+    alpha: np.ndarray
+    mdp: CompiledMdp
+    covered: np.ndarray
+    n_iter: int
+    converged: bool
+    message: str
+    train_s: float
+
+    def reward_vg(self, v_mps: np.ndarray, gap_m: np.ndarray) -> np.ndarray:
+        """The recovered (v, g) reward on the outer product of (n,) and (m,): (n, m)."""
+        return self.mdp.features.reward_vg(self.alpha, v_mps, gap_m)
+
+
+def empirical_baseline(
+    trips: Sequence[Trip],
+    *,
+    driver_id: str,
+    condition: str = "default",
+    config: IrlConfig | None = None,
+) -> Dgpt:
+    """The empirical steady-state table (same format; meta ``method = empirical``)."""
+    cfg = config if config is not None else IrlConfig()
+    dm.check_demos(trips, max_gap_m=cfg.max_gap_m, min_total_s=cfg.min_total_demo_s)
+    s = dm.pooled_samples(trips, cfg.max_gap_m)
+    axis = speed_axis(cfg.dgpt_step_mps)
+    raw, count = steady_state_gaps(axis, s.v_mps, s.gap_m, s.dv_mps, s.a_mps2)
+    dt = float(np.median(s.dt_s)) if s.dt_s.size else 0.1
+    covered = (count * dt >= cfg.min_coverage_s / 4.0) & np.isfinite(raw)
+    if not covered.any():
+        raise DemoError("no speed bin has enough steady-state following for the baseline")
+    gap = finish_table(axis, raw, covered, cfg.bounds, cutoff=cfg.lowpass_cutoff)
+    return Dgpt(
+        speed_mps=axis,
+        gap_m=gap,
+        version=0,
+        driver_id=driver_id,
+        condition=condition,
+        source="irl",
+        meta={
+            "method": "empirical",
+            "steady_samples": count.tolist(),
+            "covered": covered.tolist(),
+            "outside_coverage": outside_coverage(axis, covered),
+            "training_digest": dm.digest(trips, [1.0] * len(trips)),
+        },
+    )
+
+
+def learn_dgpt(
+    trips: list[Trip],
+    *,
+    driver_id: str,
+    condition: str = "default",
+    init: Dgpt | None = None,
+    seed: int = 0,
+    progress: bool = False,
+    config: IrlConfig | None = None,
+    weights: Sequence[float] | None = None,
+) -> LearnResult:
+    """Learn a driver's DGPT by maximum causal entropy IRL from ``trips``.
+
+    Manual drives count with weight 1 and the takeovers of ACC trips with
+    ``config.takeover_weight`` (or explicit per-trip ``weights``). With ``init`` (an earlier
+    table of this method) the grid, the features and α are taken from it, α starts from and is
+    pulled towards the earlier α, speeds without new evidence keep the earlier gaps, and the
+    result is ``init.version + 1``. Raises :class:`DemoError` for empty, NaN-filled or too
+    short demonstrations, :class:`TrainingError` for a negative seed or if the optimisation
+    fails.
+    """
+    cfg = config if config is not None else IrlConfig()
+    w = _trip_weights(trips, weights, init, driver_id=driver_id, seed=seed, config=cfg)
+    usable_s = dm.check_demos(
+        trips, max_gap_m=cfg.max_gap_m, min_total_s=cfg.min_total_demo_s, dt_s=cfg.grid.dt_s
+    )
+    samples = dm.pooled_samples(trips, cfg.max_gap_m)
+    axis = speed_axis(cfg.dgpt_step_mps)
+    ev = evidence(
+        axis,
+        samples,
+        min_coverage_s=cfg.min_coverage_s,
+        previous_m=None if init is None else np.interp(axis, init.speed_mps, init.gap_m),
+        window_mps=cfg.blend_window_mps,
+        support_ratio=cfg.init_support_ratio,
+    )
+    model = model_of_table(init)
+    if model is None:
+        model = fresh_model(samples, cfg.grid, cfg.features)
+    mdp = compile_model(model, cfg.grid)
+    tr = dm.extract_transitions(
+        trips, w, dt_s=model.grid.dt_s, horizon=cfg.horizon_steps, max_gap_m=cfg.max_gap_m
+    )
+    stats = dm.demo_stats(mdp, tr, cfg.horizon_steps)
+    fit = fit_alpha(
+        mdp,
+        stats,
+        start_alpha(model.features.n_features, model.prior_alpha, seed),
+        prior=model.prior_alpha,
+        l2=cfg.l2,
+        max_iter=cfg.max_iter,
+        gtol=cfg.gtol,
+        ftol=cfg.ftol,
+        progress=progress,
+    )
+    learned = _extract(cfg, fit.alpha, mdp, axis, ev)
+    gap, covered = blend(axis, learned, ev, half_s=cfg.blend_half_s, bounds=cfg.bounds)
+    meta = _irl_meta(
+        cfg, seed, len(trips), dm.digest(trips, w), usable_s, stats, ev, covered, model, fit, init
+    )
+    table = Dgpt(
+        speed_mps=axis,
+        gap_m=gap,
+        version=init.version + 1 if init is not None else 1,
+        driver_id=driver_id,
+        condition=condition,
+        source="irl",
+        meta=meta,
+    )
+    return LearnResult(
+        table=table,
+        baseline=_baseline_if_any(trips, driver_id, condition, cfg),
+        alpha=fit.alpha,
+        mdp=mdp,
+        covered=covered,
+        n_iter=fit.n_iter,
+        converged=fit.converged,
+        message=fit.message,
+        train_s=fit.train_s,
+    )
+
+
+def fine_tune(
+    takeover_trips: list[Trip],
+    init: Dgpt,
+    *,
+    demos: Sequence[Trip] = (),
+    seed: int = 0,
+    progress: bool = False,
+    config: IrlConfig | None = None,
+) -> LearnResult:
+    """The next version of ``init`` from the takeover segments of ACC trips.
+
+    Only the samples where the driver was in control count (``acc_state`` ≠ Active), with
+    weight ``config.takeover_weight``; optional earlier ``demos`` count with weight 1. α starts
+    from ``init``'s α and is pulled towards it, and speeds the takeovers do not cover keep
+    ``init``'s gaps. ``init`` must be an IRL table of this method (it carries α and the grid).
+    """
+    cfg = config if config is not None else IrlConfig()
+    if model_of_table(init) is None:
+        raise TrainingError(
+            "fine-tuning needs an IRL table of this method as init (its alpha and grid); "
+            f"got source={init.source!r}, method={init.meta.get('method')!r}"
+        )
+    trips = [*takeover_trips, *demos]
+    weights = [cfg.takeover_weight] * len(takeover_trips) + [1.0] * len(demos)
+    # takeovers are short: accept any amount, the prior keeps the rest of the table
+    cfg_ft = replace(
+        cfg,
+        min_total_demo_s=min(cfg.min_total_demo_s, 5.0),
+        min_coverage_s=min(cfg.min_coverage_s, 3.0),
+    )
+    return learn_dgpt(
+        trips,
+        driver_id=init.driver_id,
+        condition=init.condition,
+        init=init,
+        seed=seed,
+        progress=progress,
+        config=cfg_ft,
+        weights=weights,
+    )
+
+
+def _extract(
+    cfg: IrlConfig, alpha: np.ndarray, mdp: CompiledMdp, axis: np.ndarray, ev: Evidence
+) -> np.ndarray:
+    """The table (n,) of the fitted weights ``alpha`` under ``cfg.extraction``."""
+    if cfg.extraction == "argmax":
+        return irl_gaps(
+            alpha,
+            mdp.features,
+            axis,
+            ev.covered,
+            ev.support,
+            bounds=cfg.bounds,
+            resolution_m=cfg.gap_resolution_m,
+            cutoff=cfg.lowpass_cutoff,
+        )
+    drift, value = steady_drift(mdp, alpha, cfg.horizon_steps)
+    support = search_range(axis, ev.support, cfg.bounds, cfg.gap_resolution_m)
+    raw = steady_gaps(drift, value, mdp.grid.v_mps, mdp.grid.gap_m, axis, support)
+    return finish_table(axis, raw, ev.covered, cfg.bounds, cutoff=cfg.lowpass_cutoff)
+
+
+def _trip_weights(
+    trips: Sequence[Trip],
+    weights: Sequence[float] | None,
+    init: Dgpt | None,
+    *,
+    driver_id: str,
+    seed: int,
+    config: IrlConfig,
+) -> list[float]:
+    """The per-trip weights of a :func:`learn_dgpt` call, after refusing a negative seed, an
+    ``init`` of another driver and a weight list of the wrong length."""
+    if not seed >= 0:  # numpy's generators take no negative seed
+        raise TrainingError(f"a seed is an integer >= 0, got {seed}")
+    if init is not None and init.driver_id != driver_id:
+        raise TrainingError(
+            f"the initial table belongs to driver {init.driver_id!r}, not {driver_id!r}"
+        )
+    w = (
+        list(weights)
+        if weights is not None
+        else dm.takeover_weighted(trips, config.takeover_weight)
+    )
+    if len(w) != len(trips):
+        raise DemoError(f"{len(w)} weights for {len(trips)} trips")
+    return w
+
+
+def _irl_meta(
+    cfg: IrlConfig,
+    seed: int,
+    n_trips: int,
+    data_digest: str,
+    usable_s: float,
+    stats: DemoStats,
+    ev: Evidence,
+    covered: np.ndarray,
+    model: RewardModel,
+    fit: Fit,
+    init: Dgpt | None,
+) -> dict[str, Any]:
+    """The metadata of a learned table: data, evidence, the model (read back by
+    :func:`cloud_sync.irl.model.model_of_table`) and the optimiser's outcome."""
+    axis = speed_axis(cfg.dgpt_step_mps)
+    meta: dict[str, Any] = {
+        "method": METHOD,
+        "training_digest": data_digest,
+        "seed": int(seed),
+        "n_trips": n_trips,
+        "usable_demo_s": round(usable_s, 3),
+        "n_segments": stats.n_segments,
+        "coverage_s": [round(float(c), 2) for c in ev.coverage_s],
+        "min_coverage_s": cfg.min_coverage_s,
+        "covered_mps": covered_ranges(axis, covered),
+        "outside_coverage": outside_coverage(axis, covered),
+        "alpha": [float(a) for a in fit.alpha],
+        "grid": model.grid.spec(),
+        "features": model.features.spec(),
+        "horizon_steps": cfg.horizon_steps,
+        "extraction": cfg.extraction,
+        "l2": cfg.l2,
+        "iterations": fit.n_iter,
+        "converged": fit.converged,
+        "objective": fit.objective,
+    }
+    if init is not None:
+        meta["parent_version"] = init.version
+    return meta
+
+
+def _baseline_if_any(
+    trips: Sequence[Trip], driver_id: str, condition: str, cfg: IrlConfig
+) -> Dgpt | None:
+    """The empirical baseline, or None when the data hold no steady-state following (e.g.
+    takeovers alone)."""
+    try:
+        return empirical_baseline(trips, driver_id=driver_id, condition=condition, config=cfg)
+    except DemoError:
+        return None

@@ -1,0 +1,7 @@
+"""The cloud service: who may do what, ingest, learning jobs, signed DGPT versions.
+
+- :mod:`cloud_sync.service.store` — the SQLite index and content-addressed blobs.
+- :mod:`cloud_sync.service.rules` — ``CloudService``: the rules, free of any transport.
+- :mod:`cloud_sync.service.http` — the rules as an HTTP service (FastAPI).
+- :mod:`cloud_sync.service.local` — the embedded cloud: the service in-process over a folder.
+"""

@@ -1,0 +1,446 @@
+"""The cloud service's rules, free of any transport: who may do what, ingest, learning, publishing.
+
+- **Vehicles and drivers**: :meth:`CloudService.register_vehicle` returns a fresh token (the
+  cloud keeps only its SHA-256); :meth:`register_driver` binds a driver to one vehicle. A
+  vehicle reads and writes only its own drivers.
+- **Ingest**: an upload is size-checked, parsed as a pacc trip log (a corrupt, truncated or
+  foreign file is refused and stored nowhere), attributed to ``meta["driver_id"]`` and
+  ``meta["condition"]`` and stored once per SHA-256 (a repeated upload is acknowledged as a
+  duplicate: at-least-once delivery becomes exactly-once storage).
+- **Learning jobs**: every new batch schedules a job for its (driver, condition) on the
+  executor, off the request path. A job is a pure function of the stored batches: the first
+  version comes from the manual trips (:func:`cloud_sync.irl.trainer.learn_dgpt`); later batches
+  (takeover segments, more manual trips) fine-tune the newest version
+  (:func:`cloud_sync.irl.trainer.fine_tune`). Trips are ordered by digest, so the result does not
+  depend on arrival order. Too little data is not an error: the job waits for more.
+- **Where jobs run**: the executor runs the job loop (reading the store, publishing); the
+  training itself, :func:`train_table`, a pure function of trips, seed and settings, runs on
+  the compute engine (:mod:`cloud_sync.engine.base`; None: in the job's thread), e.g. a Dask
+  cluster (``pacc cloud serve --scheduler``), which gets the trips with the task.
+- **Publishing**: each version is signed (Ed25519, :mod:`cloud_sync.signing`) and kept.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import os
+import secrets
+import tempfile
+import threading
+from collections.abc import Callable, Iterable
+from concurrent.futures import Executor, Future, ThreadPoolExecutor
+from dataclasses import dataclass, field, replace
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PrivateKey
+
+from cloud_sync.api import (
+    AuthError,
+    BadBatchError,
+    ForbiddenError,
+    NotFoundError,
+    PayloadTooLargeError,
+    Receipt,
+    is_plain_name,
+)
+from cloud_sync.engine.base import Engine
+from cloud_sync.errors import DemoError
+from cloud_sync.irl.trainer import IrlConfig, fine_tune, learn_dgpt
+from cloud_sync.service.store import BatchRow, CloudStore, StoreError, VersionRow
+from cloud_sync.signing import (
+    load_private_key,
+    new_private_key,
+    public_pem,
+    save_private_key,
+    sign_dgpt,
+    verify_dgpt,
+)
+from cloud_sync.vehicle.spool import kind_of
+from pacc.vocab.dgpt import Dgpt
+from pacc.vocab.triplog import Trip, TripLogError, read_trip
+
+log = logging.getLogger(__name__)
+
+#: default upload limit, bytes (a 10-minute manual trip at 10 Hz is about 0.3 MB)
+DEFAULT_MAX_UPLOAD_BYTES = 16 * 1024 * 1024
+
+
+def _sha256(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def _utc_now() -> str:
+    return datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+class InlineExecutor(Executor):
+    """Runs each job at once in the caller's thread: deterministic, for tests and the study."""
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
+        """Run ``fn(*args, **kwargs)`` now; the returned future is already done."""
+        future: Future[Any] = Future()
+        try:
+            future.set_result(fn(*args, **kwargs))
+        except BaseException as exc:  # the future carries it, as a pool's would
+            future.set_exception(exc)
+        return future
+
+
+class DeferredExecutor(Executor):
+    """Queues jobs until :meth:`run_pending` (the embedded cloud learns when a table is asked
+    for, so a sync pass of many batches learns once, not once per batch). ``threads`` > 1
+    runs the queued jobs that many at a time (jobs of different drivers are independent;
+    worth it when their training runs elsewhere, on a Dask cluster)."""
+
+    def __init__(self, threads: int = 1) -> None:
+        self._queue: list[tuple[Future[Any], Callable[..., Any], tuple[Any, ...]]] = []
+        self._lock = threading.Lock()
+        self.threads = max(1, threads)
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
+        """Queue ``fn(*args)``; its future completes in :meth:`run_pending`."""
+        if kwargs:
+            raise TypeError("DeferredExecutor.submit takes positional arguments only")
+        future: Future[Any] = Future()
+        with self._lock:
+            self._queue.append((future, fn, args))
+        return future
+
+    def run_pending(self) -> None:
+        """Run every queued job, oldest first: in the caller's thread, or ``threads`` at a
+        time in a pool of threads."""
+        while True:
+            with self._lock:
+                batch, self._queue = self._queue, []
+            if not batch:
+                return
+            if self.threads == 1 or len(batch) == 1:
+                for job in batch:
+                    _complete(*job)
+            else:
+                with ThreadPoolExecutor(min(self.threads, len(batch)), "pacc-deferred") as pool:
+                    list(pool.map(lambda job: _complete(*job), batch))
+
+
+def _complete(future: Future[Any], fn: Callable[..., Any], args: tuple[Any, ...]) -> None:
+    try:
+        future.set_result(fn(*args))
+    except BaseException as exc:  # the future carries it, as a pool's would
+        future.set_exception(exc)
+
+
+@dataclass(frozen=True)
+class ServiceConfig:
+    """Settings of the service.
+
+    Attributes:
+        max_upload_bytes: the largest accepted batch, bytes.
+        seed: the learning jobs' seed (every job is a pure function of seed and data).
+        irl: IRL settings (None: the trainer's defaults).
+    """
+
+    max_upload_bytes: int = DEFAULT_MAX_UPLOAD_BYTES
+    seed: int = 0
+    irl: IrlConfig | None = None
+
+
+@dataclass
+class _JobState:
+    running: bool = False
+    dirty: bool = False
+    futures: list[Future[Any]] = field(default_factory=list)
+
+
+class CloudService:
+    """The cloud (see the module docstring). Thread-safe.
+
+    Args:
+        store: the data folder.
+        key: the signing key.
+        executor: where learning jobs run (None: inline, in the uploading thread).
+        config: limits and learning settings.
+        compute: where a job's training runs (None: in the job's thread); the service does
+            not close it.
+    """
+
+    def __init__(
+        self,
+        store: CloudStore,
+        key: Ed25519PrivateKey,
+        executor: Executor | None = None,
+        config: ServiceConfig | None = None,
+        compute: Engine | None = None,
+    ) -> None:
+        self.compute = compute
+        self.store = store
+        self.key = key
+        self.executor = executor if executor is not None else InlineExecutor()
+        self.config = config if config is not None else ServiceConfig()
+        self._jobs: dict[tuple[str, str], _JobState] = {}
+        self._jobs_lock = threading.Lock()
+        #: errors of learning jobs, newest last (a job never takes the service down)
+        self.job_errors: list[str] = []
+
+    @classmethod
+    def open(
+        cls,
+        data_dir: str | os.PathLike[str],
+        executor: Executor | None = None,
+        config: ServiceConfig | None = None,
+        compute: Engine | None = None,
+    ) -> CloudService:
+        """The service over ``data_dir``, creating the folder and its signing key if new."""
+        store = CloudStore(data_dir)
+        keys = Path(data_dir) / "keys"
+        keys.mkdir(exist_ok=True)
+        if not (keys / "cloud.key").exists():
+            key = new_private_key()
+            save_private_key(key, keys / "cloud.key")
+            (keys / "cloud.pub").write_bytes(public_pem(key))
+        service = cls(store, load_private_key(keys / "cloud.key"), executor, config, compute)
+        service.resume()
+        return service
+
+    # -- vehicles and drivers -----------------------------------------------------------
+
+    def register_vehicle(self, vehicle_id: str) -> str:
+        """Register a vehicle; return its token (shown once, stored as a hash)."""
+        token = secrets.token_urlsafe(32)
+        self.store.add_vehicle(vehicle_id, _sha256(token.encode()))
+        return token
+
+    def register_driver(self, vehicle_id: str, driver_id: str) -> None:
+        """Bind ``driver_id`` to ``vehicle_id`` (StoreError if taken, unknown vehicle, or not
+        a plain name)."""
+        if not is_plain_name(driver_id):
+            raise StoreError(f"driver id {driver_id!r} is not a plain name (letters, digits, _.-)")
+        self.store.add_driver(driver_id, vehicle_id)
+
+    def authenticate(self, token: str | None) -> str:
+        """The vehicle holding ``token``; :class:`AuthError` if none."""
+        vehicle = self.store.vehicle_by_token(_sha256(token.encode())) if token else None
+        if vehicle is None:
+            raise AuthError("unknown or missing vehicle token")
+        return vehicle
+
+    def _own(self, vehicle_id: str, driver_id: str) -> None:
+        if self.store.driver_vehicle(driver_id) != vehicle_id:
+            raise ForbiddenError(f"driver {driver_id!r} is not registered to this vehicle")
+
+    # -- ingest -------------------------------------------------------------------------
+
+    def upload(self, vehicle_id: str, data: bytes) -> Receipt:
+        """Ingest one batch from ``vehicle_id`` (see the module docstring)."""
+        if len(data) > self.config.max_upload_bytes:
+            raise PayloadTooLargeError(
+                f"{len(data)} bytes exceed the limit of {self.config.max_upload_bytes}"
+            )
+        trip = _parse_trip(data)
+        driver_id = trip.meta.get("driver_id")
+        if not isinstance(driver_id, str) or not driver_id:
+            raise BadBatchError("the trip log names no driver_id in its metadata")
+        condition = trip.meta.get("condition") or "default"
+        for what, name in (("driver_id", driver_id), ("condition", condition)):
+            if not is_plain_name(name):
+                raise BadBatchError(f"{what} {name!r} is not a plain name (letters, digits, _.-)")
+        self._own(vehicle_id, driver_id)
+        digest = _sha256(data)
+        row = BatchRow(
+            seq=0,
+            digest=digest,
+            vehicle_id=vehicle_id,
+            driver_id=driver_id,
+            condition=condition,
+            kind=kind_of(trip),
+            size_bytes=len(data),
+            received_utc=_utc_now(),
+            used_in_version=None,
+        )
+        added = self.store.add_batch(row, data)
+        if added:
+            self.schedule(driver_id, condition)
+        return Receipt(digest=digest, driver_id=driver_id, kind=row.kind, duplicate=not added)
+
+    # -- learning -----------------------------------------------------------------------
+
+    def schedule(self, driver_id: str, condition: str) -> None:
+        """Run a learning job for the driver soon; jobs of one key never overlap."""
+        key = (driver_id, condition)
+        with self._jobs_lock:
+            state = self._jobs.setdefault(key, _JobState())
+            if state.running:
+                state.dirty = True  # the running job will run once more
+                return
+            state.running = True
+        try:  # outside the lock: an inline executor runs the job (which takes it) right here
+            future = self.executor.submit(self._job_loop, key)
+        except Exception:  # a pool shut down: the key must be schedulable again
+            with self._jobs_lock:
+                state.running = False
+            raise
+        with self._jobs_lock:
+            state.futures = [f for f in state.futures if not f.done()] + [future]
+
+    def resume(self) -> None:
+        """Schedule every (driver, condition) with batches not learned from yet: the jobs a
+        crash or a restart dropped (called by :meth:`open`)."""
+        for driver_id, condition in self.store.unused_keys():
+            self.schedule(driver_id, condition)
+
+    def _job_loop(self, key: tuple[str, str]) -> None:
+        state = self._jobs[key]
+        while True:
+            try:
+                self.learn_once(*key)
+            except Exception as exc:  # a job's failure is reported, never raised at a client
+                self.job_errors.append(f"{key[0]}/{key[1]}: {type(exc).__name__}: {exc}")
+                log.exception("learning job %s/%s failed", *key)
+            with self._jobs_lock:
+                if not state.dirty:
+                    state.running = False
+                    return
+                state.dirty = False
+
+    def wait_idle(self, timeout_s: float | None = None) -> None:
+        """Block until every learning job scheduled so far has finished (a deferred
+        executor's queue runs now, in this thread)."""
+        if isinstance(self.executor, DeferredExecutor):
+            self.executor.run_pending()
+        with self._jobs_lock:
+            futures = [f for state in self._jobs.values() for f in state.futures]
+        for future in futures:
+            future.result(timeout=timeout_s)
+
+    def learn_once(self, driver_id: str, condition: str) -> int | None:
+        """Learn the driver's next table from the unused batches; the new version or None.
+
+        New manual trips: the table is learned again from every manual trip (learn_dgpt),
+        then fine-tuned with every takeover batch so far. Only new takeover (or ACC)
+        batches: the newest version is fine-tuned with them. Trips are taken in digest order,
+        so a version is a pure function of the stored batches and the seed.
+        """
+        unused = self.store.batches(driver_id, condition, unused_only=True)
+        if not unused:
+            return None
+        cfg = self.config
+        previous = self.latest_table(driver_id, condition)
+        relearn = previous is None or any(b.kind == "manual" for b in unused)
+        batches = self.store.batches(driver_id, condition) if relearn else unused
+        if relearn and not any(b.kind == "manual" for b in batches):
+            return None  # the first table needs manual driving; read nothing until then
+        manual = self._trips(b for b in batches if b.kind == "manual")
+        corrections = self._trips(b for b in batches if b.kind != "manual")
+        args = (manual, corrections, None if relearn else previous, driver_id, condition)
+        try:
+            if self.compute is None:
+                table = train_table(*args, cfg.seed, cfg.irl)
+            else:
+                table = self.compute.call(train_table, *args, cfg.seed, cfg.irl)
+        except DemoError as exc:  # not enough evidence yet: wait for more batches
+            log.info("learning %s/%s waits for data: %s", driver_id, condition, exc)
+            return None
+        return self.publish(table, [b.digest for b in unused])
+
+    def _trips(self, batches: Iterable[BatchRow]) -> list[Trip]:
+        """The trips of ``batches`` in digest order."""
+        ordered = sorted(batches, key=_digest)
+        return [read_trip_bytes(self.store.read_blob(b.digest)) for b in ordered]
+
+    def publish(self, table: Dgpt, used: list[str]) -> int:
+        """Sign and keep ``table`` as the next version; mark the batches ``used``."""
+        versions = self.store.versions(table.driver_id, table.condition)
+        if versions and table.version <= versions[-1].version:
+            table = replace(table, version=versions[-1].version + 1)  # versions only grow
+        row = VersionRow(
+            driver_id=table.driver_id,
+            condition=table.condition,
+            version=table.version,
+            source=table.source,
+            created_utc=table.created_utc,
+            n_batches=len(used),
+        )
+        self.store.add_version(row, sign_dgpt(table, self.key), used)
+        log.info("published DGPT %s/%s v%d", row.driver_id, row.condition, row.version)
+        return table.version
+
+    # -- publishing ---------------------------------------------------------------------
+
+    def latest_signed(self, vehicle_id: str, driver_id: str, condition: str = "default") -> bytes:
+        """The newest signed table of one of the vehicle's drivers (NotFoundError if none)."""
+        self._own(vehicle_id, driver_id)
+        if not is_plain_name(condition):
+            raise NotFoundError(f"no condition {condition!r}: conditions are plain names")
+        versions = self.store.versions(driver_id, condition)
+        if not versions:
+            raise NotFoundError(f"no DGPT for driver {driver_id!r} under {condition!r} yet")
+        return self.store.read_version(versions[-1])
+
+    def latest_table(self, driver_id: str, condition: str) -> Dgpt | None:
+        """The newest published table (verified with the cloud's own key), or None."""
+        versions = self.store.versions(driver_id, condition)
+        if not versions:
+            return None
+        return verify_dgpt(self.store.read_version(versions[-1]), self.key.public_key())
+
+    def public_key_pem(self) -> bytes:
+        """The public half of the signing key (PEM)."""
+        return public_pem(self.key)
+
+
+def train_table(
+    manual: list[Trip],
+    corrections: list[Trip],
+    previous: Dgpt | None,
+    driver_id: str,
+    condition: str,
+    seed: int,
+    irl: IrlConfig | None,
+) -> Dgpt:
+    """A learning job's training, pure: a table learned from the ``manual`` trips (or
+    ``previous`` when None is to be relearned), then fine-tuned with the ``corrections``
+    (takeover and ACC trips). DemoError if the data are not enough yet."""
+    if previous is None:
+        table = learn_dgpt(
+            manual, driver_id=driver_id, condition=condition, seed=seed, config=irl
+        ).table
+    else:
+        table = previous
+    if corrections:
+        table = fine_tune(corrections, table, seed=seed, config=irl).table
+    return table
+
+
+def _digest(batch: BatchRow) -> str:
+    return batch.digest
+
+
+def read_trip_bytes(data: bytes) -> Trip:
+    """Parse MCAP trip-log bytes (through a temporary file: the reader wants a path)."""
+    fd, name = tempfile.mkstemp(suffix=".mcap")
+    try:
+        with os.fdopen(fd, "wb") as stream:
+            stream.write(data)
+        return read_trip(name)
+    finally:
+        Path(name).unlink(missing_ok=True)
+
+
+def _parse_trip(data: bytes) -> Trip:
+    try:
+        return read_trip_bytes(data)
+    except TripLogError as exc:
+        raise BadBatchError(f"not a pacc trip log: {exc}") from exc
+
+
+__all__ = [
+    "DEFAULT_MAX_UPLOAD_BYTES",
+    "CloudService",
+    "DeferredExecutor",
+    "InlineExecutor",
+    "ServiceConfig",
+    "read_trip_bytes",
+    "train_table",
+]

@@ -1,0 +1,56 @@
+"""Where the vehicle's cloud is: ``--cloud URL`` (a running service) or ``--cloud DIR`` (embedded).
+
+:func:`connect` turns the command-line target into a :class:`~cloud_sync.api.CloudApi`:
+``http://`` or ``https://`` gives an :class:`~cloud_sync.vehicle.client.HttpCloud`, anything else
+is a
+folder served in-process by :class:`~cloud_sync.service.local.LocalCloud` (created if new). Tokens
+live
+in files (``--token-file``), never on the command line where ``ps`` would show them.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from cloud_sync.api import CloudApi
+from cloud_sync.errors import CloudSyncError
+
+
+def is_url(target: str) -> bool:
+    """True for an ``http://`` or ``https://`` target."""
+    return target.startswith(("http://", "https://"))
+
+
+def connect(target: str, token: str, *, timeout_s: float = 30.0) -> CloudApi:
+    """The cloud at ``target`` (URL or folder) as seen by the vehicle holding ``token``;
+    ``timeout_s`` bounds each HTTP call (connect and answer), s."""
+    # each backend costs start-up the other does not need (httpx; numpy, scipy, the trainer)
+    if is_url(target):
+        from cloud_sync.vehicle.client import HttpCloud  # noqa: PLC0415
+
+        return HttpCloud(target, token, timeout_s=timeout_s)
+    from cloud_sync.service.local import LocalCloud  # noqa: PLC0415
+
+    return LocalCloud.open(target, token)
+
+
+def read_token(path: str | os.PathLike[str]) -> str:
+    """The token in file ``path`` (surrounding whitespace stripped); CloudSyncError if unusable."""
+    try:
+        token = Path(path).read_text(encoding="utf-8").strip()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise CloudSyncError(f"cannot read the token file {path}: {exc}") from exc
+    if not token or any(c.isspace() for c in token):
+        raise CloudSyncError(f"token file {path} holds no single token")
+    return token
+
+
+def write_token(path: str | os.PathLike[str], token: str) -> None:
+    """Write ``token`` to ``path``, readable by the owner only (mode 0600)."""
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    with os.fdopen(fd, "w", encoding="utf-8") as stream:
+        stream.write(token + "\n")
+
+
+__all__ = ["connect", "is_url", "read_token", "write_token"]

@@ -1,0 +1,161 @@
+"""Profile download: the newest signed DGPT for (driver, condition), checked before use.
+
+:class:`ProfileDownloader` asks the cloud for the driver's newest table, verifies its Ed25519
+signature against the key the vehicle trusts and its gaps against the vehicle's
+:class:`~pacc.vocab.dgpt.SafetyBounds` (:func:`cloud_sync.signing.verify_dgpt`), and only then keeps
+it: the signed bytes go to ``cache_dir/<driver>/<condition>.signed.json`` (atomically), which
+is the last good table for offline use and is verified again whenever it is read. Anything
+else is refused and reported (:attr:`ProfileDownloader.refusals`), and the last good table
+stays in use.
+
+Swapping a new table into a running ECU is the ECU's business: ``EcuRuntime.offer_table``
+swaps it in at a cycle where :func:`ecu.profiles.may_swap` holds (never while the ACC is
+ACTIVE).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PublicKey
+
+from cloud_sync.api import (
+    CloudApi,
+    CloudError,
+    CloudUnavailableError,
+    NotFoundError,
+    is_plain_name,
+)
+from cloud_sync.signing import SignatureError, verify_dgpt
+from pacc.vocab.dgpt import Dgpt, SafetyBounds
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class FetchReport:
+    """What the downloads did (counts and the newest refusal's reason)."""
+
+    fetched: int = 0
+    unchanged: int = 0
+    offline: int = 0
+    not_found: int = 0
+    refusals: list[str] = field(default_factory=list)
+
+
+class ProfileDownloader:
+    """Downloads and verifies one driver's table (see the module docstring).
+
+    Args:
+        cloud: the vehicle's cloud client.
+        public_key: the cloud key this vehicle trusts.
+        cache_dir: where the last good signed tables are kept.
+        bounds: the vehicle's safety bounds (None: the defaults).
+    """
+
+    def __init__(
+        self,
+        cloud: CloudApi,
+        public_key: Ed25519PublicKey,
+        cache_dir: str | os.PathLike[str],
+        bounds: SafetyBounds | None = None,
+    ) -> None:
+        self.cloud = cloud
+        self.public_key = public_key
+        self.cache_dir = Path(cache_dir)
+        self.bounds = bounds if bounds is not None else SafetyBounds()
+        self.report = FetchReport()
+
+    def cache_path(self, driver_id: str, condition: str) -> Path:
+        """Where the last good signed table of (driver, condition) is kept (ValueError for a
+        name that is not plain: it would leave the cache folder)."""
+        if not (is_plain_name(driver_id) and is_plain_name(condition)):
+            raise ValueError(f"not plain names: {driver_id!r}, {condition!r}")
+        return self.cache_dir / driver_id / f"{condition}.signed.json"
+
+    def last_good(self, driver_id: str, condition: str = "default") -> Dgpt | None:
+        """The cached table, verified again (a tampered cache is refused: None)."""
+        path = self.cache_path(driver_id, condition)
+        try:
+            data = path.read_bytes()
+        except FileNotFoundError:
+            return None
+        except OSError as exc:
+            self._refuse(f"cached table {path} unreadable: {exc.strerror or exc}")
+            return None
+        try:
+            return verify_dgpt(data, self.public_key, self.bounds)
+        except SignatureError as exc:
+            self._refuse(f"cached table {path}: {exc}")
+            return None
+
+    def fetch(self, driver_id: str, condition: str = "default") -> Dgpt | None:
+        """Download, verify and cache the newest table; None if there is nothing new to use.
+
+        Never raises for the cloud's or the table's faults: offline, not found and refused
+        are counted in :attr:`report` and the last good table stays the one to use.
+        """
+        data = self._download(driver_id, condition)
+        table = None if data is None else self._verified(data, driver_id, condition)
+        if data is None or table is None:
+            return None
+        cached = self.last_good(driver_id, condition)
+        if cached is not None and cached.version >= table.version:
+            self.report.unchanged += 1
+            return None
+        try:
+            self._keep(driver_id, condition, data)
+        except OSError as exc:  # a full disk: use the table, say it is not kept for offline
+            self._refuse(f"verified table not cached ({exc.strerror or exc}); used this run only")
+        self.report.fetched += 1
+        return table
+
+    def _download(self, driver_id: str, condition: str) -> bytes | None:
+        try:
+            return self.cloud.latest_dgpt(driver_id, condition)
+        except CloudUnavailableError as exc:
+            self.report.offline += 1
+            log.info("profile download offline: %s", exc)
+        except NotFoundError:
+            self.report.not_found += 1
+        except CloudError as exc:
+            self._refuse(f"cloud refused the download: {exc}")
+        return None
+
+    def _verified(self, data: bytes, driver_id: str, condition: str) -> Dgpt | None:
+        try:
+            table = verify_dgpt(data, self.public_key, self.bounds)
+        except SignatureError as exc:
+            self._refuse(f"downloaded table refused: {exc}")
+            return None
+        if table.driver_id != driver_id or table.condition != condition:
+            self._refuse(
+                f"downloaded table is for {table.driver_id}/{table.condition}, "
+                f"asked for {driver_id}/{condition}"
+            )
+            return None
+        return table
+
+    def _keep(self, driver_id: str, condition: str, data: bytes) -> None:
+        path = self.cache_path(driver_id, condition)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.part")
+        try:
+            with tmp.open("wb") as stream:
+                stream.write(data)
+                stream.flush()
+                os.fsync(stream.fileno())
+            tmp.replace(path)
+        finally:
+            tmp.unlink(missing_ok=True)
+
+    def _refuse(self, reason: str) -> None:
+        self.report.refusals.append(reason)
+        log.error("profile refused: %s", reason)
+
+
+__all__ = ["FetchReport", "ProfileDownloader"]

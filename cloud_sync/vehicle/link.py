@@ -1,0 +1,143 @@
+"""The vehicle's link to the cloud, as ``pacc ecu --cloud`` wires it.
+
+:class:`VehicleLink` bundles the three vehicle-side parts: the takeover recorder's sink puts
+each finished segment into the :class:`~cloud_sync.vehicle.spool.Spool` (tagged with the vehicle id)
+and wakes the :class:`~cloud_sync.vehicle.uploader.Uploader` thread; a schedule thread asks the
+:class:`~cloud_sync.vehicle.download.ProfileDownloader` for the driver's newest table every
+``sync_every_s`` and hands a verified one to the ECU through a callback (the ECU swaps it in
+only while not ACTIVE). Nothing here runs in the control cycle but the sink, which is a file
+write and a rename.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import threading
+from collections.abc import Callable
+
+from cloud_sync.api import CloudApi
+from cloud_sync.vehicle.download import ProfileDownloader
+from cloud_sync.vehicle.spool import Spool
+from cloud_sync.vehicle.uploader import Uploader, UploaderConfig
+from pacc.vocab.dgpt import Dgpt
+from pacc.vocab.triplog import Trip
+
+log = logging.getLogger(__name__)
+
+#: default period of the profile download, s
+DEFAULT_SYNC_EVERY_S = 60.0
+
+
+class VehicleLink:
+    """Spool + uploader + scheduled, verified profile download for one vehicle.
+
+    Args:
+        cloud: the cloud client.
+        spool: the vehicle's spool.
+        vehicle_id: written into every spooled batch's metadata.
+        downloader: None: upload only.
+        driver_id / condition: whose table the downloader fetches.
+        sync_every_s: download period, s (> 0).
+    """
+
+    def __init__(
+        self,
+        cloud: CloudApi,
+        spool: Spool,
+        vehicle_id: str,
+        *,
+        downloader: ProfileDownloader | None = None,
+        driver_id: str | None = None,
+        condition: str = "default",
+        sync_every_s: float = DEFAULT_SYNC_EVERY_S,
+        uploader_config: UploaderConfig | None = None,
+    ) -> None:
+        if not sync_every_s > 0:
+            raise ValueError(f"sync_every_s must be > 0, got {sync_every_s}")
+        self.cloud = cloud
+        self.spool = spool
+        self.vehicle_id = vehicle_id
+        self.uploader = Uploader(spool, cloud, uploader_config)
+        self.downloader = downloader if driver_id is not None else None
+        self.driver_id = driver_id
+        self.condition = condition
+        self.sync_every_s = sync_every_s
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        #: tables handed to the ECU so far
+        self.offered = 0
+
+    def sink(self, trip: Trip) -> None:
+        """The recorder's sink: spool ``trip`` (raises SpoolError: the recorder retries)."""
+        meta = {**trip.meta, "vehicle_id": self.vehicle_id}
+        self.spool.put_trip(dataclasses.replace(trip, meta=meta))
+        self.uploader.notify()
+
+    def initial_table(self) -> Dgpt | None:
+        """The newest verified table at start: downloaded now, else the last good one."""
+        if self.downloader is None or self.driver_id is None:
+            return None
+        table = self.downloader.fetch(self.driver_id, self.condition)
+        return table or self.downloader.last_good(self.driver_id, self.condition)
+
+    def start(self, offer: Callable[[Dgpt, str], None]) -> None:
+        """Start the uploader and the download schedule; new tables go to ``offer``."""
+        self.uploader.start()
+        if self.downloader is None:
+            return
+        self._stop.clear()
+        self._thread = threading.Thread(
+            target=self._schedule, args=(offer,), name="pacc-download", daemon=True
+        )
+        self._thread.start()
+
+    def _schedule(self, offer: Callable[[Dgpt, str], None]) -> None:
+        assert self.downloader is not None and self.driver_id is not None
+        while not self._stop.wait(self.sync_every_s):
+            try:
+                table = self.downloader.fetch(self.driver_id, self.condition)
+            except Exception:  # an I/O error of the cache must not end the schedule
+                log.exception("profile download failed")
+                continue
+            if table is not None:
+                offer(table, f"cloud: {table.driver_id} {table.source} v{table.version}")
+                self.offered += 1
+
+    def stop(self, drain_s: float = 5.0) -> None:
+        """Stop both threads, then try for up to ``drain_s`` s to upload what is still
+        spooled (the last takeover is flushed at the very end of a run); whatever the cloud
+        did not acknowledge stays spooled for the next run."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(10.0)
+            self._thread = None
+        self.uploader.stop()
+        if drain_s > 0 and self.spool.pending():
+            last = Uploader(self.spool, self.cloud, UploaderConfig(backoff_max_s=1.0))
+            timer = threading.Timer(drain_s, last.stop)
+            timer.start()
+            try:
+                last.drain()
+            finally:
+                timer.cancel()
+            self.uploader.stats.uploaded += last.stats.uploaded
+            self.uploader.stats.rejected += last.stats.rejected
+
+    def report(self) -> str:
+        """One line of what the link did."""
+        up = self.uploader.stats
+        text = (
+            f"cloud: {up.uploaded} batch(es) uploaded, {up.rejected} rejected, "
+            f"{len(self.spool.pending())} spooled, {self.spool.stats.evicted.total()} evicted"
+        )
+        if self.downloader is not None:
+            dl = self.downloader.report
+            text += (
+                f"; tables fetched {dl.fetched}, offered {self.offered}, "
+                f"refused {len(dl.refusals)}, offline {dl.offline}"
+            )
+        return text
+
+
+__all__ = ["DEFAULT_SYNC_EVERY_S", "VehicleLink"]

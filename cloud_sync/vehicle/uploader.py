@@ -1,0 +1,183 @@
+"""The uploader: drains the spool into the cloud on a thread of its own, nothing lost.
+
+Each pending batch (oldest first) is uploaded; the spool deletes it only after the cloud's
+receipt names the same digest (at-least-once delivery; the cloud's de-duplication by digest
+makes the storage exactly-once). A retryable failure (:class:`CloudUnavailableError`: no
+network, timeout, dropped connection, 5xx) is retried with exponential backoff and full jitter
+(tenacity's ``wait_random_exponential``). Only an answer about the batch itself (413 too
+large, 422 not a trip log) moves it to the spool's ``rejected/`` folder with the reason, so one
+bad batch never blocks the queue. An answer about the vehicle's set-up keeps the batch: 401
+(token) ends the pass, 403 (driver not registered yet) and any other 4xx skip the batch for
+this pass; they are counted in :attr:`UploadStats.held` and tried again on the next pass.
+
+The thread never touches the control loop: the ECU only writes batches into the spool (a file
+rename), and :meth:`Uploader.notify` wakes the thread. :meth:`Uploader.stop` ends it promptly,
+even in the middle of a backoff.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from dataclasses import dataclass
+
+from tenacity import (
+    RetryCallState,
+    Retrying,
+    retry_if_exception_type,
+    wait_random_exponential,
+)
+
+from cloud_sync.api import (
+    AuthError,
+    BadBatchError,
+    CloudApi,
+    CloudError,
+    CloudUnavailableError,
+    PayloadTooLargeError,
+)
+from cloud_sync.vehicle.spool import Batch, Spool
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class UploaderConfig:
+    """Timing of the uploader, s.
+
+    Attributes:
+        backoff_s: the first retry waits up to this long (full jitter), doubling each time.
+        backoff_max_s: the longest wait between two attempts.
+        poll_s: how often an idle uploader looks at the spool without being notified.
+    """
+
+    backoff_s: float = 0.5
+    backoff_max_s: float = 60.0
+    poll_s: float = 5.0
+
+
+@dataclass
+class UploadStats:
+    """Counts since start."""
+
+    uploaded: int = 0
+    duplicates: int = 0
+    rejected: int = 0
+    held: int = 0
+    retries: int = 0
+
+
+class Uploader:
+    """Uploads the batches of ``spool`` to ``cloud`` (see the module docstring)."""
+
+    def __init__(self, spool: Spool, cloud: CloudApi, config: UploaderConfig | None = None) -> None:
+        self.spool = spool
+        self.cloud = cloud
+        self.config = config if config is not None else UploaderConfig()
+        self.stats = UploadStats()
+        self._stop = threading.Event()
+        self._wake = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    # -- one pass ------------------------------------------------------------------------
+
+    def drain(self) -> int:
+        """Upload every pending batch, retrying until each is answered or stop() is called.
+
+        Returns the number of batches the cloud acknowledged in this pass.
+        """
+        done = 0
+        for batch in self.spool.pending():
+            if self._stop.is_set():
+                break
+            try:
+                done += int(self._deliver(batch))
+            except AuthError as exc:  # every batch would get the same answer: stop the pass
+                self.stats.held += 1
+                log.error("upload refused, token not accepted: %s (batches kept)", exc)
+                break
+        return done
+
+    def _deliver(self, batch: Batch) -> bool:
+        """Upload one batch (with retries); True when the cloud acknowledged it."""
+        try:
+            data = batch.path.read_bytes()
+        except FileNotFoundError:  # evicted by the quota meanwhile
+            return False
+        cfg = self.config
+        retrying = Retrying(
+            retry=retry_if_exception_type(CloudUnavailableError),
+            wait=wait_random_exponential(multiplier=cfg.backoff_s, max=cfg.backoff_max_s),
+            stop=lambda _: self._stop.is_set(),
+            sleep=self._sleep,
+            before_sleep=self._count_retry,
+            reraise=True,
+        )
+        try:
+            receipt = retrying(self.cloud.upload, data)
+        except CloudUnavailableError:
+            return False  # stopped while the cloud was away: the batch stays spooled
+        except (PayloadTooLargeError, BadBatchError) as exc:  # about this batch: set aside
+            self.spool.reject(batch.digest, f"HTTP {exc.status}: {exc}")
+            self.stats.rejected += 1
+            return False
+        except AuthError:
+            raise
+        except CloudError as exc:  # about the set-up (403 ...): keep it for the next pass
+            self.stats.held += 1
+            log.error("batch %d kept, the cloud answered HTTP %d: %s", batch.seq, exc.status, exc)
+            return False
+        if receipt.digest != batch.digest:  # never delete on a receipt for other bytes
+            log.error("receipt digest %s for batch %s: kept", receipt.digest, batch.digest)
+            return False
+        self.spool.ack(batch.digest)
+        self.stats.uploaded += 1
+        self.stats.duplicates += int(receipt.duplicate)
+        return True
+
+    def _sleep(self, seconds: float) -> None:
+        """Wait between attempts; stop() ends the wait at once."""
+        self._stop.wait(seconds)
+
+    def _count_retry(self, state: RetryCallState) -> None:
+        self.stats.retries += 1
+        outcome = state.outcome
+        log.warning(
+            "upload attempt %d failed (%s); retrying",
+            state.attempt_number,
+            outcome.exception() if outcome is not None else "?",
+        )
+
+    # -- the thread ----------------------------------------------------------------------
+
+    def start(self) -> None:
+        """Run :meth:`drain` on a daemon thread whenever notified, or every ``poll_s``."""
+        if self._thread is not None:
+            return
+        self._stop.clear()
+        self._thread = threading.Thread(target=self._run, name="pacc-uploader", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            try:
+                self.drain()
+            except Exception:  # a spool I/O error must not kill the thread: log, go on
+                log.exception("uploader pass failed")
+            self._wake.wait(self.config.poll_s)
+            self._wake.clear()
+
+    def notify(self) -> None:
+        """A batch was spooled: drain soon (thread-safe, cheap)."""
+        self._wake.set()
+
+    def stop(self, timeout_s: float = 10.0) -> None:
+        """End the thread (an upload in flight finishes or fails; a backoff is cut short)."""
+        self._stop.set()
+        self._wake.set()
+        if self._thread is not None:
+            self._thread.join(timeout_s)
+            self._thread = None
+
+
+__all__ = ["UploadStats", "Uploader", "UploaderConfig"]

@@ -1,0 +1,229 @@
+"""Reading a bus recording (:mod:`ecu.buslog.writer`) back: frames, decoded signals, internals.
+
+:func:`read_canlog` reads the whole file in one sequential pass (CRCs checked, the MCAP
+footer required), so a truncated or corrupt file is refused with :class:`CanLogError`
+naming the file and the cause, never read in part. :func:`messages` turns the raw frames
+into python-can messages stamped with UTC seconds, as python-can's own readers do.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import can
+import numpy as np
+
+from ecu.buslog.blocks import BlockError, decode_block
+from ecu.buslog.format import (
+    EVENTS_TOPIC,
+    FLAG_BRS,
+    FLAG_ERROR,
+    FLAG_ESI,
+    FLAG_EXTENDED,
+    FLAG_FD,
+    FLAG_REMOTE,
+    FLAG_RX,
+    FORMAT,
+    META_RECORD,
+    RAW_TOPIC,
+    CanLogError,
+    TimeBase,
+)
+from pacc.vocab.mcap_errors import mcap_errors
+
+__all__ = ["CanLog", "Frames", "messages", "read_canlog"]
+
+
+@dataclass
+class Frames:
+    """Every frame of a recording in bus order; arrays of shape ``(n,)``, ``data`` a list."""
+
+    t_s: np.ndarray
+    id: np.ndarray
+    flags: np.ndarray
+    dlc: np.ndarray
+    data: list[bytes]
+
+    def __len__(self) -> int:
+        return len(self.data)
+
+    @property
+    def rx(self) -> np.ndarray:
+        """True for the frames the recording node received, shape ``(n,)``."""
+        rx: np.ndarray = (self.flags & FLAG_RX) != 0
+        return rx
+
+
+@dataclass
+class CanLog:
+    """A recording read back (see :mod:`ecu.buslog.writer` for the channels)."""
+
+    path: Path
+    frames: Frames
+    #: DBC message name -> signal (and ``t_s``) -> values, every block joined
+    decoded: dict[str, dict[str, np.ndarray]]
+    #: internals topic (``/ecu/outputs`` …) -> column -> values
+    series: dict[str, dict[str, np.ndarray]]
+    events: list[tuple[float, str]]
+    metadata: dict[str, dict[str, str]]
+    attachments: dict[str, bytes]
+    time_base: TimeBase
+    node: str = ""
+    topics: list[str] = field(default_factory=list)
+
+
+class _Collect:
+    """What the pass over the records gathered."""
+
+    def __init__(self) -> None:
+        self.schemas: dict[int, Any] = {}
+        self.channels: dict[int, Any] = {}
+        self.blocks: dict[str, list[bytes]] = {}
+        self.events: list[tuple[float, str]] = []
+        self.metadata: dict[str, dict[str, str]] = {}
+        self.attachments: dict[str, bytes] = {}
+        self.footer = False
+
+    def message(self, record: Any, path: Path) -> None:
+        """File one MCAP message record: an event, or a block kept encoded for later."""
+        ch = self.channels.get(record.channel_id)
+        if ch is None:
+            raise CanLogError(f"{path}: message on an unknown channel")
+        if ch.topic == EVENTS_TOPIC:
+            doc = json.loads(record.data)
+            self.events.append((float(doc["t_s"]), str(doc["text"])))
+        else:
+            self.blocks.setdefault(ch.topic, []).append(record.data)
+
+
+def _scan(path: Path) -> _Collect:
+    from mcap import records  # noqa: PLC0415 - mcap only when a recording is read
+    from mcap.stream_reader import StreamReader  # noqa: PLC0415
+
+    found = _Collect()
+    with mcap_errors(path, "recording", CanLogError), path.open("rb") as stream:
+        for record in StreamReader(stream, validate_crcs=True).records:
+            if isinstance(record, records.Message):
+                found.message(record, path)
+            elif isinstance(record, records.Channel):
+                found.channels[record.id] = record
+            elif isinstance(record, records.Metadata):
+                found.metadata[record.name] = dict(record.metadata)
+            elif isinstance(record, records.Attachment):
+                found.attachments[record.name] = bytes(record.data)
+            elif isinstance(record, records.Footer):
+                found.footer = True
+    return found
+
+
+def _join(blocks: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """The blocks of one channel joined column by column."""
+    names = list(blocks[0]) if blocks else []
+    return {k: np.concatenate([b[k] for b in blocks]) for k in names}
+
+
+def _frames(blocks: list[dict[str, np.ndarray]], path: Path) -> Frames:
+    if not blocks:
+        empty = np.zeros(0, dtype=np.int64)
+        return Frames(np.zeros(0), empty, empty, empty, [])
+    try:
+        cols = _join(blocks)
+        lens = cols["len"].astype(np.int64)
+        payload = cols["data"].tobytes()
+        ends = np.cumsum(lens).tolist()
+        if (ends[-1] if ends else 0) != len(payload):
+            raise CanLogError(f"{path}: {RAW_TOPIC} payload lengths do not add up")
+        starts = [0, *ends[:-1]]
+        return Frames(
+            t_s=cols["t_s"].astype(np.float64),
+            id=cols["id"].astype(np.int64),
+            flags=cols["flags"].astype(np.int64),
+            dlc=cols["dlc"].astype(np.int64),
+            data=[payload[a:b] for a, b in zip(starts, ends, strict=True)],
+        )
+    except KeyError as exc:
+        raise CanLogError(f"{path}: {RAW_TOPIC} block lacks column {exc}") from None
+    except ValueError as exc:  # columns of different lengths
+        raise CanLogError(f"{path}: bad {RAW_TOPIC} block: {exc}") from None
+
+
+def read_canlog(path: str | os.PathLike[str]) -> CanLog:
+    """Read a recording of :mod:`ecu.buslog.writer`.
+
+    Raises:
+        CanLogError: missing, not MCAP, truncated (no footer), bad CRC, or not a pacc bus
+            recording (no ``/can/raw`` channel and no ``pacc`` metadata).
+    """
+    path = Path(path)
+    found = _scan(path)
+    if not found.footer:
+        raise CanLogError(f"{path}: truncated recording (no MCAP footer)")
+    meta = found.metadata.get(META_RECORD, {})
+    topics = sorted({c.topic for c in found.channels.values()})
+    if meta.get("format") != FORMAT or RAW_TOPIC not in topics:
+        raise CanLogError(
+            f"{path}: not a pacc bus recording (format {meta.get('format')!r}; topics "
+            f"{topics or 'none'})"
+        )
+    try:
+        base = TimeBase(int(meta["utc_origin_ns"]), float(meta["clock_origin_s"]))
+    except (KeyError, ValueError) as exc:
+        raise CanLogError(f"{path}: bad time base in the metadata: {exc}") from None
+    try:
+        blocks = {k: [decode_block(b) for b in v] for k, v in found.blocks.items()}
+    except BlockError as exc:
+        raise CanLogError(f"{path}: corrupt block: {exc}") from None
+    decoded: dict[str, dict[str, np.ndarray]] = {}
+    series: dict[str, dict[str, np.ndarray]] = {}
+    for topic, topic_blocks in blocks.items():
+        if topic == RAW_TOPIC:
+            continue
+        try:
+            joined = _join(topic_blocks)
+        except (ValueError, KeyError) as exc:
+            raise CanLogError(f"{path}: blocks of {topic} do not match: {exc}") from None
+        if topic.startswith("/can/"):
+            decoded[topic.removeprefix("/can/")] = joined
+        else:
+            series[topic] = joined
+    return CanLog(
+        path=path,
+        frames=_frames(blocks.get(RAW_TOPIC, []), path),
+        decoded=decoded,
+        series=series,
+        events=found.events,
+        metadata=found.metadata,
+        attachments=found.attachments,
+        time_base=base,
+        node=meta.get("node", ""),
+        topics=topics,
+    )
+
+
+def messages(log: CanLog) -> Iterator[can.Message]:
+    """The recording's frames as python-can messages, ``timestamp`` in UTC seconds and
+    ``is_rx`` from the direction, in bus order."""
+    f = log.frames
+    base = log.time_base
+    for t, fid, fl, dlc, data in zip(
+        f.t_s.tolist(), f.id.tolist(), f.flags.tolist(), f.dlc.tolist(), f.data, strict=True
+    ):
+        yield can.Message(
+            timestamp=base.utc_ns(t) / 1e9,
+            arbitration_id=fid,
+            is_extended_id=bool(fl & FLAG_EXTENDED),
+            is_remote_frame=bool(fl & FLAG_REMOTE),
+            is_error_frame=bool(fl & FLAG_ERROR),
+            is_fd=bool(fl & FLAG_FD),
+            is_rx=bool(fl & FLAG_RX),
+            bitrate_switch=bool(fl & FLAG_BRS),
+            error_state_indicator=bool(fl & FLAG_ESI),
+            dlc=dlc,
+            data=data,
+            check=False,
+        )

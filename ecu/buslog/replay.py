@@ -1,0 +1,255 @@
+"""Replaying a bus recording: through the ECU in lockstep, or onto a bus in real time.
+
+- :func:`replay_through_ecu` rebuilds the ECU the recording names (its attached DBC, binding,
+  configuration and starting table), puts every frame the recorded node received onto a
+  python-can ``virtual`` bus, accepted at its recorded time, and runs every recorded control
+  cycle at its recorded time and index (:meth:`ecu.runtime.EcuRuntime.cycle_at`), after the
+  frames received up to then. Deterministic, for lockstep (``pacc drive``) and real-time
+  (``pacc ecu``) recordings alike: the ECU sends the recorded frames again, bit for bit
+  (tested for both). What came from outside the bus is not in the recording and is not
+  replayed: a driver profile loaded from ``--profiles``, a table downloaded from the cloud.
+- :func:`play` sends the frames onto any python-can bus with their recorded spacing (like
+  python-can's ``can.player``, through :class:`can.MessageSync`), and decodes the ACC
+  commands another node (``pacc ecu``) answers with.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import tempfile
+from collections import Counter
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import can
+
+from dbc import BINDING_PATH, DBC_PATH
+from dbc.codec import Codec, load_codec
+from dbc.endpoint import Frame, Inbox
+from ecu.buslog.format import (
+    FLAG_ERROR,
+    FLAG_EXTENDED,
+    FLAG_REMOTE,
+    FLAG_RX,
+    OUTPUTS_TOPIC,
+    CanLogError,
+)
+from ecu.buslog.reader import CanLog, messages
+from ecu.buslog.recording import (
+    BINDING_ATTACHMENT,
+    CONFIG_ATTACHMENT,
+    DBC_ATTACHMENT,
+    TABLE_ATTACHMENT,
+    config_from_json,
+)
+from ecu.node import EcuNode
+from ecu.runtime import EcuRuntime, RuntimeSummary
+from pacc.vocab.acc_state import AccState
+from pacc.vocab.dgpt import Dgpt, dgpt_from_json_dict, predefined
+
+__all__ = ["PlayResult", "ReplayResult", "codec_of", "play", "replay_through_ecu"]
+
+#: creation time of the tables a replay adapts (the replay stays a pure function of the log)
+REPLAY_UTC = "2000-01-01T00:00:00Z"
+_channels = itertools.count()
+
+
+@dataclass
+class ReplayResult:
+    """What the ECU did over a recording, and how it compares with what was recorded."""
+
+    summary: RuntimeSummary
+    #: (t_s, frame id, payload) of every frame the replayed ECU sent
+    sent: list[tuple[float, int, bytes]]
+    #: the same of the recording (the frames its node sent)
+    recorded: list[tuple[float, int, bytes]]
+    #: (t_s, state name) at every ACC state change of the replay
+    states: list[tuple[float, str]]
+    events: list[tuple[float, str]] = field(default_factory=list)
+
+    @property
+    def identical(self) -> bool:
+        """The replayed ECU sent exactly the recorded frames (times, ids, payloads)."""
+        return self.sent == self.recorded
+
+    def first_difference(self) -> int | None:
+        """Index of the first frame that differs (None: identical)."""
+        for i, (a, b) in enumerate(zip(self.sent, self.recorded, strict=False)):
+            if a != b:
+                return i
+        return (
+            None
+            if len(self.sent) == len(self.recorded)
+            else min(len(self.sent), len(self.recorded))
+        )
+
+
+def codec_of(log: CanLog) -> Codec:
+    """The codec of the recording's attached DBC and binding (the packaged network when they
+    are the packaged files or absent)."""
+    dbc = log.attachments.get(DBC_ATTACHMENT)
+    binding = log.attachments.get(BINDING_ATTACHMENT)
+    if (dbc is None or dbc == DBC_PATH.read_bytes()) and (
+        binding is None or binding == BINDING_PATH.read_bytes()
+    ):
+        return load_codec()
+    with tempfile.TemporaryDirectory(prefix="pacc-replay-") as tmp:
+        dbc_path, binding_path = Path(tmp) / "network.dbc", Path(tmp) / "binding.toml"
+        dbc_path.write_bytes(dbc if dbc is not None else DBC_PATH.read_bytes())
+        binding_path.write_bytes(binding if binding is not None else BINDING_PATH.read_bytes())
+        return load_codec(dbc_path, binding_path)
+
+
+def _ecu_of(log: CanLog) -> EcuNode:
+    """The ECU the recording ran: its attached configuration and starting table."""
+    if CONFIG_ATTACHMENT not in log.attachments:
+        raise CanLogError(
+            f"{log.path}: the recording has no ECU configuration ({CONFIG_ATTACHMENT}); "
+            "it was not recorded by an ECU (pacc ecu or pacc drive)"
+        )
+    config = config_from_json(log.attachments[CONFIG_ATTACHMENT])
+    raw = log.attachments.get(TABLE_ATTACHMENT)
+    table: Dgpt = (
+        dgpt_from_json_dict(json.loads(raw), config.bounds) if raw is not None else predefined(1.5)
+    )
+    return EcuNode(config, table, utc_now=lambda: REPLAY_UTC)
+
+
+def _received(log: CanLog) -> list[tuple[float, can.Message]]:
+    """(time, frame) of every frame the recorded node received, in bus order."""
+    f = log.frames
+    out: list[tuple[float, can.Message]] = []
+    for t, fid, fl, data in zip(
+        f.t_s.tolist(), f.id.tolist(), f.flags.tolist(), f.data, strict=True
+    ):
+        if fl & FLAG_RX:
+            msg = Frame(
+                arbitration_id=fid,
+                is_extended_id=bool(fl & FLAG_EXTENDED),
+                data=data,
+                timestamp=t,
+                is_remote_frame=bool(fl & FLAG_REMOTE),
+                is_error_frame=bool(fl & FLAG_ERROR),
+            )
+            out.append((t, msg))
+    return out
+
+
+def _cycles(log: CanLog) -> list[tuple[float, int]]:
+    """(time, index) of every recorded control cycle."""
+    outputs = log.series.get(OUTPUTS_TOPIC)
+    if outputs is None or "cycle" not in outputs:
+        raise CanLogError(f"{log.path}: the recording holds no ECU cycles ({OUTPUTS_TOPIC})")
+    return list(zip(outputs["t_s"].tolist(), outputs["cycle"].astype(int).tolist(), strict=True))
+
+
+def replay_through_ecu(log: CanLog, node: EcuNode | None = None) -> ReplayResult:
+    """Run the recording's received frames and cycles through the ECU (module docstring).
+
+    Every received frame is put on a virtual bus and accepted at its recorded time; every
+    recorded cycle runs at its recorded time with its index, after the frames received up
+    to then. Lockstep (``pacc drive``) and real-time (``pacc ecu``) recordings alike.
+
+    Raises:
+        CanLogError: the recording names no ECU (no attached configuration, no cycles).
+    """
+    node = node if node is not None else _ecu_of(log)
+    codec = codec_of(log)
+    cycles = _cycles(log)
+    channel = f"pacc-replay-{next(_channels)}"
+    sent: list[tuple[float, int, bytes]] = []
+
+    def tap(t: float, msg: can.Message, rx: bool) -> None:
+        if not rx:
+            sent.append((t, msg.arbitration_id, bytes(msg.data)))
+
+    feeder = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
+    ecu_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
+    states: list[tuple[float, str]] = []
+    events: list[tuple[float, str]] = []
+    try:
+        rt = EcuRuntime(ecu_bus, node, codec)
+        rt.io.tap = tap
+        received = _received(log)
+        i, last = 0, None
+        for t, k in cycles:
+            while i < len(received) and received[i][0] <= t:  # a frame stamped t: before it
+                feeder.send(received[i][1])
+                rt.io.drain(received[i][0])
+                i += 1
+            rt.cycle_at(t, k)
+            out = rt.last_outputs
+            if out is not None:
+                events.extend((t, text) for text in out.events)
+                if out.acc_state != last:
+                    last = out.acc_state
+                    states.append((t, AccState(out.acc_state).name))
+        node.finish()
+        summary = rt.summary()
+    finally:
+        feeder.shutdown()
+        ecu_bus.shutdown()
+    f = log.frames
+    recorded = [
+        (t, fid, data)
+        for t, fid, rx, data in zip(
+            f.t_s.tolist(), f.id.tolist(), f.rx.tolist(), f.data, strict=True
+        )
+        if not rx
+    ]
+    return ReplayResult(summary, sent, recorded, states, events)
+
+
+@dataclass
+class PlayResult:
+    """What a real-time play sent and which ACC commands came back."""
+
+    frames_sent: int
+    commands: int = 0
+    states: Counter[str] = field(default_factory=Counter)
+    send_errors: int = 0
+
+
+def play(
+    log: CanLog,
+    bus: can.BusABC,
+    *,
+    which: str = "all",
+    codec: Codec | None = None,
+    stop: Callable[[], bool] | None = None,
+    gap_s: float = 0.0001,
+    skip_s: float = 60.0,
+) -> PlayResult:
+    """Send the recording's frames (``which``: ``all``, ``rx`` the ones its node received,
+    ``tx`` the ones it sent) onto ``bus`` with their recorded spacing, and decode the ACC
+    commands that come back. ``skip_s``: longer pauses are cut to this (python-can's player
+    default). Stops early when ``stop()`` returns True."""
+    codec = codec if codec is not None else codec_of(log)
+    inbox = Inbox(codec, ("command",))
+    result = PlayResult(frames_sent=0)
+    msgs: Iterable[can.Message] = messages(log)
+    if which != "all":
+        want_rx = which == "rx"
+        msgs = (m for m in msgs if m.is_rx == want_rx)
+    for msg in can.MessageSync(msgs, timestamps=True, gap=gap_s, skip=skip_s):
+        if stop is not None and stop():
+            break
+        try:
+            bus.send(msg)
+            result.frames_sent += 1
+        except can.CanError:
+            result.send_errors += 1
+        _answers(bus, inbox, result)
+    _answers(bus, inbox, result)
+    return result
+
+
+def _answers(bus: can.BusABC, inbox: Inbox, result: PlayResult) -> None:
+    """Decode every ACC command waiting on ``bus`` into ``result``."""
+    while (msg := bus.recv(0)) is not None:
+        d = inbox.accept_message(msg)
+        if d is not None and d.role == "command":
+            result.commands += 1
+            result.states[AccState(int(d.values["acc_state"])).name] += 1

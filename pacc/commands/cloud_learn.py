@@ -1,0 +1,157 @@
+"""``pacc cloud learn``: learn a driver's DGPT by IRL from demonstration files.
+
+    pacc cloud learn --demos FILES... --driver ID [--condition TAG] [--init DGPT.json]
+                     -o DGPT.json [--plot out.png] [--seed N] [--quiet]
+
+FILES are ``.mcap`` trip logs or ``.csv`` car-following pairs. With ``--init`` (an earlier
+IRL table) training continues from its reward weights, speeds without new evidence keep its
+gaps, and the output is its next version; when some FILES are ACC trips (trip-log mode
+``acc``), this is fine-tuning from their takeovers (``cloud_sync.irl.trainer.fine_tune``), the
+manual FILES counting as earlier demonstrations.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+from typing import Any
+
+from cloud_sync.errors import CloudSyncError
+from ecu import EcuError
+from pacc.vocab import FormatError
+
+__all__ = ["add_subparser"]
+
+
+def _do_learn(args: argparse.Namespace) -> int:
+    # numpy, scipy and the trainer cost ~2 s of start-up (python -X importtime); imported here,
+    # `pacc cloud --help` stays at ~20 ms of imports
+    import numpy as np  # noqa: PLC0415
+
+    from cloud_sync.irl.demos import is_acc_trip  # noqa: PLC0415
+    from cloud_sync.irl.trainer import METHOD, IrlConfig, fine_tune, learn_dgpt  # noqa: PLC0415
+    from cloud_sync.irl.tripfiles import load_trip  # noqa: PLC0415
+    from pacc.vocab.dgpt import load_dgpt, save_dgpt  # noqa: PLC0415
+
+    try:
+        _check_outputs(args.output, args.plot)  # now, not after training
+        config = IrlConfig(takeover_weight=args.takeover_weight)
+        trips = [load_trip(p) for p in args.demos]
+        init = load_dgpt(args.init) if args.init else None
+        acc = [t for t in trips if is_acc_trip(t)]
+        if init is not None and acc and init.meta.get("method") == METHOD:
+            # ACC trips given with an IRL table: fine-tune from their takeovers
+            manual = [t for t in trips if not is_acc_trip(t)]
+            result = fine_tune(
+                acc, init, demos=manual, seed=args.seed, progress=not args.quiet, config=config
+            )
+        else:
+            result = learn_dgpt(
+                trips,
+                driver_id=args.driver,
+                condition=args.condition,
+                init=init,
+                seed=args.seed,
+                progress=not args.quiet,
+                config=config,
+            )
+        save_dgpt(result.table, args.output)
+        if args.plot:
+            from cloud_sync.irl.plot import plot_result  # noqa: PLC0415  (matplotlib: --plot only)
+
+            plot_result(result, args.plot)
+    except (CloudSyncError, EcuError, FormatError) as exc:
+        print(f"pacc cloud learn: error: {exc}", file=sys.stderr)
+        return 1
+    t = result.table
+    cov = result.covered
+    ranges = ", ".join(f"{a:g}-{b:g}" for a, b in t.meta["covered_mps"])
+    print(f"driver {t.driver_id} ({t.condition}): DGPT v{t.version} -> {args.output}")
+    print(
+        f"demonstrations: {len(trips)} trip(s), {t.meta['usable_demo_s']:.0f} s usable, "
+        f"{t.meta['n_segments']} segments; covered speeds {ranges} m/s"
+    )
+    print(
+        f"IRL: {result.n_iter} iterations in {result.train_s:.1f} s "
+        f"({'converged' if result.converged else 'stopped: ' + result.message})"
+    )
+    if result.baseline is not None:
+        d = t.gap_m[cov] - result.baseline.gap_m[cov]
+        print(
+            f"IRL vs empirical baseline over covered speeds: RMSE {np.sqrt(np.mean(d * d)):.2f} m"
+        )
+    for v in (10.0, 20.0, 30.0):
+        print(f"  DGPT({v:g} m/s) = {t.lookup(v):.1f} m ({(t.lookup(v) - 4.0) / v:.2f} s + 4 m)")
+    if args.plot:
+        print(f"plot -> {args.plot}")
+    return 0
+
+
+def _check_outputs(output: str, plot: str | None) -> None:
+    """Raise CloudSyncError unless ``output`` (and ``plot``) can be written, before training.
+
+    A path must name a file in an existing, writable folder; the plot's suffix must be an
+    image format matplotlib writes (png, pdf, svg, ...).
+    """
+    for flag, name in (("-o", output), ("--plot", plot)):
+        if name is None:
+            continue
+        path = Path(name)
+        parent = path.resolve().parent
+        if path.is_dir() or not (parent.is_dir() and os.access(parent, os.W_OK)):
+            raise CloudSyncError(f"{flag} {name}: not a writable file location")
+    if plot is not None:
+        from matplotlib.figure import Figure  # noqa: PLC0415  (~0.9 s, --plot only)
+
+        formats = Figure().canvas.get_supported_filetypes()
+        suffix = Path(plot).suffix.lower().lstrip(".")
+        if suffix not in formats:
+            raise CloudSyncError(
+                f"--plot {plot}: unknown image format {suffix!r} (one of {', '.join(formats)})"
+            )
+
+
+def add_subparser(subparsers: Any) -> None:
+    """Register ``learn`` on an argparse sub-parsers object."""
+    p = subparsers.add_parser(
+        "learn",
+        help="learn a driver's DGPT by inverse RL from demonstrations",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument(
+        "--demos",
+        nargs="+",
+        required=True,
+        metavar="FILE",
+        help="demonstration trips: .mcap trip logs or .csv car-following pairs",
+    )
+    p.add_argument("--driver", required=True, metavar="ID", help="driver id of the table")
+    p.add_argument(
+        "--condition",
+        default="default",
+        metavar="TAG",
+        help="driving-condition tag (default: %(default)s)",
+    )
+    p.add_argument(
+        "--init", metavar="DGPT.json", help="earlier IRL table to continue from (fine-tuning)"
+    )
+    p.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        metavar="DGPT.json",
+        help="where to write the learned table",
+    )
+    p.add_argument("--plot", metavar="PNG", help="write the reward / DGPT figure here")
+    p.add_argument("--seed", type=int, default=0, help="seed (default: %(default)s)")
+    p.add_argument(
+        "--takeover-weight",
+        type=float,
+        default=5.0,
+        help="weight of ACC-trip takeover samples vs manual ones (default: %(default)s)",
+    )
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_do_learn)

@@ -1,0 +1,128 @@
+"""``pacc cloud serve`` and ``pacc cloud register``: run the cloud service, enrol vehicles.
+
+    pacc cloud register --data DIR --vehicle ID [--driver D ...] --token-file F
+    pacc cloud serve --data DIR [--host 127.0.0.1] [--port 8080] [--workers 1]
+                     [--max-upload-mb 16] [--seed 0] [--scheduler local|tcp://HOST:8786]
+
+``register`` creates the data folder and its signing key if new, registers the vehicle and its
+drivers, writes the vehicle's token to F (mode 0600) and names the public key file the vehicle
+must trust (``DIR/keys/cloud.pub``). ``serve`` answers HTTP on HOST:PORT (see
+:mod:`cloud_sync.service.http`) and runs learning jobs on a pool of WORKERS threads; with
+``--scheduler`` each job's training runs on a Dask cluster (``local``: a LocalCluster of
+WORKERS processes started here; an address: that cluster), the job threads as many as the
+cluster's workers (docs/scale.md).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import signal
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any
+
+from cloud_sync.engine.base import open_engine
+from cloud_sync.errors import CloudSyncError
+from cloud_sync.vehicle.connect import write_token
+
+__all__ = ["add_subparser"]
+
+
+def _do_register(args: argparse.Namespace) -> int:
+    # the service pulls in numpy, scipy and the trainer (~2 s): `pacc cloud --help` must not
+    from cloud_sync.service.rules import CloudService  # noqa: PLC0415
+
+    try:
+        service = CloudService.open(args.data)
+        token = service.register_vehicle(args.vehicle)
+        for driver in args.driver:
+            service.register_driver(args.vehicle, driver)
+        write_token(args.token_file, token)
+    except (CloudSyncError, OSError) as exc:
+        print(f"pacc cloud register: error: {exc}")
+        return 1
+    drivers = ", ".join(args.driver) or "none yet"
+    print(f"vehicle {args.vehicle} registered (drivers: {drivers})")
+    print(f"token written to {args.token_file}")
+    print(f"the vehicle trusts the key {Path(args.data) / 'keys' / 'cloud.pub'}")
+    return 0
+
+
+def _do_serve(args: argparse.Namespace) -> int:
+    # uvicorn and the FastAPI app cost ~0.5 s of start-up: only `serve` needs them
+    import uvicorn  # noqa: PLC0415
+
+    from cloud_sync.service.http import create_app  # noqa: PLC0415
+    from cloud_sync.service.rules import CloudService, ServiceConfig  # noqa: PLC0415
+
+    if not 1 <= args.port <= 65535 or args.workers < 1 or not args.max_upload_mb > 0:
+        print(
+            "pacc cloud serve: error: need 1 <= --port <= 65535, --workers >= 1, "
+            "--max-upload-mb > 0"
+        )
+        return 2
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
+    logging.getLogger("distributed").setLevel(logging.WARNING)  # its INFO is every connection
+    compute = None
+    try:
+        if args.scheduler is not None:
+            compute = open_engine(args.scheduler, args.workers)
+    except CloudSyncError as exc:
+        print(f"pacc cloud serve: error: {exc}")
+        return 2
+    threads = max(args.workers, compute.workers if compute is not None else 1)
+    pool = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="pacc-learn")
+    config = ServiceConfig(max_upload_bytes=int(args.max_upload_mb * 1024 * 1024), seed=args.seed)
+    try:
+        service = CloudService.open(args.data, executor=pool, config=config, compute=compute)
+    except (CloudSyncError, OSError) as exc:
+        print(f"pacc cloud serve: error: {exc}")
+        pool.shutdown(wait=True)
+        if compute is not None:
+            compute.close()
+        return 1
+    where = f" training on Dask at {args.scheduler}" if compute is not None else ""
+    print(
+        f"pacc cloud serving {args.data} on http://{args.host}:{args.port} "
+        f"(OpenAPI at /docs), {threads} learning worker(s){where}",
+        flush=True,
+    )
+    # uvicorn shuts down gracefully on SIGTERM/SIGINT, then raises the signal again under the
+    # handlers it found: make those no-ops, so the store and the job pool close and we exit 0
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(sig, lambda *_: None)
+    try:
+        uvicorn.run(create_app(service), host=args.host, port=args.port, log_level="warning")
+    finally:
+        pool.shutdown(wait=True)
+        service.store.close()
+        if compute is not None:
+            compute.close()
+    print("pacc cloud stopped", flush=True)
+    return 0
+
+
+def add_subparser(subparsers: Any) -> None:
+    """Register ``register`` and ``serve`` on the ``pacc cloud`` parser."""
+    reg = subparsers.add_parser("register", help="register a vehicle and its drivers")
+    reg.add_argument("--data", required=True, help="the cloud's data folder")
+    reg.add_argument("--vehicle", required=True, help="vehicle id")
+    reg.add_argument("--driver", action="append", default=[], help="a driver id (repeatable)")
+    reg.add_argument("--token-file", required=True, help="where to write the vehicle's token")
+    reg.set_defaults(func=_do_register)
+
+    srv = subparsers.add_parser("serve", help="run the cloud service over HTTP")
+    srv.add_argument("--data", required=True, help="the cloud's data folder")
+    srv.add_argument("--host", default="127.0.0.1")
+    srv.add_argument("--port", type=int, default=8080)
+    srv.add_argument("--workers", type=int, default=1, help="learning job threads")
+    srv.add_argument("--max-upload-mb", type=float, default=16.0, help="upload size limit, MiB")
+    srv.add_argument("--seed", type=int, default=0, help="seed of every learning job")
+    srv.add_argument(
+        "--scheduler",
+        metavar="local|tcp://HOST:8786",
+        help="train on Dask: 'local' starts a LocalCluster of --workers processes, an address "
+        "joins that cluster (docs/scale.md; needs pacc[dask])",
+    )
+    srv.set_defaults(func=_do_serve)

@@ -1,0 +1,431 @@
+"""``pacc ecu``: run the ACC ECU node on a CAN bus in real time.
+
+Example::
+
+    pacc ecu -i virtual -c vcan0 --headway 1.5 --takeovers takeovers/ --duration 300
+
+The node starts from ``--profile`` (a DGPT JSON file) or a predefined constant-headway table.
+An invalid profile is refused with a clear message; the ECU then runs on the predefined
+table, says so, and reports FaultCode Profile on ACC_Status. State changes, faults and
+adaptation decisions are printed as they happen; at exit (``--duration`` elapsed, Ctrl-C or
+SIGTERM) the open takeover segment is written and a summary printed: cycles, frames in/out,
+E2E errors by kind, takeovers, adaptations, max cycle time.
+Exit codes: 0 run completed, 1 bus/DBC/takeover-directory error, 2 usage error (also
+``--dbc`` without a ``--binding`` that names it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import signal
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from dbc.codec import Codec, CodecError
+from dbc.errors import BindingError
+from dbc.network import add_network_arguments, codec_of, network_of
+from ecu import EcuError
+from ecu.adaptation import ADAPTATION_MODES, AdaptationParams
+from ecu.buslog.format import TimeBase
+from ecu.node import EcuConfig, EcuNode
+from ecu.recorder import TripSink, directory_sink
+from pacc.vocab import FormatError
+from pacc.vocab.dgpt import Dgpt, DgptError, load_dgpt, predefined, save_dgpt
+
+if TYPE_CHECKING:
+    from cloud_sync.vehicle.link import VehicleLink
+    from ecu.buslog.writer import CanLogWriter
+    from ecu.runtime import EcuRuntime
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``pacc ecu`` (python-can flag conventions)."""
+    p = argparse.ArgumentParser(
+        prog="pacc ecu",
+        description="Run the personalized ACC ECU node on a CAN bus (50 Hz, real time).",
+    )
+    bus = p.add_argument_group("bus (omitted: python-can's own configuration applies)")
+    bus.add_argument("-i", "--interface", help="python-can interface, e.g. virtual, socketcan")
+    bus.add_argument("-c", "--channel", help="channel, e.g. vcan0")
+    bus.add_argument("-b", "--bitrate", type=int, help="bitrate, bit/s")
+    add_network_arguments(p)
+    table = p.add_mutually_exclusive_group()
+    table.add_argument("--profile", metavar="DGPT.json", help="driver gap preference table")
+    table.add_argument(
+        "--headway",
+        type=float,
+        default=1.5,
+        metavar="S",
+        help="predefined table: constant time headway, s (default 1.5; the paper: 1, 3, 4)",
+    )
+    p.add_argument(
+        "--standstill", type=float, default=4.0, metavar="M", help="standstill gap, m (4)"
+    )
+    p.add_argument(
+        "--adaptation",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="online DGPT adaptation at each takeover release (default: on)",
+    )
+    p.add_argument(
+        "--adaptation-mode",
+        choices=ADAPTATION_MODES,
+        default="timegap",
+        help="online adaptation: the paper's Algorithm 1 ('paper') or the time-gap update "
+        "spread over speed ('timegap', default; docs/ecu.md)",
+    )
+    p.add_argument(
+        "--brake",
+        choices=("resume", "cancel"),
+        default="resume",
+        help="brake press: override and resume on release (paper) or cancel (production)",
+    )
+    p.add_argument(
+        "--profiles",
+        metavar="DIR",
+        help="driver profiles: HMI DriverProfileId n > 0 loads DIR/profile_<n>.json",
+    )
+    p.add_argument("--set-speed", type=float, metavar="MPS", help="SET engages at this speed")
+    p.add_argument("--takeovers", metavar="DIR", help="write takeover segments (MCAP) here")
+    p.add_argument(
+        "--can-log",
+        metavar="FILE",
+        help="record every frame in and out (raw and decoded) and the node's internals to "
+        "this MCAP file (pacc replay, pacc plot, pacc export)",
+    )
+    p.add_argument("--save-profile", metavar="PATH", help="write the final DGPT here at exit")
+    p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
+    cloud = p.add_argument_group("cloud (docs/cloud.md): takeovers up, verified tables down")
+    cloud.add_argument("--cloud", metavar="URL|DIR", help="the cloud service, or a folder")
+    cloud.add_argument("--vehicle", metavar="ID", help="this vehicle's id (with --cloud)")
+    cloud.add_argument("--token-file", metavar="F", help="file holding the vehicle's token")
+    cloud.add_argument(
+        "--trust",
+        metavar="KEY.pub",
+        help="the cloud's public key (default for a folder: "
+        "DIR/keys/cloud.pub; required for a URL)",
+    )
+    cloud.add_argument("--driver", metavar="ID", help="download this driver's table")
+    cloud.add_argument("--condition", default="default", help="driving condition of --driver")
+    cloud.add_argument("--spool", metavar="DIR", default="pacc-spool", help="the spool folder")
+    cloud.add_argument(
+        "--sync-every", type=float, default=60.0, metavar="S", help="download period, s (60)"
+    )
+    p.add_argument("-v", "--verbose", action="store_true", help="log at INFO level")
+    return p
+
+
+def _bus_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    kwargs: dict[str, Any] = {"interface": args.interface, "channel": args.channel}
+    if args.bitrate is not None:
+        kwargs["bitrate"] = args.bitrate
+    return kwargs
+
+
+def _say(text: object) -> None:
+    """Print ``text`` to stdout now. If the reader has gone (``pacc ecu | head``, a dead log
+    pipe) the ECU keeps running: stdout is pointed at devnull and the run goes on to its end,
+    writing takeovers and the profile."""
+    try:
+        print(text, flush=True)
+    except BrokenPipeError:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+
+
+def _stop_on_sigterm(stop: Callable[[], None]) -> Callable[[], None]:
+    """Make SIGTERM call ``stop`` (a service stop ends the run like Ctrl-C: the open takeover
+    segment is written, the profile saved); return a function restoring the old handler.
+    Off the main thread signals cannot be handled: nothing is installed."""
+    try:
+        previous = signal.signal(signal.SIGTERM, lambda signum, frame: stop())
+    except ValueError:  # not the main thread
+        return lambda: None
+
+    def restore() -> None:
+        signal.signal(signal.SIGTERM, previous if previous is not None else signal.SIG_DFL)
+
+    return restore
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``pacc ecu`` / ``python -m ecu``; returns the exit code."""
+    args = build_parser().parse_args(argv)
+    if args.duration is not None and not args.duration >= 0.0:
+        print("pacc ecu: error: --duration must be >= 0", file=sys.stderr)
+        return 2
+    try:
+        network_of(args)
+    except BindingError as exc:  # --dbc without a binding for it: a usage error
+        print(f"pacc ecu: error: {exc}", file=sys.stderr)
+        return 2
+    return _run(args)
+
+
+class _Exit(Exception):
+    """Ends ``pacc ecu`` with ``code`` after printing ``message`` to stderr."""
+
+    def __init__(self, code: int, message: str) -> None:
+        super().__init__(message)
+        self.code = code
+        self.message = message
+
+
+def _run(args: argparse.Namespace) -> int:
+    logging.basicConfig(
+        level=logging.INFO if args.verbose else logging.WARNING,
+        format="%(levelname)s %(name)s: %(message)s",
+    )
+    try:
+        return _serve(args)
+    except _Exit as exc:
+        print(exc.message, file=sys.stderr)
+        return exc.code
+
+
+def _serve(args: argparse.Namespace) -> int:
+    """Build the node, run it on the bus until done, report and save; raise :class:`_Exit`."""
+    config, fallback = _config(args)
+    link = _cloud_link(args, config) if args.cloud else None
+    table, profile_fault = _initial_table(args, config, fallback)
+    if link is not None and not args.profile:
+        table = _cloud_table(link, table)
+    codec, sink = _codec_and_sink(args)
+    if args.save_profile:  # refuse now, not after the drive when the table would be lost
+        _check_writable_parent(args.save_profile)
+    base = TimeBase.now(time.monotonic())  # the real-time clock against the wall clock
+    node = EcuNode(config, table, link.sink if link is not None else sink, utc_of=base.iso)
+    if profile_fault:
+        node.report_profile_fault()
+    recorder = _recorder(args, codec, node, base) if args.can_log else None
+    recording_error = None
+    try:
+        bus_error = _run_on_bus(args, node, codec, link, recorder)
+    finally:
+        if link is not None:
+            link.stop()
+            _say(link.report())
+        if recorder is not None:  # before anything can fail: the recording is kept
+            recording_error = _close_recorder(recorder)
+    if args.takeovers and node.recorder is not None:
+        rec = node.recorder
+        _say(
+            f"takeover segments: {rec.segments - len(rec.pending)} of {rec.segments} written to"
+            f" {args.takeovers} ({rec.sink_errors} failed attempts)"
+        )
+    if args.save_profile:
+        try:
+            save_dgpt(node.table, args.save_profile)
+        except DgptError as exc:
+            raise _Exit(1, f"pacc ecu: error: {exc}") from None
+        _say(f"profile saved: {args.save_profile} (v{node.table.version})")
+    if bus_error is not None:
+        raise _Exit(1, f"pacc ecu: error: the CAN bus failed: {bus_error}")
+    if recording_error is not None:  # after the takeovers and the profile are saved
+        raise _Exit(1, f"pacc ecu: error: {recording_error}")
+    return 0
+
+
+def _config(args: argparse.Namespace) -> tuple[EcuConfig, Dgpt]:
+    """The node's configuration and the predefined fallback table (usage errors: exit 2)."""
+    try:
+        config = EcuConfig(
+            adaptation=args.adaptation,
+            adaptation_params=AdaptationParams(mode=args.adaptation_mode),
+            brake_mode=args.brake,
+            set_speed_mps=args.set_speed,
+        )
+        return config, predefined(args.headway, args.standstill)
+    except (EcuError, FormatError) as exc:
+        raise _Exit(2, f"pacc ecu: error: {exc}") from None
+
+
+def _initial_table(
+    args: argparse.Namespace, config: EcuConfig, fallback: Dgpt
+) -> tuple[Dgpt, bool]:
+    """The table to start with, and whether ``--profile`` was refused (then: the fallback)."""
+    if not args.profile:
+        _say(f"profile: predefined {args.headway:g} s headway, {args.standstill:g} m standstill")
+        return fallback, False
+    try:
+        table = load_dgpt(args.profile, config.bounds)
+    except DgptError as exc:
+        print(f"pacc ecu: profile refused: {exc}", file=sys.stderr)
+        print(
+            f"pacc ecu: running on the predefined table ({args.headway:g} s headway, "
+            f"{args.standstill:g} m standstill) instead",
+            file=sys.stderr,
+        )
+        return fallback, True
+    _say(f"profile: {args.profile} ({table.driver_id}, {table.source}, v{table.version})")
+    return table, False
+
+
+def _codec_and_sink(args: argparse.Namespace) -> tuple[Codec, TripSink | None]:
+    """The network codec (``--dbc``/``--binding`` or the packaged one) and the takeover sink."""
+    try:
+        codec = codec_of(args)
+        sink = directory_sink(args.takeovers) if args.takeovers else None
+    except (CodecError, EcuError, FormatError) as exc:
+        raise _Exit(1, f"pacc ecu: error: {exc}") from None
+    return codec, sink
+
+
+def _recorder(
+    args: argparse.Namespace, codec: Codec, node: EcuNode, base: TimeBase
+) -> CanLogWriter:
+    """The bus recorder of ``--can-log`` (opened now: a bad path fails before the run)."""
+    from ecu.buslog.recording import open_recording  # noqa: PLC0415 - python-can, mcap: only to record
+
+    try:
+        return open_recording(
+            args.can_log,
+            codec,
+            base,
+            node="ecu",
+            config=node.config,
+            table=node.table,
+            dbc_path=args.dbc,
+            binding_path=getattr(args, "binding", None),
+        )
+    except (EcuError, FormatError) as exc:
+        raise _Exit(1, f"pacc ecu: error: {exc}") from None
+
+
+def _close_recorder(recorder: CanLogWriter) -> str | None:
+    """Close the recording; the failure's text (None: written)."""
+    try:
+        recorder.close()
+    except (EcuError, FormatError) as exc:
+        return str(exc)
+    _say(f"bus recording: {recorder.frames} frames written to {recorder.path}")
+    return None
+
+
+def _check_writable_parent(target: str) -> None:
+    parent = Path(target).resolve().parent
+    if not (parent.is_dir() and os.access(parent, os.W_OK)):
+        raise _Exit(1, f"pacc ecu: error: --save-profile: {parent} is not a writable directory")
+
+
+def _cloud_link(args: argparse.Namespace, config: EcuConfig) -> VehicleLink:
+    """The vehicle's cloud link of ``--cloud`` (usage and set-up errors raise _Exit)."""
+    # the cloud side (httpx, cryptography, the embedded service) is only for --cloud runs
+    from cloud_sync.errors import CloudSyncError  # noqa: PLC0415
+    from cloud_sync.signing import load_public_key  # noqa: PLC0415
+    from cloud_sync.vehicle.connect import connect, is_url, read_token  # noqa: PLC0415
+    from cloud_sync.vehicle.download import ProfileDownloader  # noqa: PLC0415
+    from cloud_sync.vehicle.link import VehicleLink  # noqa: PLC0415
+    from cloud_sync.vehicle.spool import Spool  # noqa: PLC0415
+
+    if not (args.vehicle and args.token_file):
+        raise _Exit(2, "pacc ecu: error: --cloud needs --vehicle ID and --token-file F")
+    if args.takeovers:
+        raise _Exit(2, "pacc ecu: error: --cloud spools the takeovers: drop --takeovers")
+    if args.driver and args.profile:
+        raise _Exit(2, "pacc ecu: error: --driver (the cloud's tables) or --profile, not both")
+    if not args.sync_every > 0:
+        raise _Exit(2, "pacc ecu: error: --sync-every must be > 0")
+    trust = args.trust or (None if is_url(args.cloud) else Path(args.cloud) / "keys" / "cloud.pub")
+    if args.driver and trust is None:
+        raise _Exit(2, "pacc ecu: error: --driver with a cloud URL needs --trust KEY.pub")
+    try:
+        # short calls: the start-up download must not hold the control loop back for long
+        cloud = connect(args.cloud, read_token(args.token_file), timeout_s=5.0)
+        downloader = None
+        if args.driver:
+            assert trust is not None
+            downloader = ProfileDownloader(
+                cloud, load_public_key(trust), Path(args.spool) / "profiles", config.bounds
+            )
+        link = VehicleLink(
+            cloud,
+            Spool(args.spool),
+            args.vehicle,
+            downloader=downloader,
+            driver_id=args.driver,
+            condition=args.condition,
+            sync_every_s=args.sync_every,
+        )
+    except (CloudSyncError, OSError) as exc:
+        raise _Exit(1, f"pacc ecu: error: {exc}") from None
+    _say(f"cloud: {args.cloud} as vehicle {args.vehicle}, spool {args.spool}")
+    return link
+
+
+def _cloud_table(link: VehicleLink, table: Dgpt) -> Dgpt:
+    """The driver's newest verified cloud table, else ``table`` (never raises)."""
+    try:
+        cloud_table = link.initial_table()
+    except Exception as exc:  # the start table must not depend on the cloud's health
+        _say(f"cloud: start-up download failed ({type(exc).__name__}: {exc})")
+        cloud_table = None
+    if cloud_table is None:
+        _say("cloud: no verified table for the driver yet; keeping the start table")
+        return table
+    _say(f"profile: cloud {cloud_table.driver_id} {cloud_table.source} v{cloud_table.version}")
+    return cloud_table
+
+
+def _run_on_bus(
+    args: argparse.Namespace,
+    node: EcuNode,
+    codec: Codec,
+    link: VehicleLink | None = None,
+    recorder: CanLogWriter | None = None,
+) -> str | None:
+    """Open the bus, run the node on it until done and print the summary; return the bus
+    failure's text (None: clean end)."""
+    # python-can and the runtime cost ~0.3 s of start-up that --help and usage errors skip
+    import can  # noqa: PLC0415
+
+    from ecu.runtime import EcuRuntime  # noqa: PLC0415
+
+    try:
+        bus = can.Bus(**_bus_kwargs(args))
+    except (can.CanError, OSError, ValueError, ImportError) as exc:
+        raise _Exit(1, f"pacc ecu: error: cannot open the CAN bus: {exc}") from None
+    with bus:
+        try:
+            rt = EcuRuntime(bus, node, codec, on_event=_say, profile_dir=args.profiles)
+        except (EcuError, FormatError) as exc:  # a DBC that cannot carry the outputs
+            raise _Exit(1, f"pacc ecu: error: {exc}") from None
+        if link is not None:
+            link.start(rt.offer_table)
+        rt.record_to(recorder)
+        mode = args.adaptation_mode if args.adaptation else "off"
+        _say(f"adaptation: {mode}; brake press: {args.brake}")
+        _say(f"ECU running on {bus.channel_info} (Ctrl-C to stop)")
+        bus_error = run_until_done(rt, args.duration)
+    _say(rt.summary())
+    return bus_error
+
+
+def run_until_done(rt: EcuRuntime, duration_s: float | None) -> str | None:
+    """Run ``rt`` (an EcuRuntime) in real time until ``duration_s``, Ctrl-C or SIGTERM.
+
+    The open takeover segment is always flushed. A failure of the bus itself
+    (``can.CanError`` from receive or send) ends the run like a stop, so the caller still
+    prints the summary and saves the profile; its text is returned (None: clean end).
+    """
+    import can  # noqa: PLC0415 - see _run_on_bus: python-can only when the ECU runs
+
+    restore_sigterm = _stop_on_sigterm(rt.stop)
+    try:
+        rt.run_realtime(duration_s)
+    except KeyboardInterrupt:
+        _say("interrupted")
+    except can.CanError as exc:
+        return str(exc) or type(exc).__name__
+    finally:
+        restore_sigterm()
+        rt.node.finish()
+    return None
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,78 @@
+"""``pacc export IN OUT``: convert a CAN log between python-can's formats and pacc's MCAP.
+
+    pacc export drive.mcap drive.blf            # a pacc recording to Vector BLF
+    pacc export trace.asc trace.mcap --dbc car.dbc   # any python-can log to MCAP, decoded
+
+Formats by suffix: ``.mcap`` (pacc bus recordings, :mod:`ecu.buslog.writer`), ``.log`` (candump),
+``.asc``, ``.blf``, ``.trc``, ``.csv`` and whatever else python-can reads or writes. The
+conversion is python-can's readers and writers (``can.LogReader``, ``can.Logger``), the
+``.mcap`` ones registered by pacc as a python-can plugin (:mod:`ecu.buslog.plugin`). A failed
+conversion leaves no output file behind. Exit status: 0, 2 on a bad file or format.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import sys
+from pathlib import Path
+
+from ecu import EcuError
+from pacc.vocab import FormatError
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="pacc export",
+        description="convert a CAN log between pacc's MCAP and python-can's formats "
+        "(.log candump, .asc, .blf, .trc, .csv ...)",
+    )
+    p.add_argument("src", type=Path, metavar="IN", help="the log to read")
+    p.add_argument("dst", type=Path, metavar="OUT", help="the log to write (format by suffix)")
+    p.add_argument(
+        "--dbc", help="MCAP output: decode the frames with this DBC (default: the pacc network)"
+    )
+    return p
+
+
+def convert(src: Path, dst: Path, dbc: str | None = None) -> int:
+    """Copy every frame of ``src`` to ``dst`` with python-can's reader and writer; the
+    number of frames. Raises EcuError (CanLogError) or ValueError/OSError on bad input."""
+    import can  # noqa: PLC0415 - python-can only when a log is converted
+
+    if src.resolve() == dst.resolve():
+        raise ValueError("IN and OUT are the same file")
+    if not src.is_file():
+        raise FileNotFoundError(f"{src}: no such file")
+    kwargs = {"dbc": dbc} if dbc and dst.suffix.lower() == ".mcap" else {}
+    n = 0
+    # an ASC file keeps its start time in its header: read absolute times, not offsets
+    absolute = {"relative_timestamp": False} if src.suffix.lower() == ".asc" else {}
+    with can.LogReader(src, **absolute) as reader, can.Logger(dst, **kwargs) as writer:
+        for msg in reader:
+            writer.on_message_received(msg)
+            n += 1
+    return n
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``pacc export``; returns the exit status."""
+    args = _parser().parse_args(argv)
+    if args.dbc and args.dst.suffix.lower() != ".mcap":
+        print("pacc export: error: --dbc applies to an .mcap output only", file=sys.stderr)
+        return 2
+    existed = args.dst.exists()
+    try:
+        n = convert(args.src, args.dst, args.dbc)
+    except (EcuError, FormatError, ValueError, OSError) as exc:
+        if not existed:
+            with contextlib.suppress(OSError):
+                args.dst.unlink(missing_ok=True)
+        print(f"pacc export: error: {exc}", file=sys.stderr)
+        return 2
+    print(f"{n} frames: {args.src} -> {args.dst}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

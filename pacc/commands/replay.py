@@ -1,0 +1,138 @@
+"""``pacc replay LOG``: a bus recording through the ECU (deterministic) or onto a bus (real time).
+
+    pacc replay drive.mcap --ecu               # the recorded ECU over its recorded inputs
+    pacc replay drive.mcap -i virtual -c bus0 --frames rx   # real time, e.g. to a pacc ecu
+
+``--ecu`` rebuilds the ECU from the recording (its DBC, binding, configuration and starting
+table are attached), feeds it every frame its node received at the recorded time, runs every
+recorded control cycle at its recorded time, and compares the frames it sends with the
+recorded ones (:mod:`ecu.buslog.replay`); it prints the ACC state changes, the events and the
+summary. Exit status 0 when the ECU sent the recorded frames exactly, 1 when they differ (the
+first difference is printed), 2 on a bad recording or options. Without ``--ecu`` the frames
+go onto the bus with their recorded spacing (python-can's player), and the ACC commands
+another ECU answers with are counted by state.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from ecu import EcuError
+from pacc.vocab import FormatError
+
+#: state changes printed in full; the rest are counted
+MAX_STATES_SHOWN = 12
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="pacc replay",
+        description="replay a bus recording through the ECU (--ecu, deterministic) or onto a "
+        "CAN bus in real time",
+    )
+    p.add_argument("log", type=Path, metavar="LOG", help="a pacc bus recording (.mcap)")
+    p.add_argument(
+        "--ecu",
+        action="store_true",
+        help="through the recorded ECU at the recorded times; compare its frames",
+    )
+    p.add_argument("--events", action="store_true", help="--ecu: print every ECU event")
+    bus = p.add_argument_group("real time (omitted: python-can's own configuration applies)")
+    bus.add_argument("-i", "--interface", help="python-can interface, e.g. virtual, socketcan")
+    bus.add_argument("-c", "--channel", help="channel, e.g. vcan0")
+    bus.add_argument("-b", "--bitrate", type=int, help="bitrate, bit/s")
+    bus.add_argument(
+        "--frames",
+        choices=("all", "rx", "tx"),
+        default="all",
+        help="the frames to send: all, rx (those the recorded node received: its inputs, "
+        "to drive another ECU) or tx (default all)",
+    )
+    return p
+
+
+def _ecu(args: argparse.Namespace) -> int:
+    from ecu.buslog.reader import read_canlog  # noqa: PLC0415 - numpy, mcap only when run
+    from ecu.buslog.replay import replay_through_ecu  # noqa: PLC0415
+
+    log = read_canlog(args.log)
+    result = replay_through_ecu(log)
+    n_rx = int(log.frames.rx.sum())
+    print(
+        f"replay: {args.log} (recorded by {log.node or '?'} from "
+        f"{log.metadata.get('pacc', {}).get('start_utc', '?')}), {len(log.frames)} frames, "
+        "through the ECU"
+    )
+    print(f"  fed to the ECU   {n_rx} received frames at their recorded times")
+    diff = result.first_difference()
+    verdict = (
+        f"identical to the recording ({len(result.recorded)} of {len(result.recorded)})"
+        if diff is None
+        else f"DIFFERENT from the recording from frame {diff} on"
+    )
+    print(f"  ECU sent         {len(result.sent)} frames: {verdict}")
+    if diff is not None:
+        mine = result.sent[diff] if diff < len(result.sent) else None
+        theirs = result.recorded[diff] if diff < len(result.recorded) else None
+        print(f"    replayed {_frame(mine)}\n    recorded {_frame(theirs)}")
+    shown = ", ".join(f"{t:.2f} s {s}" for t, s in result.states[:MAX_STATES_SHOWN])
+    more = len(result.states) - MAX_STATES_SHOWN
+    print(f"  ACC states       {shown}" + (f" (+{more} more)" if more > 0 else ""))
+    if args.events:
+        for t, text in result.events:
+            print(f"    t={t:.2f} s  {text}")
+    print("  " + str(result.summary).replace("\n", "\n  "))
+    return 0 if diff is None else 1
+
+
+def _frame(f: tuple[float, int, bytes] | None) -> str:
+    return "none" if f is None else f"t={f[0]:.3f} s id={f[1]:#x} data={f[2].hex()}"
+
+
+def _realtime(args: argparse.Namespace) -> int:
+    import can  # noqa: PLC0415
+
+    from ecu.buslog.reader import read_canlog  # noqa: PLC0415
+    from ecu.buslog.replay import play  # noqa: PLC0415
+
+    log = read_canlog(args.log)
+    kwargs = {"interface": args.interface, "channel": args.channel}
+    if args.bitrate is not None:
+        kwargs["bitrate"] = args.bitrate
+    try:
+        bus = can.Bus(**kwargs)
+    except (can.CanError, OSError, ValueError, ImportError) as exc:
+        print(f"pacc replay: error: cannot open the CAN bus: {exc}", file=sys.stderr)
+        return 2
+    with bus:
+        try:
+            result = play(log, bus, which=args.frames)
+        except KeyboardInterrupt:
+            print("pacc replay: interrupted", file=sys.stderr)
+            return 0
+    states = ", ".join(f"{k} {v}" for k, v in sorted(result.states.items())) or "none"
+    print(
+        f"replay: {result.frames_sent} frames of {args.log} sent on {bus.channel_info}"
+        + (f" ({result.send_errors} refused by the bus)" if result.send_errors else "")
+    )
+    print(f"  ACC commands received: {result.commands} (by state: {states})")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``pacc replay``; returns the exit status."""
+    args = _parser().parse_args(argv)
+    if args.ecu and (args.interface or args.channel or args.bitrate):
+        print("pacc replay: error: --ecu needs no bus: drop the bus options", file=sys.stderr)
+        return 2
+    try:
+        return _ecu(args) if args.ecu else _realtime(args)
+    except (EcuError, FormatError) as exc:
+        print(f"pacc replay: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

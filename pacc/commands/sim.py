@@ -1,0 +1,208 @@
+"""``pacc sim`` (= ``python -m sim_bus``): the simulator alone, in real time, on a CAN bus.
+
+The simulator plays ESC, PEDAL, RADAR and HMI against an ACC ECU elsewhere on the bus
+(``pacc ecu`` or a real ECU) and drives the ego car with the ECU's ACC_Command frames.
+Bus flags follow python-can: ``--interface/-i``, ``--channel/-c``, ``--bitrate/-b``; when
+omitted, python-can's own configuration applies (CAN_INTERFACE, ~/.canrc).
+
+    pacc sim -i socketcan -c vcan0 --scenario B --driver d2 --duration 120 --log sim.mcap
+
+At the end (or on Ctrl-C) it prints the same figures as ``pacc drive``. Exit status: 0,
+1 after a collision, 2 on bad options, input files or a bus that cannot be opened.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+import can
+
+from dbc.errors import DbcError
+from dbc.network import add_network_arguments, codec_of
+from ecu import EcuError
+from ecu.buslog.format import TimeBase
+from ecu.buslog.recording import open_recording
+from pacc.vocab import FormatError
+from pacc.vocab.pedals import PedalScale
+from pacc.vocab.triplog import TripLogError, write_trip
+from sim_bus.drivers import GAP_SETTING_CODE, DriverParams, load_driver
+from sim_bus.errors import SimError
+from sim_bus.faults import FaultSpec, fault_rng, parse_faults
+from sim_bus.node import SimNode
+from sim_bus.scenarios import LeadProfile, shorten
+from sim_bus.study.drive import record_world, resolve_profile, with_condition
+from sim_bus.trip import world_trip
+from sim_bus.world import World
+
+#: seconds between two progress lines
+PROGRESS_EVERY_S = 5.0
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="pacc sim", description=__doc__.split("\n\n")[0])
+    p.add_argument("-i", "--interface", help="python-can interface (default: python-can config)")
+    p.add_argument("-c", "--channel", help="python-can channel (default: python-can config)")
+    p.add_argument("-b", "--bitrate", type=int, help="bit rate (default: python-can config)")
+    p.add_argument(
+        "--scenario",
+        default="B",
+        help="A, B, manual1..manual4 or a CSV of t_s,v_lead_mps (default B)",
+    )
+    p.add_argument("--driver", default="d1", help="d1..d5 or a driver .toml/.json (default d1)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--faults", default="", help="fault SPEC, e.g. 'radar:dropout=100-105'")
+    p.add_argument("--duration", type=float, help="run only the first N seconds")
+    p.add_argument("--log", type=Path, help="write the run as an MCAP trip log")
+    p.add_argument(
+        "--can-log",
+        type=Path,
+        metavar="FILE",
+        help="record every frame in and out (raw and decoded) and the simulated world to "
+        "this MCAP file",
+    )
+    p.add_argument(
+        "--condition-factor",
+        type=float,
+        default=1.0,
+        help="multiply the driver's preference, e.g. 1.2 for rain (default 1)",
+    )
+    p.add_argument("--quiet", action="store_true", help="no progress line")
+    add_network_arguments(p)
+    return p
+
+
+def _check_writable(path: Path) -> None:
+    """Raise SimError unless ``path`` can be created or overwritten (a file, not a folder)."""
+    parent = path.resolve().parent
+    if path.is_dir() or not (parent.is_dir() and os.access(parent, os.W_OK)):
+        raise SimError(f"--log {path}: not a writable file location")
+
+
+def _setup(args: argparse.Namespace) -> tuple[DriverParams, FaultSpec, LeadProfile]:
+    """The driver, the faults and the lead profile of the run; SimError on bad options."""
+    if args.seed < 0:
+        raise SimError(f"--seed must be >= 0, got {args.seed}")
+    driver = with_condition(load_driver(args.driver), args.condition_factor)
+    faults = parse_faults(args.faults)
+    profile = resolve_profile(args.scenario, args.seed)
+    if args.duration is not None:
+        if not args.duration > 0:
+            raise SimError("--duration must be > 0")
+        profile = shorten(profile, args.duration)
+    if args.log is not None:  # refuse now, not after the drive when the run would be lost
+        _check_writable(args.log)
+    if args.can_log is not None:
+        _check_writable(args.can_log)
+    return driver, faults, profile
+
+
+def _run(node: SimNode, duration_s: float, quiet: bool) -> None:
+    """Run ``node`` in real time, a progress line every few seconds unless ``quiet``."""
+    world = node.world
+    last_print = [time.monotonic()]
+
+    def progress() -> bool:
+        now = time.monotonic()
+        if not quiet and now - last_print[0] >= PROGRESS_EVERY_S:
+            last_print[0] = now
+            print(
+                f"t {node.t_s:6.1f} s  v {world.plant.v_mps:5.1f} m/s  gap "
+                f"{world.plant.gap_m:6.1f} m  AccState {node.acc_state}",
+                file=sys.stderr,
+            )
+        return False
+
+    try:
+        node.run_realtime(duration_s, stop=progress)
+    except KeyboardInterrupt:
+        print("pacc sim: interrupted", file=sys.stderr)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``pacc sim``; returns the exit status."""
+    args = _parser().parse_args(argv)
+    try:
+        driver, faults, profile = _setup(args)
+        codec = codec_of(args)
+    except (SimError, DbcError) as exc:
+        print(f"pacc sim: error: {exc}", file=sys.stderr)
+        return 2
+    try:
+        # only given flags are passed: a None bitrate would hide the one of ~/.canrc
+        extra = {} if args.bitrate is None else {"bitrate": args.bitrate}
+        bus = can.Bus(interface=args.interface, channel=args.channel, **extra)
+    except (can.CanError, ValueError, OSError, ImportError) as exc:
+        print(f"pacc sim: error: cannot open the bus: {exc}", file=sys.stderr)
+        return 2
+    world = World(driver, profile, args.seed)
+    node = SimNode(
+        bus,
+        world,
+        codec=codec,
+        faults=faults,
+        rng=fault_rng(args.seed),
+        gap_setting=GAP_SETTING_CODE[driver.predefined_setting],
+    )
+    base = TimeBase.now(0.0)  # simulated time 0 is now
+    try:
+        recorder = (
+            open_recording(args.can_log, node.codec, base, node="sim")
+            if args.can_log is not None
+            else None
+        )
+    except (EcuError, FormatError) as exc:
+        bus.shutdown()
+        print(f"pacc sim: error: {exc}", file=sys.stderr)
+        return 2
+    if recorder is not None:
+        node.tap = recorder.frame_and_tick
+    start = time.monotonic()
+    try:
+        _run(node, profile.duration_s, args.quiet)
+    finally:
+        bus.shutdown()
+    log = world.log()
+    m = log.metrics()
+    collided = world.plant.collided
+    print(
+        f"sim: scenario {args.scenario}, driver {driver.driver_id}, {world.t_s:.1f} s in "
+        f"{time.monotonic() - start:.1f} s wall; {node.commands_ok} ACC commands received"
+        + (f"; {node.send_errors} frames refused by the bus" if node.send_errors else "")
+    )
+    print(
+        f"  PoI {m.poi_pct:.2f} %  NIM {m.nim_per_min:.2f} /min  min gap {m.min_gap_m:.2f} m  "
+        f"min TTC {m.min_ttc_s:.2f} s  RMS jerk {m.rms_jerk_mps3:.3f} m/s^3  presses "
+        f"{m.press_onsets}  collisions {1 if collided else 0}"
+    )
+    status = 1 if collided else 0
+    if args.log is not None:
+        meta = {
+            "scenario": args.scenario,
+            "seed": args.seed,
+            "collision": collided,
+            "source": "pacc.commands.sim",
+            "start_utc": base.iso(0.0),
+        }
+        try:
+            write_trip(args.log, world_trip(log, driver, PedalScale.from_codec(node.codec), meta))
+        except (TripLogError, OSError) as exc:
+            print(f"pacc sim: error: cannot write {args.log}: {exc}", file=sys.stderr)
+            status = 2
+    if recorder is not None:
+        try:
+            record_world(recorder, log)
+            recorder.close()
+        except (EcuError, FormatError, OSError) as exc:
+            print(f"pacc sim: error: bus recording failed: {exc}", file=sys.stderr)
+            status = 2
+        else:
+            print(f"bus recording: {recorder.frames} frames written to {args.can_log}")
+    return status
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,21 @@
+"""The vocabulary the ECU, the simulator and the cloud share: what each of them reads and writes.
+
+- :mod:`pacc.vocab.dgpt` — the Driving Gap Preference Table, its safety bounds and JSON format.
+- :mod:`pacc.vocab.triplog` — ``Trip`` and its MCAP trip-log format.
+- :mod:`pacc.vocab.acc_state` — the ACC's engagement state and fault codes.
+- :mod:`pacc.vocab.pedals` — ``PedalScale``, pedal fractions from the DBC's full scale.
+- :mod:`pacc.vocab.mcap_errors` — one mapping of MCAP read errors to a reader's error.
+
+Every error raised here derives from :class:`FormatError` (a :class:`pacc.errors.PaccError`).
+"""
+
+from __future__ import annotations
+
+from pacc.errors import PaccError
+
+
+class FormatError(PaccError):
+    """Root of the errors of the shared formats: a table or a trip log that is not valid."""
+
+
+__all__ = ["FormatError"]

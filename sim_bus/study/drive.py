@@ -1,0 +1,325 @@
+"""One closed-loop drive: the ECU node and the simulator in one process, lockstep, one bus.
+
+:func:`run_drive` is a pure function of (configuration, seed, shipped data): the ECU and
+the simulator each get a python-can ``virtual`` bus on a private channel, and time is the
+simulator's (every frame stamped with simulated time). ``pacc drive``
+(:mod:`pacc.commands.drive`) and the study's tasks (:mod:`sim_bus.study.tasks`) call it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import itertools
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal, get_args
+
+import can
+
+from dbc.codec import Codec, load_codec, network_paths
+from ecu import EcuError
+from ecu.adaptation import AdaptationParams, Decision
+from ecu.buslog.format import WORLD_TOPIC, TimeBase
+from ecu.buslog.recording import open_recording
+from ecu.buslog.writer import CanLogWriter
+from ecu.node import EcuConfig, EcuNode
+from ecu.runtime import EcuRuntime, RuntimeSummary
+from pacc.vocab import FormatError
+from pacc.vocab.dgpt import Dgpt, predefined
+from pacc.vocab.pedals import PedalScale
+from pacc.vocab.triplog import Trip
+from sim_bus.drivers import GAP_SETTING_CODE, DriverParams
+from sim_bus.errors import DriveError, DriverError, ScenarioError
+from sim_bus.faults import fault_rng, parse_faults
+from sim_bus.metrics import DriveMetrics
+from sim_bus.node import SimNode
+from sim_bus.scenarios import LeadProfile, canonical_profiles, load_profile_csv, shorten
+from sim_bus.trip import world_trip
+from sim_bus.world import WORLD_COLUMNS, World, WorldConfig, WorldLog
+
+Controller = Literal["predefined", "predefined+oa", "irl", "irl+oa"]
+CONTROLLERS: tuple[str, ...] = get_args(Controller)
+#: ACC set speed in the car-following study: above every lead speed, so the lead governs
+SET_SPEED_MPS = 40.0
+#: creation time of every table a drive makes (predefined, adapted): drives stay pure
+FIXED_UTC = "2000-01-01T00:00:00Z"
+_channel_ids = itertools.count()
+
+
+@dataclass(frozen=True)
+class DriveConfig:
+    """One closed-loop drive (what, with whom, how long, which faults, which brake mode)."""
+
+    scenario: str = "B"
+    driver_id: str = "d1"
+    controller: Controller = "predefined"
+    seed: int = 0
+    duration_s: float | None = None  # None: the whole profile
+    faults: str = ""
+    brake_mode: Literal["resume", "cancel"] = "resume"
+    engage_s: float = 1.5
+    adaptation: AdaptationParams | None = None  # None: the ECU's default AdaptationParams
+    dbc: str | None = None  # the vehicle network's DBC and binding (None: pacc's; docs/vehicles.md)
+    binding: str | None = None
+
+
+@dataclass(frozen=True)
+class AdaptationEvent:
+    """One adaptation decision of a drive: when (simulated s), what, and the table after it."""
+
+    t_s: float
+    decision: Decision
+    table: Dgpt
+
+
+@dataclass
+class DriveResult:
+    """What a drive produced: figures, the simulator log, the ECU summary, frame counts."""
+
+    config: DriveConfig
+    metrics: DriveMetrics
+    collision: bool
+    collision_t_s: float | None
+    takeovers: int
+    adaptations: int
+    sim_s: float
+    wall_s: float
+    log: WorldLog
+    summary: RuntimeSummary
+    frames_sent: int
+    frames_faulted: int
+    final_table: Dgpt
+    adaptation_events: list[AdaptationEvent] = field(default_factory=list)
+    extra: dict[str, Any] = field(default_factory=dict)
+    #: UTC of simulated time 0 (ISO 8601): when the drive ran
+    start_utc: str = ""
+
+    @property
+    def realtime_factor(self) -> float:
+        """Simulated seconds per wall-clock second."""
+        return self.sim_s / self.wall_s if self.wall_s > 0 else math.inf
+
+
+def with_condition(driver: DriverParams, factor: float) -> DriverParams:
+    """The driver under a driving condition: its condition factor multiplied by ``factor``."""
+    if not (math.isfinite(factor) and factor > 0):
+        raise DriverError(f"condition factor must be a positive number, got {factor}")
+    if factor == 1.0:
+        return driver
+    return dataclasses.replace(driver, condition_factor=driver.condition_factor * factor)
+
+
+def predefined_table(driver: DriverParams) -> Dgpt:
+    """The Predefined controller's table: the driver's chosen constant headway, d0 = 4 m."""
+    return predefined(
+        driver.predefined_headway_s, driver_id=driver.driver_id, created_utc=FIXED_UTC
+    )
+
+
+def resolve_profile(scenario: str, seed: int) -> LeadProfile:
+    """A canonical profile name (A, B, manual1..4) or a CSV file of ``t_s,v_lead_mps``."""
+    if scenario.lower().endswith(".csv"):
+        return load_profile_csv(Path(scenario))
+    profiles = canonical_profiles(seed)
+    if scenario not in profiles:
+        raise ScenarioError(
+            f"unknown scenario {scenario!r}: one of {sorted(profiles)} or a .csv file"
+        )
+    return profiles[scenario]
+
+
+def run_drive(
+    cfg: DriveConfig,
+    driver: DriverParams,
+    table: Dgpt,
+    profile: LeadProfile | None = None,
+    *,
+    takeover_sink: Any = None,
+    record_channel: str | None = None,
+    can_log: Path | None = None,
+    utc_start_ns: int | None = None,
+) -> DriveResult:
+    """Run one lockstep drive; never raises for a collision (it is reported).
+
+    ``record_channel``: when given, the drive's virtual channel name (so a test can attach a
+    listener that sees every frame); by default a private, unique channel. ``can_log``: record
+    the ECU's bus traffic, its internals and the simulated world to this MCAP file
+    (:mod:`ecu.buslog.writer`), simulated time 0 stamped ``utc_start_ns`` (default: now).
+    """
+    if cfg.controller not in CONTROLLERS:
+        raise ValueError(f"controller must be one of {CONTROLLERS}")
+    if cfg.seed < 0:
+        raise DriveError(f"seed must be >= 0, got {cfg.seed}")
+    prof = profile or resolve_profile(cfg.scenario, cfg.seed)
+    if cfg.duration_s is not None:
+        prof = shorten(prof, cfg.duration_s)
+    faults = parse_faults(cfg.faults)
+    codec = drive_codec(cfg)
+    rng = fault_rng(cfg.seed)
+    world = World(driver, prof, cfg.seed, WorldConfig(engage_s=cfg.engage_s))
+    channel = record_channel or f"pacc-drive-{id(cfg):x}-{next(_channel_ids)}"
+    ecu = _ecu_node(cfg, driver, table, prof.name, takeover_sink)
+    sim_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
+    ecu_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
+    base = TimeBase(time.time_ns() if utc_start_ns is None else utc_start_ns, 0.0)
+    recorder: CanLogWriter | None = None
+    can_log_error: str | None = None
+    try:
+        rt = EcuRuntime(ecu_bus, ecu, codec=codec)
+        if can_log is not None:
+            recorder = _drive_recorder(can_log, cfg, ecu, table, codec, base)
+            rt.record_to(recorder)
+        node = SimNode(
+            sim_bus,
+            world,
+            codec=codec,
+            faults=faults,
+            rng=rng,
+            gap_setting=GAP_SETTING_CODE[driver.predefined_setting],
+        )
+        start = time.perf_counter()
+        events = _lockstep(node, rt, ecu, world)
+        wall = time.perf_counter() - start
+        ecu.finish()
+        summary = rt.summary()
+        log = world.log()
+        can_log_error = _finish_recording(recorder, log) if recorder is not None else None
+    finally:
+        sim_bus.shutdown()
+        ecu_bus.shutdown()
+        if recorder is not None and not recorder.closed:  # the drive failed: keep what ran
+            with contextlib.suppress(EcuError, OSError):
+                recorder.close()
+    return DriveResult(
+        config=cfg,
+        metrics=log.metrics(),
+        collision=world.plant.collided,
+        collision_t_s=world.plant.collision_t_s,
+        takeovers=ecu.takeovers,
+        adaptations=ecu.adaptations,
+        sim_s=world.t_s,
+        wall_s=wall,
+        log=log,
+        summary=summary,
+        frames_sent=node.frames_sent,
+        frames_faulted=node.frames_faulted,
+        final_table=ecu.table,
+        adaptation_events=events,
+        start_utc=base.iso(0.0),
+        extra={"can_log_error": can_log_error} if can_log_error else {},
+    )
+
+
+def drive_codec(cfg: DriveConfig) -> Codec:
+    """The codec of the drive's vehicle network (``cfg.dbc``/``cfg.binding``), loaded once.
+
+    Raises:
+        DbcError: the network cannot be loaded (a BindingError for a DBC without binding).
+    """
+    return load_codec(*network_paths(cfg.dbc, cfg.binding))
+
+
+def _drive_recorder(
+    path: Path,
+    cfg: DriveConfig,
+    ecu: EcuNode,
+    table: Dgpt,
+    codec: Codec,
+    base: TimeBase,
+) -> CanLogWriter:
+    """The bus recorder of a drive: the ECU's port, simulated time on ``base``."""
+    settings = {k: str(v) for k, v in dataclasses.asdict(cfg).items()}
+    return open_recording(
+        path,
+        codec,
+        base,
+        node="drive",
+        config=ecu.config,
+        table=table,
+        metadata={"drive": settings},
+    )
+
+
+def _finish_recording(recorder: CanLogWriter, log: WorldLog) -> str | None:
+    """Add the world to the recording and close it; the failure's text (None: written).
+    A failed recording does not cost the drive's results."""
+    try:
+        record_world(recorder, log)
+        recorder.close()
+    except (EcuError, FormatError, OSError) as exc:
+        return str(exc)
+    return None
+
+
+def record_world(recorder: CanLogWriter, log: WorldLog) -> None:
+    """The simulated world of a drive (:class:`WorldLog`) on ``/sim/world``."""
+    columns = {name: getattr(log, name).tolist() for name in WORLD_COLUMNS}
+    recorder.series(WORLD_TOPIC, WORLD_COLUMNS, "the simulated world: plant, lead, driver")
+    recorder.write_series(WORLD_TOPIC, columns, log.t_s.tolist())
+
+
+def _ecu_node(
+    cfg: DriveConfig, driver: DriverParams, table: Dgpt, scenario: str, takeover_sink: Any
+) -> EcuNode:
+    """The ECU of a drive: ``cfg``'s controller and adaptation, the study's set speed."""
+    ecu_cfg = EcuConfig(
+        adaptation=cfg.controller.endswith("+oa"),
+        brake_mode=cfg.brake_mode,
+        adaptation_params=cfg.adaptation or AdaptationParams(),
+        set_speed_mps=SET_SPEED_MPS,
+        trip_meta={
+            "driver_id": driver.driver_id,
+            "seed": cfg.seed,
+            "scenario": scenario,
+            "controller": cfg.controller,
+        },
+    )
+    # adapted tables get a fixed creation time: the drive stays a pure function of its inputs
+    return EcuNode(ecu_cfg, table, takeover_sink=takeover_sink, utc_now=lambda: FIXED_UTC)
+
+
+def _lockstep(node: SimNode, rt: EcuRuntime, ecu: EcuNode, world: World) -> list[AdaptationEvent]:
+    """Step the simulator and then the ECU to the same instant until the world is done; the
+    adaptation decisions, each traced when its takeover ends."""
+    step = node.step
+    advance = rt.advance_to
+    events: list[AdaptationEvent] = []
+    last = ecu.last_decision
+    while not world.done:
+        now = node.t_s
+        step()
+        advance(now)
+        if ecu.last_decision is not last:  # a takeover ended: trace its decision
+            last = ecu.last_decision
+            if last is not None:
+                events.append(AdaptationEvent(now, last, ecu.table))
+    return events
+
+
+def log_to_trip(result: DriveResult, driver: DriverParams) -> Trip:
+    """The drive's log as an ACC trip at 10 Hz (sim_bus.trip), with the drive's figures."""
+    metrics = {k: (v if math.isfinite(v) else None) for k, v in result.metrics.as_dict().items()}
+    meta: dict[str, Any] = {
+        "scenario": result.config.scenario,
+        "seed": result.config.seed,
+        "controller": result.config.controller,
+        "faults": result.config.faults,
+        "collision": result.collision,
+        "metrics": metrics,
+        "takeovers": result.takeovers,
+        "adaptations": result.adaptations,
+        "source": "sim_bus.study.drive",
+        "start_utc": result.start_utc,
+    }
+    pedals = PedalScale.from_codec(drive_codec(result.config))
+    return world_trip(result.log, driver, pedals, meta)
+
+
+def adaptation_params(mode: str | None) -> AdaptationParams | None:
+    """The adaptation parameters of ``--adaptation-mode`` (None: the ECU's defaults)."""
+    if mode is None:
+        return None
+    return AdaptationParams(mode=mode)  # type: ignore[arg-type]
