@@ -58,9 +58,10 @@ from cloud_sync.signing import (
     sign_dgpt,
     verify_dgpt,
 )
-from cloud_sync.vehicle.spool import kind_of
+from cloud_sync.vehicle.spool import BatchKind, kind_of
 from pacc.vocab.dgpt import Dgpt
 from pacc.vocab.triplog import Trip, TripLogError, read_trip
+from pacc.vocab.tripmode import TripMode, TripModeError
 
 log = logging.getLogger(__name__)
 
@@ -254,7 +255,7 @@ class CloudService:
             vehicle_id=vehicle_id,
             driver_id=driver_id,
             condition=condition,
-            kind=kind_of(trip),
+            kind=_kind(trip),
             size_bytes=len(data),
             received_utc=_utc_now(),
             used_in_version=None,
@@ -327,12 +328,12 @@ class CloudService:
             return None
         cfg = self.config
         previous = self.latest_table(driver_id, condition)
-        relearn = previous is None or any(b.kind == "manual" for b in unused)
+        relearn = previous is None or any(b.kind == TripMode.MANUAL for b in unused)
         batches = self.store.batches(driver_id, condition) if relearn else unused
-        if relearn and not any(b.kind == "manual" for b in batches):
+        if relearn and not any(b.kind == TripMode.MANUAL for b in batches):
             return None  # the first table needs manual driving; read nothing until then
-        manual = self._trips(b for b in batches if b.kind == "manual")
-        corrections = self._trips(b for b in batches if b.kind != "manual")
+        manual = self._trips(b for b in batches if b.kind == TripMode.MANUAL)
+        corrections = self._trips(b for b in batches if b.kind != TripMode.MANUAL)
         args = (manual, corrections, None if relearn else previous, driver_id, condition)
         try:
             if self.compute is None:
@@ -426,6 +427,13 @@ def read_trip_bytes(data: bytes) -> Trip:
         return read_trip(name)
     finally:
         Path(name).unlink(missing_ok=True)
+
+
+def _kind(trip: Trip) -> BatchKind:
+    try:
+        return kind_of(trip)
+    except TripModeError as exc:
+        raise BadBatchError(f"not a pacc trip log: {exc}") from exc
 
 
 def _parse_trip(data: bytes) -> Trip:

@@ -35,11 +35,17 @@ from typing import Literal
 
 from cloud_sync.errors import CloudSyncError
 from pacc.vocab.triplog import Trip, TripLogError, read_trip, write_trip
+from pacc.vocab.tripmode import TripMode, trip_mode
 
 log = logging.getLogger(__name__)
 
 BatchKind = Literal["takeover", "manual", "acc"]
 #: eviction order under the quota: first kind first
+_KINDS: dict[TripMode, BatchKind] = {
+    TripMode.TAKEOVER: "takeover",
+    TripMode.MANUAL: "manual",
+    TripMode.ACC: "acc",
+}
 EVICTION_ORDER: tuple[BatchKind, ...] = ("manual", "acc", "takeover")
 #: default quota, bytes (a takeover segment is ~10-30 kB, a 10-min manual trip ~0.3 MB)
 DEFAULT_QUOTA_BYTES = 256 * 1024 * 1024
@@ -90,13 +96,12 @@ def file_digest(path: Path) -> str:
 
 
 def kind_of(trip: Trip) -> BatchKind:
-    """The batch kind of a trip from its ``meta["mode"]`` (``takeover``, ``manual``, else acc)."""
-    mode = trip.meta.get("mode")
-    if mode == "takeover":
-        return "takeover"
-    if mode == "manual":
-        return "manual"
-    return "acc"
+    """The batch kind of a trip: its trip mode (:func:`pacc.vocab.tripmode.trip_mode`).
+
+    Raises:
+        TripModeError: the trip's ``meta["mode"]`` is not a known mode.
+    """
+    return _KINDS[trip_mode(trip)]
 
 
 def _fsync_dir(path: Path) -> None:

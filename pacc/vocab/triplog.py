@@ -34,6 +34,7 @@ import numpy as np
 from pacc.vocab import FormatError
 from pacc.vocab.acc_state import AccState
 from pacc.vocab.mcap_errors import mcap_errors
+from pacc.vocab.tripmode import TripMode
 
 __all__ = ["Trip", "TripLogError", "write_trip", "read_trip", "SAMPLE_TOPIC", "META_TOPIC"]
 
@@ -191,7 +192,7 @@ class Trip:
             accel_pedal=np.full(n, np.nan),
             brake_pedal=np.full(n, np.nan),
             acc_state=np.zeros(n, dtype=np.int64),
-            meta={"mode": "manual", **(meta or {})},
+            meta={"mode": TripMode.MANUAL.value, **(meta or {})},
         )
 
     def __len__(self) -> int:
