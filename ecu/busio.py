@@ -113,8 +113,15 @@ def inputs_from(inbox: Inbox, now_s: float, pedals: PedalScale) -> NodeInputs:
 
 
 def _clamp(x: float, lo: float, hi: float) -> float:
-    """``x`` clipped to [lo, hi]; NaN gives ``lo``."""
+    """``x`` clipped to [lo, hi]; NaN gives ``lo`` (for a gap or a speed: 0)."""
     return lo if not x >= lo else (hi if x > hi else x)
+
+
+def _accel_on_bus(x: float, lo: float, hi: float) -> float:
+    """The acceleration request ``x`` (m/s^2) clipped to the frame's [lo, hi]; a non-finite
+    request goes out as 0 (clipped), as the controller treats it, never as the floor: the
+    last line before the bus must not turn garbage into the harshest braking."""
+    return _clamp(x if math.isfinite(x) else 0.0, lo, hi)
 
 
 @dataclass(frozen=True, slots=True)
@@ -146,7 +153,7 @@ class OutputLimits:
 def command_values(out: NodeOutputs, limits: OutputLimits) -> dict[str, Any]:
     """The ``command`` role's fields of ``out`` (ACC_Command, every cycle)."""
     return {
-        "accel_request_mps2": _clamp(
+        "accel_request_mps2": _accel_on_bus(
             out.accel_request_mps2, limits.accel_lo_mps2, limits.accel_hi_mps2
         ),
         "request_active": int(out.request_active),
