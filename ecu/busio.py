@@ -22,6 +22,7 @@ from dbc.codec import Codec, EncodeError, RoleCodec
 from dbc.endpoint import Inbox, Outbox
 from ecu import EcuError
 from ecu.config import EcuConfig
+from ecu.safety import CommandSafety
 from ecu.signals import NodeInputs, NodeOutputs
 from pacc.vocab.acc_state import AccState, FaultCode
 from pacc.vocab.pedals import PedalScale
@@ -197,6 +198,8 @@ class BusIO:
         self.pedals = PedalScale.from_codec(codec)
         self.limits = OutputLimits.from_codec(codec)
         self.send_errors = 0
+        #: the independent check of every command frame (:mod:`ecu.safety`)
+        self.safety = CommandSafety()
         self._command = codec.roles["command"].parts
         status = codec.roles.get("status")
         self._status = () if status is None else status.parts
@@ -246,6 +249,7 @@ class BusIO:
         """Send ACC_Command (and ACC_Status if ``status``) stamped ``t_s``; never raises: an
         encode or bus failure is logged and counted in :attr:`send_errors`."""
         send, pack = self._send, self.outbox.pack_part
+        out = self.safety.check(out, t_s)  # the independent check (ecu.safety), last word
         try:
             values = command_values(out, self.limits)
             for mc in self._command:
