@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
+from cloud_sync.durable import fsync_dir
 from cloud_sync.errors import CloudSyncError
 from pacc.vocab.triplog import Trip, TripLogError, read_trip, write_trip
 from pacc.vocab.tripmode import TripMode, trip_mode
@@ -102,14 +103,6 @@ def kind_of(trip: Trip) -> BatchKind:
         TripModeError: the trip's ``meta["mode"]`` is not a known mode.
     """
     return _KINDS[trip_mode(trip)]
-
-
-def _fsync_dir(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
 
 
 class Spool:
@@ -218,7 +211,7 @@ class Spool:
                 self._next_seq += 1
                 final = self.root / f"{seq:012d}-{kind}-{digest}.mcap"
                 incoming.replace(final)
-                _fsync_dir(self.root)
+                fsync_dir(self.root)
                 batch = Batch(seq=seq, kind=kind, digest=digest, size_bytes=size, path=final)
                 self._batches[digest] = batch
                 self.stats.added[kind] += 1
@@ -256,7 +249,7 @@ class Spool:
     def _remove(self, batch: Batch) -> None:
         with contextlib.suppress(FileNotFoundError):
             batch.path.unlink()
-        _fsync_dir(self.root)
+        fsync_dir(self.root)
         del self._batches[batch.digest]
 
     # -- draining ------------------------------------------------------------------------
@@ -283,7 +276,7 @@ class Spool:
             target.mkdir(exist_ok=True)
             (target / f"{batch.path.name}.reason").write_text(reason + "\n", encoding="utf-8")
             batch.path.replace(target / batch.path.name)
-            _fsync_dir(self.root)
+            fsync_dir(self.root)
             del self._batches[digest]
             self.stats.rejected += 1
             log.error(
