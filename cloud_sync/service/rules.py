@@ -26,7 +26,6 @@ import hashlib
 import logging
 import os
 import secrets
-import tempfile
 import threading
 from collections.abc import Callable, Iterable
 from concurrent.futures import Executor, Future, ThreadPoolExecutor
@@ -60,7 +59,7 @@ from cloud_sync.signing import (
 )
 from cloud_sync.vehicle.spool import BatchKind, kind_of
 from pacc.vocab.dgpt import Dgpt
-from pacc.vocab.triplog import Trip, TripLogError, read_trip
+from pacc.vocab.triplog import Trip, TripLogError, trip_from_bytes
 from pacc.vocab.tripmode import TripMode, TripModeError
 
 log = logging.getLogger(__name__)
@@ -348,7 +347,9 @@ class CloudService:
     def _trips(self, batches: Iterable[BatchRow]) -> list[Trip]:
         """The trips of ``batches`` in digest order."""
         ordered = sorted(batches, key=_digest)
-        return [read_trip_bytes(self.store.read_blob(b.digest)) for b in ordered]
+        return [
+            trip_from_bytes(self.store.read_blob(b.digest), f"batch {b.digest}") for b in ordered
+        ]
 
     def publish(self, table: Dgpt, used: list[str]) -> int:
         """Sign and keep ``table`` as the next version; mark the batches ``used``."""
@@ -418,17 +419,6 @@ def _digest(batch: BatchRow) -> str:
     return batch.digest
 
 
-def read_trip_bytes(data: bytes) -> Trip:
-    """Parse MCAP trip-log bytes (through a temporary file: the reader wants a path)."""
-    fd, name = tempfile.mkstemp(suffix=".mcap")
-    try:
-        with os.fdopen(fd, "wb") as stream:
-            stream.write(data)
-        return read_trip(name)
-    finally:
-        Path(name).unlink(missing_ok=True)
-
-
 def _kind(trip: Trip) -> BatchKind:
     try:
         return kind_of(trip)
@@ -438,7 +428,7 @@ def _kind(trip: Trip) -> BatchKind:
 
 def _parse_trip(data: bytes) -> Trip:
     try:
-        return read_trip_bytes(data)
+        return trip_from_bytes(data, "uploaded trip log")
     except TripLogError as exc:
         raise BadBatchError(f"not a pacc trip log: {exc}") from exc
 
@@ -449,6 +439,5 @@ __all__ = [
     "DeferredExecutor",
     "InlineExecutor",
     "ServiceConfig",
-    "read_trip_bytes",
     "train_table",
 ]

@@ -36,7 +36,7 @@ from typing import Literal
 from cloud_sync.durable import fsync_dir
 from cloud_sync.errors import CloudSyncError
 from pacc.vocab.triplog import Trip, TripLogError, read_trip, write_trip
-from pacc.vocab.tripmode import TripMode, trip_mode
+from pacc.vocab.tripmode import TripMode, TripModeError, trip_mode
 
 log = logging.getLogger(__name__)
 
@@ -165,9 +165,15 @@ class Spool:
         A trip already spooled (same bytes) is not stored twice: its batch is returned.
 
         Raises:
-            SpoolError: the trip cannot be written (meta not JSON, full disk) or is larger
-                than the whole quota.
+            SpoolError: the trip cannot be written (meta not JSON, full disk), its mode is
+                unknown (:class:`pacc.vocab.tripmode.TripModeError`) or it is larger than the
+                whole quota.
         """
+        if kind is None:
+            try:
+                kind = kind_of(trip)
+            except TripModeError as exc:
+                raise SpoolError(f"spool {self.root}: not spooled: {exc}") from exc
         incoming = self.root / _INCOMING / f"{uuid.uuid4().hex}.mcap"
         try:
             write_trip(incoming, trip)
@@ -175,7 +181,7 @@ class Spool:
             with contextlib.suppress(OSError):
                 incoming.unlink(missing_ok=True)
             raise SpoolError(f"spool {self.root}: cannot write the trip: {exc}") from exc
-        return self._admit(incoming, kind or kind_of(trip))
+        return self._admit(incoming, kind)
 
     def put_file(self, source: str | os.PathLike[str], kind: BatchKind | None = None) -> Batch:
         """Spool a copy of an MCAP trip log (checked with :func:`read_trip` first).

@@ -21,13 +21,14 @@ cause, never read in part.
 from __future__ import annotations
 
 import contextlib
+import io
 import json
 import math
 import os
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 import numpy as np
 
@@ -36,7 +37,18 @@ from pacc.vocab.acc_state import AccState
 from pacc.vocab.mcap_errors import mcap_errors
 from pacc.vocab.tripmode import TripMode
 
-__all__ = ["Trip", "TripLogError", "write_trip", "read_trip", "SAMPLE_TOPIC", "META_TOPIC"]
+__all__ = [
+    "META_TOPIC",
+    "SAMPLE_TOPIC",
+    "Trip",
+    "TripLogError",
+    "read_trip",
+    "read_trip_from",
+    "trip_from_bytes",
+    "trip_to_bytes",
+    "write_trip",
+    "write_trip_to",
+]
 
 
 class TripLogError(FormatError):
@@ -236,7 +248,8 @@ def _compression() -> Any:
 
 
 def write_trip(path: str | os.PathLike[str], trip: Trip) -> None:
-    """Write ``trip`` to ``path`` as an MCAP file (see the module docstring for the layout).
+    """Write ``trip`` to ``path`` as an MCAP file (:func:`trip_to_bytes`, see the module
+    docstring for the layout).
 
     The file is written to a temporary name and renamed, so a crash never leaves a partial log
     under ``path`` (and a failed write removes the temporary file). Raises
@@ -244,13 +257,10 @@ def write_trip(path: str | os.PathLike[str], trip: Trip) -> None:
     written.
     """
     path = Path(path)
-    try:
-        meta_bytes = json.dumps(trip.meta, sort_keys=True, allow_nan=False).encode()
-    except (TypeError, ValueError) as exc:
-        raise TripLogError(f"Trip.meta is not JSON-serialisable: {exc}") from exc
+    data = trip_to_bytes(trip)
     tmp = path.with_name(path.name + ".part")
     try:
-        _write_mcap(tmp, trip, meta_bytes)
+        tmp.write_bytes(data)
         tmp.replace(path)
     except BaseException:
         with contextlib.suppress(OSError):
@@ -258,31 +268,46 @@ def write_trip(path: str | os.PathLike[str], trip: Trip) -> None:
         raise
 
 
-def _write_mcap(tmp: Path, trip: Trip, meta_bytes: bytes) -> None:
+def trip_to_bytes(trip: Trip) -> bytes:
+    """The MCAP bytes of ``trip`` (:class:`TripLogError` if ``meta`` is not JSON-serialisable)."""
+    stream = io.BytesIO()
+    write_trip_to(stream, trip)
+    return stream.getvalue()
+
+
+def write_trip_to(stream: IO[bytes], trip: Trip) -> None:
+    """Write ``trip`` as MCAP to a binary ``stream`` (the caller owns and closes it)."""
+    try:
+        meta_bytes = json.dumps(trip.meta, sort_keys=True, allow_nan=False).encode()
+    except (TypeError, ValueError) as exc:
+        raise TripLogError(f"Trip.meta is not JSON-serialisable: {exc}") from exc
+    _write_mcap(stream, trip, meta_bytes)
+
+
+def _write_mcap(stream: IO[bytes], trip: Trip, meta_bytes: bytes) -> None:
     from mcap.writer import Writer  # noqa: PLC0415 - see _compression
 
     columns = [getattr(trip, k).tolist() for k in FLOAT_FIELDS]
     states = trip.acc_state.tolist()
-    with tmp.open("wb") as stream:
-        writer = Writer(stream, compression=_compression())
-        writer.start(profile=PROFILE, library="pacc.cloud_sync")
-        sample_schema = writer.register_schema(
-            SAMPLE_SCHEMA_NAME, "jsonschema", json.dumps(SAMPLE_SCHEMA).encode()
-        )
-        meta_schema = writer.register_schema(
-            META_SCHEMA_NAME, "jsonschema", json.dumps(META_SCHEMA).encode()
-        )
-        sample_ch = writer.register_channel(SAMPLE_TOPIC, "json", sample_schema)
-        meta_ch = writer.register_channel(META_TOPIC, "json", meta_schema)
-        origin_ns, t_first = _stamp_origin(trip)
-        t0_ns = max(origin_ns, 0)
-        writer.add_message(meta_ch, t0_ns, meta_bytes, t0_ns)
-        for i in range(len(trip)):
-            row = {k: _num(col[i]) for k, col in zip(FLOAT_FIELDS, columns, strict=True)}
-            row["acc_state"] = int(states[i])
-            stamp = max(origin_ns + int(round((columns[0][i] - t_first) * 1e9)), 0)
-            writer.add_message(sample_ch, stamp, json.dumps(row).encode(), stamp, sequence=i)
-        writer.finish()  # type: ignore[no-untyped-call]
+    writer = Writer(stream, compression=_compression())
+    writer.start(profile=PROFILE, library="pacc.cloud_sync")
+    sample_schema = writer.register_schema(
+        SAMPLE_SCHEMA_NAME, "jsonschema", json.dumps(SAMPLE_SCHEMA).encode()
+    )
+    meta_schema = writer.register_schema(
+        META_SCHEMA_NAME, "jsonschema", json.dumps(META_SCHEMA).encode()
+    )
+    sample_ch = writer.register_channel(SAMPLE_TOPIC, "json", sample_schema)
+    meta_ch = writer.register_channel(META_TOPIC, "json", meta_schema)
+    origin_ns, t_first = _stamp_origin(trip)
+    t0_ns = max(origin_ns, 0)
+    writer.add_message(meta_ch, t0_ns, meta_bytes, t0_ns)
+    for i in range(len(trip)):
+        row = {k: _num(col[i]) for k, col in zip(FLOAT_FIELDS, columns, strict=True)}
+        row["acc_state"] = int(states[i])
+        stamp = max(origin_ns + int(round((columns[0][i] - t_first) * 1e9)), 0)
+        writer.add_message(sample_ch, stamp, json.dumps(row).encode(), stamp, sequence=i)
+    writer.finish()  # type: ignore[no-untyped-call]
 
 
 def _stamp_origin(trip: Trip) -> tuple[int, float]:
@@ -309,22 +334,33 @@ def read_trip(path: str | os.PathLike[str]) -> Trip:
     MCAP, truncated (no footer), has a bad CRC, or holds no ``/pacc/car_following`` channel.
     """
     path = Path(path)
-    found = _scan(path)
+    with mcap_errors(path, "trip log", TripLogError), path.open("rb") as stream:
+        return read_trip_from(stream, str(path))
+
+
+def trip_from_bytes(data: bytes, where: str = "trip log bytes") -> Trip:
+    """Parse the MCAP bytes of a trip log (errors as :func:`read_trip`, naming ``where``)."""
+    return read_trip_from(io.BytesIO(data), where)
+
+
+def read_trip_from(stream: IO[bytes], where: str) -> Trip:
+    """Read a trip log from a binary ``stream`` to its end; ``where`` names it in errors."""
+    found = _scan(stream, where)
     if not found.footer:
-        raise TripLogError(f"{path}: truncated trip log (no MCAP footer)")
+        raise TripLogError(f"{where}: truncated trip log (no MCAP footer)")
     topics = {c.topic: c for c in found.channels.values()}
     if SAMPLE_TOPIC not in topics:
         raise TripLogError(
-            f"{path}: not a pacc trip log (no {SAMPLE_TOPIC} channel; topics: "
+            f"{where}: not a pacc trip log (no {SAMPLE_TOPIC} channel; topics: "
             f"{sorted(topics) or 'none'})"
         )
     sch = found.schemas.get(topics[SAMPLE_TOPIC].schema_id)
     if sch is None or sch.name != SAMPLE_SCHEMA_NAME:
-        raise TripLogError(f"{path}: {SAMPLE_TOPIC} does not use schema {SAMPLE_SCHEMA_NAME}")
+        raise TripLogError(f"{where}: {SAMPLE_TOPIC} does not use schema {SAMPLE_SCHEMA_NAME}")
     meta = found.meta
     if meta is not None and not isinstance(meta, dict):
-        raise TripLogError(f"{path}: {META_TOPIC} message is not a JSON object")
-    return _trip_from_rows(found.rows, meta or {}, str(path))
+        raise TripLogError(f"{where}: {META_TOPIC} message is not a JSON object")
+    return _trip_from_rows(found.rows, meta or {}, where)
 
 
 @dataclass
@@ -338,20 +374,20 @@ class _Records:
     footer: bool = False
 
 
-def _scan(path: Path) -> _Records:
-    """Read ``path`` record by record (CRCs checked); :class:`TripLogError` if unreadable."""
+def _scan(stream: IO[bytes], where: str) -> _Records:
+    """Read ``stream`` record by record (CRCs checked); :class:`TripLogError` if unreadable."""
     # see _compression: mcap only when a trip is read
     from mcap import records  # noqa: PLC0415
     from mcap.stream_reader import StreamReader  # noqa: PLC0415
 
     found = _Records()
-    with mcap_errors(path, "trip log", TripLogError), path.open("rb") as stream:
+    with mcap_errors(where, "trip log", TripLogError):
         for record in StreamReader(stream, validate_crcs=True).records:
-            _take(record, found, path, records)
+            _take(record, found, where, records)
     return found
 
 
-def _take(record: Any, found: _Records, path: Path, kinds: Any) -> None:
+def _take(record: Any, found: _Records, path: str, kinds: Any) -> None:
     """File one MCAP record into ``found`` (``kinds``: the ``mcap.records`` module)."""
     if isinstance(record, kinds.Schema):
         found.schemas[record.id] = record

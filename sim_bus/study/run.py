@@ -17,7 +17,8 @@ from typing import Any
 from tqdm import tqdm
 
 from cloud_sync.engine.base import Engine, open_engine
-from pacc.vocab.dgpt import Dgpt, save_dgpt
+from pacc.vocab.dgpt import Dgpt
+from pacc.vocab.dgpt_file import save_dgpt
 from pacc.vocab.triplog import Trip, write_trip
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import SimError

@@ -12,7 +12,7 @@ import pytest
 from pacc.cli import main as pacc_main
 from pacc.commands.cloud import main
 from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt import load_dgpt
+from pacc.vocab.dgpt_file import load_dgpt
 from pacc.vocab.triplog import Trip, write_trip
 
 

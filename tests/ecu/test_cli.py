@@ -19,7 +19,8 @@ from dbc.codec import load_codec
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
 from pacc.commands.ecu import main, run_until_done
-from pacc.vocab.dgpt import load_dgpt, predefined
+from pacc.vocab.dgpt import predefined
+from pacc.vocab.dgpt_file import load_dgpt
 from tests.peers import PeerNodes
 
 _ids = itertools.count()

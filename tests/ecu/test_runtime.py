@@ -19,7 +19,8 @@ from ecu.config import ConfigError
 from ecu.node import EcuConfig, EcuNode, NodeInputs
 from ecu.runtime import EcuRuntime, RuntimeClockError, RuntimeCodecError
 from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt import predefined, save_dgpt
+from pacc.vocab.dgpt import predefined
+from pacc.vocab.dgpt_file import save_dgpt
 from pacc.vocab.triplog import Trip
 from tests.peers import PeerNodes
 

@@ -27,7 +27,8 @@ from dbc.codec import load_codec
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
 from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt import predefined, save_dgpt
+from pacc.vocab.dgpt import predefined
+from pacc.vocab.dgpt_file import save_dgpt
 from tests.peers import PeerNodes
 
 CODEC = load_codec()

@@ -10,7 +10,7 @@ import pytest
 from cloud_sync.api import BadBatchError
 from cloud_sync.irl.demos import is_acc_trip
 from cloud_sync.service.rules import CloudService, DeferredExecutor
-from cloud_sync.vehicle.spool import Spool, kind_of
+from cloud_sync.vehicle.spool import Spool, SpoolError, kind_of
 from pacc.vocab.acc_state import AccState
 from pacc.vocab.triplog import Trip, write_trip
 from pacc.vocab.tripmode import TripMode, TripModeError, mode_of, trip_mode
@@ -63,6 +63,8 @@ def test_an_unknown_mode_is_an_error_never_a_guess(tmp_path: Path) -> None:
     for classify in (trip_mode, kind_of, is_acc_trip):
         with pytest.raises(TripModeError, match="unknown trip mode 'cruise'"):
             classify(bad)
+    with pytest.raises(SpoolError, match="not spooled: unknown trip mode 'cruise'"):
+        Spool(tmp_path).put_trip(bad)
     with pytest.raises(TripModeError):
         mode_of({"mode": 3}, np.zeros(1))
 

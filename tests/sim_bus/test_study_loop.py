@@ -10,7 +10,7 @@ import pytest
 
 from cloud_sync.service.rules import CloudService
 from pacc.commands.study import main
-from pacc.vocab.dgpt import load_dgpt
+from pacc.vocab.dgpt_file import load_dgpt
 from sim_bus.errors import SimError
 from sim_bus.study.config import StudyConfig, validate
 from sim_bus.study.run import run_study
