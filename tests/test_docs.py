@@ -44,6 +44,52 @@ def test_snippet_runs(
     exec(compiled, {"__name__": f"snippet_{line}"})  # noqa: S102 - the docs' own code
 
 
+# -- docs/architecture.md ----------------------------------------------------------------------
+
+ARCHITECTURE = ROOT / "docs" / "architecture.md"
+TOPS = ("pacc", "dbc", "ecu", "sim_bus", "cloud_sync")
+DOTTED = re.compile(r"`((?:" + "|".join(TOPS) + r")(?:\.\w+)+)`")
+
+
+def resolve(dotted: str) -> object:
+    """The object ``dotted`` names: the longest importable module, then attributes."""
+    parts = dotted.split(".")
+    for cut in range(len(parts), 0, -1):
+        try:
+            obj: object = importlib.import_module(".".join(parts[:cut]))
+        except ModuleNotFoundError:
+            continue
+        for name in parts[cut:]:
+            obj = getattr(obj, name)
+        return obj
+    raise ModuleNotFoundError(dotted)
+
+
+def test_the_architecture_names_every_module() -> None:
+    named = set(DOTTED.findall(ARCHITECTURE.read_text(encoding="utf-8")))
+    every = set().union(*(modules_of(p) for p in PACKAGES)) - set(PACKAGES)
+    assert not every - named, f"docs/architecture.md does not name {sorted(every - named)}"
+
+
+def test_every_name_in_the_architecture_exists() -> None:
+    """The walks name real functions: a rename that forgets the page fails here."""
+    text = ARCHITECTURE.read_text(encoding="utf-8")
+    missing = []
+    for dotted in sorted(set(DOTTED.findall(text))):
+        try:
+            resolve(dotted)
+        except (ImportError, AttributeError):
+            missing.append(dotted)
+    assert not missing
+    for cls_method in re.findall(r"`([A-Z]\w+)\.(_?\w+)`", text):  # Class.method
+        owners = [
+            getattr(m, cls_method[0])
+            for m in map(resolve, set(DOTTED.findall(text)))
+            if hasattr(m, cls_method[0])
+        ]
+        assert any(hasattr(o, cls_method[1]) for o in owners), ".".join(cls_method)
+
+
 # -- package docstrings ------------------------------------------------------------------------
 
 PACKAGES = [
