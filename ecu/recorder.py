@@ -28,7 +28,8 @@ from typing import Any
 import numpy as np
 
 from ecu import EcuError
-from pacc.vocab.triplog import Trip, write_trip
+from pacc.vocab.triplog import Trip
+from pacc.vocab.triplog_file import write_trip
 from pacc.vocab.tripmode import TripMode
 
 log = logging.getLogger(__name__)

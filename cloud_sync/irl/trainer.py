@@ -3,9 +3,9 @@
 :func:`learn_dgpt` learns from demonstrations (manual drives, plus the takeovers of ACC trips,
 weighted); :func:`fine_tune` continues from an earlier IRL table with new takeovers;
 :func:`empirical_baseline` (:mod:`~cloud_sync.irl.baseline`, re-exported here with
-:class:`IrlConfig` of :mod:`~cloud_sync.irl.config`) is the comparison table. Every result is a pure function of
-(configuration, seed, data): the optimiser is deterministic and the seed only draws the
-starting weights, which the convex objective forgets.
+:class:`IrlConfig` of :mod:`~cloud_sync.irl.config`) is the comparison table. Every result is
+a pure function of (configuration, seed, data): the optimiser is deterministic and the seed
+only draws the starting weights, which the convex objective forgets.
 
 The phases of :func:`learn_dgpt`, one module each: the demonstrations
 (:mod:`~cloud_sync.irl.demos`), the evidence per speed (:mod:`~cloud_sync.irl.blend`), the reward

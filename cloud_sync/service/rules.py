@@ -59,7 +59,8 @@ from cloud_sync.signing import (
 )
 from cloud_sync.vehicle.spool import BatchKind, kind_of
 from pacc.vocab.dgpt import Dgpt
-from pacc.vocab.triplog import Trip, TripLogError, trip_from_bytes
+from pacc.vocab.triplog import Trip, TripLogError
+from pacc.vocab.triplog_file import trip_from_bytes
 from pacc.vocab.tripmode import TripMode, TripModeError
 
 log = logging.getLogger(__name__)

@@ -35,7 +35,8 @@ from typing import Literal
 
 from cloud_sync.durable import fsync_dir
 from cloud_sync.errors import CloudSyncError
-from pacc.vocab.triplog import Trip, TripLogError, read_trip, write_trip
+from pacc.vocab.triplog import Trip, TripLogError
+from pacc.vocab.triplog_file import read_trip, write_trip
 from pacc.vocab.tripmode import TripMode, TripModeError, trip_mode
 
 log = logging.getLogger(__name__)

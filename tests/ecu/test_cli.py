@@ -364,7 +364,7 @@ def test_cli_can_log_records_the_run_and_takeovers_carry_utc(
 ) -> None:
     from ecu.buslog.reader import read_canlog  # noqa: PLC0415
     from ecu.buslog.replay import replay_through_ecu  # noqa: PLC0415
-    from pacc.vocab.triplog import read_trip  # noqa: PLC0415
+    from pacc.vocab.triplog_file import read_trip  # noqa: PLC0415
 
     channel = f"ecu-cli-{next(_ids)}"
     peers = Peers(channel, 4.2)

@@ -12,7 +12,8 @@ from cloud_sync.irl.demos import is_acc_trip
 from cloud_sync.service.rules import CloudService, DeferredExecutor
 from cloud_sync.vehicle.spool import Spool, SpoolError, kind_of
 from pacc.vocab.acc_state import AccState
-from pacc.vocab.triplog import Trip, write_trip
+from pacc.vocab.triplog import Trip
+from pacc.vocab.triplog_file import write_trip
 from pacc.vocab.tripmode import TripMode, TripModeError, mode_of, trip_mode
 
 

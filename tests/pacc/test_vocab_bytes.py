@@ -19,9 +19,8 @@ from pacc.vocab.dgpt_file import (
     save_dgpt,
     write_dgpt,
 )
-from pacc.vocab.triplog import (
-    Trip,
-    TripLogError,
+from pacc.vocab.triplog import Trip, TripLogError
+from pacc.vocab.triplog_file import (
     read_trip,
     read_trip_from,
     trip_from_bytes,
