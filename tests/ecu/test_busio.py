@@ -8,24 +8,7 @@ import pytest
 
 from dbc.codec import load_codec
 from ecu.busio import OutputLimits, command_values
-from ecu.signals import NodeOutputs
-from pacc.vocab.acc_state import AccState, FaultCode
-
-
-def outputs(accel_mps2: float) -> NodeOutputs:
-    return NodeOutputs(
-        accel_request_mps2=accel_mps2,
-        request_active=True,
-        acc_state=AccState.ACTIVE,
-        takeover_request=False,
-        desired_gap_m=30.0,
-        dgpt_version=1,
-        adaptation_count=0,
-        fault_code=FaultCode.NONE,
-        set_speed_mps=25.0,
-        emergency=False,
-    )
-
+from tests.ecu.test_safety import outputs
 
 LIMITS = OutputLimits.from_codec(load_codec())
 
