@@ -38,6 +38,7 @@ from cloud_sync.vehicle.spool import Spool  # noqa: E402
 from cloud_sync.vehicle.uploader import Uploader, UploaderConfig  # noqa: E402
 from pacc.vocab.acc_state import AccState  # noqa: E402
 from pacc.vocab.triplog import Trip  # noqa: E402
+from pacc.vocab.tripmode import TripMode  # noqa: E402
 from tests.cloud_sync.conftest import follower_trip  # noqa: E402
 
 
@@ -46,7 +47,9 @@ def takeover_segment(seed: int) -> Trip:
     trip = follower_trip(seed, minutes=0.25, headway_s=1.2, v_lo=15.0, v_hi=25.0)
     state = np.full(len(trip), int(AccState.OVERRIDE), dtype=np.int64)
     state[:50] = int(AccState.ACTIVE)
-    return dataclasses.replace(trip, acc_state=state, meta={**trip.meta, "mode": "takeover"})
+    return dataclasses.replace(
+        trip, acc_state=state, meta={**trip.meta, "mode": TripMode.TAKEOVER.value}
+    )
 
 
 def serve(service: CloudService) -> tuple[str, uvicorn.Server, threading.Thread]:

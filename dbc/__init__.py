@@ -3,6 +3,18 @@
 ``dbc/pacc.dbc`` is installed with the package, so an installed pacc finds it without the
 source tree. Import :mod:`dbc.codec` for the frame codec and :mod:`dbc.endpoint` for a
 node's inbox (decode + E2E checks) and outbox (counter + CRC on send).
+
+- :mod:`dbc.schema` — pacc's logical roles and fields, and the input roles' resting values.
+- :mod:`dbc.binding` — the binding table: roles and fields to a vehicle's messages and signals.
+- :mod:`dbc.units` — physical units of DBC signals and their conversion to pacc's units.
+- :mod:`dbc.layout` — where a bound signal sits in a payload and how its raw value maps.
+- :mod:`dbc.checksums` — per-message checksums, pluggable by name in the binding.
+- :mod:`dbc.e2e` — CRC-8 SAE J1850 and the alive-counter receiver check.
+- :mod:`dbc.codec` — the frame codec shared by the ECU and the simulator (compiled once).
+- :mod:`dbc.columns` — column-wise decoding of many frames of one message.
+- :mod:`dbc.endpoint` — a node's inbox (decode + E2E check) and outbox (counter + CRC).
+- :mod:`dbc.network` — the ``--dbc`` / ``--binding`` options and the codec they name.
+- :mod:`dbc.errors` — the codec's exception tree, named by phase (load, encode, decode).
 """
 
 from __future__ import annotations

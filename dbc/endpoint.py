@@ -239,13 +239,3 @@ class Outbox:
         except KeyError:
             raise EncodeError(f"no role {role!r} in the binding") from None
         return self.pack_part(mc, values, timestamp)
-
-    def pack_all(
-        self, role: str, values: Mapping[str, Any], timestamp: float = 0.0
-    ) -> list[can.Message]:
-        """One frame per message of ``role`` (each takes the fields it carries)."""
-        try:
-            parts = self.codec.roles[role].parts
-        except KeyError:
-            raise EncodeError(f"no role {role!r} in the binding") from None
-        return [self.pack_part(mc, values, timestamp) for mc in parts]

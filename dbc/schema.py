@@ -70,4 +70,39 @@ REQUIRED_ROLES: tuple[str, ...] = ("ego", "pedals", "radar", "hmi", "command")
 #: roles a binding may leave out
 OPTIONAL_ROLES: tuple[str, ...] = ("status",)
 
-__all__ = ["OPTIONAL_ROLES", "REQUIRED_ROLES", "ROLES", "FieldSpec"]
+#: the values a sender of the input roles starts from (every field of each role): the car at
+#: standstill with its speed valid, no pedal, a valid lead at 0 m not accelerating (with a
+#: valid lead acceleration), the ACC main switch on, no button, gap setting 2, profile 0
+_RESTING: dict[str, dict[str, float]] = {
+    "ego": {"speed_mps": 0.0, "accel_mps2": 0.0, "speed_valid": 1},
+    "pedals": {
+        "accel_pedal_pct": 0.0,
+        "accel_pressed": 0,
+        "brake_pressed": 0,
+        "brake_pressure_bar": 0.0,
+    },
+    "radar": {
+        "lead_valid": 1,
+        "gap_m": 0.0,
+        "rel_speed_mps": 0.0,
+        "lead_accel_mps2": 0.0,
+        "lead_accel_valid": 1,
+    },
+    "hmi": {
+        "main_switch": 1,
+        "set": 0,
+        "resume": 0,
+        "cancel": 0,
+        "gap_setting": 2,
+        "profile_id": 0,
+    },
+}
+
+
+def resting_values(**roles: dict[str, float]) -> dict[str, dict[str, float]]:
+    """A fresh copy of the input roles' resting values (the simulator's and the test peers'
+    starting frames), each role's fields updated from ``roles[role]`` where given."""
+    return {role: {**fields, **roles.get(role, {})} for role, fields in _RESTING.items()}
+
+
+__all__ = ["OPTIONAL_ROLES", "REQUIRED_ROLES", "ROLES", "FieldSpec", "resting_values"]

@@ -11,6 +11,7 @@ Modules, one concept each:
 - :mod:`ecu.phases` — the phases of one control cycle, pure functions.
 - :mod:`ecu.node` — ``EcuNode.step(inputs, now) -> outputs``, pure of I/O.
 - :mod:`ecu.busio` — frames <-> node values (Inbox/Outbox), the DBC fit check.
+- :mod:`ecu.safety` — the independent check of every command frame before it is sent.
 - :mod:`ecu.profiles` — driver profiles selected by the HMI.
 - :mod:`ecu.clocks` — the cycle grid in lockstep or real time.
 - :mod:`ecu.runtime` — ``EcuRuntime``, wiring bus I/O, profiles and clocks to a node.

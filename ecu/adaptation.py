@@ -2,7 +2,7 @@
 
 Two modes (``AdaptationParams.mode``; measurements in docs/ecu.md and bench/adaptation.py):
 
-- ``"paper"``: Algorithm 1 as read in PAPER-NOTES, unchanged (steps 1-4 below);
+- ``"paper"``: Algorithm 1 as read in docs/paper-notes.md, unchanged (steps 1-4 below);
 - ``"timegap"`` (default): the same filter (1), prediction (2) and safety filter (4), but,
   instead of step 3, the change is made in time-gap space and spread over a wide speed range
   (:func:`timegap_update`), because the measured error of a table is mostly a time-gap

@@ -22,6 +22,7 @@ from dbc.codec import Codec, EncodeError, RoleCodec
 from dbc.endpoint import Inbox, Outbox
 from ecu import EcuError
 from ecu.config import EcuConfig
+from ecu.safety import CommandSafety
 from ecu.signals import NodeInputs, NodeOutputs
 from pacc.vocab.acc_state import AccState, FaultCode
 from pacc.vocab.pedals import PedalScale
@@ -113,8 +114,15 @@ def inputs_from(inbox: Inbox, now_s: float, pedals: PedalScale) -> NodeInputs:
 
 
 def _clamp(x: float, lo: float, hi: float) -> float:
-    """``x`` clipped to [lo, hi]; NaN gives ``lo``."""
+    """``x`` clipped to [lo, hi]; NaN gives ``lo`` (for a gap or a speed: 0)."""
     return lo if not x >= lo else (hi if x > hi else x)
+
+
+def _accel_on_bus(x: float, lo: float, hi: float) -> float:
+    """The acceleration request ``x`` (m/s^2) clipped to the frame's [lo, hi]; a non-finite
+    request goes out as 0 (clipped), as the controller treats it, never as the floor: the
+    last line before the bus must not turn garbage into the harshest braking."""
+    return _clamp(x if math.isfinite(x) else 0.0, lo, hi)
 
 
 @dataclass(frozen=True, slots=True)
@@ -146,7 +154,7 @@ class OutputLimits:
 def command_values(out: NodeOutputs, limits: OutputLimits) -> dict[str, Any]:
     """The ``command`` role's fields of ``out`` (ACC_Command, every cycle)."""
     return {
-        "accel_request_mps2": _clamp(
+        "accel_request_mps2": _accel_on_bus(
             out.accel_request_mps2, limits.accel_lo_mps2, limits.accel_hi_mps2
         ),
         "request_active": int(out.request_active),
@@ -190,6 +198,8 @@ class BusIO:
         self.pedals = PedalScale.from_codec(codec)
         self.limits = OutputLimits.from_codec(codec)
         self.send_errors = 0
+        #: the independent check of every command frame (:mod:`ecu.safety`)
+        self.safety = CommandSafety()
         self._command = codec.roles["command"].parts
         status = codec.roles.get("status")
         self._status = () if status is None else status.parts
@@ -239,6 +249,7 @@ class BusIO:
         """Send ACC_Command (and ACC_Status if ``status``) stamped ``t_s``; never raises: an
         encode or bus failure is logged and counted in :attr:`send_errors`."""
         send, pack = self._send, self.outbox.pack_part
+        out = self.safety.check(out, t_s)  # the independent check (ecu.safety), last word
         try:
             values = command_values(out, self.limits)
             for mc in self._command:

@@ -1,6 +1,6 @@
 """Longitudinal controller: PID on the gap error, cruise at the set speed, output envelope.
 
-The gap law is eq. (5)-(6) of the paper with the signs of PAPER-NOTES::
+The gap law is eq. (5)-(6) of the paper with the signs of docs/paper-notes.md::
 
     e     = g - DGPT(v)                       (m, positive when the gap is too large)
     e_dot = (v_f - v) - DGPT'(v) * a          (m/s; DGPT' in s, a the measured ego accel)

@@ -19,7 +19,8 @@ from pathlib import Path
 
 from ecu.node import EcuNode
 from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt import Dgpt, DgptError, load_dgpt
+from pacc.vocab.dgpt import Dgpt, DgptError
+from pacc.vocab.dgpt_file import load_dgpt
 
 #: The profile id of the guest (the node's startup table).
 GUEST_PROFILE = 0

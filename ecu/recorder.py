@@ -28,7 +28,9 @@ from typing import Any
 import numpy as np
 
 from ecu import EcuError
-from pacc.vocab.triplog import Trip, write_trip
+from pacc.vocab.triplog import Trip
+from pacc.vocab.triplog_file import write_trip
+from pacc.vocab.tripmode import TripMode
 
 log = logging.getLogger(__name__)
 
@@ -147,7 +149,12 @@ class TakeoverRecorder:
         self._release_s = None
         if not seg:
             return
-        meta = {**self.meta, **self._seg_meta, "mode": "takeover", "index": self.segments}
+        meta = {
+            **self.meta,
+            **self._seg_meta,
+            "mode": TripMode.TAKEOVER.value,
+            "index": self.segments,
+        }
         if self.utc_of is not None:
             meta["start_utc"] = self.utc_of(seg[0].t_s)
         cols = list(

@@ -66,6 +66,8 @@ class RuntimeSummary:
     skipped_cycles: int = 0
     adaptation_decisions: dict[str, int] = field(default_factory=dict)
     faults: dict[str, int] = field(default_factory=dict)
+    #: command frames the safety check (:mod:`ecu.safety`) changed, by rule broken
+    safety_stops: dict[str, int] = field(default_factory=dict)
 
     def __str__(self) -> str:
         errors = ", ".join(f"{k} {v}" for k, v in sorted(self.e2e_errors.items())) or "none"
@@ -73,6 +75,7 @@ class RuntimeSummary:
             ", ".join(f"{k} {v}" for k, v in sorted(self.adaptation_decisions.items())) or "none"
         )
         faults = ", ".join(f"{k} {v}" for k, v in sorted(self.faults.items())) or "none"
+        stops = ", ".join(f"{k} {v}" for k, v in sorted(self.safety_stops.items())) or "none"
         return "\n".join(
             [
                 f"cycles:         {self.cycles}",
@@ -85,6 +88,7 @@ class RuntimeSummary:
                 f"final state:    {self.state}",
                 f"max cycle time: {self.max_cycle_s * 1e3:.3f} ms",
                 f"send errors:    {self.send_errors}, skipped cycles: {self.skipped_cycles}",
+                f"safety stops:   {stops}",
             ]
         )
 
@@ -251,6 +255,7 @@ class EcuRuntime:
             skipped_cycles=self.skipped_cycles,
             adaptation_decisions={r.value: n for r, n in node.decisions.items()},
             faults={f.name: n for f, n in node.faults.items()},
+            safety_stops=dict(self.io.safety.stopped),
         )
 
 

@@ -15,6 +15,7 @@ from dbc.codec import load_codec
 from pacc.vocab.acc_state import AccState
 from pacc.vocab.pedals import PedalScale
 from pacc.vocab.triplog import Trip
+from pacc.vocab.tripmode import TripMode
 from sim_bus.behaviour import DriverAgent
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import DriveError
@@ -82,7 +83,7 @@ def manual_trip(
         if condition is not None
         else condition_name(driver.condition_factor),
         "condition_factor": driver.condition_factor,
-        "mode": "manual",
+        "mode": TripMode.MANUAL.value,
         "scenario": profile.name,
         "seed": int(seed),
         "collision": bool(car.collided),

@@ -24,6 +24,7 @@ import numpy as np
 
 from dbc.codec import Codec, MessageCodec, load_codec
 from dbc.endpoint import Frame, Inbox, Outbox
+from dbc.schema import resting_values
 from pacc.vocab.acc_state import AccState
 from sim_bus.faults import ROLES, FaultPlan, FaultSpec
 from sim_bus.world import World
@@ -71,30 +72,9 @@ class SimNode:
         #: messages due at tick k are ``_due[k % hyper]`` (the periods as a tick schedule)
         self._due = [tuple(p for p in self._parts if k % every[p.key] == 0) for k in range(hyper)]
         self._bounds = {(r, k): roles[r].bounds(k) for r in TX_ROLES for k in roles[r].fields}
-        self._values: dict[str, dict[str, Any]] = {
-            "ego": {"speed_mps": 0.0, "accel_mps2": 0.0, "speed_valid": 1},
-            "pedals": {
-                "accel_pedal_pct": 0.0,
-                "accel_pressed": 0,
-                "brake_pressed": 0,
-                "brake_pressure_bar": 0.0,
-            },
-            "radar": {
-                "lead_valid": 1,
-                "gap_m": 0.0,
-                "rel_speed_mps": 0.0,
-                "lead_accel_mps2": 0.0,
-                "lead_accel_valid": 1,
-            },
-            "hmi": {
-                "main_switch": 1,
-                "set": 0,
-                "resume": 0,
-                "cancel": 0,
-                "gap_setting": int(gap_setting),
-                "profile_id": int(profile_id),
-            },
-        }
+        self._values: dict[str, dict[str, Any]] = resting_values(
+            hmi={"gap_setting": int(gap_setting), "profile_id": int(profile_id)}
+        )
         self.faults = faults if faults is not None and faults.plans else None
         self._rng = rng or np.random.default_rng(0)
         self._frozen: dict[str, dict[str, Any]] = {}

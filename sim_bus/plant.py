@@ -1,4 +1,4 @@
-"""Ego vehicle longitudinal dynamics: eq. 1-2 of the paper with the sign fix of PAPER-NOTES.
+"""Ego vehicle longitudinal dynamics: eq. 1-2 of the paper with the sign fix of docs/paper-notes.md.
 
     v[t+1] = v[t] + a[t]·Δt + σ_v·n_v
     g[t+1] = g[t] + (v_f[t] − v[t])·Δt + ½·(a_f[t] − a[t])·Δt² + σ_g·n_g

@@ -16,6 +16,7 @@ import numpy as np
 
 from pacc.vocab.pedals import PedalScale
 from pacc.vocab.triplog import Trip
+from pacc.vocab.tripmode import TripMode
 from sim_bus.drivers import DriverParams
 from sim_bus.world import WorldLog
 
@@ -51,7 +52,7 @@ def world_trip(
         "driver_id": driver.driver_id,
         "condition": condition_name(driver.condition_factor),
         "condition_factor": driver.condition_factor,
-        "mode": "acc",
+        "mode": TripMode.ACC.value,
     }
     clash = sorted(set(own) & set(meta))
     if clash:

@@ -25,6 +25,7 @@ from cloud_sync.irl.mce_irl import CompiledMdp, DemoStats
 from cloud_sync.irl.mdp import interp_weights
 from pacc.vocab.acc_state import AccState
 from pacc.vocab.triplog import Trip
+from pacc.vocab.tripmode import trip_mode
 
 __all__ = [
     "Samples",
@@ -82,8 +83,9 @@ class Transitions:
 
 
 def is_acc_trip(trip: Trip) -> bool:
-    """Whether ``trip`` was driven with the ACC on (meta mode ``acc`` or ``takeover``)."""
-    return str(trip.meta.get("mode", "manual")) in ("acc", "takeover")
+    """Whether ``trip`` was driven with the ACC on (trip mode ``acc`` or ``takeover``,
+    :func:`pacc.vocab.tripmode.trip_mode`)."""
+    return trip_mode(trip).acc_on
 
 
 def usable_mask(trip: Trip, max_gap_m: float) -> np.ndarray:

@@ -2,9 +2,10 @@
 
 :func:`learn_dgpt` learns from demonstrations (manual drives, plus the takeovers of ACC trips,
 weighted); :func:`fine_tune` continues from an earlier IRL table with new takeovers;
-:func:`empirical_baseline` is the comparison table. Every result is a pure function of
-(configuration, seed, data): the optimiser is deterministic and the seed only draws the
-starting weights, which the convex objective forgets.
+:func:`empirical_baseline` (:mod:`~cloud_sync.irl.baseline`, re-exported here with
+:class:`IrlConfig` of :mod:`~cloud_sync.irl.config`) is the comparison table. Every result is
+a pure function of (configuration, seed, data): the optimiser is deterministic and the seed
+only draws the starting weights, which the convex objective forgets.
 
 The phases of :func:`learn_dgpt`, one module each: the demonstrations
 (:mod:`~cloud_sync.irl.demos`), the evidence per speed (:mod:`~cloud_sync.irl.blend`), the reward
@@ -17,30 +18,28 @@ model
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from cloud_sync.errors import DemoError, TrainingError
 from cloud_sync.irl import demos as dm
+from cloud_sync.irl.baseline import baseline_if_any, empirical_baseline
 from cloud_sync.irl.blend import Evidence, blend, covered_ranges, evidence
+from cloud_sync.irl.config import EXTRACTIONS, IrlConfig
 from cloud_sync.irl.extract import (
     finish_table,
     irl_gaps,
     outside_coverage,
     search_range,
-    steady_state_gaps,
 )
-from cloud_sync.irl.features import FeatureConfig
 from cloud_sync.irl.fit import Fit, fit_alpha, start_alpha
 from cloud_sync.irl.mce_irl import CompiledMdp, DemoStats
-from cloud_sync.irl.mdp import GridConfig
 from cloud_sync.irl.model import METHOD, RewardModel, compile_model, fresh_model, model_of_table
 from cloud_sync.irl.policy_gap import steady_drift, steady_gaps
-from pacc.vocab.dgpt import Dgpt, SafetyBounds, speed_axis
+from pacc.vocab.dgpt import Dgpt, speed_axis
 from pacc.vocab.triplog import Trip
 
 __all__ = [
@@ -52,77 +51,6 @@ __all__ = [
     "METHOD",
     "EXTRACTIONS",
 ]
-
-#: how a table is read from the fitted reward: ``policy`` (default), the gap the soft-optimal
-#: policy keeps in steady following (:mod:`cloud_sync.irl.policy_gap`); ``argmax``, the gap of
-#: highest (v, g) reward (:func:`cloud_sync.irl.extract.irl_gaps`; kept for comparison)
-EXTRACTIONS = ("policy", "argmax")
-
-
-@dataclass(frozen=True)
-class IrlConfig:
-    """Everything that decides a learned table (units in names).
-
-    ``horizon_steps``: the longest demonstration segment (decisions). ``l2``: weight of the
-    quadratic penalty on α (towards the previous α when fine-tuning). ``max_iter``/``gtol``/
-    ``ftol``: the L-BFGS stopping rule (iterations; max |gradient component| per segment;
-    relative objective decrease). ``min_total_demo_s``: refuse less usable demonstration.
-    ``min_coverage_s``: seconds within ±0.5 m/s for a speed bin to count as evidence.
-    ``takeover_weight``: weight of an ACC trip's takeover samples against manual samples.
-    ``blend_window_mps``: when continuing from an earlier table, new evidence moves the table
-    within this distance of its speeds, blended by its amount (weight c/(c + blend_half_s)
-    for c seconds of new evidence); elsewhere the table is kept;
-    the table's gaps may range ±``init_support_ratio`` around the earlier gaps.
-    ``extraction``: how the table is read from the reward, one of :data:`EXTRACTIONS`.
-    """
-
-    grid: GridConfig = field(default_factory=GridConfig)
-    features: FeatureConfig = field(default_factory=FeatureConfig)
-    bounds: SafetyBounds = field(default_factory=SafetyBounds)
-    horizon_steps: int = 5
-    l2: float = 0.01
-    max_iter: int = 150
-    gtol: float = 1e-3
-    ftol: float = 1e-7
-    max_gap_m: float = 120.0
-    min_total_demo_s: float = 60.0
-    min_coverage_s: float = 10.0
-    lowpass_cutoff: float = 0.1
-    gap_resolution_m: float = 0.25
-    takeover_weight: float = 5.0
-    dgpt_step_mps: float = 0.5
-    blend_window_mps: float = 2.0
-    blend_half_s: float = 10.0
-    init_support_ratio: float = 0.3
-    extraction: str = "policy"
-
-    def __post_init__(self) -> None:
-        if self.extraction not in EXTRACTIONS:
-            raise TrainingError(
-                f"extraction must be one of {', '.join(EXTRACTIONS)}, got {self.extraction!r}"
-            )
-        if self.horizon_steps < 1:
-            raise TrainingError("horizon_steps must be >= 1")
-        if not (self.l2 >= 0 and self.max_iter >= 1 and self.gtol > 0 and self.ftol > 0):
-            raise TrainingError("l2 must be >= 0, max_iter >= 1, gtol and ftol > 0")
-        if not 0 < self.lowpass_cutoff < 1:
-            raise TrainingError("lowpass_cutoff must be in (0, 1)")
-        positive = (
-            "max_gap_m",
-            "min_coverage_s",
-            "gap_resolution_m",
-            "takeover_weight",
-            "dgpt_step_mps",
-            "blend_half_s",
-        )
-        for name in positive:  # finite and > 0 (NaN fails the comparison too)
-            value = getattr(self, name)
-            if not 0 < value < math.inf:
-                raise TrainingError(f"{name} must be a finite number > 0, got {value}")
-        for name in ("min_total_demo_s", "blend_window_mps", "init_support_ratio"):
-            value = getattr(self, name)
-            if not 0 <= value < math.inf:
-                raise TrainingError(f"{name} must be a finite number >= 0, got {value}")
 
 
 @dataclass(frozen=True)
@@ -152,41 +80,6 @@ class LearnResult:
     def reward_vg(self, v_mps: np.ndarray, gap_m: np.ndarray) -> np.ndarray:
         """The recovered (v, g) reward on the outer product of (n,) and (m,): (n, m)."""
         return self.mdp.features.reward_vg(self.alpha, v_mps, gap_m)
-
-
-def empirical_baseline(
-    trips: Sequence[Trip],
-    *,
-    driver_id: str,
-    condition: str = "default",
-    config: IrlConfig | None = None,
-) -> Dgpt:
-    """The empirical steady-state table (same format; meta ``method = empirical``)."""
-    cfg = config if config is not None else IrlConfig()
-    dm.check_demos(trips, max_gap_m=cfg.max_gap_m, min_total_s=cfg.min_total_demo_s)
-    s = dm.pooled_samples(trips, cfg.max_gap_m)
-    axis = speed_axis(cfg.dgpt_step_mps)
-    raw, count = steady_state_gaps(axis, s.v_mps, s.gap_m, s.dv_mps, s.a_mps2)
-    dt = float(np.median(s.dt_s)) if s.dt_s.size else 0.1
-    covered = (count * dt >= cfg.min_coverage_s / 4.0) & np.isfinite(raw)
-    if not covered.any():
-        raise DemoError("no speed bin has enough steady-state following for the baseline")
-    gap = finish_table(axis, raw, covered, cfg.bounds, cutoff=cfg.lowpass_cutoff)
-    return Dgpt(
-        speed_mps=axis,
-        gap_m=gap,
-        version=0,
-        driver_id=driver_id,
-        condition=condition,
-        source="irl",
-        meta={
-            "method": "empirical",
-            "steady_samples": count.tolist(),
-            "covered": covered.tolist(),
-            "outside_coverage": outside_coverage(axis, covered),
-            "training_digest": dm.digest(trips, [1.0] * len(trips)),
-        },
-    )
 
 
 def learn_dgpt(
@@ -260,7 +153,7 @@ def learn_dgpt(
     )
     return LearnResult(
         table=table,
-        baseline=_baseline_if_any(trips, driver_id, condition, cfg),
+        baseline=baseline_if_any(trips, driver_id, condition, cfg),
         alpha=fit.alpha,
         mdp=mdp,
         covered=covered,
@@ -401,14 +294,3 @@ def _irl_meta(
     if init is not None:
         meta["parent_version"] = init.version
     return meta
-
-
-def _baseline_if_any(
-    trips: Sequence[Trip], driver_id: str, condition: str, cfg: IrlConfig
-) -> Dgpt | None:
-    """The empirical baseline, or None when the data hold no steady-state following (e.g.
-    takeovers alone)."""
-    try:
-        return empirical_baseline(trips, driver_id=driver_id, condition=condition, config=cfg)
-    except DemoError:
-        return None

@@ -16,7 +16,9 @@ from typing import Any
 
 import numpy as np
 
-from pacc.vocab.triplog import Trip, TripLogError, read_trip
+from pacc.vocab.triplog import Trip, TripLogError
+from pacc.vocab.triplog_file import read_trip
+from pacc.vocab.tripmode import TripMode
 
 __all__ = ["read_csv_trip", "load_trip", "REQUIRED_CSV_COLUMNS"]
 
@@ -67,7 +69,7 @@ def read_csv_trip(
     meta: dict[str, Any] = {
         "driver_id": driver_id if driver_id is not None else path.stem,
         "condition": condition,
-        "mode": "manual",
+        "mode": TripMode.MANUAL.value,
         "source": path.name,
     }
     try:

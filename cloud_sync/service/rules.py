@@ -26,7 +26,6 @@ import hashlib
 import logging
 import os
 import secrets
-import tempfile
 import threading
 from collections.abc import Callable, Iterable
 from concurrent.futures import Executor, Future, ThreadPoolExecutor
@@ -58,9 +57,11 @@ from cloud_sync.signing import (
     sign_dgpt,
     verify_dgpt,
 )
-from cloud_sync.vehicle.spool import kind_of
+from cloud_sync.vehicle.spool import BatchKind, kind_of
 from pacc.vocab.dgpt import Dgpt
-from pacc.vocab.triplog import Trip, TripLogError, read_trip
+from pacc.vocab.triplog import Trip, TripLogError
+from pacc.vocab.triplog_file import trip_from_bytes
+from pacc.vocab.tripmode import TripMode, TripModeError
 
 log = logging.getLogger(__name__)
 
@@ -254,7 +255,7 @@ class CloudService:
             vehicle_id=vehicle_id,
             driver_id=driver_id,
             condition=condition,
-            kind=kind_of(trip),
+            kind=_kind(trip),
             size_bytes=len(data),
             received_utc=_utc_now(),
             used_in_version=None,
@@ -327,12 +328,12 @@ class CloudService:
             return None
         cfg = self.config
         previous = self.latest_table(driver_id, condition)
-        relearn = previous is None or any(b.kind == "manual" for b in unused)
+        relearn = previous is None or any(b.kind == TripMode.MANUAL for b in unused)
         batches = self.store.batches(driver_id, condition) if relearn else unused
-        if relearn and not any(b.kind == "manual" for b in batches):
+        if relearn and not any(b.kind == TripMode.MANUAL for b in batches):
             return None  # the first table needs manual driving; read nothing until then
-        manual = self._trips(b for b in batches if b.kind == "manual")
-        corrections = self._trips(b for b in batches if b.kind != "manual")
+        manual = self._trips(b for b in batches if b.kind == TripMode.MANUAL)
+        corrections = self._trips(b for b in batches if b.kind != TripMode.MANUAL)
         args = (manual, corrections, None if relearn else previous, driver_id, condition)
         try:
             if self.compute is None:
@@ -347,7 +348,9 @@ class CloudService:
     def _trips(self, batches: Iterable[BatchRow]) -> list[Trip]:
         """The trips of ``batches`` in digest order."""
         ordered = sorted(batches, key=_digest)
-        return [read_trip_bytes(self.store.read_blob(b.digest)) for b in ordered]
+        return [
+            trip_from_bytes(self.store.read_blob(b.digest), f"batch {b.digest}") for b in ordered
+        ]
 
     def publish(self, table: Dgpt, used: list[str]) -> int:
         """Sign and keep ``table`` as the next version; mark the batches ``used``."""
@@ -417,20 +420,16 @@ def _digest(batch: BatchRow) -> str:
     return batch.digest
 
 
-def read_trip_bytes(data: bytes) -> Trip:
-    """Parse MCAP trip-log bytes (through a temporary file: the reader wants a path)."""
-    fd, name = tempfile.mkstemp(suffix=".mcap")
+def _kind(trip: Trip) -> BatchKind:
     try:
-        with os.fdopen(fd, "wb") as stream:
-            stream.write(data)
-        return read_trip(name)
-    finally:
-        Path(name).unlink(missing_ok=True)
+        return kind_of(trip)
+    except TripModeError as exc:
+        raise BadBatchError(f"not a pacc trip log: {exc}") from exc
 
 
 def _parse_trip(data: bytes) -> Trip:
     try:
-        return read_trip_bytes(data)
+        return trip_from_bytes(data, "uploaded trip log")
     except TripLogError as exc:
         raise BadBatchError(f"not a pacc trip log: {exc}") from exc
 
@@ -441,6 +440,5 @@ __all__ = [
     "DeferredExecutor",
     "InlineExecutor",
     "ServiceConfig",
-    "read_trip_bytes",
     "train_table",
 ]

@@ -24,6 +24,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
+from cloud_sync.durable import fsync_dir
 from cloud_sync.errors import CloudSyncError
 
 SCHEMA = """
@@ -90,19 +91,11 @@ class VersionRow:
     n_batches: int
 
 
-def _fsync_dir(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
 def _write_temp(path: Path, data: bytes) -> Path:
     """``data`` in a fsynced temporary file beside ``path`` (folders made and fsynced)."""
     if not path.parent.is_dir():
         path.parent.mkdir(parents=True, exist_ok=True)
-        _fsync_dir(path.parent.parent)
+        fsync_dir(path.parent.parent)
     tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.part")
     try:
         with tmp.open("wb") as stream:
@@ -119,7 +112,7 @@ def _write_atomic(path: Path, data: bytes) -> None:
     """``data`` under ``path`` whole or not at all, durable once this returns."""
     tmp = _write_temp(path, data)
     tmp.replace(path)
-    _fsync_dir(path.parent)
+    fsync_dir(path.parent)
 
 
 class CloudStore:
@@ -291,7 +284,7 @@ class CloudStore:
                     [(row.version, d) for d in used],
                 )
                 tmp.replace(final)  # inside the transaction: no row without its file
-                _fsync_dir(final.parent)
+                fsync_dir(final.parent)
         except sqlite3.IntegrityError as exc:
             raise StoreError(
                 f"DGPT {row.driver_id}/{row.condition} v{row.version} exists already"

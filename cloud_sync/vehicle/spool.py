@@ -33,13 +33,21 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
+from cloud_sync.durable import fsync_dir
 from cloud_sync.errors import CloudSyncError
-from pacc.vocab.triplog import Trip, TripLogError, read_trip, write_trip
+from pacc.vocab.triplog import Trip, TripLogError
+from pacc.vocab.triplog_file import read_trip, write_trip
+from pacc.vocab.tripmode import TripMode, TripModeError, trip_mode
 
 log = logging.getLogger(__name__)
 
 BatchKind = Literal["takeover", "manual", "acc"]
 #: eviction order under the quota: first kind first
+_KINDS: dict[TripMode, BatchKind] = {
+    TripMode.TAKEOVER: "takeover",
+    TripMode.MANUAL: "manual",
+    TripMode.ACC: "acc",
+}
 EVICTION_ORDER: tuple[BatchKind, ...] = ("manual", "acc", "takeover")
 #: default quota, bytes (a takeover segment is ~10-30 kB, a 10-min manual trip ~0.3 MB)
 DEFAULT_QUOTA_BYTES = 256 * 1024 * 1024
@@ -90,21 +98,12 @@ def file_digest(path: Path) -> str:
 
 
 def kind_of(trip: Trip) -> BatchKind:
-    """The batch kind of a trip from its ``meta["mode"]`` (``takeover``, ``manual``, else acc)."""
-    mode = trip.meta.get("mode")
-    if mode == "takeover":
-        return "takeover"
-    if mode == "manual":
-        return "manual"
-    return "acc"
+    """The batch kind of a trip: its trip mode (:func:`pacc.vocab.tripmode.trip_mode`).
 
-
-def _fsync_dir(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
+    Raises:
+        TripModeError: the trip's ``meta["mode"]`` is not a known mode.
+    """
+    return _KINDS[trip_mode(trip)]
 
 
 class Spool:
@@ -167,9 +166,15 @@ class Spool:
         A trip already spooled (same bytes) is not stored twice: its batch is returned.
 
         Raises:
-            SpoolError: the trip cannot be written (meta not JSON, full disk) or is larger
-                than the whole quota.
+            SpoolError: the trip cannot be written (meta not JSON, full disk), its mode is
+                unknown (:class:`pacc.vocab.tripmode.TripModeError`) or it is larger than the
+                whole quota.
         """
+        if kind is None:
+            try:
+                kind = kind_of(trip)
+            except TripModeError as exc:
+                raise SpoolError(f"spool {self.root}: not spooled: {exc}") from exc
         incoming = self.root / _INCOMING / f"{uuid.uuid4().hex}.mcap"
         try:
             write_trip(incoming, trip)
@@ -177,7 +182,7 @@ class Spool:
             with contextlib.suppress(OSError):
                 incoming.unlink(missing_ok=True)
             raise SpoolError(f"spool {self.root}: cannot write the trip: {exc}") from exc
-        return self._admit(incoming, kind or kind_of(trip))
+        return self._admit(incoming, kind)
 
     def put_file(self, source: str | os.PathLike[str], kind: BatchKind | None = None) -> Batch:
         """Spool a copy of an MCAP trip log (checked with :func:`read_trip` first).
@@ -213,7 +218,7 @@ class Spool:
                 self._next_seq += 1
                 final = self.root / f"{seq:012d}-{kind}-{digest}.mcap"
                 incoming.replace(final)
-                _fsync_dir(self.root)
+                fsync_dir(self.root)
                 batch = Batch(seq=seq, kind=kind, digest=digest, size_bytes=size, path=final)
                 self._batches[digest] = batch
                 self.stats.added[kind] += 1
@@ -251,7 +256,7 @@ class Spool:
     def _remove(self, batch: Batch) -> None:
         with contextlib.suppress(FileNotFoundError):
             batch.path.unlink()
-        _fsync_dir(self.root)
+        fsync_dir(self.root)
         del self._batches[batch.digest]
 
     # -- draining ------------------------------------------------------------------------
@@ -278,7 +283,7 @@ class Spool:
             target.mkdir(exist_ok=True)
             (target / f"{batch.path.name}.reason").write_text(reason + "\n", encoding="utf-8")
             batch.path.replace(target / batch.path.name)
-            _fsync_dir(self.root)
+            fsync_dir(self.root)
             del self._batches[digest]
             self.stats.rejected += 1
             log.error(

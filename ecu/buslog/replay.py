@@ -47,7 +47,8 @@ from ecu.buslog.recording import (
 from ecu.node import EcuNode
 from ecu.runtime import EcuRuntime, RuntimeSummary
 from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt import Dgpt, dgpt_from_json_dict, predefined
+from pacc.vocab.dgpt import Dgpt, predefined
+from pacc.vocab.dgpt_file import dgpt_from_json_dict
 
 __all__ = ["PlayResult", "ReplayResult", "codec_of", "play", "replay_through_ecu"]
 

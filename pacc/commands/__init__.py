@@ -1,6 +1,6 @@
 """The ``pacc`` sub-commands, one module each, named after the sub-command.
 
-``pacc X`` is :mod:`pacc.commands.X` and ``pacc cloud Y`` is :mod:`pacc.commands.cloud_Y`:
+``pacc X`` is ``pacc.commands.X`` and ``pacc cloud Y`` is ``pacc.commands.cloud_Y``:
 each has ``main(argv) -> int`` and only parses options and wires the libraries together.
 
 - :mod:`pacc.commands.ecu` — ``pacc ecu``: the ACC ECU node on a CAN bus in real time.

@@ -33,7 +33,7 @@ def _do_learn(args: argparse.Namespace) -> int:
     from cloud_sync.irl.demos import is_acc_trip  # noqa: PLC0415
     from cloud_sync.irl.trainer import METHOD, IrlConfig, fine_tune, learn_dgpt  # noqa: PLC0415
     from cloud_sync.irl.tripfiles import load_trip  # noqa: PLC0415
-    from pacc.vocab.dgpt import load_dgpt, save_dgpt  # noqa: PLC0415
+    from pacc.vocab.dgpt_file import load_dgpt, save_dgpt  # noqa: PLC0415
 
     try:
         _check_outputs(args.output, args.plot)  # now, not after training

@@ -23,8 +23,9 @@ from dbc.network import add_network_arguments
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES
 from pacc.vocab import FormatError
-from pacc.vocab.dgpt import load_dgpt
-from pacc.vocab.triplog import TripLogError, write_trip
+from pacc.vocab.dgpt_file import load_dgpt
+from pacc.vocab.triplog import TripLogError
+from pacc.vocab.triplog_file import write_trip
 from sim_bus.drivers import load_driver
 from sim_bus.errors import SimError
 from sim_bus.faults import parse_faults

@@ -35,7 +35,8 @@ from ecu.buslog.format import TimeBase
 from ecu.node import EcuConfig, EcuNode
 from ecu.recorder import TripSink, directory_sink
 from pacc.vocab import FormatError
-from pacc.vocab.dgpt import Dgpt, DgptError, load_dgpt, predefined, save_dgpt
+from pacc.vocab.dgpt import Dgpt, DgptError, predefined
+from pacc.vocab.dgpt_file import load_dgpt, save_dgpt
 
 if TYPE_CHECKING:
     from cloud_sync.vehicle.link import VehicleLink

@@ -28,7 +28,8 @@ from ecu.buslog.format import TimeBase
 from ecu.buslog.recording import open_recording
 from pacc.vocab import FormatError
 from pacc.vocab.pedals import PedalScale
-from pacc.vocab.triplog import TripLogError, write_trip
+from pacc.vocab.triplog import TripLogError
+from pacc.vocab.triplog_file import write_trip
 from sim_bus.drivers import GAP_SETTING_CODE, DriverParams, load_driver
 from sim_bus.errors import SimError
 from sim_bus.faults import FaultSpec, fault_rng, parse_faults

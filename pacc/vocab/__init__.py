@@ -1,7 +1,10 @@
 """The vocabulary the ECU, the simulator and the cloud share: what each of them reads and writes.
 
-- :mod:`pacc.vocab.dgpt` — the Driving Gap Preference Table, its safety bounds and JSON format.
-- :mod:`pacc.vocab.triplog` — ``Trip`` and its MCAP trip-log format.
+- :mod:`pacc.vocab.dgpt` — the Driving Gap Preference Table and its safety bounds.
+- :mod:`pacc.vocab.dgpt_file` — the DGPT's JSON file format on bytes, streams and paths.
+- :mod:`pacc.vocab.triplog` — ``Trip``, a car-following trip as arrays.
+- :mod:`pacc.vocab.triplog_file` — the MCAP trip-log format on bytes, streams and paths.
+- :mod:`pacc.vocab.tripmode` — ``TripMode`` (manual, acc, takeover) and the one classifier.
 - :mod:`pacc.vocab.acc_state` — the ACC's engagement state and fault codes.
 - :mod:`pacc.vocab.pedals` — ``PedalScale``, pedal fractions from the DBC's full scale.
 - :mod:`pacc.vocab.mcap_errors` — one mapping of MCAP read errors to a reader's error.

@@ -6,26 +6,16 @@ axis it is held at the end values. Tables carry their provenance: a version (inc
 every change), the driver id, a driving-condition tag, the source (``predefined``, ``irl``,
 ``adapted``), an ISO 8601 creation time and free-form metadata.
 
-On disk a table is one JSON object::
-
-    {"format": "pacc.dgpt/1", "driver_id": "d1", "condition": "dry", "source": "irl",
-     "version": 3, "created_utc": "2026-01-01T00:00:00Z",
-     "speed_mps": [0.0, 0.5, ...], "gap_m": [4.0, 4.6, ...], "meta": {...}}
-
-:func:`load_dgpt` validates the format tag, the shapes, the axis, that every value is finite
-and that every gap lies within :class:`SafetyBounds`; anything else raises :class:`DgptError`
-with a message naming the file and the defect.
+A table is valid by construction: the shapes, the axis, finite values and every gap within
+:class:`SafetyBounds` are checked when it is built, else :class:`DgptError`. Its file format
+(JSON, on bytes, streams or paths) is :mod:`pacc.vocab.dgpt_file`.
 """
 
 from __future__ import annotations
 
-import json
 import math
-import os
-import tempfile
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
-from pathlib import Path
 from typing import Any, Literal, cast, get_args, overload
 
 import numpy as np
@@ -339,84 +329,12 @@ def predefined(
     )
 
 
-def dgpt_from_json_dict(obj: Any, bounds: SafetyBounds | None = None) -> Dgpt:
-    """Build and validate a table from its parsed JSON object (see module docstring)."""
-    if not isinstance(obj, dict):
-        raise DgptError("top level is not a JSON object")
-    tag = obj.get("format")
-    if tag != FORMAT_TAG:
-        raise DgptError(f"format tag is {tag!r}, expected {FORMAT_TAG!r}")
-    missing = [k for k in ("speed_mps", "gap_m", "version", "source") if k not in obj]
-    if missing:
-        raise DgptError(f"missing key(s): {', '.join(missing)}")
-    for key in ("speed_mps", "gap_m"):
-        seq = obj[key]
-        if not isinstance(seq, list) or not all(
-            isinstance(x, int | float) and not isinstance(x, bool) for x in seq
-        ):
-            raise DgptError(f"{key} must be a list of numbers")
-    try:
-        speed = np.asarray(obj["speed_mps"], dtype=np.float64)
-        gap = np.asarray(obj["gap_m"], dtype=np.float64)
-    except OverflowError:
-        raise DgptError("speed_mps or gap_m holds a number too large for a float") from None
-    table = Dgpt(
-        speed_mps=speed,
-        gap_m=gap,
-        version=obj["version"],
-        driver_id=obj.get("driver_id", "guest"),
-        condition=obj.get("condition", "default"),
-        source=obj["source"],
-        created_utc=obj.get("created_utc", ""),
-        meta=obj.get("meta", {}),
-    )
-    table.check_bounds(bounds)
-    return table
-
-
-def load_dgpt(path: str | os.PathLike[str], bounds: SafetyBounds | None = None) -> Dgpt:
-    """Read and validate a DGPT JSON file; :class:`DgptError` names the file and the defect."""
-    p = Path(path)
-    try:
-        raw = p.read_bytes()
-    except OSError as exc:
-        raise DgptError(f"{p}: cannot read: {exc.strerror or exc}") from None
-    try:
-        obj = json.loads(raw.decode("utf-8"), parse_constant=float)
-    except (ValueError, RecursionError) as exc:  # JSONDecodeError, int digit limit, nesting
-        raise DgptError(f"{p}: not valid JSON: {exc}") from None
-    try:
-        return dgpt_from_json_dict(obj, bounds)
-    except DgptError as exc:
-        raise DgptError(f"{p}: invalid DGPT: {exc}") from None
-
-
-def save_dgpt(table: Dgpt, path: str | os.PathLike[str]) -> None:
-    """Write ``table`` as JSON to ``path`` atomically (temp file + rename)."""
-    p = Path(path)
-    text = json.dumps(table.to_json_dict(), indent=1) + "\n"
-    tmp: str | None = None
-    try:
-        # a temp file of its own per writer, so two processes saving one path cannot collide
-        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        Path(tmp).replace(p)
-    except OSError as exc:
-        if tmp is not None:
-            Path(tmp).unlink(missing_ok=True)
-        raise DgptError(f"{p}: cannot write: {exc.strerror or exc}") from None
-
-
 __all__ = [
     "Dgpt",
     "DgptError",
     "SafetyBounds",
     "check_bounds",
     "clamp_to_bounds",
-    "dgpt_from_json_dict",
-    "load_dgpt",
     "predefined",
-    "save_dgpt",
     "speed_axis",
 ]

@@ -17,8 +17,9 @@ __all__ = ["mcap_errors"]
 
 
 @contextmanager
-def mcap_errors(path: Path, what: str, error: type[PaccError]) -> Iterator[None]:
-    """Inside the block, reading ``path`` (a ``what``, e.g. "trip log") raises only ``error``:
+def mcap_errors(path: Path | str, what: str, error: type[PaccError]) -> Iterator[None]:
+    """Inside the block, reading ``path`` (a file, or a name for bytes or a stream; a ``what``,
+    e.g. "trip log") raises only ``error``:
     missing file, directory, truncated or corrupt/foreign file, each with a one-line message;
     an ``error`` raised inside passes unchanged."""
     try:

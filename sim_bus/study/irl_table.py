@@ -21,7 +21,8 @@ import json
 import os
 from pathlib import Path
 
-from pacc.vocab.dgpt import Dgpt, DgptError, load_dgpt, save_dgpt
+from pacc.vocab.dgpt import Dgpt, DgptError
+from pacc.vocab.dgpt_file import load_dgpt, save_dgpt
 from pacc.vocab.triplog import Trip
 from sim_bus.drivers import DriverParams
 from sim_bus.manual import manual_trip

@@ -17,8 +17,10 @@ from typing import Any
 from tqdm import tqdm
 
 from cloud_sync.engine.base import Engine, open_engine
-from pacc.vocab.dgpt import Dgpt, save_dgpt
-from pacc.vocab.triplog import Trip, write_trip
+from pacc.vocab.dgpt import Dgpt
+from pacc.vocab.dgpt_file import save_dgpt
+from pacc.vocab.triplog import Trip
+from pacc.vocab.triplog_file import write_trip
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import SimError
 from sim_bus.study.collect import RowJournal, RowKey, collect

@@ -12,8 +12,9 @@ import pytest
 from pacc.cli import main as pacc_main
 from pacc.commands.cloud import main
 from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt import load_dgpt
-from pacc.vocab.triplog import Trip, write_trip
+from pacc.vocab.dgpt_file import load_dgpt
+from pacc.vocab.triplog import Trip
+from pacc.vocab.triplog_file import write_trip
 
 
 def _write_csv(trip: Trip, path: Path) -> None:

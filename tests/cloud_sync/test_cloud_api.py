@@ -31,7 +31,8 @@ from cloud_sync.service.rules import CloudService, ServiceConfig
 from cloud_sync.signing import load_public_key, verify_dgpt
 from cloud_sync.vehicle.client import HttpCloud
 from pacc.vocab.acc_state import AccState
-from pacc.vocab.triplog import Trip, write_trip
+from pacc.vocab.triplog import Trip
+from pacc.vocab.triplog_file import write_trip
 from tests.cloud_sync.conftest import follower_trip
 
 LIMIT = 2 * 1024 * 1024

@@ -17,7 +17,7 @@ from cloud_sync.engine.base import Engine, InlineEngine, ProcessEngine, open_eng
 from cloud_sync.errors import CloudSyncError, EngineError
 from cloud_sync.irl.trainer import IrlConfig
 from cloud_sync.service.rules import CloudService, DeferredExecutor, ServiceConfig
-from pacc.vocab.triplog import write_trip
+from pacc.vocab.triplog_file import write_trip
 from tests.cloud_sync.conftest import follower_trip
 
 S = TypeVar("S")

@@ -5,10 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cloud_sync.irl.features import FeatureConfig, make_features
 from cloud_sync.irl.fit import fit_alpha, start_alpha
 from cloud_sync.irl.mce_irl import (
-    CompiledMdp,
     DemoStats,
     feature_expectations,
     objective,
@@ -16,15 +14,10 @@ from cloud_sync.irl.mce_irl import (
     soft_value_iteration,
     state_action_visitation,
 )
-from cloud_sync.irl.mdp import GridConfig, build_transitions, make_grid
+from tests.cloud_sync.test_mce_irl import small_mdp
 
-SMALL = GridConfig(v_margin_mps=1.0, gap_margin_m=2.0, dv_max_mps=2.0)
-GRID = make_grid(SMALL, v_max_mps=4.0, gap_max_m=10.0)
-MDP = CompiledMdp.build(
-    GRID,
-    make_features(GRID, FeatureConfig(v_spacing_mps=2.0, gap_spacing_m=4.0), 2.0, 1.0),
-    build_transitions(GRID, SMALL),
-)
+MDP = small_mdp()  # the small MDP of the MCE-IRL tests
+GRID = MDP.grid
 K = MDP.features.n_features
 
 

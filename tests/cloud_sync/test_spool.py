@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from cloud_sync.vehicle.spool import EVICTION_ORDER, Spool, SpoolError, file_digest
-from pacc.vocab.triplog import Trip, read_trip
+from pacc.vocab.triplog import Trip
+from pacc.vocab.triplog_file import read_trip
 
 
 def make_trip(mode: str, n: int = 50, seed: int = 0) -> Trip:

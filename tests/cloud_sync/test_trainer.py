@@ -18,7 +18,8 @@ from cloud_sync.irl.trainer import (
     learn_dgpt,
 )
 from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt import SafetyBounds, load_dgpt, predefined, save_dgpt
+from pacc.vocab.dgpt import SafetyBounds, predefined
+from pacc.vocab.dgpt_file import load_dgpt, save_dgpt
 from pacc.vocab.triplog import Trip
 
 D0, T = 4.0, 1.6

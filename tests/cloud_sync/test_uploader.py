@@ -187,7 +187,9 @@ def test_a_bad_batch_is_set_aside_and_a_not_yet_registered_driver_is_kept(
             make_trip("takeover", seed=1), meta={"driver_id": "x", "mode": "takeover"}
         )
     )
-    bad = spool.put_trip(dataclasses.replace(make_trip("takeover", seed=2), meta={"mode": "x"}))
+    bad = spool.put_trip(
+        dataclasses.replace(make_trip("takeover", seed=2), meta={"mode": "takeover"})
+    )
     spool.put_trip(make_trip("takeover", seed=3))
     uploader = Uploader(spool, LocalCloud(service, token), FAST)
     assert uploader.drain() == 1  # the good one; the queue went on past the other two

@@ -28,7 +28,8 @@ from ecu.buslog.recording import config_from_json, config_to_json, open_recordin
 from ecu.config import EcuConfig
 from ecu.controller import ControllerParams
 from pacc.vocab.dgpt import predefined
-from pacc.vocab.triplog import Trip, write_trip
+from pacc.vocab.triplog import Trip
+from pacc.vocab.triplog_file import write_trip
 
 UTC0_NS = 1_790_000_000_000_000_000  # 2026-09-21T...Z
 

@@ -19,7 +19,8 @@ from dbc.codec import load_codec
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
 from pacc.commands.ecu import main, run_until_done
-from pacc.vocab.dgpt import load_dgpt, predefined
+from pacc.vocab.dgpt import predefined
+from pacc.vocab.dgpt_file import load_dgpt
 from tests.peers import PeerNodes
 
 _ids = itertools.count()
@@ -363,7 +364,7 @@ def test_cli_can_log_records_the_run_and_takeovers_carry_utc(
 ) -> None:
     from ecu.buslog.reader import read_canlog  # noqa: PLC0415
     from ecu.buslog.replay import replay_through_ecu  # noqa: PLC0415
-    from pacc.vocab.triplog import read_trip  # noqa: PLC0415
+    from pacc.vocab.triplog_file import read_trip  # noqa: PLC0415
 
     channel = f"ecu-cli-{next(_ids)}"
     peers = Peers(channel, 4.2)

@@ -8,7 +8,8 @@ from pathlib import Path
 import pytest
 
 from ecu.recorder import RecorderError, Sample, TakeoverRecorder, directory_sink
-from pacc.vocab.triplog import Trip, read_trip
+from pacc.vocab.triplog import Trip
+from pacc.vocab.triplog_file import read_trip
 
 
 def feed(rec: TakeoverRecorder, t0: float, t1: float, state: int = 2, dt: float = 0.02) -> float:

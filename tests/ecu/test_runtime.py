@@ -19,7 +19,8 @@ from ecu.config import ConfigError
 from ecu.node import EcuConfig, EcuNode, NodeInputs
 from ecu.runtime import EcuRuntime, RuntimeClockError, RuntimeCodecError
 from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt import predefined, save_dgpt
+from pacc.vocab.dgpt import predefined
+from pacc.vocab.dgpt_file import save_dgpt
 from pacc.vocab.triplog import Trip
 from tests.peers import PeerNodes
 
@@ -131,6 +132,7 @@ def test_engage_and_frames(bench: Bench) -> None:
     assert any("STANDBY -> ACTIVE" in e for e in bench.events)
     summary = bench.rt.summary()
     assert summary.e2e_errors == {}
+    assert summary.safety_stops == {} and "safety stops:   none" in str(summary)
     assert summary.frames_out == len(cmds) + len(bench.statuses)
     assert "cycles:" in str(summary)
 
@@ -208,6 +210,7 @@ def test_radar_timeout_faults_with_ramp(bench: Bench) -> None:
     assert bench.statuses[-1]["fault_code"] == 3
     assert any("RADAR_INPUT" in e for e in bench.events)
     assert bench.rt.summary().faults == {"RADAR_INPUT": 1}
+    assert bench.rt.summary().safety_stops == {}  # the fault ramp is lawful
     assert "faults:         RADAR_INPUT 1" in str(bench.rt.summary())
     # radar back: SET is refused until inputs have been valid for 1 s
     bench.peers.mute("radar", False)

@@ -27,7 +27,8 @@ from dbc.codec import load_codec
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
 from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt import predefined, save_dgpt
+from pacc.vocab.dgpt import predefined
+from pacc.vocab.dgpt_file import save_dgpt
 from tests.peers import PeerNodes
 
 CODEC = load_codec()
@@ -183,6 +184,7 @@ def test_arbitrary_traffic_keeps_the_command_contract(
                     cmds.append((got[0], rt.last_outputs.emergency))
         assert all((b - a) % 16 == 1 for a, b in itertools.pairwise(counters))
         assert rt.send_errors == 0
+        assert rt.summary().safety_stops == {}  # a correct controller never trips the check
         _check_commands(cmds)
         event(f"states seen: {sorted({c['acc_state'] for c, _ in cmds})}")
         event(f"final table: {node.table.driver_id}")

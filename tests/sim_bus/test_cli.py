@@ -14,8 +14,9 @@ from ecu.runtime import EcuRuntime
 from pacc.commands import drive
 from pacc.commands import sim as cli
 from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt import predefined, save_dgpt
-from pacc.vocab.triplog import read_trip
+from pacc.vocab.dgpt import predefined
+from pacc.vocab.dgpt_file import save_dgpt
+from pacc.vocab.triplog_file import read_trip
 from sim_bus import scenarios
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.errors import SimError

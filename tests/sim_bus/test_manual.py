@@ -11,7 +11,8 @@ import pytest
 from dbc.codec import load_codec
 from pacc.vocab.acc_state import AccState
 from pacc.vocab.pedals import PedalScale
-from pacc.vocab.triplog import Trip, read_trip, write_trip
+from pacc.vocab.triplog import Trip
+from pacc.vocab.triplog_file import read_trip, write_trip
 from sim_bus.behaviour import BRAKE_BAR_PER_MPS2, DECEL_LIMIT_MPS2
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.manual import manual_trip

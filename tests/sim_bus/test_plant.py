@@ -35,7 +35,7 @@ def test_constant_acceleration_matches_closed_form(
 
 
 def test_gap_sign_ego_acceleration_shrinks_the_gap() -> None:
-    # the PAPER-NOTES sign fix: ½(a_f − a)Δt², so ego acceleration closes the gap
+    # the sign fix of docs/paper-notes.md: ½(a_f − a)Δt², so ego acceleration closes the gap
     s0 = PlantState(20.0, 0.0, 50.0)
     fast = step(s0, 2.0, 20.0, 0.0, EXACT)
     slow = step(s0, -2.0, 20.0, 0.0, EXACT)

@@ -11,8 +11,9 @@ import pytest
 
 from ecu.adaptation import AdaptationParams
 from pacc.commands.study import main
-from pacc.vocab.dgpt import Dgpt, load_dgpt, predefined
-from pacc.vocab.triplog import read_trip
+from pacc.vocab.dgpt import Dgpt, predefined
+from pacc.vocab.dgpt_file import load_dgpt
+from pacc.vocab.triplog_file import read_trip
 from sim_bus.drivers import DriverParams
 from sim_bus.study import run as study_run
 from sim_bus.study.config import StudyConfig, validate

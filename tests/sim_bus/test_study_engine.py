@@ -17,7 +17,7 @@ import pytest
 
 from cloud_sync.engine.base import Engine, InlineEngine
 from pacc.commands.study import main
-from pacc.vocab.triplog import read_trip
+from pacc.vocab.triplog_file import read_trip
 from sim_bus.study.collect import row_key
 from sim_bus.study.config import StudyConfig
 from sim_bus.study.population import run_population

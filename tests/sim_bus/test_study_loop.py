@@ -10,7 +10,7 @@ import pytest
 
 from cloud_sync.service.rules import CloudService
 from pacc.commands.study import main
-from pacc.vocab.dgpt import load_dgpt
+from pacc.vocab.dgpt_file import load_dgpt
 from sim_bus.errors import SimError
 from sim_bus.study.config import StudyConfig, validate
 from sim_bus.study.run import run_study
@@ -57,8 +57,8 @@ def test_incremental_learning_fine_tunes_between_trips(
     service = CloudService.open(tmp_path / "cloud")
     takeovers = [b for b in service.store.batches("d3", "dry") if b.kind == "takeover"]
     assert len(takeovers) == sum(int(r["uploaded"]) for r in rows)
-    if takeovers:  # each trip's takeovers made a new version for the next one
-        assert versions[-1] > versions[0]
+    assert takeovers, "d3 made no takeover in 3 trips: the fine-tuning went untested"
+    assert versions[-1] > versions[0]  # the takeovers made a new version for a later trip
     assert (tmp_path / "incremental.png").stat().st_size > 0
 
 
