@@ -78,7 +78,7 @@ def _frames(n: int, seed: int) -> list[tuple[float, can.Message, bool]]:
 
 
 def _record(
-    path: Path, frames: list[tuple[float, can.Message, bool]], block_s: float = 1.0
+    path: Path, frames: list[tuple[float, can.Message, bool]], flush_s: float = 1.0
 ) -> None:
     table = predefined(1.5)
     rec = open_recording(
@@ -90,7 +90,7 @@ def _record(
         table=table,
         metadata={"drive": {"seed": "3"}},
     )
-    rec.block_s = block_s
+    rec.flush_s = flush_s
     for t, msg, rx in frames:
         rec.frame(t, msg, rx)
         rec.tick(t)
