@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -41,7 +41,7 @@ from ecu.buslog.format import (
 from ecu.buslog.proto import LAYOUT_KEY, decode_rows
 from pacc.vocab.mcap_errors import mcap_errors
 
-__all__ = ["CanLog", "Frames", "messages", "read_canlog"]
+__all__ = ["CanLog", "Frames", "messages", "read_canlog", "read_recording"]
 
 
 @dataclass
@@ -262,6 +262,15 @@ def read_canlog(path: str | os.PathLike[str], *, recover: bool = False) -> CanLo
         complete=found.footer,
         note=note,
     )
+
+
+def read_recording(path: str | os.PathLike[str], warn: Callable[[str], None]) -> CanLog:
+    """:func:`read_canlog` for a command: a recording killed mid-run (``.part``) is read up
+    to its last complete chunk and ``warn`` gets one line saying so."""
+    log = read_canlog(path, recover=True)
+    if not log.complete:
+        warn(log.note + "; pacc export FILE.part FILE.mcap makes it a complete file")
+    return log
 
 
 def messages(log: CanLog) -> Iterator[can.Message]:
