@@ -173,3 +173,44 @@ def test_refuses_truncated_foreign_and_missing_files(tmp_path: Path) -> None:
         read_canlog(tmp_path / "none.mcap")
     with pytest.raises(CanLogError, match="is a directory"):
         open_recording(tmp_path, load_codec(), TimeBase(0, 0.0), node="x")
+
+
+def test_mcaps_own_readers_decode_every_frame_and_foxglove_logs(tmp_path: Path) -> None:
+    """The peer: mcap's indexed reader and its protobuf support library decode every decoded
+    frame to cantools' values at the frame's UTC time; events are foxglove.Log JSON."""
+    pytest.importorskip("mcap_protobuf")
+    from mcap.reader import make_reader  # noqa: PLC0415
+    from mcap_protobuf.decoder import DecoderFactory  # noqa: PLC0415
+
+    frames = _frames(500, seed=4)
+    path = tmp_path / "bus.mcap"
+    _record(path, frames, flush_s=0.5)
+    db = load_codec().db
+    want = {}
+    for t, msg, _ in frames:
+        try:
+            m = db.get_message_by_frame_id(msg.arbitration_id)
+        except KeyError:
+            continue
+        if len(msg.data) == m.length and not msg.is_error_frame and not msg.is_remote_frame:
+            want.setdefault(m.name, []).append((t, m.decode(msg.data, decode_choices=False)))
+    got: dict[str, list[tuple[int, Any]]] = {}
+    with path.open("rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        summary = reader.get_summary()
+        assert summary is not None and summary.statistics is not None
+        assert len(summary.chunk_indexes) >= 2  # one chunk per flush
+        for _, channel, message, proto in reader.iter_decoded_messages(
+            topics=[f"/can/{n}" for n in want]
+        ):
+            got.setdefault(channel.topic.removeprefix("/can/"), []).append(
+                (message.log_time, proto)
+            )
+    assert got.keys() == want.keys()
+    for name, rows in want.items():
+        assert len(got[name]) == len(rows)
+        for (t, values), (log_time, proto) in zip(
+            rows, sorted(got[name], key=lambda r: r[0]), strict=True
+        ):
+            assert log_time == TimeBase(UTC0_NS, 0.0).utc_ns(t) and proto.t_s == t
+            assert {k: getattr(proto, k) for k in values} == values
