@@ -186,7 +186,7 @@ def test_mcaps_own_readers_decode_every_frame_and_foxglove_logs(tmp_path: Path) 
     path = tmp_path / "bus.mcap"
     _record(path, frames, flush_s=0.5)
     db = load_codec().db
-    want = {}
+    want: dict[str, list[tuple[float, Any]]] = {}
     for t, msg, _ in frames:
         try:
             m = db.get_message_by_frame_id(msg.arbitration_id)
