@@ -30,7 +30,7 @@ def integral_fields(cls: type, names: Sequence[str]) -> tuple[bool, ...]:
 
 
 class FrameBatch:
-    """The frames of one flush as arrays, shape ``(n,)``, and their raw block."""
+    """Frames as arrays, shape ``(n,)``, and the payloads."""
 
     def __init__(
         self,
@@ -46,15 +46,31 @@ class FrameBatch:
         self.t = np.fromiter(t, np.float64, n)
         self.ids = np.fromiter(ids, np.uint32, n)
         self.flags = np.fromiter(flags, np.uint8, n)
+        self.dlcs = np.fromiter(dlcs, np.uint8, n)
         self.lens = np.fromiter(map(len, datas), np.uint8, n)
-        self.block = encode_block(
+
+    @classmethod
+    def join(cls, batches: Sequence[FrameBatch]) -> FrameBatch:
+        """One batch of the frames of ``batches``, in order."""
+        if len(batches) == 1:
+            return batches[0]
+        out = cls([], [], [], [], [])
+        out.datas = [d for b in batches for d in b.datas]
+        out.n = len(out.datas)
+        for name in ("t", "ids", "flags", "dlcs", "lens"):
+            setattr(out, name, np.concatenate([getattr(b, name) for b in batches]))
+        return out
+
+    def block(self) -> bytes:
+        """The ``/can/raw`` block of these frames."""
+        return encode_block(
             {
                 "t_s": self.t,
                 "id": self.ids,
                 "flags": self.flags,
-                "dlc": np.fromiter(dlcs, np.uint8, n),
+                "dlc": self.dlcs,
                 "len": self.lens,
-                "data": np.frombuffer(b"".join(datas), dtype=np.uint8),
+                "data": np.frombuffer(b"".join(self.datas), dtype=np.uint8),
             },
             ragged=("data",),
         )

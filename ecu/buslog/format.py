@@ -31,6 +31,7 @@ if TYPE_CHECKING:  # python-can costs start-up time `pacc ecu --help` does witho
 
 __all__ = [
     "FLUSH_S",
+    "ROWS_S",
     "FORMAT_BLOCKS",
     "LOG_SCHEMA",
     "EVENTS_TOPIC",
@@ -53,6 +54,7 @@ __all__ = [
     "TimeBase",
     "frame_flags",
     "log_message",
+    "meta_record",
     "series_columns",
     "utc_ns_array",
 ]
@@ -69,6 +71,9 @@ WORLD_TOPIC = "/sim/world"
 #: default flush interval, s of the node's clock: every channel's buffered rows are written and
 #: the MCAP chunk ended, so a killed recording loses at most this much
 FLUSH_S = 1.0
+#: default interval of the decoded rows and the cycles, s of the node's clock (a batch of rows
+#: has a fixed cost that a 1-s batch of a sparse bus does not amortize)
+ROWS_S = 10.0
 #: metadata record of every recording: format, node, time base, start time
 META_RECORD = "pacc"
 
@@ -188,6 +193,16 @@ def utc_ns_array(base: TimeBase, t_s: Any) -> Any:
 
     ns = np.rint((t_s - base.clock_origin_s) * 1e9).astype(np.int64) + base.utc_origin_ns
     return np.maximum(ns, 0)
+
+
+def meta_record(base: TimeBase, node: str) -> dict[str, str]:
+    """The ``pacc`` metadata record: format, node, time base."""
+    return {
+        "format": FORMAT,
+        "node": node,
+        "utc_origin_ns": str(base.utc_origin_ns),
+        "clock_origin_s": repr(base.clock_origin_s),
+    }
 
 
 def log_message(t_s: float, stamp_ns: int, text: str, name: str) -> bytes:

@@ -18,7 +18,7 @@ from typing import Any
 from dbc import BINDING_PATH, DBC_PATH
 from dbc.codec import Codec
 from ecu.adaptation import AdaptationParams
-from ecu.buslog.format import FLUSH_S, CanLogError, TimeBase
+from ecu.buslog.format import FLUSH_S, ROWS_S, CanLogError, TimeBase
 from ecu.buslog.live import LIVE_FLUSH_S
 from ecu.buslog.sinks import Sink
 from ecu.buslog.writer import CanLogWriter
@@ -115,4 +115,5 @@ def open_recording(
         metadata=metadata,
         sinks=sinks,
         flush_s=LIVE_FLUSH_S if sinks else FLUSH_S,
+        rows_s=LIVE_FLUSH_S if sinks else ROWS_S,
     )

@@ -10,18 +10,29 @@ epoch, the payloads joined, their lengths).
 from __future__ import annotations
 
 import contextlib
+import json
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
 from ecu.buslog.format import FORMAT, CanLogError
 from ecu.buslog.mcapfile import McapFile
+from ecu.buslog.proto import LAYOUT_KEY, ProtoRows
 
-__all__ = ["ChannelSpec", "McapSink", "Sink"]
+__all__ = [
+    "ChannelSpec",
+    "McapSink",
+    "Sink",
+    "declare",
+    "emit",
+    "emit_one",
+    "json_spec",
+    "rows_spec",
+]
 
 
 @dataclass(frozen=True)
@@ -130,3 +141,47 @@ class McapSink:
             with contextlib.suppress(OSError):
                 self._stream.close()
             raise CanLogError(f"{self.path}: cannot finish the recording: {exc}") from exc
+
+
+def json_spec(topic: str, schema: Mapping[str, Any]) -> ChannelSpec:
+    """A channel of JSON messages of the JSON schema ``schema`` (named by its title)."""
+    data = json.dumps(schema).encode()
+    return ChannelSpec(topic, str(schema["title"]), "jsonschema", data, "json")
+
+
+def rows_spec(topic: str, rows: ProtoRows) -> ChannelSpec:
+    """A channel of the protobuf rows ``rows`` (their layout in the channel's metadata)."""
+    meta = {LAYOUT_KEY: rows.layout}
+    return ChannelSpec(topic, rows.full_name, "protobuf", rows.descriptor(), "protobuf", meta)
+
+
+def declare(sinks: Sequence[Sink], spec: ChannelSpec) -> list[int]:
+    """Declare ``spec`` on every sink; the handles, one per sink."""
+    return [sink.channel(spec) for sink in sinks]
+
+
+def emit(
+    sinks: Sequence[Sink],
+    handles: Sequence[int],
+    seq0: int,
+    t_ns: np.ndarray,
+    payload: np.ndarray,
+    lengths: np.ndarray,
+) -> None:
+    """Messages of one channel to every sink (its handle in each)."""
+    for sink, handle in zip(sinks, handles, strict=True):
+        sink.write(handle, seq0, t_ns, payload, lengths)
+
+
+def emit_one(
+    sinks: Sequence[Sink], handles: Sequence[int], seq: int, t_ns: int, data: bytes
+) -> None:
+    """One message of one channel to every sink."""
+    emit(
+        sinks,
+        handles,
+        seq,
+        np.array([t_ns], dtype=np.int64),
+        np.frombuffer(data, dtype=np.uint8),
+        np.array([len(data)], dtype=np.int64),
+    )

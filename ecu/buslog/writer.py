@@ -9,18 +9,17 @@ that DBC message), ``/ecu/inputs``, ``/ecu/outputs`` (one per cycle), ``/sim/wor
 time in UTC (the :class:`~ecu.buslog.format.TimeBase`; lockstep: the drive's start plus the
 simulated time), ``t_s`` in it the node's clock exactly.
 
-Rows are buffered and written together every ``flush_s`` of the node's clock (numpy builds a
-channel's messages at once: :mod:`ecu.buslog.proto`, :mod:`ecu.buslog.mcapfile`), and every
-flush ends the MCAP chunk: a recording killed mid-run is readable up to its last flush
-(``FILE.part``, :func:`ecu.buslog.reader.read_canlog` with ``recover``). The DBC, binding, ECU
-configuration and starting table are attachments; what ran is in metadata records. The same
-channels go to every :class:`~ecu.buslog.sinks.Sink`: the file and a live Foxglove
-WebSocket (:mod:`ecu.buslog.live`) share this one code path.
+Every ``flush_s`` (1 s of the node's clock) the new frames go out as a raw block and the
+MCAP chunk ends: a killed recording (``FILE.part``) holds every frame older than that. The
+rows (decoded frames, cycles) go out every ``rows_s`` (10 s; live 0.2 s), built by numpy a
+channel at a time (:mod:`ecu.buslog.proto`, :mod:`ecu.buslog.mcapfile`): a batch has a fixed
+cost a 1-s batch of a sparse bus does not amortize (measured). Attachments: DBC, binding,
+ECU configuration, starting table. Every :class:`~ecu.buslog.sinks.Sink` (the file, a live
+Foxglove WebSocket: :mod:`ecu.buslog.live`) gets the same channels from this one code path.
 """
 
 from __future__ import annotations
 
-import json
 import logging
 import operator
 import os
@@ -37,7 +36,6 @@ from ecu.buslog.format import (
     FLAG_EXTENDED,
     FLAG_RX,
     FLUSH_S,
-    FORMAT,
     INPUT_FIELDS,
     INPUTS_TOPIC,
     LOG_SCHEMA,
@@ -46,15 +44,17 @@ from ecu.buslog.format import (
     OUTPUTS_TOPIC,
     RAW_SCHEMA,
     RAW_TOPIC,
+    ROWS_S,
     CanLogError,
     TimeBase,
     frame_flags,
     log_message,
+    meta_record,
     series_columns,
     utc_ns_array,
 )
-from ecu.buslog.proto import LAYOUT_KEY, ProtoRows
-from ecu.buslog.sinks import ChannelSpec, McapSink, Sink
+from ecu.buslog.proto import ProtoRows
+from ecu.buslog.sinks import McapSink, Sink, declare, emit, emit_one, json_spec, rows_spec
 from ecu.signals import NodeInputs, NodeOutputs
 
 __all__ = ["CanLogWriter", "FrameTap"]
@@ -87,6 +87,7 @@ class CanLogWriter:
         node: who records (``ecu``, ``sim``, ``drive``, ``export``).
         attachments: name -> bytes, stored as MCAP attachments (DBC, binding, config …).
         metadata: record name -> {key: text}, stored as MCAP metadata records.
+        rows_s: the decoded rows and cycles are written every ``rows_s`` (>= ``flush_s``).
         flush_s: the flush interval on the node's clock, s (at most this much is lost when
             the process is killed).
         sinks: more sinks besides the file (e.g. :class:`ecu.buslog.live.FoxgloveSink`).
@@ -106,12 +107,16 @@ class CanLogWriter:
         metadata: Mapping[str, Mapping[str, str]] | None = None,
         flush_s: float = FLUSH_S,
         sinks: Sequence[Sink] = (),
+        rows_s: float = ROWS_S,
     ) -> None:
         self.path = Path(path) if path is not None else None
         self.sinks: list[Sink] = [McapSink(path)] if path is not None else []
         self.sinks.extend(sinks)
         self.time_base = time_base
         self.flush_s = flush_s
+        self.rows_s = max(rows_s, flush_s)
+        self._pending: list[FrameBatch] = []
+        self._rows_t0: float | None = None
         self.node = node
         self.frames = 0
         self.closed = False
@@ -137,53 +142,20 @@ class CanLogWriter:
         self._fdata: list[bytes] = []
         self._block_t0: float | None = None
         for sink in self.sinks:
-            sink.metadata(META_RECORD, self._meta())
+            sink.metadata(META_RECORD, meta_record(self.time_base, self.node))
         for name, record in (metadata or {}).items():
             for sink in self.sinks:
                 sink.metadata(name, {str(k): str(v) for k, v in record.items()})
         for name, data in (attachments or {}).items():
             self.attach(name, data)
-
-    def _meta(self) -> dict[str, str]:
-        """The ``pacc`` metadata record: format, node, time base."""
-        base = self.time_base
-        return {
-            "format": FORMAT,
-            "node": self.node,
-            "utc_origin_ns": str(base.utc_origin_ns),
-            "clock_origin_s": repr(base.clock_origin_s),
-        }
+        for sink in self.sinks:  # a recording killed from now on is readable
+            sink.flush()
 
     def _json_channel(self, topic: str, schema: Mapping[str, Any]) -> list[int]:
-        data = json.dumps(schema).encode()
-        spec = ChannelSpec(topic, str(schema["title"]), "jsonschema", data, "json")
-        return [sink.channel(spec) for sink in self.sinks]
+        return declare(self.sinks, json_spec(topic, schema))
 
     def _rows_channel(self, topic: str, rows: ProtoRows) -> list[int]:
-        spec = ChannelSpec(
-            topic,
-            rows.full_name,
-            "protobuf",
-            rows.descriptor(),
-            "protobuf",
-            {LAYOUT_KEY: rows.layout},
-        )
-        return [sink.channel(spec) for sink in self.sinks]
-
-    def _emit(
-        self, handles: list[int], seq0: int, t_ns: np.ndarray, payload: np.ndarray, n: np.ndarray
-    ) -> None:
-        for sink, handle in zip(self.sinks, handles, strict=True):
-            sink.write(handle, seq0, t_ns, payload, n)
-
-    def _emit_one(self, handles: list[int], seq: int, t_ns: int, data: bytes) -> None:
-        self._emit(
-            handles,
-            seq,
-            np.array([t_ns], dtype=np.int64),
-            np.frombuffer(data, dtype=np.uint8),
-            np.array([len(data)], dtype=np.int64),
-        )
+        return declare(self.sinks, rows_spec(topic, rows))
 
     # -- what a node feeds ---------------------------------------------------------------
 
@@ -244,7 +216,7 @@ class CanLogWriter:
             self._events = self._json_channel(EVENTS_TOPIC, LOG_SCHEMA)
         stamp = self.time_base.utc_ns(t_s)
         doc = log_message(t_s, stamp, text, f"pacc.{self.node}")
-        self._emit_one(self._events, self._events_seq, stamp, doc)
+        emit_one(self.sinks, self._events, self._events_seq, stamp, doc)
         self._events_seq += 1
 
     def cycle(self, t_s: float, inputs: NodeInputs, outputs: NodeOutputs, k: int = -1) -> None:
@@ -285,14 +257,14 @@ class CanLogWriter:
         for text in outputs.events:
             self.event(t_s, text)
         if t_s - self._block_t0 >= self.flush_s:
-            self.flush()
+            self._flush_due(t_s)
 
     def tick(self, t_s: float) -> None:
         """Flush if the oldest unwritten row is ``flush_s`` old at ``t_s``. Never raises: a
         failed write stops the recording (:attr:`error`), not the node."""
         if self._block_t0 is not None and t_s - self._block_t0 >= self.flush_s:
             try:
-                self.flush()
+                self._flush_due(t_s)
             except Exception as exc:  # noqa: BLE001 - I/O at the edge: never stop the node
                 self._fail(t_s, exc)
 
@@ -309,19 +281,29 @@ class CanLogWriter:
 
     # -- writing -------------------------------------------------------------------------
 
-    def flush(self) -> None:
-        """Write every buffered row and end the chunk (every sink)."""
+    def _flush_due(self, t_s: float) -> None:
+        rows_due = self._rows_t0 is not None and t_s - self._rows_t0 >= self.rows_s
+        self.flush(rows=rows_due)
+
+    def flush(self, rows: bool = True) -> None:
+        """Write the frames since the last flush and end the chunk (every sink); ``rows``:
+        the decoded rows and the cycles too."""
         if self.first_t_s is None:
             self.first_t_s = self._block_t0
+        if self._rows_t0 is None:
+            self._rows_t0 = self._block_t0
         if self._ft:
             self._write_frames(self._ft, self._fid, self._ffl, self._fdlc, self._fdata)
             self._clear_frames()
-        for s in self._series.values():
-            if s.values:
-                table = np.fromiter(s.values, np.float64, len(s.values)).reshape(-1, s.width)
-                s.values = []
-                self._write_rows(s, table)
         self._block_t0 = None
+        if rows:
+            self._write_decoded()
+            for s in self._series.values():
+                if s.values:
+                    table = np.fromiter(s.values, np.float64, len(s.values)).reshape(-1, s.width)
+                    s.values = []
+                    self._write_rows(s, table)
+            self._rows_t0 = None
         for sink in self.sinks:
             sink.flush()
 
@@ -331,7 +313,7 @@ class CanLogWriter:
         payload, lengths = s.rows.format(table)
         if t_ns is None:
             t_ns = utc_ns_array(self.time_base, table[:, 0])
-        self._emit(s.handles, s.seq, t_ns, payload, lengths)
+        emit(self.sinks, s.handles, s.seq, t_ns, payload, lengths)
         s.seq += len(table)
 
     def _write_frames(
@@ -343,13 +325,21 @@ class CanLogWriter:
         datas: list[bytes],
     ) -> None:
         batch = FrameBatch(t, ids, flags, dlcs, datas)
-        self._emit_one(self._raw, self._raw_seq, self.time_base.utc_ns(t[0]), batch.block)
+        emit_one(self.sinks, self._raw, self._raw_seq, self.time_base.utc_ns(t[0]), batch.block())
         self._raw_seq += 1
         self.frames += batch.n
         if self._decoded:
-            t_ns = utc_ns_array(self.time_base, batch.t)
-            for key, table, sel in self._decoders.tables(batch):
-                self._write_rows(self._decoded[key], table, t_ns[sel])
+            self._pending.append(batch)
+
+    def _write_decoded(self) -> None:
+        """The decoded rows of the frames written since the last time."""
+        if not self._pending:
+            return
+        batch = FrameBatch.join(self._pending)
+        self._pending = []
+        t_ns = utc_ns_array(self.time_base, batch.t)
+        for key, table, sel in self._decoders.tables(batch):
+            self._write_rows(self._decoded[key], table, t_ns[sel])
 
     def write_series(
         self, topic: str, columns: Mapping[str, Iterable[Any]], t_s: Iterable[float]
@@ -388,7 +378,7 @@ class CanLogWriter:
         try:
             self.flush()
             first = self.first_t_s if self.first_t_s is not None else base.clock_origin_s
-            end = {**self._meta(), "start_utc": base.iso(first)}
+            end = {**meta_record(self.time_base, self.node), "start_utc": base.iso(first)}
             for sink in self.sinks:
                 sink.metadata(META_RECORD, end)
         except OSError as exc:

@@ -214,3 +214,20 @@ def test_mcaps_own_readers_decode_every_frame_and_foxglove_logs(tmp_path: Path) 
         ):
             assert log_time == TimeBase(UTC0_NS, 0.0).utc_ns(t) and proto.t_s == t
             assert {k: getattr(proto, k) for k in values} == values
+
+
+def test_the_shipped_foxglove_layout_names_recorded_fields(tmp_path: Path) -> None:
+    """Every message path of docs/foxglove-layout.json is a field of a drive's recording."""
+    from sim_bus.drivers import BUILTIN_DRIVERS  # noqa: PLC0415
+    from sim_bus.study.drive import DriveConfig, predefined_table, run_drive  # noqa: PLC0415
+
+    layout = json.loads((Path(__file__).parents[2] / "docs" / "foxglove-layout.json").read_text())
+    paths = [p["value"] for panel in layout["configById"].values() for p in panel.get("paths", [])]
+    driver = BUILTIN_DRIVERS["d2"]
+    cfg = DriveConfig(scenario="B", driver_id="d2", controller="predefined", seed=1, duration_s=3)
+    run_drive(cfg, driver, predefined_table(driver), can_log=tmp_path / "d.mcap")
+    log = read_canlog(tmp_path / "d.mcap")
+    for path in paths:
+        topic, _, name = path.rpartition(".")
+        assert name in log.series[topic], path
+    assert "/ecu/events" in log.topics
