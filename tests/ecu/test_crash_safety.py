@@ -1,11 +1,11 @@
 """A bus recording killed mid-run is readable up to its last flush (issue 18).
 
-One subprocess imports the recorder once, then forks a recording process per trial: each
-child records frames it sends and receives on a python-can virtual bus (a counter in every
-payload, the monotonic clock as the node's clock) until the parent SIGKILLs it at a random
-instant after it opened the recording. The test reads every ``.part`` left behind with
-``recover=True`` and checks that the frames are an unbroken prefix of what was sent, that every frame older than the flush
-interval at the kill is there, and that ``pacc export`` turns it into a complete file.
+One subprocess imports the recorder once, then forks a recording process per trial: each child
+records frames it sends and receives on a python-can virtual bus (a counter in every payload,
+the monotonic clock as the node's clock) until the parent SIGKILLs it at a random instant after
+it opened the recording. The test reads every ``.part`` left behind with ``recover=True`` and
+checks that the frames are an unbroken prefix of what was sent, that every frame older than the
+flush interval at the kill is there, and that ``pacc export`` turns it into a complete file.
 """
 
 from __future__ import annotations
