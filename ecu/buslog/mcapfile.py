@@ -49,6 +49,18 @@ def message_records(
         (the records as uint8, each record's offset in them, shape ``(n,)``).
     """
     n = len(lengths)
+    if n == 1:  # one message (a raw block, an event): no arrays to scatter
+        t = int(log_times[0])
+        head = struct.pack(
+            "<BQHIQQ",
+            _MESSAGE_OPCODE,
+            int(lengths[0]) + _HEADER_BYTES - 9,
+            channel_id,
+            seq0 & 0xFFFFFFFF,
+            t,
+            t,
+        )
+        return np.frombuffer(head + payload.tobytes(), np.uint8), np.zeros(1, np.int64)
     hdr = np.empty(n, dtype=_HEADER)
     hdr["op"] = _MESSAGE_OPCODE
     hdr["len"] = lengths + (_HEADER_BYTES - 9)
@@ -94,7 +106,6 @@ class McapFile:
 
         self._stream = stream
         self._pos = 0
-        self._crc = 0
         self._schemas: list[object] = []
         self._channels: list[object] = []
         self._chunk: list[bytes] = []
@@ -114,7 +125,6 @@ class McapFile:
 
     def _write(self, data: bytes) -> None:
         self._stream.write(data)
-        self._crc = zlib.crc32(data, self._crc)
         self._pos += len(data)
 
     def _record(self, record: object) -> tuple[int, int]:
@@ -281,7 +291,7 @@ class McapFile:
         )
 
         self.flush()
-        self._record(DataEnd(data_section_crc=self._crc))
+        self._record(DataEnd(data_section_crc=0))  # 0: not computed (chunks carry CRCs)
         summary_start = self._pos
         lo, hi = self._t_range or (0, 0)
         stats = Statistics(
