@@ -105,7 +105,7 @@ def _do_serve(args: argparse.Namespace) -> int:
     where = f" training on Dask at {args.scheduler}" if compute is not None else ""
     print(
         f"pacc cloud serving {args.data} on http://{args.host}:{args.port} "
-        f"(OpenAPI at /docs), {threads} learning worker(s){where}",
+        f"(OpenAPI at /docs, dashboard at /dashboard), {threads} learning worker(s){where}",
         flush=True,
     )
     # uvicorn shuts down gracefully on SIGTERM/SIGINT, then raises the signal again under the
