@@ -115,3 +115,15 @@ def test_foxglove_addresses() -> None:
         parse_address("x:y")
     with pytest.raises(CanLogError, match="0..65535"):
         parse_address("x:70000")
+
+
+def test_pacc_drive_foxglove_serves_and_refuses_a_bad_address(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from pacc.commands.drive import main  # noqa: PLC0415 - an entry point, on top
+
+    assert main(["--duration", "3", "--foxglove", "127.0.0.1:0"]) == 0
+    out = capsys.readouterr().out
+    assert "foxglove: live view on ws://127.0.0.1:" in out and "collisions     0" in out
+    assert main(["--duration", "3", "--foxglove", "127.0.0.1:x"]) == 2
+    assert "the port is not a number" in capsys.readouterr().err
