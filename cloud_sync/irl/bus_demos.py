@@ -30,7 +30,7 @@ from pacc.vocab.acc_state import AccState
 from pacc.vocab.pedals import PedalScale
 from pacc.vocab.triplog import Trip
 
-__all__ = ["DT_S", "ExtractReport", "extract_demos", "read_frames"]
+__all__ = ["DT_S", "ExtractReport", "bus_trip", "extract_demos", "read_frames"]
 
 #: the trips' sample period, s (the simulator's trip logs use the same)
 DT_S = 0.1
@@ -131,6 +131,27 @@ def _reasons(g: dict[str, np.ndarray]) -> np.ndarray:
     ):
         why[(why == "") & mask] = text
     return why
+
+
+def bus_trip(frames: Iterable[Any], codec: Codec, meta: dict[str, Any] | None = None) -> Trip:
+    """The whole log as one trip (every 10-Hz sample, ACC on or off; NaN where a role is
+    missing): what ``pacc plot --binding`` draws from a foreign log.
+
+    Raises:
+        TripLogError: fewer than two samples.
+    """
+    g, _ = _grid(frames, codec)
+    return Trip(
+        t_s=g["t_s"] - (g["t_s"][0] if len(g["t_s"]) else 0.0),
+        v_mps=g["v"],
+        gap_m=g["gap"],
+        v_lead_mps=g["v_lead"],
+        a_mps2=g["a"],
+        accel_pedal=g["accel"],
+        brake_pedal=g["brake"],
+        acc_state=g["state"].astype(np.int64),
+        meta={"mode": "bus", "source": "pacc plot", **(meta or {})},
+    )
 
 
 def extract_demos(

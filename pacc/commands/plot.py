@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from dbc.errors import DbcError
 from ecu import EcuError
 from ecu.buslog.format import INPUTS_TOPIC, OUTPUTS_TOPIC, WORLD_TOPIC, CanLogError
 from ecu.buslog.reader import CanLog
@@ -111,7 +112,9 @@ def trip_traces(trip: Trip) -> Traces:
         brake_pedal=trip.brake_pedal,
         request_mps2=np.full(n, np.nan),
         acc_state=trip.acc_state.astype(np.float64),
-        source=f"trip log of driver {trip.meta.get('driver_id', '?')}",
+        source="the bus, decoded through the binding"
+        if trip.meta.get("mode") == "bus"
+        else f"trip log of driver {trip.meta.get('driver_id', '?')}",
     )
 
 
@@ -253,8 +256,22 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument("-o", "--out", type=Path, required=True, help="the PNG to write")
     p.add_argument("--dbc", help="a foreign log: decode it with this DBC (default: pacc's)")
+    p.add_argument(
+        "--binding",
+        help="a foreign log without SIGNALs: the fixed panels from the bus, decoded through "
+        "this binding (speed, lead, pedals, ACC state)",
+    )
     p.add_argument("--dpi", type=int, default=120, help="resolution (default 120)")
     return p
+
+
+def _bus_trip(args: argparse.Namespace) -> Trip:
+    """A foreign log decoded through ``--binding`` as one trip (the fixed panels)."""
+    from cloud_sync.irl.bus_demos import bus_trip, read_frames  # noqa: PLC0415
+    from dbc.codec import load_codec, network_paths  # noqa: PLC0415
+
+    codec = load_codec(*network_paths(args.dbc, args.binding))
+    return bus_trip(read_frames(args.log), codec, {"log": args.log.name})
 
 
 def _warn(text: str) -> None:
@@ -267,12 +284,15 @@ def main(argv: list[str] | None = None) -> int:
     out: Path = args.out if args.out.suffix else args.out.with_suffix(".png")
     try:
         log, trip = load(args.log, args.dbc, _warn)
+        if log is not None and args.binding and not args.signals:
+            trip, log = _bus_trip(args), None
         if trip is not None and args.signals:
             raise CanLogError(f"{args.log}: a trip log has no signals to pick; drop SIGNAL")
-        node = log.node if log is not None else "trip"
+        kind = trip.meta.get("mode") if trip is not None else None
+        node = log.node if log is not None else "bus" if kind == "bus" else "trip"
         start = log.metadata.get("pacc", {}).get("start_utc", "?") if log is not None else "?"
         plot(log, out, args.dpi, args.signals, trip, f"{args.log.name}: {node} from {start} UTC")
-    except (EcuError, FormatError, OSError, ValueError) as exc:
+    except (EcuError, FormatError, DbcError, OSError, ValueError) as exc:
         print(f"pacc plot: error: {exc}", file=sys.stderr)
         return 2
     print(f"plot: {out}")

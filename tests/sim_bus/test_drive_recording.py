@@ -380,6 +380,10 @@ def test_plot_signals_trip_logs_foreign_logs_and_killed_recordings(
     blf = tmp_path / "x.blf"
     assert export_main([str(src), str(blf)]) == 0
     assert plot_main([str(blf), "VehicleSpeed", "-o", str(tmp_path / "b.png")]) == 0
+    # ... and its fixed panels, decoded through the binding (pacc's own here)
+    binding = str(DBC_PATH.with_name("pacc.binding.toml"))
+    assert plot_main([str(blf), "--binding", binding, "-o", str(tmp_path / "f.png")]) == 0
+    assert (tmp_path / "f.png").stat().st_size > 10_000
     # a trip log: the fixed panels
     trip = tmp_path / "trip.mcap"
     t = np.arange(50.0)
