@@ -4,8 +4,10 @@ Run: ``.venv/bin/python bench/canlog.py [--sim-s 120] [--repeats 3]``.
 
 - frames: the frames of one lockstep drive (scenario B, driver d2, predefined+OA,
   ``--sim-s`` simulated seconds), read back from its recording as python-can messages;
-- recorder: :class:`ecu.buslog.writer.CanLogWriter` writing them all — ``/can/raw``, every DBC
-  message decoded on its channel, zstd chunks — frames per second and bytes per frame;
+- recorder: :class:`ecu.buslog.writer.CanLogWriter` writing them all — ``/can/raw`` blocks,
+  one protobuf message per decoded frame, a zstd chunk ended every 1 s of message time (the
+  crash-safety flush), the decoded rows built every 10 s — frames per second and bytes per
+  frame;
 - the named peer: python-can's ``can.BLFWriter`` (zlib-compressed Vector BLF, raw frames
   only) on the same messages, same measures;
 - the drive: ``run_drive`` with and without ``can_log``, alternating, ``--repeats`` each;

@@ -30,6 +30,7 @@ from starlette.concurrency import run_in_threadpool
 
 from cloud_sync.api import CloudError, PayloadTooLargeError
 from cloud_sync.service.rules import CloudService
+from cloud_sync.service.views import ServiceViews
 
 
 def _token(request: Request) -> str | None:
@@ -52,8 +53,9 @@ async def _body(request: Request, limit: int) -> bytes:
     return b"".join(chunks)
 
 
-def create_app(service: CloudService) -> FastAPI:
-    """The HTTP application over ``service``."""
+def create_app(service: CloudService, operator_token_sha256: str | None = None) -> FastAPI:
+    """The HTTP application over ``service``; ``operator_token_sha256``: the operator token's
+    SHA-256 (hex) for the read-only views of :mod:`cloud_sync.service.views`."""
     app = FastAPI(
         title="pacc cloud",
         version="1",
@@ -85,7 +87,32 @@ def create_app(service: CloudService) -> FastAPI:
     def health() -> dict[str, Any]:
         return {"status": "ok", "batches": service.store.batch_count()}
 
+    _views(app, ServiceViews(service, operator_token_sha256))
     return app
+
+
+def _views(app: FastAPI, views: ServiceViews) -> None:
+    """The read-only list endpoints and the dashboard (:mod:`cloud_sync.service.views`)."""
+
+    @app.get("/v1/drivers")
+    def drivers(request: Request) -> list[dict[str, Any]]:
+        return views.drivers(views.viewer(_token(request)))
+
+    @app.get("/v1/drivers/{driver_id}/versions")
+    def versions(driver_id: str, request: Request) -> list[dict[str, Any]]:
+        return views.versions(views.viewer(_token(request)), driver_id)
+
+    @app.get("/v1/drivers/{driver_id}/batches")
+    def batches(driver_id: str, request: Request) -> list[dict[str, Any]]:
+        return views.batches(views.viewer(_token(request)), driver_id)
+
+    @app.get("/v1/jobs")
+    def jobs(request: Request) -> list[dict[str, Any]]:
+        return views.jobs(views.viewer(_token(request)))
+
+    @app.get("/dashboard")
+    def dashboard() -> Response:
+        return Response(content=views.page(), media_type="text/html; charset=utf-8")
 
 
 __all__ = ["create_app"]

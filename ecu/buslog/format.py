@@ -1,12 +1,16 @@
-"""The layout of a bus recording (:mod:`ecu.buslog.writer`): topics, frame flags, block columns, the
+"""The layout of a bus recording (:mod:`ecu.buslog.writer`): topics, frame flags, schemas, the
 time base that maps a node's clock onto UTC.
 
-``/can/raw`` rows: ``t_s`` (the node's clock, s: simulated time in lockstep, the monotonic
-clock in real time), ``id``, ``flags`` (bit 0 extended id, 1 received, 2 CAN FD, 3 error
-frame, 4 remote frame, 5 bit-rate switch, 6 error state indicator), ``dlc``, ``len`` and the
-payloads joined in ``data``. Sampled channels (``/ecu/inputs``, ``/ecu/outputs``,
-``/sim/world``): ``t_s`` plus float64 columns (booleans 0/1, NaN kept). ``/ecu/events``: one
-JSON object ``{"t_s", "text"}`` per event.
+``/can/raw``: the frames as blocks (:mod:`ecu.buslog.blocks`), one message per flush interval,
+rows ``t_s`` (the node's clock, s: simulated time in lockstep, the monotonic clock in real
+time), ``id``, ``flags`` (bit 0 extended id, 1 received, 2 CAN FD, 3 error frame, 4 remote
+frame, 5 bit-rate switch, 6 error state indicator), ``dlc``, ``len`` and the payloads joined
+in ``data``. ``/can/<Message>`` (protobuf ``dbc.<Message>``): one message per decoded frame,
+``t_s`` and every signal. Sampled channels (``/ecu/inputs``, ``/ecu/outputs``,
+``/sim/world``): one protobuf message per sample, ``t_s`` plus numeric fields (booleans 0/1,
+NaN kept); :mod:`ecu.buslog.proto` builds and reads them. ``/ecu/events``: one
+``foxglove.Log`` message per event (its JSON schema), with the node's clock in ``t_s``.
+Recordings of format ``pacc.canlog/1`` held every channel as blocks; the reader reads both.
 """
 
 from __future__ import annotations
@@ -26,7 +30,10 @@ if TYPE_CHECKING:  # python-can costs start-up time `pacc ecu --help` does witho
     import can
 
 __all__ = [
-    "BLOCK_S",
+    "FLUSH_S",
+    "ROWS_S",
+    "FORMAT_BLOCKS",
+    "LOG_SCHEMA",
     "EVENTS_TOPIC",
     "FLAG_BRS",
     "FLAG_ERROR",
@@ -46,18 +53,27 @@ __all__ = [
     "CanLogError",
     "TimeBase",
     "frame_flags",
+    "log_message",
+    "meta_record",
     "series_columns",
+    "utc_ns_array",
 ]
 
-FORMAT = "pacc.canlog/1"
+FORMAT = "pacc.canlog/2"
+#: the block format of earlier recordings (still read)
+FORMAT_BLOCKS = "pacc.canlog/1"
 RAW_TOPIC = "/can/raw"
 RAW_SCHEMA_NAME = "pacc.CanFrames"
 EVENTS_TOPIC = "/ecu/events"
 INPUTS_TOPIC = "/ecu/inputs"
 OUTPUTS_TOPIC = "/ecu/outputs"
 WORLD_TOPIC = "/sim/world"
-#: default block length, s of the node's clock (longer blocks spread the per-block costs)
-BLOCK_S = 10.0
+#: default flush interval, s of the node's clock: every channel's buffered rows are written and
+#: the MCAP chunk ended, so a killed recording loses at most this much
+FLUSH_S = 1.0
+#: default interval of the decoded rows and the cycles, s of the node's clock (a batch of rows
+#: has a fixed cost that a 1-s batch of a sparse bus does not amortize)
+ROWS_S = 10.0
 #: metadata record of every recording: format, node, time base, start time
 META_RECORD = "pacc"
 
@@ -102,6 +118,36 @@ def series_columns(columns: Sequence[str]) -> dict[str, tuple[str, str]]:
     return out
 
 
+#: Foxglove's ``foxglove.Log`` (JSON schema), plus the node's clock ``t_s``
+LOG_SCHEMA: dict[str, Any] = {
+    "title": "foxglove.Log",
+    "description": "A log message",
+    "type": "object",
+    "properties": {
+        "timestamp": {
+            "type": "object",
+            "title": "time",
+            "properties": {
+                "sec": {"type": "integer", "minimum": 0},
+                "nsec": {"type": "integer", "minimum": 0, "maximum": 999999999},
+            },
+        },
+        "level": {
+            "title": "foxglove.LogLevel",
+            "oneOf": [
+                {"title": t, "const": i}
+                for i, t in enumerate(("UNKNOWN", "DEBUG", "INFO", "WARNING", "ERROR", "FATAL"))
+            ],
+        },
+        "message": {"type": "string"},
+        "name": {"type": "string"},
+        "file": {"type": "string"},
+        "line": {"type": "integer", "minimum": 0},
+        "t_s": {"type": "number", "description": "the node's clock, s"},
+    },
+    "required": ["timestamp", "level", "message", "name", "file", "line"],
+}
+
 EVENT_SCHEMA: dict[str, Any] = {
     "$schema": "https://json-schema.org/draft/2020-12/schema",
     "title": "pacc.EcuEvent",
@@ -139,6 +185,42 @@ class TimeBase:
         ns = self.utc_ns(t_s)
         dt = datetime.fromtimestamp(ns // 1000 / 1e6, tz=UTC)
         return dt.strftime("%Y-%m-%dT%H:%M:%S.%fZ")
+
+
+def utc_ns_array(base: TimeBase, t_s: Any) -> Any:
+    """:meth:`TimeBase.utc_ns` over a numpy array of node times: int64 ns (clamped at 0)."""
+    import numpy as np  # noqa: PLC0415 - numpy only where arrays are written
+
+    ns = np.rint((t_s - base.clock_origin_s) * 1e9).astype(np.int64) + base.utc_origin_ns
+    return np.maximum(ns, 0)
+
+
+def meta_record(base: TimeBase, node: str) -> dict[str, str]:
+    """The ``pacc`` metadata record: format, node, time base."""
+    return {
+        "format": FORMAT,
+        "node": node,
+        "utc_origin_ns": str(base.utc_origin_ns),
+        "clock_origin_s": repr(base.clock_origin_s),
+    }
+
+
+def log_message(t_s: float, stamp_ns: int, text: str, name: str) -> bytes:
+    """One event as a ``foxglove.Log`` JSON message (:data:`LOG_SCHEMA`): level WARNING for
+    faults, takeovers and emergencies, INFO else; the node's clock in ``t_s``."""
+    import json  # noqa: PLC0415
+
+    warn = text.lower().startswith(("fault", "takeover", "emergency"))
+    doc = {
+        "timestamp": {"sec": stamp_ns // 10**9, "nsec": stamp_ns % 10**9},
+        "level": 3 if warn else 2,
+        "message": text,
+        "name": name,
+        "file": "",
+        "line": 0,
+        "t_s": t_s if math.isfinite(t_s) else None,
+    }
+    return json.dumps(doc).encode()
 
 
 def frame_flags(msg: can.Message, rx: bool) -> int:

@@ -24,7 +24,7 @@ import can
 from can.io.generic import MessageReader, MessageWriter
 
 from dbc import DBC_PATH
-from ecu.buslog.format import BLOCK_S, CanLogError, TimeBase
+from ecu.buslog.format import FLUSH_S, CanLogError, TimeBase
 from ecu.buslog.reader import messages, read_canlog
 from ecu.buslog.recording import DBC_ATTACHMENT
 from ecu.buslog.writer import CanLogWriter
@@ -53,11 +53,11 @@ class McapWriter(MessageWriter):
     Args:
         file: the ``.mcap`` path.
         dbc: the DBC whose messages get decoded channels (default: the packaged network).
-        block_s: block length, s of message time.
+        flush_s: flush interval, s of message time.
     """
 
     def __init__(
-        self, file: Any, dbc: str | None = None, block_s: float = BLOCK_S, **kwargs: Any
+        self, file: Any, dbc: str | None = None, flush_s: float = FLUSH_S, **kwargs: Any
     ) -> None:  # noqa: ARG002
         if not isinstance(file, str | Path):
             raise CanLogError("a pacc recording is written to a path, not an open file")
@@ -75,7 +75,7 @@ class McapWriter(MessageWriter):
             TimeBase(0, 0.0),  # the messages' timestamps are seconds since the epoch
             node="export",
             attachments={DBC_ATTACHMENT: dbc_bytes},
-            block_s=block_s,
+            flush_s=flush_s,
         )
 
     def on_message_received(self, msg: can.Message) -> None:

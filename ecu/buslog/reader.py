@@ -1,8 +1,11 @@
 """Reading a bus recording (:mod:`ecu.buslog.writer`) back: frames, decoded signals, internals.
 
-:func:`read_canlog` reads the whole file in one sequential pass (CRCs checked, the MCAP
-footer required), so a truncated or corrupt file is refused with :class:`CanLogError`
-naming the file and the cause, never read in part. :func:`messages` turns the raw frames
+:func:`read_canlog` reads the whole file in one sequential pass (CRCs checked). By default the
+MCAP footer is required, so a truncated or corrupt file is refused with :class:`CanLogError`
+naming the file and the cause. With ``recover=True`` a file without its end (a ``.part`` left
+by a killed recorder) is read up to its last complete chunk, and :attr:`CanLog.complete` is
+False (:attr:`CanLog.note` says what was read). Both formats: per-message JSON
+(``pacc.canlog/2``) and the blocks of ``pacc.canlog/1``. :func:`messages` turns the raw frames
 into python-can messages stamped with UTC seconds, as python-can's own readers do.
 """
 
@@ -10,7 +13,7 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -29,14 +32,16 @@ from ecu.buslog.format import (
     FLAG_REMOTE,
     FLAG_RX,
     FORMAT,
+    FORMAT_BLOCKS,
     META_RECORD,
     RAW_TOPIC,
     CanLogError,
     TimeBase,
 )
+from ecu.buslog.proto import LAYOUT_KEY, decode_rows
 from pacc.vocab.mcap_errors import mcap_errors
 
-__all__ = ["CanLog", "Frames", "messages", "read_canlog"]
+__all__ = ["CanLog", "Frames", "messages", "read_canlog", "read_recording"]
 
 
 @dataclass
@@ -75,6 +80,10 @@ class CanLog:
     time_base: TimeBase
     node: str = ""
     topics: list[str] = field(default_factory=list)
+    #: False: the file has no end (a killed recording), read up to its last complete chunk
+    complete: bool = True
+    #: what recovery read, for a warning ("" when complete)
+    note: str = ""
 
 
 class _Collect:
@@ -83,42 +92,71 @@ class _Collect:
     def __init__(self) -> None:
         self.schemas: dict[int, Any] = {}
         self.channels: dict[int, Any] = {}
+        #: topic -> its messages' data, decoded once the format is known
         self.blocks: dict[str, list[bytes]] = {}
         self.events: list[tuple[float, str]] = []
         self.metadata: dict[str, dict[str, str]] = {}
         self.attachments: dict[str, bytes] = {}
         self.footer = False
+        self.messages = 0
+        self.tail_error = ""
 
     def message(self, record: Any, path: Path) -> None:
-        """File one MCAP message record: an event, or a block kept encoded for later."""
+        """File one MCAP message record: an event, a block or a row kept encoded for later."""
         ch = self.channels.get(record.channel_id)
         if ch is None:
             raise CanLogError(f"{path}: message on an unknown channel")
+        self.messages += 1
         if ch.topic == EVENTS_TOPIC:
             doc = json.loads(record.data)
-            self.events.append((float(doc["t_s"]), str(doc["text"])))
+            text = doc["text"] if "text" in doc else doc.get("message", "")
+            t = doc.get("t_s")
+            self.events.append((float(t) if t is not None else float("nan"), str(text)))
         else:
             self.blocks.setdefault(ch.topic, []).append(record.data)
 
 
-def _scan(path: Path) -> _Collect:
+def _rows(found: _Collect, topic: str) -> dict[str, np.ndarray]:
+    """The protobuf rows of ``topic`` as columns (:mod:`ecu.buslog.proto`)."""
+    ch = next(c for c in found.channels.values() if c.topic == topic)
+    layout = ch.metadata.get(LAYOUT_KEY)
+    if layout is None:
+        raise ValueError(f"channel has no {LAYOUT_KEY}")
+    return decode_rows(layout, found.blocks[topic])
+
+
+def _scan(path: Path, recover: bool) -> _Collect:
     from mcap import records  # noqa: PLC0415 - mcap only when a recording is read
     from mcap.stream_reader import StreamReader  # noqa: PLC0415
 
     found = _Collect()
     with mcap_errors(path, "recording", CanLogError), path.open("rb") as stream:
-        for record in StreamReader(stream, validate_crcs=True).records:
-            if isinstance(record, records.Message):
-                found.message(record, path)
-            elif isinstance(record, records.Channel):
-                found.channels[record.id] = record
-            elif isinstance(record, records.Metadata):
-                found.metadata[record.name] = dict(record.metadata)
-            elif isinstance(record, records.Attachment):
-                found.attachments[record.name] = bytes(record.data)
-            elif isinstance(record, records.Footer):
-                found.footer = True
+        try:
+            _records(StreamReader(stream, validate_crcs=True).records, found, path, records)
+        except CanLogError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - mcap raises many types at a cut
+            if not recover or found.messages == 0 and not found.channels:
+                raise
+            found.tail_error = f"{type(exc).__name__} at byte {stream.tell()}"
     return found
+
+
+def _records(it: Iterator[Any], found: _Collect, path: Path, records: Any) -> None:
+    """File every record of ``it`` into ``found``."""
+    for record in it:
+        if isinstance(record, records.Message):
+            found.message(record, path)
+        elif isinstance(record, records.Schema):
+            found.schemas[record.id] = record
+        elif isinstance(record, records.Channel):
+            found.channels[record.id] = record
+        elif isinstance(record, records.Metadata):
+            found.metadata[record.name] = dict(record.metadata)
+        elif isinstance(record, records.Attachment):
+            found.attachments[record.name] = bytes(record.data)
+        elif isinstance(record, records.Footer):
+            found.footer = True
 
 
 def _join(blocks: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
@@ -152,48 +190,67 @@ def _frames(blocks: list[dict[str, np.ndarray]], path: Path) -> Frames:
         raise CanLogError(f"{path}: bad {RAW_TOPIC} block: {exc}") from None
 
 
-def read_canlog(path: str | os.PathLike[str]) -> CanLog:
+def read_canlog(path: str | os.PathLike[str], *, recover: bool = False) -> CanLog:
     """Read a recording of :mod:`ecu.buslog.writer`.
 
+    Args:
+        path: the ``.mcap`` (or a ``.mcap.part`` left by a killed recorder).
+        recover: read a file without its end (no footer, a cut chunk) up to its last
+            complete chunk instead of refusing it (:attr:`CanLog.complete` False).
+
     Raises:
-        CanLogError: missing, not MCAP, truncated (no footer), bad CRC, or not a pacc bus
-            recording (no ``/can/raw`` channel and no ``pacc`` metadata).
+        CanLogError: missing, not MCAP, truncated (no footer; unless ``recover``), bad CRC,
+            or not a pacc bus recording (no ``/can/raw`` channel and no ``pacc`` metadata).
     """
     path = Path(path)
-    found = _scan(path)
-    if not found.footer:
+    found = _scan(path, recover)
+    if not found.footer and not recover:
         raise CanLogError(f"{path}: truncated recording (no MCAP footer)")
     meta = found.metadata.get(META_RECORD, {})
     topics = sorted({c.topic for c in found.channels.values()})
-    if meta.get("format") != FORMAT or RAW_TOPIC not in topics:
+    fmt = meta.get("format")
+    if fmt is None and not found.footer and RAW_TOPIC in topics:
+        fmt = FORMAT_BLOCKS  # a cut recording of the block format: no metadata yet
+    if fmt not in (FORMAT, FORMAT_BLOCKS) or RAW_TOPIC not in topics:
         raise CanLogError(
-            f"{path}: not a pacc bus recording (format {meta.get('format')!r}; topics "
-            f"{topics or 'none'})"
+            f"{path}: not a pacc bus recording (format {fmt!r}; topics {topics or 'none'})"
         )
     try:
-        base = TimeBase(int(meta["utc_origin_ns"]), float(meta["clock_origin_s"]))
-    except (KeyError, ValueError) as exc:
+        base = TimeBase(int(meta.get("utc_origin_ns", 0)), float(meta.get("clock_origin_s", 0)))
+    except ValueError as exc:
         raise CanLogError(f"{path}: bad time base in the metadata: {exc}") from None
     try:
-        blocks = {k: [decode_block(b) for b in v] for k, v in found.blocks.items()}
+        blocks = {
+            k: [decode_block(b) for b in v]
+            for k, v in found.blocks.items()
+            if k == RAW_TOPIC or fmt == FORMAT_BLOCKS
+        }
     except BlockError as exc:
         raise CanLogError(f"{path}: corrupt block: {exc}") from None
     decoded: dict[str, dict[str, np.ndarray]] = {}
     series: dict[str, dict[str, np.ndarray]] = {}
-    for topic, topic_blocks in blocks.items():
+    for topic in found.blocks:
         if topic == RAW_TOPIC:
             continue
         try:
-            joined = _join(topic_blocks)
+            joined = _join(blocks[topic]) if topic in blocks else _rows(found, topic)
         except (ValueError, KeyError) as exc:
-            raise CanLogError(f"{path}: blocks of {topic} do not match: {exc}") from None
+            raise CanLogError(f"{path}: messages of {topic} do not match: {exc}") from None
         if topic.startswith("/can/"):
             decoded[topic.removeprefix("/can/")] = joined
         else:
             series[topic] = joined
+    frames = _frames(blocks.get(RAW_TOPIC, []), path)
+    note = ""
+    if not found.footer:
+        note = (
+            f"{path}: unfinished recording (no MCAP end: the recorder was killed?); read "
+            f"{len(frames)} frames up to its last complete chunk"
+            + (f" ({found.tail_error})" if found.tail_error else "")
+        )
     return CanLog(
         path=path,
-        frames=_frames(blocks.get(RAW_TOPIC, []), path),
+        frames=frames,
         decoded=decoded,
         series=series,
         events=found.events,
@@ -202,7 +259,18 @@ def read_canlog(path: str | os.PathLike[str]) -> CanLog:
         time_base=base,
         node=meta.get("node", ""),
         topics=topics,
+        complete=found.footer,
+        note=note,
     )
+
+
+def read_recording(path: str | os.PathLike[str], warn: Callable[[str], None]) -> CanLog:
+    """:func:`read_canlog` for a command: a recording killed mid-run (``.part``) is read up
+    to its last complete chunk and ``warn`` gets one line saying so."""
+    log = read_canlog(path, recover=True)
+    if not log.complete:
+        warn(log.note + "; pacc export FILE.part FILE.mcap makes it a complete file")
+    return log
 
 
 def messages(log: CanLog) -> Iterator[can.Message]:

@@ -11,14 +11,16 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from dbc import BINDING_PATH, DBC_PATH
 from dbc.codec import Codec
 from ecu.adaptation import AdaptationParams
-from ecu.buslog.format import CanLogError, TimeBase
+from ecu.buslog.format import FLUSH_S, ROWS_S, CanLogError, TimeBase
+from ecu.buslog.live import LIVE_FLUSH_S
+from ecu.buslog.sinks import Sink
 from ecu.buslog.writer import CanLogWriter
 from ecu.config import ConfigError, EcuConfig
 from ecu.controller import ControllerParams
@@ -74,7 +76,7 @@ def _read(path: Path, what: str) -> bytes:
 
 
 def open_recording(
-    path: str | os.PathLike[str],
+    path: str | os.PathLike[str] | None,
     codec: Codec,
     time_base: TimeBase,
     *,
@@ -84,10 +86,12 @@ def open_recording(
     dbc_path: str | os.PathLike[str] | None = None,
     binding_path: str | os.PathLike[str] | None = None,
     metadata: Mapping[str, Mapping[str, str]] | None = None,
+    sinks: Sequence[Sink] = (),
 ) -> CanLogWriter:
     """A :class:`CanLogWriter` for a node on ``codec``'s network, with the DBC and binding
     files (default: the files ``codec`` was loaded from) attached, and the ECU's ``config``
-    and starting ``table`` when it runs one.
+    and starting ``table`` when it runs one; ``sinks`` (a live view) get the same channels
+    (``path`` None: only them, flushed every :data:`~ecu.buslog.live.LIVE_FLUSH_S`).
 
     Raises:
         CanLogError: the file cannot be written, or an attached file cannot be read.
@@ -103,5 +107,13 @@ def open_recording(
     if table is not None:
         attachments[TABLE_ATTACHMENT] = json.dumps(table.to_json_dict()).encode()
     return CanLogWriter(
-        path, codec.db, time_base, node=node, attachments=attachments, metadata=metadata
+        path,
+        codec.db,
+        time_base,
+        node=node,
+        attachments=attachments,
+        metadata=metadata,
+        sinks=sinks,
+        flush_s=LIVE_FLUSH_S if sinks else FLUSH_S,
+        rows_s=LIVE_FLUSH_S if sinks else ROWS_S,
     )

@@ -49,6 +49,21 @@ def _do_register(args: argparse.Namespace) -> int:
     return 0
 
 
+def _operator_sha256(path: str | None) -> str | None:
+    """SHA-256 of the operator token in ``path`` (a new one written there if none)."""
+    import hashlib  # noqa: PLC0415
+    import secrets  # noqa: PLC0415
+
+    from cloud_sync.vehicle.connect import read_token  # noqa: PLC0415
+
+    if path is None:
+        return None
+    if not Path(path).exists():
+        write_token(path, secrets.token_urlsafe(32))
+        print(f"operator token written to {path}")
+    return hashlib.sha256(read_token(path).encode()).hexdigest()
+
+
 def _do_serve(args: argparse.Namespace) -> int:
     # uvicorn and the FastAPI app cost ~0.5 s of start-up: only `serve` needs them
     import uvicorn  # noqa: PLC0415
@@ -64,6 +79,11 @@ def _do_serve(args: argparse.Namespace) -> int:
         return 2
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
     logging.getLogger("distributed").setLevel(logging.WARNING)  # its INFO is every connection
+    try:
+        operator = _operator_sha256(args.operator_token_file)
+    except (CloudSyncError, OSError) as exc:
+        print(f"pacc cloud serve: error: operator token: {exc}")
+        return 2
     compute = None
     try:
         if args.scheduler is not None:
@@ -85,7 +105,7 @@ def _do_serve(args: argparse.Namespace) -> int:
     where = f" training on Dask at {args.scheduler}" if compute is not None else ""
     print(
         f"pacc cloud serving {args.data} on http://{args.host}:{args.port} "
-        f"(OpenAPI at /docs), {threads} learning worker(s){where}",
+        f"(OpenAPI at /docs, dashboard at /dashboard), {threads} learning worker(s){where}",
         flush=True,
     )
     # uvicorn shuts down gracefully on SIGTERM/SIGINT, then raises the signal again under the
@@ -93,7 +113,8 @@ def _do_serve(args: argparse.Namespace) -> int:
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: None)
     try:
-        uvicorn.run(create_app(service), host=args.host, port=args.port, log_level="warning")
+        app = create_app(service, operator)
+        uvicorn.run(app, host=args.host, port=args.port, log_level="warning")
     finally:
         pool.shutdown(wait=True)
         service.store.close()
@@ -124,5 +145,11 @@ def add_subparser(subparsers: Any) -> None:
         metavar="local|tcp://HOST:8786",
         help="train on Dask: 'local' starts a LocalCluster of --workers processes, an address "
         "joins that cluster (docs/scale.md; needs pacc[dask])",
+    )
+    srv.add_argument(
+        "--operator-token-file",
+        metavar="FILE",
+        help="the operator's token (created there, mode 0600, if FILE does not exist): it "
+        "reads every vehicle's lists and the dashboard at /dashboard",
     )
     srv.set_defaults(func=_do_serve)

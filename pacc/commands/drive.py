@@ -17,11 +17,13 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import Any
 
 from dbc.errors import DbcError
 from dbc.network import add_network_arguments
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES
+from ecu.buslog.live import add_foxglove_argument, live_sinks
 from pacc.vocab import FormatError
 from pacc.vocab.dgpt_file import load_dgpt
 from pacc.vocab.triplog import TripLogError
@@ -99,6 +101,7 @@ def _parser() -> argparse.ArgumentParser:
         "simulated world to this MCAP file",
     )
     p.add_argument("--duration", type=float, help="simulate only the first N seconds")
+    add_foxglove_argument(p)
     p.add_argument(
         "--brake-mode",
         choices=("resume", "cancel"),
@@ -122,6 +125,17 @@ def _parser() -> argparse.ArgumentParser:
     )
     add_network_arguments(p)
     return p
+
+
+def _recording_ok(args: argparse.Namespace, result: Any) -> bool:
+    """Report the bus recording (and live view) of the drive; False if it failed."""
+    failed = result.extra.get("can_log_error")
+    if failed:
+        print(f"pacc drive: error: bus recording failed: {failed}", file=sys.stderr)
+        return False
+    if args.can_log is not None:
+        print(f"  bus recording  {args.can_log}")
+    return True
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -158,7 +172,12 @@ def main(argv: list[str] | None = None) -> int:
                 table = irl_table(base, args.seed, args.cache)  # learned in normal conditions
         else:
             table = predefined_table(driver)
-        result = run_drive(cfg, driver, table, profile, can_log=args.can_log)
+        live = live_sinks(args.foxglove, print)
+        try:
+            result = run_drive(cfg, driver, table, profile, can_log=args.can_log, live=live)
+        finally:
+            for sink in live:
+                sink.close(complete=True)
     except (SimError, EcuError, FormatError, DbcError, OSError) as exc:
         print(f"pacc drive: error: {exc}", file=sys.stderr)
         return 2
@@ -170,12 +189,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"pacc drive: error: cannot write {args.log}: {exc}", file=sys.stderr)
             return 2
         print(f"  log            {args.log}")
-    if args.can_log is not None:
-        failed = result.extra.get("can_log_error")
-        if failed:
-            print(f"pacc drive: error: bus recording failed: {failed}", file=sys.stderr)
-            return 2
-        print(f"  bus recording  {args.can_log}")
+    if (args.can_log is not None or live) and not _recording_ok(args, result):
+        return 2
     return 1 if result.collision else 0
 
 

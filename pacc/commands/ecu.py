@@ -32,6 +32,7 @@ from dbc.network import add_network_arguments, codec_of, network_of
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES, AdaptationParams
 from ecu.buslog.format import TimeBase
+from ecu.buslog.live import add_foxglove_argument
 from ecu.node import EcuConfig, EcuNode
 from ecu.recorder import TripSink, directory_sink
 from pacc.vocab import FormatError
@@ -99,6 +100,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="record every frame in and out (raw and decoded) and the node's internals to "
         "this MCAP file (pacc replay, pacc plot, pacc export)",
     )
+    add_foxglove_argument(p)
     p.add_argument("--save-profile", metavar="PATH", help="write the final DGPT here at exit")
     p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
     cloud = p.add_argument_group("cloud (docs/cloud.md): takeovers up, verified tables down")
@@ -202,7 +204,7 @@ def _serve(args: argparse.Namespace) -> int:
     node = EcuNode(config, table, link.sink if link is not None else sink, utc_of=base.iso)
     if profile_fault:
         node.report_profile_fault()
-    recorder = _recorder(args, codec, node, base) if args.can_log else None
+    recorder = _recorder(args, codec, node, base) if args.can_log or args.foxglove else None
     recording_error = None
     try:
         bus_error = _run_on_bus(args, node, codec, link, recorder)
@@ -280,6 +282,7 @@ def _recorder(
     args: argparse.Namespace, codec: Codec, node: EcuNode, base: TimeBase
 ) -> CanLogWriter:
     """The bus recorder of ``--can-log`` (opened now: a bad path fails before the run)."""
+    from ecu.buslog.live import live_sinks  # noqa: PLC0415 - foxglove only for a live view
     from ecu.buslog.recording import open_recording  # noqa: PLC0415 - python-can, mcap: only to record
 
     try:
@@ -292,6 +295,7 @@ def _recorder(
             table=node.table,
             dbc_path=args.dbc,
             binding_path=getattr(args, "binding", None),
+            sinks=live_sinks(args.foxglove, _say),
         )
     except (EcuError, FormatError) as exc:
         raise _Exit(1, f"pacc ecu: error: {exc}") from None
@@ -303,7 +307,8 @@ def _close_recorder(recorder: CanLogWriter) -> str | None:
         recorder.close()
     except (EcuError, FormatError) as exc:
         return str(exc)
-    _say(f"bus recording: {recorder.frames} frames written to {recorder.path}")
+    if recorder.path is not None:
+        _say(f"bus recording: {recorder.frames} frames written to {recorder.path}")
     return None
 
 

@@ -7,7 +7,10 @@ Formats by suffix: ``.mcap`` (pacc bus recordings, :mod:`ecu.buslog.writer`), ``
 ``.asc``, ``.blf``, ``.trc``, ``.csv`` and whatever else python-can reads or writes. The
 conversion is python-can's readers and writers (``can.LogReader``, ``can.Logger``), the
 ``.mcap`` ones registered by pacc as a python-can plugin (:mod:`ecu.buslog.plugin`). A failed
-conversion leaves no output file behind. Exit status: 0, 2 on a bad file or format.
+conversion leaves no output file behind. A recording killed mid-run (``x.mcap.part``) is read
+up to its last complete chunk, with a warning; ``pacc export x.mcap.part x.mcap`` copies all
+of it (every channel, attachment and metadata record) into a complete file
+(:func:`ecu.buslog.repair.repair`). Exit status: 0, 2 on a bad file or format.
 """
 
 from __future__ import annotations
@@ -45,6 +48,8 @@ def convert(src: Path, dst: Path, dbc: str | None = None) -> int:
     if not src.is_file():
         raise FileNotFoundError(f"{src}: no such file")
     kwargs = {"dbc": dbc} if dbc and dst.suffix.lower() == ".mcap" else {}
+    if src.name.lower().endswith(".mcap.part"):
+        return _from_part(src, dst, kwargs)
     n = 0
     # an ASC file keeps its start time in its header: read absolute times, not offsets
     absolute = {"relative_timestamp": False} if src.suffix.lower() == ".asc" else {}
@@ -53,6 +58,28 @@ def convert(src: Path, dst: Path, dbc: str | None = None) -> int:
             writer.on_message_received(msg)
             n += 1
     return n
+
+
+def _from_part(src: Path, dst: Path, kwargs: dict[str, str]) -> int:
+    """Convert a recording killed mid-run (read up to its last chunk, with a warning)."""
+    import can  # noqa: PLC0415
+
+    from ecu.buslog.reader import messages, read_recording  # noqa: PLC0415
+    from ecu.buslog.repair import repair  # noqa: PLC0415
+
+    log = read_recording(src, _warn)
+    if dst.suffix.lower() == ".mcap" and not kwargs:
+        return repair(src, dst)
+    n = 0
+    with can.Logger(dst, **kwargs) as writer:
+        for msg in messages(log):
+            writer.on_message_received(msg)
+            n += 1
+    return n
+
+
+def _warn(text: str) -> None:
+    print(f"pacc export: warning: {text.split('; pacc export')[0]}", file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,11 +1,18 @@
-"""``pacc plot LOG -o fig.png``: one recorded drive over time, from a bus recording.
+"""``pacc plot LOG [SIGNAL ...] -o fig.png``: one recorded drive over time.
 
-Five panels sharing the time axis (s from the start of the recording, its UTC start in the
-title): ego and lead speed; the gap and the ECU's desired gap; the pedals (0..1); the ACC's
-acceleration request while active; the ACC state. The values are the ECU's own
-(``/ecu/inputs``, ``/ecu/outputs``: what it saw and did each cycle); a recording without
-them (``pacc sim``) is drawn from the simulated world (``/sim/world``), the driver's
-preferred gap in place of the desired one. Drawn on a bare matplotlib Figure (no pyplot).
+LOG is a pacc bus recording (``.mcap``, or a ``.mcap.part`` left by a killed recorder: read up
+to its last chunk, with a warning), a trip log (``pacc drive --log``, the study's trips, ``pacc
+demos extract``), or any log python-can reads (``.blf``, ``.asc``, candump ``.log`` …), decoded
+with ``--dbc`` (default: the pacc network). SIGNALs (``Message.signal``, ``/topic.field`` or a
+bare name found in one place) are drawn one panel each. Without SIGNALs, the fixed panels
+sharing the time axis (s from the start, the UTC start in the title): ego and lead speed; the
+gap and the ECU's desired gap; the pedals (0..1); the ACC's acceleration request while active;
+the ACC state. The values are the ECU's own (``/ecu/inputs``, ``/ecu/outputs``: what it saw and
+did each cycle); a recording without them (``pacc sim``) is drawn from the simulated world
+(``/sim/world``), the driver's preferred gap in place of the desired one; a trip log from its
+samples. Takeovers (the ECU's takeover events, a trip's ACTIVE -> OVERRIDE/OFF changes) are
+marked on every panel. Drawn on a bare matplotlib Figure (no pyplot); an OUT without a suffix
+gets ``.png``, and the file written is printed.
 Exit status: 0, 2 on a bad recording or one with nothing to draw.
 """
 
@@ -13,16 +20,20 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from dbc.errors import DbcError
 from ecu import EcuError
 from ecu.buslog.format import INPUTS_TOPIC, OUTPUTS_TOPIC, WORLD_TOPIC, CanLogError
-from ecu.buslog.reader import CanLog, read_canlog
+from ecu.buslog.reader import CanLog
 from pacc.vocab import FormatError
 from pacc.vocab.acc_state import AccState
+from pacc.vocab.triplog import Trip, read_trip
 
 
 @dataclass(frozen=True)
@@ -85,19 +96,50 @@ def traces(log: CanLog) -> Traces:
     )
 
 
-def plot(log: CanLog, out: Path, dpi: int = 120) -> None:
-    """Draw ``log`` (:func:`traces`) into the PNG ``out``."""
-    from matplotlib.figure import Figure  # noqa: PLC0415 - matplotlib only when drawing
+def trip_traces(trip: Trip) -> Traces:
+    """The fixed panels of a trip log."""
+    pref = trip.meta.get("pref_gap_m")
+    n = len(trip.t_s)
+    target = np.full(n, float(pref)) if isinstance(pref, int | float) else np.full(n, np.nan)
+    return Traces(
+        t_s=trip.t_s,
+        v_mps=trip.v_mps,
+        v_lead_mps=trip.v_lead_mps,
+        gap_m=trip.gap_m,
+        target_gap_m=target,
+        target_label="driver's preferred gap" if isinstance(pref, int | float) else "",
+        accel_pedal=trip.accel_pedal,
+        brake_pedal=trip.brake_pedal,
+        request_mps2=np.full(n, np.nan),
+        acc_state=trip.acc_state.astype(np.float64),
+        source="the bus, decoded through the binding"
+        if trip.meta.get("mode") == "bus"
+        else f"trip log of driver {trip.meta.get('driver_id', '?')}",
+    )
 
-    tr = traces(log)
+
+def takeovers(log: CanLog | None, tr: Traces) -> list[float]:
+    """Times of the driver's takeovers (node clock, s): the ECU's takeover events, else the
+    changes from ACTIVE to OVERRIDE or OFF."""
+    if log is not None:
+        marks = [t for t, text in log.events if "takeover" in text.lower() and np.isfinite(t)]
+        if marks:
+            return marks
+    s = tr.acc_state
+    active, after = int(AccState.ACTIVE), (int(AccState.OVERRIDE), int(AccState.OFF))
+    hits = np.flatnonzero((s[:-1] == active) & np.isin(s[1:], after)) + 1
+    return [float(tr.t_s[i]) for i in hits]
+
+
+def _draw_fixed(fig: Any, tr: Traces, marks: list[float]) -> Any:
     t = tr.t_s - tr.t_s[0] if len(tr.t_s) else tr.t_s
-    fig = Figure(figsize=(10, 9), constrained_layout=True)
     ax = fig.subplots(5, 1, sharex=True, height_ratios=(3, 3, 2, 2, 1.5))
     ax[0].plot(t, tr.v_mps, label="ego")
     ax[0].plot(t, tr.v_lead_mps, label="lead", alpha=0.8)
     ax[0].set_ylabel("speed, m/s")
     ax[1].plot(t, tr.gap_m, label="gap")
-    ax[1].plot(t, tr.target_gap_m, label=tr.target_label, linestyle="--")
+    if tr.target_label:
+        ax[1].plot(t, tr.target_gap_m, label=tr.target_label, linestyle="--")
     ax[1].set_ylabel("gap, m")
     ax[2].plot(t, tr.accel_pedal, label="accelerator")
     ax[2].plot(t, tr.brake_pedal, label="brake")
@@ -108,14 +150,89 @@ def plot(log: CanLog, out: Path, dpi: int = 120) -> None:
     ax[4].step(t, tr.acc_state, where="post", color="black")
     ax[4].set_yticks([int(s) for s in AccState], [s.name for s in AccState], fontsize=7)
     ax[4].set_ylabel("ACC")
-    ax[4].set_xlabel("time since the start of the recording, s")
     for a in ax[:3]:
         a.legend(loc="upper right", fontsize=8)
+    t0 = tr.t_s[0] if len(tr.t_s) else 0.0
+    for a in ax:
+        for m in marks:
+            a.axvline(m - t0, color="tab:red", linewidth=0.8, alpha=0.6)
+    return ax
+
+
+def _draw_signals(fig: Any, curves: list[tuple[str, np.ndarray, np.ndarray]], t0: float) -> Any:
+    ax = fig.subplots(len(curves), 1, sharex=True, squeeze=False)[:, 0]
+    for a, (label, t, y) in zip(ax, curves, strict=True):
+        a.plot(t - t0, y)
+        a.set_ylabel(label, fontsize=8)
+    return ax
+
+
+def plot(
+    log: CanLog | None,
+    out: Path,
+    dpi: int = 120,
+    signals: Sequence[str] = (),
+    trip: Trip | None = None,
+    title: str = "",
+) -> None:
+    """Draw ``log`` (its ``signals``, else the fixed panels of :func:`traces`) or ``trip``
+    into the PNG ``out``."""
+    from matplotlib.figure import Figure  # noqa: PLC0415 - matplotlib only when drawing
+
+    fig = Figure(figsize=(10, 9), constrained_layout=True)
+    if signals and log is not None:
+        curves = [pick(log, name) for name in signals]
+        t0 = min((float(c[1][0]) for c in curves if len(c[1])), default=0.0)
+        ax = _draw_signals(fig, curves, t0)
+        source = "selected signals"
+    else:
+        tr = trip_traces(trip) if trip is not None else traces(log)  # type: ignore[arg-type]
+        ax = _draw_fixed(fig, tr, takeovers(log, tr))
+        source = tr.source
+    ax[-1].set_xlabel("time since the start of the recording, s")
     for a in ax:
         a.grid(alpha=0.3)
-    start = log.metadata.get("pacc", {}).get("start_utc", "?")
-    fig.suptitle(f"{log.path.name}: {log.node or '?'} from {start} UTC ({tr.source})", fontsize=10)
-    fig.savefig(out, dpi=dpi)
+    fig.suptitle(f"{title} ({source})", fontsize=10)
+    fig.savefig(out, dpi=dpi, format="png")
+
+
+def pick(log: CanLog, name: str) -> tuple[str, np.ndarray, np.ndarray]:
+    """(label, t_s, values) of the signal ``name``: ``Message.signal``, ``/topic.field`` or a
+    bare name found in exactly one message or channel.
+
+    Raises:
+        CanLogError: no such signal, or a bare name found in several places.
+    """
+    tables = {f"{m}.": cols for m, cols in log.decoded.items()}
+    tables.update({f"{topic}.": cols for topic, cols in log.series.items()})
+    for prefix, cols in tables.items():
+        if name.startswith(prefix) and name[len(prefix) :] in cols:
+            return name, cols["t_s"], np.asarray(cols[name[len(prefix) :]], dtype=np.float64)
+    hits = [p + name for p, cols in tables.items() if name in cols and name != "t_s"]
+    if len(hits) == 1:
+        return pick(log, hits[0])
+    where = ", ".join(hits) if hits else "none of its messages and channels"
+    raise CanLogError(f"{log.path}: signal {name!r} is in {where}")
+
+
+def load(path: Path, dbc: str | None, warn: Any) -> tuple[CanLog | None, Trip | None]:
+    """The recording or trip log at ``path``; any other log through python-can and ``dbc``."""
+    import tempfile  # noqa: PLC0415
+
+    from ecu.buslog.reader import read_canlog, read_recording  # noqa: PLC0415
+    from pacc.commands.export import convert  # noqa: PLC0415
+
+    if path.name.endswith((".mcap", ".mcap.part")):
+        try:
+            return read_recording(path, warn), None
+        except CanLogError as exc:
+            if "not a pacc bus recording" not in str(exc):
+                raise
+        return None, read_trip(path)
+    with tempfile.TemporaryDirectory(prefix="pacc-plot-") as tmp:
+        mcap = Path(tmp) / "log.mcap"
+        convert(path, mcap, dbc)
+        return read_canlog(mcap), None
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -124,21 +241,61 @@ def _parser() -> argparse.ArgumentParser:
         description="plot one recorded drive: speed, gap vs desired gap, pedals, ACC request "
         "and state over time",
     )
-    p.add_argument("log", type=Path, metavar="LOG", help="a pacc bus recording (.mcap)")
+    p.add_argument(
+        "log",
+        type=Path,
+        metavar="LOG",
+        help="a pacc bus recording (.mcap, .mcap.part), a trip log, or any python-can log",
+    )
+    p.add_argument(
+        "signals",
+        nargs="*",
+        metavar="SIGNAL",
+        help="signals to draw: Message.signal, /topic.field or a bare name "
+        "(default: the fixed panels)",
+    )
     p.add_argument("-o", "--out", type=Path, required=True, help="the PNG to write")
+    p.add_argument("--dbc", help="a foreign log: decode it with this DBC (default: pacc's)")
+    p.add_argument(
+        "--binding",
+        help="a foreign log without SIGNALs: the fixed panels from the bus, decoded through "
+        "this binding (speed, lead, pedals, ACC state)",
+    )
     p.add_argument("--dpi", type=int, default=120, help="resolution (default 120)")
     return p
+
+
+def _bus_trip(args: argparse.Namespace) -> Trip:
+    """A foreign log decoded through ``--binding`` as one trip (the fixed panels)."""
+    from cloud_sync.irl.bus_demos import bus_trip, read_frames  # noqa: PLC0415
+    from dbc.codec import load_codec, network_paths  # noqa: PLC0415
+
+    codec = load_codec(*network_paths(args.dbc, args.binding))
+    return bus_trip(read_frames(args.log), codec, {"log": args.log.name})
+
+
+def _warn(text: str) -> None:
+    print(f"pacc plot: warning: {text}", file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc plot``; returns the exit status."""
     args = _parser().parse_args(argv)
+    out: Path = args.out if args.out.suffix else args.out.with_suffix(".png")
     try:
-        plot(read_canlog(args.log), args.out, args.dpi)
-    except (EcuError, FormatError, OSError, ValueError) as exc:
+        log, trip = load(args.log, args.dbc, _warn)
+        if log is not None and args.binding and not args.signals:
+            trip, log = _bus_trip(args), None
+        if trip is not None and args.signals:
+            raise CanLogError(f"{args.log}: a trip log has no signals to pick; drop SIGNAL")
+        kind = trip.meta.get("mode") if trip is not None else None
+        node = log.node if log is not None else "bus" if kind == "bus" else "trip"
+        start = log.metadata.get("pacc", {}).get("start_utc", "?") if log is not None else "?"
+        plot(log, out, args.dpi, args.signals, trip, f"{args.log.name}: {node} from {start} UTC")
+    except (EcuError, FormatError, DbcError, OSError, ValueError) as exc:
         print(f"pacc plot: error: {exc}", file=sys.stderr)
         return 2
-    print(f"plot: {args.out}")
+    print(f"plot: {out}")
     return 0
 
 

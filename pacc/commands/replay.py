@@ -54,10 +54,10 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _ecu(args: argparse.Namespace) -> int:
-    from ecu.buslog.reader import read_canlog  # noqa: PLC0415 - numpy, mcap only when run
+    from ecu.buslog.reader import read_recording  # noqa: PLC0415 - numpy, mcap only when run
     from ecu.buslog.replay import replay_through_ecu  # noqa: PLC0415
 
-    log = read_canlog(args.log)
+    log = read_recording(args.log, _warn)
     result = replay_through_ecu(log)
     n_rx = int(log.frames.rx.sum())
     print(
@@ -94,10 +94,10 @@ def _frame(f: tuple[float, int, bytes] | None) -> str:
 def _realtime(args: argparse.Namespace) -> int:
     import can  # noqa: PLC0415
 
-    from ecu.buslog.reader import read_canlog  # noqa: PLC0415
+    from ecu.buslog.reader import read_recording  # noqa: PLC0415
     from ecu.buslog.replay import play  # noqa: PLC0415
 
-    log = read_canlog(args.log)
+    log = read_recording(args.log, _warn)
     kwargs = {"interface": args.interface, "channel": args.channel}
     if args.bitrate is not None:
         kwargs["bitrate"] = args.bitrate
@@ -119,6 +119,10 @@ def _realtime(args: argparse.Namespace) -> int:
     )
     print(f"  ACC commands received: {result.commands} (by state: {states})")
     return 0
+
+
+def _warn(text: str) -> None:
+    print(f"pacc replay: warning: {text}", file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:

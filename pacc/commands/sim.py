@@ -25,7 +25,9 @@ from dbc.errors import DbcError
 from dbc.network import add_network_arguments, codec_of
 from ecu import EcuError
 from ecu.buslog.format import TimeBase
+from ecu.buslog.live import add_foxglove_argument, live_sinks
 from ecu.buslog.recording import open_recording
+from ecu.buslog.writer import CanLogWriter
 from pacc.vocab import FormatError
 from pacc.vocab.pedals import PedalScale
 from pacc.vocab.triplog import TripLogError
@@ -37,7 +39,7 @@ from sim_bus.node import SimNode
 from sim_bus.scenarios import LeadProfile, shorten
 from sim_bus.study.drive import record_world, resolve_profile, with_condition
 from sim_bus.trip import world_trip
-from sim_bus.world import World
+from sim_bus.world import World, WorldLog
 
 #: seconds between two progress lines
 PROGRESS_EVERY_S = 5.0
@@ -73,6 +75,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--quiet", action="store_true", help="no progress line")
     add_network_arguments(p)
+    add_foxglove_argument(p)
     return p
 
 
@@ -123,6 +126,19 @@ def _run(node: SimNode, duration_s: float, quiet: bool) -> None:
         print("pacc sim: interrupted", file=sys.stderr)
 
 
+def _finish_recording(recorder: CanLogWriter, log: WorldLog, can_log: Path | None) -> int:
+    """Add the world to the recording and close it; the exit status (2: it failed)."""
+    try:
+        record_world(recorder, log)
+        recorder.close()
+    except (EcuError, FormatError, OSError) as exc:
+        print(f"pacc sim: error: bus recording failed: {exc}", file=sys.stderr)
+        return 2
+    if can_log is not None:
+        print(f"bus recording: {recorder.frames} frames written to {can_log}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc sim``; returns the exit status."""
     args = _parser().parse_args(argv)
@@ -150,9 +166,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     base = TimeBase.now(0.0)  # simulated time 0 is now
     try:
+        live = live_sinks(args.foxglove, print)
         recorder = (
-            open_recording(args.can_log, node.codec, base, node="sim")
-            if args.can_log is not None
+            open_recording(args.can_log, node.codec, base, node="sim", sinks=live)
+            if args.can_log is not None or live
             else None
         )
     except (EcuError, FormatError) as exc:
@@ -194,14 +211,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"pacc sim: error: cannot write {args.log}: {exc}", file=sys.stderr)
             status = 2
     if recorder is not None:
-        try:
-            record_world(recorder, log)
-            recorder.close()
-        except (EcuError, FormatError, OSError) as exc:
-            print(f"pacc sim: error: bus recording failed: {exc}", file=sys.stderr)
-            status = 2
-        else:
-            print(f"bus recording: {recorder.frames} frames written to {args.can_log}")
+        status = max(status, _finish_recording(recorder, log, args.can_log))
     return status
 
 

@@ -13,6 +13,7 @@ import dataclasses
 import itertools
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, get_args
@@ -24,6 +25,7 @@ from ecu import EcuError
 from ecu.adaptation import AdaptationParams, Decision
 from ecu.buslog.format import WORLD_TOPIC, TimeBase
 from ecu.buslog.recording import open_recording
+from ecu.buslog.sinks import Sink
 from ecu.buslog.writer import CanLogWriter
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime, RuntimeSummary
@@ -141,13 +143,15 @@ def run_drive(
     record_channel: str | None = None,
     can_log: Path | None = None,
     utc_start_ns: int | None = None,
+    live: Sequence[Sink] = (),
 ) -> DriveResult:
     """Run one lockstep drive; never raises for a collision (it is reported).
 
     ``record_channel``: when given, the drive's virtual channel name (so a test can attach a
     listener that sees every frame); by default a private, unique channel. ``can_log``: record
     the ECU's bus traffic, its internals and the simulated world to this MCAP file
-    (:mod:`ecu.buslog.writer`), simulated time 0 stamped ``utc_start_ns`` (default: now).
+    (:mod:`ecu.buslog.writer`), simulated time 0 stamped ``utc_start_ns`` (default: now);
+    ``live``: more sinks of the same channels (a Foxglove live view, :mod:`ecu.buslog.live`).
     """
     if cfg.controller not in CONTROLLERS:
         raise ValueError(f"controller must be one of {CONTROLLERS}")
@@ -169,8 +173,8 @@ def run_drive(
     can_log_error: str | None = None
     try:
         rt = EcuRuntime(ecu_bus, ecu, codec=codec)
-        if can_log is not None:
-            recorder = _drive_recorder(can_log, cfg, ecu, table, codec, base)
+        if can_log is not None or live:
+            recorder = _drive_recorder(can_log, cfg, ecu, table, codec, base, live)
             rt.record_to(recorder)
         node = SimNode(
             sim_bus,
@@ -223,12 +227,13 @@ def drive_codec(cfg: DriveConfig) -> Codec:
 
 
 def _drive_recorder(
-    path: Path,
+    path: Path | None,
     cfg: DriveConfig,
     ecu: EcuNode,
     table: Dgpt,
     codec: Codec,
     base: TimeBase,
+    live: Sequence[Sink] = (),
 ) -> CanLogWriter:
     """The bus recorder of a drive: the ECU's port, simulated time on ``base``."""
     settings = {k: str(v) for k, v in dataclasses.asdict(cfg).items()}
@@ -240,6 +245,7 @@ def _drive_recorder(
         config=ecu.config,
         table=table,
         metadata={"drive": settings},
+        sinks=live,
     )
 
 

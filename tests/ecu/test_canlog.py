@@ -79,7 +79,7 @@ def _frames(n: int, seed: int) -> list[tuple[float, can.Message, bool]]:
 
 
 def _record(
-    path: Path, frames: list[tuple[float, can.Message, bool]], block_s: float = 1.0
+    path: Path, frames: list[tuple[float, can.Message, bool]], flush_s: float = 1.0
 ) -> None:
     table = predefined(1.5)
     rec = open_recording(
@@ -91,7 +91,7 @@ def _record(
         table=table,
         metadata={"drive": {"seed": "3"}},
     )
-    rec.block_s = block_s
+    rec.flush_s = flush_s
     for t, msg, rx in frames:
         rec.frame(t, msg, rx)
         rec.tick(t)
@@ -174,3 +174,61 @@ def test_refuses_truncated_foreign_and_missing_files(tmp_path: Path) -> None:
         read_canlog(tmp_path / "none.mcap")
     with pytest.raises(CanLogError, match="is a directory"):
         open_recording(tmp_path, load_codec(), TimeBase(0, 0.0), node="x")
+
+
+def test_mcaps_own_readers_decode_every_frame_and_foxglove_logs(tmp_path: Path) -> None:
+    """The peer: mcap's indexed reader and its protobuf support library decode every decoded
+    frame to cantools' values at the frame's UTC time; events are foxglove.Log JSON."""
+    pytest.importorskip("mcap_protobuf")
+    from mcap.reader import make_reader  # noqa: PLC0415
+    from mcap_protobuf.decoder import DecoderFactory  # noqa: PLC0415
+
+    frames = _frames(500, seed=4)
+    path = tmp_path / "bus.mcap"
+    _record(path, frames, flush_s=0.5)
+    db = load_codec().db
+    want: dict[str, list[tuple[float, Any]]] = {}
+    for t, msg, _ in frames:
+        try:
+            m = db.get_message_by_frame_id(msg.arbitration_id)
+        except KeyError:
+            continue
+        if len(msg.data) == m.length and not msg.is_error_frame and not msg.is_remote_frame:
+            want.setdefault(m.name, []).append((t, m.decode(msg.data, decode_choices=False)))
+    got: dict[str, list[tuple[int, Any]]] = {}
+    with path.open("rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        summary = reader.get_summary()
+        assert summary is not None and summary.statistics is not None
+        assert len(summary.chunk_indexes) >= 2  # one chunk per flush
+        for _, channel, message, proto in reader.iter_decoded_messages(
+            topics=[f"/can/{n}" for n in want]
+        ):
+            got.setdefault(channel.topic.removeprefix("/can/"), []).append(
+                (message.log_time, proto)
+            )
+    assert got.keys() == want.keys()
+    for name, rows in want.items():
+        assert len(got[name]) == len(rows)
+        for (t, values), (log_time, proto) in zip(
+            rows, sorted(got[name], key=lambda r: r[0]), strict=True
+        ):
+            assert log_time == TimeBase(UTC0_NS, 0.0).utc_ns(t) and proto.t_s == t
+            assert {k: getattr(proto, k) for k in values} == values
+
+
+def test_the_shipped_foxglove_layout_names_recorded_fields(tmp_path: Path) -> None:
+    """Every message path of docs/foxglove-layout.json is a field of a drive's recording."""
+    from sim_bus.drivers import BUILTIN_DRIVERS  # noqa: PLC0415
+    from sim_bus.study.drive import DriveConfig, predefined_table, run_drive  # noqa: PLC0415
+
+    layout = json.loads((Path(__file__).parents[2] / "docs" / "foxglove-layout.json").read_text())
+    paths = [p["value"] for panel in layout["configById"].values() for p in panel.get("paths", [])]
+    driver = BUILTIN_DRIVERS["d2"]
+    cfg = DriveConfig(scenario="B", driver_id="d2", controller="predefined", seed=1, duration_s=3)
+    run_drive(cfg, driver, predefined_table(driver), can_log=tmp_path / "d.mcap")
+    log = read_canlog(tmp_path / "d.mcap")
+    for path in paths:
+        topic, _, name = path.rpartition(".")
+        assert name in log.series[topic], path
+    assert "/ecu/events" in log.topics

@@ -28,6 +28,7 @@ from pacc.commands.drive import main as drive_main
 from pacc.commands.export import main as export_main
 from pacc.commands.plot import main as plot_main
 from pacc.vocab.dgpt import predefined
+from pacc.vocab.triplog import Trip, write_trip
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.study.config import StudyConfig
 from sim_bus.study.drive import DriveConfig, predefined_table, run_drive
@@ -360,3 +361,42 @@ def test_a_failing_recording_costs_neither_the_drive_nor_its_results(tmp_path: P
     assert "bus recording failed" in proc.stderr and "recording stopped at t = " in proc.stderr
     assert "File too large" in proc.stderr
     assert not path.exists() and (tmp_path / "bus.mcap.part").exists()
+
+
+def test_plot_signals_trip_logs_foreign_logs_and_killed_recordings(
+    recorded: tuple[Path, list[tuple[float, int, bytes]]],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    src = recorded[0]
+    out = tmp_path / "sig"
+    args = [str(src), "ESC_Speed.VehicleSpeed", "/ecu/outputs.desired_gap_m", "-o", str(out)]
+    assert plot_main(args) == 0
+    assert capsys.readouterr().out.strip() == f"plot: {out}.png"
+    assert (tmp_path / "sig.png").read_bytes()[:4] == b"\x89PNG"
+    assert plot_main([str(src), "no_such_signal", "-o", str(out)]) == 2
+    assert "signal 'no_such_signal' is in none" in capsys.readouterr().err
+    # a foreign log (BLF) decoded with the DBC: its signals plot
+    blf = tmp_path / "x.blf"
+    assert export_main([str(src), str(blf)]) == 0
+    assert plot_main([str(blf), "VehicleSpeed", "-o", str(tmp_path / "b.png")]) == 0
+    # ... and its fixed panels, decoded through the binding (pacc's own here)
+    binding = str(DBC_PATH.with_name("pacc.binding.toml"))
+    assert plot_main([str(blf), "--binding", binding, "-o", str(tmp_path / "f.png")]) == 0
+    assert (tmp_path / "f.png").stat().st_size > 10_000
+    # a trip log: the fixed panels
+    trip = tmp_path / "trip.mcap"
+    t = np.arange(50.0)
+    write_trip(trip, Trip.manual(t, np.ones(50), np.full(50, 20.0), np.ones(50), np.zeros(50)))
+    assert plot_main([str(trip), "-o", str(tmp_path / "t.png")]) == 0
+    # a recording cut mid-chunk (a killed recorder): plotted and exported with a warning
+    part = tmp_path / "cut.mcap.part"
+    part.write_bytes(src.read_bytes()[: src.stat().st_size * 2 // 3])
+    capsys.readouterr()
+    assert plot_main([str(part), "-o", str(tmp_path / "p.png")]) == 0
+    assert "warning: " in capsys.readouterr().err
+    assert export_main([str(part), str(tmp_path / "fixed.mcap")]) == 0
+    assert "unfinished recording" in capsys.readouterr().err
+    fixed = read_canlog(tmp_path / "fixed.mcap")
+    assert fixed.complete and 0 < len(fixed.frames) < len(read_canlog(src).frames)
+    assert fixed.attachments.keys() == read_canlog(src).attachments.keys()

@@ -1,0 +1,168 @@
+"""What a person looks at: read-only lists of the cloud's state, and the dashboard page.
+
+Endpoints (JSON; ``Authorization: Bearer TOKEN``), under the vehicle token rules — a vehicle
+sees its own drivers only — plus an **operator token** that sees the whole service
+(``pacc cloud serve --operator-token-file FILE``; its SHA-256 is kept, never the token):
+
+- ``GET /v1/drivers``: the drivers (a vehicle's, or every one for the operator), each with
+  its vehicle and conditions;
+- ``GET /v1/drivers/{driver}/versions``: the driver's table versions per condition, each with
+  its metadata (source, creation, batches used, trips, usable demonstration seconds, the
+  covered speed range and the coverage per speed) and its DGPT (gap over speed);
+- ``GET /v1/drivers/{driver}/batches``: the driver's batches (digest, kind, size, arrival,
+  the version that used it);
+- ``GET /v1/jobs``: the learning jobs and their state (running, queued, idle).
+
+``GET /dashboard`` is a small page (HTML, CSS and JavaScript in one file, nothing from a CDN)
+that logs in with a token and draws these: drivers, each driver's table versions over speed
+with the covered range shaded, the batches behind each version, the job states, and the
+learning curve of the versions (the gap at each covered speed, version after version).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import hmac
+from pathlib import Path
+from typing import Any
+
+from cloud_sync.api import ForbiddenError, NotFoundError
+from cloud_sync.service.rules import CloudService
+
+__all__ = ["DASHBOARD", "ServiceViews"]
+
+DASHBOARD = Path(__file__).with_name("dashboard.html")
+
+
+def _sha256(text: str) -> str:
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+class ServiceViews:
+    """The read-only views of ``service`` (module docstring).
+
+    Args:
+        service: the cloud.
+        operator_token_sha256: SHA-256 (hex) of the operator token (None: no operator).
+    """
+
+    def __init__(self, service: CloudService, operator_token_sha256: str | None = None) -> None:
+        self.service = service
+        self.operator_sha = operator_token_sha256
+
+    def viewer(self, token: str | None) -> str | None:
+        """Who ``token`` is: a vehicle id, or None for the operator.
+
+        Raises:
+            AuthError: neither a vehicle's token nor the operator's.
+        """
+        if token and self.operator_sha and hmac.compare_digest(_sha256(token), self.operator_sha):
+            return None
+        return self.service.authenticate(token)
+
+    def _query(self, sql: str, args: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
+        store = self.service.store
+        with store._lock:  # noqa: SLF001 - a read of the store's own index, under its lock
+            return list(store._db.execute(sql, args).fetchall())  # noqa: SLF001
+
+    def _check(self, viewer: str | None, driver_id: str) -> None:
+        owner = self.service.store.driver_vehicle(driver_id)
+        if owner is None:
+            raise NotFoundError(f"no driver {driver_id!r}")
+        if viewer is not None and owner != viewer:
+            raise ForbiddenError(f"driver {driver_id!r} is not registered to this vehicle")
+
+    def drivers(self, viewer: str | None) -> list[dict[str, Any]]:
+        """The drivers ``viewer`` may see, with their vehicle and conditions."""
+        sql = "SELECT driver_id, vehicle_id FROM drivers"
+        rows = self._query(
+            sql + (" WHERE vehicle_id = ?" if viewer else "") + " ORDER BY driver_id",
+            (viewer,) if viewer else (),
+        )
+        out = []
+        for driver_id, vehicle_id in rows:
+            conds = self._query(
+                "SELECT DISTINCT condition FROM batches WHERE driver_id = ? UNION "
+                "SELECT DISTINCT condition FROM dgpt_versions WHERE driver_id = ?",
+                (driver_id, driver_id),
+            )
+            out.append(
+                {
+                    "driver_id": driver_id,
+                    "vehicle_id": vehicle_id,
+                    "conditions": sorted(c for (c,) in conds),
+                }
+            )
+        return out
+
+    def versions(self, viewer: str | None, driver_id: str) -> list[dict[str, Any]]:
+        """Every table version of the driver (every condition), oldest first."""
+        self._check(viewer, driver_id)
+        from cloud_sync.signing import verify_dgpt  # noqa: PLC0415
+
+        out = []
+        key = self.service.key.public_key()
+        for (condition,) in self._query(
+            "SELECT DISTINCT condition FROM dgpt_versions WHERE driver_id = ?", (driver_id,)
+        ):
+            for row in self.service.store.versions(driver_id, condition):
+                table = verify_dgpt(self.service.store.read_version(row), key).to_json_dict()
+                meta = table.get("meta", {})
+                used = self._query(
+                    "SELECT digest FROM batches WHERE driver_id = ? AND condition = ? "
+                    "AND used_in_version = ? ORDER BY seq",
+                    (driver_id, condition, row.version),
+                )
+                out.append(
+                    {
+                        "condition": condition,
+                        "version": row.version,
+                        "source": row.source,
+                        "created_utc": row.created_utc,
+                        "n_batches": row.n_batches,
+                        "batches": [d for (d,) in used],
+                        "speed_mps": table["speed_mps"],
+                        "gap_m": table["gap_m"],
+                        "meta": {
+                            k: meta[k]
+                            for k in (
+                                "n_trips",
+                                "usable_demo_s",
+                                "covered_mps",
+                                "coverage_s",
+                                "method",
+                            )
+                            if k in meta
+                        },
+                    }
+                )
+        return out
+
+    def batches(self, viewer: str | None, driver_id: str) -> list[dict[str, Any]]:
+        """The driver's batches in arrival order."""
+        self._check(viewer, driver_id)
+        rows = self._query(
+            "SELECT digest, condition, kind, size_bytes, received_utc, used_in_version "
+            "FROM batches WHERE driver_id = ? ORDER BY seq",
+            (driver_id,),
+        )
+        keys = ("digest", "condition", "kind", "size_bytes", "received_utc", "used_in_version")
+        return [dict(zip(keys, r, strict=True)) for r in rows]
+
+    def jobs(self, viewer: str | None) -> list[dict[str, Any]]:
+        """The learning jobs ``viewer`` may see: (driver, condition) and their state."""
+        svc = self.service
+        with svc._jobs_lock:  # noqa: SLF001 - the service's own job table, under its lock
+            states = {k: (s.running, s.dirty) for k, s in svc._jobs.items()}  # noqa: SLF001
+        out = []
+        for (driver_id, condition), (running, dirty) in sorted(states.items()):
+            owner = svc.store.driver_vehicle(driver_id)
+            if viewer is not None and owner != viewer:
+                continue
+            state = "running" if running else "queued" if dirty else "idle"
+            out.append({"driver_id": driver_id, "condition": condition, "state": state})
+        return out
+
+    def page(self) -> bytes:
+        """The dashboard."""
+        return DASHBOARD.read_bytes()

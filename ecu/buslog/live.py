@@ -1,0 +1,171 @@
+"""The live view: the recorder's channels streamed to Foxglove over a WebSocket.
+
+``pacc ecu|sim|drive --foxglove [HOST:PORT]`` (loopback ``127.0.0.1:8765`` by default) starts
+the Foxglove SDK's WebSocket server (foxglove-sdk, subprotocol ``foxglove.sdk.v1``) and adds
+:class:`FoxgloveSink` to the recorder (:class:`ecu.buslog.writer.CanLogWriter`): the same
+channels, schemas and messages as the recording file, from the same code path, written
+when the recorder flushes (every ``flush_s`` of the node's clock). Open Foxglove, "Open
+connection", ``ws://HOST:PORT``. A message nobody subscribed to costs nothing
+(``Channel.has_sinks``); a client too slow to keep up loses the oldest messages
+(``message_backlog_size``), the node never waits.
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from ecu.buslog.format import CanLogError
+from ecu.buslog.sinks import ChannelSpec
+
+__all__ = [
+    "DEFAULT_ADDRESS",
+    "LIVE_FLUSH_S",
+    "FoxgloveSink",
+    "add_foxglove_argument",
+    "live_sinks",
+    "parse_address",
+]
+
+DEFAULT_ADDRESS = "127.0.0.1:8765"
+#: the recorder's flush interval with a live view, s of the node's clock (the view's delay)
+LIVE_FLUSH_S = 0.2
+#: per-client queue of the server, messages (one flush of a busy bus fits)
+BACKLOG = 50_000
+
+
+def parse_address(text: str) -> tuple[str, int]:
+    """``HOST:PORT``, ``:PORT`` or ``HOST`` -> (host, port); loopback and 8765 by default.
+
+    Raises:
+        CanLogError: a port that is not an integer in 0..65535.
+    """
+    host, sep, port = text.rpartition(":")
+    if not sep:
+        host, port = text, "8765"
+    try:
+        number = int(port)
+    except ValueError:
+        raise CanLogError(f"--foxglove {text!r}: the port is not a number") from None
+    if not 0 <= number <= 65535:
+        raise CanLogError(f"--foxglove {text!r}: the port is not in 0..65535")
+    return host or "127.0.0.1", number
+
+
+class FoxgloveSink:
+    """A :class:`~ecu.buslog.sinks.Sink` serving the channels on a Foxglove WebSocket server.
+
+    Args:
+        host: the address to listen on (default loopback).
+        port: the TCP port (0: any free one; :attr:`port` says which).
+        name: the server's name shown in Foxglove.
+
+    Raises:
+        CanLogError: the server cannot start (port taken, foxglove-sdk missing).
+    """
+
+    def __init__(self, host: str = "127.0.0.1", port: int = 8765, name: str = "pacc") -> None:
+        try:
+            import foxglove  # noqa: PLC0415 - the SDK only for a live view
+
+            self._fg: Any = foxglove
+            self._ctx = foxglove.Context()
+            self._server: Any = foxglove.start_server(
+                name=name,
+                host=host,
+                port=port,
+                context=self._ctx,
+                message_backlog_size=BACKLOG,
+            )
+        except Exception as exc:  # noqa: BLE001 - the SDK raises RuntimeError and others
+            raise CanLogError(f"cannot start the Foxglove server on {host}:{port}: {exc}") from exc
+        self.host = host
+        self.port: int = self._server.port
+        self._channels: list[Any] = []
+
+    @property
+    def url(self) -> str:
+        """The WebSocket URL a Foxglove client connects to."""
+        return f"ws://{self.host}:{self.port}"
+
+    def channel(self, spec: ChannelSpec) -> int:
+        schema = self._fg.Schema(
+            name=spec.schema_name, encoding=spec.schema_encoding, data=spec.schema_data
+        )
+        ch = self._fg.Channel(
+            spec.topic,
+            schema=schema,
+            message_encoding=spec.message_encoding,
+            metadata=dict(spec.metadata),
+            context=self._ctx,
+        )
+        self._channels.append(ch)
+        return len(self._channels) - 1
+
+    def write(
+        self,
+        handle: int,
+        seq0: int,
+        log_times: np.ndarray,
+        payload: np.ndarray,
+        lengths: np.ndarray,
+    ) -> None:
+        del seq0  # the SDK numbers each channel's messages itself
+        ch = self._channels[handle]
+        if not ch.has_sinks():
+            return
+        data = payload.tobytes()
+        ends = np.cumsum(lengths).tolist()
+        start = 0
+        for t, end in zip(log_times.tolist(), ends, strict=True):
+            ch.log(data[start:end], log_time=t)
+            start = end
+
+    def attach(self, log_time: int, name: str, media_type: str, data: bytes) -> None:
+        """Attachments are for the file only."""
+
+    def metadata(self, name: str, values: Any) -> None:
+        """Metadata records are for the file only."""
+
+    def flush(self) -> None:
+        """Messages are sent as they are logged."""
+
+    def close(self, complete: bool) -> None:
+        """Stop the server (once)."""
+        del complete
+        channels, self._channels = self._channels, []
+        for ch in channels:
+            ch.close()
+        if channels or self._server is not None:
+            server, self._server = self._server, None
+            if server is not None:
+                server.stop()
+
+
+def add_foxglove_argument(parser: argparse.ArgumentParser) -> None:
+    """``--foxglove [HOST:PORT]`` on a command's parser."""
+    parser.add_argument(
+        "--foxglove",
+        nargs="?",
+        const=DEFAULT_ADDRESS,
+        metavar="HOST:PORT",
+        help="stream the bus, decoded, and the node's internals live to Foxglove over a "
+        f"WebSocket (default {DEFAULT_ADDRESS}, loopback only; the channels of --can-log)",
+    )
+
+
+def live_sinks(address: str | None, say: Callable[[str], None]) -> list[FoxgloveSink]:
+    """The live view of ``--foxglove ADDRESS`` (none without it); ``say`` gets its URL.
+
+    Raises:
+        CanLogError: a bad address, or the server cannot start.
+    """
+    if address is None:
+        return []
+    host, port = parse_address(address)
+    sink = FoxgloveSink(host, port)
+    say(f"foxglove: live view on {sink.url} (Foxglove: Open connection, Foxglove WebSocket)")
+    return [sink]

@@ -1,0 +1,337 @@
+"""A minimal MCAP writer that takes many messages of one channel at once, built with numpy.
+
+The bus recorder writes one MCAP message per decoded frame and per control cycle: tens of
+thousands a second in a lockstep drive. ``mcap.writer.Writer.add_message`` costs about 4 µs a
+message in Python, more than python-can's BLF writer spends on a whole frame; here the
+message records of one channel and one flush are assembled in a handful of numpy operations
+(:func:`message_records`) and appended to the open chunk. The rest is the MCAP format as the
+``mcap`` package writes it (its record classes): schemas and channels in the data section as
+they are declared (so a file cut short still names them), zstd chunks each followed by their
+message indexes, attachments and metadata between chunks, and a summary (schemas,
+channels, statistics, chunk, attachment and metadata indexes, summary offsets) and footer
+on :meth:`McapFile.finish`. :meth:`McapFile.flush` ends the chunk in progress: everything
+written before the last flush survives the process being killed.
+"""
+
+from __future__ import annotations
+
+import struct
+import zlib
+from collections import defaultdict
+from typing import IO, Any
+
+import numpy as np
+
+__all__ = ["McapFile", "message_records"]
+
+MAGIC = b"\x89MCAP0\r\n"
+#: a message record's fixed part: opcode, record length, channel, sequence, log/publish time
+_HEADER = np.dtype(
+    [("op", "u1"), ("len", "<u8"), ("ch", "<u2"), ("seq", "<u4"), ("lt", "<u8"), ("pt", "<u8")]
+)
+_HEADER_BYTES = _HEADER.itemsize  # 31
+_MESSAGE_OPCODE = 0x05
+
+
+def message_records(
+    channel_id: int, seq0: int, log_times: np.ndarray, payload: np.ndarray, lengths: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The MCAP message records of ``n`` messages of one channel, joined.
+
+    Args:
+        channel_id: the channel.
+        seq0: the first message's sequence number (then +1 each).
+        log_times: ns since the epoch, int64, shape ``(n,)`` (also the publish times).
+        payload: the messages' data one after the other, uint8.
+        lengths: each message's data length, bytes, shape ``(n,)``.
+
+    Returns:
+        (the records as uint8, each record's offset in them, shape ``(n,)``).
+    """
+    n = len(lengths)
+    if n == 1:  # one message (a raw block, an event): no arrays to scatter
+        t = int(log_times[0])
+        head = struct.pack(
+            "<BQHIQQ",
+            _MESSAGE_OPCODE,
+            int(lengths[0]) + _HEADER_BYTES - 9,
+            channel_id,
+            seq0 & 0xFFFFFFFF,
+            t,
+            t,
+        )
+        return np.frombuffer(head + payload.tobytes(), np.uint8), np.zeros(1, np.int64)
+    hdr = np.empty(n, dtype=_HEADER)
+    hdr["op"] = _MESSAGE_OPCODE
+    hdr["len"] = lengths + (_HEADER_BYTES - 9)
+    hdr["ch"] = channel_id
+    hdr["seq"] = np.arange(seq0, seq0 + n, dtype=np.uint64) & 0xFFFFFFFF
+    hdr["lt"] = log_times
+    hdr["pt"] = log_times
+    sizes = lengths + _HEADER_BYTES
+    if n and (lengths == lengths[0]).all():  # fixed-size messages: one 2-D array
+        fixed = np.empty((n, int(sizes[0])), dtype=np.uint8)
+        fixed[:, :_HEADER_BYTES] = hdr.view(np.uint8).reshape(n, _HEADER_BYTES)
+        fixed[:, _HEADER_BYTES:] = payload.reshape(n, -1)
+        return fixed.reshape(-1), np.arange(n, dtype=np.int64) * int(sizes[0])
+    ends = np.cumsum(sizes)
+    starts = ends - sizes
+    out = np.empty(int(ends[-1]) if n else 0, dtype=np.uint8)
+    is_header = np.zeros(len(out), dtype=bool)
+    where = (starts[:, None] + np.arange(_HEADER_BYTES)).ravel()
+    is_header[where] = True
+    out[where] = hdr.view(np.uint8)
+    out[~is_header] = payload
+    return out, starts
+
+
+def _message_index(channel_id: int, parts: list[np.ndarray]) -> bytes:
+    """A MessageIndex record: (log time, offset in the chunk) of a channel's messages."""
+    pairs = np.concatenate(parts).tobytes()
+    body = struct.pack("<HI", channel_id, len(pairs)) + pairs
+    return struct.pack("<BQ", 0x07, len(body)) + body
+
+
+class McapFile:
+    """An MCAP file written to ``stream`` (module docstring). Not thread-safe.
+
+    Args:
+        stream: a binary stream open for writing at its start.
+        profile: the header's profile.
+        library: the header's library.
+    """
+
+    def __init__(self, stream: IO[bytes], profile: str, library: str) -> None:
+        from mcap.records import Header  # noqa: PLC0415 - mcap only when a file is written
+
+        self._stream = stream
+        self._pos = 0
+        self._schemas: list[object] = []
+        self._channels: list[object] = []
+        self._chunk: list[bytes] = []
+        self._chunk_size = 0
+        self._chunk_t = (0, 0)
+        self._zstd: Any = None
+        self._index: dict[int, list[np.ndarray]] = defaultdict(list)
+        self._chunk_indexes: list[object] = []
+        self._attachment_indexes: list[object] = []
+        self._metadata_indexes: list[object] = []
+        self._counts: dict[int, int] = defaultdict(int)
+        self._t_range: tuple[int, int] | None = None
+        self._write(MAGIC)
+        self._record(Header(profile=profile, library=library))
+
+    # -- low level ------------------------------------------------------------------------
+
+    def _write(self, data: bytes) -> None:
+        self._stream.write(data)
+        self._pos += len(data)
+
+    def _record(self, record: object) -> tuple[int, int]:
+        """Write one record outside chunks; (its offset, its length)."""
+        from mcap.data_stream import RecordBuilder  # noqa: PLC0415
+
+        builder = RecordBuilder()
+        record.write(builder)  # type: ignore[attr-defined]
+        data: bytes = builder.end()  # type: ignore[no-untyped-call]
+        start = self._pos
+        self._write(data)
+        return start, len(data)
+
+    # -- declarations ---------------------------------------------------------------------
+
+    def schema(self, name: str, encoding: str, data: bytes) -> int:
+        """Declare a schema; its id."""
+        from mcap.records import Schema  # noqa: PLC0415
+
+        record = Schema(id=len(self._schemas) + 1, name=name, encoding=encoding, data=data)
+        self._schemas.append(record)
+        self._record(record)
+        return record.id
+
+    def channel(
+        self, topic: str, encoding: str, schema_id: int, metadata: dict[str, str] | None = None
+    ) -> int:
+        """Declare a channel; its id."""
+        from mcap.records import Channel  # noqa: PLC0415
+
+        record = Channel(
+            id=len(self._channels) + 1,
+            topic=topic,
+            message_encoding=encoding,
+            metadata=metadata or {},
+            schema_id=schema_id,
+        )
+        self._channels.append(record)
+        self._record(record)
+        return record.id
+
+    # -- messages -------------------------------------------------------------------------
+
+    def messages(
+        self,
+        channel_id: int,
+        seq0: int,
+        log_times: np.ndarray,
+        payload: np.ndarray,
+        lengths: np.ndarray,
+    ) -> None:
+        """Add ``len(lengths)`` messages of one channel to the open chunk
+        (:func:`message_records` for the arguments)."""
+        n = len(lengths)
+        if not n:
+            return
+        records, starts = message_records(channel_id, seq0, log_times, payload, lengths)
+        pairs = np.empty((n, 2), dtype="<u8")
+        pairs[:, 0] = log_times
+        pairs[:, 1] = starts + self._chunk_size
+        self._index[channel_id].append(pairs)
+        self._chunk.append(records.tobytes())
+        self._chunk_size += len(records)
+        self._counts[channel_id] += n
+        lo, hi = int(log_times.min()), int(log_times.max())
+        if self._t_range is None:
+            self._t_range = (lo, hi)
+        else:
+            self._t_range = (min(lo, self._t_range[0]), max(hi, self._t_range[1]))
+        c_lo, c_hi = self._chunk_t
+        self._chunk_t = (lo, hi) if len(self._chunk) == 1 else (min(lo, c_lo), max(hi, c_hi))
+
+    def message(self, channel_id: int, seq: int, log_time: int, data: bytes) -> None:
+        """Add one message to the open chunk."""
+        self.messages(
+            channel_id,
+            seq,
+            np.array([log_time], dtype=np.int64),
+            np.frombuffer(data, dtype=np.uint8),
+            np.array([len(data)], dtype=np.int64),
+        )
+
+    def flush(self) -> None:
+        """End the chunk in progress (if any) and flush the stream (no fsync)."""
+        from mcap.records import Chunk, ChunkIndex  # noqa: PLC0415
+
+        if self._chunk:
+            if self._zstd is None:
+                import zstandard  # noqa: PLC0415 - mcap's own dependency
+
+                self._zstd = zstandard.ZstdCompressor(level=1)
+            data = b"".join(self._chunk)
+            packed = self._zstd.compress(data)
+            lo, hi = self._chunk_t
+            chunk = Chunk(
+                compression="zstd",
+                data=packed,
+                message_start_time=lo,
+                message_end_time=hi,
+                uncompressed_crc=zlib.crc32(data),
+                uncompressed_size=len(data),
+            )
+            start, length = self._record(chunk)
+            offsets: dict[int, int] = {}
+            index_start = self._pos
+            for ch, parts in self._index.items():
+                offsets[ch] = self._pos
+                self._write(_message_index(ch, parts))
+            self._chunk_indexes.append(
+                ChunkIndex(
+                    message_start_time=lo,
+                    message_end_time=hi,
+                    chunk_start_offset=start,
+                    chunk_length=length,
+                    message_index_offsets=offsets,
+                    message_index_length=self._pos - index_start,
+                    compression="zstd",
+                    compressed_size=len(packed),
+                    uncompressed_size=len(data),
+                )
+            )
+            self._chunk, self._chunk_size, self._index = [], 0, defaultdict(list)
+        self._stream.flush()
+
+    # -- between chunks -------------------------------------------------------------------
+
+    def attachment(self, log_time: int, name: str, media_type: str, data: bytes) -> None:
+        """Write an attachment (after ending the chunk in progress)."""
+        from mcap.records import Attachment, AttachmentIndex  # noqa: PLC0415
+
+        self.flush()
+        rec = Attachment(
+            create_time=log_time, log_time=log_time, name=name, media_type=media_type, data=data
+        )
+        start, length = self._record(rec)
+        self._attachment_indexes.append(
+            AttachmentIndex(
+                offset=start,
+                length=length,
+                log_time=log_time,
+                create_time=log_time,
+                data_size=len(data),
+                name=name,
+                media_type=media_type,
+            )
+        )
+
+    def metadata(self, name: str, values: dict[str, str]) -> None:
+        """Write a metadata record (after ending the chunk in progress)."""
+        from mcap.records import Metadata, MetadataIndex  # noqa: PLC0415
+
+        self.flush()
+        start, length = self._record(Metadata(name=name, metadata=values))
+        self._metadata_indexes.append(MetadataIndex(offset=start, length=length, name=name))
+
+    def finish(self) -> None:
+        """End the last chunk, write the summary and the footer, flush the stream."""
+        from mcap.opcode import Opcode  # noqa: PLC0415
+        from mcap.records import (  # noqa: PLC0415
+            DataEnd,
+            Footer,
+            Statistics,
+            SummaryOffset,
+        )
+
+        self.flush()
+        self._record(DataEnd(data_section_crc=0))  # 0: not computed (chunks carry CRCs)
+        summary_start = self._pos
+        lo, hi = self._t_range or (0, 0)
+        stats = Statistics(
+            attachment_count=len(self._attachment_indexes),
+            channel_count=len(self._channels),
+            channel_message_counts=dict(self._counts),
+            chunk_count=len(self._chunk_indexes),
+            message_count=sum(self._counts.values()),
+            message_end_time=hi,
+            message_start_time=lo,
+            metadata_count=len(self._metadata_indexes),
+            schema_count=len(self._schemas),
+        )
+        groups = (
+            (Opcode.SCHEMA, self._schemas),
+            (Opcode.CHANNEL, self._channels),
+            (Opcode.STATISTICS, [stats]),
+            (Opcode.CHUNK_INDEX, self._chunk_indexes),
+            (Opcode.ATTACHMENT_INDEX, self._attachment_indexes),
+            (Opcode.METADATA_INDEX, self._metadata_indexes),
+        )
+        offsets = []
+        for opcode, records in groups:
+            if not records:
+                continue
+            group_start = self._pos
+            for rec in records:
+                self._record(rec)
+            offsets.append(
+                SummaryOffset(
+                    group_opcode=opcode,
+                    group_start=group_start,
+                    group_length=self._pos - group_start,
+                )
+            )
+        offset_start = self._pos
+        for rec in offsets:
+            self._record(rec)
+        self._record(
+            Footer(summary_start=summary_start, summary_offset_start=offset_start, summary_crc=0)
+        )
+        self._write(MAGIC)
+        self._stream.flush()

@@ -1,0 +1,137 @@
+"""The cloud you can see: list endpoints under the token rules, and the dashboard in a real
+browser (Debian's chromium driven by Playwright) after an upload."""
+
+from __future__ import annotations
+
+import hashlib
+import shutil
+import socket
+import threading
+import time
+from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import httpx
+import pytest
+import uvicorn
+
+from cloud_sync.service.http import create_app
+from cloud_sync.service.rules import CloudService
+from pacc.vocab.triplog import write_trip
+
+from .conftest import follower_trip
+
+OPERATOR = "operator-secret-token"
+
+
+class _Served:
+    def __init__(self, service: CloudService) -> None:
+        self.sock = socket.socket()
+        self.sock.bind(("127.0.0.1", 0))
+        self.url = f"http://127.0.0.1:{self.sock.getsockname()[1]}"
+        app = create_app(service, hashlib.sha256(OPERATOR.encode()).hexdigest())
+        self.server = uvicorn.Server(uvicorn.Config(app, log_level="warning", lifespan="off"))
+        self.thread = threading.Thread(
+            target=self.server.run, kwargs={"sockets": [self.sock]}, daemon=True
+        )
+        self.thread.start()
+        deadline = time.monotonic() + 10.0
+        while not self.server.started and time.monotonic() < deadline:
+            time.sleep(0.01)
+
+    def get(self, path: str, token: str | None) -> Any:
+        headers = {"Authorization": f"Bearer {token}"} if token else {}
+        return httpx.get(self.url + path, headers=headers, timeout=30.0)
+
+    def stop(self) -> None:
+        self.server.should_exit = True
+        self.thread.join(10.0)
+        self.sock.close()
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[_Served, str, str]]:
+    """A cloud with two vehicles, one driver each; car-a's driver uploaded a manual trip and
+    has a learned table."""
+    tmp = tmp_path_factory.mktemp("views")
+    pool = ThreadPoolExecutor(max_workers=1)
+    service = CloudService.open(tmp / "cloud", executor=pool)
+    token_a = service.register_vehicle("car-a")
+    service.register_driver("car-a", "syn")
+    token_b = service.register_vehicle("car-b")
+    service.register_driver("car-b", "other")
+    path = tmp / "t.mcap"
+    write_trip(path, follower_trip(0, minutes=2.0))
+    service.upload("car-a", path.read_bytes())
+    service.wait_idle(120.0)
+    s = _Served(service)
+    yield s, token_a, token_b
+    s.stop()
+    pool.shutdown(wait=True)
+    service.store.close()
+
+
+def test_lists_follow_the_vehicle_token_rules(served: tuple[_Served, str, str]) -> None:
+    s, token_a, token_b = served
+    assert [d["driver_id"] for d in s.get("/v1/drivers", token_a).json()] == ["syn"]
+    assert [d["driver_id"] for d in s.get("/v1/drivers", token_b).json()] == ["other"]
+    every = s.get("/v1/drivers", OPERATOR).json()
+    assert {(d["driver_id"], d["vehicle_id"]) for d in every} == {
+        ("syn", "car-a"),
+        ("other", "car-b"),
+    }
+    assert s.get("/v1/drivers", None).status_code == 401
+    assert s.get("/v1/drivers", "nope").status_code == 401
+    assert s.get("/v1/drivers/syn/versions", token_b).status_code == 403
+    assert s.get("/v1/drivers/syn/batches", token_b).status_code == 403
+    assert s.get("/v1/drivers/ghost/versions", OPERATOR).status_code == 404
+    versions = s.get("/v1/drivers/syn/versions", token_a).json()
+    assert versions == s.get("/v1/drivers/syn/versions", OPERATOR).json()
+    v = versions[-1]
+    assert v["condition"] == "default" and v["source"] == "irl" and v["version"] >= 1
+    assert len(v["speed_mps"]) == len(v["gap_m"]) > 10
+    assert v["meta"]["n_trips"] == 1 and v["meta"]["covered_mps"]
+    batches = s.get("/v1/drivers/syn/batches", token_a).json()
+    assert len(batches) == 1 and v["batches"] == [batches[0]["digest"]]
+    assert all(b["used_in_version"] == v["version"] for b in batches)
+    jobs = s.get("/v1/jobs", token_a).json()
+    assert jobs == [{"driver_id": "syn", "condition": "default", "state": "idle"}]
+    assert s.get("/v1/jobs", token_b).json() == []
+
+
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+
+
+@pytest.mark.slow
+def test_dashboard_in_chromium_shows_the_drivers_table_plot(
+    served: tuple[_Served, str, str],
+) -> None:
+    playwright = pytest.importorskip("playwright.sync_api")
+    if not Path(CHROMIUM).exists():
+        pytest.skip("Debian's chromium is not installed (make installs it)")
+    s, token_a, _ = served
+    with playwright.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True)
+        page = browser.new_page()
+        page.goto(s.url + "/dashboard")
+        page.fill("#token", "wrong")
+        page.click("button[type=submit]")
+        page.wait_for_function("document.getElementById('error').textContent.includes('401')")
+        page.fill("#token", token_a)
+        page.click("button[type=submit]")
+        page.wait_for_selector("body[data-loaded='1']", timeout=20_000)
+        plot = page.locator("canvas.dgpt-plot[data-driver='syn']")
+        assert plot.count() == 1
+        assert page.locator("#driver-other").count() == 0  # car-a does not see car-b's
+        drawn = page.evaluate(
+            """() => { const c = document.querySelector("canvas.dgpt-plot");
+                 const d = c.getContext("2d").getImageData(0, 0, c.width, c.height).data;
+                 let n = 0; for (let i = 3; i < d.length; i += 4) if (d[i] > 0) n++;
+                 return n; }"""
+        )
+        assert drawn > 2000  # axes, the covered range and the table's curve
+        assert "v1" in page.inner_text("table.versions")
+        assert "idle" in page.inner_text("#jobs")
+        browser.close()
