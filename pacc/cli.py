@@ -5,6 +5,11 @@
 paper's study (Table I) through them, ``pacc cloud …`` is
 ``python -m cloud_sync …``. Sub-command modules are imported only when chosen, so
 ``pacc --help`` does not import numpy, cantools or python-can.
+
+The error boundary is here, once: a :class:`~pacc.errors.PaccError` (bad input, bad
+configuration) or an ``OSError`` (a missing file, a full disk) that a sub-command lets through
+becomes one line on stderr, ``pacc <cmd>: error: ...``, and exit status 2; ``pacc --debug
+<cmd> ...`` (or ``PACC_DEBUG=1``) shows the traceback instead.
 """
 
 from __future__ import annotations
@@ -12,7 +17,10 @@ from __future__ import annotations
 import importlib
 import os
 import sys
+import traceback
 from collections.abc import Callable
+
+from pacc.errors import PaccError
 
 #: sub-command -> (module with ``main(argv) -> int``, one-line help)
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
@@ -22,14 +30,17 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "run the bus simulator (lead, ego physics, driver) against an ECU",
     ),
     "drive": ("pacc.commands.drive", "ECU + simulator in one process, lockstep, print PoI/NIM"),
-    "study": ("pacc.commands.study", "the paper's study (Table I) end to end: every driver x controller"),
+    "study": (
+        "pacc.commands.study",
+        "the paper's study (Table I) end to end: every driver x controller",
+    ),
     "cloud": ("pacc.commands.cloud", "cloud side: learn a driver's DGPT by IRL, sync logs"),
     "export": ("pacc.commands.export", "convert CAN logs: pacc MCAP <-> .log/.asc/.blf/.trc/.csv"),
     "replay": ("pacc.commands.replay", "replay a bus recording through the ECU or onto a bus"),
     "plot": ("pacc.commands.plot", "plot one recorded drive: speed, gap, pedals, ACC state"),
 }
 
-_USAGE = "usage: pacc [-h] {" + ",".join(SUBCOMMANDS) + "} ..."
+_USAGE = "usage: pacc [-h] [--debug] {" + ",".join(SUBCOMMANDS) + "} ..."
 
 
 def _help() -> str:
@@ -41,7 +52,13 @@ def _help() -> str:
         "sub-commands:",
     ]
     lines += [f"  {name:<7} {text}" for name, (_, text) in SUBCOMMANDS.items()]
-    lines += ["", "Run 'pacc SUBCOMMAND --help' for the options of one sub-command."]
+    lines += [
+        "",
+        "options:",
+        "  --debug  show the traceback of an error instead of its one line",
+        "",
+        "Run 'pacc SUBCOMMAND --help' for the options of one sub-command.",
+    ]
     return "\n".join(lines)
 
 
@@ -53,9 +70,29 @@ def resolve(name: str) -> Callable[[list[str] | None], int]:
     return entry
 
 
+def error_line(exc: BaseException) -> str:
+    """The one-line text of an error the boundary reports (an OSError without its errno)."""
+    if isinstance(exc, OSError) and exc.strerror:
+        where = f": {exc.filename}" if exc.filename else ""
+        return f"{exc.strerror}{where}"
+    text = " ".join(str(exc).split())  # one line, whatever the message held
+    return text or type(exc).__name__
+
+
+def _prog(name: str, rest: list[str]) -> str:
+    """``pacc ecu``, or ``pacc cloud sync`` for the cloud's sub-commands."""
+    if name == "cloud" and rest and not rest[0].startswith("-"):
+        return f"pacc cloud {rest[0]}"
+    return f"pacc {name}"
+
+
 def main(argv: list[str] | None = None) -> int:
     """Dispatch ``argv`` (default ``sys.argv[1:]``) to a sub-command; return its exit code."""
     args = list(sys.argv[1:] if argv is None else argv)
+    debug = os.environ.get("PACC_DEBUG", "") not in ("", "0")
+    while args and args[0] == "--debug":
+        debug = True
+        args = args[1:]
     if not args or args[0] in ("-h", "--help"):
         print(_help())
         return 0 if args else 2
@@ -76,6 +113,11 @@ def main(argv: list[str] | None = None) -> int:
         # point stdout at devnull so the interpreter's final flush stays quiet
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
+    except (PaccError, OSError) as exc:
+        if debug:
+            traceback.print_exc()
+        print(f"{_prog(name, rest)}: error: {error_line(exc)}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

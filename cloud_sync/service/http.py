@@ -31,6 +31,9 @@ from starlette.concurrency import run_in_threadpool
 from cloud_sync.api import CloudError, PayloadTooLargeError
 from cloud_sync.service.rules import CloudService
 
+#: seconds a vehicle is asked to wait after a 503 or 507 (full disk) answer
+RETRY_AFTER_S = 60
+
 
 def _token(request: Request) -> str | None:
     header = request.headers.get("authorization", "")
@@ -62,7 +65,9 @@ def create_app(service: CloudService) -> FastAPI:
 
     @app.exception_handler(CloudError)
     async def _cloud_error(_: Request, exc: CloudError) -> JSONResponse:
-        return JSONResponse({"detail": str(exc)}, status_code=exc.status)
+        # 503/507: the vehicle keeps the batch and comes back later
+        headers = {"Retry-After": str(RETRY_AFTER_S)} if exc.status in (503, 507) else None
+        return JSONResponse({"detail": str(exc)}, status_code=exc.status, headers=headers)
 
     @app.post("/v1/batches", status_code=201)
     async def upload(request: Request) -> JSONResponse:

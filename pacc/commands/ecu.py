@@ -2,7 +2,7 @@
 
 Example::
 
-    pacc ecu -i virtual -c vcan0 --headway 1.5 --takeovers takeovers/ --duration 300
+    pacc ecu -i virtual -c vcan0 --headway 1.5 --driver d2 --takeovers spool/ --duration 300
 
 The node starts from ``--profile`` (a DGPT JSON file) or a predefined constant-headway table.
 An invalid profile is refused with a clear message; the ECU then runs on the predefined
@@ -10,6 +10,9 @@ table, says so, and reports FaultCode Profile on ACC_Status. State changes, faul
 adaptation decisions are printed as they happen; at exit (``--duration`` elapsed, Ctrl-C or
 SIGTERM) the open takeover segment is written and a summary printed: cycles, frames in/out,
 E2E errors by kind, takeovers, adaptations, max cycle time.
+``--takeovers DIR`` is a spool (:mod:`cloud_sync.vehicle.spool`): each segment becomes one
+batch that ``pacc cloud sync --spool DIR`` uploads, tagged with ``--driver`` (else the
+profile's driver; the predefined table's ``guest`` is refused by the cloud, and said so).
 Exit codes: 0 run completed, 1 bus/DBC/takeover-directory error, 2 usage error (also
 ``--dbc`` without a ``--binding`` that names it).
 """
@@ -24,8 +27,9 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
+from cloud_sync.errors import CloudSyncError
 from dbc.codec import Codec, CodecError
 from dbc.errors import BindingError
 from dbc.network import add_network_arguments, codec_of, network_of
@@ -33,9 +37,16 @@ from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES, AdaptationParams
 from ecu.buslog.format import TimeBase
 from ecu.node import EcuConfig, EcuNode
-from ecu.recorder import TripSink, directory_sink
+from ecu.recorder import TripSink
+from pacc.commands._args import (
+    add_bus_arguments,
+    bus_kwargs,
+    check_distinct_outputs,
+    number,
+)
 from pacc.vocab import FormatError
 from pacc.vocab.dgpt import Dgpt, DgptError, load_dgpt, predefined, save_dgpt
+from pacc.vocab.triplog import Trip
 
 if TYPE_CHECKING:
     from cloud_sync.vehicle.link import VehicleLink
@@ -49,22 +60,23 @@ def build_parser() -> argparse.ArgumentParser:
         prog="pacc ecu",
         description="Run the personalized ACC ECU node on a CAN bus (50 Hz, real time).",
     )
-    bus = p.add_argument_group("bus (omitted: python-can's own configuration applies)")
-    bus.add_argument("-i", "--interface", help="python-can interface, e.g. virtual, socketcan")
-    bus.add_argument("-c", "--channel", help="channel, e.g. vcan0")
-    bus.add_argument("-b", "--bitrate", type=int, help="bitrate, bit/s")
+    add_bus_arguments(p)
     add_network_arguments(p)
     table = p.add_mutually_exclusive_group()
     table.add_argument("--profile", metavar="DGPT.json", help="driver gap preference table")
     table.add_argument(
         "--headway",
-        type=float,
+        type=number(0.1, 10.0),
         default=1.5,
         metavar="S",
         help="predefined table: constant time headway, s (default 1.5; the paper: 1, 3, 4)",
     )
     p.add_argument(
-        "--standstill", type=float, default=4.0, metavar="M", help="standstill gap, m (4)"
+        "--standstill",
+        type=number(0.5, 50.0),
+        default=4.0,
+        metavar="M",
+        help="standstill gap, m (4)",
     )
     p.add_argument(
         "--adaptation",
@@ -90,8 +102,17 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="DIR",
         help="driver profiles: HMI DriverProfileId n > 0 loads DIR/profile_<n>.json",
     )
-    p.add_argument("--set-speed", type=float, metavar="MPS", help="SET engages at this speed")
-    p.add_argument("--takeovers", metavar="DIR", help="write takeover segments (MCAP) here")
+    p.add_argument(
+        "--set-speed",
+        type=number(0.0, 60.0),
+        metavar="MPS",
+        help="SET engages at this speed, m/s (default: the current speed)",
+    )
+    p.add_argument(
+        "--takeovers",
+        metavar="DIR",
+        help="spool takeover segments here (MCAP batches for pacc cloud sync --spool DIR)",
+    )
     p.add_argument(
         "--can-log",
         metavar="FILE",
@@ -99,7 +120,7 @@ def build_parser() -> argparse.ArgumentParser:
         "this MCAP file (pacc replay, pacc plot, pacc export)",
     )
     p.add_argument("--save-profile", metavar="PATH", help="write the final DGPT here at exit")
-    p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
+    p.add_argument("--duration", type=number(0.0, 1e7), metavar="S", help="stop after S seconds")
     cloud = p.add_argument_group("cloud (docs/cloud.md): takeovers up, verified tables down")
     cloud.add_argument("--cloud", metavar="URL|DIR", help="the cloud service, or a folder")
     cloud.add_argument("--vehicle", metavar="ID", help="this vehicle's id (with --cloud)")
@@ -110,21 +131,23 @@ def build_parser() -> argparse.ArgumentParser:
         help="the cloud's public key (default for a folder: "
         "DIR/keys/cloud.pub; required for a URL)",
     )
-    cloud.add_argument("--driver", metavar="ID", help="download this driver's table")
+    cloud.add_argument(
+        "--driver",
+        metavar="ID",
+        help="the driver: tags the takeover segments (--takeovers, --cloud); with --cloud "
+        "also downloads this driver's table",
+    )
     cloud.add_argument("--condition", default="default", help="driving condition of --driver")
     cloud.add_argument("--spool", metavar="DIR", default="pacc-spool", help="the spool folder")
     cloud.add_argument(
-        "--sync-every", type=float, default=60.0, metavar="S", help="download period, s (60)"
+        "--sync-every",
+        type=number(0.0, 86400.0, lo_open=True),
+        default=60.0,
+        metavar="S",
+        help="download period, s (60)",
     )
     p.add_argument("-v", "--verbose", action="store_true", help="log at INFO level")
     return p
-
-
-def _bus_kwargs(args: argparse.Namespace) -> dict[str, Any]:
-    kwargs: dict[str, Any] = {"interface": args.interface, "channel": args.channel}
-    if args.bitrate is not None:
-        kwargs["bitrate"] = args.bitrate
-    return kwargs
 
 
 def _say(text: object) -> None:
@@ -155,9 +178,9 @@ def _stop_on_sigterm(stop: Callable[[], None]) -> Callable[[], None]:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc ecu`` / ``python -m ecu``; returns the exit code."""
     args = build_parser().parse_args(argv)
-    if args.duration is not None and not args.duration >= 0.0:
-        print("pacc ecu: error: --duration must be >= 0", file=sys.stderr)
-        return 2
+    check_distinct_outputs(
+        can_log=args.can_log, save_profile=args.save_profile, profile=args.profile
+    )
     try:
         network_of(args)
     except BindingError as exc:  # --dbc without a binding for it: a usage error
@@ -201,6 +224,7 @@ def _serve(args: argparse.Namespace) -> int:
     node = EcuNode(config, table, link.sink if link is not None else sink, utc_of=base.iso)
     if profile_fault:
         node.report_profile_fault()
+    _warn_guest(args, node)
     recorder = _recorder(args, codec, node, base) if args.can_log else None
     recording_error = None
     try:
@@ -238,6 +262,7 @@ def _config(args: argparse.Namespace) -> tuple[EcuConfig, Dgpt]:
             adaptation_params=AdaptationParams(mode=args.adaptation_mode),
             brake_mode=args.brake,
             set_speed_mps=args.set_speed,
+            trip_meta={"driver_id": args.driver} if args.driver else {},
         )
         return config, predefined(args.headway, args.standstill)
     except (EcuError, FormatError) as exc:
@@ -262,6 +287,12 @@ def _initial_table(
         )
         return fallback, True
     _say(f"profile: {args.profile} ({table.driver_id}, {table.source}, v{table.version})")
+    if args.driver and table.driver_id not in (args.driver, "guest"):
+        print(
+            f"pacc ecu: warning: --profile is driver {table.driver_id!r}'s table, the "
+            f"takeovers are tagged {args.driver!r}",
+            file=sys.stderr,
+        )
     return table, False
 
 
@@ -269,8 +300,8 @@ def _codec_and_sink(args: argparse.Namespace) -> tuple[Codec, TripSink | None]:
     """The network codec (``--dbc``/``--binding`` or the packaged one) and the takeover sink."""
     try:
         codec = codec_of(args)
-        sink = directory_sink(args.takeovers) if args.takeovers else None
-    except (CodecError, EcuError, FormatError) as exc:
+        sink = _spool_sink(args.takeovers) if args.takeovers else None
+    except (CodecError, EcuError, FormatError, CloudSyncError) as exc:
         raise _Exit(1, f"pacc ecu: error: {exc}") from None
     return codec, sink
 
@@ -292,18 +323,51 @@ def _recorder(
             dbc_path=args.dbc,
             binding_path=getattr(args, "binding", None),
         )
-    except (EcuError, FormatError) as exc:
-        raise _Exit(1, f"pacc ecu: error: {exc}") from None
+    except (EcuError, FormatError, OSError) as exc:
+        raise _Exit(1, f"pacc ecu: error: --can-log {args.can_log}: {_one_line(exc)}") from None
+
+
+def _one_line(exc: BaseException) -> str:
+    """An error's text on one line (an OSError as its strerror)."""
+    if isinstance(exc, OSError) and exc.strerror:
+        return exc.strerror
+    return " ".join(str(exc).split())
 
 
 def _close_recorder(recorder: CanLogWriter) -> str | None:
     """Close the recording; the failure's text (None: written)."""
     try:
         recorder.close()
-    except (EcuError, FormatError) as exc:
-        return str(exc)
+    except (EcuError, FormatError, OSError) as exc:
+        return _one_line(exc)
     _say(f"bus recording: {recorder.frames} frames written to {recorder.path}")
     return None
+
+
+def _spool_sink(directory: str) -> TripSink:
+    """The sink of ``--takeovers DIR``: each segment one batch of the spool in DIR (what
+    ``pacc cloud sync --spool DIR`` uploads). SpoolError if DIR cannot be a spool."""
+    from cloud_sync.vehicle.spool import Spool  # noqa: PLC0415 - only with --takeovers
+
+    spool = Spool(directory)
+
+    def put(trip: Trip) -> None:
+        spool.put_trip(trip)
+
+    return put
+
+
+def _warn_guest(args: argparse.Namespace, node: EcuNode) -> None:
+    """Say so when takeover segments will carry no real driver (the cloud refuses them)."""
+    if (args.takeovers or args.cloud) and node.recorder is not None:
+        driver = node.recorder.meta.get("driver_id")
+        if driver in (None, "", "guest"):
+            print(
+                f"pacc ecu: warning: takeover segments are tagged driver {driver!r}: the cloud "
+                "refuses them (403) and they stay spooled; pass --driver ID (a driver "
+                "registered to this vehicle)",
+                file=sys.stderr,
+            )
 
 
 def _check_writable_parent(target: str) -> None:
@@ -386,7 +450,7 @@ def _run_on_bus(
     from ecu.runtime import EcuRuntime  # noqa: PLC0415
 
     try:
-        bus = can.Bus(**_bus_kwargs(args))
+        bus = can.Bus(**bus_kwargs(args))
     except (can.CanError, OSError, ValueError, ImportError) as exc:
         raise _Exit(1, f"pacc ecu: error: cannot open the CAN bus: {exc}") from None
     with bus:

@@ -100,7 +100,7 @@ def test_cli_runs_takeover_and_prints_summary(
     ):
         assert line in out
     # the open takeover segment is flushed at exit; the adapted profile saved
-    assert len(list((tmp_path / "to").glob("takeover_*.mcap"))) == 1
+    assert len(list((tmp_path / "to").glob("*-takeover-*.mcap"))) == 1
     saved = load_dgpt(tmp_path / "p.json")
     assert saved.version == 1 and saved.source == "adapted"
 
@@ -153,7 +153,7 @@ def test_sigterm_stops_cleanly_keeping_takeovers_and_profile(tmp_path: Path) -> 
     )
     assert proc.returncode == 0, proc.stderr
     assert "takeover 1 (accel)" in proc.stdout and "takeovers:      1" in proc.stdout
-    assert len(list((tmp_path / "to").glob("takeover_*.mcap"))) == 1
+    assert len(list((tmp_path / "to").glob("*-takeover-*.mcap"))) == 1
     saved = load_dgpt(tmp_path / "p.json")
     assert saved.version == 1 and saved.source == "adapted"
 
@@ -380,7 +380,7 @@ def test_cli_can_log_records_the_run_and_takeovers_carry_utc(
     assert log.node == "ecu" and (~log.frames.rx).sum() >= 150  # 50 Hz commands for ~4 s
     assert log.frames.rx.sum() > 500 and "ACC_Command" in log.decoded
     assert any("takeover 1" in text for _, text in log.events), (log.events, out)
-    segment = read_trip(next((tmp_path / "to").glob("takeover_*.mcap")))
+    segment = read_trip(next((tmp_path / "to").glob("*-takeover-*.mcap")))
     start = segment.meta["start_utc"]  # the wall clock, not the boot clock
     assert start[:10] == time.strftime("%Y-%m-%d", time.gmtime(before))
     # its cycles at their recorded times: the replayed ECU sends what it sent, bit for bit
