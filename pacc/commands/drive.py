@@ -22,6 +22,7 @@ from dbc.errors import DbcError
 from dbc.network import add_network_arguments
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES
+from pacc.commands._args import check_distinct_outputs, integer, number
 from pacc.vocab import FormatError
 from pacc.vocab.dgpt import load_dgpt
 from pacc.vocab.triplog import TripLogError, write_trip
@@ -87,7 +88,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--driver", default="d1", help="d1..d5 or a driver .toml/.json (default d1)")
     p.add_argument("--controller", default="predefined", choices=CONTROLLERS)
     p.add_argument("--profile", type=Path, help="DGPT JSON for the irl controllers")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=integer(0), default=0)
     p.add_argument("--faults", default="", help="fault SPEC, e.g. 'radar:dropout=100-105'")
     p.add_argument("--log", type=Path, help="write the drive as an MCAP trip log")
     p.add_argument(
@@ -97,7 +98,11 @@ def _parser() -> argparse.ArgumentParser:
         help="record the ECU's bus traffic (raw and decoded), its internals and the "
         "simulated world to this MCAP file",
     )
-    p.add_argument("--duration", type=float, help="simulate only the first N seconds")
+    p.add_argument(
+        "--duration",
+        type=number(0.0, 1e6, lo_open=True),
+        help="simulate only the first N seconds",
+    )
     p.add_argument(
         "--brake-mode",
         choices=("resume", "cancel"),
@@ -106,7 +111,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--condition-factor",
-        type=float,
+        type=number(0.1, 10.0),
         default=1.0,
         help="multiply the driver's preference, e.g. 1.2 for rain (default 1)",
     )
@@ -126,6 +131,14 @@ def _parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc drive``; returns the exit status."""
     args = _parser().parse_args(argv)
+    check_distinct_outputs(log=args.log, can_log=args.can_log, profile=args.profile)
+    if args.profile is not None and not args.controller.startswith("irl"):
+        print(
+            f"pacc drive: error: --profile is for the irl controllers; --controller "
+            f"{args.controller} drives the driver's predefined table",
+            file=sys.stderr,
+        )
+        return 2
     try:
         base = load_driver(args.driver)
         driver = with_condition(base, args.condition_factor)
@@ -149,6 +162,12 @@ def main(argv: list[str] | None = None) -> int:
         if args.controller.startswith("irl"):
             if args.profile is not None:
                 table = load_dgpt(args.profile)
+                if table.driver_id not in (driver.driver_id, "guest"):
+                    print(
+                        f"pacc drive: warning: --profile is driver {table.driver_id!r}'s "
+                        f"table, the drive's driver is {driver.driver_id!r}",
+                        file=sys.stderr,
+                    )
             else:
                 print(
                     "learning the IRL table from the driver's manual trips (cached) ...",

@@ -4,10 +4,12 @@
     pacc export trace.asc trace.mcap --dbc car.dbc   # any python-can log to MCAP, decoded
 
 Formats by suffix: ``.mcap`` (pacc bus recordings, :mod:`ecu.buslog.writer`), ``.log`` (candump),
-``.asc``, ``.blf``, ``.trc``, ``.csv`` and whatever else python-can reads or writes. The
+``.asc``, ``.blf``, ``.trc``, ``.csv`` (another suffix is refused: ``.mf4`` needs asammdf,
+which pacc does not install). The
 conversion is python-can's readers and writers (``can.LogReader``, ``can.Logger``), the
 ``.mcap`` ones registered by pacc as a python-can plugin (:mod:`ecu.buslog.plugin`). A failed
-conversion leaves no output file behind. Exit status: 0, 2 on a bad file or format.
+conversion (also one that read no frame) leaves no output file behind, not even its
+``OUT.part``. Exit status: 0, 2 on a bad file or format.
 """
 
 from __future__ import annotations
@@ -18,7 +20,11 @@ import sys
 from pathlib import Path
 
 from ecu import EcuError
+from pacc.errors import UsageError
 from pacc.vocab import FormatError
+
+#: the formats pacc converts between, by suffix
+FORMATS = (".mcap", ".log", ".asc", ".blf", ".trc", ".csv")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -40,8 +46,16 @@ def convert(src: Path, dst: Path, dbc: str | None = None) -> int:
     number of frames. Raises EcuError (CanLogError) or ValueError/OSError on bad input."""
     import can  # noqa: PLC0415 - python-can only when a log is converted
 
+    for path in (src, dst):
+        if path.suffix.lower() not in FORMATS:
+            raise UsageError(
+                f"{path}: unsupported format {path.suffix or '(no suffix)'!r} "
+                f"(one of {', '.join(FORMATS)})"
+            )
     if src.resolve() == dst.resolve():
-        raise ValueError("IN and OUT are the same file")
+        raise UsageError("IN and OUT are the same file")
+    if src.is_dir():
+        raise UsageError(f"{src} is a directory, not a CAN log")
     if not src.is_file():
         raise FileNotFoundError(f"{src}: no such file")
     kwargs = {"dbc": dbc} if dbc and dst.suffix.lower() == ".mcap" else {}
@@ -52,6 +66,8 @@ def convert(src: Path, dst: Path, dbc: str | None = None) -> int:
         for msg in reader:
             writer.on_message_received(msg)
             n += 1
+    if n == 0:
+        raise UsageError(f"{src}: no CAN frame read (not a {src.suffix} log, or an empty one)")
     return n
 
 
@@ -64,11 +80,14 @@ def main(argv: list[str] | None = None) -> int:
     existed = args.dst.exists()
     try:
         n = convert(args.src, args.dst, args.dbc)
-    except (EcuError, FormatError, ValueError, OSError) as exc:
+    except (EcuError, FormatError, UsageError, ValueError, OSError) as exc:
         if not existed:
             with contextlib.suppress(OSError):
                 args.dst.unlink(missing_ok=True)
-        print(f"pacc export: error: {exc}", file=sys.stderr)
+        with contextlib.suppress(OSError):  # the MCAP writer's temporary file
+            args.dst.with_name(args.dst.name + ".part").unlink(missing_ok=True)
+        text = " ".join(str(exc).split())
+        print(f"pacc export: error: {text}", file=sys.stderr)
         return 2
     print(f"{n} frames: {args.src} -> {args.dst}")
     return 0

@@ -20,6 +20,7 @@ from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
 from pacc.commands.ecu import main, run_until_done
 from pacc.vocab.dgpt import load_dgpt, predefined
+from tests.cli_util import exit_code
 from tests.peers import PeerNodes
 
 _ids = itertools.count()
@@ -211,7 +212,7 @@ def test_usage_and_bus_errors(capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as info:
         main(["--brake", "sometimes"])
     assert info.value.code == 2
-    assert main(["--duration", "-1"]) == 2
+    assert exit_code(main, ["--duration", "-1"]) == 2
     assert main(["--headway", "0.2", "-i", "virtual", "-c", "x"]) == 2
     assert "outside the safety bounds" in capsys.readouterr().err
     assert main(["-i", "no_such_interface", "-c", "x", "--duration", "0"]) == 1

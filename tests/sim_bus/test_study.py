@@ -18,6 +18,7 @@ from sim_bus.study import run as study_run
 from sim_bus.study.config import StudyConfig, validate
 from sim_bus.study.report import format_table, reduction_pct
 from sim_bus.study.run import run_study
+from tests.cli_util import exit_code
 
 SMALL = StudyConfig(
     drivers=("d1", "d4"),
@@ -112,7 +113,7 @@ def test_table_arithmetic() -> None:
 def test_bad_options(
     argv: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    assert main([*argv, "--out", str(tmp_path), "-q"]) == 2
+    assert exit_code(main, [*argv, "--out", str(tmp_path), "-q"]) == 2
     assert message in capsys.readouterr().err
 
 
