@@ -87,6 +87,8 @@ def main(argv: list[str] | None = None) -> int:
         with contextlib.suppress(OSError):  # the MCAP writer's temporary file
             args.dst.with_name(args.dst.name + ".part").unlink(missing_ok=True)
         text = " ".join(str(exc).split())
+        if str(args.src) not in text and str(args.dst) not in text:
+            text = f"{args.src}: {text}"  # a python-can reader's bare message names no file
         print(f"pacc export: error: {text}", file=sys.stderr)
         return 2
     print(f"{n} frames: {args.src} -> {args.dst}")
