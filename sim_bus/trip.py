@@ -17,6 +17,7 @@ import numpy as np
 from pacc.vocab.pedals import PedalScale
 from pacc.vocab.triplog import Trip
 from sim_bus.drivers import DriverParams
+from sim_bus.errors import DriveError
 from sim_bus.world import WorldLog
 
 #: sample period of a trip log, s
@@ -55,7 +56,7 @@ def world_trip(
     }
     clash = sorted(set(own) & set(meta))
     if clash:
-        raise ValueError(f"world_trip: meta may not set {clash}")
+        raise DriveError(f"world_trip: meta may not set {clash}")
     return Trip(
         t_s=log.t_s[sl],
         v_mps=log.v_mps[sl],

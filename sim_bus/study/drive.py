@@ -150,7 +150,7 @@ def run_drive(
     (:mod:`ecu.buslog.writer`), simulated time 0 stamped ``utc_start_ns`` (default: now).
     """
     if cfg.controller not in CONTROLLERS:
-        raise ValueError(f"controller must be one of {CONTROLLERS}")
+        raise DriveError(f"controller must be one of {CONTROLLERS}")
     if cfg.seed < 0:
         raise DriveError(f"seed must be >= 0, got {cfg.seed}")
     prof = profile or resolve_profile(cfg.scenario, cfg.seed)

@@ -13,6 +13,7 @@ from pacc.vocab.dgpt import Dgpt, SafetyBounds, clamp_to_bounds, speed_axis
 from pacc.vocab.pedals import PedalScale
 from pacc.vocab.triplog import Trip
 from sim_bus.drivers import BUILTIN_DRIVERS
+from sim_bus.errors import DriveError
 from sim_bus.scenarios import canonical_profiles, shorten
 from sim_bus.study.drive import DriveConfig, log_to_trip, run_drive
 from sim_bus.trip import condition_name, world_trip
@@ -55,7 +56,7 @@ def test_world_trip_is_10_hz_with_pedals_on_the_network_scale() -> None:
         "mode": "acc",
         "scenario": "B",
     }
-    with pytest.raises(ValueError, match="condition"):
+    with pytest.raises(DriveError, match="condition"):
         world_trip(log, BUILTIN_DRIVERS["d2"], PEDALS, {"condition": "dry"})
 
 
