@@ -1,5 +1,6 @@
 """What several sub-commands share: the bus flags, validated numbers, distinct outputs.
 
+- :class:`CommandParser`: argparse with a one-line usage error.
 - :func:`add_bus_arguments` / :func:`bus_kwargs`: python-can's ``-i/--interface``,
   ``-c/--channel``, ``-b/--bitrate`` (defined once; ``pacc ecu``, ``pacc sim``, ``pacc replay``).
 - :func:`number` / :func:`integer`: argparse types that refuse NaN, infinities and values out
@@ -16,17 +17,29 @@ import math
 import os
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from pacc.errors import UsageError
 
 __all__ = [
+    "CommandParser",
     "add_bus_arguments",
     "bus_kwargs",
     "check_distinct_outputs",
     "integer",
     "number",
 ]
+
+
+class CommandParser(argparse.ArgumentParser):
+    """argparse's parser whose usage error is one line on stderr, ``PROG: error: MESSAGE
+    (PROG --help)``, exit 2: the same shape as every other error of pacc (no usage block)."""
+
+    def error(self, message: str) -> NoReturn:
+        """Print the one line and exit 2."""
+        text = " ".join(message.split())
+        self.exit(2, f"{self.prog}: error: {text} (see {self.prog} --help)\n")
+
 
 #: the largest integer any option takes (seeds, counts): beyond it a typo, not a wish
 INT_MAX = 2**31 - 1
@@ -57,11 +70,11 @@ def bus_kwargs(args: argparse.Namespace) -> dict[str, Any]:
 
 def _range_text(lo: float | None, hi: float | None, lo_open: bool) -> str:
     if lo is not None and hi is not None:
-        return f"{'>' if lo_open else '>='} {lo:g} and <= {hi:g}"
+        return f"{'>' if lo_open else '>='} {lo:.12g} and <= {hi:.12g}"
     if lo is not None:
-        return f"{'>' if lo_open else '>='} {lo:g}"
+        return f"{'>' if lo_open else '>='} {lo:.12g}"
     if hi is not None:
-        return f"<= {hi:g}"
+        return f"<= {hi:.12g}"
     return "finite"
 
 

@@ -22,7 +22,7 @@ from dbc.errors import DbcError
 from dbc.network import add_network_arguments
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES
-from pacc.commands._args import check_distinct_outputs, integer, number
+from pacc.commands._args import CommandParser, check_distinct_outputs, integer, number
 from pacc.vocab import FormatError
 from pacc.vocab.dgpt import load_dgpt
 from pacc.vocab.triplog import TripLogError, write_trip
@@ -75,7 +75,7 @@ def format_result(r: DriveResult) -> str:
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = CommandParser(
         prog="pacc drive",
         description=__doc__.split("\n\n")[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,

@@ -39,6 +39,7 @@ from ecu.buslog.format import TimeBase
 from ecu.node import EcuConfig, EcuNode
 from ecu.recorder import TripSink
 from pacc.commands._args import (
+    CommandParser,
     add_bus_arguments,
     bus_kwargs,
     check_distinct_outputs,
@@ -56,7 +57,7 @@ if TYPE_CHECKING:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``pacc ecu`` (python-can flag conventions)."""
-    p = argparse.ArgumentParser(
+    p = CommandParser(
         prog="pacc ecu",
         description="Run the personalized ACC ECU node on a CAN bus (50 Hz, real time).",
     )

@@ -20,6 +20,7 @@ import sys
 from pathlib import Path
 
 from ecu import EcuError
+from pacc.commands._args import CommandParser
 from pacc.errors import UsageError
 from pacc.vocab import FormatError
 
@@ -28,7 +29,7 @@ FORMATS = (".mcap", ".log", ".asc", ".blf", ".trc", ".csv")
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = CommandParser(
         prog="pacc export",
         description="convert a CAN log between pacc's MCAP and python-can's formats "
         "(.log candump, .asc, .blf, .trc, .csv ...)",

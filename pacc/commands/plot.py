@@ -21,6 +21,7 @@ import numpy as np
 from ecu import EcuError
 from ecu.buslog.format import INPUTS_TOPIC, OUTPUTS_TOPIC, WORLD_TOPIC, CanLogError
 from ecu.buslog.reader import CanLog, read_canlog
+from pacc.commands._args import integer
 from pacc.vocab import FormatError
 from pacc.vocab.acc_state import AccState
 
@@ -126,19 +127,23 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument("log", type=Path, metavar="LOG", help="a pacc bus recording (.mcap)")
     p.add_argument("-o", "--out", type=Path, required=True, help="the PNG to write")
-    p.add_argument("--dpi", type=int, default=120, help="resolution (default 120)")
+    p.add_argument(
+        "--dpi", type=integer(10, 1200), default=120, help="resolution (default 120, 10..1200)"
+    )
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc plot``; returns the exit status."""
     args = _parser().parse_args(argv)
+    # matplotlib appends .png to a name without a suffix: name the file it writes
+    out = args.out if args.out.suffix else args.out.with_name(args.out.name + ".png")
     try:
-        plot(read_canlog(args.log), args.out, args.dpi)
+        plot(read_canlog(args.log), out, args.dpi)
     except (EcuError, FormatError, OSError, ValueError) as exc:
         print(f"pacc plot: error: {exc}", file=sys.stderr)
         return 2
-    print(f"plot: {args.out}")
+    print(f"plot: {out}")
     return 0
 
 

@@ -20,7 +20,7 @@ import sys
 from pathlib import Path
 
 from ecu import EcuError
-from pacc.commands._args import add_bus_arguments, bus_kwargs
+from pacc.commands._args import CommandParser, add_bus_arguments, bus_kwargs
 from pacc.vocab import FormatError
 
 #: state changes printed in full; the rest are counted
@@ -28,7 +28,7 @@ MAX_STATES_SHOWN = 12
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = CommandParser(
         prog="pacc replay",
         description="replay a bus recording through the ECU (--ecu, deterministic) or onto a "
         "CAN bus in real time",

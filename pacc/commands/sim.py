@@ -28,6 +28,7 @@ from ecu.buslog.format import TimeBase
 from ecu.buslog.recording import open_recording
 from ecu.buslog.writer import CanLogWriter
 from pacc.commands._args import (
+    CommandParser,
     add_bus_arguments,
     bus_kwargs,
     check_distinct_outputs,
@@ -52,7 +53,7 @@ PROGRESS_EVERY_S = 5.0
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="pacc sim", description=__doc__.split("\n\n")[0])
+    p = CommandParser(prog="pacc sim", description=__doc__.split("\n\n")[0])
     add_bus_arguments(p)
     p.add_argument(
         "--scenario",

@@ -13,7 +13,7 @@ from dbc.errors import DbcError
 from dbc.network import add_network_arguments, codec_of
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES
-from pacc.commands._args import integer, number
+from pacc.commands._args import CommandParser, integer, number
 from pacc.vocab import FormatError
 from sim_bus.errors import SimError
 from sim_bus.study.collect import StudyInterrupted
@@ -38,7 +38,7 @@ def _name_list(text: str) -> tuple[str, ...]:
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="pacc study", description=_DESCRIPTION)
+    p = CommandParser(prog="pacc study", description=_DESCRIPTION)
     p.add_argument(
         "--drivers",
         type=_name_list,
