@@ -17,10 +17,9 @@ from __future__ import annotations
 import importlib
 import os
 import sys
-import traceback
 from collections.abc import Callable
 
-from pacc.errors import PaccError
+from pacc.errors import PaccError, error_line
 
 #: sub-command -> (module with ``main(argv) -> int``, one-line help)
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
@@ -70,15 +69,6 @@ def resolve(name: str) -> Callable[[list[str] | None], int]:
     return entry
 
 
-def error_line(exc: BaseException) -> str:
-    """The one-line text of an error the boundary reports (an OSError without its errno)."""
-    if isinstance(exc, OSError) and exc.strerror:
-        where = f": {exc.filename}" if exc.filename else ""
-        return f"{exc.strerror}{where}"
-    text = " ".join(str(exc).split())  # one line, whatever the message held
-    return text or type(exc).__name__
-
-
 def _prog(name: str, rest: list[str]) -> str:
     """``pacc ecu``, or ``pacc cloud sync`` for the cloud's sub-commands."""
     if name == "cloud" and rest and not rest[0].startswith("-"):
@@ -115,6 +105,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     except (PaccError, OSError) as exc:
         if debug:
+            import traceback  # noqa: PLC0415 - only for --debug
+
             traceback.print_exc()
         print(f"{_prog(name, rest)}: error: {error_line(exc)}", file=sys.stderr)
         return 2

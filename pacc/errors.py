@@ -17,4 +17,13 @@ class UsageError(PaccError):
     beyond what argparse sees)."""
 
 
-__all__ = ["PaccError", "UsageError"]
+def error_line(exc: BaseException) -> str:
+    """An error's text on one line; an OSError as ``strerror: filename`` (no errno repr)."""
+    if isinstance(exc, OSError) and exc.strerror:
+        where = f": {exc.filename}" if exc.filename else ""
+        return f"{exc.strerror}{where}"
+    text = " ".join(str(exc).split())
+    return text or type(exc).__name__
+
+
+__all__ = ["PaccError", "UsageError", "error_line"]

@@ -19,10 +19,12 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn
 
-from pacc.errors import UsageError
+from pacc.errors import UsageError, error_line
 
 __all__ = [
     "CommandParser",
+    "check_writable_file",
+    "error_line",
     "add_bus_arguments",
     "bus_kwargs",
     "check_distinct_outputs",
@@ -140,3 +142,17 @@ def check_distinct_outputs(**outputs: str | os.PathLike[str] | None) -> None:
                 raise UsageError(
                     f"{opt_a} and {opt_b} name the same file {a}: one would overwrite the other"
                 )
+
+
+def check_writable_file(path: str | os.PathLike[str] | None, option: str) -> None:
+    """Raise :class:`UsageError` unless ``path`` (None: not given) can be created or replaced
+    as a file: not a folder, in an existing writable folder. Checked before a run, so the
+    run's result is not lost at its end."""
+    if path is None:
+        return
+    target = Path(path)
+    parent = target.resolve().parent
+    if target.is_dir():
+        raise UsageError(f"{option} {target}: is a directory, not a file")
+    if not (parent.is_dir() and os.access(parent, os.W_OK)):
+        raise UsageError(f"{option} {target}: {parent} is not a writable folder")

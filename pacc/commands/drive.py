@@ -22,7 +22,14 @@ from dbc.errors import DbcError
 from dbc.network import add_network_arguments
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES
-from pacc.commands._args import CommandParser, check_distinct_outputs, integer, number
+from pacc.commands._args import (
+    CommandParser,
+    check_distinct_outputs,
+    check_writable_file,
+    error_line,
+    integer,
+    number,
+)
 from pacc.vocab import FormatError
 from pacc.vocab.dgpt import load_dgpt
 from pacc.vocab.triplog import TripLogError, write_trip
@@ -132,6 +139,8 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc drive``; returns the exit status."""
     args = _parser().parse_args(argv)
     check_distinct_outputs(log=args.log, can_log=args.can_log, profile=args.profile)
+    check_writable_file(args.log, "--log")  # now, not after the drive
+    check_writable_file(args.can_log, "--can-log")
     if args.profile is not None and not args.controller.startswith("irl"):
         print(
             f"pacc drive: error: --profile is for the irl controllers; --controller "
@@ -178,14 +187,14 @@ def main(argv: list[str] | None = None) -> int:
             table = predefined_table(driver)
         result = run_drive(cfg, driver, table, profile, can_log=args.can_log)
     except (SimError, EcuError, FormatError, DbcError, OSError) as exc:
-        print(f"pacc drive: error: {exc}", file=sys.stderr)
+        print(f"pacc drive: error: {error_line(exc)}", file=sys.stderr)
         return 2
     print(format_result(result))
     if args.log is not None:
         try:
             write_trip(args.log, log_to_trip(result, driver))
         except (TripLogError, OSError) as exc:
-            print(f"pacc drive: error: cannot write {args.log}: {exc}", file=sys.stderr)
+            print(f"pacc drive: error: cannot write {args.log}: {error_line(exc)}", file=sys.stderr)
             return 2
         print(f"  log            {args.log}")
     if args.can_log is not None:

@@ -325,7 +325,10 @@ def _recorder(
             binding_path=getattr(args, "binding", None),
         )
     except (EcuError, FormatError, OSError) as exc:
-        raise _Exit(1, f"pacc ecu: error: --can-log {args.can_log}: {_one_line(exc)}") from None
+        text = _one_line(exc)
+        if args.can_log not in text:
+            text = f"--can-log {args.can_log}: {text}"
+        raise _Exit(1, f"pacc ecu: error: {text}") from None
 
 
 def _one_line(exc: BaseException) -> str:

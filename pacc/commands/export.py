@@ -20,7 +20,7 @@ import sys
 from pathlib import Path
 
 from ecu import EcuError
-from pacc.commands._args import CommandParser
+from pacc.commands._args import CommandParser, error_line
 from pacc.errors import UsageError
 from pacc.vocab import FormatError
 
@@ -87,7 +87,7 @@ def main(argv: list[str] | None = None) -> int:
                 args.dst.unlink(missing_ok=True)
         with contextlib.suppress(OSError):  # the MCAP writer's temporary file
             args.dst.with_name(args.dst.name + ".part").unlink(missing_ok=True)
-        text = " ".join(str(exc).split())
+        text = error_line(exc)
         if str(args.src) not in text and str(args.dst) not in text:
             text = f"{args.src}: {text}"  # a python-can reader's bare message names no file
         print(f"pacc export: error: {text}", file=sys.stderr)

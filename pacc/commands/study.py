@@ -13,7 +13,7 @@ from dbc.errors import DbcError
 from dbc.network import add_network_arguments, codec_of
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES
-from pacc.commands._args import CommandParser, integer, number
+from pacc.commands._args import CommandParser, error_line, integer, number
 from pacc.vocab import FormatError
 from sim_bus.errors import SimError
 from sim_bus.study.collect import StudyInterrupted
@@ -173,7 +173,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"pacc study: {exc}", file=sys.stderr)
         return 130
     except (SimError, EcuError, FormatError, CloudSyncError, DbcError, OSError) as exc:
-        print(f"pacc study: error: {exc}", file=sys.stderr)
+        print(f"pacc study: error: {error_line(exc)}", file=sys.stderr)
         return 2
     took = time.perf_counter() - start
     if cfg.incremental:
