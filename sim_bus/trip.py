@@ -23,11 +23,12 @@ from sim_bus.world import WorldLog
 #: sample period of a trip log, s
 TRIP_DT_S = 0.1
 #: the condition of the nominal condition factor 1
-NOMINAL_CONDITION = "dry"
+NOMINAL_CONDITION = "default"
 
 
 def condition_name(condition_factor: float) -> str:
-    """The trip's condition: ``"dry"`` for the factor 1, else ``"factor-<f>"`` (``"factor-1.2"``).
+    """The trip's condition: ``"default"`` (the nominal one, the cloud's and ``--fetch``'s
+    default too) for the factor 1, else ``"factor-<f>"`` (``"factor-1.2"``).
 
     A condition factor multiplies the driver's preferred time gap (rain lengthens it); the
     simulator has no other name for it, so a trip under another factor is its own condition.

@@ -51,6 +51,12 @@ def _do_learn(args: argparse.Namespace) -> int:
         trips = [load_trip(p) for p in args.demos]
         init = load_dgpt(args.init) if args.init else None
         acc = [t for t in trips if is_acc_trip(t)]
+        if init is None and len(acc) == len(trips):
+            raise CloudSyncError(
+                "every --demos trip is an ACC drive (pacc drive/sim --log, takeovers): IRL "
+                "learns a first table from manual driving; make demonstrations with "
+                "pacc drive --manual --log FILE (or give --init TABLE to fine-tune)"
+            )
         if init is not None and acc and init.meta.get("method") == METHOD:
             # ACC trips given with an IRL table: fine-tune from their takeovers
             manual = [t for t in trips if not is_acc_trip(t)]

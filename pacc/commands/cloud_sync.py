@@ -27,6 +27,15 @@ def _fail(text: str, code: int = 1) -> int:
     return code
 
 
+def _condition_hint(not_found: int) -> str:
+    if not not_found:
+        return ""
+    return (
+        " (conditions: 'default' for trips at the nominal condition factor 1, "
+        "'factor-<f>' otherwise; --condition picks one)"
+    )
+
+
 def _do_sync(args: argparse.Namespace) -> int:
     # numpy, MCAP, httpx and the embedded service (~2 s of imports): not for `--help`
     from cloud_sync.api import is_plain_name  # noqa: PLC0415
@@ -78,7 +87,8 @@ def _do_sync(args: argparse.Namespace) -> int:
         table = table or downloader.last_good(args.fetch, args.condition)
         if table is None:
             return _fail(
-                f"no usable table for {args.fetch}/{args.condition}: {downloader.report.describe()}"
+                f"no usable table for {args.fetch}/{args.condition}: "
+                f"{downloader.report.describe()}{_condition_hint(downloader.report.not_found)}"
             )
         print(
             f"DGPT {table.driver_id}/{table.condition} v{table.version} verified, kept in "

@@ -1,12 +1,15 @@
 """``pacc drive``: the ECU node and the simulator in one process, lockstep, one virtual bus.
 
+    pacc drive --manual --scenario manual1 --driver d2 --seed 1 --log trip.mcap
     pacc drive --scenario B --driver d3 --controller predefined|predefined+oa|irl|irl+oa
                [--profile DGPT.json] [--seed N] [--faults SPEC] [--log run.mcap]
                [--can-log bus.mcap]
                [--adaptation-mode paper|timegap]
 
 prints PoI, NIM, min gap, min time-to-collision, RMS jerk, takeovers, adaptations and
-collisions. A drive is a pure function of (configuration, seed, shipped data): the ECU and
+collisions. ``--manual`` drives the scenario by hand instead (ACC off, no bus: the driver's
+own pedals) and writes the trip to ``--log``: a demonstration for ``pacc cloud learn``. A drive
+is a pure function of (configuration, seed, shipped data): the ECU and
 the simulator each get a python-can ``virtual`` bus on a private channel, and time is the
 simulator's (every frame stamped with simulated time). Exit status: 0, 1 if the drive
 ended in a collision, 2 on bad options or input files.
@@ -15,6 +18,7 @@ ended in a collision, 2 on bad options or input files.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 from pathlib import Path
 
@@ -30,12 +34,14 @@ from pacc.commands._args import (
     integer,
     number,
 )
+from pacc.errors import UsageError
 from pacc.vocab import FormatError
 from pacc.vocab.dgpt import load_dgpt
 from pacc.vocab.triplog import TripLogError, write_trip
 from sim_bus.drivers import load_driver
 from sim_bus.errors import SimError
 from sim_bus.faults import parse_faults
+from sim_bus.scenarios import shorten
 from sim_bus.study.drive import (
     CONTROLLERS,
     DriveConfig,
@@ -99,6 +105,11 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--faults", default="", help="fault SPEC, e.g. 'radar:dropout=100-105'")
     p.add_argument("--log", type=Path, help="write the drive as an MCAP trip log")
     p.add_argument(
+        "--manual",
+        action="store_true",
+        help="drive by hand, ACC off (needs --log): a demonstration for pacc cloud learn",
+    )
+    p.add_argument(
         "--can-log",
         type=Path,
         metavar="FILE",
@@ -135,19 +146,25 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Entry point of ``pacc drive``; returns the exit status."""
-    args = _parser().parse_args(argv)
+def _check_options(args: argparse.Namespace) -> None:
+    """Options that contradict each other or outputs that cannot be written: UsageError
+    (the error boundary prints it, exit 2), before anything runs."""
     check_distinct_outputs(log=args.log, can_log=args.can_log, profile=args.profile)
     check_writable_file(args.log, "--log")  # now, not after the drive
     check_writable_file(args.can_log, "--can-log")
-    if args.profile is not None and not args.controller.startswith("irl"):
-        print(
-            f"pacc drive: error: --profile is for the irl controllers; --controller "
-            f"{args.controller} drives the driver's predefined table",
-            file=sys.stderr,
+    if args.profile is not None and not args.manual and not args.controller.startswith("irl"):
+        raise UsageError(
+            f"--profile is for the irl controllers; --controller {args.controller} drives "
+            "the driver's predefined table"
         )
-        return 2
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``pacc drive``; returns the exit status."""
+    args = _parser().parse_args(argv)
+    _check_options(args)
+    if args.manual:
+        return _manual(args)
     try:
         base = load_driver(args.driver)
         driver = with_condition(base, args.condition_factor)
@@ -204,6 +221,48 @@ def main(argv: list[str] | None = None) -> int:
             return 2
         print(f"  bus recording  {args.can_log}")
     return 1 if result.collision else 0
+
+
+def _manual(args: argparse.Namespace) -> int:
+    """``pacc drive --manual``: the driver follows the scenario by hand, written to --log."""
+    from sim_bus.manual import manual_trip  # noqa: PLC0415
+
+    given = [
+        opt
+        for opt, on in (
+            ("--controller", args.controller != "predefined"),
+            ("--profile", args.profile is not None),
+            ("--faults", bool(args.faults)),
+            ("--can-log", args.can_log is not None),
+            ("--adaptation-mode", args.adaptation_mode is not None),
+        )
+        if on
+    ]
+    if args.log is None or given:
+        why = "needs --log FILE" if args.log is None else f"has no ECU: drop {', '.join(given)}"
+        print(f"pacc drive: error: --manual {why}", file=sys.stderr)
+        return 2
+    try:
+        driver = with_condition(load_driver(args.driver), args.condition_factor)
+        profile = resolve_profile(args.scenario, args.seed)
+        if args.duration is not None:
+            profile = shorten(profile, args.duration)
+        trip = manual_trip(driver, profile, args.seed)
+        trip = dataclasses.replace(
+            trip, meta={**trip.meta, "scenario": args.scenario, "seed": args.seed}
+        )
+        write_trip(args.log, trip)
+    except (SimError, FormatError, DbcError, OSError) as exc:
+        print(f"pacc drive: error: {error_line(exc)}", file=sys.stderr)
+        return 2
+    collided = bool(trip.meta.get("collision"))
+    print(
+        f"manual drive: scenario {args.scenario}, driver {driver.driver_id} by hand (ACC off), "
+        f"seed {args.seed}, {float(trip.t_s[-1] - trip.t_s[0]):.1f} s, condition "
+        f"{trip.meta.get('condition')}{', collision' if collided else ''}"
+    )
+    print(f"  log            {args.log} (a demonstration for pacc cloud learn --demos)")
+    return 1 if collided else 0
 
 
 if __name__ == "__main__":

@@ -61,7 +61,7 @@ def test_drive_prints_the_figures_and_logs(
         assert word in out
     trip = read_trip(log)
     assert trip.meta["mode"] == "acc" and trip.meta["controller"] == "predefined+oa"
-    assert trip.meta["condition"] == "dry" and trip.meta["condition_factor"] == 1.0
+    assert trip.meta["condition"] == "default" and trip.meta["condition_factor"] == 1.0
     assert len(trip.t_s) == 200 and (trip.acc_state == AccState.ACTIVE).any()
 
 

@@ -51,7 +51,7 @@ def test_world_trip_is_10_hz_with_pedals_on_the_network_scale() -> None:
     assert np.allclose(trip.brake_pedal, np.minimum(log.brake_bar[::2] / 250.0, 1.0))
     assert trip.meta == {
         "driver_id": "d2",
-        "condition": "dry",
+        "condition": "default",
         "condition_factor": 1.0,
         "mode": "acc",
         "scenario": "B",
@@ -61,7 +61,7 @@ def test_world_trip_is_10_hz_with_pedals_on_the_network_scale() -> None:
 
 
 def test_condition_is_named_from_the_condition_factor() -> None:
-    assert condition_name(1.0) == "dry"
+    assert condition_name(1.0) == "default"
     assert condition_name(1.2) == "factor-1.2"
     wet = dataclasses.replace(BUILTIN_DRIVERS["d2"], condition_factor=1.25)
     trip = world_trip(_log(3, 0.05), wet, PEDALS, {})
