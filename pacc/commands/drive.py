@@ -22,6 +22,8 @@ import dataclasses
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from dbc.errors import DbcError
 from dbc.network import add_network_arguments
 from ecu import EcuError
@@ -36,6 +38,7 @@ from pacc.commands._args import (
 )
 from pacc.errors import UsageError
 from pacc.vocab import FormatError
+from pacc.vocab.acc_state import AccState
 from pacc.vocab.dgpt import load_dgpt
 from pacc.vocab.triplog import TripLogError, write_trip
 from sim_bus.drivers import load_driver
@@ -55,6 +58,17 @@ from sim_bus.study.drive import (
     with_condition,
 )
 from sim_bus.study.irl_table import irl_table
+
+
+def fault_time(t_s: np.ndarray, acc_state: np.ndarray) -> tuple[float, int]:
+    """Seconds the ECU spent in FAULT over a drive's log (samples at times ``t_s``, s; the
+    last sample counts one period) and how often it entered FAULT."""
+    fault = np.asarray(acc_state) == int(AccState.FAULT)
+    if len(t_s) < 2 or not fault.any():
+        return 0.0, 0
+    dt = np.diff(t_s, append=t_s[-1] + (t_s[-1] - t_s[-2]))
+    entries = int(fault[0]) + int(np.count_nonzero(fault[1:] & ~fault[:-1]))
+    return float(dt[fault].sum()), entries
 
 
 def format_result(r: DriveResult) -> str:
@@ -84,6 +98,9 @@ def format_result(r: DriveResult) -> str:
         f"  frames         {r.frames_sent} sent by the simulator, {r.frames_faulted} faulted; "
         f"ECU E2E errors {r.summary.e2e_errors or 'none'}",
     ]
+    fault_s, entries = fault_time(r.log.t_s, r.log.acc_state)
+    if c.faults or fault_s > 0:
+        lines.append(f"  ACC FAULT      {fault_s:7.1f} s   ({entries} time(s) entered)")
     return "\n".join(lines)
 
 

@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import re
 import signal
 import sys
 import time
@@ -229,7 +230,7 @@ def _serve(args: argparse.Namespace) -> int:
     recorder = _recorder(args, codec, node, base) if args.can_log else None
     recording_error = None
     try:
-        bus_error = _run_on_bus(args, node, codec, link, recorder)
+        bus_error = _run_on_bus(args, node, codec, base, link, recorder)
     finally:
         if link is not None:
             link.stop()
@@ -443,6 +444,7 @@ def _run_on_bus(
     args: argparse.Namespace,
     node: EcuNode,
     codec: Codec,
+    base: TimeBase,
     link: VehicleLink | None = None,
     recorder: CanLogWriter | None = None,
 ) -> str | None:
@@ -459,7 +461,7 @@ def _run_on_bus(
         raise _Exit(1, f"pacc ecu: error: cannot open the CAN bus: {exc}") from None
     with bus:
         try:
-            rt = EcuRuntime(bus, node, codec, on_event=_say, profile_dir=args.profiles)
+            rt = EcuRuntime(bus, node, codec, on_event=_utc_events(base), profile_dir=args.profiles)
         except (EcuError, FormatError) as exc:  # a DBC that cannot carry the outputs
             raise _Exit(1, f"pacc ecu: error: {exc}") from None
         if link is not None:
@@ -471,6 +473,22 @@ def _run_on_bus(
         bus_error = run_until_done(rt, args.duration)
     _say(rt.summary())
     return bus_error
+
+
+def _utc_events(base: TimeBase) -> Callable[[str], None]:
+    """Print the runtime's events (``t=<node clock> s  text``) stamped with the wall clock's
+    UTC time of day instead of the node's boot clock."""
+
+    def say(text: str) -> None:
+        match = _EVENT.fullmatch(text)
+        if match is not None:
+            text = f"{base.iso(float(match[1]))[11:23]} UTC  {match[2]}"
+        _say(text)
+
+    return say
+
+
+_EVENT = re.compile(r"t=(-?[0-9.]+) s  (.*)", re.S)
 
 
 def run_until_done(rt: EcuRuntime, duration_s: float | None) -> str | None:

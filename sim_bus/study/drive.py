@@ -231,7 +231,8 @@ def _drive_recorder(
     base: TimeBase,
 ) -> CanLogWriter:
     """The bus recorder of a drive: the ECU's port, simulated time on ``base``."""
-    settings = {k: str(v) for k, v in dataclasses.asdict(cfg).items()}
+    # a setting left at its default (None) is absent, never the string 'None'
+    settings = {k: str(v) for k, v in dataclasses.asdict(cfg).items() if v is not None}
     return open_recording(
         path,
         codec,

@@ -50,6 +50,7 @@ def test_readme_takeover_flow_uploads_every_segment(
     peers.join()
     out, err = capsys.readouterr()
     assert "takeover segments: 1 of 1 written" in out and "guest" not in err
+    assert " UTC  state STANDBY -> ACTIVE" in out  # wall-clock times, not the boot clock
     (batch,) = Spool(spool).pending()
     assert batch.kind == "takeover" and read_trip(batch.path).meta["driver_id"] == "d2"
     register = ["cloud", "register", "--data", str(cloud), "--vehicle", "car1"]

@@ -320,3 +320,13 @@ def test_sim_takes_the_bus_from_python_can_config(
     finally:
         listener.shutdown()
     assert n >= 60  # ESC and PEDAL every 10 ms, RADAR, HMI
+
+
+def test_fault_time_counts_the_seconds_in_fault() -> None:
+    t = np.arange(0.0, 10.0, 0.1)
+    state = np.full(t.shape, int(AccState.ACTIVE))
+    state[20:40] = int(AccState.FAULT)  # 2 s
+    state[60:65] = int(AccState.FAULT)  # 0.5 s
+    fault_s, entries = drive.fault_time(t, state)
+    assert fault_s == pytest.approx(2.5) and entries == 2
+    assert drive.fault_time(t, np.zeros_like(state)) == (0.0, 0)

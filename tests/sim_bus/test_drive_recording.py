@@ -126,6 +126,7 @@ def test_the_drive_recording_holds_decoded_frames_internals_and_utc(
 ) -> None:
     log = read_canlog(recorded[0])
     assert log.node == "drive" and log.metadata["drive"]["driver_id"] == "d2"
+    assert "None" not in log.metadata["drive"].values()  # unset settings are absent
     assert {"ESC_Speed", "ACC_Command", "ACC_Status", "RADAR_Lead"} <= set(log.decoded)
     assert len(log.frames) == 20 * (100 + 100 + 20 + 10 + 50 + 10)
     out = log.series["/ecu/outputs"]

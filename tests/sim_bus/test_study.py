@@ -98,6 +98,9 @@ def test_table_arithmetic() -> None:
     assert "IRL: PoI 46.9 % (28.6 %), NIM 50.0 % (40.2 %)" in text
     assert "0 collisions, min gap 9.00 m" in text
     assert math.isnan(reduction_pct(0.0, 1.0))  # nan when the base is zero
+    zero = [{**r, "poi_pct": 0.0} for r in rows]  # Predefined never overridden: no reduction
+    text = format_table(cfg, zero)
+    assert "IRL: PoI n/a (28.6 %)" in text and "nan" not in text
     assert reduction_pct(20.0, 15.0) == pytest.approx(25.0)
 
 
