@@ -469,6 +469,12 @@ def _run_on_bus(
         rt.record_to(recorder)
         mode = args.adaptation_mode if args.adaptation else "off"
         _say(f"adaptation: {mode}; brake press: {args.brake}")
+        _say(
+            f"set speed at SET: {args.set_speed:g} m/s"
+            if args.set_speed is not None
+            else "set speed at SET: the current speed (--set-speed M/S fixes it; "
+            "pacc drive uses 40 so that the lead governs)"
+        )
         _say(f"ECU running on {bus.channel_info} (Ctrl-C to stop)")
         bus_error = run_until_done(rt, args.duration)
     _say(rt.summary())
