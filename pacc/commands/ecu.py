@@ -46,9 +46,9 @@ from pacc.commands._args import (
     check_distinct_outputs,
     number,
 )
+from pacc.commands.ecu_cloud import Exit, cloud_link, cloud_table, say, spool_sink, warn_guest
 from pacc.vocab import FormatError
 from pacc.vocab.dgpt import Dgpt, DgptError, load_dgpt, predefined, save_dgpt
-from pacc.vocab.triplog import Trip
 
 if TYPE_CHECKING:
     from cloud_sync.vehicle.link import VehicleLink
@@ -152,16 +152,6 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def _say(text: object) -> None:
-    """Print ``text`` to stdout now. If the reader has gone (``pacc ecu | head``, a dead log
-    pipe) the ECU keeps running: stdout is pointed at devnull and the run goes on to its end,
-    writing takeovers and the profile."""
-    try:
-        print(text, flush=True)
-    except BrokenPipeError:
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-
-
 def _stop_on_sigterm(stop: Callable[[], None]) -> Callable[[], None]:
     """Make SIGTERM call ``stop`` (a service stop ends the run like Ctrl-C: the open takeover
     segment is written, the profile saved); return a function restoring the old handler.
@@ -191,15 +181,6 @@ def main(argv: list[str] | None = None) -> int:
     return _run(args)
 
 
-class _Exit(Exception):
-    """Ends ``pacc ecu`` with ``code`` after printing ``message`` to stderr."""
-
-    def __init__(self, code: int, message: str) -> None:
-        super().__init__(message)
-        self.code = code
-        self.message = message
-
-
 def _run(args: argparse.Namespace) -> int:
     logging.basicConfig(
         level=logging.INFO if args.verbose else logging.WARNING,
@@ -207,18 +188,18 @@ def _run(args: argparse.Namespace) -> int:
     )
     try:
         return _serve(args)
-    except _Exit as exc:
+    except Exit as exc:
         print(exc.message, file=sys.stderr)
         return exc.code
 
 
 def _serve(args: argparse.Namespace) -> int:
-    """Build the node, run it on the bus until done, report and save; raise :class:`_Exit`."""
+    """Build the node, run it on the bus until done, report and save; raise :class:`Exit`."""
     config, fallback = _config(args)
-    link = _cloud_link(args, config) if args.cloud else None
+    link = cloud_link(args, config) if args.cloud else None
     table, profile_fault = _initial_table(args, config, fallback)
     if link is not None and not args.profile:
-        table = _cloud_table(link, table)
+        table = cloud_table(link, table)
     codec, sink = _codec_and_sink(args)
     if args.save_profile:  # refuse now, not after the drive when the table would be lost
         _check_writable_parent(args.save_profile)
@@ -226,7 +207,7 @@ def _serve(args: argparse.Namespace) -> int:
     node = EcuNode(config, table, link.sink if link is not None else sink, utc_of=base.iso)
     if profile_fault:
         node.report_profile_fault()
-    _warn_guest(args, node)
+    warn_guest(args, node)
     recorder = _recorder(args, codec, node, base) if args.can_log else None
     recording_error = None
     try:
@@ -234,12 +215,12 @@ def _serve(args: argparse.Namespace) -> int:
     finally:
         if link is not None:
             link.stop()
-            _say(link.report())
+            say(link.report())
         if recorder is not None:  # before anything can fail: the recording is kept
             recording_error = _close_recorder(recorder)
     if args.takeovers and node.recorder is not None:
         rec = node.recorder
-        _say(
+        say(
             f"takeover segments: {rec.segments - len(rec.pending)} of {rec.segments} written to"
             f" {args.takeovers} ({rec.sink_errors} failed attempts)"
         )
@@ -247,12 +228,12 @@ def _serve(args: argparse.Namespace) -> int:
         try:
             save_dgpt(node.table, args.save_profile)
         except DgptError as exc:
-            raise _Exit(1, f"pacc ecu: error: {exc}") from None
-        _say(f"profile saved: {args.save_profile} (v{node.table.version})")
+            raise Exit(1, f"pacc ecu: error: {exc}") from None
+        say(f"profile saved: {args.save_profile} (v{node.table.version})")
     if bus_error is not None:
-        raise _Exit(1, f"pacc ecu: error: the CAN bus failed: {bus_error}")
+        raise Exit(1, f"pacc ecu: error: the CAN bus failed: {bus_error}")
     if recording_error is not None:  # after the takeovers and the profile are saved
-        raise _Exit(1, f"pacc ecu: error: {recording_error}")
+        raise Exit(1, f"pacc ecu: error: {recording_error}")
     return 0
 
 
@@ -268,7 +249,7 @@ def _config(args: argparse.Namespace) -> tuple[EcuConfig, Dgpt]:
         )
         return config, predefined(args.headway, args.standstill)
     except (EcuError, FormatError) as exc:
-        raise _Exit(2, f"pacc ecu: error: {exc}") from None
+        raise Exit(2, f"pacc ecu: error: {exc}") from None
 
 
 def _initial_table(
@@ -276,7 +257,7 @@ def _initial_table(
 ) -> tuple[Dgpt, bool]:
     """The table to start with, and whether ``--profile`` was refused (then: the fallback)."""
     if not args.profile:
-        _say(f"profile: predefined {args.headway:g} s headway, {args.standstill:g} m standstill")
+        say(f"profile: predefined {args.headway:g} s headway, {args.standstill:g} m standstill")
         return fallback, False
     try:
         table = load_dgpt(args.profile, config.bounds)
@@ -288,7 +269,7 @@ def _initial_table(
             file=sys.stderr,
         )
         return fallback, True
-    _say(f"profile: {args.profile} ({table.driver_id}, {table.source}, v{table.version})")
+    say(f"profile: {args.profile} ({table.driver_id}, {table.source}, v{table.version})")
     if args.driver and table.driver_id not in (args.driver, "guest"):
         print(
             f"pacc ecu: warning: --profile is driver {table.driver_id!r}'s table, the "
@@ -302,9 +283,9 @@ def _codec_and_sink(args: argparse.Namespace) -> tuple[Codec, TripSink | None]:
     """The network codec (``--dbc``/``--binding`` or the packaged one) and the takeover sink."""
     try:
         codec = codec_of(args)
-        sink = _spool_sink(args.takeovers) if args.takeovers else None
+        sink = spool_sink(args.takeovers) if args.takeovers else None
     except (CodecError, EcuError, FormatError, CloudSyncError) as exc:
-        raise _Exit(1, f"pacc ecu: error: {exc}") from None
+        raise Exit(1, f"pacc ecu: error: {exc}") from None
     return codec, sink
 
 
@@ -329,7 +310,7 @@ def _recorder(
         text = _one_line(exc)
         if args.can_log not in text:
             text = f"--can-log {args.can_log}: {text}"
-        raise _Exit(1, f"pacc ecu: error: {text}") from None
+        raise Exit(1, f"pacc ecu: error: {text}") from None
 
 
 def _one_line(exc: BaseException) -> str:
@@ -345,99 +326,14 @@ def _close_recorder(recorder: CanLogWriter) -> str | None:
         recorder.close()
     except (EcuError, FormatError, OSError) as exc:
         return _one_line(exc)
-    _say(f"bus recording: {recorder.frames} frames written to {recorder.path}")
+    say(f"bus recording: {recorder.frames} frames written to {recorder.path}")
     return None
-
-
-def _spool_sink(directory: str) -> TripSink:
-    """The sink of ``--takeovers DIR``: each segment one batch of the spool in DIR (what
-    ``pacc cloud sync --spool DIR`` uploads). SpoolError if DIR cannot be a spool."""
-    from cloud_sync.vehicle.spool import Spool  # noqa: PLC0415 - only with --takeovers
-
-    spool = Spool(directory)
-
-    def put(trip: Trip) -> None:
-        spool.put_trip(trip)
-
-    return put
-
-
-def _warn_guest(args: argparse.Namespace, node: EcuNode) -> None:
-    """Say so when takeover segments will carry no real driver (the cloud refuses them)."""
-    if (args.takeovers or args.cloud) and node.recorder is not None:
-        driver = node.recorder.meta.get("driver_id")
-        if driver in (None, "", "guest"):
-            print(
-                f"pacc ecu: warning: takeover segments are tagged driver {driver!r}: the cloud "
-                "refuses them (403) and they stay spooled; pass --driver ID (a driver "
-                "registered to this vehicle)",
-                file=sys.stderr,
-            )
 
 
 def _check_writable_parent(target: str) -> None:
     parent = Path(target).resolve().parent
     if not (parent.is_dir() and os.access(parent, os.W_OK)):
-        raise _Exit(1, f"pacc ecu: error: --save-profile: {parent} is not a writable directory")
-
-
-def _cloud_link(args: argparse.Namespace, config: EcuConfig) -> VehicleLink:
-    """The vehicle's cloud link of ``--cloud`` (usage and set-up errors raise _Exit)."""
-    # the cloud side (httpx, cryptography, the embedded service) is only for --cloud runs
-    from cloud_sync.errors import CloudSyncError  # noqa: PLC0415
-    from cloud_sync.signing import load_public_key  # noqa: PLC0415
-    from cloud_sync.vehicle.connect import connect, is_url, read_token  # noqa: PLC0415
-    from cloud_sync.vehicle.download import ProfileDownloader  # noqa: PLC0415
-    from cloud_sync.vehicle.link import VehicleLink  # noqa: PLC0415
-    from cloud_sync.vehicle.spool import Spool  # noqa: PLC0415
-
-    if not (args.vehicle and args.token_file):
-        raise _Exit(2, "pacc ecu: error: --cloud needs --vehicle ID and --token-file F")
-    if args.takeovers:
-        raise _Exit(2, "pacc ecu: error: --cloud spools the takeovers: drop --takeovers")
-    if args.driver and args.profile:
-        raise _Exit(2, "pacc ecu: error: --driver (the cloud's tables) or --profile, not both")
-    if not args.sync_every > 0:
-        raise _Exit(2, "pacc ecu: error: --sync-every must be > 0")
-    trust = args.trust or (None if is_url(args.cloud) else Path(args.cloud) / "keys" / "cloud.pub")
-    if args.driver and trust is None:
-        raise _Exit(2, "pacc ecu: error: --driver with a cloud URL needs --trust KEY.pub")
-    try:
-        # short calls: the start-up download must not hold the control loop back for long
-        cloud = connect(args.cloud, read_token(args.token_file), timeout_s=5.0)
-        downloader = None
-        if args.driver:
-            assert trust is not None
-            downloader = ProfileDownloader(
-                cloud, load_public_key(trust), Path(args.spool) / "profiles", config.bounds
-            )
-        link = VehicleLink(
-            cloud,
-            Spool(args.spool),
-            args.vehicle,
-            downloader=downloader,
-            driver_id=args.driver,
-            condition=args.condition,
-            sync_every_s=args.sync_every,
-        )
-    except (CloudSyncError, OSError) as exc:
-        raise _Exit(1, f"pacc ecu: error: {exc}") from None
-    _say(f"cloud: {args.cloud} as vehicle {args.vehicle}, spool {args.spool}")
-    return link
-
-
-def _cloud_table(link: VehicleLink, table: Dgpt) -> Dgpt:
-    """The driver's newest verified cloud table, else ``table`` (never raises)."""
-    try:
-        cloud_table = link.initial_table()
-    except Exception as exc:  # the start table must not depend on the cloud's health
-        _say(f"cloud: start-up download failed ({type(exc).__name__}: {exc})")
-        cloud_table = None
-    if cloud_table is None:
-        _say("cloud: no verified table for the driver yet; keeping the start table")
-        return table
-    _say(f"profile: cloud {cloud_table.driver_id} {cloud_table.source} v{cloud_table.version}")
-    return cloud_table
+        raise Exit(1, f"pacc ecu: error: --save-profile: {parent} is not a writable directory")
 
 
 def _run_on_bus(
@@ -458,26 +354,26 @@ def _run_on_bus(
     try:
         bus = can.Bus(**bus_kwargs(args))
     except (can.CanError, OSError, ValueError, ImportError) as exc:
-        raise _Exit(1, f"pacc ecu: error: cannot open the CAN bus: {exc}") from None
+        raise Exit(1, f"pacc ecu: error: cannot open the CAN bus: {exc}") from None
     with bus:
         try:
             rt = EcuRuntime(bus, node, codec, on_event=_utc_events(base), profile_dir=args.profiles)
         except (EcuError, FormatError) as exc:  # a DBC that cannot carry the outputs
-            raise _Exit(1, f"pacc ecu: error: {exc}") from None
+            raise Exit(1, f"pacc ecu: error: {exc}") from None
         if link is not None:
             link.start(rt.offer_table)
         rt.record_to(recorder)
         mode = args.adaptation_mode if args.adaptation else "off"
-        _say(f"adaptation: {mode}; brake press: {args.brake}")
-        _say(
+        say(f"adaptation: {mode}; brake press: {args.brake}")
+        say(
             f"set speed at SET: {args.set_speed:g} m/s"
             if args.set_speed is not None
             else "set speed at SET: the current speed (--set-speed M/S fixes it; "
             "pacc drive uses 40 so that the lead governs)"
         )
-        _say(f"ECU running on {bus.channel_info} (Ctrl-C to stop)")
+        say(f"ECU running on {bus.channel_info} (Ctrl-C to stop)")
         bus_error = run_until_done(rt, args.duration)
-    _say(rt.summary())
+    say(rt.summary())
     return bus_error
 
 
@@ -485,13 +381,13 @@ def _utc_events(base: TimeBase) -> Callable[[str], None]:
     """Print the runtime's events (``t=<node clock> s  text``) stamped with the wall clock's
     UTC time of day instead of the node's boot clock."""
 
-    def say(text: str) -> None:
+    def stamped(text: str) -> None:
         match = _EVENT.fullmatch(text)
         if match is not None:
             text = f"{base.iso(float(match[1]))[11:23]} UTC  {match[2]}"
-        _say(text)
+        say(text)
 
-    return say
+    return stamped
 
 
 _EVENT = re.compile(r"t=(-?[0-9.]+) s  (.*)", re.S)
@@ -510,7 +406,7 @@ def run_until_done(rt: EcuRuntime, duration_s: float | None) -> str | None:
     try:
         rt.run_realtime(duration_s)
     except KeyboardInterrupt:
-        _say("interrupted")
+        say("interrupted")
     except can.CanError as exc:
         return str(exc) or type(exc).__name__
     finally:
