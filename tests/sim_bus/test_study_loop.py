@@ -37,7 +37,7 @@ def test_study_learns_its_irl_tables_in_the_embedded_cloud(tmp_path: Path) -> No
     table = load_dgpt(tmp_path / "irl" / "d2.json")
     assert (table.source, table.version) == ("irl", versions[-1].version)
     assert list((tmp_path / "spool").glob("*.mcap")) == []  # all acknowledged
-    cached = tmp_path / "spool" / "profiles" / "d2" / "dry.signed.json"
+    cached = tmp_path / "spool" / "profiles" / "d2" / "default.signed.json"
     assert cached.is_file()  # the vehicle keeps the verified table it drove with
 
 
