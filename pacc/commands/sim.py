@@ -14,6 +14,7 @@ At the end (or on Ctrl-C) it prints the same figures as ``pacc drive``. Exit sta
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import time
@@ -110,6 +111,11 @@ def _setup(args: argparse.Namespace) -> tuple[DriverParams, FaultSpec, LeadProfi
     return driver, faults, profile
 
 
+def _fig(value: float, spec: str, unit: str) -> str:
+    """``value`` formatted with its unit, or ``n/a`` (no ACC-ON time: no PoI, no NIM)."""
+    return f"{value:{spec}}{unit}" if math.isfinite(value) else "n/a"
+
+
 def _state_name(code: int) -> str:
     """The ACC state's name (OFF, STANDBY, ACTIVE …) of a code on the bus."""
     try:
@@ -193,7 +199,8 @@ def main(argv: list[str] | None = None) -> int:
         + (f"; {node.send_errors} frames refused by the bus" if node.send_errors else "")
     )
     print(
-        f"  PoI {m.poi_pct:.2f} %  NIM {m.nim_per_min:.2f} /min  min gap {m.min_gap_m:.2f} m  "
+        f"  PoI {_fig(m.poi_pct, '.2f', ' %')}  NIM {_fig(m.nim_per_min, '.2f', ' /min')}  "
+        f"min gap {m.min_gap_m:.2f} m  "
         f"min TTC {m.min_ttc_s:.2f} s  RMS jerk {m.rms_jerk_mps3:.3f} m/s^3  presses "
         f"{m.press_onsets}  collisions {1 if collided else 0}"
     )
