@@ -281,3 +281,36 @@ def main() -> None:
 
 if __name__ == "__main__":
     main()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["sim", "-i", "virtual", "-c", "full-disk", "--duration", "2", "--quiet"],
+        ["ecu", "-i", "virtual", "-c", "full-disk", "--duration", "1"],
+        ["drive", "--duration", "5"],
+    ],
+)
+def test_a_full_disk_under_can_log_is_one_error_line(argv: list[str], tmp_path: Path) -> None:
+    """``--can-log`` onto a disk that fills up (a file-size limit of 8 KiB: the same OSError
+    path as ENOSPC, EFBIG): a non-zero exit and one error line, no traceback."""
+    import resource  # noqa: PLC0415
+    import subprocess  # noqa: PLC0415
+    import sys  # noqa: PLC0415
+
+    def limit() -> None:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (8192, 8192))
+
+    done = subprocess.run(
+        [sys.executable, "-m", "pacc", *argv, "--can-log", "bus.mcap"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        preexec_fn=limit,  # noqa: PLW1509 - a resource limit for the child only
+        check=False,
+    )
+    assert done.returncode != 0, done.stdout
+    assert "Traceback" not in done.stderr, done.stderr
+    assert verdict(done.returncode, done.stderr, f"pacc {argv[0]}") is None, done.stderr
