@@ -39,9 +39,9 @@ from pacc.commands._args import (
 from pacc.errors import UsageError
 from pacc.vocab import FormatError
 from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt import load_dgpt
+from pacc.vocab.dgpt import Dgpt, load_dgpt
 from pacc.vocab.triplog import TripLogError, write_trip
-from sim_bus.drivers import load_driver
+from sim_bus.drivers import DriverParams, load_driver
 from sim_bus.errors import SimError
 from sim_bus.faults import parse_faults
 from sim_bus.scenarios import shorten
@@ -181,6 +181,24 @@ def _check_options(args: argparse.Namespace) -> None:
         )
 
 
+def _table(args: argparse.Namespace, base: DriverParams, driver: DriverParams) -> Dgpt:
+    """The drive's table: ``--profile`` or the learned IRL one for the irl controllers (the
+    IRL table is learned in normal conditions, from ``base``), else the predefined one."""
+    if not args.controller.startswith("irl"):
+        return predefined_table(driver)
+    if args.profile is None:
+        print("learning the IRL table from the driver's manual trips (cached) ...", file=sys.stderr)
+        return irl_table(base, args.seed, args.cache)
+    table = load_dgpt(args.profile)
+    if table.driver_id not in (driver.driver_id, "guest"):
+        print(
+            f"pacc drive: warning: --profile is driver {table.driver_id!r}'s table, the "
+            f"drive's driver is {driver.driver_id!r}",
+            file=sys.stderr,
+        )
+    return table
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc drive``; returns the exit status."""
     args = _parser().parse_args(argv)
@@ -207,26 +225,13 @@ def main(argv: list[str] | None = None) -> int:
         )
         drive_codec(cfg)  # a DBC without its binding: refused before any learning
         profile = resolve_profile(args.scenario, args.seed)
-        if args.controller.startswith("irl"):
-            if args.profile is not None:
-                table = load_dgpt(args.profile)
-                if table.driver_id not in (driver.driver_id, "guest"):
-                    print(
-                        f"pacc drive: warning: --profile is driver {table.driver_id!r}'s "
-                        f"table, the drive's driver is {driver.driver_id!r}",
-                        file=sys.stderr,
-                    )
-            else:
-                print(
-                    "learning the IRL table from the driver's manual trips (cached) ...",
-                    file=sys.stderr,
-                )
-                table = irl_table(base, args.seed, args.cache)  # learned in normal conditions
-        else:
-            table = predefined_table(driver)
+        table = _table(args, base, driver)
         result = run_drive(cfg, driver, table, profile, can_log=args.can_log)
     except (SimError, EcuError, FormatError, DbcError, OSError) as exc:
-        print(f"pacc drive: error: {error_line(exc)}", file=sys.stderr)
+        text = error_line(exc)
+        if isinstance(exc, OSError) and exc.filename is None and args.can_log is not None:
+            text = f"--can-log {args.can_log}: {text}"  # the recording's write, unnamed
+        print(f"pacc drive: error: {text}", file=sys.stderr)
         return 2
     print(format_result(result))
     if args.log is not None:
