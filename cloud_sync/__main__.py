@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from pacc.commands.cloud import main
+import sys
+
+from pacc.cli import main
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(main(["cloud", *sys.argv[1:]]))

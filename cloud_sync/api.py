@@ -85,14 +85,14 @@ ERRORS_BY_STATUS: dict[int, type[CloudError]] = {
 }
 
 
-_PLAIN_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
+_PLAIN_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 
 
 def is_plain_name(value: object) -> bool:
     """True for a driver id or condition the cloud accepts: 1-64 characters of letters,
     digits, ``_ . -``, starting with a letter or digit (so never ``..``, ``/`` or absolute:
     these names become folder names in the cloud's store and on the vehicle)."""
-    return isinstance(value, str) and _PLAIN_NAME.match(value) is not None
+    return isinstance(value, str) and _PLAIN_NAME.fullmatch(value) is not None
 
 
 @dataclass(frozen=True)

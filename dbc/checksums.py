@@ -25,6 +25,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from dbc.e2e import crc8_update, e2e_crc
+from dbc.errors import DbcError
 
 #: a checksum bound to one message: payload (checksum bits zero) -> checksum value
 Checksum = Callable[[bytes], int]
@@ -105,7 +106,7 @@ def make(kind: str, frame_id: int, length: int, byte: int) -> Checksum | None:
         return autosar_p01(frame_id, length, byte)
     if kind == "none":
         return None
-    raise ValueError(f"unknown checksum {kind!r} (one of {', '.join(KINDS)})")
+    raise DbcError(f"unknown checksum {kind!r} (one of {', '.join(KINDS)})")
 
 
 __all__ = [

@@ -23,6 +23,8 @@ from __future__ import annotations
 from collections import Counter
 from enum import Enum
 
+from dbc.errors import DbcError
+
 CRC8_POLY = 0x1D
 CRC8_INIT = 0xFF
 CRC8_XOROUT = 0xFF
@@ -110,7 +112,7 @@ class E2EReceiver:
         self, cycle_s: float, timeout_multiple: float = 10.0, counter_modulo: int = COUNTER_MODULO
     ) -> None:
         if cycle_s <= 0 or timeout_multiple <= 0 or counter_modulo < 2:
-            raise ValueError("cycle_s and timeout_multiple must be positive, counter_modulo >= 2")
+            raise DbcError("cycle_s and timeout_multiple must be positive, counter_modulo >= 2")
         self.modulo = counter_modulo
         self.cycle_s = cycle_s
         self.timeout_s = cycle_s * timeout_multiple

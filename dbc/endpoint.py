@@ -15,7 +15,7 @@ import can
 
 from dbc.codec import Codec, Decoded, MessageCodec, RoleCodec, Value
 from dbc.e2e import E2EReceiver, E2EStatus
-from dbc.errors import CrcError, DlcError, EncodeError, RangeError
+from dbc.errors import CrcError, DbcError, DlcError, EncodeError, RangeError
 
 #: Pseudo-role under which frames of no bound message are counted.
 UNKNOWN_ROLE = "?"
@@ -76,7 +76,7 @@ class Inbox:
             rc = codec.roles[role]
             for mc in rc.parts:
                 if mc.cycle_s <= 0:
-                    raise ValueError(f"role {role}: message {mc.name} has no GenMsgCycleTime")
+                    raise DbcError(f"role {role}: message {mc.name} has no GenMsgCycleTime")
                 self._by_id[mc.frame_id] = mc
                 self.receivers[mc.key] = E2EReceiver(
                     mc.cycle_s, timeout_multiple, mc.counter_modulo or 16

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from pacc.commands.ecu import main
+import sys
+
+from pacc.cli import main
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(main(["ecu", *sys.argv[1:]]))

@@ -5,6 +5,11 @@
 paper's study (Table I) through them, ``pacc cloud …`` is
 ``python -m cloud_sync …``. Sub-command modules are imported only when chosen, so
 ``pacc --help`` does not import numpy, cantools or python-can.
+
+The error boundary is here, once: a :class:`~pacc.errors.PaccError` (bad input, bad
+configuration) or an ``OSError`` (a missing file, a full disk) that a sub-command lets through
+becomes one line on stderr, ``pacc <cmd>: error: ...``, and exit status 2; ``pacc --debug
+<cmd> ...`` (or ``PACC_DEBUG=1``) shows the traceback instead.
 """
 
 from __future__ import annotations
@@ -13,6 +18,8 @@ import importlib
 import os
 import sys
 from collections.abc import Callable
+
+from pacc.errors import PaccError, error_line
 
 #: sub-command -> (module with ``main(argv) -> int``, one-line help)
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
@@ -33,7 +40,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "demos": ("pacc.commands.demos", "real-car bus logs as IRL demonstrations (trip logs)"),
 }
 
-_USAGE = "usage: pacc [-h] {" + ",".join(SUBCOMMANDS) + "} ..."
+_USAGE = "usage: pacc [-h] [--debug] {" + ",".join(SUBCOMMANDS) + "} ..."
 
 
 def _help() -> str:
@@ -45,7 +52,13 @@ def _help() -> str:
         "sub-commands:",
     ]
     lines += [f"  {name:<7} {text}" for name, (_, text) in SUBCOMMANDS.items()]
-    lines += ["", "Run 'pacc SUBCOMMAND --help' for the options of one sub-command."]
+    lines += [
+        "",
+        "options:",
+        "  --debug  show the traceback of an error instead of its one line",
+        "",
+        "Run 'pacc SUBCOMMAND --help' for the options of one sub-command.",
+    ]
     return "\n".join(lines)
 
 
@@ -57,9 +70,20 @@ def resolve(name: str) -> Callable[[list[str] | None], int]:
     return entry
 
 
+def _prog(name: str, rest: list[str]) -> str:
+    """``pacc ecu``, or ``pacc cloud sync`` for the cloud's sub-commands."""
+    if name == "cloud" and rest and not rest[0].startswith("-"):
+        return f"pacc cloud {rest[0]}"
+    return f"pacc {name}"
+
+
 def main(argv: list[str] | None = None) -> int:
     """Dispatch ``argv`` (default ``sys.argv[1:]``) to a sub-command; return its exit code."""
     args = list(sys.argv[1:] if argv is None else argv)
+    debug = os.environ.get("PACC_DEBUG", "") not in ("", "0")
+    while args and args[0] == "--debug":
+        debug = True
+        args = args[1:]
     if not args or args[0] in ("-h", "--help"):
         print(_help())
         return 0 if args else 2
@@ -80,6 +104,13 @@ def main(argv: list[str] | None = None) -> int:
         # point stdout at devnull so the interpreter's final flush stays quiet
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
+    except (PaccError, OSError) as exc:
+        if debug:
+            import traceback  # noqa: PLC0415 - only for --debug
+
+            traceback.print_exc()
+        print(f"{_prog(name, rest)}: error: {error_line(exc)}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

@@ -1,6 +1,8 @@
 """``python -m sim_bus`` is ``pacc sim``: the simulator alone against an ECU on a bus."""
 
-from pacc.commands.sim import main
+import sys
+
+from pacc.cli import main
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(main(["sim", *sys.argv[1:]]))

@@ -44,7 +44,7 @@ def manual_trip(
         raise DriveError(f"a seed is an integer >= 0, got {seed}")
     cfg = plant or PlantConfig(dt_s=MANUAL_DT_S)
     if abs(cfg.dt_s - MANUAL_DT_S) > 1e-12:
-        raise ValueError(f"manual trips run at dt_s = {MANUAL_DT_S}")
+        raise DriveError(f"manual trips run at dt_s = {MANUAL_DT_S}")
     ss = np.random.SeedSequence([seed, 0x6D616E])
     rng_plant, rng_driver = (np.random.default_rng(s) for s in ss.spawn(2))
     v_lead, a_lead = profile.resample(MANUAL_DT_S)

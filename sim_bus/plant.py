@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sim_bus.errors import DriveError
+
 #: the paper's sample period, the reference of the noise standard deviations (s)
 NOISE_REF_DT_S = 0.1
 
@@ -35,11 +37,11 @@ class PlantConfig:
     def __post_init__(self) -> None:
         # comparisons written so that NaN fails them too
         if not (0 < self.dt_s < math.inf and 0 <= self.actuator_tau_s < math.inf):
-            raise ValueError("dt_s must be > 0 and actuator_tau_s >= 0 (finite)")
+            raise DriveError("dt_s must be > 0 and actuator_tau_s >= 0 (finite)")
         if not (0 <= self.sigma_v_mps < math.inf and 0 <= self.sigma_g_m < math.inf):
-            raise ValueError("noise standard deviations must be finite and >= 0")
+            raise DriveError("noise standard deviations must be finite and >= 0")
         if not -math.inf < self.accel_min_mps2 < 0 < self.accel_max_mps2 < math.inf:
-            raise ValueError("need finite accel_min_mps2 < 0 < accel_max_mps2")
+            raise DriveError("need finite accel_min_mps2 < 0 < accel_max_mps2")
 
 
 @dataclass(frozen=True)

@@ -294,11 +294,19 @@ def save_profile_csv(profile: LeadProfile, path: Path) -> None:
             writer.writerow([f"{t:.3f}", f"{v:.5f}"])
 
 
+#: the fastest lead a profile may hold, m/s (about 360 km/h)
+MAX_LEAD_SPEED_MPS = 100.0
+#: the longest profile, s (a day at 10 Hz is 864 000 samples)
+MAX_PROFILE_S = 86_400.0
+
+
 def load_profile_csv(path: Path, name: str | None = None) -> LeadProfile:
     """Read a recorded ``t_s,v_lead_mps`` CSV and resample it to 10 Hz.
 
     Raises ScenarioError with the file and the reason when the file is unusable (missing
-    columns, non-numeric or non-finite values, time not increasing, negative speeds, < 1 s).
+    columns, non-numeric or non-finite values, time not increasing, negative speeds or
+    speeds above :data:`MAX_LEAD_SPEED_MPS`, shorter than 1 s or longer than
+    :data:`MAX_PROFILE_S`).
     """
     path = Path(path)
     try:
@@ -319,8 +327,16 @@ def load_profile_csv(path: Path, name: str | None = None) -> LeadProfile:
         raise ScenarioError(f"{path}: t_s must be strictly increasing")
     if np.any(v < 0):
         raise ScenarioError(f"{path}: negative speed")
+    if np.any(v > MAX_LEAD_SPEED_MPS):
+        raise ScenarioError(
+            f"{path}: lead speed {v.max():g} m/s above {MAX_LEAD_SPEED_MPS:g} m/s (not a car)"
+        )
     if t[-1] - t[0] < 1.0:
         raise ScenarioError(f"{path}: shorter than 1 s")
+    if t[-1] - t[0] > MAX_PROFILE_S:
+        raise ScenarioError(
+            f"{path}: spans {t[-1] - t[0]:g} s, more than {MAX_PROFILE_S:g} s (a day)"
+        )
     n = int(np.floor((t[-1] - t[0]) / DT_S + 1e-9)) + 1
     grid = np.arange(n) * DT_S
     return LeadProfile(name or path.stem, grid, np.interp(grid + t[0], t, v))

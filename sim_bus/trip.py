@@ -18,16 +18,18 @@ from pacc.vocab.pedals import PedalScale
 from pacc.vocab.triplog import Trip
 from pacc.vocab.tripmode import TripMode
 from sim_bus.drivers import DriverParams
+from sim_bus.errors import DriveError
 from sim_bus.world import WorldLog
 
 #: sample period of a trip log, s
 TRIP_DT_S = 0.1
 #: the condition of the nominal condition factor 1
-NOMINAL_CONDITION = "dry"
+NOMINAL_CONDITION = "default"
 
 
 def condition_name(condition_factor: float) -> str:
-    """The trip's condition: ``"dry"`` for the factor 1, else ``"factor-<f>"`` (``"factor-1.2"``).
+    """The trip's condition: ``"default"`` (the nominal one, the cloud's and ``--fetch``'s
+    default too) for the factor 1, else ``"factor-<f>"`` (``"factor-1.2"``).
 
     A condition factor multiplies the driver's preferred time gap (rain lengthens it); the
     simulator has no other name for it, so a trip under another factor is its own condition.
@@ -56,7 +58,7 @@ def world_trip(
     }
     clash = sorted(set(own) & set(meta))
     if clash:
-        raise ValueError(f"world_trip: meta may not set {clash}")
+        raise DriveError(f"world_trip: meta may not set {clash}")
     return Trip(
         t_s=log.t_s[sl],
         v_mps=log.v_mps[sl],

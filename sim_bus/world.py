@@ -54,11 +54,11 @@ class WorldConfig:
     def __post_init__(self) -> None:
         ratio = self.driver_dt_s / self.plant.dt_s
         if not 1 <= ratio < math.inf or abs(ratio - round(ratio)) > 1e-9:
-            raise ValueError("driver_dt_s must be a whole multiple of plant.dt_s")
+            raise DriveError("driver_dt_s must be a whole multiple of plant.dt_s")
         if not 0 <= self.engage_s < math.inf:
-            raise ValueError("engage_s must be finite and >= 0")
+            raise DriveError("engage_s must be finite and >= 0")
         if not 0 < self.initial_gap_factor < math.inf:
-            raise ValueError("initial_gap_factor must be finite and > 0")
+            raise DriveError("initial_gap_factor must be finite and > 0")
 
 
 @dataclass(frozen=True)

@@ -1,9 +1,10 @@
 """The cloud as an HTTP service: ``pacc cloud serve --data DIR --host 127.0.0.1 --port 8080``.
 
 A FastAPI application over :class:`cloud_sync.service.rules.CloudService` (its OpenAPI description
-is
-served at ``/openapi.json``, the interactive one at ``/docs``). Every call but ``/v1/health``
-and ``/v1/key`` needs ``Authorization: Bearer <vehicle token>``.
+is served at ``/openapi.json``, the interactive one at ``/docs`` with Swagger UI's assets from
+the ``swagger-ui-bundle`` package, served here: it works offline). Every call but
+``/v1/health`` and ``/v1/key`` needs ``Authorization: Bearer <vehicle token>`` (the ``bearer``
+security scheme of the description).
 
 =======  ==================================  ==========================================
 method   path                                what
@@ -14,7 +15,9 @@ GET      /v1/key                             the cloud's public signing key (PEM
 GET      /v1/health                          liveness and counts
 =======  ==================================  ==========================================
 
-Errors answer ``{"detail": "..."}`` with the status of :mod:`cloud_sync.api`'s table. An upload
+Errors answer ``{"detail": "..."}`` with the status of :mod:`cloud_sync.api`'s table (each
+route's possible statuses are in the description); a full disk answers 507 and any other
+storage failure 503, both with ``Retry-After``: the vehicle keeps the batch. An upload
 is refused with 413 as soon as its declared or streamed size passes the limit, before it is
 read whole. Learning jobs run on the service's executor, never in the request.
 """
@@ -24,13 +27,53 @@ from __future__ import annotations
 from dataclasses import asdict
 from typing import Any
 
-from fastapi import FastAPI, Request
-from fastapi.responses import JSONResponse, Response
+from fastapi import FastAPI, Request, Security
+from fastapi.openapi.docs import get_swagger_ui_html
+from fastapi.responses import HTMLResponse, JSONResponse, Response
+from fastapi.security import HTTPBearer
+from fastapi.staticfiles import StaticFiles
+from pydantic import BaseModel
 from starlette.concurrency import run_in_threadpool
+from swagger_ui_bundle import swagger_ui_path
 
 from cloud_sync.api import CloudError, PayloadTooLargeError
 from cloud_sync.service.rules import CloudService
 from cloud_sync.service.views import ServiceViews
+
+#: seconds a vehicle is asked to wait after a 503 or 507 (full disk) answer
+RETRY_AFTER_S = 60
+
+
+class ErrorDetail(BaseModel):
+    """The body of every error answer."""
+
+    detail: str
+
+
+class ReceiptBody(BaseModel):
+    """The cloud's receipt of one uploaded batch."""
+
+    digest: str
+    driver_id: str
+    kind: str
+    duplicate: bool
+
+
+#: documents the bearer scheme; the check itself is CloudService.authenticate
+_BEARER = HTTPBearer(auto_error=False, description="the vehicle's token (pacc cloud register)")
+
+
+def _errors(*statuses: int) -> dict[int | str, dict[str, Any]]:
+    what = {
+        401: "unknown or missing vehicle token",
+        403: "the driver is not registered to this vehicle",
+        404: "no such table (yet)",
+        413: "the batch exceeds the upload limit",
+        422: "not a pacc trip log, or names that are not plain",
+        503: "the cloud's storage failed: retry after Retry-After seconds",
+        507: "the cloud's disk is full: retry after Retry-After seconds",
+    }
+    return {s: {"model": ErrorDetail, "description": what[s]} for s in statuses}
 
 
 def _token(request: Request) -> str | None:
@@ -60,20 +103,56 @@ def create_app(service: CloudService, operator_token_sha256: str | None = None) 
         title="pacc cloud",
         version="1",
         description="Trip-log ingest, per-driver DGPT learning and signed DGPT download.",
+        docs_url=None,  # served below from the packaged assets, not from a CDN
+        redoc_url=None,
     )
+    app.mount("/static/swagger-ui", StaticFiles(directory=swagger_ui_path), name="swagger-ui")
+
+    @app.get("/docs", include_in_schema=False)
+    def docs() -> HTMLResponse:
+        return get_swagger_ui_html(
+            openapi_url=app.openapi_url or "/openapi.json",
+            title="pacc cloud",
+            swagger_js_url="/static/swagger-ui/swagger-ui-bundle.js",
+            swagger_css_url="/static/swagger-ui/swagger-ui.css",
+            swagger_favicon_url="/static/swagger-ui/favicon-32x32.png",
+        )
 
     @app.exception_handler(CloudError)
     async def _cloud_error(_: Request, exc: CloudError) -> JSONResponse:
-        return JSONResponse({"detail": str(exc)}, status_code=exc.status)
+        # 503/507: the vehicle keeps the batch and comes back later
+        headers = {"Retry-After": str(RETRY_AFTER_S)} if exc.status in (503, 507) else None
+        return JSONResponse({"detail": str(exc)}, status_code=exc.status, headers=headers)
 
-    @app.post("/v1/batches", status_code=201)
+    @app.post(
+        "/v1/batches",
+        status_code=201,
+        response_model=ReceiptBody,
+        dependencies=[Security(_BEARER)],
+        responses=_errors(401, 403, 413, 422, 503, 507)
+        | {200: {"model": ReceiptBody, "description": "already held (a duplicate)"}},
+        openapi_extra={
+            "requestBody": {
+                "required": True,
+                "description": "one batch: the raw bytes of an MCAP trip log",
+                "content": {
+                    "application/octet-stream": {"schema": {"type": "string", "format": "binary"}}
+                },
+            }
+        },
+    )
     async def upload(request: Request) -> JSONResponse:
         vehicle = service.authenticate(_token(request))
         data = await _body(request, service.config.max_upload_bytes)
         receipt = await run_in_threadpool(service.upload, vehicle, data)  # parse, fsync, index
         return JSONResponse(asdict(receipt), status_code=200 if receipt.duplicate else 201)
 
-    @app.get("/v1/drivers/{driver_id}/dgpt")
+    @app.get(
+        "/v1/drivers/{driver_id}/dgpt",
+        dependencies=[Security(_BEARER)],
+        responses=_errors(401, 403, 404)
+        | {200: {"content": {"application/json": {}}, "description": "the signed DGPT"}},
+    )
     def latest_dgpt(driver_id: str, request: Request, condition: str = "default") -> Response:
         vehicle = service.authenticate(_token(request))
         data = service.latest_signed(vehicle, driver_id, condition)

@@ -22,12 +22,15 @@
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import hashlib
 import logging
 import os
 import secrets
+import sqlite3
 import threading
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Executor, Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
@@ -39,6 +42,7 @@ from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PrivateKey
 from cloud_sync.api import (
     AuthError,
     BadBatchError,
+    CloudUnavailableError,
     ForbiddenError,
     NotFoundError,
     PayloadTooLargeError,
@@ -198,10 +202,13 @@ class CloudService:
         keys = Path(data_dir) / "keys"
         keys.mkdir(exist_ok=True)
         if not (keys / "cloud.key").exists():
-            key = new_private_key()
-            save_private_key(key, keys / "cloud.key")
+            save_private_key(new_private_key(), keys / "cloud.key")
+        key = load_private_key(keys / "cloud.key")
+        if not (keys / "cloud.pub").is_file():  # new, or deleted: vehicles must find it
             (keys / "cloud.pub").write_bytes(public_pem(key))
-        service = cls(store, load_private_key(keys / "cloud.key"), executor, config, compute)
+        if store.orphans_removed:
+            log.warning("removed %d partial file(s) of a killed run", store.orphans_removed)
+        service = cls(store, key, executor, config, compute)
         service.resume()
         return service
 
@@ -211,6 +218,26 @@ class CloudService:
         """Register a vehicle; return its token (shown once, stored as a hash)."""
         token = secrets.token_urlsafe(32)
         self.store.add_vehicle(vehicle_id, _sha256(token.encode()))
+        return token
+
+    def register(
+        self,
+        vehicle_id: str,
+        drivers: list[str],
+        keep_token: Callable[[str], None] | None = None,
+    ) -> str:
+        """Register a vehicle and its drivers at once and return the token: one transaction,
+        and ``keep_token(token)`` (writing the token file) runs inside it, so a bad or taken
+        driver id or a token that cannot be kept leaves nothing registered. StoreError for
+        names that are not plain, a vehicle already registered, a driver taken."""
+        for what, name in [("vehicle id", vehicle_id)] + [("driver id", d) for d in drivers]:
+            if not is_plain_name(name):
+                raise StoreError(f"{what} {name!r} is not a plain name (letters, digits, _.-)")
+        if len(set(drivers)) != len(drivers):
+            raise StoreError(f"a driver id is repeated: {', '.join(drivers)}")
+        token = secrets.token_urlsafe(32)
+        hook = None if keep_token is None else (lambda: keep_token(token))
+        self.store.register(vehicle_id, _sha256(token.encode()), drivers, hook)
         return token
 
     def register_driver(self, vehicle_id: str, driver_id: str) -> None:
@@ -239,7 +266,8 @@ class CloudService:
             raise PayloadTooLargeError(
                 f"{len(data)} bytes exceed the limit of {self.config.max_upload_bytes}"
             )
-        trip = _parse_trip(data)
+        with _storage_errors():
+            trip = _parse_trip(data)
         driver_id = trip.meta.get("driver_id")
         if not isinstance(driver_id, str) or not driver_id:
             raise BadBatchError("the trip log names no driver_id in its metadata")
@@ -260,7 +288,8 @@ class CloudService:
             received_utc=_utc_now(),
             used_in_version=None,
         )
-        added = self.store.add_batch(row, data)
+        with _storage_errors():
+            added = self.store.add_batch(row, data)
         if added:
             self.schedule(driver_id, condition)
         return Receipt(digest=digest, driver_id=driver_id, kind=row.kind, duplicate=not added)
@@ -427,6 +456,32 @@ def _kind(trip: Trip) -> BatchKind:
         raise BadBatchError(f"not a pacc trip log: {exc}") from exc
 
 
+class StorageFullError(CloudUnavailableError):
+    """The cloud's disk is full: nothing stored; the vehicle keeps the batch and retries."""
+
+    status = 507
+
+
+@contextlib.contextmanager
+def _storage_errors() -> Iterator[None]:
+    """An OS or SQLite failure of the cloud's own storage becomes a retryable answer (507 for
+    a full disk, else 503), never a 500 and never a batch the vehicle drops."""
+    try:
+        yield
+    except OSError as exc:
+        if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            raise StorageFullError(
+                "the cloud's disk is full: batch not stored, retry later"
+            ) from exc
+        raise CloudUnavailableError(f"the cloud's storage failed: {exc.strerror or exc}") from exc
+    except sqlite3.OperationalError as exc:
+        if "full" in str(exc):
+            raise StorageFullError(
+                "the cloud's disk is full: batch not stored, retry later"
+            ) from exc
+        raise CloudUnavailableError(f"the cloud's index failed: {exc}") from exc
+
+
 def _parse_trip(data: bytes) -> Trip:
     try:
         return trip_from_bytes(data, "uploaded trip log")
@@ -440,5 +495,6 @@ __all__ = [
     "DeferredExecutor",
     "InlineExecutor",
     "ServiceConfig",
+    "StorageFullError",
     "train_table",
 ]

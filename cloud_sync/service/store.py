@@ -9,8 +9,9 @@ Layout of ``data_dir``::
 
 Files are written to a temporary name, fsynced and renamed before their row is committed, so
 a row never points at a partial file; a file without a row (a crash between the two) is
-written again by the next upload of the same batch. Every DGPT version is kept. One store
-object may be shared by threads (one connection behind a lock).
+written again by the next upload of the same batch; a temporary file left by a killed
+process (``.<name>.part``) is removed when the store opens. Every DGPT version is kept. One
+store object may be shared by threads (one connection behind a lock); one process per folder.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import os
 import sqlite3
 import threading
 import uuid
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -131,6 +132,21 @@ class CloudStore:
         except (OSError, sqlite3.Error) as exc:
             raise StoreError(f"cannot open the cloud data folder {self.root}: {exc}") from exc
         self._lock = threading.RLock()
+        #: temporary files of a killed process removed at opening
+        self.orphans_removed = self._remove_orphans()
+
+    def _remove_orphans(self) -> int:
+        """Delete ``.*.part`` files under ``blobs/`` and ``dgpt/`` (a write a crash cut short:
+        no row points at them); the count."""
+        removed = 0
+        for folder in ("blobs", "dgpt"):
+            for part in (self.root / folder).glob("**/.*.part"):
+                try:
+                    part.unlink()
+                except OSError:
+                    continue
+                removed += 1
+        return removed
 
     def close(self) -> None:
         """Close the index."""
@@ -157,6 +173,34 @@ class CloudStore:
                 db.execute("INSERT INTO vehicles VALUES (?, ?)", (vehicle_id, token_sha256))
         except sqlite3.IntegrityError as exc:
             raise StoreError(f"vehicle {vehicle_id!r} is already registered") from exc
+
+    def register(
+        self,
+        vehicle_id: str,
+        token_sha256: str,
+        drivers: list[str],
+        before_commit: Callable[[], None] | None = None,
+    ) -> None:
+        """Register a vehicle and its drivers in one transaction: all or nothing.
+
+        ``before_commit`` runs inside the transaction (e.g. writing the token file); if it
+        raises, nothing is registered. StoreError if the vehicle exists or a driver is taken.
+        """
+        with self._tx() as db:
+            if db.execute("SELECT 1 FROM vehicles WHERE vehicle_id = ?", (vehicle_id,)).fetchone():
+                raise StoreError(f"vehicle {vehicle_id!r} is already registered")
+            db.execute("INSERT INTO vehicles VALUES (?, ?)", (vehicle_id, token_sha256))
+            for driver_id in drivers:
+                row = db.execute(
+                    "SELECT vehicle_id FROM drivers WHERE driver_id = ?", (driver_id,)
+                ).fetchone()
+                if row is not None:
+                    raise StoreError(
+                        f"driver {driver_id!r} is already registered to vehicle {row[0]!r}"
+                    )
+                db.execute("INSERT INTO drivers VALUES (?, ?)", (driver_id, vehicle_id))
+            if before_commit is not None:
+                before_commit()
 
     def vehicle_by_token(self, token_sha256: str) -> str | None:
         """The vehicle whose token hashes to ``token_sha256``, or None."""

@@ -30,6 +30,7 @@ from cloud_sync.api import (
     NotFoundError,
     is_plain_name,
 )
+from cloud_sync.errors import CloudSyncError
 from cloud_sync.signing import SignatureError, verify_dgpt
 from pacc.vocab.dgpt import Dgpt, SafetyBounds
 
@@ -45,6 +46,14 @@ class FetchReport:
     offline: int = 0
     not_found: int = 0
     refusals: list[str] = field(default_factory=list)
+
+    def describe(self) -> str:
+        """One human line: the counts, and the newest refusal's reason if any."""
+        text = (
+            f"{self.fetched} fetched, {self.unchanged} unchanged, {self.not_found} not found, "
+            f"{self.offline} offline, {len(self.refusals)} refused"
+        )
+        return text + (f" (last: {self.refusals[-1]})" if self.refusals else "")
 
 
 class ProfileDownloader:
@@ -71,10 +80,12 @@ class ProfileDownloader:
         self.report = FetchReport()
 
     def cache_path(self, driver_id: str, condition: str) -> Path:
-        """Where the last good signed table of (driver, condition) is kept (ValueError for a
-        name that is not plain: it would leave the cache folder)."""
+        """Where the last good signed table of (driver, condition) is kept (CloudSyncError
+        for a name that is not plain: it would leave the cache folder)."""
         if not (is_plain_name(driver_id) and is_plain_name(condition)):
-            raise ValueError(f"not plain names: {driver_id!r}, {condition!r}")
+            raise CloudSyncError(
+                f"not plain names (letters, digits, _.-): {driver_id!r}, {condition!r}"
+            )
         return self.cache_dir / driver_id / f"{condition}.signed.json"
 
     def last_good(self, driver_id: str, condition: str = "default") -> Dgpt | None:

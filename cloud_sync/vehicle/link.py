@@ -17,6 +17,7 @@ import threading
 from collections.abc import Callable
 
 from cloud_sync.api import CloudApi
+from cloud_sync.errors import CloudSyncError
 from cloud_sync.vehicle.download import ProfileDownloader
 from cloud_sync.vehicle.spool import Spool
 from cloud_sync.vehicle.uploader import Uploader, UploaderConfig
@@ -54,7 +55,7 @@ class VehicleLink:
         uploader_config: UploaderConfig | None = None,
     ) -> None:
         if not sync_every_s > 0:
-            raise ValueError(f"sync_every_s must be > 0, got {sync_every_s}")
+            raise CloudSyncError(f"sync_every_s must be > 0, got {sync_every_s}")
         self.cloud = cloud
         self.spool = spool
         self.vehicle_id = vehicle_id

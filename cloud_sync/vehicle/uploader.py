@@ -65,6 +65,8 @@ class UploadStats:
     rejected: int = 0
     held: int = 0
     retries: int = 0
+    #: why the newest held batch was kept ("" if none): for the command to say so
+    last_held: str = ""
 
 
 class Uploader:
@@ -94,6 +96,7 @@ class Uploader:
                 done += int(self._deliver(batch))
             except AuthError as exc:  # every batch would get the same answer: stop the pass
                 self.stats.held += 1
+                self.stats.last_held = f"the cloud refused the token (HTTP 401): {exc}"
                 log.error("upload refused, token not accepted: %s (batches kept)", exc)
                 break
         return done
@@ -125,6 +128,12 @@ class Uploader:
             raise
         except CloudError as exc:  # about the set-up (403 ...): keep it for the next pass
             self.stats.held += 1
+            self.stats.last_held = f"batch {batch.seq}: HTTP {exc.status}: {exc}" + (
+                " (register the driver to this vehicle: pacc cloud register ... --driver ID; "
+                "ECU takeovers need pacc ecu --driver ID)"
+                if exc.status == 403
+                else ""
+            )
             log.error("batch %d kept, the cloud answered HTTP %d: %s", batch.seq, exc.status, exc)
             return False
         if receipt.digest != batch.digest:  # never delete on a receipt for other bytes

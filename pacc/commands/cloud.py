@@ -12,6 +12,7 @@ import argparse
 from pacc.commands import cloud_learn as learn_cmd
 from pacc.commands import cloud_serve as serve_cmd
 from pacc.commands import cloud_sync as sync_cmd
+from pacc.commands._args import CommandParser
 
 __all__ = ["main", "build_parser"]
 
@@ -20,7 +21,7 @@ SUBCOMMAND_MODULES = (learn_cmd, serve_cmd, sync_cmd)
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``pacc cloud`` parser with every sub-command registered."""
-    parser = argparse.ArgumentParser(
+    parser = CommandParser(
         prog="pacc cloud",
         description="Cloud side of pacc: learn each driver's DGPT by IRL, serve it, sync to it.",
     )

@@ -20,6 +20,7 @@ from typing import Any
 
 from cloud_sync.errors import CloudSyncError
 from ecu import EcuError
+from pacc.commands._args import integer, number
 from pacc.vocab import FormatError
 
 __all__ = ["add_subparser"]
@@ -30,17 +31,32 @@ def _do_learn(args: argparse.Namespace) -> int:
     # `pacc cloud --help` stays at ~20 ms of imports
     import numpy as np  # noqa: PLC0415
 
+    from cloud_sync.api import is_plain_name  # noqa: PLC0415
     from cloud_sync.irl.demos import is_acc_trip  # noqa: PLC0415
     from cloud_sync.irl.trainer import METHOD, IrlConfig, fine_tune, learn_dgpt  # noqa: PLC0415
     from cloud_sync.irl.tripfiles import load_trip  # noqa: PLC0415
     from pacc.vocab.dgpt_file import load_dgpt, save_dgpt  # noqa: PLC0415
 
+    for option, name in (("--driver", args.driver), ("--condition", args.condition)):
+        if not is_plain_name(name):
+            print(
+                f"pacc cloud learn: error: {option} {name!r}: not a plain name "
+                "(letters, digits, _.-)",
+                file=sys.stderr,
+            )
+            return 2
     try:
         _check_outputs(args.output, args.plot)  # now, not after training
         config = IrlConfig(takeover_weight=args.takeover_weight)
         trips = [load_trip(p) for p in args.demos]
         init = load_dgpt(args.init) if args.init else None
         acc = [t for t in trips if is_acc_trip(t)]
+        if init is None and len(acc) == len(trips):
+            raise CloudSyncError(
+                "every --demos trip is an ACC drive (pacc drive/sim --log, takeovers): IRL "
+                "learns a first table from manual driving; make demonstrations with "
+                "pacc drive --manual --log FILE (or give --init TABLE to fine-tune)"
+            )
         if init is not None and acc and init.meta.get("method") == METHOD:
             # ACC trips given with an IRL table: fine-tune from their takeovers
             manual = [t for t in trips if not is_acc_trip(t)]
@@ -146,10 +162,10 @@ def add_subparser(subparsers: Any) -> None:
         help="where to write the learned table",
     )
     p.add_argument("--plot", metavar="PNG", help="write the reward / DGPT figure here")
-    p.add_argument("--seed", type=int, default=0, help="seed (default: %(default)s)")
+    p.add_argument("--seed", type=integer(0), default=0, help="seed (default: %(default)s)")
     p.add_argument(
         "--takeover-weight",
-        type=float,
+        type=number(0.0, 1000.0),
         default=5.0,
         help="weight of ACC-trip takeover samples vs manual ones (default: %(default)s)",
     )

@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import logging
 import signal
+import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -25,6 +26,7 @@ from typing import Any
 from cloud_sync.engine.base import open_engine
 from cloud_sync.errors import CloudSyncError
 from cloud_sync.vehicle.connect import write_token
+from pacc.commands._args import integer, number
 
 __all__ = ["add_subparser"]
 
@@ -35,17 +37,21 @@ def _do_register(args: argparse.Namespace) -> int:
 
     try:
         service = CloudService.open(args.data)
-        token = service.register_vehicle(args.vehicle)
-        for driver in args.driver:
-            service.register_driver(args.vehicle, driver)
-        write_token(args.token_file, token)
+        try:  # one transaction: the token file is written before the commit, or nothing is
+            service.register(
+                args.vehicle, args.driver, lambda token: write_token(args.token_file, token)
+            )
+        finally:
+            service.store.close()
     except (CloudSyncError, OSError) as exc:
-        print(f"pacc cloud register: error: {exc}")
+        print(f"pacc cloud register: error: {_one_line(exc)}", file=sys.stderr)
         return 1
     drivers = ", ".join(args.driver) or "none yet"
     print(f"vehicle {args.vehicle} registered (drivers: {drivers})")
     print(f"token written to {args.token_file}")
-    print(f"the vehicle trusts the key {Path(args.data) / 'keys' / 'cloud.pub'}")
+    public = Path(args.data) / "keys" / "cloud.pub"
+    if public.is_file():
+        print(f"the vehicle trusts the key {public}")
     return 0
 
 
@@ -64,6 +70,12 @@ def _operator_sha256(path: str | None) -> str | None:
     return hashlib.sha256(read_token(path).encode()).hexdigest()
 
 
+def _one_line(exc: BaseException) -> str:
+    if isinstance(exc, OSError) and exc.strerror:
+        return f"{exc.strerror}: {exc.filename}" if exc.filename else exc.strerror
+    return " ".join(str(exc).split())
+
+
 def _do_serve(args: argparse.Namespace) -> int:
     # uvicorn and the FastAPI app cost ~0.5 s of start-up: only `serve` needs them
     import uvicorn  # noqa: PLC0415
@@ -74,7 +86,8 @@ def _do_serve(args: argparse.Namespace) -> int:
     if not 1 <= args.port <= 65535 or args.workers < 1 or not args.max_upload_mb > 0:
         print(
             "pacc cloud serve: error: need 1 <= --port <= 65535, --workers >= 1, "
-            "--max-upload-mb > 0"
+            "--max-upload-mb > 0",
+            file=sys.stderr,
         )
         return 2
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
@@ -89,7 +102,7 @@ def _do_serve(args: argparse.Namespace) -> int:
         if args.scheduler is not None:
             compute = open_engine(args.scheduler, args.workers)
     except CloudSyncError as exc:
-        print(f"pacc cloud serve: error: {exc}")
+        print(f"pacc cloud serve: error: {exc}", file=sys.stderr)
         return 2
     threads = max(args.workers, compute.workers if compute is not None else 1)
     pool = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="pacc-learn")
@@ -97,7 +110,7 @@ def _do_serve(args: argparse.Namespace) -> int:
     try:
         service = CloudService.open(args.data, executor=pool, config=config, compute=compute)
     except (CloudSyncError, OSError) as exc:
-        print(f"pacc cloud serve: error: {exc}")
+        print(f"pacc cloud serve: error: {_one_line(exc)}", file=sys.stderr)
         pool.shutdown(wait=True)
         if compute is not None:
             compute.close()
@@ -136,10 +149,15 @@ def add_subparser(subparsers: Any) -> None:
     srv = subparsers.add_parser("serve", help="run the cloud service over HTTP")
     srv.add_argument("--data", required=True, help="the cloud's data folder")
     srv.add_argument("--host", default="127.0.0.1")
-    srv.add_argument("--port", type=int, default=8080)
-    srv.add_argument("--workers", type=int, default=1, help="learning job threads")
-    srv.add_argument("--max-upload-mb", type=float, default=16.0, help="upload size limit, MiB")
-    srv.add_argument("--seed", type=int, default=0, help="seed of every learning job")
+    srv.add_argument("--port", type=integer(1, 65535), default=8080)
+    srv.add_argument("--workers", type=integer(1, 256), default=1, help="learning job threads")
+    srv.add_argument(
+        "--max-upload-mb",
+        type=number(0.0, 4096.0, lo_open=True),
+        default=16.0,
+        help="upload size limit, MiB (default 16, at most 4096)",
+    )
+    srv.add_argument("--seed", type=integer(0), default=0, help="seed of every learning job")
     srv.add_argument(
         "--scheduler",
         metavar="local|tcp://HOST:8786",

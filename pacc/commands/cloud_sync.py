@@ -12,16 +12,33 @@ downloaded, verified against the trusted key and kept in ``DIR/profiles``.
 from __future__ import annotations
 
 import argparse
+import sys
 import threading
 from typing import Any
 
 from cloud_sync.errors import CloudSyncError
+from pacc.commands._args import number
 
 __all__ = ["add_subparser"]
 
 
+def _fail(text: str, code: int = 1) -> int:
+    print(f"pacc cloud sync: error: {text}", file=sys.stderr)
+    return code
+
+
+def _condition_hint(not_found: int) -> str:
+    if not not_found:
+        return ""
+    return (
+        " (conditions: 'default' for trips at the nominal condition factor 1, "
+        "'factor-<f>' otherwise; --condition picks one)"
+    )
+
+
 def _do_sync(args: argparse.Namespace) -> int:
     # numpy, MCAP, httpx and the embedded service (~2 s of imports): not for `--help`
+    from cloud_sync.api import is_plain_name  # noqa: PLC0415
     from cloud_sync.signing import load_public_key  # noqa: PLC0415
     from cloud_sync.vehicle.connect import connect, read_token  # noqa: PLC0415
     from cloud_sync.vehicle.download import ProfileDownloader  # noqa: PLC0415
@@ -29,8 +46,10 @@ def _do_sync(args: argparse.Namespace) -> int:
     from cloud_sync.vehicle.uploader import Uploader, UploaderConfig  # noqa: PLC0415
 
     if args.fetch and not args.trust:
-        print("pacc cloud sync: error: --fetch needs --trust KEY.pub (the cloud's public key)")
-        return 2
+        return _fail("--fetch needs --trust KEY.pub (the cloud's public key)", 2)
+    for option, name in (("--fetch", args.fetch), ("--condition", args.condition)):
+        if name is not None and not is_plain_name(name):
+            return _fail(f"{option} {name!r}: not a plain name (letters, digits, _.-)", 2)
     try:
         spool = Spool(args.spool, quota_bytes=int(args.quota_mb * 1024 * 1024))
         for path in args.add:
@@ -39,8 +58,13 @@ def _do_sync(args: argparse.Namespace) -> int:
         cloud = connect(args.cloud, read_token(args.token_file))
         trusted = load_public_key(args.trust) if args.fetch else None
     except (CloudSyncError, OSError) as exc:
-        print(f"pacc cloud sync: error: {exc}")
-        return 1
+        return _fail(str(exc))
+    if spool.stats.quarantined:
+        print(
+            f"pacc cloud sync: warning: {spool.stats.quarantined} file(s) in {args.spool} are "
+            f"not spool batches (name or digest): moved to {args.spool}/quarantine/",
+            file=sys.stderr,
+        )
     uploader = Uploader(spool, cloud, UploaderConfig(backoff_max_s=min(args.retry_s, 30.0)))
     timer = threading.Timer(args.retry_s, uploader.stop)  # give up retrying after --retry-s
     timer.start()
@@ -49,18 +73,23 @@ def _do_sync(args: argparse.Namespace) -> int:
     finally:
         timer.cancel()
     left = spool.pending()
+    stats = uploader.stats
     print(
-        f"uploaded {done} batch(es) ({uploader.stats.duplicates} already held), "
-        f"{uploader.stats.rejected} rejected, {len(left)} still spooled"
+        f"uploaded {done} batch(es) ({stats.duplicates} already held), "
+        f"{stats.rejected} rejected, {len(left)} still spooled"
     )
-    code = 0 if not left and not uploader.stats.rejected else 1
+    if stats.held and stats.last_held:
+        print(f"pacc cloud sync: batches kept: {stats.last_held}", file=sys.stderr)
+    code = 0 if not left and not stats.rejected else 1
     if trusted is not None:
         downloader = ProfileDownloader(cloud, trusted, spool.root / "profiles")
         table = downloader.fetch(args.fetch, args.condition)
         table = table or downloader.last_good(args.fetch, args.condition)
         if table is None:
-            print(f"no usable table for {args.fetch}: {downloader.report}")
-            return 1
+            return _fail(
+                f"no usable table for {args.fetch}/{args.condition}: "
+                f"{downloader.report.describe()}{_condition_hint(downloader.report.not_found)}"
+            )
         print(
             f"DGPT {table.driver_id}/{table.condition} v{table.version} verified, kept in "
             f"{downloader.cache_path(args.fetch, args.condition)}"
@@ -75,8 +104,18 @@ def add_subparser(subparsers: Any) -> None:
     p.add_argument("--cloud", required=True, help="the service URL, or a folder (embedded)")
     p.add_argument("--token-file", required=True, help="file holding the vehicle's token")
     p.add_argument("--add", nargs="*", default=[], help="MCAP trip logs to spool first")
-    p.add_argument("--quota-mb", type=float, default=256.0, help="spool size quota, MiB")
-    p.add_argument("--retry-s", type=float, default=60.0, help="stop retrying after, s")
+    p.add_argument(
+        "--quota-mb",
+        type=number(0.0, 1024.0 * 1024.0, lo_open=True),
+        default=256.0,
+        help="spool size quota, MiB (default 256)",
+    )
+    p.add_argument(
+        "--retry-s",
+        type=number(0.0, 86400.0),
+        default=60.0,
+        help="stop retrying after, s (default 60, at most a day)",
+    )
     p.add_argument("--fetch", metavar="DRIVER", help="download this driver's newest table")
     p.add_argument("--condition", default="default", help="driving condition of --fetch")
     p.add_argument("--trust", help="the cloud's public key (PEM) to verify --fetch with")

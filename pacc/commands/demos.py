@@ -52,7 +52,7 @@ def main(argv: list[str] | None = None) -> int:
         print("pacc demos: error: --min-s must be a positive number", file=sys.stderr)
         return 2
     from cloud_sync.irl.bus_demos import extract_demos  # noqa: PLC0415 - numpy, python-can
-    from pacc.vocab.triplog import write_trip  # noqa: PLC0415
+    from pacc.vocab.triplog_file import write_trip  # noqa: PLC0415
 
     written = 0
     try:

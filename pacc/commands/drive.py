@@ -1,12 +1,15 @@
 """``pacc drive``: the ECU node and the simulator in one process, lockstep, one virtual bus.
 
+    pacc drive --manual --scenario manual1 --driver d2 --seed 1 --log trip.mcap
     pacc drive --scenario B --driver d3 --controller predefined|predefined+oa|irl|irl+oa
                [--profile DGPT.json] [--seed N] [--faults SPEC] [--log run.mcap]
                [--can-log bus.mcap]
                [--adaptation-mode paper|timegap]
 
 prints PoI, NIM, min gap, min time-to-collision, RMS jerk, takeovers, adaptations and
-collisions. A drive is a pure function of (configuration, seed, shipped data): the ECU and
+collisions. ``--manual`` drives the scenario by hand instead (ACC off, no bus: the driver's
+own pedals) and writes the trip to ``--log``: a demonstration for ``pacc cloud learn``. A drive
+is a pure function of (configuration, seed, shipped data): the ECU and
 the simulator each get a python-can ``virtual`` bus on a private channel, and time is the
 simulator's (every frame stamped with simulated time). Exit status: 0, 1 if the drive
 ended in a collision, 2 on bad options or input files.
@@ -15,22 +18,37 @@ ended in a collision, 2 on bad options or input files.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from dbc.errors import DbcError
 from dbc.network import add_network_arguments
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES
 from ecu.buslog.live import add_foxglove_argument, live_sinks
+from pacc.commands._args import (
+    CommandParser,
+    check_distinct_outputs,
+    check_writable_file,
+    error_line,
+    integer,
+    number,
+)
+from pacc.errors import UsageError
 from pacc.vocab import FormatError
+from pacc.vocab.acc_state import AccState
+from pacc.vocab.dgpt import Dgpt
 from pacc.vocab.dgpt_file import load_dgpt
 from pacc.vocab.triplog import TripLogError
 from pacc.vocab.triplog_file import write_trip
-from sim_bus.drivers import load_driver
+from sim_bus.drivers import DriverParams, load_driver
 from sim_bus.errors import SimError
 from sim_bus.faults import parse_faults
+from sim_bus.scenarios import shorten
 from sim_bus.study.drive import (
     CONTROLLERS,
     DriveConfig,
@@ -44,6 +62,22 @@ from sim_bus.study.drive import (
     with_condition,
 )
 from sim_bus.study.irl_table import irl_table
+
+
+def fault_time(t_s: np.ndarray, acc_state: np.ndarray) -> tuple[float, int]:
+    """Seconds the ECU spent in FAULT over a drive's log (samples at times ``t_s``, s; the
+    last sample counts one period) and how often it entered FAULT."""
+    fault = np.asarray(acc_state) == int(AccState.FAULT)
+    if len(t_s) < 2 or not fault.any():
+        return 0.0, 0
+    dt = np.diff(t_s, append=t_s[-1] + (t_s[-1] - t_s[-2]))
+    entries = int(fault[0]) + int(np.count_nonzero(fault[1:] & ~fault[:-1]))
+    return float(dt[fault].sum()), entries
+
+
+def _fig(value: float, spec: str, unit: str) -> str:
+    """``value`` formatted with its unit, or ``n/a`` (no ACC-ON time: no PoI, no NIM)."""
+    return f"{value:{spec}}{unit}" if np.isfinite(value) else f"{'n/a':>7}"
 
 
 def format_result(r: DriveResult) -> str:
@@ -60,8 +94,8 @@ def format_result(r: DriveResult) -> str:
         )
         + f", seed {c.seed}, {r.sim_s:.1f} s simulated in {r.wall_s:.2f} s "
         f"({r.realtime_factor:.0f}x real time)",
-        f"  PoI            {m.poi_pct:7.2f} %   (ACC-ON {m.acc_on_s:.1f} s)",
-        f"  NIM            {m.nim_per_min:7.2f} /min ({m.press_onsets} presses)",
+        f"  PoI            {_fig(m.poi_pct, '7.2f', ' %  ')} (ACC-ON {m.acc_on_s:.1f} s)",
+        f"  NIM            {_fig(m.nim_per_min, '7.2f', ' /min')} ({m.press_onsets} presses)",
         f"  min gap        {m.min_gap_m:7.2f} m",
         f"  min TTC        {m.min_ttc_s:7.2f} s",
         f"  RMS jerk       {m.rms_jerk_mps3:7.3f} m/s^3",
@@ -73,11 +107,14 @@ def format_result(r: DriveResult) -> str:
         f"  frames         {r.frames_sent} sent by the simulator, {r.frames_faulted} faulted; "
         f"ECU E2E errors {r.summary.e2e_errors or 'none'}",
     ]
+    fault_s, entries = fault_time(r.log.t_s, r.log.acc_state)
+    if c.faults or fault_s > 0:
+        lines.append(f"  ACC FAULT      {fault_s:7.1f} s   ({entries} time(s) entered)")
     return "\n".join(lines)
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = CommandParser(
         prog="pacc drive",
         description=__doc__.split("\n\n")[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -90,9 +127,14 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--driver", default="d1", help="d1..d5 or a driver .toml/.json (default d1)")
     p.add_argument("--controller", default="predefined", choices=CONTROLLERS)
     p.add_argument("--profile", type=Path, help="DGPT JSON for the irl controllers")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=integer(0), default=0)
     p.add_argument("--faults", default="", help="fault SPEC, e.g. 'radar:dropout=100-105'")
     p.add_argument("--log", type=Path, help="write the drive as an MCAP trip log")
+    p.add_argument(
+        "--manual",
+        action="store_true",
+        help="drive by hand, ACC off (needs --log): a demonstration for pacc cloud learn",
+    )
     p.add_argument(
         "--can-log",
         type=Path,
@@ -100,7 +142,11 @@ def _parser() -> argparse.ArgumentParser:
         help="record the ECU's bus traffic (raw and decoded), its internals and the "
         "simulated world to this MCAP file",
     )
-    p.add_argument("--duration", type=float, help="simulate only the first N seconds")
+    p.add_argument(
+        "--duration",
+        type=number(0.0, 1e6, lo_open=True),
+        help="simulate only the first N seconds",
+    )
     add_foxglove_argument(p)
     p.add_argument(
         "--brake-mode",
@@ -110,7 +156,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--condition-factor",
-        type=float,
+        type=number(0.1, 10.0),
         default=1.0,
         help="multiply the driver's preference, e.g. 1.2 for rain (default 1)",
     )
@@ -138,9 +184,43 @@ def _recording_ok(args: argparse.Namespace, result: Any) -> bool:
     return True
 
 
+def _check_options(args: argparse.Namespace) -> None:
+    """Options that contradict each other or outputs that cannot be written: UsageError
+    (the error boundary prints it, exit 2), before anything runs."""
+    check_distinct_outputs(log=args.log, can_log=args.can_log, profile=args.profile)
+    check_writable_file(args.log, "--log")  # now, not after the drive
+    check_writable_file(args.can_log, "--can-log")
+    if args.profile is not None and not args.manual and not args.controller.startswith("irl"):
+        raise UsageError(
+            f"--profile is for the irl controllers; --controller {args.controller} drives "
+            "the driver's predefined table"
+        )
+
+
+def _table(args: argparse.Namespace, base: DriverParams, driver: DriverParams) -> Dgpt:
+    """The drive's table: ``--profile`` or the learned IRL one for the irl controllers (the
+    IRL table is learned in normal conditions, from ``base``), else the predefined one."""
+    if not args.controller.startswith("irl"):
+        return predefined_table(driver)
+    if args.profile is None:
+        print("learning the IRL table from the driver's manual trips (cached) ...", file=sys.stderr)
+        return irl_table(base, args.seed, args.cache)
+    table = load_dgpt(args.profile)
+    if table.driver_id not in (driver.driver_id, "guest"):
+        print(
+            f"pacc drive: warning: --profile is driver {table.driver_id!r}'s table, the "
+            f"drive's driver is {driver.driver_id!r}",
+            file=sys.stderr,
+        )
+    return table
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc drive``; returns the exit status."""
     args = _parser().parse_args(argv)
+    _check_options(args)
+    if args.manual:
+        return _manual(args)
     try:
         base = load_driver(args.driver)
         driver = with_condition(base, args.condition_factor)
@@ -161,17 +241,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         drive_codec(cfg)  # a DBC without its binding: refused before any learning
         profile = resolve_profile(args.scenario, args.seed)
-        if args.controller.startswith("irl"):
-            if args.profile is not None:
-                table = load_dgpt(args.profile)
-            else:
-                print(
-                    "learning the IRL table from the driver's manual trips (cached) ...",
-                    file=sys.stderr,
-                )
-                table = irl_table(base, args.seed, args.cache)  # learned in normal conditions
-        else:
-            table = predefined_table(driver)
+        table = _table(args, base, driver)
         live = live_sinks(args.foxglove, print)
         try:
             result = run_drive(cfg, driver, table, profile, can_log=args.can_log, live=live)
@@ -179,19 +249,64 @@ def main(argv: list[str] | None = None) -> int:
             for sink in live:
                 sink.close(complete=True)
     except (SimError, EcuError, FormatError, DbcError, OSError) as exc:
-        print(f"pacc drive: error: {exc}", file=sys.stderr)
+        text = error_line(exc)
+        if isinstance(exc, OSError) and exc.filename is None and args.can_log is not None:
+            text = f"--can-log {args.can_log}: {text}"  # the recording's write, unnamed
+        print(f"pacc drive: error: {text}", file=sys.stderr)
         return 2
     print(format_result(result))
     if args.log is not None:
         try:
             write_trip(args.log, log_to_trip(result, driver))
         except (TripLogError, OSError) as exc:
-            print(f"pacc drive: error: cannot write {args.log}: {exc}", file=sys.stderr)
+            print(f"pacc drive: error: cannot write {args.log}: {error_line(exc)}", file=sys.stderr)
             return 2
         print(f"  log            {args.log}")
     if (args.can_log is not None or live) and not _recording_ok(args, result):
         return 2
     return 1 if result.collision else 0
+
+
+def _manual(args: argparse.Namespace) -> int:
+    """``pacc drive --manual``: the driver follows the scenario by hand, written to --log."""
+    from sim_bus.manual import manual_trip  # noqa: PLC0415
+
+    given = [
+        opt
+        for opt, on in (
+            ("--controller", args.controller != "predefined"),
+            ("--profile", args.profile is not None),
+            ("--faults", bool(args.faults)),
+            ("--can-log", args.can_log is not None),
+            ("--adaptation-mode", args.adaptation_mode is not None),
+        )
+        if on
+    ]
+    if args.log is None or given:
+        why = "needs --log FILE" if args.log is None else f"has no ECU: drop {', '.join(given)}"
+        print(f"pacc drive: error: --manual {why}", file=sys.stderr)
+        return 2
+    try:
+        driver = with_condition(load_driver(args.driver), args.condition_factor)
+        profile = resolve_profile(args.scenario, args.seed)
+        if args.duration is not None:
+            profile = shorten(profile, args.duration)
+        trip = manual_trip(driver, profile, args.seed)
+        trip = dataclasses.replace(
+            trip, meta={**trip.meta, "scenario": args.scenario, "seed": args.seed}
+        )
+        write_trip(args.log, trip)
+    except (SimError, FormatError, DbcError, OSError) as exc:
+        print(f"pacc drive: error: {error_line(exc)}", file=sys.stderr)
+        return 2
+    collided = bool(trip.meta.get("collision"))
+    print(
+        f"manual drive: scenario {args.scenario}, driver {driver.driver_id} by hand (ACC off), "
+        f"seed {args.seed}, {float(trip.t_s[-1] - trip.t_s[0]):.1f} s, condition "
+        f"{trip.meta.get('condition')}{', collision' if collided else ''}"
+    )
+    print(f"  log            {args.log} (a demonstration for pacc cloud learn --demos)")
+    return 1 if collided else 0
 
 
 if __name__ == "__main__":

@@ -2,7 +2,7 @@
 
 Example::
 
-    pacc ecu -i virtual -c vcan0 --headway 1.5 --takeovers takeovers/ --duration 300
+    pacc ecu -i virtual -c vcan0 --headway 1.5 --driver d2 --takeovers spool/ --duration 300
 
 The node starts from ``--profile`` (a DGPT JSON file) or a predefined constant-headway table.
 An invalid profile is refused with a clear message; the ECU then runs on the predefined
@@ -10,6 +10,9 @@ table, says so, and reports FaultCode Profile on ACC_Status. State changes, faul
 adaptation decisions are printed as they happen; at exit (``--duration`` elapsed, Ctrl-C or
 SIGTERM) the open takeover segment is written and a summary printed: cycles, frames in/out,
 E2E errors by kind, takeovers, adaptations, max cycle time.
+``--takeovers DIR`` is a spool (:mod:`cloud_sync.vehicle.spool`): each segment becomes one
+batch that ``pacc cloud sync --spool DIR`` uploads, tagged with ``--driver`` (else the
+profile's driver; the predefined table's ``guest`` is refused by the cloud, and said so).
 Exit codes: 0 run completed, 1 bus/DBC/takeover-directory error, 2 usage error (also
 ``--dbc`` without a ``--binding`` that names it).
 """
@@ -19,13 +22,15 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import re
 import signal
 import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
+from cloud_sync.errors import CloudSyncError
 from dbc.codec import Codec, CodecError
 from dbc.errors import BindingError
 from dbc.network import add_network_arguments, codec_of, network_of
@@ -34,7 +39,15 @@ from ecu.adaptation import ADAPTATION_MODES, AdaptationParams
 from ecu.buslog.format import TimeBase
 from ecu.buslog.live import add_foxglove_argument
 from ecu.node import EcuConfig, EcuNode
-from ecu.recorder import TripSink, directory_sink
+from ecu.recorder import TripSink
+from pacc.commands._args import (
+    CommandParser,
+    add_bus_arguments,
+    bus_kwargs,
+    check_distinct_outputs,
+    number,
+)
+from pacc.commands.ecu_cloud import Exit, cloud_link, cloud_table, say, spool_sink, warn_guest
 from pacc.vocab import FormatError
 from pacc.vocab.dgpt import Dgpt, DgptError, predefined
 from pacc.vocab.dgpt_file import load_dgpt, save_dgpt
@@ -47,26 +60,27 @@ if TYPE_CHECKING:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``pacc ecu`` (python-can flag conventions)."""
-    p = argparse.ArgumentParser(
+    p = CommandParser(
         prog="pacc ecu",
         description="Run the personalized ACC ECU node on a CAN bus (50 Hz, real time).",
     )
-    bus = p.add_argument_group("bus (omitted: python-can's own configuration applies)")
-    bus.add_argument("-i", "--interface", help="python-can interface, e.g. virtual, socketcan")
-    bus.add_argument("-c", "--channel", help="channel, e.g. vcan0")
-    bus.add_argument("-b", "--bitrate", type=int, help="bitrate, bit/s")
+    add_bus_arguments(p)
     add_network_arguments(p)
     table = p.add_mutually_exclusive_group()
     table.add_argument("--profile", metavar="DGPT.json", help="driver gap preference table")
     table.add_argument(
         "--headway",
-        type=float,
+        type=number(0.1, 10.0),
         default=1.5,
         metavar="S",
         help="predefined table: constant time headway, s (default 1.5; the paper: 1, 3, 4)",
     )
     p.add_argument(
-        "--standstill", type=float, default=4.0, metavar="M", help="standstill gap, m (4)"
+        "--standstill",
+        type=number(0.5, 50.0),
+        default=4.0,
+        metavar="M",
+        help="standstill gap, m (4)",
     )
     p.add_argument(
         "--adaptation",
@@ -92,8 +106,17 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="DIR",
         help="driver profiles: HMI DriverProfileId n > 0 loads DIR/profile_<n>.json",
     )
-    p.add_argument("--set-speed", type=float, metavar="MPS", help="SET engages at this speed")
-    p.add_argument("--takeovers", metavar="DIR", help="write takeover segments (MCAP) here")
+    p.add_argument(
+        "--set-speed",
+        type=number(0.0, 60.0),
+        metavar="MPS",
+        help="SET engages at this speed, m/s (default: the current speed)",
+    )
+    p.add_argument(
+        "--takeovers",
+        metavar="DIR",
+        help="spool takeover segments here (MCAP batches for pacc cloud sync --spool DIR)",
+    )
     p.add_argument(
         "--can-log",
         metavar="FILE",
@@ -102,7 +125,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_foxglove_argument(p)
     p.add_argument("--save-profile", metavar="PATH", help="write the final DGPT here at exit")
-    p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
+    p.add_argument("--duration", type=number(0.0, 1e7), metavar="S", help="stop after S seconds")
     cloud = p.add_argument_group("cloud (docs/cloud.md): takeovers up, verified tables down")
     cloud.add_argument("--cloud", metavar="URL|DIR", help="the cloud service, or a folder")
     cloud.add_argument("--vehicle", metavar="ID", help="this vehicle's id (with --cloud)")
@@ -113,31 +136,23 @@ def build_parser() -> argparse.ArgumentParser:
         help="the cloud's public key (default for a folder: "
         "DIR/keys/cloud.pub; required for a URL)",
     )
-    cloud.add_argument("--driver", metavar="ID", help="download this driver's table")
+    cloud.add_argument(
+        "--driver",
+        metavar="ID",
+        help="the driver: tags the takeover segments (--takeovers, --cloud); with --cloud "
+        "also downloads this driver's table",
+    )
     cloud.add_argument("--condition", default="default", help="driving condition of --driver")
     cloud.add_argument("--spool", metavar="DIR", default="pacc-spool", help="the spool folder")
     cloud.add_argument(
-        "--sync-every", type=float, default=60.0, metavar="S", help="download period, s (60)"
+        "--sync-every",
+        type=number(0.0, 86400.0, lo_open=True),
+        default=60.0,
+        metavar="S",
+        help="download period, s (60)",
     )
     p.add_argument("-v", "--verbose", action="store_true", help="log at INFO level")
     return p
-
-
-def _bus_kwargs(args: argparse.Namespace) -> dict[str, Any]:
-    kwargs: dict[str, Any] = {"interface": args.interface, "channel": args.channel}
-    if args.bitrate is not None:
-        kwargs["bitrate"] = args.bitrate
-    return kwargs
-
-
-def _say(text: object) -> None:
-    """Print ``text`` to stdout now. If the reader has gone (``pacc ecu | head``, a dead log
-    pipe) the ECU keeps running: stdout is pointed at devnull and the run goes on to its end,
-    writing takeovers and the profile."""
-    try:
-        print(text, flush=True)
-    except BrokenPipeError:
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
 
 
 def _stop_on_sigterm(stop: Callable[[], None]) -> Callable[[], None]:
@@ -158,24 +173,15 @@ def _stop_on_sigterm(stop: Callable[[], None]) -> Callable[[], None]:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc ecu`` / ``python -m ecu``; returns the exit code."""
     args = build_parser().parse_args(argv)
-    if args.duration is not None and not args.duration >= 0.0:
-        print("pacc ecu: error: --duration must be >= 0", file=sys.stderr)
-        return 2
+    check_distinct_outputs(
+        can_log=args.can_log, save_profile=args.save_profile, profile=args.profile
+    )
     try:
         network_of(args)
     except BindingError as exc:  # --dbc without a binding for it: a usage error
         print(f"pacc ecu: error: {exc}", file=sys.stderr)
         return 2
     return _run(args)
-
-
-class _Exit(Exception):
-    """Ends ``pacc ecu`` with ``code`` after printing ``message`` to stderr."""
-
-    def __init__(self, code: int, message: str) -> None:
-        super().__init__(message)
-        self.code = code
-        self.message = message
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -185,18 +191,18 @@ def _run(args: argparse.Namespace) -> int:
     )
     try:
         return _serve(args)
-    except _Exit as exc:
+    except Exit as exc:
         print(exc.message, file=sys.stderr)
         return exc.code
 
 
 def _serve(args: argparse.Namespace) -> int:
-    """Build the node, run it on the bus until done, report and save; raise :class:`_Exit`."""
+    """Build the node, run it on the bus until done, report and save; raise :class:`Exit`."""
     config, fallback = _config(args)
-    link = _cloud_link(args, config) if args.cloud else None
+    link = cloud_link(args, config) if args.cloud else None
     table, profile_fault = _initial_table(args, config, fallback)
     if link is not None and not args.profile:
-        table = _cloud_table(link, table)
+        table = cloud_table(link, table)
     codec, sink = _codec_and_sink(args)
     if args.save_profile:  # refuse now, not after the drive when the table would be lost
         _check_writable_parent(args.save_profile)
@@ -204,19 +210,20 @@ def _serve(args: argparse.Namespace) -> int:
     node = EcuNode(config, table, link.sink if link is not None else sink, utc_of=base.iso)
     if profile_fault:
         node.report_profile_fault()
+    warn_guest(args, node)
     recorder = _recorder(args, codec, node, base) if args.can_log or args.foxglove else None
     recording_error = None
     try:
-        bus_error = _run_on_bus(args, node, codec, link, recorder)
+        bus_error = _run_on_bus(args, node, codec, base, link, recorder)
     finally:
         if link is not None:
             link.stop()
-            _say(link.report())
+            say(link.report())
         if recorder is not None:  # before anything can fail: the recording is kept
             recording_error = _close_recorder(recorder)
     if args.takeovers and node.recorder is not None:
         rec = node.recorder
-        _say(
+        say(
             f"takeover segments: {rec.segments - len(rec.pending)} of {rec.segments} written to"
             f" {args.takeovers} ({rec.sink_errors} failed attempts)"
         )
@@ -224,12 +231,12 @@ def _serve(args: argparse.Namespace) -> int:
         try:
             save_dgpt(node.table, args.save_profile)
         except DgptError as exc:
-            raise _Exit(1, f"pacc ecu: error: {exc}") from None
-        _say(f"profile saved: {args.save_profile} (v{node.table.version})")
+            raise Exit(1, f"pacc ecu: error: {exc}") from None
+        say(f"profile saved: {args.save_profile} (v{node.table.version})")
     if bus_error is not None:
-        raise _Exit(1, f"pacc ecu: error: the CAN bus failed: {bus_error}")
+        raise Exit(1, f"pacc ecu: error: the CAN bus failed: {bus_error}")
     if recording_error is not None:  # after the takeovers and the profile are saved
-        raise _Exit(1, f"pacc ecu: error: {recording_error}")
+        raise Exit(1, f"pacc ecu: error: {recording_error}")
     return 0
 
 
@@ -241,10 +248,11 @@ def _config(args: argparse.Namespace) -> tuple[EcuConfig, Dgpt]:
             adaptation_params=AdaptationParams(mode=args.adaptation_mode),
             brake_mode=args.brake,
             set_speed_mps=args.set_speed,
+            trip_meta={"driver_id": args.driver} if args.driver else {},
         )
         return config, predefined(args.headway, args.standstill)
     except (EcuError, FormatError) as exc:
-        raise _Exit(2, f"pacc ecu: error: {exc}") from None
+        raise Exit(2, f"pacc ecu: error: {exc}") from None
 
 
 def _initial_table(
@@ -252,7 +260,7 @@ def _initial_table(
 ) -> tuple[Dgpt, bool]:
     """The table to start with, and whether ``--profile`` was refused (then: the fallback)."""
     if not args.profile:
-        _say(f"profile: predefined {args.headway:g} s headway, {args.standstill:g} m standstill")
+        say(f"profile: predefined {args.headway:g} s headway, {args.standstill:g} m standstill")
         return fallback, False
     try:
         table = load_dgpt(args.profile, config.bounds)
@@ -264,7 +272,13 @@ def _initial_table(
             file=sys.stderr,
         )
         return fallback, True
-    _say(f"profile: {args.profile} ({table.driver_id}, {table.source}, v{table.version})")
+    say(f"profile: {args.profile} ({table.driver_id}, {table.source}, v{table.version})")
+    if args.driver and table.driver_id not in (args.driver, "guest"):
+        print(
+            f"pacc ecu: warning: --profile is driver {table.driver_id!r}'s table, the "
+            f"takeovers are tagged {args.driver!r}",
+            file=sys.stderr,
+        )
     return table, False
 
 
@@ -272,9 +286,9 @@ def _codec_and_sink(args: argparse.Namespace) -> tuple[Codec, TripSink | None]:
     """The network codec (``--dbc``/``--binding`` or the packaged one) and the takeover sink."""
     try:
         codec = codec_of(args)
-        sink = directory_sink(args.takeovers) if args.takeovers else None
-    except (CodecError, EcuError, FormatError) as exc:
-        raise _Exit(1, f"pacc ecu: error: {exc}") from None
+        sink = spool_sink(args.takeovers) if args.takeovers else None
+    except (CodecError, EcuError, FormatError, CloudSyncError) as exc:
+        raise Exit(1, f"pacc ecu: error: {exc}") from None
     return codec, sink
 
 
@@ -295,92 +309,44 @@ def _recorder(
             table=node.table,
             dbc_path=args.dbc,
             binding_path=getattr(args, "binding", None),
-            sinks=live_sinks(args.foxglove, _say),
+            sinks=live_sinks(args.foxglove, say),
         )
-    except (EcuError, FormatError) as exc:
-        raise _Exit(1, f"pacc ecu: error: {exc}") from None
+    except (EcuError, FormatError, OSError) as exc:
+        text = _one_line(exc)
+        if args.can_log not in text:
+            text = f"--can-log {args.can_log}: {text}"
+        raise Exit(1, f"pacc ecu: error: {text}") from None
+
+
+def _one_line(exc: BaseException) -> str:
+    """An error's text on one line (an OSError as its strerror)."""
+    if isinstance(exc, OSError) and exc.strerror:
+        return exc.strerror
+    return " ".join(str(exc).split())
 
 
 def _close_recorder(recorder: CanLogWriter) -> str | None:
     """Close the recording; the failure's text (None: written)."""
     try:
         recorder.close()
-    except (EcuError, FormatError) as exc:
-        return str(exc)
+    except (EcuError, FormatError, OSError) as exc:
+        return _one_line(exc)
     if recorder.path is not None:
-        _say(f"bus recording: {recorder.frames} frames written to {recorder.path}")
+        say(f"bus recording: {recorder.frames} frames written to {recorder.path}")
     return None
 
 
 def _check_writable_parent(target: str) -> None:
     parent = Path(target).resolve().parent
     if not (parent.is_dir() and os.access(parent, os.W_OK)):
-        raise _Exit(1, f"pacc ecu: error: --save-profile: {parent} is not a writable directory")
-
-
-def _cloud_link(args: argparse.Namespace, config: EcuConfig) -> VehicleLink:
-    """The vehicle's cloud link of ``--cloud`` (usage and set-up errors raise _Exit)."""
-    # the cloud side (httpx, cryptography, the embedded service) is only for --cloud runs
-    from cloud_sync.errors import CloudSyncError  # noqa: PLC0415
-    from cloud_sync.signing import load_public_key  # noqa: PLC0415
-    from cloud_sync.vehicle.connect import connect, is_url, read_token  # noqa: PLC0415
-    from cloud_sync.vehicle.download import ProfileDownloader  # noqa: PLC0415
-    from cloud_sync.vehicle.link import VehicleLink  # noqa: PLC0415
-    from cloud_sync.vehicle.spool import Spool  # noqa: PLC0415
-
-    if not (args.vehicle and args.token_file):
-        raise _Exit(2, "pacc ecu: error: --cloud needs --vehicle ID and --token-file F")
-    if args.takeovers:
-        raise _Exit(2, "pacc ecu: error: --cloud spools the takeovers: drop --takeovers")
-    if args.driver and args.profile:
-        raise _Exit(2, "pacc ecu: error: --driver (the cloud's tables) or --profile, not both")
-    if not args.sync_every > 0:
-        raise _Exit(2, "pacc ecu: error: --sync-every must be > 0")
-    trust = args.trust or (None if is_url(args.cloud) else Path(args.cloud) / "keys" / "cloud.pub")
-    if args.driver and trust is None:
-        raise _Exit(2, "pacc ecu: error: --driver with a cloud URL needs --trust KEY.pub")
-    try:
-        # short calls: the start-up download must not hold the control loop back for long
-        cloud = connect(args.cloud, read_token(args.token_file), timeout_s=5.0)
-        downloader = None
-        if args.driver:
-            assert trust is not None
-            downloader = ProfileDownloader(
-                cloud, load_public_key(trust), Path(args.spool) / "profiles", config.bounds
-            )
-        link = VehicleLink(
-            cloud,
-            Spool(args.spool),
-            args.vehicle,
-            downloader=downloader,
-            driver_id=args.driver,
-            condition=args.condition,
-            sync_every_s=args.sync_every,
-        )
-    except (CloudSyncError, OSError) as exc:
-        raise _Exit(1, f"pacc ecu: error: {exc}") from None
-    _say(f"cloud: {args.cloud} as vehicle {args.vehicle}, spool {args.spool}")
-    return link
-
-
-def _cloud_table(link: VehicleLink, table: Dgpt) -> Dgpt:
-    """The driver's newest verified cloud table, else ``table`` (never raises)."""
-    try:
-        cloud_table = link.initial_table()
-    except Exception as exc:  # the start table must not depend on the cloud's health
-        _say(f"cloud: start-up download failed ({type(exc).__name__}: {exc})")
-        cloud_table = None
-    if cloud_table is None:
-        _say("cloud: no verified table for the driver yet; keeping the start table")
-        return table
-    _say(f"profile: cloud {cloud_table.driver_id} {cloud_table.source} v{cloud_table.version}")
-    return cloud_table
+        raise Exit(1, f"pacc ecu: error: --save-profile: {parent} is not a writable directory")
 
 
 def _run_on_bus(
     args: argparse.Namespace,
     node: EcuNode,
     codec: Codec,
+    base: TimeBase,
     link: VehicleLink | None = None,
     recorder: CanLogWriter | None = None,
 ) -> str | None:
@@ -392,23 +358,45 @@ def _run_on_bus(
     from ecu.runtime import EcuRuntime  # noqa: PLC0415
 
     try:
-        bus = can.Bus(**_bus_kwargs(args))
+        bus = can.Bus(**bus_kwargs(args))
     except (can.CanError, OSError, ValueError, ImportError) as exc:
-        raise _Exit(1, f"pacc ecu: error: cannot open the CAN bus: {exc}") from None
+        raise Exit(1, f"pacc ecu: error: cannot open the CAN bus: {exc}") from None
     with bus:
         try:
-            rt = EcuRuntime(bus, node, codec, on_event=_say, profile_dir=args.profiles)
+            rt = EcuRuntime(bus, node, codec, on_event=_utc_events(base), profile_dir=args.profiles)
         except (EcuError, FormatError) as exc:  # a DBC that cannot carry the outputs
-            raise _Exit(1, f"pacc ecu: error: {exc}") from None
+            raise Exit(1, f"pacc ecu: error: {exc}") from None
         if link is not None:
             link.start(rt.offer_table)
         rt.record_to(recorder)
         mode = args.adaptation_mode if args.adaptation else "off"
-        _say(f"adaptation: {mode}; brake press: {args.brake}")
-        _say(f"ECU running on {bus.channel_info} (Ctrl-C to stop)")
+        say(f"adaptation: {mode}; brake press: {args.brake}")
+        say(
+            f"set speed at SET: {args.set_speed:g} m/s"
+            if args.set_speed is not None
+            else "set speed at SET: the current speed (--set-speed M/S fixes it; "
+            "pacc drive uses 40 so that the lead governs)"
+        )
+        say(f"ECU running on {bus.channel_info} (Ctrl-C to stop)")
         bus_error = run_until_done(rt, args.duration)
-    _say(rt.summary())
+    say(rt.summary())
     return bus_error
+
+
+def _utc_events(base: TimeBase) -> Callable[[str], None]:
+    """Print the runtime's events (``t=<node clock> s  text``) stamped with the wall clock's
+    UTC time of day instead of the node's boot clock."""
+
+    def stamped(text: str) -> None:
+        match = _EVENT.fullmatch(text)
+        if match is not None:
+            text = f"{base.iso(float(match[1]))[11:23]} UTC  {match[2]}"
+        say(text)
+
+    return stamped
+
+
+_EVENT = re.compile(r"t=(-?[0-9.]+) s  (.*)", re.S)
 
 
 def run_until_done(rt: EcuRuntime, duration_s: float | None) -> str | None:
@@ -424,7 +412,7 @@ def run_until_done(rt: EcuRuntime, duration_s: float | None) -> str | None:
     try:
         rt.run_realtime(duration_s)
     except KeyboardInterrupt:
-        _say("interrupted")
+        say("interrupted")
     except can.CanError as exc:
         return str(exc) or type(exc).__name__
     finally:

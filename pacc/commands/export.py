@@ -4,13 +4,15 @@
     pacc export trace.asc trace.mcap --dbc car.dbc   # any python-can log to MCAP, decoded
 
 Formats by suffix: ``.mcap`` (pacc bus recordings, :mod:`ecu.buslog.writer`), ``.log`` (candump),
-``.asc``, ``.blf``, ``.trc``, ``.csv`` and whatever else python-can reads or writes. The
+``.asc``, ``.blf``, ``.trc``, ``.csv`` (another suffix is refused: ``.mf4`` needs asammdf,
+which pacc does not install). The
 conversion is python-can's readers and writers (``can.LogReader``, ``can.Logger``), the
 ``.mcap`` ones registered by pacc as a python-can plugin (:mod:`ecu.buslog.plugin`). A failed
-conversion leaves no output file behind. A recording killed mid-run (``x.mcap.part``) is read
-up to its last complete chunk, with a warning; ``pacc export x.mcap.part x.mcap`` copies all
-of it (every channel, attachment and metadata record) into a complete file
-(:func:`ecu.buslog.repair.repair`). Exit status: 0, 2 on a bad file or format.
+conversion (also one that read no frame) leaves no output file behind, not even its
+``OUT.part``. A recording killed mid-run (``x.mcap.part``) is read up to its last complete
+chunk, with a warning; ``pacc export x.mcap.part x.mcap`` copies all of it (every channel,
+attachment and metadata record) into a complete file (:func:`ecu.buslog.repair.repair`).
+Exit status: 0, 2 on a bad file or format.
 """
 
 from __future__ import annotations
@@ -21,11 +23,16 @@ import sys
 from pathlib import Path
 
 from ecu import EcuError
+from pacc.commands._args import CommandParser, error_line
+from pacc.errors import UsageError
 from pacc.vocab import FormatError
+
+#: the formats pacc converts between, by suffix
+FORMATS = (".mcap", ".log", ".asc", ".blf", ".trc", ".csv")
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = CommandParser(
         prog="pacc export",
         description="convert a CAN log between pacc's MCAP and python-can's formats "
         "(.log candump, .asc, .blf, .trc, .csv ...)",
@@ -43,8 +50,16 @@ def convert(src: Path, dst: Path, dbc: str | None = None) -> int:
     number of frames. Raises EcuError (CanLogError) or ValueError/OSError on bad input."""
     import can  # noqa: PLC0415 - python-can only when a log is converted
 
+    for path in (src, dst):
+        if path.suffix.lower() not in FORMATS:
+            raise UsageError(
+                f"{path}: unsupported format {path.suffix or '(no suffix)'!r} "
+                f"(one of {', '.join(FORMATS)})"
+            )
     if src.resolve() == dst.resolve():
-        raise ValueError("IN and OUT are the same file")
+        raise UsageError("IN and OUT are the same file")
+    if src.is_dir():
+        raise UsageError(f"{src} is a directory, not a CAN log")
     if not src.is_file():
         raise FileNotFoundError(f"{src}: no such file")
     kwargs = {"dbc": dbc} if dbc and dst.suffix.lower() == ".mcap" else {}
@@ -57,6 +72,8 @@ def convert(src: Path, dst: Path, dbc: str | None = None) -> int:
         for msg in reader:
             writer.on_message_received(msg)
             n += 1
+    if n == 0:
+        raise UsageError(f"{src}: no CAN frame read (not a {src.suffix} log, or an empty one)")
     return n
 
 
@@ -91,11 +108,16 @@ def main(argv: list[str] | None = None) -> int:
     existed = args.dst.exists()
     try:
         n = convert(args.src, args.dst, args.dbc)
-    except (EcuError, FormatError, ValueError, OSError) as exc:
+    except (EcuError, FormatError, UsageError, ValueError, OSError) as exc:
         if not existed:
             with contextlib.suppress(OSError):
                 args.dst.unlink(missing_ok=True)
-        print(f"pacc export: error: {exc}", file=sys.stderr)
+        with contextlib.suppress(OSError):  # the MCAP writer's temporary file
+            args.dst.with_name(args.dst.name + ".part").unlink(missing_ok=True)
+        text = error_line(exc)
+        if str(args.src) not in text and str(args.dst) not in text:
+            text = f"{args.src}: {text}"  # a python-can reader's bare message names no file
+        print(f"pacc export: error: {text}", file=sys.stderr)
         return 2
     print(f"{n} frames: {args.src} -> {args.dst}")
     return 0

@@ -31,9 +31,11 @@ from dbc.errors import DbcError
 from ecu import EcuError
 from ecu.buslog.format import INPUTS_TOPIC, OUTPUTS_TOPIC, WORLD_TOPIC, CanLogError
 from ecu.buslog.reader import CanLog
+from pacc.commands._args import integer
 from pacc.vocab import FormatError
 from pacc.vocab.acc_state import AccState
-from pacc.vocab.triplog import Trip, read_trip
+from pacc.vocab.triplog import Trip
+from pacc.vocab.triplog_file import read_trip
 
 
 @dataclass(frozen=True)
@@ -261,7 +263,9 @@ def _parser() -> argparse.ArgumentParser:
         help="a foreign log without SIGNALs: the fixed panels from the bus, decoded through "
         "this binding (speed, lead, pedals, ACC state)",
     )
-    p.add_argument("--dpi", type=int, default=120, help="resolution (default 120)")
+    p.add_argument(
+        "--dpi", type=integer(10, 1200), default=120, help="resolution (default 120, 10..1200)"
+    )
     return p
 
 

@@ -20,6 +20,7 @@ import sys
 from pathlib import Path
 
 from ecu import EcuError
+from pacc.commands._args import CommandParser, add_bus_arguments, bus_kwargs
 from pacc.vocab import FormatError
 
 #: state changes printed in full; the rest are counted
@@ -27,7 +28,7 @@ MAX_STATES_SHOWN = 12
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = CommandParser(
         prog="pacc replay",
         description="replay a bus recording through the ECU (--ecu, deterministic) or onto a "
         "CAN bus in real time",
@@ -39,11 +40,8 @@ def _parser() -> argparse.ArgumentParser:
         help="through the recorded ECU at the recorded times; compare its frames",
     )
     p.add_argument("--events", action="store_true", help="--ecu: print every ECU event")
-    bus = p.add_argument_group("real time (omitted: python-can's own configuration applies)")
-    bus.add_argument("-i", "--interface", help="python-can interface, e.g. virtual, socketcan")
-    bus.add_argument("-c", "--channel", help="channel, e.g. vcan0")
-    bus.add_argument("-b", "--bitrate", type=int, help="bitrate, bit/s")
-    bus.add_argument(
+    add_bus_arguments(p, "real time (omitted: python-can's own configuration applies)")
+    p.add_argument(
         "--frames",
         choices=("all", "rx", "tx"),
         default="all",
@@ -98,11 +96,8 @@ def _realtime(args: argparse.Namespace) -> int:
     from ecu.buslog.replay import play  # noqa: PLC0415
 
     log = read_recording(args.log, _warn)
-    kwargs = {"interface": args.interface, "channel": args.channel}
-    if args.bitrate is not None:
-        kwargs["bitrate"] = args.bitrate
     try:
-        bus = can.Bus(**kwargs)
+        bus = can.Bus(**bus_kwargs(args))
     except (can.CanError, OSError, ValueError, ImportError) as exc:
         print(f"pacc replay: error: cannot open the CAN bus: {exc}", file=sys.stderr)
         return 2

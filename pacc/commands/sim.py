@@ -14,6 +14,7 @@ At the end (or on Ctrl-C) it prints the same figures as ``pacc drive``. Exit sta
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import time
@@ -28,7 +29,16 @@ from ecu.buslog.format import TimeBase
 from ecu.buslog.live import add_foxglove_argument, live_sinks
 from ecu.buslog.recording import open_recording
 from ecu.buslog.writer import CanLogWriter
+from pacc.commands._args import (
+    CommandParser,
+    add_bus_arguments,
+    bus_kwargs,
+    check_distinct_outputs,
+    integer,
+    number,
+)
 from pacc.vocab import FormatError
+from pacc.vocab.acc_state import AccState
 from pacc.vocab.pedals import PedalScale
 from pacc.vocab.triplog import TripLogError
 from pacc.vocab.triplog_file import write_trip
@@ -46,19 +56,19 @@ PROGRESS_EVERY_S = 5.0
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="pacc sim", description=__doc__.split("\n\n")[0])
-    p.add_argument("-i", "--interface", help="python-can interface (default: python-can config)")
-    p.add_argument("-c", "--channel", help="python-can channel (default: python-can config)")
-    p.add_argument("-b", "--bitrate", type=int, help="bit rate (default: python-can config)")
+    p = CommandParser(prog="pacc sim", description=__doc__.split("\n\n")[0])
+    add_bus_arguments(p)
     p.add_argument(
         "--scenario",
         default="B",
         help="A, B, manual1..manual4 or a CSV of t_s,v_lead_mps (default B)",
     )
     p.add_argument("--driver", default="d1", help="d1..d5 or a driver .toml/.json (default d1)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=integer(0), default=0)
     p.add_argument("--faults", default="", help="fault SPEC, e.g. 'radar:dropout=100-105'")
-    p.add_argument("--duration", type=float, help="run only the first N seconds")
+    p.add_argument(
+        "--duration", type=number(0.0, 1e6, lo_open=True), help="run only the first N seconds"
+    )
     p.add_argument("--log", type=Path, help="write the run as an MCAP trip log")
     p.add_argument(
         "--can-log",
@@ -69,7 +79,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--condition-factor",
-        type=float,
+        type=number(0.1, 10.0),
         default=1.0,
         help="multiply the driver's preference, e.g. 1.2 for rain (default 1)",
     )
@@ -104,6 +114,19 @@ def _setup(args: argparse.Namespace) -> tuple[DriverParams, FaultSpec, LeadProfi
     return driver, faults, profile
 
 
+def _fig(value: float, spec: str, unit: str) -> str:
+    """``value`` formatted with its unit, or ``n/a`` (no ACC-ON time: no PoI, no NIM)."""
+    return f"{value:{spec}}{unit}" if math.isfinite(value) else "n/a"
+
+
+def _state_name(code: int) -> str:
+    """The ACC state's name (OFF, STANDBY, ACTIVE …) of a code on the bus."""
+    try:
+        return AccState(code).name
+    except ValueError:
+        return f"state {code}"
+
+
 def _run(node: SimNode, duration_s: float, quiet: bool) -> None:
     """Run ``node`` in real time, a progress line every few seconds unless ``quiet``."""
     world = node.world
@@ -115,7 +138,7 @@ def _run(node: SimNode, duration_s: float, quiet: bool) -> None:
             last_print[0] = now
             print(
                 f"t {node.t_s:6.1f} s  v {world.plant.v_mps:5.1f} m/s  gap "
-                f"{world.plant.gap_m:6.1f} m  AccState {node.acc_state}",
+                f"{world.plant.gap_m:6.1f} m  ACC {_state_name(node.acc_state)}",
                 file=sys.stderr,
             )
         return False
@@ -142,6 +165,7 @@ def _finish_recording(recorder: CanLogWriter, log: WorldLog, can_log: Path | Non
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc sim``; returns the exit status."""
     args = _parser().parse_args(argv)
+    check_distinct_outputs(log=args.log, can_log=args.can_log)
     try:
         driver, faults, profile = _setup(args)
         codec = codec_of(args)
@@ -150,8 +174,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     try:
         # only given flags are passed: a None bitrate would hide the one of ~/.canrc
-        extra = {} if args.bitrate is None else {"bitrate": args.bitrate}
-        bus = can.Bus(interface=args.interface, channel=args.channel, **extra)
+        bus = can.Bus(**bus_kwargs(args))
     except (can.CanError, ValueError, OSError, ImportError) as exc:
         print(f"pacc sim: error: cannot open the bus: {exc}", file=sys.stderr)
         return 2
@@ -172,9 +195,10 @@ def main(argv: list[str] | None = None) -> int:
             if args.can_log is not None or live
             else None
         )
-    except (EcuError, FormatError) as exc:
+    except (EcuError, FormatError, OSError) as exc:
         bus.shutdown()
-        print(f"pacc sim: error: {exc}", file=sys.stderr)
+        text = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
+        print(f"pacc sim: error: --can-log {args.can_log}: {text}", file=sys.stderr)
         return 2
     if recorder is not None:
         node.tap = recorder.frame_and_tick
@@ -192,10 +216,26 @@ def main(argv: list[str] | None = None) -> int:
         + (f"; {node.send_errors} frames refused by the bus" if node.send_errors else "")
     )
     print(
-        f"  PoI {m.poi_pct:.2f} %  NIM {m.nim_per_min:.2f} /min  min gap {m.min_gap_m:.2f} m  "
+        f"  PoI {_fig(m.poi_pct, '.2f', ' %')}  NIM {_fig(m.nim_per_min, '.2f', ' /min')}  "
+        f"min gap {m.min_gap_m:.2f} m  "
         f"min TTC {m.min_ttc_s:.2f} s  RMS jerk {m.rms_jerk_mps3:.3f} m/s^3  presses "
         f"{m.press_onsets}  collisions {1 if collided else 0}"
     )
+    return _save(args, world, driver, node, base, recorder)
+
+
+def _save(
+    args: argparse.Namespace,
+    world: World,
+    driver: DriverParams,
+    node: SimNode,
+    base: TimeBase,
+    recorder: CanLogWriter | None,
+) -> int:
+    """Write ``--log`` and close ``--can-log``; the exit status (1 collision, 2 a failed
+    output)."""
+    log = world.log()
+    collided = world.plant.collided
     status = 1 if collided else 0
     if args.log is not None:
         meta = {

@@ -13,6 +13,7 @@ from dbc.errors import DbcError
 from dbc.network import add_network_arguments, codec_of
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES
+from pacc.commands._args import CommandParser, error_line, integer, number
 from pacc.vocab import FormatError
 from sim_bus.errors import SimError
 from sim_bus.study.collect import StudyInterrupted
@@ -28,27 +29,42 @@ def _names(text: str) -> tuple[str, ...]:
     return tuple(x.strip() for x in text.split(",") if x.strip())
 
 
+def _name_list(text: str) -> tuple[str, ...]:
+    """An argparse ``type``: a comma-separated list naming at least one thing."""
+    names = _names(text)
+    if not names:
+        raise argparse.ArgumentTypeError(f"{text!r} names nothing (a comma-separated list)")
+    return names
+
+
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="pacc study", description=_DESCRIPTION)
+    p = CommandParser(prog="pacc study", description=_DESCRIPTION)
     p.add_argument(
-        "--drivers", help="comma-separated (d1..d5 or driver files; default d1,d2,d3,d4,d5)"
+        "--drivers",
+        type=_name_list,
+        help="comma-separated (d1..d5 or driver files; default d1,d2,d3,d4,d5)",
     )
-    p.add_argument("--scenarios", help="comma-separated (default A,B; with --population: B)")
+    p.add_argument(
+        "--scenarios", type=_name_list, help="comma-separated (default A,B; with --population: B)"
+    )
     p.add_argument(
         "--controllers",
-        default=",".join(CONTROLLERS),
+        type=_name_list,
+        default=CONTROLLERS,
         help="comma-separated subset of " + ",".join(CONTROLLERS),
     )
-    p.add_argument("--trials", type=int, help="drives per cell (default 3; with --population: 1)")
-    p.add_argument("--seed", type=int, default=0, help="study seed (default 0)")
+    p.add_argument(
+        "--trials", type=integer(1, 1000), help="drives per cell (default 3; with --population: 1)"
+    )
+    p.add_argument("--seed", type=integer(0), default=0, help="study seed (default 0)")
     p.add_argument(
         "--duration",
-        type=float,
+        type=number(0.0, 1e5, lo_open=True),
         help="shorten every drive to N s (default: the whole 300 s; with --population: 120)",
     )
     p.add_argument(
         "--workers",
-        type=int,
+        type=integer(1, 256),
         default=min(2, os.cpu_count() or 1),
         help="parallel drive processes (default: 2 or the core count)",
     )
@@ -85,14 +101,14 @@ def _parser() -> argparse.ArgumentParser:
     )
     cloud.add_argument(
         "--incremental",
-        type=int,
+        type=integer(1, 1000),
         default=0,
         metavar="N",
         help="instead of Table I: N IRL+OA trips per driver, the cloud fine-tuning between",
     )
     p.add_argument(
         "--population",
-        type=int,
+        type=integer(1, 100_000),
         default=0,
         metavar="N",
         help="instead of d1..d5: N drivers drawn with --seed (docs/study.md), resumable",
@@ -112,13 +128,13 @@ def main(argv: list[str] | None = None) -> int:
         )
         return 2
     cfg = StudyConfig(
-        drivers=_names(args.drivers or "d1,d2,d3,d4,d5"),
-        scenarios=_names(args.scenarios or ("B" if pop else "A,B")),
-        controllers=_names(args.controllers),
+        drivers=args.drivers or ("d1", "d2", "d3", "d4", "d5"),
+        scenarios=args.scenarios or (("B",) if pop else ("A", "B")),
+        controllers=tuple(args.controllers),
         trials=args.trials if args.trials is not None else (1 if pop else 3),
         seed=args.seed,
         duration_s=args.duration if args.duration is not None or not pop else 120.0,
-        workers=max(1, args.workers),
+        workers=args.workers,
         logs=not args.no_logs,
         can_logs=args.can_logs,
         adaptation=adaptation_params(args.adaptation_mode),
@@ -135,6 +151,15 @@ def main(argv: list[str] | None = None) -> int:
     try:
         codec_of(args)  # a DBC without its binding, a binding that does not fit: refused now
         start = time.perf_counter()
+        if any(c.startswith("irl") for c in cfg.controllers) and not args.quiet:
+            where = (
+                "in-process" if cfg.direct else f"in the cloud ({cfg.cloud or args.out / 'cloud'})"
+            )
+            print(
+                "pacc study: learning each driver's IRL table from its manual trips "
+                f"{where} before the drives ...",
+                file=sys.stderr,
+            )
         if pop:
             rows = run_population(cfg, args.out, cache_dir=args.cache, progress=not args.quiet)
             print((args.out / "population.md").read_text(encoding="utf-8"))
@@ -148,7 +173,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"pacc study: {exc}", file=sys.stderr)
         return 130
     except (SimError, EcuError, FormatError, CloudSyncError, DbcError, OSError) as exc:
-        print(f"pacc study: error: {exc}", file=sys.stderr)
+        print(f"pacc study: error: {error_line(exc)}", file=sys.stderr)
         return 2
     took = time.perf_counter() - start
     if cfg.incremental:

@@ -13,6 +13,8 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from pacc.vocab import FormatError
+
 if TYPE_CHECKING:
     from dbc.codec import Codec
 
@@ -38,7 +40,7 @@ class PedalScale:
         for name in ("accel_full_pct", "brake_full_bar"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0.0):
-                raise ValueError(f"PedalScale.{name} must be finite and > 0, got {value}")
+                raise FormatError(f"PedalScale.{name} must be finite and > 0, got {value}")
 
     @classmethod
     def from_codec(cls, codec: Codec) -> PedalScale:

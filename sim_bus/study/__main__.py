@@ -1,6 +1,8 @@
 """``python -m sim_bus.study`` is ``pacc study``."""
 
-from pacc.commands.study import main
+import sys
+
+from pacc.cli import main
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(main(["study", *sys.argv[1:]]))

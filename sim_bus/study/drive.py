@@ -154,7 +154,7 @@ def run_drive(
     ``live``: more sinks of the same channels (a Foxglove live view, :mod:`ecu.buslog.live`).
     """
     if cfg.controller not in CONTROLLERS:
-        raise ValueError(f"controller must be one of {CONTROLLERS}")
+        raise DriveError(f"controller must be one of {CONTROLLERS}")
     if cfg.seed < 0:
         raise DriveError(f"seed must be >= 0, got {cfg.seed}")
     prof = profile or resolve_profile(cfg.scenario, cfg.seed)
@@ -236,7 +236,8 @@ def _drive_recorder(
     live: Sequence[Sink] = (),
 ) -> CanLogWriter:
     """The bus recorder of a drive: the ECU's port, simulated time on ``base``."""
-    settings = {k: str(v) for k, v in dataclasses.asdict(cfg).items()}
+    # a setting left at its default (None) is absent, never the string 'None'
+    settings = {k: str(v) for k, v in dataclasses.asdict(cfg).items() if v is not None}
     return open_recording(
         path,
         codec,

@@ -163,7 +163,7 @@ def format_population(cfg: StudyConfig, rows: Sequence[dict[str, Any]]) -> str:
         "",
         *_paired_table(rows, rng),
         "",
-        "Goals (issue 11):",
+        "Goals:",
         "",
         *acceptance(rows),
         "",

@@ -81,6 +81,11 @@ def averages(
     return out
 
 
+def pct(value: float) -> str:
+    """``value`` as ``12.3 %``, or ``n/a`` when it is not a number (a reduction against 0)."""
+    return f"{value:.1f} %" if math.isfinite(value) else "n/a"
+
+
 def reduction_pct(base: float, value: float) -> float:
     """Relative reduction of ``value`` against ``base`` in percent (nan if base is 0)."""
     return (base - value) / base * 100.0 if base > 0 else math.nan
@@ -151,8 +156,8 @@ def format_table(cfg: StudyConfig, rows: Sequence[dict[str, Any]]) -> str:
                 reduction_pct(p["predefined"][1], p[c][1]),
             )
             out.append(
-                f"- {CONTROLLER_TITLES[c]}: PoI {ours[0]:.1f} % ({paper[0]:.1f} %), "
-                f"NIM {ours[1]:.1f} % ({paper[1]:.1f} %)"
+                f"- {CONTROLLER_TITLES[c]}: PoI {pct(ours[0])} ({pct(paper[0])}), "
+                f"NIM {pct(ours[1])} ({pct(paper[1])})"
             )
         out.append("")
     collisions = sum(int(r["collision"]) for r in rows)

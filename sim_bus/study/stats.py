@@ -19,6 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from sim_bus.errors import SimError
+
 #: resamples of every bootstrap (2000: the percentile interval's ends move < 0.1 % of the
 #: spread between seeds)
 N_BOOT = 2000
@@ -61,7 +63,7 @@ def paired_comparison(a: np.ndarray, b: np.ndarray, rng: np.random.Generator) ->
     """Compare per-driver values ``b`` against ``a`` (shape ``(n,)`` each, same drivers)."""
     x, y = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
     if x.shape != y.shape or x.ndim != 1:
-        raise ValueError(f"paired values need one shape (n,), got {x.shape} and {y.shape}")
+        raise SimError(f"paired values need one shape (n,), got {x.shape} and {y.shape}")
     d = y - x
     nonzero = d[np.abs(d) > 1e-12]
     p = float(stats.wilcoxon(nonzero).pvalue) if nonzero.size >= 1 else 1.0

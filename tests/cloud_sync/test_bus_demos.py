@@ -21,7 +21,8 @@ from dbc import DATA_DIR
 from dbc.codec import load_codec
 from pacc.commands.demos import main as demos_main
 from pacc.commands.export import main as export_main
-from pacc.vocab.triplog import Trip, read_trip
+from pacc.vocab.triplog import Trip
+from pacc.vocab.triplog_file import read_trip
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.study.drive import DriveConfig, log_to_trip, predefined_table, run_drive
 

@@ -28,6 +28,7 @@ from cloud_sync.api import (
 from cloud_sync.service.http import create_app
 from cloud_sync.service.local import LocalCloud
 from cloud_sync.service.rules import CloudService, ServiceConfig
+from cloud_sync.service.store import BatchRow
 from cloud_sync.signing import load_public_key, verify_dgpt
 from cloud_sync.vehicle.client import HttpCloud
 from pacc.vocab.acc_state import AccState
@@ -182,7 +183,13 @@ def test_a_trip_without_a_driver_is_422(connect: Connect, token: str, tmp_path: 
 
 @pytest.mark.parametrize(
     ("key", "value"),
-    [("condition", "../../../escaped"), ("condition", "/etc/x"), ("driver_id", "../syn")],
+    [
+        ("condition", "../../../escaped"),
+        ("condition", "/etc/x"),
+        ("driver_id", "../syn"),
+        ("condition", "default\n"),  # a trailing newline passed ^...$ with re.match
+        ("driver_id", "syn\n"),
+    ],
 )
 def test_names_that_would_leave_the_store_are_422(
     key: str, value: str, connect: Connect, cloud: CloudService, token: str, tmp_path: Path
@@ -249,3 +256,66 @@ def test_openapi_description_lists_the_routes(cloud: CloudService) -> None:
     assert {"/v1/batches", "/v1/drivers/{driver_id}/dgpt", "/v1/key", "/v1/health"} <= set(
         spec["paths"]
     )
+
+
+def test_openapi_documents_the_body_the_bearer_scheme_and_the_errors(
+    cloud: CloudService,
+) -> None:
+    served = Served(cloud)
+    try:
+        spec = httpx.get(f"{served.url}/openapi.json", timeout=10.0).json()
+        docs = httpx.get(f"{served.url}/docs", timeout=10.0).text
+        js = httpx.get(f"{served.url}/static/swagger-ui/swagger-ui-bundle.js", timeout=10.0)
+    finally:
+        served.stop()
+    post = spec["paths"]["/v1/batches"]["post"]
+    body = post["requestBody"]["content"]["application/octet-stream"]["schema"]
+    assert body == {"type": "string", "format": "binary"} and post["requestBody"]["required"]
+    assert {"401", "403", "413", "422", "503", "507"} <= set(post["responses"])
+    schemes = spec["components"]["securitySchemes"]
+    assert any(s["type"] == "http" and s["scheme"] == "bearer" for s in schemes.values())
+    assert post["security"] and spec["paths"]["/v1/drivers/{driver_id}/dgpt"]["get"]["security"]
+    # Swagger UI offline: its assets come from the cloud itself, no CDN
+    assert "/static/swagger-ui/swagger-ui-bundle.js" in docs and "cdn" not in docs.lower()
+    assert js.status_code == 200 and len(js.content) > 100_000
+
+
+def test_a_full_disk_is_507_with_retry_after_and_the_batch_stays_spooled(
+    cloud: CloudService, token: str, tmp_path: Path
+) -> None:
+    """The store's disk full (ENOSPC from the blob write): 507 + Retry-After over HTTP, a
+    retryable error for the vehicle, nothing stored."""
+    import errno  # noqa: PLC0415
+
+    from cloud_sync.api import CloudUnavailableError  # noqa: PLC0415
+    from cloud_sync.vehicle.client import HttpCloud  # noqa: PLC0415
+
+    real = cloud.store.add_batch
+
+    def full(row: BatchRow, data: bytes) -> bool:  # the disk is full: the one fault injected
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    cloud.store.add_batch = full  # type: ignore[method-assign]
+    served = Served(cloud)
+    data = trip_bytes(follower_trip(0, minutes=0.2), tmp_path)
+    try:
+        answer = httpx.post(
+            f"{served.url}/v1/batches",
+            content=data,
+            headers={"Authorization": f"Bearer {token}"},
+            timeout=10.0,
+        )
+        assert answer.status_code == 507 and answer.headers["retry-after"] == "60"
+        assert "disk is full" in answer.json()["detail"]
+        with HttpCloud(served.url, token) as client, pytest.raises(CloudUnavailableError):
+            client.upload(data)
+    finally:
+        served.stop()
+        cloud.store.add_batch = real  # type: ignore[method-assign]
+    assert cloud.store.batch_count() == 0
+
+
+def test_a_422_names_no_server_path(connect: Connect, token: str) -> None:
+    with pytest.raises(BadBatchError) as info:
+        connect(token).upload(b"PK\3\4 not mcap")
+    assert "/tmp" not in str(info.value) and ".mcap" not in str(info.value)

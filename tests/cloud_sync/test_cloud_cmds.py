@@ -43,7 +43,7 @@ def test_register_writes_a_private_token_and_names_the_key(
     assert service.store.driver_vehicle("syn") == "car"
     again = ["register", "--data", str(data), "--vehicle", "car", "--token-file", str(token)]
     assert main(again) == 1
-    assert "already registered" in capsys.readouterr().out
+    assert "already registered" in capsys.readouterr().err
 
 
 @pytest.mark.slow
@@ -70,7 +70,7 @@ def test_fetch_without_a_trusted_key_is_refused(
     data, token = register(tmp_path)
     args = ["sync", "--spool", str(tmp_path / "s"), "--cloud", str(data)]
     assert main([*args, "--token-file", str(token), "--fetch", "syn"]) == 2
-    assert "--trust" in capsys.readouterr().out
+    assert "--trust" in capsys.readouterr().err
 
 
 def test_sync_to_an_unreachable_cloud_keeps_the_batch(
@@ -92,7 +92,7 @@ def test_a_bad_token_file_is_a_clear_error(
     (tmp_path / "t").write_text("two tokens\n")
     args = ["sync", "--spool", str(tmp_path / "s"), "--cloud", str(tmp_path / "c")]
     assert main([*args, "--token-file", str(tmp_path / "t")]) == 1
-    assert "holds no single token" in capsys.readouterr().out
+    assert "holds no single token" in capsys.readouterr().err
 
 
 @pytest.fixture

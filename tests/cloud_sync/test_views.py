@@ -19,7 +19,7 @@ import uvicorn
 
 from cloud_sync.service.http import create_app
 from cloud_sync.service.rules import CloudService
-from pacc.vocab.triplog import write_trip
+from pacc.vocab.triplog_file import write_trip
 
 from .conftest import follower_trip
 

@@ -16,6 +16,7 @@ from dbc import checksums
 from dbc.binding import FieldBinding, PartBinding
 from dbc.codec import MessageCodec
 from dbc.e2e import e2e_crc
+from dbc.errors import DbcError
 
 #: opendbc's wheel exists for Python < 3.13 only (the dev dependency's marker): the tests
 #: against it are skipped there, and fail (not skip) where it should be but is missing
@@ -59,7 +60,7 @@ def test_make_dispatches_by_name() -> None:
     assert toyota is not None and toyota(payload) == (1 + 2 + 3 + 0x01 + 0x00 + 4) & 0xFF
     crc = checksums.make("pacc_crc8", 0x100, 4, 3)
     assert crc is not None and crc(payload) == e2e_crc(0x100, payload, 3)
-    with pytest.raises(ValueError, match="unknown checksum"):
+    with pytest.raises(DbcError, match="unknown checksum"):
         checksums.make("crc32", 0x100, 4, 3)
 
 

@@ -21,6 +21,7 @@ from ecu.runtime import EcuRuntime
 from pacc.commands.ecu import main, run_until_done
 from pacc.vocab.dgpt import predefined
 from pacc.vocab.dgpt_file import load_dgpt
+from tests.cli_util import exit_code
 from tests.peers import PeerNodes
 
 _ids = itertools.count()
@@ -101,7 +102,7 @@ def test_cli_runs_takeover_and_prints_summary(
     ):
         assert line in out
     # the open takeover segment is flushed at exit; the adapted profile saved
-    assert len(list((tmp_path / "to").glob("takeover_*.mcap"))) == 1
+    assert len(list((tmp_path / "to").glob("*-takeover-*.mcap"))) == 1
     saved = load_dgpt(tmp_path / "p.json")
     assert saved.version == 1 and saved.source == "adapted"
 
@@ -154,7 +155,7 @@ def test_sigterm_stops_cleanly_keeping_takeovers_and_profile(tmp_path: Path) -> 
     )
     assert proc.returncode == 0, proc.stderr
     assert "takeover 1 (accel)" in proc.stdout and "takeovers:      1" in proc.stdout
-    assert len(list((tmp_path / "to").glob("takeover_*.mcap"))) == 1
+    assert len(list((tmp_path / "to").glob("*-takeover-*.mcap"))) == 1
     saved = load_dgpt(tmp_path / "p.json")
     assert saved.version == 1 and saved.source == "adapted"
 
@@ -212,7 +213,7 @@ def test_usage_and_bus_errors(capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as info:
         main(["--brake", "sometimes"])
     assert info.value.code == 2
-    assert main(["--duration", "-1"]) == 2
+    assert exit_code(main, ["--duration", "-1"]) == 2
     assert main(["--headway", "0.2", "-i", "virtual", "-c", "x"]) == 2
     assert "outside the safety bounds" in capsys.readouterr().err
     assert main(["-i", "no_such_interface", "-c", "x", "--duration", "0"]) == 1
@@ -381,7 +382,7 @@ def test_cli_can_log_records_the_run_and_takeovers_carry_utc(
     assert log.node == "ecu" and (~log.frames.rx).sum() >= 150  # 50 Hz commands for ~4 s
     assert log.frames.rx.sum() > 500 and "ACC_Command" in log.decoded
     assert any("takeover 1" in text for _, text in log.events), (log.events, out)
-    segment = read_trip(next((tmp_path / "to").glob("takeover_*.mcap")))
+    segment = read_trip(next((tmp_path / "to").glob("*-takeover-*.mcap")))
     start = segment.meta["start_utc"]  # the wall clock, not the boot clock
     assert start[:10] == time.strftime("%Y-%m-%d", time.gmtime(before))
     # its cycles at their recorded times: the replayed ECU sends what it sent, bit for bit

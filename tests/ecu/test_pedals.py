@@ -7,6 +7,7 @@ import math
 import pytest
 
 from dbc.codec import load_codec
+from pacc.vocab import FormatError
 from pacc.vocab.pedals import PedalScale
 
 
@@ -25,5 +26,5 @@ def test_fractions_are_clipped_and_nan_passes() -> None:
 
 @pytest.mark.parametrize("bad", [0.0, -1.0, math.inf, math.nan])
 def test_a_full_scale_must_be_positive_and_finite(bad: float) -> None:
-    with pytest.raises(ValueError, match="brake_full_bar"):
+    with pytest.raises(FormatError, match="brake_full_bar"):
         PedalScale(accel_full_pct=100.0, brake_full_bar=bad)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -80,3 +81,30 @@ def _import_time_us(module: str) -> int:
     rows = [line.split("|") for line in out.stderr.splitlines() if line.startswith("import time:")]
     cumulative_us = {r[2].strip(): int(r[1]) for r in rows if r[1].strip().isdigit()}
     return cumulative_us[module]
+
+
+def test_the_error_boundary_prints_one_line_and_debug_the_traceback(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A PaccError a sub-command lets through: one line on stderr, exit 2; --debug (or
+    PACC_DEBUG=1) shows the traceback as well."""
+    same = str(tmp_path / "x.mcap")
+    argv = ["drive", "--log", same, "--can-log", same]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("pacc drive: error: --log and --can-log")
+    assert cli.main(["--debug", *argv]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" in err and "UsageError" in err
+    assert err.splitlines()[-1].startswith("pacc drive: error:")
+
+
+def test_python_m_goes_through_the_boundary(tmp_path: Path) -> None:
+    same = str(tmp_path / "x.mcap")
+    out = subprocess.run(
+        [sys.executable, "-m", "sim_bus", "--log", same, "--can-log", same],
+        check=False,
+        capture_output=True,
+        text=True,
+    )
+    assert out.returncode == 2 and out.stderr.startswith("pacc sim: error: --log and --can-log")

@@ -24,6 +24,7 @@ from sim_bus.manual import manual_trip
 from sim_bus.study.drive import with_condition
 from sim_bus.study.irl_table import cache_key, code_digest, irl_table
 from sim_bus.world import World
+from tests.cli_util import exit_code
 
 
 def test_drive_prints_the_figures_and_logs(
@@ -61,7 +62,7 @@ def test_drive_prints_the_figures_and_logs(
         assert word in out
     trip = read_trip(log)
     assert trip.meta["mode"] == "acc" and trip.meta["controller"] == "predefined+oa"
-    assert trip.meta["condition"] == "dry" and trip.meta["condition_factor"] == 1.0
+    assert trip.meta["condition"] == "default" and trip.meta["condition_factor"] == 1.0
     assert len(trip.t_s) == 200 and (trip.acc_state == AccState.ACTIVE).any()
 
 
@@ -99,7 +100,7 @@ def test_drive_irl_with_profile(tmp_path: Path, capsys: pytest.CaptureFixture[st
     ],
 )
 def test_drive_bad_options(argv: list[str], match: str, capsys: pytest.CaptureFixture[str]) -> None:
-    assert drive.main(argv) == 2
+    assert exit_code(drive.main, argv) == 2
     err = capsys.readouterr().err
     assert "error" in err and match in err
 
@@ -155,8 +156,10 @@ def test_sim_bad_bus(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_negative_seed_is_a_clear_error(capsys: pytest.CaptureFixture[str]) -> None:
-    assert cli.main(["-i", "virtual", "-c", "neg-seed", "--seed", "-1", "--duration", "1"]) == 2
-    assert "--seed must be >= 0" in capsys.readouterr().err
+    argv = ["-i", "virtual", "-c", "neg-seed", "--seed", "-1", "--duration", "1"]
+    assert exit_code(cli.main, argv) == 2
+    err = capsys.readouterr().err
+    assert "--seed" in err and ">= 0" in err
     assert scenarios.main(["list", "--seed", "-2"]) == 2
     assert capsys.readouterr().out.count(">= 0") == 1
     profile = scenarios.canonical_profiles(0)["B"]
@@ -241,7 +244,7 @@ def test_condition_factor_lengthens_the_preference(tmp_path: Path) -> None:
         1.25 * (BUILTIN_DRIVERS["d2"].preferred_gap_m(20.0) - 4.0)
     )
     assert with_condition(BUILTIN_DRIVERS["d2"], 1.0) is BUILTIN_DRIVERS["d2"]
-    assert drive.main(["--condition-factor", "0", "--duration", "5"]) == 2
+    assert exit_code(drive.main, ["--condition-factor", "0", "--duration", "5"]) == 2
     log = tmp_path / "rain.mcap"
     assert drive.main(["--condition-factor", "1.2", "--duration", "5", "--log", str(log)]) == 0
     trip = read_trip(log)
@@ -318,3 +321,13 @@ def test_sim_takes_the_bus_from_python_can_config(
     finally:
         listener.shutdown()
     assert n >= 60  # ESC and PEDAL every 10 ms, RADAR, HMI
+
+
+def test_fault_time_counts_the_seconds_in_fault() -> None:
+    t = np.arange(0.0, 10.0, 0.1)
+    state = np.full(t.shape, int(AccState.ACTIVE))
+    state[20:40] = int(AccState.FAULT)  # 2 s
+    state[60:65] = int(AccState.FAULT)  # 0.5 s
+    fault_s, entries = drive.fault_time(t, state)
+    assert fault_s == pytest.approx(2.5) and entries == 2
+    assert drive.fault_time(t, np.zeros_like(state)) == (0.0, 0)

@@ -21,6 +21,7 @@ from ecu.buslog.reader import CanLog, read_canlog
 from ecu.buslog.replay import play, replay_through_ecu
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
+from pacc import cli
 from pacc.cli import main as pacc_main
 from pacc.commands import replay as replay_cmd
 from pacc.commands import sim as sim_cli
@@ -28,7 +29,8 @@ from pacc.commands.drive import main as drive_main
 from pacc.commands.export import main as export_main
 from pacc.commands.plot import main as plot_main
 from pacc.vocab.dgpt import predefined
-from pacc.vocab.triplog import Trip, write_trip
+from pacc.vocab.triplog import Trip
+from pacc.vocab.triplog_file import write_trip
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.study.config import StudyConfig
 from sim_bus.study.drive import DriveConfig, predefined_table, run_drive
@@ -127,6 +129,7 @@ def test_the_drive_recording_holds_decoded_frames_internals_and_utc(
 ) -> None:
     log = read_canlog(recorded[0])
     assert log.node == "drive" and log.metadata["drive"]["driver_id"] == "d2"
+    assert "None" not in log.metadata["drive"].values()  # unset settings are absent
     assert {"ESC_Speed", "ACC_Command", "ACC_Status", "RADAR_Lead"} <= set(log.decoded)
     assert len(log.frames) == 20 * (100 + 100 + 20 + 10 + 50 + 10)
     out = log.series["/ecu/outputs"]
@@ -221,7 +224,8 @@ def test_drive_cli_can_log_and_utc_trip_log(
     with trip.open("rb") as fh:
         stamps = [m.log_time for _, _, m in make_reader(fh).iter_messages()]
     assert min(stamps) > 1_600_000_000 * 10**9  # real UTC, not 1970
-    assert drive_main(["--duration", "3", "--can-log", str(tmp_path)]) == 2
+    # through the error boundary, as the shell runs it
+    assert cli.main(["drive", "--duration", "3", "--can-log", str(tmp_path)]) == 2
 
 
 def test_study_job_records_its_drive(tmp_path: Path) -> None:

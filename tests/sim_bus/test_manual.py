@@ -32,7 +32,7 @@ def test_manual_trip_follows_own_preference(
     trip = manual_trip(d, profiles["manual3"], seed=1)
     assert isinstance(trip, Trip)
     assert trip.meta["mode"] == "manual" and trip.meta["driver_id"] == driver_id
-    assert trip.meta["condition"] == "dry" and trip.meta["condition_factor"] == 1.0
+    assert trip.meta["condition"] == "default" and trip.meta["condition_factor"] == 1.0
     assert not trip.meta["collision"]
     assert len(trip.t_s) == 3001 and np.allclose(np.diff(trip.t_s), 0.1)
     assert np.all(trip.acc_state == AccState.OFF)

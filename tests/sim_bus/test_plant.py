@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from sim_bus.errors import DriveError
 from sim_bus.plant import Plant, PlantConfig, PlantState, lag_factor, step
 from sim_bus.world import WorldConfig
 
@@ -102,7 +103,7 @@ def test_non_finite_command_is_treated_as_zero() -> None:
     ],
 )
 def test_bad_config_rejected(field_name: str, value: float) -> None:
-    with pytest.raises(ValueError):
+    with pytest.raises(DriveError):
         PlantConfig(**{field_name: value})
 
 
@@ -117,6 +118,6 @@ def test_bad_config_rejected(field_name: str, value: float) -> None:
     ],
 )
 def test_bad_world_config_rejected(field_name: str, value: float) -> None:
-    with pytest.raises(ValueError):
+    with pytest.raises(DriveError):
         WorldConfig(**{field_name: value})  # type: ignore[arg-type]
     assert WorldConfig().driver_dt_s == 0.05  # the defaults are valid

@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from sim_bus.errors import SimError
 from sim_bus.study.stats import bootstrap_ci, holm, paired_comparison
 
 
@@ -33,7 +34,7 @@ def test_paired_comparison_sees_a_shift_and_counts() -> None:
     assert res.p_value < 1e-4 and res.better > 30 and res.better + res.worse + res.ties == 40
     same = paired_comparison(a, a.copy(), np.random.default_rng(0))
     assert same.p_value == 1.0 and same.ties == 40
-    with pytest.raises(ValueError):
+    with pytest.raises(SimError):
         paired_comparison(a, a[:3], np.random.default_rng(0))
 
 

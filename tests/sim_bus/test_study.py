@@ -19,6 +19,7 @@ from sim_bus.study import run as study_run
 from sim_bus.study.config import StudyConfig, validate
 from sim_bus.study.report import format_table, reduction_pct
 from sim_bus.study.run import run_study
+from tests.cli_util import exit_code
 
 SMALL = StudyConfig(
     drivers=("d1", "d4"),
@@ -98,6 +99,9 @@ def test_table_arithmetic() -> None:
     assert "IRL: PoI 46.9 % (28.6 %), NIM 50.0 % (40.2 %)" in text
     assert "0 collisions, min gap 9.00 m" in text
     assert math.isnan(reduction_pct(0.0, 1.0))  # nan when the base is zero
+    zero = [{**r, "poi_pct": 0.0} for r in rows]  # Predefined never overridden: no reduction
+    text = format_table(cfg, zero)
+    assert "IRL: PoI n/a (28.6 %)" in text and "nan" not in text
     assert reduction_pct(20.0, 15.0) == pytest.approx(25.0)
 
 
@@ -113,7 +117,7 @@ def test_table_arithmetic() -> None:
 def test_bad_options(
     argv: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    assert main([*argv, "--out", str(tmp_path), "-q"]) == 2
+    assert exit_code(main, [*argv, "--out", str(tmp_path), "-q"]) == 2
     assert message in capsys.readouterr().err
 
 

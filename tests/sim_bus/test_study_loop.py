@@ -31,13 +31,13 @@ def test_study_learns_its_irl_tables_in_the_embedded_cloud(tmp_path: Path) -> No
     rows = run_study(cfg, tmp_path, progress=False)
     assert len(rows) == 1 and rows[0]["driver"] == "d2"
     service = CloudService.open(tmp_path / "cloud")
-    kinds = [b.kind for b in service.store.batches("d2", "dry")]
+    kinds = [b.kind for b in service.store.batches("d2", "default")]
     assert kinds == ["manual"] * 4  # the four manual trips went up through the spool
-    versions = service.store.versions("d2", "dry")
+    versions = service.store.versions("d2", "default")
     table = load_dgpt(tmp_path / "irl" / "d2.json")
     assert (table.source, table.version) == ("irl", versions[-1].version)
     assert list((tmp_path / "spool").glob("*.mcap")) == []  # all acknowledged
-    cached = tmp_path / "spool" / "profiles" / "d2" / "dry.signed.json"
+    cached = tmp_path / "spool" / "profiles" / "d2" / "default.signed.json"
     assert cached.is_file()  # the vehicle keeps the verified table it drove with
 
 
@@ -55,7 +55,7 @@ def test_incremental_learning_fine_tunes_between_trips(
     versions = [int(r["dgpt_version"]) for r in rows]
     assert versions == sorted(versions)  # each trip drives the newest version
     service = CloudService.open(tmp_path / "cloud")
-    takeovers = [b for b in service.store.batches("d3", "dry") if b.kind == "takeover"]
+    takeovers = [b for b in service.store.batches("d3", "default") if b.kind == "takeover"]
     assert len(takeovers) == sum(int(r["uploaded"]) for r in rows)
     assert takeovers, "d3 made no takeover in 3 trips: the fine-tuning went untested"
     assert versions[-1] > versions[0]  # the takeovers made a new version for a later trip

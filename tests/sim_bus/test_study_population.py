@@ -10,6 +10,7 @@ import pytest
 from pacc.commands.study import main
 from sim_bus.study.config import StudyConfig
 from sim_bus.study.population import ROWS_FILE, run_population
+from tests.cli_util import exit_code
 
 ARGS = ["--controllers", "predefined,predefined+oa", "--duration", "20", "--workers", "1"]
 
@@ -52,8 +53,8 @@ def test_population_study_reports_and_resumes(
 def test_population_refuses_bad_options(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = str(tmp_path / "x")
     assert main(["--population", "2", "--drivers", "d1", "--out", out]) == 2
-    assert main(["--population", "-1", "--out", out, "-q"]) == 2
-    assert "--population must be >= 1" in capsys.readouterr().err
+    assert exit_code(main, ["--population", "-1", "--out", out, "-q"]) == 2
+    assert "argument --population: '-1': need a whole number >= 1" in capsys.readouterr().err
     assert main(["--population", "1", "--seed", "1", "--out", out, "-q", *ARGS]) == 0
     # another configuration in the same folder is refused, the rows stay
     assert main(["--population", "1", "--seed", "2", "--out", out, "-q", *ARGS]) == 2

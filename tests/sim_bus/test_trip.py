@@ -13,6 +13,7 @@ from pacc.vocab.dgpt import Dgpt, SafetyBounds, clamp_to_bounds, speed_axis
 from pacc.vocab.pedals import PedalScale
 from pacc.vocab.triplog import Trip
 from sim_bus.drivers import BUILTIN_DRIVERS
+from sim_bus.errors import DriveError
 from sim_bus.scenarios import canonical_profiles, shorten
 from sim_bus.study.drive import DriveConfig, log_to_trip, run_drive
 from sim_bus.trip import condition_name, world_trip
@@ -50,17 +51,17 @@ def test_world_trip_is_10_hz_with_pedals_on_the_network_scale() -> None:
     assert np.allclose(trip.brake_pedal, np.minimum(log.brake_bar[::2] / 250.0, 1.0))
     assert trip.meta == {
         "driver_id": "d2",
-        "condition": "dry",
+        "condition": "default",
         "condition_factor": 1.0,
         "mode": "acc",
         "scenario": "B",
     }
-    with pytest.raises(ValueError, match="condition"):
+    with pytest.raises(DriveError, match="condition"):
         world_trip(log, BUILTIN_DRIVERS["d2"], PEDALS, {"condition": "dry"})
 
 
 def test_condition_is_named_from_the_condition_factor() -> None:
-    assert condition_name(1.0) == "dry"
+    assert condition_name(1.0) == "default"
     assert condition_name(1.2) == "factor-1.2"
     wet = dataclasses.replace(BUILTIN_DRIVERS["d2"], condition_factor=1.25)
     trip = world_trip(_log(3, 0.05), wet, PEDALS, {})

@@ -68,7 +68,7 @@ def test_ecu_and_sim_in_two_processes(remote_bus: str) -> None:
     bus = ["-i", "remote", "-c", remote_bus]
     pacc = [sys.executable, "-m", "pacc"]
     ecu = subprocess.Popen(
-        [*pacc, "ecu", *bus, "--duration", str(RUN_S + 1.0)],
+        [*pacc, "ecu", *bus, "--set-speed", "40", "--duration", str(RUN_S + 1.0)],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

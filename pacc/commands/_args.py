@@ -1,0 +1,158 @@
+"""What several sub-commands share: the bus flags, validated numbers, distinct outputs.
+
+- :class:`CommandParser`: argparse with a one-line usage error.
+- :func:`add_bus_arguments` / :func:`bus_kwargs`: python-can's ``-i/--interface``,
+  ``-c/--channel``, ``-b/--bitrate`` (defined once; ``pacc ecu``, ``pacc sim``, ``pacc replay``).
+- :func:`number` / :func:`integer`: argparse types that refuse NaN, infinities and values out
+  of a range with argparse's own usage error (exit 2, one line), so ``--quota-mb nan`` never
+  reaches a library.
+- :func:`check_distinct_outputs`: two output options naming one file would keep one of them
+  (``pacc drive --log x --can-log x``): refused before anything runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, NoReturn
+
+from pacc.errors import UsageError, error_line
+
+__all__ = [
+    "CommandParser",
+    "check_writable_file",
+    "error_line",
+    "add_bus_arguments",
+    "bus_kwargs",
+    "check_distinct_outputs",
+    "integer",
+    "number",
+]
+
+
+class CommandParser(argparse.ArgumentParser):
+    """argparse's parser whose usage error is one line on stderr, ``PROG: error: MESSAGE
+    (PROG --help)``, exit 2: the same shape as every other error of pacc (no usage block)."""
+
+    def error(self, message: str) -> NoReturn:
+        """Print the one line and exit 2."""
+        text = " ".join(message.split())
+        self.exit(2, f"{self.prog}: error: {text} (see {self.prog} --help)\n")
+
+
+#: the largest integer any option takes (seeds, counts): beyond it a typo, not a wish
+INT_MAX = 2**31 - 1
+
+
+def add_bus_arguments(parser: argparse.ArgumentParser, title: str | None = None) -> None:
+    """Add python-can's bus flags ``-i``, ``-c``, ``-b`` to ``parser`` (one group)."""
+    group = parser.add_argument_group(
+        title or "bus (omitted: python-can's own configuration applies)"
+    )
+    group.add_argument("-i", "--interface", help="python-can interface, e.g. virtual, socketcan")
+    group.add_argument("-c", "--channel", help="channel, e.g. vcan0")
+    group.add_argument(
+        "-b", "--bitrate", type=integer(1, 10_000_000), help="bitrate, bit/s (1..10000000)"
+    )
+
+
+def bus_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    """The ``can.Bus(**kwargs)`` of parsed bus flags (a flag not given is left out, so
+    python-can's own configuration fills it)."""
+    kwargs: dict[str, Any] = {}
+    for name in ("interface", "channel", "bitrate"):
+        value = getattr(args, name, None)
+        if value is not None:
+            kwargs[name] = value
+    return kwargs
+
+
+def _range_text(lo: float | None, hi: float | None, lo_open: bool) -> str:
+    if lo is not None and hi is not None:
+        return f"{'>' if lo_open else '>='} {lo:.12g} and <= {hi:.12g}"
+    if lo is not None:
+        return f"{'>' if lo_open else '>='} {lo:.12g}"
+    if hi is not None:
+        return f"<= {hi:.12g}"
+    return "finite"
+
+
+def number(
+    lo: float | None = None, hi: float | None = None, *, lo_open: bool = False
+) -> Callable[[str], float]:
+    """An argparse ``type``: a finite float in ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``)."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+        too_low = lo is not None and (value <= lo if lo_open else value < lo)
+        if not math.isfinite(value) or too_low or (hi is not None and value > hi):
+            raise argparse.ArgumentTypeError(
+                f"{text!r}: need a finite number {_range_text(lo, hi, lo_open)}"
+            )
+        return value
+
+    parse.__name__ = "number"  # argparse names the type in its message
+    return parse
+
+
+def integer(lo: int | None = None, hi: int | None = INT_MAX) -> Callable[[str], int]:
+    """An argparse ``type``: a whole number in ``[lo, hi]``."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+        if (lo is not None and value < lo) or (hi is not None and value > hi):
+            raise argparse.ArgumentTypeError(
+                f"{text!r}: need a whole number {_range_text(lo, hi, False)}"
+            )
+        return value
+
+    parse.__name__ = "integer"
+    return parse
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    if a.resolve() == b.resolve():
+        return True
+    try:
+        return a.samefile(b)
+    except OSError:  # one does not exist yet: the resolved paths decided
+        return False
+
+
+def check_distinct_outputs(**outputs: str | os.PathLike[str] | None) -> None:
+    """Raise :class:`UsageError` if two of the named outputs are one file (None: not given).
+
+    ``check_distinct_outputs(log=args.log, can_log=args.can_log)``: the names become the
+    options in the message (``--log`` and ``--can-log``).
+    """
+    given = [(name, Path(path)) for name, path in outputs.items() if path is not None]
+    for i, (name_a, a) in enumerate(given):
+        for name_b, b in given[i + 1 :]:
+            if _same_file(a, b):
+                opt_a, opt_b = (f"--{n.replace('_', '-')}" for n in (name_a, name_b))
+                raise UsageError(
+                    f"{opt_a} and {opt_b} name the same file {a}: one would overwrite the other"
+                )
+
+
+def check_writable_file(path: str | os.PathLike[str] | None, option: str) -> None:
+    """Raise :class:`UsageError` unless ``path`` (None: not given) can be created or replaced
+    as a file: not a folder, in an existing writable folder. Checked before a run, so the
+    run's result is not lost at its end."""
+    if path is None:
+        return
+    target = Path(path)
+    parent = target.resolve().parent
+    if target.is_dir():
+        raise UsageError(f"{option} {target}: is a directory, not a file")
+    if not (parent.is_dir() and os.access(parent, os.W_OK)):
+        raise UsageError(f"{option} {target}: {parent} is not a writable folder")

@@ -1,0 +1,133 @@
+"""``pacc ecu``'s link to the cloud: the takeover spool, the vehicle link, the start table.
+
+Split from :mod:`pacc.commands.ecu` (one concept per module): everything here runs only with
+``--takeovers`` or ``--cloud``, and imports the cloud side lazily.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from ecu.node import EcuConfig, EcuNode
+from ecu.recorder import TripSink
+from pacc.vocab.dgpt import Dgpt
+from pacc.vocab.triplog import Trip
+
+if TYPE_CHECKING:
+    from cloud_sync.vehicle.link import VehicleLink
+
+__all__ = ["Exit", "cloud_link", "cloud_table", "say", "spool_sink", "warn_guest"]
+
+
+def say(text: object) -> None:
+    """Print ``text`` to stdout now. If the reader has gone (``pacc ecu | head``, a dead log
+    pipe) the ECU keeps running: stdout is pointed at devnull and the run goes on to its end,
+    writing takeovers and the profile."""
+    try:
+        print(text, flush=True)
+    except BrokenPipeError:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+
+
+class Exit(Exception):
+    """Ends ``pacc ecu`` with ``code`` after printing ``message`` to stderr."""
+
+    def __init__(self, code: int, message: str) -> None:
+        super().__init__(message)
+        self.code = code
+        self.message = message
+
+
+def spool_sink(directory: str) -> TripSink:
+    """The sink of ``--takeovers DIR``: each segment one batch of the spool in DIR (what
+    ``pacc cloud sync --spool DIR`` uploads). SpoolError if DIR cannot be a spool."""
+    from cloud_sync.vehicle.spool import Spool  # noqa: PLC0415 - only with --takeovers
+
+    spool = Spool(directory)
+
+    def put(trip: Trip) -> None:
+        spool.put_trip(trip)
+
+    return put
+
+
+def warn_guest(args: argparse.Namespace, node: EcuNode) -> None:
+    """Say so when takeover segments will carry no real driver (the cloud refuses them)."""
+    if (args.takeovers or args.cloud) and node.recorder is not None:
+        driver = node.recorder.meta.get("driver_id")
+        if driver in (None, "", "guest"):
+            print(
+                f"pacc ecu: warning: takeover segments are tagged driver {driver!r}: the cloud "
+                "refuses them (403) and they stay spooled; pass --driver ID (a driver "
+                "registered to this vehicle)",
+                file=sys.stderr,
+            )
+
+
+def cloud_link(args: argparse.Namespace, config: EcuConfig) -> VehicleLink:
+    """The vehicle's cloud link of ``--cloud`` (usage and set-up errors raise _Exit)."""
+    # the cloud side (httpx, cryptography, the embedded service) is only for --cloud runs
+    from cloud_sync.api import is_plain_name  # noqa: PLC0415
+    from cloud_sync.errors import CloudSyncError  # noqa: PLC0415
+    from cloud_sync.signing import load_public_key  # noqa: PLC0415
+    from cloud_sync.vehicle.connect import connect, is_url, read_token  # noqa: PLC0415
+    from cloud_sync.vehicle.download import ProfileDownloader  # noqa: PLC0415
+    from cloud_sync.vehicle.link import VehicleLink  # noqa: PLC0415
+    from cloud_sync.vehicle.spool import Spool  # noqa: PLC0415
+
+    if not (args.vehicle and args.token_file):
+        raise Exit(2, "pacc ecu: error: --cloud needs --vehicle ID and --token-file F")
+    for option, name in (("--vehicle", args.vehicle), ("--driver", args.driver)):
+        if name is not None and not is_plain_name(name):
+            raise Exit(
+                2, f"pacc ecu: error: {option} {name!r}: not a plain name (letters, digits, _.-)"
+            )
+    if args.takeovers:
+        raise Exit(2, "pacc ecu: error: --cloud spools the takeovers: drop --takeovers")
+    if args.driver and args.profile:
+        raise Exit(2, "pacc ecu: error: --driver (the cloud's tables) or --profile, not both")
+    if not args.sync_every > 0:
+        raise Exit(2, "pacc ecu: error: --sync-every must be > 0")
+    trust = args.trust or (None if is_url(args.cloud) else Path(args.cloud) / "keys" / "cloud.pub")
+    if args.driver and trust is None:
+        raise Exit(2, "pacc ecu: error: --driver with a cloud URL needs --trust KEY.pub")
+    try:
+        # short calls: the start-up download must not hold the control loop back for long
+        cloud = connect(args.cloud, read_token(args.token_file), timeout_s=5.0)
+        downloader = None
+        if args.driver:
+            assert trust is not None
+            downloader = ProfileDownloader(
+                cloud, load_public_key(trust), Path(args.spool) / "profiles", config.bounds
+            )
+        link = VehicleLink(
+            cloud,
+            Spool(args.spool),
+            args.vehicle,
+            downloader=downloader,
+            driver_id=args.driver,
+            condition=args.condition,
+            sync_every_s=args.sync_every,
+        )
+    except (CloudSyncError, OSError) as exc:
+        raise Exit(1, f"pacc ecu: error: {exc}") from None
+    say(f"cloud: {args.cloud} as vehicle {args.vehicle}, spool {args.spool}")
+    return link
+
+
+def cloud_table(link: VehicleLink, table: Dgpt) -> Dgpt:
+    """The driver's newest verified cloud table, else ``table`` (never raises)."""
+    try:
+        cloud_table = link.initial_table()
+    except Exception as exc:  # the start table must not depend on the cloud's health
+        say(f"cloud: start-up download failed ({type(exc).__name__}: {exc})")
+        cloud_table = None
+    if cloud_table is None:
+        say("cloud: no verified table for the driver yet; keeping the start table")
+        return table
+    say(f"profile: cloud {cloud_table.driver_id} {cloud_table.source} v{cloud_table.version}")
+    return cloud_table

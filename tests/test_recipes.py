@@ -1,0 +1,382 @@
+# ruff: noqa: E501 - the table holds the documents' commands as printed
+"""Every command printed in README.md and docs/*.md, run as printed (issue 18).
+
+:func:`doc_commands` reads the ```sh blocks (continuation lines joined, comments dropped).
+:data:`PLANS` says, per document, what becomes of each of its commands, in order:
+
+- ``run(check)``: run exactly as printed, in a scratch folder shared by the document's
+  commands (so a recipe's later command reads what an earlier one wrote); ``check`` is a
+  regular expression its output must match.
+- ``short(command, check, why)``: a long command (a 300-s drive, a whole study) is run as the
+  shortened equivalent given, and why is said.
+- ``skip(why)``: a command this machine cannot run (SocketCAN, a Dask cluster, a server on a
+  fixed port, the network, a placeholder like HOST); ``why`` names the test that covers it.
+
+The fast test checks that every printed command has a plan and every plan a command (a doc
+edit without its plan fails); the slow tests run each document's plan.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ["README.md", *sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs").glob("*.md"))]
+
+
+def doc_commands(text: str) -> list[str]:
+    """The commands of the ```sh blocks of a Markdown ``text``, in order: a trailing ``\\``
+    joins the next line, ``# ...`` comments and comment-only lines are dropped, runs of
+    spaces (aligned columns) become one."""
+    commands: list[str] = []
+    for block in re.findall(r"```(?:sh|bash|shell)\n(.*?)```", text, re.S):
+        current = ""
+        for raw in block.split("\n"):
+            line = raw.rstrip()
+            if not line.strip() or line.lstrip().startswith("#"):
+                continue
+            code = " ".join(re.sub(r"\s+#.*$", "", line).split())  # aligned columns: one space
+            if current.endswith("\\"):
+                current = current[:-1].rstrip() + " " + code
+                continue
+            if current:
+                commands.append(current)
+            current = code
+        if current:
+            commands.append(current)
+    return commands
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What the recipe test does with one printed command (see the module docstring)."""
+
+    command: str
+    kind: str  # run, short, skip
+    check: str = ""
+    instead: str = ""
+    why: str = ""
+
+
+def run(command: str, check: str) -> Plan:
+    return Plan(command, "run", check)
+
+
+def short(command: str, instead: str, check: str, why: str) -> Plan:
+    return Plan(command, "short", check, instead, why)
+
+
+def skip(command: str, why: str) -> Plan:
+    return Plan(command, "skip", why=why)
+
+
+VCAN = "no SocketCAN in CI; the same options on a virtual bus: "
+SERVER = "a server on a fixed port; tests/cloud_sync/test_cloud_api.py serves the app on an ephemeral one"
+DASK = "needs a Dask cluster; tests/cloud_sync/test_engine.py runs a LocalCluster"
+TOYOTA_DRIVE = (
+    "pacc drive --dbc toyota_nodsu_pt_generated.dbc --binding "
+    "dbc/bindings/toyota_nodsu.binding.toml"
+)
+
+#: document -> (set-up commands run first, then one plan per printed command, in order)
+PLANS: dict[str, tuple[list[str], list[Plan]]] = {
+    "README.md": (
+        ["ln -s {root}/dbc dbc"],
+        [
+            skip("make demo", "CI runs make test; make demo is the 7-min study (docs/study.md)"),
+            skip("make test", "what CI runs"),
+            short(
+                "pacc drive --scenario B --driver d3 --controller irl+oa --seed 1 --log run.mcap",
+                "pacc drive --scenario B --driver d3 --controller irl+oa --seed 1 --log run.mcap"
+                " --duration 30",
+                r"controller irl\+oa.*\n(.*\n)*  log            run\.mcap",
+                "30 s of the 300-s drive",
+            ),
+            short(
+                "pacc drive --faults 'radar:dropout=100-105' ...",
+                "pacc drive --faults 'radar:dropout=10-15' --duration 30",
+                r"ACC FAULT +[0-9.]+ s",
+                "the dropout moved into a 30-s drive",
+            ),
+            short(
+                "pacc drive ... --can-log drive.mcap",
+                "pacc drive --duration 10 --can-log drive.mcap",
+                r"bus recording  drive\.mcap",
+                "10 s",
+            ),
+            run("pacc replay drive.mcap --ecu", r"ECU sent +\d+ frames"),
+            run("pacc export drive.mcap drive.blf", r"\d+ frames: drive\.mcap -> drive\.blf"),
+            run("pacc plot drive.mcap -o drive.png", r"plot: drive\.png"),
+            short(
+                "pacc study --trials 3 --out out/study",
+                "pacc study --drivers d1 --scenarios A --controllers predefined --trials 1 "
+                "--duration 20 --out out/study -q",
+                r"1 drives in [0-9.]+ s; outputs in out/study/",
+                "one 20-s drive of the study (make demo runs it whole)",
+            ),
+            skip(
+                "pacc study --population 100 --seed 2 --out out/pop",
+                "hours; tests/sim_bus/test_study_population.py runs a small population",
+            ),
+            skip(
+                "pacc ecu -i socketcan -c vcan0 --headway 1.5 --set-speed 40 --driver d2 "
+                "--takeovers spool/",
+                VCAN + "tests/pacc/test_data_loss.py::test_readme_takeover_flow_uploads_every_segment",
+            ),
+            skip(
+                "pacc sim -i socketcan -c vcan0 --scenario B --driver d2",
+                VCAN + "tests/sim_bus/test_two_processes.py",
+            ),
+            run(
+                "mkdir -p trips && pacc drive --manual --scenario manual1 --driver d2 --log trips/m1.mcap",
+                r"manual drive: scenario manual1, driver d2 by hand",
+            ),
+            run(
+                "pacc cloud learn --demos trips/*.mcap --driver d2 -o d2.json --plot d2.png",
+                r"driver d2 \(default\): DGPT v1 -> d2\.json(.*\n)*plot -> d2\.png",
+            ),
+            run(
+                "pacc cloud register --data cloud/ --vehicle car1 --driver d2 "
+                "--token-file car1.token",
+                r"vehicle car1 registered \(drivers: d2\)\ntoken written to car1\.token\n"
+                r"the vehicle trusts the key cloud/keys/cloud\.pub",
+            ),
+            skip("pacc cloud serve --data cloud/ --port 8080", SERVER),
+            skip("pacc study --scheduler tcp://HOST:8786 --out out/study", DASK),
+            skip("pacc cloud serve --data cloud/ --scheduler local --workers 2", DASK),
+            short(
+                "pacc cloud sync --spool spool/ --cloud http://127.0.0.1:8080 --token-file "
+                "car1.token --add trips/*.mcap",
+                "pacc cloud sync --spool spool/ --cloud cloud/ --token-file car1.token "
+                "--add trips/*.mcap",
+                r"spooled trips/m1\.mcap: manual batch 1(.*\n)*uploaded 1 batch\(es\)",
+                "the embedded cloud (cloud/) instead of the server on port 8080",
+            ),
+            skip(TOYOTA_DRIVE, "the DBC comes from docs/vehicles.md's recipe, run there"),
+        ],
+    ),
+    "docs/cloud.md": (
+        [
+            "mkdir -p trips && pacc drive --manual --scenario manual1 --driver d1 --log trips/m1.mcap",
+        ],
+        [
+            run(
+                "pacc cloud register --data cloud/ --vehicle car1 --driver d1 --driver d2 "
+                "--token-file car1.token",
+                r"vehicle car1 registered \(drivers: d1, d2\)",
+            ),
+            skip("pacc cloud serve --data cloud/ --host 127.0.0.1 --port 8080 --workers 1", SERVER),
+            skip("pacc cloud serve --data cloud/ --port 8080 --scheduler tcp://10.0.0.5:8786", DASK),
+            short(
+                "pacc cloud sync --spool spool/ --cloud http://127.0.0.1:8080 --token-file "
+                "car1.token --add trips/*.mcap --fetch d1 --trust cloud/keys/cloud.pub",
+                "pacc cloud sync --spool spool/ --cloud cloud/ --token-file car1.token "
+                "--add trips/*.mcap --fetch d1 --trust cloud/keys/cloud.pub",
+                r"uploaded 1 batch\(es\)(.*\n)*DGPT d1/default v1 verified",
+                "the embedded cloud instead of the server on port 8080",
+            ),
+            run(
+                "pacc cloud sync --spool spool/ --cloud cloud/ --token-file car1.token",
+                r"uploaded 0 batch\(es\) \(0 already held\), 0 rejected, 0 still spooled",
+            ),
+        ],
+    ),
+    "docs/logs.md": (
+        ["ln -s {root}/dbc/pacc.dbc car.dbc"],
+        [
+            short(
+                "pacc drive --scenario B --driver d2 --controller predefined+oa --seed 1 "
+                "--can-log drive.mcap",
+                "pacc drive --scenario B --driver d2 --controller predefined+oa --seed 1 "
+                "--can-log drive.mcap --duration 3",
+                r"bus recording  drive\.mcap",
+                "3 s (replay -i below plays it in real time)",
+            ),
+            skip("pacc ecu -i socketcan -c vcan0 --can-log ecu.mcap", VCAN + "tests/ecu/test_cli.py"),
+            skip("pacc sim -i socketcan -c vcan0 --can-log sim.mcap", VCAN + "tests/sim_bus/test_cli.py"),
+            short(
+                "pacc study --can-logs --out out/study",
+                "pacc study --can-logs --drivers d1 --scenarios A --controllers predefined "
+                "--trials 1 --duration 5 --out out/study -q",
+                r"outputs in out/study/ .*can/",
+                "one 5-s drive of the study",
+            ),
+            run("pacc export drive.mcap drive.blf", r"\d+ frames: drive\.mcap -> drive\.blf"),
+            short(
+                "pacc export trace.asc trace.mcap --dbc car.dbc",
+                "pacc export drive.mcap trace.asc && pacc export trace.asc trace.mcap --dbc car.dbc",
+                r"\d+ frames: trace\.asc -> trace\.mcap",
+                "trace.asc made from the drive first (car.dbc: pacc's DBC)",
+            ),
+            run("pacc replay drive.mcap --ecu", r"ECU sent +\d+ frames"),
+            run("pacc replay drive.mcap -i virtual -c bus0 --frames rx", r"frames of drive\.mcap sent"),
+        ],
+    ),
+    "docs/scale.md": (
+        [],
+        [
+            skip("dask scheduler --port 8786", DASK),
+            skip("dask worker tcp://HEAD:8786 --nworkers 8 --nthreads 1", DASK),
+            skip("pacc study --scheduler tcp://HEAD:8786 --out out/study", DASK),
+            skip("pacc cloud serve --data cloud/ --port 8080 --scheduler tcp://HEAD:8786", DASK),
+            skip("pacc cloud serve --data cloud/ --port 8080 --scheduler local --workers 4", DASK),
+        ],
+    ),
+    "docs/study.md": (
+        [],
+        [
+            skip(
+                "pacc study [--drivers d1,…] [--scenarios A,B] [--controllers predefined,…] "
+                "[--trials 3]",
+                "a synopsis, not a command",
+            ),
+            skip(
+                "[--seed 0] [--duration S] [--workers 2] [--scheduler local|tcp://HOST:8786]",
+                "a synopsis",
+            ),
+            skip("[--adaptation-mode timegap|paper]", "a synopsis"),
+            skip(
+                "[--out out/study] [--no-logs] [--can-logs] [--cloud URL|DIR --token-file F "
+                "--trust KEY.pub]",
+                "a synopsis",
+            ),
+            skip(
+                "[--direct [--cache DIR]] [--incremental N] [--dbc CAR.dbc --binding "
+                "CAR.binding.toml]",
+                "a synopsis",
+            ),
+            skip(
+                "pacc study --population N [--seed S] [--scenarios B] [--trials 1] "
+                "[--duration 120] [--cache DIR]",
+                "a synopsis",
+            ),
+            skip(
+                "pacc study --population 100 --seed 2 --out out/pop2 --cache out/cache",
+                "hours; tests/sim_bus/test_study_population.py runs a small population",
+            ),
+        ],
+    ),
+    "docs/vehicles.md": (
+        ["ln -s {root}/dbc dbc"],
+        [
+            skip(
+                "pacc drive --binding dbc/bindings/toyota_nodsu.binding.toml --dbc "
+                "toyota_nodsu_pt_generated.dbc",
+                "the same drive as the recipe below, run there",
+            ),
+            skip("pacc ecu -i socketcan -c can0 --dbc car.dbc --binding car.binding.toml", VCAN + "tests/vehicles/test_toyota.py"),
+            skip("pacc sim -i socketcan -c can0 --dbc car.dbc --binding car.binding.toml", VCAN + "tests/vehicles/test_toyota.py"),
+            skip(
+                "pacc study --dbc car.dbc --binding car.binding.toml --trials 1",
+                "car.dbc is a placeholder; tests/vehicles/test_toyota.py runs a study drive on Toyota's",
+            ),
+            skip("pip install opendbc", "the network; opendbc is a dev dependency"),
+            run(
+                "python -m tools.opendbc_toyota -o toyota_nodsu_pt_generated.dbc",
+                r"toyota_nodsu_pt_generated\.dbc",
+            ),
+            short(
+                TOYOTA_DRIVE,
+                TOYOTA_DRIVE + " --duration 20",
+                r"collisions     0",
+                "20 s of the 300-s drive",
+            ),
+            skip(
+                "python -m can_remote -i virtual -c pacc -H 127.0.0.1 -p 54701 &",
+                "a fixed port; tests/sim_bus/test_two_processes.py runs these three on a free one",
+            ),
+            skip(
+                "pacc ecu -i remote -c ws://127.0.0.1:54701/ --set-speed 40 --duration 60 &",
+                "tests/sim_bus/test_two_processes.py",
+            ),
+            skip(
+                "pacc sim -i remote -c ws://127.0.0.1:54701/ --duration 60",
+                "tests/sim_bus/test_two_processes.py",
+            ),
+        ],
+    ),
+}  # fmt: skip
+
+
+def test_every_printed_command_has_a_plan_and_every_plan_a_command() -> None:
+    for doc in DOCS:
+        printed = doc_commands((ROOT / doc).read_text(encoding="utf-8"))
+        planned = [plan.command for plan in PLANS.get(doc, ([], []))[1]]
+        assert printed == planned, (
+            f"{doc}: the printed commands and the plans differ:\n"
+            f"printed only: {[c for c in printed if c not in planned]}\n"
+            f"planned only: {[c for c in planned if c not in printed]}"
+        )
+    for doc, (_, plans) in PLANS.items():
+        for plan in plans:
+            assert plan.kind in ("run", "short", "skip")
+            assert plan.check or plan.kind == "skip", plan
+            assert plan.why or plan.kind == "run", plan
+        assert doc in DOCS
+
+
+def test_the_parser_joins_continuations_and_drops_comments() -> None:
+    text = "```sh\n# a comment\npacc a --x 1 \\\n       --y 2   # said\n   # more\npacc b\n```\n"
+    assert doc_commands(text) == ["pacc a --x 1 --y 2", "pacc b"]
+
+
+def _shell(command: str) -> str:
+    """``command`` with ``pacc`` and ``python`` as this interpreter's (no PATH needed)."""
+    exe = sys.executable
+    command = re.sub(r"(^|&& )pacc ", rf"\1{exe} -m pacc ", command)
+    return re.sub(r"(^|&& )python ", rf"\1{exe} ", command)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("doc", [d for d, (_, plans) in PLANS.items() if any(
+    p.kind != "skip" for p in plans)])  # fmt: skip
+def test_recipes_run_as_printed(doc: str, tmp_path: Path) -> None:
+    setup, plans = PLANS[doc]
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"}
+    if doc == "docs/vehicles.md" and shutil.which("true") and not _has_opendbc():
+        pytest.skip("opendbc (a dev dependency) is not installed")
+    for step in setup:
+        subprocess.run(
+            _shell(step.replace("{root}", str(ROOT))),
+            shell=True,
+            check=True,
+            cwd=tmp_path,
+            env=env,
+            capture_output=True,
+        )
+    for plan in plans:
+        if plan.kind == "skip":
+            continue
+        command = plan.instead if plan.kind == "short" else plan.command
+        done = subprocess.run(
+            _shell(command),
+            shell=True,
+            check=False,
+            cwd=tmp_path,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        said = done.stdout + done.stderr
+        assert done.returncode == 0, f"{doc}: {command}\n{said[-2000:]}"
+        assert "Traceback" not in said, f"{doc}: {command}\n{said[-2000:]}"
+        assert re.search(plan.check, said), (
+            f"{doc}: {command}: no {plan.check!r} in\n{said[-2000:]}"
+        )
+
+
+def _has_opendbc() -> bool:
+    try:
+        import opendbc  # noqa: F401, PLC0415
+    except ImportError:
+        return False
+    return True
