@@ -29,6 +29,7 @@ from sim_bus.drivers import load_driver
 from sim_bus.errors import SimError
 from sim_bus.faults import parse_faults
 from sim_bus.study.drive import (
+    BUSES,
     CONTROLLERS,
     DriveConfig,
     DriveResult,
@@ -119,6 +120,13 @@ def _parser() -> argparse.ArgumentParser:
         help="online adaptation of the +oa controllers: the paper's Algorithm 1 "
         "or the time-gap update (default: the ECU's, see docs/ecu.md)",
     )
+    p.add_argument(
+        "--bus",
+        choices=BUSES,
+        default=BUSES[0],
+        help="the python-can bus between ECU and simulator: the in-process lockstep bus "
+        "(default) or python-can's virtual bus (the same frames, slower)",
+    )
     add_network_arguments(p)
     return p
 
@@ -157,7 +165,7 @@ def main(argv: list[str] | None = None) -> int:
                 table = irl_table(base, args.seed, args.cache)  # learned in normal conditions
         else:
             table = predefined_table(driver)
-        result = run_drive(cfg, driver, table, profile, can_log=args.can_log)
+        result = run_drive(cfg, driver, table, profile, can_log=args.can_log, bus=args.bus)
     except (SimError, EcuError, FormatError, DbcError, OSError) as exc:
         print(f"pacc drive: error: {exc}", file=sys.stderr)
         return 2

@@ -107,6 +107,7 @@ def plan(
                             cfg.dbc,
                             cfg.binding,
                             str(out / "can" / name) if cfg.can_logs else None,
+                            cfg.bus,
                         )
                     )
     return jobs

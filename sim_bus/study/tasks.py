@@ -40,6 +40,7 @@ class DriveJob:
     dbc: str | None = None  # the vehicle network (None: pacc's)
     binding: str | None = None
     can_log_path: str | None = None  # the drive's bus recording (written by the worker)
+    bus: str = "lockstep"  # the python-can interface (sim_bus.study.drive.BUSES)
 
 
 def run_job(
@@ -63,7 +64,7 @@ def run_job(
     if profile is None:
         profile = canonical_profiles(job.study_seed)[job.scenario]
     can_log = Path(job.can_log_path) if job.can_log_path is not None else None
-    result = run_drive(cfg, driver, job.table, profile, can_log=can_log)
+    result = run_drive(cfg, driver, job.table, profile, can_log=can_log, bus=job.bus)
     trip = log_to_trip(result, driver) if job.log_path is not None else None
     m = result.metrics
     row = {
@@ -117,6 +118,7 @@ class DriveTask:
     dbc: str | None = None
     binding: str | None = None
     can_log_path: str | None = None
+    bus: str = "lockstep"
 
 
 def split(jobs: Sequence[DriveJob]) -> tuple[StudyData, list[DriveTask]]:
@@ -151,6 +153,7 @@ def split(jobs: Sequence[DriveJob]) -> tuple[StudyData, list[DriveTask]]:
                 job.dbc,
                 job.binding,
                 job.can_log_path,
+                job.bus,
             )
         )
     return StudyData(tuple(driver_list), tuple(table_list), profiles), tasks
@@ -171,6 +174,7 @@ def run_task(data: StudyData, task: DriveTask) -> tuple[dict[str, Any], Trip | N
         task.dbc,
         task.binding,
         task.can_log_path,
+        task.bus,
     )
     return run_job(job, data.profiles[(task.study_seed, task.scenario)])
 
