@@ -82,7 +82,7 @@ def run_driver(job: DriverJob) -> list[dict[str, Any]]:
                     job.binding,
                     bus=job.bus,
                 )
-                rows.append(run_job(drive)[0])
+                rows.append(run_job(drive))
     return rows
 
 

@@ -17,7 +17,7 @@ from typing import Any
 
 from ecu.adaptation import AdaptationParams
 from pacc.vocab.dgpt import Dgpt
-from pacc.vocab.triplog import Trip
+from pacc.vocab.triplog import Trip, write_trip
 from sim_bus.drivers import DriverParams
 from sim_bus.scenarios import LeadProfile, canonical_profiles
 from sim_bus.study.drive import DriveConfig, log_to_trip, run_drive
@@ -43,12 +43,12 @@ class DriveJob:
     bus: str = "lockstep"  # the python-can interface (sim_bus.study.drive.BUSES)
 
 
-def run_job(
-    job: DriveJob, profile: LeadProfile | None = None
-) -> tuple[dict[str, Any], Trip | None]:
-    """Run one drive (on a worker): its row of drives.csv and, if ``job.log_path`` is set,
-    its trip log to write there. ``profile``: the lead profile of ``job.scenario`` (None: made
-    here from the study seed)."""
+def run_job(job: DriveJob, profile: LeadProfile | None = None) -> dict[str, Any]:
+    """Run one drive (on a worker): its row of drives.csv. The worker writes the drive's
+    trip log at ``job.log_path`` and its bus recording at ``job.can_log_path`` itself (each
+    atomically), so the main process only gathers rows: on a cluster of several machines
+    the output folder must be a path every worker can write. ``profile``: the lead profile
+    of ``job.scenario`` (None: made here from the study seed)."""
     driver = job.driver
     seed = job.study_seed + job.trial
     cfg = DriveConfig(
@@ -65,9 +65,10 @@ def run_job(
         profile = canonical_profiles(job.study_seed)[job.scenario]
     can_log = Path(job.can_log_path) if job.can_log_path is not None else None
     result = run_drive(cfg, driver, job.table, profile, can_log=can_log, bus=job.bus)
-    trip = log_to_trip(result, driver) if job.log_path is not None else None
+    if job.log_path is not None:
+        write_trip(Path(job.log_path), log_to_trip(result, driver))
     m = result.metrics
-    row = {
+    return {
         "driver": driver.driver_id,
         "scenario": job.scenario,
         "controller": job.controller,
@@ -87,7 +88,6 @@ def run_job(
         "sim_s": result.sim_s,
         "wall_s": result.wall_s,
     }
-    return row, trip
 
 
 @dataclass(frozen=True)
@@ -103,8 +103,8 @@ class StudyData:
 @dataclass(frozen=True)
 class DriveTask:
     """One drive as the engine sees it: a :class:`DriveJob` whose driver and table are
-    indices into :class:`StudyData` (a few hundred bytes on the wire). The worker returns
-    the trip log and the caller writes it at ``log_path``, so workers need no shared disk."""
+    indices into :class:`StudyData` (a few hundred bytes on the wire). The worker writes the
+    trip log at ``log_path`` (and the recording at ``can_log_path``) and returns the row."""
 
     driver: int
     table: int
@@ -159,7 +159,7 @@ def split(jobs: Sequence[DriveJob]) -> tuple[StudyData, list[DriveTask]]:
     return StudyData(tuple(driver_list), tuple(table_list), profiles), tasks
 
 
-def run_task(data: StudyData, task: DriveTask) -> tuple[dict[str, Any], Trip | None]:
+def run_task(data: StudyData, task: DriveTask) -> dict[str, Any]:
     """:func:`run_job` of ``task`` with the shared data put back (the engine's task)."""
     job = DriveJob(
         data.drivers[task.driver],
