@@ -1,12 +1,12 @@
 """Benchmark of the ACC ECU: step() time, lockstep cycle cost, real-time cycle jitter.
 
-Run from the repository root (it plays the peers with ``tests/peers.py``):
-``.venv/bin/python -m bench.ecu_step [--seconds 60] [--steps 20000]``
+Run from the repository root: ``python bench/ecu_step.py [--seconds 60] [--steps 20000]``
+(the ESC, PEDAL, RADAR and HMI peers are played by :class:`Peers` below).
 
 1. ``step()`` of an engaged node following a lead on a minimal plant (no bus): p50 / p99,
    against a named peer measured in the same run: cantools ``Database.decode_message`` of one
    ACC_Command frame (the usual cost of touching one CAN frame in Python).
-2. Lockstep: ``EcuRuntime.advance_to`` per 20 ms cycle on a virtual bus with ESC, PEDAL,
+2. Lockstep: ``EcuRuntime.advance_to`` per 20 ms cycle on the lockstep bus with ESC, PEDAL,
    RADAR and HMI frames pending (what ``pacc drive`` pays per cycle), p50 / p99.
 3. Real time: ``run_realtime`` for ``--seconds`` on a virtual bus while a thread plays the
    other nodes; jitter = |cycle period - 20 ms|, p50 / p99 / max, against a named peer: a
@@ -18,17 +18,73 @@ Targets (issue 3): step p99 <= 200 us, jitter p99 <= 2 ms.
 from __future__ import annotations
 
 import argparse
+import math
 import threading
 import time
 
 import can
 import numpy as np
 
-from dbc.codec import load_codec
+from dbc.codec import Codec, load_codec
+from dbc.endpoint import Outbox
 from ecu.node import EcuConfig, EcuNode, NodeInputs
 from ecu.runtime import EcuRuntime
 from pacc.vocab.dgpt import predefined
-from tests.peers import PeerNodes
+
+#: the roles the peers play
+PEER_ROLES = ("ego", "pedals", "radar", "hmi")
+
+
+class Peers:
+    """Scripted ESC, PEDAL, RADAR and HMI nodes on ``bus``: an engaged car 40 m behind a lead
+    at the same 20 m/s, each role sent at its DBC period with counter and CRC."""
+
+    def __init__(self, bus: can.BusABC, codec: Codec | None = None) -> None:
+        self.bus = bus
+        self.codec = codec if codec is not None else load_codec()
+        self.outbox = Outbox(self.codec)
+        self.values: dict[str, dict[str, float]] = {
+            "ego": {"speed_mps": 20.0, "accel_mps2": 0.0, "speed_valid": 1},
+            "pedals": {
+                "accel_pedal_pct": 0.0,
+                "accel_pressed": 0,
+                "brake_pressed": 0,
+                "brake_pressure_bar": 0.0,
+            },
+            "radar": {
+                "lead_valid": 1,
+                "gap_m": 40.0,
+                "rel_speed_mps": 0.0,
+                "lead_accel_mps2": 0.0,
+                "lead_accel_valid": 1,
+            },
+            "hmi": {
+                "main_switch": 1,
+                "set": 0,
+                "resume": 0,
+                "cancel": 0,
+                "gap_setting": 2,
+                "profile_id": 0,
+            },
+        }
+        self._next = dict.fromkeys(PEER_ROLES, -math.inf)
+
+    def set(self, role: str, **values: float) -> None:
+        """Update the logical values of ``role`` for its next frames."""
+        self.values[role].update(values)
+
+    def send_due(self, now_s: float) -> None:
+        """Send every role whose period has elapsed at ``now_s`` (s); a late caller
+        re-aligns instead of bursting."""
+        for role in PEER_ROLES:
+            due = self._next[role]
+            if now_s + 1e-9 < due:
+                continue
+            period = self.codec.by_role[role].cycle_s
+            following = (now_s if due == -math.inf else due) + period
+            self._next[role] = following if following > now_s else now_s + period
+            self.bus.send(self.outbox.pack(role, self.values[role], now_s))
+
 
 DT = 0.02
 
@@ -81,12 +137,12 @@ def bench_lockstep(cycles: int) -> np.ndarray:
     """Per-cycle cost (s) of ``advance_to`` with the peers' frames pending (2 x 10 ms)."""
     codec = load_codec()
     with (
-        can.Bus(interface="virtual", channel="bench-lockstep") as ecu_bus,
-        can.Bus(interface="virtual", channel="bench-lockstep") as peer_bus,
+        can.Bus(interface="lockstep", channel="bench-lockstep") as ecu_bus,
+        can.Bus(interface="lockstep", channel="bench-lockstep") as peer_bus,
     ):
         node = EcuNode(EcuConfig(set_speed_mps=30.0), predefined(1.5))
         rt = EcuRuntime(ecu_bus, node, codec)
-        peers = PeerNodes(peer_bus, codec)
+        peers = Peers(peer_bus, codec)
         times = np.empty(cycles)
         clock = time.perf_counter_ns
         for k in range(2 * cycles + 200):
@@ -106,7 +162,7 @@ def bench_lockstep(cycles: int) -> np.ndarray:
 
 def _play(channel: str, stop: threading.Event) -> None:
     with can.Bus(interface="virtual", channel=channel) as bus:
-        peers = PeerNodes(bus)
+        peers = Peers(bus)
         t0 = time.monotonic()
         while not stop.is_set():
             t = time.monotonic() - t0

@@ -30,6 +30,7 @@ import uvicorn
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from cloud_sync.irl.synthetic import follower_trip  # noqa: E402
 from cloud_sync.service.http import create_app  # noqa: E402
 from cloud_sync.service.local import LocalCloud  # noqa: E402
 from cloud_sync.service.rules import CloudService  # noqa: E402
@@ -39,7 +40,6 @@ from cloud_sync.vehicle.uploader import Uploader, UploaderConfig  # noqa: E402
 from pacc.vocab.acc_state import AccState  # noqa: E402
 from pacc.vocab.triplog import Trip  # noqa: E402
 from pacc.vocab.tripmode import TripMode  # noqa: E402
-from tests.cloud_sync.conftest import follower_trip  # noqa: E402
 
 
 def takeover_segment(seed: int) -> Trip:

@@ -24,6 +24,7 @@ import numpy as np
 
 from dbc.codec import Codec, MessageCodec, load_codec
 from dbc.endpoint import Frame, Inbox, Outbox
+from dbc.lockstep import LockstepBus
 from dbc.schema import resting_values
 from pacc.vocab.acc_state import AccState
 from sim_bus.faults import ROLES, FaultPlan, FaultSpec
@@ -71,6 +72,15 @@ class SimNode:
         hyper = math.lcm(*every.values())
         #: messages due at tick k are ``_due[k % hyper]`` (the periods as a tick schedule)
         self._due = [tuple(p for p in self._parts if k % every[p.key] == 0) for k in range(hyper)]
+        #: the same schedule by role: (role, its messages due), each role's values filled once
+        self._due_roles = [
+            tuple(
+                (r, tuple(p for p in due if p.role == r))
+                for r in TX_ROLES
+                if any(p.role == r for p in due)
+            )
+            for due in self._due
+        ]
         self._bounds = {(r, k): roles[r].bounds(k) for r in TX_ROLES for k in roles[r].fields}
         self._values: dict[str, dict[str, Any]] = resting_values(
             hmi={"gap_setting": int(gap_setting), "profile_id": int(profile_id)}
@@ -89,9 +99,11 @@ class SimNode:
         self.send_errors = 0  # frames the bus refused (can.CanError on send)
         self.recv_errors = 0  # can.CanError on receive
         self.fault_counts: Counter[tuple[str, str]] = Counter()
-        # the virtual bus exposes its receive queue: peeking it saves a recv() call per tick
+        # the virtual bus exposes its receive queue, the lockstep bus its count of frames
+        # waiting: peeking either saves a recv() call per tick with nothing to read
         queue = getattr(bus, "queue", None)
         self._rx_queue = queue if callable(getattr(queue, "empty", None)) else None
+        self._rx_deque = bus.rx if isinstance(bus, LockstepBus) else None
         # one reusable message per role (the virtual bus copies what it sends)
         self._msgs: dict[str, can.Message] = {
             p.key: Frame(arbitration_id=p.frame_id, is_extended_id=p.is_extended, dlc=p.length)
@@ -102,10 +114,16 @@ class SimNode:
         self.tap: Callable[[float, can.Message, bool], None] | None = None
 
     # -- receive ------------------------------------------------------------------------
+    def _idle(self) -> bool:
+        """True when the bus surely holds no frame (lockstep or virtual); False: maybe."""
+        if self._rx_deque is not None:
+            return not self._rx_deque
+        return self._rx_queue is not None and self._rx_queue.empty()
+
     def _receive(self, now: float) -> None:
         bus = self.bus
-        if self._rx_queue is not None and self._rx_queue.empty():
-            return  # fast path on the virtual bus: nothing arrived since the last tick
+        if self._idle():
+            return  # nothing arrived since the last tick
         accept = self.inbox.accept
         tap = self.tap
         while True:
@@ -173,27 +191,31 @@ class SimNode:
             self.tap(msg.timestamp, msg, False)
 
     def _transmit(self, now: float) -> None:
-        due = self._due[self.tick % len(self._due)]
         faults = self.faults
         if faults is None:  # the hot path: reused messages, no fault logic
             send = self.bus.send
             encode = self.outbox.encode_part
+            fill = self._fill
             msgs = self._msgs
             tap = self.tap
-            for mc in due:
-                msg = msgs[mc.key]
-                msg.data = bytearray(encode(mc, self._fill(mc.role)))
-                msg.timestamp = now
-                try:
-                    send(msg)
-                except can.CanError:  # lost, like a dropped frame; the simulation goes on
-                    self.send_errors += 1
-                    continue
-                self.frames_sent += 1
-                if tap is not None:
-                    tap(now, msg, False)
+            sent = 0
+            for role, parts in self._due_roles[self.tick % len(self._due_roles)]:
+                values = fill(role)  # once per role and tick, whatever its messages
+                for mc in parts:
+                    msg = msgs[mc.key]
+                    msg.data = bytearray(encode(mc, values))
+                    msg.timestamp = now
+                    try:
+                        send(msg)
+                    except can.CanError:  # lost, like a dropped frame; the simulation goes on
+                        self.send_errors += 1
+                        continue
+                    sent += 1
+                    if tap is not None:
+                        tap(now, msg, False)
+            self.frames_sent += sent
             return
-        for mc in due:
+        for mc in self._due[self.tick % len(self._due)]:
             vals = self._fill(mc.role)
             plan = faults.plan(mc.role)
             if plan is None:

@@ -1,12 +1,15 @@
 """The Dask distributed backend of :class:`~cloud_sync.engine.base.Engine` (extra ``pacc[dask]``).
 
 A study's shared data is scattered to every worker once (``Client.scatter(broadcast=True)``);
-each task is one Dask task with a key of its own, results come back with
-``distributed.as_completed`` as they finish. A worker that dies mid-task (a killed process, a
-lost machine) is Dask's to handle: the scheduler runs the task again on another worker, up to
-its ``distributed.scheduler.allowed-failures`` setting, after which the task fails with
-``KilledWorker``, raised here as :class:`~cloud_sync.errors.EngineError`. Each future is
-reported once, so a rerun never repeats a result.
+the tasks go in batches (:func:`batch_size`: a Dask task costs milliseconds of scheduling and
+transfer, a batch pays it once for several drives, while each worker still gets several
+batches to balance the load), each batch one Dask task with a key of its own; results come
+back with ``distributed.as_completed`` as each batch finishes, with one BLAS thread per task
+(:func:`~cloud_sync.engine.base.single_blas_thread`). A worker that dies mid-task (a killed
+process, a lost machine) is Dask's to handle: the scheduler runs the task again on another
+worker, up to its ``distributed.scheduler.allowed-failures`` setting, after which the task
+fails with ``KilledWorker``, raised here as :class:`~cloud_sync.errors.EngineError`. Each
+future is reported once, so a rerun never repeats a result.
 
 The workers import the task functions by name: they need the same pacc installed
 (``pip install 'pacc[dask]'`` on every machine of the cluster).
@@ -22,7 +25,7 @@ from typing import Any, TypeVar
 from distributed import Client, LocalCluster, as_completed
 from distributed.scheduler import KilledWorker
 
-from cloud_sync.engine.base import Engine
+from cloud_sync.engine.base import Engine, single_blas_thread
 from cloud_sync.errors import EngineError
 
 S = TypeVar("S")
@@ -31,11 +34,31 @@ R = TypeVar("R")
 
 #: how long to wait for a scheduler to answer, s
 CONNECT_TIMEOUT_S = 10.0
+#: at most this many tasks in one Dask task
+MAX_BATCH = 4
+#: at least this many batches per worker (while there are tasks enough), for load balance
+BATCHES_PER_WORKER = 4
 
 
-def _apply(task: Any, fn: Callable[[Any, Any], Any], shared: Any) -> Any:
-    """One task on a worker: ``fn(shared, task)`` (``shared`` arrives resolved)."""
-    return fn(shared, task)
+def batch_size(tasks: int, workers: int) -> int:
+    """Tasks per Dask task: at most :data:`MAX_BATCH`, at least :data:`BATCHES_PER_WORKER`
+    batches for each of ``workers`` while there are tasks enough, 1 for few tasks."""
+    return max(1, min(MAX_BATCH, tasks // (max(1, workers) * BATCHES_PER_WORKER)))
+
+
+def _apply(
+    batch: list[tuple[int, Any]], fn: Callable[[Any, Any], Any], shared: Any
+) -> list[tuple[int, Any]]:
+    """One batch on a worker: ``(index, fn(shared, task))`` for each of its tasks, with one
+    BLAS thread (``shared`` arrives resolved)."""
+    with single_blas_thread():
+        return [(index, fn(shared, task)) for index, task in batch]
+
+
+def _call(fn: Callable[..., Any], *args: Any) -> Any:
+    """One call on a worker, with one BLAS thread."""
+    with single_blas_thread():
+        return fn(*args)
 
 
 class DaskEngine(Engine):
@@ -87,28 +110,31 @@ class DaskEngine(Engine):
     def map_unordered(
         self, fn: Callable[[S, T], R], shared: S, tasks: Sequence[T]
     ) -> Iterator[tuple[int, R]]:
-        """Scatter ``shared`` to every worker, one task per item, results as they finish."""
+        """Scatter ``shared`` to every worker, the tasks in batches (:func:`batch_size`),
+        each result as its batch finishes."""
         if not tasks:
             return
         handle = self.client.scatter(shared, broadcast=True, hash=False)
         run = uuid.uuid4().hex[:12]
-        keys = [f"pacc-{run}-{index}" for index in range(len(tasks))]
-        futures = self.client.map(_apply, list(tasks), fn=fn, shared=handle, key=keys, pure=False)
-        index_of = {future.key: index for index, future in enumerate(futures)}
+        size = batch_size(len(tasks), self.workers)
+        items = list(enumerate(tasks))
+        batches = [items[i : i + size] for i in range(0, len(items), size)]
+        keys = [f"pacc-{run}-{b}" for b in range(len(batches))]
+        futures = self.client.map(_apply, batches, fn=fn, shared=handle, key=keys, pure=False)
         try:
             for future in as_completed(futures):
                 try:
-                    result = future.result()
+                    results = future.result()
                 except KilledWorker as exc:
                     raise EngineError(f"a task kept killing its Dask workers: {exc}") from exc
-                yield index_of[future.key], result
+                yield from results
         finally:
             # done, failed or interrupted: release the results and cancel what has not run
             self.client.cancel([*futures, handle])
 
     def call(self, fn: Callable[..., R], *args: Any) -> R:
         """``fn(*args)`` as one Dask task; its result (a worker lost mid-task: run again)."""
-        future = self.client.submit(fn, *args, pure=False)
+        future = self.client.submit(_call, fn, *args, pure=False)
         try:
             result: R = future.result()
         except KilledWorker as exc:
@@ -125,4 +151,4 @@ class DaskEngine(Engine):
             self.cluster = None
 
 
-__all__ = ["CONNECT_TIMEOUT_S", "DaskEngine"]
+__all__ = ["BATCHES_PER_WORKER", "CONNECT_TIMEOUT_S", "MAX_BATCH", "DaskEngine", "batch_size"]

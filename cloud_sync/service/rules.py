@@ -49,7 +49,7 @@ from cloud_sync.api import (
     Receipt,
     is_plain_name,
 )
-from cloud_sync.engine.base import Engine
+from cloud_sync.engine.base import Engine, single_blas_thread
 from cloud_sync.errors import DemoError
 from cloud_sync.irl.trainer import IrlConfig, fine_tune, learn_dgpt
 from cloud_sync.service.store import BatchRow, CloudStore, StoreError, VersionRow
@@ -433,7 +433,21 @@ def train_table(
 ) -> Dgpt:
     """A learning job's training, pure: a table learned from the ``manual`` trips (or
     ``previous`` when None is to be relearned), then fine-tuned with the ``corrections``
-    (takeover and ACC trips). DemoError if the data are not enough yet."""
+    (takeover and ACC trips). DemoError if the data are not enough yet. One BLAS thread:
+    the same table whichever engine (and core count) runs it."""
+    with single_blas_thread():
+        return _train_table(manual, corrections, previous, driver_id, condition, seed, irl)
+
+
+def _train_table(
+    manual: list[Trip],
+    corrections: list[Trip],
+    previous: Dgpt | None,
+    driver_id: str,
+    condition: str,
+    seed: int,
+    irl: IrlConfig | None,
+) -> Dgpt:
     if previous is None:
         table = learn_dgpt(
             manual, driver_id=driver_id, condition=condition, seed=seed, config=irl

@@ -50,6 +50,7 @@ from sim_bus.errors import SimError
 from sim_bus.faults import parse_faults
 from sim_bus.scenarios import shorten
 from sim_bus.study.drive import (
+    BUSES,
     CONTROLLERS,
     DriveConfig,
     DriveResult,
@@ -169,6 +170,13 @@ def _parser() -> argparse.ArgumentParser:
         help="online adaptation of the +oa controllers: the paper's Algorithm 1 "
         "or the time-gap update (default: the ECU's, see docs/ecu.md)",
     )
+    p.add_argument(
+        "--bus",
+        choices=BUSES,
+        default=BUSES[0],
+        help="the python-can bus between ECU and simulator: the in-process lockstep bus "
+        "(default) or python-can's virtual bus (the same frames, slower)",
+    )
     add_network_arguments(p)
     return p
 
@@ -244,7 +252,9 @@ def main(argv: list[str] | None = None) -> int:
         table = _table(args, base, driver)
         live = live_sinks(args.foxglove, print)
         try:
-            result = run_drive(cfg, driver, table, profile, can_log=args.can_log, live=live)
+            result = run_drive(
+                cfg, driver, table, profile, can_log=args.can_log, live=live, bus=args.bus
+            )
         finally:
             for sink in live:
                 sink.close(complete=True)

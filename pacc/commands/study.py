@@ -18,7 +18,7 @@ from pacc.vocab import FormatError
 from sim_bus.errors import SimError
 from sim_bus.study.collect import StudyInterrupted
 from sim_bus.study.config import StudyConfig
-from sim_bus.study.drive import CONTROLLERS, adaptation_params
+from sim_bus.study.drive import BUSES, CONTROLLERS, adaptation_params
 from sim_bus.study.population import run_population
 from sim_bus.study.run import run_study
 
@@ -113,6 +113,12 @@ def _parser() -> argparse.ArgumentParser:
         metavar="N",
         help="instead of d1..d5: N drivers drawn with --seed (docs/study.md), resumable",
     )
+    p.add_argument(
+        "--bus",
+        choices=BUSES,
+        default=BUSES[0],
+        help="the python-can bus of every drive: lockstep (default) or virtual (the same rows)",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     add_network_arguments(p)
     return p
@@ -147,6 +153,7 @@ def main(argv: list[str] | None = None) -> int:
         binding=args.binding,
         scheduler=args.scheduler,
         population=args.population,
+        bus=args.bus,
     )
     try:
         codec_of(args)  # a DBC without its binding, a binding that does not fit: refused now

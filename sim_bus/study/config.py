@@ -8,7 +8,7 @@ from ecu.adaptation import AdaptationParams
 from sim_bus.drivers import DriverParams, load_driver
 from sim_bus.errors import SimError
 from sim_bus.scenarios import canonical_profiles
-from sim_bus.study.drive import CONTROLLERS
+from sim_bus.study.drive import BUSES, CONTROLLERS
 
 
 @dataclass(frozen=True)
@@ -48,6 +48,7 @@ class StudyConfig:
     binding: str | None = None
     scheduler: str | None = None
     population: int = 0
+    bus: str = "lockstep"  # the python-can interface of every drive (sim_bus.study.drive.BUSES)
 
 
 def _validate_cloud(cfg: StudyConfig) -> None:
@@ -72,6 +73,8 @@ def validate_drives(cfg: StudyConfig) -> None:
         raise SimError(f"unknown controllers {bad}: choose from {', '.join(CONTROLLERS)}")
     if not cfg.scenarios:
         raise SimError("give at least one scenario")
+    if cfg.bus not in BUSES:
+        raise SimError(f"--bus must be one of {', '.join(BUSES)}, got {cfg.bus!r}")
     if cfg.trials < 1:
         raise SimError("--trials must be >= 1")
     if cfg.duration_s is not None and not cfg.duration_s > 0:

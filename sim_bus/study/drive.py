@@ -1,8 +1,11 @@
 """One closed-loop drive: the ECU node and the simulator in one process, lockstep, one bus.
 
 :func:`run_drive` is a pure function of (configuration, seed, shipped data): the ECU and
-the simulator each get a python-can ``virtual`` bus on a private channel, and time is the
-simulator's (every frame stamped with simulated time). ``pacc drive``
+the simulator each get an end of one python-can bus on a private channel, and time is the
+simulator's (every frame stamped with simulated time). The bus is the ``lockstep`` interface
+(:mod:`dbc.lockstep`: no locks, no waiting) unless ``bus="virtual"`` asks for python-can's
+virtual bus; both carry the same frames with the same timestamps, so a drive gives the same
+results on either. ``pacc drive``
 (:mod:`pacc.commands.drive`) and the study's tasks (:mod:`sim_bus.study.tasks`) call it.
 """
 
@@ -21,6 +24,7 @@ from typing import Any, Literal, get_args
 import can
 
 from dbc.codec import Codec, load_codec, network_paths
+from dbc.lockstep import LockstepBus
 from ecu import EcuError
 from ecu.adaptation import AdaptationParams, Decision
 from ecu.buslog.format import WORLD_TOPIC, TimeBase
@@ -49,6 +53,8 @@ SET_SPEED_MPS = 40.0
 #: creation time of every table a drive makes (predefined, adapted): drives stay pure
 FIXED_UTC = "2000-01-01T00:00:00Z"
 _channel_ids = itertools.count()
+#: the python-can interfaces a drive runs on (the first is the default)
+BUSES: tuple[str, ...] = ("lockstep", "virtual")
 
 
 @dataclass(frozen=True)
@@ -144,15 +150,19 @@ def run_drive(
     can_log: Path | None = None,
     utc_start_ns: int | None = None,
     live: Sequence[Sink] = (),
+    bus: str = "lockstep",
 ) -> DriveResult:
     """Run one lockstep drive; never raises for a collision (it is reported).
 
-    ``record_channel``: when given, the drive's virtual channel name (so a test can attach a
+    ``record_channel``: when given, the drive's channel name (so a test can attach a
     listener that sees every frame); by default a private, unique channel. ``can_log``: record
     the ECU's bus traffic, its internals and the simulated world to this MCAP file
     (:mod:`ecu.buslog.writer`), simulated time 0 stamped ``utc_start_ns`` (default: now);
     ``live``: more sinks of the same channels (a Foxglove live view, :mod:`ecu.buslog.live`).
+    ``bus``: the python-can interface, one of :data:`BUSES` (the same frames on each).
     """
+    if bus not in BUSES:
+        raise DriveError(f"bus must be one of {', '.join(BUSES)}, got {bus!r}")
     if cfg.controller not in CONTROLLERS:
         raise DriveError(f"controller must be one of {CONTROLLERS}")
     if cfg.seed < 0:
@@ -166,8 +176,8 @@ def run_drive(
     world = World(driver, prof, cfg.seed, WorldConfig(engage_s=cfg.engage_s))
     channel = record_channel or f"pacc-drive-{id(cfg):x}-{next(_channel_ids)}"
     ecu = _ecu_node(cfg, driver, table, prof.name, takeover_sink)
-    sim_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
-    ecu_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
+    sim_bus = _open_bus(bus, channel)
+    ecu_bus = _open_bus(bus, channel)
     base = TimeBase(time.time_ns() if utc_start_ns is None else utc_start_ns, 0.0)
     recorder: CanLogWriter | None = None
     can_log_error: str | None = None
@@ -215,6 +225,13 @@ def run_drive(
         start_utc=base.iso(0.0),
         extra={"can_log_error": can_log_error} if can_log_error else {},
     )
+
+
+def _open_bus(interface: str, channel: str) -> can.BusABC:
+    """One end of the drive's bus: frames keep the simulated time they were stamped with."""
+    if interface == "virtual":
+        return can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
+    return LockstepBus(channel=channel)
 
 
 def drive_codec(cfg: DriveConfig) -> Codec:

@@ -84,9 +84,11 @@ def irl_table(driver: DriverParams, seed: int, cache_dir: Path | None = None) ->
         except DgptError:
             path.unlink(missing_ok=True)  # a damaged cache entry is rebuilt
     # the trainer (scipy) costs about a second of start-up; only a table to learn needs it
+    from cloud_sync.engine.base import single_blas_thread  # noqa: PLC0415
     from cloud_sync.irl.trainer import learn_dgpt  # noqa: PLC0415
 
-    result = learn_dgpt(manual_trips(driver, seed), driver_id=driver.driver_id, seed=seed)
+    with single_blas_thread():  # the same table whatever the core count (as the cloud's)
+        result = learn_dgpt(manual_trips(driver, seed), driver_id=driver.driver_id, seed=seed)
     table: Dgpt = result.table
     try:  # save_dgpt writes atomically; the cache only saves time, so a failure is no error
         folder.mkdir(parents=True, exist_ok=True)

@@ -52,6 +52,7 @@ class DriverJob:
     cache_dir: str | None
     dbc: str | None = None  # the vehicle network (None: pacc's)
     binding: str | None = None
+    bus: str = "lockstep"  # the python-can interface (sim_bus.study.drive.BUSES)
 
 
 def run_driver(job: DriverJob) -> list[dict[str, Any]]:
@@ -79,8 +80,9 @@ def run_driver(job: DriverJob) -> list[dict[str, Any]]:
                     job.adaptation,
                     job.dbc,
                     job.binding,
+                    bus=job.bus,
                 )
-                rows.append(run_job(drive)[0])
+                rows.append(run_job(drive))
     return rows
 
 
@@ -178,6 +180,7 @@ def run_population(
             str(cache_dir) if cache_dir is not None else None,
             cfg.dbc,
             cfg.binding,
+            cfg.bus,
         )
         for d in drivers
         if d.driver_id not in done

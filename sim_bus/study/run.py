@@ -19,8 +19,6 @@ from tqdm import tqdm
 from cloud_sync.engine.base import Engine, open_engine
 from pacc.vocab.dgpt import Dgpt
 from pacc.vocab.dgpt_file import save_dgpt
-from pacc.vocab.triplog import Trip
-from pacc.vocab.triplog_file import write_trip
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import SimError
 from sim_bus.study.collect import RowJournal, RowKey, collect
@@ -109,6 +107,7 @@ def plan(
                             cfg.dbc,
                             cfg.binding,
                             str(out / "can" / name) if cfg.can_logs else None,
+                            cfg.bus,
                         )
                     )
     return jobs
@@ -127,8 +126,8 @@ def run_jobs(
     csv_path: Path | None = None,
 ) -> list[dict[str, Any]]:
     """Run ``jobs`` on ``engine`` (None: ``workers`` local processes, 1: this process); rows
-    in job order. Each finished drive's log is written at once and, with ``csv_path``, its
-    row appended there (rewritten in job order at the end, or with the finished rows on
+    in job order. Each drive's worker writes its logs; with ``csv_path``, each finished
+    drive's row is appended there (rewritten in job order at the end, or with the finished rows on
     Ctrl-C: :class:`~sim_bus.study.collect.StudyInterrupted`)."""
     data, tasks = split(jobs)
     keys = [_job_key(job) for job in jobs]
@@ -140,7 +139,7 @@ def run_jobs(
     journal = RowJournal(csv_path) if csv_path is not None else None
     try:
         return collect(
-            _rows(running.map_unordered(run_task, data, tasks), jobs, bar), keys, journal=journal
+            _rows(running.map_unordered(run_task, data, tasks), bar), keys, journal=journal
         )
     finally:
         bar.close()
@@ -149,16 +148,11 @@ def run_jobs(
 
 
 def _rows(
-    results: Iterator[tuple[int, tuple[dict[str, Any], Trip | None]]],
-    jobs: Sequence[DriveJob],
-    bar: tqdm[Any],
+    results: Iterator[tuple[int, dict[str, Any]]], bar: tqdm[Any]
 ) -> Iterator[tuple[int, dict[str, Any]]]:
-    """(index, row) of each finished drive, its trip log written first (atomically)."""
+    """(index, row) of each finished drive (its worker wrote its logs), counted on ``bar``."""
     try:
-        for index, (row, trip) in results:
-            log_path = jobs[index].log_path
-            if trip is not None and log_path is not None:
-                write_trip(Path(log_path), trip)
+        for index, row in results:
             bar.update()
             yield index, row
     finally:

@@ -18,6 +18,7 @@ from typing import Any
 from ecu.adaptation import AdaptationParams
 from pacc.vocab.dgpt import Dgpt
 from pacc.vocab.triplog import Trip
+from pacc.vocab.triplog_file import write_trip
 from sim_bus.drivers import DriverParams
 from sim_bus.scenarios import LeadProfile, canonical_profiles
 from sim_bus.study.drive import DriveConfig, log_to_trip, run_drive
@@ -40,14 +41,15 @@ class DriveJob:
     dbc: str | None = None  # the vehicle network (None: pacc's)
     binding: str | None = None
     can_log_path: str | None = None  # the drive's bus recording (written by the worker)
+    bus: str = "lockstep"  # the python-can interface (sim_bus.study.drive.BUSES)
 
 
-def run_job(
-    job: DriveJob, profile: LeadProfile | None = None
-) -> tuple[dict[str, Any], Trip | None]:
-    """Run one drive (on a worker): its row of drives.csv and, if ``job.log_path`` is set,
-    its trip log to write there. ``profile``: the lead profile of ``job.scenario`` (None: made
-    here from the study seed)."""
+def run_job(job: DriveJob, profile: LeadProfile | None = None) -> dict[str, Any]:
+    """Run one drive (on a worker): its row of drives.csv. The worker writes the drive's
+    trip log at ``job.log_path`` and its bus recording at ``job.can_log_path`` itself (each
+    atomically), so the main process only gathers rows: on a cluster of several machines
+    the output folder must be a path every worker can write. ``profile``: the lead profile
+    of ``job.scenario`` (None: made here from the study seed)."""
     driver = job.driver
     seed = job.study_seed + job.trial
     cfg = DriveConfig(
@@ -63,10 +65,11 @@ def run_job(
     if profile is None:
         profile = canonical_profiles(job.study_seed)[job.scenario]
     can_log = Path(job.can_log_path) if job.can_log_path is not None else None
-    result = run_drive(cfg, driver, job.table, profile, can_log=can_log)
-    trip = log_to_trip(result, driver) if job.log_path is not None else None
+    result = run_drive(cfg, driver, job.table, profile, can_log=can_log, bus=job.bus)
+    if job.log_path is not None:
+        write_trip(Path(job.log_path), log_to_trip(result, driver))
     m = result.metrics
-    row = {
+    return {
         "driver": driver.driver_id,
         "scenario": job.scenario,
         "controller": job.controller,
@@ -86,7 +89,6 @@ def run_job(
         "sim_s": result.sim_s,
         "wall_s": result.wall_s,
     }
-    return row, trip
 
 
 @dataclass(frozen=True)
@@ -102,8 +104,8 @@ class StudyData:
 @dataclass(frozen=True)
 class DriveTask:
     """One drive as the engine sees it: a :class:`DriveJob` whose driver and table are
-    indices into :class:`StudyData` (a few hundred bytes on the wire). The worker returns
-    the trip log and the caller writes it at ``log_path``, so workers need no shared disk."""
+    indices into :class:`StudyData` (a few hundred bytes on the wire). The worker writes the
+    trip log at ``log_path`` (and the recording at ``can_log_path``) and returns the row."""
 
     driver: int
     table: int
@@ -117,6 +119,7 @@ class DriveTask:
     dbc: str | None = None
     binding: str | None = None
     can_log_path: str | None = None
+    bus: str = "lockstep"
 
 
 def split(jobs: Sequence[DriveJob]) -> tuple[StudyData, list[DriveTask]]:
@@ -151,12 +154,13 @@ def split(jobs: Sequence[DriveJob]) -> tuple[StudyData, list[DriveTask]]:
                 job.dbc,
                 job.binding,
                 job.can_log_path,
+                job.bus,
             )
         )
     return StudyData(tuple(driver_list), tuple(table_list), profiles), tasks
 
 
-def run_task(data: StudyData, task: DriveTask) -> tuple[dict[str, Any], Trip | None]:
+def run_task(data: StudyData, task: DriveTask) -> dict[str, Any]:
     """:func:`run_job` of ``task`` with the shared data put back (the engine's task)."""
     job = DriveJob(
         data.drivers[task.driver],
@@ -171,6 +175,7 @@ def run_task(data: StudyData, task: DriveTask) -> tuple[dict[str, Any], Trip | N
         task.dbc,
         task.binding,
         task.can_log_path,
+        task.bus,
     )
     return run_job(job, data.profiles[(task.study_seed, task.scenario)])
 

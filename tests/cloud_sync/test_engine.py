@@ -31,6 +31,13 @@ def scaled(shared: dict[str, int], task: int) -> tuple[int, int]:
     return task * shared["k"], os.getpid()
 
 
+def blas_threads(shared: None, task: int) -> int:
+    """The most threads any BLAS library of the process may use (a pure task)."""
+    from threadpoolctl import threadpool_info  # noqa: PLC0415
+
+    return max((i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"), default=1)
+
+
 def refuse_seven(shared: dict[str, int], task: int) -> int:
     if task == 7:
         raise ValueError("seven is refused")
@@ -44,6 +51,25 @@ def test_every_index_once_with_its_result(engine: Engine) -> None:
     assert {i: r for i, (r, _) in got.items()} == {i: 3 * i for i in range(12)}
     pids = {pid for _, pid in got.values()}
     assert (pids == {os.getpid()}) == (engine.workers == 1)
+
+
+def test_pool_workers_run_with_one_blas_thread() -> None:
+    with ProcessEngine(2) as engine:
+        got = dict(engine.map_unordered(blas_threads, None, list(range(4))))
+    assert got == {i: 1 for i in range(4)}
+
+
+def test_dask_batches_its_tasks_and_pins_blas(dask_cluster: Engine) -> None:
+    from cloud_sync.engine.dask_backend import MAX_BATCH, batch_size  # noqa: PLC0415
+
+    assert batch_size(5, 2) == 1  # few tasks: one each, for load balance
+    assert batch_size(20, 2) == 2
+    assert batch_size(1000, 2) == MAX_BATCH
+    got = dict(dask_cluster.map_unordered(scaled, {"k": 2}, list(range(40))))
+    assert {i: r for i, (r, _) in got.items()} == {i: 2 * i for i in range(40)}
+    assert dict(dask_cluster.map_unordered(blas_threads, None, list(range(20)))) == {
+        i: 1 for i in range(20)
+    }
 
 
 def test_a_task_error_reaches_the_caller() -> None:

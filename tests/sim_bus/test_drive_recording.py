@@ -48,7 +48,7 @@ def _recorded(tmp: str) -> tuple[Path, list[tuple[float, int, bytes]]]:
     path = Path(tmp) / "drive.mcap"
     driver = BUILTIN_DRIVERS["d2"]
     channel = "test-drive-recording"
-    listener = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
+    listener = can.Bus(interface="lockstep", channel=channel)
     try:
         result = run_drive(
             CFG,

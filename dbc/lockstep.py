@@ -1,0 +1,137 @@
+"""A python-can bus for in-process simulation where the simulator owns time: ``lockstep``.
+
+``can.Bus(interface="lockstep", channel="drive-1")`` (registered through the ``can.interface``
+entry point) opens one end of an in-process bus; every bus opened on the same channel sees
+the frames the others send, in the order they were sent, as python-can's ``virtual`` bus
+does with ``preserve_timestamps=True``. What it leaves out is what a lockstep simulation does
+not need:
+
+- **no locks, no waiting.** The buses of one channel live in one thread (the simulator's
+  loop): a send appends to each receiver's ``deque``, a receive pops from its own. Time only
+  moves when the simulator steps, so a frame cannot arrive while a receiver waits: ``recv``
+  returns the next queued frame or None at once, whatever its ``timeout``.
+- **no generic deep copy.** python-can's contract is that a received message does not alias
+  the sent one (its sender may reuse and mutate it: the simulator does). :func:`rx_copy`
+  guarantees this by building a fresh :class:`can.Message` per receiver, with a fresh
+  ``bytearray`` of the payload; every other field is an immutable scalar (int, float, bool,
+  the channel's hashable name), so nothing else can be shared mutably. That is what
+  ``copy.deepcopy`` gives, without its memo and dispatch.
+
+A received frame carries the sender's timestamp (the simulated time it was stamped with),
+``channel`` set to the channel name and ``is_rx`` True, exactly as the virtual bus stamps them.
+Receive filters (``can_filters``) are honoured. Not thread-safe by design: use the virtual bus
+for nodes on separate threads (a real-time ECU beside a simulator).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Any
+
+import can
+from can import BusABC, CanOperationError, Message
+from can.typechecking import Channel
+
+#: the buses open on each channel, in the order they were opened
+_channels: dict[Channel, list[LockstepBus]] = {}
+_new_message = Message.__new__
+
+
+def rx_copy(msg: Message, channel: Channel) -> Message:
+    """A received copy of ``msg``: a new :class:`can.Message` that shares no mutable state
+    with it (a new payload ``bytearray``), stamped with ``channel`` and ``is_rx``."""
+    m = _new_message(Message)
+    m.timestamp = msg.timestamp
+    m.arbitration_id = msg.arbitration_id
+    m.is_extended_id = msg.is_extended_id
+    m.is_remote_frame = msg.is_remote_frame
+    m.is_error_frame = msg.is_error_frame
+    m.channel = channel
+    m.dlc = msg.dlc
+    m.data = bytearray(msg.data)
+    m.is_fd = msg.is_fd
+    m.is_rx = True
+    m.bitrate_switch = msg.bitrate_switch
+    m.error_state_indicator = msg.error_state_indicator
+    return m
+
+
+class LockstepBus(BusABC):
+    """One end of an in-process lockstep bus (see the module docstring).
+
+    Args:
+        channel: the bus's name; every LockstepBus of one channel sees the others' frames.
+        receive_own_messages: also queue this bus's own frames to itself.
+        can_filters: python-can receive filters (:meth:`can.BusABC.set_filters`).
+    """
+
+    def __init__(
+        self,
+        channel: Channel = "lockstep",
+        can_filters: can.typechecking.CanFilters | None = None,
+        receive_own_messages: bool = False,
+        **kwargs: Any,
+    ) -> None:
+        super().__init__(channel=channel, can_filters=can_filters, **kwargs)
+        self.channel_id = channel
+        self.channel_info = f"Lockstep bus channel {channel}"
+        self.receive_own_messages = receive_own_messages
+        #: frames received and not yet read, oldest first
+        self.rx: deque[Message] = deque()
+        self._open = True
+        self._peers = _channels.setdefault(channel, [])
+        self._peers.append(self)
+        self._targets: tuple[deque[Message], ...] = ()
+        self._retarget()
+
+    def _retarget(self) -> None:
+        """Recompute every bus's receive queues on this channel (a bus opened or closed)."""
+        for bus in self._peers:
+            bus._targets = tuple(
+                other.rx for other in bus._peers if other is not bus or bus.receive_own_messages
+            )
+
+    def send(self, msg: Message, timeout: float | None = None) -> None:
+        """Queue a copy of ``msg`` (:func:`rx_copy`) to every other bus of the channel."""
+        if not self._open:
+            raise CanOperationError("Cannot operate on a closed bus")
+        channel = self.channel_id
+        for rx in self._targets:
+            rx.append(rx_copy(msg, channel))
+
+    def recv(self, timeout: float | None = None) -> Message | None:
+        """The oldest queued frame that passes the filters, or None at once if there is none
+        (``timeout`` is accepted and ignored: nothing arrives while the simulator waits)."""
+        if not self._open:
+            raise CanOperationError("Cannot operate on a closed bus")
+        rx = self.rx
+        if self._filters is None:
+            return rx.popleft() if rx else None
+        while rx:
+            msg = rx.popleft()
+            if self._matches_filters(msg):
+                return msg
+        return None
+
+    def _recv_internal(self, timeout: float | None) -> tuple[Message | None, bool]:
+        if not self._open:
+            raise CanOperationError("Cannot operate on a closed bus")
+        return (self.rx.popleft() if self.rx else None), False
+
+    @property
+    def pending(self) -> int:
+        """Frames queued and not yet read (before filtering)."""
+        return len(self.rx)
+
+    def shutdown(self) -> None:
+        """Leave the channel (the channel ends with its last bus); queued frames are lost."""
+        super().shutdown()
+        if self._open:
+            self._open = False
+            self._peers.remove(self)
+            self._retarget()
+            if not self._peers:
+                _channels.pop(self.channel_id, None)
+
+
+__all__ = ["LockstepBus", "rx_copy"]

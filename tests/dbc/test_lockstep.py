@@ -1,0 +1,119 @@
+"""The lockstep bus (dbc.lockstep): a python-can interface with the virtual bus's semantics."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from typing import Any
+
+import can
+import pytest
+
+from dbc.lockstep import LockstepBus
+
+
+@pytest.fixture
+def pair() -> Iterator[tuple[can.BusABC, can.BusABC]]:
+    a = can.Bus(interface="lockstep", channel="test-lockstep")
+    b = can.Bus(interface="lockstep", channel="test-lockstep")
+    try:
+        yield a, b
+    finally:
+        a.shutdown()
+        b.shutdown()
+
+
+def _msg(fid: int, data: bytes, t: float) -> can.Message:
+    return can.Message(arbitration_id=fid, data=data, timestamp=t, is_extended_id=False)
+
+
+def test_registered_as_a_python_can_interface(pair: tuple[can.BusABC, can.BusABC]) -> None:
+    assert isinstance(pair[0], LockstepBus)
+
+
+def test_frames_in_order_with_the_senders_timestamps(pair: tuple[can.BusABC, can.BusABC]) -> None:
+    a, b = pair
+    for k in range(5):
+        a.send(_msg(0x100 + k, bytes([k, 2]), 0.01 * k))
+    got = [b.recv(0.0) for _ in range(5)]
+    assert [(m.arbitration_id, bytes(m.data), m.timestamp) for m in got if m] == [
+        (0x100 + k, bytes([k, 2]), 0.01 * k) for k in range(5)
+    ]
+    assert all(m is not None and m.is_rx and m.channel == "test-lockstep" for m in got)
+    assert b.recv(1.0) is None  # nothing queued: at once, whatever the timeout
+    assert a.recv(None) is None  # a sender does not hear itself
+
+
+def test_received_message_does_not_alias_the_sent_one(
+    pair: tuple[can.BusABC, can.BusABC],
+) -> None:
+    a, b = pair
+    sent = _msg(0x10, b"\x01\x02", 1.0)
+    a.send(sent)
+    sent.data[0] = 0xFF  # the sender reuses its message
+    sent.timestamp = 2.0
+    got = b.recv()
+    assert got is not None and got is not sent and got.data is not sent.data
+    assert (bytes(got.data), got.timestamp) == (b"\x01\x02", 1.0)
+
+
+def test_same_frames_as_the_virtual_bus() -> None:
+    """Every field of every received frame equals what the virtual bus delivers."""
+    out: dict[str, list[tuple[object, ...]]] = {}
+    options: tuple[tuple[str, dict[str, Any]], ...] = (
+        ("virtual", {"preserve_timestamps": True}),
+        ("lockstep", {}),
+    )
+    for interface, kw in options:
+        tx = can.Bus(interface=interface, channel="same-frames", **kw)
+        rx = can.Bus(interface=interface, channel="same-frames", **kw)
+        try:
+            tx.send(_msg(0x7FF, b"\x00\x01\x02", 0.5))
+            tx.send(can.Message(arbitration_id=0x1ABCDEF, data=b"\x09", is_extended_id=True))
+            tx.send(can.Message(arbitration_id=0x12, is_remote_frame=True, dlc=4, timestamp=3.0))
+            got = []
+            while (m := rx.recv(0.0)) is not None:
+                got.append(
+                    tuple(getattr(m, s) for s in can.Message.__slots__ if s != "__weakref__")
+                )
+            out[interface] = got
+        finally:
+            tx.shutdown()
+            rx.shutdown()
+    assert len(out["lockstep"]) == 3
+    assert out["lockstep"] == out["virtual"]
+
+
+def test_filters_and_own_messages() -> None:
+    a = can.Bus(interface="lockstep", channel="filters", receive_own_messages=True)
+    b = can.Bus(
+        interface="lockstep",
+        channel="filters",
+        can_filters=[{"can_id": 0x20, "can_mask": 0x7F0, "extended": False}],
+    )
+    try:
+        for fid in (0x10, 0x21, 0x30, 0x2F):
+            a.send(_msg(fid, b"", 0.0))
+        assert [m.arbitration_id for m in iter(lambda: b.recv(0), None)] == [0x21, 0x2F]
+        assert [m.arbitration_id for m in iter(lambda: a.recv(0), None)] == [0x10, 0x21, 0x30, 0x2F]
+    finally:
+        a.shutdown()
+        b.shutdown()
+
+
+def test_a_closed_bus_refuses_and_leaves_the_channel() -> None:
+    a = can.Bus(interface="lockstep", channel="closing")
+    b = can.Bus(interface="lockstep", channel="closing")
+    b.shutdown()
+    a.send(_msg(1, b"", 0.0))  # nobody listens: the frame is gone, as on a real bus
+    with pytest.raises(can.CanOperationError):
+        b.send(_msg(1, b"", 0.0))
+    with pytest.raises(can.CanOperationError):
+        b.recv(0)
+    c = can.Bus(interface="lockstep", channel="closing")
+    try:
+        a.send(_msg(2, b"", 0.0))
+        got = c.recv()
+        assert got is not None and got.arbitration_id == 2
+    finally:
+        a.shutdown()
+        c.shutdown()
