@@ -51,7 +51,9 @@ def convert(src: Path, dst: Path, dbc: str | None = None) -> int:
     import can  # noqa: PLC0415 - python-can only when a log is converted
 
     for path in (src, dst):
-        if path.suffix.lower() not in FORMATS:
+        if path.suffix.lower() not in FORMATS and not (
+            path is src and path.name.lower().endswith(".mcap.part")  # a killed recording
+        ):
             raise UsageError(
                 f"{path}: unsupported format {path.suffix or '(no suffix)'!r} "
                 f"(one of {', '.join(FORMATS)})"
