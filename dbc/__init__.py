@@ -15,6 +15,8 @@ node's inbox (decode + E2E checks) and outbox (counter + CRC on send).
 - :mod:`dbc.endpoint` — a node's inbox (decode + E2E check) and outbox (counter + CRC).
 - :mod:`dbc.network` — the ``--dbc`` / ``--binding`` options and the codec they name.
 - :mod:`dbc.errors` — the codec's exception tree, named by phase (load, encode, decode).
+- :mod:`dbc.lockstep` — A python-can bus for in-process simulation where the simulator owns
+  time: ``lockstep``.
 """
 
 from __future__ import annotations

@@ -14,4 +14,9 @@
 - :mod:`cloud_sync.irl.baseline` — ``empirical_baseline``, the steady-state comparison table.
 - :mod:`cloud_sync.irl.trainer` — ``learn_dgpt``, ``fine_tune``: compositions of the phases.
 - :mod:`cloud_sync.irl.plot` — the figure of a learned table.
+- :mod:`cloud_sync.irl.bus_demos` — demonstrations from a real car's bus log: the manual
+  car-following stretches as trip logs.
+- :mod:`cloud_sync.irl.synthetic` — A small synthetic car follower with a known gap preference:
+  demonstrations whose answer is known, for the IRL tests and the cloud benchmark
+  (bench/sync.py).
 """

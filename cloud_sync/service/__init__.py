@@ -4,4 +4,6 @@
 - :mod:`cloud_sync.service.rules` — ``CloudService``: the rules, free of any transport.
 - :mod:`cloud_sync.service.http` — the rules as an HTTP service (FastAPI).
 - :mod:`cloud_sync.service.local` — the embedded cloud: the service in-process over a folder.
+- :mod:`cloud_sync.service.views` — what a person looks at: read-only lists of the cloud's
+  state, and the dashboard page.
 """
