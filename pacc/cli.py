@@ -27,6 +27,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "export": ("pacc.commands.export", "convert CAN logs: pacc MCAP <-> .log/.asc/.blf/.trc/.csv"),
     "replay": ("pacc.commands.replay", "replay a bus recording through the ECU or onto a bus"),
     "plot": ("pacc.commands.plot", "plot one recorded drive: speed, gap, pedals, ACC state"),
+    "hil": ("pacc.commands.hil", "a person drives in a browser against the ECU: the paper's study"),
 }
 
 _USAGE = "usage: pacc [-h] {" + ",".join(SUBCOMMANDS) + "} ..."

@@ -1,0 +1,90 @@
+"""The paper's protocol, shortened, completed by a scripted participant in a real browser."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from pacc.vocab.dgpt import load_dgpt
+from pacc.vocab.triplog import read_trip
+from sim_bus.hil.plan import paper_plan
+from sim_bus.hil.report import build_table
+from tests.hil.conftest import AppFactory
+from tests.hil.participant import drive_in_browser
+
+SHORT_S = 20.0
+
+
+def _walk(page: Any) -> dict[str, Any]:
+    """Take every step of the plan as the page offers it; the last view."""
+    view: dict[str, Any] = page.evaluate("window.__hil.view")
+    while view["step"] is not None and view["step"]["kind"] != "done":
+        kind = view["step"]["kind"]
+        if kind == "consent":
+            view = page.evaluate("window.__hil.action('consent')")
+        elif kind == "break":
+            view = page.evaluate("window.__hil.action('continue')")
+        elif kind == "learn":
+            if view["phase"] != "learning":
+                view = page.evaluate("window.__hil.action('start')")
+            while view["phase"] == "learning":
+                time.sleep(0.1)
+                view = page.evaluate("window.__hil.action('poll')")
+            assert view["phase"] != "failed", view["message"]
+        else:
+            view = drive_in_browser(page)
+            assert view["phase"] == "after", view
+            rating = {"comfort": 5, "trust": 6} if view["rate"] else {}
+            view = page.evaluate(f"window.__hil.action('continue', {json.dumps(rating)})")
+    return view
+
+
+@pytest.mark.slow
+def test_shortened_protocol_in_a_browser(browser: Any, hil_app: AppFactory, tmp_path: Path) -> None:
+    out = tmp_path / "sessions"
+    url, session = hil_app(
+        paper_plan("P02"),
+        participant="P02",
+        protocol="paper",
+        short_s=SHORT_S,
+        lockstep=True,
+        out=out,
+    )
+    page = browser.new_page(viewport={"width": 480, "height": 300})
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    sent: list[str] = []
+    page.on("websocket", lambda ws: ws.on("framereceived", lambda f: sent.append(str(f))))
+    page.goto(url + "/")
+    page.wait_for_function("window.__hil.view !== null")
+    view = _walk(page)
+    assert view["step"]["kind"] == "done" and not errors
+    folder = out / "P02"
+    manifest = json.loads((folder / "manifest.json").read_text())
+    assert set(manifest["done"]) == {s.id for s in paper_plan("P02") if s.kind != "done"}
+    # manual drives recorded as manual trips, the table learned (signed, verified on download)
+    for name in ("manual1", "manual2", "manual3", "manual4"):
+        trip = read_trip(folder / "logs" / f"{name}.mcap")
+        assert trip.meta["mode"] == "manual" and trip.meta["driver_id"] == "P02"
+        assert (trip.acc_state == 0).all() and trip.accel_pedal.max() > 0.0
+    assert manifest["done"]["learn"]["signed"] and manifest["done"]["learn"]["batches"] >= 1
+    irl = load_dgpt(folder / "tables" / "irl.json")
+    assert irl.driver_id == "P02"
+    assert any((folder / "spool" / "profiles").rglob("*"))
+    # ACC drives: takeovers recorded, the +oa tables adapted
+    records = [json.loads(p.read_text()) for p in (folder / "drives").glob("acc*.json")]
+    assert len(records) == 8
+    assert sum(r["row"]["takeovers"] for r in records) > 0
+    adapted = [r for r in records if r["row"]["controller"].endswith("+oa")]
+    assert any(r["row"]["adaptations"] > 0 for r in adapted)
+    assert (folder / "ratings.csv").read_text().count("\n") == 9
+    # blind: no message to the page named a controller
+    assert not any(c in f for f in sent for c in ("predefined", "irl", "+oa"))
+    # Table I from the session folder
+    table = build_table(out, tmp_path / "table")
+    assert "P02" in table and "IRL + OA" in table
+    assert (tmp_path / "table" / "table1.md").is_file()
