@@ -20,6 +20,7 @@ import math
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -94,7 +95,7 @@ class Session:
                 raise SimError(f"{path}: not a session manifest ({exc})") from exc
             if m.get("participant") != self.cfg.participant or m.get("plan") != plan_ids:
                 raise SimError(f"{path}: another participant's or protocol's session")
-            m["events"].append({"event": "resumed", "at": self._at()})
+            m["events"].append({"event": "resumed", "at": _utc()})
             return m
         return {
             "participant": self.cfg.participant,
@@ -427,6 +428,4 @@ def _jsonable(x: Any) -> Any:
 
 
 def _utc() -> str:
-    from datetime import UTC, datetime  # noqa: PLC0415 - only for stamps
-
     return datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")

@@ -41,6 +41,7 @@ def test_page_loads_with_no_network(browser: Any, hil_app: AppFactory) -> None:
     page.close()
 
 
+@pytest.mark.slow
 def test_lead_drawn_larger_when_closer(browser: Any, hil_app: AppFactory, tmp_path: Path) -> None:
     url, _ = hil_app(free_plan("B", None), short_s=60.0, lockstep=True)
     page = _ready(browser, url)
@@ -67,6 +68,7 @@ def test_lead_drawn_larger_when_closer(browser: Any, hil_app: AppFactory, tmp_pa
     page.close()
 
 
+@pytest.mark.slow
 def test_gamepad_calibrated_then_drives(browser: Any, hil_app: AppFactory, tmp_path: Path) -> None:
     url, session = hil_app(free_plan("B", None), short_s=10.0, lockstep=True)
     cal = _ready(browser, url, GAMEPAD_JS, "/calibrate")
@@ -116,6 +118,7 @@ def test_gamepad_calibrated_then_drives(browser: Any, hil_app: AppFactory, tmp_p
     page.close()
 
 
+@pytest.mark.slow
 def test_browser_drive_equals_the_bus_drive_without_browser(
     browser: Any, hil_app: AppFactory, tmp_path: Path
 ) -> None:
