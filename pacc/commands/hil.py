@@ -43,6 +43,12 @@ def _parser() -> argparse.ArgumentParser:
         choices=(*CONTROLLERS, "manual"),
         help="free drive: the ECU's controller (manual: ACC off)",
     )
+    p.add_argument(
+        "--setting",
+        choices=("low", "medium", "high"),
+        default="medium",
+        help="the participant's Predefined headway setting: 1, 3 or 4 s (default medium)",
+    )
     p.add_argument("--seed", type=int, default=0, help="scenario and plant-noise seed")
     p.add_argument("--short", type=float, metavar="S", help="shorten every drive to S seconds")
     p.add_argument(
@@ -96,6 +102,7 @@ def session_of(args: argparse.Namespace) -> Session:
         token_file=args.token_file,
         trust=args.trust,
         bus=_bus_factory(args),  # type: ignore[arg-type]
+        setting=args.setting,
     )
     return Session(cfg, plan)
 

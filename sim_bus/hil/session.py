@@ -28,7 +28,7 @@ import can
 
 from pacc.vocab.dgpt import Dgpt, load_dgpt, save_dgpt
 from pacc.vocab.triplog import read_trip, write_trip
-from sim_bus.drivers import DriverParams, load_driver
+from sim_bus.drivers import DriverParams, PredefinedSetting, load_driver
 from sim_bus.errors import SimError
 from sim_bus.hil.loop import DriveOutcome, HilDrive, RealtimeRunner
 from sim_bus.hil.plan import Step
@@ -47,7 +47,9 @@ class SessionConfig:
     """How a session runs. ``short_s``: shorten every drive (tests, demos); ``lockstep``:
     the world advances only on the page's ``step`` messages; ``cloud``: a URL or folder
     (None: an embedded cloud in the session folder) with ``token_file`` and ``trust``;
-    ``bus``: opens the bus to a separate ECU (None: the in-process ECU)."""
+    ``bus``: opens the bus to a separate ECU (None: the in-process ECU); ``setting``: the
+    participant's choice of the Predefined controller's headway (low 1 s, medium 3 s, high
+    4 s)."""
 
     participant: str
     protocol: str
@@ -59,6 +61,9 @@ class SessionConfig:
     token_file: Path | None = None
     trust: Path | None = None
     bus: Callable[[], can.BusABC] | None = None
+    setting: PredefinedSetting = (
+        "medium"  # the Predefined controller's headway setting: low, medium, high
+    )
 
 
 class Session:
@@ -71,7 +76,7 @@ class Session:
         for sub in ("logs", "can", "drives", "tables"):
             (self.folder / sub).mkdir(parents=True, exist_ok=True)
         self.participant: DriverParams = dataclasses.replace(
-            load_driver(BODY), driver_id=cfg.participant
+            load_driver(BODY), driver_id=cfg.participant, predefined_setting=cfg.setting
         )
         self._lock = threading.RLock()
         self.manifest = self._open_manifest()
