@@ -119,7 +119,9 @@ def main(argv: list[str] | None = None) -> int:
     except (SimError, EcuError, FormatError, CloudSyncError, DbcError, OSError) as exc:
         print(f"pacc hil: error: {exc}", file=sys.stderr)
         return 2
-    print(f"pacc hil: open http://{args.host}:{port}/ (session folder {session.folder})")
+    print(
+        f"pacc hil: open http://{args.host}:{port}/ (session folder {session.folder})", flush=True
+    )
     try:
         threading.Event().wait()
     except KeyboardInterrupt:

@@ -78,7 +78,8 @@ class HilDrive:
 
     ``cfg``: the drive's controller, seed and network (:class:`DriveConfig`); ``acc``: False
     for a manual drive (main switch off, buttons locked). ``bus``: an open python-can bus to a
-    separate ECU (None: the in-process ECU on ``virtual``). ``can_log``: record the bus, the
+    separate ECU, which the drive shuts when it closes (None: the in-process ECU on
+    ``virtual``). ``can_log``: record the bus, the
     ECU's internals and the world to this MCAP file (in-process ECU only).
     """
 
@@ -121,6 +122,8 @@ class HilDrive:
                     can_log, cfg, self.ecu, table, self.codec, self.base
                 )
                 self.rt.record_to(self.recorder)
+        else:
+            self._own_buses = [bus]
         self.node = SimNode(bus, self.world, codec=self.codec, rng=fault_rng(cfg.seed))
         self.dt_s = self.world.cfg.plant.dt_s
         self.wall_s = 0.0

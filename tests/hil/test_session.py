@@ -3,13 +3,19 @@
 from __future__ import annotations
 
 import json
+import threading
+import time
 from pathlib import Path
 
+import can
 import httpx
 import pytest
 
+from ecu.node import EcuConfig, EcuNode
+from ecu.runtime import EcuRuntime
 from pacc.commands import hil as hil_cmd
 from pacc.commands import study as study_cmd
+from pacc.vocab.dgpt import predefined
 from sim_bus.errors import SimError
 from sim_bus.hil.plan import free_plan, paper_plan
 from sim_bus.hil.server import ServerThread, create_app
@@ -100,3 +106,44 @@ def test_cli_refuses_bad_options(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert hil_cmd.main(["--protocol", "paper", "--participant", "anon"]) == 2
     assert study_cmd.main(["--hil", str(tmp_path / "none"), "--out", str(tmp_path / "t")]) == 2
     assert "not a folder of hil sessions" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_a_separate_ecu_on_the_bus_drives_the_car(tmp_path: Path) -> None:
+    """``pacc hil -i/-c``: no ECU in the session; one on the bus (its own real-time clock)
+    engages when the person presses SET."""
+    channel = f"hil-ext-{id(tmp_path):x}"
+    ecu_bus = can.Bus(interface="virtual", channel=channel)
+    rt = EcuRuntime(ecu_bus, EcuNode(EcuConfig(set_speed_mps=40.0), predefined(1.5)))
+    ecu = threading.Thread(target=rt.run_realtime, args=(8.0,), daemon=True)
+    ecu.start()
+    s = Session(
+        SessionConfig(
+            "P07",
+            "free",
+            tmp_path,
+            short_s=4.0,
+            bus=lambda: can.Bus(interface="virtual", channel=channel),
+        ),
+        free_plan("B", "predefined"),
+    )
+    try:
+        s.handle({"t": "action", "name": "start"})
+        assert s.runner is not None and s.drive is not None and s.drive.ecu is None
+        states: set[str] = set()
+        pressed = False
+        deadline = time.monotonic() + 10.0
+        while s.phase == "driving" and time.monotonic() < deadline:
+            state = s.runner.latest
+            states.add(state["acc_state"])
+            if state["t"] > 1.8 and not pressed:
+                s.handle({"t": "btn", "name": "set"})
+                pressed = True
+            time.sleep(0.02)
+        assert s.phase == "after" and "ACTIVE" in states
+        assert rt.summary().frames_in > 100
+    finally:
+        s.close()
+        rt.stop()
+        ecu.join(5.0)
+        ecu_bus.shutdown()
