@@ -36,6 +36,13 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--participant", help="participant id with a number, e.g. P01")
     p.add_argument("--protocol", choices=("paper",), help="run the paper's study protocol")
     p.add_argument("--out", type=Path, default=Path("sessions"), help="session folders")
+    p.add_argument(
+        "--incremental",
+        type=int,
+        default=0,
+        metavar="N",
+        help="protocol: then N IRL+OA drives on B, the cloud fine-tuning between them",
+    )
     p.add_argument("--scenario", default="B", help="free drive: A, B, manual1..4 or a CSV")
     p.add_argument(
         "--controller",
@@ -84,7 +91,7 @@ def session_of(args: argparse.Namespace) -> Session:
         if args.participant is None:
             raise SimError("--protocol needs --participant")
         participant_index(args.participant)
-        plan = paper_plan(args.participant)
+        plan = paper_plan(args.participant, args.incremental)
     else:
         plan = free_plan(args.scenario, None if args.controller == "manual" else args.controller)
     if args.short is not None and not args.short >= 1.0:

@@ -99,6 +99,7 @@ class HilDrive:
         self.participant = participant
         self.profile = profile
         self.acc = acc
+        self.table = table  # what the in-process ECU starts the drive with
         self.pedals = HumanPedals(main_on=acc, locked=not acc, gap_setting=2)
         self.world = World(
             participant, profile, cfg.seed, WorldConfig(engage_s=cfg.engage_s), pedals=self.pedals

@@ -73,8 +73,12 @@ def acc_order(participant: str) -> list[tuple[str, str]]:
     return [CONDITIONS[i] for i in row]
 
 
-def paper_plan(participant: str) -> list[Step]:
-    """The paper's session for one participant (see the module docstring)."""
+def paper_plan(participant: str, incremental: int = 0) -> list[Step]:
+    """The paper's session for one participant (see the module docstring); ``incremental``:
+    then that many IRL + OA drives on Scenario B, the cloud fine-tuning the table between them
+    (the paper's incremental learning; steps ``inc1``..)."""
+    if incremental < 0:
+        raise SimError(f"incremental drives: a count >= 0, got {incremental}")
     steps = [
         Step("consent", "consent", "Consent"),
         Step("practice", "drive", "Practice drive", "manual4", "predefined", practice=True),
@@ -84,12 +88,18 @@ def paper_plan(participant: str) -> list[Step]:
     steps.append(Step("learn", "learn", "Learning your driving style"))
     steps.append(Step("break1", "break", "Break"))
     order = acc_order(participant)
+    total = len(order) + incremental
     for k, (controller, scenario) in enumerate(order, 1):
         steps.append(
-            Step(f"acc{k}-{scenario}", "drive", f"Drive {k} of {len(order)}", scenario, controller)
+            Step(f"acc{k}-{scenario}", "drive", f"Drive {k} of {total}", scenario, controller)
         )
         if k == len(order) // 2:
             steps.append(Step("break2", "break", "Break"))
+    if incremental:
+        steps.append(Step("break3", "break", "Break"))
+    for k in range(1, incremental + 1):
+        label = f"Drive {len(order) + k} of {total}"
+        steps.append(Step(f"inc{k}-B", "drive", label, "B", "irl+oa"))
     steps.append(Step("done", "done", "Thank you"))
     return steps
 

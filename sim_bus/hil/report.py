@@ -18,6 +18,7 @@ import numpy as np
 from sim_bus.errors import SimError
 from sim_bus.study.config import StudyConfig
 from sim_bus.study.drive import CONTROLLERS
+from sim_bus.study.incremental_report import format_incremental, write_incremental_csv
 from sim_bus.study.report import (
     CONTROLLER_TITLES,
     FIELDS,
@@ -44,6 +45,36 @@ def session_rows(sessions: Path) -> list[dict[str, Any]]:
                 raise SimError(f"{path}: not a drive record ({exc})") from exc
             rows.append(row)
     return rows
+
+
+def incremental_rows(sessions: Path) -> list[dict[str, Any]]:
+    """The incremental drives (``drives/inc*.json``) as rows of the synthetic study's
+    incremental report: participant, trip, the DGPT version driven with, PoI, NIM, ..."""
+    rows: list[dict[str, Any]] = []
+    for folder in sorted(p for p in sessions.iterdir() if (p / "manifest.json").is_file()):
+        paths = sorted((folder / "drives").glob("inc*.json"), key=lambda p: _trip_no(p.stem))
+        for path in paths:
+            try:
+                record = json.loads(path.read_text(encoding="utf-8"))
+                row = record["row"]
+                rows.append(
+                    {
+                        "driver": row["driver"],
+                        "trip": _trip_no(path.stem),
+                        "dgpt_version": record["table_version"],
+                        "uploaded": record.get("incremental", {}).get("uploaded", 0),
+                        **{k: row[k] for k in ("poi_pct", "nim_per_min", "takeovers")},
+                        **{k: row[k] for k in ("min_ttc_s", "collision")},
+                    }
+                )
+            except (OSError, ValueError, KeyError, TypeError) as exc:
+                raise SimError(f"{path}: not a drive record ({exc})") from exc
+    return rows
+
+
+def _trip_no(stem: str) -> int:
+    """``inc3-B`` -> 3."""
+    return int(stem[3:].split("-")[0])
 
 
 def complete(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -101,4 +132,9 @@ def build_table(sessions: Path, out: Path) -> str:
     (out / "table1.md").write_text(text, encoding="utf-8")
     write_csv(out / "drives.csv", rows)
     plot(out / "table1.png", rows)
+    inc = incremental_rows(sessions)
+    if inc:
+        text += "\n" + format_incremental(inc)
+        (out / "table1.md").write_text(text, encoding="utf-8")
+        write_incremental_csv(out / "incremental.csv", inc)
     return text

@@ -13,11 +13,11 @@ takes one message and returns what the page shows next. Thread-safe (one lock).
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import json
 import math
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -27,11 +27,13 @@ from typing import Any
 import can
 
 from pacc.vocab.dgpt import Dgpt, load_dgpt, save_dgpt
-from pacc.vocab.triplog import read_trip, write_trip
+from pacc.vocab.triplog import Trip, read_trip
 from sim_bus.drivers import DriverParams, PredefinedSetting, load_driver
 from sim_bus.errors import SimError
-from sim_bus.hil.loop import DriveOutcome, HilDrive, RealtimeRunner
+from sim_bus.hil.cloud import fine_tune, learn, open_cloud
+from sim_bus.hil.loop import HilDrive, RealtimeRunner
 from sim_bus.hil.plan import Step
+from sim_bus.hil.records import append_rating, rating, save_record, write_drive
 from sim_bus.scenarios import shorten
 from sim_bus.study.drive import DriveConfig, predefined_table, resolve_profile
 from sim_bus.study.irl_table import MANUAL_PROFILES
@@ -82,11 +84,12 @@ class Session:
         self.manifest = self._open_manifest()
         self.drive: HilDrive | None = None
         self.runner: RealtimeRunner | None = None
-        self.phase = "ready"  # ready | driving | paused | after | learning | failed
+        self.phase = "ready"  # ready | driving | paused | after | syncing | learning | failed
         self.message = ""
         self._conn = 0
         self.connected = False
         self._pauses: list[dict[str, Any]] = []
+        self._cloud_link: StudyCloud | None = None
         self.seq = 0
 
     # -- manifest ------------------------------------------------------------------------
@@ -180,10 +183,12 @@ class Session:
                 return None
             if kind == "step" and drive is not None and self.cfg.lockstep:
                 if self.phase == "driving":
+                    start = time.perf_counter()
                     for _ in range(max(1, min(int(_num(msg.get("n")) or 10), 1000))):
                         if drive.done:
                             break
                         drive.step()
+                    drive.wall_s += time.perf_counter() - start
                     if drive.done:
                         self._end_drive()
             elif kind == "action":
@@ -244,10 +249,15 @@ class Session:
         self.seq += 1
 
     # -- drives --------------------------------------------------------------------------
-    def _table(self, controller: str | None) -> Dgpt:
-        if controller in ("irl", "irl+oa"):
-            return load_dgpt(self.folder / "tables" / "irl.json")
-        return predefined_table(self.participant)
+    def _table(self, step: Step) -> Dgpt:
+        """The table a drive starts with: Predefined's, the learned one, or for the
+        incremental drives the newest fine-tuned version."""
+        tables = self.folder / "tables"
+        if step.controller not in ("irl", "irl+oa"):
+            return predefined_table(self.participant)
+        if step.id.startswith("inc") and (tables / "irl-latest.json").is_file():
+            return load_dgpt(tables / "irl-latest.json")
+        return load_dgpt(tables / "irl.json")
 
     def new_drive(self, step: Step, *, can_log: Path | None = None) -> HilDrive:
         """The drive of ``step`` (its profile, controller, table), not started."""
@@ -258,13 +268,13 @@ class Session:
             scenario=step.scenario,
             driver_id=self.cfg.participant,
             controller=step.controller or "predefined",  # type: ignore[arg-type]
-            seed=self.cfg.seed,
+            seed=self.cfg.seed + _trip_of(step),  # the incremental trips: fresh plant noise
         )
         bus = self.cfg.bus() if self.cfg.bus is not None else None
         return HilDrive(
             cfg,
             self.participant,
-            self._table(step.controller),
+            self._table(step),
             profile,
             acc=step.controller is not None,
             bus=bus,
@@ -289,106 +299,74 @@ class Session:
         drive = self.drive
         assert step is not None and drive is not None
         outcome = drive.finish()
-        self._outcome = outcome
-        self.phase = "after"
         self.message = (
             f"The drive ended in a collision at {outcome.collision_t_s:.1f} s."
             if outcome.collision and outcome.collision_t_s is not None
             else ""
         )
-        self._write_drive(step, drive, outcome)
+        record = write_drive(
+            self.folder, step, drive, outcome, seed=self.cfg.seed, pauses=self._pauses
+        )
         self.seq += 1
-
-    def _write_drive(self, step: Step, drive: HilDrive, outcome: DriveOutcome) -> None:
-        meta = {
-            "scenario": step.scenario,
-            "seed": self.cfg.seed,
-            "controller": step.controller or "manual",
-            "collision": outcome.collision,
-            "source": "sim_bus.hil",
-            "start_utc": outcome.start_utc,
-            "step": step.id,
-            "pauses": self._pauses,
-        }
-        write_trip(self.folder / "logs" / f"{step.id}.mcap", drive.trip(outcome, meta))
-        m = outcome.log.metrics()
-        row = {
-            "driver": self.cfg.participant,
-            "scenario": step.scenario,
-            "controller": step.controller or "manual",
-            "trial": 1,
-            "seed": self.cfg.seed,
-            **{k: getattr(m, k) for k in _METRIC_FIELDS},
-            "takeovers": outcome.takeovers,
-            "adaptations": outcome.adaptations,
-            "collision": int(outcome.collision),
-            "sim_s": round(outcome.sim_s, 3),
-            "wall_s": round(outcome.wall_s, 3),
-        }
-        record = {
-            "step": step.id,
-            "practice": step.practice,
-            "row": row,
-            "pauses": self._pauses,
-            "collision_t_s": outcome.collision_t_s,
-            "table_version": None,
-            **outcome.extra,
-        }
-        if outcome.final_table is not None and step.controller is not None:
-            save_dgpt(outcome.final_table, self.folder / "tables" / f"{step.id}-final.json")
-            record["table_version"] = outcome.final_table.version
-        path = self.folder / "drives" / f"{step.id}.json"
-        path.write_text(json.dumps(record, indent=1, default=_jsonable), encoding="utf-8")
+        if step.id.startswith("inc") and outcome.final_table is not None:
+            self.phase = "syncing"  # the takeovers go up, the fine-tuned table comes down
+            args = (step, record, outcome.segments, drive.table)
+            threading.Thread(target=self._sync, args=args, daemon=True).start()
+        else:
+            self.phase = "after"
 
     def _after_drive(self, step: Step, comfort: Any, trust: Any) -> None:
-        ratings = {k: _rating(v) for k, v in (("comfort", comfort), ("trust", trust))}
+        ratings = {"comfort": rating(comfort), "trust": rating(trust)}
         if step.controller is not None and not step.practice:
-            path = self.folder / "ratings.csv"
-            new = not path.is_file()
-            with path.open("a", newline="", encoding="utf-8") as fh:
-                w = csv.writer(fh)
-                if new:
-                    w.writerow(
-                        ["participant", "step", "scenario", "controller", "comfort", "trust"]
-                    )
-                w.writerow(
-                    [self.cfg.participant, step.id, step.scenario, step.controller]
-                    + [ratings["comfort"], ratings["trust"]]
-                )
+            append_rating(self.folder, self.cfg.participant, step, **ratings)
         self.drive = None
         self.runner = None
         self._mark_done(step, {"ratings": ratings, "at": _utc()})
 
-    # -- learning ------------------------------------------------------------------------
+    # -- the cloud -----------------------------------------------------------------------
+    def _cloud(self) -> StudyCloud:
+        if self._cloud_link is None:
+            remote = None
+            if self.cfg.cloud is not None:
+                if self.cfg.token_file is None or self.cfg.trust is None:
+                    raise SimError("--cloud needs --token-file and --trust")
+                remote = (self.cfg.cloud, self.cfg.token_file, self.cfg.trust)
+            self._cloud_link = open_cloud(self.folder, self.cfg.participant, self.cfg.seed, remote)
+        return self._cloud_link
+
     def _learn(self, step: Step) -> None:
         try:
             trips = [read_trip(self.folder / "logs" / f"{name}.mcap") for name in MANUAL_PROFILES]
-            if self.cfg.cloud is None:
-                cloud = StudyCloud.embedded(
-                    self.folder, {self.cfg.participant: self.participant}, self.cfg.seed
-                )
-            else:
-                if self.cfg.token_file is None or self.cfg.trust is None:
-                    raise SimError("--cloud needs --token-file and --trust")
-                cloud = StudyCloud.remote(
-                    self.cfg.cloud, self.cfg.token_file, self.cfg.trust, self.folder
-                )
-            batches = cloud.upload(trips)
-            table = cloud.table(self.cfg.participant, str(trips[0].meta["condition"]))
-            if table is None:
-                raise SimError("no usable table: " + ("; ".join(cloud.refusals()) or "none"))
+            table, batches = learn(self._cloud(), trips, self.cfg.participant)
         except Exception as exc:  # noqa: BLE001 - any failure is shown; the step can be retried
-            with self._lock:
-                self.phase = "failed"
-                self.message = f"learning failed: {exc}"
-                self.manifest["events"].append({"event": self.message, "at": _utc()})
-                self._save()
+            self._failed(f"learning failed: {exc}")
             return
         save_dgpt(table, self.folder / "tables" / "irl.json")
         save_dgpt(predefined_table(self.participant), self.folder / "tables" / "predefined.json")
         with self._lock:
             info = {"batches": batches, "version": table.version, "signed": True, "at": _utc()}
             self._mark_done(step, info)
+
+    def _sync(self, step: Step, record: dict[str, Any], segments: list[Trip], table: Dgpt) -> None:
+        try:
+            newer, batches = fine_tune(self._cloud(), segments, table)
+        except Exception as exc:  # noqa: BLE001 - shown; the drive's files are kept
+            newer, batches = table, 0
+            with self._lock:
+                self.manifest["events"].append({"event": f"sync failed: {exc}", "at": _utc()})
+        save_dgpt(newer, self.folder / "tables" / "irl-latest.json")
+        record["incremental"] = {"uploaded": batches, "next_version": newer.version}
+        save_record(self.folder, step.id, record)
+        with self._lock:
+            self.phase = "after"
+            self._save()
+
+    def _failed(self, message: str) -> None:
+        with self._lock:
+            self.phase = "failed"
+            self.message = message
+            self.manifest["events"].append({"event": message, "at": _utc()})
+            self._save()
 
     def close(self) -> None:
         """Stop a running world (the session stays resumable)."""
@@ -399,18 +377,6 @@ class Session:
                 self.drive.close()
 
 
-_METRIC_FIELDS = (
-    "poi_pct",
-    "nim_per_min",
-    "press_onsets",
-    "acc_on_s",
-    "min_gap_m",
-    "min_ttc_s",
-    "rms_jerk_mps3",
-    "gap_error_rms_m",
-)
-
-
 def _num(x: Any) -> float:
     try:
         v = float(x)
@@ -419,17 +385,11 @@ def _num(x: Any) -> float:
     return v if math.isfinite(v) else 0.0
 
 
-def _rating(x: Any) -> int | None:
-    """A 7-point rating 1..7, or None (skipped or not a rating)."""
-    try:
-        v = int(x)
-    except (TypeError, ValueError):
-        return None
-    return v if 1 <= v <= 7 else None
-
-
-def _jsonable(x: Any) -> Any:
-    return str(x)
+def _trip_of(step: Step) -> int:
+    """The trip number of an incremental drive (``inc2-B`` -> 2), else 0."""
+    if not step.id.startswith("inc"):
+        return 0
+    return int(step.id[3:].split("-")[0])
 
 
 def _utc() -> str:

@@ -20,9 +20,10 @@ TOO_CLOSE, TOO_FAR = 0.7, 1.5
 EVERY = 10
 
 
-def decide(s: dict[str, Any]) -> tuple[bool, bool, bool]:
-    """(hold accelerator, hold brake, press SET) from the page's state."""
-    want = 5.0 + HEADWAY_S * s["v"]
+def decide(s: dict[str, Any], headway_s: float = HEADWAY_S) -> tuple[bool, bool, bool]:
+    """(hold accelerator, hold brake, press SET) from the page's state; ``headway_s``: the
+    time gap it wants (5 m + headway · v)."""
+    want = 5.0 + headway_s * s["v"]
     err = s["gap"] - want - 2.0 * (s["v"] - s["v_lead"])  # the gap it will have in 2 s
     if s["acc"] and s["main"] and s["acc_state"] in ("ACTIVE", "OVERRIDE"):
         return (
@@ -46,14 +47,14 @@ def drive_without_browser(drive: HilDrive) -> None:
     drive.run_lockstep(policy, every=EVERY)
 
 
-def drive_in_browser(page: Any) -> dict[str, Any]:
+def drive_in_browser(page: Any, headway_s: float = HEADWAY_S) -> dict[str, Any]:
     """Play the participant through ``page`` (a lockstep session's page in its ``ready``
     phase): start, then per step read the state, press keys, step. The final view."""
     page.evaluate("window.__hil.manual = true")
     view: dict[str, Any] = page.evaluate("window.__hil.action('start')")
     held = {"ArrowUp": False, "ArrowDown": False}
     while view["phase"] == "driving":
-        accel, brake, press_set = decide(view["state"])
+        accel, brake, press_set = decide(view["state"], headway_s)
         for key, want in (("ArrowUp", accel), ("ArrowDown", brake)):
             if want != held[key]:
                 (page.keyboard.down if want else page.keyboard.up)(key)

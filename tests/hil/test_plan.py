@@ -42,6 +42,9 @@ def test_paper_plan_is_blind_and_counterbalanced() -> None:
     assert acc_order("P09") == acc_order("P01")
     with pytest.raises(SimError):
         acc_order("anon")
+    inc = paper_plan("P01", incremental=3)
+    assert [s.id for s in inc[-4:]] == ["inc1-B", "inc2-B", "inc3-B", "done"]
+    assert inc[-2].label == "Drive 11 of 11" and inc[-2].controller == "irl+oa"
 
 
 def test_key_ramp_and_pedal_mapping() -> None:

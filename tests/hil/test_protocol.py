@@ -14,7 +14,7 @@ from pacc.vocab.triplog import read_trip
 from sim_bus.hil.plan import paper_plan
 from sim_bus.hil.report import build_table
 from tests.hil.conftest import AppFactory
-from tests.hil.participant import drive_in_browser
+from tests.hil.participant import HEADWAY_S, drive_in_browser
 
 SHORT_S = 20.0
 
@@ -36,7 +36,12 @@ def _walk(page: Any) -> dict[str, Any]:
                 view = page.evaluate("window.__hil.action('poll')")
             assert view["phase"] != "failed", view["message"]
         else:
-            view = drive_in_browser(page)
+            # in the incremental drives the participant has come to like longer gaps
+            headway = 3.0 if view["step"]["id"].startswith("inc") else HEADWAY_S
+            view = drive_in_browser(page, headway)
+            while view["phase"] == "syncing":  # an incremental drive's takeovers go up
+                time.sleep(0.1)
+                view = page.evaluate("window.__hil.action('poll')")
             assert view["phase"] == "after", view
             rating = {"comfort": 5, "trust": 6} if view["rate"] else {}
             view = page.evaluate(f"window.__hil.action('continue', {json.dumps(rating)})")
@@ -47,7 +52,7 @@ def _walk(page: Any) -> dict[str, Any]:
 def test_shortened_protocol_in_a_browser(browser: Any, hil_app: AppFactory, tmp_path: Path) -> None:
     out = tmp_path / "sessions"
     url, session = hil_app(
-        paper_plan("P02"),
+        paper_plan("P02", incremental=2),
         participant="P02",
         protocol="paper",
         short_s=SHORT_S,
@@ -65,7 +70,8 @@ def test_shortened_protocol_in_a_browser(browser: Any, hil_app: AppFactory, tmp_
     assert view["step"]["kind"] == "done" and not errors
     folder = out / "P02"
     manifest = json.loads((folder / "manifest.json").read_text())
-    assert set(manifest["done"]) == {s.id for s in paper_plan("P02") if s.kind != "done"}
+    plan = paper_plan("P02", incremental=2)
+    assert set(manifest["done"]) == {s.id for s in plan if s.kind != "done"}
     # manual drives recorded as manual trips, the table learned (signed, verified on download)
     for name in ("manual1", "manual2", "manual3", "manual4"):
         trip = read_trip(folder / "logs" / f"{name}.mcap")
@@ -81,10 +87,15 @@ def test_shortened_protocol_in_a_browser(browser: Any, hil_app: AppFactory, tmp_
     assert sum(r["row"]["takeovers"] for r in records) > 0
     adapted = [r for r in records if r["row"]["controller"].endswith("+oa")]
     assert any(r["row"]["adaptations"] > 0 for r in adapted)
-    assert (folder / "ratings.csv").read_text().count("\n") == 9
+    assert (folder / "ratings.csv").read_text().count("\n") == 11
+    # incremental learning: the second trip drove the version the first one's takeovers made
+    inc = [json.loads((folder / "drives" / f"inc{k}-B.json").read_text()) for k in (1, 2)]
+    assert inc[0]["row"]["takeovers"] > 0 and inc[0]["incremental"]["uploaded"] >= 1
+    assert inc[1]["table_version"] == inc[0]["incremental"]["next_version"]
+    assert inc[1]["row"] != inc[0]["row"]  # trip k drives with plant noise seed + k
     # blind: no message to the page named a controller
     assert not any(c in f for f in sent for c in ("predefined", "irl", "+oa"))
     # Table I from the session folder
     table = build_table(out, tmp_path / "table")
-    assert "P02" in table and "IRL + OA" in table
+    assert "P02" in table and "IRL + OA" in table and "Incremental learning" in table
     assert (tmp_path / "table" / "table1.md").is_file()

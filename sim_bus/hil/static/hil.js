@@ -136,7 +136,8 @@
       set(v.label, v.acc ? 'Press S to switch the cruise control on (set). Follow the car ahead; press a pedal '
         + 'whenever you are not happy with the gap.' : 'Drive by hand (cruise control off): follow the car ahead '
         + 'at a distance you like.', 'start', 'Start (Enter)');
-    } else if (v.phase === 'paused') set('Paused', 'The connection was lost; the car is held still.', 'continue', 'Continue (Enter)');
+    } else if (v.phase === 'syncing') set('Drive finished', 'Saving your drive… please wait.', null);
+    else if (v.phase === 'paused') set('Paused', 'The connection was lost; the car is held still.', 'continue', 'Continue (Enter)');
     else if (v.phase === 'after') {
       set('Drive finished', v.message || (v.rate ? 'How was this drive? (optional)' : ''), 'continue', 'Continue (Enter)');
       if (v.rate) { $('rating').classList.remove('hidden'); document.querySelectorAll('#rating input').forEach((i) => { i.checked = false; }); }
