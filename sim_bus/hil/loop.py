@@ -130,7 +130,8 @@ class HilDrive:
         self.wall_s = 0.0
         self._prev_state = AccState.OFF
         self._prev_tor = False
-        #: count of takeover cues (the ECU asked, or the ACC let go): the page chimes on change
+        #: takeover cues so far (the ECU asked for one, or a takeover began: the ACC left
+        #: ACTIVE for OVERRIDE, STANDBY or FAULT); the page chimes when it grows
         self.cues = 0
         self.closed = False
 
@@ -148,11 +149,10 @@ class HilDrive:
             self.rt.advance_to(now)
         state = self.node.acc_state
         tor = self.node.takeover_request
-        engaged = (AccState.ACTIVE, AccState.OVERRIDE)
         if (tor and not self._prev_tor) or (
-            self._prev_state in engaged and state in (AccState.STANDBY, AccState.FAULT)
+            self._prev_state == AccState.ACTIVE and state != AccState.ACTIVE
         ):
-            self.cues += 1
+            self.cues += 1  # the ECU asks for a takeover, or the ACC stops driving
         self._prev_state, self._prev_tor = AccState(state), tor
 
     def run_lockstep(

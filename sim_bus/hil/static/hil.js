@@ -11,7 +11,7 @@
   const DEFAULT_MAP = { accel: { button: 7 }, brake: { button: 6 }, set: { button: 0 },
     resume: { button: 1 }, cancel: { button: 2 }, main: { button: 3 }, gap: { button: 5 } };
   const hil = window.__hil = { view: null, frames: 0, frameTimes: [], manual: false, waiters: {},
-    sent: 0, nextId: 1 };
+    sent: 0, nextId: 1, chimes: 0, cueShown: 0 };
   let ws = null; let inflight = false; let keysHeld = { accel: false, brake: false };
   let mapping = null; let lastPad = null; let padButtons = {}; let cues = 0; let odo = 0;
   let lastT = null; let audio = null; let cueUntil = 0; let shownSeq = -1;
@@ -45,6 +45,7 @@
 
   function sendKeys() { if (!lastPad) send({ t: 'in', ka: keysHeld.accel, kb: keysHeld.brake }); }
   function chime() {
+    hil.chimes += 1;
     try {
       audio = audio || new AudioContext();
       [0, 0.18].forEach((dt, i) => {
@@ -202,6 +203,7 @@
       cues = s.cues;
     }
     $('cue').classList.toggle('hidden', ts > cueUntil);
+    if (ts <= cueUntil) hil.cueShown += 1;
     draw(v && v.phase !== 'ready' ? s : null);
     if (!inflight && v) {
       if (v.lockstep && v.phase === 'driving') { if (!hil.manual) { inflight = send({ t: 'step', n: STEP_TICKS }); } }
