@@ -18,7 +18,7 @@ $(STAMP): pyproject.toml
 	@# the browser tests of pacc hil drive Debian's chromium through Playwright (no download)
 	@test -x /usr/bin/chromium || { \
 	  echo "installing Debian chromium for the browser tests (apt-get, needs root)"; \
-	  apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends chromium; }
+	  apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q chromium; }
 	@touch $(STAMP)
 
 # The main job: the paper's Table I, 5 drivers x 2 scenarios x 4 controllers x 3 trials, each a
