@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import sys
 import threading
+import time
 from pathlib import Path
 
 import can
@@ -98,8 +99,10 @@ def session_of(args: argparse.Namespace) -> Session:
         raise SimError("--short must be >= 1 s")
     if args.seed < 0:
         raise SimError("--seed must be >= 0")
+    # a free drive without --participant is a new one each time (its own folder)
+    free_id = "free-" + time.strftime("%Y%m%dT%H%M%S", time.gmtime())
     cfg = SessionConfig(
-        participant=args.participant or "free",
+        participant=args.participant or free_id,
         protocol=args.protocol or "free",
         out=args.out,
         seed=args.seed,
