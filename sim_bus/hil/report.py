@@ -8,6 +8,7 @@ paired tests are the synthetic study's code (:mod:`sim_bus.study.report`,
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 from pathlib import Path
@@ -22,6 +23,8 @@ from sim_bus.study.incremental_report import format_incremental, write_increment
 from sim_bus.study.report import (
     CONTROLLER_TITLES,
     FIELDS,
+    PAPER_AVERAGES,
+    averages,
     cell_means,
     format_table,
     plot,
@@ -114,9 +117,44 @@ def paired_tests(rows: list[dict[str, Any]]) -> list[str]:
     return lines
 
 
-def build_table(sessions: Path, out: Path) -> str:
+def read_drives_csv(path: Path) -> list[dict[str, Any]]:
+    """The rows of a synthetic study's ``drives.csv`` (``pacc study``); SimError if none."""
+    try:
+        with path.open(newline="", encoding="utf-8") as fh:
+            rows = [dict(r) for r in csv.DictReader(fh)]
+    except (OSError, UnicodeError, csv.Error) as exc:
+        raise SimError(f"{path}: cannot read a study's drives.csv ({exc})") from exc
+    if not rows or any(k not in rows[0] for k in ("driver", "controller", "poi_pct")):
+        raise SimError(f"{path}: not a study's drives.csv")
+    return rows
+
+
+def side_by_side(people: list[dict[str, Any]], synthetic: list[dict[str, Any]]) -> str:
+    """Markdown: the averages per controller, people beside synthetic drivers and the paper."""
+    ours, syn = averages(cell_means(people)), averages(cell_means(synthetic))
+    lines = [
+        "## People beside synthetic drivers (averages over drivers and scenarios)",
+        "",
+        "| controller | people PoI | NIM | synthetic PoI | NIM | paper PoI | NIM |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    for c in CONTROLLERS:
+        if c in ours and c in syn:
+            (p, n), (sp, sn), (pp, pn) = ours[c], syn[c], PAPER_AVERAGES[c]
+            lines.append(
+                f"| {CONTROLLER_TITLES[c]} | {p:.1f} % | {n:.1f} | {sp:.1f} % | {sn:.1f} "
+                f"| {pp:.1f} % | {pn:.1f} |"
+            )
+    people_n = len({r["driver"] for r in people})
+    syn_n = len({r["driver"] for r in synthetic})
+    lines += ["", f"{people_n} people, {syn_n} synthetic drivers."]
+    return "\n".join(lines) + "\n"
+
+
+def build_table(sessions: Path, out: Path, synthetic: Path | None = None) -> str:
     """Write ``table1.md``, ``drives.csv`` and ``table1.png`` of the sessions to ``out``;
-    the table's text. SimError when no participant finished every cell."""
+    the table's text. ``synthetic``: a ``pacc study`` drives.csv whose averages go beside.
+    SimError when no participant finished every cell."""
     if not sessions.is_dir():
         raise SimError(f"{sessions}: not a folder of hil sessions")
     rows = complete(session_rows(sessions))
@@ -128,6 +166,8 @@ def build_table(sessions: Path, out: Path) -> str:
         "(synthetic drivers, CAN bus)", "(people in the loop, pacc hil, CAN bus)"
     )
     text += "\n" + "\n".join(paired_tests(rows)) + "\n"
+    if synthetic is not None:
+        text += "\n" + side_by_side(rows, read_drives_csv(synthetic))
     out.mkdir(parents=True, exist_ok=True)
     (out / "table1.md").write_text(text, encoding="utf-8")
     write_csv(out / "drives.csv", rows)

@@ -9,6 +9,7 @@ from typing import Any
 
 import pytest
 
+from pacc.commands import study as study_cmd
 from pacc.vocab.dgpt import load_dgpt
 from pacc.vocab.triplog import read_trip
 from sim_bus.hil.plan import paper_plan
@@ -102,3 +103,17 @@ def test_shortened_protocol_in_a_browser(browser: Any, hil_app: AppFactory, tmp_
     table = build_table(out, tmp_path / "table")
     assert "P02" in table and "IRL + OA" in table and "Incremental learning" in table
     assert (tmp_path / "table" / "table1.md").is_file()
+    # the command, with the rows of a synthetic study beside (here: the same rows renamed)
+    synthetic = (tmp_path / "table" / "drives.csv").read_text().replace("P02", "d9")
+    (tmp_path / "synthetic.csv").write_text(synthetic)
+    argv = [
+        "--hil",
+        str(out),
+        "--out",
+        str(tmp_path / "t2"),
+        "--beside",
+        str(tmp_path / "synthetic.csv"),
+    ]
+    assert study_cmd.main(argv) == 0
+    text = (tmp_path / "t2" / "table1.md").read_text()
+    assert "People beside synthetic drivers" in text and "1 people, 1 synthetic drivers." in text
