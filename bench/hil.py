@@ -1,6 +1,10 @@
 """Benchmark of ``pacc hil`` in a real browser (headless Debian chromium via Playwright).
 
-Run from the repository root: ``.venv/bin/python -m bench.hil [--presses 60]``
+Run from the repository root: ``.venv/bin/python -m bench.hil [--presses 60] [--one-process]``
+
+By default Playwright drives the page from a child process, so the server's process holds
+what ``pacc hil`` holds (web server, world, ECU); ``--one-process`` puts it in the server's
+process (it then shares the GIL with the world's thread).
 
 1. Key press -> PEDAL frame: Playwright presses the accelerator key on the driving page
    (real time, in-process ECU on ``virtual``); the time from just before the key event to
@@ -50,6 +54,81 @@ def bare_loop_lateness(seconds: float, dt: float = 0.01) -> list[float]:
         if delay > 0:
             time.sleep(delay)
     return late
+
+
+def _child(url: str, presses: int, queue: Any) -> None:
+    """The browser side in its own process: start the drive, press the key ``presses``
+    times (hold 0.1 s, pause 0.2-0.3 s); put (key-down perf_counter stamps, fps)."""
+    from playwright.sync_api import sync_playwright  # noqa: PLC0415 - the bench's only user
+
+    rng = np.random.default_rng(1)
+    stamps: list[float] = []
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True)
+        page = browser.new_page(viewport={"width": 960, "height": 540})
+        page.goto(url)
+        page.wait_for_function("window.__hil.view !== null")
+        page.keyboard.press("Enter")
+        page.wait_for_function("window.__hil.view.phase === 'driving'")
+        time.sleep(0.5)
+        frames0 = page.evaluate("window.__hil.frames")
+        start = time.perf_counter()
+        for _ in range(presses):
+            time.sleep(0.2 + 0.1 * float(rng.random()))
+            stamps.append(time.perf_counter())
+            page.keyboard.down("ArrowUp")
+            time.sleep(0.1)
+            page.keyboard.up("ArrowUp")
+        fps = (page.evaluate("window.__hil.frames") - frames0) / (time.perf_counter() - start)
+        browser.close()
+    queue.put((stamps, fps))
+
+
+def run_split(presses: int, out: Path) -> dict[str, Any]:
+    """As :func:`run`, with Playwright in a child process (the server's process then holds
+    only the server, the world and the ECU, as in ``pacc hil``); perf_counter is
+    CLOCK_MONOTONIC, one clock for both processes."""
+    import multiprocessing  # noqa: PLC0415
+
+    session = Session(
+        SessionConfig("B02", "free", out, short_s=presses * 0.5 + 20.0),
+        free_plan("B", "predefined"),
+    )
+    server = ServerThread(create_app(session, out / "pad.json"))
+    port = server.start()
+    hits: list[tuple[float, int]] = []
+    ctx = multiprocessing.get_context("spawn")
+    queue = ctx.Queue()
+    child = ctx.Process(target=_child, args=(f"http://127.0.0.1:{port}/", presses, queue))
+    child.start()
+    try:
+        deadline = time.monotonic() + 60.0
+        while session.drive is None or session.runner is None:
+            if time.monotonic() > deadline:
+                raise RuntimeError("the page never started the drive")
+            time.sleep(0.01)
+        codec = session.drive.codec
+
+        def tap(t: float, msg: Any, rx: bool) -> None:
+            if not rx:
+                d = codec.decode(msg.arbitration_id, msg.data)
+                if d.role == "pedals":
+                    hits.append((time.perf_counter(), int(d.values["accel_pressed"])))
+
+        session.drive.node.tap = tap
+        stamps, fps = queue.get(timeout=presses * 1.0 + 60.0)
+        lateness = list(session.runner.lateness_s)
+        child.join(30.0)
+    finally:
+        session.close()
+        server.stop()
+    latencies = []
+    for t0 in stamps:
+        first = next((t for t, v in hits if t >= t0 and v == 1), None)
+        if first is not None:
+            latencies.append((first - t0) * 1000.0)
+    bare = bare_loop_lateness(10.0)
+    return {"latency_ms": latencies, "lateness_s": lateness, "bare_s": bare, "fps": fps}
 
 
 def run(presses: int, out: Path) -> dict[str, Any]:
@@ -125,11 +204,17 @@ def main() -> None:
     """Run the benchmark and print the figures."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--presses", type=int, default=60)
+    ap.add_argument(
+        "--one-process",
+        action="store_true",
+        help="Playwright in the server's process (by default a child process drives the page)",
+    )
     args = ap.parse_args()
     if shutil.which(CHROMIUM) is None:
         raise SystemExit(f"{CHROMIUM} missing: apt-get install chromium")
     with tempfile.TemporaryDirectory() as tmp:
-        r = run(args.presses, Path(tmp))
+        r = (run if args.one_process else run_split)(args.presses, Path(tmp))
+    print("browser driver: " + ("in the server's process" if args.one_process else "child process"))
     lat = r["latency_ms"]
     late_ms = [x * 1000.0 for x in r["lateness_s"]]
     bare_ms = [x * 1000.0 for x in r["bare_s"]]
