@@ -134,7 +134,7 @@
       else set(v.label, v.message || 'Your manual drives go to the cloud, which learns your gap preference.', 'start',
         v.phase === 'failed' ? 'Try again (Enter)' : 'Upload and learn (Enter)');
     } else if (v.phase === 'ready') {
-      set(v.label, v.acc ? 'Press S to switch the cruise control on (set). Follow the car ahead; press a pedal '
+      set(v.label, v.acc ? 'Drive off, then press S to switch the cruise control on (set). Follow the car ahead; press a pedal '
         + 'whenever you are not happy with the gap.' : 'Drive by hand (cruise control off): follow the car ahead '
         + 'at a distance you like.', 'start', 'Start (Enter)');
     } else if (v.phase === 'syncing') set('Drive finished', 'Saving your drive… please wait.', null);
