@@ -63,9 +63,7 @@ class SessionConfig:
     token_file: Path | None = None
     trust: Path | None = None
     bus: Callable[[], can.BusABC] | None = None
-    setting: PredefinedSetting = (
-        "medium"  # the Predefined controller's headway setting: low, medium, high
-    )
+    setting: PredefinedSetting = "medium"
 
 
 class Session:
