@@ -19,6 +19,7 @@ from cloud_sync.errors import CloudSyncError
 from dbc.errors import DbcError
 from ecu import EcuError
 from pacc.vocab import FormatError
+from pacc.vocab.dgpt import load_dgpt
 from sim_bus.errors import SimError
 from sim_bus.hil.plan import free_plan, paper_plan, participant_index
 from sim_bus.hil.server import ServerThread, create_app, default_mapping_path
@@ -56,6 +57,11 @@ def _parser() -> argparse.ArgumentParser:
         choices=("low", "medium", "high"),
         default="medium",
         help="the participant's Predefined headway setting: 1, 3 or 4 s (default medium)",
+    )
+    p.add_argument(
+        "--table",
+        type=Path,
+        help="free drive with irl/irl+oa: the DGPT file (e.g. tables/irl.json)",
     )
     p.add_argument("--seed", type=int, default=0, help="scenario and plant-noise seed")
     p.add_argument("--short", type=float, metavar="S", help="shorten every drive to S seconds")
@@ -95,6 +101,10 @@ def session_of(args: argparse.Namespace) -> Session:
         plan = paper_plan(args.participant, args.incremental)
     else:
         plan = free_plan(args.scenario, None if args.controller == "manual" else args.controller)
+        if args.controller.startswith("irl"):
+            if args.table is None:
+                raise SimError(f"--controller {args.controller} needs --table DGPT")
+            load_dgpt(args.table)  # a missing or broken table is refused now (DgptError)
     if args.short is not None and not args.short >= 1.0:
         raise SimError("--short must be >= 1 s")
     if args.seed < 0:
@@ -113,6 +123,7 @@ def session_of(args: argparse.Namespace) -> Session:
         trust=args.trust,
         bus=_bus_factory(args),  # type: ignore[arg-type]
         setting=args.setting,
+        table=args.table if args.protocol is None else None,
     )
     return Session(cfg, plan)
 

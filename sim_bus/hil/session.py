@@ -64,6 +64,7 @@ class SessionConfig:
     trust: Path | None = None
     bus: Callable[[], can.BusABC] | None = None
     setting: PredefinedSetting = "medium"
+    table: Path | None = None  # the IRL table of a free drive (the protocol learns its own)
 
 
 class Session:
@@ -253,6 +254,8 @@ class Session:
         tables = self.folder / "tables"
         if step.controller not in ("irl", "irl+oa"):
             return predefined_table(self.participant)
+        if self.cfg.table is not None:
+            return load_dgpt(self.cfg.table)
         if step.id.startswith("inc") and (tables / "irl-latest.json").is_file():
             return load_dgpt(tables / "irl-latest.json")
         return load_dgpt(tables / "irl.json")

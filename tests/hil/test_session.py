@@ -104,6 +104,11 @@ def test_cli_refuses_bad_options(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert hil_cmd.main(["--protocol", "paper", "--out", str(tmp_path)]) == 2
     assert "needs --participant" in capsys.readouterr().err
     assert hil_cmd.main(["--protocol", "paper", "--participant", "anon"]) == 2
+    assert hil_cmd.main(["--controller", "irl", "--out", str(tmp_path)]) == 2
+    assert "needs --table" in capsys.readouterr().err
+    (tmp_path / "bad.json").write_text("{}")
+    argv = ["--controller", "irl+oa", "--table", str(tmp_path / "bad.json"), "--out", str(tmp_path)]
+    assert hil_cmd.main(argv) == 2
     assert study_cmd.main(["--hil", str(tmp_path / "none"), "--out", str(tmp_path / "t")]) == 2
     assert "not a folder of hil sessions" in capsys.readouterr().err
 
