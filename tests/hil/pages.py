@@ -35,10 +35,14 @@ GAMEPAD_JS = """
 """
 
 
-def body_pixels(png: bytes) -> int:
-    """How many pixels of a screenshot show the lead vehicle's body colour."""
+#: the lead's brake lights when it brakes (hil.js '#ff2020')
+BRAKE_LIGHT_RGB = (255, 32, 32)
+
+
+def body_pixels(png: bytes, rgb: tuple[int, int, int] = BODY_RGB) -> int:
+    """How many pixels of a screenshot show ``rgb`` (default: the lead's body colour)."""
     img = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
-    return int((np.abs(img - np.array(BODY_RGB)).sum(axis=2) <= 6).sum())
+    return int((np.abs(img - np.array(rgb)).sum(axis=2) <= 6).sum())
 
 
 def new_page(browser: Any, width: int = 480, height: int = 300) -> Any:

@@ -15,8 +15,8 @@ from pacc.vocab.triplog import read_trip
 from sim_bus.hil.plan import Step, free_plan
 from sim_bus.hil.session import Session, SessionConfig
 from tests.hil.conftest import AppFactory
-from tests.hil.pages import GAMEPAD_JS, body_pixels, new_page
-from tests.hil.participant import drive_in_browser, drive_without_browser
+from tests.hil.pages import BRAKE_LIGHT_RGB, GAMEPAD_JS, body_pixels, new_page
+from tests.hil.participant import decide, drive_in_browser, drive_without_browser
 
 #: set to a folder (docs/img) to keep the screenshots of test_lead_drawn_larger_when_closer
 SHOTS_ENV = "PACC_HIL_SCREENSHOTS"
@@ -65,6 +65,31 @@ def test_lead_drawn_larger_when_closer(browser: Any, hil_app: AppFactory, tmp_pa
         Path(keep).mkdir(parents=True, exist_ok=True)
         (Path(keep) / "hil-near.png").write_bytes(near)
         (Path(keep) / "hil-far.png").write_bytes(far)
+    page.close()
+
+
+@pytest.mark.slow
+def test_brake_lights_when_the_lead_brakes(browser: Any, hil_app: AppFactory) -> None:
+    url, _ = hil_app(free_plan("A", None), short_s=20.0, lockstep=True)  # A: brakes at 11.5 s
+    page = new_page(browser, 960, 540)  # the canvas at 1:1
+    page.goto(url + "/")
+    page.wait_for_function("window.__hil.view !== null")
+    page.evaluate("window.__hil.manual = true")
+    view = page.evaluate("window.__hil.action('start')")
+    shots: dict[str, int] = {}
+    held = False
+    while view["state"]["a_lead"] > -0.8:
+        accel = decide(view["state"])[0]  # follow the lead by the participant's rule
+        if accel != held:
+            (page.keyboard.down if accel else page.keyboard.up)("ArrowUp")
+            held = accel
+        view = page.evaluate("window.__hil.step(10)")
+        if "dark" not in shots and view["state"]["t"] >= 8.0:
+            page.wait_for_timeout(100)
+            shots["dark"] = body_pixels(page.screenshot(), BRAKE_LIGHT_RGB)
+    page.wait_for_timeout(100)
+    shots["lit"] = body_pixels(page.screenshot(), BRAKE_LIGHT_RGB)
+    assert shots["dark"] == 0 and shots["lit"] > 20, shots
     page.close()
 
 
