@@ -15,6 +15,10 @@ $(STAMP): pyproject.toml
 	@$(PYTHON) -m venv $(VENV) || { echo "python3 -m venv failed: on Debian run 'apt-get install python3-venv'"; exit 1; }
 	$(BIN)/python -m pip install -q --upgrade pip
 	$(BIN)/python -m pip install -q -e '.[dev]'
+	@# the browser tests of pacc hil drive Debian's chromium through Playwright (no download)
+	@test -x /usr/bin/chromium || { \
+	  echo "installing Debian chromium for the browser tests (apt-get, needs root)"; \
+	  apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q chromium; }
 	@touch $(STAMP)
 
 # The main job: the paper's Table I, 5 drivers x 2 scenarios x 4 controllers x 3 trials, each a

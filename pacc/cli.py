@@ -38,6 +38,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "replay": ("pacc.commands.replay", "replay a bus recording through the ECU or onto a bus"),
     "plot": ("pacc.commands.plot", "plot one recorded drive: speed, gap, pedals, ACC state"),
     "demos": ("pacc.commands.demos", "real-car bus logs as IRL demonstrations (trip logs)"),
+    "hil": ("pacc.commands.hil", "a person drives in a browser against the ECU: the paper's study"),
 }
 
 _USAGE = "usage: pacc [-h] [--debug] {" + ",".join(SUBCOMMANDS) + "} ..."

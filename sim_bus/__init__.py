@@ -18,6 +18,8 @@ and closes the loop through the ACC command frames. Modules, one concept each:
 - :mod:`sim_bus.errors` — the error tree, rooted at :class:`SimError`.
 
 On top of them, and of the ECU and the cloud, the sub-package :mod:`sim_bus.study` is the
+:mod:`sim_bus.hil` (A person in the loop (issue 19): the paper's experiment driven from a
+  browser page);
 harness: one drive (``pacc drive``), the paper's Table I (``pacc study``). Maintainer tools
 (building the data file, calibrating the drivers) live in ``tools/`` outside the wheel.
 """

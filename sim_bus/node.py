@@ -178,6 +178,9 @@ class SimNode:
         else:
             vals["set"] = 1 if agent.set_button else 0
             vals["resume"] = 1 if agent.resume_button else 0
+            hmi = getattr(agent, "hmi_buttons", None)  # a person's other buttons (sim_bus.hil)
+            if hmi is not None:
+                vals.update(hmi)
         return vals
 
     def _send(self, msg: can.Message) -> None:

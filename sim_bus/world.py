@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
@@ -61,6 +62,28 @@ class WorldConfig:
             raise DriveError("initial_gap_factor must be finite and > 0")
 
 
+class PedalSource(Protocol):
+    """The driver as the world and the bus node see it (a :class:`DriverAgent`, or a person's
+    pedals from ``sim_bus.hil``): :meth:`step` once per driver step, then its outputs.
+
+    Outputs: ``a_cmd_mps2`` (m/s², applied while a pedal is pressed), ``accel_pressed``,
+    ``brake_pressed``, ``accel_pct`` (%), ``brake_bar`` (bar), ``set_button``,
+    ``resume_button``, ``pref_gap_m`` (m, NaN when unknown).
+    """
+
+    a_cmd_mps2: float
+    accel_pressed: bool
+    brake_pressed: bool
+    accel_pct: float
+    brake_bar: float
+    set_button: bool
+    resume_button: bool
+    pref_gap_m: float
+
+    def step(self, v_mps: float, v_lead_mps: float, gap_m: float, acc_state: int) -> None:
+        """Decide this driver step from the ego speed, lead speed (m/s), gap (m), AccState."""
+
+
 @dataclass(frozen=True)
 class WorldLog:
     """The logged samples of a drive; each attribute an array of shape (m,)."""
@@ -104,7 +127,10 @@ class World:
         seed: int,
         cfg: WorldConfig | None = None,
         acc_mode: bool = True,
+        pedals: PedalSource | None = None,
     ) -> None:
+        """``pedals``: an external driver (a person, ``sim_bus.hil``) instead of the synthetic
+        :class:`DriverAgent` of ``driver``; the world then draws no driver noise from it."""
         if not seed >= 0:
             raise DriveError(f"a seed is an integer >= 0, got {seed}")
         self.cfg = cfg = cfg or WorldConfig()
@@ -119,7 +145,7 @@ class World:
         v0 = self._v_lead[0]
         gap0 = float(driver.preferred_gap_m(v0)) * cfg.initial_gap_factor
         self.plant = Plant(cfg.plant, PlantState(v0, 0.0, gap0), rng_plant)
-        self.agent = DriverAgent(
+        self.agent: PedalSource = pedals or DriverAgent(
             driver, rng_driver, dt_s=cfg.driver_dt_s, acc_mode=acc_mode, engage_s=cfg.engage_s
         )
         self._every = int(round(cfg.driver_dt_s / cfg.plant.dt_s))

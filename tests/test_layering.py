@@ -41,6 +41,7 @@ ROOMS: dict[str, str] = {
     "sim_bus": "simulator",
     "cloud_sync": "cloud",
     "sim_bus.study": "harness",
+    "sim_bus.hil": "harness",
     "pacc": "commands",  # pacc.cli, pacc.commands, pacc.__main__, pacc.__init__
     "pacc.commands": "commands",
     "tools": "tools",

@@ -119,6 +119,19 @@ def _parser() -> argparse.ArgumentParser:
         default=BUSES[0],
         help="the python-can bus of every drive: lockstep (default) or virtual (the same rows)",
     )
+    p.add_argument(
+        "--hil",
+        type=Path,
+        metavar="SESSIONS",
+        help="instead of synthetic drivers: Table I of the people in pacc hil's session "
+        "folders (docs/hil.md), written to --out",
+    )
+    p.add_argument(
+        "--beside",
+        type=Path,
+        metavar="DRIVES_CSV",
+        help="with --hil: a synthetic study's drives.csv, its averages put beside the people's",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     add_network_arguments(p)
     return p
@@ -127,6 +140,8 @@ def _parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc study``; 0 on success, 1 if a drive collided, 2 on bad input."""
     args = _parser().parse_args(argv)
+    if args.hil is not None:
+        return _hil_table(args.hil, args.out, args.beside)
     pop = args.population != 0
     if pop and args.drivers is not None:
         print(
@@ -199,3 +214,16 @@ def main(argv: list[str] | None = None) -> int:
             + (")" if cfg.direct else ", cloud/)")
         )
     return 1 if any(int(r["collision"]) for r in rows) else 0
+
+
+def _hil_table(sessions: Path, out: Path, beside: Path | None) -> int:
+    """``pacc study --hil SESSIONS``: Table I of real participants (sim_bus.hil.report)."""
+    from sim_bus.hil.report import build_table  # noqa: PLC0415 - only this path needs it
+
+    try:
+        print(build_table(sessions, out, beside), end="")
+    except (SimError, FormatError, OSError) as exc:
+        print(f"pacc study: error: {exc}", file=sys.stderr)
+        return 2
+    print(f"outputs in {out}/ (table1.md, drives.csv, table1.png)")
+    return 0

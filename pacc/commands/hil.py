@@ -1,0 +1,153 @@
+"""The command line of ``pacc hil``: a person drives in a browser against the ECU.
+
+Free drive (default): one drive of ``--scenario`` with ``--controller`` (``manual``: ACC
+off). Protocol mode (``--participant P01 --protocol paper --out sessions/``): the paper's
+study for one participant, resumable (docs/hil.md). The page is served on 127.0.0.1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import threading
+import time
+from pathlib import Path
+
+import can
+
+from cloud_sync.errors import CloudSyncError
+from dbc.errors import DbcError
+from ecu import EcuError
+from pacc.vocab import FormatError
+from pacc.vocab.dgpt_file import load_dgpt
+from sim_bus.errors import SimError
+from sim_bus.hil.plan import free_plan, paper_plan, participant_index
+from sim_bus.hil.server import ServerThread, create_app, default_mapping_path
+from sim_bus.hil.session import Session, SessionConfig
+from sim_bus.study.drive import CONTROLLERS
+
+DEFAULT_PORT = 8765
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="pacc hil", description="a person drives in a browser page against the ECU"
+    )
+    p.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"(default {DEFAULT_PORT})")
+    p.add_argument("--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1)")
+    p.add_argument("--participant", help="participant id with a number, e.g. P01")
+    p.add_argument("--protocol", choices=("paper",), help="run the paper's study protocol")
+    p.add_argument("--out", type=Path, default=Path("sessions"), help="session folders")
+    p.add_argument(
+        "--incremental",
+        type=int,
+        default=0,
+        metavar="N",
+        help="protocol: then N IRL+OA drives on B, the cloud fine-tuning between them",
+    )
+    p.add_argument("--scenario", default="B", help="free drive: A, B, manual1..4 or a CSV")
+    p.add_argument(
+        "--controller",
+        default="predefined",
+        choices=(*CONTROLLERS, "manual"),
+        help="free drive: the ECU's controller (manual: ACC off)",
+    )
+    p.add_argument(
+        "--setting",
+        choices=("low", "medium", "high"),
+        default="medium",
+        help="the participant's Predefined headway setting: 1, 3 or 4 s (default medium)",
+    )
+    p.add_argument(
+        "--table",
+        type=Path,
+        help="free drive with irl/irl+oa: the DGPT file (e.g. tables/irl.json)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="scenario and plant-noise seed")
+    p.add_argument("--short", type=float, metavar="S", help="shorten every drive to S seconds")
+    p.add_argument(
+        "--lockstep",
+        action="store_true",
+        help="the world advances only when the page steps it (tests, slow machines)",
+    )
+    p.add_argument("--mapping", type=Path, help="gamepad mapping file (default: ~/.config/pacc)")
+    p.add_argument("--cloud", metavar="URL|DIR", help="learn in this cloud (default: embedded)")
+    p.add_argument("--token-file", type=Path, help="with --cloud: the vehicle's token file")
+    p.add_argument("--trust", type=Path, help="with --cloud: the cloud's public key (PEM)")
+    p.add_argument("-i", "--interface", help="python-can interface of a separate pacc ecu")
+    p.add_argument("-c", "--channel", help="python-can channel of a separate pacc ecu")
+    return p
+
+
+def _bus_factory(args: argparse.Namespace) -> object:
+    if args.interface is None and args.channel is None:
+        return None
+
+    def open_bus() -> can.BusABC:
+        try:
+            return can.Bus(interface=args.interface, channel=args.channel)
+        except (can.CanError, ValueError, OSError, ImportError) as exc:
+            raise SimError(f"cannot open the bus: {exc}") from exc
+
+    return open_bus
+
+
+def session_of(args: argparse.Namespace) -> Session:
+    """The session the options ask for; SimError on bad options."""
+    if args.protocol is not None:
+        if args.participant is None:
+            raise SimError("--protocol needs --participant")
+        participant_index(args.participant)
+        plan = paper_plan(args.participant, args.incremental)
+    else:
+        plan = free_plan(args.scenario, None if args.controller == "manual" else args.controller)
+        if args.controller.startswith("irl"):
+            if args.table is None:
+                raise SimError(f"--controller {args.controller} needs --table DGPT")
+            load_dgpt(args.table)  # a missing or broken table is refused now (DgptError)
+    if args.short is not None and not args.short >= 1.0:
+        raise SimError("--short must be >= 1 s")
+    if args.seed < 0:
+        raise SimError("--seed must be >= 0")
+    # a free drive without --participant is a new one each time (its own folder)
+    free_id = "free-" + time.strftime("%Y%m%dT%H%M%S", time.gmtime())
+    cfg = SessionConfig(
+        participant=args.participant or free_id,
+        protocol=args.protocol or "free",
+        out=args.out,
+        seed=args.seed,
+        short_s=args.short,
+        lockstep=args.lockstep,
+        cloud=args.cloud,
+        token_file=args.token_file,
+        trust=args.trust,
+        bus=_bus_factory(args),  # type: ignore[arg-type]
+        setting=args.setting,
+        table=args.table if args.protocol is None else None,
+    )
+    return Session(cfg, plan)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``pacc hil``; serves until Ctrl-C. 0 on success, 2 on bad input."""
+    args = _parser().parse_args(argv)
+    try:
+        session = session_of(args)
+        server = ServerThread(
+            create_app(session, args.mapping or default_mapping_path()), args.port, args.host
+        )
+        port = server.start()
+    except (SimError, EcuError, FormatError, CloudSyncError, DbcError, OSError) as exc:
+        print(f"pacc hil: error: {exc}", file=sys.stderr)
+        return 2
+    print(
+        f"pacc hil: open http://{args.host}:{port}/ (session folder {session.folder})", flush=True
+    )
+    try:
+        threading.Event().wait()
+    except KeyboardInterrupt:
+        print("pacc hil: stopped; the session can be resumed", file=sys.stderr)
+    finally:
+        session.close()
+        server.stop()
+    return 0

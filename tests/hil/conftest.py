@@ -1,0 +1,57 @@
+"""A real browser for the hil tests: Debian's chromium driven by Playwright (no download).
+
+``make test`` installs ``chromium`` (the Makefile) and ``playwright`` ([dev]); the browser is
+launched once per test session. ``hil_app`` serves a session on a free port of 127.0.0.1.
+"""
+
+from __future__ import annotations
+
+import shutil
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from sim_bus.hil.plan import Step
+from sim_bus.hil.server import ServerThread, create_app
+from sim_bus.hil.session import Session, SessionConfig
+
+CHROMIUM = "/usr/bin/chromium"
+
+
+@pytest.fixture(scope="session")
+def browser() -> Iterator[Any]:
+    """One headless chromium for the whole test session (skipped without Debian chromium)."""
+    if shutil.which(CHROMIUM) is None:
+        pytest.skip(f"{CHROMIUM} is missing: `make test` installs it (apt-get install chromium)")
+    from playwright.sync_api import sync_playwright  # noqa: PLC0415 - only the browser tests
+
+    with sync_playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, headless=True)
+        yield b
+        b.close()
+
+
+AppFactory = Callable[..., tuple[str, Session]]
+
+
+@pytest.fixture
+def hil_app(tmp_path: Path) -> Iterator[AppFactory]:
+    """Factory: ``hil_app(plan, **SessionConfig fields)`` -> (base URL, session), served."""
+    servers: list[tuple[ServerThread, Session]] = []
+
+    def make(plan: list[Step], **kw: Any) -> tuple[str, Session]:
+        kw.setdefault("participant", "P01")
+        kw.setdefault("protocol", "test")
+        kw.setdefault("out", tmp_path / "sessions")
+        session = Session(SessionConfig(**kw), plan)
+        server = ServerThread(create_app(session, tmp_path / "gamepad.json"))
+        port = server.start()
+        servers.append((server, session))
+        return f"http://127.0.0.1:{port}", session
+
+    yield make
+    for server, session in servers:
+        session.close()
+        server.stop()

@@ -1,0 +1,171 @@
+"""The driving page in headless chromium: offline, drawn to scale, a gamepad, determinism."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from pacc.vocab.triplog_file import read_trip
+from sim_bus.hil.plan import Step, free_plan
+from sim_bus.hil.session import Session, SessionConfig
+from tests.hil.conftest import AppFactory
+from tests.hil.pages import BRAKE_LIGHT_RGB, GAMEPAD_JS, body_pixels, new_page
+from tests.hil.participant import decide, drive_in_browser, drive_without_browser
+
+#: set to a folder (docs/img) to keep the screenshots of test_lead_drawn_larger_when_closer
+SHOTS_ENV = "PACC_HIL_SCREENSHOTS"
+
+
+def _ready(browser: Any, url: str, init: str | None = None, path: str = "/") -> Any:
+    page = new_page(browser)
+    if init is not None:
+        page.add_init_script(init)
+    page.goto(url + path)
+    page.wait_for_function("window.__hil ? window.__hil.view !== null : !!window.__cal")
+    return page
+
+
+def test_page_loads_with_no_network(browser: Any, hil_app: AppFactory) -> None:
+    url, _ = hil_app(free_plan("B", "predefined"), short_s=5.0)
+    page = _ready(browser, url)
+    view = page.evaluate("window.__hil.view")
+    assert view["step"]["kind"] == "drive" and view["phase"] == "ready"
+    assert page.outside == [] and page.errors == []
+    assert "Start" in page.inner_text("#primary")
+    page.close()
+
+
+@pytest.mark.slow
+def test_lead_drawn_larger_when_closer(browser: Any, hil_app: AppFactory, tmp_path: Path) -> None:
+    url, _ = hil_app(free_plan("B", None), short_s=60.0, lockstep=True)
+    page = _ready(browser, url)
+    page.evaluate("window.__hil.manual = true")
+    view = page.evaluate("window.__hil.action('start')")
+    view = page.evaluate("window.__hil.step(10)")
+    page.wait_for_timeout(100)  # one frame drawn with this state
+    near_gap, near = view["state"]["gap"], page.screenshot()
+    page.keyboard.down("ArrowDown")  # brake: the lead drives away
+    while view["state"]["gap"] < 3.0 * near_gap + 6.0:
+        view = page.evaluate("window.__hil.step(10)")
+    page.keyboard.up("ArrowDown")
+    page.wait_for_timeout(100)
+    far_gap, far = view["state"]["gap"], page.screenshot()
+    n_near, n_far = body_pixels(near), body_pixels(far)
+    assert n_far > 0
+    # area on screen goes as 1/distance²: a third of the distance (or less) gives > 4x
+    assert n_near > 4 * n_far, (near_gap, far_gap, n_near, n_far)
+    keep = os.environ.get(SHOTS_ENV)
+    if keep:
+        Path(keep).mkdir(parents=True, exist_ok=True)
+        (Path(keep) / "hil-near.png").write_bytes(near)
+        (Path(keep) / "hil-far.png").write_bytes(far)
+    page.close()
+
+
+@pytest.mark.slow
+def test_brake_lights_when_the_lead_brakes(browser: Any, hil_app: AppFactory) -> None:
+    url, _ = hil_app(free_plan("A", None), short_s=20.0, lockstep=True)  # A: brakes at 11.5 s
+    page = new_page(browser, 960, 540)  # the canvas at 1:1
+    page.goto(url + "/")
+    page.wait_for_function("window.__hil.view !== null")
+    page.evaluate("window.__hil.manual = true")
+    view = page.evaluate("window.__hil.action('start')")
+    shots: dict[str, int] = {}
+    held = False
+    while view["state"]["a_lead"] > -0.8:
+        accel = decide(view["state"])[0]  # follow the lead by the participant's rule
+        if accel != held:
+            (page.keyboard.down if accel else page.keyboard.up)("ArrowUp")
+            held = accel
+        view = page.evaluate("window.__hil.step(10)")
+        if "dark" not in shots and view["state"]["t"] >= 8.0:
+            page.wait_for_timeout(100)
+            shots["dark"] = body_pixels(page.screenshot(), BRAKE_LIGHT_RGB)
+    page.wait_for_timeout(100)
+    shots["lit"] = body_pixels(page.screenshot(), BRAKE_LIGHT_RGB)
+    assert shots["dark"] == 0 and shots["lit"] > 20, shots
+    page.close()
+
+
+@pytest.mark.slow
+def test_gamepad_calibrated_then_drives(browser: Any, hil_app: AppFactory, tmp_path: Path) -> None:
+    url, session = hil_app(free_plan("B", None), short_s=10.0, lockstep=True)
+    cal = _ready(browser, url, GAMEPAD_JS, "/calibrate")
+    cal.wait_for_function("document.getElementById('pad').textContent.startsWith('Gamepad')")
+    # accelerator: axis 2 of a pedal resting at -1; brake: the left trigger (button 6)
+    cal.click("#cap-accel")
+    cal.evaluate("window.__setPad([null, null, 1.0])")
+    cal.wait_for_timeout(100)
+    cal.evaluate("window.__setPad([null, null, -1.0])")
+    cal.wait_for_function("window.__cal.mapping.accel !== undefined")
+    cal.click("#cap-brake")
+    cal.evaluate("window.__setPad(null, {6: 1})")
+    cal.wait_for_timeout(100)
+    cal.evaluate("window.__setPad(null, {6: 0})")
+    cal.wait_for_function("window.__cal.mapping.brake !== undefined")
+    cal.click("#save")
+    cal.wait_for_function("window.__cal.saved === true")
+    saved = json.loads((tmp_path / "gamepad.json").read_text())
+    assert saved["accel"] == {"axis": 2, "rest": -1.0, "full": 1.0}
+    assert saved["brake"] == {"button": 6}
+    cal.close()
+
+    page = _ready(browser, url, GAMEPAD_JS)
+    page.wait_for_timeout(200)  # the mapping fetched
+    page.evaluate("window.__hil.manual = true")
+    page.evaluate("window.__hil.action('start')")
+    assert session.drive is not None
+    codec = session.drive.codec
+    pedals: list[dict[str, Any]] = []
+
+    def tap(t: float, msg: Any, rx: bool) -> None:
+        d = codec.decode(msg.arbitration_id, msg.data)
+        if d.role == "pedals":
+            pedals.append(dict(d.values))
+
+    session.drive.node.tap = tap
+    page.evaluate("window.__setPad([null, null, 0.0])")  # half way: 50 %
+    page.wait_for_timeout(100)  # a frame polls the pad and sends it
+    view = page.evaluate("window.__hil.step(10)")
+    assert view["state"]["accel"] == pytest.approx(0.5)
+    assert pedals[-1]["accel_pressed"] == 1
+    assert pedals[-1]["accel_pedal_pct"] == pytest.approx(50.0, abs=0.5)
+    page.evaluate("window.__setPad([null, null, -1.0], {6: 1})")  # off the gas, full brake
+    page.wait_for_timeout(100)
+    view = page.evaluate("window.__hil.step(10)")
+    assert view["state"]["brake"] == 1.0 and pedals[-1]["brake_pressed"] == 1
+    page.close()
+
+
+@pytest.mark.slow
+def test_browser_drive_equals_the_bus_drive_without_browser(
+    browser: Any, hil_app: AppFactory, tmp_path: Path
+) -> None:
+    step = Step("acc", "drive", "Drive", "A", "predefined+oa")
+    plan = [step, Step("done", "done", "End")]
+    url, session = hil_app(plan, short_s=30.0, lockstep=True)
+    page = _ready(browser, url)
+    view = drive_in_browser(page)
+    assert view["phase"] == "after"
+    record = json.loads((session.folder / "drives" / "acc.json").read_text())
+    page.close()
+    reference = Session(
+        SessionConfig("P01", "test", tmp_path / "ref", short_s=30.0, lockstep=True), plan
+    )
+    drive = reference.new_drive(step)
+    drive_without_browser(drive)
+    outcome = drive.finish()
+    browser_trip = session.folder / "logs" / "acc.mcap"
+    got = read_trip(browser_trip)
+    ref = drive.trip(outcome, {})
+    for name in ("t_s", "v_mps", "gap_m", "accel_pedal", "brake_pedal", "acc_state"):
+        assert np.array_equal(getattr(got, name), getattr(ref, name)), name
+    assert record["row"]["takeovers"] == outcome.takeovers > 0
+    assert record["row"]["adaptations"] == outcome.adaptations
+    shutil.rmtree(tmp_path / "ref", ignore_errors=True)
