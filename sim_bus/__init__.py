@@ -17,10 +17,9 @@ and closes the loop through the ACC command frames. Modules, one concept each:
 - :mod:`sim_bus.metrics` — PoI, NIM, safety figures;
 - :mod:`sim_bus.errors` — the error tree, rooted at :class:`SimError`.
 
-On top of them, and of the ECU and the cloud, the sub-package :mod:`sim_bus.study` is the
-:mod:`sim_bus.hil` (A person in the loop (issue 19): the paper's experiment driven from a
-  browser page);
-harness: one drive (``pacc drive``), the paper's Table I (``pacc study``). Maintainer tools
+On top of them, and of the ECU and the cloud, two harness sub-packages wire everything
+together: :mod:`sim_bus.study` (one drive, ``pacc drive``; the paper's Table I, ``pacc study``)
+and :mod:`sim_bus.hil` (a person drives in a browser page, ``pacc hil``). Maintainer tools
 (building the data file, calibrating the drivers) live in ``tools/`` outside the wheel.
 """
 

@@ -101,6 +101,7 @@ PACKAGES = [
     "ecu.buslog",
     "sim_bus",
     "sim_bus.study",
+    "sim_bus.hil",
     "cloud_sync",
     "cloud_sync.irl",
     "cloud_sync.service",

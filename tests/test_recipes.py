@@ -79,6 +79,7 @@ def skip(command: str, why: str) -> Plan:
 
 
 VCAN = "no SocketCAN in CI; the same options on a virtual bus: "
+HIL = "a person at a browser page; a scripted participant in headless chromium: "
 SERVER = "a server on a fixed port; tests/cloud_sync/test_cloud_api.py serves the app on an ephemeral one"
 DASK = "needs a Dask cluster; tests/cloud_sync/test_engine.py runs a LocalCluster"
 TOYOTA_DRIVE = (
@@ -125,6 +126,11 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
             skip(
                 "pacc study --population 100 --seed 2 --out out/pop",
                 "hours; tests/sim_bus/test_study_population.py runs a small population",
+            ),
+            skip(
+                "pacc hil --participant P01 --protocol paper --out sessions/",
+                "a person at a browser; tests/hil/test_protocol.py drives a shortened protocol "
+                "with a scripted participant in headless chromium",
             ),
             skip(
                 "pacc ecu -i socketcan -c vcan0 --headway 1.5 --set-speed 40 --driver d2 "
@@ -186,6 +192,40 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
             run(
                 "pacc cloud sync --spool spool/ --cloud cloud/ --token-file car1.token",
                 r"uploaded 0 batch\(es\) \(0 already held\), 0 rejected, 0 still spooled",
+            ),
+            skip(
+                "pacc cloud serve --data cloud/ --operator-token-file operator.token",
+                SERVER + "; tests/cloud_sync/test_views.py serves the operator's lists",
+            ),
+        ],
+    ),
+    "docs/ecu.md": (
+        [],
+        [
+            skip(
+                ".venv/bin/mutmut run && .venv/bin/mutmut results",
+                "mutation testing of ecu/safety.py takes minutes; run by hand (kill rate in "
+                "docs/ecu.md), tests/ecu/test_safety.py is what it mutates against",
+            ),
+        ],
+    ),
+    "docs/hil.md": (
+        [],
+        [
+            skip("pacc hil", HIL + "tests/hil/test_page.py serves the page"),
+            skip("pacc hil --scenario A --controller manual", HIL + "tests/hil/test_page.py"),
+            skip(
+                "pacc hil --controller irl+oa --table sessions/P01/tables/irl.json",
+                HIL + "tests/hil/test_session.py",
+            ),
+            skip(
+                "pacc hil --participant P01 --protocol paper --out sessions/",
+                HIL + "tests/hil/test_protocol.py drives a shortened protocol",
+            ),
+            skip("pacc study --hil sessions/ --out out/hil", HIL + "tests/hil/test_protocol.py"),
+            skip(
+                "pacc study --hil sessions/ --out out/hil --beside out/study/drives.csv",
+                HIL + "tests/hil/test_protocol.py",
             ),
         ],
     ),
