@@ -66,6 +66,8 @@ class RuntimeSummary:
     skipped_cycles: int = 0
     adaptation_decisions: dict[str, int] = field(default_factory=dict)
     faults: dict[str, int] = field(default_factory=dict)
+    #: faults of plug-in methods (``"controller raised"`` -> count; :mod:`ecu.methods.guard`)
+    plugin_faults: dict[str, int] = field(default_factory=dict)
 
     def __str__(self) -> str:
         errors = ", ".join(f"{k} {v}" for k, v in sorted(self.e2e_errors.items())) or "none"
@@ -73,6 +75,7 @@ class RuntimeSummary:
             ", ".join(f"{k} {v}" for k, v in sorted(self.adaptation_decisions.items())) or "none"
         )
         faults = ", ".join(f"{k} {v}" for k, v in sorted(self.faults.items())) or "none"
+        plugin = ", ".join(f"{k} {v}" for k, v in sorted(self.plugin_faults.items()))
         return "\n".join(
             [
                 f"cycles:         {self.cycles}",
@@ -86,6 +89,7 @@ class RuntimeSummary:
                 f"max cycle time: {self.max_cycle_s * 1e3:.3f} ms",
                 f"send errors:    {self.send_errors}, skipped cycles: {self.skipped_cycles}",
             ]
+            + ([f"plug-in faults: {plugin} (safe output used)"] if plugin else [])
         )
 
 
@@ -251,6 +255,7 @@ class EcuRuntime:
             skipped_cycles=self.skipped_cycles,
             adaptation_decisions={r.value: n for r, n in node.decisions.items()},
             faults={f.name: n for f, n in node.faults.items()},
+            plugin_faults=node.plugin_faults,
         )
 
 

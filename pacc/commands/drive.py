@@ -119,6 +119,21 @@ def _parser() -> argparse.ArgumentParser:
         help="online adaptation of the +oa controllers: the paper's Algorithm 1 "
         "or the time-gap update (default: the ECU's, see docs/ecu.md)",
     )
+    p.add_argument(
+        "--gap-controller",
+        default="",
+        metavar="SPEC",
+        help="gap controller through the plug-in interface: pid, an installed entry point "
+        "of pacc.controllers or module:attribute (default: the built-in PID called directly; "
+        "'pacc plugins' lists them)",
+    )
+    p.add_argument(
+        "--adaptation",
+        default="",
+        metavar="SPEC",
+        help="online adaptation of the +oa controllers through the plug-in interface: "
+        "timegap, paper, bayes, an entry point of pacc.adaptations or module:attribute",
+    )
     add_network_arguments(p)
     return p
 
@@ -143,6 +158,8 @@ def main(argv: list[str] | None = None) -> int:
             adaptation=adaptation_params(args.adaptation_mode),
             dbc=args.dbc,
             binding=args.binding,
+            gap_controller=args.gap_controller,
+            adaptation_method=args.adaptation,
         )
         drive_codec(cfg)  # a DBC without its binding: refused before any learning
         profile = resolve_profile(args.scenario, args.seed)
