@@ -15,6 +15,7 @@ $(STAMP): pyproject.toml
 	@$(PYTHON) -m venv $(VENV) || { echo "python3 -m venv failed: on Debian run 'apt-get install python3-venv'"; exit 1; }
 	$(BIN)/python -m pip install -q --upgrade pip
 	$(BIN)/python -m pip install -q -e '.[dev]'
+	$(BIN)/python -m pip install -q -e tests/plugin_pkg
 	@touch $(STAMP)
 
 # The main job: the paper's Table I, 5 drivers x 2 scenarios x 4 controllers x 3 trials, each a

@@ -22,11 +22,15 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "run the bus simulator (lead, ego physics, driver) against an ECU",
     ),
     "drive": ("pacc.commands.drive", "ECU + simulator in one process, lockstep, print PoI/NIM"),
-    "study": ("pacc.commands.study", "the paper's study (Table I) end to end: every driver x controller"),
+    "study": (
+        "pacc.commands.study",
+        "the paper's study (Table I) end to end: every driver x controller",
+    ),
     "cloud": ("pacc.commands.cloud", "cloud side: learn a driver's DGPT by IRL, sync logs"),
     "export": ("pacc.commands.export", "convert CAN logs: pacc MCAP <-> .log/.asc/.blf/.trc/.csv"),
     "replay": ("pacc.commands.replay", "replay a bus recording through the ECU or onto a bus"),
     "plot": ("pacc.commands.plot", "plot one recorded drive: speed, gap, pedals, ACC state"),
+    "plugins": ("pacc.commands.plugins", "list the controllers, adaptations and learners to name"),
 }
 
 _USAGE = "usage: pacc [-h] {" + ",".join(SUBCOMMANDS) + "} ..."
