@@ -59,6 +59,14 @@ def _parser() -> argparse.ArgumentParser:
         "--workers processes, an address joins that cluster (docs/scale.md; needs pacc[dask])",
     )
     p.add_argument("--out", type=Path, default=Path("out/study"), help="output folder")
+    p.add_argument(
+        "--config",
+        type=Path,
+        metavar="FILE",
+        help="run a study file (TOML: drivers, scenarios, methods, trials, seeds) or a run's "
+        "manifest.json again; the other options but --out/--workers/--scheduler/-q are "
+        "ignored (docs/plugins.md)",
+    )
     p.add_argument("--no-logs", action="store_true", help="do not write MCAP logs")
     p.add_argument(
         "--can-logs",
@@ -105,6 +113,10 @@ def _parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc study``; 0 on success, 1 if a drive collided, 2 on bad input."""
     args = _parser().parse_args(argv)
+    if args.config is not None:
+        from pacc.commands.study_file import run  # noqa: PLC0415 - a study file run only
+
+        return run(args, list(sys.argv[1:] if argv is None else argv))
     pop = args.population != 0
     if pop and args.drivers is not None:
         print(
