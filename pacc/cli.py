@@ -30,6 +30,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "export": ("pacc.commands.export", "convert CAN logs: pacc MCAP <-> .log/.asc/.blf/.trc/.csv"),
     "replay": ("pacc.commands.replay", "replay a bus recording through the ECU or onto a bus"),
     "plot": ("pacc.commands.plot", "plot one recorded drive: speed, gap, pedals, ACC state"),
+    "bench": ("pacc.commands.bench", "every method on fresh seeds, d1..d5, real data: leaderboard"),
     "plugins": ("pacc.commands.plugins", "list the controllers, adaptations and learners to name"),
 }
 

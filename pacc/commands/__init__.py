@@ -15,4 +15,5 @@ each has ``main(argv) -> int`` and only parses options and wires the libraries t
 - :mod:`pacc.commands.replay` — ``pacc replay``: a bus recording through the ECU or onto a bus.
 - :mod:`pacc.commands.plot` — ``pacc plot``: a recorded drive over time.
 - :mod:`pacc.commands.plugins` — ``pacc plugins``: the methods that can be named.
+- :mod:`pacc.commands.bench` — ``pacc bench``: the leaderboard on fresh seeds.
 """

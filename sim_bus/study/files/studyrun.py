@@ -30,9 +30,9 @@ from pacc.vocab import FormatError
 from pacc.vocab.dgpt import Dgpt
 from sim_bus.drivers import DriverParams
 from sim_bus.study.drive import DriveConfig, predefined_table, resolve_profile, run_drive
+from sim_bus.study.files.manifest import write_manifest
+from sim_bus.study.files.studyfile import Method, StudyFileError, drivers_of, methods_of
 from sim_bus.study.irl_table import manual_trips
-from sim_bus.study.manifest import write_manifest
-from sim_bus.study.studyfile import Method, StudyFileError, drivers_of, methods_of
 
 ROWS = "rows.jsonl"
 FIELDS = (
