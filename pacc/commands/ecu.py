@@ -32,6 +32,7 @@ from dbc.network import add_network_arguments, codec_of, network_of
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES, AdaptationParams
 from ecu.buslog.format import TimeBase
+from ecu.methods import make_adaptation, make_controller
 from ecu.node import EcuConfig, EcuNode
 from ecu.recorder import TripSink, directory_sink
 from pacc.vocab import FormatError
@@ -91,6 +92,18 @@ def build_parser() -> argparse.ArgumentParser:
         help="driver profiles: HMI DriverProfileId n > 0 loads DIR/profile_<n>.json",
     )
     p.add_argument("--set-speed", type=float, metavar="MPS", help="SET engages at this speed")
+    p.add_argument(
+        "--gap-controller",
+        default="",
+        metavar="SPEC",
+        help="gap controller through the guarded plug-in interface ('pacc plugins' lists them)",
+    )
+    p.add_argument(
+        "--adaptation-method",
+        default="",
+        metavar="SPEC",
+        help="online adaptation through the plug-in interface: timegap, paper, bayes, ...",
+    )
     p.add_argument("--takeovers", metavar="DIR", help="write takeover segments (MCAP) here")
     p.add_argument(
         "--can-log",
@@ -238,7 +251,13 @@ def _config(args: argparse.Namespace) -> tuple[EcuConfig, Dgpt]:
             adaptation_params=AdaptationParams(mode=args.adaptation_mode),
             brake_mode=args.brake,
             set_speed_mps=args.set_speed,
+            gap_controller=args.gap_controller,
+            adaptation_method=args.adaptation_method,
         )
+        if config.gap_controller:  # a spec that names nothing: refused before the bus opens
+            make_controller(config.gap_controller, {})
+        if config.adaptation_method:
+            make_adaptation(config.adaptation_method, {})
         return config, predefined(args.headway, args.standstill)
     except (EcuError, FormatError) as exc:
         raise _Exit(2, f"pacc ecu: error: {exc}") from None
