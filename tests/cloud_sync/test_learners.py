@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from cloud_sync.errors import DemoError
 from cloud_sync.learners import LearnerError, learn, make_learner
-from pacc.vocab.dgpt import Dgpt, SafetyBounds, predefined
+from pacc.commands.cloud import main as cloud_main
+from pacc.vocab.dgpt import Dgpt, SafetyBounds, load_dgpt, predefined
 from pacc.vocab.plugins import PluginError
+from sim_bus.dataset import load_human_pairs
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.study.irl_table import manual_trips
 
@@ -74,3 +78,20 @@ class NoCoverage:
 def test_a_learner_without_coverage_meta_is_refused() -> None:
     with pytest.raises(LearnerError, match="covered"):
         learn("tests.cloud_sync.test_learners:NoCoverage", [], driver_id="x", seed=0)
+
+
+def test_pacc_cloud_learn_with_another_learner(tmp_path: Path) -> None:
+    pair = load_human_pairs()[0]
+    csv = tmp_path / "pair.csv"
+    t = np.arange(pair.v_follower_mps.size) * pair.dt_s
+    lines = ["t,v_follower,spacing,v_leader"] + [
+        f"{a},{b},{c},{d}"
+        for a, b, c, d in zip(t, pair.v_follower_mps, pair.gap_m, pair.v_leader_mps, strict=True)
+    ]
+    csv.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    out = tmp_path / "gp.json"
+    argv = ["learn", "--learner", "gp", "--demos", str(csv), "--driver", "h1", "-o", str(out)]
+    assert cloud_main(argv) == 0
+    table = load_dgpt(out)
+    assert table.meta["method"] == "gp" and table.driver_id == "h1"
+    assert cloud_main([*argv[:2], "nope", *argv[3:]]) == 2
