@@ -19,6 +19,7 @@ $(STAMP): pyproject.toml
 	@test -x /usr/bin/chromium || { \
 	  echo "installing Debian chromium for the browser tests (apt-get, needs root)"; \
 	  apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q chromium; }
+	$(BIN)/python -m pip install -q -e tests/plugin_pkg
 	@touch $(STAMP)
 
 # The main job: the paper's Table I, 5 drivers x 2 scenarios x 4 controllers x 3 trials, each a

@@ -12,6 +12,11 @@ Run: ``python bench/drive.py [--scenario B] [--driver d2] [--controller ...]`` f
 
 The last line is ``drive: R x the virtual bus`` (goal >= 2.5, and the drive faster than the
 bare bus).
+
+``--plugins`` (issue 20) instead times the same drive with the built-ins called directly
+against the same built-ins through the guarded plug-in interface (``--gap-controller pid
+--adaptation timegap``) and a trivial plug-in controller, interleaved, the median of
+``--repeats`` drives each; the last line is ``plug-in interface: +N % drive time``.
 """
 
 from __future__ import annotations
@@ -21,9 +26,11 @@ import cProfile
 import io
 import math
 import pstats
+import statistics
 import struct
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import can
@@ -111,6 +118,44 @@ def _short_paths(line: str) -> str:
     return line
 
 
+class TrivialController:
+    """The cheapest gap law: a constant request (the interface's cost, nothing else)."""
+
+    def desired_accel(self, obs: object, memory: float, dt_s: float) -> tuple[float, float]:
+        return 0.0, memory
+
+
+def plugin_overhead(scenario: str, driver_id: str, controller: str, repeats: int) -> float:
+    """Print the median CPU time of a drive direct / through the interface; the relative cost."""
+    driver = BUILTIN_DRIVERS[driver_id]
+    table = predefined_table(driver)
+    base = DriveConfig(scenario=scenario, driver_id=driver_id, controller=controller, seed=0)  # type: ignore[arg-type]
+    variants = {
+        "built-ins called directly": base,
+        "built-ins through the interface": replace(
+            base, gap_controller="pid", adaptation_method="timegap"
+        ),
+        "trivial plug-in controller": replace(base, gap_controller="__main__:TrivialController"),
+    }
+    walls: dict[str, list[float]] = {k: [] for k in variants}
+    metrics = {}
+    for _ in range(repeats):
+        for name, cfg in variants.items():
+            cpu = time.process_time()  # CPU time: a loaded host's preemption does not count
+            r = run_drive(cfg, driver, table)
+            walls[name].append(time.process_time() - cpu)
+            metrics[name] = r.metrics.as_dict()
+    same = metrics["built-ins called directly"] == metrics["built-ins through the interface"]
+    direct = statistics.median(walls["built-ins called directly"])
+    for name, w in walls.items():
+        each = ", ".join(f"{x:.3f}" for x in w)
+        print(f"{name:<34} median {statistics.median(w):.3f} s CPU of {repeats} ({each})")
+    print(f"metrics identical direct vs interface: {same}")
+    cost = statistics.median(walls["built-ins through the interface"]) / direct - 1.0
+    print(f"plug-in interface: {100 * cost:+.1f} % drive time")
+    return cost
+
+
 def main(argv: list[str] | None = None) -> int:
     """Print the drive on each bus, the bare-bus ceiling, a profile; last line the ratio."""
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -119,7 +164,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--controller", default="predefined+oa")
     p.add_argument("--top", type=int, default=16, help="profile lines")
     p.add_argument("--rounds", type=int, default=ROUNDS, help="alternating runs of each bus")
+    p.add_argument("--plugins", action="store_true", help="time the plug-in interface only")
+    p.add_argument("--repeats", type=int, default=5, help="drives per variant (--plugins)")
     args = p.parse_args(argv)
+    if args.plugins:
+        plugin_overhead(args.scenario, args.driver, args.controller, args.repeats)
+        return 0
     driver = BUILTIN_DRIVERS[args.driver]
     table = predefined_table(driver)
     cfg = DriveConfig(

@@ -10,6 +10,7 @@ Sub-packages, one subsystem each:
 Beside them: :mod:`cloud_sync.api` (the vehicle–cloud contract, whatever carries it),
 :mod:`cloud_sync.signing` (Ed25519-signed tables), :mod:`cloud_sync.durable` (crash-safe files:
 the folder fsync the store and the spool share) and :mod:`cloud_sync.errors` (the error tree,
+:mod:`cloud_sync.learners` (learners: trips -> a driver's DGPT, behind one small interface);
 rooted at :class:`CloudSyncError`). The formats it reads (DGPT, trip logs) are the shared
 vocabulary of :mod:`pacc.vocab`. Only the error tree is imported here.
 """

@@ -17,6 +17,7 @@ Modules, one concept each:
 - :mod:`ecu.runtime` — ``EcuRuntime``, wiring bus I/O, profiles and clocks to a node.
 
 The sub-package :mod:`ecu.buslog` records the bus (MCAP), reads, replays and converts it. The
+:mod:`ecu.methods` (plug-in methods of the ECU: the gap controller and the online adaptation);
 formats the ECU shares with the simulator and the cloud (DGPT, trip logs, ACC state, pedals)
 live in :mod:`pacc.vocab`; the command line is :mod:`pacc.commands.ecu`.
 

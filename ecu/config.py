@@ -45,6 +45,15 @@ class EcuConfig:
             the runtime refuses a DBC whose ``ACC_Status`` cannot carry it.
         record_period_s / pre_trigger_s / post_trigger_s: takeover recorder, s.
         trip_meta: metadata copied into every takeover segment (driver_id, seed, ...).
+        gap_controller: a gap controller by spec (:mod:`ecu.methods`: ``"pid"``, an entry
+            point of ``pacc.controllers`` or ``module:attribute``), called through the guarded
+            plug-in interface with ``controller_args``; ``""``: the built-in PID called
+            directly (``controller``'s gains).
+        adaptation_method: an adaptation by spec (``"timegap"``, ``"paper"``, ``"bayes"``, an
+            entry point of ``pacc.adaptations`` or ``module:attribute``) with
+            ``adaptation_args``; ``""``: the built-in rule of ``adaptation_params`` directly.
+        plugin_budget_s: wall-time budget of one plug-in call, s (None: 10 ms for a
+            controller, 20 ms for an adaptation; :mod:`ecu.methods.guard`).
     """
 
     adaptation: bool = True
@@ -61,6 +70,11 @@ class EcuConfig:
     pre_trigger_s: float = 5.0
     post_trigger_s: float = 5.0
     trip_meta: Mapping[str, Any] = field(default_factory=dict)
+    gap_controller: str = ""
+    controller_args: Mapping[str, Any] = field(default_factory=dict)
+    adaptation_method: str = ""
+    adaptation_args: Mapping[str, Any] = field(default_factory=dict)
+    plugin_budget_s: float | None = None
 
     def __post_init__(self) -> None:
         if self.brake_mode not in ("resume", "cancel"):
@@ -76,6 +90,9 @@ class EcuConfig:
             )
         if not (math.isfinite(self.max_set_speed_mps) and self.max_set_speed_mps > 0.0):
             raise ConfigError("max_set_speed_mps must be finite and > 0")
+        budget = self.plugin_budget_s
+        if budget is not None and not (math.isfinite(budget) and budget > 0.0):
+            raise ConfigError("plugin_budget_s must be finite and > 0")
         top = self.max_set_speed_mps
         if self.set_speed_mps is not None and not 0.0 <= self.set_speed_mps <= top:
             raise ConfigError(f"set_speed_mps must be within 0..max_set_speed_mps ({top:g} m/s)")

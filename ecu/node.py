@@ -41,6 +41,13 @@ from ecu.adaptation import (
     count_short_press,
 )
 from ecu.config import ConfigError, EcuConfig
+from ecu.methods import make_adaptation, make_controller
+from ecu.methods.guard import (
+    ADAPTATION_BUDGET_S,
+    CONTROLLER_BUDGET_S,
+    GuardedAdaptation,
+    GuardedController,
+)
 from ecu.phases import (
     Command,
     ControlMemory,
@@ -110,6 +117,7 @@ class EcuNode:
         self.last_decision: Decision | None = None
         self._profile_fault = False
         self._pending_events: list[str] = []
+        self._law, self._adaptation = _plugins(config)
         self.recorder: TakeoverRecorder | None = None
         if takeover_sink is not None:
             self.recorder = TakeoverRecorder(
@@ -130,6 +138,16 @@ class EcuNode:
     def table(self) -> Dgpt:
         """The DGPT in use (replaced by each applied adaptation)."""
         return self._table
+
+    @property
+    def plugin_faults(self) -> dict[str, int]:
+        """Faults of the plug-in methods, ``"controller <kind>"`` / ``"adaptation <kind>"`` ->
+        count (empty with the built-ins called directly or plug-ins that behaved)."""
+        out: dict[str, int] = {}
+        for role, guard in (("controller", self._law), ("adaptation", self._adaptation)):
+            if guard is not None:
+                out.update({f"{role} {k}": n for k, n in guard.report.counts.items() if n})
+        return out
 
     @property
     def adaptations(self) -> int:
@@ -251,6 +269,7 @@ class EcuNode:
             fault_ramp=self._fault_ramp,
             mem=self._control_mem,
             dt_s=dt,
+            law=self._law,
         )
         if command.ramp_done:
             self._fault_ramp = False
@@ -312,6 +331,15 @@ class EcuNode:
             self._short_presses, summary, now_s, params
         )
         try:
+            if self._adaptation is not None:  # a plug-in: guarded, the table clipped by the ECU
+                self._table, decision = self._adaptation(
+                    self._table,
+                    summary,
+                    bounds=self.config.bounds,
+                    short_run=short_run,
+                    created_utc=self._utc_now(),
+                )
+                return decision
             self._table, decision = adapt(
                 self._table,
                 summary,
@@ -334,6 +362,35 @@ class EcuNode:
         events.append(text)
         log.info("%s", text)
         return decision.reason.value
+
+
+def _plugins(config: EcuConfig) -> tuple[GuardedController | None, GuardedAdaptation | None]:
+    """The guarded plug-in methods ``config`` names (None: the built-in called directly).
+
+    Raises:
+        PluginError: a spec names nothing loadable or its factory refuses the arguments.
+    """
+    law = adaptation = None
+    budget = config.plugin_budget_s
+    controller_budget = CONTROLLER_BUDGET_S if budget is None else budget
+    if config.gap_controller:
+        args = dict(config.controller_args)
+        if config.gap_controller == "pid" and not args:
+            args = {"params": config.controller}
+        law = GuardedController(
+            make_controller(config.gap_controller, args),
+            config.controller,
+            name=config.gap_controller,
+            budget_s=controller_budget,
+        )
+    if config.adaptation_method:
+        args = dict(config.adaptation_args)
+        adaptation = GuardedAdaptation(
+            make_adaptation(config.adaptation_method, args),
+            name=config.adaptation_method,
+            budget_s=ADAPTATION_BUDGET_S if budget is None else budget,
+        )
+    return law, adaptation
 
 
 __all__ = ["ConfigError", "EcuConfig", "EcuNode", "NodeInputs", "NodeOutputs", "input_fault"]

@@ -21,6 +21,7 @@ Every function here is pure: values in, values out; no clock, no bus, no logging
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from ecu.config import MAX_DT_S, EcuConfig
@@ -40,6 +41,9 @@ from pacc.vocab.dgpt import Dgpt
 #: Margin of the re-engagement hold time against float round-off, s.
 SETTLE_EPS_S = 1e-9
 ENGAGED = (AccState.ACTIVE, AccState.OVERRIDE)
+#: a gap law through the plug-in interface: ``(obs, memory, dt_s) -> (accel_mps2, memory)``
+#: (:class:`ecu.methods.guard.GuardedController`); None: the built-in PID called directly
+GapLaw = Callable[[ControlInput, float, float], tuple[float, float]]
 DISENGAGED = (AccState.STANDBY, AccState.FAULT)
 
 
@@ -236,6 +240,7 @@ def control(
     fault_ramp: bool,
     mem: ControlMemory,
     dt_s: float,
+    law: GapLaw | None = None,
 ) -> tuple[Command, ControlMemory]:
     """The request of this cycle and the controller's next memory.
 
@@ -243,7 +248,8 @@ def control(
     closing lead is within ``emergency_ttc_s`` and the request decreases; there the request
     is also at most the closing limit against the table's lower safety bound at the lead's
     speed). Otherwise the request ramps toward zero at the jerk limit; it stays active only
-    in FAULT while an executed request is still ramping (``fault_ramp``).
+    in FAULT while an executed request is still ramping (``fault_ramp``). ``law``: a plug-in
+    gap law in place of the PID (the envelope and the closing limit stay the ECU's).
     """
     ctl = config.controller
     prev = mem.prev_accel_mps2
@@ -259,7 +265,10 @@ def control(
             desired_gap_m=p.desired_gap_m,
             desired_gap_slope_s=p.desired_gap_slope_s,
         )
-        target, integral = desired_accel(ctl, obs, mem.integral_m_s, dt_s, integrate=True)
+        if law is None:
+            target, integral = desired_accel(ctl, obs, mem.integral_m_s, dt_s, integrate=True)
+        else:
+            target, integral = law(obs, mem.integral_m_s, dt_s)
         ttc = time_to_collision_s(inp.lead_valid, inp.gap_m, inp.rel_speed_mps)
         if ttc < ctl.emergency_ttc_s:  # brake at least as hard as the closing speed needs
             floor = config.bounds.lower_m(max(p.v_mps + inp.rel_speed_mps, 0.0))
@@ -332,6 +341,7 @@ __all__ = [
     "Command",
     "ControlMemory",
     "Engagement",
+    "GapLaw",
     "InputCheck",
     "Plan",
     "check_inputs",

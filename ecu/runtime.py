@@ -68,6 +68,8 @@ class RuntimeSummary:
     faults: dict[str, int] = field(default_factory=dict)
     #: command frames the safety check (:mod:`ecu.safety`) changed, by rule broken
     safety_stops: dict[str, int] = field(default_factory=dict)
+    #: faults of plug-in methods (``"controller raised"`` -> count; :mod:`ecu.methods.guard`)
+    plugin_faults: dict[str, int] = field(default_factory=dict)
 
     def __str__(self) -> str:
         errors = ", ".join(f"{k} {v}" for k, v in sorted(self.e2e_errors.items())) or "none"
@@ -76,6 +78,7 @@ class RuntimeSummary:
         )
         faults = ", ".join(f"{k} {v}" for k, v in sorted(self.faults.items())) or "none"
         stops = ", ".join(f"{k} {v}" for k, v in sorted(self.safety_stops.items())) or "none"
+        plugin = ", ".join(f"{k} {v}" for k, v in sorted(self.plugin_faults.items()))
         return "\n".join(
             [
                 f"cycles:         {self.cycles}",
@@ -90,6 +93,7 @@ class RuntimeSummary:
                 f"send errors:    {self.send_errors}, skipped cycles: {self.skipped_cycles}",
                 f"safety stops:   {stops}",
             ]
+            + ([f"plug-in faults: {plugin} (safe output used)"] if plugin else [])
         )
 
 
@@ -256,6 +260,7 @@ class EcuRuntime:
             adaptation_decisions={r.value: n for r, n in node.decisions.items()},
             faults={f.name: n for f, n in node.faults.items()},
             safety_stops=dict(self.io.safety.stopped),
+            plugin_faults=node.plugin_faults,
         )
 
 

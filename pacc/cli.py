@@ -39,6 +39,8 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "plot": ("pacc.commands.plot", "plot one recorded drive: speed, gap, pedals, ACC state"),
     "demos": ("pacc.commands.demos", "real-car bus logs as IRL demonstrations (trip logs)"),
     "hil": ("pacc.commands.hil", "a person drives in a browser against the ECU: the paper's study"),
+    "bench": ("pacc.commands.bench", "every method on fresh seeds, d1..d5, real data: leaderboard"),
+    "plugins": ("pacc.commands.plugins", "list the controllers, adaptations and learners to name"),
 }
 
 _USAGE = "usage: pacc [-h] [--debug] {" + ",".join(SUBCOMMANDS) + "} ..."

@@ -22,4 +22,8 @@ each has ``main(argv) -> int`` and only parses options and wires the libraries t
   vehicle link, the start table.
 - :mod:`pacc.commands.hil` — the command line of ``pacc hil``: a person drives in a browser
   against the ECU.
+- :mod:`pacc.commands.plugins` — ``pacc plugins``: the methods that can be named.
+- :mod:`pacc.commands.bench` — ``pacc bench``: the leaderboard on fresh seeds.
+- :mod:`pacc.commands.study_file` — ``pacc study --config study.toml`` (or ``--config
+  OUT/manifest.json``): a study file run.
 """

@@ -45,6 +45,8 @@ def _do_learn(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
             return 2
+    if args.learner != "irl":
+        return _other_learner(args)
     try:
         _check_outputs(args.output, args.plot)  # now, not after training
         config = IrlConfig(takeover_weight=args.takeover_weight)
@@ -102,6 +104,30 @@ def _do_learn(args: argparse.Namespace) -> int:
         print(f"  DGPT({v:g} m/s) = {t.lookup(v):.1f} m ({(t.lookup(v) - 4.0) / v:.2f} s + 4 m)")
     if args.plot:
         print(f"plot -> {args.plot}")
+    return 0
+
+
+def _other_learner(args: argparse.Namespace) -> int:
+    """``--learner SPEC`` other than irl: the table of that learner (docs/plugins.md)."""
+    from cloud_sync.irl.tripfiles import load_trip  # noqa: PLC0415 - numpy: a learn run only
+    from cloud_sync.learners import learn  # noqa: PLC0415
+    from pacc.vocab.dgpt_file import save_dgpt  # noqa: PLC0415
+
+    try:
+        if args.init or args.plot:
+            raise CloudSyncError("--init and --plot are the IRL learner's: not with --learner")
+        _check_outputs(args.output, None)
+        trips = [load_trip(p) for p in args.demos]
+        table = learn(args.learner, trips, driver_id=args.driver, seed=args.seed)
+        save_dgpt(table, args.output)
+    except (CloudSyncError, EcuError, FormatError) as exc:
+        print(f"pacc cloud learn: error: {exc}", file=sys.stderr)
+        return 2
+    covered = sum(bool(c) for c in table.meta["covered"])
+    print(
+        f"{args.learner}: {covered} of {table.speed_mps.size} speed bins covered, "
+        f"{table.meta['learn_s']:.2f} s; table written to {args.output}"
+    )
     return 0
 
 
@@ -163,6 +189,12 @@ def add_subparser(subparsers: Any) -> None:
     )
     p.add_argument("--plot", metavar="PNG", help="write the reward / DGPT figure here")
     p.add_argument("--seed", type=integer(0), default=0, help="seed (default: %(default)s)")
+    p.add_argument(
+        "--learner",
+        default="irl",
+        metavar="SPEC",
+        help="irl (default), empirical, gp, an entry point of pacc.learners or module:attribute",
+    )
     p.add_argument(
         "--takeover-weight",
         type=number(0.0, 1000.0),

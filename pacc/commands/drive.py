@@ -177,6 +177,21 @@ def _parser() -> argparse.ArgumentParser:
         help="the python-can bus between ECU and simulator: the in-process lockstep bus "
         "(default) or python-can's virtual bus (the same frames, slower)",
     )
+    p.add_argument(
+        "--gap-controller",
+        default="",
+        metavar="SPEC",
+        help="gap controller through the plug-in interface: pid, an installed entry point "
+        "of pacc.controllers or module:attribute (default: the built-in PID called directly; "
+        "'pacc plugins' lists them)",
+    )
+    p.add_argument(
+        "--adaptation",
+        default="",
+        metavar="SPEC",
+        help="online adaptation of the +oa controllers through the plug-in interface: "
+        "timegap, paper, bayes, an entry point of pacc.adaptations or module:attribute",
+    )
     add_network_arguments(p)
     return p
 
@@ -246,6 +261,8 @@ def main(argv: list[str] | None = None) -> int:
             adaptation=adaptation_params(args.adaptation_mode),
             dbc=args.dbc,
             binding=args.binding,
+            gap_controller=args.gap_controller,
+            adaptation_method=args.adaptation,
         )
         drive_codec(cfg)  # a DBC without its binding: refused before any learning
         profile = resolve_profile(args.scenario, args.seed)

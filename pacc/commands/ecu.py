@@ -38,6 +38,7 @@ from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES, AdaptationParams
 from ecu.buslog.format import TimeBase
 from ecu.buslog.live import add_foxglove_argument
+from ecu.methods import make_adaptation, make_controller
 from ecu.node import EcuConfig, EcuNode
 from ecu.recorder import TripSink
 from pacc.commands._args import (
@@ -111,6 +112,18 @@ def build_parser() -> argparse.ArgumentParser:
         type=number(0.0, 60.0),
         metavar="MPS",
         help="SET engages at this speed, m/s (default: the current speed)",
+    )
+    p.add_argument(
+        "--gap-controller",
+        default="",
+        metavar="SPEC",
+        help="gap controller through the guarded plug-in interface ('pacc plugins' lists them)",
+    )
+    p.add_argument(
+        "--adaptation-method",
+        default="",
+        metavar="SPEC",
+        help="online adaptation through the plug-in interface: timegap, paper, bayes, ...",
     )
     p.add_argument(
         "--takeovers",
@@ -249,7 +262,13 @@ def _config(args: argparse.Namespace) -> tuple[EcuConfig, Dgpt]:
             brake_mode=args.brake,
             set_speed_mps=args.set_speed,
             trip_meta={"driver_id": args.driver} if args.driver else {},
+            gap_controller=args.gap_controller,
+            adaptation_method=args.adaptation_method,
         )
+        if config.gap_controller:  # a spec that names nothing: refused before the bus opens
+            make_controller(config.gap_controller, {})
+        if config.adaptation_method:
+            make_adaptation(config.adaptation_method, {})
         return config, predefined(args.headway, args.standstill)
     except (EcuError, FormatError) as exc:
         raise Exit(2, f"pacc ecu: error: {exc}") from None

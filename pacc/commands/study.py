@@ -75,6 +75,14 @@ def _parser() -> argparse.ArgumentParser:
         "--workers processes, an address joins that cluster (docs/scale.md; needs pacc[dask])",
     )
     p.add_argument("--out", type=Path, default=Path("out/study"), help="output folder")
+    p.add_argument(
+        "--config",
+        type=Path,
+        metavar="FILE",
+        help="run a study file (TOML: drivers, scenarios, methods, trials, seeds) or a run's "
+        "manifest.json again; the other options but --out/--workers/--scheduler/-q are "
+        "ignored (docs/plugins.md)",
+    )
     p.add_argument("--no-logs", action="store_true", help="do not write MCAP logs")
     p.add_argument(
         "--can-logs",
@@ -140,8 +148,9 @@ def _parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc study``; 0 on success, 1 if a drive collided, 2 on bad input."""
     args = _parser().parse_args(argv)
-    if args.hil is not None:
-        return _hil_table(args.hil, args.out, args.beside)
+    other = _other_mode(args, argv)
+    if other is not None:
+        return other
     pop = args.population != 0
     if pop and args.drivers is not None:
         print(
@@ -214,6 +223,17 @@ def main(argv: list[str] | None = None) -> int:
             + (")" if cfg.direct else ", cloud/)")
         )
     return 1 if any(int(r["collision"]) for r in rows) else 0
+
+
+def _other_mode(args: argparse.Namespace, argv: list[str] | None) -> int | None:
+    """Run ``--hil`` (Table I of people) or ``--config`` (a study file); None: neither."""
+    if args.hil is not None:
+        return _hil_table(args.hil, args.out, args.beside)
+    if args.config is not None:
+        from pacc.commands.study_file import run  # noqa: PLC0415 - a study file run only
+
+        return run(args, list(sys.argv[1:] if argv is None else argv))
+    return None
 
 
 def _hil_table(sessions: Path, out: Path, beside: Path | None) -> int:

@@ -8,6 +8,8 @@
 - :mod:`pacc.vocab.acc_state` — the ACC's engagement state and fault codes.
 - :mod:`pacc.vocab.pedals` — ``PedalScale``, pedal fractions from the DBC's full scale.
 - :mod:`pacc.vocab.mcap_errors` — one mapping of MCAP read errors to a reader's error.
+- :mod:`pacc.vocab.plugins` — finding methods by name: built-ins, Python entry points and
+  ``module:attribute``.
 
 Every error raised here derives from :class:`FormatError` (a :class:`pacc.errors.PaccError`).
 """

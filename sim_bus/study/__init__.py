@@ -31,6 +31,12 @@ concept per module:
 - :mod:`sim_bus.study.incremental_report`: the per-trip table and learning curve;
 - :mod:`sim_bus.study.population`: Table I over drawn drivers, resumable;
 - :mod:`sim_bus.study.population_report`: its means, intervals, paired tests and safety.
+- :mod:`sim_bus.study.bench` — ``pacc bench``: the suite (:mod:`~sim_bus.study.bench.suite`),
+  the held-out gap error (:mod:`~sim_bus.study.bench.heldout`) and the leaderboard
+  (:mod:`~sim_bus.study.bench.leaderboard`).
+- :mod:`sim_bus.study.files` — study files (:mod:`~sim_bus.study.files.studyfile`), the run's
+  manifest (:mod:`~sim_bus.study.files.manifest`) and running one on the engine
+  (:mod:`~sim_bus.study.files.studyrun`): ``pacc study --config``.
 
 The command line is :mod:`pacc.commands.study` (also ``python -m sim_bus.study``).
 

@@ -72,6 +72,12 @@ class DriveConfig:
     adaptation: AdaptationParams | None = None  # None: the ECU's default AdaptationParams
     dbc: str | None = None  # the vehicle network's DBC and binding (None: pacc's; docs/vehicles.md)
     binding: str | None = None
+    #: plug-in methods (:mod:`ecu.methods`; "": the built-ins called directly) and their
+    #: arguments as (name, value) pairs; the adaptation runs only for the +oa controllers
+    gap_controller: str = ""
+    controller_args: tuple[tuple[str, Any], ...] = ()
+    adaptation_method: str = ""
+    adaptation_args: tuple[tuple[str, Any], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -300,6 +306,10 @@ def _ecu_node(
             "scenario": scenario,
             "controller": cfg.controller,
         },
+        gap_controller=cfg.gap_controller,
+        controller_args=dict(cfg.controller_args),
+        adaptation_method=cfg.adaptation_method,
+        adaptation_args=dict(cfg.adaptation_args),
     )
     # adapted tables get a fixed creation time: the drive stays a pure function of its inputs
     return EcuNode(ecu_cfg, table, takeover_sink=takeover_sink, utc_now=lambda: FIXED_UTC)

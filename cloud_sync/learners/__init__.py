@@ -1,0 +1,93 @@
+"""Learners: trips -> a driver's DGPT, behind one small interface.
+
+:class:`Learner` — ``learn(trips, *, driver_id, seed) -> Dgpt``: from the driver's trips
+(:class:`~pacc.vocab.triplog.Trip`, 10 Hz; manual drives and the takeovers of ACC trips)
+a table on the standard speed axis (m over m/s, inside its safety bounds) whose ``meta``
+holds at least ``method`` (str) and ``covered`` (one bool per speed bin: the bins the data
+set; elsewhere the table states a prior). :func:`learn` adds ``learn_s`` (wall time, s) and
+``learner`` (the spec) to the meta.
+
+Built-ins, ordinary implementations of the interface:
+
+- ``irl`` (:class:`~cloud_sync.learners.builtin.IrlLearner`): the maximum causal entropy IRL
+  of the paper (:func:`cloud_sync.irl.trainer.learn_dgpt`);
+- ``empirical`` (:class:`~cloud_sync.learners.builtin.EmpiricalLearner`): the median
+  steady-state gap per speed bin (the baseline every claim is measured against);
+- ``gp`` (:class:`~cloud_sync.learners.gp.GpLearner`): a Gaussian process of the steady gap
+  over speed (as in the P-ACC literature), numpy only.
+
+Others come from the entry points of ``pacc.learners`` or ``module:attribute``
+(:mod:`pacc.vocab.plugins`); a factory takes the learner's parameters as keyword arguments.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Mapping, Sequence
+from typing import Any, Protocol, runtime_checkable
+
+from cloud_sync.errors import CloudSyncError
+from pacc.vocab.dgpt import Dgpt
+from pacc.vocab.plugins import PluginError, build
+from pacc.vocab.triplog import Trip
+
+GROUP = "pacc.learners"
+#: built-in learners: name -> factory
+BUILTIN_LEARNERS: dict[str, str] = {
+    "irl": "cloud_sync.learners.builtin:IrlLearner",
+    "empirical": "cloud_sync.learners.builtin:EmpiricalLearner",
+    "gp": "cloud_sync.learners.gp:GpLearner",
+}
+
+
+class LearnerError(CloudSyncError):
+    """A learner returned something that is not a DGPT with the meta the interface asks."""
+
+
+@runtime_checkable
+class Learner(Protocol):
+    """trips -> DGPT with meta (see the package docstring for units and meta)."""
+
+    def learn(self, trips: Sequence[Trip], *, driver_id: str, seed: int) -> Dgpt:
+        """The driver's table learned from ``trips``."""
+        ...
+
+
+def make_learner(spec: str, params: Mapping[str, Any] | None = None) -> Learner:
+    """The learner named by ``spec`` built with ``params`` (PluginError if none)."""
+    obj = build(GROUP, spec, BUILTIN_LEARNERS, params or {})
+    if not callable(getattr(obj, "learn", None)):
+        raise PluginError(f"learner {spec!r} has no learn(trips, *, driver_id, seed)")
+    return obj  # type: ignore[no-any-return]
+
+
+def learn(
+    spec: str,
+    trips: Sequence[Trip],
+    *,
+    driver_id: str,
+    seed: int,
+    params: Mapping[str, Any] | None = None,
+) -> Dgpt:
+    """Learn with the learner ``spec``; the table's meta gain ``learner`` and ``learn_s``.
+
+    Raises:
+        PluginError: ``spec`` names no learner. LearnerError: it returned no DGPT, or one
+        whose meta lack ``covered`` of the table's length. Whatever the learner raises for
+        unusable trips (e.g. :class:`~cloud_sync.irl.demos.DemoError`) passes through.
+    """
+    learner = make_learner(spec, params)
+    start = time.perf_counter()
+    table = learner.learn(trips, driver_id=driver_id, seed=seed)
+    wall = time.perf_counter() - start
+    if not isinstance(table, Dgpt):
+        raise LearnerError(f"learner {spec!r} returned {type(table).__name__}, not a Dgpt")
+    covered = table.meta.get("covered")
+    if not isinstance(covered, list) or len(covered) != table.speed_mps.size:
+        raise LearnerError(f"learner {spec!r}: meta 'covered' must be one bool per speed bin")
+    meta = {"method": spec, **table.meta, "learner": spec, "learn_s": round(wall, 4)}
+    return dataclasses.replace(table, meta=meta)
+
+
+__all__ = ["BUILTIN_LEARNERS", "GROUP", "Learner", "LearnerError", "learn", "make_learner"]

@@ -1,0 +1,135 @@
+"""``bayes``: an online adaptation that keeps an uncertainty per speed bin (a Kalman filter).
+
+The paper's future work asks for an adaptation that moves the table by evidence rather than
+by the last release gap. This one keeps a Gaussian belief over the whole table: a mean (the
+table, m) and a covariance between bins, in time-gap space with the prior
+
+    P_ij = (sigma_h * u_i) (sigma_h * u_j) exp(-(v_i - v_j)^2 / (2 l^2)),  u = max(v, v_min)
+
+(``sigma_h`` s: how far a driver's time gap may sit from the table's; ``l`` m/s: how far over
+speed one preference carries). A takeover that passes the same behaviour filter as
+Algorithm 1 is one noisy observation ``z = g_desire`` (the predicted steady gap, m) of the
+bin at the release speed, with noise ``(sigma_obs * u_c)^2``; the Kalman update moves every
+bin by its gain ``P[:, c] / (P_cc + R)`` and shrinks the covariance. The first takeover moves
+the table most of the way, later ones less, the more agree, the less: the weight of a release
+gap is its evidence against what is already known. A little process noise ``q`` per update
+keeps the belief able to follow a driver whose preference drifts.
+
+As the rule adaptations: the pedal's direction (an accelerator takeover never lengthens a
+bin, a brake takeover never shortens one), the short-press runs (``short_run``) and the
+table's safety bounds apply. Units: gaps m, speeds m/s, ``sigma_*``, ``q`` s.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+import numpy as np
+
+from ecu.adaptation import (
+    AdaptationParams,
+    Decision,
+    Reason,
+    TakeoverSummary,
+    against_pedal,
+    behaviour_filter,
+    predict_steady_gap,
+    safety_filter,
+    with_pedal,
+)
+from pacc.vocab.dgpt import Dgpt, SafetyBounds
+
+
+@dataclasses.dataclass(frozen=True)
+class BayesParams:
+    """Parameters of :class:`BayesAdaptation` (units s and m/s; see the module docstring).
+
+    Attributes:
+        prior_sigma_s: prior standard deviation of the time gap, s (0.4 s: the spread of
+            preferred time gaps among the OpenACC drivers is about that).
+        obs_sigma_s: noise of one release gap as a time gap, s (0.3 s).
+        length_mps: correlation length over speed, m/s (15 m/s, as ``spread_speed_mps``).
+        process_sigma_s: drift added per update, s (0.05 s).
+        min_speed_mps: speeds below count as this one in time-gap space, m/s.
+    """
+
+    prior_sigma_s: float = 0.4
+    obs_sigma_s: float = 0.3
+    length_mps: float = 15.0
+    process_sigma_s: float = 0.05
+    min_speed_mps: float = 10.0
+
+    def __post_init__(self) -> None:
+        values = dataclasses.astuple(self)
+        if not all(isinstance(x, float | int) and math.isfinite(x) and x > 0 for x in values):
+            raise ValueError(f"bayes parameters must be finite and > 0: {self}")
+
+
+def prior_covariance(speed_mps: np.ndarray, sigma_s: float, p: BayesParams) -> np.ndarray:
+    """The (n, n) covariance of the table's gaps (m^2) for a time-gap deviation ``sigma_s``."""
+    u = np.maximum(speed_mps, p.min_speed_mps) * sigma_s
+    dv = speed_mps[:, None] - speed_mps[None, :]
+    return np.asarray(np.outer(u, u) * np.exp(-0.5 * (dv / p.length_mps) ** 2))
+
+
+class BayesAdaptation:
+    """The Bayesian adaptation (module docstring). One object per ECU: it keeps the belief.
+
+    Parameters: the fields of :class:`BayesParams` and of the behaviour filter's
+    :class:`~ecu.adaptation.AdaptationParams` (``min_takeover_s``, ``coast_down_s``, ...)."""
+
+    def __init__(self, **fields: Any) -> None:
+        names = {f.name for f in dataclasses.fields(BayesParams)}
+        self.params = BayesParams(**{k: v for k, v in fields.items() if k in names})
+        self.rule = AdaptationParams(**{k: v for k, v in fields.items() if k not in names})
+        self._cov: np.ndarray | None = None
+        self._table: Dgpt | None = None
+
+    def variance_m2(self) -> np.ndarray | None:
+        """The current per-bin variance of the table, m^2 (None before the first takeover)."""
+        return None if self._cov is None else np.diag(self._cov).copy()
+
+    def update(
+        self,
+        table: Dgpt,
+        takeover: TakeoverSummary,
+        *,
+        bounds: SafetyBounds,
+        short_run: bool,
+        created_utc: str,
+    ) -> tuple[Dgpt | None, Decision]:
+        """One Kalman update of the table from the takeover (None: unchanged)."""
+        reason = behaviour_filter(takeover, self.rule, short_run=short_run)
+        if reason is not Reason.APPLIED:
+            return None, Decision(applied=False, reason=reason)
+        speed = table.speed_mps
+        if self._table is not table or self._cov is None:  # a new table: a fresh belief
+            self._cov = prior_covariance(speed, self.params.prior_sigma_s, self.params)
+        g_desire = predict_steady_gap(takeover, self.rule)
+        centre = int(round((takeover.v_mps - float(speed[0])) / table.step_mps))
+        centre = min(max(centre, 0), speed.size - 1)
+        if against_pedal(takeover.pedal, g_desire - float(table.gap_m[centre])):
+            return None, Decision(applied=False, reason=Reason.AGAINST_PEDAL, g_desire_m=g_desire)
+        p = self.params
+        cov = self._cov
+        u_c = max(float(speed[centre]), p.min_speed_mps)
+        gain = cov[:, centre] / (cov[centre, centre] + (p.obs_sigma_s * u_c) ** 2)
+        gap = table.gap_m + gain * (g_desire - float(table.gap_m[centre]))
+        cov = cov - np.outer(gain, cov[centre, :])
+        self._cov = cov + prior_covariance(speed, p.process_sigma_s, p)
+        gap = with_pedal(table.gap_m, safety_filter(speed, gap, bounds), takeover.pedal)
+        new = table.with_gaps(gap, "adapted", created_utc=created_utc)
+        self._table = new
+        decision = Decision(
+            applied=True,
+            reason=Reason.APPLIED,
+            bin_index=centre,
+            g_desire_m=g_desire,
+            delta_m=float(new.gap_m[centre] - table.gap_m[centre]),
+        )
+        return new, decision
+
+
+__all__ = ["BayesAdaptation", "BayesParams", "prior_covariance"]

@@ -1,0 +1,222 @@
+"""Calling a plug-in from the control loop without trusting it.
+
+:class:`GuardedController` and :class:`GuardedAdaptation` wrap a plug-in and call it
+inside a per-call **wall-time budget** (measured with ``time.perf_counter`` around the call:
+no thread, no signal, so the loop stays single-threaded). A call that raises, returns
+something malformed or non-finite, or overruns is discarded and the **safe output** used
+instead:
+
+- controller: the built-in PID's request of that cycle (same memory), which the ECU then
+  clips into its envelope and rate-limits as always; after ``max_overruns`` overruns the
+  plug-in is switched off for the rest of the trip (each overrun has already cost the loop
+  its time);
+- adaptation: no change of the table (decision ``invalid_input``).
+
+An overrun of a controller is a call over ``HARD_FACTOR`` times the budget, or the third
+call in a row over the budget: one late call on a loaded host (the process preempted for a
+few ms inside a call of microseconds) is used as it is, so that a lockstep drive gives the
+same rows on an idle and on a busy machine, while a controller that is slow every cycle, or
+blocks, is caught within three cycles. An adaptation (once per takeover) overruns when it
+takes longer than its budget.
+
+Every fault is counted by kind in :attr:`PluginReport.counts` (``raised``, ``non_finite``,
+``bad_output``, ``overrun``, ``disabled``), which the runtime summary reports.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections import Counter
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ecu.adaptation import Decision, Reason, TakeoverSummary
+from ecu.controller import ControlInput, ControllerParams, desired_accel
+from ecu.methods import Adaptation, GapController
+from pacc.vocab.dgpt import Dgpt, SafetyBounds, clamp_to_bounds
+
+log = logging.getLogger(__name__)
+
+#: default per-call budget of a controller, s (half the 20 ms control cycle)
+CONTROLLER_BUDGET_S = 0.010
+#: default per-call budget of an adaptation, s (it runs once per takeover, not every cycle)
+ADAPTATION_BUDGET_S = 0.100
+#: a controller call over this many budgets overruns at once
+HARD_FACTOR = 10.0
+#: calls in a row over the budget that make an overrun
+LATE_STREAK = 3
+#: overruns after which a controller plug-in is switched off for the rest of the trip
+MAX_OVERRUNS = 3
+
+
+@dataclass
+class PluginReport:
+    """What a guarded plug-in did: calls and faults by kind."""
+
+    name: str
+    calls: int = 0
+    counts: Counter[str] = field(default_factory=Counter)
+    last_error: str = ""
+
+    def fault(self, kind: str, detail: str) -> None:
+        """Count one fault of ``kind``; the first of each kind is logged."""
+        if not self.counts[kind]:
+            log.warning("plug-in %s: %s (%s); safe output used", self.name, kind, detail)
+        self.counts[kind] += 1
+        self.last_error = f"{kind}: {detail}"
+
+
+class GuardedController:
+    """A :class:`GapController` behind the budget (see the module docstring); call it as
+    the gap law of :func:`ecu.phases.control`: ``(obs, memory, dt_s) -> (accel, memory)``."""
+
+    def __init__(
+        self,
+        plugin: GapController,
+        fallback: ControllerParams,
+        *,
+        name: str,
+        budget_s: float = CONTROLLER_BUDGET_S,
+        max_overruns: int = MAX_OVERRUNS,
+    ) -> None:
+        self.plugin = plugin
+        self.fallback = fallback
+        self.budget_s = budget_s
+        self.max_overruns = max_overruns
+        self.report = PluginReport(name)
+        self.disabled = False
+        self._late = 0  # calls in a row over the budget
+        self._call = plugin.desired_accel
+
+    def __call__(self, obs: ControlInput, memory: float, dt_s: float) -> tuple[float, float]:
+        report = self.report
+        report.calls += 1
+        if not self.disabled:
+            start = time.perf_counter()
+            try:
+                out = self._call(obs, memory, dt_s)
+            except Exception as exc:  # noqa: BLE001 - any plug-in failure means the safe output
+                report.fault("raised", f"{type(exc).__name__}: {exc}")
+            else:
+                elapsed = time.perf_counter() - start
+                if elapsed > self.budget_s and self._late_call(elapsed):
+                    self._overrun(elapsed)
+                else:
+                    if elapsed <= self.budget_s:
+                        self._late = 0
+                    checked = _checked_pair(out)
+                    if checked is not None:
+                        return checked
+                    report.fault("non_finite" if _is_pair(out) else "bad_output", repr(out)[:80])
+        else:
+            report.counts["disabled"] += 1
+        return desired_accel(
+            self.fallback, obs, memory if math.isfinite(memory) else 0.0, dt_s, integrate=True
+        )
+
+    def _late_call(self, elapsed_s: float) -> bool:
+        """Count a call over the budget; whether it overruns (see the module docstring)."""
+        self._late += 1
+        return self._late >= LATE_STREAK or elapsed_s > HARD_FACTOR * self.budget_s
+
+    def _overrun(self, elapsed_s: float) -> None:
+        self.report.fault("overrun", f"{elapsed_s * 1e3:.1f} ms > {self.budget_s * 1e3:.1f} ms")
+        if self.report.counts["overrun"] >= self.max_overruns:
+            self.disabled = True
+            log.warning(
+                "plug-in %s switched off after %d overruns", self.report.name, self.max_overruns
+            )
+
+
+def _is_pair(out: object) -> bool:
+    return isinstance(out, tuple) and len(out) == 2
+
+
+def _checked_pair(out: object) -> tuple[float, float] | None:
+    """``out`` as two finite floats, else None."""
+    if not _is_pair(out):
+        return None
+    assert isinstance(out, tuple)
+    try:
+        accel, memory = float(out[0]), float(out[1])
+    except (TypeError, ValueError):
+        return None
+    if math.isfinite(accel) and math.isfinite(memory):
+        return accel, memory
+    return None
+
+
+class GuardedAdaptation:
+    """An :class:`Adaptation` behind the budget; the returned table is checked (a DGPT on
+    the same speed axis, finite gaps) and clipped into the safety bounds by the ECU."""
+
+    def __init__(
+        self, plugin: Adaptation, *, name: str, budget_s: float = ADAPTATION_BUDGET_S
+    ) -> None:
+        self.plugin = plugin
+        self.budget_s = budget_s
+        self.report = PluginReport(name)
+
+    def __call__(
+        self,
+        table: Dgpt,
+        takeover: TakeoverSummary,
+        *,
+        bounds: SafetyBounds,
+        short_run: bool,
+        created_utc: str,
+    ) -> tuple[Dgpt, Decision]:
+        """The table after the takeover (``table`` itself when nothing applies)."""
+        self.report.calls += 1
+        refused = Decision(applied=False, reason=Reason.INVALID_INPUT)
+        start = time.perf_counter()
+        try:
+            new, decision = self.plugin.update(
+                table, takeover, bounds=bounds, short_run=short_run, created_utc=created_utc
+            )
+        except Exception as exc:  # noqa: BLE001 - any plug-in failure means no change
+            self.report.fault("raised", f"{type(exc).__name__}: {exc}")
+            return table, refused
+        elapsed = time.perf_counter() - start
+        if elapsed > self.budget_s:
+            self.report.fault("overrun", f"{elapsed * 1e3:.1f} ms > {self.budget_s * 1e3:.1f} ms")
+            return table, refused
+        if not isinstance(decision, Decision):
+            self.report.fault("bad_output", f"decision {decision!r:.60}")
+            return table, refused
+        if new is None or not decision.applied:
+            return table, decision if not decision.applied else refused
+        return self._checked(table, new, decision, bounds)
+
+    def _checked(
+        self, table: Dgpt, new: object, decision: Decision, bounds: SafetyBounds
+    ) -> tuple[Dgpt, Decision]:
+        refused = Decision(applied=False, reason=Reason.INVALID_INPUT)
+        if not isinstance(new, Dgpt) or new.gap_m.shape != table.gap_m.shape:
+            self.report.fault("bad_output", f"table {type(new).__name__}")
+            return table, refused
+        if not np.array_equal(new.speed_mps, table.speed_mps):
+            self.report.fault("bad_output", "table on another speed axis")
+            return table, refused
+        if not np.all(np.isfinite(new.gap_m)):
+            self.report.fault("non_finite", "table with non-finite gaps")
+            return table, refused
+        clipped = np.asarray(clamp_to_bounds(new.speed_mps, new.gap_m, bounds))
+        if not np.array_equal(clipped, new.gap_m):
+            new = new.with_gaps(clipped, "adapted", created_utc=new.created_utc)
+        return new, decision
+
+
+__all__ = [
+    "ADAPTATION_BUDGET_S",
+    "CONTROLLER_BUDGET_S",
+    "HARD_FACTOR",
+    "LATE_STREAK",
+    "MAX_OVERRUNS",
+    "GuardedAdaptation",
+    "GuardedController",
+    "PluginReport",
+]

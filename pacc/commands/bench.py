@@ -1,0 +1,118 @@
+"""``pacc bench``: every method on fresh population seeds, d1..d5 and real human data.
+
+Draws ``--seeds K`` population seeds at run time (printed, stored in ``OUT/bench.json``),
+runs each method (the default set, or the ``[[methods]]`` of ``--methods study.toml``)
+closed-loop on the drawn drivers and d1..d5, measures each learner's held-out gap error
+against the empirical baseline on the real OpenACC pairs (and ``--csv`` files), the built-in
+and the drawn drivers, and writes ``leaderboard.md``, ``.csv`` and ``.png`` (docs/bench.md).
+A run into a folder that holds a bench resumes it with the stored seeds and options.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+import tomllib
+from pathlib import Path
+
+from cloud_sync.errors import CloudSyncError
+from ecu import EcuError
+from pacc.vocab import FormatError
+from sim_bus.errors import SimError
+from sim_bus.study.bench.suite import (
+    DEFAULT_METHODS,
+    BenchOptions,
+    fresh_seeds,
+    run_bench,
+    stored_options,
+)
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="pacc bench", description=__doc__.split("\n\n")[0])
+    p.add_argument("--seeds", type=int, default=2, metavar="K", help="fresh population seeds (2)")
+    p.add_argument("--seed-list", metavar="S1,S2", help="these population seeds instead")
+    p.add_argument("--drivers-per-seed", type=int, default=3, metavar="N", help="default 3")
+    p.add_argument("--no-builtin", action="store_true", help="leave d1..d5 out")
+    p.add_argument("--scenarios", default="B", help="comma-separated (default B)")
+    p.add_argument("--duration", type=float, default=120.0, help="s per drive (default 120)")
+    p.add_argument("--trials", type=int, default=1)
+    p.add_argument(
+        "--csv",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="a car-following CSV of a real driver (OpenACC columns), repeatable",
+    )
+    p.add_argument(
+        "--methods",
+        type=Path,
+        metavar="STUDY.toml",
+        help="take the [[methods]] of this study file (default: paper, "
+        + ", ".join(m["name"] for m in DEFAULT_METHODS[1:])
+        + ")",
+    )
+    p.add_argument("--out", type=Path, default=Path("out/bench"))
+    p.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1))
+    p.add_argument("--scheduler", default="", metavar="local|tcp://HOST:8786")
+    p.add_argument("-q", "--quiet", action="store_true")
+    return p
+
+
+def _options(args: argparse.Namespace) -> BenchOptions:
+    stored = stored_options(args.out)
+    if stored is not None:
+        print(f"resuming the bench in {args.out} (seeds {list(stored.seeds)})", file=sys.stderr)
+        return stored
+    if args.seed_list:
+        seeds = tuple(int(s) for s in args.seed_list.split(",") if s.strip())
+    else:
+        if args.seeds < 1:
+            raise SimError("--seeds must be >= 1")
+        seeds = fresh_seeds(args.seeds)
+    if args.drivers_per_seed < 1 or args.trials < 1 or not args.duration > 0:
+        raise SimError("need --drivers-per-seed >= 1, --trials >= 1, --duration > 0")
+    methods = DEFAULT_METHODS
+    if args.methods is not None:
+        try:
+            methods = tomllib.loads(args.methods.read_text(encoding="utf-8"))["methods"]
+        except (OSError, ValueError, KeyError) as exc:
+            raise SimError(f"--methods {args.methods}: no [[methods]] ({exc})") from exc
+    return BenchOptions(
+        seeds=seeds,
+        drivers_per_seed=args.drivers_per_seed,
+        builtin=not args.no_builtin,
+        scenarios=tuple(s.strip() for s in args.scenarios.split(",") if s.strip()),
+        duration_s=args.duration,
+        trials=args.trials,
+        csvs=tuple(str(Path(c).resolve()) for c in args.csv),
+        methods=tuple(methods),
+    )
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``pacc bench``; 0 on success, 2 on bad input."""
+    args = _parser().parse_args(argv)
+    start = time.perf_counter()
+    try:
+        opts = _options(args)
+        print(f"population seeds (drawn fresh): {', '.join(map(str, opts.seeds))}")
+
+        def say(text: str) -> None:
+            if not args.quiet:
+                print(f"  {text}", file=sys.stderr)
+
+        run_bench(opts, args.out, workers=max(1, args.workers), scheduler=args.scheduler,
+                  progress=say)  # fmt: skip
+    except (SimError, EcuError, FormatError, CloudSyncError, OSError) as exc:
+        print(f"pacc bench: error: {exc}", file=sys.stderr)
+        return 2
+    print((args.out / "leaderboard.md").read_text(encoding="utf-8"))
+    print(f"took {time.perf_counter() - start:.0f} s; {args.out}/leaderboard.md, .csv, .png")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,220 @@
+"""Plug-in methods in the ECU: the built-ins through the interface, faulty plug-ins, bayes."""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+import pytest
+
+from ecu.adaptation import Decision, Reason, TakeoverSummary
+from ecu.controller import ControlInput
+from ecu.methods import PidController, make_adaptation, make_controller
+from ecu.methods.bayes import BayesAdaptation
+from ecu.node import EcuConfig, EcuNode
+from pacc.vocab.dgpt import Dgpt, SafetyBounds, predefined
+from pacc.vocab.plugins import PluginError
+from tests.ecu.test_node import DT, EPS, JERK, Loop
+
+HERE = "tests.ecu.test_methods"
+
+
+class RaisingController:
+    """Raises every call."""
+
+    def desired_accel(self, obs: ControlInput, memory: float, dt_s: float) -> tuple[float, float]:
+        raise RuntimeError("boom")
+
+
+class NanController:
+    """Returns NaN every other call, a wild value otherwise."""
+
+    def __init__(self) -> None:
+        self.n = 0
+
+    def desired_accel(self, obs: ControlInput, memory: float, dt_s: float) -> tuple[float, float]:
+        self.n += 1
+        return (math.nan, memory) if self.n % 2 else (1e9 * (-1) ** (self.n // 2), memory)
+
+
+class SleepyController:
+    """Sleeps past any budget."""
+
+    def __init__(self, sleep_s: float = 0.02) -> None:
+        self.sleep_s = sleep_s
+
+    def desired_accel(self, obs: ControlInput, memory: float, dt_s: float) -> tuple[float, float]:
+        time.sleep(self.sleep_s)
+        return 2.0, memory
+
+
+class WrongShapeController:
+    """Returns a bare float."""
+
+    def desired_accel(self, obs: ControlInput, memory: float, dt_s: float) -> Any:
+        return 0.5
+
+
+class BadAdaptation:
+    """``kind``: raise, nan (a table of NaN), wide (far outside the bounds), shape."""
+
+    def __init__(self, kind: str = "raise") -> None:
+        self.kind = kind
+
+    def update(
+        self, table: Dgpt, takeover: TakeoverSummary, **_: Any
+    ) -> tuple[Dgpt | None, Decision]:
+        done = Decision(applied=True, reason=Reason.APPLIED, bin_index=0)
+        if self.kind == "raise":
+            raise ValueError("bad adaptation")
+        if self.kind == "nan":
+            gaps = table.gap_m.copy()
+            gaps[3] = math.nan
+            return replace(table, gap_m=gaps, version=table.version + 1), done
+        if self.kind == "wide":
+            return table.with_gaps(table.gap_m * 0.0 + 1000.0, "adapted"), done
+        return "not a table", done  # type: ignore[return-value]
+
+
+def _drive(node: EcuNode, seconds: float = 20.0) -> tuple[Loop, list[float]]:
+    """Engage, follow, press the accelerator 3 s, follow on; every request (m/s^2)."""
+    loop = Loop(node, v=20.0, gap=40.0, v_lead=18.0)
+    loop.engage()
+    requests = []
+    for phase, kw in (
+        (seconds / 2, {}),
+        (3.0, {"accel_pressed": True, "accel_pedal": 0.3}),
+        (seconds / 2, {}),
+    ):
+        loop.driver_accel = 1.0 if kw else 0.0
+        for _ in range(int(round(phase / DT))):
+            out = loop.run(DT, **kw)
+            requests.append(out.accel_request_mps2)
+    return loop, requests
+
+
+def _inside_envelope(requests: list[float]) -> None:
+    r = np.asarray(requests)
+    assert np.all(np.isfinite(r)) and r.min() >= -3.5 - EPS and r.max() <= 2.0 + EPS
+    assert np.all(np.abs(np.diff(r)) <= 10.0 * DT + EPS)  # emergency jerk at most
+    rising = np.diff(r)
+    assert np.all(rising <= JERK * DT + EPS)
+
+
+def test_the_builtins_through_the_interface_are_bit_identical() -> None:
+    direct = EcuNode(EcuConfig(set_speed_mps=30.0), predefined(2.0))
+    plugged = EcuNode(
+        EcuConfig(set_speed_mps=30.0, gap_controller="pid", adaptation_method="timegap"),
+        predefined(2.0),
+    )
+    loop_a, ra = _drive(direct)
+    loop_b, rb = _drive(plugged)
+    assert ra == rb and loop_a.gap == loop_b.gap
+    assert direct.table.gap_m.tolist() == plugged.table.gap_m.tolist()
+    assert direct.adaptations == plugged.adaptations == 1
+    assert plugged.plugin_faults == {}
+
+
+@pytest.mark.parametrize(
+    ("spec", "kind"),
+    [
+        (f"{HERE}:RaisingController", "controller raised"),
+        (f"{HERE}:NanController", "controller non_finite"),
+        (f"{HERE}:WrongShapeController", "controller bad_output"),
+        (f"{HERE}:SleepyController", "controller overrun"),
+    ],
+)
+def test_a_faulty_controller_leaves_the_ecu_in_its_envelope_and_is_reported(
+    spec: str, kind: str
+) -> None:
+    node = EcuNode(EcuConfig(set_speed_mps=30.0, gap_controller=spec), predefined(2.0))
+    loop, requests = _drive(node, seconds=6.0)
+    _inside_envelope(requests)
+    faults = node.plugin_faults
+    assert faults.get(kind, 0) >= 1, faults
+    assert loop.gap > node.config.bounds.lower_m(loop.v)  # the safe output kept the gap
+    if kind == "controller overrun":  # switched off after 3 overruns: the loop keeps its time
+        assert faults[kind] == 3 and faults["controller disabled"] > 100
+
+
+def test_the_nan_controller_alternates_with_wild_values_that_the_envelope_clips() -> None:
+    node = EcuNode(
+        EcuConfig(set_speed_mps=30.0, gap_controller=f"{HERE}:NanController"), predefined(2.0)
+    )
+    _, requests = _drive(node, seconds=4.0)
+    assert max(requests) <= 2.0 and min(requests) >= -3.5
+    assert node.plugin_faults["controller non_finite"] > 50
+
+
+@pytest.mark.parametrize("kind", ["raise", "nan", "shape"])
+def test_a_faulty_adaptation_keeps_the_table_and_is_reported(kind: str) -> None:
+    node = EcuNode(
+        EcuConfig(
+            set_speed_mps=30.0,
+            adaptation_method=f"{HERE}:BadAdaptation",
+            adaptation_args={"kind": kind},
+        ),
+        predefined(2.0),
+    )
+    _drive(node, seconds=6.0)
+    assert node.table.version == 0 and node.adaptations == 0
+    assert node.decisions[Reason.INVALID_INPUT] == 1
+    assert sum(node.plugin_faults.values()) == 1
+
+
+def test_a_table_outside_the_bounds_is_clipped_by_the_ecu() -> None:
+    node = EcuNode(
+        EcuConfig(adaptation_method=f"{HERE}:BadAdaptation", adaptation_args={"kind": "wide"}),
+        predefined(2.0),
+    )
+    _drive(node, seconds=6.0)
+    assert node.adaptations == 1
+    upper = SafetyBounds().upper_m(node.table.speed_mps)
+    assert np.all(node.table.gap_m <= upper + EPS)
+
+
+def test_unknown_methods_are_refused_at_construction() -> None:
+    with pytest.raises(PluginError, match="one of pid"):
+        EcuNode(EcuConfig(gap_controller="nope"), predefined(2.0))
+    with pytest.raises(PluginError, match="cannot load"):
+        make_adaptation("tests.ecu.nowhere:Thing", {})
+    with pytest.raises(PluginError, match="refused its parameters"):
+        make_controller("pid", {"no_such_gain": 1.0})
+    assert isinstance(make_controller("pid", {"k_lead_accel": 0.3}), PidController)
+
+
+def _release(v: float, gap: float, pedal: str = "brake") -> TakeoverSummary:
+    return TakeoverSummary(duration_s=3.0, v_mps=v, v_lead_mps=v, gap_m=gap, pedal=pedal)
+
+
+def test_bayes_moves_by_evidence_and_grows_surer() -> None:
+    bayes = BayesAdaptation()
+    table = predefined(1.5)
+    kw: dict[str, Any] = {"bounds": SafetyBounds(), "short_run": False, "created_utc": "x"}
+    target = 60.0  # a driver who wants 60 m at 20 m/s (the table says 34 m)
+    new, d1 = bayes.update(table, _release(20.0, target), **kw)
+    assert new is not None and d1.applied
+    first = new.gap_m[40] - table.gap_m[40]
+    assert 0.3 * (target - 34.0) < first < target - 34.0  # part of the way, not all of it
+    var1 = bayes.variance_m2()
+    assert var1 is not None
+    again, d2 = bayes.update(new, _release(20.0, target), **kw)
+    assert again is not None
+    second = again.gap_m[40] - new.gap_m[40]
+    assert 0 < second < first  # the same evidence again moves less
+    var2 = bayes.variance_m2()
+    assert var2 is not None and var2[40] < var1[40]
+    assert again.gap_m[60] > table.gap_m[60]  # carried over speed
+    # the accelerator cannot lengthen the table
+    skipped, d3 = bayes.update(again, _release(20.0, 100.0, "accel"), **kw)
+    assert skipped is None and d3.reason is Reason.AGAINST_PEDAL
+
+
+def test_bayes_in_the_loop_through_the_entry_of_its_name() -> None:
+    node = EcuNode(EcuConfig(set_speed_mps=30.0, adaptation_method="bayes"), predefined(2.0))
+    _, requests = _drive(node, seconds=6.0)
+    _inside_envelope(requests)
+    assert node.adaptations == 1 and node.plugin_faults == {}
