@@ -18,6 +18,10 @@ Built-ins, ordinary implementations of the interface:
 
 Others come from the entry points of ``pacc.learners`` or ``module:attribute``
 (:mod:`pacc.vocab.plugins`); a factory takes the learner's parameters as keyword arguments.
+:mod:`cloud_sync.learners.builtin` (the built-in learners ``irl`` and ``empirical`` as
+  implementations of the interface);
+:mod:`cloud_sync.learners.gp` (``gp``: a Gaussian process of the driver's steady-state gap over
+  speed (numpy only));
 """
 
 from __future__ import annotations

@@ -20,6 +20,8 @@ Built-ins, ordinary implementations of the same interfaces: ``pid`` (:class:`Pid
 ``bayes`` (:class:`ecu.methods.bayes.BayesAdaptation`). Others come from entry points
 (``pacc.controllers``, ``pacc.adaptations``) or ``module:attribute``
 (:mod:`pacc.vocab.plugins`); :mod:`ecu.methods.guard` calls them inside a wall-time budget
+:mod:`ecu.methods.bayes` (``bayes``: an online adaptation that keeps an uncertainty per speed
+  bin (a Kalman filter));
 and falls back to the built-in PID / no change when one raises, returns NaN or overruns.
 """
 
