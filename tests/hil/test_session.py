@@ -136,14 +136,16 @@ def test_a_separate_ecu_on_the_bus_drives_the_car(tmp_path: Path) -> None:
         s.handle({"t": "action", "name": "start"})
         assert s.runner is not None and s.drive is not None and s.drive.ecu is None
         states: set[str] = set()
-        pressed = False
+        last_press = -1.0
         deadline = time.monotonic() + 10.0
         while s.phase == "driving" and time.monotonic() < deadline:
             state = s.runner.latest
             states.add(state["acc_state"])
-            if state["t"] > 1.8 and not pressed:
+            # SET, again every 0.5 s until the ECU engages, as a person would: on a loaded
+            # machine the ECU's own clock may not yet have held its inputs valid for 1 s
+            if state["t"] > 1.8 and "ACTIVE" not in states and state["t"] - last_press > 0.5:
                 s.handle({"t": "btn", "name": "set"})
-                pressed = True
+                last_press = state["t"]
             time.sleep(0.02)
         assert s.phase == "after" and "ACTIVE" in states
         assert rt.summary().frames_in > 100
