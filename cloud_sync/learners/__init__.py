@@ -32,7 +32,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any, Protocol, runtime_checkable
 
 from cloud_sync.errors import CloudSyncError
-from pacc.vocab.dgpt import Dgpt
+from pacc.vocab.dgpt import Dgpt, DgptError
 from pacc.vocab.plugins import PluginError, build
 from pacc.vocab.triplog import Trip
 
@@ -78,8 +78,9 @@ def learn(
 
     Raises:
         PluginError: ``spec`` names no learner. LearnerError: it returned no DGPT, or one
-        whose meta lack ``covered`` of the table's length. Whatever the learner raises for
-        unusable trips (e.g. :class:`~cloud_sync.irl.demos.DemoError`) passes through.
+        whose meta lack ``covered`` of the table's length, or one outside its safety bounds.
+        Whatever the learner raises for unusable trips (e.g.
+        :class:`~cloud_sync.irl.demos.DemoError`) passes through.
     """
     learner = make_learner(spec, params)
     start = time.perf_counter()
@@ -87,6 +88,10 @@ def learn(
     wall = time.perf_counter() - start
     if not isinstance(table, Dgpt):
         raise LearnerError(f"learner {spec!r} returned {type(table).__name__}, not a Dgpt")
+    try:
+        table.check_bounds()  # a learner's table drives a car: inside the safety bounds or refused
+    except DgptError as exc:
+        raise LearnerError(f"learner {spec!r}: {exc}") from None
     covered = table.meta.get("covered")
     if not isinstance(covered, list) or len(covered) != table.speed_mps.size:
         raise LearnerError(f"learner {spec!r}: meta 'covered' must be one bool per speed bin")

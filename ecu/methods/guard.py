@@ -113,9 +113,11 @@ class GuardedController:
                     report.fault("non_finite" if _is_pair(out) else "bad_output", repr(out)[:80])
         else:
             report.counts["disabled"] += 1
-        return desired_accel(
-            self.fallback, obs, memory if math.isfinite(memory) else 0.0, dt_s, integrate=True
-        )
+        # the memory is the plug-in's: the PID reads it as its integral only inside its own
+        # clamp (a plug-in's large memory would otherwise hold the PID on the cruise law)
+        limit = self.fallback.integral_limit_m_s
+        integral = min(max(memory, -limit), limit) if math.isfinite(memory) else 0.0
+        return desired_accel(self.fallback, obs, integral, dt_s, integrate=True)
 
     def _late_call(self, elapsed_s: float) -> bool:
         """Count a call over the budget; whether it overruns (see the module docstring)."""
@@ -142,7 +144,7 @@ def _checked_pair(out: object) -> tuple[float, float] | None:
     assert isinstance(out, tuple)
     try:
         accel, memory = float(out[0]), float(out[1])
-    except (TypeError, ValueError):
+    except Exception:  # noqa: BLE001 - a plug-in's number may raise anything (10**400: Overflow)
         return None
     if math.isfinite(accel) and math.isfinite(memory):
         return accel, memory

@@ -306,6 +306,10 @@ def _manual(args: argparse.Namespace) -> int:
             ("--faults", bool(args.faults)),
             ("--can-log", args.can_log is not None),
             ("--adaptation-mode", args.adaptation_mode is not None),
+            ("--gap-controller", bool(args.gap_controller)),
+            ("--adaptation", bool(args.adaptation)),
+            ("--foxglove", args.foxglove is not None),
+            ("--bus", args.bus != BUSES[0]),
         )
         if on
     ]

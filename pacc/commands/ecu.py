@@ -332,7 +332,7 @@ def _recorder(
         )
     except (EcuError, FormatError, OSError) as exc:
         text = _one_line(exc)
-        if args.can_log not in text:
+        if args.can_log is not None and str(args.can_log) not in text:
             text = f"--can-log {args.can_log}: {text}"
         raise Exit(1, f"pacc ecu: error: {text}") from None
 

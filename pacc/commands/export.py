@@ -114,8 +114,10 @@ def main(argv: list[str] | None = None) -> int:
         if not existed:
             with contextlib.suppress(OSError):
                 args.dst.unlink(missing_ok=True)
-        with contextlib.suppress(OSError):  # the MCAP writer's temporary file
-            args.dst.with_name(args.dst.name + ".part").unlink(missing_ok=True)
+        part = args.dst.with_name(args.dst.name + ".part")  # the MCAP writer's temporary file
+        if part.resolve() != args.src.resolve():  # never the killed recording being repaired
+            with contextlib.suppress(OSError):
+                part.unlink(missing_ok=True)
         text = error_line(exc)
         if str(args.src) not in text and str(args.dst) not in text:
             text = f"{args.src}: {text}"  # a python-can reader's bare message names no file

@@ -198,7 +198,8 @@ def main(argv: list[str] | None = None) -> int:
     except (EcuError, FormatError, OSError) as exc:
         bus.shutdown()
         text = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
-        print(f"pacc sim: error: --can-log {args.can_log}: {text}", file=sys.stderr)
+        where = f"--can-log {args.can_log}" if args.can_log is not None else "--foxglove"
+        print(f"pacc sim: error: {where}: {text}", file=sys.stderr)
         return 2
     if recorder is not None:
         node.tap = recorder.frame_and_tick

@@ -184,7 +184,9 @@ def run_incremental(
                 dbc=cfg.dbc,
                 binding=cfg.binding,
             )
-            result = run_drive(run_cfg, driver, table, profile, takeover_sink=segments.append)
+            result = run_drive(
+                run_cfg, driver, table, profile, takeover_sink=segments.append, bus=cfg.bus
+            )
             m = result.metrics
             rows.append(
                 {

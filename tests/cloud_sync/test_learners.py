@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -96,3 +97,17 @@ def test_pacc_cloud_learn_with_another_learner(tmp_path: Path) -> None:
     table = load_dgpt(out)
     assert table.meta["method"] == "gp" and table.driver_id == "h1"
     assert cloud_main([*argv[:2], "nope", *argv[3:]]) == 2
+
+
+class Tiny:
+    """Covers every bin with a 0.5-m gap: far inside the safety bounds' floor at speed."""
+
+    def learn(self, trips: object, *, driver_id: str, seed: int) -> Dgpt:
+        table = predefined(1.5)
+        gaps = np.full(table.speed_mps.size, 0.5)
+        return dataclasses.replace(table, gap_m=gaps, meta={"covered": [True] * gaps.size})
+
+
+def test_a_learner_table_outside_the_safety_bounds_is_refused() -> None:
+    with pytest.raises(LearnerError, match="learner 'tests.cloud_sync.test_learners:Tiny'"):
+        learn("tests.cloud_sync.test_learners:Tiny", [], driver_id="x", seed=0)

@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 
 from ecu.adaptation import Decision, Reason, TakeoverSummary
-from ecu.controller import ControlInput
+from ecu.controller import ControlInput, desired_accel
 from ecu.methods import PidController, make_adaptation, make_controller
 from ecu.methods.bayes import BayesAdaptation
+from ecu.methods.guard import GuardedController
 from ecu.node import EcuConfig, EcuNode
 from pacc.vocab.dgpt import Dgpt, SafetyBounds, predefined
 from pacc.vocab.plugins import PluginError
@@ -49,6 +50,13 @@ class SleepyController:
     def desired_accel(self, obs: ControlInput, memory: float, dt_s: float) -> tuple[float, float]:
         time.sleep(self.sleep_s)
         return 2.0, memory
+
+
+class HugeController:
+    """Returns a number no float can hold (float(10**400) raises OverflowError)."""
+
+    def desired_accel(self, obs: ControlInput, memory: float, dt_s: float) -> tuple[Any, float]:
+        return 10**400, memory
 
 
 class WrongShapeController:
@@ -124,6 +132,7 @@ def test_the_builtins_through_the_interface_are_bit_identical() -> None:
         (f"{HERE}:RaisingController", "controller raised"),
         (f"{HERE}:NanController", "controller non_finite"),
         (f"{HERE}:WrongShapeController", "controller bad_output"),
+        (f"{HERE}:HugeController", "controller non_finite"),
         (f"{HERE}:SleepyController", "controller overrun"),
     ],
 )
@@ -218,3 +227,25 @@ def test_bayes_in_the_loop_through_the_entry_of_its_name() -> None:
     _, requests = _drive(node, seconds=6.0)
     _inside_envelope(requests)
     assert node.adaptations == 1 and node.plugin_faults == {}
+
+
+def test_the_fallback_pid_reads_a_plugin_memory_only_inside_its_integral_clamp() -> None:
+    """A plug-in that raised after leaving a huge memory must not hold the PID on the cruise
+    law (an integral of 1e300 would ignore the lead): the fallback clamps it first."""
+    params = EcuConfig().controller
+    guard = GuardedController(RaisingController(), params, name="raises")
+    obs = ControlInput(
+        v_mps=25.0,
+        a_mps2=0.0,
+        set_speed_mps=35.0,
+        lead_valid=True,
+        gap_m=40.0,
+        rel_speed_mps=-2.0,
+        lead_accel_mps2=0.0,
+        desired_gap_m=40.0,
+        desired_gap_slope_s=1.5,
+    )
+    accel, _ = guard(obs, 1e300, DT)
+    limit = params.integral_limit_m_s
+    assert accel == desired_accel(params, obs, limit, DT, integrate=True)[0]
+    assert accel < desired_accel(params, obs, 1e300, DT, integrate=True)[0]  # not the cruise law

@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import itertools
+import socket
 import sqlite3
 from pathlib import Path
 
@@ -199,3 +200,38 @@ def test_a_failed_export_leaves_no_output(
     _one_error_line(capsys.readouterr().err, "pacc export")
     assert not out.exists() and not list(tmp_path.glob("out.*"))
     assert trip.exists()
+
+
+def test_a_failed_repair_keeps_the_killed_recording(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``pacc export x.mcap.part x.mcap`` on a recording too short to repair fails, and the
+    killed recording (the MCAP writer's name for its own temporary file) is still there."""
+    part = tmp_path / "y.mcap.part"
+    part.write_bytes(b"\x89MCAP0\r\n" + bytes(32))
+    before = part.read_bytes()
+    assert cli.main(["export", str(part), str(tmp_path / "y.mcap")]) == 2
+    _one_error_line(capsys.readouterr().err, "pacc export")
+    assert part.read_bytes() == before
+
+
+def test_a_live_view_that_cannot_start_is_one_error_line(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """``pacc ecu --foxglove`` without --can-log, on a port another socket holds."""
+    with socket.socket() as held:
+        held.bind(("127.0.0.1", 0))
+        held.listen()
+        port = held.getsockname()[1]
+        argv = ["ecu", "-i", "virtual", "-c", "fox-bad", "--foxglove", f"127.0.0.1:{port}"]
+        assert cli.main([*argv, "--duration", "0.2"]) != 0
+    _one_error_line(capsys.readouterr().err, "pacc ecu")
+
+
+def test_manual_drives_refuse_the_options_of_an_ecu(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    log = str(tmp_path / "m.mcap")
+    for extra in (["--bus", "virtual"], ["--gap-controller", "pid"], ["--foxglove"]):
+        assert cli.main(["drive", "--manual", "--log", log, *extra]) == 2, extra
+        assert "--manual has no ECU" in capsys.readouterr().err
