@@ -37,9 +37,10 @@ _channels: dict[Channel, list[LockstepBus]] = {}
 _new_message = Message.__new__
 
 
-def rx_copy(msg: Message, channel: Channel) -> Message:
+def rx_copy(msg: Message, channel: Channel, is_rx: bool = True) -> Message:
     """A received copy of ``msg``: a new :class:`can.Message` that shares no mutable state
-    with it (a new payload ``bytearray``), stamped with ``channel`` and ``is_rx``."""
+    with it (a new payload ``bytearray``), stamped with ``channel`` and ``is_rx`` (False on
+    the sender's own echo, as python-can's virtual bus does)."""
     m = _new_message(Message)
     m.timestamp = msg.timestamp
     m.arbitration_id = msg.arbitration_id
@@ -50,7 +51,7 @@ def rx_copy(msg: Message, channel: Channel) -> Message:
     m.dlc = msg.dlc
     m.data = bytearray(msg.data)
     m.is_fd = msg.is_fd
-    m.is_rx = True
+    m.is_rx = is_rx
     m.bitrate_switch = msg.bitrate_switch
     m.error_state_indicator = msg.error_state_indicator
     return m
@@ -96,8 +97,9 @@ class LockstepBus(BusABC):
         if not self._open:
             raise CanOperationError("Cannot operate on a closed bus")
         channel = self.channel_id
+        own = self.rx
         for rx in self._targets:
-            rx.append(rx_copy(msg, channel))
+            rx.append(rx_copy(msg, channel, rx is not own))
 
     def recv(self, timeout: float | None = None) -> Message | None:
         """The oldest queued frame that passes the filters, or None at once if there is none

@@ -385,8 +385,14 @@ class CanLogWriter:
             for sink in self.sinks:
                 sink.close(complete=False)
             raise CanLogError(f"{self.path}: cannot finish the recording: {exc}") from exc
-        for sink in self.sinks:
-            sink.close(complete=True)
+        failed: CanLogError | None = None
+        for sink in self.sinks:  # every sink closes, whichever of them fails
+            try:
+                sink.close(complete=True)
+            except CanLogError as exc:
+                failed = failed or exc
+        if failed is not None:
+            raise failed
 
     def __enter__(self) -> CanLogWriter:
         return self

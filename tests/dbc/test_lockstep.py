@@ -117,3 +117,17 @@ def test_a_closed_bus_refuses_and_leaves_the_channel() -> None:
     finally:
         a.shutdown()
         c.shutdown()
+
+
+def test_an_own_echo_is_not_rx_as_on_the_virtual_bus() -> None:
+    for interface in ("lockstep", "virtual"):
+        a = can.Bus(interface=interface, channel=f"echo-{interface}", receive_own_messages=True)
+        b = can.Bus(interface=interface, channel=f"echo-{interface}")
+        try:
+            a.send(can.Message(arbitration_id=0x10, data=b"\x01", is_extended_id=False))
+            own, other = a.recv(0.1), b.recv(0.1)
+            assert own is not None and other is not None, interface
+            assert (own.is_rx, other.is_rx) == (False, True), interface
+        finally:
+            a.shutdown()
+            b.shutdown()
