@@ -70,6 +70,11 @@ class DriverParams:
     accel_noise_mps2: float = 0.15
     spurious_press_per_min: float = 0.0  # short random taps (an inconsistent driver)
     predefined_setting: PredefinedSetting = "medium"
+    # 2 (issue 21): a brake press lasts while the time-to-collision is below ttc_brake_s and
+    # brakes at least as hard as stopping short of the lead needs; an accelerator press ends
+    # by the following model's decision, not its control noise. 1: the earlier model, kept
+    # by d1..d5 so that Table I stays comparable (docs/drivers.md)
+    revision: int = 2
 
     def __post_init__(self) -> None:
         self._check_id()
@@ -133,6 +138,8 @@ class DriverParams:
         for name in nonneg:
             if not getattr(self, name) >= 0:
                 raise DriverError(f"{self.driver_id}: {name} must be >= 0")
+        if self.revision not in (1, 2):
+            raise DriverError(f"{self.driver_id}: revision must be 1 or 2")
         if self.press_min_s > self.press_max_s:
             raise DriverError(f"{self.driver_id}: press_min_s exceeds press_max_s")
         if self.predefined_setting not in PREDEFINED_HEADWAY_S:
@@ -183,6 +190,7 @@ BUILTIN_DRIVERS: dict[str, DriverParams] = {
         decel_comfort_mps2=2.5,
         press_max_s=2.5,
         predefined_setting="low",
+        revision=1,
     ),
     "d2": DriverParams(
         "d2",
@@ -195,6 +203,7 @@ BUILTIN_DRIVERS: dict[str, DriverParams] = {
         reaction_s=0.6,
         acc_preference_factor=1.1,
         predefined_setting="medium",
+        revision=1,
     ),
     "d3": DriverParams(
         "d3",
@@ -214,6 +223,7 @@ BUILTIN_DRIVERS: dict[str, DriverParams] = {
         acc_preference_factor=1.1,
         press_max_s=4.0,
         predefined_setting="high",
+        revision=1,
     ),
     "d4": DriverParams(
         "d4",
@@ -226,6 +236,7 @@ BUILTIN_DRIVERS: dict[str, DriverParams] = {
         reaction_s=0.6,
         acc_preference_factor=0.92,
         predefined_setting="medium",
+        revision=1,
     ),
     "d5": DriverParams(
         "d5",
@@ -243,6 +254,7 @@ BUILTIN_DRIVERS: dict[str, DriverParams] = {
         spurious_press_per_min=0.5,
         press_max_s=2.0,
         predefined_setting="medium",
+        revision=1,
     ),
 }
 

@@ -1,6 +1,7 @@
 """``pacc drive``: the ECU node and the simulator in one process, lockstep, one virtual bus.
 
-    pacc drive --scenario B --driver d3 --controller predefined|predefined+oa|irl|irl+oa
+    pacc drive --scenario B|A|cutin|cutout|leadloss|stopgo|C|FILE.csv --driver d3
+               --controller predefined|predefined+oa|irl|irl+oa
                [--profile DGPT.json] [--seed N] [--faults SPEC] [--log run.mcap]
                [--can-log bus.mcap]
                [--adaptation-mode paper|timegap]
@@ -47,6 +48,7 @@ def format_result(r: DriveResult) -> str:
     """The human-readable report printed by ``pacc drive``."""
     m = r.metrics
     c = r.config
+    safety = r.log.safety()
     col = f"1 at t = {r.collision_t_s:.2f} s" if r.collision else "0"
     lines = [
         f"drive: scenario {c.scenario}, driver {c.driver_id}, controller {c.controller}"
@@ -61,6 +63,8 @@ def format_result(r: DriveResult) -> str:
         f"  NIM            {m.nim_per_min:7.2f} /min ({m.press_onsets} presses)",
         f"  min gap        {m.min_gap_m:7.2f} m",
         f"  min TTC        {m.min_ttc_s:7.2f} s",
+        f"  TTC < 2 s      {safety.below_own_s:7.2f} s under the ACC, "
+        f"{safety.below_override_s:.2f} s while the driver's accelerator overrode it",
         f"  RMS jerk       {m.rms_jerk_mps3:7.3f} m/s^3",
         f"  gap error      {m.gap_error_mean_m:7.2f} m mean, {m.gap_error_rms_m:.2f} m RMS "
         "(vs. the driver's preference)",
@@ -70,6 +74,14 @@ def format_result(r: DriveResult) -> str:
         f"  frames         {r.frames_sent} sent by the simulator, {r.frames_faulted} faulted; "
         f"ECU E2E errors {r.summary.e2e_errors or 'none'}",
     ]
+    if r.road_events:
+        played = ", ".join(
+            f"{kind} at {t:.0f} s" + (f" ({gap:.1f} m)" if gap is not None else " (skipped)")
+            for t, kind, gap in r.road_events
+            if gap is not None or kind != "lead_loss"
+        )
+        losses = sum(1 for _, kind, _ in r.road_events if kind == "lead_loss")
+        lines.append(f"  road events    {played}" + (f"; {losses} lead loss(es)" if losses else ""))
     return "\n".join(lines)
 
 
@@ -82,7 +94,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--scenario",
         default="B",
-        help="A, B, manual1..manual4 or a CSV of t_s,v_lead_mps (default B)",
+        help="A, B, manual1..manual4, a road scenario (cutin, cutout, leadloss, stopgo, C: "
+        "mixed traffic) or a CSV of t_s,v_lead_mps (default B)",
     )
     p.add_argument("--driver", default="d1", help="d1..d5 or a driver .toml/.json (default d1)")
     p.add_argument("--controller", default="predefined", choices=CONTROLLERS)

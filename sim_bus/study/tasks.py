@@ -19,8 +19,8 @@ from ecu.adaptation import AdaptationParams
 from pacc.vocab.dgpt import Dgpt
 from pacc.vocab.triplog import Trip
 from sim_bus.drivers import DriverParams
-from sim_bus.scenarios import LeadProfile, canonical_profiles
-from sim_bus.study.drive import DriveConfig, log_to_trip, run_drive
+from sim_bus.scenarios import LeadProfile
+from sim_bus.study.drive import DriveConfig, log_to_trip, resolve_profile, run_drive
 from sim_bus.study.irl_table import manual_trips
 
 
@@ -61,7 +61,7 @@ def run_job(
         binding=job.binding,
     )
     if profile is None:
-        profile = canonical_profiles(job.study_seed)[job.scenario]
+        profile = resolve_profile(job.scenario, job.study_seed)
     can_log = Path(job.can_log_path) if job.can_log_path is not None else None
     result = run_drive(cfg, driver, job.table, profile, can_log=can_log)
     trip = log_to_trip(result, driver) if job.log_path is not None else None
@@ -136,7 +136,7 @@ def split(jobs: Sequence[DriveJob]) -> tuple[StudyData, list[DriveTask]]:
             table_list.append(job.table)
         key = (job.study_seed, job.scenario)
         if key not in profiles:
-            profiles[key] = canonical_profiles(job.study_seed)[job.scenario]
+            profiles[key] = resolve_profile(job.scenario, job.study_seed)
         tasks.append(
             DriveTask(
                 drivers[id(job.driver)],
