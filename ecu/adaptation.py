@@ -357,7 +357,8 @@ def adapt(
     ``adapted``) and the decision, or the same ``table`` object and a skip decision.
     """
     reason = behaviour_filter(summary, params, short_run=short_run)
-    if reason is Reason.APPLIED and summary.after_switch_s < params.switch_window_s:
+    answers = reason in (Reason.APPLIED, Reason.SHORT_TAKEOVER, Reason.SPEED_DIFFERENCE)
+    if answers and summary.after_switch_s < params.switch_window_s:
         reason = Reason.TARGET_SWITCH  # forced by a cut-in: no evidence of the preferred gap
     if reason is not Reason.APPLIED:
         return table, Decision(applied=False, reason=reason)

@@ -47,6 +47,10 @@ ENGAGED = (AccState.ACTIVE, AccState.OVERRIDE)
 #: a stop that needs more than this deceleration builds its braking at the emergency jerk
 #: (a cut-out revealing a stopped vehicle: 1.4 s at 2.5 m/s^3 to reach -3.5 is too late), m/s^2
 URGENT_STOP_MPS2 = -2.0
+#: a lead slower than this stands; behind it, slower than CREEP_MPS and within 3 m of the
+#: standstill gap, the car brakes to a stop instead of creeping on, m/s
+STANDING_LEAD_MPS = 0.3
+CREEP_MPS = 1.5
 DISENGAGED = (AccState.STANDBY, AccState.FAULT)
 
 
@@ -320,6 +324,8 @@ def _stop_limit(config: EcuConfig, inp: NodeInputs, p: Plan, lead_accel_mps2: fl
     limit = stopping_limit_mps2(p.v_mps, inp.gap_m, v_lead, lead_accel_mps2, standstill)
     if v_lead > road.lead_stop_horizon_s * max(-lead_accel_mps2, 0.0):
         limit = math.inf  # the lead will not be standing soon: the gap law's business
+    if v_lead < STANDING_LEAD_MPS and p.v_mps < CREEP_MPS and inp.gap_m < standstill + 3.0:
+        limit = min(limit, road.hold_accel_mps2)  # close to a standing lead: stop, no creep
     if v_lead < road.stop_lead_mps:
         at_lead = p.desired_gap_m - p.desired_gap_slope_s * max(p.v_mps - v_lead, 0.0)
         floor = max(at_lead, config.bounds.lower_m(v_lead))
