@@ -118,6 +118,11 @@ class DriverAgent:
         self._noise_k = math.exp(-dt_s / 1.0)
         self._noise_s = p.accel_noise_mps2 * math.sqrt(1.0 - self._noise_k**2)
         self._sd_c = p.condition_drift_per_min * math.sqrt(dt_s / 60.0)
+        # this trip's shift of the time headway, s (drawn only if the driver shifts at all,
+        # so that the random stream of every other driver is the one it always was)
+        self._trip_shift = (
+            p.trip_shift_sd_s * float(rng.standard_normal()) if p.trip_shift_sd_s else 0.0
+        )
         self._tap_p = p.spurious_press_per_min * dt_s / 60.0
         self.t_s = 0.0
         self.mode = "idle"  # idle | brake | accel | tap
@@ -179,13 +184,9 @@ class DriverAgent:
             self.condition = math.exp(self._log_c)
         vl, g = self._perceive(v_lead_mps, gap_m)
         v = v_mps  # own speed is felt at once; the lead is seen late
-        pref = float(
-            p.standstill_m
-            + p.condition_factor
-            * self.condition
-            * float(np.interp(v, p.headway_speeds_mps, p.headway_s))
-            * v
-        )
+        c = p.condition_factor * self.condition
+        head = float(np.interp(v, p.headway_speeds_mps, p.headway_s)) + self._trip_shift
+        pref = float(p.standstill_m + c * max(head, 0.3) * v)
         self.set_button = self.resume_button = False
         if self.t_s < self._button_until:
             self.set_button = self._button == "set"
@@ -196,7 +197,7 @@ class DriverAgent:
             self._engaged_once = True
         supervising = self.acc_mode and (engaged or self.mode != "idle")
         if supervising:
-            pref *= p.acc_preference_factor
+            pref = (pref + c * p.acc_offset_s * v) * p.acc_preference_factor
         self.pref_gap_m = pref
         a_plan = idm_plus_accel(v, vl, g, pref, p)  # what it means to do, before the noise
         a_idm = a_plan + self._noise
@@ -290,6 +291,8 @@ class DriverAgent:
             self._close_t = self._close_t + dt if (g < pref - band or g_pred < pref - band) else 0.0
             steady = closing <= 0.3 and self.lead_accel_seen_mps2 > LEAD_BRAKING_MPS2
             in_sight = g < LEAD_SIGHT_M  # a free road is not a gap too long
+            if p.revision >= 2 and vl < RESUME_LEAD_MPS:
+                in_sight = False  # nobody nudges up to a standing queue (issue 21: to 0.9 m)
             self._far_t = self._far_t + dt if g > pref + band and steady and in_sight else 0.0
             rested = self.t_s - self._last_release_t >= p.refractory_s
             if ttc < p.ttc_brake_s or g < 0.5 * pref or (rested and self._close_t >= p.patience_s):

@@ -49,6 +49,8 @@ class StudyConfig:
     binding: str | None = None
     scheduler: str | None = None
     population: int = 0
+    mismatch: float = 0.0  # manual-vs-ACC mismatch scale of drawn drivers (0: none)
+    trip_shift_s: float = 0.0  # between-trip shift of drawn drivers' headway, sd in s
 
 
 def _validate_cloud(cfg: StudyConfig) -> None:
