@@ -12,7 +12,8 @@ the time under the ACC (or the driver's brake) and the time while the driver's o
 accelerator press overrode the ACC (the driver closed the gap, not the ECU). It prints one
 row per controller and per scenario kind, and every drive that collided or fell below 2 s
 TTC outside an accelerator press. ``--irl`` adds the IRL controllers (each drawn driver's
-table is learned from its manual trips first: about 10 s per driver, cached).
+table is learned from its manual trips of the population seed first, as ``pacc study
+--population`` does: about 10 s per driver, cached).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import secrets
 import sys
 import time
 from collections import defaultdict
+from pathlib import Path
 from typing import Any
 
 from sim_bus.events import ROAD_SCENARIOS
@@ -34,9 +36,16 @@ TTC_LIMIT_S = 2.0
 
 
 def _drive(
-    driver: Any, kind: str, controller: str, seed: int, duration: float | None
+    driver: Any,
+    kind: str,
+    controller: str,
+    seed: int,
+    duration: float | None,
+    pop_seed: int,
+    cache: Path | None,
 ) -> dict[str, Any]:
-    table = irl_table(driver, 0) if controller.startswith("irl") else predefined_table(driver)
+    irl = controller.startswith("irl")
+    table = irl_table(driver, pop_seed, cache) if irl else predefined_table(driver)
     profile = resolve_profile(kind, seed)
     cfg = DriveConfig(
         scenario=kind,
@@ -74,6 +83,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--duration", type=float, help="shorten every drive to S seconds")
     p.add_argument("--population-seeds", help="comma-separated (default: drawn now)")
     p.add_argument("--road-seeds", help="comma-separated, one per population seed")
+    p.add_argument("--cache", type=Path, help="cache folder of learned IRL tables")
     args = p.parse_args(argv)
     pops = (
         [int(x) for x in args.population_seeds.split(",")]
@@ -94,7 +104,7 @@ def main(argv: list[str] | None = None) -> int:
         for driver in draw_population(args.drivers, pop):
             for kind in kinds:
                 for controller in controllers:
-                    row = _drive(driver, kind, controller, road, args.duration)
+                    row = _drive(driver, kind, controller, road, args.duration, pop, args.cache)
                     rows.append(row)
                     if row["collision"] or row["below_own"] > 0.0:
                         print(f"  ! {row}", flush=True)

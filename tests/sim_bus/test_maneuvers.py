@@ -8,6 +8,7 @@ that what is measured is the ECU's reaction, except where the driver's reaction 
 from __future__ import annotations
 
 import dataclasses
+import secrets
 
 import can
 import numpy as np
@@ -19,8 +20,9 @@ from pacc.vocab.acc_state import AccState
 from pacc.vocab.dgpt import predefined
 from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
 from sim_bus.events import LeadEvent, road_profile
+from sim_bus.population import draw_population
 from sim_bus.scenarios import LeadProfile
-from sim_bus.study.drive import DriveConfig, DriveResult, run_drive
+from sim_bus.study.drive import DriveConfig, DriveResult, predefined_table, run_drive
 
 QUIET = DriverParams(
     "quiet",
@@ -165,3 +167,22 @@ def test_cut_out_revealing_a_stopped_car_stops_behind_it() -> None:
     assert not r.collision
     assert log.v_mps[-1] < 0.1 and log.gap_m.min() >= 2.0
     _in_envelope(r)
+
+
+@pytest.mark.slow
+def test_safety_on_seeds_drawn_now() -> None:
+    """A drawn driver (population and road seeds drawn when the test runs, printed on a
+    failure) on every road scenario, 60 s, Predefined + OA: no collision and no time below
+    2 s TTC outside the driver's own accelerator presses (bench/safety.py does this at
+    scale)."""
+    pop, road = secrets.randbelow(10**6), secrets.randbelow(10**6)
+    driver = draw_population(1, pop)[0]
+    for kind in ("cutin", "cutout", "leadloss", "stopgo", "C"):
+        cfg = DriveConfig(
+            scenario=kind, driver_id=driver.driver_id, controller="predefined+oa", seed=road
+        )
+        r = run_drive(cfg, driver, predefined_table(driver), road_profile(kind, road, 60.0))
+        s = r.log.safety()
+        where = f"population seed {pop}, road seed {road}, {kind}"
+        assert not r.collision, where
+        assert s.below_own_s == 0.0, f"{where}: {s}"
