@@ -26,7 +26,7 @@ from ecu.adaptation import ADAPTATION_MODES
 from pacc.vocab import FormatError
 from pacc.vocab.dgpt import load_dgpt
 from pacc.vocab.triplog import TripLogError, write_trip
-from sim_bus.drivers import load_driver
+from sim_bus.drivers import CONDITION_FACTORS, load_driver
 from sim_bus.errors import SimError
 from sim_bus.faults import parse_faults
 from sim_bus.study.drive import (
@@ -124,6 +124,13 @@ def _parser() -> argparse.ArgumentParser:
         help="multiply the driver's preference, e.g. 1.2 for rain (default 1)",
     )
     p.add_argument(
+        "--condition",
+        choices=sorted(CONDITION_FACTORS),
+        default="dry",
+        help="driving condition: wet or night lengthen the driver's preference "
+        "(docs/drivers.md; multiplies --condition-factor)",
+    )
+    p.add_argument(
         "--cache", type=Path, help="cache folder of learned IRL tables (default ~/.cache/pacc)"
     )
     p.add_argument(
@@ -141,7 +148,7 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
         base = load_driver(args.driver)
-        driver = with_condition(base, args.condition_factor)
+        driver = with_condition(base, args.condition_factor * CONDITION_FACTORS[args.condition])
         parse_faults(args.faults)
         if args.duration is not None and not (args.duration > 0):
             raise SimError("--duration must be > 0")
