@@ -305,7 +305,14 @@ def control(
         accel = limit_command(ctl, prev, target, dt_s, emergency=emergency)
         command = Command(accel, active=True, emergency=emergency)
         return command, ControlMemory(integral, accel, road)
-    accel = limit_command(ctl, prev, 0.0, dt_s, emergency=False)
+    rest = 0.0
+    ttc = time_to_collision_s(inp.lead_valid, inp.gap_m, inp.rel_speed_mps)
+    if state is AccState.OVERRIDE and ttc < ctl.emergency_ttc_s and all_finite(inp.a_mps2):
+        # the driver brakes toward a closing lead: the inactive request follows the car's
+        # deceleration, so that the ACC takes over at the release from there, not from 0
+        # (issue 21: a brake released at 2.4 s TTC let the braking sag to 1.5 m/s^2)
+        rest = min(max(inp.a_mps2, ctl.accel_min_mps2), 0.0)
+    accel = limit_command(ctl, prev, rest, dt_s, emergency=False)
     ramping = state is AccState.FAULT and fault_ramp
     active = ramping and accel != 0.0
     command = Command(accel, active=active, ramp_done=ramping and not active)
