@@ -50,6 +50,10 @@ URGENT_STOP_MPS2 = -2.0
 #: a lead slower than this stands; behind it, slower than CREEP_MPS and within 3 m of the
 #: standstill gap, the car brakes to a stop instead of creeping on, m/s
 STANDING_LEAD_MPS = 0.3
+#: a stop behind a standing lead keeps this many seconds of the closing speed to spare: a
+#: constant-deceleration stop exactly at the standstill gap passes below 2 s TTC at its end
+#: (min TTC = sqrt(2 gap / decel)); traced on a fresh population seed, cut-out: 1.69 s
+STOP_SPARE_S = 0.5
 CREEP_MPS = 1.5
 DISENGAGED = (AccState.STANDBY, AccState.FAULT)
 
@@ -328,7 +332,8 @@ def _stop_limit(config: EcuConfig, inp: NodeInputs, p: Plan, lead_accel_mps2: fl
     road = config.controller.road
     standstill = max(p.desired_gap_m - p.desired_gap_slope_s * p.v_mps, config.bounds.lower_m(0.0))
     v_lead = max(p.v_mps + inp.rel_speed_mps, 0.0)
-    limit = stopping_limit_mps2(p.v_mps, inp.gap_m, v_lead, lead_accel_mps2, standstill)
+    spare = STOP_SPARE_S * max(p.v_mps - v_lead, 0.0)  # front-loaded: TTC stays above 2 s
+    limit = stopping_limit_mps2(p.v_mps, inp.gap_m - spare, v_lead, lead_accel_mps2, standstill)
     if v_lead > road.lead_stop_horizon_s * max(-lead_accel_mps2, 0.0):
         limit = math.inf  # the lead will not be standing soon: the gap law's business
     if v_lead < STANDING_LEAD_MPS and p.v_mps < CREEP_MPS and inp.gap_m < standstill + 3.0:
@@ -336,7 +341,10 @@ def _stop_limit(config: EcuConfig, inp: NodeInputs, p: Plan, lead_accel_mps2: fl
     if v_lead < road.stop_lead_mps:
         at_lead = p.desired_gap_m - p.desired_gap_slope_s * max(p.v_mps - v_lead, 0.0)
         floor = max(at_lead, config.bounds.lower_m(v_lead))
-        limit = min(limit, closing_limit_mps2(inp.gap_m, inp.rel_speed_mps, lead_accel_mps2, floor))
+        limit = min(
+            limit,
+            closing_limit_mps2(inp.gap_m - spare, inp.rel_speed_mps, lead_accel_mps2, floor),
+        )
     return limit
 
 
