@@ -150,7 +150,9 @@ def test_stop_and_go_holds_at_standstill_and_resumes() -> None:
     assert standing.sum() * 0.05 > 8.0  # it did stand
     assert log.gap_m.min() >= 2.0 and not r.collision
     still = standing & (log.v_lead_mps < 0.05) & (log.acc_state == AccState.ACTIVE)
-    assert np.all(log.a_request_mps2[still] <= -0.9 + 1e-6) or still.sum() < 20
+    assert still.sum() > 20
+    # held: the request at most -0.9 m/s^2 (a few samples while it ramps there at the jerk limit)
+    assert (log.a_request_mps2[still] > -0.9 + 1e-6).sum() <= 4
     moved_after = log.t_s[(log.v_mps > 3.0) & (np.cumsum(standing) > 0)]
     assert moved_after.size > 0  # resumed after standing
     assert not np.any(log.acc_state == AccState.FAULT)
