@@ -188,3 +188,16 @@ def test_safety_on_seeds_drawn_now() -> None:
         where = f"population seed {pop}, road seed {road}, {kind}"
         assert not r.collision, where
         assert s.below_own_s == 0.0, f"{where}: {s}"
+
+
+@pytest.mark.parametrize(("gap_m", "dv_mps"), [(8.0, -4.0), (12.0, -6.0), (20.0, -8.0)])
+def test_a_critical_cut_in_is_avoided_where_braking_at_3_5_can(gap_m: float, dv_mps: float) -> None:
+    """A slower car cuts in close; braking at -3.5 m/s^2 after the radar's 0.2-s dropout, the
+    ECU's jerk build-up and the actuator lag (about 0.8 s in all) stops the closing short of
+    it (dv^2 / 7 + 0.8 dv < gap - 0.5 m): the ECU alone, inside its envelope, does."""
+    assert dv_mps**2 / 7.0 + 0.8 * -dv_mps < gap_m - 0.5  # the case is avoidable
+    cut = LeadEvent(10.0, "cut_in", gap_m=gap_m, v_mps=dv_mps, v_relative=True, hold_s=20.0)
+    r = _drive(_steady(20.0, 25.0, (cut,)))
+    assert r.road_events[0][2] == pytest.approx(gap_m)
+    assert not r.collision and r.log.gap_m.min() > 0.0
+    _in_envelope(r)
