@@ -338,11 +338,13 @@ class DriverAgent:
 
     def _needed_mps2(self, v: float, vl: float, g: float) -> float:
         """The constant deceleration (m/s², < 0) that matches the lead's speed (as seen,
-        with its braking) its standstill distance plus 0.5 s of its speed short of it; 0 when
-        not closing."""
+        with its braking) its standstill distance plus 0.5 s of its speed short of it, the gap
+        reckoned now from its late view (``ATTENTIVE_REACTION_S`` at most) and the closing
+        speed; 0 when not closing."""
         closing = v - vl
         if closing <= 0.0:
             return 0.0
+        g -= closing * self._lag[1] * self.dt_s  # the gap now, from the late view and closing
         # stop with half a second of its speed to spare: braking front-loaded, as drivers do
         # (issue 21: a constant-deceleration stop exactly at standstill_m passes below 2 s TTC)
         room = max(g - self.p.standstill_m - 0.5 * v, 0.5)
