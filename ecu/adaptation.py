@@ -106,6 +106,9 @@ class AdaptationParams:
         step_fraction: the share of the change made by one update, in (0, 1] (1: the centre
             bin lands on ``g_desire``, the paper's full step; 0.5 was worse on population
             seed 1, docs/ecu.md).
+        switch_window_s: a takeover that starts within this time of a radar target switch
+            (a cut-in) answers the new vehicle, not the preferred gap: skipped (5 s: the
+            slowest drawn driver's reaction plus patience; set before any measurement).
     """
 
     min_takeover_s: float = 1.0
@@ -119,9 +122,11 @@ class AdaptationParams:
     spread_speed_mps: float = 15.0
     min_speed_mps: float = 10.0
     step_fraction: float = 1.0
+    switch_window_s: float = 5.0
 
     def __post_init__(self) -> None:
         floats = (
+            self.switch_window_s,
             self.min_takeover_s,
             self.short_press_min_s,
             self.short_press_window_s,
@@ -155,6 +160,7 @@ class Reason(StrEnum):
     AGAINST_PEDAL = "against_pedal"
     NO_LEAD = "no_lead"
     INVALID_INPUT = "invalid_input"
+    TARGET_SWITCH = "target_switch"
 
 
 @dataclass(frozen=True, slots=True)
@@ -177,6 +183,7 @@ class TakeoverSummary:
     gap_m: float
     lead_valid: bool = True
     pedal: str = ""
+    after_switch_s: float = math.inf  # from the last radar target switch to the press, s
 
 
 @dataclass(frozen=True, slots=True)
@@ -350,6 +357,9 @@ def adapt(
     ``adapted``) and the decision, or the same ``table`` object and a skip decision.
     """
     reason = behaviour_filter(summary, params, short_run=short_run)
+    answers = reason in (Reason.APPLIED, Reason.SHORT_TAKEOVER, Reason.SPEED_DIFFERENCE)
+    if answers and summary.after_switch_s < params.switch_window_s:
+        reason = Reason.TARGET_SWITCH  # forced by a cut-in: no evidence of the preferred gap
     if reason is not Reason.APPLIED:
         return table, Decision(applied=False, reason=reason)
     g_desire = predict_steady_gap(summary, params)

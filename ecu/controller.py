@@ -24,12 +24,22 @@ brake stays limited to ``jerk_max``. In the same condition the request is at mos
 :func:`closing_limit_mps2` against the table's lower safety bound at the lead's speed (issue
 11): the PID alone eased its braking once the lead stopped slowing, while the gap was still
 closing at 4 m/s with 1.9 s to collision.
+
+Road behaviour (issue 21; :func:`road_update`, :func:`road_limit`): a jump of the radar gap
+that the relative speed cannot explain is a *target switch* (a cut-in, a cut-out revealing
+the vehicle ahead, a new lead after a free road): the integral of the old target is dropped
+and the switch's time is kept (the adaptation does not learn from a takeover that starts
+right after one). A lead lost for less than ``lead_loss_hold_s`` (a radar confirming a new
+track drops ``LeadValid`` briefly) does not make the car accelerate toward the set speed.
+At a standstill behind a lead the request holds the car (``hold_accel_mps2``); it pulls away
+when the lead departs within ``auto_resume_s`` of stopping, else only on the driver's RESUME
+or accelerator (ISO 15622's full-speed-range ACC: resuming after a stop needs the driver).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from ecu import EcuError
 
@@ -70,6 +80,75 @@ def _check_table(name: str, table: Table) -> None:
 
 
 @dataclass(frozen=True)
+class RoadParams:
+    """Target switches, lead loss and standstill (units in the names).
+
+    Attributes:
+        switch_jump_m: a gap change this much beyond what the relative speed explains within
+            one cycle is a new target, m.
+        reacquire_s: a lead valid again after at least this long without one is new, s.
+        lead_loss_hold_s: for this long after the lead is lost the request does not rise, s.
+        standstill_mps: below this speed the car stands, m/s.
+        hold_accel_mps2: the request that holds a standing car, m/s^2 (< 0).
+        auto_resume_s: a stop shorter than this resumes on its own when the lead departs, s.
+        depart_rel_mps: the lead departs when it pulls away faster than this, m/s.
+        stop_lead_mps: behind a lead slower than this (stopping, stopped, crawling) the
+            request is at most the closing limit against the table's gap at the lead's
+            speed: the car stops at its standstill gap, not at the safety floor, m/s.
+        lead_stop_horizon_s: a braking lead that stands within this time at its current
+            deceleration is one to stop behind (the stopping limit applies), s. 4 s: the
+            stop-and-go scenario needed it (3 s let the approach fall to 1.8 s TTC); the
+            canonical Table I drives, whose leads never stop, are unchanged by it.
+    """
+
+    switch_jump_m: float = 3.0
+    reacquire_s: float = 1.0
+    lead_loss_hold_s: float = 1.0
+    standstill_mps: float = 0.1
+    hold_accel_mps2: float = -1.0
+    auto_resume_s: float = 3.0
+    depart_rel_mps: float = 0.5
+    stop_lead_mps: float = 3.0
+    lead_stop_horizon_s: float = 4.0
+
+    def __post_init__(self) -> None:
+        vals = (
+            self.switch_jump_m,
+            self.reacquire_s,
+            self.lead_loss_hold_s,
+            self.standstill_mps,
+            self.auto_resume_s,
+            self.depart_rel_mps,
+            self.stop_lead_mps,
+            self.lead_stop_horizon_s,
+        )
+        if not all(math.isfinite(x) and x >= 0.0 for x in vals):
+            raise ControllerError(f"road parameters must be finite and >= 0: {self}")
+        if not ACCEL_MIN_MPS2 <= self.hold_accel_mps2 < 0.0:
+            raise ControllerError("hold_accel_mps2 must lie in [-3.5, 0)")
+
+
+@dataclass(frozen=True, slots=True)
+class RoadMemory:
+    """What the control law remembers about the road between cycles.
+
+    Attributes:
+        last_gap_m, last_rel_mps: the last valid radar gap (m) and relative speed (m/s).
+        no_lead_s: time since a lead was last valid, s (inf: never one).
+        since_switch_s: time since the last target switch, s (inf: none yet).
+        standstill_s: time standing while ACTIVE, s (< 0: moving).
+        go: the driver asked to pull away during this standstill (or it may on its own).
+    """
+
+    last_gap_m: float = math.nan
+    last_rel_mps: float = 0.0
+    no_lead_s: float = math.inf
+    since_switch_s: float = math.inf
+    standstill_s: float = -1.0
+    go: bool = False
+
+
+@dataclass(frozen=True)
 class ControllerParams:
     """Gains (as (breakpoints m/s, values) tables) and the output envelope.
 
@@ -97,6 +176,7 @@ class ControllerParams:
     jerk_max_mps3: float = 2.5
     emergency_ttc_s: float = 3.0
     emergency_jerk_mps3: float = 10.0
+    road: RoadParams = field(default_factory=RoadParams)
 
     def __post_init__(self) -> None:
         for name in ("kp", "ki", "kd"):
@@ -170,6 +250,20 @@ def closing_limit_mps2(
     return lead_accel_mps2 - rel_speed_mps * rel_speed_mps / (2.0 * margin)
 
 
+def stopping_limit_mps2(
+    v_mps: float, gap_m: float, v_lead_mps: float, lead_accel_mps2: float, stop_gap_m: float
+) -> float:
+    """The constant acceleration (m/s^2) that stops the car ``stop_gap_m`` behind the point
+    where a braking lead (``lead_accel_mps2`` < 0) comes to rest: ``-v^2 / (2 d)`` with
+    ``d = g + v_f^2 / (2 |a_f|) - stop_gap`` (at least ``MIN_MARGIN_M``); ``inf`` when the
+    lead is not braking or the car stands."""
+    if lead_accel_mps2 >= -0.1 or v_mps <= 0.0:
+        return math.inf
+    lead_stop = max(v_lead_mps, 0.0) ** 2 / (2.0 * -lead_accel_mps2)
+    room = max(gap_m + lead_stop - stop_gap_m, MIN_MARGIN_M)
+    return -(v_mps * v_mps) / (2.0 * room)
+
+
 def desired_accel(
     params: ControllerParams,
     obs: ControlInput,
@@ -218,15 +312,73 @@ def limit_command(
     return min(max(out, params.accel_min_mps2), params.accel_max_mps2)
 
 
+def road_update(
+    params: RoadParams,
+    mem: RoadMemory,
+    *,
+    lead_valid: bool,
+    gap_m: float,
+    rel_speed_mps: float,
+    v_mps: float,
+    dt_s: float,
+    active: bool,
+    resume: bool,
+) -> tuple[RoadMemory, bool]:
+    """The road memory after one cycle of ``dt_s`` and whether the target switched (pure).
+
+    ``active``: the ACC drives the car (the standstill counter runs only then); ``resume``:
+    the driver's RESUME or accelerator this cycle (a go request at a standstill).
+    """
+    switched = False
+    if lead_valid:
+        if mem.no_lead_s >= params.reacquire_s and mem.no_lead_s < math.inf:
+            switched = True  # a lead after a free road (or a long loss) is a new target
+        elif mem.no_lead_s < math.inf and math.isfinite(mem.last_gap_m):
+            expected = mem.last_gap_m + mem.last_rel_mps * (mem.no_lead_s + dt_s)
+            switched = abs(gap_m - expected) > params.switch_jump_m
+        no_lead, last_gap, last_rel = 0.0, gap_m, rel_speed_mps
+    else:
+        no_lead = mem.no_lead_s + dt_s
+        last_gap, last_rel = mem.last_gap_m, mem.last_rel_mps
+    since = 0.0 if switched else mem.since_switch_s + dt_s
+    standing = active and v_mps < params.standstill_mps
+    still = mem.standstill_s + dt_s if standing and mem.standstill_s >= 0.0 else 0.0
+    still = still if standing else -1.0
+    go = standing and (mem.go or resume)
+    if standing and not go and still <= params.auto_resume_s:
+        go = lead_valid and rel_speed_mps > params.depart_rel_mps
+    new = RoadMemory(last_gap, last_rel, no_lead, since, still, go)
+    return new, switched
+
+
+def road_limit(
+    params: RoadParams, mem: RoadMemory, target_mps2: float, prev_mps2: float, lead_valid: bool
+) -> float:
+    """The request after the road rules (pure): at most ``prev_mps2`` while a lead lost less
+    than ``lead_loss_hold_s`` ago is missing; at most ``hold_accel_mps2`` while standing
+    without a go (``mem`` is this cycle's, from :func:`road_update`)."""
+    target = target_mps2
+    if not lead_valid and mem.no_lead_s < params.lead_loss_hold_s:
+        target = min(target, prev_mps2)  # coast through the dropout at the same level
+    if mem.standstill_s >= 0.0 and not mem.go:
+        target = min(target, params.hold_accel_mps2)
+    return target
+
+
 __all__ = [
     "ACCEL_MAX_MPS2",
     "ACCEL_MIN_MPS2",
     "ControlInput",
     "ControllerError",
     "ControllerParams",
+    "RoadMemory",
+    "RoadParams",
     "closing_limit_mps2",
     "desired_accel",
     "interp",
     "limit_command",
+    "road_limit",
+    "stopping_limit_mps2",
+    "road_update",
     "time_to_collision_s",
 ]

@@ -28,6 +28,7 @@ Safety behaviour:
 from __future__ import annotations
 
 import logging
+import math
 from collections import Counter
 from collections.abc import Callable
 
@@ -113,6 +114,7 @@ class EcuNode:
         self._buttons = (False, False, False)
         self._takeover_start: float | None = None
         self._takeover_pedal = ""
+        self._takeover_after_switch = math.inf
         self._short_presses = ShortPresses()  # the run of short presses (adaptation evidence)
         self.last_decision: Decision | None = None
         self._profile_fault = False
@@ -171,7 +173,8 @@ class EcuNode:
         self.state = new
         self._track_takeover(old, new, check, inp, now_s, events)
         p = plan(self._table, inp.v_mps)
-        command = self._control(new, inp, p, dt, events)
+        go = check.events.resume_edge or check.events.accel_pressed  # a go at a standstill
+        command = self._control(new, inp, p, dt, events, go)
         if self.recorder is not None:
             self.recorder.sample(sample_of(inp, now_s, new))
         return outputs(
@@ -258,7 +261,13 @@ class EcuNode:
         log.info("ACC state %s -> %s", old.name, new.name)
 
     def _control(
-        self, state: AccState, inp: NodeInputs, p: Plan, dt: float, events: list[str]
+        self,
+        state: AccState,
+        inp: NodeInputs,
+        p: Plan,
+        dt: float,
+        events: list[str],
+        resume: bool = False,
     ) -> Command:
         command, self._control_mem = control(
             self.config,
@@ -270,6 +279,7 @@ class EcuNode:
             mem=self._control_mem,
             dt_s=dt,
             law=self._law,
+            resume=resume,
         )
         if command.ramp_done:
             self._fault_ramp = False
@@ -296,6 +306,8 @@ class EcuNode:
     def _start_takeover(self, pedal: str, now_s: float, events: list[str]) -> None:
         self._takeover_start = now_s
         self._takeover_pedal = pedal
+        # how long after a target switch (a cut-in) it started: not preference evidence
+        self._takeover_after_switch = self._control_mem.road.since_switch_s
         self.takeovers += 1
         events.append(f"takeover {self.takeovers} ({pedal})")
         if self.recorder is not None:
@@ -312,6 +324,7 @@ class EcuNode:
             gap_m=inp.gap_m,
             lead_valid=inp.lead_valid,
             pedal=self._takeover_pedal,
+            after_switch_s=self._takeover_after_switch,
         )
         self._takeover_start = None
         if not self.config.adaptation:

@@ -27,9 +27,13 @@ from dataclasses import dataclass
 from ecu.config import MAX_DT_S, EcuConfig
 from ecu.controller import (
     ControlInput,
+    RoadMemory,
     closing_limit_mps2,
     desired_accel,
     limit_command,
+    road_limit,
+    road_update,
+    stopping_limit_mps2,
     time_to_collision_s,
 )
 from ecu.recorder import Sample
@@ -44,6 +48,17 @@ ENGAGED = (AccState.ACTIVE, AccState.OVERRIDE)
 #: a gap law through the plug-in interface: ``(obs, memory, dt_s) -> (accel_mps2, memory)``
 #: (:class:`ecu.methods.guard.GuardedController`); None: the built-in PID called directly
 GapLaw = Callable[[ControlInput, float, float], tuple[float, float]]
+#: a stop that needs more than this deceleration builds its braking at the emergency jerk
+#: (a cut-out revealing a stopped vehicle: 1.4 s at 2.5 m/s^3 to reach -3.5 is too late), m/s^2
+URGENT_STOP_MPS2 = -2.0
+#: a lead slower than this stands; behind it, slower than CREEP_MPS and within 3 m of the
+#: standstill gap, the car brakes to a stop instead of creeping on, m/s
+STANDING_LEAD_MPS = 0.3
+#: a stop behind a standing lead keeps this many seconds of the closing speed to spare: a
+#: constant-deceleration stop exactly at the standstill gap passes below 2 s TTC at its end
+#: (min TTC = sqrt(2 gap / decel)); traced on a fresh population seed, cut-out: 1.69 s
+STOP_SPARE_S = 0.5
+CREEP_MPS = 1.5
 DISENGAGED = (AccState.STANDBY, AccState.FAULT)
 
 
@@ -207,10 +222,12 @@ def plan(table: Dgpt, v_mps: float) -> Plan:
 
 @dataclass(frozen=True, slots=True)
 class ControlMemory:
-    """The controller's state across cycles: gap-error integral (m*s), last request (m/s^2)."""
+    """The controller's state across cycles: gap-error integral (m*s), last request (m/s^2),
+    the road (target switches, lead loss, standstill; :class:`ecu.controller.RoadMemory`)."""
 
     integral_m_s: float = 0.0
     prev_accel_mps2: float = 0.0
+    road: RoadMemory = RoadMemory()
 
 
 @dataclass(frozen=True, slots=True)
@@ -241,6 +258,7 @@ def control(
     mem: ControlMemory,
     dt_s: float,
     law: GapLaw | None = None,
+    resume: bool = False,
 ) -> tuple[Command, ControlMemory]:
     """The request of this cycle and the controller's next memory.
 
@@ -249,11 +267,27 @@ def control(
     is also at most the closing limit against the table's lower safety bound at the lead's
     speed). Otherwise the request ramps toward zero at the jerk limit; it stays active only
     in FAULT while an executed request is still ramping (``fault_ramp``). ``law``: a plug-in
-    gap law in place of the PID (the envelope and the closing limit stay the ECU's).
+    gap law in place of the PID (the envelope and the closing limit stay the ECU's). The road
+    rules (:func:`ecu.controller.road_update`): a target switch drops the integral, a brief
+    lead loss does not raise the request, a standstill holds until the lead departs soon
+    after the stop or the driver asks to go (``resume``: RESUME or the accelerator this cycle).
     """
     ctl = config.controller
     prev = mem.prev_accel_mps2
-    if state is AccState.ACTIVE:
+    active = state is AccState.ACTIVE
+    road, switched = road_update(
+        ctl.road,
+        mem.road,
+        lead_valid=inp.lead_valid,
+        gap_m=inp.gap_m,
+        rel_speed_mps=inp.rel_speed_mps,
+        v_mps=p.v_mps,
+        dt_s=dt_s,
+        active=active,
+        resume=resume,
+    )
+    integral0 = 0.0 if switched else mem.integral_m_s
+    if active:
         obs = ControlInput(
             v_mps=p.v_mps,
             a_mps2=inp.a_mps2,
@@ -266,22 +300,61 @@ def control(
             desired_gap_slope_s=p.desired_gap_slope_s,
         )
         if law is None:
-            target, integral = desired_accel(ctl, obs, mem.integral_m_s, dt_s, integrate=True)
+            target, integral = desired_accel(ctl, obs, integral0, dt_s, integrate=True)
         else:
-            target, integral = law(obs, mem.integral_m_s, dt_s)
+            target, integral = law(obs, integral0, dt_s)
         ttc = time_to_collision_s(inp.lead_valid, inp.gap_m, inp.rel_speed_mps)
         if ttc < ctl.emergency_ttc_s:  # brake at least as hard as the closing speed needs
             floor = config.bounds.lower_m(max(p.v_mps + inp.rel_speed_mps, 0.0))
             limit = closing_limit_mps2(inp.gap_m, inp.rel_speed_mps, obs.lead_accel_mps2, floor)
             target = min(target, limit)
-        emergency = ttc < ctl.emergency_ttc_s and target < prev
+        urgent = False
+        if inp.lead_valid:  # a lead stopping or stopped: stop at the table's standstill gap
+            stop = _stop_limit(config, inp, p, obs.lead_accel_mps2)
+            urgent = stop < URGENT_STOP_MPS2 and stop < prev
+            target = min(target, stop)
+        target = road_limit(ctl.road, road, target, prev, inp.lead_valid)
+        emergency = (ttc < ctl.emergency_ttc_s or urgent) and target < prev
         accel = limit_command(ctl, prev, target, dt_s, emergency=emergency)
-        return Command(accel, active=True, emergency=emergency), ControlMemory(integral, accel)
-    accel = limit_command(ctl, prev, 0.0, dt_s, emergency=False)
+        command = Command(accel, active=True, emergency=emergency)
+        return command, ControlMemory(integral, accel, road)
+    rest = 0.0
+    ttc = time_to_collision_s(inp.lead_valid, inp.gap_m, inp.rel_speed_mps)
+    if state is AccState.OVERRIDE and ttc < ctl.emergency_ttc_s and all_finite(inp.a_mps2):
+        # the driver brakes toward a closing lead: the inactive request follows the car's
+        # deceleration, so that the ACC takes over at the release from there, not from 0
+        # (issue 21: a brake released at 2.4 s TTC let the braking sag to 1.5 m/s^2)
+        rest = min(max(inp.a_mps2, ctl.accel_min_mps2), 0.0)
+    accel = limit_command(ctl, prev, rest, dt_s, emergency=False)
     ramping = state is AccState.FAULT and fault_ramp
     active = ramping and accel != 0.0
     command = Command(accel, active=active, ramp_done=ramping and not active)
-    return command, ControlMemory(mem.integral_m_s, accel)
+    return command, ControlMemory(integral0, accel, road)
+
+
+def _stop_limit(config: EcuConfig, inp: NodeInputs, p: Plan, lead_accel_mps2: float) -> float:
+    """The request's bound behind a lead that stops (issue 21, stop-and-go): stop at the
+    table's standstill gap (its line at the current speed extended to 0 m/s, never below the
+    safety floor) behind where a braking lead comes to rest, when it will be standing within
+    ``lead_stop_horizon_s`` at its deceleration; behind a lead slower than
+    ``stop_lead_mps`` also match its speed at the table's gap at that speed (m/s^2)."""
+    road = config.controller.road
+    standstill = max(p.desired_gap_m - p.desired_gap_slope_s * p.v_mps, config.bounds.lower_m(0.0))
+    v_lead = max(p.v_mps + inp.rel_speed_mps, 0.0)
+    spare = STOP_SPARE_S * max(p.v_mps - v_lead, 0.0)  # front-loaded: TTC stays above 2 s
+    limit = stopping_limit_mps2(p.v_mps, inp.gap_m - spare, v_lead, lead_accel_mps2, standstill)
+    if v_lead > road.lead_stop_horizon_s * max(-lead_accel_mps2, 0.0):
+        limit = math.inf  # the lead will not be standing soon: the gap law's business
+    if v_lead < STANDING_LEAD_MPS and p.v_mps < CREEP_MPS and inp.gap_m < standstill + 3.0:
+        limit = min(limit, road.hold_accel_mps2)  # close to a standing lead: stop, no creep
+    if v_lead < road.stop_lead_mps:
+        at_lead = p.desired_gap_m - p.desired_gap_slope_s * max(p.v_mps - v_lead, 0.0)
+        floor = max(at_lead, config.bounds.lower_m(v_lead))
+        limit = min(
+            limit,
+            closing_limit_mps2(inp.gap_m - spare, inp.rel_speed_mps, lead_accel_mps2, floor),
+        )
+    return limit
 
 
 # -- 7. recording and 8. outputs ---------------------------------------------------------------

@@ -20,6 +20,8 @@ and closes the loop through the ACC command frames. Modules, one concept each:
 On top of them, and of the ECU and the cloud, two harness sub-packages wire everything
 together: :mod:`sim_bus.study` (one drive, ``pacc drive``; the paper's Table I, ``pacc study``)
 and :mod:`sim_bus.hil` (a person drives in a browser page, ``pacc hil``). Maintainer tools
+:mod:`sim_bus.events` (road scenarios beyond one always-present lead: cut-in, cut-out, lead
+  loss, stop-and-go);
 (building the data file, calibrating the drivers) live in ``tools/`` outside the wheel.
 """
 

@@ -51,6 +51,12 @@ LEAD_ACCEL_TAU_S = 0.3
 #: 2000, puts a fully aware driver's brake reaction at about 0.7-0.75 s)
 ATTENTIVE_REACTION_S = 0.75
 BUTTON_HOLD_S = 0.3
+#: a lead farther than this is out of the driver's sight: a free road, nothing to follow, m
+LEAD_SIGHT_M = 200.0
+#: standing behind a lead that pulls away faster than this (as seen), the driver presses
+#: RESUME (a full-speed-range ACC waits for it after a long stop, ISO 15622), m/s
+RESUME_LEAD_MPS = 1.0
+STANDSTILL_MPS = 0.1
 RESUME_DELAY_S = 1.0
 FAULT_RETRY_S = 5.0  # after a fault, the driver tries SET once it has lasted this long
 
@@ -112,6 +118,11 @@ class DriverAgent:
         self._noise_k = math.exp(-dt_s / 1.0)
         self._noise_s = p.accel_noise_mps2 * math.sqrt(1.0 - self._noise_k**2)
         self._sd_c = p.condition_drift_per_min * math.sqrt(dt_s / 60.0)
+        # this trip's shift of the time headway, s (drawn only if the driver shifts at all,
+        # so that the random stream of every other driver is the one it always was)
+        self._trip_shift = (
+            p.trip_shift_sd_s * float(rng.standard_normal()) if p.trip_shift_sd_s else 0.0
+        )
         self._tap_p = p.spurious_press_per_min * dt_s / 60.0
         self.t_s = 0.0
         self.mode = "idle"  # idle | brake | accel | tap
@@ -124,6 +135,7 @@ class DriverAgent:
         self._button = ""
         self._engaged_once = False
         self._fault_t = 0.0
+        self._resumed = False  # RESUME pressed during this standstill
         self.a_cmd_mps2 = 0.0
         self.accel_pressed = False
         self.brake_pressed = False
@@ -172,13 +184,9 @@ class DriverAgent:
             self.condition = math.exp(self._log_c)
         vl, g = self._perceive(v_lead_mps, gap_m)
         v = v_mps  # own speed is felt at once; the lead is seen late
-        pref = float(
-            p.standstill_m
-            + p.condition_factor
-            * self.condition
-            * float(np.interp(v, p.headway_speeds_mps, p.headway_s))
-            * v
-        )
+        c = p.condition_factor * self.condition
+        head = float(np.interp(v, p.headway_speeds_mps, p.headway_s)) + self._trip_shift
+        pref = float(p.standstill_m + c * max(head, 0.3) * v)
         self.set_button = self.resume_button = False
         if self.t_s < self._button_until:
             self.set_button = self._button == "set"
@@ -189,13 +197,16 @@ class DriverAgent:
             self._engaged_once = True
         supervising = self.acc_mode and (engaged or self.mode != "idle")
         if supervising:
-            pref *= p.acc_preference_factor
+            pref = (pref + c * p.acc_offset_s * v) * p.acc_preference_factor
         self.pref_gap_m = pref
-        a_idm = idm_plus_accel(v, vl, g, pref, p) + self._noise
+        a_plan = idm_plus_accel(v, vl, g, pref, p)  # what it means to do, before the noise
+        a_idm = a_plan + self._noise
         if not self.acc_mode:
             self._drive_by_hand(a_idm)
         elif supervising:
-            self._supervise(v, vl, g, pref, a_idm, u, engaged)
+            if engaged and self.mode == "idle":
+                self._standstill_resume(v, vl, g)
+            self._supervise(v, vl, g, pref, a_idm, u, engaged, a_plan)
         else:
             self._not_engaged(v, vl, g, pref, a_idm, acc_state)
 
@@ -229,7 +240,7 @@ class DriverAgent:
         p = self.p
         band = max(p.comfort_band * pref, p.comfort_band_min_m)
         quiet = self.t_s - self._last_release_t >= RESUME_DELAY_S
-        feels_right = abs(g - pref) <= band and vl - v > -1.0
+        feels_right = (abs(g - pref) <= band and vl - v > -1.0) or g >= LEAD_SIGHT_M
         can_engage = self.t_s >= self.engage_s and (
             acc_state == AccState.STANDBY or self._fault_t >= FAULT_RETRY_S
         )
@@ -248,10 +259,28 @@ class DriverAgent:
         self._drive_by_hand(a)
         self._last_release_t = self.t_s if not can_engage else self._last_release_t
 
+    def _standstill_resume(self, v: float, vl: float, g: float) -> None:
+        """Standing behind a lead that pulls away: press RESUME once (the ACC's go request)."""
+        if v >= STANDSTILL_MPS:
+            self._resumed = False
+            return
+        if not self._resumed and g < LEAD_SIGHT_M and vl >= RESUME_LEAD_MPS:
+            self._resumed = True
+            self._press_button("resume")
+
     def _supervise(
-        self, v: float, vl: float, g: float, pref: float, a: float, u: float, engaged: bool
+        self,
+        v: float,
+        vl: float,
+        g: float,
+        pref: float,
+        a: float,
+        u: float,
+        engaged: bool,
+        a_plan: float | None = None,
     ) -> None:
-        """ACC engaged (or a press in progress): monitor, press, release."""
+        """ACC engaged (or a press in progress): monitor, press, release. ``a``: its IDM+
+        with control noise, ``a_plan``: without (what it decides by; default ``a``)."""
         p = self.p
         dt = self.dt_s
         band = max(p.comfort_band * pref, p.comfort_band_min_m)
@@ -261,7 +290,10 @@ class DriverAgent:
             g_pred = g - max(closing, 0.0) * p.lookahead_s
             self._close_t = self._close_t + dt if (g < pref - band or g_pred < pref - band) else 0.0
             steady = closing <= 0.3 and self.lead_accel_seen_mps2 > LEAD_BRAKING_MPS2
-            self._far_t = self._far_t + dt if g > pref + band and steady else 0.0
+            in_sight = g < LEAD_SIGHT_M  # a free road is not a gap too long
+            if p.revision >= 2 and vl < RESUME_LEAD_MPS:
+                in_sight = False  # nobody nudges up to a standing queue (issue 21: to 0.9 m)
+            self._far_t = self._far_t + dt if g > pref + band and steady and in_sight else 0.0
             rested = self.t_s - self._last_release_t >= p.refractory_s
             if ttc < p.ttc_brake_s or g < 0.5 * pref or (rested and self._close_t >= p.patience_s):
                 self._start("brake")
@@ -276,10 +308,15 @@ class DriverAgent:
         self._press_t += dt
         g_ant = g + (vl - v) * p.anticipation_s
         if self.mode == "brake":
-            self.a_cmd_mps2 = min(a, -0.5)
+            # at least what stopping short of the lead needs as it sees it (issue 21: a
+            # driver that took over with a weaker brake than the ACC's came within 1.1 s)
+            need = self._needed_mps2(v, vl, g) if p.revision >= 2 else 0.0
+            self.a_cmd_mps2 = min(a, -0.5, need)
             ok = g_ant >= pref * (1.0 - p.release_band) and ttc > p.ttc_brake_s
         elif self.mode == "accel":
-            if a < 0.0 or self.lead_accel_seen_mps2 <= LEAD_BRAKING_MPS2:
+            plan = a if a_plan is None or p.revision < 2 else a_plan
+            # the decision is its following model's, not its control noise's (issue 21)
+            if plan < 0.0 or self.lead_accel_seen_mps2 <= LEAD_BRAKING_MPS2:
                 # its own following model asks to slow down, or the lead brakes: lift off
                 self._release(a)
                 return
@@ -292,10 +329,27 @@ class DriverAgent:
             self._ok_t = self._press_t
         hold = 0.0 if self.mode == "tap" else p.prolong_s
         done = ok and self._press_t - self._ok_t >= hold and self._press_t >= p.press_min_s
-        if done or self._press_t >= p.press_max_s:
+        # a brake press is not cut short while the gap still closes fast (issue 21)
+        urgent = self.mode == "brake" and ttc < p.ttc_brake_s and p.revision >= 2
+        if done or (self._press_t >= p.press_max_s and not urgent):
             self._release(a)
             return
         self._set_pedals(self.a_cmd_mps2, "brake" if self.mode == "brake" else "accel")
+
+    def _needed_mps2(self, v: float, vl: float, g: float) -> float:
+        """The constant deceleration (m/s², < 0) that matches the lead's speed (as seen,
+        with its braking) its standstill distance plus 0.5 s of its speed short of it, the gap
+        reckoned now from its late view (``ATTENTIVE_REACTION_S`` at most) and the closing
+        speed; 0 when not closing."""
+        closing = v - vl
+        if closing <= 0.0:
+            return 0.0
+        g -= closing * self._lag[1] * self.dt_s  # the gap now, from the late view and closing
+        # stop with half a second of its speed to spare: braking front-loaded, as drivers do
+        # (issue 21: a constant-deceleration stop exactly at standstill_m passes below 2 s TTC)
+        room = max(g - self.p.standstill_m - 0.5 * v, 0.5)
+        need = min(self.lead_accel_seen_mps2, 0.0) - closing * closing / (2.0 * room)
+        return max(need, -DECEL_LIMIT_MPS2)
 
     def _release(self, a: float) -> None:
         """End the press: pedals released, ``a`` (m/s²) is what the driver would do by hand."""

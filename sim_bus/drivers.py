@@ -47,6 +47,11 @@ class DriverParams:
     # under ACC the driver judges the gap against acc_preference_factor · g*(v): drivers
     # often want a different gap when not in control than the one they keep by hand
     acc_preference_factor: float = 1.0
+    # ... and a time gap longer by acc_offset_s (s; < 0: shorter) than the one it keeps by
+    # hand: the manual-vs-ACC mismatch of issue 21 (prior in sim_bus.population)
+    acc_offset_s: float = 0.0
+    # between trips the time headway shifts by N(0, trip_shift_sd_s) s, one draw per trip
+    trip_shift_sd_s: float = 0.0
     # tolerance and timing of interventions under ACC
     comfort_band: float = 0.15  # relative half-width of the comfortable gap band
     comfort_band_min_m: float = 2.0
@@ -70,6 +75,11 @@ class DriverParams:
     accel_noise_mps2: float = 0.15
     spurious_press_per_min: float = 0.0  # short random taps (an inconsistent driver)
     predefined_setting: PredefinedSetting = "medium"
+    # 2 (issue 21): a brake press lasts while the time-to-collision is below ttc_brake_s and
+    # brakes at least as hard as stopping short of the lead needs; an accelerator press ends
+    # by the following model's decision, not its control noise. 1: the earlier model, kept
+    # by d1..d5 so that Table I stays comparable (docs/drivers.md)
+    revision: int = 2
 
     def __post_init__(self) -> None:
         self._check_id()
@@ -102,6 +112,13 @@ class DriverParams:
             raise DriverError(f"{self.driver_id}: condition_factor must lie in 0.5..2")
         if not 0.5 <= self.acc_preference_factor <= 2.0:
             raise DriverError(f"{self.driver_id}: acc_preference_factor must lie in 0.5..2")
+        if not (-1.5 <= self.acc_offset_s <= 2.0 and min(heads) + self.acc_offset_s >= 0.3):
+            raise DriverError(
+                f"{self.driver_id}: acc_offset_s must lie in -1.5..2 s and keep every "
+                "headway under ACC at 0.3 s or more"
+            )
+        if not 0.0 <= self.trip_shift_sd_s <= 1.0:
+            raise DriverError(f"{self.driver_id}: trip_shift_sd_s must lie in 0..1 s")
 
     def _check_habits(self) -> None:
         positive = (
@@ -133,6 +150,8 @@ class DriverParams:
         for name in nonneg:
             if not getattr(self, name) >= 0:
                 raise DriverError(f"{self.driver_id}: {name} must be >= 0")
+        if self.revision not in (1, 2):
+            raise DriverError(f"{self.driver_id}: revision must be 1 or 2")
         if self.press_min_s > self.press_max_s:
             raise DriverError(f"{self.driver_id}: press_min_s exceeds press_max_s")
         if self.predefined_setting not in PREDEFINED_HEADWAY_S:
@@ -159,14 +178,23 @@ class DriverParams:
     def acc_preferred_gap_m(
         self, v_mps: np.ndarray | float, condition_factor: float = 1.0
     ) -> np.ndarray:
-        """The gap the driver wants under ACC: ``acc_preference_factor · g*(v)`` (m)."""
-        return self.acc_preference_factor * self.preferred_gap_m(v_mps, condition_factor)
+        """The gap the driver wants under ACC (m):
+        ``acc_preference_factor · (g*(v) + c·acc_offset_s·v)``."""
+        v = np.maximum(np.asarray(v_mps, dtype=np.float64), 0.0)
+        c = self.condition_factor * condition_factor
+        offset = c * self.acc_offset_s * v
+        return self.acc_preference_factor * (self.preferred_gap_m(v_mps, condition_factor) + offset)
 
     @property
     def predefined_headway_s(self) -> float:
         """The constant headway this driver picks for the Predefined controller (s)."""
         return PREDEFINED_HEADWAY_S[self.predefined_setting]
 
+
+#: condition factors of ``pacc drive --condition``: wet adds about 0.1 s to a 2-s time gap
+#: (Rahman & Lownes 2012: 1.97 -> 2.1 s in rain); night is longer too (Zhu et al., Shanghai
+#: NDS: "longer headways ... nighttime"), its size not seen: 5 % is an assumption
+CONDITION_FACTORS: dict[str, float] = {"dry": 1.0, "wet": 1.066, "night": 1.05}
 
 BUILTIN_DRIVERS: dict[str, DriverParams] = {
     "d1": DriverParams(
@@ -183,6 +211,7 @@ BUILTIN_DRIVERS: dict[str, DriverParams] = {
         decel_comfort_mps2=2.5,
         press_max_s=2.5,
         predefined_setting="low",
+        revision=1,
     ),
     "d2": DriverParams(
         "d2",
@@ -195,6 +224,7 @@ BUILTIN_DRIVERS: dict[str, DriverParams] = {
         reaction_s=0.6,
         acc_preference_factor=1.1,
         predefined_setting="medium",
+        revision=1,
     ),
     "d3": DriverParams(
         "d3",
@@ -214,6 +244,7 @@ BUILTIN_DRIVERS: dict[str, DriverParams] = {
         acc_preference_factor=1.1,
         press_max_s=4.0,
         predefined_setting="high",
+        revision=1,
     ),
     "d4": DriverParams(
         "d4",
@@ -226,6 +257,7 @@ BUILTIN_DRIVERS: dict[str, DriverParams] = {
         reaction_s=0.6,
         acc_preference_factor=0.92,
         predefined_setting="medium",
+        revision=1,
     ),
     "d5": DriverParams(
         "d5",
@@ -243,6 +275,7 @@ BUILTIN_DRIVERS: dict[str, DriverParams] = {
         spurious_press_per_min=0.5,
         press_max_s=2.0,
         predefined_setting="medium",
+        revision=1,
     ),
 }
 

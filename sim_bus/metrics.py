@@ -5,7 +5,8 @@ All inputs are 1-D arrays of one length ``n`` sampled at a uniform step (``t_s``
 - PoI: percentage of ACC-ON time with either pedal pressed;
 - NIM: pedal-press onsets (released -> accelerator or brake pressed) per minute of ACC-ON time;
 - min gap (m), min time-to-collision (s; inf when never closing), RMS jerk (m/s³) of the
-  actual acceleration, gap error against the driver's preference (mean, RMS; m).
+  actual acceleration, gap error against the driver's preference (mean, RMS; m; samples
+  without a lead in sight, gap >= ``NO_LEAD_GAP_M``, have no gap error).
 
 ACC-ON time: samples in Active or Override, plus Standby samples after the first engagement
 (a brake press that cancels the ACC is still an intervention of an ACC-ON drive); Off and
@@ -20,6 +21,9 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from pacc.vocab.acc_state import AccState
+
+#: a gap beyond this is no lead at all (a road scenario's free road, sim_bus.world), m
+NO_LEAD_GAP_M = 500.0
 
 
 @dataclass(frozen=True)
@@ -111,6 +115,7 @@ def drive_metrics(
     on = acc_on_mask(acc_state) & ~(
         np.asarray(accel_pressed, bool) | np.asarray(brake_pressed, bool)
     )
+    on &= np.asarray(gap_m) < NO_LEAD_GAP_M  # a free road has no gap to err about
     err = (np.asarray(gap_m) - np.asarray(pref_gap_m))[on]
     return DriveMetrics(
         poi_pct=poi,
@@ -122,4 +127,50 @@ def drive_metrics(
         rms_jerk_mps3=rms_jerk(t_s, a_mps2),
         gap_error_mean_m=float(err.mean()) if err.size else math.nan,
         gap_error_rms_m=float(np.sqrt(np.mean(err * err))) if err.size else math.nan,
+    )
+
+
+@dataclass(frozen=True)
+class SafetyFigures:
+    """Time-to-collision exposure of one drive (units in the names).
+
+    ``*_own`` figures leave out the samples where the driver's own accelerator press
+    overrides the ACC (reported separately: then the driver, not the ECU, closes the gap).
+    """
+
+    min_ttc_s: float
+    min_gap_m: float
+    below_s: float
+    min_ttc_own_s: float
+    below_own_s: float
+    below_override_s: float
+
+
+def safety_figures(
+    t_s: np.ndarray,
+    gap_m: np.ndarray,
+    v_mps: np.ndarray,
+    v_lead_mps: np.ndarray,
+    accel_pressed: np.ndarray,
+    threshold_s: float = 2.0,
+) -> SafetyFigures:
+    """Min TTC (s), min gap (m) and the time (s) spent below ``threshold_s`` of TTC, over
+    the whole drive and without the samples of an accelerator press (the driver's own)."""
+    t = np.asarray(t_s, dtype=np.float64)
+    dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    gap = np.asarray(gap_m, dtype=np.float64)
+    closing = np.asarray(v_mps, dtype=np.float64) - np.asarray(v_lead_mps, dtype=np.float64)
+    ttc = np.full(len(gap), math.inf)
+    m = closing > 1e-3
+    ttc[m] = np.maximum(gap[m], 0.0) / closing[m]
+    below = ttc < threshold_s
+    press = np.asarray(accel_pressed, dtype=bool)
+    own = ~press
+    return SafetyFigures(
+        min_ttc_s=float(ttc.min()) if len(ttc) else math.inf,
+        min_gap_m=float(gap.min()) if len(gap) else math.nan,
+        below_s=float(below.sum()) * dt,
+        min_ttc_own_s=float(ttc[own].min()) if own.any() else math.inf,
+        below_own_s=float((below & own).sum()) * dt,
+        below_override_s=float((below & press).sum()) * dt,
     )

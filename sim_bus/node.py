@@ -171,7 +171,10 @@ class SimNode:
         elif role == "radar":
             gap = car.gap_m
             lo, hi = b[("radar", "gap_m")]
-            vals["lead_valid"] = 1 if lo <= gap <= hi else 0
+            # no lead beyond the range or while a new track is being confirmed (a target
+            # switch of a road scenario, sim_bus.events: the sensor drops LeadValid)
+            seen = lo <= gap <= hi and w.t_s >= w.radar_blank_until
+            vals["lead_valid"] = 1 if seen else 0
             vals["gap_m"] = _clip(gap, (lo, hi))
             vals["rel_speed_mps"] = _clip(w.v_lead_mps - car.v_mps, b[("radar", "rel_speed_mps")])
             vals["lead_accel_mps2"] = _clip(w.a_lead_mps2, b[("radar", "lead_accel_mps2")])

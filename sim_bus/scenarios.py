@@ -21,11 +21,15 @@ import csv
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from sim_bus.dataset import load_human_pairs
 from sim_bus.errors import ScenarioError
+
+if TYPE_CHECKING:  # events.py builds on this module; the type only
+    from sim_bus.events import LeadEvent
 
 DT_S = 0.1
 
@@ -42,13 +46,20 @@ class SegmentRef:
 
 @dataclass(frozen=True)
 class LeadProfile:
-    """A lead speed profile: ``t_s``, ``v_lead_mps`` float64 arrays of shape (n,), 10 Hz."""
+    """A lead speed profile: ``t_s``, ``v_lead_mps`` float64 arrays of shape (n,), 10 Hz.
+
+    ``events``: changes of the tracked vehicle (:mod:`sim_bus.events`; none: the lead drives
+    the profile throughout, the paper's car following). ``set_speed_mps``: the ACC set speed
+    the road calls for (None: the study's, above every lead speed).
+    """
 
     name: str
     t_s: np.ndarray
     v_lead_mps: np.ndarray
     segments: tuple[SegmentRef, ...] = ()
     raw_v_mps: np.ndarray | None = field(default=None, repr=False)
+    events: tuple[LeadEvent, ...] = ()
+    set_speed_mps: float | None = None
 
     @property
     def duration_s(self) -> float:
@@ -282,7 +293,16 @@ def shorten(profile: LeadProfile, duration_s: float) -> LeadProfile:
         )
     n = len(profile.t_s) if duration_s >= profile.duration_s else int(round(duration_s / DT_S)) + 1
     raw = None if profile.raw_v_mps is None else profile.raw_v_mps[:n]
-    return LeadProfile(profile.name, profile.t_s[:n], profile.v_lead_mps[:n], profile.segments, raw)
+    end = float(profile.t_s[n - 1])
+    return LeadProfile(
+        profile.name,
+        profile.t_s[:n],
+        profile.v_lead_mps[:n],
+        profile.segments,
+        raw,
+        events=tuple(e for e in profile.events if e.t_s <= end),
+        set_speed_mps=profile.set_speed_mps,
+    )
 
 
 def save_profile_csv(profile: LeadProfile, path: Path) -> None:

@@ -1,10 +1,15 @@
 """The simulated world around the ACC: lead profile, ego plant and driver, without the bus.
 
-One :meth:`World.advance` is one plant step (10 ms by default). The driver decides at its
-own rate (20 Hz), from what it perceived ``reaction_s`` ago. The applied acceleration is
-chosen like a powertrain would: the driver's pedals when one is pressed, else the ACC request
-while the ACC command is active and fresh, else coasting. The world logs one sample per driver
-step (shape (m,) arrays, see :class:`WorldLog`).
+One :meth:`World.advance` is one plant step (10 ms by default). The lead drives the profile;
+a road scenario's events (:mod:`sim_bus.events`) switch the tracked vehicle: a cut-in, a
+cut-out revealing the vehicle ahead, a lead loss (free road: the gap is ``FREE_GAP_M``,
+beyond the radar's range) and a new lead appearing. After an event the lead holds its speed,
+then rejoins the flow (the profile's speed, with a lag and bounded accelerations).
+
+The driver decides at its own rate (20 Hz), from what it perceived ``reaction_s`` ago. The
+applied acceleration is chosen like a powertrain would: the driver's pedals when one is
+pressed, else the ACC request while the ACC command is active and fresh, else coasting. The
+world logs one sample per driver step (shape (m,) arrays, see :class:`WorldLog`).
 """
 
 from __future__ import annotations
@@ -18,9 +23,16 @@ import numpy as np
 from sim_bus.behaviour import COAST_MPS2, DriverAgent
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import DriveError
-from sim_bus.metrics import DriveMetrics, drive_metrics
+from sim_bus.events import LeadEvent, cut_in_gap_m, reveal_gap_m
+from sim_bus.metrics import DriveMetrics, SafetyFigures, drive_metrics, safety_figures
 from sim_bus.plant import Plant, PlantConfig, PlantState
 from sim_bus.scenarios import LeadProfile
+
+#: the gap while no vehicle is in sight (free road), m: beyond any radar's range
+FREE_GAP_M = 1000.0
+#: how a lead that left its profile rejoins the flow: lag (s), acceleration bounds (m/s²)
+REJOIN_TAU_S = 2.0
+REJOIN_ACCEL_MPS2 = (-3.0, 1.5)
 
 _COLUMNS = (
     "t_s",
@@ -102,6 +114,12 @@ class WorldLog:
     accel_pct: np.ndarray
     brake_bar: np.ndarray
 
+    def safety(self, threshold_s: float = 2.0) -> SafetyFigures:
+        """Time-to-collision exposure (sim_bus.metrics.safety_figures) of these samples."""
+        return safety_figures(
+            self.t_s, self.gap_m, self.v_mps, self.v_lead_mps, self.accel_pressed, threshold_s
+        )
+
     def metrics(self) -> DriveMetrics:
         """The drive's figures (PoI, NIM, safety; sim_bus.metrics) from these samples."""
         return drive_metrics(
@@ -154,6 +172,14 @@ class World:
         self.v_lead_mps = v0
         self.a_lead_mps2 = self._a_lead[0]
         self.applied_mps2 = 0.0
+        self._events: list[LeadEvent] = sorted(profile.events, key=lambda e: e.t_s)
+        self._lead_mode = "profile"  # profile | track (after an event) | none (free road)
+        self._hold_v = 0.0
+        self._hold_until = 0.0
+        #: the radar reports no lead until this time (a new track being confirmed), s
+        self.radar_blank_until = -1.0
+        #: the events played so far: (time s, kind, new gap m or None when skipped)
+        self.events_log: list[tuple[float, str, float | None]] = []
         m = self.n_ticks // self._every + 1
         self._log = np.zeros((len(_COLUMNS), m))
         self._k = 0
@@ -197,8 +223,65 @@ class World:
         self.tick += 1
         self.t_s = self.tick * self.cfg.plant.dt_s
         i = min(self.tick, self.n_ticks)
-        self.v_lead_mps = self._v_lead[i]
-        self.a_lead_mps2 = self._a_lead[i]
+        if self._lead_mode == "profile":
+            self.v_lead_mps = self._v_lead[i]
+            self.a_lead_mps2 = self._a_lead[i]
+        elif self._lead_mode == "track":
+            self._track(i)
+        else:  # free road: nothing in sight
+            car.gap_m = FREE_GAP_M
+            self.v_lead_mps = car.v_mps
+            self.a_lead_mps2 = 0.0
+        while self._events and self._events[0].t_s <= self.t_s + 1e-9:
+            self._play(self._events.pop(0), i)
+
+    @property
+    def lead_present(self) -> bool:
+        """A vehicle is in sight ahead (False on a free road)."""
+        return self._lead_mode != "none"
+
+    def _track(self, i: int) -> None:
+        """The lead after an event: holds its speed, then rejoins the flow (tick ``i``)."""
+        dt = self.cfg.plant.dt_s
+        target = self._hold_v if self.t_s < self._hold_until else self._v_lead[i]
+        lo, hi = REJOIN_ACCEL_MPS2
+        a = min(max((target - self.v_lead_mps) / REJOIN_TAU_S, lo), hi)
+        v = self.v_lead_mps + a * dt
+        if v <= 0.0:
+            v, a = 0.0, 0.0
+        self.v_lead_mps = v
+        self.a_lead_mps2 = a
+
+    def _play(self, ev: LeadEvent, i: int) -> None:
+        """Switch the tracked vehicle as ``ev`` says (skipped when a cutter does not fit)."""
+        car = self.plant
+        v_ego = car.v_mps
+        if ev.kind == "lead_loss":
+            self._lead_mode = "none"
+            car.gap_m = FREE_GAP_M
+            self.v_lead_mps, self.a_lead_mps2 = v_ego, 0.0
+            self.events_log.append((self.t_s, ev.kind, None))
+            return
+        present = self._lead_mode != "none"
+        if ev.kind == "cut_in":
+            gap = cut_in_gap_m(ev, v_ego, car.gap_m) if present else None
+            if gap is None:
+                self.events_log.append((self.t_s, ev.kind, None))
+                return
+        elif ev.kind == "cut_out":
+            if not present:
+                self.events_log.append((self.t_s, ev.kind, None))
+                return
+            gap = reveal_gap_m(ev, v_ego, car.gap_m)
+        else:  # lead_appear
+            gap = ev.gap_m + ev.gap_thw_s * v_ego
+        v_new = max(v_ego + ev.v_mps, 0.0) if ev.v_relative else ev.v_mps
+        car.gap_m = gap
+        self._lead_mode = "track"
+        self.v_lead_mps, self.a_lead_mps2 = v_new, 0.0
+        self._hold_v, self._hold_until = v_new, self.t_s + ev.hold_s
+        self.radar_blank_until = self.t_s + ev.dropout_s
+        self.events_log.append((self.t_s, ev.kind, gap))
 
     def log(self) -> WorldLog:
         """The samples logged so far."""

@@ -23,7 +23,7 @@ from ecu.buslog.live import LIVE_FLUSH_S
 from ecu.buslog.sinks import Sink
 from ecu.buslog.writer import CanLogWriter
 from ecu.config import ConfigError, EcuConfig
-from ecu.controller import ControllerParams
+from ecu.controller import ControllerParams, RoadParams
 from pacc.vocab.dgpt import Dgpt, SafetyBounds
 
 __all__ = [
@@ -58,6 +58,8 @@ def config_from_json(text: str | bytes) -> EcuConfig:
         ctl = dict(d.pop("controller"))
         for k in ("kp", "ki", "kd"):
             ctl[k] = _table(ctl[k])
+        if "road" in ctl:  # recordings before issue 21 have none: the defaults
+            ctl["road"] = RoadParams(**ctl["road"])
         return EcuConfig(
             **{k: v for k, v in d.items() if k not in ("adaptation_params", "bounds")},
             adaptation_params=AdaptationParams(**d["adaptation_params"]),

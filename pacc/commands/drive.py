@@ -1,7 +1,8 @@
 """``pacc drive``: the ECU node and the simulator in one process, lockstep, one virtual bus.
 
     pacc drive --manual --scenario manual1 --driver d2 --seed 1 --log trip.mcap
-    pacc drive --scenario B --driver d3 --controller predefined|predefined+oa|irl|irl+oa
+    pacc drive --scenario B|A|cutin|cutout|leadloss|stopgo|C|FILE.csv --driver d3
+               --controller predefined|predefined+oa|irl|irl+oa
                [--profile DGPT.json] [--seed N] [--faults SPEC] [--log run.mcap]
                [--can-log bus.mcap]
                [--adaptation-mode paper|timegap]
@@ -45,7 +46,7 @@ from pacc.vocab.dgpt import Dgpt
 from pacc.vocab.dgpt_file import load_dgpt
 from pacc.vocab.triplog import TripLogError
 from pacc.vocab.triplog_file import write_trip
-from sim_bus.drivers import DriverParams, load_driver
+from sim_bus.drivers import CONDITION_FACTORS, DriverParams, load_driver
 from sim_bus.errors import SimError
 from sim_bus.faults import parse_faults
 from sim_bus.scenarios import shorten
@@ -85,6 +86,7 @@ def format_result(r: DriveResult) -> str:
     """The human-readable report printed by ``pacc drive``."""
     m = r.metrics
     c = r.config
+    safety = r.log.safety()
     col = f"1 at t = {r.collision_t_s:.2f} s" if r.collision else "0"
     lines = [
         f"drive: scenario {c.scenario}, driver {c.driver_id}, controller {c.controller}"
@@ -99,6 +101,8 @@ def format_result(r: DriveResult) -> str:
         f"  NIM            {_fig(m.nim_per_min, '7.2f', ' /min')} ({m.press_onsets} presses)",
         f"  min gap        {m.min_gap_m:7.2f} m",
         f"  min TTC        {m.min_ttc_s:7.2f} s",
+        f"  TTC < 2 s      {safety.below_own_s:7.2f} s under the ACC, "
+        f"{safety.below_override_s:.2f} s while the driver's accelerator overrode it",
         f"  RMS jerk       {m.rms_jerk_mps3:7.3f} m/s^3",
         f"  gap error      {m.gap_error_mean_m:7.2f} m mean, {m.gap_error_rms_m:.2f} m RMS "
         "(vs. the driver's preference)",
@@ -111,6 +115,14 @@ def format_result(r: DriveResult) -> str:
     fault_s, entries = fault_time(r.log.t_s, r.log.acc_state)
     if c.faults or fault_s > 0:
         lines.append(f"  ACC FAULT      {fault_s:7.1f} s   ({entries} time(s) entered)")
+    if r.road_events:
+        played = ", ".join(
+            f"{kind} at {t:.0f} s" + (f" ({gap:.1f} m)" if gap is not None else " (skipped)")
+            for t, kind, gap in r.road_events
+            if gap is not None or kind != "lead_loss"
+        )
+        losses = sum(1 for _, kind, _ in r.road_events if kind == "lead_loss")
+        lines.append(f"  road events    {played}" + (f"; {losses} lead loss(es)" if losses else ""))
     return "\n".join(lines)
 
 
@@ -123,7 +135,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--scenario",
         default="B",
-        help="A, B, manual1..manual4 or a CSV of t_s,v_lead_mps (default B)",
+        help="A, B, manual1..manual4, a road scenario (cutin, cutout, leadloss, stopgo, C: "
+        "mixed traffic) or a CSV of t_s,v_lead_mps (default B)",
     )
     p.add_argument("--driver", default="d1", help="d1..d5 or a driver .toml/.json (default d1)")
     p.add_argument("--controller", default="predefined", choices=CONTROLLERS)
@@ -160,6 +173,13 @@ def _parser() -> argparse.ArgumentParser:
         type=number(0.1, 10.0),
         default=1.0,
         help="multiply the driver's preference, e.g. 1.2 for rain (default 1)",
+    )
+    p.add_argument(
+        "--condition",
+        choices=sorted(CONDITION_FACTORS),
+        default="dry",
+        help="driving condition: wet or night lengthen the driver's preference "
+        "(docs/drivers.md; multiplies --condition-factor)",
     )
     p.add_argument(
         "--cache", type=Path, help="cache folder of learned IRL tables (default ~/.cache/pacc)"
@@ -246,7 +266,7 @@ def main(argv: list[str] | None = None) -> int:
         return _manual(args)
     try:
         base = load_driver(args.driver)
-        driver = with_condition(base, args.condition_factor)
+        driver = with_condition(base, args.condition_factor * CONDITION_FACTORS[args.condition])
         parse_faults(args.faults)
         if args.duration is not None and not (args.duration > 0):
             raise SimError("--duration must be > 0")

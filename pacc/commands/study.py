@@ -140,6 +140,21 @@ def _parser() -> argparse.ArgumentParser:
         metavar="DRIVES_CSV",
         help="with --hil: a synthetic study's drives.csv, its averages put beside the people's",
     )
+    p.add_argument(
+        "--mismatch",
+        type=number(0.0, 10.0),
+        default=0.0,
+        metavar="S",
+        help="with --population: drawn drivers want under ACC a time gap longer by S times "
+        "a per-driver offset from the prior N(0.3, 0.3) s (docs/drivers.md; default 0)",
+    )
+    p.add_argument(
+        "--trip-shift",
+        type=number(0.0, 5.0),
+        default=0.0,
+        metavar="SD",
+        help="with --population: each trip shifts a driver's headway by N(0, SD) s",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     add_network_arguments(p)
     return p
@@ -178,6 +193,8 @@ def main(argv: list[str] | None = None) -> int:
         scheduler=args.scheduler,
         population=args.population,
         bus=args.bus,
+        mismatch=args.mismatch,
+        trip_shift_s=args.trip_shift,
     )
     try:
         codec_of(args)  # a DBC without its binding, a binding that does not fit: refused now

@@ -116,7 +116,7 @@ class HilDrive:
             bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
             ecu_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
             self._own_buses = [bus, ecu_bus]
-            self.ecu = _ecu_node(cfg, participant, table, profile.name, self.segments.append)
+            self.ecu = _ecu_node(cfg, participant, table, profile, self.segments.append)
             self.rt = EcuRuntime(ecu_bus, self.ecu, codec=self.codec)
             if can_log is not None:
                 self.recorder = _drive_recorder(

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from ecu.adaptation import AdaptationParams
 from sim_bus.drivers import DriverParams, load_driver
 from sim_bus.errors import SimError
+from sim_bus.events import ROAD_SCENARIOS
 from sim_bus.scenarios import canonical_profiles
 from sim_bus.study.drive import BUSES, CONTROLLERS
 
@@ -49,6 +50,8 @@ class StudyConfig:
     scheduler: str | None = None
     population: int = 0
     bus: str = "lockstep"  # the python-can interface of every drive (sim_bus.study.drive.BUSES)
+    mismatch: float = 0.0  # manual-vs-ACC mismatch scale of drawn drivers (0: none)
+    trip_shift_s: float = 0.0  # between-trip shift of drawn drivers' headway, sd in s
 
 
 def _validate_cloud(cfg: StudyConfig) -> None:
@@ -81,9 +84,13 @@ def validate_drives(cfg: StudyConfig) -> None:
         raise SimError("--duration must be > 0")
     if cfg.seed < 0:
         raise SimError(f"--seed must be >= 0, got {cfg.seed}")
-    unknown = [s for s in cfg.scenarios if s not in canonical_profiles(cfg.seed)]
+    known = set(canonical_profiles(cfg.seed)) | set(ROAD_SCENARIOS)
+    unknown = [s for s in cfg.scenarios if s not in known]
     if unknown:
-        raise SimError(f"unknown scenarios {unknown}: A, B or manual1..manual4")
+        raise SimError(
+            f"unknown scenarios {unknown}: A, B, manual1..manual4 or a road scenario "
+            f"({', '.join(ROAD_SCENARIOS)})"
+        )
 
 
 def validate(cfg: StudyConfig) -> dict[str, DriverParams]:

@@ -39,6 +39,7 @@ from pacc.vocab.pedals import PedalScale
 from pacc.vocab.triplog import Trip
 from sim_bus.drivers import GAP_SETTING_CODE, DriverParams
 from sim_bus.errors import DriveError, DriverError, ScenarioError
+from sim_bus.events import ROAD_SCENARIOS, road_profile
 from sim_bus.faults import fault_rng, parse_faults
 from sim_bus.metrics import DriveMetrics
 from sim_bus.node import SimNode
@@ -110,6 +111,8 @@ class DriveResult:
     extra: dict[str, Any] = field(default_factory=dict)
     #: UTC of simulated time 0 (ISO 8601): when the drive ran
     start_utc: str = ""
+    #: the road scenario's events as played: (time s, kind, new gap m or None if skipped)
+    road_events: list[tuple[float, str, float | None]] = field(default_factory=list)
 
     @property
     def realtime_factor(self) -> float:
@@ -134,13 +137,17 @@ def predefined_table(driver: DriverParams) -> Dgpt:
 
 
 def resolve_profile(scenario: str, seed: int) -> LeadProfile:
-    """A canonical profile name (A, B, manual1..4) or a CSV file of ``t_s,v_lead_mps``."""
+    """A canonical profile name (A, B, manual1..4), a road scenario (cutin, cutout, leadloss,
+    stopgo, C: :mod:`sim_bus.events`) or a CSV file of ``t_s,v_lead_mps``."""
     if scenario.lower().endswith(".csv"):
         return load_profile_csv(Path(scenario))
+    if scenario in ROAD_SCENARIOS:
+        return road_profile(scenario, seed)
     profiles = canonical_profiles(seed)
     if scenario not in profiles:
         raise ScenarioError(
-            f"unknown scenario {scenario!r}: one of {sorted(profiles)} or a .csv file"
+            f"unknown scenario {scenario!r}: one of {sorted(profiles) + list(ROAD_SCENARIOS)} "
+            "or a .csv file"
         )
     return profiles[scenario]
 
@@ -181,7 +188,7 @@ def run_drive(
     rng = fault_rng(cfg.seed)
     world = World(driver, prof, cfg.seed, WorldConfig(engage_s=cfg.engage_s))
     channel = record_channel or f"pacc-drive-{id(cfg):x}-{next(_channel_ids)}"
-    ecu = _ecu_node(cfg, driver, table, prof.name, takeover_sink)
+    ecu = _ecu_node(cfg, driver, table, prof, takeover_sink)
     sim_bus = _open_bus(bus, channel)
     ecu_bus = _open_bus(bus, channel)
     base = TimeBase(time.time_ns() if utc_start_ns is None else utc_start_ns, 0.0)
@@ -229,6 +236,7 @@ def run_drive(
         final_table=ecu.table,
         adaptation_events=events,
         start_utc=base.iso(0.0),
+        road_events=list(world.events_log),
         extra={"can_log_error": can_log_error} if can_log_error else {},
     )
 
@@ -292,14 +300,16 @@ def record_world(recorder: CanLogWriter, log: WorldLog) -> None:
 
 
 def _ecu_node(
-    cfg: DriveConfig, driver: DriverParams, table: Dgpt, scenario: str, takeover_sink: Any
+    cfg: DriveConfig, driver: DriverParams, table: Dgpt, prof: LeadProfile, takeover_sink: Any
 ) -> EcuNode:
-    """The ECU of a drive: ``cfg``'s controller and adaptation, the study's set speed."""
+    """The ECU of a drive: ``cfg``'s controller and adaptation; the road's set speed, else
+    the study's (above every lead speed)."""
+    scenario = prof.name
     ecu_cfg = EcuConfig(
         adaptation=cfg.controller.endswith("+oa"),
         brake_mode=cfg.brake_mode,
         adaptation_params=cfg.adaptation or AdaptationParams(),
-        set_speed_mps=SET_SPEED_MPS,
+        set_speed_mps=prof.set_speed_mps or SET_SPEED_MPS,
         trip_meta={
             "driver_id": driver.driver_id,
             "seed": cfg.seed,

@@ -96,6 +96,8 @@ def fingerprint(cfg: StudyConfig) -> dict[str, Any]:
         "trials": cfg.trials,
         "duration_s": cfg.duration_s,
         "adaptation": None if cfg.adaptation is None else dataclasses.asdict(cfg.adaptation),
+        **({"mismatch": cfg.mismatch} if cfg.mismatch else {}),
+        **({"trip_shift_s": cfg.trip_shift_s} if cfg.trip_shift_s else {}),
     }
 
 
@@ -108,7 +110,9 @@ def validate_population(cfg: StudyConfig) -> tuple[DriverParams, ...]:
         raise SimError("--population learns in-process: not with --cloud or --incremental")
     if cfg.can_logs:
         raise SimError("--population keeps no logs: not with --can-logs")
-    return draw_population(cfg.population, cfg.seed)
+    return draw_population(
+        cfg.population, cfg.seed, mismatch=cfg.mismatch, trip_shift_sd_s=cfg.trip_shift_s
+    )
 
 
 def read_done(path: Path, fp: dict[str, Any]) -> dict[str, list[dict[str, Any]]]:

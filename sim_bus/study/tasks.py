@@ -20,8 +20,8 @@ from pacc.vocab.dgpt import Dgpt
 from pacc.vocab.triplog import Trip
 from pacc.vocab.triplog_file import write_trip
 from sim_bus.drivers import DriverParams
-from sim_bus.scenarios import LeadProfile, canonical_profiles
-from sim_bus.study.drive import DriveConfig, log_to_trip, run_drive
+from sim_bus.scenarios import LeadProfile
+from sim_bus.study.drive import DriveConfig, log_to_trip, resolve_profile, run_drive
 from sim_bus.study.irl_table import manual_trips
 
 
@@ -63,7 +63,7 @@ def run_job(job: DriveJob, profile: LeadProfile | None = None) -> dict[str, Any]
         binding=job.binding,
     )
     if profile is None:
-        profile = canonical_profiles(job.study_seed)[job.scenario]
+        profile = resolve_profile(job.scenario, job.study_seed)
     can_log = Path(job.can_log_path) if job.can_log_path is not None else None
     result = run_drive(cfg, driver, job.table, profile, can_log=can_log, bus=job.bus)
     if job.log_path is not None:
@@ -139,7 +139,7 @@ def split(jobs: Sequence[DriveJob]) -> tuple[StudyData, list[DriveTask]]:
             table_list.append(job.table)
         key = (job.study_seed, job.scenario)
         if key not in profiles:
-            profiles[key] = canonical_profiles(job.study_seed)[job.scenario]
+            profiles[key] = resolve_profile(job.scenario, job.study_seed)
         tasks.append(
             DriveTask(
                 drivers[id(job.driver)],

@@ -493,4 +493,6 @@ def test_closing_floor_is_the_standstill_bound_when_the_lead_speed_reads_negativ
         mem=ControlMemory(prev_accel_mps2=-2.0),
         dt_s=DT,
     )
-    assert cmd.active and cmd.accel_mps2 == pytest.approx(-2.0)
+    # at least the closing limit against 2 m (-2.0); since issue 21 the stop law behind a
+    # standing lead (0.5 s of closing speed to spare) may ask for more, never for less
+    assert cmd.active and cmd.accel_mps2 <= -2.0 + 1e-6

@@ -90,3 +90,47 @@ def test_brake_lights_end_a_press_and_keep_one_from_starting() -> None:
         a.step(v_lead, v_lead, 60.0, AccState.ACTIVE)
         assert not a.accel_pressed
         assert a._far_t == 0.0  # the "too far" patience does not even start to run
+
+
+def _press_length(revision: int, pedal: str, seed: int) -> float:
+    """How long the first press lasts under constant inputs (s)."""
+    p = DriverParams(
+        "r",
+        standstill_m=2.0,
+        headway_speeds_mps=(10.0, 30.0),
+        headway_s=(1.0, 1.0),
+        comfort_band_min_m=1.0,
+        accel_noise_mps2=1.5,
+        patience_far_s=0.5,
+        press_max_s=2.0,
+        ttc_brake_s=3.0,
+        revision=revision,
+    )
+    a = DriverAgent(p, np.random.default_rng(seed), dt_s=DT)
+    v, v_lead, gap = (20.0, 20.0, 60.0) if pedal == "accel" else (20.0, 15.0, 12.0)
+    t, started = 0.0, -1.0
+    while t < 10.0:
+        a.step(v, v_lead, gap, AccState.ACTIVE if started < 0 else AccState.OVERRIDE)
+        t += DT
+        pressed = a.accel_pressed if pedal == "accel" else a.brake_pressed
+        if pressed and started < 0:
+            started = t
+        if started >= 0 and not pressed:
+            return t - started
+    return t - started
+
+
+def test_a_brake_press_lasts_while_the_gap_closes_fast_revision_2() -> None:
+    """Closing at 5 m/s, 12 m behind (TTC 2.4 s below the driver's 3 s): revision 1 lets go
+    at press_max_s (2 s) although nothing changed; revision 2 holds the brake."""
+    assert _press_length(1, "brake", 0) <= 2.0 + 2 * DT
+    assert _press_length(2, "brake", 0) > 5.0
+
+
+def test_control_noise_alone_does_not_end_an_accelerator_press_revision_2() -> None:
+    """Far behind a steady lead the driver's following model asks for more speed: with
+    1.5 m/s^2 of control noise, revision 1 ends some presses early (the noise makes the
+    acceleration negative), revision 2 holds each to press_max_s."""
+    early = [_press_length(1, "accel", s) < 1.5 for s in range(8)]
+    held = [_press_length(2, "accel", s) >= 2.0 - 2 * DT for s in range(8)]
+    assert any(early) and all(held)
