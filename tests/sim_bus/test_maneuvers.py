@@ -75,7 +75,7 @@ def test_cut_in_switches_target_without_a_jerk_spike() -> None:
         20.0, "cut_in", gap_m=2.0, gap_thw_s=0.9, v_mps=1.0, v_relative=True, hold_s=3.0
     )
     channel = "maneuver-cutin"
-    listener = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
+    listener = can.Bus(interface="lockstep", channel=channel)  # the drive's bus
     try:
         r = _drive(_steady(20.0, 45.0, (cut,)), channel=channel)
         radar = []
