@@ -245,8 +245,9 @@ class BusIO:
 
     # -- send ----------------------------------------------------------------------------
 
-    def send(self, t_s: float, out: NodeOutputs, *, status: bool) -> None:
-        """Send ACC_Command (and ACC_Status if ``status``) stamped ``t_s``; never raises: an
+    def send(self, t_s: float, out: NodeOutputs, *, status: bool) -> NodeOutputs:
+        """Send ACC_Command (and ACC_Status if ``status``) stamped ``t_s``; the outputs as
+        sent (after the safety check: ``out`` itself when it passed). Never raises: an
         encode or bus failure is logged and counted in :attr:`send_errors`."""
         send, pack = self._send, self.outbox.pack_part
         out = self.safety.check(out, t_s)  # the independent check (ecu.safety), last word
@@ -261,6 +262,7 @@ class BusIO:
         except (EncodeError, can.CanError) as exc:
             self.send_errors += 1
             log.error("t=%.2f send failed: %s", t_s, exc)
+        return out
 
     def _send(self, msg: can.Message) -> None:
         self.bus.send(msg)

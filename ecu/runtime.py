@@ -230,9 +230,9 @@ class EcuRuntime:
             self.table_offer.apply(self.node)  # not under another driver's HMI profile
         out = self.node.step(inputs, t)
         self.last_outputs = out
-        self.io.send(t, out, status=k % self._status_every == 0)
+        sent = self.io.send(t, out, status=k % self._status_every == 0)
         if self.recorder is not None:
-            self.recorder.cycle(t, inputs, out, k)
+            self.recorder.cycle(t, inputs, sent, k)  # what went on the bus, safety-checked
         self.cycles += 1
         for text in out.events:
             log.debug("t=%.2f %s", t, text)

@@ -201,8 +201,9 @@ def test_the_port_sends_only_vetted_commands_and_counts_the_stops(
         outputs(-9.0),  # outside the envelope and faster than the jerk limit
         outputs(0.0, state=AccState.OVERRIDE),  # not engaged
     ]
-    for k, out in enumerate(sent):
-        io.send(1.0 + k * DT, out, status=False)
+    returned = [io.send(1.0 + k * DT, out, status=False) for k, out in enumerate(sent)]
+    assert returned[0] is sent[0]  # a lawful output passes as itself
+    assert returned[2].accel_request_mps2 == 0.0  # what went out, for the recorder to log
     frames = []
     while (msg := rx.recv(0.1)) is not None:
         d = codec.decode(msg.arbitration_id, msg.data)
