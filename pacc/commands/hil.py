@@ -18,6 +18,7 @@ import can
 from cloud_sync.errors import CloudSyncError
 from dbc.errors import DbcError
 from ecu import EcuError
+from ecu.buslog.live import add_foxglove_argument
 from pacc.vocab import FormatError
 from pacc.vocab.dgpt_file import load_dgpt
 from sim_bus.errors import SimError
@@ -76,6 +77,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--trust", type=Path, help="with --cloud: the cloud's public key (PEM)")
     p.add_argument("-i", "--interface", help="python-can interface of a separate pacc ecu")
     p.add_argument("-c", "--channel", help="python-can channel of a separate pacc ecu")
+    add_foxglove_argument(p)
     return p
 
 
@@ -124,6 +126,7 @@ def session_of(args: argparse.Namespace) -> Session:
         bus=_bus_factory(args),  # type: ignore[arg-type]
         setting=args.setting,
         table=args.table if args.protocol is None else None,
+        foxglove=args.foxglove,
     )
     return Session(cfg, plan)
 

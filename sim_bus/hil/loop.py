@@ -20,7 +20,7 @@ import itertools
 import math
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -30,6 +30,7 @@ import numpy as np
 
 from ecu import EcuError
 from ecu.buslog.format import TimeBase
+from ecu.buslog.sinks import Sink
 from ecu.buslog.writer import CanLogWriter
 from ecu.node import EcuNode
 from ecu.runtime import EcuRuntime
@@ -94,6 +95,7 @@ class HilDrive:
         bus: can.BusABC | None = None,
         can_log: Path | None = None,
         record_channel: str | None = None,
+        live: Sequence[Sink] = (),
     ) -> None:
         self.cfg = cfg
         self.participant = participant
@@ -118,9 +120,9 @@ class HilDrive:
             self._own_buses = [bus, ecu_bus]
             self.ecu = _ecu_node(cfg, participant, table, profile, self.segments.append)
             self.rt = EcuRuntime(ecu_bus, self.ecu, codec=self.codec)
-            if can_log is not None:
+            if can_log is not None or live:
                 self.recorder = _drive_recorder(
-                    can_log, cfg, self.ecu, table, self.codec, self.base
+                    can_log, cfg, self.ecu, table, self.codec, self.base, live
                 )
                 self.rt.record_to(self.recorder)
         else:

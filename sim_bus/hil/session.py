@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import logging
 import math
 import threading
 import time
@@ -26,6 +27,7 @@ from typing import Any
 
 import can
 
+from ecu.buslog.live import live_sinks
 from pacc.vocab.dgpt import Dgpt
 from pacc.vocab.dgpt_file import load_dgpt, save_dgpt
 from pacc.vocab.triplog import Trip
@@ -44,6 +46,8 @@ from sim_bus.study.loop import StudyCloud
 MANIFEST = "manifest.json"
 #: the synthetic driver whose body a participant borrows (start gap, predefined setting)
 BODY = "d3"
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -67,6 +71,8 @@ class SessionConfig:
     bus: Callable[[], can.BusABC] | None = None
     setting: PredefinedSetting = "medium"
     table: Path | None = None  # the IRL table of a free drive (the protocol learns its own)
+    #: ``HOST:PORT`` of a Foxglove live view of each drive's recording (in-process ECU only)
+    foxglove: str | None = None
 
 
 class Session:
@@ -282,6 +288,7 @@ class Session:
             acc=step.controller is not None,
             bus=bus,
             can_log=None if bus is not None else can_log,
+            live=live_sinks(self.cfg.foxglove, log.info) if bus is None else [],
         )
 
     def _start_drive(self, step: Step) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import json
 import threading
 import time
@@ -11,6 +12,7 @@ import can
 import httpx
 import pytest
 
+from ecu.buslog.live import FoxgloveSink
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
 from pacc.commands import hil as hil_cmd
@@ -154,3 +156,32 @@ def test_a_separate_ecu_on_the_bus_drives_the_car(tmp_path: Path) -> None:
         rt.stop()
         ecu.join(5.0)
         ecu_bus.shutdown()
+
+
+def test_a_live_view_streams_each_drive(tmp_path: Path) -> None:
+    """``pacc hil --foxglove``: each drive's recording is also served to Foxglove; a
+    WebSocket client sees the decoded channels advertised while the person drives."""
+    websockets = pytest.importorskip("websockets")
+    cfg = SessionConfig("P08", "free", tmp_path, short_s=3.0, lockstep=True, foxglove="127.0.0.1:0")
+    s = Session(cfg, free_plan("B", "predefined"))
+    try:
+        s.handle({"t": "action", "name": "start"})
+        assert s.drive is not None and s.drive.recorder is not None
+        ports = [k.port for k in s.drive.recorder.sinks if isinstance(k, FoxgloveSink)]
+        assert len(ports) == 1
+
+        async def advertised() -> set[str]:
+            async with websockets.connect(
+                f"ws://127.0.0.1:{ports[0]}", subprotocols=["foxglove.sdk.v1"]
+            ) as ws:
+                topics: set[str] = set()
+                while "/can/ESC_Speed" not in topics:
+                    msg = json.loads(await asyncio.wait_for(ws.recv(), 10))
+                    if msg["op"] == "advertise":
+                        topics |= {c["topic"] for c in msg["channels"]}
+                return topics
+
+        s.handle({"t": "step", "n": 100})  # one second of driving: the recorder flushes
+        assert "/can/ESC_Speed" in asyncio.run(advertised())
+    finally:
+        s.close()
