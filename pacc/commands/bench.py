@@ -19,6 +19,7 @@ from pathlib import Path
 
 from cloud_sync.errors import CloudSyncError
 from ecu import EcuError
+from pacc.commands._args import CommandParser, integer, number
 from pacc.vocab import FormatError
 from sim_bus.errors import SimError
 from sim_bus.study.bench.suite import (
@@ -31,14 +32,23 @@ from sim_bus.study.bench.suite import (
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="pacc bench", description=__doc__.split("\n\n")[0])
-    p.add_argument("--seeds", type=int, default=2, metavar="K", help="fresh population seeds (2)")
+    p = CommandParser(prog="pacc bench", description=__doc__.split("\n\n")[0])
+    p.add_argument(
+        "--seeds", type=integer(1, 1000), default=2, metavar="K", help="fresh population seeds (2)"
+    )
     p.add_argument("--seed-list", metavar="S1,S2", help="these population seeds instead")
-    p.add_argument("--drivers-per-seed", type=int, default=3, metavar="N", help="default 3")
+    p.add_argument(
+        "--drivers-per-seed", type=integer(1, 100_000), default=3, metavar="N", help="default 3"
+    )
     p.add_argument("--no-builtin", action="store_true", help="leave d1..d5 out")
     p.add_argument("--scenarios", default="B", help="comma-separated (default B)")
-    p.add_argument("--duration", type=float, default=120.0, help="s per drive (default 120)")
-    p.add_argument("--trials", type=int, default=1)
+    p.add_argument(
+        "--duration",
+        type=number(0.0, 1e5, lo_open=True),
+        default=120.0,
+        help="s per drive (default 120)",
+    )
+    p.add_argument("--trials", type=integer(1, 1000), default=1)
     p.add_argument(
         "--csv",
         action="append",
@@ -55,7 +65,7 @@ def _parser() -> argparse.ArgumentParser:
         + ")",
     )
     p.add_argument("--out", type=Path, default=Path("out/bench"))
-    p.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1))
+    p.add_argument("--workers", type=integer(1, 512), default=min(2, os.cpu_count() or 1))
     p.add_argument("--scheduler", default="", metavar="local|tcp://HOST:8786")
     p.add_argument("-q", "--quiet", action="store_true")
     return p

@@ -21,11 +21,12 @@ from pathlib import Path
 
 from dbc.errors import DbcError
 from dbc.network import add_network_arguments, codec_of
+from pacc.commands._args import CommandParser, number
 from pacc.errors import PaccError
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = CommandParser(
         prog="pacc demos", description="demonstrations for the cloud from real bus logs"
     )
     sub = p.add_subparsers(dest="action", required=True)
@@ -39,7 +40,7 @@ def _parser() -> argparse.ArgumentParser:
     ex.add_argument("--driver", default="guest", help="driver id of the trips (default guest)")
     ex.add_argument("--condition", default="default", help="condition (default 'default')")
     ex.add_argument(
-        "--min-s", type=float, default=10.0, help="shortest stretch kept, s (default 10)"
+        "--min-s", type=number(0.0, 1e6), default=10.0, help="shortest stretch kept, s (default 10)"
     )
     add_network_arguments(ex)
     return p

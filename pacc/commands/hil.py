@@ -19,6 +19,7 @@ from cloud_sync.errors import CloudSyncError
 from dbc.errors import DbcError
 from ecu import EcuError
 from ecu.buslog.live import add_foxglove_argument
+from pacc.commands._args import CommandParser, integer, number
 from pacc.vocab import FormatError
 from pacc.vocab.dgpt_file import load_dgpt
 from sim_bus.errors import SimError
@@ -31,17 +32,19 @@ DEFAULT_PORT = 8765
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = CommandParser(
         prog="pacc hil", description="a person drives in a browser page against the ECU"
     )
-    p.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"(default {DEFAULT_PORT})")
+    p.add_argument(
+        "--port", type=integer(0, 65535), default=DEFAULT_PORT, help=f"(default {DEFAULT_PORT})"
+    )
     p.add_argument("--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1)")
     p.add_argument("--participant", help="participant id with a number, e.g. P01")
     p.add_argument("--protocol", choices=("paper",), help="run the paper's study protocol")
     p.add_argument("--out", type=Path, default=Path("sessions"), help="session folders")
     p.add_argument(
         "--incremental",
-        type=int,
+        type=integer(0, 100),
         default=0,
         metavar="N",
         help="protocol: then N IRL+OA drives on B, the cloud fine-tuning between them",
@@ -64,8 +67,10 @@ def _parser() -> argparse.ArgumentParser:
         type=Path,
         help="free drive with irl/irl+oa: the DGPT file (e.g. tables/irl.json)",
     )
-    p.add_argument("--seed", type=int, default=0, help="scenario and plant-noise seed")
-    p.add_argument("--short", type=float, metavar="S", help="shorten every drive to S seconds")
+    p.add_argument("--seed", type=integer(0), default=0, help="scenario and plant-noise seed")
+    p.add_argument(
+        "--short", type=number(1.0, 1e6), metavar="S", help="shorten every drive to S seconds"
+    )
     p.add_argument(
         "--lockstep",
         action="store_true",

@@ -31,7 +31,7 @@ from dbc.errors import DbcError
 from ecu import EcuError
 from ecu.buslog.format import INPUTS_TOPIC, OUTPUTS_TOPIC, WORLD_TOPIC, CanLogError
 from ecu.buslog.reader import CanLog
-from pacc.commands._args import integer
+from pacc.commands._args import CommandParser, integer
 from pacc.vocab import FormatError
 from pacc.vocab.acc_state import AccState
 from pacc.vocab.triplog import Trip
@@ -238,7 +238,7 @@ def load(path: Path, dbc: str | None, warn: Any) -> tuple[CanLog | None, Trip | 
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = CommandParser(
         prog="pacc plot",
         description="plot one recorded drive: speed, gap vs desired gap, pedals, ACC request "
         "and state over time",

@@ -9,11 +9,11 @@ Lists the built-ins and every installed entry point of ``pacc.controllers``,
 
 from __future__ import annotations
 
-import argparse
 import sys
 
 from cloud_sync.learners import BUILTIN_LEARNERS
 from ecu.methods import BUILTIN_ADAPTATIONS, BUILTIN_CONTROLLERS
+from pacc.commands._args import CommandParser
 from pacc.vocab.plugins import GROUPS, PluginError, installed, load_target
 
 BUILTINS = dict(
@@ -23,7 +23,7 @@ BUILTINS = dict(
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc plugins``; returns the exit status."""
-    p = argparse.ArgumentParser(prog="pacc plugins", description=__doc__.split("\n\n")[0])
+    p = CommandParser(prog="pacc plugins", description=__doc__.split("\n\n")[0])
     p.add_argument("--check", action="store_true", help="load every method, report failures")
     args = p.parse_args(argv)
     failed = 0

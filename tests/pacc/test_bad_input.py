@@ -16,6 +16,7 @@ import contextlib
 import hashlib
 import io
 import os
+import re
 import shutil
 import tempfile
 import traceback
@@ -68,6 +69,17 @@ NUMERIC_OPTIONS: list[tuple[list[str], str, tuple[str, ...]]] = [
      "--takeover-weight", NUMBERS),
     (["plot", "in/rec.mcap", "-o", "out/p.png"], "--dpi", (*NUMBERS, "0")),
     (["replay", "in/rec.mcap", "-i", "virtual", "-c", "bad"], "-b", NUMBERS),
+    (["hil", "--out", "out/h"], "--port", (*NUMBERS, "65536")),
+    (["hil", "--out", "out/h"], "--seed", NUMBERS),
+    (["hil", "--out", "out/h"], "--short", (*NUMBERS, "0")),
+    (["hil", "--out", "out/h", "--participant", "P01", "--protocol", "paper"],
+     "--incremental", NUMBERS),
+    (["bench", "--out", "out/b"], "--seeds", (*NUMBERS, "0")),
+    (["bench", "--out", "out/b"], "--drivers-per-seed", (*NUMBERS, "0")),
+    (["bench", "--out", "out/b"], "--duration", (*NUMBERS, "0")),
+    (["bench", "--out", "out/b"], "--trials", (*NUMBERS, "0")),
+    (["bench", "--out", "out/b"], "--workers", (*NUMBERS, "0")),
+    (["demos", "extract", "in/rec.mcap", "-o", "out/t"], "--min-s", NUMBERS),
 ]  # fmt: skip
 
 BAD_FILES = ("missing", "dir", "truncated", "corrupt", "foreign")
@@ -231,7 +243,8 @@ def verdict(code: int, err: str, prog: str) -> str | None:
         return "traceback"
     if code == 0:
         return "accepted"
-    errors = [line for line in lines if line.startswith(f"{prog}: error:")]
+    # the command, or one of its own sub-commands (``pacc demos extract: error: ...``)
+    errors = [line for line in lines if re.match(rf"{re.escape(prog)}( [a-z]+)?: error:", line)]
     if len(errors) != 1:
         return f"no single error line: {lines[-3:]}"
     return None
