@@ -27,6 +27,7 @@ import numpy as np
 
 from dbc.codec import Codec, load_codec
 from dbc.endpoint import Outbox
+from dbc.schema import resting_values
 from ecu.node import EcuConfig, EcuNode, NodeInputs
 from ecu.runtime import EcuRuntime
 from pacc.vocab.dgpt import predefined
@@ -43,30 +44,9 @@ class Peers:
         self.bus = bus
         self.codec = codec if codec is not None else load_codec()
         self.outbox = Outbox(self.codec)
-        self.values: dict[str, dict[str, float]] = {
-            "ego": {"speed_mps": 20.0, "accel_mps2": 0.0, "speed_valid": 1},
-            "pedals": {
-                "accel_pedal_pct": 0.0,
-                "accel_pressed": 0,
-                "brake_pressed": 0,
-                "brake_pressure_bar": 0.0,
-            },
-            "radar": {
-                "lead_valid": 1,
-                "gap_m": 40.0,
-                "rel_speed_mps": 0.0,
-                "lead_accel_mps2": 0.0,
-                "lead_accel_valid": 1,
-            },
-            "hmi": {
-                "main_switch": 1,
-                "set": 0,
-                "resume": 0,
-                "cancel": 0,
-                "gap_setting": 2,
-                "profile_id": 0,
-            },
-        }
+        self.values: dict[str, dict[str, float]] = resting_values(
+            ego={"speed_mps": 20.0}, radar={"gap_m": 40.0}
+        )
         self._next = dict.fromkeys(PEER_ROLES, -math.inf)
 
     def set(self, role: str, **values: float) -> None:

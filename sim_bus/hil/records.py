@@ -16,17 +16,8 @@ from pacc.vocab.dgpt_file import save_dgpt
 from pacc.vocab.triplog_file import write_trip
 from sim_bus.hil.loop import DriveOutcome, HilDrive
 from sim_bus.hil.plan import Step
+from sim_bus.study.report import METRIC_FIELDS
 
-_METRIC_FIELDS = (
-    "poi_pct",
-    "nim_per_min",
-    "press_onsets",
-    "acc_on_s",
-    "min_gap_m",
-    "min_ttc_s",
-    "rms_jerk_mps3",
-    "gap_error_rms_m",
-)
 RATINGS_HEAD = ("participant", "step", "scenario", "controller", "comfort", "trust")
 
 
@@ -60,7 +51,7 @@ def write_drive(
         "controller": controller,
         "trial": 1,
         "seed": seed,
-        **{k: getattr(m, k) for k in _METRIC_FIELDS},
+        **{k: getattr(m, k) for k in METRIC_FIELDS},
         "takeovers": outcome.takeovers,
         "adaptations": outcome.adaptations,
         "collision": int(outcome.collision),

@@ -32,12 +32,8 @@ CONTROLLER_TITLES = {
 }
 SCENARIO_TITLES = {"A": "Seen (A)", "B": "Unseen (B)"}
 #: Per-drive columns of drives.csv.
-FIELDS = (
-    "driver",
-    "scenario",
-    "controller",
-    "trial",
-    "seed",
+#: a drive's metrics, in the columns of drives.csv (also a hil session's records)
+METRIC_FIELDS = (
     "poi_pct",
     "nim_per_min",
     "press_onsets",
@@ -46,6 +42,14 @@ FIELDS = (
     "min_ttc_s",
     "rms_jerk_mps3",
     "gap_error_rms_m",
+)
+FIELDS = (
+    "driver",
+    "scenario",
+    "controller",
+    "trial",
+    "seed",
+    *METRIC_FIELDS,
     "takeovers",
     "adaptations",
     "collision",
