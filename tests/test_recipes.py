@@ -292,15 +292,15 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
             ),
             short(
                 "pacc ecu -i socketcan -c vcan0 --can-log ecu.mcap --foxglove 127.0.0.1:9000",
-                "pacc ecu -i virtual -c vcan0 --can-log ecu.mcap --foxglove 127.0.0.1:0 --duration 2",
+                "pacc ecu -i virtual -c vcan0 --can-log ecu.mcap --foxglove 127.0.0.1:0 --duration 1",
                 r"foxglove: live view on ws://127\.0\.0\.1:\d+(.*\n)*bus recording: \d+ frames written to ecu\.mcap",
-                "no SocketCAN in CI: a virtual bus, a free port, 2 s",
+                "no SocketCAN in CI: a virtual bus, a free port, 1 s",
             ),
             short(
                 "pacc sim -i socketcan -c vcan0 --foxglove",
-                "pacc sim -i virtual -c vcan0 --foxglove 127.0.0.1:0 --duration 2",
+                "pacc sim -i virtual -c vcan0 --foxglove 127.0.0.1:0 --duration 1",
                 r"foxglove: live view on ws://127\.0\.0\.1:\d+(.*\n)*sim: scenario B",
-                "no SocketCAN in CI: a virtual bus, a free port, 2 s",
+                "no SocketCAN in CI: a virtual bus, a free port, 1 s",
             ),
             run("pacc export drive.mcap drive.blf", r"\d+ frames: drive\.mcap -> drive\.blf"),
             short(
@@ -324,9 +324,9 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
             short(
                 "pacc plot trips/d2_000.mcap -o trip.png",
                 "mkdir -p trips && pacc drive --manual --scenario manual1 --driver d2 "
-                "--log trips/d2_000.mcap --duration 20 && pacc plot trips/d2_000.mcap -o trip.png",
+                "--log trips/d2_000.mcap --duration 10 && pacc plot trips/d2_000.mcap -o trip.png",
                 r"log +trips/d2_000\.mcap(.*\n)*plot: trip\.png",
-                "a 20-s manual drive writes the trip log first",
+                "a 10-s manual drive writes the trip log first",
             ),
         ],
     ),
