@@ -87,10 +87,28 @@ TOYOTA_DRIVE = (
     "dbc/bindings/toyota_nodsu.binding.toml"
 )
 
+PLUGIN_DRIVE = (
+    "pacc drive --controller irl+oa --adaptation bayes --gap-controller "
+    "pacc_testplugins:TimeGapController"
+)
+#: README's study.toml: one driver, one scenario, two methods (a plug-in controller), 10-s drives
+STUDY_TOML = """trials = 1
+duration_s = 10.0
+workers = 1
+[drivers]
+builtin = ["d2"]
+[scenarios]
+names = ["B"]
+[[methods]]
+table = "predefined"
+adaptation = ["none", "bayes"]
+controller = "test-timegap"
+"""
+
 #: document -> (set-up commands run first, then one plan per printed command, in order)
 PLANS: dict[str, tuple[list[str], list[Plan]]] = {
     "README.md": (
-        ["ln -s {root}/dbc dbc"],
+        ["ln -s {root}/dbc dbc", "printf '%s' '" + STUDY_TOML + "' > study.toml"],
         [
             skip("make demo", "CI runs make test; make demo is the 7-min study (docs/study.md)"),
             skip("make test", "what CI runs"),
@@ -131,6 +149,23 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
                 "pacc hil --participant P01 --protocol paper --out sessions/",
                 "a person at a browser; tests/hil/test_protocol.py drives a shortened protocol "
                 "with a scripted participant in headless chromium",
+            ),
+            run("pacc plugins --check", r"bayes +built-in +ecu\.methods\.bayes:BayesAdaptation +ok"),
+            short(
+                PLUGIN_DRIVE,
+                PLUGIN_DRIVE + " --duration 20",
+                r"controller irl\+oa(.*\n)*  collisions     0",
+                "20 s of the 300-s drive",
+            ),
+            run("pacc study --config study.toml --out out/mine", r"2 drives in [0-9.]+ s; outputs in out/mine/"),
+            run(
+                "pacc study --config out/mine/manifest.json --out out/again",
+                r"2 drives in [0-9.]+ s; outputs in out/again/",
+            ),
+            skip(
+                "pacc bench --seeds 2 --out out/bench",
+                "a minute even shortened; tests/sim_bus/test_bench.py::"
+                "test_a_small_bench_stores_its_seeds_writes_the_board_and_resumes runs a small one",
             ),
             skip(
                 "pacc ecu -i socketcan -c vcan0 --headway 1.5 --set-speed 40 --driver d2 "
@@ -230,7 +265,7 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
         ],
     ),
     "docs/logs.md": (
-        ["ln -s {root}/dbc/pacc.dbc car.dbc"],
+        ["ln -s {root}/dbc/pacc.dbc car.dbc", "ln -s {root}/dbc/pacc.binding.toml car.binding.toml"],
         [
             short(
                 "pacc drive --scenario B --driver d2 --controller predefined+oa --seed 1 "
@@ -249,6 +284,24 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
                 r"outputs in out/study/ .*can/",
                 "one 5-s drive of the study",
             ),
+            short(
+                "pacc drive --scenario B --driver d2 --foxglove",
+                "pacc drive --scenario B --driver d2 --foxglove 127.0.0.1:0 --duration 5",
+                r"foxglove: live view on ws://127\.0\.0\.1:\d+",
+                "a free port instead of 8765, 5 s; tests/ecu/test_live.py subscribes a client",
+            ),
+            short(
+                "pacc ecu -i socketcan -c vcan0 --can-log ecu.mcap --foxglove 127.0.0.1:9000",
+                "pacc ecu -i virtual -c vcan0 --can-log ecu.mcap --foxglove 127.0.0.1:0 --duration 1",
+                r"foxglove: live view on ws://127\.0\.0\.1:\d+(.*\n)*bus recording: \d+ frames written to ecu\.mcap",
+                "no SocketCAN in CI: a virtual bus, a free port, 1 s",
+            ),
+            short(
+                "pacc sim -i socketcan -c vcan0 --foxglove",
+                "pacc sim -i virtual -c vcan0 --foxglove 127.0.0.1:0 --duration 1",
+                r"foxglove: live view on ws://127\.0\.0\.1:\d+(.*\n)*sim: scenario B",
+                "no SocketCAN in CI: a virtual bus, a free port, 1 s",
+            ),
             run("pacc export drive.mcap drive.blf", r"\d+ frames: drive\.mcap -> drive\.blf"),
             short(
                 "pacc export trace.asc trace.mcap --dbc car.dbc",
@@ -258,6 +311,23 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
             ),
             run("pacc replay drive.mcap --ecu", r"ECU sent +\d+ frames"),
             run("pacc replay drive.mcap -i virtual -c bus0 --frames rx", r"frames of drive\.mcap sent"),
+            run("pacc plot drive.mcap -o drive.png", r"plot: drive\.png"),
+            run(
+                "pacc plot drive.mcap ESC_Speed.VehicleSpeed /ecu/outputs.desired_gap_m -o sig.png",
+                r"plot: sig\.png",
+            ),
+            run("pacc plot drive.blf VehicleSpeed --dbc car.dbc -o blf.png", r"plot: blf\.png"),
+            run(
+                "pacc plot drive.blf --dbc car.dbc --binding car.binding.toml -o fixed.png",
+                r"plot: fixed\.png",
+            ),
+            short(
+                "pacc plot trips/d2_000.mcap -o trip.png",
+                "mkdir -p trips && pacc drive --manual --scenario manual1 --driver d2 "
+                "--log trips/d2_000.mcap --duration 10 && pacc plot trips/d2_000.mcap -o trip.png",
+                r"log +trips/d2_000\.mcap(.*\n)*plot: trip\.png",
+                "a 10-s manual drive writes the trip log first",
+            ),
         ],
     ),
     "docs/scale.md": (
@@ -360,6 +430,10 @@ def test_every_printed_command_has_a_plan_and_every_plan_a_command() -> None:
             assert plan.kind in ("run", "short", "skip")
             assert plan.check or plan.kind == "skip", plan
             assert plan.why or plan.kind == "run", plan
+            for path, name in re.findall(r"(tests/[\w/]+\.py)(?:::(\w+))?", plan.why):
+                assert (ROOT / path).is_file(), f"{doc}: {plan.command}: no {path}"
+                source = (ROOT / path).read_text(encoding="utf-8")
+                assert not name or f"def {name}(" in source, f"{doc}: no {path}::{name}"
         assert doc in DOCS
 
 

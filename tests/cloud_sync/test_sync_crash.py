@@ -21,7 +21,7 @@ from cloud_sync.vehicle.uploader import Uploader, UploaderConfig
 from tests.cloud_sync.test_cloud_api import Served
 from tests.cloud_sync.test_spool import make_trip
 
-KILLS = 100
+KILLS = 50
 
 
 def vehicle(spool_dir: Path, log: Path, url: str, token: str, first_seed: int) -> None:

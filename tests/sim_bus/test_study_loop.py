@@ -45,7 +45,7 @@ def test_study_learns_its_irl_tables_in_the_embedded_cloud(tmp_path: Path) -> No
 def test_incremental_learning_fine_tunes_between_trips(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    argv = ["--drivers", "d3", "--incremental", "3", "--duration", "60", "--seed", "2"]
+    argv = ["--drivers", "d3", "--incremental", "3", "--duration", "40", "--seed", "2"]
     assert main([*argv, "--out", str(tmp_path), "-q"]) == 0
     out = capsys.readouterr().out
     assert "Incremental learning" in out and "incremental.png" in out
