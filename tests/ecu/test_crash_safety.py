@@ -24,7 +24,7 @@ from ecu.buslog.reader import read_canlog
 FLUSH_S = 0.2
 #: a frame's time and the flush that writes it may be this far apart on a loaded machine
 SLACK_S = 0.15
-TRIALS = 15
+TRIALS = 30  # the issue's acceptance: SIGKILL at >= 30 random instants
 
 _RECORDER = r"""
 import json, os, random, signal, sys, time
