@@ -20,6 +20,8 @@ each has ``main(argv) -> int`` and only parses options and wires the libraries t
   IRL demonstrations.
 - :mod:`pacc.commands.ecu_cloud` — ``pacc ecu``'s link to the cloud: the takeover spool, the
   vehicle link, the start table.
+- :mod:`pacc.commands.ecu_run` — ``pacc ecu``'s run on the bus: the bus recording, the
+  real-time loop, SIGTERM, the summary.
 - :mod:`pacc.commands.hil` — the command line of ``pacc hil``: a person drives in a browser
   against the ECU.
 - :mod:`pacc.commands.plugins` — ``pacc plugins``: the methods that can be named.
