@@ -11,6 +11,8 @@ node's inbox (decode + E2E checks) and outbox (counter + CRC on send).
 - :mod:`dbc.checksums` — per-message checksums, pluggable by name in the binding.
 - :mod:`dbc.e2e` — CRC-8 SAE J1850 and the alive-counter receiver check.
 - :mod:`dbc.codec` — the frame codec shared by the ECU and the simulator (compiled once).
+- :mod:`dbc.message` — one bound message's encoder and decoder, compiled to straight-line
+  Python (``MessageCodec``).
 - :mod:`dbc.columns` — column-wise decoding of many frames of one message.
 - :mod:`dbc.endpoint` — a node's inbox (decode + E2E check) and outbox (counter + CRC).
 - :mod:`dbc.network` — the ``--dbc`` / ``--binding`` options and the codec they name.

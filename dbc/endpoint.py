@@ -13,9 +13,10 @@ from typing import Any
 
 import can
 
-from dbc.codec import Codec, Decoded, MessageCodec, RoleCodec, Value
+from dbc.codec import Codec, RoleCodec
 from dbc.e2e import E2EReceiver, E2EStatus
 from dbc.errors import CrcError, DbcError, DlcError, EncodeError, RangeError
+from dbc.message import Decoded, MessageCodec, Value
 
 #: Pseudo-role under which frames of no bound message are counted.
 UNKNOWN_ROLE = "?"

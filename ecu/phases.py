@@ -33,12 +33,12 @@ from ecu.controller import (
     limit_command,
     road_limit,
     road_update,
-    stopping_limit_mps2,
     time_to_collision_s,
 )
 from ecu.recorder import Sample
 from ecu.signals import NodeInputs, NodeOutputs, all_finite, input_fault
 from ecu.state import Events
+from ecu.stops import URGENT_STOP_MPS2, stop_limit
 from pacc.vocab.acc_state import AccState, FaultCode
 from pacc.vocab.dgpt import Dgpt
 
@@ -48,17 +48,6 @@ ENGAGED = (AccState.ACTIVE, AccState.OVERRIDE)
 #: a gap law through the plug-in interface: ``(obs, memory, dt_s) -> (accel_mps2, memory)``
 #: (:class:`ecu.methods.guard.GuardedController`); None: the built-in PID called directly
 GapLaw = Callable[[ControlInput, float, float], tuple[float, float]]
-#: a stop that needs more than this deceleration builds its braking at the emergency jerk
-#: (a cut-out revealing a stopped vehicle: 1.4 s at 2.5 m/s^3 to reach -3.5 is too late), m/s^2
-URGENT_STOP_MPS2 = -2.0
-#: a lead slower than this stands; behind it, slower than CREEP_MPS and within 3 m of the
-#: standstill gap, the car brakes to a stop instead of creeping on, m/s
-STANDING_LEAD_MPS = 0.3
-#: a stop behind a standing lead keeps this many seconds of the closing speed to spare: a
-#: constant-deceleration stop exactly at the standstill gap passes below 2 s TTC at its end
-#: (min TTC = sqrt(2 gap / decel)); traced on a fresh population seed, cut-out: 1.69 s
-STOP_SPARE_S = 0.5
-CREEP_MPS = 1.5
 DISENGAGED = (AccState.STANDBY, AccState.FAULT)
 
 
@@ -310,7 +299,7 @@ def control(
             target = min(target, limit)
         urgent = False
         if inp.lead_valid:  # a lead stopping or stopped: stop at the table's standstill gap
-            stop = _stop_limit(config, inp, p, obs.lead_accel_mps2)
+            stop = stop_limit(config, inp, p, obs.lead_accel_mps2)
             urgent = stop < URGENT_STOP_MPS2 and stop < prev
             target = min(target, stop)
         target = road_limit(ctl.road, road, target, prev, inp.lead_valid)
@@ -330,31 +319,6 @@ def control(
     active = ramping and accel != 0.0
     command = Command(accel, active=active, ramp_done=ramping and not active)
     return command, ControlMemory(integral0, accel, road)
-
-
-def _stop_limit(config: EcuConfig, inp: NodeInputs, p: Plan, lead_accel_mps2: float) -> float:
-    """The request's bound behind a lead that stops (issue 21, stop-and-go): stop at the
-    table's standstill gap (its line at the current speed extended to 0 m/s, never below the
-    safety floor) behind where a braking lead comes to rest, when it will be standing within
-    ``lead_stop_horizon_s`` at its deceleration; behind a lead slower than
-    ``stop_lead_mps`` also match its speed at the table's gap at that speed (m/s^2)."""
-    road = config.controller.road
-    standstill = max(p.desired_gap_m - p.desired_gap_slope_s * p.v_mps, config.bounds.lower_m(0.0))
-    v_lead = max(p.v_mps + inp.rel_speed_mps, 0.0)
-    spare = STOP_SPARE_S * max(p.v_mps - v_lead, 0.0)  # front-loaded: TTC stays above 2 s
-    limit = stopping_limit_mps2(p.v_mps, inp.gap_m - spare, v_lead, lead_accel_mps2, standstill)
-    if v_lead > road.lead_stop_horizon_s * max(-lead_accel_mps2, 0.0):
-        limit = math.inf  # the lead will not be standing soon: the gap law's business
-    if v_lead < STANDING_LEAD_MPS and p.v_mps < CREEP_MPS and inp.gap_m < standstill + 3.0:
-        limit = min(limit, road.hold_accel_mps2)  # close to a standing lead: stop, no creep
-    if v_lead < road.stop_lead_mps:
-        at_lead = p.desired_gap_m - p.desired_gap_slope_s * max(p.v_mps - v_lead, 0.0)
-        floor = max(at_lead, config.bounds.lower_m(v_lead))
-        limit = min(
-            limit,
-            closing_limit_mps2(inp.gap_m - spare, inp.rel_speed_mps, lead_accel_mps2, floor),
-        )
-    return limit
 
 
 # -- 7. recording and 8. outputs ---------------------------------------------------------------

@@ -96,6 +96,7 @@ PACKAGES = [
     "pacc",
     "pacc.vocab",
     "pacc.commands",
+    "pacc.commands.cloud",
     "dbc",
     "ecu",
     "ecu.buslog",

@@ -22,16 +22,13 @@
 
 from __future__ import annotations
 
-import contextlib
-import errno
 import hashlib
 import logging
 import os
 import secrets
-import sqlite3
 import threading
-from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import Executor, Future, ThreadPoolExecutor
+from collections.abc import Callable, Iterable
+from concurrent.futures import Executor, Future
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
@@ -42,16 +39,17 @@ from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PrivateKey
 from cloud_sync.api import (
     AuthError,
     BadBatchError,
-    CloudUnavailableError,
     ForbiddenError,
     NotFoundError,
     PayloadTooLargeError,
     Receipt,
     is_plain_name,
 )
-from cloud_sync.engine.base import Engine, single_blas_thread
+from cloud_sync.engine.base import Engine
 from cloud_sync.errors import DemoError
-from cloud_sync.irl.trainer import IrlConfig, fine_tune, learn_dgpt
+from cloud_sync.irl.trainer import IrlConfig
+from cloud_sync.service.ingest import StorageFullError, _kind, _parse_trip, _storage_errors
+from cloud_sync.service.jobs import DeferredExecutor, InlineExecutor, train_table
 from cloud_sync.service.store import BatchRow, CloudStore, StoreError, VersionRow
 from cloud_sync.signing import (
     load_private_key,
@@ -61,11 +59,10 @@ from cloud_sync.signing import (
     sign_dgpt,
     verify_dgpt,
 )
-from cloud_sync.vehicle.spool import BatchKind, kind_of
 from pacc.vocab.dgpt import Dgpt
-from pacc.vocab.triplog import Trip, TripLogError
+from pacc.vocab.triplog import Trip
 from pacc.vocab.triplog_file import trip_from_bytes
-from pacc.vocab.tripmode import TripMode, TripModeError
+from pacc.vocab.tripmode import TripMode
 
 log = logging.getLogger(__name__)
 
@@ -79,62 +76,6 @@ def _sha256(data: bytes) -> str:
 
 def _utc_now() -> str:
     return datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
-
-
-class InlineExecutor(Executor):
-    """Runs each job at once in the caller's thread: deterministic, for tests and the study."""
-
-    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
-        """Run ``fn(*args, **kwargs)`` now; the returned future is already done."""
-        future: Future[Any] = Future()
-        try:
-            future.set_result(fn(*args, **kwargs))
-        except BaseException as exc:  # the future carries it, as a pool's would
-            future.set_exception(exc)
-        return future
-
-
-class DeferredExecutor(Executor):
-    """Queues jobs until :meth:`run_pending` (the embedded cloud learns when a table is asked
-    for, so a sync pass of many batches learns once, not once per batch). ``threads`` > 1
-    runs the queued jobs that many at a time (jobs of different drivers are independent;
-    worth it when their training runs elsewhere, on a Dask cluster)."""
-
-    def __init__(self, threads: int = 1) -> None:
-        self._queue: list[tuple[Future[Any], Callable[..., Any], tuple[Any, ...]]] = []
-        self._lock = threading.Lock()
-        self.threads = max(1, threads)
-
-    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
-        """Queue ``fn(*args)``; its future completes in :meth:`run_pending`."""
-        if kwargs:
-            raise TypeError("DeferredExecutor.submit takes positional arguments only")
-        future: Future[Any] = Future()
-        with self._lock:
-            self._queue.append((future, fn, args))
-        return future
-
-    def run_pending(self) -> None:
-        """Run every queued job, oldest first: in the caller's thread, or ``threads`` at a
-        time in a pool of threads."""
-        while True:
-            with self._lock:
-                batch, self._queue = self._queue, []
-            if not batch:
-                return
-            if self.threads == 1 or len(batch) == 1:
-                for job in batch:
-                    _complete(*job)
-            else:
-                with ThreadPoolExecutor(min(self.threads, len(batch)), "pacc-deferred") as pool:
-                    list(pool.map(lambda job: _complete(*job), batch))
-
-
-def _complete(future: Future[Any], fn: Callable[..., Any], args: tuple[Any, ...]) -> None:
-    try:
-        future.set_result(fn(*args))
-    except BaseException as exc:  # the future carries it, as a pool's would
-        future.set_exception(exc)
 
 
 @dataclass(frozen=True)
@@ -422,85 +363,8 @@ class CloudService:
         return public_pem(self.key)
 
 
-def train_table(
-    manual: list[Trip],
-    corrections: list[Trip],
-    previous: Dgpt | None,
-    driver_id: str,
-    condition: str,
-    seed: int,
-    irl: IrlConfig | None,
-) -> Dgpt:
-    """A learning job's training, pure: a table learned from the ``manual`` trips (or
-    ``previous`` when None is to be relearned), then fine-tuned with the ``corrections``
-    (takeover and ACC trips). DemoError if the data are not enough yet. One BLAS thread:
-    the same table whichever engine (and core count) runs it."""
-    with single_blas_thread():
-        return _train_table(manual, corrections, previous, driver_id, condition, seed, irl)
-
-
-def _train_table(
-    manual: list[Trip],
-    corrections: list[Trip],
-    previous: Dgpt | None,
-    driver_id: str,
-    condition: str,
-    seed: int,
-    irl: IrlConfig | None,
-) -> Dgpt:
-    if previous is None:
-        table = learn_dgpt(
-            manual, driver_id=driver_id, condition=condition, seed=seed, config=irl
-        ).table
-    else:
-        table = previous
-    if corrections:
-        table = fine_tune(corrections, table, seed=seed, config=irl).table
-    return table
-
-
 def _digest(batch: BatchRow) -> str:
     return batch.digest
-
-
-def _kind(trip: Trip) -> BatchKind:
-    try:
-        return kind_of(trip)
-    except TripModeError as exc:
-        raise BadBatchError(f"not a pacc trip log: {exc}") from exc
-
-
-class StorageFullError(CloudUnavailableError):
-    """The cloud's disk is full: nothing stored; the vehicle keeps the batch and retries."""
-
-    status = 507
-
-
-@contextlib.contextmanager
-def _storage_errors() -> Iterator[None]:
-    """An OS or SQLite failure of the cloud's own storage becomes a retryable answer (507 for
-    a full disk, else 503), never a 500 and never a batch the vehicle drops."""
-    try:
-        yield
-    except OSError as exc:
-        if exc.errno in (errno.ENOSPC, errno.EDQUOT):
-            raise StorageFullError(
-                "the cloud's disk is full: batch not stored, retry later"
-            ) from exc
-        raise CloudUnavailableError(f"the cloud's storage failed: {exc.strerror or exc}") from exc
-    except sqlite3.OperationalError as exc:
-        if "full" in str(exc):
-            raise StorageFullError(
-                "the cloud's disk is full: batch not stored, retry later"
-            ) from exc
-        raise CloudUnavailableError(f"the cloud's index failed: {exc}") from exc
-
-
-def _parse_trip(data: bytes) -> Trip:
-    try:
-        return trip_from_bytes(data, "uploaded trip log")
-    except TripLogError as exc:
-        raise BadBatchError(f"not a pacc trip log: {exc}") from exc
 
 
 __all__ = [

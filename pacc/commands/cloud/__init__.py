@@ -3,16 +3,20 @@
 One module per sub-command (cantools style): each has ``add_subparser(subparsers)`` and a
 private ``_do_x(args)``. Heavy libraries are imported inside the sub-commands, so ``--help``
 stays fast.
+
+- :mod:`pacc.commands.cloud.learn` — ``pacc cloud learn``: a driver's DGPT by IRL from files.
+- :mod:`pacc.commands.cloud.serve` — ``pacc cloud serve`` and ``pacc cloud register``.
+- :mod:`pacc.commands.cloud.sync` — ``pacc cloud sync``: spool and upload trip logs.
 """
 
 from __future__ import annotations
 
 import argparse
 
-from pacc.commands import cloud_learn as learn_cmd
-from pacc.commands import cloud_serve as serve_cmd
-from pacc.commands import cloud_sync as sync_cmd
 from pacc.commands._args import CommandParser
+from pacc.commands.cloud import learn as learn_cmd
+from pacc.commands.cloud import serve as serve_cmd
+from pacc.commands.cloud import sync as sync_cmd
 
 __all__ = ["main", "build_parser"]
 

@@ -1,0 +1,117 @@
+"""Where the cloud's learning jobs run: executors for the job loop, and the training itself.
+
+- :class:`InlineExecutor` runs each job at once in the caller's thread (deterministic);
+  :class:`DeferredExecutor` queues jobs until asked (the embedded cloud learns when a table is
+  asked for).
+- :func:`train_table` is a job's training, a pure function of trips, seed and settings: it runs
+  in the job's thread or on a compute engine (:mod:`cloud_sync.engine.base`), e.g. a Dask
+  cluster, which gets the trips with the task.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from concurrent.futures import Executor, Future, ThreadPoolExecutor
+from typing import Any
+
+from cloud_sync.engine.base import single_blas_thread
+from cloud_sync.irl.trainer import IrlConfig, fine_tune, learn_dgpt
+from pacc.vocab.dgpt import Dgpt
+from pacc.vocab.triplog import Trip
+
+
+class InlineExecutor(Executor):
+    """Runs each job at once in the caller's thread: deterministic, for tests and the study."""
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
+        """Run ``fn(*args, **kwargs)`` now; the returned future is already done."""
+        future: Future[Any] = Future()
+        try:
+            future.set_result(fn(*args, **kwargs))
+        except BaseException as exc:  # the future carries it, as a pool's would
+            future.set_exception(exc)
+        return future
+
+
+class DeferredExecutor(Executor):
+    """Queues jobs until :meth:`run_pending` (the embedded cloud learns when a table is asked
+    for, so a sync pass of many batches learns once, not once per batch). ``threads`` > 1
+    runs the queued jobs that many at a time (jobs of different drivers are independent;
+    worth it when their training runs elsewhere, on a Dask cluster)."""
+
+    def __init__(self, threads: int = 1) -> None:
+        self._queue: list[tuple[Future[Any], Callable[..., Any], tuple[Any, ...]]] = []
+        self._lock = threading.Lock()
+        self.threads = max(1, threads)
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
+        """Queue ``fn(*args)``; its future completes in :meth:`run_pending`."""
+        if kwargs:
+            raise TypeError("DeferredExecutor.submit takes positional arguments only")
+        future: Future[Any] = Future()
+        with self._lock:
+            self._queue.append((future, fn, args))
+        return future
+
+    def run_pending(self) -> None:
+        """Run every queued job, oldest first: in the caller's thread, or ``threads`` at a
+        time in a pool of threads."""
+        while True:
+            with self._lock:
+                batch, self._queue = self._queue, []
+            if not batch:
+                return
+            if self.threads == 1 or len(batch) == 1:
+                for job in batch:
+                    _complete(*job)
+            else:
+                with ThreadPoolExecutor(min(self.threads, len(batch)), "pacc-deferred") as pool:
+                    list(pool.map(lambda job: _complete(*job), batch))
+
+
+def _complete(future: Future[Any], fn: Callable[..., Any], args: tuple[Any, ...]) -> None:
+    try:
+        future.set_result(fn(*args))
+    except BaseException as exc:  # the future carries it, as a pool's would
+        future.set_exception(exc)
+
+
+def train_table(
+    manual: list[Trip],
+    corrections: list[Trip],
+    previous: Dgpt | None,
+    driver_id: str,
+    condition: str,
+    seed: int,
+    irl: IrlConfig | None,
+) -> Dgpt:
+    """A learning job's training, pure: a table learned from the ``manual`` trips (or
+    ``previous`` when None is to be relearned), then fine-tuned with the ``corrections``
+    (takeover and ACC trips). DemoError if the data are not enough yet. One BLAS thread:
+    the same table whichever engine (and core count) runs it."""
+    with single_blas_thread():
+        return _train_table(manual, corrections, previous, driver_id, condition, seed, irl)
+
+
+def _train_table(
+    manual: list[Trip],
+    corrections: list[Trip],
+    previous: Dgpt | None,
+    driver_id: str,
+    condition: str,
+    seed: int,
+    irl: IrlConfig | None,
+) -> Dgpt:
+    if previous is None:
+        table = learn_dgpt(
+            manual, driver_id=driver_id, condition=condition, seed=seed, config=irl
+        ).table
+    else:
+        table = previous
+    if corrections:
+        table = fine_tune(corrections, table, seed=seed, config=irl).table
+    return table
+
+
+__all__ = ["DeferredExecutor", "InlineExecutor", "train_table"]
