@@ -368,6 +368,7 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
                 "[--duration 120] [--cache DIR]",
                 "a synopsis",
             ),
+            skip("[--mismatch S] [--trip-shift SD]", "a synopsis"),
             skip(
                 "pacc study --population 100 --seed 2 --out out/pop2 --cache out/cache",
                 "hours; tests/sim_bus/test_study_population.py runs a small population",
