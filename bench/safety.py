@@ -2,7 +2,7 @@
 
 Run: ``.venv/bin/python bench/safety.py [--seeds 3] [--drivers 5]
 [--kinds cutin,cutout,leadloss,stopgo,C,B] [--controllers predefined,predefined+oa]
-[--duration S] [--irl] [--population-seeds 123,456]``.
+[--duration S] [--irl] [--population-seeds 123,456] [--workers N] [--csv ROWS.csv]``.
 
 Population seeds (which drivers) and road seeds (which events, which noise) are drawn with
 :mod:`secrets` when the run starts, never fixed in code, and printed so that a failure can be
@@ -13,17 +13,23 @@ accelerator press overrode the ACC (the driver closed the gap, not the ECU). It 
 row per controller and per scenario kind, and every drive that collided or fell below 2 s
 TTC outside an accelerator press. ``--irl`` adds the IRL controllers (each drawn driver's
 table is learned from its manual trips of the population seed first, as ``pacc study
---population`` does: about 10 s per driver, cached).
+--population`` does: about 10 s per driver, cached). ``--workers N`` runs one driver's
+drives per task in N processes (default: the machine's cores); ``--csv`` writes every
+drive's row as it finishes, so a long grid that is stopped keeps what it ran.
 """
 
 from __future__ import annotations
 
 import argparse
+import csv
 import math
+import os
 import secrets
 import sys
 import time
 from collections import defaultdict
+from collections.abc import Iterator
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
@@ -72,6 +78,45 @@ def _drive(
     }
 
 
+def _driver_rows(
+    pop: int,
+    index: int,
+    n: int,
+    road: int,
+    kinds: list[str],
+    controllers: list[str],
+    duration: float | None,
+    cache: Path | None,
+) -> list[dict[str, Any]]:
+    """Every drive of one drawn driver (a worker's task): its rows."""
+    driver = draw_population(n, pop)[index]
+    return [
+        _drive(driver, kind, controller, road, duration, pop, cache)
+        for kind in kinds
+        for controller in controllers
+    ]
+
+
+def _run_grid(
+    pops: list[int], roads: list[int], n: int, args: argparse.Namespace, workers: int
+) -> Iterator[dict[str, Any]]:
+    """The rows of the grid as the drivers finish (in ``workers`` processes when > 1)."""
+    controllers = args.controllers.split(",") + (["irl", "irl+oa"] if args.irl else [])
+    kinds = args.kinds.split(",")
+    tasks = [
+        (pop, i, n, road, kinds, controllers, args.duration, args.cache)
+        for pop, road in zip(pops, roads, strict=True)
+        for i in range(n)
+    ]
+    if workers <= 1:
+        for task in tasks:
+            yield from _driver_rows(*task)
+        return
+    with ProcessPoolExecutor(workers) as pool:
+        for fut in as_completed([pool.submit(_driver_rows, *t) for t in tasks]):
+            yield from fut.result()
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the grid and print the table; exit status 1 if any drive collided."""
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -84,6 +129,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--population-seeds", help="comma-separated (default: drawn now)")
     p.add_argument("--road-seeds", help="comma-separated, one per population seed")
     p.add_argument("--cache", type=Path, help="cache folder of learned IRL tables")
+    p.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="processes")
+    p.add_argument("--csv", type=Path, help="write every drive's row here as it finishes")
     args = p.parse_args(argv)
     pops = (
         [int(x) for x in args.population_seeds.split(",")]
@@ -95,19 +142,25 @@ def main(argv: list[str] | None = None) -> int:
         if args.road_seeds
         else [secrets.randbelow(10**6) for _ in pops]
     )
-    controllers = args.controllers.split(",") + (["irl", "irl+oa"] if args.irl else [])
-    kinds = args.kinds.split(",")
     print(f"population seeds {pops}, road seeds {roads} (drawn at run time unless given)")
     rows = []
     start = time.perf_counter()
-    for pop, road in zip(pops, roads, strict=True):
-        for driver in draw_population(args.drivers, pop):
-            for kind in kinds:
-                for controller in controllers:
-                    row = _drive(driver, kind, controller, road, args.duration, pop, args.cache)
-                    rows.append(row)
-                    if row["collision"] or row["below_own"] > 0.0:
-                        print(f"  ! {row}", flush=True)
+    out = args.csv.open("w", newline="", encoding="utf-8") if args.csv else None
+    writer: csv.DictWriter[str] | None = None
+    try:
+        for row in _run_grid(pops, roads, args.drivers, args, max(args.workers, 1)):
+            rows.append(row)
+            if out is not None:
+                if writer is None:
+                    writer = csv.DictWriter(out, fieldnames=list(row))
+                    writer.writeheader()
+                writer.writerow(row)
+                out.flush()
+            if row["collision"] or row["below_own"] > 0.0:
+                print(f"  ! {row}", flush=True)
+    finally:
+        if out is not None:
+            out.close()
     wall = time.perf_counter() - start
     print(f"{len(rows)} drives in {wall:.0f} s\n")
     groups: dict[tuple[str, str], list[dict[str, Any]]] = defaultdict(list)

@@ -23,7 +23,9 @@ Emergency exception: when a valid lead is closing with a time-to-collision below
 brake stays limited to ``jerk_max``. In the same condition the request is at most
 :func:`closing_limit_mps2` against the table's lower safety bound at the lead's speed (issue
 11): the PID alone eased its braking once the lead stopped slowing, while the gap was still
-closing at 4 m/s with 1.9 s to collision.
+closing at 4 m/s with 1.9 s to collision. Behind a lead braking so hard that stopping behind
+it, were it to brake to a standstill, would need more than 2 m/s^2, the emergency build-up
+applies at any TTC (issue 21; :func:`ecu.stops.lead_stop_need_mps2`, :func:`ecu.phases.control`).
 
 Road behaviour (issue 21; :func:`road_update`, :func:`road_limit`): a jump of the radar gap
 that the relative speed cannot explain is a *target switch* (a cut-in, a cut-out revealing

@@ -38,7 +38,7 @@ from ecu.controller import (
 from ecu.recorder import Sample
 from ecu.signals import NodeInputs, NodeOutputs, all_finite, input_fault
 from ecu.state import Events
-from ecu.stops import URGENT_STOP_MPS2, stop_limit
+from ecu.stops import URGENT_STOP_MPS2, lead_stop_need_mps2, stop_limit
 from pacc.vocab.acc_state import AccState, FaultCode
 from pacc.vocab.dgpt import Dgpt
 
@@ -254,8 +254,11 @@ def control(
     ACTIVE: the PID gap law capped by cruise, then the envelope (emergency exception when a
     closing lead is within ``emergency_ttc_s`` and the request decreases; there the request
     is also at most the closing limit against the table's lower safety bound at the lead's
-    speed). Otherwise the request ramps toward zero at the jerk limit; it stays active only
-    in FAULT while an executed request is still ramping (``fault_ramp``). ``law``: a plug-in
+    speed; behind a braking lead whose stop, were it to brake to a standstill, would need
+    more than 2 m/s^2, the request is at most that need, with the emergency build-up, at any
+    TTC; while the driver overrides there, the inactive request prepares it). Otherwise the
+    request ramps toward zero at the jerk limit; it stays active only in FAULT while an
+    executed request is still ramping (``fault_ramp``). ``law``: a plug-in
     gap law in place of the PID (the envelope and the closing limit stay the ECU's). The road
     rules (:func:`ecu.controller.road_update`): a target switch drops the integral, a brief
     lead loss does not raise the request, a standstill holds until the lead departs soon
@@ -300,6 +303,12 @@ def control(
         urgent = False
         if inp.lead_valid:  # a lead stopping or stopped: stop at the table's standstill gap
             stop = stop_limit(config, inp, p, obs.lead_accel_mps2)
+            # behind a lead braking so hard that stopping behind it, were it to brake to a
+            # standstill, needs more than 2 m/s^2: that braking now, at the emergency jerk,
+            # not from 3 s TTC on (issue 21: the comfort jerk left 1.6 s TTC, and 0.36 m,
+            # behind leads braking at 3 m/s^2 beyond the stop law's 4-s horizon)
+            need = lead_stop_need_mps2(config, inp, p, obs.lead_accel_mps2)
+            stop = min(stop, need) if need < URGENT_STOP_MPS2 else stop
             urgent = stop < URGENT_STOP_MPS2 and stop < prev
             target = min(target, stop)
         target = road_limit(ctl.road, road, target, prev, inp.lead_valid)
@@ -309,11 +318,22 @@ def control(
         return command, ControlMemory(integral, accel, road)
     rest = 0.0
     ttc = time_to_collision_s(inp.lead_valid, inp.gap_m, inp.rel_speed_mps)
-    if state is AccState.OVERRIDE and ttc < ctl.emergency_ttc_s and all_finite(inp.a_mps2):
+    a_f = inp.lead_accel_mps2 if inp.lead_accel_valid else 0.0
+    need = lead_stop_need_mps2(config, inp, p, a_f) if inp.lead_valid else 0.0
+    hard = need < URGENT_STOP_MPS2
+    if (
+        state is AccState.OVERRIDE
+        and (ttc < ctl.emergency_ttc_s or hard)
+        and all_finite(inp.a_mps2)
+    ):
         # the driver brakes toward a closing lead: the inactive request follows the car's
         # deceleration, so that the ACC takes over at the release from there, not from 0
-        # (issue 21: a brake released at 2.4 s TTC let the braking sag to 1.5 m/s^2)
+        # (issue 21: a brake released at 2.4 s TTC let the braking sag to 1.5 m/s^2); behind
+        # a hard-braking lead it prepares the braking the stop would need (a gentle brake
+        # released at 4.6 s TTC behind a lead braking at 3 m/s^2 left 1.99 s TTC)
         rest = min(max(inp.a_mps2, ctl.accel_min_mps2), 0.0)
+        if hard:
+            rest = min(rest, max(need, ctl.accel_min_mps2))
     accel = limit_command(ctl, prev, rest, dt_s, emergency=False)
     ramping = state is AccState.FAULT and fault_ramp
     active = ramping and accel != 0.0

@@ -22,9 +22,30 @@ URGENT_STOP_MPS2 = -2.0
 STANDING_LEAD_MPS = 0.3
 #: a stop behind a standing lead keeps this many seconds of the closing speed to spare: a
 #: constant-deceleration stop exactly at the standstill gap passes below 2 s TTC at its end
-#: (min TTC = sqrt(2 gap / decel)); traced on a fresh population seed, cut-out: 1.69 s
-STOP_SPARE_S = 0.5
+#: (min TTC = sqrt(2 gap / decel)); traced on a fresh population seed, cut-out: 1.69 s. With a
+#: spare of s seconds the replanned stop keeps TTC >= s + sqrt(2 g0 / a): 0.5 s gave 1.99 s
+#: (g0 3.3 m, a 2.9 m/s^2, population seed 690274); 1.0 s keeps 2 s down to g0 = 2 m at 3.5
+STOP_SPARE_S = 1.0
 CREEP_MPS = 1.5
+
+
+def _standstill_gap_m(config: EcuConfig, p: Plan) -> float:
+    """The table's standstill gap: its line at the current speed extended to 0 m/s, never
+    below the safety floor, m."""
+    return max(p.desired_gap_m - p.desired_gap_slope_s * p.v_mps, config.bounds.lower_m(0.0))
+
+
+def lead_stop_need_mps2(
+    config: EcuConfig, inp: NodeInputs, p: Plan, lead_accel_mps2: float
+) -> float:
+    """The constant acceleration (m/s^2) that stops the car at the table's standstill gap, with
+    ``STOP_SPARE_S`` of the closing speed to spare, behind where a braking lead would come to
+    rest if it kept its deceleration to a standstill (``inf`` when the lead is not braking):
+    the worst case a braking lead can turn into, whenever it would stand."""
+    v_lead = max(p.v_mps + inp.rel_speed_mps, 0.0)
+    spare = STOP_SPARE_S * max(p.v_mps - v_lead, 0.0)  # front-loaded: TTC stays above 2 s
+    standstill = _standstill_gap_m(config, p)
+    return stopping_limit_mps2(p.v_mps, inp.gap_m - spare, v_lead, lead_accel_mps2, standstill)
 
 
 def stop_limit(config: EcuConfig, inp: NodeInputs, p: Plan, lead_accel_mps2: float) -> float:
@@ -34,10 +55,10 @@ def stop_limit(config: EcuConfig, inp: NodeInputs, p: Plan, lead_accel_mps2: flo
     ``lead_stop_horizon_s`` at its deceleration; behind a lead slower than
     ``stop_lead_mps`` also match its speed at the table's gap at that speed (m/s^2)."""
     road = config.controller.road
-    standstill = max(p.desired_gap_m - p.desired_gap_slope_s * p.v_mps, config.bounds.lower_m(0.0))
+    standstill = _standstill_gap_m(config, p)
     v_lead = max(p.v_mps + inp.rel_speed_mps, 0.0)
     spare = STOP_SPARE_S * max(p.v_mps - v_lead, 0.0)  # front-loaded: TTC stays above 2 s
-    limit = stopping_limit_mps2(p.v_mps, inp.gap_m - spare, v_lead, lead_accel_mps2, standstill)
+    limit = lead_stop_need_mps2(config, inp, p, lead_accel_mps2)
     if v_lead > road.lead_stop_horizon_s * max(-lead_accel_mps2, 0.0):
         limit = math.inf  # the lead will not be standing soon: the gap law's business
     if v_lead < STANDING_LEAD_MPS and p.v_mps < CREEP_MPS and inp.gap_m < standstill + 3.0:
@@ -52,4 +73,11 @@ def stop_limit(config: EcuConfig, inp: NodeInputs, p: Plan, lead_accel_mps2: flo
     return limit
 
 
-__all__ = ["CREEP_MPS", "STANDING_LEAD_MPS", "STOP_SPARE_S", "URGENT_STOP_MPS2", "stop_limit"]
+__all__ = [
+    "CREEP_MPS",
+    "STANDING_LEAD_MPS",
+    "STOP_SPARE_S",
+    "URGENT_STOP_MPS2",
+    "lead_stop_need_mps2",
+    "stop_limit",
+]

@@ -494,5 +494,80 @@ def test_closing_floor_is_the_standstill_bound_when_the_lead_speed_reads_negativ
         dt_s=DT,
     )
     # at least the closing limit against 2 m (-2.0); since issue 21 the stop law behind a
-    # standing lead (0.5 s of closing speed to spare) may ask for more, never for less
+    # standing lead (1 s of closing speed to spare) may ask for more, never for less
     assert cmd.active and cmd.accel_mps2 <= -2.0 + 1e-6
+
+
+def _first_request(gap_m: float, rel_mps: float, lead_accel_mps2: float) -> tuple[float, bool]:
+    """The request of one ACTIVE cycle from a request of 0 (a 1-s table, 16 m/s, set 30 m/s)."""
+    cfg = EcuConfig()
+    v = 16.0
+    table = predefined(1.0)
+    inp = NodeInputs(
+        main_switch=True,
+        v_mps=v,
+        lead_valid=True,
+        gap_m=gap_m,
+        rel_speed_mps=rel_mps,
+        lead_accel_mps2=lead_accel_mps2,
+        lead_accel_valid=True,
+    )
+    p = Plan(v_mps=v, desired_gap_m=table.lookup(v), desired_gap_slope_s=table.slope(v))
+    cmd, _ = control(
+        cfg,
+        AccState.ACTIVE,
+        inp,
+        p,
+        set_speed_mps=30.0,
+        fault_ramp=False,
+        mem=ControlMemory(prev_accel_mps2=0.0),
+        dt_s=DT,
+    )
+    return cmd.accel_mps2, cmd.emergency
+
+
+def test_a_hard_braking_lead_gets_the_emergency_build_up_before_3_s_ttc() -> None:
+    """Issue 21 (traced on a fresh seed, 1.60 s TTC): 19 m behind a lead braking at 3 m/s^2,
+    closing at 2 m/s (TTC 9.5 s), stopping behind it were it to brake to a standstill needs
+    2.8 m/s^2 (> 2), so braking builds at the emergency jerk (10 m/s^3: -0.2 m/s^2 in one
+    20-ms cycle), not at 2.5."""
+    accel, emergency = _first_request(19.0, -2.0, -3.0)
+    assert emergency and accel == pytest.approx(-10.0 * DT)
+    # the same closing behind a lead that does not brake needs little: the comfort jerk
+    accel, emergency = _first_request(19.0, -2.0, 0.0)
+    assert not emergency and accel >= -2.5 * DT - 1e-9
+
+
+def test_a_driver_override_behind_a_hard_braking_lead_prepares_the_braking() -> None:
+    """Issue 21 (a gentle brake released at 4.6 s TTC behind a lead braking at 3 m/s^2 left
+    1.99 s TTC): while the driver overrides there, the inactive request moves toward the
+    braking the stop would need (at the comfort jerk), so the hand-back starts from it."""
+    cfg = EcuConfig()
+    v = 16.0
+    table = predefined(1.0)
+    inp = NodeInputs(
+        main_switch=True,
+        v_mps=v,
+        a_mps2=-0.5,
+        brake_pressed=True,
+        lead_valid=True,
+        gap_m=14.0,
+        rel_speed_mps=-2.5,
+        lead_accel_mps2=-3.0,
+        lead_accel_valid=True,
+    )
+    p = Plan(v_mps=v, desired_gap_m=table.lookup(v), desired_gap_slope_s=table.slope(v))
+    mem = ControlMemory(prev_accel_mps2=-0.5)
+    for _ in range(50):  # 1 s
+        cmd, mem = control(
+            cfg, AccState.OVERRIDE, inp, p, set_speed_mps=30.0, fault_ramp=False, mem=mem, dt_s=DT
+        )
+        assert not cmd.active
+    assert cmd.accel_mps2 == pytest.approx(-0.5 - 2.5 * 1.0)
+    # behind a lead that does not brake the inactive request stays at the car's -0.5 m/s^2
+    calm = replace(inp, lead_accel_mps2=0.0, gap_m=40.0)
+    mem = ControlMemory(prev_accel_mps2=-0.5)
+    cmd, mem = control(
+        cfg, AccState.OVERRIDE, calm, p, set_speed_mps=30.0, fault_ramp=False, mem=mem, dt_s=DT
+    )
+    assert cmd.accel_mps2 == pytest.approx(-0.5 + 2.5 * DT)

@@ -151,8 +151,13 @@ def test_stop_and_go_holds_at_standstill_and_resumes() -> None:
     assert log.gap_m.min() >= 2.0 and not r.collision
     still = standing & (log.v_lead_mps < 0.05) & (log.acc_state == AccState.ACTIVE)
     assert still.sum() > 20
-    # held: the request at most -0.9 m/s^2 (a few samples while it ramps there at the jerk limit)
-    assert (log.a_request_mps2[still] > -0.9 + 1e-6).sum() <= 4
+    # held: the request at most -0.9 m/s^2 once it had 0.4 s to ramp there at the jerk limit
+    # (2.5 m/s^3 from a front-loaded stop's last request, which may be near 0)
+    since_stop = np.zeros_like(log.t_s)
+    for k in range(1, len(since_stop)):
+        since_stop[k] = since_stop[k - 1] + 0.05 if standing[k] and standing[k - 1] else 0.0
+    held = still & (since_stop >= 0.4)
+    assert held.sum() > 20 and np.all(log.a_request_mps2[held] <= -0.9 + 1e-6)
     moved_after = log.t_s[(log.v_mps > 3.0) & (np.cumsum(standing) > 0)]
     assert moved_after.size > 0  # resumed after standing
     assert not np.any(log.acc_state == AccState.FAULT)
