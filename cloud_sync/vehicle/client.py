@@ -7,12 +7,19 @@ the error of their status. Retrying is the uploader's business, not the client's
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 from urllib.parse import quote
 
 import httpx
 
-from cloud_sync.api import ERRORS_BY_STATUS, CloudError, CloudUnavailableError, Receipt
+from cloud_sync.api import (
+    ERRORS_BY_STATUS,
+    CloudError,
+    CloudUnavailableError,
+    Receipt,
+    TripReceipt,
+)
 
 #: seconds to connect, and to wait for an answer (an upload waits for its ingest)
 DEFAULT_TIMEOUT_S = 30.0
@@ -87,6 +94,15 @@ class HttpCloud:
     def public_key_pem(self) -> bytes:
         """The cloud's public signing key (PEM)."""
         return self._call("GET", "/v1/key").content
+
+    def report_trip(self, report: Mapping[str, Any]) -> TripReceipt:
+        """Report one ACC trip (``POST /v1/trips``); the receipt the service answered with."""
+        body = self._call("POST", "/v1/trips", json=dict(report)).json()
+        return TripReceipt(
+            trip_id=str(body["trip_id"]),
+            driver_id=str(body["driver_id"]),
+            duplicate=bool(body["duplicate"]),
+        )
 
 
 __all__ = ["DEFAULT_TIMEOUT_S", "HttpCloud"]

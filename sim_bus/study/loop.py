@@ -13,10 +13,12 @@ row per (driver, trip): the table version it drove with, PoI, NIM, takeovers.
 
 from __future__ import annotations
 
+import hashlib
+import json
 import shutil
 import threading
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -53,6 +55,8 @@ class StudyCloud:
     api: CloudApi
     downloader: ProfileDownloader
     spool: Spool
+    #: the digests of the batches of the last :meth:`upload`
+    last_digests: list[str] = field(default_factory=list)
 
     @classmethod
     def embedded(
@@ -100,8 +104,7 @@ class StudyCloud:
         Raises:
             SimError: the cloud refused a batch, or did not take them in SYNC_TIMEOUT_S.
         """
-        for trip in trips:
-            self.spool.put_trip(trip)
+        self.last_digests = [self.spool.put_trip(trip).digest for trip in trips]
         uploader = Uploader(self.spool, self.api, UploaderConfig(backoff_max_s=5.0))
         timer = threading.Timer(SYNC_TIMEOUT_S, uploader.stop)
         timer.start()
@@ -115,6 +118,18 @@ class StudyCloud:
                 f"{len(self.spool.pending())} not taken (see {self.spool.root})"
             )
         return done
+
+    def report_trip(self, report: dict[str, Any]) -> None:
+        """Report one ACC trip to the cloud (``cloud_sync.service.trips``), after its takeover
+        segments were uploaded: the dashboard's per-trip learning curve.
+
+        Raises:
+            SimError: the cloud refused the report or could not be reached.
+        """
+        try:
+            self.api.report_trip(report)
+        except CloudError as exc:
+            raise SimError(f"study cloud: trip report refused: {exc}") from exc
 
     def table(self, driver_id: str, condition: str) -> Dgpt | None:
         """The newest verified table of the driver, downloaded now or the last good one."""
@@ -188,6 +203,17 @@ def run_incremental(
                 run_cfg, driver, table, profile, takeover_sink=segments.append, bus=cfg.bus
             )
             m = result.metrics
+            uploaded = cloud.upload(segments)
+            report: dict[str, Any] = {
+                "driver_id": driver_id,
+                "condition": table.condition,
+                "dgpt_version": table.version,
+                "acc_on_s": m.acc_on_s,
+                "segments": cloud.last_digests,
+            }
+            # the same trip again (a rerun against the same cloud) is the same report
+            digest = hashlib.sha256(json.dumps(report, sort_keys=True).encode()).hexdigest()
+            cloud.report_trip({**report, "trip_id": f"study-t{trip + 1}-{digest[:16]}"})
             rows.append(
                 {
                     "driver": driver_id,
@@ -196,7 +222,7 @@ def run_incremental(
                     "poi_pct": m.poi_pct,
                     "nim_per_min": m.nim_per_min,
                     "takeovers": result.takeovers,
-                    "uploaded": cloud.upload(segments),
+                    "uploaded": uploaded,
                     "min_ttc_s": m.min_ttc_s,
                     "collision": int(result.collision),
                 }
