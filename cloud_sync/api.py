@@ -143,6 +143,13 @@ class CloudApi(Protocol):
         """The cloud's public signing key (PEM)."""
         ...
 
+    def wait_learned(
+        self, driver_id: str, condition: str = "default", timeout_s: float = 120.0
+    ) -> None:
+        """Return once the cloud's learning job for (driver, condition) is idle, i.e. the
+        batches uploaded so far are learned from (CloudUnavailableError after ``timeout_s``)."""
+        ...
+
     def report_trip(self, report: Mapping[str, Any]) -> TripReceipt:
         """Report one ACC trip after its takeover segments were uploaded (the fields:
         :mod:`cloud_sync.service.trips`); idempotent per (driver, trip id)."""

@@ -46,6 +46,13 @@ class LocalCloud:
         """The cloud's public signing key (PEM)."""
         return self.service.public_key_pem()
 
+    def wait_learned(
+        self, driver_id: str, condition: str = "default", timeout_s: float = 120.0
+    ) -> None:
+        """Run the learning due now (every driver's: the jobs are deferred), up to ``timeout_s``."""
+        self.service.authenticate(self.token)
+        self.service.wait_idle(timeout_s)
+
     def report_trip(self, report: Mapping[str, Any]) -> TripReceipt:
         """Report one ACC trip (:mod:`cloud_sync.service.trips`), after its segments."""
         vehicle = self.service.authenticate(self.token)

@@ -7,8 +7,10 @@ the table the vehicle downloaded and verified (signature and safety bounds).
 
 :func:`run_incremental` is the paper's incremental learning, which the paper describes but
 never measures: N consecutive IRL + OA trips per driver; after each trip the takeover segments
-sync up, the cloud fine-tunes, and the next trip starts from the version it downloads. One
-row per (driver, trip): the table version it drove with, PoI, NIM, takeovers.
+sync up, a trip report follows (ACC-on time, the version driven, the segments' digests: the
+cloud's own per-trip learning curve, ``cloud_sync.service.trips``), the cloud fine-tunes (a
+served cloud is waited for until its job is idle), and the next trip starts from the version it
+downloads. One row per (driver, trip): the table version it drove with, PoI, NIM, takeovers.
 """
 
 from __future__ import annotations
@@ -134,6 +136,7 @@ class StudyCloud:
     def table(self, driver_id: str, condition: str) -> Dgpt | None:
         """The newest verified table of the driver, downloaded now or the last good one."""
         try:
+            self.api.wait_learned(driver_id, condition, SYNC_TIMEOUT_S)  # a served cloud
             fresh = self.downloader.fetch(driver_id, condition)
         except CloudError as exc:  # fetch reports, but a bug must not pass silently
             raise SimError(f"study cloud: {exc}") from exc
@@ -174,6 +177,23 @@ def cloud_irl_tables(
     return tables
 
 
+def _report_trip(cloud: StudyCloud, table: Dgpt, run: DriveConfig, acc_on_s: float) -> None:
+    """Report the trip just driven (``run``, with ``table``, ``acc_on_s`` s of ACC on) and
+    the takeover segments just uploaded: a point of the cloud's per-trip learning curve."""
+    report: dict[str, Any] = {
+        "driver_id": run.driver_id,
+        "condition": table.condition,
+        "dgpt_version": table.version,
+        "acc_on_s": acc_on_s,
+        "segments": cloud.last_digests,
+    }
+    # the trip's id: the same drive again (a rerun against the same cloud) is the same
+    # report, a drive of another seed or length a new trip
+    drive = {**report, "seed": run.seed, "duration_s": run.duration_s}
+    digest = hashlib.sha256(json.dumps(drive, sort_keys=True).encode()).hexdigest()
+    cloud.report_trip({**report, "trip_id": f"study-s{run.seed}-{digest[:16]}"})
+
+
 def run_incremental(
     cfg: StudyConfig,
     drivers: Mapping[str, DriverParams],
@@ -204,16 +224,7 @@ def run_incremental(
             )
             m = result.metrics
             uploaded = cloud.upload(segments)
-            report: dict[str, Any] = {
-                "driver_id": driver_id,
-                "condition": table.condition,
-                "dgpt_version": table.version,
-                "acc_on_s": m.acc_on_s,
-                "segments": cloud.last_digests,
-            }
-            # the same trip again (a rerun against the same cloud) is the same report
-            digest = hashlib.sha256(json.dumps(report, sort_keys=True).encode()).hexdigest()
-            cloud.report_trip({**report, "trip_id": f"study-t{trip + 1}-{digest[:16]}"})
+            _report_trip(cloud, table, run_cfg, m.acc_on_s)
             rows.append(
                 {
                     "driver": driver_id,

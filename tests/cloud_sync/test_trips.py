@@ -4,6 +4,7 @@ an index of the older schema is migrated without loss."""
 
 from __future__ import annotations
 
+import csv
 import hashlib
 import sqlite3
 from collections.abc import Iterator
@@ -218,3 +219,40 @@ def test_an_index_of_the_older_schema_is_migrated_without_loss(tmp_path: Path) -
 
 
 _OLD_TABLES = ("vehicles", "drivers", "batches", "dgpt_versions")
+
+
+@pytest.mark.slow
+def test_an_incremental_study_against_a_served_cloud_draws_its_per_trip_curve(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``pacc study --incremental 3 --cloud URL``: the study waits for the served cloud's
+    learning, reports each trip, and the cloud's curve has one point per trip, marked with the
+    version the study says it drove, its PoI and NIM close to the study's own."""
+    from pacc.commands.study import main  # noqa: PLC0415 - the study is only this test's
+
+    pool = ThreadPoolExecutor(max_workers=1)
+    service = CloudService.open(tmp_path / "cloud", executor=pool)
+    token = service.register_vehicle("lab")
+    service.register_driver("lab", "d3")
+    (tmp_path / "lab.token").write_text(token + "\n", encoding="utf-8")
+    s = _Served(service)
+    try:
+        argv = ["--drivers", "d3", "--incremental", "3", "--duration", "40", "--seed", "2"]
+        argv += ["--cloud", s.url, "--token-file", str(tmp_path / "lab.token")]
+        argv += ["--trust", str(tmp_path / "cloud" / "keys" / "cloud.pub")]
+        assert main([*argv, "--out", str(tmp_path / "out"), "-q"]) == 0
+        capsys.readouterr()
+        with (tmp_path / "out" / "incremental.csv").open() as fh:
+            rows = list(csv.DictReader(fh))
+        points = s.get("/v1/drivers/d3/trips", OPERATOR).json()
+    finally:
+        s.stop()
+        pool.shutdown(wait=True)
+        service.store.close()
+    assert [p["index"] for p in points] == [1, 2, 3]
+    assert [p["dgpt_version"] for p in points] == [int(r["dgpt_version"]) for r in rows]
+    assert points[-1]["dgpt_version"] > points[0]["dgpt_version"]  # fine-tuned on the way
+    for p, r in zip(points, rows, strict=True):
+        assert len(p["segments"]) == int(r["uploaded"])
+        assert p["poi_pct"] == pytest.approx(float(r["poi_pct"]), abs=1.0)
+        assert p["takeovers_per_min"] == pytest.approx(float(r["nim_per_min"]), abs=0.5)
