@@ -16,8 +16,9 @@ import httpx
 import pytest
 
 from cloud_sync.api import BadBatchError, ForbiddenError
+from cloud_sync.service.http import TRIP_REPORT_LIMIT
 from cloud_sync.service.local import LocalCloud
-from cloud_sync.service.rules import CloudService
+from cloud_sync.service.rules import CloudService, DeferredExecutor
 from cloud_sync.service.store import SCHEMA_VERSION, CloudStore
 from cloud_sync.service.trips import segment_interventions
 from cloud_sync.signing import load_public_key, verify_dgpt
@@ -162,11 +163,18 @@ def _refusals(api: HttpCloud, s: _Served, token: str, sent: list[dict[str, Any]]
     )
     assert answer.status_code == 422 and "JSON" in answer.json()["detail"]
     assert httpx.post(s.url + "/v1/trips", json=first, timeout=30.0).status_code == 401
+    huge = httpx.post(
+        s.url + "/v1/trips",
+        content=b" " * (TRIP_REPORT_LIMIT + 1),
+        headers={"Authorization": f"Bearer {token}"},
+        timeout=30.0,
+    )
+    assert huge.status_code == 413
     assert len(s.get("/v1/drivers/syn/trips", token).json()) == 3
 
 
 def test_acc_time_shorter_than_the_segments_interventions_is_refused(tmp_path: Path) -> None:
-    service = CloudService.open(tmp_path / "cloud")
+    service = CloudService.open(tmp_path / "cloud", DeferredExecutor())  # learns when asked
     token = service.register_vehicle("car")
     service.register_driver("car", "syn")
     api = LocalCloud(service, token)
@@ -188,7 +196,7 @@ def test_acc_time_shorter_than_the_segments_interventions_is_refused(tmp_path: P
 def test_an_index_of_the_older_schema_is_migrated_without_loss(tmp_path: Path) -> None:
     """A store written before trip reports (no trips tables, user_version 0) opens with every
     vehicle, batch and version kept, and takes trip reports."""
-    service = CloudService.open(tmp_path / "cloud")
+    service = CloudService.open(tmp_path / "cloud", DeferredExecutor())  # learns when asked
     token = service.register_vehicle("car")
     service.register_driver("car", "syn")
     api = LocalCloud(service, token)
@@ -209,7 +217,7 @@ def test_an_index_of_the_older_schema_is_migrated_without_loss(tmp_path: Path) -
     db.close()
     assert after == before
     store.close()
-    service = CloudService.open(tmp_path / "cloud")
+    service = CloudService.open(tmp_path / "cloud", DeferredExecutor())
     api = LocalCloud(service, token)
     assert service.store.read_version(service.store.versions("syn", "default")[0]) == signed
     assert hashlib.sha256(service.store.read_blob(digest)).hexdigest() == digest
