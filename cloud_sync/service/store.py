@@ -84,7 +84,8 @@ CREATE TABLE IF NOT EXISTS trip_segments (
     trip_seq INTEGER NOT NULL REFERENCES trips(seq)
 );
 """
-#: the index's schema version (``PRAGMA user_version``); 1: before the trip reports
+#: the index's schema version (``PRAGMA user_version``; 0, unset, was the first schema,
+#: before the trip reports); an index of a newer schema is refused
 SCHEMA_VERSION = 2
 
 
@@ -166,7 +167,10 @@ class CloudStore:
         """Create the tables of a new index, or add those an older one lacks (one
         transaction: a crash leaves the old index as it was)."""
         (old,) = self._db.execute("PRAGMA user_version").fetchone()
-        if old >= SCHEMA_VERSION:
+        if old > SCHEMA_VERSION:
+            self._db.close()
+            raise StoreError(f"index schema {old} is newer than this pacc's ({SCHEMA_VERSION})")
+        if old == SCHEMA_VERSION:
             return
         statements = [s.strip() for s in SCHEMA.split(";") if s.strip()]
         self._db.execute("BEGIN IMMEDIATE")

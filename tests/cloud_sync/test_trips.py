@@ -19,7 +19,7 @@ from cloud_sync.api import BadBatchError, ForbiddenError
 from cloud_sync.service.http import TRIP_REPORT_LIMIT
 from cloud_sync.service.local import LocalCloud
 from cloud_sync.service.rules import CloudService, DeferredExecutor
-from cloud_sync.service.store import SCHEMA_VERSION, CloudStore
+from cloud_sync.service.store import SCHEMA_VERSION, CloudStore, StoreError
 from cloud_sync.service.trips import segment_interventions
 from cloud_sync.signing import load_public_key, verify_dgpt
 from cloud_sync.vehicle.client import HttpCloud
@@ -224,6 +224,11 @@ def test_an_index_of_the_older_schema_is_migrated_without_loss(tmp_path: Path) -
     report = {"driver_id": "syn", "trip_id": "t1", "dgpt_version": 1, "acc_on_s": 60.0}
     assert not api.report_trip({**report, "segments": [digest]}).duplicate
     service.store.close()
+    with sqlite3.connect(index) as db:  # a newer pacc's index is not ours to touch
+        db.execute(f"PRAGMA user_version = {SCHEMA_VERSION + 1}")
+    db.close()
+    with pytest.raises(StoreError, match="newer"):
+        CloudStore(tmp_path / "cloud")
 
 
 _OLD_TABLES = ("vehicles", "drivers", "batches", "dgpt_versions")
