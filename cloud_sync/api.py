@@ -23,8 +23,9 @@ Only :class:`CloudUnavailableError` is worth a retry; the others are answers.
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Any, Protocol
 
 from cloud_sync.errors import CloudSyncError
 
@@ -112,6 +113,21 @@ class Receipt:
     duplicate: bool
 
 
+@dataclass(frozen=True)
+class TripReceipt:
+    """The cloud's acknowledgement of one trip report (:mod:`cloud_sync.service.trips`).
+
+    Attributes:
+        trip_id: the vehicle's id of the trip.
+        driver_id: whose trip it was.
+        duplicate: the cloud held this very report already (nothing stored again).
+    """
+
+    trip_id: str
+    driver_id: str
+    duplicate: bool
+
+
 class CloudApi(Protocol):
     """What a vehicle can ask of the cloud (one vehicle's view: its token is bound in)."""
 
@@ -127,6 +143,18 @@ class CloudApi(Protocol):
         """The cloud's public signing key (PEM)."""
         ...
 
+    def wait_learned(
+        self, driver_id: str, condition: str = "default", timeout_s: float = 120.0
+    ) -> None:
+        """Return once the cloud's learning job for (driver, condition) is idle, i.e. the
+        batches uploaded so far are learned from (CloudUnavailableError after ``timeout_s``)."""
+        ...
+
+    def report_trip(self, report: Mapping[str, Any]) -> TripReceipt:
+        """Report one ACC trip after its takeover segments were uploaded (the fields:
+        :mod:`cloud_sync.service.trips`); idempotent per (driver, trip id)."""
+        ...
+
 
 __all__ = [
     "ERRORS_BY_STATUS",
@@ -139,5 +167,6 @@ __all__ = [
     "NotFoundError",
     "PayloadTooLargeError",
     "Receipt",
+    "TripReceipt",
     "is_plain_name",
 ]

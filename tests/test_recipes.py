@@ -232,6 +232,24 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
                 "pacc cloud serve --data cloud/ --operator-token-file operator.token",
                 SERVER + "; tests/cloud_sync/test_views.py serves the operator's lists",
             ),
+            run(
+                "pacc cloud register --data lab/ --vehicle lab --driver d1 --driver d3 "
+                "--token-file lab.token",
+                r"vehicle lab registered \(drivers: d1, d3\)",
+            ),
+            skip(
+                "pacc cloud serve --data lab/ --port 8080 --operator-token-file operator.token",
+                SERVER + "; tests/cloud_sync/test_trips.py runs a study against a served cloud",
+            ),
+            short(
+                "pacc study --drivers d1,d3 --incremental 5 --duration 60 --seed 2 "
+                "--out study-out/ --cloud http://127.0.0.1:8080 --token-file lab.token "
+                "--trust lab/keys/cloud.pub",
+                "pacc study --drivers d3 --incremental 2 --duration 40 --seed 2 "
+                "--out study-out/ --cloud lab/ --token-file lab.token --trust lab/keys/cloud.pub",
+                r"Incremental learning(.*\n)*\| d3 \| 2 \|",
+                "the cloud folder lab/ embedded instead of the server on port 8080; 2 short trips",
+            ),
         ],
     ),
     "docs/ecu.md": (

@@ -10,4 +10,6 @@
 - :mod:`cloud_sync.service.local` — the embedded cloud: the service in-process over a folder.
 - :mod:`cloud_sync.service.views` — what a person looks at: read-only lists of the cloud's
   state, and the dashboard page.
+- :mod:`cloud_sync.service.trips` — trip reports: the per-trip measures (PoI, takeovers per
+  minute) the cloud computes from a trip's uploaded takeover segments.
 """

@@ -10,6 +10,7 @@ security scheme of the description).
 method   path                                what
 =======  ==================================  ==========================================
 POST     /v1/batches                         upload one batch (raw MCAP bytes) -> receipt
+POST     /v1/trips                           report one ACC trip (JSON) -> trip receipt
 GET      /v1/drivers/{driver}/dgpt           newest signed DGPT (``?condition=``)
 GET      /v1/key                             the cloud's public signing key (PEM)
 GET      /v1/health                          liveness and counts
@@ -19,11 +20,14 @@ Errors answer ``{"detail": "..."}`` with the status of :mod:`cloud_sync.api`'s t
 route's possible statuses are in the description); a full disk answers 507 and any other
 storage failure 503, both with ``Retry-After``: the vehicle keeps the batch. An upload
 is refused with 413 as soon as its declared or streamed size passes the limit, before it is
-read whole. Learning jobs run on the service's executor, never in the request.
+read whole. Learning jobs run on the service's executor, never in the request. The
+read-only list endpoints and the dashboard are :mod:`cloud_sync.service.views`'s; trip
+reports, :mod:`cloud_sync.service.trips`'s.
 """
 
 from __future__ import annotations
 
+import json
 from dataclasses import asdict
 from typing import Any
 
@@ -36,18 +40,29 @@ from pydantic import BaseModel
 from starlette.concurrency import run_in_threadpool
 from swagger_ui_bundle import swagger_ui_path
 
-from cloud_sync.api import CloudError, PayloadTooLargeError
+from cloud_sync.api import BadBatchError, CloudError, PayloadTooLargeError
 from cloud_sync.service.rules import CloudService
+from cloud_sync.service.trips import record_trip
 from cloud_sync.service.views import ServiceViews
 
 #: seconds a vehicle is asked to wait after a 503 or 507 (full disk) answer
 RETRY_AFTER_S = 60
+#: the largest trip report, bytes (10,000 segment digests fit)
+TRIP_REPORT_LIMIT = 1024 * 1024
 
 
 class ErrorDetail(BaseModel):
     """The body of every error answer."""
 
     detail: str
+
+
+class TripReceiptBody(BaseModel):
+    """The cloud's receipt of one trip report."""
+
+    trip_id: str
+    driver_id: str
+    duplicate: bool
 
 
 class ReceiptBody(BaseModel):
@@ -69,7 +84,7 @@ def _errors(*statuses: int) -> dict[int | str, dict[str, Any]]:
         403: "the driver is not registered to this vehicle",
         404: "no such table (yet)",
         413: "the batch exceeds the upload limit",
-        422: "not a pacc trip log, or names that are not plain",
+        422: "not a pacc trip log (or trip report), or names that are not plain",
         503: "the cloud's storage failed: retry after Retry-After seconds",
         507: "the cloud's disk is full: retry after Retry-After seconds",
     }
@@ -147,6 +162,31 @@ def create_app(service: CloudService, operator_token_sha256: str | None = None) 
         receipt = await run_in_threadpool(service.upload, vehicle, data)  # parse, fsync, index
         return JSONResponse(asdict(receipt), status_code=200 if receipt.duplicate else 201)
 
+    @app.post(
+        "/v1/trips",
+        status_code=201,
+        response_model=TripReceiptBody,
+        dependencies=[Security(_BEARER)],
+        responses=_errors(401, 403, 413, 422, 503)
+        | {200: {"model": TripReceiptBody, "description": "already held (a duplicate)"}},
+        openapi_extra={
+            "requestBody": {
+                "required": True,
+                "description": "a trip report (cloud_sync.service.trips)",
+                "content": {"application/json": {"schema": {"type": "object"}}},
+            }
+        },
+    )
+    async def report_trip(request: Request) -> JSONResponse:
+        vehicle = service.authenticate(_token(request))
+        data = await _body(request, TRIP_REPORT_LIMIT)
+        try:
+            body = json.loads(data)
+        except (ValueError, UnicodeDecodeError) as exc:
+            raise BadBatchError(f"a trip report is JSON: {exc}") from exc
+        receipt = await run_in_threadpool(record_trip, service, vehicle, body)
+        return JSONResponse(asdict(receipt), status_code=200 if receipt.duplicate else 201)
+
     @app.get(
         "/v1/drivers/{driver_id}/dgpt",
         dependencies=[Security(_BEARER)],
@@ -184,6 +224,10 @@ def _views(app: FastAPI, views: ServiceViews) -> None:
     @app.get("/v1/drivers/{driver_id}/batches")
     def batches(driver_id: str, request: Request) -> list[dict[str, Any]]:
         return views.batches(views.viewer(_token(request)), driver_id)
+
+    @app.get("/v1/drivers/{driver_id}/trips")
+    def trips(driver_id: str, request: Request) -> list[dict[str, Any]]:
+        return views.trips(views.viewer(_token(request)), driver_id)
 
     @app.get("/v1/jobs")
     def jobs(request: Request) -> list[dict[str, Any]]:

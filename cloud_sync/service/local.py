@@ -10,9 +10,12 @@ in the caller's thread, deterministically.
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
+from typing import Any
 
-from cloud_sync.api import Receipt
+from cloud_sync.api import Receipt, TripReceipt
 from cloud_sync.service.rules import CloudService, DeferredExecutor, ServiceConfig
+from cloud_sync.service.trips import record_trip
 
 
 class LocalCloud:
@@ -42,6 +45,18 @@ class LocalCloud:
     def public_key_pem(self) -> bytes:
         """The cloud's public signing key (PEM)."""
         return self.service.public_key_pem()
+
+    def wait_learned(
+        self, driver_id: str, condition: str = "default", timeout_s: float = 120.0
+    ) -> None:
+        """Run the learning due now (every driver's: the jobs are deferred), up to ``timeout_s``."""
+        self.service.authenticate(self.token)
+        self.service.wait_idle(timeout_s)
+
+    def report_trip(self, report: Mapping[str, Any]) -> TripReceipt:
+        """Report one ACC trip (:mod:`cloud_sync.service.trips`), after its segments."""
+        vehicle = self.service.authenticate(self.token)
+        return record_trip(self.service, vehicle, dict(report))
 
 
 __all__ = ["LocalCloud"]

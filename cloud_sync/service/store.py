@@ -2,7 +2,8 @@
 
 Layout of ``data_dir``::
 
-    index.sqlite                     vehicles, drivers, batches, DGPT versions (WAL mode)
+    index.sqlite                     vehicles, drivers, batches, DGPT versions, trip reports
+                                     (WAL mode; ``PRAGMA user_version`` = SCHEMA_VERSION)
     blobs/<d[:2]>/<digest>.mcap      every uploaded batch, named by its SHA-256
     dgpt/<driver>/<condition>/v<version>.json   every signed DGPT version, never overwritten
     keys/cloud.key, keys/cloud.pub   the signing key pair (see cloud_sync.signing)
@@ -12,6 +13,10 @@ a row never points at a partial file; a file without a row (a crash between the 
 written again by the next upload of the same batch; a temporary file left by a killed
 process (``.<name>.part``) is removed when the store opens. Every DGPT version is kept. One
 store object may be shared by threads (one connection behind a lock); one process per folder.
+
+**Migration**: an index of an older schema (``user_version`` below :data:`SCHEMA_VERSION`:
+version 1 had no ``trips``/``trip_segments`` tables) is brought up to date when the store
+opens, in one transaction that only adds tables: no row of the older index is touched.
 """
 
 from __future__ import annotations
@@ -21,9 +26,10 @@ import sqlite3
 import threading
 import uuid
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from cloud_sync.durable import fsync_dir
 from cloud_sync.errors import CloudSyncError
@@ -58,7 +64,29 @@ CREATE TABLE IF NOT EXISTS dgpt_versions (
     n_batches INTEGER NOT NULL,
     PRIMARY KEY (driver_id, condition, version)
 );
+CREATE TABLE IF NOT EXISTS trips (
+    seq INTEGER PRIMARY KEY AUTOINCREMENT,
+    vehicle_id TEXT NOT NULL,
+    driver_id TEXT NOT NULL,
+    condition TEXT NOT NULL,
+    trip_id TEXT NOT NULL,
+    start_utc TEXT,
+    received_utc TEXT NOT NULL,
+    dgpt_version INTEGER NOT NULL,
+    acc_on_s REAL NOT NULL,
+    intervention_s REAL NOT NULL,
+    takeovers INTEGER NOT NULL,
+    report TEXT NOT NULL,
+    UNIQUE (driver_id, trip_id)
+);
+CREATE TABLE IF NOT EXISTS trip_segments (
+    digest TEXT PRIMARY KEY,
+    trip_seq INTEGER NOT NULL REFERENCES trips(seq)
+);
 """
+#: the index's schema version (``PRAGMA user_version``; 0, unset, was the first schema,
+#: before the trip reports); an index of a newer schema is refused
+SCHEMA_VERSION = 2
 
 
 class StoreError(CloudSyncError):
@@ -128,12 +156,42 @@ class CloudStore:
             )
             self._db.execute("PRAGMA journal_mode=WAL")
             self._db.execute("PRAGMA foreign_keys=ON")
-            self._db.executescript(SCHEMA)
+            self._migrate()
         except (OSError, sqlite3.Error) as exc:
             raise StoreError(f"cannot open the cloud data folder {self.root}: {exc}") from exc
         self._lock = threading.RLock()
         #: temporary files of a killed process removed at opening
         self.orphans_removed = self._remove_orphans()
+
+    def _migrate(self) -> None:
+        """Create the tables of a new index, or add those an older one lacks (one
+        transaction: a crash leaves the old index as it was)."""
+        (old,) = self._db.execute("PRAGMA user_version").fetchone()
+        if old > SCHEMA_VERSION:
+            self._db.close()
+            raise StoreError(f"index schema {old} is newer than this pacc's ({SCHEMA_VERSION})")
+        if old == SCHEMA_VERSION:
+            return
+        statements = [s.strip() for s in SCHEMA.split(";") if s.strip()]
+        self._db.execute("BEGIN IMMEDIATE")
+        try:
+            for statement in statements:
+                self._db.execute(statement)
+            self._db.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
+        except BaseException:
+            self._db.execute("ROLLBACK")
+            raise
+        self._db.execute("COMMIT")
+
+    def transaction(self) -> AbstractContextManager[sqlite3.Connection]:
+        """An immediate transaction on the index, under the store's lock (committed when the
+        block ends, rolled back if it raises)."""
+        return self._tx()
+
+    def query(self, sql: str, args: tuple[object, ...] = ()) -> list[tuple[Any, ...]]:
+        """The rows of a read-only ``sql`` on the index, under the store's lock."""
+        with self._lock:
+            return list(self._db.execute(sql, args).fetchall())
 
     def _remove_orphans(self) -> int:
         """Delete ``.*.part`` files under ``blobs/`` and ``dgpt/`` (a write a crash cut short:
@@ -351,4 +409,4 @@ class CloudStore:
         return self.version_path(row.driver_id, row.condition, row.version).read_bytes()
 
 
-__all__ = ["BatchRow", "CloudStore", "StoreError", "VersionRow"]
+__all__ = ["SCHEMA_VERSION", "BatchRow", "CloudStore", "StoreError", "VersionRow"]

@@ -11,12 +11,19 @@ sees its own drivers only — plus an **operator token** that sees the whole ser
   covered speed range and the coverage per speed) and its DGPT (gap over speed);
 - ``GET /v1/drivers/{driver}/batches``: the driver's batches (digest, kind, size, arrival,
   the version that used it);
+- ``GET /v1/drivers/{driver}/trips``: the driver's reported ACC trips in arrival order, one
+  point each of the per-trip learning curve of an incremental study: the table version the
+  trip drove with, and the intervention share of ACC-on time (PoI, %) and takeovers per
+  minute that the cloud computed from the trip's uploaded takeover segments
+  (:mod:`cloud_sync.service.trips` says what comes from where);
 - ``GET /v1/jobs``: the learning jobs and their state (running, queued, idle).
 
 ``GET /dashboard`` is a small page (HTML, CSS and JavaScript in one file, nothing from a CDN)
 that logs in with a token and draws these: drivers, each driver's table versions over speed
-with the covered range shaded, the batches behind each version, the job states, and the
-learning curve of the versions (the gap at each covered speed, version after version).
+with the covered range shaded, the batches behind each version, the job states, the
+learning curve of the versions (the gap at each covered speed, version after version) and the
+per-trip learning curve (PoI and takeovers per minute, trip after trip, each point marked
+with the table version it drove with).
 """
 
 from __future__ import annotations
@@ -28,6 +35,7 @@ from typing import Any
 
 from cloud_sync.api import ForbiddenError, NotFoundError
 from cloud_sync.service.rules import CloudService
+from cloud_sync.service.trips import trip_rows
 
 __all__ = ["DASHBOARD", "ServiceViews"]
 
@@ -148,6 +156,11 @@ class ServiceViews:
         )
         keys = ("digest", "condition", "kind", "size_bytes", "received_utc", "used_in_version")
         return [dict(zip(keys, r, strict=True)) for r in rows]
+
+    def trips(self, viewer: str | None, driver_id: str) -> list[dict[str, Any]]:
+        """The driver's reported trips with the cloud's per-trip measures, in arrival order."""
+        self._check(viewer, driver_id)
+        return trip_rows(self.service, driver_id)
 
     def jobs(self, viewer: str | None) -> list[dict[str, Any]]:
         """The learning jobs ``viewer`` may see: (driver, condition) and their state."""

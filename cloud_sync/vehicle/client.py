@@ -7,15 +7,25 @@ the error of their status. Retrying is the uploader's business, not the client's
 
 from __future__ import annotations
 
+import time
+from collections.abc import Mapping
 from typing import Any
 from urllib.parse import quote
 
 import httpx
 
-from cloud_sync.api import ERRORS_BY_STATUS, CloudError, CloudUnavailableError, Receipt
+from cloud_sync.api import (
+    ERRORS_BY_STATUS,
+    CloudError,
+    CloudUnavailableError,
+    Receipt,
+    TripReceipt,
+)
 
 #: seconds to connect, and to wait for an answer (an upload waits for its ingest)
 DEFAULT_TIMEOUT_S = 30.0
+#: seconds between two looks at the learning jobs (:meth:`HttpCloud.wait_learned`)
+POLL_S = 0.1
 
 
 class HttpCloud:
@@ -87,6 +97,38 @@ class HttpCloud:
     def public_key_pem(self) -> bytes:
         """The cloud's public signing key (PEM)."""
         return self._call("GET", "/v1/key").content
+
+    def wait_learned(
+        self, driver_id: str, condition: str = "default", timeout_s: float = 120.0
+    ) -> None:
+        """Poll ``GET /v1/jobs`` (every ``POLL_S`` s) until the job of (driver, condition) is
+        idle or gone; CloudUnavailableError after ``timeout_s`` s. An upload's receipt comes
+        after its job was scheduled, so a wait after an upload sees that job."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            busy = [
+                j
+                for j in self._call("GET", "/v1/jobs").json()
+                if (j.get("driver_id"), j.get("condition")) == (driver_id, condition)
+                and j.get("state") != "idle"
+            ]
+            if not busy:
+                return
+            if time.monotonic() > deadline:
+                raise CloudUnavailableError(
+                    f"{self.url}: learning {driver_id}/{condition} still "
+                    f"{busy[0].get('state')} after {timeout_s:g} s"
+                )
+            time.sleep(POLL_S)
+
+    def report_trip(self, report: Mapping[str, Any]) -> TripReceipt:
+        """Report one ACC trip (``POST /v1/trips``); the receipt the service answered with."""
+        body = self._call("POST", "/v1/trips", json=dict(report)).json()
+        return TripReceipt(
+            trip_id=str(body["trip_id"]),
+            driver_id=str(body["driver_id"]),
+            duplicate=bool(body["duplicate"]),
+        )
 
 
 __all__ = ["DEFAULT_TIMEOUT_S", "HttpCloud"]

@@ -7,16 +7,20 @@ the table the vehicle downloaded and verified (signature and safety bounds).
 
 :func:`run_incremental` is the paper's incremental learning, which the paper describes but
 never measures: N consecutive IRL + OA trips per driver; after each trip the takeover segments
-sync up, the cloud fine-tunes, and the next trip starts from the version it downloads. One
-row per (driver, trip): the table version it drove with, PoI, NIM, takeovers.
+sync up, a trip report follows (ACC-on time, the version driven, the segments' digests: the
+cloud's own per-trip learning curve, ``cloud_sync.service.trips``), the cloud fine-tunes (a
+served cloud is waited for until its job is idle), and the next trip starts from the version it
+downloads. One row per (driver, trip): the table version it drove with, PoI, NIM, takeovers.
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 import shutil
 import threading
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -53,6 +57,8 @@ class StudyCloud:
     api: CloudApi
     downloader: ProfileDownloader
     spool: Spool
+    #: the digests of the batches of the last :meth:`upload`
+    last_digests: list[str] = field(default_factory=list)
 
     @classmethod
     def embedded(
@@ -100,8 +106,7 @@ class StudyCloud:
         Raises:
             SimError: the cloud refused a batch, or did not take them in SYNC_TIMEOUT_S.
         """
-        for trip in trips:
-            self.spool.put_trip(trip)
+        self.last_digests = [self.spool.put_trip(trip).digest for trip in trips]
         uploader = Uploader(self.spool, self.api, UploaderConfig(backoff_max_s=5.0))
         timer = threading.Timer(SYNC_TIMEOUT_S, uploader.stop)
         timer.start()
@@ -116,9 +121,22 @@ class StudyCloud:
             )
         return done
 
+    def report_trip(self, report: dict[str, Any]) -> None:
+        """Report one ACC trip to the cloud (``cloud_sync.service.trips``), after its takeover
+        segments were uploaded: the dashboard's per-trip learning curve.
+
+        Raises:
+            SimError: the cloud refused the report or could not be reached.
+        """
+        try:
+            self.api.report_trip(report)
+        except CloudError as exc:
+            raise SimError(f"study cloud: trip report refused: {exc}") from exc
+
     def table(self, driver_id: str, condition: str) -> Dgpt | None:
         """The newest verified table of the driver, downloaded now or the last good one."""
         try:
+            self.api.wait_learned(driver_id, condition, SYNC_TIMEOUT_S)  # a served cloud
             fresh = self.downloader.fetch(driver_id, condition)
         except CloudError as exc:  # fetch reports, but a bug must not pass silently
             raise SimError(f"study cloud: {exc}") from exc
@@ -159,6 +177,23 @@ def cloud_irl_tables(
     return tables
 
 
+def _report_trip(cloud: StudyCloud, table: Dgpt, run: DriveConfig, acc_on_s: float) -> None:
+    """Report the trip just driven (``run``, with ``table``, ``acc_on_s`` s of ACC on) and
+    the takeover segments just uploaded: a point of the cloud's per-trip learning curve."""
+    report: dict[str, Any] = {
+        "driver_id": run.driver_id,
+        "condition": table.condition,
+        "dgpt_version": table.version,
+        "acc_on_s": acc_on_s,
+        "segments": cloud.last_digests,
+    }
+    # the trip's id: the same drive again (a rerun against the same cloud) is the same
+    # report, a drive of another seed or length a new trip
+    drive = {**report, "seed": run.seed, "duration_s": run.duration_s}
+    digest = hashlib.sha256(json.dumps(drive, sort_keys=True).encode()).hexdigest()
+    cloud.report_trip({**report, "trip_id": f"study-s{run.seed}-{digest[:16]}"})
+
+
 def run_incremental(
     cfg: StudyConfig,
     drivers: Mapping[str, DriverParams],
@@ -188,6 +223,8 @@ def run_incremental(
                 run_cfg, driver, table, profile, takeover_sink=segments.append, bus=cfg.bus
             )
             m = result.metrics
+            uploaded = cloud.upload(segments)
+            _report_trip(cloud, table, run_cfg, m.acc_on_s)
             rows.append(
                 {
                     "driver": driver_id,
@@ -196,7 +233,7 @@ def run_incremental(
                     "poi_pct": m.poi_pct,
                     "nim_per_min": m.nim_per_min,
                     "takeovers": result.takeovers,
-                    "uploaded": cloud.upload(segments),
+                    "uploaded": uploaded,
                     "min_ttc_s": m.min_ttc_s,
                     "collision": int(result.collision),
                 }

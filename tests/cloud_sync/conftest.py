@@ -2,14 +2,42 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 
+import numpy as np
 import pytest
 
 from cloud_sync.irl.synthetic import follower_trip, lead_speed
+from pacc.vocab.acc_state import AccState
 from pacc.vocab.triplog import Trip
 
-__all__ = ["follower_trip", "lead_speed"]
+__all__ = ["follower_trip", "lead_speed", "takeover_segment"]
+
+
+def takeover_segment(
+    seed: int, presses: list[tuple[int, int, str]], n: int = 200, driver_id: str = "syn"
+) -> Trip:
+    """A 10 Hz takeover segment of ``n`` samples of the follower: the ACC Active, and each
+    press ``(first, end, pedal)`` a pedal held on samples ``first..end-1`` (``accel``:
+    Override; ``brake``: cancelled to Standby, as ``brake_mode="cancel"`` does). Known answer:
+    ``sum(end - first) * 0.1`` s of intervention and ``len(presses)`` takeovers (presses
+    apart)."""
+    base = follower_trip(seed, minutes=n / 600.0)
+    state = np.full(n, int(AccState.ACTIVE), dtype=np.int64)
+    accel, brake = np.zeros(n), np.zeros(n)
+    for first, end, pedal in presses:
+        if pedal == "accel":
+            state[first:end], accel[first:end] = int(AccState.OVERRIDE), 0.3
+        else:
+            state[first:end], brake[first:end] = int(AccState.STANDBY), 0.4
+    return dataclasses.replace(
+        base,
+        acc_state=state,
+        accel_pedal=accel,
+        brake_pedal=brake,
+        meta={"driver_id": driver_id, "condition": "default", "mode": "takeover", "seed": seed},
+    )
 
 
 @pytest.fixture(scope="session")

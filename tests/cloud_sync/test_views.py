@@ -4,6 +4,7 @@ browser (Debian's chromium driven by Playwright) after an upload."""
 from __future__ import annotations
 
 import hashlib
+import os
 import shutil
 import socket
 import threading
@@ -19,9 +20,10 @@ import uvicorn
 
 from cloud_sync.service.http import create_app
 from cloud_sync.service.rules import CloudService
+from cloud_sync.service.trips import record_trip
 from pacc.vocab.triplog_file import write_trip
 
-from .conftest import follower_trip
+from .conftest import follower_trip, takeover_segment
 
 OPERATOR = "operator-secret-token"
 
@@ -53,8 +55,8 @@ class _Served:
 
 @pytest.fixture(scope="module")
 def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[_Served, str, str]]:
-    """A cloud with two vehicles, one driver each; car-a's driver uploaded a manual trip and
-    has a learned table."""
+    """A cloud with two vehicles, one driver each; car-a's driver uploaded a manual trip, has
+    a learned table, then drove two ACC trips with it (one takeover segment) and reported them."""
     tmp = tmp_path_factory.mktemp("views")
     pool = ThreadPoolExecutor(max_workers=1)
     service = CloudService.open(tmp / "cloud", executor=pool)
@@ -65,6 +67,12 @@ def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[_Served, 
     path = tmp / "t.mcap"
     write_trip(path, follower_trip(0, minutes=2.0))
     service.upload("car-a", path.read_bytes())
+    service.wait_idle(120.0)
+    write_trip(path, takeover_segment(1, [(50, 80, "accel")]))
+    segment = service.upload("car-a", path.read_bytes()).digest
+    for trip_id, segments, acc_on_s in (("t1", [segment], 120.0), ("t2", [], 150.0)):
+        report = {"driver_id": "syn", "trip_id": trip_id, "dgpt_version": 1}
+        record_trip(service, "car-a", {**report, "acc_on_s": acc_on_s, "segments": segments})
     service.wait_idle(120.0)
     s = _Served(service)
     yield s, token_a, token_b
@@ -89,19 +97,31 @@ def test_lists_follow_the_vehicle_token_rules(served: tuple[_Served, str, str]) 
     assert s.get("/v1/drivers/ghost/versions", OPERATOR).status_code == 404
     versions = s.get("/v1/drivers/syn/versions", token_a).json()
     assert versions == s.get("/v1/drivers/syn/versions", OPERATOR).json()
-    v = versions[-1]
-    assert v["condition"] == "default" and v["source"] == "irl" and v["version"] >= 1
+    v = versions[0]  # learned from the manual trip
+    assert v["condition"] == "default" and v["source"] == "irl" and v["version"] == 1
     assert len(v["speed_mps"]) == len(v["gap_m"]) > 10
     assert v["meta"]["n_trips"] == 1 and v["meta"]["covered_mps"]
     batches = s.get("/v1/drivers/syn/batches", token_a).json()
-    assert len(batches) == 1 and v["batches"] == [batches[0]["digest"]]
-    assert all(b["used_in_version"] == v["version"] for b in batches)
+    assert [b["kind"] for b in batches] == ["manual", "takeover"]
+    assert v["batches"] == [batches[0]["digest"]]
+    assert batches[0]["used_in_version"] == 1
+    trips = s.get("/v1/drivers/syn/trips", token_a).json()
+    assert [(t["trip_id"], t["takeovers"]) for t in trips] == [("t1", 1), ("t2", 0)]
+    assert trips[0]["poi_pct"] == pytest.approx(100.0 * 3.0 / 120.0)  # 30 samples of 0.1 s
+    assert s.get("/v1/drivers/syn/trips", token_b).status_code == 403
     jobs = s.get("/v1/jobs", token_a).json()
     assert jobs == [{"driver_id": "syn", "condition": "default", "state": "idle"}]
     assert s.get("/v1/jobs", token_b).json() == []
 
 
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+#: where to save a screenshot of the dashboard (for docs; unset: none)
+SHOT = os.environ.get("PACC_DASHBOARD_SHOT")
+#: JavaScript: how many pixels of the canvas matching a selector are drawn on
+_INKED = """(sel) => { const c = document.querySelector(sel);
+    const d = c.getContext("2d").getImageData(0, 0, c.width, c.height).data;
+    let n = 0; for (let i = 3; i < d.length; i += 4) if (d[i] > 0) n++;
+    return n; }"""
 
 
 @pytest.mark.slow
@@ -125,13 +145,16 @@ def test_dashboard_in_chromium_shows_the_drivers_table_plot(
         plot = page.locator("canvas.dgpt-plot[data-driver='syn']")
         assert plot.count() == 1
         assert page.locator("#driver-other").count() == 0  # car-a does not see car-b's
-        drawn = page.evaluate(
-            """() => { const c = document.querySelector("canvas.dgpt-plot");
-                 const d = c.getContext("2d").getImageData(0, 0, c.width, c.height).data;
-                 let n = 0; for (let i = 3; i < d.length; i += 4) if (d[i] > 0) n++;
-                 return n; }"""
-        )
+        drawn = page.evaluate(_INKED, "canvas.dgpt-plot")
         assert drawn > 2000  # axes, the covered range and the table's curve
         assert "v1" in page.inner_text("table.versions")
+        # the per-trip learning curve: one point per reported trip, marked with its version
+        curve = page.locator("canvas.trip-curve[data-driver='syn']")
+        assert curve.get_attribute("data-points") == "2"
+        assert page.evaluate(_INKED, "canvas.trip-curve") > 1000
+        if SHOT:
+            page.screenshot(path=SHOT, full_page=True)
+        rows = page.inner_text("table.trips")
+        assert "t1" in rows and "t2" in rows and "2.50" in rows  # t1's PoI, %
         assert "idle" in page.inner_text("#jobs")
         browser.close()

@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from cloud_sync.service.rules import CloudService
+from cloud_sync.service.trips import trip_rows
 from pacc.commands.study import main
 from pacc.vocab.dgpt_file import load_dgpt
 from sim_bus.errors import SimError
@@ -59,6 +60,12 @@ def test_incremental_learning_fine_tunes_between_trips(
     assert len(takeovers) == sum(int(r["uploaded"]) for r in rows)
     assert takeovers, "d3 made no takeover in 3 trips: the fine-tuning went untested"
     assert versions[-1] > versions[0]  # the takeovers made a new version for a later trip
+    # the cloud's per-trip curve (trip reports): its own PoI and NIM from the segments it got
+    points = trip_rows(service, "d3")
+    assert [p["dgpt_version"] for p in points] == versions
+    for p, r in zip(points, rows, strict=True):
+        assert p["poi_pct"] == pytest.approx(float(r["poi_pct"]), abs=1.0)
+        assert p["takeovers_per_min"] == pytest.approx(float(r["nim_per_min"]), abs=0.5)
     assert (tmp_path / "incremental.png").stat().st_size > 0
 
 
