@@ -11,7 +11,9 @@ records collisions, min time-to-collision and min gap, and the time below 2 s TT
 the time under the ACC (or the driver's brake) and the time while the driver's own
 accelerator press overrode the ACC (the driver closed the gap, not the ECU). It prints one
 row per controller and per scenario kind, and every drive that collided or fell below 2 s
-TTC outside an accelerator press. ``--irl`` adds the IRL controllers (each drawn driver's
+TTC outside an accelerator press. The time after a cut-in that began below 2 s TTC (the
+cutter set it; no controller raises it at once) is its own column: there the ECU's job is to
+avoid the collision within its envelope. ``--irl`` adds the IRL controllers (each drawn driver's
 table is learned from its manual trips of the population seed first, as ``pacc study
 --population`` does: about 10 s per driver, cached). ``--workers N`` runs one driver's
 drives per task in N processes (default: the machine's cores); ``--csv`` writes every
@@ -61,7 +63,7 @@ def _drive(
         duration_s=duration,
     )
     r = run_drive(cfg, driver, table, profile)
-    s = r.log.safety(TTC_LIMIT_S)
+    s = r.safety(TTC_LIMIT_S)
     return {
         "driver": driver.driver_id,
         "kind": kind,
@@ -73,6 +75,7 @@ def _drive(
         "min_gap": s.min_gap_m,
         "below_own": s.below_own_s,
         "below_override": s.below_override_s,
+        "below_cut_in": s.below_cut_in_s,
         "poi": r.metrics.poi_pct,
         "events": len([e for e in r.road_events if e[2] is not None]),
     }
@@ -163,12 +166,19 @@ def main(argv: list[str] | None = None) -> int:
             out.close()
     wall = time.perf_counter() - start
     print(f"{len(rows)} drives in {wall:.0f} s\n")
+    _report(rows)
+    return 1 if any(r["collision"] for r in rows) or math.isnan(wall) else 0
+
+
+def _report(rows: list[dict[str, Any]]) -> None:
+    """Print one row per controller and scenario kind, then the drives to look at."""
     groups: dict[tuple[str, str], list[dict[str, Any]]] = defaultdict(list)
     for r in rows:
         groups[(r["controller"], r["kind"])].append(r)
     head = (
         f"{'controller':14s} {'kind':9s} {'drives':>6s} {'coll':>4s} {'minTTC':>7s} "
-        f"{'own':>6s} {'min gap':>7s} {'<2s ACC':>8s} {'<2s acc-press':>13s} {'PoI %':>6s}"
+        f"{'own':>6s} {'min gap':>7s} {'<2s ACC':>8s} {'<2s acc-press':>13s} "
+        f"{'<2s cut-in':>10s} {'PoI %':>6s}"
     )
     print(head)
     for (controller, kind), rs in sorted(groups.items()):
@@ -177,6 +187,7 @@ def main(argv: list[str] | None = None) -> int:
             f"{min(r['min_ttc'] for r in rs):7.2f} {min(r['min_ttc_own'] for r in rs):6.2f} "
             f"{min(r['min_gap'] for r in rs):7.2f} {sum(r['below_own'] for r in rs):8.2f} "
             f"{sum(r['below_override'] for r in rs):13.2f} "
+            f"{sum(r['below_cut_in'] for r in rs):10.2f} "
             f"{sum(r['poi'] for r in rs) / len(rs):6.1f}"
         )
     bad = [r for r in rows if r["collision"] or r["below_own"] > 0.0]
@@ -194,7 +205,14 @@ def main(argv: list[str] | None = None) -> int:
             f"  {r['driver']} {r['kind']} {r['controller']} road seed {r['seed']}: "
             f"{r['below_override']:.2f} s, min TTC {r['min_ttc']:.2f} s"
         )
-    return 1 if any(r["collision"] for r in rows) or math.isnan(wall) else 0
+    cut = [r for r in rows if r["below_cut_in"] > 0.0]
+    print(f"{len(cut)} drives below {TTC_LIMIT_S} s after a cut-in that began below it")
+    for r in cut:
+        print(
+            f"  {r['driver']} {r['kind']} {r['controller']} road seed {r['seed']}: "
+            f"{r['below_cut_in']:.2f} s, min TTC {r['min_ttc']:.2f} s, min gap "
+            f"{r['min_gap']:.2f} m, collision {r['collision']}"
+        )
 
 
 if __name__ == "__main__":

@@ -296,11 +296,17 @@ def control(
         else:
             target, integral = law(obs, integral0, dt_s)
         ttc = time_to_collision_s(inp.lead_valid, inp.gap_m, inp.rel_speed_mps)
-        if ttc < ctl.emergency_ttc_s:  # brake at least as hard as the closing speed needs
-            floor = config.bounds.lower_m(max(p.v_mps + inp.rel_speed_mps, 0.0))
-            limit = closing_limit_mps2(inp.gap_m, inp.rel_speed_mps, obs.lead_accel_mps2, floor)
-            target = min(target, limit)
         urgent = False
+        if inp.lead_valid and inp.rel_speed_mps < 0.0:
+            floor = config.bounds.lower_m(max(p.v_mps + inp.rel_speed_mps, 0.0))
+            # the closing speed alone needing more than 2 m/s^2 (a cut-out revealing a car
+            # 15 m/s slower 58 m ahead: 3.9 s TTC, 2.5 m/s^2) is urgent at any TTC (issue 21)
+            closing = closing_limit_mps2(inp.gap_m, inp.rel_speed_mps, 0.0, floor)
+            if ttc < ctl.emergency_ttc_s or closing < URGENT_STOP_MPS2:
+                # brake at least as hard as the closing speed needs
+                limit = closing_limit_mps2(inp.gap_m, inp.rel_speed_mps, obs.lead_accel_mps2, floor)
+                urgent = closing < URGENT_STOP_MPS2 and limit < prev
+                target = min(target, limit)
         if inp.lead_valid:  # a lead stopping or stopped: stop at the table's standstill gap
             stop = stop_limit(config, inp, p, obs.lead_accel_mps2)
             # behind a lead braking so hard that stopping behind it, were it to brake to a
@@ -309,7 +315,7 @@ def control(
             # behind leads braking at 3 m/s^2 beyond the stop law's 4-s horizon)
             need = lead_stop_need_mps2(config, inp, p, obs.lead_accel_mps2)
             stop = min(stop, need) if need < URGENT_STOP_MPS2 else stop
-            urgent = stop < URGENT_STOP_MPS2 and stop < prev
+            urgent = urgent or (stop < URGENT_STOP_MPS2 and stop < prev)
             target = min(target, stop)
         target = road_limit(ctl.road, road, target, prev, inp.lead_valid)
         emergency = (ttc < ctl.emergency_ttc_s or urgent) and target < prev

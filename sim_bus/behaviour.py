@@ -50,6 +50,8 @@ LEAD_ACCEL_TAU_S = 0.3
 #: expected event; Green, "How long does it take to stop?", Transportation Human Factors 2(3),
 #: 2000, puts a fully aware driver's brake reaction at about 0.7-0.75 s)
 ATTENTIVE_REACTION_S = 0.75
+#: seconds of its speed a driver keeps to spare when it brakes to stop short of a lead, s
+STOP_SPARE_S = 1.2
 BUTTON_HOLD_S = 0.3
 #: a lead farther than this is out of the driver's sight: a free road, nothing to follow, m
 LEAD_SIGHT_M = 200.0
@@ -256,6 +258,15 @@ class DriverAgent:
             self.a_cmd_mps2 = COAST_MPS2
             self._set_pedals(0.0, "none")
             return
+        if p.revision >= 2:
+            # by hand, its foot on the pedals, it sees closing as attentively as when it
+            # presses under the ACC and brakes at least as hard as stopping short needs
+            # (issue 21: its IDM+, seeing the lead late, braked at 1.9 m/s^2 at 2.9 s TTC
+            # and hit a lead braking at 1.9 m/s^2)
+            vl1, g1 = self._seen[max(len(self._seen) - 1 - self._lag[1], 0)]
+            closing = v - vl1
+            if closing > 0.1:
+                a = min(a, self._needed_mps2(v, vl1, g1, self._accel_seen[1]))
         self._drive_by_hand(a)
         self._last_release_t = self.t_s if not can_engage else self._last_release_t
 
@@ -336,19 +347,24 @@ class DriverAgent:
             return
         self._set_pedals(self.a_cmd_mps2, "brake" if self.mode == "brake" else "accel")
 
-    def _needed_mps2(self, v: float, vl: float, g: float) -> float:
+    def _needed_mps2(
+        self, v: float, vl: float, g: float, lead_accel_mps2: float | None = None
+    ) -> float:
         """The constant deceleration (m/s², < 0) that matches the lead's speed (as seen,
-        with its braking) its standstill distance plus 0.5 s of its speed short of it, the gap
-        reckoned now from its late view (``ATTENTIVE_REACTION_S`` at most) and the closing
-        speed; 0 when not closing."""
+        with its braking: ``lead_accel_mps2``, default the one it sees now) its standstill
+        distance plus ``STOP_SPARE_S`` of its speed short of it, the gap reckoned now from its
+        late view (``ATTENTIVE_REACTION_S`` at most) and the closing speed; 0 when not
+        closing."""
         closing = v - vl
         if closing <= 0.0:
             return 0.0
         g -= closing * self._lag[1] * self.dt_s  # the gap now, from the late view and closing
-        # stop with half a second of its speed to spare: braking front-loaded, as drivers do
-        # (issue 21: a constant-deceleration stop exactly at standstill_m passes below 2 s TTC)
-        room = max(g - self.p.standstill_m - 0.5 * v, 0.5)
-        need = min(self.lead_accel_seen_mps2, 0.0) - closing * closing / (2.0 * room)
+        # stop with STOP_SPARE_S of its speed to spare: braking front-loaded, as drivers do
+        # (issue 21: a constant-deceleration stop exactly at standstill_m passes below 2 s TTC;
+        # with s to spare the stop keeps s + sqrt(2 standstill / decel): 0.5 s left 1.74 s)
+        room = max(g - self.p.standstill_m - STOP_SPARE_S * v, 0.5)
+        a_f = self.lead_accel_seen_mps2 if lead_accel_mps2 is None else lead_accel_mps2
+        need = min(a_f, 0.0) - closing * closing / (2.0 * room)
         return max(need, -DECEL_LIMIT_MPS2)
 
     def _release(self, a: float) -> None:

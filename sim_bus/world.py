@@ -15,6 +15,7 @@ world logs one sample per driver step (shape (m,) arrays, see :class:`WorldLog`)
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -114,10 +115,17 @@ class WorldLog:
     accel_pct: np.ndarray
     brake_bar: np.ndarray
 
-    def safety(self, threshold_s: float = 2.0) -> SafetyFigures:
-        """Time-to-collision exposure (sim_bus.metrics.safety_figures) of these samples."""
+    def safety(self, threshold_s: float = 2.0, cut_in_t_s: Sequence[float] = ()) -> SafetyFigures:
+        """Time-to-collision exposure (sim_bus.metrics.safety_figures) of these samples;
+        ``cut_in_t_s``: the times of the drive's cut-ins, s."""
         return safety_figures(
-            self.t_s, self.gap_m, self.v_mps, self.v_lead_mps, self.accel_pressed, threshold_s
+            self.t_s,
+            self.gap_m,
+            self.v_mps,
+            self.v_lead_mps,
+            self.accel_pressed,
+            threshold_s,
+            cut_in_t_s,
         )
 
     def metrics(self) -> DriveMetrics:

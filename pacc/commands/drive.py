@@ -86,7 +86,7 @@ def format_result(r: DriveResult) -> str:
     """The human-readable report printed by ``pacc drive``."""
     m = r.metrics
     c = r.config
-    safety = r.log.safety()
+    safety = r.safety()
     col = f"1 at t = {r.collision_t_s:.2f} s" if r.collision else "0"
     lines = [
         f"drive: scenario {c.scenario}, driver {c.driver_id}, controller {c.controller}"
@@ -102,7 +102,8 @@ def format_result(r: DriveResult) -> str:
         f"  min gap        {m.min_gap_m:7.2f} m",
         f"  min TTC        {m.min_ttc_s:7.2f} s",
         f"  TTC < 2 s      {safety.below_own_s:7.2f} s under the ACC, "
-        f"{safety.below_override_s:.2f} s while the driver's accelerator overrode it",
+        f"{safety.below_override_s:.2f} s while the driver's accelerator overrode it, "
+        f"{safety.below_cut_in_s:.2f} s after a cut-in that began below 2 s",
         f"  RMS jerk       {m.rms_jerk_mps3:7.3f} m/s^3",
         f"  gap error      {m.gap_error_mean_m:7.2f} m mean, {m.gap_error_rms_m:.2f} m RMS "
         "(vs. the driver's preference)",

@@ -41,7 +41,7 @@ from sim_bus.drivers import GAP_SETTING_CODE, DriverParams
 from sim_bus.errors import DriveError, DriverError, ScenarioError
 from sim_bus.events import ROAD_SCENARIOS, road_profile
 from sim_bus.faults import fault_rng, parse_faults
-from sim_bus.metrics import DriveMetrics
+from sim_bus.metrics import DriveMetrics, SafetyFigures
 from sim_bus.node import SimNode
 from sim_bus.scenarios import LeadProfile, canonical_profiles, load_profile_csv, shorten
 from sim_bus.trip import world_trip
@@ -113,6 +113,12 @@ class DriveResult:
     start_utc: str = ""
     #: the road scenario's events as played: (time s, kind, new gap m or None if skipped)
     road_events: list[tuple[float, str, float | None]] = field(default_factory=list)
+
+    def safety(self, threshold_s: float = 2.0) -> SafetyFigures:
+        """The drive's time-to-collision exposure (:meth:`WorldLog.safety`), the time after a
+        cut-in that began below ``threshold_s`` of TTC counted apart (``below_cut_in_s``)."""
+        cuts = [t for t, kind, gap in self.road_events if kind == "cut_in" and gap is not None]
+        return self.log.safety(threshold_s, cuts)
 
     @property
     def realtime_factor(self) -> float:

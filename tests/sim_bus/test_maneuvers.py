@@ -189,7 +189,7 @@ def test_safety_on_seeds_drawn_now() -> None:
             scenario=kind, driver_id=driver.driver_id, controller="predefined+oa", seed=road
         )
         r = run_drive(cfg, driver, predefined_table(driver), road_profile(kind, road, 60.0))
-        s = r.log.safety()
+        s = r.safety()
         where = f"population seed {pop}, road seed {road}, {kind}"
         assert not r.collision, where
         assert s.below_own_s == 0.0, f"{where}: {s}"

@@ -7,7 +7,14 @@ import math
 import numpy as np
 import pytest
 
-from sim_bus.metrics import acc_on_mask, drive_metrics, min_ttc_s, poi_nim, rms_jerk
+from sim_bus.metrics import (
+    acc_on_mask,
+    drive_metrics,
+    min_ttc_s,
+    poi_nim,
+    rms_jerk,
+    safety_figures,
+)
 
 
 def test_poi_and_nim_hand_counted() -> None:
@@ -69,3 +76,42 @@ def test_drive_metrics_gap_error_uses_unpressed_acc_on_samples() -> None:
     )
     assert m.gap_error_mean_m == pytest.approx(2.0) and m.gap_error_rms_m == pytest.approx(2.0)
     assert m.min_gap_m == 32.0 and m.poi_pct == pytest.approx(50.0)
+
+
+def test_safety_counts_a_cut_in_that_began_below_the_threshold_apart() -> None:
+    """1 s of 10 samples: TTC 1.5 s at samples 2-4 (a cut-in at 0.2 s set it), then 3 s, then
+    1.0 s at samples 7-8 (the controller's own doing): only the latter counts as own time;
+    an accelerator press at sample 8 is counted as the driver's."""
+    t = np.arange(10) * 0.1
+    closing = 2.0
+    ttc = np.array([9, 9, 1.5, 1.5, 1.5, 3, 3, 1.0, 1.0, 9], dtype=float)
+    gap = ttc * closing
+    v = np.full(10, 10.0)
+    vl = v - closing
+    press = np.zeros(10, dtype=bool)
+    press[8] = True
+    s = safety_figures(t, gap, v, vl, press, 2.0, cut_in_t_s=[0.2])
+    assert s.below_cut_in_s == pytest.approx(0.3)
+    assert s.below_own_s == pytest.approx(0.1)  # sample 7
+    assert s.below_override_s == pytest.approx(0.1)  # sample 8
+    assert s.min_ttc_own_s == pytest.approx(1.0) and s.min_ttc_s == pytest.approx(1.0)
+    # a cut-in that began with more than the threshold plus 0.5 s exempts nothing
+    s = safety_figures(t, gap, v, vl, press, 2.0, cut_in_t_s=[0.5])
+    assert s.below_cut_in_s == 0.0 and s.below_own_s == pytest.approx(0.4)
+    # one that began at 2.4 s (within the 0.5-s reaction allowance) sets what follows
+    ttc2 = np.array([9, 9, 2.4, 2.2, 1.9, 1.8, 2.3, 2.6, 1.0, 9], dtype=float)
+    s = safety_figures(t, ttc2 * closing, v, vl, np.zeros(10, dtype=bool), 2.0, [0.2])
+    assert s.below_cut_in_s == pytest.approx(0.2) and s.below_own_s == pytest.approx(0.1)
+
+
+def test_a_time_below_that_began_during_an_accelerator_press_stays_the_drivers() -> None:
+    """TTC below 2 s at samples 3-6, the accelerator pressed at 2-4: samples 5-6 (after the
+    release, same episode) count with the press; a later episode (8) is the ECU's."""
+    t = np.arange(10) * 0.1
+    ttc = np.array([9, 9, 3, 1.9, 1.8, 1.7, 1.9, 3, 1.5, 9], dtype=float)
+    v = np.full(10, 10.0)
+    press = np.zeros(10, dtype=bool)
+    press[2:5] = True
+    s = safety_figures(t, ttc * 2.0, v, v - 2.0, press, 2.0)
+    assert s.below_override_s == pytest.approx(0.4)
+    assert s.below_own_s == pytest.approx(0.1) and s.min_ttc_own_s == pytest.approx(1.5)
