@@ -26,6 +26,7 @@ for nodes on separate threads (a real-time ECU beside a simulator).
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Sequence
 from typing import Any
 
 import can
@@ -93,13 +94,31 @@ class LockstepBus(BusABC):
             )
 
     def send(self, msg: Message, timeout: float | None = None) -> None:
-        """Queue a copy of ``msg`` (:func:`rx_copy`) to every other bus of the channel."""
+        """Queue a copy of ``msg`` (what :func:`rx_copy` gives) to every other bus of the
+        channel."""
         if not self._open:
             raise CanOperationError("Cannot operate on a closed bus")
+        # rx_copy inlined (the per-frame path): read each field once, one new Message each
+        t, fid, ext = msg.timestamp, msg.arbitration_id, msg.is_extended_id
+        remote, error, dlc, data = msg.is_remote_frame, msg.is_error_frame, msg.dlc, msg.data
+        fd, brs, esi = msg.is_fd, msg.bitrate_switch, msg.error_state_indicator
         channel = self.channel_id
         own = self.rx
         for rx in self._targets:
-            rx.append(rx_copy(msg, channel, rx is not own))
+            m = _new_message(Message)
+            m.timestamp = t
+            m.arbitration_id = fid
+            m.is_extended_id = ext
+            m.is_remote_frame = remote
+            m.is_error_frame = error
+            m.channel = channel
+            m.dlc = dlc
+            m.data = bytearray(data)
+            m.is_fd = fd
+            m.is_rx = rx is not own
+            m.bitrate_switch = brs
+            m.error_state_indicator = esi
+            rx.append(m)
 
     def recv(self, timeout: float | None = None) -> Message | None:
         """The oldest queued frame that passes the filters, or None at once if there is none
@@ -114,6 +133,25 @@ class LockstepBus(BusABC):
             if self._matches_filters(msg):
                 return msg
         return None
+
+    def take_all(self) -> Sequence[Message]:
+        """Every queued frame that passes the filters, oldest first, taken off the queue:
+        what calling :meth:`recv` until it returns None gives, in one call (a lockstep node's
+        drain at each tick).
+
+        Raises:
+            CanOperationError: the bus is closed.
+        """
+        if not self._open:
+            raise CanOperationError("Cannot operate on a closed bus")
+        rx = self.rx
+        if not rx:
+            return ()
+        out = list(rx)
+        rx.clear()
+        if self._filters is None:
+            return out
+        return [m for m in out if self._matches_filters(m)]
 
     def _recv_internal(self, timeout: float | None) -> tuple[Message | None, bool]:
         if not self._open:

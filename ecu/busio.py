@@ -20,6 +20,7 @@ import can
 
 from dbc.codec import Codec, EncodeError, RoleCodec
 from dbc.endpoint import Inbox, Outbox
+from dbc.lockstep import LockstepBus
 from ecu import EcuError
 from ecu.config import EcuConfig
 from ecu.safety import CommandSafety
@@ -205,14 +206,22 @@ class BusIO:
         self._status = () if status is None else status.parts
         #: called with (time, frame, received) for every frame in and out (a bus recorder)
         self.tap: Callable[[float, can.Message, bool], None] | None = None
+        #: the lockstep bus's take-all (:meth:`dbc.lockstep.LockstepBus.take_all`), else None
+        self._take_all = bus.take_all if isinstance(bus, LockstepBus) else None
 
     # -- receive -------------------------------------------------------------------------
 
     def drain(self, now_s: float) -> None:
         """Feed every frame waiting on the bus to the Inbox, stamped ``now_s``."""
-        recv = self.bus.recv
         accept = self.inbox.accept_message
         tap = self.tap
+        if self._take_all is not None:  # the lockstep bus: every waiting frame in one call
+            for frame in self._take_all():
+                accept(frame, now_s)
+                if tap is not None:
+                    tap(now_s, frame, True)
+            return
+        recv = self.bus.recv
         while True:
             msg = recv(0)
             if msg is None:

@@ -131,3 +131,31 @@ def test_an_own_echo_is_not_rx_as_on_the_virtual_bus() -> None:
         finally:
             a.shutdown()
             b.shutdown()
+
+
+def test_take_all_is_recv_until_none() -> None:
+    """take_all (a lockstep node's drain) gives what recv gives frame by frame: the same
+    frames in order, filters honoured, the queue emptied; a closed bus refuses."""
+    filters = [{"can_id": 0x20, "can_mask": 0x7F0, "extended": False}]
+    a = can.Bus(interface="lockstep", channel="take-all")
+    b = can.Bus(interface="lockstep", channel="take-all")
+    c = can.Bus(interface="lockstep", channel="take-all", can_filters=filters)
+    try:
+        assert isinstance(b, LockstepBus) and isinstance(c, LockstepBus)
+        assert b.take_all() == ()
+        for k, fid in enumerate((0x10, 0x21, 0x30, 0x2F)):
+            a.send(_msg(fid, bytes([k]), 0.01 * k))
+        got = b.take_all()
+        assert [(m.arbitration_id, bytes(m.data), m.timestamp, m.is_rx) for m in got] == [
+            (fid, bytes([k]), 0.01 * k, True) for k, fid in enumerate((0x10, 0x21, 0x30, 0x2F))
+        ]
+        assert b.pending == 0 and b.recv(0) is None
+        assert [m.arbitration_id for m in c.take_all()] == [0x21, 0x2F]
+        assert c.pending == 0
+        b.shutdown()
+        with pytest.raises(can.CanOperationError):
+            b.take_all()
+    finally:
+        a.shutdown()
+        b.shutdown()
+        c.shutdown()
