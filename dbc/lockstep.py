@@ -11,11 +11,17 @@ not need:
   moves when the simulator steps, so a frame cannot arrive while a receiver waits: ``recv``
   returns the next queued frame or None at once, whatever its ``timeout``.
 - **no generic deep copy.** python-can's contract is that a received message does not alias
-  the sent one (its sender may reuse and mutate it: the simulator does). :func:`rx_copy`
-  guarantees this by building a fresh :class:`can.Message` per receiver, with a fresh
-  ``bytearray`` of the payload; every other field is an immutable scalar (int, float, bool,
-  the channel's hashable name), so nothing else can be shared mutably. That is what
-  ``copy.deepcopy`` gives, without its memo and dispatch.
+  the sent one (its sender may reuse and mutate it). ``send`` guarantees this by building a
+  fresh :class:`can.Message` per receiver (:func:`rx_copy`), with a fresh ``bytearray`` of
+  the payload; every other field is an immutable scalar (int, float, bool, the channel's
+  hashable name), so nothing else can be shared mutably. That is what ``copy.deepcopy``
+  gives, without its memo and dispatch.
+- **no copy at all for a sender that gives its message up.** :meth:`LockstepBus.hand_over`
+  is ``send`` for a sender that builds a new message (and payload ``bytearray``) per frame
+  and never touches it again: the one receiver gets that message itself. pacc's own nodes
+  send that way on this bus (the simulator's :class:`sim_bus.node.SimNode` and the ECU's
+  :class:`ecu.busio.BusIO`; each frame comes from :func:`dbc.endpoint.new_frame`); so no
+  received message aliases one its sender may still mutate.
 
 A received frame carries the sender's timestamp (the simulated time it was stamped with),
 ``channel`` set to the channel name and ``is_rx`` True, exactly as the virtual bus stamps them.
@@ -119,6 +125,28 @@ class LockstepBus(BusABC):
             m.bitrate_switch = brs
             m.error_state_indicator = esi
             rx.append(m)
+
+    def hand_over(self, msg: Message) -> None:
+        """Send ``msg`` and give it up: what :meth:`send` delivers, without the copy.
+
+        For a sender that builds a new message per frame and never touches it after this
+        call (pacc's own nodes: :class:`dbc.endpoint.Outbox` frames). With one receiver,
+        that receiver gets ``msg`` itself, stamped with the channel and ``is_rx`` as
+        :meth:`send` stamps its copy; with several (or this bus's own echo), :meth:`send`'s
+        copies. ``msg.data`` must be a ``bytearray`` that only ``msg`` holds.
+
+        Raises:
+            CanOperationError: the bus is closed.
+        """
+        if not self._open:
+            raise CanOperationError("Cannot operate on a closed bus")
+        targets = self._targets
+        if len(targets) != 1 or targets[0] is self.rx:
+            self.send(msg)
+            return
+        msg.channel = self.channel_id
+        msg.is_rx = True
+        targets[0].append(msg)
 
     def recv(self, timeout: float | None = None) -> Message | None:
         """The oldest queued frame that passes the filters, or None at once if there is none

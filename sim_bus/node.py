@@ -23,7 +23,7 @@ import can
 import numpy as np
 
 from dbc.codec import Codec, MessageCodec, load_codec
-from dbc.endpoint import Frame, Inbox, Outbox
+from dbc.endpoint import Frame, Inbox, Outbox, new_frame
 from dbc.lockstep import LockstepBus
 from dbc.schema import resting_values
 from pacc.vocab.acc_state import AccState
@@ -104,8 +104,10 @@ class SimNode:
         queue = getattr(bus, "queue", None)
         self._rx_queue = queue if callable(getattr(queue, "empty", None)) else None
         self._rx_deque = bus.rx if isinstance(bus, LockstepBus) else None
-        #: the lockstep bus reads every waiting frame in one call
+        #: the lockstep bus reads every waiting frame in one call, and takes new frames
+        #: without a copy (:meth:`dbc.lockstep.LockstepBus.hand_over`)
         self._take_all = bus.take_all if isinstance(bus, LockstepBus) else None
+        self._hand_over = bus.hand_over if isinstance(bus, LockstepBus) else None
         # one reusable message per role (the virtual bus copies what it sends)
         self._msgs: dict[str, can.Message] = {
             p.key: Frame(arbitration_id=p.frame_id, is_extended_id=p.is_extended, dlc=p.length)
@@ -258,25 +260,8 @@ class SimNode:
 
     def _transmit(self, now: float) -> None:
         faults = self.faults
-        if faults is None:  # the hot path: reused messages, no fault logic
-            send = self.bus.send
-            encode = self.outbox.encode_part
-            tap = self.tap
-            sent = 0
-            for fill, frames in self._due_fill[self.tick % len(self._due_fill)]:
-                values = fill()  # once per role and tick, whatever its messages
-                for mc, msg in frames:
-                    msg.data = bytearray(encode(mc, values))
-                    msg.timestamp = now
-                    try:
-                        send(msg)
-                    except can.CanError:  # lost, like a dropped frame; the simulation goes on
-                        self.send_errors += 1
-                        continue
-                    sent += 1
-                    if tap is not None:
-                        tap(now, msg, False)
-            self.frames_sent += sent
+        if faults is None:  # the hot path: no fault logic
+            self._transmit_due(now)
             return
         for mc in self._due[self.tick % len(self._due)]:
             vals = self._fill(mc.role)
@@ -290,6 +275,35 @@ class SimNode:
                 _, _, msg = heapq.heappop(self._pending)
                 msg.timestamp = now
                 self._send(msg)
+
+    def _transmit_due(self, now: float) -> None:
+        """Send the frames due at this tick, without faults: each role's values filled once;
+        on the lockstep bus a new frame per message, handed over (no copy); on another bus
+        the role's reused message, which the bus copies."""
+        encode = self.outbox.encode_part
+        tap = self.tap
+        hand_over = self._hand_over
+        send = self.bus.send if hand_over is None else hand_over
+        sent = 0
+        for fill, frames in self._due_fill[self.tick % len(self._due_fill)]:
+            values = fill()  # once per role and tick, whatever its messages
+            for mc, reused in frames:
+                msg: can.Message
+                if hand_over is not None:
+                    msg = new_frame(mc.frame_id, mc.is_extended, encode(mc, values), now)
+                else:
+                    msg = reused
+                    msg.data = bytearray(encode(mc, values))
+                    msg.timestamp = now
+                try:
+                    send(msg)
+                except can.CanError:  # lost, like a dropped frame; the simulation goes on
+                    self.send_errors += 1
+                    continue
+                sent += 1
+                if tap is not None:
+                    tap(now, msg, False)
+        self.frames_sent += sent
 
     def _transmit_faulty(
         self, mc: MessageCodec, vals: dict[str, Any], plan: FaultPlan, now: float
