@@ -90,6 +90,8 @@ class LockstepBus(BusABC):
         self._peers = _channels.setdefault(channel, [])
         self._peers.append(self)
         self._targets: tuple[deque[Message], ...] = ()
+        #: the receive queue of the channel's one other bus, if it is the only target
+        self._sole: deque[Message] | None = None
         self._retarget()
 
     def _retarget(self) -> None:
@@ -98,6 +100,8 @@ class LockstepBus(BusABC):
             bus._targets = tuple(
                 other.rx for other in bus._peers if other is not bus or bus.receive_own_messages
             )
+            one = bus._targets[0] if len(bus._targets) == 1 else None
+            bus._sole = one if one is not bus.rx else None
 
     def send(self, msg: Message, timeout: float | None = None) -> None:
         """Queue a copy of ``msg`` (what :func:`rx_copy` gives) to every other bus of the
@@ -140,13 +144,13 @@ class LockstepBus(BusABC):
         """
         if not self._open:
             raise CanOperationError("Cannot operate on a closed bus")
-        targets = self._targets
-        if len(targets) != 1 or targets[0] is self.rx:
+        sole = self._sole
+        if sole is None:
             self.send(msg)
             return
         msg.channel = self.channel_id
         msg.is_rx = True
-        targets[0].append(msg)
+        sole.append(msg)
 
     def recv(self, timeout: float | None = None) -> Message | None:
         """The oldest queued frame that passes the filters, or None at once if there is none

@@ -23,7 +23,7 @@ import can
 import numpy as np
 
 from dbc.codec import Codec, MessageCodec, load_codec
-from dbc.endpoint import Frame, Inbox, Outbox, new_frame
+from dbc.endpoint import Frame, Inbox, Outbox
 from dbc.lockstep import LockstepBus
 from dbc.schema import resting_values
 from pacc.vocab.acc_state import AccState
@@ -70,6 +70,7 @@ class SimNode:
         self._parts: tuple[MessageCodec, ...] = tuple(p for r in TX_ROLES for p in roles[r].parts)
         every = {p.key: max(1, int(round(p.cycle_s / self.dt_s))) for p in self._parts}
         hyper = math.lcm(*every.values())
+        self._hyper = hyper
         #: messages due at tick k are ``_due[k % hyper]`` (the periods as a tick schedule)
         self._due = [tuple(p for p in self._parts if k % every[p.key] == 0) for k in range(hyper)]
         #: the same schedule by role (role, its messages due), each role's values filled once
@@ -281,16 +282,17 @@ class SimNode:
         on the lockstep bus a new frame per message, handed over (no copy); on another bus
         the role's reused message, which the bus copies."""
         encode = self.outbox.encode_part
+        pack = self.outbox.pack_part
         tap = self.tap
         hand_over = self._hand_over
         send = self.bus.send if hand_over is None else hand_over
         sent = 0
-        for fill, frames in self._due_fill[self.tick % len(self._due_fill)]:
+        for fill, frames in self._due_fill[self.tick % self._hyper]:
             values = fill()  # once per role and tick, whatever its messages
             for mc, reused in frames:
                 msg: can.Message
                 if hand_over is not None:
-                    msg = new_frame(mc.frame_id, mc.is_extended, encode(mc, values), now)
+                    msg = pack(mc, values, now)  # a new frame
                 else:
                     msg = reused
                     msg.data = bytearray(encode(mc, values))
