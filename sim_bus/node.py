@@ -365,8 +365,13 @@ class SimNode:
     def step(self) -> None:
         """One lockstep tick: take in commands, send due frames, advance the world by dt."""
         now = self.t_s
-        self._receive(now)
-        self._transmit(now)
+        rx = self._rx_deque
+        if rx is None or rx:  # on the lockstep bus, only when a frame waits
+            self._receive(now)
+        if self.faults is None:
+            self._transmit_due(now)
+        else:
+            self._transmit(now)
         active, a, state = self.command_now(now)
         self.world.advance(active, a, state)
         self.tick += 1
