@@ -144,6 +144,10 @@ class Inbox:
         self._role_receivers: dict[str, tuple[E2EReceiver, ...]] = {
             role: tuple(self.receivers[key] for key in keys) for role, keys in self._keys.items()
         }
+        #: the receiver of each role of one message (most roles): freshness in one lookup
+        self._sole: dict[str, E2EReceiver] = {
+            role: rx[0] for role, rx in self._role_receivers.items() if len(rx) == 1
+        }
         self._latest: dict[str, dict[str, Value]] = {}
         #: outcomes of frames that belong to no consumed role (counted under UNKNOWN_ROLE)
         self._unknown: Counter[E2EStatus] = Counter()
@@ -277,11 +281,11 @@ class Inbox:
     def fresh(self, role: str, now_s: float) -> bool:
         """True when every message of ``role`` delivered a usable frame within its timeout
         before ``now_s``."""
-        receivers = self._role_receivers[role]
-        if len(receivers) == 1:
-            last = receivers[0].last_ok_s
-            return last is not None and now_s - last <= receivers[0].timeout_s
-        return not any(r.timed_out(now_s) for r in receivers)
+        sole = self._sole.get(role)
+        if sole is not None:
+            last = sole.last_ok_s
+            return last is not None and now_s - last <= sole.timeout_s
+        return not any(r.timed_out(now_s) for r in self._role_receivers[role])
 
     def errors(self) -> dict[str, int]:
         """Counts of every non-OK outcome by kind, summed over roles."""

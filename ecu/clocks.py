@@ -83,12 +83,16 @@ class CycleClock:
         if not math.isfinite(now_s):
             raise RuntimeClockError(f"advance_to: time must be finite, got {now_s}")
         t0, cycle = self.t0, self.cycle_s
-        if t0 is not None and not math.isfinite((now_s - t0) / cycle):
-            raise RuntimeClockError(f"advance_to: {now_s} s is beyond the cycle grid")
+        if t0 is None:
+            cycles = 0.0
+        else:
+            cycles = (now_s - t0) / cycle
+            if not math.isfinite(cycles):
+                raise RuntimeClockError(f"advance_to: {now_s} s is beyond the cycle grid")
         port.drain(now_s)
         if t0 is None:
             self.t0 = t0 = now_s
-        behind = int((now_s - t0) / cycle) - self.k
+        behind = int(cycles) - self.k
         if behind > self._max_catchup:  # a jump of the host clock: skip, do not replay
             log.warning("advance_to: %d cycles behind, skipping %d", behind, behind - 1)
             self.skipped += behind - 1

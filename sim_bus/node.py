@@ -157,8 +157,9 @@ class SimNode:
             except can.CanError:
                 self.recv_errors += 1
                 return
+            accept = self._accept
             for frame in msgs:
-                self._accept(frame, now)
+                accept(frame, now)
             return
         bus = self.bus
         while True:

@@ -146,22 +146,24 @@ class Plant:
         self._noise: list[float] = []
         self._i = 0
 
-    def _next_noise(self) -> tuple[float, float]:
-        if self._quiet:
-            return 0.0, 0.0
-        i = self._i
-        if i >= len(self._noise):
-            # the same draws as rows of a (4096, 2) array; tolist: the same floats
-            self._noise = self._rng.standard_normal((4096, 2)).ravel().tolist()
-            i = 0
-        noise = self._noise
-        self._i = i + 2
-        return self._sv * noise[i], self._sg * noise[i + 1]
+    def _refill(self) -> int:
+        """Draw the next block of noise; the index of its first pair (0)."""
+        # the same draws as rows of a (4096, 2) array; tolist: the same floats
+        self._noise = self._rng.standard_normal((4096, 2)).ravel().tolist()
+        return 0
 
     def advance(self, a_cmd_mps2: float, v_lead_mps: float, a_lead_mps2: float) -> None:
         """Advance one step of ``cfg.dt_s`` with the given command and lead motion."""
         cfg = self.cfg
-        nv, ng = self._next_noise()
+        if self._quiet:  # _next_noise, without the call
+            nv = ng = 0.0
+        else:
+            i = self._i
+            if i >= len(self._noise):
+                i = self._refill()
+            noise = self._noise
+            self._i = i + 2
+            nv, ng = self._sv * noise[i], self._sg * noise[i + 1]
         if not math.isfinite(a_cmd_mps2):
             a_cmd_mps2 = 0.0
         self.v_mps, self.a_mps2, self.gap_m, self.x_m = _step_floats(
