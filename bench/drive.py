@@ -8,6 +8,8 @@ Run: ``python bench/drive.py [--scenario B] [--driver d2] [--controller ...]`` f
   virtual bus (the named peer, ``--bus virtual``), alternating, best of ROUNDS each;
 - bare bus (the old ceiling): the same frames at the same DBC periods on python-can's virtual
   bus, packed with ``struct`` plus a table CRC-8, received and checked, no logic at all;
+- where the lockstep drive's CPU time goes: the ECU's control step, the world (plant and
+  driver), the rest (bus, codec, E2E, the nodes' I/O, clocks);
 - a cProfile of a 60-s drive on the lockstep bus (top functions by own time).
 
 The last line is ``drive: R x the virtual bus`` (goal >= 2.5, and the drive faster than the
@@ -32,14 +34,18 @@ import sys
 import time
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import can
 
 from dbc.codec import load_codec
 from dbc.e2e import CRC8_TABLE
-from sim_bus.drivers import BUILTIN_DRIVERS
+from ecu.node import EcuNode
+from pacc.vocab.dgpt import Dgpt
+from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
 from sim_bus.node import TX_ROLES
 from sim_bus.study.drive import BUSES, DriveConfig, DriveResult, predefined_table, run_drive
+from sim_bus.world import World
 
 _ROOT = str(Path(__file__).resolve().parent.parent)
 SIM_S = 300.0
@@ -83,15 +89,16 @@ def _drain(bus: can.BusABC) -> int:
     return n
 
 
-def bare_bus(seconds: float = SIM_S) -> float:
-    """Simulated seconds per wall second of the bare bus (struct codec, table CRC)."""
+def bare_bus(seconds: float = SIM_S) -> tuple[float, float]:
+    """Simulated seconds per wall second of the bare bus (struct codec, table CRC), and the
+    CPU time it took (s)."""
     sim_frames = schedule(TX_ROLES)
     ecu_frames = schedule(ECU_ROLES)
     a = can.Bus(interface="virtual", channel="bench-bare", preserve_timestamps=True)
     b = can.Bus(interface="virtual", channel="bench-bare", preserve_timestamps=True)
     counters = [0] * (len(sim_frames) + len(ecu_frames))
     try:
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.process_time()
         for tick in range(int(round(seconds / TICK_S))):
             t = tick * TICK_S
             _drain(a)
@@ -104,11 +111,39 @@ def bare_bus(seconds: float = SIM_S) -> float:
                 if tick % every == 0:
                     counters[k] = (counters[k] + 1) & 0xF
                     b.send(_frame(fid, counters[k], tick, t))
-        wall = time.perf_counter() - start
+        wall, cpu = time.perf_counter() - start, time.process_time() - cpu
     finally:
         a.shutdown()
         b.shutdown()
-    return seconds / wall
+    return seconds / wall, cpu
+
+
+def breakdown(cfg: DriveConfig, driver: DriverParams, table: Dgpt) -> dict[str, float]:
+    """CPU seconds of one lockstep drive of ``cfg``: the whole drive, the ECU's control step
+    (``EcuNode.step``: state machine, plan, control law) and the world (plant and driver),
+    each timed by a wrapper around it (a little of the wrapper's cost included)."""
+    spent = {"ECU control step": 0.0, "world (plant, driver)": 0.0}
+    saved = EcuNode.step, World.advance
+
+    def timed(f: Any, key: str) -> Any:
+        def wrapper(*args: Any) -> Any:
+            c0 = time.process_time()
+            try:
+                return f(*args)
+            finally:
+                spent[key] += time.process_time() - c0
+
+        return wrapper
+
+    EcuNode.step = timed(EcuNode.step, "ECU control step")  # type: ignore[method-assign]
+    World.advance = timed(World.advance, "world (plant, driver)")  # type: ignore[method-assign]
+    try:
+        c0 = time.process_time()
+        run_drive(cfg, driver, table, bus="lockstep")
+        total = time.process_time() - c0
+    finally:
+        EcuNode.step, World.advance = saved  # type: ignore[method-assign]
+    return {"drive": total, **spent}
 
 
 def _short_paths(line: str) -> str:
@@ -179,9 +214,10 @@ def main(argv: list[str] | None = None) -> int:
         run_drive(DriveConfig(scenario=args.scenario, duration_s=5.0), driver, table, bus=bus)
     best: dict[str, DriveResult] = {}
     cpu: dict[str, float] = {}
-    bare = 0.0
+    bare, bare_cpu = 0.0, math.inf
     for _ in range(args.rounds):
-        bare = max(bare, bare_bus())
+        rate, used = bare_bus()
+        bare, bare_cpu = max(bare, rate), min(bare_cpu, used)
         for bus in BUSES:
             c0 = time.process_time()
             result = run_drive(cfg, driver, table, bus=bus)
@@ -190,7 +226,7 @@ def main(argv: list[str] | None = None) -> int:
                 best[bus] = result
     print(
         f"bare bus (virtual, struct codec + table CRC, no logic): {bare:.0f}x real time "
-        f"(best of {args.rounds})"
+        f"(best of {args.rounds}; CPU {bare_cpu:.2f} s)"
     )
     for bus, result in best.items():
         print(
@@ -203,10 +239,22 @@ def main(argv: list[str] | None = None) -> int:
     if lock.metrics != virt.metrics:
         raise SystemExit("the drives on the two buses differ")
     factor = lock.realtime_factor
-    print(f"lockstep drive / bare virtual bus = {factor / bare:.2f}")
+    print(
+        f"lockstep drive / bare virtual bus = {factor / bare:.2f} "
+        f"(CPU time, bare / lockstep: {bare_cpu / cpu['lockstep']:.2f})"
+    )
     print(
         f"CPU time, virtual / lockstep = {cpu['virtual'] / cpu['lockstep']:.2f} "
         "(the whole drive: setup, simulation, ECU; a loaded machine's wall times vary more)"
+    )
+    parts = min(
+        (breakdown(cfg, driver, table) for _ in range(args.rounds)), key=lambda d: d["drive"]
+    )
+    total = parts.pop("drive")
+    shares = ", ".join(f"{k} {100 * v / total:.0f} %" for k, v in parts.items())
+    print(
+        f"the lockstep drive's CPU time ({total:.2f} s, timed parts): {shares}, the rest "
+        f"(bus, codec, E2E, the nodes' I/O, clocks) {100 * (1 - sum(parts.values()) / total):.0f} %"
     )
     prof = cProfile.Profile()
     short = DriveConfig(

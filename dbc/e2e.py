@@ -105,7 +105,8 @@ class E2EReceiver:
         "max_delta",
         "last_counter",
         "last_ok_s",
-        "counts",
+        "ok",
+        "_counts",
     )
 
     def __init__(
@@ -120,7 +121,18 @@ class E2EReceiver:
         self.max_delta = min(counter_modulo - 1, int(timeout_multiple) + 1)
         self.last_counter: int | None = None
         self.last_ok_s: float | None = None
-        self.counts: Counter[E2EStatus] = Counter()
+        #: OK frames counted by a receiver's fast path (:class:`dbc.endpoint.Inbox`): an int,
+        #: not a Counter keyed by an Enum, once per frame
+        self.ok = 0
+        self._counts: Counter[E2EStatus] = Counter()
+
+    @property
+    def counts(self) -> Counter[E2EStatus]:
+        """Every outcome so far by status (a new Counter; OK includes :attr:`ok`)."""
+        out = Counter(self._counts)
+        if self.ok:
+            out[E2EStatus.OK] += self.ok
+        return out
 
     def check_counter(self, counter: int, now_s: float) -> E2EStatus:
         """Classify a frame whose CRC was correct by its alive counter, received at ``now_s``.
@@ -140,22 +152,28 @@ class E2EReceiver:
             if delta == 1:
                 status = E2EStatus.OK
             elif delta == 0:
-                self.counts[E2EStatus.REPEATED] += 1
+                self._counts[E2EStatus.REPEATED] += 1
                 return E2EStatus.REPEATED
             elif delta > self.max_delta:  # an old frame, late: not a loss the timeout allows
-                self.counts[E2EStatus.WRONG_SEQUENCE] += 1
+                self._counts[E2EStatus.WRONG_SEQUENCE] += 1
                 return E2EStatus.WRONG_SEQUENCE
             else:
                 status = E2EStatus.SKIPPED
         self.last_counter = counter
         self.last_ok_s = now_s
-        self.counts[status] += 1
+        if status is E2EStatus.OK:
+            self.ok += 1
+        else:
+            self._counts[status] += 1
         return status
 
     def record(self, status: E2EStatus) -> None:
         """Count a frame not classified by :meth:`check_counter` (wrong CRC, DLC or range; OK
         for a message without an alive counter)."""
-        self.counts[status] += 1
+        if status is E2EStatus.OK:
+            self.ok += 1
+        else:
+            self._counts[status] += 1
 
     def timed_out(self, now_s: float) -> bool:
         """True when no usable frame arrived within the timeout (or none ever did)."""

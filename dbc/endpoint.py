@@ -15,7 +15,7 @@ import can
 
 from dbc.codec import Codec, RoleCodec
 from dbc.e2e import E2EReceiver, E2EStatus
-from dbc.errors import CrcError, DbcError, DlcError, EncodeError, RangeError
+from dbc.errors import CrcError, DbcError, DecodeError, DlcError, EncodeError, RangeError
 from dbc.message import Decoded, MessageCodec, Value
 
 #: Pseudo-role under which frames of no bound message are counted.
@@ -53,6 +53,15 @@ class Frame(can.Message):
 
 _new_frame = Frame.__new__
 _OK = E2EStatus.OK
+
+
+def _status_of(exc: DecodeError) -> E2EStatus:
+    """The E2E outcome of a frame the codec refused."""
+    if isinstance(exc, CrcError):
+        return E2EStatus.WRONG_CRC
+    if isinstance(exc, DlcError):
+        return E2EStatus.WRONG_DLC
+    return E2EStatus.OUT_OF_RANGE
 
 
 def new_frame(frame_id: int, extended: bool, data: bytes | bytearray, timestamp: float) -> Frame:
@@ -135,6 +144,10 @@ class Inbox:
         self._role_receivers: dict[str, tuple[E2EReceiver, ...]] = {
             role: tuple(self.receivers[key] for key in keys) for role, keys in self._keys.items()
         }
+        #: the receiver of each role of one message (most roles): freshness in one lookup
+        self._sole: dict[str, E2EReceiver] = {
+            role: rx[0] for role, rx in self._role_receivers.items() if len(rx) == 1
+        }
         self._latest: dict[str, dict[str, Value]] = {}
         #: outcomes of frames that belong to no consumed role (counted under UNKNOWN_ROLE)
         self._unknown: Counter[E2EStatus] = Counter()
@@ -171,36 +184,35 @@ class Inbox:
         receiver = route.receiver
         try:
             decoded = route.decode(data)
-        except CrcError:
-            status = E2EStatus.WRONG_CRC
-        except DlcError:
-            status = E2EStatus.WRONG_DLC
-        except RangeError:
-            status = E2EStatus.OUT_OF_RANGE
+        except (CrcError, DlcError, RangeError) as exc:
+            receiver.record(_status_of(exc))
+            return None
+        counter = decoded[2]
+        last = receiver.last_counter
+        if counter is not None and last is not None and (counter - last) % receiver.modulo == 1:
+            # the next counter: OK whatever the timeout (E2EReceiver.check_counter's outcome,
+            # without the call)
+            receiver.last_counter = counter
+            receiver.last_ok_s = now_s
+            receiver.ok += 1
+        elif not self._check(receiver, counter, now_s):
+            return None
+        if route.merged:
+            self._merge_part(route.mc, decoded[1])
         else:
-            counter = decoded.counter
-            if counter is not None:
-                last = receiver.last_counter
-                if last is not None and (counter - last) % receiver.modulo == 1:
-                    # the next counter: OK whatever the timeout (E2EReceiver.check_counter's
-                    # outcome, without the call)
-                    receiver.last_counter = counter
-                    receiver.last_ok_s = now_s
-                    receiver.counts[_OK] += 1
-                else:
-                    status = receiver.check_counter(counter, now_s)  # counts it too
-                    if status in (E2EStatus.REPEATED, E2EStatus.WRONG_SEQUENCE):
-                        return None
-            else:
-                receiver.last_ok_s = now_s
-                receiver.record(E2EStatus.OK)
-            if route.merged:
-                self._merge_part(route.mc, decoded.values)
-            else:
-                self._latest[route.role] = decoded.values
-            return decoded
-        receiver.record(status)
-        return None
+            self._latest[route.role] = decoded[1]
+        return decoded
+
+    @staticmethod
+    def _check(receiver: E2EReceiver, counter: int | None, now_s: float) -> bool:
+        """The E2E check of a decoded frame off the fast path (first frame, a skip, a repeat,
+        no counter); True when the frame is usable. Counts the outcome."""
+        if counter is None:
+            receiver.last_ok_s = now_s
+            receiver.record(_OK)
+            return True
+        status = receiver.check_counter(counter, now_s)  # counts it too
+        return status is not E2EStatus.REPEATED and status is not E2EStatus.WRONG_SEQUENCE
 
     def _merge_part(self, mc: MessageCodec, values: dict[str, Value]) -> None:
         """Fold one message's values into its role; the role is reported (a new dict, with
@@ -220,16 +232,47 @@ class Inbox:
         frame whose IDE bit (11/29-bit id) differs from the DBC's is another frame: UNKNOWN_ID.
         """
         self.frames_in += 1
+        route = self._routes.get(msg.arbitration_id)
+        if (
+            route is None
+            or msg.is_error_frame
+            or msg.is_remote_frame
+            or route.extended != bool(msg.is_extended_id)
+        ):
+            self._refuse(msg)
+            return None
+        if now_s is None:
+            now_s = msg.timestamp
+        # _take inlined (the ECU's per-frame path): decode, the usual next counter, store
+        receiver = route.receiver
+        try:
+            decoded = route.decode(msg.data)
+        except (CrcError, DlcError, RangeError) as exc:
+            receiver.record(_status_of(exc))
+            return None
+        counter = decoded[2]
+        last = receiver.last_counter
+        if counter is not None and last is not None and (counter - last) % receiver.modulo == 1:
+            receiver.last_counter = counter
+            receiver.last_ok_s = now_s
+            receiver.ok += 1
+        elif not self._check(receiver, counter, now_s):
+            return None
+        if route.merged:
+            self._merge_part(route.mc, decoded[1])
+        else:
+            self._latest[route.role] = decoded[1]
+        return decoded
+
+    def _refuse(self, msg: can.Message) -> None:
+        """Count a frame :meth:`accept_message` cannot use: an error or remote frame, an id of
+        no consumed message, or the wrong IDE bit."""
         if msg.is_error_frame or msg.is_remote_frame:
             self._unknown[E2EStatus.WRONG_DLC] += 1
-            return None
-        route = self._routes.get(msg.arbitration_id)
-        if route is None or route.extended != bool(msg.is_extended_id):
-            mc = self.codec.by_id.get(msg.arbitration_id)
-            if mc is None or mc.is_extended != bool(msg.is_extended_id):
-                self._unknown[E2EStatus.UNKNOWN_ID] += 1
-            return None
-        return self._take(route, msg.data, msg.timestamp if now_s is None else now_s)
+            return
+        mc = self.codec.by_id.get(msg.arbitration_id)
+        if mc is None or mc.is_extended != bool(msg.is_extended_id):
+            self._unknown[E2EStatus.UNKNOWN_ID] += 1
 
     def latest(self, role: str) -> dict[str, Value] | None:
         """The last usable values of ``role`` (even if stale), or None if none arrived."""
@@ -238,11 +281,11 @@ class Inbox:
     def fresh(self, role: str, now_s: float) -> bool:
         """True when every message of ``role`` delivered a usable frame within its timeout
         before ``now_s``."""
-        receivers = self._role_receivers[role]
-        if len(receivers) == 1:
-            last = receivers[0].last_ok_s
-            return last is not None and now_s - last <= receivers[0].timeout_s
-        return not any(r.timed_out(now_s) for r in receivers)
+        sole = self._sole.get(role)
+        if sole is not None:
+            last = sole.last_ok_s
+            return last is not None and now_s - last <= sole.timeout_s
+        return not any(r.timed_out(now_s) for r in self._role_receivers[role])
 
     def errors(self) -> dict[str, int]:
         """Counts of every non-OK outcome by kind, summed over roles."""
@@ -286,8 +329,28 @@ class Outbox:
     def pack_part(
         self, mc: MessageCodec, values: Mapping[str, Any], timestamp: float = 0.0
     ) -> can.Message:
-        """:meth:`encode_part` wrapped in a python-can message (a :class:`Frame`)."""
-        return new_frame(mc.frame_id, mc.is_extended, self.encode_part(mc, values), timestamp)
+        """:meth:`encode_part` wrapped in a new python-can message (a :class:`Frame`, what
+        :func:`new_frame` gives). Both written out: this is every frame's path."""
+        key = mc.key
+        counter = self.counters[key]
+        data = mc.encode(values, counter)
+        if mc.counter_modulo:
+            self.counters[key] = (counter + 1) % mc.counter_modulo
+        self.frames_out += 1
+        m = _new_frame(Frame)
+        m.timestamp = timestamp
+        m.arbitration_id = mc.frame_id
+        m.is_extended_id = mc.is_extended
+        m.is_remote_frame = False
+        m.is_error_frame = False
+        m.channel = None
+        m.dlc = len(data)
+        m.data = bytearray(data)
+        m.is_fd = False
+        m.is_rx = True
+        m.bitrate_switch = False
+        m.error_state_indicator = False
+        return m
 
     def pack(self, role: str, values: Mapping[str, Any], timestamp: float = 0.0) -> can.Message:
         """:meth:`encode` wrapped in a python-can message (a :class:`Frame`) for ``bus.send``."""

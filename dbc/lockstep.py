@@ -11,11 +11,17 @@ not need:
   moves when the simulator steps, so a frame cannot arrive while a receiver waits: ``recv``
   returns the next queued frame or None at once, whatever its ``timeout``.
 - **no generic deep copy.** python-can's contract is that a received message does not alias
-  the sent one (its sender may reuse and mutate it: the simulator does). :func:`rx_copy`
-  guarantees this by building a fresh :class:`can.Message` per receiver, with a fresh
-  ``bytearray`` of the payload; every other field is an immutable scalar (int, float, bool,
-  the channel's hashable name), so nothing else can be shared mutably. That is what
-  ``copy.deepcopy`` gives, without its memo and dispatch.
+  the sent one (its sender may reuse and mutate it). ``send`` guarantees this by building a
+  fresh :class:`can.Message` per receiver (:func:`rx_copy`), with a fresh ``bytearray`` of
+  the payload; every other field is an immutable scalar (int, float, bool, the channel's
+  hashable name), so nothing else can be shared mutably. That is what ``copy.deepcopy``
+  gives, without its memo and dispatch.
+- **no copy at all for a sender that gives its message up.** :meth:`LockstepBus.hand_over`
+  is ``send`` for a sender that builds a new message (and payload ``bytearray``) per frame
+  and never touches it again: the one receiver gets that message itself. pacc's own nodes
+  send that way on this bus (the simulator's :class:`sim_bus.node.SimNode` and the ECU's
+  :class:`ecu.busio.BusIO`; each frame comes from :func:`dbc.endpoint.new_frame`); so no
+  received message aliases one its sender may still mutate.
 
 A received frame carries the sender's timestamp (the simulated time it was stamped with),
 ``channel`` set to the channel name and ``is_rx`` True, exactly as the virtual bus stamps them.
@@ -26,6 +32,7 @@ for nodes on separate threads (a real-time ECU beside a simulator).
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Sequence
 from typing import Any
 
 import can
@@ -83,6 +90,8 @@ class LockstepBus(BusABC):
         self._peers = _channels.setdefault(channel, [])
         self._peers.append(self)
         self._targets: tuple[deque[Message], ...] = ()
+        #: the receive queue of the channel's one other bus, if it is the only target
+        self._sole: deque[Message] | None = None
         self._retarget()
 
     def _retarget(self) -> None:
@@ -91,15 +100,57 @@ class LockstepBus(BusABC):
             bus._targets = tuple(
                 other.rx for other in bus._peers if other is not bus or bus.receive_own_messages
             )
+            one = bus._targets[0] if len(bus._targets) == 1 else None
+            bus._sole = one if one is not bus.rx else None
 
     def send(self, msg: Message, timeout: float | None = None) -> None:
-        """Queue a copy of ``msg`` (:func:`rx_copy`) to every other bus of the channel."""
+        """Queue a copy of ``msg`` (what :func:`rx_copy` gives) to every other bus of the
+        channel."""
         if not self._open:
             raise CanOperationError("Cannot operate on a closed bus")
+        # rx_copy inlined (the per-frame path): read each field once, one new Message each
+        t, fid, ext = msg.timestamp, msg.arbitration_id, msg.is_extended_id
+        remote, error, dlc, data = msg.is_remote_frame, msg.is_error_frame, msg.dlc, msg.data
+        fd, brs, esi = msg.is_fd, msg.bitrate_switch, msg.error_state_indicator
         channel = self.channel_id
         own = self.rx
         for rx in self._targets:
-            rx.append(rx_copy(msg, channel, rx is not own))
+            m = _new_message(Message)
+            m.timestamp = t
+            m.arbitration_id = fid
+            m.is_extended_id = ext
+            m.is_remote_frame = remote
+            m.is_error_frame = error
+            m.channel = channel
+            m.dlc = dlc
+            m.data = bytearray(data)
+            m.is_fd = fd
+            m.is_rx = rx is not own
+            m.bitrate_switch = brs
+            m.error_state_indicator = esi
+            rx.append(m)
+
+    def hand_over(self, msg: Message) -> None:
+        """Send ``msg`` and give it up: what :meth:`send` delivers, without the copy.
+
+        For a sender that builds a new message per frame and never touches it after this
+        call (pacc's own nodes: :class:`dbc.endpoint.Outbox` frames). With one receiver,
+        that receiver gets ``msg`` itself, stamped with the channel and ``is_rx`` as
+        :meth:`send` stamps its copy; with several (or this bus's own echo), :meth:`send`'s
+        copies. ``msg.data`` must be a ``bytearray`` that only ``msg`` holds.
+
+        Raises:
+            CanOperationError: the bus is closed.
+        """
+        if not self._open:
+            raise CanOperationError("Cannot operate on a closed bus")
+        sole = self._sole
+        if sole is None:
+            self.send(msg)
+            return
+        msg.channel = self.channel_id
+        msg.is_rx = True
+        sole.append(msg)
 
     def recv(self, timeout: float | None = None) -> Message | None:
         """The oldest queued frame that passes the filters, or None at once if there is none
@@ -114,6 +165,25 @@ class LockstepBus(BusABC):
             if self._matches_filters(msg):
                 return msg
         return None
+
+    def take_all(self) -> Sequence[Message]:
+        """Every queued frame that passes the filters, oldest first, taken off the queue:
+        what calling :meth:`recv` until it returns None gives, in one call (a lockstep node's
+        drain at each tick).
+
+        Raises:
+            CanOperationError: the bus is closed.
+        """
+        if not self._open:
+            raise CanOperationError("Cannot operate on a closed bus")
+        rx = self.rx
+        if not rx:
+            return ()
+        out = list(rx)
+        rx.clear()
+        if self._filters is None:
+            return out
+        return [m for m in out if self._matches_filters(m)]
 
     def _recv_internal(self, timeout: float | None) -> tuple[Message | None, bool]:
         if not self._open:

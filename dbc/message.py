@@ -204,7 +204,8 @@ class MessageCodec:
         if counter and self.counter_modulo < 1 << counter.length:  # AUTOSAR P01: 15 invalid
             d.append(f"    if {cnt} >= {self.counter_modulo}:")
             d.append(f"        raise RangeError('{self.name}: alive counter out of range')")
-        d.append(f"    return Decoded(role, {{{items}}}, {cnt})")
+        # tuple.__new__ of the NamedTuple: what Decoded(...) gives, without its Python __new__
+        d.append(f"    return new_tuple(Decoded, (role, {{{items}}}, {cnt}))")
         return d
 
     def _encode_source(self) -> list[str]:
@@ -254,6 +255,7 @@ class MessageCodec:
             "T": CRC8_TABLE,
             "CS": self._cs_fn,
             "Decoded": Decoded,
+            "new_tuple": tuple.__new__,
             "DlcError": DlcError,
             "CrcError": CrcError,
             "RangeError": RangeError,

@@ -20,6 +20,7 @@ import can
 
 from dbc.codec import Codec, EncodeError, RoleCodec
 from dbc.endpoint import Inbox, Outbox
+from dbc.lockstep import LockstepBus
 from ecu import EcuError
 from ecu.config import EcuConfig
 from ecu.safety import CommandSafety
@@ -75,39 +76,40 @@ def inputs_from(inbox: Inbox, now_s: float, pedals: PedalScale) -> NodeInputs:
     timed out (its last values are still reported).
     """
     inp = NodeInputs()
-    ego = inbox.latest("ego")
+    latest, fresh = inbox.latest, inbox.fresh
+    ego = latest("ego")
     if ego is not None:
         inp.v_mps = float(ego["speed_mps"])
         inp.a_mps2 = float(ego["accel_mps2"])
-        inp.speed_ok = bool(ego["speed_valid"]) and inbox.fresh("ego", now_s)
+        inp.speed_ok = bool(ego["speed_valid"]) and fresh("ego", now_s)
     else:
         inp.speed_ok = False
-    ped = inbox.latest("pedals")
+    ped = latest("pedals")
     if ped is not None:
         inp.accel_pedal = pedals.accel(float(ped["accel_pedal_pct"]))
         inp.brake_pedal = pedals.brake(float(ped["brake_pressure_bar"]))
         inp.accel_pressed = bool(ped["accel_pressed"])
         inp.brake_pressed = bool(ped["brake_pressed"])
-        inp.pedals_ok = inbox.fresh("pedals", now_s)
+        inp.pedals_ok = fresh("pedals", now_s)
     else:
         inp.pedals_ok = False
-    radar = inbox.latest("radar")
+    radar = latest("radar")
     if radar is not None:
         inp.lead_valid = bool(radar["lead_valid"])
         inp.gap_m = float(radar["gap_m"])
         inp.rel_speed_mps = float(radar["rel_speed_mps"])
         inp.lead_accel_mps2 = float(radar["lead_accel_mps2"])
         inp.lead_accel_valid = bool(radar["lead_accel_valid"])
-        inp.radar_ok = inbox.fresh("radar", now_s)
+        inp.radar_ok = fresh("radar", now_s)
     else:
         inp.radar_ok = False
-    hmi = inbox.latest("hmi")
+    hmi = latest("hmi")
     if hmi is not None:
         inp.main_switch = bool(hmi["main_switch"])
         inp.set_button = bool(hmi["set"])
         inp.resume_button = bool(hmi["resume"])
         inp.cancel_button = bool(hmi["cancel"])
-        inp.hmi_ok = inbox.fresh("hmi", now_s)
+        inp.hmi_ok = fresh("hmi", now_s)
     else:
         inp.hmi_ok = False
     return inp
@@ -205,14 +207,24 @@ class BusIO:
         self._status = () if status is None else status.parts
         #: called with (time, frame, received) for every frame in and out (a bus recorder)
         self.tap: Callable[[float, can.Message, bool], None] | None = None
+        #: the lockstep bus's take-all (:meth:`dbc.lockstep.LockstepBus.take_all`), else None
+        self._take_all = bus.take_all if isinstance(bus, LockstepBus) else None
+        #: its hand-over (the Outbox builds a new frame per send and never touches it again)
+        self._hand_over = bus.hand_over if isinstance(bus, LockstepBus) else None
 
     # -- receive -------------------------------------------------------------------------
 
     def drain(self, now_s: float) -> None:
         """Feed every frame waiting on the bus to the Inbox, stamped ``now_s``."""
-        recv = self.bus.recv
         accept = self.inbox.accept_message
         tap = self.tap
+        if self._take_all is not None:  # the lockstep bus: every waiting frame in one call
+            for frame in self._take_all():
+                accept(frame, now_s)
+                if tap is not None:
+                    tap(now_s, frame, True)
+            return
+        recv = self.bus.recv
         while True:
             msg = recv(0)
             if msg is None:
@@ -265,7 +277,11 @@ class BusIO:
         return out
 
     def _send(self, msg: can.Message) -> None:
-        self.bus.send(msg)
+        """Send a new frame of the Outbox (on the lockstep bus: handed over, no copy)."""
+        if self._hand_over is not None:
+            self._hand_over(msg)
+        else:
+            self.bus.send(msg)
         if self.tap is not None:
             self.tap(msg.timestamp, msg, False)
 

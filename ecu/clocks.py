@@ -82,18 +82,23 @@ class CycleClock:
         """
         if not math.isfinite(now_s):
             raise RuntimeClockError(f"advance_to: time must be finite, got {now_s}")
-        if self.t0 is not None and not math.isfinite((now_s - self.t0) / self.cycle_s):
-            raise RuntimeClockError(f"advance_to: {now_s} s is beyond the cycle grid")
+        t0, cycle = self.t0, self.cycle_s
+        if t0 is None:
+            cycles = 0.0
+        else:
+            cycles = (now_s - t0) / cycle
+            if not math.isfinite(cycles):
+                raise RuntimeClockError(f"advance_to: {now_s} s is beyond the cycle grid")
         port.drain(now_s)
-        if self.t0 is None:
-            self.t0 = now_s
-        behind = int((now_s - self.t0) / self.cycle_s) - self.k
+        if t0 is None:
+            self.t0 = t0 = now_s
+        behind = int(cycles) - self.k
         if behind > self._max_catchup:  # a jump of the host clock: skip, do not replay
             log.warning("advance_to: %d cycles behind, skipping %d", behind, behind - 1)
             self.skipped += behind - 1
             self.k += behind - 1
-        t0 = self.t0
-        while (t := t0 + self.k * self.cycle_s) <= now_s + DUE_EPS_S:
+        due = now_s + DUE_EPS_S
+        while (t := t0 + self.k * cycle) <= due:
             run_cycle(t, self.k)
             self.k += 1
 

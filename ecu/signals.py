@@ -73,7 +73,9 @@ class NodeOutputs:
 
 
 def all_finite(*xs: float) -> bool:
-    return all(math.isfinite(x) for x in xs)
+    """True when every one of ``xs`` is finite (``map`` over the builtin, not a generator:
+    this runs several times per control cycle)."""
+    return all(map(math.isfinite, xs))
 
 
 def input_fault(inp: NodeInputs) -> FaultCode:

@@ -70,9 +70,10 @@ class SimNode:
         self._parts: tuple[MessageCodec, ...] = tuple(p for r in TX_ROLES for p in roles[r].parts)
         every = {p.key: max(1, int(round(p.cycle_s / self.dt_s))) for p in self._parts}
         hyper = math.lcm(*every.values())
+        self._hyper = hyper
         #: messages due at tick k are ``_due[k % hyper]`` (the periods as a tick schedule)
         self._due = [tuple(p for p in self._parts if k % every[p.key] == 0) for k in range(hyper)]
-        #: the same schedule by role: (role, its messages due), each role's values filled once
+        #: the same schedule by role (role, its messages due), each role's values filled once
         self._due_roles = [
             tuple(
                 (r, tuple(p for p in due if p.role == r))
@@ -104,11 +105,38 @@ class SimNode:
         queue = getattr(bus, "queue", None)
         self._rx_queue = queue if callable(getattr(queue, "empty", None)) else None
         self._rx_deque = bus.rx if isinstance(bus, LockstepBus) else None
+        #: the lockstep bus reads every waiting frame in one call, and takes new frames
+        #: without a copy (:meth:`dbc.lockstep.LockstepBus.hand_over`)
+        self._take_all = bus.take_all if isinstance(bus, LockstepBus) else None
+        self._hand_over = bus.hand_over if isinstance(bus, LockstepBus) else None
         # one reusable message per role (the virtual bus copies what it sends)
         self._msgs: dict[str, can.Message] = {
             p.key: Frame(arbitration_id=p.frame_id, is_extended_id=p.is_extended, dlc=p.length)
             for p in self._parts
         }
+        b = self._bounds
+        self._b_ego = b[("ego", "speed_mps")], b[("ego", "accel_mps2")]
+        self._b_pedals = b[("pedals", "accel_pedal_pct")], b[("pedals", "brake_pressure_bar")]
+        self._b_radar = (
+            b[("radar", "gap_m")],
+            b[("radar", "rel_speed_mps")],
+            b[("radar", "lead_accel_mps2")],
+        )
+        fillers: dict[str, Callable[[], dict[str, Any]]] = {
+            "ego": self._fill_ego,
+            "pedals": self._fill_pedals,
+            "radar": self._fill_radar,
+        }
+        #: each role's filler: its values for this tick (one call per role and tick)
+        self._fillers = {r: fillers.get(r, self._fill_hmi) for r in TX_ROLES}
+        #: the hot path's schedule: (filler, ((message, its reused frame), ...)) per role due
+        self._due_fill = [
+            tuple(
+                (self._fillers[r], tuple((mc, self._msgs[mc.key]) for mc in parts))
+                for r, parts in due
+            )
+            for due in self._due_roles
+        ]
         self.commands_ok = 0
         #: called with (time, frame, received) for every frame in and out (a bus recorder)
         self.tap: Callable[[float, can.Message, bool], None] | None = None
@@ -121,11 +149,19 @@ class SimNode:
         return self._rx_queue is not None and self._rx_queue.empty()
 
     def _receive(self, now: float) -> None:
-        bus = self.bus
         if self._idle():
             return  # nothing arrived since the last tick
-        accept = self.inbox.accept
-        tap = self.tap
+        if self._take_all is not None:  # the lockstep bus: every waiting frame at once
+            try:
+                msgs = self._take_all()
+            except can.CanError:
+                self.recv_errors += 1
+                return
+            accept = self._accept
+            for frame in msgs:
+                accept(frame, now)
+            return
+        bus = self.bus
         while True:
             try:
                 msg = bus.recv(0.0)
@@ -134,56 +170,84 @@ class SimNode:
                 break
             if msg is None:
                 break
-            if tap is not None:
-                tap(now, msg, True)
-            if msg.is_error_frame or msg.is_remote_frame:
-                continue
-            d = accept(msg.arbitration_id, msg.data, now)
-            if d is None:
-                continue
-            if d.role == "command":
-                v = self.inbox.latest("command")  # every message of the role, merged
-                if v is None:
-                    continue
-                self.commands_ok += 1
-                self.request_active = bool(v["request_active"])
-                self.a_request_mps2 = float(v["accel_request_mps2"])
-                self.acc_state = int(v["acc_state"])
-                self.takeover_request = bool(v["takeover_request"])
-            elif d.role == "status":
-                self.status = self.inbox.latest("status")
+            self._accept(msg, now)
+
+    def _accept(self, msg: can.Message, now: float) -> None:
+        """Take one received frame in (the command and status it carries)."""
+        if self.tap is not None:
+            self.tap(now, msg, True)
+        if msg.is_error_frame or msg.is_remote_frame:
+            return
+        d = self.inbox.accept(msg.arbitration_id, msg.data, now)
+        if d is None:
+            return
+        role = d[0]
+        if role == "command":
+            v = self.inbox.latest("command")  # every message of the role, merged
+            if v is None:
+                return
+            self.commands_ok += 1
+            self.request_active = bool(v["request_active"])
+            self.a_request_mps2 = float(v["accel_request_mps2"])
+            self.acc_state = int(v["acc_state"])
+            self.takeover_request = bool(v["takeover_request"])
+        elif role == "status":
+            self.status = self.inbox.latest("status")
 
     # -- transmit -----------------------------------------------------------------------
     def _fill(self, role: str) -> dict[str, Any]:
+        """``role``'s values at this tick (its dict, updated in place)."""
+        return self._fillers[role]()
+
+    # the fillers: each value limited to its field's bounds, written out (``x`` within
+    # [lo, hi]; above: hi; below or NaN: lo), never an EncodeError
+    def _fill_ego(self) -> dict[str, Any]:
+        car = self.world.plant
+        vals = self._values["ego"]
+        (lo, hi), (alo, ahi) = self._b_ego
+        x = car.v_mps
+        vals["speed_mps"] = x if lo <= x <= hi else hi if x > hi else lo
+        x = car.a_mps2
+        vals["accel_mps2"] = x if alo <= x <= ahi else ahi if x > ahi else alo
+        return vals
+
+    def _fill_pedals(self) -> dict[str, Any]:
+        agent = self.world.agent
+        vals = self._values["pedals"]
+        (lo, hi), (blo, bhi) = self._b_pedals
+        vals["accel_pressed"] = 1 if agent.accel_pressed else 0
+        vals["brake_pressed"] = 1 if agent.brake_pressed else 0
+        x = agent.accel_pct
+        vals["accel_pedal_pct"] = x if lo <= x <= hi else hi if x > hi else lo
+        x = agent.brake_bar
+        vals["brake_pressure_bar"] = x if blo <= x <= bhi else bhi if x > bhi else blo
+        return vals
+
+    def _fill_radar(self) -> dict[str, Any]:
         w = self.world
         car = w.plant
-        agent = w.agent
-        vals = self._values[role]
-        b = self._bounds
-        if role == "ego":
-            vals["speed_mps"] = _clip(car.v_mps, b[("ego", "speed_mps")])
-            vals["accel_mps2"] = _clip(car.a_mps2, b[("ego", "accel_mps2")])
-        elif role == "pedals":
-            vals["accel_pressed"] = 1 if agent.accel_pressed else 0
-            vals["brake_pressed"] = 1 if agent.brake_pressed else 0
-            vals["accel_pedal_pct"] = _clip(agent.accel_pct, b[("pedals", "accel_pedal_pct")])
-            vals["brake_pressure_bar"] = _clip(agent.brake_bar, b[("pedals", "brake_pressure_bar")])
-        elif role == "radar":
-            gap = car.gap_m
-            lo, hi = b[("radar", "gap_m")]
-            # no lead beyond the range or while a new track is being confirmed (a target
-            # switch of a road scenario, sim_bus.events: the sensor drops LeadValid)
-            seen = lo <= gap <= hi and w.t_s >= w.radar_blank_until
-            vals["lead_valid"] = 1 if seen else 0
-            vals["gap_m"] = _clip(gap, (lo, hi))
-            vals["rel_speed_mps"] = _clip(w.v_lead_mps - car.v_mps, b[("radar", "rel_speed_mps")])
-            vals["lead_accel_mps2"] = _clip(w.a_lead_mps2, b[("radar", "lead_accel_mps2")])
-        else:
-            vals["set"] = 1 if agent.set_button else 0
-            vals["resume"] = 1 if agent.resume_button else 0
-            hmi = getattr(agent, "hmi_buttons", None)  # a person's other buttons (sim_bus.hil)
-            if hmi is not None:
-                vals.update(hmi)
+        vals = self._values["radar"]
+        (lo, hi), (rlo, rhi), (alo, ahi) = self._b_radar
+        gap = car.gap_m
+        # no lead beyond the range or while a new track is being confirmed (a target
+        # switch of a road scenario, sim_bus.events: the sensor drops LeadValid)
+        seen = lo <= gap <= hi and w.t_s >= w.radar_blank_until
+        vals["lead_valid"] = 1 if seen else 0
+        vals["gap_m"] = gap if lo <= gap <= hi else hi if gap > hi else lo
+        x = w.v_lead_mps - car.v_mps
+        vals["rel_speed_mps"] = x if rlo <= x <= rhi else rhi if x > rhi else rlo
+        x = w.a_lead_mps2
+        vals["lead_accel_mps2"] = x if alo <= x <= ahi else ahi if x > ahi else alo
+        return vals
+
+    def _fill_hmi(self) -> dict[str, Any]:
+        agent = self.world.agent
+        vals = self._values["hmi"]
+        vals["set"] = 1 if agent.set_button else 0
+        vals["resume"] = 1 if agent.resume_button else 0
+        hmi = getattr(agent, "hmi_buttons", None)  # a person's other buttons (sim_bus.hil)
+        if hmi is not None:
+            vals.update(hmi)
         return vals
 
     def _send(self, msg: can.Message) -> None:
@@ -198,28 +262,8 @@ class SimNode:
 
     def _transmit(self, now: float) -> None:
         faults = self.faults
-        if faults is None:  # the hot path: reused messages, no fault logic
-            send = self.bus.send
-            encode = self.outbox.encode_part
-            fill = self._fill
-            msgs = self._msgs
-            tap = self.tap
-            sent = 0
-            for role, parts in self._due_roles[self.tick % len(self._due_roles)]:
-                values = fill(role)  # once per role and tick, whatever its messages
-                for mc in parts:
-                    msg = msgs[mc.key]
-                    msg.data = bytearray(encode(mc, values))
-                    msg.timestamp = now
-                    try:
-                        send(msg)
-                    except can.CanError:  # lost, like a dropped frame; the simulation goes on
-                        self.send_errors += 1
-                        continue
-                    sent += 1
-                    if tap is not None:
-                        tap(now, msg, False)
-            self.frames_sent += sent
+        if faults is None:  # the hot path: no fault logic
+            self._transmit_due(now)
             return
         for mc in self._due[self.tick % len(self._due)]:
             vals = self._fill(mc.role)
@@ -233,6 +277,36 @@ class SimNode:
                 _, _, msg = heapq.heappop(self._pending)
                 msg.timestamp = now
                 self._send(msg)
+
+    def _transmit_due(self, now: float) -> None:
+        """Send the frames due at this tick, without faults: each role's values filled once;
+        on the lockstep bus a new frame per message, handed over (no copy); on another bus
+        the role's reused message, which the bus copies."""
+        encode = self.outbox.encode_part
+        pack = self.outbox.pack_part
+        tap = self.tap
+        hand_over = self._hand_over
+        send = self.bus.send if hand_over is None else hand_over
+        sent = 0
+        for fill, frames in self._due_fill[self.tick % self._hyper]:
+            values = fill()  # once per role and tick, whatever its messages
+            for mc, reused in frames:
+                msg: can.Message
+                if hand_over is not None:
+                    msg = pack(mc, values, now)  # a new frame
+                else:
+                    msg = reused
+                    msg.data = bytearray(encode(mc, values))
+                    msg.timestamp = now
+                try:
+                    send(msg)
+                except can.CanError:  # lost, like a dropped frame; the simulation goes on
+                    self.send_errors += 1
+                    continue
+                sent += 1
+                if tap is not None:
+                    tap(now, msg, False)
+        self.frames_sent += sent
 
     def _transmit_faulty(
         self, mc: MessageCodec, vals: dict[str, Any], plan: FaultPlan, now: float
@@ -292,8 +366,13 @@ class SimNode:
     def step(self) -> None:
         """One lockstep tick: take in commands, send due frames, advance the world by dt."""
         now = self.t_s
-        self._receive(now)
-        self._transmit(now)
+        rx = self._rx_deque
+        if rx is None or rx:  # on the lockstep bus, only when a frame waits
+            self._receive(now)
+        if self.faults is None:
+            self._transmit_due(now)
+        else:
+            self._transmit(now)
         active, a, state = self.command_now(now)
         self.world.advance(active, a, state)
         self.tick += 1
@@ -309,11 +388,3 @@ class SimNode:
             delay = start + self.t_s - time.monotonic()
             if delay > 0:
                 time.sleep(delay)
-
-
-def _clip(x: float, bounds: tuple[float, float]) -> float:
-    """``x`` limited to ``bounds``; NaN becomes the lower bound (never an EncodeError)."""
-    lo, hi = bounds
-    if math.isnan(x):
-        return lo
-    return lo if x < lo else hi if x > hi else x

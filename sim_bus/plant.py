@@ -141,23 +141,29 @@ class Plant:
         self._sv = scale * cfg.sigma_v_mps
         self._sg = scale * cfg.sigma_g_m
         self._rng = rng
-        self._noise = np.zeros((0, 2))
+        self._quiet = self._sv == 0.0 and self._sg == 0.0
+        #: a block of N(0, 1) draws, (speed, gap) pairs flattened into Python floats
+        self._noise: list[float] = []
         self._i = 0
 
-    def _next_noise(self) -> tuple[float, float]:
-        if self._sv == 0.0 and self._sg == 0.0:
-            return 0.0, 0.0
-        if self._i >= len(self._noise):
-            self._noise = self._rng.standard_normal((4096, 2))
-            self._i = 0
-        n = self._noise[self._i]
-        self._i += 1
-        return self._sv * float(n[0]), self._sg * float(n[1])
+    def _refill(self) -> int:
+        """Draw the next block of noise; the index of its first pair (0)."""
+        # the same draws as rows of a (4096, 2) array; tolist: the same floats
+        self._noise = self._rng.standard_normal((4096, 2)).ravel().tolist()
+        return 0
 
     def advance(self, a_cmd_mps2: float, v_lead_mps: float, a_lead_mps2: float) -> None:
         """Advance one step of ``cfg.dt_s`` with the given command and lead motion."""
         cfg = self.cfg
-        nv, ng = self._next_noise()
+        if self._quiet:  # _next_noise, without the call
+            nv = ng = 0.0
+        else:
+            i = self._i
+            if i >= len(self._noise):
+                i = self._refill()
+            noise = self._noise
+            self._i = i + 2
+            nv, ng = self._sv * noise[i], self._sg * noise[i + 1]
         if not math.isfinite(a_cmd_mps2):
             a_cmd_mps2 = 0.0
         self.v_mps, self.a_mps2, self.gap_m, self.x_m = _step_floats(

@@ -188,9 +188,10 @@ class World:
         self.radar_blank_until = -1.0
         #: the events played so far: (time s, kind, new gap m or None when skipped)
         self.events_log: list[tuple[float, str, float | None]] = []
-        m = self.n_ticks // self._every + 1
-        self._log = np.zeros((len(_COLUMNS), m))
-        self._k = 0
+        #: logged samples, at most ``_log_max``: one tuple of the _COLUMNS per driver step
+        self._log_max = self.n_ticks // self._every + 1
+        self._log: list[tuple[float | bool | int, ...]] = []
+        self._dt_s = cfg.plant.dt_s
 
     @property
     def done(self) -> bool:
@@ -203,23 +204,24 @@ class World:
         car = self.plant
         if self.tick % self._every == 0:
             agent.step(car.v_mps, self.v_lead_mps, car.gap_m, acc_state)
-            if self._k < self._log.shape[1]:
-                self._log[:, self._k] = (
-                    self.t_s,
-                    car.v_mps,
-                    car.gap_m,
-                    self.v_lead_mps,
-                    car.a_mps2,
-                    agent.accel_pressed,
-                    agent.brake_pressed,
-                    acc_state,
-                    agent.pref_gap_m,
-                    a_request_mps2,
-                    request_active,
-                    agent.accel_pct,
-                    agent.brake_bar,
+            if len(self._log) < self._log_max:
+                self._log.append(
+                    (
+                        self.t_s,
+                        car.v_mps,
+                        car.gap_m,
+                        self.v_lead_mps,
+                        car.a_mps2,
+                        agent.accel_pressed,
+                        agent.brake_pressed,
+                        acc_state,
+                        agent.pref_gap_m,
+                        a_request_mps2,
+                        request_active,
+                        agent.accel_pct,
+                        agent.brake_bar,
+                    )
                 )
-                self._k += 1
         if agent.accel_pressed or agent.brake_pressed:
             a = agent.a_cmd_mps2
         elif request_active:
@@ -228,9 +230,9 @@ class World:
             a = COAST_MPS2
         self.applied_mps2 = a
         car.advance(a, self.v_lead_mps, self.a_lead_mps2)
-        self.tick += 1
-        self.t_s = self.tick * self.cfg.plant.dt_s
-        i = min(self.tick, self.n_ticks)
+        self.tick = tick = self.tick + 1
+        self.t_s = tick * self._dt_s
+        i = tick if tick < self.n_ticks else self.n_ticks
         if self._lead_mode == "profile":
             self.v_lead_mps = self._v_lead[i]
             self.a_lead_mps2 = self._a_lead[i]
@@ -293,7 +295,11 @@ class World:
 
     def log(self) -> WorldLog:
         """The samples logged so far."""
-        cols = self._log[:, : self._k]
+        # float64 columns: what writing each sample into a float array gives (bools 0/1)
+        if self._log:
+            cols = np.array(self._log, dtype=np.float64).T
+        else:
+            cols = np.zeros((len(_COLUMNS), 0))
         d = {name: cols[j].copy() for j, name in enumerate(_COLUMNS)}
         for name in ("accel_pressed", "brake_pressed", "request_active"):
             d[name] = d[name].astype(bool)

@@ -131,3 +131,62 @@ def test_an_own_echo_is_not_rx_as_on_the_virtual_bus() -> None:
         finally:
             a.shutdown()
             b.shutdown()
+
+
+def test_take_all_is_recv_until_none() -> None:
+    """take_all (a lockstep node's drain) gives what recv gives frame by frame: the same
+    frames in order, filters honoured, the queue emptied; a closed bus refuses."""
+    filters = [{"can_id": 0x20, "can_mask": 0x7F0, "extended": False}]
+    a = can.Bus(interface="lockstep", channel="take-all")
+    b = can.Bus(interface="lockstep", channel="take-all")
+    c = can.Bus(interface="lockstep", channel="take-all", can_filters=filters)
+    try:
+        assert isinstance(b, LockstepBus) and isinstance(c, LockstepBus)
+        assert b.take_all() == ()
+        for k, fid in enumerate((0x10, 0x21, 0x30, 0x2F)):
+            a.send(_msg(fid, bytes([k]), 0.01 * k))
+        got = b.take_all()
+        assert [(m.arbitration_id, bytes(m.data), m.timestamp, m.is_rx) for m in got] == [
+            (fid, bytes([k]), 0.01 * k, True) for k, fid in enumerate((0x10, 0x21, 0x30, 0x2F))
+        ]
+        assert b.pending == 0 and b.recv(0) is None
+        assert [m.arbitration_id for m in c.take_all()] == [0x21, 0x2F]
+        assert c.pending == 0
+        b.shutdown()
+        with pytest.raises(can.CanOperationError):
+            b.take_all()
+    finally:
+        a.shutdown()
+        b.shutdown()
+        c.shutdown()
+
+
+def test_hand_over_delivers_what_send_delivers_without_a_copy() -> None:
+    """hand_over (a sender that gives its new message up): the one receiver gets the message
+    itself, stamped as send stamps its copy; several receivers or an own echo get copies."""
+    a = can.Bus(interface="lockstep", channel="hand-over")
+    b = can.Bus(interface="lockstep", channel="hand-over")
+    try:
+        assert isinstance(a, LockstepBus)
+        sent, given = _msg(0x21, b"\x01\x02", 0.5), _msg(0x21, b"\x01\x02", 0.5)
+        a.send(sent)
+        a.hand_over(given)
+        copy, own = b.recv(0), b.recv(0)
+        assert copy is not None and copy is not sent and own is given
+        slots = [s for s in can.Message.__slots__ if s != "__weakref__"]
+        assert [getattr(copy, s) for s in slots] == [getattr(own, s) for s in slots]
+        c = can.Bus(interface="lockstep", channel="hand-over")  # two receivers: copies
+        try:
+            third = _msg(0x22, b"\x03", 0.6)
+            a.hand_over(third)
+            got_b, got_c = b.recv(0), c.recv(0)
+            assert got_b is not None and got_c is not None and got_b is not got_c
+            assert bytes(got_b.data) == bytes(got_c.data) == b"\x03"
+        finally:
+            c.shutdown()
+        a.shutdown()
+        with pytest.raises(can.CanOperationError):
+            a.hand_over(_msg(0x23, b"", 0.7))
+    finally:
+        a.shutdown()
+        b.shutdown()

@@ -224,3 +224,27 @@ def test_faulty_path_counts_refused_frames_too(channel: str) -> None:
     for _ in range(10):
         node.step()
     assert node.frames_sent == 0 and node.send_errors == 10 + 10 + 2 + 1
+
+
+def test_on_the_lockstep_bus_no_received_frame_aliases_a_later_one() -> None:
+    """The simulator hands a new frame per message to the lockstep bus (no copy): a frame
+    received earlier keeps its payload and timestamp while later frames go out."""
+    channel = f"test-sim-handover-{next(_ids)}"
+    sim_bus = can.Bus(interface="lockstep", channel=channel)
+    listener = can.Bus(interface="lockstep", channel=channel)
+    try:
+        world = World(BUILTIN_DRIVERS["d2"], _flat(20.0), seed=0)
+        node = SimNode(sim_bus, world, codec=load_codec())
+        node.step()
+        first = _drain(listener)
+        kept = [(m.timestamp, bytes(m.data)) for m in first]
+        for _ in range(20):
+            node.step()
+        later = _drain(listener)
+        assert [(m.timestamp, bytes(m.data)) for m in first] == kept
+        assert not {id(m) for m in first} & {id(m) for m in later}
+        assert {id(m.data) for m in later}.isdisjoint(id(m.data) for m in first)
+        assert all(m.is_rx and m.timestamp == 0.0 for m in first)
+    finally:
+        sim_bus.shutdown()
+        listener.shutdown()
