@@ -308,12 +308,12 @@ def control(
                 urgent = closing < URGENT_STOP_MPS2 and limit < prev
                 target = min(target, limit)
         if inp.lead_valid:  # a lead stopping or stopped: stop at the table's standstill gap
-            stop = stop_limit(config, inp, p, obs.lead_accel_mps2)
+            need = lead_stop_need_mps2(config, inp, p, obs.lead_accel_mps2)
+            stop = stop_limit(config, inp, p, obs.lead_accel_mps2, need)
             # behind a lead braking so hard that stopping behind it, were it to brake to a
             # standstill, needs more than 2 m/s^2: that braking now, at the emergency jerk,
             # not from 3 s TTC on (issue 21: the comfort jerk left 1.6 s TTC, and 0.36 m,
             # behind leads braking at 3 m/s^2 beyond the stop law's 4-s horizon)
-            need = lead_stop_need_mps2(config, inp, p, obs.lead_accel_mps2)
             stop = min(stop, need) if need < URGENT_STOP_MPS2 else stop
             urgent = urgent or (stop < URGENT_STOP_MPS2 and stop < prev)
             target = min(target, stop)

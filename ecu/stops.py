@@ -48,17 +48,20 @@ def lead_stop_need_mps2(
     return stopping_limit_mps2(p.v_mps, inp.gap_m - spare, v_lead, lead_accel_mps2, standstill)
 
 
-def stop_limit(config: EcuConfig, inp: NodeInputs, p: Plan, lead_accel_mps2: float) -> float:
+def stop_limit(
+    config: EcuConfig, inp: NodeInputs, p: Plan, lead_accel_mps2: float, need_mps2: float
+) -> float:
     """The request's bound behind a lead that stops (issue 21, stop-and-go): stop at the
     table's standstill gap (its line at the current speed extended to 0 m/s, never below the
-    safety floor) behind where a braking lead comes to rest, when it will be standing within
-    ``lead_stop_horizon_s`` at its deceleration; behind a lead slower than
-    ``stop_lead_mps`` also match its speed at the table's gap at that speed (m/s^2)."""
+    safety floor) behind where a braking lead comes to rest (``need_mps2``: this cycle's
+    :func:`lead_stop_need_mps2`), when it will be standing within ``lead_stop_horizon_s`` at
+    its deceleration; behind a lead slower than ``stop_lead_mps`` also match its speed at the
+    table's gap at that speed (m/s^2)."""
     road = config.controller.road
     standstill = _standstill_gap_m(config, p)
     v_lead = max(p.v_mps + inp.rel_speed_mps, 0.0)
     spare = STOP_SPARE_S * max(p.v_mps - v_lead, 0.0)  # front-loaded: TTC stays above 2 s
-    limit = lead_stop_need_mps2(config, inp, p, lead_accel_mps2)
+    limit = need_mps2
     if v_lead > road.lead_stop_horizon_s * max(-lead_accel_mps2, 0.0):
         limit = math.inf  # the lead will not be standing soon: the gap law's business
     if v_lead < STANDING_LEAD_MPS and p.v_mps < CREEP_MPS and inp.gap_m < standstill + 3.0:
