@@ -22,7 +22,13 @@ from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
 from sim_bus.events import LeadEvent, road_profile
 from sim_bus.population import draw_population
 from sim_bus.scenarios import LeadProfile
-from sim_bus.study.drive import DriveConfig, DriveResult, predefined_table, run_drive
+from sim_bus.study.drive import (
+    DriveConfig,
+    DriveResult,
+    predefined_table,
+    resolve_profile,
+    run_drive,
+)
 
 QUIET = DriverParams(
     "quiet",
@@ -206,3 +212,22 @@ def test_a_critical_cut_in_is_avoided_where_braking_at_3_5_can(gap_m: float, dv_
     assert r.road_events[0][2] == pytest.approx(gap_m)
     assert not r.collision and r.log.gap_m.min() > 0.0
     _in_envelope(r)
+
+
+@pytest.mark.parametrize(
+    ("pop_seed", "index", "controller"),
+    [(443550, 2, "predefined"), (217813, 60, "predefined+oa")],
+)
+def test_the_drives_traced_behind_hard_braking_leads_stay_above_2_s(
+    pop_seed: int, index: int, controller: str
+) -> None:
+    """Regression (issue 21, traced at the end of stop 16 on seeds drawn then): behind a lead
+    braking at 3 m/s^2 just after the driver handed back, the ACC built its braking at the
+    comfort jerk until 3 s TTC (1.60 s TTC; 0.36 m and 0.46 s). Scenario B, the drive seed
+    is the population seed, as ``pacc study --population`` runs it."""
+    driver = draw_population(index + 1, pop_seed)[index]
+    road = pop_seed if index == 60 else 264855
+    cfg = DriveConfig(scenario="B", driver_id=driver.driver_id, controller=controller, seed=road)
+    r = run_drive(cfg, driver, predefined_table(driver), resolve_profile("B", road))
+    s = r.safety()
+    assert not r.collision and s.below_own_s == 0.0 and s.min_gap_m > 3.0, s
