@@ -243,26 +243,7 @@ class Inbox:
             return None
         if now_s is None:
             now_s = msg.timestamp
-        # _take inlined (the ECU's per-frame path): decode, the usual next counter, store
-        receiver = route.receiver
-        try:
-            decoded = route.decode(msg.data)
-        except (CrcError, DlcError, RangeError) as exc:
-            receiver.record(_status_of(exc))
-            return None
-        counter = decoded[2]
-        last = receiver.last_counter
-        if counter is not None and last is not None and (counter - last) % receiver.modulo == 1:
-            receiver.last_counter = counter
-            receiver.last_ok_s = now_s
-            receiver.ok += 1
-        elif not self._check(receiver, counter, now_s):
-            return None
-        if route.merged:
-            self._merge_part(route.mc, decoded[1])
-        else:
-            self._latest[route.role] = decoded[1]
-        return decoded
+        return self._take(route, msg.data, now_s)
 
     def _refuse(self, msg: can.Message) -> None:
         """Count a frame :meth:`accept_message` cannot use: an error or remote frame, an id of
