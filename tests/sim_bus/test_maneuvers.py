@@ -227,7 +227,7 @@ def test_the_drives_traced_behind_hard_braking_leads_stay_above_2_s(
     is the population seed, as ``pacc study --population`` runs it."""
     driver = draw_population(index + 1, pop_seed)[index]
     road = pop_seed if index == 60 else 264855
-    cfg = DriveConfig(scenario="B", driver_id=driver.driver_id, controller=controller, seed=road)
+    cfg = DriveConfig(scenario="B", driver_id=driver.driver_id, controller=controller, seed=road)  # type: ignore[arg-type]
     r = run_drive(cfg, driver, predefined_table(driver), resolve_profile("B", road))
     s = r.safety()
     assert not r.collision and s.below_own_s == 0.0 and s.min_gap_m > 3.0, s
