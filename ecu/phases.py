@@ -326,21 +326,28 @@ def control(
     ttc = time_to_collision_s(inp.lead_valid, inp.gap_m, inp.rel_speed_mps)
     a_f = inp.lead_accel_mps2 if inp.lead_accel_valid else 0.0
     need = lead_stop_need_mps2(config, inp, p, a_f) if inp.lead_valid else 0.0
-    hard = need < URGENT_STOP_MPS2
+    closing = math.inf
+    if inp.lead_valid and inp.rel_speed_mps < 0.0:
+        floor = config.bounds.lower_m(max(p.v_mps + inp.rel_speed_mps, 0.0))
+        if closing_limit_mps2(inp.gap_m, inp.rel_speed_mps, 0.0, floor) < URGENT_STOP_MPS2:
+            closing = closing_limit_mps2(inp.gap_m, inp.rel_speed_mps, a_f, floor)
+    prepare = min(need, closing)
     if (
         state is AccState.OVERRIDE
-        and (ttc < ctl.emergency_ttc_s or hard)
+        and (ttc < ctl.emergency_ttc_s or prepare < URGENT_STOP_MPS2)
         and all_finite(inp.a_mps2)
     ):
         # the driver brakes toward a closing lead: the inactive request follows the car's
         # deceleration, so that the ACC takes over at the release from there, not from 0
         # (issue 21: a brake released at 2.4 s TTC let the braking sag to 1.5 m/s^2); behind
-        # a hard-braking lead it prepares the braking the stop would need (a gentle brake
-        # released at 4.6 s TTC behind a lead braking at 3 m/s^2 left 1.99 s TTC)
+        # a hard-braking lead, or closing fast, it prepares the braking the ACC would then
+        # ask for (a gentle brake released at 4.6 s TTC behind a lead braking at 3 m/s^2 left
+        # 1.99 s TTC; an accelerator tap as a cut-out revealed a stopped car, 1.29 s)
         rest = min(max(inp.a_mps2, ctl.accel_min_mps2), 0.0)
-        if hard:
-            rest = min(rest, max(need, ctl.accel_min_mps2))
-    accel = limit_command(ctl, prev, rest, dt_s, emergency=False)
+        if prepare < URGENT_STOP_MPS2:
+            rest = min(rest, max(prepare, ctl.accel_min_mps2))
+    urgent = state is AccState.OVERRIDE and prepare < URGENT_STOP_MPS2 and rest < prev
+    accel = limit_command(ctl, prev, rest, dt_s, emergency=urgent)
     ramping = state is AccState.FAULT and fault_ramp
     active = ramping and accel != 0.0
     command = Command(accel, active=active, ramp_done=ramping and not active)

@@ -541,7 +541,7 @@ def test_a_hard_braking_lead_gets_the_emergency_build_up_before_3_s_ttc() -> Non
 def test_a_driver_override_behind_a_hard_braking_lead_prepares_the_braking() -> None:
     """Issue 21 (a gentle brake released at 4.6 s TTC behind a lead braking at 3 m/s^2 left
     1.99 s TTC): while the driver overrides there, the inactive request moves toward the
-    braking the stop would need (at the comfort jerk), so the hand-back starts from it."""
+    braking the stop would need (at the emergency jerk), so the hand-back starts from it."""
     cfg = EcuConfig()
     v = 16.0
     table = predefined(1.0)
@@ -563,7 +563,9 @@ def test_a_driver_override_behind_a_hard_braking_lead_prepares_the_braking() -> 
             cfg, AccState.OVERRIDE, inp, p, set_speed_mps=30.0, fault_ramp=False, mem=mem, dt_s=DT
         )
         assert not cmd.active
-    assert cmd.accel_mps2 == pytest.approx(-0.5 - 2.5 * 1.0)
+    # the need: stop 4 m + 1 s of closing behind where the lead rests, about -3.4 m/s^2,
+    # reached at the emergency jerk (10 m/s^3: within 0.3 s)
+    assert -3.5 <= cmd.accel_mps2 < -3.3
     # behind a lead that does not brake the inactive request stays at the car's -0.5 m/s^2
     calm = replace(inp, lead_accel_mps2=0.0, gap_m=40.0)
     mem = ControlMemory(prev_accel_mps2=-0.5)
