@@ -8,17 +8,41 @@ only) are decoded column by column (:mod:`dbc.columns`: cantools' values).
 
 from __future__ import annotations
 
+import binascii
+import json
 from collections.abc import Iterator, Sequence
+from operator import attrgetter
 from typing import Any
 
 import numpy as np
 
 from dbc.columns import MessageColumns, message_columns
 from ecu.buslog.blocks import encode_block
-from ecu.buslog.format import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE
+from ecu.buslog.format import (
+    FLAG_ERROR,
+    FLAG_EXTENDED,
+    FLAG_REMOTE,
+    FLAG_RX,
+    frame_flags,
+)
 from ecu.buslog.proto import ProtoRows
 
-__all__ = ["FrameBatch", "MessageDecoders", "integral_fields"]
+__all__ = ["FrameBatch", "MessageDecoders", "Tapped", "frame_copy", "integral_fields"]
+
+#: A frame as the recorder's tap keeps it: (time on the node's clock, s; the frame, a
+#: ``can.Message`` or anything with its attributes; received).
+Tapped = tuple[float, Any, bool]
+
+_ID = attrgetter("arbitration_id")
+_EXT = attrgetter("is_extended_id")
+_DLC = attrgetter("dlc")
+_DATA = attrgetter("data")
+_FD = attrgetter("is_fd")
+_ERROR = attrgetter("is_error_frame")
+_REMOTE = attrgetter("is_remote_frame")
+#: the ``/can/raw`` block's columns, in order (:func:`ecu.buslog.blocks.encode_block`)
+_RAW = ("t_s", "id", "flags", "dlc", "len", "data")
+_RAW_DTYPES = {"t_s": "<f8", "id": "<u4", "flags": "|u1", "dlc": "|u1", "len": "|u1", "data": "|u1"}
 
 _INTEGRAL_TYPES = ("bool", "int", "AccState", "FaultCode")
 
@@ -50,6 +74,31 @@ class FrameBatch:
         self.lens = np.fromiter(map(len, datas), np.uint8, n)
 
     @classmethod
+    def of(cls, frames: Sequence[Tapped]) -> FrameBatch:
+        """The batch of ``frames`` as the tap kept them (at least one), attribute by
+        attribute over all frames (no per-frame Python code for a plain CAN frame)."""
+        ts, msgs, rxs = zip(*frames, strict=True)
+        n = len(ts)
+        out = cls.__new__(cls)
+        out.n = n
+        out.t = np.array(ts, dtype=np.float64)
+        out.ids = np.fromiter(map(_ID, msgs), np.uint32, n)
+        out.dlcs = np.fromiter(map(_DLC, msgs), np.uint8, n)
+        out.datas = list(map(_DATA, msgs))
+        out.lens = np.fromiter(map(len, out.datas), np.uint8, n)
+        ext = np.fromiter(map(_EXT, msgs), np.uint8, n)
+        rx = np.fromiter(map(bool, rxs), np.uint8, n)
+        flags = ext * np.uint8(FLAG_EXTENDED) | rx * np.uint8(FLAG_RX)
+        if any(map(_FD, msgs)) or any(map(_ERROR, msgs)) or any(map(_REMOTE, msgs)):
+            odd = (
+                frame_flags(m, r) if m.is_fd or m.is_error_frame or m.is_remote_frame else f
+                for m, r, f in zip(msgs, rxs, flags.tolist(), strict=True)
+            )
+            flags = np.fromiter(odd, np.uint8, n)
+        out.flags = flags
+        return out
+
+    @classmethod
     def join(cls, batches: Sequence[FrameBatch]) -> FrameBatch:
         """One batch of the frames of ``batches``, in order."""
         if len(batches) == 1:
@@ -62,7 +111,20 @@ class FrameBatch:
         return out
 
     def block(self) -> bytes:
-        """The ``/can/raw`` block of these frames."""
+        """The ``/can/raw`` block of these frames: the bytes of :meth:`block_generic`,
+        built without its generality (one join of the base64 columns)."""
+        if self.t.dtype.str != "<f8" or self.ids.dtype.str != "<u4":  # a big-endian host
+            return self.block_generic()
+        b64 = binascii.b2a_base64
+        columns = (self.t, self.ids, self.flags, self.dlcs, self.lens)
+        parts = [_BLOCK_HEAD, str(self.n).encode()]
+        for key, col in zip(_BLOCK_KEYS, columns, strict=False):
+            parts += (key, b64(col.tobytes(), newline=False))
+        parts += (_BLOCK_KEYS[-1], b64(b"".join(self.datas), newline=False), b'"}')
+        return b"".join(parts)
+
+    def block_generic(self) -> bytes:
+        """The ``/can/raw`` block of these frames (:func:`encode_block`)."""
         return encode_block(
             {
                 "t_s": self.t,
@@ -74,6 +136,52 @@ class FrameBatch:
             },
             ragged=("data",),
         )
+
+
+class _FrameCopy:
+    """The attributes of a ``can.Message`` the recorder reads, copied (:func:`frame_copy`)."""
+
+    __slots__ = (
+        "arbitration_id",
+        "bitrate_switch",
+        "data",
+        "dlc",
+        "error_state_indicator",
+        "is_error_frame",
+        "is_extended_id",
+        "is_fd",
+        "is_remote_frame",
+    )
+
+    def __init__(self, msg: Any) -> None:
+        self.arbitration_id = msg.arbitration_id
+        self.is_extended_id = msg.is_extended_id
+        self.dlc = msg.dlc
+        self.data = bytes(msg.data)
+        self.is_fd = msg.is_fd
+        self.is_error_frame = msg.is_error_frame
+        self.is_remote_frame = msg.is_remote_frame
+        self.bitrate_switch = msg.bitrate_switch
+        self.error_state_indicator = msg.error_state_indicator
+
+
+def frame_copy(msg: Any) -> Any:
+    """What the recorder keeps of ``msg`` (a ``can.Message``), copied: its sender may change
+    ``msg`` afterwards."""
+    return _FrameCopy(msg)
+
+
+def _block_template() -> tuple[bytes, tuple[bytes, ...]]:
+    """(a raw block's JSON text before its row count, what comes before each column's
+    base64 text) as :func:`encode_block` writes them."""
+    head = json.dumps({"n": 0, "dtypes": _RAW_DTYPES, "ragged": ["data"]})
+    before, after = head[:-1].split("0", 1)
+    keys = [f'{after},{json.dumps(_RAW[0])}:"']
+    keys += [f'",{json.dumps(name)}:"' for name in _RAW[1:]]
+    return before.encode(), tuple(k.encode() for k in keys)
+
+
+_BLOCK_HEAD, _BLOCK_KEYS = _block_template()
 
 
 class MessageDecoders:

@@ -124,6 +124,12 @@ class FoxgloveSink:
             ch.log(data[start:end], log_time=t)
             start = end
 
+    def write_one(self, handle: int, seq: int, log_time: int, data: bytes) -> None:
+        del seq  # the SDK numbers each channel's messages itself
+        ch = self._channels[handle]
+        if ch.has_sinks():
+            ch.log(data, log_time=log_time)
+
     def attach(self, log_time: int, name: str, media_type: str, data: bytes) -> None:
         """Attachments are for the file only."""
 

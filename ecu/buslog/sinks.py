@@ -66,6 +66,9 @@ class Sink(Protocol):
         """Messages of one channel: log times (ns, int64), the payloads joined (uint8) and
         their lengths; sequence numbers from ``seq0``."""
 
+    def write_one(self, handle: int, seq: int, log_time: int, data: bytes) -> None:
+        """One message of one channel: log time (ns), sequence number, its data."""
+
     def attach(self, log_time: int, name: str, media_type: str, data: bytes) -> None:
         """A file stored with the recording."""
 
@@ -110,6 +113,9 @@ class McapSink:
         lengths: np.ndarray,
     ) -> None:
         self._file.messages(handle, seq0, log_times, payload, lengths)
+
+    def write_one(self, handle: int, seq: int, log_time: int, data: bytes) -> None:
+        self._file.message(handle, seq, log_time, data)
 
     def attach(self, log_time: int, name: str, media_type: str, data: bytes) -> None:
         self._file.attachment(log_time, name, media_type, data)
@@ -177,11 +183,5 @@ def emit_one(
     sinks: Sequence[Sink], handles: Sequence[int], seq: int, t_ns: int, data: bytes
 ) -> None:
     """One message of one channel to every sink."""
-    emit(
-        sinks,
-        handles,
-        seq,
-        np.array([t_ns], dtype=np.int64),
-        np.frombuffer(data, dtype=np.uint8),
-        np.array([len(data)], dtype=np.int64),
-    )
+    for sink, handle in zip(sinks, handles, strict=True):
+        sink.write_one(handle, seq, t_ns, data)

@@ -24,17 +24,16 @@ import logging
 import operator
 import os
 from collections.abc import Callable, Iterable, Mapping, Sequence
+from itertools import chain
 from pathlib import Path
 from typing import Any
 
 import can
 import numpy as np
 
-from ecu.buslog.decoded import FrameBatch, MessageDecoders, integral_fields
+from ecu.buslog.decoded import FrameBatch, MessageDecoders, Tapped, frame_copy, integral_fields
 from ecu.buslog.format import (
     EVENTS_TOPIC,
-    FLAG_EXTENDED,
-    FLAG_RX,
     FLUSH_S,
     INPUT_FIELDS,
     INPUTS_TOPIC,
@@ -47,7 +46,6 @@ from ecu.buslog.format import (
     ROWS_S,
     CanLogError,
     TimeBase,
-    frame_flags,
     log_message,
     meta_record,
     series_columns,
@@ -62,6 +60,14 @@ __all__ = ["CanLogWriter", "FrameTap"]
 log = logging.getLogger(__name__)
 _get_inputs = operator.attrgetter(*INPUT_FIELDS)
 _get_outputs = operator.attrgetter(*OUTPUT_FIELDS)
+_first, _second = operator.itemgetter(0), operator.itemgetter(1)
+_third, _fourth = operator.itemgetter(2), operator.itemgetter(3)
+#: one control cycle as kept until its rows are written: (t_s, cycle, inputs, outputs)
+_Cycle = tuple[float, int, tuple[Any, ...], tuple[Any, ...]]
+
+
+def _discard(_: object) -> None:
+    """The tap of a recording that stopped (a failed write)."""
 
 
 class _Rows:
@@ -134,12 +140,14 @@ class CanLogWriter:
         self._series: dict[str, _Rows] = {}
         self._events: list[int] | None = None
         self._events_seq = 0
-        # the open block's frames, one list per column (no tuple per frame)
-        self._ft: list[float] = []
-        self._fid: list[int] = []
-        self._ffl: list[int] = []
-        self._fdlc: list[int] = []
-        self._fdata: list[bytes] = []
+        # the open block's frames as tapped, and its tap (one append a frame)
+        self._frames: list[Tapped] = []
+        self._tap: Callable[[Tapped], None] = self._frames.append
+        # the control cycles whose rows are not written yet
+        self._cycles: list[_Cycle] = []
+        self._cycles_declared = False
+        # the node's time of the open block's first frame, cycle or sample (None: set when
+        # a cycle, sample or flush looks)
         self._block_t0: float | None = None
         for sink in self.sinks:
             sink.metadata(META_RECORD, meta_record(self.time_base, self.node))
@@ -165,26 +173,26 @@ class CanLogWriter:
             sink.attach(self.time_base.utc_origin_ns, name, media_type, data)
 
     def frame(self, t_s: float, msg: can.Message, rx: bool) -> None:
-        """One frame received (``rx``) or sent at ``t_s`` on the node's clock."""
-        if self.error is not None:
-            return
-        flags = FLAG_RX if rx else 0
-        if msg.is_extended_id:
-            flags |= FLAG_EXTENDED
-        if msg.is_fd or msg.is_error_frame or msg.is_remote_frame:
-            flags = frame_flags(msg, rx)
-        self._ft.append(t_s)
-        self._fid.append(msg.arbitration_id)
-        self._ffl.append(flags)
-        self._fdlc.append(msg.dlc)
-        self._fdata.append(bytes(msg.data))
-        if self._block_t0 is None:
-            self._block_t0 = t_s
+        """One frame received (``rx``) or sent at ``t_s`` on the node's clock. The frame is
+        kept, not copied, until the next flush: its sender must not change it (a node's
+        frames in and out are new objects each; else :meth:`frame_copy`)."""
+        self._tap((t_s, msg, rx))
+
+    def frame_copy(self, t_s: float, msg: can.Message, rx: bool) -> None:
+        """:meth:`frame` of a copy of ``msg`` (a sender that reuses its messages)."""
+        self._tap((t_s, frame_copy(msg), rx))
 
     def frame_and_tick(self, t_s: float, msg: can.Message, rx: bool) -> None:
-        """:meth:`frame`, then :meth:`tick`: a tap for a node without control cycles."""
-        self.frame(t_s, msg, rx)
+        """:meth:`frame_copy`, then :meth:`tick`: a tap for a node without control cycles."""
+        self._tap((t_s, frame_copy(msg), rx))
         self.tick(t_s)
+
+    def _block_start(self, t_s: float) -> float:
+        """The open block's first time (opening it at ``t_s`` when it holds nothing)."""
+        t0 = self._block_t0
+        if t0 is None:
+            t0 = self._block_t0 = self._frames[0][0] if self._frames else t_s
+        return t0
 
     def series(
         self,
@@ -207,8 +215,7 @@ class CanLogWriter:
         row = self._series[topic].values
         row.append(t_s)
         row.extend(values)
-        if self._block_t0 is None:
-            self._block_t0 = t_s
+        self._block_start(t_s)
 
     def event(self, t_s: float, text: str) -> None:
         """One event text, as ``foxglove.Log`` (written at once: events are rare)."""
@@ -232,37 +239,38 @@ class CanLogWriter:
             self._fail(t_s, exc)
 
     def _cycle(self, t_s: float, inputs: NodeInputs, outputs: NodeOutputs, k: int) -> None:
-        if INPUTS_TOPIC not in self._series:
-            self.series(
-                INPUTS_TOPIC,
-                INPUT_FIELDS,
-                "the ECU node's checked inputs per cycle",
-                integral_fields(NodeInputs, INPUT_FIELDS),
-            )
-            self.series(
-                OUTPUTS_TOPIC,
-                ("cycle", *OUTPUT_FIELDS),
-                "the ECU node's outputs per cycle",
-                (True, *integral_fields(NodeOutputs, OUTPUT_FIELDS)),
-            )
-        ins = self._series[INPUTS_TOPIC].values
-        ins.append(t_s)
-        ins.extend(_get_inputs(inputs))
-        outs = self._series[OUTPUTS_TOPIC].values
-        outs.append(t_s)
-        outs.append(k)
-        outs.extend(_get_outputs(outputs))
-        if self._block_t0 is None:
-            self._block_t0 = t_s
+        if not self._cycles_declared:
+            self._declare_cycles()
+        self._cycles.append((t_s, k, _get_inputs(inputs), _get_outputs(outputs)))
         for text in outputs.events:
             self.event(t_s, text)
-        if t_s - self._block_t0 >= self.flush_s:
+        if t_s - self._block_start(t_s) >= self.flush_s:
             self._flush_due(t_s)
+
+    def _declare_cycles(self) -> None:
+        self.series(
+            INPUTS_TOPIC,
+            INPUT_FIELDS,
+            "the ECU node's checked inputs per cycle",
+            integral_fields(NodeInputs, INPUT_FIELDS),
+        )
+        self.series(
+            OUTPUTS_TOPIC,
+            ("cycle", *OUTPUT_FIELDS),
+            "the ECU node's outputs per cycle",
+            (True, *integral_fields(NodeOutputs, OUTPUT_FIELDS)),
+        )
+        self._cycles_declared = True
 
     def tick(self, t_s: float) -> None:
         """Flush if the oldest unwritten row is ``flush_s`` old at ``t_s``. Never raises: a
         failed write stops the recording (:attr:`error`), not the node."""
-        if self._block_t0 is not None and t_s - self._block_t0 >= self.flush_s:
+        t0 = self._block_t0
+        if t0 is None:
+            if not self._frames:
+                return
+            t0 = self._frames[0][0]
+        if t_s - t0 >= self.flush_s:
             try:
                 self._flush_due(t_s)
             except Exception as exc:  # noqa: BLE001 - I/O at the edge: never stop the node
@@ -272,12 +280,9 @@ class CanLogWriter:
         """Stop recording after a failed write; :meth:`close` reports it."""
         self.error = f"recording stopped at t = {t_s:.3f} s: {type(exc).__name__}: {exc}"
         log.error("%s: %s", self.path, self.error)
-        self._clear_frames()
+        self._frames, self._tap, self._cycles, self._pending = [], _discard, [], []
         for s in self._series.values():
             s.values = []
-
-    def _clear_frames(self) -> None:
-        self._ft, self._fid, self._ffl, self._fdlc, self._fdata = [], [], [], [], []
 
     # -- writing -------------------------------------------------------------------------
 
@@ -288,16 +293,23 @@ class CanLogWriter:
     def flush(self, rows: bool = True) -> None:
         """Write the frames since the last flush and end the chunk (every sink); ``rows``:
         the decoded rows and the cycles too."""
+        t0 = self._block_t0
+        if t0 is None and self._frames:
+            t0 = self._frames[0][0]
         if self.first_t_s is None:
-            self.first_t_s = self._block_t0
+            self.first_t_s = t0
         if self._rows_t0 is None:
-            self._rows_t0 = self._block_t0
-        if self._ft:
-            self._write_frames(self._ft, self._fid, self._ffl, self._fdlc, self._fdata)
-            self._clear_frames()
+            self._rows_t0 = t0
+        if self._frames:
+            frames = self._frames
+            self._frames = []
+            self._tap = self._frames.append
+            self._write_frames(frames)
         self._block_t0 = None
         if rows:
             self._write_decoded()
+            if self._cycles:
+                self._write_cycles()
             for s in self._series.values():
                 if s.values:
                     table = np.fromiter(s.values, np.float64, len(s.values)).reshape(-1, s.width)
@@ -306,6 +318,25 @@ class CanLogWriter:
             self._rows_t0 = None
         for sink in self.sinks:
             sink.flush()
+
+    def _write_cycles(self) -> None:
+        """The cycles' rows on ``/ecu/inputs`` and ``/ecu/outputs``."""
+        cycles, self._cycles = self._cycles, []
+        n = len(cycles)
+        t = np.fromiter(map(_first, cycles), np.float64, n)
+        t_ns = utc_ns_array(self.time_base, t)
+        ins, outs = self._series[INPUTS_TOPIC], self._series[OUTPUTS_TOPIC]
+        table = np.empty((n, ins.width))
+        table[:, 0] = t
+        values = chain.from_iterable(map(_third, cycles))
+        table[:, 1:] = np.fromiter(values, np.float64, n * (ins.width - 1)).reshape(n, -1)
+        self._write_rows(ins, table, t_ns)
+        table = np.empty((n, outs.width))
+        table[:, 0] = t
+        table[:, 1] = np.fromiter(map(_second, cycles), np.float64, n)
+        values = chain.from_iterable(map(_fourth, cycles))
+        table[:, 2:] = np.fromiter(values, np.float64, n * (outs.width - 2)).reshape(n, -1)
+        self._write_rows(outs, table, t_ns)
 
     def _write_rows(self, s: _Rows, table: np.ndarray, t_ns: np.ndarray | None = None) -> None:
         """One message per row of ``table`` (``t_s`` first) on ``s``'s channel, stamped
@@ -316,16 +347,10 @@ class CanLogWriter:
         emit(self.sinks, s.handles, s.seq, t_ns, payload, lengths)
         s.seq += len(table)
 
-    def _write_frames(
-        self,
-        t: list[float],
-        ids: list[int],
-        flags: list[int],
-        dlcs: list[int],
-        datas: list[bytes],
-    ) -> None:
-        batch = FrameBatch(t, ids, flags, dlcs, datas)
-        emit_one(self.sinks, self._raw, self._raw_seq, self.time_base.utc_ns(t[0]), batch.block())
+    def _write_frames(self, frames: list[Tapped]) -> None:
+        batch = FrameBatch.of(frames)
+        t_ns = self.time_base.utc_ns(frames[0][0])
+        emit_one(self.sinks, self._raw, self._raw_seq, t_ns, batch.block())
         self._raw_seq += 1
         self.frames += batch.n
         if self._decoded:
