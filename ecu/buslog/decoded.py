@@ -116,7 +116,7 @@ class FrameBatch:
         if self.t.dtype.str != "<f8" or self.ids.dtype.str != "<u4":  # a big-endian host
             return self.block_generic()
         b64 = binascii.b2a_base64
-        columns = (self.t, self.ids, self.flags, self.dlcs, self.lens)
+        columns: tuple[np.ndarray, ...] = (self.t, self.ids, self.flags, self.dlcs, self.lens)
         parts = [_BLOCK_HEAD, str(self.n).encode()]
         for key, col in zip(_BLOCK_KEYS, columns, strict=False):
             parts += (key, b64(col.tobytes(), newline=False))

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from ecu.buslog.format import CanLogError
+from ecu.buslog.proto import ProtoRows
 from ecu.buslog.sinks import ChannelSpec
 
 __all__ = [
@@ -129,6 +130,12 @@ class FoxgloveSink:
         ch = self._channels[handle]
         if ch.has_sinks():
             ch.log(data, log_time=log_time)
+
+    def write_rows(
+        self, handle: int, seq0: int, log_times: np.ndarray, rows: ProtoRows, table: np.ndarray
+    ) -> None:
+        if self._channels[handle].has_sinks():
+            self.write(handle, seq0, log_times, *rows.format(table))
 
     def attach(self, log_time: int, name: str, media_type: str, data: bytes) -> None:
         """Attachments are for the file only."""

@@ -22,7 +22,7 @@ from typing import IO, Any
 
 import numpy as np
 
-__all__ = ["McapFile", "message_records"]
+__all__ = ["RECORD_HEAD", "McapFile", "message_records"]
 
 MAGIC = b"\x89MCAP0\r\n"
 #: a message record's fixed part: opcode, record length, channel, sequence, log/publish time
@@ -30,6 +30,8 @@ _HEADER = np.dtype(
     [("op", "u1"), ("len", "<u8"), ("ch", "<u2"), ("seq", "<u4"), ("lt", "<u8"), ("pt", "<u8")]
 )
 _HEADER_BYTES = _HEADER.itemsize  # 31
+#: the bytes before a message's data in its record (:meth:`McapFile.records`)
+RECORD_HEAD = _HEADER_BYTES
 _MESSAGE_OPCODE = 0x05
 _HEAD = struct.Struct("<BQHIQQ")
 #: a message index entry: log time, offset in the chunk
@@ -116,7 +118,7 @@ class McapFile:
         self._pos = 0
         self._schemas: list[object] = []
         self._channels: list[object] = []
-        self._chunk: list[bytes] = []
+        self._chunk: list[bytes | memoryview] = []
         self._chunk_size = 0
         self._chunk_t = (0, 0)
         self._zstd: Any = None
@@ -198,20 +200,50 @@ class McapFile:
         pairs[:, 0] = log_times
         pairs[:, 1] = starts + self._chunk_size
         self._index[channel_id].append(pairs.tobytes())
-        self._add(records.tobytes(), channel_id, n, int(log_times.min()), int(log_times.max()))
+        self._add(records, channel_id, n, int(log_times.min()), int(log_times.max()))
+
+    def records(
+        self, channel_id: int, seq0: int, log_times: np.ndarray, records: np.ndarray
+    ) -> None:
+        """Add ``n`` messages of one channel whose data are the rows of ``records`` (uint8,
+        ``(n, 31 + size)``) after their first :data:`RECORD_HEAD` bytes, which this fills
+        with each message record's header (``records`` becomes the records)."""
+        n, size = records.shape
+        if not n:
+            return
+        hdr = np.empty(n, dtype=_HEADER)
+        hdr["op"] = _MESSAGE_OPCODE
+        hdr["len"] = size - 9
+        hdr["ch"] = channel_id
+        hdr["seq"] = np.arange(seq0, seq0 + n, dtype=np.uint64) & 0xFFFFFFFF
+        hdr["lt"] = log_times
+        hdr["pt"] = log_times
+        records[:, :_HEADER_BYTES] = hdr.view(np.uint8).reshape(n, _HEADER_BYTES)
+        pairs = np.empty((n, 2), dtype="<u8")
+        pairs[:, 0] = log_times
+        pairs[:, 1] = np.arange(self._chunk_size, self._chunk_size + n * size, size)
+        self._index[channel_id].append(pairs.tobytes())
+        self._add(records, channel_id, n, int(log_times.min()), int(log_times.max()))
 
     def message(self, channel_id: int, seq: int, log_time: int, data: bytes) -> None:
         """Add one message to the open chunk (a raw block, an event: no arrays)."""
         size = len(data) + _HEADER_BYTES
-        head = _HEAD.pack(_MESSAGE_OPCODE, size - 9, channel_id, seq & 0xFFFFFFFF, log_time, log_time)
+        head = _HEAD.pack(
+            _MESSAGE_OPCODE, size - 9, channel_id, seq & 0xFFFFFFFF, log_time, log_time
+        )
         self._index[channel_id].append(_PAIR.pack(log_time, self._chunk_size))
         self._add(head + data, channel_id, 1, log_time, log_time)
 
-    def _add(self, records: bytes, channel_id: int, n: int, lo: int, hi: int) -> None:
-        """Append ``n`` message records of a channel, log times in ``[lo, hi]`` (ns)."""
+    def _add(self, records: bytes | np.ndarray, channel_id: int, n: int, lo: int, hi: int) -> None:
+        """Append ``n`` message records of a channel, log times in ``[lo, hi]`` (ns); an
+        array of records is kept (not copied) until the chunk ends."""
         first = not self._chunk
-        self._chunk.append(records)
-        self._chunk_size += len(records)
+        if isinstance(records, np.ndarray):
+            self._chunk.append(records.data)
+            self._chunk_size += records.nbytes
+        else:
+            self._chunk.append(records)
+            self._chunk_size += len(records)
         self._counts[channel_id] += n
         rng = self._t_range
         self._t_range = (lo, hi) if rng is None else (min(lo, rng[0]), max(hi, rng[1]))

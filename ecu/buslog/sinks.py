@@ -20,7 +20,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from ecu.buslog.format import FORMAT, CanLogError
-from ecu.buslog.mcapfile import McapFile
+from ecu.buslog.mcapfile import RECORD_HEAD, McapFile
 from ecu.buslog.proto import LAYOUT_KEY, ProtoRows
 
 __all__ = [
@@ -69,6 +69,12 @@ class Sink(Protocol):
     def write_one(self, handle: int, seq: int, log_time: int, data: bytes) -> None:
         """One message of one channel: log time (ns), sequence number, its data."""
 
+    def write_rows(
+        self, handle: int, seq0: int, log_times: np.ndarray, rows: ProtoRows, table: np.ndarray
+    ) -> None:
+        """Messages of one channel: the rows of ``table`` as ``rows`` formats them
+        (:meth:`ProtoRows.format`), log times (ns, int64) and sequence numbers from ``seq0``."""
+
     def attach(self, log_time: int, name: str, media_type: str, data: bytes) -> None:
         """A file stored with the recording."""
 
@@ -116,6 +122,12 @@ class McapSink:
 
     def write_one(self, handle: int, seq: int, log_time: int, data: bytes) -> None:
         self._file.message(handle, seq, log_time, data)
+
+    def write_rows(
+        self, handle: int, seq0: int, log_times: np.ndarray, rows: ProtoRows, table: np.ndarray
+    ) -> None:
+        """The rows formatted in place after room for their record headers (one array)."""
+        self._file.records(handle, seq0, log_times, rows.format_into(table, RECORD_HEAD))
 
     def attach(self, log_time: int, name: str, media_type: str, data: bytes) -> None:
         self._file.attachment(log_time, name, media_type, data)

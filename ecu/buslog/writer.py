@@ -52,7 +52,7 @@ from ecu.buslog.format import (
     utc_ns_array,
 )
 from ecu.buslog.proto import ProtoRows
-from ecu.buslog.sinks import McapSink, Sink, declare, emit, emit_one, json_spec, rows_spec
+from ecu.buslog.sinks import McapSink, Sink, declare, emit_one, json_spec, rows_spec
 from ecu.signals import NodeInputs, NodeOutputs
 
 __all__ = ["CanLogWriter", "FrameTap"]
@@ -64,6 +64,13 @@ _first, _second = operator.itemgetter(0), operator.itemgetter(1)
 _third, _fourth = operator.itemgetter(2), operator.itemgetter(3)
 #: one control cycle as kept until its rows are written: (t_s, cycle, inputs, outputs)
 _Cycle = tuple[float, int, tuple[Any, ...], tuple[Any, ...]]
+
+
+def _floats(values: Iterable[Any]) -> np.ndarray:
+    """``values`` (an array, a sequence or any iterable) as a float64 array."""
+    if not isinstance(values, np.ndarray | list | tuple):
+        values = list(values)
+    return np.asarray(values, dtype=np.float64)
 
 
 def _discard(_: object) -> None:
@@ -233,19 +240,20 @@ class CanLogWriter:
         (:attr:`error`), not the node."""
         if self.error is not None:
             return
-        try:
-            self._cycle(t_s, inputs, outputs, k)
+        try:  # written out: one call a cycle
+            if not self._cycles_declared:
+                self._declare_cycles()
+            self._cycles.append((t_s, k, _get_inputs(inputs), _get_outputs(outputs)))
+            if outputs.events:
+                for text in outputs.events:
+                    self.event(t_s, text)
+            t0 = self._block_t0
+            if t0 is None:
+                t0 = self._block_t0 = self._frames[0][0] if self._frames else t_s
+            if t_s - t0 >= self.flush_s:
+                self._flush_due(t_s)
         except Exception as exc:  # noqa: BLE001 - I/O at the edge: never stop the control loop
             self._fail(t_s, exc)
-
-    def _cycle(self, t_s: float, inputs: NodeInputs, outputs: NodeOutputs, k: int) -> None:
-        if not self._cycles_declared:
-            self._declare_cycles()
-        self._cycles.append((t_s, k, _get_inputs(inputs), _get_outputs(outputs)))
-        for text in outputs.events:
-            self.event(t_s, text)
-        if t_s - self._block_start(t_s) >= self.flush_s:
-            self._flush_due(t_s)
 
     def _declare_cycles(self) -> None:
         self.series(
@@ -341,10 +349,10 @@ class CanLogWriter:
     def _write_rows(self, s: _Rows, table: np.ndarray, t_ns: np.ndarray | None = None) -> None:
         """One message per row of ``table`` (``t_s`` first) on ``s``'s channel, stamped
         ``t_ns`` (default: the UTC of ``t_s``)."""
-        payload, lengths = s.rows.format(table)
         if t_ns is None:
             t_ns = utc_ns_array(self.time_base, table[:, 0])
-        emit(self.sinks, s.handles, s.seq, t_ns, payload, lengths)
+        for sink, handle in zip(self.sinks, s.handles, strict=True):
+            sink.write_rows(handle, s.seq, t_ns, s.rows, table)
         s.seq += len(table)
 
     def _write_frames(self, frames: list[Tapped]) -> None:
@@ -372,11 +380,8 @@ class CanLogWriter:
         """Write whole columns at once (e.g. the simulated world after a drive), one message
         per row; ``topic`` must be declared with the columns' names."""
         s = self._series[topic]
-        t = np.asarray(list(t_s), dtype=np.float64)
-        names = s.rows.names[1:]
-        table = np.column_stack(
-            [t, *(np.asarray(list(columns[k]), dtype=np.float64) for k in names)]
-        )
+        t = _floats(t_s)
+        table = np.column_stack([t, *(_floats(columns[k]) for k in s.rows.names[1:])])
         step = 20_000  # rows per chunk
         for start in range(0, len(t), step):
             self._write_rows(s, table[start : start + step])
