@@ -1,5 +1,10 @@
 """The frames of one flush as the recorder writes them: the raw block, and per DBC message a
-table of decoded signals (one row per frame) for its protobuf channel.
+table of decoded signals (one row per frame) for its protobuf channel; the control cycles'
+tables likewise.
+
+The recorder's tap keeps each frame as it came, ``(t_s, frame, rx)``, and a flush reads the
+frames' columns an attribute at a time (:meth:`FrameBatch.of`): one append a frame on the
+node's path, no per-frame Python code in the batch for a plain CAN frame.
 
 The frames are grouped by id with one sort; each DBC message's frames (its id, standard or
 extended, not error or remote frames, the DBC's length: any other frame stays in ``/can/raw``
@@ -10,8 +15,9 @@ from __future__ import annotations
 
 import binascii
 import json
-from collections.abc import Iterator, Sequence
-from operator import attrgetter
+from collections.abc import Iterable, Iterator, Sequence
+from itertools import chain
+from operator import attrgetter, itemgetter
 from typing import Any
 
 import numpy as np
@@ -27,11 +33,25 @@ from ecu.buslog.format import (
 )
 from ecu.buslog.proto import ProtoRows
 
-__all__ = ["FrameBatch", "MessageDecoders", "Tapped", "frame_copy", "integral_fields"]
+__all__ = [
+    "Cycle",
+    "FrameBatch",
+    "MessageDecoders",
+    "Rows",
+    "Tapped",
+    "cycle_tables",
+    "floats",
+    "frame_copy",
+    "integral_fields",
+]
 
 #: A frame as the recorder's tap keeps it: (time on the node's clock, s; the frame, a
 #: ``can.Message`` or anything with its attributes; received).
 Tapped = tuple[float, Any, bool]
+
+#: One control cycle as the recorder keeps it until its rows are written: (t_s, cycle
+#: index, the inputs' values, the outputs' values) in the channels' column order.
+Cycle = tuple[float, int, tuple[Any, ...], tuple[Any, ...]]
 
 _ID = attrgetter("arbitration_id")
 _EXT = attrgetter("is_extended_id")
@@ -40,6 +60,7 @@ _DATA = attrgetter("data")
 _FD = attrgetter("is_fd")
 _ERROR = attrgetter("is_error_frame")
 _REMOTE = attrgetter("is_remote_frame")
+_T, _K, _INPUTS, _OUTPUTS = itemgetter(0), itemgetter(1), itemgetter(2), itemgetter(3)
 #: the ``/can/raw`` block's columns, in order (:func:`ecu.buslog.blocks.encode_block`)
 _RAW = ("t_s", "id", "flags", "dlc", "len", "data")
 _RAW_DTYPES = {"t_s": "<f8", "id": "<u4", "flags": "|u1", "dlc": "|u1", "len": "|u1", "data": "|u1"}
@@ -47,10 +68,48 @@ _RAW_DTYPES = {"t_s": "<f8", "id": "<u4", "flags": "|u1", "dlc": "|u1", "len": "
 _INTEGRAL_TYPES = ("bool", "int", "AccState", "FaultCode")
 
 
+def floats(values: Iterable[Any]) -> np.ndarray:
+    """``values`` (an array, a sequence or any iterable) as a float64 array."""
+    if not isinstance(values, np.ndarray | list | tuple):
+        values = list(values)
+    return np.asarray(values, dtype=np.float64)
+
+
+def cycle_tables(
+    cycles: Sequence[Cycle], in_width: int, out_width: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(``t_s`` ``(n,)``, the inputs' rows ``(n, in_width)``: ``t_s`` then the inputs, the
+    outputs' rows ``(n, out_width)``: ``t_s``, the cycle index, the outputs), float64."""
+    n = len(cycles)
+    t = np.fromiter(map(_T, cycles), np.float64, n)
+    inputs = np.empty((n, in_width))
+    inputs[:, 0] = t
+    values = chain.from_iterable(map(_INPUTS, cycles))
+    inputs[:, 1:] = np.fromiter(values, np.float64, n * (in_width - 1)).reshape(n, -1)
+    outputs = np.empty((n, out_width))
+    outputs[:, 0] = t
+    outputs[:, 1] = np.fromiter(map(_K, cycles), np.float64, n)
+    values = chain.from_iterable(map(_OUTPUTS, cycles))
+    outputs[:, 2:] = np.fromiter(values, np.float64, n * (out_width - 2)).reshape(n, -1)
+    return t, inputs, outputs
+
+
 def integral_fields(cls: type, names: Sequence[str]) -> tuple[bool, ...]:
     """Per field of the dataclass ``cls``: written as an integer (bool, int, an IntEnum)."""
     hints = {k: str(v) for k, v in cls.__annotations__.items()}
     return tuple(hints.get(n) in _INTEGRAL_TYPES for n in names)
+
+
+class Rows:
+    """One channel of rows: its handle in every sink, its row format, the rows of a sampled
+    channel not yet written (one flat list, no tuple per row), the next sequence number."""
+
+    def __init__(self, handles: list[int], rows: ProtoRows) -> None:
+        self.handles = handles
+        self.rows = rows
+        self.width = len(rows.names)
+        self.values: list[Any] = []
+        self.seq = 0
 
 
 class FrameBatch:

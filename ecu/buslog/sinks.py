@@ -27,6 +27,7 @@ __all__ = [
     "ChannelSpec",
     "McapSink",
     "Sink",
+    "close_all",
     "declare",
     "emit",
     "emit_one",
@@ -159,6 +160,22 @@ class McapSink:
             with contextlib.suppress(OSError):
                 self._stream.close()
             raise CanLogError(f"{self.path}: cannot finish the recording: {exc}") from exc
+
+
+def close_all(sinks: Sequence[Sink]) -> None:
+    """Close every sink as complete, whichever of them fails.
+
+    Raises:
+        CanLogError: the first sink that could not be finished.
+    """
+    failed: CanLogError | None = None
+    for sink in sinks:
+        try:
+            sink.close(complete=True)
+        except CanLogError as exc:
+            failed = failed or exc
+    if failed is not None:
+        raise failed
 
 
 def json_spec(topic: str, schema: Mapping[str, Any]) -> ChannelSpec:

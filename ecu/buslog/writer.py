@@ -12,9 +12,8 @@ simulated time), ``t_s`` in it the node's clock exactly.
 Every ``flush_s`` (1 s of the node's clock) the new frames go out as a raw block and the
 MCAP chunk ends: a killed recording (``FILE.part``) holds every frame older than that. The
 rows (decoded frames, cycles) go out every ``rows_s`` (10 s; live 0.2 s), built by numpy a
-channel at a time (:mod:`ecu.buslog.proto`, :mod:`ecu.buslog.mcapfile`): a batch has a fixed
-cost a 1-s batch of a sparse bus does not amortize (measured). Attachments: DBC, binding,
-ECU configuration, starting table. Every :class:`~ecu.buslog.sinks.Sink` (the file, a live
+channel at a time (:mod:`ecu.buslog.decoded`, :mod:`ecu.buslog.proto`,
+:mod:`ecu.buslog.mcapfile`). Attachments: DBC, binding, ECU configuration, starting table. Every :class:`~ecu.buslog.sinks.Sink` (the file, a live
 Foxglove WebSocket: :mod:`ecu.buslog.live`) gets the same channels from this one code path.
 """
 
@@ -24,14 +23,23 @@ import logging
 import operator
 import os
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from itertools import chain
 from pathlib import Path
 from typing import Any
 
 import can
 import numpy as np
 
-from ecu.buslog.decoded import FrameBatch, MessageDecoders, Tapped, frame_copy, integral_fields
+from ecu.buslog.decoded import (
+    Cycle,
+    FrameBatch,
+    MessageDecoders,
+    Rows,
+    Tapped,
+    cycle_tables,
+    floats,
+    frame_copy,
+    integral_fields,
+)
 from ecu.buslog.format import (
     EVENTS_TOPIC,
     FLUSH_S,
@@ -52,7 +60,15 @@ from ecu.buslog.format import (
     utc_ns_array,
 )
 from ecu.buslog.proto import ProtoRows
-from ecu.buslog.sinks import McapSink, Sink, declare, emit_one, json_spec, rows_spec
+from ecu.buslog.sinks import (
+    McapSink,
+    Sink,
+    close_all,
+    declare,
+    emit_one,
+    json_spec,
+    rows_spec,
+)
 from ecu.signals import NodeInputs, NodeOutputs
 
 __all__ = ["CanLogWriter", "FrameTap"]
@@ -60,33 +76,6 @@ __all__ = ["CanLogWriter", "FrameTap"]
 log = logging.getLogger(__name__)
 _get_inputs = operator.attrgetter(*INPUT_FIELDS)
 _get_outputs = operator.attrgetter(*OUTPUT_FIELDS)
-_first, _second = operator.itemgetter(0), operator.itemgetter(1)
-_third, _fourth = operator.itemgetter(2), operator.itemgetter(3)
-#: one control cycle as kept until its rows are written: (t_s, cycle, inputs, outputs)
-_Cycle = tuple[float, int, tuple[Any, ...], tuple[Any, ...]]
-
-
-def _floats(values: Iterable[Any]) -> np.ndarray:
-    """``values`` (an array, a sequence or any iterable) as a float64 array."""
-    if not isinstance(values, np.ndarray | list | tuple):
-        values = list(values)
-    return np.asarray(values, dtype=np.float64)
-
-
-def _discard(_: object) -> None:
-    """The tap of a recording that stopped (a failed write)."""
-
-
-class _Rows:
-    """One JSON channel: its handle in every sink, its row format, the rows not yet written
-    (one flat list, no tuple per row: fewer objects for the garbage collector to track)."""
-
-    def __init__(self, handles: list[int], rows: ProtoRows) -> None:
-        self.handles = handles
-        self.rows = rows
-        self.width = len(rows.names)
-        self.values: list[Any] = []
-        self.seq = 0
 
 
 class CanLogWriter:
@@ -141,21 +130,19 @@ class CanLogWriter:
         self._raw_seq = 0
         self._decoders = MessageDecoders(db)
         self._decoded = {
-            key: _Rows(self._rows_channel(topic, rows), rows)
+            key: Rows(self._rows_channel(topic, rows), rows)
             for key, (_, rows, topic) in self._decoders.rows.items()
         }
-        self._series: dict[str, _Rows] = {}
+        self._series: dict[str, Rows] = {}
         self._events: list[int] | None = None
         self._events_seq = 0
-        # the open block's frames as tapped, and its tap (one append a frame)
+        # the open block: its frames as tapped (one append a frame), its first frame's, cycle's
+        # or sample's time (None until a cycle, sample or flush looks); the unwritten cycles
         self._frames: list[Tapped] = []
         self._tap: Callable[[Tapped], None] = self._frames.append
-        # the control cycles whose rows are not written yet
-        self._cycles: list[_Cycle] = []
-        self._cycles_declared = False
-        # the node's time of the open block's first frame, cycle or sample (None: set when
-        # a cycle, sample or flush looks)
         self._block_t0: float | None = None
+        self._cycles: list[Cycle] = []
+        self._cycles_declared = False
         for sink in self.sinks:
             sink.metadata(META_RECORD, meta_record(self.time_base, self.node))
         for name, record in (metadata or {}).items():
@@ -194,13 +181,6 @@ class CanLogWriter:
         self._tap((t_s, frame_copy(msg), rx))
         self.tick(t_s)
 
-    def _block_start(self, t_s: float) -> float:
-        """The open block's first time (opening it at ``t_s`` when it holds nothing)."""
-        t0 = self._block_t0
-        if t0 is None:
-            t0 = self._block_t0 = self._frames[0][0] if self._frames else t_s
-        return t0
-
     def series(
         self,
         topic: str,
@@ -215,14 +195,15 @@ class CanLogWriter:
         title = "pacc." + topic.strip("/").replace("/", ".")
         ints = tuple(integral) if integral is not None else (False,) * len(columns)
         rows = ProtoRows(title, list(series_columns(columns)), (False, *ints))
-        self._series[topic] = _Rows(self._rows_channel(topic, rows), rows)
+        self._series[topic] = Rows(self._rows_channel(topic, rows), rows)
 
     def sample(self, topic: str, t_s: float, values: tuple[Any, ...]) -> None:
         """One sample of a declared channel: ``values`` in its column order."""
         row = self._series[topic].values
         row.append(t_s)
         row.extend(values)
-        self._block_start(t_s)
+        if self._block_t0 is None:  # the block starts at its first frame, cycle or sample
+            self._block_t0 = self._frames[0][0] if self._frames else t_s
 
     def event(self, t_s: float, text: str) -> None:
         """One event text, as ``foxglove.Log`` (written at once: events are rare)."""
@@ -288,7 +269,8 @@ class CanLogWriter:
         """Stop recording after a failed write; :meth:`close` reports it."""
         self.error = f"recording stopped at t = {t_s:.3f} s: {type(exc).__name__}: {exc}"
         log.error("%s: %s", self.path, self.error)
-        self._frames, self._tap, self._cycles, self._pending = [], _discard, [], []
+        self._frames, self._cycles, self._pending = [], [], []
+        self._tap = lambda _: None  # a stopped recording takes no frames
         for s in self._series.values():
             s.values = []
 
@@ -329,24 +311,14 @@ class CanLogWriter:
 
     def _write_cycles(self) -> None:
         """The cycles' rows on ``/ecu/inputs`` and ``/ecu/outputs``."""
-        cycles, self._cycles = self._cycles, []
-        n = len(cycles)
-        t = np.fromiter(map(_first, cycles), np.float64, n)
-        t_ns = utc_ns_array(self.time_base, t)
         ins, outs = self._series[INPUTS_TOPIC], self._series[OUTPUTS_TOPIC]
-        table = np.empty((n, ins.width))
-        table[:, 0] = t
-        values = chain.from_iterable(map(_third, cycles))
-        table[:, 1:] = np.fromiter(values, np.float64, n * (ins.width - 1)).reshape(n, -1)
-        self._write_rows(ins, table, t_ns)
-        table = np.empty((n, outs.width))
-        table[:, 0] = t
-        table[:, 1] = np.fromiter(map(_second, cycles), np.float64, n)
-        values = chain.from_iterable(map(_fourth, cycles))
-        table[:, 2:] = np.fromiter(values, np.float64, n * (outs.width - 2)).reshape(n, -1)
-        self._write_rows(outs, table, t_ns)
+        t, inputs, outputs = cycle_tables(self._cycles, ins.width, outs.width)
+        self._cycles = []
+        t_ns = utc_ns_array(self.time_base, t)
+        self._write_rows(ins, inputs, t_ns)
+        self._write_rows(outs, outputs, t_ns)
 
-    def _write_rows(self, s: _Rows, table: np.ndarray, t_ns: np.ndarray | None = None) -> None:
+    def _write_rows(self, s: Rows, table: np.ndarray, t_ns: np.ndarray | None = None) -> None:
         """One message per row of ``table`` (``t_s`` first) on ``s``'s channel, stamped
         ``t_ns`` (default: the UTC of ``t_s``)."""
         if t_ns is None:
@@ -380,8 +352,8 @@ class CanLogWriter:
         """Write whole columns at once (e.g. the simulated world after a drive), one message
         per row; ``topic`` must be declared with the columns' names."""
         s = self._series[topic]
-        t = _floats(t_s)
-        table = np.column_stack([t, *(_floats(columns[k]) for k in s.rows.names[1:])])
+        t = floats(t_s)
+        table = np.column_stack([t, *(floats(columns[k]) for k in s.rows.names[1:])])
         step = 20_000  # rows per chunk
         for start in range(0, len(t), step):
             self._write_rows(s, table[start : start + step])
@@ -415,14 +387,7 @@ class CanLogWriter:
             for sink in self.sinks:
                 sink.close(complete=False)
             raise CanLogError(f"{self.path}: cannot finish the recording: {exc}") from exc
-        failed: CanLogError | None = None
-        for sink in self.sinks:  # every sink closes, whichever of them fails
-            try:
-                sink.close(complete=True)
-            except CanLogError as exc:
-                failed = failed or exc
-        if failed is not None:
-            raise failed
+        close_all(self.sinks)
 
     def __enter__(self) -> CanLogWriter:
         return self
