@@ -15,9 +15,9 @@ from __future__ import annotations
 
 import binascii
 import json
+import struct
 from collections.abc import Iterable, Iterator, Sequence
-from itertools import chain
-from operator import attrgetter, itemgetter
+from operator import attrgetter
 from typing import Any
 
 import numpy as np
@@ -34,7 +34,6 @@ from ecu.buslog.format import (
 from ecu.buslog.proto import ProtoRows
 
 __all__ = [
-    "Cycle",
     "FrameBatch",
     "MessageDecoders",
     "Rows",
@@ -45,13 +44,9 @@ __all__ = [
     "integral_fields",
 ]
 
-#: A frame as the recorder's tap keeps it: (time on the node's clock, s; the frame, a
-#: ``can.Message`` or anything with its attributes; received).
+#: A frame as the recorder's tap gets it: (time on the node's clock, s; the frame, a
+#: ``can.Message`` or anything with its attributes; received); kept flat, three items a frame.
 Tapped = tuple[float, Any, bool]
-
-#: One control cycle as the recorder keeps it until its rows are written: (t_s, cycle
-#: index, the inputs' values, the outputs' values) in the channels' column order.
-Cycle = tuple[float, int, tuple[Any, ...], tuple[Any, ...]]
 
 _ID = attrgetter("arbitration_id")
 _EXT = attrgetter("is_extended_id")
@@ -60,7 +55,6 @@ _DATA = attrgetter("data")
 _FD = attrgetter("is_fd")
 _ERROR = attrgetter("is_error_frame")
 _REMOTE = attrgetter("is_remote_frame")
-_T, _K, _INPUTS, _OUTPUTS = itemgetter(0), itemgetter(1), itemgetter(2), itemgetter(3)
 #: the ``/can/raw`` block's columns, in order (:func:`ecu.buslog.blocks.encode_block`)
 _RAW = ("t_s", "id", "flags", "dlc", "len", "data")
 _RAW_DTYPES = {"t_s": "<f8", "id": "<u4", "flags": "|u1", "dlc": "|u1", "len": "|u1", "data": "|u1"}
@@ -76,22 +70,16 @@ def floats(values: Iterable[Any]) -> np.ndarray:
 
 
 def cycle_tables(
-    cycles: Sequence[Cycle], in_width: int, out_width: int
+    cycles: Sequence[bytes], in_width: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(``t_s`` ``(n,)``, the inputs' rows ``(n, in_width)``: ``t_s`` then the inputs, the
-    outputs' rows ``(n, out_width)``: ``t_s``, the cycle index, the outputs), float64."""
-    n = len(cycles)
-    t = np.fromiter(map(_T, cycles), np.float64, n)
-    inputs = np.empty((n, in_width))
-    inputs[:, 0] = t
-    values = chain.from_iterable(map(_INPUTS, cycles))
-    inputs[:, 1:] = np.fromiter(values, np.float64, n * (in_width - 1)).reshape(n, -1)
-    outputs = np.empty((n, out_width))
-    outputs[:, 0] = t
-    outputs[:, 1] = np.fromiter(map(_K, cycles), np.float64, n)
-    values = chain.from_iterable(map(_OUTPUTS, cycles))
-    outputs[:, 2:] = np.fromiter(values, np.float64, n * (out_width - 2)).reshape(n, -1)
-    return t, inputs, outputs
+    """The tables of control cycles each kept as float64 bytes: ``t_s``, the cycle index,
+    ``in_width - 1`` inputs, the outputs. (``t_s`` ``(n,)``, the inputs' rows ``(n,
+    in_width)``: ``t_s`` then the inputs, the outputs' rows: ``t_s``, the cycle index, the
+    outputs)."""
+    data = np.frombuffer(b"".join(cycles), np.float64).reshape(len(cycles), -1)
+    inputs = np.concatenate([data[:, :1], data[:, 2 : in_width + 1]], axis=1)
+    outputs = np.concatenate([data[:, :2], data[:, in_width + 1 :]], axis=1)
+    return data[:, 0], inputs, outputs
 
 
 def integral_fields(cls: type, names: Sequence[str]) -> tuple[bool, ...]:
@@ -133,20 +121,22 @@ class FrameBatch:
         self.lens = np.fromiter(map(len, datas), np.uint8, n)
 
     @classmethod
-    def of(cls, frames: Sequence[Tapped]) -> FrameBatch:
-        """The batch of ``frames`` as the tap kept them (at least one), attribute by
-        attribute over all frames (no per-frame Python code for a plain CAN frame)."""
-        ts, msgs, rxs = zip(*frames, strict=True)
+    def of(cls, frames: Sequence[Any]) -> FrameBatch:
+        """The batch of the frames as the tap kept them: ``t_s, frame, rx`` of each frame
+        one after the other in one flat list (at least one frame). Read an attribute at a
+        time over all frames, packed by ``struct``/``bytes`` (cheaper than numpy's per-item
+        conversion); no per-frame Python code for a plain CAN frame."""
+        ts, msgs, rxs = frames[0::3], frames[1::3], frames[2::3]
         n = len(ts)
         out = cls.__new__(cls)
         out.n = n
-        out.t = np.array(ts, dtype=np.float64)
-        out.ids = np.fromiter(map(_ID, msgs), np.uint32, n)
-        out.dlcs = np.fromiter(map(_DLC, msgs), np.uint8, n)
+        out.t = np.frombuffer(struct.pack(f"<{n}d", *ts), np.float64)
+        out.ids = np.frombuffer(struct.pack(f"<{n}I", *map(_ID, msgs)), np.uint32)
+        out.dlcs = np.frombuffer(bytes(map(_DLC, msgs)), np.uint8)
         out.datas = list(map(_DATA, msgs))
-        out.lens = np.fromiter(map(len, out.datas), np.uint8, n)
-        ext = np.fromiter(map(_EXT, msgs), np.uint8, n)
-        rx = np.fromiter(map(bool, rxs), np.uint8, n)
+        out.lens = np.frombuffer(bytes(map(len, out.datas)), np.uint8)
+        ext = np.frombuffer(bytes(map(_EXT, msgs)), np.uint8)
+        rx = np.frombuffer(bytes(map(bool, rxs)), np.uint8)
         flags = ext * np.uint8(FLAG_EXTENDED) | rx * np.uint8(FLAG_RX)
         if any(map(_FD, msgs)) or any(map(_ERROR, msgs)) or any(map(_REMOTE, msgs)):
             odd = (

@@ -13,8 +13,9 @@ Every ``flush_s`` (1 s of the node's clock) the new frames go out as a raw block
 MCAP chunk ends: a killed recording (``FILE.part``) holds every frame older than that. The
 rows (decoded frames, cycles) go out every ``rows_s`` (10 s; live 0.2 s), built by numpy a
 channel at a time (:mod:`ecu.buslog.decoded`, :mod:`ecu.buslog.proto`,
-:mod:`ecu.buslog.mcapfile`). Attachments: DBC, binding, ECU configuration, starting table. Every :class:`~ecu.buslog.sinks.Sink` (the file, a live
-Foxglove WebSocket: :mod:`ecu.buslog.live`) gets the same channels from this one code path.
+:mod:`ecu.buslog.mcapfile`). Attachments: DBC, binding, ECU configuration, starting table.
+Every :class:`~ecu.buslog.sinks.Sink` (the file, a live Foxglove WebSocket:
+:mod:`ecu.buslog.live`) gets the same channels from this one code path.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from __future__ import annotations
 import logging
 import operator
 import os
+import struct
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -30,7 +32,6 @@ import can
 import numpy as np
 
 from ecu.buslog.decoded import (
-    Cycle,
     FrameBatch,
     MessageDecoders,
     Rows,
@@ -76,6 +77,9 @@ __all__ = ["CanLogWriter", "FrameTap"]
 log = logging.getLogger(__name__)
 _get_inputs = operator.attrgetter(*INPUT_FIELDS)
 _get_outputs = operator.attrgetter(*OUTPUT_FIELDS)
+#: one cycle's values as kept until its rows are written: t_s, cycle index, the inputs and the
+#: outputs in the channels' column order, float64 bytes (no Python object per value)
+_pack_cycle = struct.Struct(f"<{2 + len(INPUT_FIELDS) + len(OUTPUT_FIELDS)}d").pack
 
 
 class CanLogWriter:
@@ -138,10 +142,10 @@ class CanLogWriter:
         self._events_seq = 0
         # the open block: its frames as tapped (one append a frame), its first frame's, cycle's
         # or sample's time (None until a cycle, sample or flush looks); the unwritten cycles
-        self._frames: list[Tapped] = []
-        self._tap: Callable[[Tapped], None] = self._frames.append
+        self._frames: list[Any] = []
+        self._tap: Callable[[Tapped], None] = self._frames.extend
         self._block_t0: float | None = None
-        self._cycles: list[Cycle] = []
+        self._cycles: list[bytes] = []
         self._cycles_declared = False
         for sink in self.sinks:
             sink.metadata(META_RECORD, meta_record(self.time_base, self.node))
@@ -203,7 +207,7 @@ class CanLogWriter:
         row.append(t_s)
         row.extend(values)
         if self._block_t0 is None:  # the block starts at its first frame, cycle or sample
-            self._block_t0 = self._frames[0][0] if self._frames else t_s
+            self._block_t0 = self._frames[0] if self._frames else t_s
 
     def event(self, t_s: float, text: str) -> None:
         """One event text, as ``foxglove.Log`` (written at once: events are rare)."""
@@ -224,13 +228,13 @@ class CanLogWriter:
         try:  # written out: one call a cycle
             if not self._cycles_declared:
                 self._declare_cycles()
-            self._cycles.append((t_s, k, _get_inputs(inputs), _get_outputs(outputs)))
+            self._cycles.append(_pack_cycle(t_s, k, *_get_inputs(inputs), *_get_outputs(outputs)))
             if outputs.events:
                 for text in outputs.events:
                     self.event(t_s, text)
             t0 = self._block_t0
             if t0 is None:
-                t0 = self._block_t0 = self._frames[0][0] if self._frames else t_s
+                t0 = self._block_t0 = self._frames[0] if self._frames else t_s
             if t_s - t0 >= self.flush_s:
                 self._flush_due(t_s)
         except Exception as exc:  # noqa: BLE001 - I/O at the edge: never stop the control loop
@@ -258,7 +262,7 @@ class CanLogWriter:
         if t0 is None:
             if not self._frames:
                 return
-            t0 = self._frames[0][0]
+            t0 = self._frames[0]
         if t_s - t0 >= self.flush_s:
             try:
                 self._flush_due(t_s)
@@ -285,7 +289,7 @@ class CanLogWriter:
         the decoded rows and the cycles too."""
         t0 = self._block_t0
         if t0 is None and self._frames:
-            t0 = self._frames[0][0]
+            t0 = self._frames[0]
         if self.first_t_s is None:
             self.first_t_s = t0
         if self._rows_t0 is None:
@@ -293,7 +297,7 @@ class CanLogWriter:
         if self._frames:
             frames = self._frames
             self._frames = []
-            self._tap = self._frames.append
+            self._tap = self._frames.extend
             self._write_frames(frames)
         self._block_t0 = None
         if rows:
@@ -312,7 +316,7 @@ class CanLogWriter:
     def _write_cycles(self) -> None:
         """The cycles' rows on ``/ecu/inputs`` and ``/ecu/outputs``."""
         ins, outs = self._series[INPUTS_TOPIC], self._series[OUTPUTS_TOPIC]
-        t, inputs, outputs = cycle_tables(self._cycles, ins.width, outs.width)
+        t, inputs, outputs = cycle_tables(self._cycles, ins.width)
         self._cycles = []
         t_ns = utc_ns_array(self.time_base, t)
         self._write_rows(ins, inputs, t_ns)
@@ -327,9 +331,9 @@ class CanLogWriter:
             sink.write_rows(handle, s.seq, t_ns, s.rows, table)
         s.seq += len(table)
 
-    def _write_frames(self, frames: list[Tapped]) -> None:
+    def _write_frames(self, frames: list[Any]) -> None:
         batch = FrameBatch.of(frames)
-        t_ns = self.time_base.utc_ns(frames[0][0])
+        t_ns = self.time_base.utc_ns(frames[0])
         emit_one(self.sinks, self._raw, self._raw_seq, t_ns, batch.block())
         self._raw_seq += 1
         self.frames += batch.n
