@@ -16,7 +16,7 @@ from __future__ import annotations
 import binascii
 import json
 import struct
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from operator import attrgetter
 from typing import Any
 
@@ -35,6 +35,7 @@ from ecu.buslog.proto import ProtoRows
 
 __all__ = [
     "FrameBatch",
+    "FrameTap",
     "MessageDecoders",
     "Rows",
     "Tapped",
@@ -47,6 +48,9 @@ __all__ = [
 #: A frame as the recorder's tap gets it: (time on the node's clock, s; the frame, a
 #: ``can.Message`` or anything with its attributes; received); kept flat, three items a frame.
 Tapped = tuple[float, Any, bool]
+
+#: A frame tap: (time on the node's clock, frame, received) -> None.
+FrameTap = Callable[[float, Any, bool], None]
 
 _ID = attrgetter("arbitration_id")
 _EXT = attrgetter("is_extended_id")

@@ -33,6 +33,7 @@ import numpy as np
 
 from ecu.buslog.decoded import (
     FrameBatch,
+    FrameTap,
     MessageDecoders,
     Rows,
     Tapped,
@@ -130,11 +131,11 @@ class CanLogWriter:
         self.error: str | None = None
         #: the node's clock at the first frame or sample (the recording's start)
         self.first_t_s: float | None = None
-        self._raw = self._json_channel(RAW_TOPIC, RAW_SCHEMA)
+        self._raw = declare(self.sinks, json_spec(RAW_TOPIC, RAW_SCHEMA))
         self._raw_seq = 0
         self._decoders = MessageDecoders(db)
         self._decoded = {
-            key: Rows(self._rows_channel(topic, rows), rows)
+            key: Rows(declare(self.sinks, rows_spec(topic, rows)), rows)
             for key, (_, rows, topic) in self._decoders.rows.items()
         }
         self._series: dict[str, Rows] = {}
@@ -156,12 +157,6 @@ class CanLogWriter:
             self.attach(name, data)
         for sink in self.sinks:  # a recording killed from now on is readable
             sink.flush()
-
-    def _json_channel(self, topic: str, schema: Mapping[str, Any]) -> list[int]:
-        return declare(self.sinks, json_spec(topic, schema))
-
-    def _rows_channel(self, topic: str, rows: ProtoRows) -> list[int]:
-        return declare(self.sinks, rows_spec(topic, rows))
 
     # -- what a node feeds ---------------------------------------------------------------
 
@@ -199,7 +194,7 @@ class CanLogWriter:
         title = "pacc." + topic.strip("/").replace("/", ".")
         ints = tuple(integral) if integral is not None else (False,) * len(columns)
         rows = ProtoRows(title, list(series_columns(columns)), (False, *ints))
-        self._series[topic] = Rows(self._rows_channel(topic, rows), rows)
+        self._series[topic] = Rows(declare(self.sinks, rows_spec(topic, rows)), rows)
 
     def sample(self, topic: str, t_s: float, values: tuple[Any, ...]) -> None:
         """One sample of a declared channel: ``values`` in its column order."""
@@ -212,7 +207,7 @@ class CanLogWriter:
     def event(self, t_s: float, text: str) -> None:
         """One event text, as ``foxglove.Log`` (written at once: events are rare)."""
         if self._events is None:
-            self._events = self._json_channel(EVENTS_TOPIC, LOG_SCHEMA)
+            self._events = declare(self.sinks, json_spec(EVENTS_TOPIC, LOG_SCHEMA))
         stamp = self.time_base.utc_ns(t_s)
         doc = log_message(t_s, stamp, text, f"pacc.{self.node}")
         emit_one(self.sinks, self._events, self._events_seq, stamp, doc)
@@ -398,7 +393,3 @@ class CanLogWriter:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-#: A frame tap: (time on the node's clock, frame, received) -> None.
-FrameTap = Callable[[float, can.Message, bool], None]
