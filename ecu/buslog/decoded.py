@@ -1,5 +1,10 @@
 """The frames of one flush as the recorder writes them: the raw block, and per DBC message a
-table of decoded signals (one row per frame) for its protobuf channel.
+table of decoded signals (one row per frame) for its protobuf channel; the control cycles'
+tables likewise.
+
+The recorder's tap keeps each frame as it came, ``(t_s, frame, rx)``, and a flush reads the
+frames' columns an attribute at a time (:meth:`FrameBatch.of`): one append a frame on the
+node's path, no per-frame Python code in the batch for a plain CAN frame.
 
 The frames are grouped by id with one sort; each DBC message's frames (its id, standard or
 extended, not error or remote frames, the DBC's length: any other frame stays in ``/can/raw``
@@ -8,25 +13,95 @@ only) are decoded column by column (:mod:`dbc.columns`: cantools' values).
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+import binascii
+import json
+import struct
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from operator import attrgetter
 from typing import Any
 
 import numpy as np
 
 from dbc.columns import MessageColumns, message_columns
 from ecu.buslog.blocks import encode_block
-from ecu.buslog.format import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE
+from ecu.buslog.format import (
+    FLAG_ERROR,
+    FLAG_EXTENDED,
+    FLAG_REMOTE,
+    FLAG_RX,
+    frame_flags,
+)
 from ecu.buslog.proto import ProtoRows
 
-__all__ = ["FrameBatch", "MessageDecoders", "integral_fields"]
+__all__ = [
+    "FrameBatch",
+    "FrameTap",
+    "MessageDecoders",
+    "Rows",
+    "Tapped",
+    "cycle_tables",
+    "floats",
+    "frame_copy",
+    "integral_fields",
+]
+
+#: A frame as the recorder's tap gets it: (time on the node's clock, s; the frame, a
+#: ``can.Message`` or anything with its attributes; received); kept flat, three items a frame.
+Tapped = tuple[float, Any, bool]
+
+#: A frame tap: (time on the node's clock, frame, received) -> None.
+FrameTap = Callable[[float, Any, bool], None]
+
+_ID = attrgetter("arbitration_id")
+_EXT = attrgetter("is_extended_id")
+_DLC = attrgetter("dlc")
+_DATA = attrgetter("data")
+_FD = attrgetter("is_fd")
+_ERROR = attrgetter("is_error_frame")
+_REMOTE = attrgetter("is_remote_frame")
+#: the ``/can/raw`` block's columns, in order (:func:`ecu.buslog.blocks.encode_block`)
+_RAW = ("t_s", "id", "flags", "dlc", "len", "data")
+_RAW_DTYPES = {"t_s": "<f8", "id": "<u4", "flags": "|u1", "dlc": "|u1", "len": "|u1", "data": "|u1"}
 
 _INTEGRAL_TYPES = ("bool", "int", "AccState", "FaultCode")
+
+
+def floats(values: Iterable[Any]) -> np.ndarray:
+    """``values`` (an array, a sequence or any iterable) as a float64 array."""
+    if not isinstance(values, np.ndarray | list | tuple):
+        values = list(values)
+    return np.asarray(values, dtype=np.float64)
+
+
+def cycle_tables(
+    cycles: Sequence[bytes], in_width: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The tables of control cycles each kept as float64 bytes: ``t_s``, the cycle index,
+    ``in_width - 1`` inputs, the outputs. (``t_s`` ``(n,)``, the inputs' rows ``(n,
+    in_width)``: ``t_s`` then the inputs, the outputs' rows: ``t_s``, the cycle index, the
+    outputs)."""
+    data = np.frombuffer(b"".join(cycles), np.float64).reshape(len(cycles), -1)
+    inputs = np.concatenate([data[:, :1], data[:, 2 : in_width + 1]], axis=1)
+    outputs = np.concatenate([data[:, :2], data[:, in_width + 1 :]], axis=1)
+    return data[:, 0], inputs, outputs
 
 
 def integral_fields(cls: type, names: Sequence[str]) -> tuple[bool, ...]:
     """Per field of the dataclass ``cls``: written as an integer (bool, int, an IntEnum)."""
     hints = {k: str(v) for k, v in cls.__annotations__.items()}
     return tuple(hints.get(n) in _INTEGRAL_TYPES for n in names)
+
+
+class Rows:
+    """One channel of rows: its handle in every sink, its row format, the rows of a sampled
+    channel not yet written (one flat list, no tuple per row), the next sequence number."""
+
+    def __init__(self, handles: list[int], rows: ProtoRows) -> None:
+        self.handles = handles
+        self.rows = rows
+        self.width = len(rows.names)
+        self.values: list[Any] = []
+        self.seq = 0
 
 
 class FrameBatch:
@@ -50,6 +125,33 @@ class FrameBatch:
         self.lens = np.fromiter(map(len, datas), np.uint8, n)
 
     @classmethod
+    def of(cls, frames: Sequence[Any]) -> FrameBatch:
+        """The batch of the frames as the tap kept them: ``t_s, frame, rx`` of each frame
+        one after the other in one flat list (at least one frame). Read an attribute at a
+        time over all frames, packed by ``struct``/``bytes`` (cheaper than numpy's per-item
+        conversion); no per-frame Python code for a plain CAN frame."""
+        ts, msgs, rxs = frames[0::3], frames[1::3], frames[2::3]
+        n = len(ts)
+        out = cls.__new__(cls)
+        out.n = n
+        out.t = np.frombuffer(struct.pack(f"<{n}d", *ts), np.float64)
+        out.ids = np.frombuffer(struct.pack(f"<{n}I", *map(_ID, msgs)), np.uint32)
+        out.dlcs = np.frombuffer(bytes(map(_DLC, msgs)), np.uint8)
+        out.datas = list(map(_DATA, msgs))
+        out.lens = np.frombuffer(bytes(map(len, out.datas)), np.uint8)
+        ext = np.frombuffer(bytes(map(_EXT, msgs)), np.uint8)
+        rx = np.frombuffer(bytes(map(bool, rxs)), np.uint8)
+        flags = ext * np.uint8(FLAG_EXTENDED) | rx * np.uint8(FLAG_RX)
+        if any(map(_FD, msgs)) or any(map(_ERROR, msgs)) or any(map(_REMOTE, msgs)):
+            odd = (
+                frame_flags(m, r) if m.is_fd or m.is_error_frame or m.is_remote_frame else f
+                for m, r, f in zip(msgs, rxs, flags.tolist(), strict=True)
+            )
+            flags = np.fromiter(odd, np.uint8, n)
+        out.flags = flags
+        return out
+
+    @classmethod
     def join(cls, batches: Sequence[FrameBatch]) -> FrameBatch:
         """One batch of the frames of ``batches``, in order."""
         if len(batches) == 1:
@@ -62,7 +164,20 @@ class FrameBatch:
         return out
 
     def block(self) -> bytes:
-        """The ``/can/raw`` block of these frames."""
+        """The ``/can/raw`` block of these frames: the bytes of :meth:`block_generic`,
+        built without its generality (one join of the base64 columns)."""
+        if self.t.dtype.str != "<f8" or self.ids.dtype.str != "<u4":  # a big-endian host
+            return self.block_generic()
+        b64 = binascii.b2a_base64
+        columns: tuple[np.ndarray, ...] = (self.t, self.ids, self.flags, self.dlcs, self.lens)
+        parts = [_BLOCK_HEAD, str(self.n).encode()]
+        for key, col in zip(_BLOCK_KEYS, columns, strict=False):
+            parts += (key, b64(col.tobytes(), newline=False))
+        parts += (_BLOCK_KEYS[-1], b64(b"".join(self.datas), newline=False), b'"}')
+        return b"".join(parts)
+
+    def block_generic(self) -> bytes:
+        """The ``/can/raw`` block of these frames (:func:`encode_block`)."""
         return encode_block(
             {
                 "t_s": self.t,
@@ -74,6 +189,52 @@ class FrameBatch:
             },
             ragged=("data",),
         )
+
+
+class _FrameCopy:
+    """The attributes of a ``can.Message`` the recorder reads, copied (:func:`frame_copy`)."""
+
+    __slots__ = (
+        "arbitration_id",
+        "bitrate_switch",
+        "data",
+        "dlc",
+        "error_state_indicator",
+        "is_error_frame",
+        "is_extended_id",
+        "is_fd",
+        "is_remote_frame",
+    )
+
+    def __init__(self, msg: Any) -> None:
+        self.arbitration_id = msg.arbitration_id
+        self.is_extended_id = msg.is_extended_id
+        self.dlc = msg.dlc
+        self.data = bytes(msg.data)
+        self.is_fd = msg.is_fd
+        self.is_error_frame = msg.is_error_frame
+        self.is_remote_frame = msg.is_remote_frame
+        self.bitrate_switch = msg.bitrate_switch
+        self.error_state_indicator = msg.error_state_indicator
+
+
+def frame_copy(msg: Any) -> Any:
+    """What the recorder keeps of ``msg`` (a ``can.Message``), copied: its sender may change
+    ``msg`` afterwards."""
+    return _FrameCopy(msg)
+
+
+def _block_template() -> tuple[bytes, tuple[bytes, ...]]:
+    """(a raw block's JSON text before its row count, what comes before each column's
+    base64 text) as :func:`encode_block` writes them."""
+    head = json.dumps({"n": 0, "dtypes": _RAW_DTYPES, "ragged": ["data"]})
+    before, after = head[:-1].split("0", 1)
+    keys = [f'{after},{json.dumps(_RAW[0])}:"']
+    keys += [f'",{json.dumps(name)}:"' for name in _RAW[1:]]
+    return before.encode(), tuple(k.encode() for k in keys)
+
+
+_BLOCK_HEAD, _BLOCK_KEYS = _block_template()
 
 
 class MessageDecoders:

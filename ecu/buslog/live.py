@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from ecu.buslog.format import CanLogError
+from ecu.buslog.proto import ProtoRows
 from ecu.buslog.sinks import ChannelSpec
 
 __all__ = [
@@ -123,6 +124,18 @@ class FoxgloveSink:
         for t, end in zip(log_times.tolist(), ends, strict=True):
             ch.log(data[start:end], log_time=t)
             start = end
+
+    def write_one(self, handle: int, seq: int, log_time: int, data: bytes) -> None:
+        del seq  # the SDK numbers each channel's messages itself
+        ch = self._channels[handle]
+        if ch.has_sinks():
+            ch.log(data, log_time=log_time)
+
+    def write_rows(
+        self, handle: int, seq0: int, log_times: np.ndarray, rows: ProtoRows, table: np.ndarray
+    ) -> None:
+        if self._channels[handle].has_sinks():
+            self.write(handle, seq0, log_times, *rows.format(table))
 
     def attach(self, log_time: int, name: str, media_type: str, data: bytes) -> None:
         """Attachments are for the file only."""

@@ -22,7 +22,7 @@ from typing import IO, Any
 
 import numpy as np
 
-__all__ = ["McapFile", "message_records"]
+__all__ = ["RECORD_HEAD", "McapFile", "message_records"]
 
 MAGIC = b"\x89MCAP0\r\n"
 #: a message record's fixed part: opcode, record length, channel, sequence, log/publish time
@@ -30,7 +30,16 @@ _HEADER = np.dtype(
     [("op", "u1"), ("len", "<u8"), ("ch", "<u2"), ("seq", "<u4"), ("lt", "<u8"), ("pt", "<u8")]
 )
 _HEADER_BYTES = _HEADER.itemsize  # 31
+#: the bytes before a message's data in its record (:meth:`McapFile.records`)
+RECORD_HEAD = _HEADER_BYTES
 _MESSAGE_OPCODE = 0x05
+_HEAD = struct.Struct("<BQHIQQ")
+#: a message index entry: log time, offset in the chunk
+_PAIR = struct.Struct("<QQ")
+_CHUNK_OPCODE = 0x06
+#: a zstd chunk record's head: opcode, record length, start/end time, uncompressed size and
+#: CRC, the compression name (length-prefixed), the compressed length
+_CHUNK_HEAD = struct.Struct("<BQQQQII4sQ")
 
 
 def message_records(
@@ -85,9 +94,10 @@ def message_records(
     return out, starts
 
 
-def _message_index(channel_id: int, parts: list[np.ndarray]) -> bytes:
-    """A MessageIndex record: (log time, offset in the chunk) of a channel's messages."""
-    pairs = np.concatenate(parts).tobytes()
+def _message_index(channel_id: int, parts: list[bytes]) -> bytes:
+    """A MessageIndex record: (log time, offset in the chunk) of a channel's messages
+    (``parts``: the pairs as ``<u8`` bytes, in order)."""
+    pairs = b"".join(parts)
     body = struct.pack("<HI", channel_id, len(pairs)) + pairs
     return struct.pack("<BQ", 0x07, len(body)) + body
 
@@ -108,11 +118,11 @@ class McapFile:
         self._pos = 0
         self._schemas: list[object] = []
         self._channels: list[object] = []
-        self._chunk: list[bytes] = []
+        self._chunk: list[bytes | memoryview] = []
         self._chunk_size = 0
         self._chunk_t = (0, 0)
         self._zstd: Any = None
-        self._index: dict[int, list[np.ndarray]] = defaultdict(list)
+        self._index: dict[int, list[bytes]] = defaultdict(list)
         self._chunk_indexes: list[object] = []
         self._attachment_indexes: list[object] = []
         self._metadata_indexes: list[object] = []
@@ -181,73 +191,118 @@ class McapFile:
         n = len(lengths)
         if not n:
             return
+        if n == 1:
+            t = int(log_times[0])
+            self.message(channel_id, seq0, t, payload.tobytes())
+            return
         records, starts = message_records(channel_id, seq0, log_times, payload, lengths)
         pairs = np.empty((n, 2), dtype="<u8")
         pairs[:, 0] = log_times
         pairs[:, 1] = starts + self._chunk_size
-        self._index[channel_id].append(pairs)
-        self._chunk.append(records.tobytes())
-        self._chunk_size += len(records)
-        self._counts[channel_id] += n
-        lo, hi = int(log_times.min()), int(log_times.max())
-        if self._t_range is None:
-            self._t_range = (lo, hi)
-        else:
-            self._t_range = (min(lo, self._t_range[0]), max(hi, self._t_range[1]))
-        c_lo, c_hi = self._chunk_t
-        self._chunk_t = (lo, hi) if len(self._chunk) == 1 else (min(lo, c_lo), max(hi, c_hi))
+        self._index[channel_id].append(pairs.tobytes())
+        self._add(records, channel_id, n, int(log_times.min()), int(log_times.max()))
+
+    def records(
+        self, channel_id: int, seq0: int, log_times: np.ndarray, records: np.ndarray
+    ) -> None:
+        """Add ``n`` messages of one channel whose data are the rows of ``records`` (uint8,
+        ``(n, 31 + size)``) after their first :data:`RECORD_HEAD` bytes, which this fills
+        with each message record's header (``records`` becomes the records)."""
+        n, size = records.shape
+        if not n:
+            return
+        hdr = np.empty(n, dtype=_HEADER)
+        hdr["op"] = _MESSAGE_OPCODE
+        hdr["len"] = size - 9
+        hdr["ch"] = channel_id
+        hdr["seq"] = np.arange(seq0, seq0 + n, dtype=np.uint64) & 0xFFFFFFFF
+        hdr["lt"] = log_times
+        hdr["pt"] = log_times
+        records[:, :_HEADER_BYTES] = hdr.view(np.uint8).reshape(n, _HEADER_BYTES)
+        pairs = np.empty((n, 2), dtype="<u8")
+        pairs[:, 0] = log_times
+        pairs[:, 1] = np.arange(self._chunk_size, self._chunk_size + n * size, size)
+        self._index[channel_id].append(pairs.tobytes())
+        self._add(records, channel_id, n, int(log_times.min()), int(log_times.max()))
 
     def message(self, channel_id: int, seq: int, log_time: int, data: bytes) -> None:
-        """Add one message to the open chunk."""
-        self.messages(
-            channel_id,
-            seq,
-            np.array([log_time], dtype=np.int64),
-            np.frombuffer(data, dtype=np.uint8),
-            np.array([len(data)], dtype=np.int64),
+        """Add one message to the open chunk (a raw block, an event: no arrays)."""
+        size = len(data) + _HEADER_BYTES
+        head = _HEAD.pack(
+            _MESSAGE_OPCODE, size - 9, channel_id, seq & 0xFFFFFFFF, log_time, log_time
         )
+        self._index[channel_id].append(_PAIR.pack(log_time, self._chunk_size))
+        self._add(head + data, channel_id, 1, log_time, log_time)
+
+    def _add(self, records: bytes | np.ndarray, channel_id: int, n: int, lo: int, hi: int) -> None:
+        """Append ``n`` message records of a channel, log times in ``[lo, hi]`` (ns); an
+        array of records is kept (not copied) until the chunk ends."""
+        first = not self._chunk
+        if isinstance(records, np.ndarray):
+            self._chunk.append(records.data)
+            self._chunk_size += records.nbytes
+        else:
+            self._chunk.append(records)
+            self._chunk_size += len(records)
+        self._counts[channel_id] += n
+        rng = self._t_range
+        self._t_range = (lo, hi) if rng is None else (min(lo, rng[0]), max(hi, rng[1]))
+        c_lo, c_hi = self._chunk_t
+        self._chunk_t = (lo, hi) if first else (min(lo, c_lo), max(hi, c_hi))
 
     def flush(self) -> None:
         """End the chunk in progress (if any) and flush the stream (no fsync)."""
-        from mcap.records import Chunk, ChunkIndex  # noqa: PLC0415
-
         if self._chunk:
-            if self._zstd is None:
-                import zstandard  # noqa: PLC0415 - mcap's own dependency
+            self._end_chunk()
+        self._stream.flush()
 
-                self._zstd = zstandard.ZstdCompressor(level=1)
-            data = b"".join(self._chunk)
-            packed = self._zstd.compress(data)
-            lo, hi = self._chunk_t
-            chunk = Chunk(
-                compression="zstd",
-                data=packed,
+    def _end_chunk(self) -> None:
+        """Write the open chunk (zstd) and its message indexes, in one write."""
+        from mcap.records import ChunkIndex  # noqa: PLC0415
+
+        if self._zstd is None:
+            import zstandard  # noqa: PLC0415 - mcap's own dependency
+
+            self._zstd = zstandard.ZstdCompressor(level=1)
+        data = b"".join(self._chunk)
+        packed = self._zstd.compress(data)
+        lo, hi = self._chunk_t
+        head = _CHUNK_HEAD.pack(
+            _CHUNK_OPCODE,
+            _CHUNK_HEAD.size - 9 + len(packed),
+            lo,
+            hi,
+            len(data),
+            zlib.crc32(data),
+            4,
+            b"zstd",
+            len(packed),
+        )
+        start = self._pos
+        length = len(head) + len(packed)
+        parts = [head, packed]
+        offsets: dict[int, int] = {}
+        at = start + length
+        for ch, pairs in self._index.items():
+            offsets[ch] = at
+            index = _message_index(ch, pairs)
+            parts.append(index)
+            at += len(index)
+        self._write(b"".join(parts))
+        self._chunk_indexes.append(
+            ChunkIndex(
                 message_start_time=lo,
                 message_end_time=hi,
-                uncompressed_crc=zlib.crc32(data),
+                chunk_start_offset=start,
+                chunk_length=length,
+                message_index_offsets=offsets,
+                message_index_length=at - start - length,
+                compression="zstd",
+                compressed_size=len(packed),
                 uncompressed_size=len(data),
             )
-            start, length = self._record(chunk)
-            offsets: dict[int, int] = {}
-            index_start = self._pos
-            for ch, parts in self._index.items():
-                offsets[ch] = self._pos
-                self._write(_message_index(ch, parts))
-            self._chunk_indexes.append(
-                ChunkIndex(
-                    message_start_time=lo,
-                    message_end_time=hi,
-                    chunk_start_offset=start,
-                    chunk_length=length,
-                    message_index_offsets=offsets,
-                    message_index_length=self._pos - index_start,
-                    compression="zstd",
-                    compressed_size=len(packed),
-                    uncompressed_size=len(data),
-                )
-            )
-            self._chunk, self._chunk_size, self._index = [], 0, defaultdict(list)
-        self._stream.flush()
+        )
+        self._chunk, self._chunk_size, self._index = [], 0, defaultdict(list)
 
     # -- between chunks -------------------------------------------------------------------
 

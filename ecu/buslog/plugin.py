@@ -79,8 +79,8 @@ class McapWriter(MessageWriter):
         )
 
     def on_message_received(self, msg: can.Message) -> None:
-        self._writer.frame(msg.timestamp, msg, bool(msg.is_rx))
-        self._writer.tick(msg.timestamp)
+        # copied: a listener's caller may reuse its message
+        self._writer.frame_and_tick(msg.timestamp, msg, bool(msg.is_rx))
 
     def stop(self) -> None:
         self._writer.close()

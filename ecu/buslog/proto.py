@@ -5,7 +5,7 @@ so that Foxglove and PlotJuggler plot the fields over time. Formatting JSON text
 1 µs a number in Python (five times python-can's BLF writer per frame, measured); a protobuf
 message whose fields are all fixed-width (``double``, ``sfixed64``: wire type 1, eight bytes
 each after a one- or two-byte tag) has the same layout for every row, so a whole table of
-rows is one numpy structured array and one ``tobytes`` (:meth:`ProtoRows.format`), and reads
+rows is a few numpy copies into one array (:meth:`ProtoRows.format`), and reads
 back the same way (:func:`decode_rows`). The schema is a ``FileDescriptorSet`` (MCAP
 ``protobuf`` schema encoding), encoded here by hand (no protobuf runtime needed to record);
 mcap's own protobuf support library decodes these messages (tested).
@@ -96,24 +96,14 @@ class ProtoRows:
         self.layout = ",".join(
             f"{n}:{'q' if i else 'd'}" for n, i in zip(self.names, self.integral, strict=True)
         )
-        # one row with its tags in place, and where each value's eight bytes go
-        self._template = np.zeros(self.dtype.itemsize, dtype=np.uint8)
-        value_at = []
-        offsets = self.dtype.fields
-        assert offsets is not None
-        for i in range(1, len(self.names) + 1):
-            at = offsets[f"t{i}"][1]
-            tag = _tag(i)
-            self._template[at : at + len(tag)] = np.frombuffer(tag, np.uint8)
-            value_at.append(offsets[f"v{i}"][1])
-        self._floats = [j for j, is_int in enumerate(self.integral) if not is_int]
-        self._ints = [j for j, is_int in enumerate(self.integral) if is_int]
-        self._float_bytes = (
-            np.array([value_at[j] for j in self._floats], dtype=np.int64)[:, None] + np.arange(8)
-        ).ravel()
-        self._int_bytes = (
-            np.array([value_at[j] for j in self._ints], dtype=np.int64)[:, None] + np.arange(8)
-        ).ravel()
+        # fields 1..15 have a one-byte tag (nine bytes a field), the others two (ten bytes)
+        self._short = min(len(self.names), 15)
+        tags = [_tag(i) for i in range(1, len(self.names) + 1)]
+        self._tags1 = np.frombuffer(b"".join(tags[: self._short]), np.uint8)
+        if any(len(tag) != 2 for tag in tags[self._short :]):
+            raise ValueError(f"{full_name}: more than 2047 fields")
+        self._tags2 = np.frombuffer(b"".join(tags[self._short :]), np.uint8).reshape(-1, 2)
+        self._ints = np.flatnonzero(self.integral)
 
     def descriptor(self) -> bytes:
         """The schema: a serialized ``google.protobuf.FileDescriptorSet`` of one proto3 file
@@ -146,16 +136,26 @@ class ProtoRows:
         message's bytes one after the other, uint8; each message's length, int64 ``(n,)``).
         An integral field that is not finite is written 0."""
         n = len(table)
-        out = np.empty((n, self.dtype.itemsize), dtype=np.uint8)
-        out[:] = self._template
-        if self._floats:
-            floats = np.ascontiguousarray(table[:, self._floats], dtype="<f8")
-            out[:, self._float_bytes] = floats.view(np.uint8).reshape(n, -1)
-        if self._ints:
-            col = table[:, self._ints]
-            ints = np.ascontiguousarray(np.where(np.isfinite(col), col, 0.0), dtype="<i8")
-            out[:, self._int_bytes] = ints.view(np.uint8).reshape(n, -1)
-        return out.reshape(-1), np.full(n, self.dtype.itemsize, dtype=np.int64)
+        return self.format_into(table).reshape(-1), np.full(n, self.dtype.itemsize, np.int64)
+
+    def format_into(self, table: np.ndarray, head: int = 0) -> np.ndarray:
+        """:meth:`format`'s messages as the rows of a uint8 array ``(n, head + itemsize)``,
+        each after ``head`` bytes left for the caller (an MCAP message record's header)."""
+        n, width = len(table), len(self.names)
+        values = np.array(table, dtype="<f8", order="C")  # a copy: the integral fields in place
+        if len(self._ints):
+            col = values[:, self._ints]
+            values.view("<i8")[:, self._ints] = np.where(np.isfinite(col), col, 0.0)
+        value_bytes = values.view(np.uint8).reshape(n, width, 8)
+        out = np.empty((n, head + self.dtype.itemsize), dtype=np.uint8)
+        short = out[:, head : head + 9 * self._short].reshape(n, self._short, 9)
+        short[:, :, 0] = self._tags1
+        short[:, :, 1:] = value_bytes[:, : self._short]
+        if width > self._short:
+            long = out[:, head + 9 * self._short :].reshape(n, width - self._short, 10)
+            long[:, :, :2] = self._tags2
+            long[:, :, 2:] = value_bytes[:, self._short :]
+        return out
 
 
 def decode_rows(layout: str, payloads: Sequence[bytes]) -> dict[str, np.ndarray]:

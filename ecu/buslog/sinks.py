@@ -20,13 +20,14 @@ from typing import Any, Protocol
 import numpy as np
 
 from ecu.buslog.format import FORMAT, CanLogError
-from ecu.buslog.mcapfile import McapFile
+from ecu.buslog.mcapfile import RECORD_HEAD, McapFile
 from ecu.buslog.proto import LAYOUT_KEY, ProtoRows
 
 __all__ = [
     "ChannelSpec",
     "McapSink",
     "Sink",
+    "close_all",
     "declare",
     "emit",
     "emit_one",
@@ -65,6 +66,15 @@ class Sink(Protocol):
     ) -> None:
         """Messages of one channel: log times (ns, int64), the payloads joined (uint8) and
         their lengths; sequence numbers from ``seq0``."""
+
+    def write_one(self, handle: int, seq: int, log_time: int, data: bytes) -> None:
+        """One message of one channel: log time (ns), sequence number, its data."""
+
+    def write_rows(
+        self, handle: int, seq0: int, log_times: np.ndarray, rows: ProtoRows, table: np.ndarray
+    ) -> None:
+        """Messages of one channel: the rows of ``table`` as ``rows`` formats them
+        (:meth:`ProtoRows.format`), log times (ns, int64) and sequence numbers from ``seq0``."""
 
     def attach(self, log_time: int, name: str, media_type: str, data: bytes) -> None:
         """A file stored with the recording."""
@@ -111,6 +121,15 @@ class McapSink:
     ) -> None:
         self._file.messages(handle, seq0, log_times, payload, lengths)
 
+    def write_one(self, handle: int, seq: int, log_time: int, data: bytes) -> None:
+        self._file.message(handle, seq, log_time, data)
+
+    def write_rows(
+        self, handle: int, seq0: int, log_times: np.ndarray, rows: ProtoRows, table: np.ndarray
+    ) -> None:
+        """The rows formatted in place after room for their record headers (one array)."""
+        self._file.records(handle, seq0, log_times, rows.format_into(table, RECORD_HEAD))
+
     def attach(self, log_time: int, name: str, media_type: str, data: bytes) -> None:
         self._file.attachment(log_time, name, media_type, data)
 
@@ -141,6 +160,22 @@ class McapSink:
             with contextlib.suppress(OSError):
                 self._stream.close()
             raise CanLogError(f"{self.path}: cannot finish the recording: {exc}") from exc
+
+
+def close_all(sinks: Sequence[Sink]) -> None:
+    """Close every sink as complete, whichever of them fails.
+
+    Raises:
+        CanLogError: the first sink that could not be finished.
+    """
+    failed: CanLogError | None = None
+    for sink in sinks:
+        try:
+            sink.close(complete=True)
+        except CanLogError as exc:
+            failed = failed or exc
+    if failed is not None:
+        raise failed
 
 
 def json_spec(topic: str, schema: Mapping[str, Any]) -> ChannelSpec:
@@ -177,11 +212,5 @@ def emit_one(
     sinks: Sequence[Sink], handles: Sequence[int], seq: int, t_ns: int, data: bytes
 ) -> None:
     """One message of one channel to every sink."""
-    emit(
-        sinks,
-        handles,
-        seq,
-        np.array([t_ns], dtype=np.int64),
-        np.frombuffer(data, dtype=np.uint8),
-        np.array([len(data)], dtype=np.int64),
-    )
+    for sink, handle in zip(sinks, handles, strict=True):
+        sink.write_one(handle, seq, t_ns, data)

@@ -12,10 +12,10 @@ simulated time), ``t_s`` in it the node's clock exactly.
 Every ``flush_s`` (1 s of the node's clock) the new frames go out as a raw block and the
 MCAP chunk ends: a killed recording (``FILE.part``) holds every frame older than that. The
 rows (decoded frames, cycles) go out every ``rows_s`` (10 s; live 0.2 s), built by numpy a
-channel at a time (:mod:`ecu.buslog.proto`, :mod:`ecu.buslog.mcapfile`): a batch has a fixed
-cost a 1-s batch of a sparse bus does not amortize (measured). Attachments: DBC, binding,
-ECU configuration, starting table. Every :class:`~ecu.buslog.sinks.Sink` (the file, a live
-Foxglove WebSocket: :mod:`ecu.buslog.live`) gets the same channels from this one code path.
+channel at a time (:mod:`ecu.buslog.decoded`, :mod:`ecu.buslog.proto`,
+:mod:`ecu.buslog.mcapfile`). Attachments: DBC, binding, ECU configuration, starting table.
+Every :class:`~ecu.buslog.sinks.Sink` (the file, a live Foxglove WebSocket:
+:mod:`ecu.buslog.live`) gets the same channels from this one code path.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ from __future__ import annotations
 import logging
 import operator
 import os
+import struct
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -30,11 +31,19 @@ from typing import Any
 import can
 import numpy as np
 
-from ecu.buslog.decoded import FrameBatch, MessageDecoders, integral_fields
+from ecu.buslog.decoded import (
+    FrameBatch,
+    FrameTap,
+    MessageDecoders,
+    Rows,
+    Tapped,
+    cycle_tables,
+    floats,
+    frame_copy,
+    integral_fields,
+)
 from ecu.buslog.format import (
     EVENTS_TOPIC,
-    FLAG_EXTENDED,
-    FLAG_RX,
     FLUSH_S,
     INPUT_FIELDS,
     INPUTS_TOPIC,
@@ -47,14 +56,21 @@ from ecu.buslog.format import (
     ROWS_S,
     CanLogError,
     TimeBase,
-    frame_flags,
     log_message,
     meta_record,
     series_columns,
     utc_ns_array,
 )
 from ecu.buslog.proto import ProtoRows
-from ecu.buslog.sinks import McapSink, Sink, declare, emit, emit_one, json_spec, rows_spec
+from ecu.buslog.sinks import (
+    McapSink,
+    Sink,
+    close_all,
+    declare,
+    emit_one,
+    json_spec,
+    rows_spec,
+)
 from ecu.signals import NodeInputs, NodeOutputs
 
 __all__ = ["CanLogWriter", "FrameTap"]
@@ -62,18 +78,9 @@ __all__ = ["CanLogWriter", "FrameTap"]
 log = logging.getLogger(__name__)
 _get_inputs = operator.attrgetter(*INPUT_FIELDS)
 _get_outputs = operator.attrgetter(*OUTPUT_FIELDS)
-
-
-class _Rows:
-    """One JSON channel: its handle in every sink, its row format, the rows not yet written
-    (one flat list, no tuple per row: fewer objects for the garbage collector to track)."""
-
-    def __init__(self, handles: list[int], rows: ProtoRows) -> None:
-        self.handles = handles
-        self.rows = rows
-        self.width = len(rows.names)
-        self.values: list[Any] = []
-        self.seq = 0
+#: one cycle's values as kept until its rows are written: t_s, cycle index, the inputs and the
+#: outputs in the channels' column order, float64 bytes (no Python object per value)
+_pack_cycle = struct.Struct(f"<{2 + len(INPUT_FIELDS) + len(OUTPUT_FIELDS)}d").pack
 
 
 class CanLogWriter:
@@ -124,23 +131,23 @@ class CanLogWriter:
         self.error: str | None = None
         #: the node's clock at the first frame or sample (the recording's start)
         self.first_t_s: float | None = None
-        self._raw = self._json_channel(RAW_TOPIC, RAW_SCHEMA)
+        self._raw = declare(self.sinks, json_spec(RAW_TOPIC, RAW_SCHEMA))
         self._raw_seq = 0
         self._decoders = MessageDecoders(db)
         self._decoded = {
-            key: _Rows(self._rows_channel(topic, rows), rows)
+            key: Rows(declare(self.sinks, rows_spec(topic, rows)), rows)
             for key, (_, rows, topic) in self._decoders.rows.items()
         }
-        self._series: dict[str, _Rows] = {}
+        self._series: dict[str, Rows] = {}
         self._events: list[int] | None = None
         self._events_seq = 0
-        # the open block's frames, one list per column (no tuple per frame)
-        self._ft: list[float] = []
-        self._fid: list[int] = []
-        self._ffl: list[int] = []
-        self._fdlc: list[int] = []
-        self._fdata: list[bytes] = []
+        # the open block: its frames as tapped (one append a frame), its first frame's, cycle's
+        # or sample's time (None until a cycle, sample or flush looks); the unwritten cycles
+        self._frames: list[Any] = []
+        self._tap: Callable[[Tapped], None] = self._frames.extend
         self._block_t0: float | None = None
+        self._cycles: list[bytes] = []
+        self._cycles_declared = False
         for sink in self.sinks:
             sink.metadata(META_RECORD, meta_record(self.time_base, self.node))
         for name, record in (metadata or {}).items():
@@ -151,12 +158,6 @@ class CanLogWriter:
         for sink in self.sinks:  # a recording killed from now on is readable
             sink.flush()
 
-    def _json_channel(self, topic: str, schema: Mapping[str, Any]) -> list[int]:
-        return declare(self.sinks, json_spec(topic, schema))
-
-    def _rows_channel(self, topic: str, rows: ProtoRows) -> list[int]:
-        return declare(self.sinks, rows_spec(topic, rows))
-
     # -- what a node feeds ---------------------------------------------------------------
 
     def attach(self, name: str, data: bytes, media_type: str = "text/plain") -> None:
@@ -165,25 +166,18 @@ class CanLogWriter:
             sink.attach(self.time_base.utc_origin_ns, name, media_type, data)
 
     def frame(self, t_s: float, msg: can.Message, rx: bool) -> None:
-        """One frame received (``rx``) or sent at ``t_s`` on the node's clock."""
-        if self.error is not None:
-            return
-        flags = FLAG_RX if rx else 0
-        if msg.is_extended_id:
-            flags |= FLAG_EXTENDED
-        if msg.is_fd or msg.is_error_frame or msg.is_remote_frame:
-            flags = frame_flags(msg, rx)
-        self._ft.append(t_s)
-        self._fid.append(msg.arbitration_id)
-        self._ffl.append(flags)
-        self._fdlc.append(msg.dlc)
-        self._fdata.append(bytes(msg.data))
-        if self._block_t0 is None:
-            self._block_t0 = t_s
+        """One frame received (``rx``) or sent at ``t_s`` on the node's clock. The frame is
+        kept, not copied, until the next flush: its sender must not change it (a node's
+        frames in and out are new objects each; else :meth:`frame_copy`)."""
+        self._tap((t_s, msg, rx))
+
+    def frame_copy(self, t_s: float, msg: can.Message, rx: bool) -> None:
+        """:meth:`frame` of a copy of ``msg`` (a sender that reuses its messages)."""
+        self._tap((t_s, frame_copy(msg), rx))
 
     def frame_and_tick(self, t_s: float, msg: can.Message, rx: bool) -> None:
-        """:meth:`frame`, then :meth:`tick`: a tap for a node without control cycles."""
-        self.frame(t_s, msg, rx)
+        """:meth:`frame_copy`, then :meth:`tick`: a tap for a node without control cycles."""
+        self._tap((t_s, frame_copy(msg), rx))
         self.tick(t_s)
 
     def series(
@@ -200,20 +194,20 @@ class CanLogWriter:
         title = "pacc." + topic.strip("/").replace("/", ".")
         ints = tuple(integral) if integral is not None else (False,) * len(columns)
         rows = ProtoRows(title, list(series_columns(columns)), (False, *ints))
-        self._series[topic] = _Rows(self._rows_channel(topic, rows), rows)
+        self._series[topic] = Rows(declare(self.sinks, rows_spec(topic, rows)), rows)
 
     def sample(self, topic: str, t_s: float, values: tuple[Any, ...]) -> None:
         """One sample of a declared channel: ``values`` in its column order."""
         row = self._series[topic].values
         row.append(t_s)
         row.extend(values)
-        if self._block_t0 is None:
-            self._block_t0 = t_s
+        if self._block_t0 is None:  # the block starts at its first frame, cycle or sample
+            self._block_t0 = self._frames[0] if self._frames else t_s
 
     def event(self, t_s: float, text: str) -> None:
         """One event text, as ``foxglove.Log`` (written at once: events are rare)."""
         if self._events is None:
-            self._events = self._json_channel(EVENTS_TOPIC, LOG_SCHEMA)
+            self._events = declare(self.sinks, json_spec(EVENTS_TOPIC, LOG_SCHEMA))
         stamp = self.time_base.utc_ns(t_s)
         doc = log_message(t_s, stamp, text, f"pacc.{self.node}")
         emit_one(self.sinks, self._events, self._events_seq, stamp, doc)
@@ -226,43 +220,45 @@ class CanLogWriter:
         (:attr:`error`), not the node."""
         if self.error is not None:
             return
-        try:
-            self._cycle(t_s, inputs, outputs, k)
+        try:  # written out: one call a cycle
+            if not self._cycles_declared:
+                self._declare_cycles()
+            self._cycles.append(_pack_cycle(t_s, k, *_get_inputs(inputs), *_get_outputs(outputs)))
+            if outputs.events:
+                for text in outputs.events:
+                    self.event(t_s, text)
+            t0 = self._block_t0
+            if t0 is None:
+                t0 = self._block_t0 = self._frames[0] if self._frames else t_s
+            if t_s - t0 >= self.flush_s:
+                self._flush_due(t_s)
         except Exception as exc:  # noqa: BLE001 - I/O at the edge: never stop the control loop
             self._fail(t_s, exc)
 
-    def _cycle(self, t_s: float, inputs: NodeInputs, outputs: NodeOutputs, k: int) -> None:
-        if INPUTS_TOPIC not in self._series:
-            self.series(
-                INPUTS_TOPIC,
-                INPUT_FIELDS,
-                "the ECU node's checked inputs per cycle",
-                integral_fields(NodeInputs, INPUT_FIELDS),
-            )
-            self.series(
-                OUTPUTS_TOPIC,
-                ("cycle", *OUTPUT_FIELDS),
-                "the ECU node's outputs per cycle",
-                (True, *integral_fields(NodeOutputs, OUTPUT_FIELDS)),
-            )
-        ins = self._series[INPUTS_TOPIC].values
-        ins.append(t_s)
-        ins.extend(_get_inputs(inputs))
-        outs = self._series[OUTPUTS_TOPIC].values
-        outs.append(t_s)
-        outs.append(k)
-        outs.extend(_get_outputs(outputs))
-        if self._block_t0 is None:
-            self._block_t0 = t_s
-        for text in outputs.events:
-            self.event(t_s, text)
-        if t_s - self._block_t0 >= self.flush_s:
-            self._flush_due(t_s)
+    def _declare_cycles(self) -> None:
+        self.series(
+            INPUTS_TOPIC,
+            INPUT_FIELDS,
+            "the ECU node's checked inputs per cycle",
+            integral_fields(NodeInputs, INPUT_FIELDS),
+        )
+        self.series(
+            OUTPUTS_TOPIC,
+            ("cycle", *OUTPUT_FIELDS),
+            "the ECU node's outputs per cycle",
+            (True, *integral_fields(NodeOutputs, OUTPUT_FIELDS)),
+        )
+        self._cycles_declared = True
 
     def tick(self, t_s: float) -> None:
         """Flush if the oldest unwritten row is ``flush_s`` old at ``t_s``. Never raises: a
         failed write stops the recording (:attr:`error`), not the node."""
-        if self._block_t0 is not None and t_s - self._block_t0 >= self.flush_s:
+        t0 = self._block_t0
+        if t0 is None:
+            if not self._frames:
+                return
+            t0 = self._frames[0]
+        if t_s - t0 >= self.flush_s:
             try:
                 self._flush_due(t_s)
             except Exception as exc:  # noqa: BLE001 - I/O at the edge: never stop the node
@@ -272,12 +268,10 @@ class CanLogWriter:
         """Stop recording after a failed write; :meth:`close` reports it."""
         self.error = f"recording stopped at t = {t_s:.3f} s: {type(exc).__name__}: {exc}"
         log.error("%s: %s", self.path, self.error)
-        self._clear_frames()
+        self._frames, self._cycles, self._pending = [], [], []
+        self._tap = lambda _: None  # a stopped recording takes no frames
         for s in self._series.values():
             s.values = []
-
-    def _clear_frames(self) -> None:
-        self._ft, self._fid, self._ffl, self._fdlc, self._fdata = [], [], [], [], []
 
     # -- writing -------------------------------------------------------------------------
 
@@ -288,16 +282,23 @@ class CanLogWriter:
     def flush(self, rows: bool = True) -> None:
         """Write the frames since the last flush and end the chunk (every sink); ``rows``:
         the decoded rows and the cycles too."""
+        t0 = self._block_t0
+        if t0 is None and self._frames:
+            t0 = self._frames[0]
         if self.first_t_s is None:
-            self.first_t_s = self._block_t0
+            self.first_t_s = t0
         if self._rows_t0 is None:
-            self._rows_t0 = self._block_t0
-        if self._ft:
-            self._write_frames(self._ft, self._fid, self._ffl, self._fdlc, self._fdata)
-            self._clear_frames()
+            self._rows_t0 = t0
+        if self._frames:
+            frames = self._frames
+            self._frames = []
+            self._tap = self._frames.extend
+            self._write_frames(frames)
         self._block_t0 = None
         if rows:
             self._write_decoded()
+            if self._cycles:
+                self._write_cycles()
             for s in self._series.values():
                 if s.values:
                     table = np.fromiter(s.values, np.float64, len(s.values)).reshape(-1, s.width)
@@ -307,25 +308,28 @@ class CanLogWriter:
         for sink in self.sinks:
             sink.flush()
 
-    def _write_rows(self, s: _Rows, table: np.ndarray, t_ns: np.ndarray | None = None) -> None:
+    def _write_cycles(self) -> None:
+        """The cycles' rows on ``/ecu/inputs`` and ``/ecu/outputs``."""
+        ins, outs = self._series[INPUTS_TOPIC], self._series[OUTPUTS_TOPIC]
+        t, inputs, outputs = cycle_tables(self._cycles, ins.width)
+        self._cycles = []
+        t_ns = utc_ns_array(self.time_base, t)
+        self._write_rows(ins, inputs, t_ns)
+        self._write_rows(outs, outputs, t_ns)
+
+    def _write_rows(self, s: Rows, table: np.ndarray, t_ns: np.ndarray | None = None) -> None:
         """One message per row of ``table`` (``t_s`` first) on ``s``'s channel, stamped
         ``t_ns`` (default: the UTC of ``t_s``)."""
-        payload, lengths = s.rows.format(table)
         if t_ns is None:
             t_ns = utc_ns_array(self.time_base, table[:, 0])
-        emit(self.sinks, s.handles, s.seq, t_ns, payload, lengths)
+        for sink, handle in zip(self.sinks, s.handles, strict=True):
+            sink.write_rows(handle, s.seq, t_ns, s.rows, table)
         s.seq += len(table)
 
-    def _write_frames(
-        self,
-        t: list[float],
-        ids: list[int],
-        flags: list[int],
-        dlcs: list[int],
-        datas: list[bytes],
-    ) -> None:
-        batch = FrameBatch(t, ids, flags, dlcs, datas)
-        emit_one(self.sinks, self._raw, self._raw_seq, self.time_base.utc_ns(t[0]), batch.block())
+    def _write_frames(self, frames: list[Any]) -> None:
+        batch = FrameBatch.of(frames)
+        t_ns = self.time_base.utc_ns(frames[0])
+        emit_one(self.sinks, self._raw, self._raw_seq, t_ns, batch.block())
         self._raw_seq += 1
         self.frames += batch.n
         if self._decoded:
@@ -347,11 +351,8 @@ class CanLogWriter:
         """Write whole columns at once (e.g. the simulated world after a drive), one message
         per row; ``topic`` must be declared with the columns' names."""
         s = self._series[topic]
-        t = np.asarray(list(t_s), dtype=np.float64)
-        names = s.rows.names[1:]
-        table = np.column_stack(
-            [t, *(np.asarray(list(columns[k]), dtype=np.float64) for k in names)]
-        )
+        t = floats(t_s)
+        table = np.column_stack([t, *(floats(columns[k]) for k in s.rows.names[1:])])
         step = 20_000  # rows per chunk
         for start in range(0, len(t), step):
             self._write_rows(s, table[start : start + step])
@@ -385,21 +386,10 @@ class CanLogWriter:
             for sink in self.sinks:
                 sink.close(complete=False)
             raise CanLogError(f"{self.path}: cannot finish the recording: {exc}") from exc
-        failed: CanLogError | None = None
-        for sink in self.sinks:  # every sink closes, whichever of them fails
-            try:
-                sink.close(complete=True)
-            except CanLogError as exc:
-                failed = failed or exc
-        if failed is not None:
-            raise failed
+        close_all(self.sinks)
 
     def __enter__(self) -> CanLogWriter:
         return self
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-#: A frame tap: (time on the node's clock, frame, received) -> None.
-FrameTap = Callable[[float, can.Message, bool], None]

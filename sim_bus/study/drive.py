@@ -300,9 +300,9 @@ def _finish_recording(recorder: CanLogWriter, log: WorldLog) -> str | None:
 
 def record_world(recorder: CanLogWriter, log: WorldLog) -> None:
     """The simulated world of a drive (:class:`WorldLog`) on ``/sim/world``."""
-    columns = {name: getattr(log, name).tolist() for name in WORLD_COLUMNS}
+    columns = {name: getattr(log, name) for name in WORLD_COLUMNS}
     recorder.series(WORLD_TOPIC, WORLD_COLUMNS, "the simulated world: plant, lead, driver")
-    recorder.write_series(WORLD_TOPIC, columns, log.t_s.tolist())
+    recorder.write_series(WORLD_TOPIC, columns, log.t_s)
 
 
 def _ecu_node(
