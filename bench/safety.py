@@ -170,6 +170,12 @@ def main(argv: list[str] | None = None) -> int:
     return 1 if any(r["collision"] for r in rows) or math.isnan(wall) else 0
 
 
+def _mean_poi(rows: list[dict[str, Any]]) -> float:
+    """Mean PoI (%) of the drives that had ACC-ON time (a drive never engaged has none)."""
+    pois = [r["poi"] for r in rows if math.isfinite(r["poi"])]
+    return sum(pois) / len(pois) if pois else math.nan
+
+
 def _report(rows: list[dict[str, Any]]) -> None:
     """Print one row per controller and scenario kind, then the drives to look at."""
     groups: dict[tuple[str, str], list[dict[str, Any]]] = defaultdict(list)
@@ -188,7 +194,7 @@ def _report(rows: list[dict[str, Any]]) -> None:
             f"{min(r['min_gap'] for r in rs):7.2f} {sum(r['below_own'] for r in rs):8.2f} "
             f"{sum(r['below_override'] for r in rs):13.2f} "
             f"{sum(r['below_cut_in'] for r in rs):10.2f} "
-            f"{sum(r['poi'] for r in rs) / len(rs):6.1f}"
+            f"{_mean_poi(rs):6.1f}"
         )
     bad = [r for r in rows if r["collision"] or r["below_own"] > 0.0]
     print(f"\n{len(bad)} drives collided or fell below {TTC_LIMIT_S} s TTC outside a press:")
