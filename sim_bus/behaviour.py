@@ -296,7 +296,7 @@ class DriverAgent:
         dt = self.dt_s
         band = max(p.comfort_band * pref, p.comfort_band_min_m)
         closing = v - vl
-        ttc = g / closing if closing > 0.1 else math.inf
+        ttc = self._ttc_now(g, closing)
         if self.mode == "idle":
             g_pred = g - max(closing, 0.0) * p.lookahead_s
             self._close_t = self._close_t + dt if (g < pref - band or g_pred < pref - band) else 0.0
@@ -346,6 +346,17 @@ class DriverAgent:
             self._release(a)
             return
         self._set_pedals(self.a_cmd_mps2, "brake" if self.mode == "brake" else "accel")
+
+    def _ttc_now(self, g: float, closing: float) -> float:
+        """Its time-to-collision (s) from the gap ``g`` it sees and the ``closing`` speed
+        (m/s). Revision 2: the gap now, reckoned from its late view and the closing speed (a
+        late view of a lead it closes on looks far; issue 21: behind a stopped car, the ACC
+        at -3.5 m/s^2, it saw 3 s of TTC while 1.3 s was left, and never braked)."""
+        if closing <= 0.1:
+            return math.inf
+        if self.p.revision >= 2:
+            g -= closing * self._lag[int(self.mode != "idle")] * self.dt_s
+        return max(g, 0.0) / closing
 
     def _needed_mps2(
         self, v: float, vl: float, g: float, lead_accel_mps2: float | None = None
