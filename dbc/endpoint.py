@@ -310,28 +310,15 @@ class Outbox:
     def pack_part(
         self, mc: MessageCodec, values: Mapping[str, Any], timestamp: float = 0.0
     ) -> can.Message:
-        """:meth:`encode_part` wrapped in a new python-can message (a :class:`Frame`, what
-        :func:`new_frame` gives). Both written out: this is every frame's path."""
+        """:meth:`encode_part` wrapped in a new python-can message (a :class:`Frame`:
+        :func:`new_frame`). The counter step is written out: this is every frame's path."""
         key = mc.key
         counter = self.counters[key]
         data = mc.encode(values, counter)
         if mc.counter_modulo:
             self.counters[key] = (counter + 1) % mc.counter_modulo
         self.frames_out += 1
-        m = _new_frame(Frame)
-        m.timestamp = timestamp
-        m.arbitration_id = mc.frame_id
-        m.is_extended_id = mc.is_extended
-        m.is_remote_frame = False
-        m.is_error_frame = False
-        m.channel = None
-        m.dlc = len(data)
-        m.data = bytearray(data)
-        m.is_fd = False
-        m.is_rx = True
-        m.bitrate_switch = False
-        m.error_state_indicator = False
-        return m
+        return new_frame(mc.frame_id, mc.is_extended, data, timestamp)
 
     def pack(self, role: str, values: Mapping[str, Any], timestamp: float = 0.0) -> can.Message:
         """:meth:`encode` wrapped in a python-can message (a :class:`Frame`) for ``bus.send``."""
