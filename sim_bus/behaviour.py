@@ -349,13 +349,18 @@ class DriverAgent:
 
     def _ttc_now(self, g: float, closing: float) -> float:
         """Its time-to-collision (s) from the gap ``g`` it sees and the ``closing`` speed
-        (m/s). Revision 2: the gap now, reckoned from its late view and the closing speed (a
+        (m/s). Revision 2: the closing speed now (the lead's braking as seen, over its
+        reaction time) and the gap now, reckoned from its late view and that closing speed (a
         late view of a lead it closes on looks far; issue 21: behind a stopped car, the ACC
         at -3.5 m/s^2, it saw 3 s of TTC while 1.3 s was left, and never braked)."""
+        if self.p.revision >= 2:
+            lag_s = self._lag[int(self.mode != "idle")] * self.dt_s
+            # the lead's speed now from its braking as seen (brake lights, looming): a lead
+            # braking at 3 m/s^2 seen 1 s late is 3 m/s slower than it looks (issue 21)
+            closing -= min(self.lead_accel_seen_mps2, 0.0) * lag_s
+            g -= max(closing, 0.0) * lag_s
         if closing <= 0.1:
             return math.inf
-        if self.p.revision >= 2:
-            g -= closing * self._lag[int(self.mode != "idle")] * self.dt_s
         return max(g, 0.0) / closing
 
     def _needed_mps2(
@@ -363,18 +368,19 @@ class DriverAgent:
     ) -> float:
         """The constant deceleration (m/s², < 0) that matches the lead's speed (as seen,
         with its braking: ``lead_accel_mps2``, default the one it sees now) its standstill
-        distance plus ``STOP_SPARE_S`` of its speed short of it, the gap reckoned now from its
-        late view (``ATTENTIVE_REACTION_S`` at most) and the closing speed; 0 when not
-        closing."""
-        closing = v - vl
+        distance plus ``STOP_SPARE_S`` of its speed short of it, the closing speed and the gap
+        reckoned now from its late view (``ATTENTIVE_REACTION_S`` at most), the lead's braking
+        and the closing speed; 0 when not closing."""
+        a_f = self.lead_accel_seen_mps2 if lead_accel_mps2 is None else lead_accel_mps2
+        lag_s = self._lag[1] * self.dt_s
+        closing = v - vl - min(a_f, 0.0) * lag_s  # the lead's speed now, from its braking
         if closing <= 0.0:
             return 0.0
-        g -= closing * self._lag[1] * self.dt_s  # the gap now, from the late view and closing
+        g -= closing * lag_s  # the gap now, from the late view and the closing speed
         # stop with STOP_SPARE_S of its speed to spare: braking front-loaded, as drivers do
         # (issue 21: a constant-deceleration stop exactly at standstill_m passes below 2 s TTC;
         # with s to spare the stop keeps s + sqrt(2 standstill / decel): 0.5 s left 1.74 s)
         room = max(g - self.p.standstill_m - STOP_SPARE_S * v, 0.5)
-        a_f = self.lead_accel_seen_mps2 if lead_accel_mps2 is None else lead_accel_mps2
         need = min(a_f, 0.0) - closing * closing / (2.0 * room)
         return max(need, -DECEL_LIMIT_MPS2)
 
