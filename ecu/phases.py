@@ -350,7 +350,7 @@ def control(
     accel = limit_command(ctl, prev, rest, dt_s, emergency=urgent)
     ramping = state is AccState.FAULT and fault_ramp
     active = ramping and accel != 0.0
-    command = Command(accel, active=active, ramp_done=ramping and not active)
+    command = Command(accel, active=active, emergency=urgent, ramp_done=ramping and not active)
     return command, ControlMemory(integral0, accel, road)
 
 

@@ -446,8 +446,11 @@ def test_every_command_inside_envelope(
             assert p.accel_min_mps2 <= a <= p.accel_max_mps2
             rise, fall = JERK * DT + EPS, (10.0 if out.emergency else JERK) * DT + EPS
             assert -fall <= a - prev <= rise
-            if out.emergency:
-                assert out.acc_state is AccState.ACTIVE and a < prev + EPS
+            if out.emergency:  # braking while ACTIVE, or an override's inactive preparation
+                assert a < prev + EPS
+                assert out.acc_state is AccState.ACTIVE or (
+                    out.acc_state is AccState.OVERRIDE and not out.request_active
+                )
             if out.acc_state is AccState.FAULT:
                 assert out.takeover_request
                 if out.request_active:  # only the ramp toward zero of an executed request
@@ -558,11 +561,13 @@ def test_a_driver_override_behind_a_hard_braking_lead_prepares_the_braking() -> 
     )
     p = Plan(v_mps=v, desired_gap_m=table.lookup(v), desired_gap_slope_s=table.slope(v))
     mem = ControlMemory(prev_accel_mps2=-0.5)
-    for _ in range(50):  # 1 s
+    for k in range(50):  # 1 s
         cmd, mem = control(
             cfg, AccState.OVERRIDE, inp, p, set_speed_mps=30.0, fault_ramp=False, mem=mem, dt_s=DT
         )
         assert not cmd.active
+        if k == 0:  # the preparation falls faster than the comfort jerk: flagged
+            assert cmd.emergency and cmd.accel_mps2 == pytest.approx(-0.5 - 10.0 * DT)
     # the need: stop 4 m + 1 s of closing behind where the lead rests, about -3.4 m/s^2,
     # reached at the emergency jerk (10 m/s^3: within 0.3 s)
     assert -3.5 <= cmd.accel_mps2 < -3.3
