@@ -28,7 +28,6 @@ from ecu.config import MAX_DT_S, EcuConfig
 from ecu.controller import (
     ControlInput,
     RoadMemory,
-    closing_limit_mps2,
     desired_accel,
     limit_command,
     road_limit,
@@ -38,7 +37,7 @@ from ecu.controller import (
 from ecu.recorder import Sample
 from ecu.signals import NodeInputs, NodeOutputs, all_finite, input_fault
 from ecu.state import Events
-from ecu.stops import URGENT_STOP_MPS2, lead_stop_need_mps2, stop_limit
+from ecu.stops import URGENT_STOP_MPS2, closing_needs_mps2, lead_stop_need_mps2, stop_limit
 from pacc.vocab.acc_state import AccState, FaultCode
 from pacc.vocab.dgpt import Dgpt
 
@@ -297,16 +296,13 @@ def control(
             target, integral = law(obs, integral0, dt_s)
         ttc = time_to_collision_s(inp.lead_valid, inp.gap_m, inp.rel_speed_mps)
         urgent = False
-        if inp.lead_valid and inp.rel_speed_mps < 0.0:
-            floor = config.bounds.lower_m(max(p.v_mps + inp.rel_speed_mps, 0.0))
-            # the closing speed alone needing more than 2 m/s^2 (a cut-out revealing a car
-            # 15 m/s slower 58 m ahead: 3.9 s TTC, 2.5 m/s^2) is urgent at any TTC (issue 21)
-            closing = closing_limit_mps2(inp.gap_m, inp.rel_speed_mps, 0.0, floor)
-            if ttc < ctl.emergency_ttc_s or closing < URGENT_STOP_MPS2:
-                # brake at least as hard as the closing speed needs
-                limit = closing_limit_mps2(inp.gap_m, inp.rel_speed_mps, obs.lead_accel_mps2, floor)
-                urgent = closing < URGENT_STOP_MPS2 and limit < prev
-                target = min(target, limit)
+        # brake at least as hard as the closing speed needs below 3 s TTC, and at any TTC when
+        # the closing speed alone needs more than 2 m/s^2 (a cut-out revealing a car 15 m/s
+        # slower 58 m ahead: 3.9 s TTC, 2.5 m/s^2; issue 21)
+        alone, limit = closing_needs_mps2(config, inp, p, obs.lead_accel_mps2)
+        if ttc < ctl.emergency_ttc_s or alone < URGENT_STOP_MPS2:
+            urgent = alone < URGENT_STOP_MPS2 and limit < prev
+            target = min(target, limit)
         if inp.lead_valid:  # a lead stopping or stopped: stop at the table's standstill gap
             need = lead_stop_need_mps2(config, inp, p, obs.lead_accel_mps2)
             stop = stop_limit(config, inp, p, obs.lead_accel_mps2, need)
@@ -324,14 +320,12 @@ def control(
         return command, ControlMemory(integral, accel, road)
     rest = 0.0
     ttc = time_to_collision_s(inp.lead_valid, inp.gap_m, inp.rel_speed_mps)
-    a_f = inp.lead_accel_mps2 if inp.lead_accel_valid else 0.0
-    need = lead_stop_need_mps2(config, inp, p, a_f) if inp.lead_valid else 0.0
-    closing = math.inf
-    if inp.lead_valid and inp.rel_speed_mps < 0.0:
-        floor = config.bounds.lower_m(max(p.v_mps + inp.rel_speed_mps, 0.0))
-        if closing_limit_mps2(inp.gap_m, inp.rel_speed_mps, 0.0, floor) < URGENT_STOP_MPS2:
-            closing = closing_limit_mps2(inp.gap_m, inp.rel_speed_mps, a_f, floor)
-    prepare = min(need, closing)
+    prepare = math.inf  # what the ACC would ask for behind a hard-braking or fast-closed lead
+    if state is AccState.OVERRIDE and inp.lead_valid:
+        a_f = inp.lead_accel_mps2 if inp.lead_accel_valid else 0.0
+        alone, limit = closing_needs_mps2(config, inp, p, a_f)
+        prepare = lead_stop_need_mps2(config, inp, p, a_f)
+        prepare = min(prepare, limit) if alone < URGENT_STOP_MPS2 else prepare
     if (
         state is AccState.OVERRIDE
         and (ttc < ctl.emergency_ttc_s or prepare < URGENT_STOP_MPS2)

@@ -48,6 +48,20 @@ def lead_stop_need_mps2(
     return stopping_limit_mps2(p.v_mps, inp.gap_m - spare, v_lead, lead_accel_mps2, standstill)
 
 
+def closing_needs_mps2(
+    config: EcuConfig, inp: NodeInputs, p: Plan, lead_accel_mps2: float
+) -> tuple[float, float]:
+    """What closing on the lead needs, m/s^2: the closing speed alone (the lead's acceleration
+    taken as 0) and the closing limit with the lead's acceleration, both against the table's
+    lower safety bound at the lead's speed (:func:`ecu.controller.closing_limit_mps2`);
+    ``(inf, inf)`` without a lead or when not closing."""
+    if not inp.lead_valid or inp.rel_speed_mps >= 0.0:
+        return math.inf, math.inf
+    floor = config.bounds.lower_m(max(p.v_mps + inp.rel_speed_mps, 0.0))
+    alone = closing_limit_mps2(inp.gap_m, inp.rel_speed_mps, 0.0, floor)
+    return alone, closing_limit_mps2(inp.gap_m, inp.rel_speed_mps, lead_accel_mps2, floor)
+
+
 def stop_limit(
     config: EcuConfig, inp: NodeInputs, p: Plan, lead_accel_mps2: float, need_mps2: float
 ) -> float:
@@ -81,6 +95,7 @@ __all__ = [
     "STANDING_LEAD_MPS",
     "STOP_SPARE_S",
     "URGENT_STOP_MPS2",
+    "closing_needs_mps2",
     "lead_stop_need_mps2",
     "stop_limit",
 ]
