@@ -346,6 +346,7 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
                 r"log +trips/d2_000\.mcap(.*\n)*plot: trip\.png",
                 "a 10-s manual drive writes the trip log first",
             ),
+            run("pacc plot drive.mcap --plotjuggler drive.xml", r"plotjuggler layout: drive\.xml"),
         ],
     ),
     "docs/scale.md": (

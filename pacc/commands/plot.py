@@ -12,7 +12,8 @@ did each cycle); a recording without them (``pacc sim``) is drawn from the simul
 (``/sim/world``), the driver's preferred gap in place of the desired one; a trip log from its
 samples. Takeovers (the ECU's takeover events, a trip's ACTIVE -> OVERRIDE/OFF changes) are
 marked on every panel. Drawn on a bare matplotlib Figure (no pyplot); an OUT without a suffix
-gets ``.png``, and the file written is printed.
+gets ``.png``, and the file written is printed. ``--plotjuggler LAYOUT.xml`` (with or instead of
+``-o``) writes a PlotJuggler layout that opens the recording (:mod:`pacc.commands.plot_layout`).
 Exit status: 0, 2 on a bad recording or one with nothing to draw.
 """
 
@@ -256,7 +257,13 @@ def _parser() -> argparse.ArgumentParser:
         help="signals to draw: Message.signal, /topic.field or a bare name "
         "(default: the fixed panels)",
     )
-    p.add_argument("-o", "--out", type=Path, required=True, help="the PNG to write")
+    p.add_argument("-o", "--out", type=Path, help="the PNG to write")
+    p.add_argument(
+        "--plotjuggler",
+        type=Path,
+        metavar="LAYOUT",
+        help="write a PlotJuggler layout (.xml) that opens this recording: plotjuggler -l LAYOUT",
+    )
     p.add_argument("--dbc", help="a foreign log: decode it with this DBC (default: pacc's)")
     p.add_argument(
         "--binding",
@@ -278,16 +285,37 @@ def _bus_trip(args: argparse.Namespace) -> Trip:
     return bus_trip(read_frames(args.log), codec, {"log": args.log.name})
 
 
+def _write_layout(path: Path, log: CanLog | None, layout: Path) -> None:
+    """Write the PlotJuggler layout of the recording ``path`` to ``layout`` and say so."""
+    from pacc.commands.plot_layout import layout_xml, recording_series  # noqa: PLC0415
+
+    if log is None or not path.name.endswith(".mcap"):
+        raise CanLogError(
+            f"{path}: PlotJuggler opens pacc's .mcap recordings; convert this log first "
+            f"(pacc export {path.name} LOG.mcap)"
+        )
+    text = layout_xml(path, layout, recording_series(log.decoded, log.series))
+    layout.write_text(text, encoding="utf-8")
+    print(f"plotjuggler layout: {layout} (plotjuggler -l {layout})")
+
+
 def _warn(text: str) -> None:
     print(f"pacc plot: warning: {text}", file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc plot``; returns the exit status."""
-    args = _parser().parse_args(argv)
-    out: Path = args.out if args.out.suffix else args.out.with_suffix(".png")
+    parser = _parser()
+    args = parser.parse_args(argv)
+    if args.out is None and args.plotjuggler is None:
+        parser.error("give -o OUT.png, --plotjuggler LAYOUT.xml, or both")
     try:
         log, trip = load(args.log, args.dbc, _warn)
+        if args.plotjuggler is not None:
+            _write_layout(args.log, log, args.plotjuggler)
+        if args.out is None:
+            return 0
+        out: Path = args.out if args.out.suffix else args.out.with_suffix(".png")
         if log is not None and args.binding and not args.signals:
             trip, log = _bus_trip(args), None
         if trip is not None and args.signals:
