@@ -143,7 +143,7 @@ class FoxgloveSink:
     def metadata(self, name: str, values: Any) -> None:
         """Metadata records are for the file only."""
 
-    def flush(self, wait: bool = True) -> None:
+    def flush(self) -> None:
         """Messages are sent as they are logged."""
 
     def close(self, complete: bool) -> None:

@@ -16,12 +16,11 @@ written before the last flush survives the process being killed.
 from __future__ import annotations
 
 import struct
+import zlib
 from collections import defaultdict
 from typing import IO, Any
 
 import numpy as np
-
-from ecu.buslog.chunks import BACKGROUND_MIN, Chunk, ChunkWriter, pack, zstd_compressor
 
 __all__ = ["RECORD_HEAD", "McapFile", "message_records"]
 
@@ -104,21 +103,15 @@ def _message_index(channel_id: int, parts: list[bytes]) -> bytes:
 
 
 class McapFile:
-    """An MCAP file written to ``stream`` (module docstring). Not thread-safe: one thread
-    calls it (``background``: it hands big chunks to a writer thread of its own,
-    :mod:`ecu.buslog.chunks`; :meth:`flush` waits for them unless told not to, and so does
-    everything written outside chunks).
+    """An MCAP file written to ``stream`` (module docstring). Not thread-safe.
 
     Args:
         stream: a binary stream open for writing at its start.
         profile: the header's profile.
         library: the header's library.
-        background: compress and write the big chunks on a writer thread.
     """
 
-    def __init__(
-        self, stream: IO[bytes], profile: str, library: str, background: bool = False
-    ) -> None:
+    def __init__(self, stream: IO[bytes], profile: str, library: str) -> None:
         from mcap.records import Header  # noqa: PLC0415 - mcap only when a file is written
 
         self._stream = stream
@@ -129,7 +122,6 @@ class McapFile:
         self._chunk_size = 0
         self._chunk_t = (0, 0)
         self._zstd: Any = None
-        self._writer = ChunkWriter(self._write_chunks) if background else None
         self._index: dict[int, list[bytes]] = defaultdict(list)
         self._chunk_indexes: list[object] = []
         self._attachment_indexes: list[object] = []
@@ -149,7 +141,6 @@ class McapFile:
         """Write one record outside chunks; (its offset, its length)."""
         from mcap.data_stream import RecordBuilder  # noqa: PLC0415
 
-        self._sync()
         builder = RecordBuilder()
         record.write(builder)  # type: ignore[attr-defined]
         data: bytes = builder.end()  # type: ignore[no-untyped-call]
@@ -259,97 +250,59 @@ class McapFile:
         c_lo, c_hi = self._chunk_t
         self._chunk_t = (lo, hi) if first else (min(lo, c_lo), max(hi, c_hi))
 
-    def flush(self, wait: bool = True) -> None:
-        """End the chunk in progress (if any) and flush the stream (no fsync); ``wait``
-        False: a chunk handed to the writer thread may still be on its way (see the class).
-
-        Raises:
-            OSError: a write failed (also one of the writer thread's).
-        """
+    def flush(self) -> None:
+        """End the chunk in progress (if any) and flush the stream (no fsync)."""
         if self._chunk:
             self._end_chunk()
-        if wait or self._writer is None:
-            self._sync()
-            self._stream.flush()
-
-    def _sync(self) -> None:
-        """Wait for the writer thread, if any, before touching the file here."""
-        if self._writer is not None:
-            self._writer.wait()
+        self._stream.flush()
 
     def _end_chunk(self) -> None:
-        """End the open chunk: written here, or handed to the writer thread (big chunks,
-        and any chunk while an earlier one is still being written there)."""
-        chunk = Chunk(b"".join(self._chunk), *self._chunk_t, self._index)
-        self._chunk, self._chunk_size, self._index = [], 0, defaultdict(list)
-        writer = self._writer
-        if writer is None:
-            self._write_chunks([chunk])
-            return
-        writer.check()
-        if len(chunk.data) < BACKGROUND_MIN:
-            if writer.idle():
-                self._write_chunks([chunk])
-                return
-            pack(chunk, self._compressor())  # the thread only writes it
-        writer.put(chunk)
-
-    def _compressor(self) -> Any:
-        """The zstd compressor of the chunks packed here (the writer thread has its own)."""
-        if self._zstd is None:
-            self._zstd = zstd_compressor()
-        return self._zstd
-
-    def _write_chunks(self, chunks: list[Chunk]) -> None:
-        """Write ``chunks`` (zstd; packed here if not yet) each followed by its message
-        indexes, in one write, and flush the stream. Called by the file's own thread or the
-        writer thread (with the chunks packed), never both at once."""
+        """Write the open chunk (zstd) and its message indexes, in one write."""
         from mcap.records import ChunkIndex  # noqa: PLC0415
 
-        parts: list[bytes] = []
-        at = self._pos
-        for chunk in chunks:
-            if chunk.packed is None:
-                pack(chunk, self._compressor())
-            packed, data = chunk.packed, chunk.data
-            assert packed is not None
-            lo, hi = chunk.start_ns, chunk.end_ns
-            head = _CHUNK_HEAD.pack(
-                _CHUNK_OPCODE,
-                _CHUNK_HEAD.size - 9 + len(packed),
-                lo,
-                hi,
-                len(data),
-                chunk.crc,
-                4,
-                b"zstd",
-                len(packed),
-            )
-            start = at
-            length = len(head) + len(packed)
-            parts += (head, packed)
-            offsets: dict[int, int] = {}
-            at = start + length
-            for ch, pairs in chunk.index.items():
-                offsets[ch] = at
-                index = _message_index(ch, pairs)
-                parts.append(index)
-                at += len(index)
-            self._chunk_indexes.append(
-                ChunkIndex(
-                    message_start_time=lo,
-                    message_end_time=hi,
-                    chunk_start_offset=start,
-                    chunk_length=length,
-                    message_index_offsets=offsets,
-                    message_index_length=at - start - length,
-                    compression="zstd",
-                    compressed_size=len(packed),
-                    uncompressed_size=len(data),
-                )
-            )
+        if self._zstd is None:
+            import zstandard  # noqa: PLC0415 - mcap's own dependency
+
+            self._zstd = zstandard.ZstdCompressor(level=1)
+        data = b"".join(self._chunk)
+        packed = self._zstd.compress(data)
+        lo, hi = self._chunk_t
+        head = _CHUNK_HEAD.pack(
+            _CHUNK_OPCODE,
+            _CHUNK_HEAD.size - 9 + len(packed),
+            lo,
+            hi,
+            len(data),
+            zlib.crc32(data),
+            4,
+            b"zstd",
+            len(packed),
+        )
+        start = self._pos
+        length = len(head) + len(packed)
+        parts = [head, packed]
+        offsets: dict[int, int] = {}
+        at = start + length
+        for ch, pairs in self._index.items():
+            offsets[ch] = at
+            index = _message_index(ch, pairs)
+            parts.append(index)
+            at += len(index)
         self._write(b"".join(parts))
-        self._stream.flush()
+        self._chunk_indexes.append(
+            ChunkIndex(
+                message_start_time=lo,
+                message_end_time=hi,
+                chunk_start_offset=start,
+                chunk_length=length,
+                message_index_offsets=offsets,
+                message_index_length=at - start - length,
+                compression="zstd",
+                compressed_size=len(packed),
+                uncompressed_size=len(data),
+            )
+        )
+        self._chunk, self._chunk_size, self._index = [], 0, defaultdict(list)
 
     # -- between chunks -------------------------------------------------------------------
 

@@ -82,9 +82,8 @@ class Sink(Protocol):
     def metadata(self, name: str, values: Mapping[str, str]) -> None:
         """A metadata record."""
 
-    def flush(self, wait: bool = True) -> None:
-        """Make what was written so far durable (a file: end the chunk); ``wait`` False:
-        what a writer thread of the sink still writes may reach the file a little later."""
+    def flush(self) -> None:
+        """Make what was written so far durable (a file: end the chunk)."""
 
     def close(self, complete: bool) -> None:
         """Finish (``complete``: the recording ended normally; else keep what was written)."""
@@ -106,9 +105,7 @@ class McapSink:
             self._stream = self.tmp.open("wb")
         except OSError as exc:
             raise CanLogError(f"{self.path}: cannot write the recording: {exc.strerror}") from None
-        self._file = McapFile(
-            self._stream, profile=FORMAT, library="pacc.ecu.buslog", background=True
-        )
+        self._file = McapFile(self._stream, profile=FORMAT, library="pacc.ecu.buslog")
 
     def channel(self, spec: ChannelSpec) -> int:
         sid = self._file.schema(spec.schema_name, spec.schema_encoding, spec.schema_data)
@@ -139,10 +136,8 @@ class McapSink:
     def metadata(self, name: str, values: Mapping[str, str]) -> None:
         self._file.metadata(name, dict(values))
 
-    def flush(self, wait: bool = True) -> None:
-        """End the chunk; ``wait``: until it and every chunk before it is in the file (the
-        big ones are compressed and written by a writer thread)."""
-        self._file.flush(wait)
+    def flush(self) -> None:
+        self._file.flush()
 
     def close(self, complete: bool) -> None:
         """Finish the file and rename it (``complete``), else end the chunk and keep the

@@ -277,13 +277,11 @@ class CanLogWriter:
 
     def _flush_due(self, t_s: float) -> None:
         rows_due = self._rows_t0 is not None and t_s - self._rows_t0 >= self.rows_s
-        self.flush(rows=rows_due, wait=False)
+        self.flush(rows=rows_due)
 
-    def flush(self, rows: bool = True, wait: bool = True) -> None:
+    def flush(self, rows: bool = True) -> None:
         """Write the frames since the last flush and end the chunk (every sink); ``rows``:
-        the decoded rows and the cycles too. ``wait``: return when every chunk is in the
-        file (the file sink's writer thread compresses and writes the big ones; the 1-s
-        flush of a running node does not wait)."""
+        the decoded rows and the cycles too."""
         t0 = self._block_t0
         if t0 is None and self._frames:
             t0 = self._frames[0]
@@ -308,7 +306,7 @@ class CanLogWriter:
                     self._write_rows(s, table)
             self._rows_t0 = None
         for sink in self.sinks:
-            sink.flush(wait)
+            sink.flush()
 
     def _write_cycles(self) -> None:
         """The cycles' rows on ``/ecu/inputs`` and ``/ecu/outputs``."""
@@ -359,7 +357,7 @@ class CanLogWriter:
         for start in range(0, len(t), step):
             self._write_rows(s, table[start : start + step])
             for sink in self.sinks:
-                sink.flush(wait=False)
+                sink.flush()
 
     # -- end -----------------------------------------------------------------------------
 
