@@ -14,8 +14,8 @@ Run: ``.venv/bin/python bench/canlog.py [--sim-s 120] [--repeats 3]``.
   the real-time factors (simulated s per wall s of the whole call) and their ratio; the same
   against the process's CPU time (every thread) and against the drive thread's own CPU time
   (``time.thread_time``: what the recording costs the thread that runs the drive, whatever
-  else loads the machine; work handed to the recorder's writer thread is not in it, but the
-  wall clock still waits for it when no core is free).
+  else loads the machine; work on another thread would not be in it, though the wall clock
+  still waits for it when no core is free; the recorder has none today, docs/logs.md).
 
 Best of ``--repeats`` for the writers and for the drives' real-time factors (the machine is
 shared: the best run is the one least disturbed), the medians printed beside.
