@@ -44,6 +44,7 @@ import math
 from dataclasses import dataclass, field
 
 from ecu import EcuError
+from ecu.signals import cycle_value
 
 
 class ControllerError(EcuError):
@@ -130,7 +131,7 @@ class RoadParams:
             raise ControllerError("hold_accel_mps2 must lie in [-3.5, 0)")
 
 
-@dataclass(frozen=True, slots=True)
+@cycle_value
 class RoadMemory:
     """What the control law remembers about the road between cycles.
 
@@ -204,7 +205,7 @@ class ControllerParams:
             raise ControllerError("emergency_jerk_mps3 must be >= jerk_max_mps3")
 
 
-@dataclass(frozen=True, slots=True)
+@cycle_value
 class ControlInput:
     """What the controller sees in one cycle (all finite; the node checks validity).
 

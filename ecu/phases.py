@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
 
 from ecu.config import MAX_DT_S, EcuConfig
 from ecu.controller import (
@@ -35,7 +34,7 @@ from ecu.controller import (
     time_to_collision_s,
 )
 from ecu.recorder import Sample
-from ecu.signals import NodeInputs, NodeOutputs, all_finite, input_fault
+from ecu.signals import NodeInputs, NodeOutputs, all_finite, cycle_value, input_fault
 from ecu.state import Events
 from ecu.stops import URGENT_STOP_MPS2, closing_needs_mps2, lead_stop_need_mps2, stop_limit
 from pacc.vocab.acc_state import AccState, FaultCode
@@ -69,7 +68,7 @@ def cycle_time(now_s: float, last_now_s: float | None, cycle_s: float) -> tuple[
 # -- 2. inputs ---------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True, slots=True)
+@cycle_value
 class InputCheck:
     """The checked inputs of one cycle.
 
@@ -133,7 +132,7 @@ def check_inputs(
 # -- 3. state entry -----------------------------------------------------------------------------
 
 
-@dataclass(frozen=True, slots=True)
+@cycle_value
 class Engagement:
     """What the node remembers about engagement across cycles.
 
@@ -190,7 +189,7 @@ def takeover_pedal(accel: bool, brake: bool) -> str:
 # -- 5. plan -----------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True, slots=True)
+@cycle_value
 class Plan:
     """The DGPT at the current speed: desired gap, m, and its slope d(gap)/d(speed), s."""
 
@@ -208,7 +207,7 @@ def plan(table: Dgpt, v_mps: float) -> Plan:
 # -- 6. control --------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True, slots=True)
+@cycle_value
 class ControlMemory:
     """The controller's state across cycles: gap-error integral (m*s), last request (m/s^2),
     the road (target switches, lead loss, standstill; :class:`ecu.controller.RoadMemory`)."""
@@ -218,7 +217,7 @@ class ControlMemory:
     road: RoadMemory = RoadMemory()
 
 
-@dataclass(frozen=True, slots=True)
+@cycle_value
 class Command:
     """The request of one cycle.
 
