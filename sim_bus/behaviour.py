@@ -209,8 +209,8 @@ class DriverAgent:
         return out
 
     def _draws(self) -> tuple[float, float, float]:
-        z = self._rng.standard_normal(2)
-        return float(z[0]), float(z[1]), float(self._rng.random())
+        zn, zc = self._rng.standard_normal(2).tolist()  # the same floats as float(z[i])
+        return zn, zc, self._rng.random()
 
     # -- one step -----------------------------------------------------------------------
     def step(self, v_mps: float, v_lead_mps: float, gap_m: float, acc_state: int) -> None:
