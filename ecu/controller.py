@@ -71,9 +71,9 @@ def interp(x: float, table: Table) -> float:
     bp, val = table
     if x <= bp[0]:
         return val[0]
-    i = bisect_right(bp, x)  # the first breakpoint above x (len(bp): none; NaN: none)
-    if i == len(bp):
+    if not x < bp[-1]:  # beyond the last breakpoint, or NaN
         return val[-1]
+    i = bisect_right(bp, x)  # the first breakpoint above x
     b0, v0 = bp[i - 1], val[i - 1]
     f = (x - b0) / (bp[i] - b0)
     return v0 + f * (val[i] - v0)
