@@ -193,19 +193,22 @@ class DriverAgent:
         seen = self._seen
         seen.append((v_lead, gap))
         out = (v_lead, gap)
+        newest = len(seen) - 1
+        used = int(self.mode != "idle")  # the channel the driver looks through now
+        vl_seen, accel_seen, k_accel, dt = self._vl_seen, self._accel_seen, self._accel_k, self.dt_s
         for channel, lag in enumerate(self._lag):
-            k = len(seen) - 1 - lag
+            k = newest - lag
             vl, g = seen[0 if k < 0 else k]
             if math.isfinite(vl):  # a non-finite sample must not poison the estimate for good
-                last = self._vl_seen[channel]
+                last = vl_seen[channel]
                 if not math.isnan(last):
-                    a = self._accel_seen[channel]
-                    a += self._accel_k * ((vl - last) / self.dt_s - a)
-                    self._accel_seen[channel] = a
-                self._vl_seen[channel] = vl
-            if channel == int(self.mode != "idle"):
+                    a = accel_seen[channel]
+                    a += k_accel * ((vl - last) / dt - a)
+                    accel_seen[channel] = a
+                vl_seen[channel] = vl
+            if channel == used:
                 out = (vl, g)
-                self.lead_accel_seen_mps2 = self._accel_seen[channel]
+                self.lead_accel_seen_mps2 = accel_seen[channel]
         return out
 
     def _draws(self) -> tuple[float, float, float]:
