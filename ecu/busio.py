@@ -75,44 +75,46 @@ def inputs_from(inbox: Inbox, now_s: float, pedals: PedalScale) -> NodeInputs:
     A role that never delivered a usable frame is not ok; one that stopped is not ok once it
     timed out (its last values are still reported).
     """
-    inp = NodeInputs()
     latest, fresh = inbox.latest, inbox.fresh
+    # each role's values, or NodeInputs' defaults and not ok when it never delivered one
     ego = latest("ego")
     if ego is not None:
-        inp.v_mps = float(ego["speed_mps"])
-        inp.a_mps2 = float(ego["accel_mps2"])
-        inp.speed_ok = bool(ego["speed_valid"]) and fresh("ego", now_s)
+        v, a = float(ego["speed_mps"]), float(ego["accel_mps2"])
+        speed_ok = bool(ego["speed_valid"]) and fresh("ego", now_s)
     else:
-        inp.speed_ok = False
+        v, a, speed_ok = 0.0, 0.0, False
     ped = latest("pedals")
     if ped is not None:
-        inp.accel_pedal = pedals.accel(float(ped["accel_pedal_pct"]))
-        inp.brake_pedal = pedals.brake(float(ped["brake_pressure_bar"]))
-        inp.accel_pressed = bool(ped["accel_pressed"])
-        inp.brake_pressed = bool(ped["brake_pressed"])
-        inp.pedals_ok = fresh("pedals", now_s)
+        accel = pedals.accel(float(ped["accel_pedal_pct"]))
+        brake = pedals.brake(float(ped["brake_pressure_bar"]))
+        accel_pressed, brake_pressed = bool(ped["accel_pressed"]), bool(ped["brake_pressed"])
+        pedals_ok = fresh("pedals", now_s)
     else:
-        inp.pedals_ok = False
+        accel, brake, accel_pressed, brake_pressed, pedals_ok = 0.0, 0.0, False, False, False
     radar = latest("radar")
     if radar is not None:
-        inp.lead_valid = bool(radar["lead_valid"])
-        inp.gap_m = float(radar["gap_m"])
-        inp.rel_speed_mps = float(radar["rel_speed_mps"])
-        inp.lead_accel_mps2 = float(radar["lead_accel_mps2"])
-        inp.lead_accel_valid = bool(radar["lead_accel_valid"])
-        inp.radar_ok = fresh("radar", now_s)
+        lead_valid = bool(radar["lead_valid"])
+        gap, rel = float(radar["gap_m"]), float(radar["rel_speed_mps"])
+        lead_accel = float(radar["lead_accel_mps2"])
+        lead_accel_valid = bool(radar["lead_accel_valid"])
+        radar_ok = fresh("radar", now_s)
     else:
-        inp.radar_ok = False
+        lead_valid, gap, rel, lead_accel, lead_accel_valid, radar_ok = (
+            False, 0.0, 0.0, 0.0, False, False
+        )  # fmt: skip
     hmi = latest("hmi")
     if hmi is not None:
-        inp.main_switch = bool(hmi["main_switch"])
-        inp.set_button = bool(hmi["set"])
-        inp.resume_button = bool(hmi["resume"])
-        inp.cancel_button = bool(hmi["cancel"])
-        inp.hmi_ok = fresh("hmi", now_s)
+        main, set_b = bool(hmi["main_switch"]), bool(hmi["set"])
+        resume_b, cancel_b = bool(hmi["resume"]), bool(hmi["cancel"])
+        hmi_ok = fresh("hmi", now_s)
     else:
-        inp.hmi_ok = False
-    return inp
+        main, set_b, resume_b, cancel_b, hmi_ok = False, False, False, False, False
+    # positional fields in declaration order (a class call with keywords builds a dict)
+    return NodeInputs(
+        v, a, speed_ok, accel, brake, accel_pressed, brake_pressed, pedals_ok,
+        lead_valid, gap, rel, lead_accel, lead_accel_valid, radar_ok,
+        main, set_b, resume_b, cancel_b, hmi_ok,
+    )  # fmt: skip
 
 
 def _clamp(x: float, lo: float, hi: float) -> float:

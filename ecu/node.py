@@ -104,6 +104,7 @@ class EcuNode:
         self.fault_code = FaultCode.NONE
         self.set_speed_mps = 0.0
         self.decisions: Counter[Reason] = Counter()
+        self._applied = 0  # decisions[Reason.APPLIED], read every cycle
         #: FAULT entries by the input that caused them
         self.faults: Counter[FaultCode] = Counter()
         self.takeovers = 0
@@ -154,26 +155,28 @@ class EcuNode:
     @property
     def adaptations(self) -> int:
         """Adaptations applied so far."""
-        return self.decisions[Reason.APPLIED]
+        return self._applied
 
     def step(self, inp: NodeInputs, now_s: float) -> NodeOutputs:
         """Run one control cycle at time ``now_s`` (s, monotonic); never raises on bad input.
 
         A non-finite ``now_s`` (a host clock fault) is taken as no time passing since the
         previous cycle. The phases are the pure functions of :mod:`ecu.phases`, in order."""
+        config = self.config
         events = self._pending_events
         self._pending_events = []
-        now_s, dt = cycle_time(now_s, self._last_now, self.config.cycle_s)
+        now_s, dt = cycle_time(now_s, self._last_now, config.cycle_s)
         self._last_now = now_s
         check = self._check_inputs(inp, now_s)
+        ev = check.events
         old = self.state
-        new = transition(old, check.events, self.config.brake_mode)
+        new = transition(old, ev, config.brake_mode)
         if new is not old:
             self._enter(old, new, check, inp, events)
         self.state = new
         self._track_takeover(old, new, check, inp, now_s, events)
         p = plan(self._table, inp.v_mps)
-        go = check.events.resume_edge or check.events.accel_pressed  # a go at a standstill
+        go = ev.resume_edge or ev.accel_pressed  # a go at a standstill
         command = self._control(new, inp, p, dt, events, go)
         if self.recorder is not None:
             self.recorder.sample(sample_of(inp, now_s, new))
@@ -182,7 +185,7 @@ class EcuNode:
             command,
             p,
             table=self._table,
-            adaptation_count=self.adaptations,
+            adaptation_count=self._applied,
             fault_code=reported_fault(self.fault_code, self._profile_fault),
             set_speed_mps=self.set_speed_mps,
             events=tuple(events),
@@ -368,6 +371,7 @@ class EcuNode:
 
     def _record_decision(self, decision: Decision, events: list[str]) -> str:
         self.decisions[decision.reason] += 1
+        self._applied += decision.reason is Reason.APPLIED
         self.last_decision = decision
         text = str(decision)
         if decision.applied:

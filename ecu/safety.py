@@ -30,6 +30,8 @@ from collections import Counter
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
+from ecu.signals import cycle_value
+
 if TYPE_CHECKING:
     from ecu.signals import NodeOutputs
 
@@ -62,7 +64,7 @@ class SafetyLimits:
     tolerance_mps2: float = 1e-6
 
 
-@dataclass(frozen=True, slots=True)
+@cycle_value
 class Verdict:
     """The vetted request and the rules that changed it (empty: passed as it came)."""
 

@@ -25,15 +25,15 @@ re-engagement hold time (1 s).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Literal
 
+from ecu.signals import cycle_value
 from pacc.vocab.acc_state import AccState, FaultCode
 
 BrakeMode = Literal["resume", "cancel"]
 
 
-@dataclass(frozen=True, slots=True)
+@cycle_value
 class Events:
     """Inputs of one transition.
 

@@ -32,7 +32,10 @@ CREEP_MPS = 1.5
 def _standstill_gap_m(config: EcuConfig, p: Plan) -> float:
     """The table's standstill gap: its line at the current speed extended to 0 m/s, never
     below the safety floor, m."""
-    return max(p.desired_gap_m - p.desired_gap_slope_s * p.v_mps, config.bounds.lower_m(0.0))
+    # max and min written out (as in ecu.controller: the same results, NaN included)
+    line = p.desired_gap_m - p.desired_gap_slope_s * p.v_mps
+    floor = config.bounds.lower_m(0.0)
+    return floor if line < floor else line
 
 
 def lead_stop_need_mps2(
@@ -42,8 +45,10 @@ def lead_stop_need_mps2(
     ``STOP_SPARE_S`` of the closing speed to spare, behind where a braking lead would come to
     rest if it kept its deceleration to a standstill (``inf`` when the lead is not braking):
     the worst case a braking lead can turn into, whenever it would stand."""
-    v_lead = max(p.v_mps + inp.rel_speed_mps, 0.0)
-    spare = STOP_SPARE_S * max(p.v_mps - v_lead, 0.0)  # front-loaded: TTC stays above 2 s
+    v_lead = p.v_mps + inp.rel_speed_mps
+    v_lead = 0.0 if v_lead < 0.0 else v_lead
+    closing = p.v_mps - v_lead
+    spare = STOP_SPARE_S * (0.0 if closing < 0.0 else closing)  # front-loaded: TTC above 2 s
     standstill = _standstill_gap_m(config, p)
     return stopping_limit_mps2(p.v_mps, inp.gap_m - spare, v_lead, lead_accel_mps2, standstill)
 
@@ -57,7 +62,8 @@ def closing_needs_mps2(
     ``(inf, inf)`` without a lead or when not closing."""
     if not inp.lead_valid or inp.rel_speed_mps >= 0.0:
         return math.inf, math.inf
-    floor = config.bounds.lower_m(max(p.v_mps + inp.rel_speed_mps, 0.0))
+    v_lead = p.v_mps + inp.rel_speed_mps
+    floor = config.bounds.lower_m(0.0 if v_lead < 0.0 else v_lead)
     alone = closing_limit_mps2(inp.gap_m, inp.rel_speed_mps, 0.0, floor)
     return alone, closing_limit_mps2(inp.gap_m, inp.rel_speed_mps, lead_accel_mps2, floor)
 
@@ -73,20 +79,24 @@ def stop_limit(
     table's gap at that speed (m/s^2)."""
     road = config.controller.road
     standstill = _standstill_gap_m(config, p)
-    v_lead = max(p.v_mps + inp.rel_speed_mps, 0.0)
-    spare = STOP_SPARE_S * max(p.v_mps - v_lead, 0.0)  # front-loaded: TTC stays above 2 s
+    v_lead = p.v_mps + inp.rel_speed_mps
+    v_lead = 0.0 if v_lead < 0.0 else v_lead
+    closing = p.v_mps - v_lead
+    closing = 0.0 if closing < 0.0 else closing
+    spare = STOP_SPARE_S * closing  # front-loaded: TTC stays above 2 s
     limit = need_mps2
-    if v_lead > road.lead_stop_horizon_s * max(-lead_accel_mps2, 0.0):
+    braking = -lead_accel_mps2
+    if v_lead > road.lead_stop_horizon_s * (0.0 if braking < 0.0 else braking):
         limit = math.inf  # the lead will not be standing soon: the gap law's business
     if v_lead < STANDING_LEAD_MPS and p.v_mps < CREEP_MPS and inp.gap_m < standstill + 3.0:
-        limit = min(limit, road.hold_accel_mps2)  # close to a standing lead: stop, no creep
+        hold = road.hold_accel_mps2  # close to a standing lead: stop, no creep
+        limit = hold if limit > hold else limit
     if v_lead < road.stop_lead_mps:
-        at_lead = p.desired_gap_m - p.desired_gap_slope_s * max(p.v_mps - v_lead, 0.0)
-        floor = max(at_lead, config.bounds.lower_m(v_lead))
-        limit = min(
-            limit,
-            closing_limit_mps2(inp.gap_m - spare, inp.rel_speed_mps, lead_accel_mps2, floor),
-        )
+        at_lead = p.desired_gap_m - p.desired_gap_slope_s * closing
+        floor = config.bounds.lower_m(v_lead)
+        floor = floor if at_lead < floor else at_lead
+        match = closing_limit_mps2(inp.gap_m - spare, inp.rel_speed_mps, lead_accel_mps2, floor)
+        limit = match if limit > match else limit
     return limit
 
 

@@ -23,6 +23,7 @@ and presses SET (RESUME after a cancel) once the gap feels right with the pedals
 from __future__ import annotations
 
 import math
+from bisect import bisect_right
 from collections import deque
 
 import numpy as np
@@ -63,19 +64,51 @@ RESUME_DELAY_S = 1.0
 FAULT_RETRY_S = 5.0  # after a fault, the driver tries SET once it has lasted this long
 
 
+def interp_float(x: float, xp: tuple[float, ...], fp: tuple[float, ...]) -> float:
+    """``float(np.interp(x, xp, fp))`` for one float ``x`` and float breakpoints ``xp``
+    (increasing) and values ``fp``: the same float, the same arithmetic (numpy's own:
+    ``slope * (x - xp[j]) + fp[j]``, its NaN fallbacks, ends held), without numpy's
+    per-call conversion of the tables (1.5 us a call; the driver looks its headway up every
+    step). tests/sim_bus/test_behaviour.py checks it against ``np.interp``."""
+    if len(xp) == 1:
+        return fp[0]
+    if math.isnan(x):
+        return x
+    if x < xp[0]:
+        return fp[0]
+    if x > xp[-1]:
+        return fp[-1]
+    j = bisect_right(xp, x) - 1
+    if j == len(xp) - 1 or xp[j] == x:
+        return fp[j]
+    slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
+    out = slope * (x - xp[j]) + fp[j]
+    if math.isnan(out):  # numpy retries from the segment's other end
+        out = slope * (x - xp[j + 1]) + fp[j + 1]
+        if math.isnan(out) and fp[j] == fp[j + 1]:
+            out = fp[j]
+    return out
+
+
 def idm_plus_accel(
     v_mps: float, v_lead_mps: float, gap_m: float, pref_gap_m: float, p: DriverParams
 ) -> float:
-    """IDM+ acceleration (m/s²) around the preferred gap, limited to [−8, a_max]."""
+    """IDM+ acceleration (m/s²) around the preferred gap, limited to [−8, a_max].
+
+    ``max(a, b)`` and ``min(a, b)`` are written out (``b if a < b else a``, ``b if a > b
+    else a``: what the builtins return, NaN included, at a sixth of a call's cost); so in
+    the driver's other per-step methods."""
     s_star = pref_gap_m + v_mps * (v_mps - v_lead_mps) / (
         2.0 * math.sqrt(p.accel_max_mps2 * p.decel_comfort_mps2)
     )
-    s_star = max(s_star, p.standstill_m * 0.5)
-    s = max(gap_m, 0.1)
+    half = p.standstill_m * 0.5
+    s_star = half if s_star < half else s_star
+    s = 0.1 if gap_m < 0.1 else gap_m
     free = 1.0 - (v_mps / p.desired_speed_mps) ** 4
     follow = 1.0 - (s_star / s) ** 2
-    a = p.accel_max_mps2 * min(free, follow)
-    return min(max(a, -DECEL_LIMIT_MPS2), p.accel_max_mps2)
+    a = p.accel_max_mps2 * (follow if free > follow else free)
+    a = -DECEL_LIMIT_MPS2 if a < -DECEL_LIMIT_MPS2 else a
+    return p.accel_max_mps2 if a > p.accel_max_mps2 else a
 
 
 class DriverAgent:
@@ -105,6 +138,11 @@ class DriverAgent:
         self.acc_mode = acc_mode
         self.engage_s = engage_s
         self._rng = rng
+        #: the headway table as floats (:func:`interp_float`, what np.interp reads)
+        self._head_table = (
+            tuple(float(x) for x in p.headway_speeds_mps),
+            tuple(float(x) for x in p.headway_s),
+        )
         n_delay = max(0, int(round(p.reaction_s / dt_s)))
         n_attentive = max(0, int(round(min(p.reaction_s, ATTENTIVE_REACTION_S) / dt_s)))
         # the lead's (speed, gap) of the last n_delay + 1 steps, newest last
@@ -155,23 +193,27 @@ class DriverAgent:
         seen = self._seen
         seen.append((v_lead, gap))
         out = (v_lead, gap)
+        newest = len(seen) - 1
+        used = int(self.mode != "idle")  # the channel the driver looks through now
+        vl_seen, accel_seen, k_accel, dt = self._vl_seen, self._accel_seen, self._accel_k, self.dt_s
         for channel, lag in enumerate(self._lag):
-            vl, g = seen[max(len(seen) - 1 - lag, 0)]
+            k = newest - lag
+            vl, g = seen[0 if k < 0 else k]
             if math.isfinite(vl):  # a non-finite sample must not poison the estimate for good
-                last = self._vl_seen[channel]
+                last = vl_seen[channel]
                 if not math.isnan(last):
-                    a = self._accel_seen[channel]
-                    a += self._accel_k * ((vl - last) / self.dt_s - a)
-                    self._accel_seen[channel] = a
-                self._vl_seen[channel] = vl
-            if channel == int(self.mode != "idle"):
+                    a = accel_seen[channel]
+                    a += k_accel * ((vl - last) / dt - a)
+                    accel_seen[channel] = a
+                vl_seen[channel] = vl
+            if channel == used:
                 out = (vl, g)
-                self.lead_accel_seen_mps2 = self._accel_seen[channel]
+                self.lead_accel_seen_mps2 = accel_seen[channel]
         return out
 
     def _draws(self) -> tuple[float, float, float]:
-        z = self._rng.standard_normal(2)
-        return float(z[0]), float(z[1]), float(self._rng.random())
+        zn, zc = self._rng.standard_normal(2).tolist()  # the same floats as float(z[i])
+        return zn, zc, self._rng.random()
 
     # -- one step -----------------------------------------------------------------------
     def step(self, v_mps: float, v_lead_mps: float, gap_m: float, acc_state: int) -> None:
@@ -182,13 +224,15 @@ class DriverAgent:
         zn, zc, u = self._draws()
         self._noise = self._noise_k * self._noise + self._noise_s * zn
         if self._sd_c > 0.0:
-            self._log_c = min(max(self._log_c + self._sd_c * zc, -0.3), 0.4)
+            log_c = self._log_c + self._sd_c * zc
+            log_c = -0.3 if log_c < -0.3 else log_c
+            self._log_c = 0.4 if log_c > 0.4 else log_c
             self.condition = math.exp(self._log_c)
         vl, g = self._perceive(v_lead_mps, gap_m)
         v = v_mps  # own speed is felt at once; the lead is seen late
         c = p.condition_factor * self.condition
-        head = float(np.interp(v, p.headway_speeds_mps, p.headway_s)) + self._trip_shift
-        pref = float(p.standstill_m + c * max(head, 0.3) * v)
+        head = interp_float(float(v), *self._head_table) + self._trip_shift
+        pref = float(p.standstill_m + c * (0.3 if head < 0.3 else head) * v)
         self.set_button = self.resume_button = False
         if self.t_s < self._button_until:
             self.set_button = self._button == "set"
@@ -220,10 +264,14 @@ class DriverAgent:
         if which == "brake":
             self.accel_pressed, self.brake_pressed = False, True
             self.accel_pct = 0.0
-            self.brake_bar = min(max(-a * BRAKE_BAR_PER_MPS2, 1.0), self._brake_full_bar)
+            bar = -a * BRAKE_BAR_PER_MPS2
+            bar = 1.0 if bar < 1.0 else bar
+            self.brake_bar = self._brake_full_bar if bar > self._brake_full_bar else bar
         elif which == "accel":
             self.accel_pressed, self.brake_pressed = True, False
-            self.accel_pct = min(max(a / ACCEL_FULL_MPS2 * 100.0, 1.0), self._accel_full_pct)
+            pct = a / ACCEL_FULL_MPS2 * 100.0
+            pct = 1.0 if pct < 1.0 else pct
+            self.accel_pct = self._accel_full_pct if pct > self._accel_full_pct else pct
             self.brake_bar = 0.0
         else:
             self.accel_pressed = self.brake_pressed = False
@@ -294,11 +342,12 @@ class DriverAgent:
         with control noise, ``a_plan``: without (what it decides by; default ``a``)."""
         p = self.p
         dt = self.dt_s
-        band = max(p.comfort_band * pref, p.comfort_band_min_m)
+        band = p.comfort_band * pref
+        band = p.comfort_band_min_m if band < p.comfort_band_min_m else band
         closing = v - vl
         ttc = self._ttc_now(g, closing)
         if self.mode == "idle":
-            g_pred = g - max(closing, 0.0) * p.lookahead_s
+            g_pred = g - (0.0 if closing < 0.0 else closing) * p.lookahead_s
             self._close_t = self._close_t + dt if (g < pref - band or g_pred < pref - band) else 0.0
             steady = closing <= 0.3 and self.lead_accel_seen_mps2 > LEAD_BRAKING_MPS2
             in_sight = g < LEAD_SIGHT_M  # a free road is not a gap too long
@@ -357,11 +406,12 @@ class DriverAgent:
             lag_s = self._lag[int(self.mode != "idle")] * self.dt_s
             # the lead's speed now from its braking as seen (brake lights, looming): a lead
             # braking at 3 m/s^2 seen 1 s late is 3 m/s slower than it looks (issue 21)
-            closing -= min(self.lead_accel_seen_mps2, 0.0) * lag_s
-            g -= max(closing, 0.0) * lag_s
+            seen = self.lead_accel_seen_mps2
+            closing -= (0.0 if seen > 0.0 else seen) * lag_s
+            g -= (0.0 if closing < 0.0 else closing) * lag_s
         if closing <= 0.1:
             return math.inf
-        return max(g, 0.0) / closing
+        return (0.0 if g < 0.0 else g) / closing
 
     def _needed_mps2(
         self, v: float, vl: float, g: float, lead_accel_mps2: float | None = None

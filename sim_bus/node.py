@@ -151,15 +151,8 @@ class SimNode:
     def _receive(self, now: float) -> None:
         if self._idle():
             return  # nothing arrived since the last tick
-        if self._take_all is not None:  # the lockstep bus: every waiting frame at once
-            try:
-                msgs = self._take_all()
-            except can.CanError:
-                self.recv_errors += 1
-                return
-            accept = self._accept
-            for frame in msgs:
-                accept(frame, now)
+        if self._take_all is not None:  # the lockstep bus
+            self._take_in(now)
             return
         bus = self.bus
         while True:
@@ -171,6 +164,18 @@ class SimNode:
             if msg is None:
                 break
             self._accept(msg, now)
+
+    def _take_in(self, now: float) -> None:
+        """The lockstep bus: take every waiting frame in, in one call."""
+        assert self._take_all is not None
+        try:
+            msgs = self._take_all()
+        except can.CanError:
+            self.recv_errors += 1
+            return
+        accept = self._accept
+        for frame in msgs:
+            accept(frame, now)
 
     def _accept(self, msg: can.Message, now: float) -> None:
         """Take one received frame in (the command and status it carries)."""
@@ -367,8 +372,10 @@ class SimNode:
         """One lockstep tick: take in commands, send due frames, advance the world by dt."""
         now = self.t_s
         rx = self._rx_deque
-        if rx is None or rx:  # on the lockstep bus, only when a frame waits
+        if rx is None:
             self._receive(now)
+        elif rx:  # the lockstep bus, a frame waiting: every waiting frame at once
+            self._take_in(now)
         if self.faults is None:
             self._transmit_due(now)
         else:

@@ -114,7 +114,7 @@ def _step_floats(
         a_eff = -v / dt if dt > 0 else 0.0
     dx = v * dt + 0.5 * a_eff * dt * dt
     v_new = v + a_eff * dt + dv_noise
-    v_new = max(v_new, 0.0)
+    v_new = 0.0 if v_new < 0.0 else v_new  # max(v_new, 0.0) without the builtin's call
     g_new = g + (v_f - v) * dt + 0.5 * (a_f - a_eff) * dt * dt + dg_noise
     if v_new == 0.0 and a < 0.0:
         a = 0.0  # held by the brakes at standstill

@@ -255,7 +255,9 @@ class World:
         dt = self.cfg.plant.dt_s
         target = self._hold_v if self.t_s < self._hold_until else self._v_lead[i]
         lo, hi = REJOIN_ACCEL_MPS2
-        a = min(max((target - self.v_lead_mps) / REJOIN_TAU_S, lo), hi)
+        a = (target - self.v_lead_mps) / REJOIN_TAU_S  # min(max(a, lo), hi), written out
+        a = lo if a < lo else a
+        a = hi if a > hi else a
         v = self.v_lead_mps + a * dt
         if v <= 0.0:
             v, a = 0.0, 0.0

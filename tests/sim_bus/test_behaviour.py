@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from hypothesis import given
+from hypothesis import strategies as st
 
 from pacc.vocab.acc_state import AccState
-from sim_bus.behaviour import ATTENTIVE_REACTION_S, DriverAgent
+from sim_bus.behaviour import ATTENTIVE_REACTION_S, DriverAgent, interp_float
 from sim_bus.drivers import DriverParams
 
 DT = 0.05
@@ -134,3 +138,21 @@ def test_control_noise_alone_does_not_end_an_accelerator_press_revision_2() -> N
     early = [_press_length(1, "accel", s) < 1.5 for s in range(8)]
     held = [_press_length(2, "accel", s) >= 2.0 - 2 * DT for s in range(8)]
     assert any(early) and all(held)
+
+
+_FLOATS = st.floats(-1e3, 1e3, allow_nan=False)
+
+
+@given(
+    st.lists(_FLOATS, min_size=1, max_size=6, unique=True).map(sorted),
+    st.lists(_FLOATS, min_size=6, max_size=6),
+    st.one_of(_FLOATS, st.sampled_from([math.nan, math.inf, -math.inf, 0.0, -0.0])),
+)
+def test_interp_float_is_np_interp(xp: list[float], fp: list[float], x: float) -> None:
+    """The driver's scalar lookup gives np.interp's float, bit for bit: inside a segment, on a
+    breakpoint, beyond the ends, NaN, one-point tables."""
+    fp = fp[: len(xp)]
+    for v in (x, *xp, *(math.nextafter(b, math.inf) for b in xp)):
+        ours, numpy = interp_float(v, tuple(xp), tuple(fp)), float(np.interp(v, xp, fp))
+        assert ours == numpy or (math.isnan(ours) and math.isnan(numpy))
+        assert math.copysign(1.0, ours) == math.copysign(1.0, numpy)
