@@ -15,7 +15,10 @@ batch that ``pacc cloud sync --spool DIR`` uploads, tagged with ``--driver`` (el
 profile's driver; the predefined table's ``guest`` is refused by the cloud, and said so).
 ``--manual DIR`` spools the driver's manual car-following stretches the same way (batches of
 kind ``manual``, :class:`ecu.recorder.ManualRecorder`: the demonstrations the cloud learns
-from); with ``--cloud``, ``--manual`` alone puts them in the link's spool.
+from); with ``--cloud``, ``--manual`` alone puts them in the link's spool. With ``--cloud``
+the trip is reported at exit (``POST /v1/trips``: the cloud table version it started with,
+its ACC-on time, its takeover segments; :meth:`cloud_sync.vehicle.link.VehicleLink.end_trip`),
+queued in the spool while the cloud is away.
 Exit codes: 0 run completed, 1 bus/DBC/takeover-directory error, 2 usage error (also
 ``--dbc`` without a ``--binding`` that names it).
 """
@@ -241,6 +244,8 @@ def _serve(args: argparse.Namespace) -> int:
         bus_error = run_on_bus(args, node, codec, base, link, recorder)
     finally:
         if link is not None:
+            acc_on_s = node.recorder.acc_on_s if node.recorder is not None else 0.0
+            say(link.end_trip(acc_on_s, base.iso(base.clock_origin_s)))
             link.stop()
             say(link.report())
         if recorder is not None:  # before anything can fail: the recording is kept
