@@ -15,11 +15,12 @@ decoded values at those frames, keeping one as the recorder keeps one (``period_
 last kept, less :data:`~ecu.recorder.PERIOD_EPS_S`), with what the frames before it said
 and the ACC state the cycle's own frame carries. Where the log has no command frames, or
 their cycle does not divide ``period_s`` (another car's ACC), a ``period_s`` grid from the
-first frame is used instead. Times are taken relative to the log's first frame and rounded
-to 1 µs (:data:`TIME_RESOLUTION_S`): a log's absolute float timestamps (UTC seconds, ~0.24 µs
-apart near 2026) and BLF's start time (whole milliseconds) plus truncated nanoseconds move
-them by a fraction of a microsecond, which the rounding takes back out; no log format python-can
-reads is finer than 1 µs in practice (candump and ASC write µs).
+first frame is used instead, each grid point seeing the frames up to its instant. Times are
+taken relative to the log's first frame and rounded to 1 µs (:data:`TIME_RESOLUTION_S`): a
+log's absolute float timestamps (UTC seconds, ~0.24 µs apart near 2026) and BLF's start time
+(whole milliseconds, python-can's writer) plus truncated nanoseconds move them by a fraction
+of a microsecond, which the rounding takes back out; a bus frame's time means nothing finer
+(candump and ASC write µs).
 
 A sample is manual car-following when the ACC is not engaged (OFF or STANDBY, or no ACC
 frames at all), a lead is valid and the inputs are good as the ECU checks them
@@ -131,7 +132,7 @@ class _Sampler:
         if self._t0 is None:
             self._t0 = stamp
         t = round((stamp - self._t0) / TIME_RESOLUTION_S) * TIME_RESOLUTION_S
-        while t >= self._k * self.period_s - PERIOD_EPS_S:  # grid points before this frame
+        while t > self._k * self.period_s + PERIOD_EPS_S:  # grid points before this frame
             _sample(self.on_grid, self.inbox, self._k * self.period_s, self.pedals)
             self._k += 1
         self.inbox.accept_message(msg, t)

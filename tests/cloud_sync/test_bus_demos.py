@@ -29,7 +29,7 @@ import numpy as np
 import pytest
 
 from cloud_sync.irl import bus_demos
-from cloud_sync.irl.bus_demos import extract_demos
+from cloud_sync.irl.bus_demos import extract_demos, read_frames
 from cloud_sync.irl.trainer import learn_dgpt
 from dbc import DATA_DIR
 from dbc.codec import load_codec
@@ -165,3 +165,31 @@ def test_what_is_not_manual_following_is_dropped_with_its_reason(tmp_path: Path)
     assert report.dropped_s["ACC engaged (the ECU drives, not the driver)"] > 15.0
     assert sum(report.dropped_s.values()) == pytest.approx(20.0, abs=0.3)
     assert demos_main(["extract", str(tmp_path / "d.mcap"), "-o", str(tmp_path / "t")]) == 1
+
+
+def test_a_log_without_acc_frames_is_sampled_on_a_grid(tmp_path: Path) -> None:
+    """Another car's log (no command frames here: the ECU's are removed) is sampled on a
+    0.1-s grid from its first frame, each grid point seeing the frames up to it: in a drive
+    whose ECU ran on the same grid, the values equal the ECU's recording; the ACC state is
+    OFF (no ACC frames)."""
+    driver = BUILTIN_DRIVERS["d2"]
+    cfg = DriveConfig(scenario="manual1", driver_id="d2", seed=3, duration_s=30, engage_s=1e6)
+    recorded: list[Trip] = []
+    run_drive(
+        cfg,
+        driver,
+        predefined_table(driver),
+        can_log=tmp_path / "d.mcap",
+        manual_sink=recorded.append,
+    )
+    codec = load_codec()
+    acc = {p.frame_id for p in codec.roles["command"].parts}
+    frames = [m for m in read_frames(tmp_path / "d.mcap") if m.arbitration_id not in acc]
+    report = extract_demos(tmp_path / "d.mcap", codec, driver_id="d2", frames=frames)
+    (demo,) = report.trips
+    (ecu_trip,) = recorded
+    assert len(demo) == len(ecu_trip) == 300
+    assert np.abs(np.diff(demo.t_s) - 0.1).max() < 1e-12
+    for name in FIELDS[:-1]:
+        assert np.array_equal(getattr(ecu_trip, name), getattr(demo, name)), name
+    assert set(demo.acc_state.tolist()) == {0}
