@@ -1,6 +1,6 @@
 """The vehicle's trip reports over real HTTP on 127.0.0.1: ``pacc ecu --cloud URL`` reports
 its trip at exit (the cloud table version it started with, its ACC-on time, its takeover
-segment), and a report made while the cloud is away waits in the spool, behind its segment,
+segment; with --manual its manual driving goes up as a manual batch), and a report made while the cloud is away waits in the spool, behind its segment,
 until a later pass delivers both; a report the cloud refuses for good is set aside."""
 
 from __future__ import annotations
@@ -158,7 +158,7 @@ def test_ecu_reports_its_trip_over_http(
     args = ["-i", "virtual", "-c", "ecu-trip-report", "--duration", "4.0"]
     args += ["--cloud", served.url, "--vehicle", "car-ecu", "--driver", "ecu-syn"]
     args += ["--token-file", str(tmp_path / "car.token"), "--trust", str(tmp_path / "cloud.pub")]
-    args += ["--spool", str(tmp_path / "spool")]
+    args += ["--spool", str(tmp_path / "spool"), "--manual", "--manual-min", "0.5"]
     rc = ecu_main(args)
     peers.join()
     out = capsys.readouterr().out
@@ -168,7 +168,11 @@ def test_ecu_reports_its_trip_over_http(
     answer = served.get("/v1/drivers/ecu-syn/trips", token)
     (point,) = answer.json()
     assert point["dgpt_version"] == version and len(point["segments"]) == 1
-    assert point["segments"] == [b.digest for b in service.store.batches("ecu-syn", "default")]
+    batches = service.store.batches("ecu-syn", "default")
+    # the manual driving before SET (a lead, ACC in STANDBY) went up too, as a manual batch
+    assert sorted(b.kind for b in batches) == ["manual", "takeover"]
+    assert "manual trips: 1 of 1 written to the cloud spool" in out, out
+    assert point["segments"] == [b.digest for b in batches if b.kind == "takeover"]
     assert 1.5 <= point["acc_on_s"] <= 3.2  # engaged at ~1.3 s until 4.0 s
     assert point["intervention_s"] == pytest.approx(1.4, abs=0.35)  # the press, 1.6..3.0 s
     assert point["takeovers"] == 1
