@@ -1,7 +1,8 @@
 """The vehicle's trip reports over real HTTP on 127.0.0.1: ``pacc ecu --cloud URL`` reports
 its trip at exit (the cloud table version it started with, its ACC-on time, its takeover
-segment; with --manual its manual driving goes up as a manual batch), and a report made while the cloud is away waits in the spool, behind its segment,
-until a later pass delivers both; a report the cloud refuses for good is set aside."""
+segment; with --manual its manual driving goes up as a manual batch), and a report made
+while the cloud is away waits in the spool, behind its segment, until a later pass delivers
+both; a report the cloud refuses for good is set aside."""
 
 from __future__ import annotations
 

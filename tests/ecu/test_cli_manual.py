@@ -1,5 +1,6 @@
 """``pacc ecu --manual DIR``: the driver's manual car-following is spooled as demonstrations
-(batches of kind ``manual`` for ``pacc cloud sync --spool DIR``), beside the takeovers."""
+(batches of kind ``manual`` for ``pacc cloud sync --spool DIR``), beside the takeovers;
+``pacc drive --manual-trips DIR`` writes what the ECU recorded of it in a simulated drive."""
 
 from __future__ import annotations
 
@@ -9,9 +10,11 @@ import time
 from pathlib import Path
 
 import can
+import numpy as np
 import pytest
 
 from cloud_sync.vehicle.spool import Spool
+from pacc.commands.drive import main as drive_main
 from pacc.commands.ecu import main
 from pacc.vocab.triplog_file import read_trip
 from tests.peers import PeerNodes
@@ -83,3 +86,32 @@ def test_manual_flags_are_checked_before_the_bus_opens(
     with pytest.raises(SystemExit) as refused:
         main(["--manual-min", "0", "--duration", "0"])
     assert refused.value.code == 2
+
+
+def test_drive_writes_what_the_ecu_recorded_of_manual_driving(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``pacc drive --manual-trips DIR``: in cancel mode the driver drives between a brake
+    takeover and the resume; the ECU's manual trips land in DIR, and the drive's figures are
+    those of the same drive without the option."""
+    argv = ["--scenario", "cutin", "--driver", "d3", "--seed", "2", "--brake-mode", "cancel"]
+    argv += ["--duration", "120"]
+    assert drive_main(argv) == 0
+    plain = capsys.readouterr().out
+    assert drive_main([*argv, "--manual-trips", str(tmp_path / "m")]) == 0
+    out = capsys.readouterr().out
+    same = plain.splitlines()[1:]  # the first line has the wall-clock time
+    assert out.splitlines()[1 : len(same) + 1] == same, out  # the same drive; one line more
+    assert f"manual trips   2 (39.4 s) in {tmp_path / 'm'}" in out
+    trips = [read_trip(p) for p in sorted((tmp_path / "m").glob("manual_*.mcap"))]
+    assert [len(t) for t in trips] == [250, 144]
+    for trip in trips:
+        assert trip.meta["mode"] == "manual" and trip.meta["driver_id"] == "d3"
+        assert set(trip.acc_state.tolist()) <= {0, 1} and np.isfinite(trip.gap_m).all()
+    assert (
+        drive_main(
+            ["--manual", "--log", str(tmp_path / "x.mcap"), *argv[:2], "--manual-trips", "m"]
+        )
+        == 2
+    )
+    assert "drop --manual-trips" in capsys.readouterr().err
