@@ -125,12 +125,6 @@ class EcuNode:
         self._profile_fault = False
         self._pending_events: list[str] = []
         self._law, self._adaptation = _plugins(config)
-        meta = {
-            "driver_id": table.driver_id,
-            "condition": table.condition,
-            "brake_mode": config.brake_mode,
-            **dict(config.trip_meta),
-        }
         self.recorder: TakeoverRecorder | None = None
         if takeover_sink is not None:
             self.recorder = TakeoverRecorder(
@@ -138,16 +132,26 @@ class EcuNode:
                 period_s=config.record_period_s,
                 pre_s=config.pre_trigger_s,
                 post_s=config.post_trigger_s,
-                meta=meta,
+                meta={
+                    "driver_id": table.driver_id,
+                    "condition": table.condition,
+                    "brake_mode": config.brake_mode,
+                    **dict(config.trip_meta),
+                },
                 utc_of=utc_of,
             )
         self.manual: ManualRecorder | None = None
-        if manual_sink is not None:
+        if manual_sink is not None:  # the driver's manual car-following, same metadata
             self.manual = ManualRecorder(
                 manual_sink,
                 period_s=config.record_period_s,
                 min_s=manual_min_s,
-                meta=meta,
+                meta={
+                    "driver_id": table.driver_id,
+                    "condition": table.condition,
+                    "brake_mode": config.brake_mode,
+                    **dict(config.trip_meta),
+                },
                 utc_of=utc_of,
             )
 
@@ -223,12 +227,14 @@ class EcuNode:
         desired gap."""
         self._table = table
         self._profile_fault = False
-        ids = {"driver_id": table.driver_id, "condition": table.condition}
-        ids = {k: v for k, v in ids.items() if k not in self.config.trip_meta}
         if self.recorder is not None:  # later takeover segments are the new driver's
-            self.recorder.meta.update(ids)
+            ids = {"driver_id": table.driver_id, "condition": table.condition}
+            self.recorder.meta.update(
+                {k: v for k, v in ids.items() if k not in self.config.trip_meta}
+            )
         if self.manual is not None:  # an open manual stretch ends with a new driver
-            self.manual.set_meta(ids)
+            ids = {"driver_id": table.driver_id, "condition": table.condition}
+            self.manual.set_meta({k: v for k, v in ids.items() if k not in self.config.trip_meta})
         if message:
             self._pending_events.append(message)
 
