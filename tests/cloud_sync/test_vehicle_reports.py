@@ -26,6 +26,7 @@ from cloud_sync.vehicle.link import VehicleLink
 from cloud_sync.vehicle.reports import ReportQueue
 from cloud_sync.vehicle.spool import Spool
 from cloud_sync.vehicle.uploader import Uploader
+from pacc.commands.cloud import main as cloud_main
 from pacc.commands.ecu import main as ecu_main
 from tests.ecu.test_cli import CODEC, Peers
 from tests.ecu.test_cli_cloud import cloud_table
@@ -85,7 +86,7 @@ def _trips(served: _Served, token: str) -> list[dict[str, object]]:
 
 
 def test_a_report_waits_in_the_spool_while_the_cloud_is_away(
-    cloud: tuple[_Served, CloudService], tmp_path: Path
+    cloud: tuple[_Served, CloudService], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     served, service = cloud
     token = service.register_vehicle("car-away")
@@ -119,11 +120,14 @@ def test_a_report_waits_in_the_spool_while_the_cloud_is_away(
     assert [b.digest for b in Spool(tmp_path / "spool").pending()] == link.segments
     assert _trips(served, token) == []
 
-    # a later pass with the cloud back: the segment first, then the report
+    # a later pass with the cloud back (pacc cloud sync): the segment first, then the report
+    write_token(tmp_path / "car.token", token)
+    sync = ["sync", "--spool", str(tmp_path / "spool"), "--cloud", served.url]
+    assert cloud_main([*sync, "--token-file", str(tmp_path / "car.token")]) == 0
+    out = capsys.readouterr().out
+    assert "uploaded 1 batch(es)" in out and "trip reports: 1 sent, 0 refused" in out, out
+    assert ReportQueue(tmp_path / "spool").pending() == []
     with HttpCloud(served.url, token) as live:
-        uploader = Uploader(Spool(tmp_path / "spool"), live)
-        assert uploader.drain() == 1
-        assert uploader.reports.stats.sent == 1 and uploader.reports.pending() == []
         (point,) = _trips(served, token)
         assert point["trip_id"] == report["trip_id"] and point["dgpt_version"] == version
         assert point["acc_on_s"] == 120.0 and point["segments"] == link.segments
