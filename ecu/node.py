@@ -145,6 +145,7 @@ class EcuNode:
             self.manual = ManualRecorder(
                 manual_sink,
                 period_s=config.record_period_s,
+                cycle_s=config.cycle_s,
                 min_s=manual_min_s,
                 meta={
                     "driver_id": table.driver_id,

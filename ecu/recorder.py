@@ -16,16 +16,19 @@ sink refused is kept (up to :data:`MAX_PENDING` of them) and offered again, in o
 next emit and at :meth:`TakeoverRecorder.flush`.
 
 **Manual driving** (:class:`ManualRecorder`): the demonstrations the cloud learns from, recorded
-on the vehicle as in the paper. The node offers the same samples (one kept every
-``period_s``, the same rule as the takeover recorder's), each with the cycle's input check; a
-kept sample is *manual car-following* when the ACC is not engaged (OFF or STANDBY), a lead is
-valid and the inputs the demonstration needs are good (speed, pedals and radar fresh, passed
-E2E and finite: :func:`manual_inputs_ok`). A run of such samples is one stretch; a stretch of
-at least ``min_s`` (``count × period_s``, default :data:`MANUAL_MIN_S`) becomes one trip log
-with ``meta["mode"] == "manual"`` (the takeover segments' format and metadata), a stretch
-reaching ``max_s`` (:data:`MANUAL_MAX_S`) is handed over and the next sample starts a new
-one (a bounded buffer on the vehicle). ``pacc demos extract`` cuts a bus log of the same
-drive the same way (:mod:`cloud_sync.irl.bus_demos`).
+on the vehicle as in the paper. The node offers the same samples, each with the cycle's input
+check; the recorder keeps the first cycle at least ``period_s`` less half a cycle after the
+last kept one (:func:`keep_sample`: in real time, where cycles jitter, every 5th 20-ms cycle,
+never drifting to the 6th as the takeover recorder's ``period_s - 1 µs`` may; in lockstep
+both keep the same cycles). A kept sample is *manual car-following* when the ACC is not
+engaged (OFF or STANDBY), a lead is valid and the inputs the demonstration needs are good
+(speed, pedals and radar fresh, passed E2E and finite: :func:`manual_inputs_ok`). A run of
+such samples is one stretch; a stretch of at least ``min_s`` (``count × period_s``, default
+:data:`MANUAL_MIN_S`) becomes one trip log with ``meta["mode"] == "manual"`` (the takeover
+segments' format and metadata), a stretch reaching ``max_s`` (:data:`MANUAL_MAX_S`) is handed
+over and the next sample starts a new one (a bounded buffer on the vehicle).
+``pacc demos extract`` cuts a bus log of the same drive the same way
+(:mod:`cloud_sync.irl.bus_demos`).
 
 Both recorders hand their trips to the sink through the same queue (:class:`SinkQueue`):
 a sink that raises is retried later, never raised into the control loop.
@@ -87,6 +90,13 @@ class Sample:
     accel_pedal: float
     brake_pedal: float
     acc_state: int
+
+
+def keep_sample(t_s: float, last_kept_s: float, period_s: float, cycle_s: float) -> bool:
+    """Whether the manual recorder keeps the cycle at ``t_s`` (s): ``period_s`` after the
+    last kept one (``last_kept_s``; -inf: none yet) less half a cycle (``cycle_s``, s; at least
+    :data:`PERIOD_EPS_S`). ``pacc demos extract`` keeps the ECU's cycles by the same rule."""
+    return t_s - last_kept_s >= period_s - max(0.5 * cycle_s, PERIOD_EPS_S)
 
 
 def manual_inputs_ok(fault: FaultCode) -> bool:
@@ -313,6 +323,7 @@ class ManualRecorder:
     Args:
         sink: receives each manual trip.
         period_s: recording period, s (the takeover recorder's).
+        cycle_s: the control cycle, s (:func:`keep_sample`; 0: the takeover recorder's rule).
         min_s: shortest stretch kept, s.
         max_s: longest trip, s (a longer stretch is handed over in pieces).
         meta: metadata copied into every trip (driver_id, condition, ...).
@@ -324,6 +335,7 @@ class ManualRecorder:
         sink: TripSink,
         *,
         period_s: float = 0.1,
+        cycle_s: float = 0.0,
         min_s: float = MANUAL_MIN_S,
         max_s: float = MANUAL_MAX_S,
         meta: Mapping[str, Any] | None = None,
@@ -333,6 +345,7 @@ class ManualRecorder:
             raise RecorderError("manual recorder: need period_s > 0 and 0 <= min_s <= max_s")
         self.queue = SinkQueue(sink, "manual trip")
         self.period_s = period_s
+        self.cycle_s = cycle_s if math.isfinite(cycle_s) and 0.0 <= cycle_s < period_s else 0.0
         self.min_s = min_s
         self.meta = dict(meta or {})
         self.utc_of = utc_of
@@ -346,9 +359,11 @@ class ManualRecorder:
         self.short_s = 0.0
 
     def sample(self, s: Sample, fault: FaultCode) -> None:
-        """Offer one cycle's sample and its input check; kept as :class:`TakeoverRecorder`
-        keeps samples, then added to the stretch or ending it."""
-        if not (math.isfinite(s.t_s) and s.t_s - self._last_t >= self.period_s - PERIOD_EPS_S):
+        """Offer one cycle's sample and its input check; if kept (:func:`keep_sample`),
+        added to the stretch or ending it."""
+        if not (
+            math.isfinite(s.t_s) and keep_sample(s.t_s, self._last_t, self.period_s, self.cycle_s)
+        ):
             return
         self._last_t = s.t_s
         if fault in _MANUAL_OK and s.acc_state in _NOT_ENGAGED and not math.isnan(s.gap_m):
@@ -425,6 +440,7 @@ __all__ = [
     "TakeoverRecorder",
     "TripSink",
     "directory_sink",
+    "keep_sample",
     "manual_inputs_ok",
     "trip_of",
 ]

@@ -11,9 +11,10 @@ radar's lead, and the ACC's state where the car sends one.
 recording of the same stretches). The ECU reads its inputs once per control cycle and sends
 its command frames right after, so the log's command frames (the binding's ``command`` role,
 its last message each cycle) mark the instants the ECU sampled: the extraction samples the
-decoded values at those frames, keeping one as the recorder keeps one (``period_s`` after the
-last kept, less :data:`~ecu.recorder.PERIOD_EPS_S`), with what the frames before it said
-and the ACC state the cycle's own frame carries. Where the log has no command frames, or
+decoded values at those frames, keeping one as the recorder keeps one
+(:func:`ecu.recorder.keep_sample`: ``period_s`` after the last kept less half a cycle, the
+cycle the binding's command message's), with what the frames before it said and the ACC
+state the cycle's own frame carries. Where the log has no command frames, or
 their cycle does not divide ``period_s`` (another car's ACC), a ``period_s`` grid from the
 first frame is used instead, each grid point seeing the frames up to its instant. Times are
 taken relative to the log's first frame and rounded to 1 µs (:data:`TIME_RESOLUTION_S`): a
@@ -118,7 +119,10 @@ class _Sampler:
         command = codec.roles.get("command")
         #: the cycle's last command frame (the ECU sends the role's messages in order)
         self.marker = None if command is None else command.parts[-1].frame_id
-        self.marker_cycle_s = None if command is None else command.parts[-1].cycle_s
+        cycle = 0.0 if command is None else command.parts[-1].cycle_s
+        #: the ECU recorder's rule (ecu.recorder.keep_sample): a cycle is kept this long
+        #: after the last kept one
+        self.keep_after_s = period_s - max(0.5 * cycle, PERIOD_EPS_S)
         self.at_cycles: dict[str, list[float]] = {k: [] for k in _COLS}
         self.on_grid: dict[str, list[float]] = {k: [] for k in _COLS}
         self.markers: list[float] = []
@@ -138,7 +142,7 @@ class _Sampler:
         self.inbox.accept_message(msg, t)
         if msg.arbitration_id == self.marker:
             self.markers.append(t)
-            if t - self._kept >= self.period_s - PERIOD_EPS_S:
+            if t - self._kept >= self.keep_after_s:
                 self._kept = t
                 _sample(self.at_cycles, self.inbox, t, self.pedals)
 
@@ -149,7 +153,8 @@ class _Sampler:
         if len(self.markers) > 1:
             cycle = float(np.median(np.diff(self.markers)))
             ratio = self.period_s / cycle if cycle > 0 else 0.0
-            if ratio >= 1.0 - 1e-3 and abs(ratio - round(ratio)) < 1e-3:
+            # a whole number of cycles per sample (a real-time ECU's cycles jitter a little)
+            if ratio >= 0.95 and abs(ratio - round(ratio)) < 0.05:
                 rows = self.at_cycles
         return {k: np.asarray(v, dtype=np.float64) for k, v in rows.items()}
 

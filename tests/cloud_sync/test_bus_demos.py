@@ -152,6 +152,11 @@ def test_the_extraction_uses_the_ecu_recorders_rules() -> None:
     assert bus_demos.MAX_S == recorder.MANUAL_MAX_S
     assert bus_demos.PERIOD_EPS_S == recorder.PERIOD_EPS_S
     assert EcuConfig().record_period_s == bus_demos.DT_S
+    codec = load_codec()
+    sampler = bus_demos._Sampler(codec, bus_demos.DT_S)  # noqa: SLF001 - the rule it uses
+    cycle = codec.roles["command"].parts[-1].cycle_s
+    for dt in (0.089, 0.09, 0.0999, 0.1, 0.12):
+        assert (dt >= sampler.keep_after_s) == recorder.keep_sample(dt, 0.0, 0.1, cycle), dt
 
 
 def test_what_is_not_manual_following_is_dropped_with_its_reason(tmp_path: Path) -> None:

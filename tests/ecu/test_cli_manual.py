@@ -70,6 +70,7 @@ def test_ecu_spools_the_manual_driving(tmp_path: Path, capsys: pytest.CaptureFix
         assert trip.meta["start_utc"].endswith("Z")
         assert set(trip.acc_state.tolist()) == {0}  # OFF
         assert trip.accel_pedal.min() > 0.0 and (trip.gap_m == 40.0).all()
+        assert abs(float(np.median(np.diff(trip.t_s))) - 0.1) < 0.005  # every 5th cycle
     # the radar times out 0.5 s (10 of its periods) after it went silent
     assert 1.0 <= len(first) * 0.1 <= 2.3 and 0.8 <= len(second) * 0.1 <= 2.0
 

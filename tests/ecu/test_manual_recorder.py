@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from ecu.node import EcuConfig, EcuNode, NodeInputs
@@ -17,6 +18,7 @@ from ecu.recorder import (
     Sample,
     TakeoverRecorder,
     directory_sink,
+    keep_sample,
 )
 from pacc.vocab.acc_state import AccState, FaultCode
 from pacc.vocab.dgpt import predefined
@@ -165,3 +167,26 @@ def test_the_takeover_recorder_keeps_the_acc_on_time() -> None:
         state = OFF if t < 2 else STANDBY if t < 4 else ACTIVE if t < 8 else STANDBY
         rec.sample(Sample(t, 20.0, 30.0, 20.0, 0.0, 0.0, 0.0, state))
     assert rec.acc_on_s == pytest.approx(5.9)  # 4 + 2 s, less the last sample's 0.1
+
+
+def test_jittering_real_time_cycles_are_kept_every_fifth() -> None:
+    """keep_sample: a real-time ECU's cycles jitter (here +-4 ms around the 20-ms grid); the
+    manual recorder keeps every 5th, where ``period_s - 1 µs`` drifts to the 6th."""
+    rng = np.random.default_rng(7)
+    times = np.arange(1000) * 0.02 + rng.uniform(-0.004, 0.004, 1000)
+    kept, strict, last, last_strict = [], [], -math.inf, -math.inf
+    for t in times.tolist():
+        if keep_sample(t, last, 0.1, 0.02):
+            kept.append(t)
+            last = t
+        if keep_sample(t, last_strict, 0.1, 0.0):
+            strict.append(t)
+            last_strict = t
+    assert len(kept) == 200 and np.abs(np.diff(kept) - 0.1).max() < 0.009
+    assert len(strict) < 190  # the old rule loses samples to the jitter
+    out: list[Trip] = []
+    rec = ManualRecorder(out.append, cycle_s=0.02, min_s=1.0)
+    for t in times.tolist():
+        rec.sample(Sample(t, 20.0, 30.0, 20.0, 0.0, 0.0, 0.0, OFF), FaultCode.NONE)
+    rec.flush()
+    assert [len(t) for t in out] == [200]
