@@ -136,6 +136,9 @@ class ReportQueue:
             except (OSError, ValueError) as exc:
                 self._reject(path, f"unreadable: {exc}")
                 continue
+            if not isinstance(report, dict) or not isinstance(report.get("segments", []), list):
+                self._reject(path, "not a trip report (a JSON object with a segments list)")
+                continue
             if any(d in spooled for d in report.get("segments", [])):
                 break  # its segments first: the order is the upload's
             try:

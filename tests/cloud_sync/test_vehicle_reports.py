@@ -23,7 +23,7 @@ from cloud_sync.vehicle.client import HttpCloud
 from cloud_sync.vehicle.connect import write_token
 from cloud_sync.vehicle.download import ProfileDownloader
 from cloud_sync.vehicle.link import VehicleLink
-from cloud_sync.vehicle.reports import ReportQueue
+from cloud_sync.vehicle.reports import ReportError, ReportQueue
 from cloud_sync.vehicle.spool import Spool
 from cloud_sync.vehicle.uploader import Uploader
 from pacc.commands.cloud import main as cloud_main
@@ -181,3 +181,28 @@ def test_ecu_reports_its_trip_over_http(
     assert 1.5 <= point["acc_on_s"] <= 3.2  # engaged at ~1.3 s until 4.0 s
     assert point["intervention_s"] == pytest.approx(1.4, abs=0.35)  # the press, 1.6..3.0 s
     assert point["takeovers"] == 1
+
+
+def test_a_damaged_report_file_is_set_aside_and_bad_reports_are_not_queued(
+    cloud: tuple[_Served, CloudService], tmp_path: Path
+) -> None:
+    served, service = cloud
+    token = service.register_vehicle("car-junk")
+    queue = ReportQueue(tmp_path)
+    queue.root.mkdir()
+    (queue.root / "000000000001-junk.json").write_text("[1, 2]\n")
+    (queue.root / "000000000002-torn.json").write_text('{"driver_id": "s')
+    (queue.root / ".0123.part").write_text("{")  # a write cut short: removed on open
+    queue = ReportQueue(tmp_path)
+    assert not (queue.root / ".0123.part").exists()
+    with HttpCloud(served.url, token) as live:
+        assert queue.send(live, set()) == 0
+    assert queue.stats.rejected == 2 and queue.pending() == []
+    assert sorted(p.name for p in (queue.root / "rejected").glob("*.json")) == [
+        "000000000001-junk.json",
+        "000000000002-torn.json",
+    ]
+    for bad in ({"trip_id": "../x"}, {"trip_id": "t", "acc_on_s": float("nan")}, {}):
+        with pytest.raises(ReportError):
+            queue.put(bad)
+    assert queue.pending() == []
