@@ -197,8 +197,9 @@ class EcuNode:
         command = self._control(new, inp, p, dt, events, go)
         if self.recorder is not None:
             self.recorder.sample(sample_of(inp, now_s, new))
-        if self.manual is not None:
-            self.manual.sample(sample_of(inp, now_s, new), check.fault)
+        manual = self.manual  # a sample only for the cycles it may keep (every 5th)
+        if manual is not None and now_s >= manual.next_due_s:
+            manual.sample(sample_of(inp, now_s, new), check.fault)
         return outputs(
             new,
             command,

@@ -352,6 +352,9 @@ class ManualRecorder:
         self._max_n = max(1, int(round(max_s / period_s)))
         self._stretch: list[Sample] = []
         self._last_t = -math.inf
+        #: no cycle before this time (s) can be kept: the node builds a sample only from
+        #: here on (1 ns early: :meth:`sample` decides exactly)
+        self.next_due_s = -math.inf
         #: manual trips handed over so far
         self.trips = 0
         #: seconds kept in trips, and seconds of manual stretches shorter than ``min_s``
@@ -366,6 +369,7 @@ class ManualRecorder:
         ):
             return
         self._last_t = s.t_s
+        self.next_due_s = s.t_s + self.period_s - max(0.5 * self.cycle_s, PERIOD_EPS_S) - 1e-9
         if fault in _MANUAL_OK and s.acc_state in _NOT_ENGAGED and not math.isnan(s.gap_m):
             self._stretch.append(s)
             if len(self._stretch) >= self._max_n:

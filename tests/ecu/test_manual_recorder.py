@@ -186,7 +186,13 @@ def test_jittering_real_time_cycles_are_kept_every_fifth() -> None:
     assert len(strict) < 190  # the old rule loses samples to the jitter
     out: list[Trip] = []
     rec = ManualRecorder(out.append, cycle_s=0.02, min_s=1.0)
+    offered: list[Trip] = []  # as the node offers: only from next_due_s on
+    pre = ManualRecorder(offered.append, cycle_s=0.02, min_s=1.0)
     for t in times.tolist():
         rec.sample(Sample(t, 20.0, 30.0, 20.0, 0.0, 0.0, 0.0, OFF), FaultCode.NONE)
+        if t >= pre.next_due_s:
+            pre.sample(Sample(t, 20.0, 30.0, 20.0, 0.0, 0.0, 0.0, OFF), FaultCode.NONE)
     rec.flush()
+    pre.flush()
     assert [len(t) for t in out] == [200]
+    assert np.array_equal(offered[0].t_s, out[0].t_s)
