@@ -5,8 +5,8 @@ One call per 20 ms control cycle: read the checked inputs (the runtime builds
 engagement state machine, track takeovers (record them, adapt the DGPT at pedal release),
 plan, control within the envelope and return :class:`NodeOutputs`. Each phase is a pure
 function of :mod:`ecu.phases`; the node holds the state between cycles and wires them. The
-node never touches a bus, a clock or a file; the only I/O is the optional takeover sink,
-injected.
+node never touches a bus, a clock or a file; the only I/O is the optional takeover and manual
+trip sinks, injected.
 
 Usage (the simulator drives it in lockstep through :class:`ecu.runtime.EcuRuntime`)::
 
@@ -65,7 +65,7 @@ from ecu.phases import (
     sample_of,
     takeover_pedal,
 )
-from ecu.recorder import TakeoverRecorder, TripSink
+from ecu.recorder import MANUAL_MIN_S, ManualRecorder, TakeoverRecorder, TripSink
 from ecu.signals import NodeInputs, NodeOutputs, input_fault
 from ecu.state import transition
 from pacc.vocab import FormatError
@@ -86,6 +86,9 @@ class EcuNode:
             lockstep drive can make its tables reproducible; default: the wall clock).
         utc_of: maps the node's clock (s) to ISO 8601 UTC, for the takeover segments'
             ``start_utc`` (None: segments carry the node's clock only, as lockstep drives).
+        manual_sink: receives each manual car-following trip (:class:`ManualRecorder`);
+            None disables it.
+        manual_min_s: the shortest manual stretch recorded, s.
     """
 
     def __init__(
@@ -96,6 +99,8 @@ class EcuNode:
         *,
         utc_now: Callable[[], str] = utc_now_iso,
         utc_of: Callable[[float], str] | None = None,
+        manual_sink: TripSink | None = None,
+        manual_min_s: float = MANUAL_MIN_S,
     ) -> None:
         self.config = config
         self._utc_now = utc_now
@@ -128,6 +133,21 @@ class EcuNode:
                 period_s=config.record_period_s,
                 pre_s=config.pre_trigger_s,
                 post_s=config.post_trigger_s,
+                meta={
+                    "driver_id": table.driver_id,
+                    "condition": table.condition,
+                    "brake_mode": config.brake_mode,
+                    **dict(config.trip_meta),
+                },
+                utc_of=utc_of,
+            )
+        self.manual: ManualRecorder | None = None
+        if manual_sink is not None:  # the driver's manual car-following, same metadata
+            self.manual = ManualRecorder(
+                manual_sink,
+                period_s=config.record_period_s,
+                cycle_s=config.cycle_s,
+                min_s=manual_min_s,
                 meta={
                     "driver_id": table.driver_id,
                     "condition": table.condition,
@@ -180,6 +200,9 @@ class EcuNode:
         command = self._control(new, inp, p, dt, events, go)
         if self.recorder is not None:
             self.recorder.sample(sample_of(inp, now_s, new))
+        manual = self.manual  # a sample only for the cycles it may keep (every 5th)
+        if manual is not None and now_s >= manual.next_due_s:
+            manual.sample(sample_of(inp, now_s, new), check.fault)
         return outputs(
             new,
             command,
@@ -214,13 +237,18 @@ class EcuNode:
             self.recorder.meta.update(
                 {k: v for k, v in ids.items() if k not in self.config.trip_meta}
             )
+        if self.manual is not None:  # an open manual stretch ends with a new driver
+            ids = {"driver_id": table.driver_id, "condition": table.condition}
+            self.manual.set_meta({k: v for k, v in ids.items() if k not in self.config.trip_meta})
         if message:
             self._pending_events.append(message)
 
     def finish(self) -> None:
-        """End of trip: hand any open takeover segment to the sink."""
+        """End of trip: hand any open takeover segment and manual stretch to the sinks."""
         if self.recorder is not None:
             self.recorder.flush()
+        if self.manual is not None:
+            self.manual.flush()
 
     # -- internals -------------------------------------------------------------------------
 

@@ -1,4 +1,7 @@
-"""Takeover recorder: a pre-trigger ring buffer and complete takeover segments for a sink.
+"""The ECU's recorders: takeover segments and the driver's manual car-following trips.
+
+**Takeovers** (:class:`TakeoverRecorder`): a pre-trigger ring buffer and complete takeover
+segments for a sink.
 
 The node feeds one sample per cycle; the recorder keeps one every ``period_s`` (10 Hz by
 default) in a ring buffer holding the last ``pre_s`` seconds. When a takeover starts the
@@ -11,7 +14,25 @@ The sink is I/O at the edge: any exception it raises is caught, logged and count
 :attr:`TakeoverRecorder.sink_errors`; recording never stops the control loop. A segment the
 sink refused is kept (up to :data:`MAX_PENDING` of them) and offered again, in order, at the
 next emit and at :meth:`TakeoverRecorder.flush`.
-:func:`directory_sink` writes each segment as an MCAP file into a directory.
+
+**Manual driving** (:class:`ManualRecorder`): the demonstrations the cloud learns from, recorded
+on the vehicle as in the paper. The node offers the same samples, each with the cycle's input
+check; the recorder keeps the first cycle at least ``period_s`` less half a cycle after the
+last kept one (:func:`keep_sample`: in real time, where cycles jitter, every 5th 20-ms cycle,
+never drifting to the 6th as the takeover recorder's ``period_s - 1 µs`` may; in lockstep
+both keep the same cycles). A kept sample is *manual car-following* when the ACC is not
+engaged (OFF or STANDBY), a lead is valid and the inputs the demonstration needs are good
+(speed, pedals and radar fresh, passed E2E and finite: :func:`manual_inputs_ok`). A run of
+such samples is one stretch; a stretch of at least ``min_s`` (``count × period_s``, default
+:data:`MANUAL_MIN_S`) becomes one trip log with ``meta["mode"] == "manual"`` (the takeover
+segments' format and metadata), a stretch reaching ``max_s`` (:data:`MANUAL_MAX_S`) is handed
+over and the next sample starts a new one (a bounded buffer on the vehicle).
+``pacc demos extract`` cuts a bus log of the same drive the same way
+(:mod:`cloud_sync.irl.bus_demos`).
+
+Both recorders hand their trips to the sink through the same queue (:class:`SinkQueue`):
+a sink that raises is retried later, never raised into the control loop.
+:func:`directory_sink` writes each trip as an MCAP file into a directory.
 """
 
 from __future__ import annotations
@@ -28,6 +49,7 @@ from typing import Any
 import numpy as np
 
 from ecu import EcuError
+from pacc.vocab.acc_state import AccState, FaultCode
 from pacc.vocab.triplog import Trip
 from pacc.vocab.triplog_file import write_trip
 from pacc.vocab.tripmode import TripMode
@@ -35,8 +57,18 @@ from pacc.vocab.tripmode import TripMode
 log = logging.getLogger(__name__)
 
 TripSink = Callable[[Trip], None]
-#: Segments kept for a retry while the sink fails; beyond it the oldest is dropped (logged).
+#: Trips kept for a retry while the sink fails; beyond it the oldest is dropped (logged).
 MAX_PENDING = 64
+#: Shortest manual stretch that becomes a trip, s (``pacc demos extract``'s default too).
+MANUAL_MIN_S = 10.0
+#: Longest manual trip, s: a longer stretch is handed over in pieces of this length.
+MANUAL_MAX_S = 600.0
+#: Round-off margin of the sampling period and of a stretch's length, s.
+PERIOD_EPS_S = 1e-6
+_NOT_ENGAGED = (int(AccState.OFF), int(AccState.STANDBY))
+_ENGAGED = (int(AccState.ACTIVE), int(AccState.OVERRIDE))
+#: input faults a manual demonstration does not care about (the buttons' HMI frame)
+_MANUAL_OK = (FaultCode.NONE, FaultCode.HMI_INPUT)
 
 
 class RecorderError(EcuError):
@@ -60,8 +92,116 @@ class Sample:
     acc_state: int
 
 
+def keep_sample(t_s: float, last_kept_s: float, period_s: float, cycle_s: float) -> bool:
+    """Whether the manual recorder keeps the cycle at ``t_s`` (s): ``period_s`` after the
+    last kept one (``last_kept_s``; -inf: none yet) less half a cycle (``cycle_s``, s; at least
+    :data:`PERIOD_EPS_S`). ``pacc demos extract`` keeps the ECU's cycles by the same rule."""
+    return t_s - last_kept_s >= period_s - max(0.5 * cycle_s, PERIOD_EPS_S)
+
+
+def manual_inputs_ok(fault: FaultCode) -> bool:
+    """True when a cycle's input check (:func:`ecu.signals.input_fault`) leaves what a manual
+    demonstration needs good: speed, pedals and radar fresh, passed E2E and finite (a stale
+    HMI, the buttons, does not matter)."""
+    return fault in _MANUAL_OK
+
+
+def trip_of(samples: list[Sample], meta: dict[str, Any]) -> Trip:
+    """The samples as a trip log (pedals clipped to 0..1).
+
+    Raises:
+        TripLogError: the samples do not make a valid trip (non-monotonic time ...).
+    """
+    cols = list(
+        zip(
+            *(
+                (
+                    s.t_s,
+                    s.v_mps,
+                    s.gap_m,
+                    s.v_lead_mps,
+                    s.a_mps2,
+                    s.accel_pedal,
+                    s.brake_pedal,
+                    s.acc_state,
+                )
+                for s in samples
+            ),
+            strict=True,
+        )
+    )
+    return Trip(
+        t_s=np.asarray(cols[0]),
+        v_mps=np.asarray(cols[1]),
+        gap_m=np.asarray(cols[2]),
+        v_lead_mps=np.asarray(cols[3]),
+        a_mps2=np.asarray(cols[4]),
+        accel_pedal=np.clip(np.asarray(cols[5]), 0.0, 1.0),
+        brake_pedal=np.clip(np.asarray(cols[6]), 0.0, 1.0),
+        acc_state=np.asarray(cols[7], dtype=np.int64),
+        meta=meta,
+    )
+
+
+class SinkQueue:
+    """Trips on their way to a sink: a refused trip is kept (up to :data:`MAX_PENDING`) and
+    offered again, in order, at the next :meth:`put` and :meth:`store`; the sink's
+    exceptions are caught, logged and counted, never raised.
+
+    Args:
+        sink: receives each trip.
+        what: the trips' name in log lines ("takeover segment", "manual trip").
+    """
+
+    def __init__(self, sink: TripSink, what: str) -> None:
+        self.sink = sink
+        self.what = what
+        self.sink_errors = 0
+        #: trips the sink refused so far and not yet stored
+        self.pending: deque[Trip] = deque()
+
+    def put(self, trip: Trip) -> None:
+        """Queue ``trip`` and store what is pending."""
+        if len(self.pending) >= MAX_PENDING:
+            lost = self.pending.popleft()
+            log.error("%s %s dropped: sink failing", self.what, lost.meta.get("index"))
+        self.pending.append(trip)
+        self.store()
+
+    def build(self, samples: list[Sample], meta: dict[str, Any]) -> None:
+        """:meth:`put` the trip of ``samples``; one that cannot be built is counted, logged
+        and dropped (never raised into the control loop)."""
+        try:
+            trip = trip_of(samples, meta)
+        except Exception as exc:  # noqa: BLE001 - never stop the control loop
+            self.sink_errors += 1
+            log.error("%s %s not built: %s", self.what, meta.get("index"), exc)
+            return
+        self.put(trip)
+
+    def store(self) -> None:
+        """Hand the pending trips to the sink, oldest first, until one fails."""
+        while self.pending:
+            trip = self.pending[0]
+            try:
+                self.sink(trip)
+            except Exception as exc:  # noqa: BLE001 - I/O edge: never stop the control loop
+                self.sink_errors += 1
+                log.error(
+                    "%s %s not stored (kept for a retry): %s",
+                    self.what,
+                    trip.meta.get("index"),
+                    exc,
+                )
+                return
+            self.pending.popleft()
+
+
 class TakeoverRecorder:
     """Ring buffer plus open segment; see the module docstring.
+
+    Also keeps the trip's ACC-on time (:attr:`acc_on_s`, s: Active or Override, and Standby
+    after the first engagement, the study's definition), counted on the kept samples.
 
     Args:
         sink: receives each complete segment.
@@ -86,7 +226,7 @@ class TakeoverRecorder:
     ) -> None:
         if not (period_s > 0.0 and pre_s >= 0.0 and post_s >= 0.0):
             raise RecorderError("recorder periods must be positive")
-        self.sink = sink
+        self.queue = SinkQueue(sink, "takeover segment")
         self.period_s = period_s
         self.post_s = post_s
         self.meta = dict(meta or {})
@@ -97,17 +237,33 @@ class TakeoverRecorder:
         self._release_s: float | None = None
         self._last_t: float = -math.inf
         self.segments = 0
-        self.sink_errors = 0
-        #: segments the sink refused so far and not yet stored
-        self.pending: deque[Trip] = deque()
+        #: seconds the ACC was on so far (kept samples' resolution)
+        self.acc_on_s = 0.0
+        self._engaged = False
+        self._on = False
+
+    @property
+    def sink_errors(self) -> int:
+        """Failed attempts to build or store a segment."""
+        return self.queue.sink_errors
+
+    @property
+    def pending(self) -> deque[Trip]:
+        """Segments the sink refused so far and not yet stored."""
+        return self.queue.pending
 
     def sample(self, s: Sample) -> None:
         """Offer one sample; kept if ``period_s`` has passed since the last kept one.
 
         A sample with a non-finite time is ignored (it would stop the recording for good).
         """
-        if not (math.isfinite(s.t_s) and s.t_s - self._last_t >= self.period_s - 1e-6):
+        if not (math.isfinite(s.t_s) and s.t_s - self._last_t >= self.period_s - PERIOD_EPS_S):
             return
+        if self._on:
+            self.acc_on_s += s.t_s - self._last_t
+        engaged = s.acc_state in _ENGAGED
+        self._engaged = self._engaged or engaged
+        self._on = engaged or (self._engaged and s.acc_state == AccState.STANDBY)
         self._last_t = s.t_s
         if self._segment is None:
             self._ring.append(s)
@@ -141,7 +297,7 @@ class TakeoverRecorder:
         if self._segment is not None:
             self._emit()
         else:
-            self._store_pending()
+            self.queue.store()
 
     def _emit(self) -> None:
         seg = self._segment or []
@@ -157,66 +313,100 @@ class TakeoverRecorder:
         }
         if self.utc_of is not None:
             meta["start_utc"] = self.utc_of(seg[0].t_s)
-        cols = list(
-            zip(
-                *(
-                    (
-                        s.t_s,
-                        s.v_mps,
-                        s.gap_m,
-                        s.v_lead_mps,
-                        s.a_mps2,
-                        s.accel_pedal,
-                        s.brake_pedal,
-                        s.acc_state,
-                    )
-                    for s in seg
-                ),
-                strict=True,
-            )
-        )
         self.segments += 1
-        try:
-            trip = Trip(
-                t_s=np.asarray(cols[0]),
-                v_mps=np.asarray(cols[1]),
-                gap_m=np.asarray(cols[2]),
-                v_lead_mps=np.asarray(cols[3]),
-                a_mps2=np.asarray(cols[4]),
-                accel_pedal=np.clip(np.asarray(cols[5]), 0.0, 1.0),
-                brake_pedal=np.clip(np.asarray(cols[6]), 0.0, 1.0),
-                acc_state=np.asarray(cols[7], dtype=np.int64),
-                meta=meta,
-            )
-        except Exception as exc:  # noqa: BLE001 - never stop the control loop
-            self.sink_errors += 1
-            log.error("takeover segment %d not built: %s", meta["index"], exc)
+        self.queue.build(seg, meta)
+
+
+class ManualRecorder:
+    """The driver's manual car-following stretches as trip logs (module docstring).
+
+    Args:
+        sink: receives each manual trip.
+        period_s: recording period, s (the takeover recorder's).
+        cycle_s: the control cycle, s (:func:`keep_sample`; 0: the takeover recorder's rule).
+        min_s: shortest stretch kept, s.
+        max_s: longest trip, s (a longer stretch is handed over in pieces).
+        meta: metadata copied into every trip (driver_id, condition, ...).
+        utc_of: as :class:`TakeoverRecorder`'s (``meta["start_utc"]``).
+    """
+
+    def __init__(
+        self,
+        sink: TripSink,
+        *,
+        period_s: float = 0.1,
+        cycle_s: float = 0.0,
+        min_s: float = MANUAL_MIN_S,
+        max_s: float = MANUAL_MAX_S,
+        meta: Mapping[str, Any] | None = None,
+        utc_of: Callable[[float], str] | None = None,
+    ) -> None:
+        if not (period_s > 0.0 and 0.0 <= min_s <= max_s and math.isfinite(max_s)):
+            raise RecorderError("manual recorder: need period_s > 0 and 0 <= min_s <= max_s")
+        self.queue = SinkQueue(sink, "manual trip")
+        self.period_s = period_s
+        self.cycle_s = cycle_s if math.isfinite(cycle_s) and 0.0 <= cycle_s < period_s else 0.0
+        self.min_s = min_s
+        self.meta = dict(meta or {})
+        self.utc_of = utc_of
+        self._max_n = max(1, int(round(max_s / period_s)))
+        self._stretch: list[Sample] = []
+        self._last_t = -math.inf
+        #: no cycle before this time (s) can be kept: the node builds a sample only from
+        #: here on (1 ns early: :meth:`sample` decides exactly)
+        self.next_due_s = -math.inf
+        #: manual trips handed over so far
+        self.trips = 0
+        #: seconds kept in trips, and seconds of manual stretches shorter than ``min_s``
+        self.kept_s = 0.0
+        self.short_s = 0.0
+
+    def sample(self, s: Sample, fault: FaultCode) -> None:
+        """Offer one cycle's sample and its input check; if kept (:func:`keep_sample`),
+        added to the stretch or ending it."""
+        if not (
+            math.isfinite(s.t_s) and keep_sample(s.t_s, self._last_t, self.period_s, self.cycle_s)
+        ):
             return
-        if len(self.pending) >= MAX_PENDING:
-            lost = self.pending.popleft()
-            log.error("takeover segment %s dropped: sink failing", lost.meta.get("index"))
-        self.pending.append(trip)
-        self._store_pending()
+        self._last_t = s.t_s
+        self.next_due_s = s.t_s + self.period_s - max(0.5 * self.cycle_s, PERIOD_EPS_S) - 1e-9
+        if fault in _MANUAL_OK and s.acc_state in _NOT_ENGAGED and not math.isnan(s.gap_m):
+            self._stretch.append(s)
+            if len(self._stretch) >= self._max_n:
+                self._close()
+        elif self._stretch:
+            self._close()
 
-    def _store_pending(self) -> None:
-        """Hand the pending segments to the sink, oldest first, until one fails."""
-        while self.pending:
-            trip = self.pending[0]
-            try:
-                self.sink(trip)
-            except Exception as exc:  # noqa: BLE001 - I/O edge: never stop the control loop
-                self.sink_errors += 1
-                log.error(
-                    "takeover segment %s not stored (kept for a retry): %s",
-                    trip.meta.get("index"),
-                    exc,
-                )
-                return
-            self.pending.popleft()
+    def set_meta(self, changes: Mapping[str, Any]) -> None:
+        """Update the trips' metadata (a driver profile switch): an open stretch is the old
+        driver's and ends here."""
+        if any(self.meta.get(k) != v for k, v in changes.items()):
+            self._close()
+            self.meta.update(changes)
+
+    def flush(self) -> None:
+        """End of trip: hand over the open stretch (if long enough) and the pending trips."""
+        if self._stretch:
+            self._close()
+        else:
+            self.queue.store()
+
+    def _close(self) -> None:
+        stretch, self._stretch = self._stretch, []
+        seconds = len(stretch) * self.period_s
+        if not stretch or seconds < self.min_s - PERIOD_EPS_S:
+            self.short_s += seconds
+            return
+        meta = {**self.meta, "mode": TripMode.MANUAL.value, "index": self.trips}
+        if self.utc_of is not None:
+            meta["start_utc"] = self.utc_of(stretch[0].t_s)
+        self.trips += 1
+        self.kept_s += seconds
+        self.queue.build(stretch, meta)
 
 
-def directory_sink(directory: str | os.PathLike[str]) -> TripSink:
-    """A sink writing each segment to ``directory/takeover_NNNN.mcap``, never overwriting.
+def directory_sink(directory: str | os.PathLike[str], prefix: str = "takeover") -> TripSink:
+    """A sink writing each trip to ``directory/<prefix>_NNNN.mcap``, never overwriting.
 
     The directory is created if needed; numbering continues after the files already there.
     """
@@ -224,29 +414,37 @@ def directory_sink(directory: str | os.PathLike[str]) -> TripSink:
     try:
         d.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise RecorderError(f"{d}: cannot create takeover directory: {exc.strerror}") from None
+        raise RecorderError(f"{d}: cannot create {prefix} directory: {exc.strerror}") from None
     if not os.access(d, os.W_OK):
-        raise RecorderError(f"{d}: takeover directory is not writable")
+        raise RecorderError(f"{d}: {prefix} directory is not writable")
 
-    counter = [len(list(d.glob("takeover_*.mcap")))]
+    counter = [len(list(d.glob(f"{prefix}_*.mcap")))]
 
     def write(trip: Trip) -> None:
-        path = d / f"takeover_{counter[0]:04d}.mcap"
+        path = d / f"{prefix}_{counter[0]:04d}.mcap"
         while path.exists():
             counter[0] += 1
-            path = d / f"takeover_{counter[0]:04d}.mcap"
+            path = d / f"{prefix}_{counter[0]:04d}.mcap"
         write_trip(path, trip)
         counter[0] += 1
-        log.info("takeover segment written: %s (%d samples)", path, len(trip))
+        log.info("%s trip written: %s (%d samples)", prefix, path, len(trip))
 
     return write
 
 
 __all__ = [
+    "MANUAL_MAX_S",
+    "MANUAL_MIN_S",
     "MAX_PENDING",
+    "PERIOD_EPS_S",
+    "ManualRecorder",
     "RecorderError",
     "Sample",
+    "SinkQueue",
     "TakeoverRecorder",
     "TripSink",
     "directory_sink",
+    "keep_sample",
+    "manual_inputs_ok",
+    "trip_of",
 ]

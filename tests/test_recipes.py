@@ -169,8 +169,9 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
             ),
             skip(
                 "pacc ecu -i socketcan -c vcan0 --headway 1.5 --set-speed 40 --driver d2 "
-                "--takeovers spool/",
-                VCAN + "tests/pacc/test_data_loss.py::test_readme_takeover_flow_uploads_every_segment",
+                "--takeovers spool/ --manual spool/",
+                VCAN + "tests/pacc/test_data_loss.py::test_readme_takeover_flow_uploads_every_segment"
+                " and tests/ecu/test_cli_manual.py::test_ecu_spools_the_manual_driving",
             ),
             skip(
                 "pacc sim -i socketcan -c vcan0 --scenario B --driver d2",

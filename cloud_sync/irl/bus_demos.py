@@ -5,12 +5,31 @@
 and pacc's ``.mcap`` recordings through pacc's python-can plugin) is read frame by frame and
 decoded through the car's binding (:class:`dbc.endpoint.Inbox`: the bound messages, their
 checksums and counters, physical units): the ego speed and acceleration, the pedals, the
-radar's lead, and the ACC's state where the car sends one. The decoded values are sampled on a
-10-Hz grid (the last good value of each role, as the ECU reads them) and cut into stretches
-where the driver drives and follows a lead: ACC not engaged (OFF or STANDBY, or no ACC frames
-at all), lead valid, pedals and speed fresh. Stretches of ``min_s`` or more become manual trip
-logs (:class:`pacc.vocab.triplog.Trip`, ``mode`` ``manual``) that the cloud learns from; the
-report says how many seconds were kept and why the rest was dropped.
+radar's lead, and the ACC's state where the car sends one.
+
+**Sampling, as the ECU records** (:class:`ecu.recorder.ManualRecorder`, the vehicle-side
+recording of the same stretches). The ECU reads its inputs once per control cycle and sends
+its command frames right after, so the log's command frames (the binding's ``command`` role,
+its last message each cycle) mark the instants the ECU sampled: the extraction samples the
+decoded values at those frames, keeping one as the recorder keeps one
+(:func:`ecu.recorder.keep_sample`: ``period_s`` after the last kept less half a cycle, the
+cycle the binding's command message's), with what the frames before it said and the ACC
+state the cycle's own frame carries. Where the log has no command frames, or
+their cycle does not divide ``period_s`` (another car's ACC), a ``period_s`` grid from the
+first frame is used instead, each grid point seeing the frames up to its instant. Times are
+taken relative to the log's first frame and rounded to 1 µs (:data:`TIME_RESOLUTION_S`): a
+log's absolute float timestamps (UTC seconds, ~0.24 µs apart near 2026) and BLF's start time
+(whole milliseconds, python-can's writer) plus truncated nanoseconds move them by a fraction
+of a microsecond, which the rounding takes back out; a bus frame's time means nothing finer
+(candump and ASC write µs).
+
+A sample is manual car-following when the ACC is not engaged (OFF or STANDBY, or no ACC
+frames at all), a lead is valid and the inputs are good as the ECU checks them
+(:func:`ecu.signals.input_fault` less the HMI): speed valid, fresh and finite and >= 0,
+pedals fresh and finite, radar fresh (and finite with a lead). Runs of such samples of at
+least ``min_s`` (count × ``period_s``), cut at ``max_s``, become manual trip logs
+(:class:`pacc.vocab.triplog.Trip`, ``mode`` ``manual``) that the cloud learns from; the report
+says how many seconds were kept and why the rest was dropped.
 """
 
 from __future__ import annotations
@@ -30,11 +49,29 @@ from pacc.vocab.acc_state import AccState
 from pacc.vocab.pedals import PedalScale
 from pacc.vocab.triplog import Trip
 
-__all__ = ["DT_S", "ExtractReport", "bus_trip", "extract_demos", "read_frames"]
+__all__ = [
+    "DT_S",
+    "MAX_S",
+    "MIN_S",
+    "PERIOD_EPS_S",
+    "TIME_RESOLUTION_S",
+    "ExtractReport",
+    "bus_trip",
+    "extract_demos",
+    "read_frames",
+]
 
-#: the trips' sample period, s (the simulator's trip logs use the same)
+#: the trips' sample period, s (the ECU recorder's and the simulator's trip logs' too)
 DT_S = 0.1
+#: the ECU recorder's defaults (:mod:`ecu.recorder`: MANUAL_MIN_S, MANUAL_MAX_S, PERIOD_EPS_S;
+#: cloud_sync does not import ecu, tests/cloud_sync/test_bus_demos.py checks they agree)
+MIN_S = 10.0
+MAX_S = 600.0
+PERIOD_EPS_S = 1e-6
+#: sample times are rounded to this, s (module docstring)
+TIME_RESOLUTION_S = 1e-6
 _ROLES = ("ego", "pedals", "radar", "command")
+_COLS = ("t_s", "v", "a", "gap", "v_lead", "accel", "brake", "state", "lead", "fresh")
 
 
 @dataclass
@@ -70,28 +107,69 @@ def read_frames(path: Path) -> Iterator[Any]:
         yield from reader
 
 
-def _grid(frames: Iterable[Any], codec: Codec) -> tuple[dict[str, np.ndarray], int]:
-    """The roles' values on a 10-Hz grid (last usable value, NaN where a role is not fresh),
+class _Sampler:
+    """The decoded roles and their samples: at the ECU's cycles (the command frames) and on
+    a plain ``period_s`` grid, both kept until the log's end tells which to use."""
+
+    def __init__(self, codec: Codec, period_s: float) -> None:
+        roles = tuple(r for r in _ROLES if r in codec.roles)
+        self.inbox = Inbox(codec, roles)
+        self.pedals = PedalScale.from_codec(codec) if "pedals" in roles else None
+        self.period_s = period_s
+        command = codec.roles.get("command")
+        #: the cycle's last command frame (the ECU sends the role's messages in order)
+        self.marker = None if command is None else command.parts[-1].frame_id
+        cycle = 0.0 if command is None else command.parts[-1].cycle_s
+        #: the ECU recorder's rule (ecu.recorder.keep_sample): a cycle is kept this long
+        #: after the last kept one
+        self.keep_after_s = period_s - max(0.5 * cycle, PERIOD_EPS_S)
+        self.at_cycles: dict[str, list[float]] = {k: [] for k in _COLS}
+        self.on_grid: dict[str, list[float]] = {k: [] for k in _COLS}
+        self.markers: list[float] = []
+        self._kept = -math.inf
+        self._k = 0
+        self._t0: float | None = None
+
+    def frame(self, msg: Any) -> None:
+        """One frame of the log, in log order."""
+        stamp = float(msg.timestamp)
+        if self._t0 is None:
+            self._t0 = stamp
+        t = round((stamp - self._t0) / TIME_RESOLUTION_S) * TIME_RESOLUTION_S
+        while t > self._k * self.period_s + PERIOD_EPS_S:  # grid points before this frame
+            _sample(self.on_grid, self.inbox, self._k * self.period_s, self.pedals)
+            self._k += 1
+        self.inbox.accept_message(msg, t)
+        if msg.arbitration_id == self.marker:
+            self.markers.append(t)
+            if t - self._kept >= self.keep_after_s:
+                self._kept = t
+                _sample(self.at_cycles, self.inbox, t, self.pedals)
+
+    def rows(self) -> dict[str, np.ndarray]:
+        """The samples at the ECU's cycles if the log has them at a cycle dividing
+        ``period_s``, else on the grid."""
+        rows = self.on_grid
+        if len(self.markers) > 1:
+            cycle = float(np.median(np.diff(self.markers)))
+            ratio = self.period_s / cycle if cycle > 0 else 0.0
+            # a whole number of cycles per sample (a real-time ECU's cycles jitter a little)
+            if ratio >= 0.95 and abs(ratio - round(ratio)) < 0.05:
+                rows = self.at_cycles
+        return {k: np.asarray(v, dtype=np.float64) for k, v in rows.items()}
+
+
+def _grid(
+    frames: Iterable[Any], codec: Codec, period_s: float = DT_S
+) -> tuple[dict[str, np.ndarray], int]:
+    """The roles' values at the samples (module docstring; NaN where a role is missing),
     and the number of frames."""
-    roles = tuple(r for r in _ROLES if r in codec.roles)
-    inbox = Inbox(codec, roles)
-    pedals = PedalScale.from_codec(codec) if "pedals" in roles else None
-    rows: dict[str, list[float]] = {
-        k: []
-        for k in ("t_s", "v", "a", "gap", "v_lead", "accel", "brake", "state", "lead", "fresh")
-    }
+    sampler = _Sampler(codec, period_s)
     n = 0
-    t_next: float | None = None
     for msg in frames:
         n += 1
-        t = float(msg.timestamp)
-        if t_next is None:
-            t_next = t
-        while t >= t_next:  # the grid points before this frame see what came before it
-            _sample(rows, inbox, t_next, pedals)
-            t_next += DT_S
-        inbox.accept_message(msg, t)
-    return {k: np.asarray(v, dtype=np.float64) for k, v in rows.items()}, n
+        sampler.frame(msg)
+    return sampler.rows(), n
 
 
 def _value(values: dict[str, Any] | None, key: str) -> float:
@@ -100,22 +178,45 @@ def _value(values: dict[str, Any] | None, key: str) -> float:
     return float(values[key])
 
 
+def _finite(*xs: float) -> bool:
+    return all(map(math.isfinite, xs))
+
+
 def _sample(rows: dict[str, list[float]], inbox: Inbox, t: float, pedals: Any) -> None:
+    """One sample at ``t``: the latest values and whether the inputs are good as the ECU
+    checks them (:func:`ecu.busio.inputs_from`, :func:`ecu.signals.input_fault`)."""
     ego, ped, radar, cmd = (inbox.latest(r) if r in inbox.roles else None for r in _ROLES)
-    fresh = all(inbox.fresh(r, t) for r in ("ego", "pedals", "radar") if r in inbox.roles)
-    v = _value(ego, "speed_mps")
+    v, a = _value(ego, "speed_mps"), _value(ego, "accel_mps2")
+    accel = pedals.accel(_value(ped, "accel_pedal_pct")) if pedals else math.nan
+    brake = pedals.brake(_value(ped, "brake_pressure_bar")) if pedals else math.nan
     lead = _value(radar, "lead_valid") == 1.0
+    gap, rel = _value(radar, "gap_m"), _value(radar, "rel_speed_mps")
+    roles = inbox.roles
+    speed_ok = (
+        ego is not None
+        and _value(ego, "speed_valid") == 1.0
+        and inbox.fresh("ego", t)
+        and _finite(v, a)
+        and v >= 0.0
+    )
+    pedals_ok = ped is not None and inbox.fresh("pedals", t) and _finite(accel, brake)
+    radar_ok = (
+        "radar" in roles
+        and radar is not None
+        and inbox.fresh("radar", t)
+        and (not lead or _finite(gap, rel, _value(radar, "lead_accel_mps2")))
+    )
     rows["t_s"].append(t)
     rows["v"].append(v)
-    rows["a"].append(_value(ego, "accel_mps2"))
-    rows["gap"].append(_value(radar, "gap_m") if lead else math.nan)
-    rows["v_lead"].append(v + _value(radar, "rel_speed_mps") if lead else math.nan)
-    rows["accel"].append(pedals.accel(_value(ped, "accel_pedal_pct")) if pedals else math.nan)
-    rows["brake"].append(pedals.brake(_value(ped, "brake_pressure_bar")) if pedals else math.nan)
+    rows["a"].append(a)
+    rows["gap"].append(gap if lead else math.nan)
+    rows["v_lead"].append(v + rel if lead else math.nan)
+    rows["accel"].append(accel)
+    rows["brake"].append(brake)
     state = _value(cmd, "acc_state")
     rows["state"].append(float(AccState.OFF) if math.isnan(state) else state)
     rows["lead"].append(1.0 if lead else 0.0)
-    rows["fresh"].append(1.0 if fresh and ego is not None and ped is not None else 0.0)
+    rows["fresh"].append(1.0 if speed_ok and pedals_ok and radar_ok else 0.0)
 
 
 def _reasons(g: dict[str, np.ndarray]) -> np.ndarray:
@@ -160,7 +261,8 @@ def extract_demos(
     *,
     driver_id: str,
     condition: str = "default",
-    min_s: float = 10.0,
+    min_s: float = MIN_S,
+    max_s: float = MAX_S,
     frames: Iterable[Any] | None = None,
 ) -> ExtractReport:
     """The manual car-following stretches of the log at ``path`` (module docstring).
@@ -171,6 +273,7 @@ def extract_demos(
         driver_id: the driver the trips are tagged with.
         condition: the driving condition they are tagged with.
         min_s: shorter stretches are dropped ("stretch shorter than …").
+        max_s: longer stretches are cut into trips of this length (as the ECU hands over).
         frames: the frames, if already read (default: read ``path``).
     """
     path = Path(path)
@@ -181,32 +284,39 @@ def extract_demos(
     for reason in set(why[~ok].tolist()):
         report.dropped_s[reason] = float(np.sum(why == reason)) * DT_S
     edges = np.flatnonzero(np.diff(np.concatenate(([0], ok.astype(np.int8), [0]))))
-    for start, end in zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True):
-        seconds = (end - start) * DT_S
-        if seconds < min_s:
-            short = f"stretch shorter than {min_s:g} s"
-            report.dropped_s[short] = report.dropped_s.get(short, 0.0) + seconds
-            continue
-        sl = slice(start, end)
-        meta = {
-            "driver_id": driver_id,
-            "condition": condition,
-            "mode": "manual",
-            "source": "pacc demos extract",
-            "log": path.name,
-            "log_t0_s": float(g["t_s"][start]),
-        }
-        trip = Trip(
-            t_s=g["t_s"][sl] - g["t_s"][start],
-            v_mps=g["v"][sl],
-            gap_m=g["gap"][sl],
-            v_lead_mps=g["v_lead"][sl],
-            a_mps2=g["a"][sl],
-            accel_pedal=g["accel"][sl],
-            brake_pedal=g["brake"][sl],
-            acc_state=g["state"][sl].astype(np.int64),
-            meta=meta,
-        )
-        report.trips.append(trip)
-        report.kept_s += seconds
+    max_n = max(1, int(round(max_s / DT_S)))
+    for first, end in zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True):
+        for start in range(first, end, max_n):
+            stop = min(start + max_n, end)
+            seconds = (stop - start) * DT_S
+            if seconds < min_s - PERIOD_EPS_S:
+                short = f"stretch shorter than {min_s:g} s"
+                report.dropped_s[short] = report.dropped_s.get(short, 0.0) + seconds
+                continue
+            report.trips.append(_trip(g, slice(start, stop), path, driver_id, condition))
+            report.kept_s += seconds
     return report
+
+
+def _trip(g: dict[str, np.ndarray], sl: slice, path: Path, driver_id: str, condition: str) -> Trip:
+    """The samples ``sl`` as a manual trip log, time from its first sample."""
+    t0 = float(g["t_s"][sl.start])
+    meta = {
+        "driver_id": driver_id,
+        "condition": condition,
+        "mode": "manual",
+        "source": "pacc demos extract",
+        "log": path.name,
+        "log_t0_s": t0,
+    }
+    return Trip(
+        t_s=g["t_s"][sl] - t0,
+        v_mps=g["v"][sl],
+        gap_m=g["gap"][sl],
+        v_lead_mps=g["v_lead"][sl],
+        a_mps2=g["a"][sl],
+        accel_pedal=g["accel"][sl],
+        brake_pedal=g["brake"][sl],
+        acc_state=g["state"][sl].astype(np.int64),
+        meta=meta,
+    )

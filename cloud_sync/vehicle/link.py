@@ -7,6 +7,12 @@ and wakes the :class:`~cloud_sync.vehicle.uploader.Uploader` thread; a schedule 
 ``sync_every_s`` and hands a verified one to the ECU through a callback (the ECU swaps it in
 only while not ACTIVE). Nothing here runs in the control cycle but the sink, which is a file
 write and a rename.
+
+At the end of the trip :meth:`VehicleLink.end_trip` queues the trip's report (the driver, the
+cloud table version the trip started with, its ACC-on time, the takeover segments it
+spooled: :mod:`cloud_sync.service.trips`) in the spool's ``reports/`` folder; the uploader
+posts it once its segments are up (:mod:`cloud_sync.vehicle.reports`), in the final drain of
+:meth:`VehicleLink.stop` or, if the cloud is away, on a later run.
 """
 
 from __future__ import annotations
@@ -14,11 +20,13 @@ from __future__ import annotations
 import dataclasses
 import logging
 import threading
+import uuid
 from collections.abc import Callable
 
 from cloud_sync.api import CloudApi
 from cloud_sync.errors import CloudSyncError
 from cloud_sync.vehicle.download import ProfileDownloader
+from cloud_sync.vehicle.reports import ReportError
 from cloud_sync.vehicle.spool import Spool
 from cloud_sync.vehicle.uploader import Uploader, UploaderConfig
 from pacc.vocab.dgpt import Dgpt
@@ -68,11 +76,18 @@ class VehicleLink:
         self._thread: threading.Thread | None = None
         #: tables handed to the ECU so far
         self.offered = 0
+        #: the version of the verified cloud table the trip started with (None: none)
+        self.start_version: int | None = None
+        #: digests of the takeover segments spooled during this trip
+        self.segments: list[str] = []
+        self.reports_queued = 0
 
     def sink(self, trip: Trip) -> None:
         """The recorder's sink: spool ``trip`` (raises SpoolError: the recorder retries)."""
         meta = {**trip.meta, "vehicle_id": self.vehicle_id}
-        self.spool.put_trip(dataclasses.replace(trip, meta=meta))
+        batch = self.spool.put_trip(dataclasses.replace(trip, meta=meta))
+        if batch.kind == "takeover" and batch.digest not in self.segments:
+            self.segments.append(batch.digest)
         self.uploader.notify()
 
     def initial_table(self) -> Dgpt | None:
@@ -80,7 +95,40 @@ class VehicleLink:
         if self.downloader is None or self.driver_id is None:
             return None
         table = self.downloader.fetch(self.driver_id, self.condition)
-        return table or self.downloader.last_good(self.driver_id, self.condition)
+        table = table or self.downloader.last_good(self.driver_id, self.condition)
+        self.start_version = None if table is None else table.version
+        return table
+
+    def end_trip(self, acc_on_s: float, start_utc: str | None = None) -> str:
+        """Queue the trip's report (module docstring): ``acc_on_s`` s of ACC on, the trip
+        started at ``start_utc`` (ISO 8601 UTC). Returns a line saying what was done; a trip
+        without a driver, a cloud table or any ACC time is not reported (said so). Never
+        raises: a report that cannot be queued is said so too."""
+        if self.driver_id is None or self.start_version is None:
+            return "cloud: no trip report (the trip drove no verified cloud table of a --driver)"
+        if not acc_on_s > 0.0:
+            return "cloud: no trip report (the ACC was never on)"
+        stamp = (start_utc or "").replace("-", "").replace(":", "").split(".")[0]
+        report = {
+            "driver_id": self.driver_id,
+            "condition": self.condition,
+            "trip_id": f"ecu-{stamp or 'trip'}-{uuid.uuid4().hex[:12]}",
+            "dgpt_version": self.start_version,
+            "acc_on_s": round(float(acc_on_s), 3),
+            "segments": list(self.segments),
+        }
+        if start_utc:
+            report["start_utc"] = start_utc
+        try:
+            self.uploader.reports.put(report)
+        except ReportError as exc:
+            return f"cloud: trip report not queued: {exc}"
+        self.reports_queued += 1
+        self.uploader.notify()
+        return (
+            f"cloud: trip report {report['trip_id']} queued (v{self.start_version}, "
+            f"{report['acc_on_s']:.1f} s ACC on, {len(self.segments)} takeover segment(s))"
+        )
 
     def start(self, offer: Callable[[Dgpt, str], None]) -> None:
         """Start the uploader and the download schedule; new tables go to ``offer``."""
@@ -114,7 +162,7 @@ class VehicleLink:
             self._thread.join(10.0)
             self._thread = None
         self.uploader.stop()
-        if drain_s > 0 and self.spool.pending():
+        if drain_s > 0 and (self.spool.pending() or self.uploader.reports.pending()):
             last = Uploader(self.spool, self.cloud, UploaderConfig(backoff_max_s=1.0))
             timer = threading.Timer(drain_s, last.stop)
             timer.start()
@@ -124,6 +172,8 @@ class VehicleLink:
                 timer.cancel()
             self.uploader.stats.uploaded += last.stats.uploaded
             self.uploader.stats.rejected += last.stats.rejected
+            self.uploader.reports.stats.sent += last.reports.stats.sent
+            self.uploader.reports.stats.rejected += last.reports.stats.rejected
 
     def report(self) -> str:
         """One line of what the link did."""
@@ -132,6 +182,12 @@ class VehicleLink:
             f"cloud: {up.uploaded} batch(es) uploaded, {up.rejected} rejected, "
             f"{len(self.spool.pending())} spooled, {self.spool.stats.evicted.total()} evicted"
         )
+        reports = self.uploader.reports
+        if self.reports_queued or reports.stats.sent or reports.pending():
+            text += (
+                f"; trip reports sent {reports.stats.sent}, queued "
+                f"{len(reports.pending())}, refused {reports.stats.rejected}"
+            )
         if self.downloader is not None:
             dl = self.downloader.report
             text += (

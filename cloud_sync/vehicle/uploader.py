@@ -10,6 +10,9 @@ bad batch never blocks the queue. An answer about the vehicle's set-up keeps the
 (token) ends the pass, 403 (driver not registered yet) and any other 4xx skip the batch for
 this pass; they are counted in :attr:`UploadStats.held` and tried again on the next pass.
 
+After the batches, each pass posts the trip reports queued in the spool's ``reports/`` folder
+whose segments have left the spool (:mod:`cloud_sync.vehicle.reports`).
+
 The thread never touches the control loop: the ECU only writes batches into the spool (a file
 rename), and :meth:`Uploader.notify` wakes the thread. :meth:`Uploader.stop` ends it promptly,
 even in the middle of a backoff.
@@ -36,6 +39,7 @@ from cloud_sync.api import (
     CloudUnavailableError,
     PayloadTooLargeError,
 )
+from cloud_sync.vehicle.reports import ReportQueue
 from cloud_sync.vehicle.spool import Batch, Spool
 
 log = logging.getLogger(__name__)
@@ -77,6 +81,8 @@ class Uploader:
         self.cloud = cloud
         self.config = config if config is not None else UploaderConfig()
         self.stats = UploadStats()
+        #: the spool's trip reports, posted after the batches
+        self.reports = ReportQueue(spool.root)
         self._stop = threading.Event()
         self._wake = threading.Event()
         self._thread: threading.Thread | None = None
@@ -84,7 +90,8 @@ class Uploader:
     # -- one pass ------------------------------------------------------------------------
 
     def drain(self) -> int:
-        """Upload every pending batch, retrying until each is answered or stop() is called.
+        """Upload every pending batch, retrying until each is answered or stop() is called,
+        then post the trip reports that may go (:class:`ReportQueue`).
 
         Returns the number of batches the cloud acknowledged in this pass.
         """
@@ -98,7 +105,12 @@ class Uploader:
                 self.stats.held += 1
                 self.stats.last_held = f"the cloud refused the token (HTTP 401): {exc}"
                 log.error("upload refused, token not accepted: %s (batches kept)", exc)
-                break
+                return done
+        if not self._stop.is_set():
+            try:
+                self.reports.send(self.cloud, {b.digest for b in self.spool.pending()})
+            except OSError as exc:  # the reports folder: kept for the next pass
+                log.error("trip reports not sent: %s", exc)
         return done
 
     def _deliver(self, batch: Batch) -> bool:

@@ -4,12 +4,14 @@
     pacc drive --scenario B|A|cutin|cutout|leadloss|stopgo|C|FILE.csv --driver d3
                --controller predefined|predefined+oa|irl|irl+oa
                [--profile DGPT.json] [--seed N] [--faults SPEC] [--log run.mcap]
-               [--can-log bus.mcap]
+               [--can-log bus.mcap] [--manual-trips DIR]
                [--adaptation-mode paper|timegap]
 
 prints PoI, NIM, min gap, min time-to-collision, RMS jerk, takeovers, adaptations and
 collisions. ``--manual`` drives the scenario by hand instead (ACC off, no bus: the driver's
-own pedals) and writes the trip to ``--log``: a demonstration for ``pacc cloud learn``. A drive
+own pedals) and writes the trip to ``--log``: a demonstration for ``pacc cloud learn``.
+``--manual-trips DIR`` writes what the ECU itself recorded of the driver's manual
+car-following during the drive (:class:`ecu.recorder.ManualRecorder`). A drive
 is a pure function of (configuration, seed, shipped data): the ECU and
 the simulator each get a python-can ``virtual`` bus on a private channel, and time is the
 simulator's (every frame stamped with simulated time). Exit status: 0, 1 if the drive
@@ -31,6 +33,7 @@ from dbc.network import add_network_arguments
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES
 from ecu.buslog.live import add_foxglove_argument, live_sinks
+from ecu.recorder import TripSink, directory_sink
 from pacc.commands._args import (
     CommandParser,
     check_distinct_outputs,
@@ -44,7 +47,7 @@ from pacc.vocab import FormatError
 from pacc.vocab.acc_state import AccState
 from pacc.vocab.dgpt import Dgpt
 from pacc.vocab.dgpt_file import load_dgpt
-from pacc.vocab.triplog import TripLogError
+from pacc.vocab.triplog import Trip, TripLogError
 from pacc.vocab.triplog_file import write_trip
 from sim_bus.drivers import CONDITION_FACTORS, DriverParams, load_driver
 from sim_bus.errors import SimError
@@ -158,6 +161,15 @@ def _parser() -> argparse.ArgumentParser:
         "simulated world to this MCAP file",
     )
     p.add_argument(
+        "--manual-trips",
+        type=Path,
+        metavar="DIR",
+        help="record what the ECU sees of the driver's manual car-following (ACC not "
+        "engaged, a lead, inputs good; 10 s or longer: with --brake-mode cancel after a "
+        "brake takeover) as trip logs DIR/manual_NNNN.mcap, demonstrations for pacc cloud "
+        "learn",
+    )
+    p.add_argument(
         "--duration",
         type=number(0.0, 1e6, lo_open=True),
         help="simulate only the first N seconds",
@@ -228,6 +240,21 @@ def _recording_ok(args: argparse.Namespace, result: Any) -> bool:
     return True
 
 
+def _manual_sink(directory: Path | None) -> tuple[TripSink | None, list[int]]:
+    """The ECU's manual-trip sink of ``--manual-trips DIR`` (None without it) and the
+    sample counts of the trips it wrote. RecorderError if DIR cannot be written."""
+    kept: list[int] = []
+    if directory is None:
+        return None, kept
+    write = directory_sink(directory, "manual")
+
+    def sink(trip: Trip) -> None:
+        write(trip)
+        kept.append(len(trip))
+
+    return sink, kept
+
+
 def _check_options(args: argparse.Namespace) -> None:
     """Options that contradict each other or outputs that cannot be written: UsageError
     (the error boundary prints it, exit 2), before anything runs."""
@@ -288,10 +315,18 @@ def main(argv: list[str] | None = None) -> int:
         drive_codec(cfg)  # a DBC without its binding: refused before any learning
         profile = resolve_profile(args.scenario, args.seed)
         table = _table(args, base, driver)
+        manual, kept = _manual_sink(args.manual_trips)
         live = live_sinks(args.foxglove, print)
         try:
             result = run_drive(
-                cfg, driver, table, profile, can_log=args.can_log, live=live, bus=args.bus
+                cfg,
+                driver,
+                table,
+                profile,
+                can_log=args.can_log,
+                live=live,
+                bus=args.bus,
+                manual_sink=manual,
             )
         finally:
             for sink in live:
@@ -310,6 +345,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"pacc drive: error: cannot write {args.log}: {error_line(exc)}", file=sys.stderr)
             return 2
         print(f"  log            {args.log}")
+    if args.manual_trips is not None:
+        print(f"  manual trips   {len(kept)} ({sum(kept) * 0.1:.1f} s) in {args.manual_trips}")
     if (args.can_log is not None or live) and not _recording_ok(args, result):
         return 2
     return 1 if result.collision else 0
@@ -326,6 +363,7 @@ def _manual(args: argparse.Namespace) -> int:
             ("--profile", args.profile is not None),
             ("--faults", bool(args.faults)),
             ("--can-log", args.can_log is not None),
+            ("--manual-trips", args.manual_trips is not None),
             ("--adaptation-mode", args.adaptation_mode is not None),
             ("--gap-controller", bool(args.gap_controller)),
             ("--adaptation", bool(args.adaptation)),

@@ -13,6 +13,12 @@ E2E errors by kind, takeovers, adaptations, max cycle time.
 ``--takeovers DIR`` is a spool (:mod:`cloud_sync.vehicle.spool`): each segment becomes one
 batch that ``pacc cloud sync --spool DIR`` uploads, tagged with ``--driver`` (else the
 profile's driver; the predefined table's ``guest`` is refused by the cloud, and said so).
+``--manual DIR`` spools the driver's manual car-following stretches the same way (batches of
+kind ``manual``, :class:`ecu.recorder.ManualRecorder`: the demonstrations the cloud learns
+from); with ``--cloud``, ``--manual`` alone puts them in the link's spool. With ``--cloud``
+the trip is reported at exit (``POST /v1/trips``: the cloud table version it started with,
+its ACC-on time, its takeover segments; :meth:`cloud_sync.vehicle.link.VehicleLink.end_trip`),
+queued in the spool while the cloud is away.
 Exit codes: 0 run completed, 1 bus/DBC/takeover-directory error, 2 usage error (also
 ``--dbc`` without a ``--binding`` that names it).
 """
@@ -36,14 +42,21 @@ from ecu.buslog.format import TimeBase
 from ecu.buslog.live import add_foxglove_argument
 from ecu.methods import make_adaptation, make_controller
 from ecu.node import EcuConfig, EcuNode
-from ecu.recorder import TripSink
+from ecu.recorder import MANUAL_MIN_S, TripSink
 from pacc.commands._args import (
     CommandParser,
     add_bus_arguments,
     check_distinct_outputs,
     number,
 )
-from pacc.commands.ecu_cloud import Exit, cloud_link, cloud_table, say, spool_sink, warn_guest
+from pacc.commands.ecu_cloud import (
+    Exit,
+    cloud_link,
+    cloud_table,
+    say,
+    spool_sinks,
+    warn_guest,
+)
 from pacc.commands.ecu_run import close_recorder, open_recorder, run_on_bus
 from pacc.vocab import FormatError
 from pacc.vocab.dgpt import Dgpt, DgptError, predefined
@@ -122,6 +135,22 @@ def build_parser() -> argparse.ArgumentParser:
         help="spool takeover segments here (MCAP batches for pacc cloud sync --spool DIR)",
     )
     p.add_argument(
+        "--manual",
+        nargs="?",
+        const="",
+        metavar="DIR",
+        help="record the driver's manual car-following stretches (ACC not engaged, a lead, "
+        "inputs good) as demonstrations: spooled in DIR (pacc cloud sync --spool DIR; may be "
+        "the --takeovers DIR), or with --cloud and no DIR in the cloud link's spool",
+    )
+    p.add_argument(
+        "--manual-min",
+        type=number(0.1, 3600.0),
+        default=MANUAL_MIN_S,
+        metavar="S",
+        help=f"shortest manual stretch recorded, s (default {MANUAL_MIN_S:g})",
+    )
+    p.add_argument(
         "--can-log",
         metavar="FILE",
         help="record every frame in and out (raw and decoded) and the node's internals to "
@@ -192,11 +221,20 @@ def _serve(args: argparse.Namespace) -> int:
     table, profile_fault = _initial_table(args, config, fallback)
     if link is not None and not args.profile:
         table = cloud_table(link, table)
-    codec, sink = _codec_and_sink(args)
+    codec, sink, manual = _codec_and_sinks(args)
+    if link is not None:
+        sink, manual = link.sink, (link.sink if args.manual == "" else None)
     if args.save_profile:  # refuse now, not after the drive when the table would be lost
         _check_writable_parent(args.save_profile)
     base = TimeBase.now(time.monotonic())  # the real-time clock against the wall clock
-    node = EcuNode(config, table, link.sink if link is not None else sink, utc_of=base.iso)
+    node = EcuNode(
+        config,
+        table,
+        sink,
+        utc_of=base.iso,
+        manual_sink=manual,
+        manual_min_s=args.manual_min,
+    )
     if profile_fault:
         node.report_profile_fault()
     warn_guest(args, node)
@@ -206,16 +244,13 @@ def _serve(args: argparse.Namespace) -> int:
         bus_error = run_on_bus(args, node, codec, base, link, recorder)
     finally:
         if link is not None:
+            acc_on_s = node.recorder.acc_on_s if node.recorder is not None else 0.0
+            say(link.end_trip(acc_on_s, base.iso(base.clock_origin_s)))
             link.stop()
             say(link.report())
         if recorder is not None:  # before anything can fail: the recording is kept
             recording_error = close_recorder(recorder)
-    if args.takeovers and node.recorder is not None:
-        rec = node.recorder
-        say(
-            f"takeover segments: {rec.segments - len(rec.pending)} of {rec.segments} written to"
-            f" {args.takeovers} ({rec.sink_errors} failed attempts)"
-        )
+    _report_recorders(args, node)
     if args.save_profile:
         try:
             save_dgpt(node.table, args.save_profile)
@@ -229,8 +264,30 @@ def _serve(args: argparse.Namespace) -> int:
     return 0
 
 
+def _report_recorders(args: argparse.Namespace, node: EcuNode) -> None:
+    """Say what the takeover and manual recorders handed over."""
+    if args.takeovers and node.recorder is not None:
+        rec = node.recorder
+        say(
+            f"takeover segments: {rec.segments - len(rec.pending)} of {rec.segments} written to"
+            f" {args.takeovers} ({rec.sink_errors} failed attempts)"
+        )
+    if node.manual is not None:
+        man = node.manual
+        where = args.manual or f"the cloud spool {args.spool}"
+        say(
+            f"manual trips: {man.trips - len(man.queue.pending)} of {man.trips} written to "
+            f"{where} ({man.kept_s:.1f} s kept, {man.short_s:.1f} s in stretches shorter than "
+            f"{args.manual_min:g} s, {man.queue.sink_errors} failed attempts)"
+        )
+
+
 def _config(args: argparse.Namespace) -> tuple[EcuConfig, Dgpt]:
     """The node's configuration and the predefined fallback table (usage errors: exit 2)."""
+    if args.manual == "" and not args.cloud:
+        raise Exit(2, "pacc ecu: error: --manual needs a DIR (or --cloud: the link's spool)")
+    if args.manual and args.cloud:
+        raise Exit(2, "pacc ecu: error: --cloud spools the manual trips: --manual without DIR")
     try:
         config = EcuConfig(
             adaptation=args.adaptation,
@@ -277,14 +334,17 @@ def _initial_table(
     return table, False
 
 
-def _codec_and_sink(args: argparse.Namespace) -> tuple[Codec, TripSink | None]:
-    """The network codec (``--dbc``/``--binding`` or the packaged one) and the takeover sink."""
+def _codec_and_sinks(
+    args: argparse.Namespace,
+) -> tuple[Codec, TripSink | None, TripSink | None]:
+    """The network codec (``--dbc``/``--binding`` or the packaged one), the takeover sink
+    and the manual trips' sink (both None with ``--cloud``: the link's spool takes them)."""
     try:
         codec = codec_of(args)
-        sink = spool_sink(args.takeovers) if args.takeovers else None
+        takeovers, manual = spool_sinks(None if args.cloud else args.takeovers, args.manual)
     except (CodecError, EcuError, FormatError, CloudSyncError) as exc:
         raise Exit(1, f"pacc ecu: error: {exc}") from None
-    return codec, sink
+    return codec, takeovers, manual
 
 
 def _check_writable_parent(target: str) -> None:

@@ -20,7 +20,14 @@ from pacc.vocab.triplog import Trip
 if TYPE_CHECKING:
     from cloud_sync.vehicle.link import VehicleLink
 
-__all__ = ["Exit", "cloud_link", "cloud_table", "say", "spool_sink", "warn_guest"]
+__all__ = [
+    "Exit",
+    "cloud_link",
+    "cloud_table",
+    "say",
+    "spool_sinks",
+    "warn_guest",
+]
 
 
 def say(text: object) -> None:
@@ -42,23 +49,37 @@ class Exit(Exception):
         self.message = message
 
 
-def spool_sink(directory: str) -> TripSink:
-    """The sink of ``--takeovers DIR``: each segment one batch of the spool in DIR (what
-    ``pacc cloud sync --spool DIR`` uploads). SpoolError if DIR cannot be a spool."""
-    from cloud_sync.vehicle.spool import Spool  # noqa: PLC0415 - only with --takeovers
+def spool_sinks(
+    takeovers: str | None, manual: str | None
+) -> tuple[TripSink | None, TripSink | None]:
+    """The sinks of ``--takeovers DIR`` and ``--manual DIR`` (None where not given): each
+    trip one batch of the spool in its DIR, its kind from the trip's mode; the same DIR
+    twice is one spool (a spool has one writer). SpoolError if a DIR cannot be a spool."""
+    from cloud_sync.vehicle.spool import Spool  # noqa: PLC0415 - only with a spool
 
-    spool = Spool(directory)
+    spools: dict[Path, Spool] = {}
 
-    def put(trip: Trip) -> None:
-        spool.put_trip(trip)
+    def sink(directory: str | None) -> TripSink | None:
+        if not directory:
+            return None
+        key = Path(directory).resolve()
+        if key not in spools:
+            spools[key] = Spool(directory)
+        spool = spools[key]
 
-    return put
+        def put(trip: Trip) -> None:
+            spool.put_trip(trip)
+
+        return put
+
+    return sink(takeovers), sink(manual)
 
 
 def warn_guest(args: argparse.Namespace, node: EcuNode) -> None:
     """Say so when takeover segments will carry no real driver (the cloud refuses them)."""
-    if (args.takeovers or args.cloud) and node.recorder is not None:
-        driver = node.recorder.meta.get("driver_id")
+    recorder = node.recorder or node.manual
+    if (args.takeovers or args.cloud or args.manual) and recorder is not None:
+        driver = recorder.meta.get("driver_id")
         if driver in (None, "", "guest"):
             print(
                 f"pacc ecu: warning: takeover segments are tagged driver {driver!r}: the cloud "

@@ -165,6 +165,7 @@ def run_drive(
     profile: LeadProfile | None = None,
     *,
     takeover_sink: Any = None,
+    manual_sink: Any = None,
     record_channel: str | None = None,
     can_log: Path | None = None,
     utc_start_ns: int | None = None,
@@ -179,6 +180,8 @@ def run_drive(
     (:mod:`ecu.buslog.writer`), simulated time 0 stamped ``utc_start_ns`` (default: now);
     ``live``: more sinks of the same channels (a Foxglove live view, :mod:`ecu.buslog.live`).
     ``bus``: the python-can interface, one of :data:`BUSES` (the same frames on each).
+    ``takeover_sink`` / ``manual_sink``: the ECU's takeover segments / manual car-following
+    trips (:mod:`ecu.recorder`; None: not recorded).
     """
     if bus not in BUSES:
         raise DriveError(f"bus must be one of {', '.join(BUSES)}, got {bus!r}")
@@ -194,7 +197,7 @@ def run_drive(
     rng = fault_rng(cfg.seed)
     world = World(driver, prof, cfg.seed, WorldConfig(engage_s=cfg.engage_s))
     channel = record_channel or f"pacc-drive-{id(cfg):x}-{next(_channel_ids)}"
-    ecu = _ecu_node(cfg, driver, table, prof, takeover_sink)
+    ecu = _ecu_node(cfg, driver, table, prof, takeover_sink, manual_sink)
     sim_bus = _open_bus(bus, channel)
     ecu_bus = _open_bus(bus, channel)
     base = TimeBase(time.time_ns() if utc_start_ns is None else utc_start_ns, 0.0)
@@ -306,7 +309,12 @@ def record_world(recorder: CanLogWriter, log: WorldLog) -> None:
 
 
 def _ecu_node(
-    cfg: DriveConfig, driver: DriverParams, table: Dgpt, prof: LeadProfile, takeover_sink: Any
+    cfg: DriveConfig,
+    driver: DriverParams,
+    table: Dgpt,
+    prof: LeadProfile,
+    takeover_sink: Any,
+    manual_sink: Any = None,
 ) -> EcuNode:
     """The ECU of a drive: ``cfg``'s controller and adaptation; the road's set speed, else
     the study's (above every lead speed)."""
@@ -328,7 +336,13 @@ def _ecu_node(
         adaptation_args=dict(cfg.adaptation_args),
     )
     # adapted tables get a fixed creation time: the drive stays a pure function of its inputs
-    return EcuNode(ecu_cfg, table, takeover_sink=takeover_sink, utc_now=lambda: FIXED_UTC)
+    return EcuNode(
+        ecu_cfg,
+        table,
+        takeover_sink=takeover_sink,
+        utc_now=lambda: FIXED_UTC,
+        manual_sink=manual_sink,
+    )
 
 
 def _lockstep(node: SimNode, rt: EcuRuntime, ecu: EcuNode, world: World) -> list[AdaptationEvent]:

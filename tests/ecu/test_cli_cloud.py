@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from cloud_sync.service.rules import CloudService
+from cloud_sync.service.trips import trip_rows
 from cloud_sync.vehicle.connect import write_token
 from pacc.commands.ecu import main
 from pacc.vocab.dgpt import Dgpt, predefined
@@ -48,6 +49,11 @@ def test_ecu_with_an_embedded_cloud(tmp_path: Path, capsys: pytest.CaptureFixtur
     assert "1 batch(es) uploaded" in out and "0 spooled" in out
     batches = service.store.batches("syn", "default")
     assert [b.kind for b in batches] == ["takeover"]
+    # the trip is reported with the version it started with (the embedded cloud too)
+    assert "trip reports sent 1, queued 0, refused 0" in out, out
+    (point,) = trip_rows(service, "syn")
+    assert point["dgpt_version"] == 1 and point["segments"] == [batches[0].digest]
+    assert 1.5 <= point["acc_on_s"] <= 3.2  # engaged at ~1.3 s until 4.0 s
 
 
 def test_cloud_flags_are_checked_before_the_bus_opens(

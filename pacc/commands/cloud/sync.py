@@ -80,7 +80,14 @@ def _do_sync(args: argparse.Namespace) -> int:
     )
     if stats.held and stats.last_held:
         print(f"pacc cloud sync: batches kept: {stats.last_held}", file=sys.stderr)
-    code = 0 if not left and not stats.rejected else 1
+    reports = uploader.reports
+    queued = reports.pending()
+    if reports.stats.sent or reports.stats.rejected or queued:  # pacc ecu --cloud's trips
+        print(
+            f"trip reports: {reports.stats.sent} sent, {reports.stats.rejected} refused "
+            f"(in {reports.root}/rejected), {len(queued)} still queued"
+        )
+    code = 0 if not left and not stats.rejected and not queued else 1
     if trusted is not None:
         downloader = ProfileDownloader(cloud, trusted, spool.root / "profiles")
         table = downloader.fetch(args.fetch, args.condition)

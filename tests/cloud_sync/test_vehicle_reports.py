@@ -1,0 +1,208 @@
+"""The vehicle's trip reports over real HTTP on 127.0.0.1: ``pacc ecu --cloud URL`` reports
+its trip at exit (the cloud table version it started with, its ACC-on time, its takeover
+segment; with --manual its manual driving goes up as a manual batch), and a report made
+while the cloud is away waits in the spool, behind its segment, until a later pass delivers
+both; a report the cloud refuses for good is set aside."""
+
+from __future__ import annotations
+
+import json
+import socket
+import time
+from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
+from pathlib import Path
+
+import can
+import pytest
+
+from cloud_sync.service.rules import CloudService
+from cloud_sync.signing import load_public_key
+from cloud_sync.vehicle.client import HttpCloud
+from cloud_sync.vehicle.connect import write_token
+from cloud_sync.vehicle.download import ProfileDownloader
+from cloud_sync.vehicle.link import VehicleLink
+from cloud_sync.vehicle.reports import ReportError, ReportQueue
+from cloud_sync.vehicle.spool import Spool
+from cloud_sync.vehicle.uploader import Uploader
+from pacc.commands.cloud import main as cloud_main
+from pacc.commands.ecu import main as ecu_main
+from tests.ecu.test_cli import CODEC, Peers
+from tests.ecu.test_cli_cloud import cloud_table
+from tests.peers import PeerNodes
+
+from .conftest import takeover_segment
+from .test_views import _Served
+
+
+@pytest.fixture(scope="module")
+def cloud(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[_Served, CloudService]]:
+    """The service over HTTP with vehicle car and driver syn, one published table."""
+    tmp = tmp_path_factory.mktemp("reports")
+    pool = ThreadPoolExecutor(max_workers=1)
+    service = CloudService.open(tmp / "cloud", executor=pool)
+    served = _Served(service)
+    yield served, service
+    served.stop()
+    pool.shutdown(wait=True)
+    service.store.close()
+
+
+class Driver(Peers):
+    """:class:`tests.ecu.test_cli.Peers` with a real press: SET at 1.2 s, the accelerator
+    pedal at 20 % (switch and position) 1.6..3.0 s."""
+
+    def run(self) -> None:
+        with can.Bus(interface="virtual", channel=self.channel) as bus:
+            peers = PeerNodes(bus, CODEC)
+            peers.set("radar", gap_m=60.0)
+            deadline = time.monotonic() + 30.0
+            while bus.recv(0.05) is None and time.monotonic() < deadline:
+                pass
+            t0 = time.monotonic()
+            while (t := time.monotonic() - t0) < self.seconds:
+                pressed = 1.6 <= t < 3.0
+                peers.set("hmi", set=int(1.2 <= t < 1.4))
+                peers.set("pedals", accel_pressed=int(pressed), accel_pedal_pct=20.0 * pressed)
+                peers.send_due(t)
+                while bus.recv(0) is not None:
+                    pass
+                time.sleep(0.002)
+
+
+def _dead_url() -> str:
+    """A 127.0.0.1 URL nobody listens on."""
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return f"http://127.0.0.1:{sock.getsockname()[1]}"
+
+
+def _trips(served: _Served, token: str) -> list[dict[str, object]]:
+    answer = served.get("/v1/drivers/syn/trips", token)
+    assert answer.status_code == 200, answer.text
+    trips: list[dict[str, object]] = answer.json()
+    return trips
+
+
+def test_a_report_waits_in_the_spool_while_the_cloud_is_away(
+    cloud: tuple[_Served, CloudService], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    served, service = cloud
+    token = service.register_vehicle("car-away")
+    service.register_driver("car-away", "syn")
+    version = service.publish(cloud_table(2.5, version=1), [])
+    cache = tmp_path / "spool" / "profiles"
+    with HttpCloud(served.url, token) as live:
+        key = load_public_key(live.public_key_pem())
+        assert ProfileDownloader(live, key, cache).fetch("syn") is not None  # a run online
+
+    # a trip offline: the cached table, a takeover spooled, the report queued behind it
+    with HttpCloud(_dead_url(), token, timeout_s=1.0) as away:
+        link = VehicleLink(
+            away,
+            Spool(tmp_path / "spool"),
+            "car-away",
+            downloader=ProfileDownloader(away, key, cache),
+            driver_id="syn",
+        )
+        table = link.initial_table()
+        assert table is not None and table.version == version
+        link.sink(takeover_segment(7, [(50, 80, "accel")]))
+        line = link.end_trip(120.0, "2026-11-24T10:00:00.5Z")
+        assert "queued" in line and f"v{version}" in line, line
+        link.stop(drain_s=0.5)
+        assert "trip reports sent 0, queued 1" in link.report()
+    queued = ReportQueue(tmp_path / "spool").pending()
+    assert len(queued) == 1
+    report = json.loads(queued[0].read_text())
+    assert report["segments"] == link.segments and len(link.segments) == 1
+    assert [b.digest for b in Spool(tmp_path / "spool").pending()] == link.segments
+    assert _trips(served, token) == []
+
+    # a later pass with the cloud back (pacc cloud sync): the segment first, then the report
+    write_token(tmp_path / "car.token", token)
+    sync = ["sync", "--spool", str(tmp_path / "spool"), "--cloud", served.url]
+    assert cloud_main([*sync, "--token-file", str(tmp_path / "car.token")]) == 0
+    out = capsys.readouterr().out
+    assert "uploaded 1 batch(es)" in out and "trip reports: 1 sent, 0 refused" in out, out
+    assert ReportQueue(tmp_path / "spool").pending() == []
+    with HttpCloud(served.url, token) as live:
+        (point,) = _trips(served, token)
+        assert point["trip_id"] == report["trip_id"] and point["dgpt_version"] == version
+        assert point["acc_on_s"] == 120.0 and point["segments"] == link.segments
+        assert point["intervention_s"] == pytest.approx(3.0)  # the 30 samples pressed
+        assert point["poi_pct"] == pytest.approx(2.5) and point["takeovers"] == 1
+        assert point["start_utc"] == "2026-11-24T10:00:00.5Z"
+        assert Uploader(Spool(tmp_path / "spool"), live).drain() == 0  # nothing twice
+
+        # refused for good (a version the cloud never published): set aside with the reason
+        queue = ReportQueue(tmp_path / "spool")
+        queue.put({**report, "trip_id": "bad-version", "dgpt_version": 99, "segments": []})
+        refuse = Uploader(Spool(tmp_path / "spool"), live)
+        refuse.drain()
+        assert refuse.reports.stats.rejected == 1 and queue.pending() == []
+        reason = (queue.root / "rejected").glob("*-bad-version.json.reason")
+        assert "HTTP 422" in next(reason).read_text()
+    assert len(_trips(served, token)) == 1
+
+
+@pytest.mark.slow
+def test_ecu_reports_its_trip_over_http(
+    cloud: tuple[_Served, CloudService], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    served, service = cloud
+    token = service.register_vehicle("car-ecu")
+    service.register_driver("car-ecu", "ecu-syn")
+    version = service.publish(replace(cloud_table(2.0, version=1), driver_id="ecu-syn"), [])
+    write_token(tmp_path / "car.token", token)
+    with HttpCloud(served.url, token) as live:
+        (tmp_path / "cloud.pub").write_bytes(live.public_key_pem())
+    peers = Driver("ecu-trip-report", 4.2)
+    peers.start()
+    args = ["-i", "virtual", "-c", "ecu-trip-report", "--duration", "4.0"]
+    args += ["--cloud", served.url, "--vehicle", "car-ecu", "--driver", "ecu-syn"]
+    args += ["--token-file", str(tmp_path / "car.token"), "--trust", str(tmp_path / "cloud.pub")]
+    args += ["--spool", str(tmp_path / "spool"), "--manual", "--manual-min", "0.5"]
+    rc = ecu_main(args)
+    peers.join()
+    out = capsys.readouterr().out
+    assert rc == 0, out
+    assert "takeover 1 (accel)" in out and "trip report ecu-" in out, out
+    assert "trip reports sent 1, queued 0, refused 0" in out, out
+    answer = served.get("/v1/drivers/ecu-syn/trips", token)
+    (point,) = answer.json()
+    assert point["dgpt_version"] == version and len(point["segments"]) == 1
+    batches = service.store.batches("ecu-syn", "default")
+    # the manual driving before SET (a lead, ACC in STANDBY) went up too, as a manual batch
+    assert sorted(b.kind for b in batches) == ["manual", "takeover"]
+    assert "manual trips: 1 of 1 written to the cloud spool" in out, out
+    assert point["segments"] == [b.digest for b in batches if b.kind == "takeover"]
+    assert 1.5 <= point["acc_on_s"] <= 3.2  # engaged at ~1.3 s until 4.0 s
+    assert point["intervention_s"] == pytest.approx(1.4, abs=0.35)  # the press, 1.6..3.0 s
+    assert point["takeovers"] == 1
+
+
+def test_a_damaged_report_file_is_set_aside_and_bad_reports_are_not_queued(
+    cloud: tuple[_Served, CloudService], tmp_path: Path
+) -> None:
+    served, service = cloud
+    token = service.register_vehicle("car-junk")
+    queue = ReportQueue(tmp_path)
+    queue.root.mkdir()
+    (queue.root / "000000000001-junk.json").write_text("[1, 2]\n")
+    (queue.root / "000000000002-torn.json").write_text('{"driver_id": "s')
+    (queue.root / ".0123.part").write_text("{")  # a write cut short: removed on open
+    queue = ReportQueue(tmp_path)
+    assert not (queue.root / ".0123.part").exists()
+    with HttpCloud(served.url, token) as live:
+        assert queue.send(live, set()) == 0
+    assert queue.stats.rejected == 2 and queue.pending() == []
+    assert sorted(p.name for p in (queue.root / "rejected").glob("*.json")) == [
+        "000000000001-junk.json",
+        "000000000002-torn.json",
+    ]
+    for bad in ({"trip_id": "../x"}, {"trip_id": "t", "acc_on_s": float("nan")}, {}):
+        with pytest.raises(ReportError):
+            queue.put(bad)
+    assert queue.pending() == []
