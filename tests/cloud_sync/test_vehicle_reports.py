@@ -8,13 +8,11 @@ from __future__ import annotations
 
 import json
 import socket
-import time
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 from pathlib import Path
 
-import can
 import pytest
 
 from cloud_sync.service.rules import CloudService
@@ -28,9 +26,8 @@ from cloud_sync.vehicle.spool import Spool
 from cloud_sync.vehicle.uploader import Uploader
 from pacc.commands.cloud import main as cloud_main
 from pacc.commands.ecu import main as ecu_main
-from tests.ecu.test_cli import CODEC, Peers
+from tests.ecu.test_cli import Peers
 from tests.ecu.test_cli_cloud import cloud_table
-from tests.peers import PeerNodes
 
 from .conftest import takeover_segment
 from .test_views import _Served
@@ -47,28 +44,6 @@ def cloud(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[_Served, C
     served.stop()
     pool.shutdown(wait=True)
     service.store.close()
-
-
-class Driver(Peers):
-    """:class:`tests.ecu.test_cli.Peers` with a real press: SET at 1.2 s, the accelerator
-    pedal at 20 % (switch and position) 1.6..3.0 s."""
-
-    def run(self) -> None:
-        with can.Bus(interface="virtual", channel=self.channel) as bus:
-            peers = PeerNodes(bus, CODEC)
-            peers.set("radar", gap_m=60.0)
-            deadline = time.monotonic() + 30.0
-            while bus.recv(0.05) is None and time.monotonic() < deadline:
-                pass
-            t0 = time.monotonic()
-            while (t := time.monotonic() - t0) < self.seconds:
-                pressed = 1.6 <= t < 3.0
-                peers.set("hmi", set=int(1.2 <= t < 1.4))
-                peers.set("pedals", accel_pressed=int(pressed), accel_pedal_pct=20.0 * pressed)
-                peers.send_due(t)
-                while bus.recv(0) is not None:
-                    pass
-                time.sleep(0.002)
 
 
 def _dead_url() -> str:
@@ -158,7 +133,7 @@ def test_ecu_reports_its_trip_over_http(
     write_token(tmp_path / "car.token", token)
     with HttpCloud(served.url, token) as live:
         (tmp_path / "cloud.pub").write_bytes(live.public_key_pem())
-    peers = Driver("ecu-trip-report", 4.2)
+    peers = Peers("ecu-trip-report", 4.2, accel_pct=20.0)  # a real press: 20 % of the pedal
     peers.start()
     args = ["-i", "virtual", "-c", "ecu-trip-report", "--duration", "4.0"]
     args += ["--cloud", served.url, "--vehicle", "car-ecu", "--driver", "ecu-syn"]

@@ -30,16 +30,17 @@ CODEC = load_codec()
 
 
 class Peers(threading.Thread):
-    """Plays ESC/PEDAL/RADAR/HMI in real time: SET at 1.2 s, accelerator 1.6..3.0 s.
+    """Plays ESC/PEDAL/RADAR/HMI in real time: SET at 1.2 s, accelerator 1.6..3.0 s (its switch,
+    and its position at ``accel_pct`` %; 0, the resting position, by default).
 
     The timeline starts at the ECU's first frame, not at the thread's start: on a loaded
     machine (pytest -n 2 on two cores) the ECU may take a while to open its bus, and SET
     needs a second of valid inputs before it.
     """
 
-    def __init__(self, channel: str, seconds: float) -> None:
+    def __init__(self, channel: str, seconds: float, accel_pct: float = 0.0) -> None:
         super().__init__(daemon=True)
-        self.channel, self.seconds = channel, seconds
+        self.channel, self.seconds, self.accel_pct = channel, seconds, accel_pct
         self.status: list[dict[str, float | int]] = []
 
     def run(self) -> None:
@@ -51,8 +52,11 @@ class Peers(threading.Thread):
                 pass
             t0 = time.monotonic()
             while (t := time.monotonic() - t0) < self.seconds:
+                pressed = 1.6 <= t < 3.0
                 peers.set("hmi", set=int(1.2 <= t < 1.4))
-                peers.set("pedals", accel_pressed=int(1.6 <= t < 3.0))
+                peers.set(
+                    "pedals", accel_pressed=int(pressed), accel_pedal_pct=self.accel_pct * pressed
+                )
                 peers.send_due(t)
                 while (msg := bus.recv(0)) is not None:
                     mc = CODEC.by_id.get(msg.arbitration_id)
