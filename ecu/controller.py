@@ -212,9 +212,13 @@ class ControllerParams:
             raise ControllerError("emergency_jerk_mps3 must be >= jerk_max_mps3")
 
 
-@cycle_value
+@dataclass(frozen=True, slots=True)
 class ControlInput:
     """What the controller sees in one cycle (all finite; the node checks validity).
+
+    Frozen at run time, unlike the other values of a cycle (:func:`ecu.signals.cycle_value`):
+    it is handed to gap-controller plug-ins, code the type checker never sees, and the ECU's
+    own limits must not read what a plug-in wrote into it.
 
     Attributes:
         v_mps: ego speed, m/s.

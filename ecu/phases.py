@@ -291,6 +291,7 @@ def control(
     )
     integral0 = 0.0 if switched else mem.integral_m_s
     if active:
+        lead_a = inp.lead_accel_mps2 if inp.lead_accel_valid else 0.0
         obs = ControlInput(  # positional fields, as in check_inputs
             p.v_mps,  # v_mps
             inp.a_mps2,  # a_mps2
@@ -298,7 +299,7 @@ def control(
             inp.lead_valid,  # lead_valid
             inp.gap_m,  # gap_m
             inp.rel_speed_mps,  # rel_speed_mps
-            inp.lead_accel_mps2 if inp.lead_accel_valid else 0.0,  # lead_accel_mps2
+            lead_a,  # lead_accel_mps2
             p.desired_gap_m,  # desired_gap_m
             p.desired_gap_slope_s,  # desired_gap_slope_s
         )
@@ -311,13 +312,13 @@ def control(
         # brake at least as hard as the closing speed needs below 3 s TTC, and at any TTC when
         # the closing speed alone needs more than 2 m/s^2 (a cut-out revealing a car 15 m/s
         # slower 58 m ahead: 3.9 s TTC, 2.5 m/s^2; issue 21)
-        alone, limit = closing_needs_mps2(config, inp, p, obs.lead_accel_mps2)
+        alone, limit = closing_needs_mps2(config, inp, p, lead_a)
         if ttc < ctl.emergency_ttc_s or alone < URGENT_STOP_MPS2:
             urgent = alone < URGENT_STOP_MPS2 and limit < prev
             target = limit if target > limit else target
         if inp.lead_valid:  # a lead stopping or stopped: stop at the table's standstill gap
-            need = lead_stop_need_mps2(config, inp, p, obs.lead_accel_mps2)
-            stop = stop_limit(config, inp, p, obs.lead_accel_mps2, need)
+            need = lead_stop_need_mps2(config, inp, p, lead_a)
+            stop = stop_limit(config, inp, p, lead_a, need)
             # behind a lead braking so hard that stopping behind it, were it to brake to a
             # standstill, needs more than 2 m/s^2: that braking now, at the emergency jerk,
             # not from 3 s TTC on (issue 21: the comfort jerk left 1.6 s TTC, and 0.36 m,

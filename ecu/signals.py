@@ -30,7 +30,8 @@ def cycle_value(cls: type[_T]) -> type[_T]:
     per field, 1.3 us for nine fields against 0.5 us plain); the node builds about ten such
     values per cycle. Immutability is therefore a checked contract (``make lint`` runs mypy
     strict on every module), not a run-time guard: code outside the type checker's reach must
-    not assign to these values (none does).
+    not assign to these values, so none is handed to a plug-in (``ControlInput``, which gap
+    controllers get, stays a frozen dataclass).
     """
     return dataclass(slots=True, unsafe_hash=True)(cls)
 

@@ -249,3 +249,52 @@ def test_the_fallback_pid_reads_a_plugin_memory_only_inside_its_integral_clamp()
     limit = params.integral_limit_m_s
     assert accel == desired_accel(params, obs, limit, DT, integrate=True)[0]
     assert accel < desired_accel(params, obs, 1e300, DT, integrate=True)[0]  # not the cruise law
+
+
+class MeddlingController:
+    """Tries to tell the ECU that the braking lead is far and accelerating, then raises."""
+
+    def desired_accel(self, obs: ControlInput, memory: float, dt_s: float) -> tuple[float, float]:
+        obs.lead_accel_mps2 = 5.0  # type: ignore[misc]  # what code outside mypy may try
+        obs.gap_m = 200.0  # type: ignore[misc]
+        raise RuntimeError("boom")
+
+
+def test_a_plugin_cannot_weaken_the_ecus_limits_through_what_it_is_handed() -> None:
+    """25 m/s, 30 m behind a lead 10 m/s slower braking at 4 m/s^2: a plug-in that writes into
+    its ControlInput gets a frozen one (refused, as a plain assignment is), and the command
+    equals the one behind a plug-in that only raises: the same braking at emergency jerk."""
+    from ecu.controller import RoadMemory  # noqa: PLC0415
+    from ecu.phases import ControlMemory, control, plan  # noqa: PLC0415
+    from ecu.signals import NodeInputs  # noqa: PLC0415
+    from pacc.vocab.acc_state import AccState  # noqa: PLC0415
+
+    cfg = EcuConfig()
+    inp = NodeInputs(
+        v_mps=25.0,
+        lead_valid=True,
+        gap_m=30.0,
+        rel_speed_mps=-10.0,
+        lead_accel_mps2=-4.0,
+        lead_accel_valid=True,
+        main_switch=True,
+    )
+    p = plan(predefined(1.5), inp.v_mps)
+    mem = ControlMemory(0.0, 0.0, RoadMemory())
+    commands = []
+    for plugin in (RaisingController(), MeddlingController()):
+        law = GuardedController(plugin, cfg.controller, name=type(plugin).__name__)
+        cmd, _ = control(
+            cfg,
+            AccState.ACTIVE,
+            inp,
+            p,
+            set_speed_mps=30.0,
+            fault_ramp=False,
+            mem=mem,
+            dt_s=DT,
+            law=law,
+        )
+        commands.append(cmd)
+    assert commands[0] == commands[1]
+    assert commands[1].emergency and commands[1].accel_mps2 < 0.0
