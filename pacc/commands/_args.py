@@ -119,7 +119,9 @@ def integer(lo: int | None = None, hi: int | None = INT_MAX) -> Callable[[str], 
     return parse
 
 
-def _same_file(a: Path, b: Path) -> bool:
+def same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
+    """Whether ``a`` and ``b`` name one file (the same resolved path, or the same inode)."""
+    a, b = Path(a), Path(b)
     if a.resolve() == b.resolve():
         return True
     try:
@@ -137,7 +139,7 @@ def check_distinct_outputs(**outputs: str | os.PathLike[str] | None) -> None:
     given = [(name, Path(path)) for name, path in outputs.items() if path is not None]
     for i, (name_a, a) in enumerate(given):
         for name_b, b in given[i + 1 :]:
-            if _same_file(a, b):
+            if same_file(a, b):
                 opt_a, opt_b = (f"--{n.replace('_', '-')}" for n in (name_a, name_b))
                 raise UsageError(
                     f"{opt_a} and {opt_b} name the same file {a}: one would overwrite the other"

@@ -32,7 +32,8 @@ from dbc.errors import DbcError
 from ecu import EcuError
 from ecu.buslog.format import INPUTS_TOPIC, OUTPUTS_TOPIC, WORLD_TOPIC, CanLogError
 from ecu.buslog.reader import CanLog
-from pacc.commands._args import CommandParser, integer
+from pacc.commands._args import CommandParser, check_distinct_outputs, integer, same_file
+from pacc.errors import UsageError
 from pacc.vocab import FormatError
 from pacc.vocab.acc_state import AccState
 from pacc.vocab.triplog import Trip
@@ -309,13 +310,23 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.out is None and args.plotjuggler is None:
         parser.error("give -o OUT.png, --plotjuggler LAYOUT.xml, or both")
+    png = (
+        None if args.out is None else args.out if args.out.suffix else args.out.with_suffix(".png")
+    )
+    try:
+        check_distinct_outputs(out=png, plotjuggler=args.plotjuggler)
+        for option, path in (("-o", png), ("--plotjuggler", args.plotjuggler)):
+            if path is not None and same_file(path, args.log):
+                raise UsageError(f"{option} {path} is LOG itself: it would overwrite the recording")
+    except UsageError as exc:
+        parser.error(str(exc))
     try:
         log, trip = load(args.log, args.dbc, _warn)
         if args.plotjuggler is not None:
             _write_layout(args.log, log, args.plotjuggler)
-        if args.out is None:
+        if png is None:
             return 0
-        out: Path = args.out if args.out.suffix else args.out.with_suffix(".png")
+        out: Path = png
         if log is not None and args.binding and not args.signals:
             trip, log = _bus_trip(args), None
         if trip is not None and args.signals:

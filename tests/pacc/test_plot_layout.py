@@ -90,3 +90,22 @@ def test_a_layout_needs_an_mcap_recording(
     with pytest.raises(SystemExit) as stop:
         plot_main([str(drive)])
     assert stop.value.code == 2
+
+
+def test_no_output_overwrites_the_recording_or_another_output(
+    drive: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    before = drive.read_bytes()
+    for argv in (
+        [str(drive), "--plotjuggler", str(drive)],
+        [str(drive), "-o", str(drive)],
+        [str(drive), "--plotjuggler", str(tmp_path / "v.png"), "-o", str(tmp_path / "v")],
+    ):
+        with pytest.raises(SystemExit) as stop:
+            plot_main(argv)
+        assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert "--plotjuggler " + str(drive) + " is LOG itself" in err
+    assert "-o " + str(drive) + " is LOG itself" in err
+    assert "--out and --plotjuggler name the same file" in err
+    assert drive.read_bytes() == before and not list(tmp_path.iterdir())
