@@ -2,7 +2,9 @@
 
 Transport failures (refused connection, timeout, a dropped connection) and 5xx answers become
 :class:`~cloud_sync.api.CloudUnavailableError`, the one error worth a retry; 4xx answers become
-the error of their status. Retrying is the uploader's business, not the client's.
+the error of their status (a plain :class:`~cloud_sync.api.CloudError` with that status for
+one the contract does not name: 405, 409, 429 ...). Retrying is the uploader's business, not
+the client's.
 """
 
 from __future__ import annotations
@@ -69,8 +71,11 @@ class HttpCloud:
                 detail = str(response.json().get("detail", response.text))
             except ValueError:
                 detail = response.text[:200]
-            error = ERRORS_BY_STATUS.get(response.status_code, CloudError)
-            raise error(f"HTTP {response.status_code}: {detail}")
+            error = ERRORS_BY_STATUS.get(response.status_code, CloudError)(
+                f"HTTP {response.status_code}: {detail}"
+            )
+            error.status = response.status_code  # a plain CloudError (405, 409, 429 ...) too
+            raise error
         return response
 
     def upload(self, data: bytes) -> Receipt:

@@ -121,8 +121,8 @@ class VehicleLink:
             report["start_utc"] = start_utc
         try:
             self.uploader.reports.put(report)
-        except ReportError as exc:
-            return f"cloud: trip report not queued: {exc}"
+        except ReportError as exc:  # its message says "trip report not queued: <why>"
+            return f"cloud: {exc}"
         self.reports_queued += 1
         self.uploader.notify()
         return (

@@ -11,11 +11,18 @@ uploader after each pass over the batches, :mod:`cloud_sync.vehicle.uploader`) p
 pending reports oldest first, each only once none of its segments is still spooled:
 
 - acknowledged (or a duplicate: the cloud holds this very report) — deleted;
-- the cloud cannot be reached (:class:`~cloud_sync.api.CloudUnavailableError`), the token is
-  refused (401) or the driver is not the vehicle's (403) — kept, the pass ends, tried again
-  on the next pass or the next run (``pacc ecu --cloud``, ``pacc cloud sync --spool``);
-- refused for good (422: a segment the cloud never got because the quota evicted it, an
-  unpublished version, a taken trip id) — moved to ``reports/rejected/`` with the reason.
+- refused for good, an answer about the report itself that no retry changes (as the uploader
+  decides for batches: 422 :class:`~cloud_sync.api.BadBatchError`, a segment the cloud never
+  got because the quota evicted it, an unpublished version, a taken trip id; 413
+  :class:`~cloud_sync.api.PayloadTooLargeError`) — moved to ``reports/rejected/`` with the
+  reason, and so is a file the cloud never saw because it cannot be read or is not a trip
+  report (the reason says which);
+- any other answer — kept, the pass ends, tried again on the next pass or the next run
+  (``pacc ecu --cloud``, ``pacc cloud sync --spool``): the cloud cannot be reached
+  (:class:`~cloud_sync.api.CloudUnavailableError`, 5xx), the token is refused (401), the driver
+  is not the vehicle's (403), or an answer about the set-up that a later cloud may change
+  (404: an older cloud without ``POST /v1/trips`` or a wrong URL prefix; 405, 409, 429 ...).
+  :attr:`ReportStats.last_held` says why.
 
 Nothing is lost while the cloud is away: delivery is at least once, and the cloud stores a
 report once per (driver, trip id).
@@ -36,11 +43,11 @@ from pathlib import Path
 from typing import Any
 
 from cloud_sync.api import (
-    AuthError,
+    BadBatchError,
     CloudApi,
     CloudError,
     CloudUnavailableError,
-    ForbiddenError,
+    PayloadTooLargeError,
 )
 from cloud_sync.durable import fsync_dir
 from cloud_sync.errors import CloudSyncError
@@ -51,6 +58,7 @@ log = logging.getLogger(__name__)
 REPORTS = "reports"
 _NAME = re.compile(r"^(?P<seq>\d{12})-(?P<trip>[A-Za-z0-9][A-Za-z0-9_.-]{0,63})\.json$")
 _REJECTED = "rejected"
+_STATUS_PREFIX = re.compile(r"^HTTP \d{3}: ")
 
 
 class ReportError(CloudSyncError):
@@ -66,6 +74,8 @@ class ReportStats:
     duplicates: int = 0
     rejected: int = 0
     held: int = 0
+    #: why the last report was kept ("" when none was)
+    last_held: str = ""
 
 
 class ReportQueue:
@@ -133,8 +143,11 @@ class ReportQueue:
         for path in self.pending():
             try:
                 report = json.loads(path.read_text(encoding="utf-8"))
-            except (OSError, ValueError) as exc:
-                self._reject(path, f"unreadable: {exc}")
+            except OSError as exc:
+                self._reject(path, f"unreadable: {exc.strerror or exc}")
+                continue
+            except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError
+                self._reject(path, f"not JSON: {exc}")
                 continue
             if not isinstance(report, dict) or not isinstance(report.get("segments", []), list):
                 self._reject(path, "not a trip report (a JSON object with a segments list)")
@@ -143,13 +156,18 @@ class ReportQueue:
                 break  # its segments first: the order is the upload's
             try:
                 receipt = cloud.report_trip(report)
-            except (CloudUnavailableError, AuthError, ForbiddenError) as exc:
-                self.stats.held += 1
-                log.warning("trip report %s kept for later: %s", path.name, exc)
-                break
-            except CloudError as exc:
-                self._reject(path, f"HTTP {exc.status}: {exc}")
+            except (BadBatchError, PayloadTooLargeError) as exc:  # about this report: for good
+                self._reject(path, f"refused by the cloud ({_answer(exc)})")
                 continue
+            except CloudError as exc:  # unreachable, 401, 403, 404, 405, 409, 429 ...: held
+                self.stats.held += 1
+                self.stats.last_held = f"{path.name}: {_answer(exc)}" + (
+                    " (not the service's root URL, or a cloud without POST /v1/trips)"
+                    if exc.status == 404
+                    else ""
+                )
+                log.warning("trip report %s kept for later: %s", path.name, _answer(exc))
+                break
             path.unlink()
             self.stats.sent += 1
             self.stats.duplicates += int(receipt.duplicate)
@@ -163,7 +181,16 @@ class ReportQueue:
         path.replace(target / path.name)
         fsync_dir(self.root)
         self.stats.rejected += 1
-        log.error("trip report %s refused by the cloud: %s", path.name, reason)
+        log.error("trip report %s set aside in %s: %s", path.name, target, reason)
+
+
+def _answer(exc: CloudError) -> str:
+    """What the cloud answered: ``HTTP <status>: <detail>``, the status said once (the HTTP
+    client's messages start with it already, the embedded cloud's do not); the cloud out of
+    reach, its own words."""
+    if isinstance(exc, CloudUnavailableError):
+        return f"the cloud is unavailable: {exc}"
+    return f"HTTP {exc.status}: {_STATUS_PREFIX.sub('', str(exc), count=1)}"
 
 
 __all__ = ["REPORTS", "ReportError", "ReportQueue", "ReportStats"]

@@ -7,6 +7,7 @@ both; a report the cloud refuses for good is set aside."""
 from __future__ import annotations
 
 import json
+import logging
 import socket
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
@@ -61,7 +62,10 @@ def _trips(served: _Served, token: str) -> list[dict[str, object]]:
 
 
 def test_a_report_waits_in_the_spool_while_the_cloud_is_away(
-    cloud: tuple[_Served, CloudService], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    cloud: tuple[_Served, CloudService],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    caplog: pytest.LogCaptureFixture,
 ) -> None:
     served, service = cloud
     token = service.register_vehicle("car-away")
@@ -111,14 +115,20 @@ def test_a_report_waits_in_the_spool_while_the_cloud_is_away(
         assert point["start_utc"] == "2026-11-24T10:00:00.5Z"
         assert Uploader(Spool(tmp_path / "spool"), live).drain() == 0  # nothing twice
 
-        # refused for good (a version the cloud never published): set aside with the reason
-        queue = ReportQueue(tmp_path / "spool")
-        queue.put({**report, "trip_id": "bad-version", "dgpt_version": 99, "segments": []})
-        refuse = Uploader(Spool(tmp_path / "spool"), live)
-        refuse.drain()
-        assert refuse.reports.stats.rejected == 1 and queue.pending() == []
-        reason = (queue.root / "rejected").glob("*-bad-version.json.reason")
-        assert "HTTP 422" in next(reason).read_text()
+    # refused for good (a version the cloud never published): set aside with the reason, and
+    # pacc cloud sync exits 1 as for a refused batch
+    queue = ReportQueue(tmp_path / "spool")
+    queue.put({**report, "trip_id": "bad-version", "dgpt_version": 99, "segments": []})
+    with caplog.at_level(logging.ERROR, logger="cloud_sync.vehicle.reports"):
+        assert cloud_main([*sync, "--token-file", str(tmp_path / "car.token")]) == 1
+    out = capsys.readouterr().out
+    assert "trip reports: 0 sent, 1 refused" in out and "0 still queued" in out, out
+    assert queue.pending() == []
+    reason = next((queue.root / "rejected").glob("*-bad-version.json.reason")).read_text()
+    assert reason.startswith("refused by the cloud (HTTP 422: trip report: ") and "99" in reason
+    assert reason.count("HTTP") == 1, reason  # the status said once
+    (line,) = [r.getMessage() for r in caplog.records if "bad-version" in r.getMessage()]
+    assert "set aside in" in line and "refused by the cloud (HTTP 422" in line, line
     assert len(_trips(served, token)) == 1
 
 
@@ -159,7 +169,7 @@ def test_ecu_reports_its_trip_over_http(
 
 
 def test_a_damaged_report_file_is_set_aside_and_bad_reports_are_not_queued(
-    cloud: tuple[_Served, CloudService], tmp_path: Path
+    cloud: tuple[_Served, CloudService], tmp_path: Path, caplog: pytest.LogCaptureFixture
 ) -> None:
     served, service = cloud
     token = service.register_vehicle("car-junk")
@@ -170,14 +180,80 @@ def test_a_damaged_report_file_is_set_aside_and_bad_reports_are_not_queued(
     (queue.root / ".0123.part").write_text("{")  # a write cut short: removed on open
     queue = ReportQueue(tmp_path)
     assert not (queue.root / ".0123.part").exists()
-    with HttpCloud(served.url, token) as live:
+    with (
+        HttpCloud(served.url, token) as live,
+        caplog.at_level(logging.ERROR, logger="cloud_sync.vehicle.reports"),
+    ):
         assert queue.send(live, set()) == 0
     assert queue.stats.rejected == 2 and queue.pending() == []
     assert sorted(p.name for p in (queue.root / "rejected").glob("*.json")) == [
         "000000000001-junk.json",
         "000000000002-torn.json",
     ]
+    # the cloud never saw them: the reason and the log say what is wrong with the file
+    reasons = [
+        (queue.root / "rejected" / f"{n}.json.reason").read_text()
+        for n in ("000000000001-junk", "000000000002-torn")
+    ]
+    assert reasons[0].startswith("not a trip report") and reasons[1].startswith("not JSON: ")
+    lines = [r.getMessage() for r in caplog.records]
+    assert len(lines) == 2 and all("set aside in" in line for line in lines), lines
+    assert not any("cloud" in line.split(": ", 1)[1] for line in lines), lines
     for bad in ({"trip_id": "../x"}, {"trip_id": "t", "acc_on_s": float("nan")}, {}):
         with pytest.raises(ReportError):
             queue.put(bad)
     assert queue.pending() == []
+
+
+def test_a_report_is_held_on_an_answer_about_the_set_up_and_sent_later(
+    cloud: tuple[_Served, CloudService],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """A 404 (a URL prefix the cloud does not have, as an older cloud without /v1/trips
+    answers) or a 405 keeps the report queued, never set aside: the next pass with the right
+    URL delivers it. A report that cannot be queued is said so once."""
+    served, service = cloud
+    token = service.register_vehicle("car-held")
+    service.register_driver("car-held", "held")
+    version = service.publish(replace(cloud_table(2.5, version=1), driver_id="held"), [])
+    spool = tmp_path / "spool"
+    write_token(tmp_path / "car.token", token)
+    with HttpCloud(served.url, token) as live:
+        key = load_public_key(live.public_key_pem())
+        link = VehicleLink(
+            live,
+            Spool(spool),
+            "car-held",
+            downloader=ProfileDownloader(live, key, spool / "profiles"),
+            driver_id="held",
+        )
+        assert link.initial_table() is not None
+        (spool / "reports").write_text("")  # the queue's folder cannot be made
+        line = link.end_trip(60.0, "2026-11-24T11:00:00Z")
+        assert line.startswith("cloud: trip report not queued: ") and line.count("trip report") == 1
+        (spool / "reports").unlink()
+        assert "queued" in link.end_trip(60.0, "2026-11-24T11:00:00Z")
+    queue = ReportQueue(spool)
+    (path,) = queue.pending()
+
+    for prefix, status in (("/no-such-prefix", 404), ("/v1/drivers", 405)):  # POST .../v1/trips
+        with HttpCloud(served.url + prefix, token) as wrong:
+            assert queue.send(wrong, set()) == 0
+        assert queue.stats.rejected == 0 and queue.pending() == [path], status
+        assert queue.stats.last_held.startswith(f"{path.name}: HTTP {status}: ")
+        assert queue.stats.last_held.count("HTTP") == 1, queue.stats.last_held
+    assert queue.stats.held == 2 and not (queue.root / "rejected").exists()
+
+    # pacc cloud sync against the wrong prefix: kept, said why, exit 1; the right URL: sent
+    sync = ["sync", "--spool", str(spool), "--token-file", str(tmp_path / "car.token")]
+    assert cloud_main([*sync, "--cloud", served.url + "/no-such-prefix"]) == 1
+    out, err = capsys.readouterr()
+    assert "trip reports: 0 sent, 0 refused" in out and "1 still queued" in out, out
+    assert f"trip reports kept: {path.name}: HTTP 404: " in err and "root URL" in err, err
+    assert cloud_main([*sync, "--cloud", served.url]) == 0
+    out = capsys.readouterr().out
+    assert "trip reports: 1 sent, 0 refused" in out and "0 still queued" in out, out
+    (point,) = served.get("/v1/drivers/held/trips", token).json()
+    assert point["dgpt_version"] == version and point["acc_on_s"] == 60.0
+    assert not (queue.root / "rejected").exists()

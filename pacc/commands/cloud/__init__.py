@@ -6,7 +6,7 @@ stays fast.
 
 - :mod:`pacc.commands.cloud.learn` — ``pacc cloud learn``: a driver's DGPT by IRL from files.
 - :mod:`pacc.commands.cloud.serve` — ``pacc cloud serve`` and ``pacc cloud register``.
-- :mod:`pacc.commands.cloud.sync` — ``pacc cloud sync``: spool and upload trip logs.
+- :mod:`pacc.commands.cloud.sync` — ``pacc cloud sync``: upload trip logs and trip reports.
 """
 
 from __future__ import annotations

@@ -1,12 +1,16 @@
 """``pacc cloud sync``: spool trip logs and upload a spool to the cloud, once.
 
     pacc cloud sync --spool DIR --cloud URL|DIR --token-file F [--add FILE ...]
-                    [--quota-mb 256] [--fetch DRIVER --trust KEY.pub -o DGPT.signed.json]
+                    [--quota-mb 256] [--retry-s 60] [--fetch DRIVER --trust KEY.pub]
 
 Each ``--add`` file (an MCAP trip log) is checked and spooled; then every pending batch is
 uploaded (retrying while the cloud is unavailable, up to ``--retry-s`` seconds) and deleted
-only once the cloud acknowledged it. With ``--fetch`` the driver's newest signed table is
-downloaded, verified against the trusted key and kept in ``DIR/profiles``.
+only once the cloud acknowledged it; then the trip reports ``pacc ecu --cloud`` queued in
+``DIR/reports`` are posted, each once its segments are up
+(:mod:`cloud_sync.vehicle.reports`). With ``--fetch`` the driver's newest signed table is
+downloaded, verified against the trusted key and kept in ``DIR/profiles``. Exits 1 while a
+batch or a report stays queued or one was set aside (``DIR/rejected``,
+``DIR/reports/rejected``), so a timer can tell.
 """
 
 from __future__ import annotations
@@ -87,7 +91,10 @@ def _do_sync(args: argparse.Namespace) -> int:
             f"trip reports: {reports.stats.sent} sent, {reports.stats.rejected} refused "
             f"(in {reports.root}/rejected), {len(queued)} still queued"
         )
-    code = 0 if not left and not stats.rejected and not queued else 1
+    if reports.stats.held and reports.stats.last_held:
+        print(f"pacc cloud sync: trip reports kept: {reports.stats.last_held}", file=sys.stderr)
+    refused = stats.rejected or reports.stats.rejected
+    code = 0 if not left and not refused and not queued else 1
     if trusted is not None:
         downloader = ProfileDownloader(cloud, trusted, spool.root / "profiles")
         table = downloader.fetch(args.fetch, args.condition)
@@ -106,7 +113,13 @@ def _do_sync(args: argparse.Namespace) -> int:
 
 def add_subparser(subparsers: Any) -> None:
     """Register ``sync`` on the ``pacc cloud`` parser."""
-    p = subparsers.add_parser("sync", help="spool trip logs and upload the spool once")
+    p = subparsers.add_parser(
+        "sync",
+        help="spool trip logs, upload the spool and its queued trip reports once",
+        description="Spool trip logs, upload the spool's batches, then post the trip reports "
+        "pacc ecu --cloud queued in SPOOL/reports (each once its segments are up). "
+        "Exits 1 while anything stays queued or was set aside.",
+    )
     p.add_argument("--spool", required=True, help="the vehicle's spool folder")
     p.add_argument("--cloud", required=True, help="the service URL, or a folder (embedded)")
     p.add_argument("--token-file", required=True, help="file holding the vehicle's token")
