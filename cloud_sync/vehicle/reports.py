@@ -157,16 +157,16 @@ class ReportQueue:
             try:
                 receipt = cloud.report_trip(report)
             except (BadBatchError, PayloadTooLargeError) as exc:  # about this report: for good
-                self._reject(path, f"refused by the cloud ({_answer(exc)})")
+                self._reject(path, f"refused by the cloud ({http_answer(exc)})")
                 continue
             except CloudError as exc:  # unreachable, 401, 403, 404, 405, 409, 429 ...: held
                 self.stats.held += 1
-                self.stats.last_held = f"{path.name}: {_answer(exc)}" + (
+                self.stats.last_held = f"{path.name}: {http_answer(exc)}" + (
                     " (not the service's root URL, or a cloud without POST /v1/trips)"
                     if exc.status == 404
                     else ""
                 )
-                log.warning("trip report %s kept for later: %s", path.name, _answer(exc))
+                log.warning("trip report %s kept for later: %s", path.name, http_answer(exc))
                 break
             path.unlink()
             self.stats.sent += 1
@@ -184,7 +184,7 @@ class ReportQueue:
         log.error("trip report %s set aside in %s: %s", path.name, target, reason)
 
 
-def _answer(exc: CloudError) -> str:
+def http_answer(exc: CloudError) -> str:
     """What the cloud answered: ``HTTP <status>: <detail>``, the status said once (the HTTP
     client's messages start with it already, the embedded cloud's do not); the cloud out of
     reach, its own words."""
@@ -193,4 +193,4 @@ def _answer(exc: CloudError) -> str:
     return f"HTTP {exc.status}: {_STATUS_PREFIX.sub('', str(exc), count=1)}"
 
 
-__all__ = ["REPORTS", "ReportError", "ReportQueue", "ReportStats"]
+__all__ = ["REPORTS", "ReportError", "ReportQueue", "ReportStats", "http_answer"]

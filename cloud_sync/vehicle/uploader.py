@@ -39,7 +39,7 @@ from cloud_sync.api import (
     CloudUnavailableError,
     PayloadTooLargeError,
 )
-from cloud_sync.vehicle.reports import ReportQueue
+from cloud_sync.vehicle.reports import ReportQueue, http_answer
 from cloud_sync.vehicle.spool import Batch, Spool
 
 log = logging.getLogger(__name__)
@@ -133,20 +133,20 @@ class Uploader:
         except CloudUnavailableError:
             return False  # stopped while the cloud was away: the batch stays spooled
         except (PayloadTooLargeError, BadBatchError) as exc:  # about this batch: set aside
-            self.spool.reject(batch.digest, f"HTTP {exc.status}: {exc}")
+            self.spool.reject(batch.digest, http_answer(exc))
             self.stats.rejected += 1
             return False
         except AuthError:
             raise
         except CloudError as exc:  # about the set-up (403 ...): keep it for the next pass
             self.stats.held += 1
-            self.stats.last_held = f"batch {batch.seq}: HTTP {exc.status}: {exc}" + (
+            self.stats.last_held = f"batch {batch.seq}: {http_answer(exc)}" + (
                 " (register the driver to this vehicle: pacc cloud register ... --driver ID; "
                 "ECU takeovers need pacc ecu --driver ID)"
                 if exc.status == 403
                 else ""
             )
-            log.error("batch %d kept, the cloud answered HTTP %d: %s", batch.seq, exc.status, exc)
+            log.error("batch %d kept, the cloud answered %s", batch.seq, http_answer(exc))
             return False
         if receipt.digest != batch.digest:  # never delete on a receipt for other bytes
             log.error("receipt digest %s for batch %s: kept", receipt.digest, batch.digest)
