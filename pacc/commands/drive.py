@@ -11,7 +11,7 @@ prints PoI, NIM, min gap, min time-to-collision, RMS jerk, takeovers, adaptation
 collisions. ``--manual`` drives the scenario by hand instead (ACC off, no bus: the driver's
 own pedals) and writes the trip to ``--log``: a demonstration for ``pacc cloud learn``.
 ``--manual-trips DIR`` writes what the ECU itself recorded of the driver's manual
-car-following during the drive (:class:`ecu.recorder.ManualRecorder`). A drive
+car-following during the drive (:class:`ecu.manual.ManualRecorder`). A drive
 is a pure function of (configuration, seed, shipped data): the ECU and
 the simulator each get a python-can ``virtual`` bus on a private channel, and time is the
 simulator's (every frame stamped with simulated time). Exit status: 0, 1 if the drive

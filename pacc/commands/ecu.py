@@ -14,7 +14,7 @@ E2E errors by kind, takeovers, adaptations, max cycle time.
 batch that ``pacc cloud sync --spool DIR`` uploads, tagged with ``--driver`` (else the
 profile's driver; the predefined table's ``guest`` is refused by the cloud, and said so).
 ``--manual DIR`` spools the driver's manual car-following stretches the same way (batches of
-kind ``manual``, :class:`ecu.recorder.ManualRecorder`: the demonstrations the cloud learns
+kind ``manual``, :class:`ecu.manual.ManualRecorder`: the demonstrations the cloud learns
 from); with ``--cloud``, ``--manual`` alone puts them in the link's spool. With ``--cloud``
 the trip is reported at exit (``POST /v1/trips``: the cloud table version it started with,
 its ACC-on time, its takeover segments; :meth:`cloud_sync.vehicle.link.VehicleLink.end_trip`),
@@ -42,7 +42,7 @@ from ecu.buslog.format import TimeBase
 from ecu.buslog.live import add_foxglove_argument
 from ecu.methods import make_adaptation, make_controller
 from ecu.node import EcuConfig, EcuNode
-from ecu.recorder import MANUAL_MIN_S, TripSink
+from ecu.recorder import TripSink
 from pacc.commands._args import (
     CommandParser,
     add_bus_arguments,
@@ -61,6 +61,7 @@ from pacc.commands.ecu_run import close_recorder, open_recorder, run_on_bus
 from pacc.vocab import FormatError
 from pacc.vocab.dgpt import Dgpt, DgptError, predefined
 from pacc.vocab.dgpt_file import load_dgpt, save_dgpt
+from pacc.vocab.sampling import MANUAL_MIN_S
 
 
 def build_parser() -> argparse.ArgumentParser:

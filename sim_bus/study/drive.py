@@ -181,7 +181,7 @@ def run_drive(
     ``live``: more sinks of the same channels (a Foxglove live view, :mod:`ecu.buslog.live`).
     ``bus``: the python-can interface, one of :data:`BUSES` (the same frames on each).
     ``takeover_sink`` / ``manual_sink``: the ECU's takeover segments / manual car-following
-    trips (:mod:`ecu.recorder`; None: not recorded).
+    trips (:mod:`ecu.recorder`, :mod:`ecu.manual`; None: not recorded).
     """
     if bus not in BUSES:
         raise DriveError(f"bus must be one of {', '.join(BUSES)}, got {bus!r}")
