@@ -171,3 +171,39 @@ def test_drive_refuses_manual_trips_that_cannot_be_written_before_it_runs(
     assert why in err and "learning" not in err, err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]
 
+
+def test_manual_min_is_bounded_and_needs_manual(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--manual-min: 0.1 to 600 s (the longest trip), and only with --manual; refused before
+    any spool is created."""
+    with pytest.raises(SystemExit) as refused:
+        main(["--manual-min", "601", "--manual", str(tmp_path / "m"), "--duration", "0"])
+    assert refused.value.code == 2 and "<= 600" in capsys.readouterr().err
+    assert main(["--manual-min", "5", "--takeovers", str(tmp_path / "t"), "--duration", "0"]) == 2
+    assert "--manual-min is for --manual" in capsys.readouterr().err
+    (tmp_path / "tok").write_text("tok\n")
+    cloud = [
+        "--cloud",
+        str(tmp_path / "c"),
+        "--vehicle",
+        "v",
+        "--token-file",
+        str(tmp_path / "tok"),
+    ]
+    assert main([*cloud, "--spool", str(tmp_path / "s"), "--manual-min", "5"]) == 2
+    assert "--manual-min is for --manual" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["tok"]
+
+
+def test_manual_alone_warns_of_a_guest_driver_and_takes_the_longest_minimum(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--manual without --driver: the warning names the manual trips (not takeovers, which
+    are not recorded); --manual-min 600 is accepted."""
+    args = ["-i", "virtual", "-c", f"ecu-manual-{next(_ids)}", "--duration", "0.1"]
+    assert main([*args, "--manual", str(tmp_path / "m"), "--manual-min", "600"]) == 0
+    out, err = capsys.readouterr()
+    assert "warning: manual trips are tagged driver 'guest'" in err, err
+    assert "takeover" not in err
+    assert "shorter than 600 s" in out, out
