@@ -19,7 +19,7 @@ from); with ``--cloud``, ``--manual`` alone puts them in the link's spool. With 
 the trip is reported at exit (``POST /v1/trips``: the cloud table version it started with,
 its ACC-on time, its takeover segments; :meth:`cloud_sync.vehicle.link.VehicleLink.end_trip`),
 queued in the spool while the cloud is away.
-Exit codes: 0 run completed, 1 bus/DBC/takeover-directory error, 2 usage error (also
+Exit codes: 0 run completed, 1 bus/DBC/spool error, 2 usage error (also
 ``--dbc`` without a ``--binding`` that names it).
 """
 
