@@ -6,6 +6,7 @@ Modules, one concept each:
 - :mod:`ecu.controller` — PID gap controller with the acceleration/jerk envelope.
 - :mod:`ecu.state` — engagement state machine (pure transition function).
 - :mod:`ecu.recorder` — takeover recorder (pre-trigger ring buffer, segments to a sink).
+- :mod:`ecu.manual` — manual-driving recorder (the driver's car-following stretches as trips).
 - :mod:`ecu.config` — ``EcuConfig``, the node's frozen configuration.
 - :mod:`ecu.signals` — ``NodeInputs`` / ``NodeOutputs``, the node's boundary values.
 - :mod:`ecu.phases` — the phases of one control cycle, pure functions.

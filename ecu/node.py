@@ -42,6 +42,7 @@ from ecu.adaptation import (
     count_short_press,
 )
 from ecu.config import ConfigError, EcuConfig
+from ecu.manual import ManualRecorder
 from ecu.methods import make_adaptation, make_controller
 from ecu.methods.guard import (
     ADAPTATION_BUDGET_S,
@@ -65,12 +66,13 @@ from ecu.phases import (
     sample_of,
     takeover_pedal,
 )
-from ecu.recorder import MANUAL_MIN_S, ManualRecorder, TakeoverRecorder, TripSink
+from ecu.recorder import TakeoverRecorder, TripSink
 from ecu.signals import NodeInputs, NodeOutputs, input_fault
 from ecu.state import transition
 from pacc.vocab import FormatError
 from pacc.vocab.acc_state import AccState, FaultCode
 from pacc.vocab.dgpt import Dgpt, utc_now_iso
+from pacc.vocab.sampling import MANUAL_MIN_S
 
 log = logging.getLogger(__name__)
 

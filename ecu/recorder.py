@@ -1,4 +1,4 @@
-"""The ECU's recorders: takeover segments and the driver's manual car-following trips.
+"""The ECU's takeover recorder and the queue its trips, and the manual ones, go through.
 
 **Takeovers** (:class:`TakeoverRecorder`): a pre-trigger ring buffer and complete takeover
 segments for a sink.
@@ -15,23 +15,10 @@ The sink is I/O at the edge: any exception it raises is caught, logged and count
 sink refused is kept (up to :data:`MAX_PENDING` of them) and offered again, in order, at the
 next emit and at :meth:`TakeoverRecorder.flush`.
 
-**Manual driving** (:class:`ManualRecorder`): the demonstrations the cloud learns from, recorded
-on the vehicle as in the paper. The node offers the same samples, each with the cycle's input
-check; the recorder keeps the first cycle at least ``period_s`` less half a cycle after the
-last kept one (:func:`keep_sample`: in real time, where cycles jitter, every 5th 20-ms cycle,
-never drifting to the 6th as the takeover recorder's ``period_s - 1 µs`` may; in lockstep
-both keep the same cycles). A kept sample is *manual car-following* when the ACC is not
-engaged (OFF or STANDBY), a lead is valid and the inputs the demonstration needs are good
-(speed, pedals and radar fresh, passed E2E and finite: :func:`manual_inputs_ok`). A run of
-such samples is one stretch; a stretch of at least ``min_s`` (``count × period_s``, default
-:data:`MANUAL_MIN_S`) becomes one trip log with ``meta["mode"] == "manual"`` (the takeover
-segments' format and metadata), a stretch reaching ``max_s`` (:data:`MANUAL_MAX_S`) is handed
-over and the next sample starts a new one (a bounded buffer on the vehicle).
-``pacc demos extract`` cuts a bus log of the same drive the same way
-(:mod:`cloud_sync.irl.bus_demos`).
-
-Both recorders hand their trips to the sink through the same queue (:class:`SinkQueue`):
-a sink that raises is retried later, never raised into the control loop.
+The takeover recorder and the manual one (:class:`ecu.manual.ManualRecorder`, the driver's
+manual car-following trips) hand their trips to the sink through the same queue
+(:class:`SinkQueue`): a sink that raises is retried later, and a trip's ``start_utc`` that
+cannot be stamped is left out (logged); neither is ever raised into the control loop.
 :func:`directory_sink` writes each trip as an MCAP file into a directory.
 """
 
@@ -49,7 +36,8 @@ from typing import Any
 import numpy as np
 
 from ecu import EcuError
-from pacc.vocab.acc_state import AccState, FaultCode
+from pacc.vocab.acc_state import AccState
+from pacc.vocab.sampling import PERIOD_EPS_S
 from pacc.vocab.triplog import Trip
 from pacc.vocab.triplog_file import write_trip
 from pacc.vocab.tripmode import TripMode
@@ -59,16 +47,7 @@ log = logging.getLogger(__name__)
 TripSink = Callable[[Trip], None]
 #: Trips kept for a retry while the sink fails; beyond it the oldest is dropped (logged).
 MAX_PENDING = 64
-#: Shortest manual stretch that becomes a trip, s (``pacc demos extract``'s default too).
-MANUAL_MIN_S = 10.0
-#: Longest manual trip, s: a longer stretch is handed over in pieces of this length.
-MANUAL_MAX_S = 600.0
-#: Round-off margin of the sampling period and of a stretch's length, s.
-PERIOD_EPS_S = 1e-6
-_NOT_ENGAGED = (int(AccState.OFF), int(AccState.STANDBY))
 _ENGAGED = (int(AccState.ACTIVE), int(AccState.OVERRIDE))
-#: input faults a manual demonstration does not care about (the buttons' HMI frame)
-_MANUAL_OK = (FaultCode.NONE, FaultCode.HMI_INPUT)
 
 
 class RecorderError(EcuError):
@@ -90,20 +69,6 @@ class Sample:
     accel_pedal: float
     brake_pedal: float
     acc_state: int
-
-
-def keep_sample(t_s: float, last_kept_s: float, period_s: float, cycle_s: float) -> bool:
-    """Whether the manual recorder keeps the cycle at ``t_s`` (s): ``period_s`` after the
-    last kept one (``last_kept_s``; -inf: none yet) less half a cycle (``cycle_s``, s; at least
-    :data:`PERIOD_EPS_S`). ``pacc demos extract`` keeps the ECU's cycles by the same rule."""
-    return t_s - last_kept_s >= period_s - max(0.5 * cycle_s, PERIOD_EPS_S)
-
-
-def manual_inputs_ok(fault: FaultCode) -> bool:
-    """True when a cycle's input check (:func:`ecu.signals.input_fault`) leaves what a manual
-    demonstration needs good: speed, pedals and radar fresh, passed E2E and finite (a stale
-    HMI, the buttons, does not matter)."""
-    return fault in _MANUAL_OK
 
 
 def trip_of(samples: list[Sample], meta: dict[str, Any]) -> Trip:
@@ -168,14 +133,27 @@ class SinkQueue:
         self.pending.append(trip)
         self.store()
 
-    def build(self, samples: list[Sample], meta: dict[str, Any]) -> None:
-        """:meth:`put` the trip of ``samples``; one that cannot be built is counted, logged
-        and dropped (never raised into the control loop)."""
+    def build(
+        self,
+        samples: list[Sample],
+        meta: dict[str, Any],
+        utc_of: Callable[[float], str] | None = None,
+    ) -> None:
+        """:meth:`put` the trip of ``samples``, with ``meta["start_utc"] = utc_of(first
+        sample's time)`` when ``utc_of`` is given (left out, logged, where it raises: a clock
+        fault). A trip that cannot be built is counted, logged and dropped, and the pending
+        ones are offered again. Never raises into the control loop."""
+        if utc_of is not None and samples:
+            try:
+                meta["start_utc"] = utc_of(samples[0].t_s)
+            except Exception as exc:  # noqa: BLE001 - never stop the control loop
+                log.error("%s %s: no start_utc: %s", self.what, meta.get("index"), exc)
         try:
             trip = trip_of(samples, meta)
         except Exception as exc:  # noqa: BLE001 - never stop the control loop
             self.sink_errors += 1
             log.error("%s %s not built: %s", self.what, meta.get("index"), exc)
+            self.store()
             return
         self.put(trip)
 
@@ -294,115 +272,25 @@ class TakeoverRecorder:
 
     def flush(self) -> None:
         """Emit the open segment now and retry the pending ones (end of trip)."""
-        if self._segment is not None:
-            self._emit()
-        else:
+        if not self._emit():
             self.queue.store()
 
-    def _emit(self) -> None:
+    def _emit(self) -> bool:
+        """Hand the open segment to the queue; False if there was none (nothing offered)."""
         seg = self._segment or []
         self._segment = None
         self._release_s = None
         if not seg:
-            return
+            return False
         meta = {
             **self.meta,
             **self._seg_meta,
             "mode": TripMode.TAKEOVER.value,
             "index": self.segments,
         }
-        if self.utc_of is not None:
-            meta["start_utc"] = self.utc_of(seg[0].t_s)
         self.segments += 1
-        self.queue.build(seg, meta)
-
-
-class ManualRecorder:
-    """The driver's manual car-following stretches as trip logs (module docstring).
-
-    Args:
-        sink: receives each manual trip.
-        period_s: recording period, s (the takeover recorder's).
-        cycle_s: the control cycle, s (:func:`keep_sample`; 0: the takeover recorder's rule).
-        min_s: shortest stretch kept, s.
-        max_s: longest trip, s (a longer stretch is handed over in pieces).
-        meta: metadata copied into every trip (driver_id, condition, ...).
-        utc_of: as :class:`TakeoverRecorder`'s (``meta["start_utc"]``).
-    """
-
-    def __init__(
-        self,
-        sink: TripSink,
-        *,
-        period_s: float = 0.1,
-        cycle_s: float = 0.0,
-        min_s: float = MANUAL_MIN_S,
-        max_s: float = MANUAL_MAX_S,
-        meta: Mapping[str, Any] | None = None,
-        utc_of: Callable[[float], str] | None = None,
-    ) -> None:
-        if not (period_s > 0.0 and 0.0 <= min_s <= max_s and math.isfinite(max_s)):
-            raise RecorderError("manual recorder: need period_s > 0 and 0 <= min_s <= max_s")
-        self.queue = SinkQueue(sink, "manual trip")
-        self.period_s = period_s
-        self.cycle_s = cycle_s if math.isfinite(cycle_s) and 0.0 <= cycle_s < period_s else 0.0
-        self.min_s = min_s
-        self.meta = dict(meta or {})
-        self.utc_of = utc_of
-        self._max_n = max(1, int(round(max_s / period_s)))
-        self._stretch: list[Sample] = []
-        self._last_t = -math.inf
-        #: no cycle before this time (s) can be kept: the node builds a sample only from
-        #: here on (1 ns early: :meth:`sample` decides exactly)
-        self.next_due_s = -math.inf
-        #: manual trips handed over so far
-        self.trips = 0
-        #: seconds kept in trips, and seconds of manual stretches shorter than ``min_s``
-        self.kept_s = 0.0
-        self.short_s = 0.0
-
-    def sample(self, s: Sample, fault: FaultCode) -> None:
-        """Offer one cycle's sample and its input check; if kept (:func:`keep_sample`),
-        added to the stretch or ending it."""
-        if not (
-            math.isfinite(s.t_s) and keep_sample(s.t_s, self._last_t, self.period_s, self.cycle_s)
-        ):
-            return
-        self._last_t = s.t_s
-        self.next_due_s = s.t_s + self.period_s - max(0.5 * self.cycle_s, PERIOD_EPS_S) - 1e-9
-        if fault in _MANUAL_OK and s.acc_state in _NOT_ENGAGED and not math.isnan(s.gap_m):
-            self._stretch.append(s)
-            if len(self._stretch) >= self._max_n:
-                self._close()
-        elif self._stretch:
-            self._close()
-
-    def set_meta(self, changes: Mapping[str, Any]) -> None:
-        """Update the trips' metadata (a driver profile switch): an open stretch is the old
-        driver's and ends here."""
-        if any(self.meta.get(k) != v for k, v in changes.items()):
-            self._close()
-            self.meta.update(changes)
-
-    def flush(self) -> None:
-        """End of trip: hand over the open stretch (if long enough) and the pending trips."""
-        if self._stretch:
-            self._close()
-        else:
-            self.queue.store()
-
-    def _close(self) -> None:
-        stretch, self._stretch = self._stretch, []
-        seconds = len(stretch) * self.period_s
-        if not stretch or seconds < self.min_s - PERIOD_EPS_S:
-            self.short_s += seconds
-            return
-        meta = {**self.meta, "mode": TripMode.MANUAL.value, "index": self.trips}
-        if self.utc_of is not None:
-            meta["start_utc"] = self.utc_of(stretch[0].t_s)
-        self.trips += 1
-        self.kept_s += seconds
-        self.queue.build(stretch, meta)
+        self.queue.build(seg, meta, self.utc_of)
+        return True
 
 
 def directory_sink(directory: str | os.PathLike[str], prefix: str = "takeover") -> TripSink:
@@ -433,18 +321,12 @@ def directory_sink(directory: str | os.PathLike[str], prefix: str = "takeover") 
 
 
 __all__ = [
-    "MANUAL_MAX_S",
-    "MANUAL_MIN_S",
     "MAX_PENDING",
-    "PERIOD_EPS_S",
-    "ManualRecorder",
     "RecorderError",
     "Sample",
     "SinkQueue",
     "TakeoverRecorder",
     "TripSink",
     "directory_sink",
-    "keep_sample",
-    "manual_inputs_ok",
     "trip_of",
 ]

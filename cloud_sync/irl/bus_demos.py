@@ -7,16 +7,16 @@ decoded through the car's binding (:class:`dbc.endpoint.Inbox`: the bound messag
 checksums and counters, physical units): the ego speed and acceleration, the pedals, the
 radar's lead, and the ACC's state where the car sends one.
 
-**Sampling, as the ECU records** (:class:`ecu.recorder.ManualRecorder`, the vehicle-side
+**Sampling, as the ECU records** (:class:`ecu.manual.ManualRecorder`, the vehicle-side
 recording of the same stretches). The ECU reads its inputs once per control cycle and sends
 its command frames right after, so the log's command frames (the binding's ``command`` role,
 its last message each cycle) mark the instants the ECU sampled: the extraction samples the
 decoded values at those frames, keeping one as the recorder keeps one
-(:func:`ecu.recorder.keep_sample`: ``period_s`` after the last kept less half a cycle, the
-cycle the binding's command message's), with what the frames before it said and the ACC
-state the cycle's own frame carries. Where the log has no command frames, or
-their cycle does not divide ``period_s`` (another car's ACC), a ``period_s`` grid from the
-first frame is used instead, each grid point seeing the frames up to its instant. Times are
+(:func:`pacc.vocab.sampling.keep_sample`, the rule both share: ``period_s`` after the last
+kept less half a cycle, the cycle the binding's command message's), with what the frames
+before it said and the ACC state the cycle's own frame carries. Where the log has no command
+frames, or their cycle does not divide ``period_s`` (another car's ACC), a ``period_s`` grid
+from the first frame is used instead, each grid point seeing the frames up to its instant. Times are
 taken relative to the log's first frame and rounded to 1 µs (:data:`TIME_RESOLUTION_S`): a
 log's absolute float timestamps (UTC seconds, ~0.24 µs apart near 2026) and BLF's start time
 (whole milliseconds, python-can's writer) plus truncated nanoseconds move them by a fraction
@@ -27,7 +27,8 @@ A sample is manual car-following when the ACC is not engaged (OFF or STANDBY, or
 frames at all), a lead is valid and the inputs are good as the ECU checks them
 (:func:`ecu.signals.input_fault` less the HMI): speed valid, fresh and finite and >= 0,
 pedals fresh and finite, radar fresh (and finite with a lead). Runs of such samples of at
-least ``min_s`` (count × ``period_s``), cut at ``max_s``, become manual trip logs
+least ``min_s`` (count × ``period_s``; :data:`~pacc.vocab.sampling.MANUAL_MIN_S`), cut at
+``max_s`` (:data:`~pacc.vocab.sampling.MANUAL_MAX_S`), become manual trip logs
 (:class:`pacc.vocab.triplog.Trip`, ``mode`` ``manual``) that the cloud learns from; the report
 says how many seconds were kept and why the rest was dropped.
 """
@@ -47,13 +48,11 @@ from dbc.codec import Codec
 from dbc.endpoint import Inbox
 from pacc.vocab.acc_state import AccState
 from pacc.vocab.pedals import PedalScale
+from pacc.vocab.sampling import MANUAL_MAX_S, MANUAL_MIN_S, PERIOD_EPS_S, keep_interval_s
 from pacc.vocab.triplog import Trip
 
 __all__ = [
     "DT_S",
-    "MAX_S",
-    "MIN_S",
-    "PERIOD_EPS_S",
     "TIME_RESOLUTION_S",
     "ExtractReport",
     "bus_trip",
@@ -63,11 +62,6 @@ __all__ = [
 
 #: the trips' sample period, s (the ECU recorder's and the simulator's trip logs' too)
 DT_S = 0.1
-#: the ECU recorder's defaults (:mod:`ecu.recorder`: MANUAL_MIN_S, MANUAL_MAX_S, PERIOD_EPS_S;
-#: cloud_sync does not import ecu, tests/cloud_sync/test_bus_demos.py checks they agree)
-MIN_S = 10.0
-MAX_S = 600.0
-PERIOD_EPS_S = 1e-6
 #: sample times are rounded to this, s (module docstring)
 TIME_RESOLUTION_S = 1e-6
 _ROLES = ("ego", "pedals", "radar", "command")
@@ -120,9 +114,9 @@ class _Sampler:
         #: the cycle's last command frame (the ECU sends the role's messages in order)
         self.marker = None if command is None else command.parts[-1].frame_id
         cycle = 0.0 if command is None else command.parts[-1].cycle_s
-        #: the ECU recorder's rule (ecu.recorder.keep_sample): a cycle is kept this long
-        #: after the last kept one
-        self.keep_after_s = period_s - max(0.5 * cycle, PERIOD_EPS_S)
+        #: the ECU recorder's rule (pacc.vocab.sampling.keep_sample): a cycle is kept this
+        #: long after the last kept one
+        self.keep_after_s = keep_interval_s(period_s, cycle)
         self.at_cycles: dict[str, list[float]] = {k: [] for k in _COLS}
         self.on_grid: dict[str, list[float]] = {k: [] for k in _COLS}
         self.markers: list[float] = []
@@ -261,8 +255,8 @@ def extract_demos(
     *,
     driver_id: str,
     condition: str = "default",
-    min_s: float = MIN_S,
-    max_s: float = MAX_S,
+    min_s: float = MANUAL_MIN_S,
+    max_s: float = MANUAL_MAX_S,
     frames: Iterable[Any] | None = None,
 ) -> ExtractReport:
     """The manual car-following stretches of the log at ``path`` (module docstring).

@@ -8,6 +8,8 @@
   reaches a library.
 - :func:`check_distinct_outputs`: two output options naming one file would keep one of them
   (``pacc drive --log x --can-log x``): refused before anything runs.
+- :func:`check_writable_file` / :func:`check_writable_dir`: an output that could not be
+  written, refused before the run whose result it would lose.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from pacc.errors import UsageError, error_line
 
 __all__ = [
     "CommandParser",
+    "check_writable_dir",
     "check_writable_file",
     "error_line",
     "add_bus_arguments",
@@ -158,3 +161,19 @@ def check_writable_file(path: str | os.PathLike[str] | None, option: str) -> Non
         raise UsageError(f"{option} {target}: is a directory, not a file")
     if not (parent.is_dir() and os.access(parent, os.W_OK)):
         raise UsageError(f"{option} {target}: {parent} is not a writable folder")
+
+
+def check_writable_dir(path: str | os.PathLike[str] | None, option: str) -> None:
+    """Raise :class:`UsageError` unless ``path`` (None: not given) is a writable folder or
+    can be created as one (its nearest existing ancestor a writable folder). Creates
+    nothing: checked before a run, so a refused run leaves nothing behind."""
+    if path is None:
+        return
+    target = Path(path)
+    if target.exists() and not target.is_dir():
+        raise UsageError(f"{option} {target}: is not a folder")
+    existing = target.resolve()
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not (existing.is_dir() and os.access(existing, os.W_OK)):
+        raise UsageError(f"{option} {target}: {existing} is not a writable folder")

@@ -23,6 +23,7 @@ from dbc.errors import DbcError
 from dbc.network import add_network_arguments, codec_of
 from pacc.commands._args import CommandParser, number
 from pacc.errors import PaccError
+from pacc.vocab.sampling import MANUAL_MIN_S
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -40,7 +41,10 @@ def _parser() -> argparse.ArgumentParser:
     ex.add_argument("--driver", default="guest", help="driver id of the trips (default guest)")
     ex.add_argument("--condition", default="default", help="condition (default 'default')")
     ex.add_argument(
-        "--min-s", type=number(0.0, 1e6), default=10.0, help="shortest stretch kept, s (default 10)"
+        "--min-s",
+        type=number(0.0, 1e6),
+        default=MANUAL_MIN_S,
+        help=f"shortest stretch kept, s (default {MANUAL_MIN_S:g})",
     )
     add_network_arguments(ex)
     return p

@@ -11,11 +11,12 @@ prints PoI, NIM, min gap, min time-to-collision, RMS jerk, takeovers, adaptation
 collisions. ``--manual`` drives the scenario by hand instead (ACC off, no bus: the driver's
 own pedals) and writes the trip to ``--log``: a demonstration for ``pacc cloud learn``.
 ``--manual-trips DIR`` writes what the ECU itself recorded of the driver's manual
-car-following during the drive (:class:`ecu.recorder.ManualRecorder`). A drive
+car-following during the drive (:class:`ecu.manual.ManualRecorder`). A drive
 is a pure function of (configuration, seed, shipped data): the ECU and
 the simulator each get a python-can ``virtual`` bus on a private channel, and time is the
 simulator's (every frame stamped with simulated time). Exit status: 0, 1 if the drive
-ended in a collision, 2 on bad options or input files.
+ended in a collision, 2 on bad options or input files, or an output (``--log``,
+``--can-log``, ``--manual-trips``) not written.
 """
 
 from __future__ import annotations
@@ -33,10 +34,12 @@ from dbc.network import add_network_arguments
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES
 from ecu.buslog.live import add_foxglove_argument, live_sinks
-from ecu.recorder import TripSink, directory_sink
+from ecu.config import EcuConfig
+from ecu.recorder import directory_sink
 from pacc.commands._args import (
     CommandParser,
     check_distinct_outputs,
+    check_writable_dir,
     check_writable_file,
     error_line,
     integer,
@@ -240,27 +243,51 @@ def _recording_ok(args: argparse.Namespace, result: Any) -> bool:
     return True
 
 
-def _manual_sink(directory: Path | None) -> tuple[TripSink | None, list[int]]:
-    """The ECU's manual-trip sink of ``--manual-trips DIR`` (None without it) and the
-    sample counts of the trips it wrote. RecorderError if DIR cannot be written."""
-    kept: list[int] = []
-    if directory is None:
-        return None, kept
-    write = directory_sink(directory, "manual")
+class _ManualTrips:
+    """The ECU's manual-trip sink of ``--manual-trips DIR``: writes each trip to DIR and
+    keeps what it did, for the drive's report. RecorderError if DIR cannot be written."""
 
-    def sink(trip: Trip) -> None:
-        write(trip)
-        kept.append(len(trip))
+    def __init__(self, directory: Path) -> None:
+        self.directory = directory
+        self._write = directory_sink(directory, "manual")
+        #: sample counts of the trips written
+        self.written: list[int] = []
+        #: the last write's failure (None: none failed)
+        self.error: str | None = None
 
-    return sink, kept
+    def __call__(self, trip: Trip) -> None:
+        try:
+            self._write(trip)
+        except Exception as exc:
+            self.error = error_line(exc)
+            raise  # the ECU's queue keeps the trip for a retry
+        self.written.append(len(trip))
+
+    def report(self, made: int, period_s: float) -> bool:
+        """Print what was written of the ``made`` trips the ECU made (``period_s``: its
+        recording period, s); False (said on stderr) if one was not written."""
+        seconds = sum(self.written) * period_s
+        print(f"  manual trips   {len(self.written)} ({seconds:.1f} s) in {self.directory}")
+        lost = made - len(self.written)
+        if lost <= 0:
+            return True
+        print(
+            f"pacc drive: error: {lost} manual trip(s) not written: "
+            f"{self.error or 'not built (see the log)'}",
+            file=sys.stderr,
+        )
+        return False
 
 
 def _check_options(args: argparse.Namespace) -> None:
     """Options that contradict each other or outputs that cannot be written: UsageError
     (the error boundary prints it, exit 2), before anything runs."""
-    check_distinct_outputs(log=args.log, can_log=args.can_log, profile=args.profile)
+    check_distinct_outputs(
+        log=args.log, can_log=args.can_log, profile=args.profile, manual_trips=args.manual_trips
+    )
     check_writable_file(args.log, "--log")  # now, not after the drive
     check_writable_file(args.can_log, "--can-log")
+    check_writable_dir(args.manual_trips, "--manual-trips")
     if args.profile is not None and not args.manual and not args.controller.startswith("irl"):
         raise UsageError(
             f"--profile is for the irl controllers; --controller {args.controller} drives "
@@ -315,7 +342,7 @@ def main(argv: list[str] | None = None) -> int:
         drive_codec(cfg)  # a DBC without its binding: refused before any learning
         profile = resolve_profile(args.scenario, args.seed)
         table = _table(args, base, driver)
-        manual, kept = _manual_sink(args.manual_trips)
+        manual = None if args.manual_trips is None else _ManualTrips(args.manual_trips)
         live = live_sinks(args.foxglove, print)
         try:
             result = run_drive(
@@ -345,9 +372,10 @@ def main(argv: list[str] | None = None) -> int:
             print(f"pacc drive: error: cannot write {args.log}: {error_line(exc)}", file=sys.stderr)
             return 2
         print(f"  log            {args.log}")
-    if args.manual_trips is not None:
-        print(f"  manual trips   {len(kept)} ({sum(kept) * 0.1:.1f} s) in {args.manual_trips}")
-    if (args.can_log is not None or live) and not _recording_ok(args, result):
+    made = int(result.extra.get("manual_trips", 0))
+    written = manual is None or manual.report(made, EcuConfig().record_period_s)
+    recorded = not (args.can_log is not None or live) or _recording_ok(args, result)
+    if not (written and recorded):
         return 2
     return 1 if result.collision else 0
 

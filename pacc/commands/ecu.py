@@ -8,18 +8,18 @@ The node starts from ``--profile`` (a DGPT JSON file) or a predefined constant-h
 An invalid profile is refused with a clear message; the ECU then runs on the predefined
 table, says so, and reports FaultCode Profile on ACC_Status. State changes, faults and
 adaptation decisions are printed as they happen; at exit (``--duration`` elapsed, Ctrl-C or
-SIGTERM) the open takeover segment is written and a summary printed: cycles, frames in/out,
-E2E errors by kind, takeovers, adaptations, max cycle time.
+SIGTERM) the open takeover segment and manual stretch are written and a summary printed:
+cycles, frames in/out, E2E errors by kind, takeovers, adaptations, max cycle time.
 ``--takeovers DIR`` is a spool (:mod:`cloud_sync.vehicle.spool`): each segment becomes one
 batch that ``pacc cloud sync --spool DIR`` uploads, tagged with ``--driver`` (else the
 profile's driver; the predefined table's ``guest`` is refused by the cloud, and said so).
 ``--manual DIR`` spools the driver's manual car-following stretches the same way (batches of
-kind ``manual``, :class:`ecu.recorder.ManualRecorder`: the demonstrations the cloud learns
+kind ``manual``, :class:`ecu.manual.ManualRecorder`: the demonstrations the cloud learns
 from); with ``--cloud``, ``--manual`` alone puts them in the link's spool. With ``--cloud``
 the trip is reported at exit (``POST /v1/trips``: the cloud table version it started with,
 its ACC-on time, its takeover segments; :meth:`cloud_sync.vehicle.link.VehicleLink.end_trip`),
 queued in the spool while the cloud is away.
-Exit codes: 0 run completed, 1 bus/DBC/takeover-directory error, 2 usage error (also
+Exit codes: 0 run completed, 1 bus/DBC/spool error, 2 usage error (also
 ``--dbc`` without a ``--binding`` that names it).
 """
 
@@ -42,7 +42,7 @@ from ecu.buslog.format import TimeBase
 from ecu.buslog.live import add_foxglove_argument
 from ecu.methods import make_adaptation, make_controller
 from ecu.node import EcuConfig, EcuNode
-from ecu.recorder import MANUAL_MIN_S, TripSink
+from ecu.recorder import TripSink
 from pacc.commands._args import (
     CommandParser,
     add_bus_arguments,
@@ -61,6 +61,7 @@ from pacc.commands.ecu_run import close_recorder, open_recorder, run_on_bus
 from pacc.vocab import FormatError
 from pacc.vocab.dgpt import Dgpt, DgptError, predefined
 from pacc.vocab.dgpt_file import load_dgpt, save_dgpt
+from pacc.vocab.sampling import MANUAL_MAX_S, MANUAL_MIN_S
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -145,10 +146,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--manual-min",
-        type=number(0.1, 3600.0),
-        default=MANUAL_MIN_S,
+        type=number(0.1, MANUAL_MAX_S),
         metavar="S",
-        help=f"shortest manual stretch recorded, s (default {MANUAL_MIN_S:g})",
+        help=f"with --manual: shortest manual stretch recorded, s (0.1 to {MANUAL_MAX_S:g}, "
+        f"default {MANUAL_MIN_S:g})",
     )
     p.add_argument(
         "--can-log",
@@ -159,7 +160,9 @@ def build_parser() -> argparse.ArgumentParser:
     add_foxglove_argument(p)
     p.add_argument("--save-profile", metavar="PATH", help="write the final DGPT here at exit")
     p.add_argument("--duration", type=number(0.0, 1e7), metavar="S", help="stop after S seconds")
-    cloud = p.add_argument_group("cloud (docs/cloud.md): takeovers up, verified tables down")
+    cloud = p.add_argument_group(
+        "cloud (docs/cloud.md): takeovers, manual trips and trip reports up, verified tables down"
+    )
     cloud.add_argument("--cloud", metavar="URL|DIR", help="the cloud service, or a folder")
     cloud.add_argument("--vehicle", metavar="ID", help="this vehicle's id (with --cloud)")
     cloud.add_argument("--token-file", metavar="F", help="file holding the vehicle's token")
@@ -172,8 +175,8 @@ def build_parser() -> argparse.ArgumentParser:
     cloud.add_argument(
         "--driver",
         metavar="ID",
-        help="the driver: tags the takeover segments (--takeovers, --cloud); with --cloud "
-        "also downloads this driver's table",
+        help="the driver: tags the takeover segments and manual trips (--takeovers, --manual, "
+        "--cloud); with --cloud also downloads this driver's table and reports the trip",
     )
     cloud.add_argument("--condition", default="default", help="driving condition of --driver")
     cloud.add_argument("--spool", metavar="DIR", default="pacc-spool", help="the spool folder")
@@ -233,7 +236,7 @@ def _serve(args: argparse.Namespace) -> int:
         sink,
         utc_of=base.iso,
         manual_sink=manual,
-        manual_min_s=args.manual_min,
+        manual_min_s=MANUAL_MIN_S if args.manual_min is None else args.manual_min,
     )
     if profile_fault:
         node.report_profile_fault()
@@ -278,7 +281,7 @@ def _report_recorders(args: argparse.Namespace, node: EcuNode) -> None:
         say(
             f"manual trips: {man.trips - len(man.queue.pending)} of {man.trips} written to "
             f"{where} ({man.kept_s:.1f} s kept, {man.short_s:.1f} s in stretches shorter than "
-            f"{args.manual_min:g} s, {man.queue.sink_errors} failed attempts)"
+            f"{man.min_s:g} s, {man.queue.sink_errors} failed attempts)"
         )
 
 
@@ -288,6 +291,8 @@ def _config(args: argparse.Namespace) -> tuple[EcuConfig, Dgpt]:
         raise Exit(2, "pacc ecu: error: --manual needs a DIR (or --cloud: the link's spool)")
     if args.manual and args.cloud:
         raise Exit(2, "pacc ecu: error: --cloud spools the manual trips: --manual without DIR")
+    if args.manual_min is not None and args.manual is None:
+        raise Exit(2, "pacc ecu: error: --manual-min is for --manual (the manual trips)")
     try:
         config = EcuConfig(
             adaptation=args.adaptation,

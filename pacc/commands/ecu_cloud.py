@@ -1,7 +1,8 @@
-"""``pacc ecu``'s link to the cloud: the takeover spool, the vehicle link, the start table.
+"""``pacc ecu``'s link to the cloud: the takeover and manual spools, the vehicle link, the
+start table.
 
 Split from :mod:`pacc.commands.ecu` (one concept per module): everything here runs only with
-``--takeovers`` or ``--cloud``, and imports the cloud side lazily.
+``--takeovers``, ``--manual`` or ``--cloud``, and imports the cloud side lazily.
 """
 
 from __future__ import annotations
@@ -76,13 +77,19 @@ def spool_sinks(
 
 
 def warn_guest(args: argparse.Namespace, node: EcuNode) -> None:
-    """Say so when takeover segments will carry no real driver (the cloud refuses them)."""
-    recorder = node.recorder or node.manual
-    if (args.takeovers or args.cloud or args.manual) and recorder is not None:
-        driver = recorder.meta.get("driver_id")
+    """Say so when takeover segments or manual trips will carry no real driver (the cloud
+    refuses them)."""
+    recorders = [
+        (what, rec)
+        for what, rec in (("takeover segments", node.recorder), ("manual trips", node.manual))
+        if rec is not None
+    ]
+    if (args.takeovers or args.cloud or args.manual is not None) and recorders:
+        driver = recorders[0][1].meta.get("driver_id")
         if driver in (None, "", "guest"):
+            what = " and ".join(w for w, _ in recorders)
             print(
-                f"pacc ecu: warning: takeover segments are tagged driver {driver!r}: the cloud "
+                f"pacc ecu: warning: {what} are tagged driver {driver!r}: the cloud "
                 "refuses them (403) and they stay spooled; pass --driver ID (a driver "
                 "registered to this vehicle)",
                 file=sys.stderr,

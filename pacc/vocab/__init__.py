@@ -7,6 +7,7 @@
 - :mod:`pacc.vocab.tripmode` — ``TripMode`` (manual, acc, takeover) and the one classifier.
 - :mod:`pacc.vocab.acc_state` — the ACC's engagement state and fault codes.
 - :mod:`pacc.vocab.pedals` — ``PedalScale``, pedal fractions from the DBC's full scale.
+- :mod:`pacc.vocab.sampling` — how manual car-following is sampled (``keep_sample``, limits).
 - :mod:`pacc.vocab.mcap_errors` — one mapping of MCAP read errors to a reader's error.
 - :mod:`pacc.vocab.plugins` — finding methods by name: built-ins, Python entry points and
   ``module:attribute``.

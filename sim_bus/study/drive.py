@@ -181,7 +181,7 @@ def run_drive(
     ``live``: more sinks of the same channels (a Foxglove live view, :mod:`ecu.buslog.live`).
     ``bus``: the python-can interface, one of :data:`BUSES` (the same frames on each).
     ``takeover_sink`` / ``manual_sink``: the ECU's takeover segments / manual car-following
-    trips (:mod:`ecu.recorder`; None: not recorded).
+    trips (:mod:`ecu.recorder`, :mod:`ecu.manual`; None: not recorded).
     """
     if bus not in BUSES:
         raise DriveError(f"bus must be one of {', '.join(BUSES)}, got {bus!r}")
@@ -246,8 +246,17 @@ def run_drive(
         adaptation_events=events,
         start_utc=base.iso(0.0),
         road_events=list(world.events_log),
-        extra={"can_log_error": can_log_error} if can_log_error else {},
+        extra=_extra(ecu, can_log_error),
     )
+
+
+def _extra(ecu: EcuNode, can_log_error: str | None) -> dict[str, Any]:
+    """:attr:`DriveResult.extra`: the recording's failure, and the number of manual trips the
+    ECU made (with a manual sink: the sink wrote those it could)."""
+    extra: dict[str, Any] = {"can_log_error": can_log_error} if can_log_error else {}
+    if ecu.manual is not None:
+        extra["manual_trips"] = ecu.manual.trips
+    return extra
 
 
 def _open_bus(interface: str, channel: str) -> can.BusABC:

@@ -4,7 +4,7 @@ one learned from the ECU's own recording of the same manual driving.
 
 The drive runs on opendbc's Toyota network (tools/opendbc_toyota.py, pacc's Toyota binding)
 with the ACC never engaged: the simulated driver follows the lead by hand, and the ECU records
-the manual car-following (:class:`ecu.recorder.ManualRecorder`). Its bus recording goes to
+the manual car-following (:class:`ecu.manual.ManualRecorder`). Its bus recording goes to
 Vector BLF through python-can (``pacc export``); the extraction reads the BLF, decodes it
 through the binding and cuts the manual car-following stretches, sampling as the ECU did.
 
@@ -33,7 +33,6 @@ from cloud_sync.irl.bus_demos import extract_demos, read_frames
 from cloud_sync.irl.trainer import learn_dgpt
 from dbc import DATA_DIR
 from dbc.codec import load_codec
-from ecu import recorder
 from ecu.config import EcuConfig
 from pacc.commands.demos import main as demos_main
 from pacc.commands.export import main as export_main
@@ -146,17 +145,10 @@ def test_the_ecu_and_the_extraction_cut_the_same_stretches(tmp_path: Path) -> No
             assert np.array_equal(getattr(ecu_trip, name), getattr(demo, name)), name
 
 
-def test_the_extraction_uses_the_ecu_recorders_rules() -> None:
-    """cloud_sync does not import ecu: the shared constants are checked here."""
-    assert bus_demos.MIN_S == recorder.MANUAL_MIN_S
-    assert bus_demos.MAX_S == recorder.MANUAL_MAX_S
-    assert bus_demos.PERIOD_EPS_S == recorder.PERIOD_EPS_S
+def test_the_extraction_samples_at_the_ecu_recorders_period() -> None:
+    """cloud_sync does not import ecu: the trips' period is checked here (the keep rule and
+    the stretches' limits both import from pacc.vocab.sampling)."""
     assert EcuConfig().record_period_s == bus_demos.DT_S
-    codec = load_codec()
-    sampler = bus_demos._Sampler(codec, bus_demos.DT_S)  # noqa: SLF001 - the rule it uses
-    cycle = codec.roles["command"].parts[-1].cycle_s
-    for dt in (0.089, 0.09, 0.0999, 0.1, 0.12):
-        assert (dt >= sampler.keep_after_s) == recorder.keep_sample(dt, 0.0, 0.1, cycle), dt
 
 
 def test_what_is_not_manual_following_is_dropped_with_its_reason(tmp_path: Path) -> None:

@@ -1,6 +1,7 @@
 """``pacc ecu --manual DIR``: the driver's manual car-following is spooled as demonstrations
 (batches of kind ``manual`` for ``pacc cloud sync --spool DIR``), beside the takeovers;
-``pacc drive --manual-trips DIR`` writes what the ECU recorded of it in a simulated drive."""
+``pacc drive --manual-trips DIR`` writes what the ECU recorded of it in a simulated drive (and
+says when it could not; a folder that cannot be one is refused before the drive)."""
 
 from __future__ import annotations
 
@@ -8,15 +9,18 @@ import itertools
 import threading
 import time
 from pathlib import Path
+from typing import Any
 
 import can
 import numpy as np
 import pytest
 
 from cloud_sync.vehicle.spool import Spool
+from pacc import cli
 from pacc.commands.drive import main as drive_main
 from pacc.commands.ecu import main
 from pacc.vocab.triplog_file import read_trip
+from sim_bus.study.drive import run_drive
 from tests.peers import PeerNodes
 
 _ids = itertools.count()
@@ -116,3 +120,90 @@ def test_drive_writes_what_the_ecu_recorded_of_manual_driving(
         == 2
     )
     assert "drop --manual-trips" in capsys.readouterr().err
+
+
+def test_drive_says_when_manual_trips_were_not_written(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The folder of ``--manual-trips`` passes the check, then goes away during the drive (a
+    file takes its place: every write fails): the drive's figures and --log still come out,
+    the trips not written are said, exit 2."""
+    out_dir = tmp_path / "m"
+
+    def run_drive_losing_the_folder(*args: Any, **kwargs: Any) -> Any:
+        out_dir.rmdir()
+        out_dir.write_text("not a folder any more\n")
+        return run_drive(*args, **kwargs)
+
+    monkeypatch.setattr("pacc.commands.drive.run_drive", run_drive_losing_the_folder)
+    argv = ["--scenario", "cutin", "--driver", "d3", "--seed", "2", "--brake-mode", "cancel"]
+    argv += ["--duration", "120", "--log", str(tmp_path / "trip.mcap")]
+    assert drive_main([*argv, "--manual-trips", str(out_dir)]) == 2
+    out, err = capsys.readouterr()
+    assert f"manual trips   0 (0.0 s) in {out_dir}" in out and "collisions     0" in out
+    assert "pacc drive: error: 2 manual trip(s) not written: " in err, err
+    assert read_trip(tmp_path / "trip.mcap").meta["scenario"] == "cutin"
+
+
+@pytest.mark.parametrize(
+    ("outputs", "why"),
+    [
+        (["--log", "same", "--manual-trips", "same"], "name the same file"),
+        (["--can-log", "same", "--manual-trips", "same"], "name the same file"),
+        (["--manual-trips", "file"], "is not a folder"),
+        (["--manual-trips", "file/sub"], "is not a writable folder"),
+    ],
+)
+def test_drive_refuses_manual_trips_that_cannot_be_written_before_it_runs(
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    outputs: list[str],
+    why: str,
+) -> None:
+    """Checked with the other outputs before anything runs (not even the IRL table is
+    learned), and nothing is left behind."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "file").write_text("x\n")
+    argv = ["drive", "--controller", "irl", "--cache", str(tmp_path / "cache"), "--duration", "3"]
+    assert cli.main([*argv, *outputs]) == 2
+    err = capsys.readouterr().err
+    assert why in err and "learning" not in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]
+
+
+def test_manual_min_is_bounded_and_needs_manual(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--manual-min: 0.1 to 600 s (the longest trip), and only with --manual; refused before
+    any spool is created."""
+    with pytest.raises(SystemExit) as refused:
+        main(["--manual-min", "601", "--manual", str(tmp_path / "m"), "--duration", "0"])
+    assert refused.value.code == 2 and "<= 600" in capsys.readouterr().err
+    assert main(["--manual-min", "5", "--takeovers", str(tmp_path / "t"), "--duration", "0"]) == 2
+    assert "--manual-min is for --manual" in capsys.readouterr().err
+    (tmp_path / "tok").write_text("tok\n")
+    cloud = [
+        "--cloud",
+        str(tmp_path / "c"),
+        "--vehicle",
+        "v",
+        "--token-file",
+        str(tmp_path / "tok"),
+    ]
+    assert main([*cloud, "--spool", str(tmp_path / "s"), "--manual-min", "5"]) == 2
+    assert "--manual-min is for --manual" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["tok"]
+
+
+def test_manual_alone_warns_of_a_guest_driver_and_takes_the_longest_minimum(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--manual without --driver: the warning names the manual trips (not takeovers, which
+    are not recorded); --manual-min 600 is accepted."""
+    args = ["-i", "virtual", "-c", f"ecu-manual-{next(_ids)}", "--duration", "0.1"]
+    assert main([*args, "--manual", str(tmp_path / "m"), "--manual-min", "600"]) == 0
+    out, err = capsys.readouterr()
+    assert "warning: manual trips are tagged driver 'guest'" in err, err
+    assert "takeover" not in err
+    assert "shorter than 600 s" in out, out

@@ -1,6 +1,7 @@
 """Manual-driving recorder: the driver's car-following stretches (ACC not engaged, a lead,
-inputs good) as manual trip logs, the takeover recorder's sampling, a failing sink retried,
-and the ACC-on time the takeover recorder keeps for the trip report."""
+inputs good) as manual trip logs, the takeover recorder's sampling, a failing sink retried
+(also at the end of the trip), a clock UTC cannot map, and the ACC-on time the takeover
+recorder keeps for the trip report."""
 
 from __future__ import annotations
 
@@ -10,18 +11,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from ecu.buslog.format import TimeBase
+from ecu.manual import ManualRecorder
 from ecu.node import EcuConfig, EcuNode, NodeInputs
-from ecu.recorder import (
-    MANUAL_MAX_S,
-    ManualRecorder,
-    RecorderError,
-    Sample,
-    TakeoverRecorder,
-    directory_sink,
-    keep_sample,
-)
+from ecu.recorder import RecorderError, Sample, TakeoverRecorder, directory_sink
 from pacc.vocab.acc_state import AccState, FaultCode
 from pacc.vocab.dgpt import predefined
+from pacc.vocab.sampling import MANUAL_MAX_S, keep_sample
 from pacc.vocab.triplog import Trip
 from pacc.vocab.triplog_file import read_trip
 
@@ -196,3 +192,81 @@ def test_jittering_real_time_cycles_are_kept_every_fifth() -> None:
     pre.flush()
     assert [len(t) for t in out] == [200]
     assert np.array_equal(offered[0].t_s, out[0].t_s)
+
+
+def test_flush_retries_the_pending_trips_behind_a_short_open_stretch() -> None:
+    """A trip the sink refused is offered again at the end of the trip, also when the
+    stretch still open then is too short to be a trip."""
+    stored: list[Trip] = []
+    broken = [True]
+
+    def sink(trip: Trip) -> None:
+        if broken[0]:
+            raise OSError(28, "No space left on device")
+        stored.append(trip)
+
+    rec = ManualRecorder(sink, min_s=5.0, cycle_s=0.02)
+    feed(rec, 0.0, 6.0)
+    feed(rec, 6.0, 7.0, state=ACTIVE)  # the stretch ends: the sink fails, the trip is kept
+    assert len(rec.queue.pending) == 1 and not stored
+    broken[0] = False  # room again
+    feed(rec, 7.0, 8.0)  # 1 s open at the end: too short
+    rec.flush()
+    assert [len(t) for t in stored] == [60] and not rec.queue.pending
+    assert rec.queue.sink_errors == 1 and rec.short_s == pytest.approx(1.0)
+
+
+def test_flush_retries_the_pending_segments_behind_an_empty_takeover() -> None:
+    """The takeover recorder alike: a takeover opened with nothing recorded yet."""
+    stored: list[Trip] = []
+    broken = [True]
+
+    def sink(trip: Trip) -> None:
+        if broken[0]:
+            raise OSError(28, "No space left on device")
+        stored.append(trip)
+
+    rec = TakeoverRecorder(sink, pre_s=1.0, post_s=0.5)
+    rec.start(0.0, "brake")
+    rec.release(0.0, "none")
+    for k in range(6):  # the post window ends at the last sample: the sink fails
+        rec.sample(Sample(k * 0.1, 20.0, 30.0, 20.0, 0.0, 0.0, 0.5, ACTIVE))
+    assert len(rec.pending) == 1 and not stored
+    broken[0] = False
+    rec.start(0.6, "accel")  # nothing sampled since the segment: an empty one
+    rec.flush()
+    assert [len(t) for t in stored] == [6] and not rec.pending
+
+
+def test_a_clock_utc_cannot_map_costs_the_field_not_the_trip_nor_the_loop(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """utc_of raising (the node's clock at 1e12 s: a year past 9999) is logged, the trips
+    keep everything else, and EcuNode.step never raises."""
+    manual: list[Trip] = []
+    takeovers: list[Trip] = []
+    base = TimeBase.now(0.0)
+    node = EcuNode(
+        EcuConfig(pre_trigger_s=0.5, post_trigger_s=0.5),
+        predefined(1.5, driver_id="d1"),
+        takeovers.append,
+        utc_of=base.iso,
+        manual_sink=manual.append,
+        manual_min_s=1.0,
+    )
+    inp = NodeInputs(v_mps=20.0, lead_valid=True, gap_m=30.0)
+    t0 = 1e12
+    for k in range(100):  # 2 s of manual following, then the radar times out
+        node.step(inp, t0 + k * 0.02)
+    inp.radar_ok = False
+    for k in range(100, 110):
+        node.step(inp, t0 + k * 0.02)
+    node.finish()
+    assert len(manual) == 1 and "start_utc" not in manual[0].meta
+    assert manual[0].meta["driver_id"] == "d1" and len(manual[0]) == 20
+    assert "no start_utc" in caplog.text
+    ok = TakeoverRecorder(takeovers.append, utc_of=base.iso)
+    ok.start(1e12, "brake")
+    ok.sample(Sample(1e12, 20.0, 30.0, 20.0, 0.0, 0.0, 0.5, ACTIVE))
+    ok.flush()
+    assert len(takeovers) == 1 and "start_utc" not in takeovers[0].meta
