@@ -92,8 +92,9 @@ def _check_commands(cmds: list[tuple[dict[str, Any], bool]]) -> None:
         assert -3.5 <= a <= 2.0
         assert a - prev_a <= 2.5 * DT + LSB + 1e-9
         assert prev_a - a <= (10.0 if emergency else 2.5) * DT + LSB + 1e-9
-        if emergency:
-            assert state is AccState.ACTIVE and a <= prev_a + 1e-9
+        if emergency:  # braking while ACTIVE, or an override's inactive preparation (docs/ecu.md)
+            assert a <= prev_a + 1e-9
+            assert state is AccState.ACTIVE or (state is AccState.OVERRIDE and not active)
         assert bool(values["takeover_request"]) == (state is AccState.FAULT)
         if active and state is not AccState.ACTIVE:
             assert state is AccState.FAULT  # the ramp of an executed request
