@@ -17,9 +17,10 @@ Run: ``.venv/bin/python bench/scale.py [--workers 2] [--drivers d1,d2,d3,d4,d5] 
 - per-task overhead: no-op tasks through each engine, ms per task (wall time × workers /
   tasks), and the drive runs' difference spread over their drives;
 - parallel efficiency: the same plan in this process, one drive after another (the serial
-  peer, :class:`cloud_sync.engine.base.InlineEngine`, one BLAS thread as in the workers), in
-  every round beside the two engines; each one's best round at N workers as
-  serial / (N × parallel); on a shared machine it is lowered by every other job.
+  peer, :class:`cloud_sync.engine.base.InlineEngine`, one BLAS thread as in the workers),
+  ROUNDS times once the cluster is closed (its scheduler runs in this process); the best
+  rounds at N workers as serial / (N × parallel); on a shared machine it is lowered by every
+  other job.
 
 Both runs must give the same rows (wall time aside), or the script fails. The last line is
 ``scale: R x the process pool`` (drives per second, Dask over the pool; goal >= 0.95).
@@ -174,20 +175,23 @@ def main(argv: list[str] | None = None) -> int:
             for rnd in range(args.rounds):
                 pool_s, pool_rows = timed_drives(pool, jobs, args.workers)
                 dask_s, dask_rows = timed_drives(dask, jobs, args.workers)
-                with single_blas_thread():
-                    serial_s, serial_rows = timed_drives(InlineEngine(), jobs, 1)
                 pool_times.append(pool_s)
                 dask_times.append(dask_s)
-                serial_times.append(serial_s)
                 pool_busy = _busy(pool_rows, pool_s, args.workers)
                 dask_busy = _busy(dask_rows, dask_s, args.workers)
                 print(
                     f"round {rnd + 1}: process pool {pool_s:.2f} s ({n / pool_s:.2f} drives/s, "
                     f"busy {pool_busy:.0%}), dask {dask_s:.2f} s ({n / dask_s:.2f} drives/s, "
-                    f"busy {dask_busy:.0%}), serial {serial_s:.2f} s"
+                    f"busy {dask_busy:.0%})"
                 )
             pool_task_ms = per_task_ms(pool)
             dask_task_ms = per_task_ms(dask)
+        # the serial peer once the cluster is gone (its scheduler runs in this process)
+        for rnd in range(args.rounds):
+            with single_blas_thread():
+                serial_s, serial_rows = timed_drives(InlineEngine(), jobs, 1)
+            serial_times.append(serial_s)
+            print(f"serial round {rnd + 1}: {serial_s:.2f} s ({n / serial_s:.2f} drives/s)")
         pool_s, dask_s, serial_s = min(pool_times), min(dask_times), min(serial_times)
 
     if _without_wall(serial_rows) != _without_wall(pool_rows):
