@@ -7,7 +7,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from cloud_sync.errors import DemoError
@@ -20,6 +20,7 @@ from cloud_sync.irl.demos import (
 )
 from cloud_sync.irl.trainer import IrlConfig, learn_dgpt
 from pacc.vocab.acc_state import AccState
+from pacc.vocab.dgpt import speed_axis
 from pacc.vocab.triplog import Trip
 
 
@@ -129,17 +130,31 @@ def corrupted(trip: Trip, seed: int, nan_frac: float, spike: float) -> Trip:
     nan_frac=st.floats(0.0, 0.9),
     spike=st.sampled_from([-5.0, 0.0, 500.0, np.inf]),
 )
+@example(
+    seed=924, nan_frac=0.375, spike=-5.0
+)  # enough in all, no speed bin with 10 s (CI, stop 26)
 def test_corrupted_demos_give_bounded_table_or_demo_error(
     follower: Callable[..., Trip], seed: int, nan_frac: float, spike: float
 ) -> None:
     """Bad samples never crash the learner nor leave the safety bounds. The input decides the
-    answer: less usable driving than the learner needs is refused as too short (DemoError),
-    anything more gives a bounded table (a DemoError there fails the test)."""
+    answer: less usable driving than the learner needs is refused as too short, usable driving
+    spread so thin that no speed bin above standstill holds ``min_coverage_s`` within
+    ±0.5 m/s is refused as such (both DemoError), anything more gives a bounded table (a
+    DemoError there fails the test)."""
     bad = corrupted(follower(seed, minutes=2.0), seed, nan_frac, spike)
     cfg = IrlConfig()
-    usable_s = float(usable_mask(bad, cfg.max_gap_m).sum()) * 0.1
+    usable = usable_mask(bad, cfg.max_gap_m)
+    usable_s = float(usable.sum()) * 0.1
     if usable_s < cfg.min_total_demo_s:
         with pytest.raises(DemoError, match="too short"):
+            learn_dgpt([bad], driver_id="x", seed=seed)
+        return
+    v = bad.v_mps[usable]
+    axis = speed_axis(cfg.dgpt_step_mps)
+    bins = axis[axis > 0.5]  # the table's speeds above standstill
+    per_bin_s = np.array([0.1 * np.count_nonzero(np.abs(v - b) <= 0.5) for b in bins])
+    if not (per_bin_s >= cfg.min_coverage_s).any():
+        with pytest.raises(DemoError, match="no speed bin above standstill"):
             learn_dgpt([bad], driver_id="x", seed=seed)
         return
     res = learn_dgpt([bad], driver_id="x", seed=seed)
