@@ -110,7 +110,7 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
     "README.md": (
         ["ln -s {root}/dbc dbc", "printf '%s' '" + STUDY_TOML + "' > study.toml"],
         [
-            skip("make demo", "CI runs make test; make demo is the 7-min study (docs/study.md)"),
+            skip("make demo", "CI runs make test; make demo is the 1-min study of 120 drives (docs/study.md)"),
             skip("make test", "what CI runs"),
             short(
                 "pacc drive --scenario B --driver d3 --controller irl+oa --seed 1 --log run.mcap",
