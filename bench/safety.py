@@ -104,7 +104,8 @@ def _run_grid(
     pops: list[int], roads: list[int], n: int, args: argparse.Namespace, workers: int
 ) -> Iterator[dict[str, Any]]:
     """The rows of the grid as the drivers finish (in ``workers`` processes when > 1)."""
-    controllers = args.controllers.split(",") + (["irl", "irl+oa"] if args.irl else [])
+    named = args.controllers.split(",") + (["irl", "irl+oa"] if args.irl else [])
+    controllers = list(dict.fromkeys(named))  # each once, as first named
     kinds = args.kinds.split(",")
     tasks = [
         (pop, i, n, road, kinds, controllers, args.duration, args.cache)
