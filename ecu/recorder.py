@@ -122,6 +122,9 @@ class SinkQueue:
         self.sink = sink
         self.what = what
         self.sink_errors = 0
+        #: trips the sink took, and trips lost (not built, or dropped beyond MAX_PENDING)
+        self.stored = 0
+        self.lost = 0
         #: trips the sink refused so far and not yet stored
         self.pending: deque[Trip] = deque()
 
@@ -129,6 +132,7 @@ class SinkQueue:
         """Queue ``trip`` and store what is pending."""
         if len(self.pending) >= MAX_PENDING:
             lost = self.pending.popleft()
+            self.lost += 1
             log.error("%s %s dropped: sink failing", self.what, lost.meta.get("index"))
         self.pending.append(trip)
         self.store()
@@ -152,6 +156,7 @@ class SinkQueue:
             trip = trip_of(samples, meta)
         except Exception as exc:  # noqa: BLE001 - never stop the control loop
             self.sink_errors += 1
+            self.lost += 1
             log.error("%s %s not built: %s", self.what, meta.get("index"), exc)
             self.store()
             return
@@ -173,6 +178,7 @@ class SinkQueue:
                 )
                 return
             self.pending.popleft()
+            self.stored += 1
 
 
 class TakeoverRecorder:

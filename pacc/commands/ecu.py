@@ -42,7 +42,7 @@ from ecu.buslog.format import TimeBase
 from ecu.buslog.live import add_foxglove_argument
 from ecu.methods import make_adaptation, make_controller
 from ecu.node import EcuConfig, EcuNode
-from ecu.recorder import TripSink
+from ecu.recorder import SinkQueue, TripSink
 from pacc.commands._args import (
     CommandParser,
     add_bus_arguments,
@@ -267,21 +267,26 @@ def _serve(args: argparse.Namespace) -> int:
     return 0
 
 
+def _lost(queue: SinkQueue) -> str:
+    """``, N lost`` when the queue lost trips (not built, or dropped while the sink failed)."""
+    return f", {queue.lost} lost" if queue.lost else ""
+
+
 def _report_recorders(args: argparse.Namespace, node: EcuNode) -> None:
     """Say what the takeover and manual recorders handed over."""
     if args.takeovers and node.recorder is not None:
         rec = node.recorder
         say(
-            f"takeover segments: {rec.segments - len(rec.pending)} of {rec.segments} written to"
-            f" {args.takeovers} ({rec.sink_errors} failed attempts)"
+            f"takeover segments: {rec.queue.stored} of {rec.segments} written to"
+            f" {args.takeovers} ({rec.sink_errors} failed attempts{_lost(rec.queue)})"
         )
     if node.manual is not None:
         man = node.manual
         where = args.manual or f"the cloud spool {args.spool}"
         say(
-            f"manual trips: {man.trips - len(man.queue.pending)} of {man.trips} written to "
+            f"manual trips: {man.queue.stored} of {man.trips} written to "
             f"{where} ({man.kept_s:.1f} s kept, {man.short_s:.1f} s in stretches shorter than "
-            f"{man.min_s:g} s, {man.queue.sink_errors} failed attempts)"
+            f"{man.min_s:g} s, {man.queue.sink_errors} failed attempts{_lost(man.queue)})"
         )
 
 

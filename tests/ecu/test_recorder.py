@@ -7,7 +7,14 @@ from pathlib import Path
 
 import pytest
 
-from ecu.recorder import RecorderError, Sample, TakeoverRecorder, directory_sink
+from ecu.recorder import (
+    MAX_PENDING,
+    RecorderError,
+    Sample,
+    SinkQueue,
+    TakeoverRecorder,
+    directory_sink,
+)
 from pacc.vocab.triplog import Trip
 from pacc.vocab.triplog_file import read_trip
 
@@ -177,3 +184,26 @@ def test_segments_without_a_utc_map_keep_their_old_stamps(tmp_path: Path) -> Non
     with path.open("rb") as fh:
         first = min(m.log_time for _, _, m in make_reader(fh).iter_messages())
     assert first == 5_000_000_000  # t_s itself: lockstep segments stay byte-identical
+
+
+def test_the_queue_counts_what_the_sink_took_and_what_was_lost() -> None:
+    """A sink down for MAX_PENDING + 6 trips: the 6 oldest are lost, none stored; back up, the
+    rest are stored in order; a trip that cannot be built (no samples) is lost too."""
+    stored: list[int] = []
+    up = False
+
+    def sink(trip: Trip) -> None:
+        if not up:
+            raise OSError("disk full")
+        stored.append(int(trip.meta["index"]))
+
+    queue = SinkQueue(sink, "trip")
+    sample = Sample(0.0, 10.0, 30.0, 10.0, 0.0, 0.0, 0.0, 2)
+    for i in range(MAX_PENDING + 6):
+        queue.build([sample, Sample(0.1, 10.0, 30.0, 10.0, 0.0, 0.0, 0.0, 2)], {"index": i})
+    assert (queue.stored, queue.lost, len(queue.pending)) == (0, 6, MAX_PENDING)
+    up = True
+    queue.store()
+    assert stored == list(range(6, MAX_PENDING + 6)) and queue.stored == MAX_PENDING
+    queue.build([], {"index": -1})
+    assert (queue.stored, queue.lost, len(queue.pending)) == (MAX_PENDING, 7, 0)
