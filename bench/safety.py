@@ -197,28 +197,33 @@ def _report(rows: list[dict[str, Any]]) -> None:
             f"{sum(r['below_cut_in'] for r in rs):10.2f} "
             f"{_mean_poi(rs):6.1f}"
         )
-    bad = [r for r in rows if r["collision"] or r["below_own"] > 0.0]
-    print(f"\n{len(bad)} drives collided or fell below {TTC_LIMIT_S} s TTC outside a press:")
-    for r in bad:
+    _drives(
+        [r for r in rows if r["collision"] or r["below_own"] > 0.0],
+        f"\n{{}} drives collided or fell below {TTC_LIMIT_S} s TTC outside a press:",
+        "collision {collision}, min TTC {min_ttc_own:.2f} s, {below_own:.2f} s below, "
+        "min gap {min_gap:.2f} m",
+    )
+    _drives(
+        [r for r in rows if r["below_override"] > 0.0],
+        f"{{}} drives below {TTC_LIMIT_S} s only while the driver's accelerator pressed",
+        "{below_override:.2f} s, min TTC {min_ttc:.2f} s",
+    )
+    _drives(
+        [r for r in rows if r["below_cut_in"] > 0.0],
+        f"{{}} drives below {TTC_LIMIT_S} s after a cut-in that began below it",
+        "{below_cut_in:.2f} s, min TTC {min_ttc:.2f} s, min gap {min_gap:.2f} m, "
+        "collision {collision}",
+    )
+
+
+def _drives(rows: list[dict[str, Any]], title: str, detail: str) -> None:
+    """``title`` with the count, then each drive with its seeds (to trace it) and ``detail``
+    (a format of the row's fields)."""
+    print(title.format(len(rows)))
+    for r in rows:
         print(
             f"  {r['driver']} {r['kind']} {r['controller']} road seed {r['seed']}: "
-            f"collision {r['collision']}, min TTC {r['min_ttc_own']:.2f} s, "
-            f"{r['below_own']:.2f} s below, min gap {r['min_gap']:.2f} m"
-        )
-    over = [r for r in rows if r["below_override"] > 0.0]
-    print(f"{len(over)} drives below {TTC_LIMIT_S} s only while the driver's accelerator pressed")
-    for r in over:
-        print(
-            f"  {r['driver']} {r['kind']} {r['controller']} road seed {r['seed']}: "
-            f"{r['below_override']:.2f} s, min TTC {r['min_ttc']:.2f} s"
-        )
-    cut = [r for r in rows if r["below_cut_in"] > 0.0]
-    print(f"{len(cut)} drives below {TTC_LIMIT_S} s after a cut-in that began below it")
-    for r in cut:
-        print(
-            f"  {r['driver']} {r['kind']} {r['controller']} road seed {r['seed']}: "
-            f"{r['below_cut_in']:.2f} s, min TTC {r['min_ttc']:.2f} s, min gap "
-            f"{r['min_gap']:.2f} m, collision {r['collision']}"
+            + detail.format(**r)
         )
 
 

@@ -200,11 +200,13 @@ class EcuNode:
         p = plan(self._table, inp.v_mps)
         go = ev.resume_edge or ev.accel_pressed  # a go at a standstill
         command = self._control(new, inp, p, dt, events, go)
+        sample = None
         if self.recorder is not None:
-            self.recorder.sample(sample_of(inp, now_s, new))
+            sample = sample_of(inp, now_s, new)
+            self.recorder.sample(sample)
         manual = self.manual  # a sample only for the cycles it may keep (every 5th)
         if manual is not None and now_s >= manual.next_due_s:
-            manual.sample(sample_of(inp, now_s, new), check.fault)
+            manual.sample(sample or sample_of(inp, now_s, new), check.fault)
         return outputs(
             new,
             command,

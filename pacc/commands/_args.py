@@ -124,11 +124,11 @@ def integer(lo: int | None = None, hi: int | None = INT_MAX) -> Callable[[str], 
 
 def same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
     """Whether ``a`` and ``b`` name one file (the same resolved path, or the same inode)."""
-    a, b = Path(a), Path(b)
-    if a.resolve() == b.resolve():
+    pa, pb = Path(a), Path(b)
+    if pa.resolve() == pb.resolve():
         return True
     try:
-        return a.samefile(b)
+        return pa.samefile(pb)
     except OSError:  # one does not exist yet: the resolved paths decided
         return False
 
