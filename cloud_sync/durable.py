@@ -8,6 +8,7 @@ final name or absent.
 from __future__ import annotations
 
 import os
+import uuid
 from pathlib import Path
 
 
@@ -20,4 +21,28 @@ def fsync_dir(path: Path) -> None:
         os.close(fd)
 
 
-__all__ = ["fsync_dir"]
+def write_temp(path: Path, data: bytes) -> Path:
+    """``data`` in a fsynced temporary file beside ``path`` (folders made and fsynced)."""
+    if not path.parent.is_dir():
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fsync_dir(path.parent.parent)
+    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.part")
+    try:
+        with tmp.open("wb") as stream:
+            stream.write(data)
+            stream.flush()
+            os.fsync(stream.fileno())
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return tmp
+
+
+def write_atomic(path: Path, data: bytes) -> None:
+    """``data`` under ``path`` whole or not at all, durable once this returns."""
+    tmp = write_temp(path, data)
+    tmp.replace(path)
+    fsync_dir(path.parent)
+
+
+__all__ = ["fsync_dir", "write_atomic", "write_temp"]

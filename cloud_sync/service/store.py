@@ -24,14 +24,13 @@ from __future__ import annotations
 import os
 import sqlite3
 import threading
-import uuid
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from cloud_sync.durable import fsync_dir
+from cloud_sync.durable import fsync_dir, write_atomic, write_temp
 from cloud_sync.errors import CloudSyncError
 
 SCHEMA = """
@@ -118,30 +117,6 @@ class VersionRow:
     source: str
     created_utc: str
     n_batches: int
-
-
-def _write_temp(path: Path, data: bytes) -> Path:
-    """``data`` in a fsynced temporary file beside ``path`` (folders made and fsynced)."""
-    if not path.parent.is_dir():
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fsync_dir(path.parent.parent)
-    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.part")
-    try:
-        with tmp.open("wb") as stream:
-            stream.write(data)
-            stream.flush()
-            os.fsync(stream.fileno())
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    return tmp
-
-
-def _write_atomic(path: Path, data: bytes) -> None:
-    """``data`` under ``path`` whole or not at all, durable once this returns."""
-    tmp = _write_temp(path, data)
-    tmp.replace(path)
-    fsync_dir(path.parent)
 
 
 class CloudStore:
@@ -301,9 +276,9 @@ class CloudStore:
             ).fetchone()
             if known is not None:
                 if not self.blob_path(row.digest).is_file():  # lost after its row: heal it
-                    _write_atomic(self.blob_path(row.digest), data)
+                    write_atomic(self.blob_path(row.digest), data)
                 return False
-            _write_atomic(self.blob_path(row.digest), data)
+            write_atomic(self.blob_path(row.digest), data)
             with self._tx() as db:
                 db.execute(
                     "INSERT INTO batches (digest, vehicle_id, driver_id, condition, kind, "
@@ -367,7 +342,7 @@ class CloudStore:
         version that exists already is refused (StoreError) without touching its file.
         """
         final = self.version_path(row.driver_id, row.condition, row.version)
-        tmp = _write_temp(final, signed)
+        tmp = write_temp(final, signed)
         try:
             with self._tx() as db:
                 db.execute(

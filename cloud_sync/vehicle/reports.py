@@ -36,7 +36,6 @@ import logging
 import os
 import re
 import threading
-import uuid
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -49,7 +48,7 @@ from cloud_sync.api import (
     CloudUnavailableError,
     PayloadTooLargeError,
 )
-from cloud_sync.durable import fsync_dir
+from cloud_sync.durable import fsync_dir, write_atomic
 from cloud_sync.errors import CloudSyncError
 
 log = logging.getLogger(__name__)
@@ -110,18 +109,9 @@ class ReportQueue:
             final = self.root / f"{seq:012d}-{trip_id}.json"
             if not isinstance(trip_id, str) or _NAME.match(final.name) is None:
                 raise ReportError(f"trip report not queued: trip_id {trip_id!r} is not plain")
-            part = self.root / f".{uuid.uuid4().hex}.part"
             try:
-                self.root.mkdir(parents=True, exist_ok=True)
-                with part.open("w", encoding="utf-8") as stream:
-                    stream.write(text + "\n")
-                    stream.flush()
-                    os.fsync(stream.fileno())
-                part.replace(final)
-                fsync_dir(self.root)
+                write_atomic(final, (text + "\n").encode("utf-8"))
             except OSError as exc:
-                with contextlib.suppress(OSError):
-                    part.unlink(missing_ok=True)
                 raise ReportError(f"trip report not queued: {exc.strerror or exc}") from exc
             self.stats.queued += 1
             return final
