@@ -5,6 +5,7 @@
 #
 #   pacc drive --scenario B --driver d3 --controller predefined+oa --seed 1 --can-log drive.mcap
 #   tools/foxglove_shot.sh drive.mcap docs/foxglove-layout.json shot.png
+#   tools/foxglove_shot.sh ws://127.0.0.1:8765 docs/foxglove-layout.json live.png   # --foxglove
 #
 # The app: npm's @foxglove/studio-base 1.48.0 (MPL-2.0), the last open-source Foxglove Studio
 # published prebuilt (a webpack bundle of the whole app that takes React 17 from the page), in
@@ -12,7 +13,7 @@
 # /tmp/pacc-foxglove) keeps the packages between runs; PYTHON (default .venv/bin/python) must
 # have playwright. How it was used for docs/foxglove.png: docs/logs.md.
 set -euo pipefail
-rec=$(realpath "$1") layout=$(realpath "$2") shot=$(realpath -m "$3")
+src=$1 layout=$(realpath "$2") shot=$(realpath -m "$3")
 repo=$(cd "$(dirname "$0")/.." && pwd)
 cache=${FOX_DIR:-/tmp/pacc-foxglove}
 py=${PYTHON:-$repo/.venv/bin/python}
@@ -31,7 +32,9 @@ cp "$repo/tools/foxglove_host.html" "$web/index.html"
 cp "$cache/react/package/umd/react.production.min.js" "$web/"
 cp "$cache/react-dom/package/umd/react-dom.production.min.js" "$web/"
 ln -s "$cache/foxglove-studio-base/package" "$web/studio-base"
-cp "$rec" "$web/$(basename "$rec")"
+if [[ $src != ws://* ]]; then
+  cp "$src" "$web/" && src=$(basename "$src")
+fi
 cp "$layout" "$web/$(basename "$layout")"
 cd "$repo"
-nice -n 5 "$py" -m tools.foxglove_shot "$web" "$(basename "$rec")" "$(basename "$layout")" "$shot"
+nice -n 5 "$py" -m tools.foxglove_shot "$web" "$src" "$(basename "$layout")" "$shot"
