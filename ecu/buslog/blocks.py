@@ -72,17 +72,34 @@ def decode_block(data: bytes | str | Mapping[str, Any]) -> dict[str, np.ndarray]
 
 
 def block_schema(
-    title: str, description: str, columns: Mapping[str, tuple[str, str]]
+    title: str,
+    description: str,
+    columns: Mapping[str, tuple[str, str]],
+    ragged: Collection[str] = (),
 ) -> dict[str, Any]:
-    """The JSON schema of a block whose ``columns`` map name -> (dtype, description)."""
+    """The JSON schema of a block whose ``columns`` map name -> (dtype, description), the
+    columns named in ``ragged`` of any length.
+
+    Every object in it names its properties: Foxglove (its ``parseJsonSchema``, Studio 1.48 and
+    Lichtblick alike) refuses a channel whose schema holds an object without ``properties``.
+    """
     props: dict[str, Any] = {
         "n": {"type": "integer", "minimum": 0, "description": "rows in this block"},
         "dtypes": {
             "type": "object",
             "description": "column -> numpy dtype string of its little-endian values",
+            "properties": {
+                name: {"type": "string", "const": dt} for name, (dt, _) in columns.items()
+            },
             "additionalProperties": {"type": "string"},
         },
     }
+    if ragged:
+        props["ragged"] = {
+            "type": "array",
+            "items": {"type": "string"},
+            "description": "the columns whose length is not n",
+        }
     for name, (dtype, desc) in columns.items():
         props[name] = {
             "type": "string",

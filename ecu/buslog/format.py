@@ -107,7 +107,10 @@ RAW_COLUMNS: dict[str, tuple[str, str]] = {
     "data": ("|u1", "the payloads, one after the other (len bytes each; not n values)"),
 }
 RAW_SCHEMA = block_schema(
-    RAW_SCHEMA_NAME, "A block of CAN frames, one row per frame, in bus order", RAW_COLUMNS
+    RAW_SCHEMA_NAME,
+    "A block of CAN frames, one row per frame, in bus order",
+    RAW_COLUMNS,
+    ragged=("data",),
 )
 
 
