@@ -271,8 +271,9 @@ class MessageCodec:
         """The Python source of this message's ``decode`` and ``encode`` functions."""
         return "\n".join(self._decode_source() + self._encode_source()) + "\n"
 
-    def _compile(self) -> tuple[Any, Any]:
-        ns: dict[str, Any] = {
+    def namespace(self) -> dict[str, Any]:
+        """The names the generated source reads (a fresh dict)."""
+        return {
             "T": CRC8_TABLE,
             "CS": self._cs_fn,
             "Decoded": Decoded,
@@ -285,6 +286,9 @@ class MessageCodec:
             "range_error": self._range_error,
             "encode_error": self._encode_error,
         }
+
+    def _compile(self) -> tuple[Any, Any]:
+        ns = self.namespace()
         source = self.source()
         factory = _COMPILED.get(source)
         if factory is not None:  # the same source, compiled ahead by tools/compile.py (mypyc)

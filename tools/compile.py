@@ -149,11 +149,11 @@ def _fingerprint() -> str:
     return h.hexdigest()
 
 
-def build(out: Path, jobs: int = 2) -> float:
-    """Copy the packages into ``out``, generate the codec module, compile :data:`MODULES` in
+def build(out: Path, jobs: int = 2, modules: tuple[str, ...] = MODULES) -> float:
+    """Copy the packages into ``out``, generate the codec module, compile ``modules`` in
     place; the seconds it took (0.0: ``out`` already held this build)."""
     stamp = out / ".compiled"
-    fingerprint = _fingerprint()
+    fingerprint = _fingerprint() + repr(modules)
     if stamp.is_file() and stamp.read_text() == fingerprint:
         return 0.0
     start = time.perf_counter()
@@ -166,7 +166,7 @@ def build(out: Path, jobs: int = 2) -> float:
     (out / "setup.py").write_text(
         "from setuptools import setup\n"
         "from mypyc.build import mypycify\n\n"
-        f"setup(name='pacc-compiled', ext_modules=mypycify({list(MODULES)!r}, opt_level='3'))\n"
+        f"setup(name='pacc-compiled', ext_modules=mypycify({list(modules)!r}, opt_level='3'))\n"
     )
     cmd = [sys.executable, "setup.py", "build_ext", "--inplace", "-j", str(jobs)]
     done = subprocess.run(cmd, cwd=out, capture_output=True, text=True, check=False)
