@@ -79,6 +79,7 @@ def compiled_run(argv: list[str]) -> int:
     """Build the compiled copy (``python -m tools.compile``) and run this bench, ``argv``
     less ``--compiled``, on it; its exit status."""
     out = Path(_ROOT) / "build" / "compiled"
+    sys.stdout.flush()  # this build's lines before the child's
     subprocess.run(
         [sys.executable, "-m", "tools.compile", "--out", str(out)], cwd=_ROOT, check=True
     )

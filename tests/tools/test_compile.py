@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import hashlib
+import importlib.util
 import os
 import random
 import re
@@ -90,6 +91,8 @@ def _compiler() -> str | None:
         return "no C compiler"
     if not (Path(sysconfig.get_paths()["include"]) / "Python.h").is_file():
         return "no Python.h (Python's headers)"
+    if importlib.util.find_spec("setuptools") is None:  # venvs of Python >= 3.12 lack it
+        return "no setuptools in this environment"
     return None
 
 
