@@ -15,6 +15,11 @@ Run: ``python bench/drive.py [--scenario B] [--driver d2] [--controller ...]`` f
 The last line is ``drive: R x the virtual bus`` (goal >= 2.5, and the drive faster than the
 bare bus).
 
+``--compiled`` runs the same bench on a copy of pacc whose per-frame path is compiled with
+mypyc (``python -m tools.compile``: built into ``build/compiled`` first, rebuilt when a
+source changed; needs gcc and Python's headers), after the line of this, pure, build. The
+first line says which build was measured.
+
 ``--plugins`` (issue 20) instead times the same drive with the built-ins called directly
 against the same built-ins through the guarded plug-in interface (``--gap-controller pid
 --adaptation timegap``) and a trivial plug-in controller, interleaved, the median of
@@ -27,9 +32,11 @@ import argparse
 import cProfile
 import io
 import math
+import os
 import pstats
 import statistics
 import struct
+import subprocess
 import sys
 import time
 from dataclasses import replace
@@ -38,6 +45,7 @@ from typing import Any
 
 import can
 
+import dbc.endpoint
 from dbc.codec import load_codec
 from dbc.e2e import CRC8_TABLE
 from ecu.node import EcuNode
@@ -56,6 +64,28 @@ TICK_S = 0.01
 ECU_ROLES = ("command", "status")
 #: the bare bus's own 8-byte layout, CRC first: a peer with no codec, not the DBC's layout
 _PACK = struct.Struct("<BBHhh")
+
+
+def build_name() -> str:
+    """Which pacc this process runs: the pure-Python package, or a compiled copy (mypyc
+    extension modules, ``tools/compile.py``) and where it lies."""
+    where = Path(dbc.endpoint.__file__)
+    if where.suffix == ".py":
+        return f"pure Python ({where.parent.parent})"
+    return f"compiled with mypyc ({where.parent.parent})"
+
+
+def compiled_run(argv: list[str]) -> int:
+    """Build the compiled copy (``python -m tools.compile``) and run this bench, ``argv``
+    less ``--compiled``, on it; its exit status."""
+    out = Path(_ROOT) / "build" / "compiled"
+    sys.stdout.flush()  # this build's lines before the child's
+    subprocess.run(
+        [sys.executable, "-m", "tools.compile", "--out", str(out)], cwd=_ROOT, check=True
+    )
+    env = {**os.environ, "PYTHONPATH": str(out)}
+    args = [a for a in argv if a != "--compiled"]
+    return subprocess.run([sys.executable, __file__, *args], env=env, check=False).returncode
 
 
 def schedule(roles: tuple[str, ...]) -> tuple[tuple[int, int], ...]:
@@ -201,7 +231,17 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--rounds", type=int, default=ROUNDS, help="alternating runs of each bus")
     p.add_argument("--plugins", action="store_true", help="time the plug-in interface only")
     p.add_argument("--repeats", type=int, default=5, help="drives per variant (--plugins)")
+    p.add_argument(
+        "--compiled",
+        action="store_true",
+        help="also run on a mypyc-compiled copy (tools/compile.py)",
+    )
     args = p.parse_args(argv)
+    if args.compiled:  # this (pure) build first, then the compiled copy
+        given = sys.argv[1:] if argv is None else argv
+        main([a for a in given if a != "--compiled"])
+        return compiled_run(given)
+    print(f"build: {build_name()}")
     if args.plugins:
         plugin_overhead(args.scenario, args.driver, args.controller, args.repeats)
         return 0
@@ -247,17 +287,21 @@ def main(argv: list[str] | None = None) -> int:
         f"CPU time, virtual / lockstep = {cpu['virtual'] / cpu['lockstep']:.2f} "
         "(the whole drive: setup, simulation, ECU; a loaded machine's wall times vary more)"
     )
-    parts = min(
-        (breakdown(cfg, driver, table) for _ in range(args.rounds)), key=lambda d: d["drive"]
-    )
-    total = parts.pop("drive")
-    shares = ", ".join(f"{k} {100 * v / total:.0f} %" for k, v in parts.items())
-    print(
-        f"the lockstep drive's CPU time ({total:.2f} s, timed parts): {shares}, the rest "
-        f"(bus, codec, E2E, the nodes' I/O, clocks) {100 * (1 - sum(parts.values()) / total):.0f} %"
-    )
-    if args.top > 0:
-        profile(args, driver, table)
+    if build_name().startswith("pure"):
+        parts = min(
+            (breakdown(cfg, driver, table) for _ in range(args.rounds)), key=lambda d: d["drive"]
+        )
+        total = parts.pop("drive")
+        shares = ", ".join(f"{k} {100 * v / total:.0f} %" for k, v in parts.items())
+        rest = 100 * (1 - sum(parts.values()) / total)
+        print(
+            f"the lockstep drive's CPU time ({total:.2f} s, timed parts): {shares}, the rest "
+            f"(bus, codec, E2E, the nodes' I/O, clocks) {rest:.0f} %"
+        )
+        if args.top > 0:
+            profile(args, driver, table)
+    else:  # compiled callers call EcuNode.step directly: no wrapper, no Python profile
+        print("CPU split and profile: not measured on a compiled build")
     print(f"drive: {factor / virt.realtime_factor:.2f}x the virtual bus")
     return 0
 

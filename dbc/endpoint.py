@@ -16,39 +16,11 @@ import can
 from dbc.codec import Codec, RoleCodec
 from dbc.e2e import E2EReceiver, E2EStatus
 from dbc.errors import CrcError, DbcError, DecodeError, DlcError, EncodeError, RangeError
+from dbc.frame import Frame as Frame  # re-exported: the class moved to dbc.frame
 from dbc.message import Decoded, MessageCodec, Value
 
 #: Pseudo-role under which frames of no bound message are counted.
 UNKNOWN_ROLE = "?"
-
-
-class Frame(can.Message):
-    """A python-can message whose deep copy is cheap.
-
-    python-can's virtual bus deep-copies every sent message once per receiver; the generic
-    ``copy.deepcopy`` of the payload bytearray is the largest single cost of a lockstep
-    drive. A frame's fields are immutable scalars but for the payload, so copying the
-    payload by hand gives the same result (a plain :class:`can.Message` the receiver owns)
-    at a fraction of the cost.
-    """
-
-    __slots__ = ()
-
-    def __deepcopy__(self, memo: dict[int, Any] | None) -> can.Message:
-        return can.Message(
-            timestamp=self.timestamp,
-            arbitration_id=self.arbitration_id,
-            is_extended_id=self.is_extended_id,
-            is_remote_frame=self.is_remote_frame,
-            is_error_frame=self.is_error_frame,
-            channel=self.channel,
-            dlc=self.dlc,
-            data=bytearray(self.data),
-            is_fd=self.is_fd,
-            is_rx=self.is_rx,
-            bitrate_switch=self.bitrate_switch,
-            error_state_indicator=self.error_state_indicator,
-        )
 
 
 _new_frame = Frame.__new__

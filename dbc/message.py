@@ -10,6 +10,7 @@ messages of a whole network together.
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable, Mapping
 from typing import Any, NamedTuple
 
@@ -30,6 +31,20 @@ from dbc.units import UnitError, conversion
 __all__ = ["Decoded", "MessageCodec", "Value"]
 
 Value = float | int
+
+
+def _compiled_factories() -> dict[str, Any]:
+    """Source text -> factory of the (encode, decode) pair compiled from it, from the module
+    ``dbc._compiled_codecs`` that ``tools/compile.py`` generates and compiles (the packaged
+    network's messages); empty where there is none (the plain, pure-Python install)."""
+    try:
+        module = importlib.import_module("dbc._compiled_codecs")
+    except ImportError:
+        return {}
+    return dict(module.FACTORIES)
+
+
+_COMPILED = _compiled_factories()
 
 
 class Decoded(NamedTuple):
@@ -86,7 +101,9 @@ class MessageCodec:
         self._cs_fn: checksums.Checksum | None = None
         if part.checksum_signal is not None:
             self._bind_checksum(message.get_signal_by_name(part.checksum_signal))
-        self.protected = self._cs is not None
+        # not ``self._cs is not None``: mypy narrows ``self._cs`` to None after the line that
+        # sets it, which a mypyc build would check (and refuse) at run time
+        self.protected = part.checksum_signal is not None
         self._counter: FieldLayout | None = None
         self.counter_modulo = 0
         if part.counter is not None:
@@ -250,8 +267,13 @@ class MessageCodec:
             e.append(f"    return n_le.to_bytes({n}, 'little')")
         return e
 
-    def _compile(self) -> tuple[Any, Any]:
-        ns: dict[str, Any] = {
+    def source(self) -> str:
+        """The Python source of this message's ``decode`` and ``encode`` functions."""
+        return "\n".join(self._decode_source() + self._encode_source()) + "\n"
+
+    def namespace(self) -> dict[str, Any]:
+        """The names the generated source reads (a fresh dict)."""
+        return {
             "T": CRC8_TABLE,
             "CS": self._cs_fn,
             "Decoded": Decoded,
@@ -264,7 +286,14 @@ class MessageCodec:
             "range_error": self._range_error,
             "encode_error": self._encode_error,
         }
-        source = "\n".join(self._decode_source() + self._encode_source()) + "\n"
+
+    def _compile(self) -> tuple[Any, Any]:
+        ns = self.namespace()
+        source = self.source()
+        factory = _COMPILED.get(source)
+        if factory is not None:  # the same source, compiled ahead by tools/compile.py (mypyc)
+            encode, decode = factory(ns)
+            return encode, decode
         exec(compile(source, f"<codec {self.name}>", "exec"), ns)  # noqa: S102 - generated above
         return ns["encode"], ns["decode"]
 

@@ -360,6 +360,16 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
             skip("pacc cloud serve --data cloud/ --port 8080 --scheduler local --workers 4", DASK),
         ],
     ),
+    "docs/sim.md": (
+        [],
+        [
+            skip(
+                "python bench/drive.py --compiled",
+                "a 40-s gcc build and two 300-s drive benches; tests/tools/test_compile.py "
+                "compiles the codecs and checks a drive on them",
+            ),
+        ],
+    ),
     "docs/study.md": (
         [],
         [
