@@ -46,6 +46,7 @@ from typing import Any
 import can
 
 import dbc.endpoint
+import dbc.message
 from dbc.codec import load_codec
 from dbc.e2e import CRC8_TABLE
 from ecu.node import EcuNode
@@ -72,7 +73,8 @@ def build_name() -> str:
     where = Path(dbc.endpoint.__file__)
     if where.suffix == ".py":
         return f"pure Python ({where.parent.parent})"
-    return f"compiled with mypyc ({where.parent.parent})"
+    codecs = "its codecs too" if dbc.message.compiled_codecs() else "its codecs NOT loaded"
+    return f"compiled with mypyc ({where.parent.parent}; {codecs})"
 
 
 def compiled_run(argv: list[str]) -> int:
@@ -223,7 +225,7 @@ def plugin_overhead(scenario: str, driver_id: str, controller: str, repeats: int
 
 def main(argv: list[str] | None = None) -> int:
     """Print the drive on each bus, the bare-bus ceiling, a profile; last line the ratio."""
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], allow_abbrev=False)
     p.add_argument("--scenario", default="B")
     p.add_argument("--driver", default="d2")
     p.add_argument("--controller", default="predefined+oa")

@@ -41,7 +41,11 @@ def write_temp(path: Path, data: bytes) -> Path:
 def write_atomic(path: Path, data: bytes) -> None:
     """``data`` under ``path`` whole or not at all, durable once this returns."""
     tmp = write_temp(path, data)
-    tmp.replace(path)
+    try:
+        tmp.replace(path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
     fsync_dir(path.parent)
 
 

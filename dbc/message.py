@@ -28,7 +28,7 @@ from dbc.errors import (
 from dbc.layout import FieldLayout, extract, layout, physical, placed_le, raw_from
 from dbc.units import UnitError, conversion
 
-__all__ = ["Decoded", "MessageCodec", "Value"]
+__all__ = ["Decoded", "MessageCodec", "Value", "compiled_codecs"]
 
 Value = float | int
 
@@ -39,12 +39,19 @@ def _compiled_factories() -> dict[str, Any]:
     network's messages); empty where there is none (the plain, pure-Python install)."""
     try:
         module = importlib.import_module("dbc._compiled_codecs")
-    except ImportError:
+    except ModuleNotFoundError as exc:
+        if exc.name != "dbc._compiled_codecs":  # the module is there but cannot load
+            raise
         return {}
     return dict(module.FACTORIES)
 
 
 _COMPILED = _compiled_factories()
+
+
+def compiled_codecs() -> int:
+    """How many message codecs this process has compiled ahead (0: the pure install)."""
+    return len(_COMPILED)
 
 
 class Decoded(NamedTuple):

@@ -139,13 +139,17 @@ def codec_module_source() -> str:
 
 
 def _fingerprint() -> str:
-    """A hash of every source file copied and of this tool (a build is reused only for the
-    same)."""
+    """A hash of every file the build copies (sources, the DBC, bindings, data), of this tool,
+    and of the Python and mypy versions: a build is reused only for the same."""
+    import mypy.version  # noqa: PLC0415 - only a build needs mypy
+
     h = hashlib.sha256(Path(__file__).read_bytes())
+    h.update(f"{sys.version}|{mypy.version.__version__}".encode())
     for pkg in PACKAGES:
-        for f in sorted((ROOT / pkg).rglob("*.py")):
-            h.update(str(f.relative_to(ROOT)).encode())
-            h.update(f.read_bytes())
+        for f in sorted((ROOT / pkg).rglob("*")):
+            if f.is_file() and "__pycache__" not in f.parts and f.suffix != ".so":
+                h.update(str(f.relative_to(ROOT)).encode())
+                h.update(f.read_bytes())
     return h.hexdigest()
 
 
@@ -158,6 +162,8 @@ def build(out: Path, jobs: int = 2, modules: tuple[str, ...] = MODULES) -> float
         return 0.0
     start = time.perf_counter()
     if out.exists():
+        if not stamp.is_file() and any(out.iterdir()):
+            raise SystemExit(f"{out} is not empty and holds no compiled build: not removed")
         shutil.rmtree(out)
     out.mkdir(parents=True)
     for pkg in PACKAGES:

@@ -83,6 +83,12 @@ class RangeHandler(SimpleHTTPRequestHandler):
             return super().send_head()
         size = path.stat().st_size
         start, end = int(m[1]), min(int(m[2]) if m[2] else size - 1, size - 1)
+        if start > end:  # past the end, reversed, or an empty file: not satisfiable
+            self.send_response(416)
+            self.send_header("Content-Range", f"bytes */{size}")
+            self.send_header("Content-Length", "0")
+            self.end_headers()
+            return None
         f = path.open("rb")  # noqa: SIM115 - closed by the base class after copyfile
         f.seek(start)
         self.send_response(206)

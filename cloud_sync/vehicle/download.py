@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import logging
 import os
-import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -30,6 +29,7 @@ from cloud_sync.api import (
     NotFoundError,
     is_plain_name,
 )
+from cloud_sync.durable import write_atomic
 from cloud_sync.errors import CloudSyncError
 from cloud_sync.signing import SignatureError, verify_dgpt
 from pacc.vocab.dgpt import Dgpt, SafetyBounds
@@ -152,17 +152,7 @@ class ProfileDownloader:
         return table
 
     def _keep(self, driver_id: str, condition: str, data: bytes) -> None:
-        path = self.cache_path(driver_id, condition)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.part")
-        try:
-            with tmp.open("wb") as stream:
-                stream.write(data)
-                stream.flush()
-                os.fsync(stream.fileno())
-            tmp.replace(path)
-        finally:
-            tmp.unlink(missing_ok=True)
+        write_atomic(self.cache_path(driver_id, condition), data)
 
     def _refuse(self, reason: str) -> None:
         self.report.refusals.append(reason)

@@ -87,7 +87,8 @@ def test_the_generated_module_gives_the_codecs_results() -> None:
 
 def _compiler() -> str | None:
     """Why a mypyc build cannot run here (None: it can)."""
-    if shutil.which(sysconfig.get_config_var("CC").split()[0] or "cc") is None:
+    cc = (sysconfig.get_config_var("CC") or "cc").split()[0]
+    if shutil.which(cc) is None:
         return "no C compiler"
     if not (Path(sysconfig.get_paths()["include"]) / "Python.h").is_file():
         return "no Python.h (Python's headers)"
@@ -101,11 +102,16 @@ import sys
 from pathlib import Path
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.study.drive import DriveConfig, predefined_table, run_drive
+import types
+from dbc.codec import load_codec
 try:
     import dbc._compiled_codecs as m
     print(m.__file__)
 except ImportError:
     print("pure")
+parts = load_codec().parts()
+print(sum(not isinstance(f, types.FunctionType) for p in parts for f in (p.encode, p.decode)),
+      "of", 2 * len(parts), "codec functions compiled")
 d = BUILTIN_DRIVERS["d3"]
 cfg = DriveConfig(scenario="cutin", driver_id="d3", controller="predefined+oa", seed=5,
                   duration_s=20.0)
@@ -153,6 +159,10 @@ def test_the_compiled_codecs_give_the_same_drive(tmp_path: Path) -> None:
     assert list((out / "dbc").glob("_compiled_codecs*.so"))
     pure_out, pure_hash = _drive(tmp_path, "pure", str(ROOT))
     out_lines, out_hash = _drive(tmp_path, "compiled", str(out))
-    assert out_lines.splitlines()[0].endswith(".so")  # the drive ran on the compiled codecs
-    assert out_lines.splitlines()[1:] == pure_out.splitlines()[1:]
+    first, used, *rest = out_lines.splitlines()
+    assert first.endswith(".so")  # the compiled module loaded,
+    n = int(used.split()[2])
+    assert used == f"{n} of {n} codec functions compiled" and n > 0  # and every codec used it
+    assert pure_out.splitlines()[1] == f"0 of {n} codec functions compiled"
+    assert rest == pure_out.splitlines()[2:]
     assert out_hash == pure_hash
