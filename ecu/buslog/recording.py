@@ -30,6 +30,7 @@ __all__ = [
     "BINDING_ATTACHMENT",
     "CONFIG_ATTACHMENT",
     "DBC_ATTACHMENT",
+    "PROCESS_ENV",
     "TABLE_ATTACHMENT",
     "config_from_json",
     "config_to_json",
@@ -40,6 +41,9 @@ DBC_ATTACHMENT = "network.dbc"
 BINDING_ATTACHMENT = "binding.toml"
 CONFIG_ATTACHMENT = "ecu_config.json"
 TABLE_ATTACHMENT = "dgpt_start.json"
+#: ``PACC_RECORDER_PROCESS=0``: a file-only recording written on the node's thread (default:
+#: in a writer process, :mod:`ecu.buslog.remote`; the same file either way)
+PROCESS_ENV = "PACC_RECORDER_PROCESS"
 
 
 def config_to_json(config: EcuConfig) -> str:
@@ -93,7 +97,9 @@ def open_recording(
     """A :class:`CanLogWriter` for a node on ``codec``'s network, with the DBC and binding
     files (default: the files ``codec`` was loaded from) attached, and the ECU's ``config``
     and starting ``table`` when it runs one; ``sinks`` (a live view) get the same channels
-    (``path`` None: only them, flushed every :data:`~ecu.buslog.live.LIVE_FLUSH_S`).
+    (``path`` None: only them, flushed every :data:`~ecu.buslog.live.LIVE_FLUSH_S`). A file
+    without live sinks is written by a writer process (:mod:`ecu.buslog.remote`) unless
+    :data:`PROCESS_ENV` is ``0``.
 
     Raises:
         CanLogError: the file cannot be written, or an attached file cannot be read.
@@ -118,4 +124,5 @@ def open_recording(
         sinks=sinks,
         flush_s=LIVE_FLUSH_S if sinks else FLUSH_S,
         rows_s=LIVE_FLUSH_S if sinks else ROWS_S,
+        process=os.environ.get(PROCESS_ENV, "1") != "0",
     )

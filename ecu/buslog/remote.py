@@ -1,0 +1,309 @@
+"""The recorder's writer process: a recording's rows, compression and file off the node's thread.
+
+A file-only recording (:func:`ecu.buslog.recording.open_recording` without a live view) keeps
+on the node's thread only what it must: the frames as tapped, each cycle packed, and at each
+flush the frames' columns read (:func:`ecu.buslog.decoded.frame_columns`). Everything else —
+the ``/can/raw`` block, decoding every DBC message, the protobuf rows, zstd, the chunk CRC and
+the writes — runs in a writer process (``python -m ecu.buslog.remote``): :class:`RemoteOutput`
+sends it the calls of :class:`~ecu.buslog.output.LogOutput` (pickled, over its stdin), and it
+runs them on a real :class:`~ecu.buslog.output.LogOutput`: the same code on the same
+arguments, so the file is the same byte for byte as one written on the node's thread.
+
+- **One process serves a recording at a time** and is kept for the next one (the import of
+  numpy, cantools and zstd is paid once per node process, not per recording); a process
+  recording several at once starts more. Idle ones end when the node's process exits (their
+  stdin closes) and are waited for (no zombies); a process forked off the node's (a study's
+  worker) does not inherit them.
+- **Crash safety**: each flush reaches the pipe at once. Killed, the node's process closes the
+  pipe; the writer writes everything it got (more than the node's thread would have: the
+  decoded rows since the last 10 s too) and leaves ``FILE.part``, as the node's thread does.
+  The writer runs in its own session, so a Ctrl-C on the terminal does not stop it.
+- **Errors**: a failed write (a full disk) stops the writing, and :meth:`RemoteOutput.finish`
+  raises it as :class:`~ecu.buslog.format.CanLogError`; a writer process that died does
+  the same, with its exit code, and is reaped. Nothing is raised on the node's thread before
+  (a pipe that broke stops the recording, reported at close, like any failed write).
+"""
+
+from __future__ import annotations
+
+import atexit
+import contextlib
+import fcntl
+import math
+import os
+import pickle
+import signal
+import subprocess
+import sys
+import threading
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import IO, Any
+
+from ecu.buslog.decoded import FrameBatch, floats
+from ecu.buslog.format import CanLogError, TimeBase
+from ecu.buslog.output import LogOutput
+from ecu.buslog.sinks import McapSink
+
+__all__ = ["RemoteOutput", "serve"]
+
+#: the writer's pipe, bytes (Linux's default cap for an unprivileged process): a cold
+#: writer (importing numpy) lets the node write this much before it waits
+PIPE_BYTES = 1 << 20
+#: what the writer answers at the end of a recording: None, or the failure's text
+_Reply = str | None
+
+_lock = threading.Lock()
+_idle: list[subprocess.Popen[bytes]] = []
+
+
+def _spawn() -> subprocess.Popen[bytes]:
+    """A new writer process (its stdin's pipe enlarged where the system lets it)."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "ecu.buslog.remote"],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        env=env,
+        start_new_session=True,
+    )
+    assert proc.stdin is not None
+    with contextlib.suppress(OSError, AttributeError):
+        fcntl.fcntl(proc.stdin.fileno(), fcntl.F_SETPIPE_SZ, PIPE_BYTES)
+    return proc
+
+
+def _take() -> subprocess.Popen[bytes]:
+    """An idle writer process, or a new one."""
+    with _lock:
+        while _idle:
+            proc = _idle.pop()
+            if proc.poll() is None:
+                return proc
+            _end(proc)
+    return _spawn()
+
+
+def _end(proc: subprocess.Popen[bytes], timeout_s: float = 10.0) -> None:
+    """Close the writer's pipes and wait for it (killed after ``timeout_s``); never raises."""
+    for pipe in (proc.stdin, proc.stdout):
+        with contextlib.suppress(OSError):
+            if pipe is not None:
+                pipe.close()
+    try:
+        proc.wait(timeout_s)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
+def _end_idle() -> None:
+    """At exit: every idle writer ends (its stdin closed) and is waited for."""
+    with _lock:
+        procs, _idle[:] = list(_idle), []
+    for proc in procs:
+        _end(proc)
+
+
+def _forget_idle() -> None:
+    """In a process forked off this one: the idle writers are the parent's (their pipes,
+    flushed, are closed here; the parent keeps its own)."""
+    for proc in _idle:
+        for pipe in (proc.stdin, proc.stdout):
+            with contextlib.suppress(OSError):
+                if pipe is not None:
+                    pipe.close()
+    _idle.clear()
+
+
+atexit.register(_end_idle)
+os.register_at_fork(after_in_child=_forget_idle)
+
+
+class RemoteOutput:
+    """:class:`~ecu.buslog.output.LogOutput`'s calls for the file ``path``, run in a writer
+    process (module docstring).
+
+    Raises:
+        CanLogError: ``path`` cannot be created (checked here), or no writer process starts.
+    """
+
+    def __init__(
+        self,
+        path: Path,
+        db: Any,
+        time_base: TimeBase,
+        node: str,
+        attachments: Mapping[str, bytes] | None = None,
+        metadata: Mapping[str, Mapping[str, str]] | None = None,
+    ) -> None:
+        self.path = path
+        McapSink(path).close(complete=False)  # the same checks and errors as on the thread
+        try:
+            self._proc = _take()
+        except OSError as exc:
+            raise CanLogError(f"{path}: cannot start the writer process: {exc}") from None
+        stdin = self._proc.stdin
+        assert stdin is not None
+        self._pipe: IO[bytes] = stdin
+        self._send("open", path, db, time_base, node, attachments, metadata)
+        self.end_chunk()
+
+    def _send(self, name: str, *args: Any) -> None:
+        pickle.dump((name, args), self._pipe, pickle.HIGHEST_PROTOCOL)
+
+    def attach(self, name: str, data: bytes, media_type: str) -> None:
+        self._send("attach", name, data, media_type)
+
+    def series(
+        self, topic: str, columns: Sequence[str], description: str, integral: Sequence[bool]
+    ) -> None:
+        self._send("series", topic, tuple(columns), description, tuple(integral))
+
+    def event(self, t_s: float, text: str) -> None:
+        self._send("event", t_s, text)
+
+    def flush(
+        self,
+        t_s: float,
+        frames: tuple[bytes, ...] | None,
+        rows: tuple[bytes, Mapping[str, Sequence[float]]] | None,
+    ) -> None:
+        """One flush at ``t_s`` (the node's clock), handed to the writer at once (crash
+        safety): the ``frames`` (:func:`~ecu.buslog.decoded.frame_columns`) as
+        :meth:`LogOutput.frames <ecu.buslog.output.LogOutput.frames>`, the ``rows`` due
+        (cycles, samples) as :meth:`LogOutput.rows <ecu.buslog.output.LogOutput.rows>`,
+        then the chunk's end."""
+        self._send("flush", t_s, frames, rows)
+        self._pipe.flush()
+
+    def end_chunk(self) -> None:
+        """End the chunk in the writer, and hand it what was sent so far."""
+        self._send("end_chunk")
+        self._pipe.flush()
+
+    def write_series(
+        self, topic: str, columns: Mapping[str, Iterable[Any]], t_s: Iterable[float]
+    ) -> None:
+        arrays = {k: floats(v) for k, v in columns.items()}  # pickled as bytes, not floats
+        self._send("write_series", topic, arrays, floats(t_s))
+
+    def finish(self, start_utc: str) -> None:
+        """Finish the file in the writer and wait for it.
+
+        Raises:
+            CanLogError: the writer failed (a write, finishing the file) or died.
+        """
+        self._end("finish", start_utc)
+
+    def abandon(self) -> None:
+        """Keep what was written (``path.part``); never raises."""
+        with contextlib.suppress(CanLogError):
+            self._end("abandon")
+
+    def _end(self, name: str, *args: Any) -> None:
+        proc = self._proc
+        try:
+            self._send(name, *args)
+            self._pipe.flush()
+            assert proc.stdout is not None
+            reply: _Reply = pickle.load(proc.stdout)
+        except (OSError, EOFError, pickle.UnpicklingError) as exc:
+            _end(proc)
+            raise CanLogError(
+                f"{self.path}: the writer process ended (exit code {proc.returncode}) before "
+                f"the recording was finished ({type(exc).__name__}); what it wrote is in "
+                f"{self.path}.part"
+            ) from None
+        with _lock:
+            _idle.append(proc)
+        if reply is not None:
+            raise CanLogError(reply)
+
+
+def _serve_one(inp: IO[bytes], out: IO[bytes], head: tuple[str, tuple[Any, ...]]) -> bool:
+    """One recording, from its ``open`` call to ``finish``/``abandon`` (answered on ``out``);
+    False when the node's process went away first (its ``.part`` kept)."""
+    path, db, time_base, node, attachments, metadata = head[1]
+    error: str | None = None
+    output: LogOutput | None = None
+    t_s = math.nan  # the node's clock at the latest flush
+    try:
+        output = LogOutput([McapSink(path)], db, time_base, node, attachments, metadata)
+    except Exception as exc:  # noqa: BLE001 - reported at the end of the recording
+        error = f"{path}: {type(exc).__name__}: {exc}"
+    while True:
+        try:
+            name, args = pickle.load(inp)
+        except EOFError:  # the node's process ended: write what came, keep the .part
+            if output is not None and error is None:
+                with contextlib.suppress(Exception):
+                    output.rows(b"", {})
+            if output is not None:
+                output.abandon()
+            return False
+        if name in ("finish", "abandon"):
+            reply = _end_one(output, error, path, args if name == "finish" else None)
+            pickle.dump(reply, out, pickle.HIGHEST_PROTOCOL)
+            out.flush()
+            return True
+        if error is not None or output is None:
+            continue
+        try:
+            if name == "flush":
+                t_s, frames, rows = args
+                _flush(output, frames, rows)
+            else:
+                getattr(output, name)(*args)
+        except Exception as exc:  # noqa: BLE001 - reported at the end of the recording
+            error = (
+                f"{path}: recording stopped at t = {t_s:.3f} s: {type(exc).__name__}: {exc}; "
+                f"what was written is in {path}.part"
+            )
+
+
+def _end_one(
+    output: LogOutput | None, error: str | None, path: Path, finish: tuple[Any, ...] | None
+) -> str | None:
+    """The file finished (``finish``: :meth:`LogOutput.finish`'s arguments, where nothing
+    failed before) or kept as ``.part``; the failure's text (None: finished)."""
+    if output is None:
+        return error
+    if error is None and finish is not None:
+        try:
+            output.finish(*finish)
+        except (CanLogError, OSError) as exc:
+            output.abandon()
+            return f"{path}: cannot finish the recording: {exc}"
+        return None
+    output.abandon()
+    return error
+
+
+def _flush(
+    output: LogOutput,
+    frames: tuple[bytes, ...] | None,
+    rows: tuple[bytes, Mapping[str, Sequence[float]]] | None,
+) -> None:
+    """:meth:`RemoteOutput.flush`'s calls on ``output``."""
+    if frames is not None:
+        output.frames(FrameBatch.from_columns(*frames))
+    if rows is not None:
+        output.rows(*rows)
+    output.end_chunk()
+
+
+def serve(inp: IO[bytes], out: IO[bytes]) -> None:
+    """The writer process: recordings one after the other until its stdin closes."""
+    while True:
+        try:
+            head = pickle.load(inp)
+        except EOFError:
+            return
+        if not _serve_one(inp, out, head):
+            return
+
+
+if __name__ == "__main__":
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the node's process decides when to stop
+    serve(sys.stdin.buffer, sys.stdout.buffer)
