@@ -15,7 +15,11 @@ Run: ``.venv/bin/python bench/canlog.py [--sim-s 120] [--repeats 3]``.
   against the process's CPU time (every thread) and against the drive thread's own CPU time
   (``time.thread_time``: what the recording costs the thread that runs the drive, whatever
   else loads the machine; work on another thread would not be in it, though the wall clock
-  still waits for it when no core is free; the recorder has none today, docs/logs.md).
+  still waits for it when no core is free); and the CPU time of the recorder's writer
+  process (:mod:`ecu.buslog.remote`: the raw blocks, decoding, rows, zstd and writes of a
+  file-only recording) per recorded drive, which the process CPU time leaves out; the
+  first recording of the bench's process, whose wall clock includes starting the writer
+  process (later recordings reuse it).
 
 Best of ``--repeats`` for the writers and for the drives' real-time factors (the machine is
 shared: the best run is the one least disturbed), the medians printed beside.
@@ -25,6 +29,7 @@ The last line is ``canlog: N x python-can BLF writer``.
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import tempfile
 import time
@@ -33,6 +38,7 @@ from pathlib import Path
 import can
 
 from dbc.codec import load_codec
+from ecu.buslog import remote
 from ecu.buslog.format import TimeBase
 from ecu.buslog.reader import messages, read_canlog
 from ecu.buslog.writer import CanLogWriter
@@ -55,6 +61,19 @@ def _drive(sim_s: float, can_log: Path | None) -> tuple[float, float, float]:
     wall_s, cpu_s = time.perf_counter() - start, time.process_time() - cpu
     own_s = time.thread_time() - own
     return result.sim_s / wall_s, result.sim_s / cpu_s, result.sim_s / own_s
+
+
+def _writers_cpu_s() -> float:
+    """CPU time (user + system) of this process's idle writer processes so far, s (Linux's
+    /proc; 0 elsewhere)."""
+    total = 0.0
+    for proc in remote._idle:
+        try:
+            fields = Path(f"/proc/{proc.pid}/stat").read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        total += (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    return total
 
 
 def _blf(msgs: list[can.Message], path: Path) -> float:
@@ -84,7 +103,8 @@ def main() -> None:
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
-        _drive(args.sim_s, d / "drive.mcap")
+        _drive(args.sim_s, None)  # warm: imports, caches
+        cold = _drive(args.sim_s, d / "drive.mcap")  # this process's first recording
         msgs = list(messages(read_canlog(d / "drive.mcap")))
         n = len(msgs)
         blf_s = min(_blf(msgs, d / "x.blf") for _ in range(args.repeats))
@@ -93,9 +113,12 @@ def main() -> None:
         mcap_b = (d / "x.mcap").stat().st_size / n
         off: list[tuple[float, float, float]] = []
         on: list[tuple[float, float, float]] = []
+        writer_s = 0.0
         for _ in range(args.repeats):
             off.append(_drive(args.sim_s, None))
+            before = _writers_cpu_s()
             on.append(_drive(args.sim_s, d / "drive.mcap"))
+            writer_s += _writers_cpu_s() - before
     rt_off, rt_on = max(x[0] for x in off), max(x[0] for x in on)
     med_off = statistics.median(x[0] for x in off)
     med_on = statistics.median(x[0] for x in on)
@@ -119,6 +142,14 @@ def main() -> None:
     print(
         f"drive real-time factor on the drive thread's CPU time, best: {own_off:.1f}x off, "
         f"{own_on:.1f}x on ({own_on / own_off:.3f} of off)"
+    )
+    print(
+        f"the process's first recording (its writer process started within it): "
+        f"{cold[0]:.1f}x ({cold[0] / rt_off:.3f} of the best off)"
+    )
+    print(
+        f"recorder's writer process: {1e3 * writer_s / args.repeats:.1f} ms of CPU per recorded "
+        f"drive (mean; 0: recording on the drive's thread, PACC_RECORDER_PROCESS=0)"
     )
     print(f"canlog: {blf_s / mcap_s:.2f}x python-can BLF writer")
 

@@ -32,10 +32,12 @@ import fcntl
 import math
 import os
 import pickle
+import select
 import signal
 import subprocess
 import sys
 import threading
+import time
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import IO, Any
@@ -45,7 +47,7 @@ from ecu.buslog.format import CanLogError, TimeBase
 from ecu.buslog.output import LogOutput
 from ecu.buslog.sinks import McapSink
 
-__all__ = ["RemoteOutput", "serve"]
+__all__ = ["READY", "RemoteOutput", "ready_writer", "serve", "start_writer"]
 
 #: the writer's pipe, bytes (Linux's default cap for an unprivileged process): a cold
 #: writer (importing numpy) lets the node write this much before it waits
@@ -53,8 +55,13 @@ PIPE_BYTES = 1 << 20
 #: what the writer answers at the end of a recording: None, or the failure's text
 _Reply = str | None
 
+#: what a writer process says on its stdout once it can take a recording
+READY = b"R"
+
 _lock = threading.Lock()
+#: writer processes with no recording: started (their pid in ``_ready``) or starting
 _idle: list[subprocess.Popen[bytes]] = []
+_ready: set[int] = set()
 
 
 def _spawn() -> subprocess.Popen[bytes]:
@@ -73,19 +80,57 @@ def _spawn() -> subprocess.Popen[bytes]:
     return proc
 
 
-def _take() -> subprocess.Popen[bytes]:
-    """An idle writer process, or a new one."""
+def ready_writer() -> subprocess.Popen[bytes] | None:
+    """An idle writer process that has started (taken out of the pool), or None: then one
+    is started for a later recording, and this one is written on the node's thread (a
+    writer that is still importing would make the node wait for it)."""
     with _lock:
-        while _idle:
-            proc = _idle.pop()
-            if proc.poll() is None:
+        for proc in list(_idle):
+            if proc.poll() is not None:
+                _idle.remove(proc)
+                _end(proc)
+            elif _started(proc):
+                _idle.remove(proc)
                 return proc
-            _end(proc)
-    return _spawn()
+        if not _idle:
+            with contextlib.suppress(OSError):
+                _idle.append(_spawn())
+    return None
 
 
-def _end(proc: subprocess.Popen[bytes], timeout_s: float = 10.0) -> None:
-    """Close the writer's pipes and wait for it (killed after ``timeout_s``); never raises."""
+def start_writer(timeout_s: float = 60.0) -> bool:
+    """Start a writer process now and wait until it is ready for a recording (the next
+    file-only recording is then written by it); False if none became ready."""
+    deadline = time.monotonic() + timeout_s
+    with _lock:
+        if not _idle:
+            _idle.append(_spawn())
+        procs = list(_idle)
+    while time.monotonic() < deadline:
+        if any(proc.poll() is None and _started(proc) for proc in procs):
+            return True
+        time.sleep(0.01)
+    return False
+
+
+def _started(proc: subprocess.Popen[bytes]) -> bool:
+    """The writer said it is ready (one byte on its stdout after its imports)."""
+    if proc.pid in _ready:
+        return True
+    assert proc.stdout is not None
+    if select.select([proc.stdout], [], [], 0)[0] and proc.stdout.read(1) == READY:
+        _ready.add(proc.pid)
+        return True
+    return False
+
+
+def _end(proc: subprocess.Popen[bytes], timeout_s: float = 10.0, kill: bool = False) -> None:
+    """Close the writer's pipes and wait for it (killed after ``timeout_s``, or at once
+    with ``kill``: an idle writer holds nothing); never raises."""
+    _ready.discard(proc.pid)
+    if kill:
+        with contextlib.suppress(OSError):
+            proc.kill()
     for pipe in (proc.stdin, proc.stdout):
         with contextlib.suppress(OSError):
             if pipe is not None:
@@ -98,11 +143,11 @@ def _end(proc: subprocess.Popen[bytes], timeout_s: float = 10.0) -> None:
 
 
 def _end_idle() -> None:
-    """At exit: every idle writer ends (its stdin closed) and is waited for."""
+    """At exit: every idle writer (nothing left to write) ends and is waited for."""
     with _lock:
         procs, _idle[:] = list(_idle), []
     for proc in procs:
-        _end(proc)
+        _end(proc, kill=True)
 
 
 def _forget_idle() -> None:
@@ -114,6 +159,7 @@ def _forget_idle() -> None:
                 if pipe is not None:
                     pipe.close()
     _idle.clear()
+    _ready.clear()
 
 
 atexit.register(_end_idle)
@@ -121,15 +167,16 @@ os.register_at_fork(after_in_child=_forget_idle)
 
 
 class RemoteOutput:
-    """:class:`~ecu.buslog.output.LogOutput`'s calls for the file ``path``, run in a writer
-    process (module docstring).
+    """:class:`~ecu.buslog.output.LogOutput`'s calls for the file ``path``, run in the
+    writer process ``proc`` (:func:`ready_writer`; module docstring).
 
     Raises:
-        CanLogError: ``path`` cannot be created (checked here), or no writer process starts.
+        CanLogError: ``path`` cannot be created (checked here).
     """
 
     def __init__(
         self,
+        proc: subprocess.Popen[bytes],
         path: Path,
         db: Any,
         time_base: TimeBase,
@@ -138,19 +185,46 @@ class RemoteOutput:
         metadata: Mapping[str, Mapping[str, str]] | None = None,
     ) -> None:
         self.path = path
-        McapSink(path).close(complete=False)  # the same checks and errors as on the thread
-        try:
-            self._proc = _take()
-        except OSError as exc:
-            raise CanLogError(f"{path}: cannot start the writer process: {exc}") from None
+        try:  # the same checks and errors as on the node's thread
+            McapSink(path).close(complete=False)
+        except CanLogError:
+            with _lock:
+                _idle.append(proc)  # unused: back to the pool
+            raise
+        self._proc = proc
         stdin = self._proc.stdin
         assert stdin is not None
-        self._pipe: IO[bytes] = stdin
+        self._fd = stdin.fileno()
+        os.set_blocking(self._fd, False)
+        #: sent and not yet in the pipe (the writer is behind: starting, or no core free)
+        self._backlog = bytearray()
         self._send("open", path, db, time_base, node, attachments, metadata)
         self.end_chunk()
 
     def _send(self, name: str, *args: Any) -> None:
-        pickle.dump((name, args), self._pipe, pickle.HIGHEST_PROTOCOL)
+        self._backlog += pickle.dumps((name, args), pickle.HIGHEST_PROTOCOL)
+
+    def _push(self) -> None:
+        """Put what the pipe takes of the backlog into it, without waiting.
+
+        Raises:
+            OSError: the writer process is gone (a broken pipe).
+        """
+        backlog = self._backlog
+        while backlog:
+            try:
+                n = os.write(self._fd, backlog)
+            except BlockingIOError:
+                return
+            del backlog[:n]
+
+    def _push_all(self) -> None:
+        """Put the whole backlog into the pipe, waiting for the writer where it must."""
+        os.set_blocking(self._fd, True)
+        try:
+            self._push()
+        finally:
+            os.set_blocking(self._fd, False)
 
     def attach(self, name: str, data: bytes, media_type: str) -> None:
         self._send("attach", name, data, media_type)
@@ -175,12 +249,12 @@ class RemoteOutput:
         (cycles, samples) as :meth:`LogOutput.rows <ecu.buslog.output.LogOutput.rows>`,
         then the chunk's end."""
         self._send("flush", t_s, frames, rows)
-        self._pipe.flush()
+        self._push()
 
     def end_chunk(self) -> None:
         """End the chunk in the writer, and hand it what was sent so far."""
         self._send("end_chunk")
-        self._pipe.flush()
+        self._push()
 
     def write_series(
         self, topic: str, columns: Mapping[str, Iterable[Any]], t_s: Iterable[float]
@@ -205,7 +279,7 @@ class RemoteOutput:
         proc = self._proc
         try:
             self._send(name, *args)
-            self._pipe.flush()
+            self._push_all()
             assert proc.stdout is not None
             reply: _Reply = pickle.load(proc.stdout)
         except (OSError, EOFError, pickle.UnpicklingError) as exc:
@@ -306,4 +380,6 @@ def serve(inp: IO[bytes], out: IO[bytes]) -> None:
 
 if __name__ == "__main__":
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the node's process decides when to stop
+    sys.stdout.buffer.write(READY)  # imported: ready for a recording
+    sys.stdout.buffer.flush()
     serve(sys.stdin.buffer, sys.stdout.buffer)

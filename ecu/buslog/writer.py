@@ -50,7 +50,7 @@ from ecu.buslog.format import (
     TimeBase,
 )
 from ecu.buslog.output import LogOutput
-from ecu.buslog.remote import RemoteOutput
+from ecu.buslog.remote import RemoteOutput, ready_writer
 from ecu.buslog.sinks import McapSink, Sink
 from ecu.signals import NodeInputs, NodeOutputs
 
@@ -80,8 +80,9 @@ class CanLogWriter:
             the process is killed).
         sinks: more sinks besides the file (e.g. :class:`ecu.buslog.live.FoxgloveSink`).
         process: write the file in a writer process (:mod:`ecu.buslog.remote`: the same
-            file, the node's thread keeps only the taps and the frames' columns); only for
-            a file without ``sinks``.
+            file, the node's thread keeps only the taps and the frames' columns) when one
+            is ready (else on this thread, and one is started for the next recording);
+            only for a file without ``sinks``.
 
     Raises:
         CanLogError: ``path`` cannot be created.
@@ -122,11 +123,10 @@ class CanLogWriter:
         self._cycles: list[bytes] = []
         self._cycles_declared = False
         self._samples: dict[str, list[Any]] = {}
-        self._remote = process and self.path is not None and not sinks
+        writer = ready_writer() if process and self.path is not None and not sinks else None
         self._out: LogOutput | RemoteOutput
-        if self._remote:
-            assert self.path is not None
-            self._out = RemoteOutput(self.path, db, time_base, node, attachments, metadata)
+        if writer is not None and self.path is not None:
+            self._out = RemoteOutput(writer, self.path, db, time_base, node, attachments, metadata)
         else:
             out = [McapSink(self.path)] if self.path is not None else []
             self._out = LogOutput([*out, *sinks], db, time_base, node, attachments, metadata)

@@ -42,6 +42,7 @@ def test_the_writer_process_writes_the_threads_file_byte_for_byte(
     monkeypatch.setenv(PROCESS_ENV, "0")
     _drive(tmp_path / "thread.mcap")
     monkeypatch.setenv(PROCESS_ENV, "1")
+    assert remote.start_writer()
     _drive(tmp_path / "process.mcap")
     _drive(tmp_path / "again.mcap")  # a second recording by the same (pooled) writer
     thread = (tmp_path / "thread.mcap").read_bytes()
@@ -58,6 +59,7 @@ def test_a_dead_writer_is_a_clean_error_at_close(tmp_path: Path) -> None:
     """The writer process killed mid-recording: the node's taps and ticks never raise,
     close raises CanLogError naming the writer, and the process is reaped (no zombie)."""
     path = tmp_path / "dead.mcap"
+    assert remote.start_writer()
     w = CanLogWriter(path, load_codec().db, TimeBase(UTC0, 0.0), node="t", process=True)
     out = w._out
     assert isinstance(out, remote.RemoteOutput)
@@ -93,10 +95,12 @@ _KILLED = r"""
 import json, sys, time
 import can
 from dbc.codec import load_codec
+from ecu.buslog import remote
 from ecu.buslog.format import TimeBase
 from ecu.buslog.writer import CanLogWriter
 
 path = sys.argv[1]
+assert remote.start_writer()
 w = CanLogWriter(path, load_codec().db, TimeBase(0, 0.0), node="kill", process=True, flush_s=0.1)
 print(json.dumps({"writer": w._out._proc.pid}), flush=True)
 i = 0
@@ -146,3 +150,18 @@ def test_a_killed_node_leaves_what_its_writer_got(tmp_path: Path) -> None:
     counters = [int.from_bytes(d[:4], "little") for d in frames.data]
     assert counters == list(range(len(counters)))  # an unbroken prefix
     assert len(counters) >= sent - 100  # every flush before the kill (0.1 s = 100 frames)
+
+
+def test_a_recording_with_no_writer_ready_is_written_on_the_thread(tmp_path: Path) -> None:
+    """No writer started yet: the recording does not wait for one (it is written on the
+    node's thread) and one is started for the next recording."""
+    remote._end_idle()
+    w = CanLogWriter(tmp_path / "a.mcap", None, TimeBase(UTC0, 0.0), node="t", process=True)
+    assert not isinstance(w._out, remote.RemoteOutput)
+    w.close()
+    assert len(remote._idle) == 1  # starting
+    assert remote.start_writer()
+    w = CanLogWriter(tmp_path / "b.mcap", None, TimeBase(UTC0, 0.0), node="t", process=True)
+    assert isinstance(w._out, remote.RemoteOutput)
+    w.close()
+    assert (tmp_path / "a.mcap").read_bytes() == (tmp_path / "b.mcap").read_bytes()
