@@ -62,6 +62,8 @@ _lock = threading.Lock()
 #: writer processes with no recording: started (their pid in ``_ready``) or starting
 _idle: list[subprocess.Popen[bytes]] = []
 _ready: set[int] = set()
+#: recordings that asked for a writer in this process
+_asked = 0
 
 
 def _spawn() -> subprocess.Popen[bytes]:
@@ -81,10 +83,13 @@ def _spawn() -> subprocess.Popen[bytes]:
 
 
 def ready_writer() -> subprocess.Popen[bytes] | None:
-    """An idle writer process that has started (taken out of the pool), or None: then one
-    is started for a later recording, and this one is written on the node's thread (a
-    writer that is still importing would make the node wait for it)."""
+    """An idle writer process that has started (taken out of the pool), or None: then this
+    recording is written on the node's thread (a writer still importing would make the node
+    wait for it), and from a process's second recording on one is started for the next
+    (a process that records once, ``pacc ecu``, ``pacc drive``, starts none)."""
+    global _asked  # noqa: PLW0603 - the process's count, as the pool is the process's
     with _lock:
+        _asked += 1
         for proc in list(_idle):
             if proc.poll() is not None:
                 _idle.remove(proc)
@@ -92,7 +97,7 @@ def ready_writer() -> subprocess.Popen[bytes] | None:
             elif _started(proc):
                 _idle.remove(proc)
                 return proc
-        if not _idle:
+        if not _idle and _asked >= 2:
             with contextlib.suppress(OSError):
                 _idle.append(_spawn())
     return None
@@ -153,6 +158,8 @@ def _end_idle() -> None:
 def _forget_idle() -> None:
     """In a process forked off this one: the idle writers are the parent's (their pipes,
     flushed, are closed here; the parent keeps its own)."""
+    global _asked  # noqa: PLW0603 - a new process
+    _asked = 0
     for proc in _idle:
         for pipe in (proc.stdin, proc.stdout):
             with contextlib.suppress(OSError):

@@ -152,10 +152,18 @@ def test_a_killed_node_leaves_what_its_writer_got(tmp_path: Path) -> None:
     assert len(counters) >= sent - 100  # every flush before the kill (0.1 s = 100 frames)
 
 
-def test_a_recording_with_no_writer_ready_is_written_on_the_thread(tmp_path: Path) -> None:
+def test_a_recording_with_no_writer_ready_is_written_on_the_thread(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """No writer started yet: the recording does not wait for one (it is written on the
-    node's thread) and one is started for the next recording."""
+    node's thread); a process's first recording starts none (it may be its only one), its
+    second starts one for the next."""
     remote._end_idle()
+    monkeypatch.setattr(remote, "_asked", 0)
+    w = CanLogWriter(tmp_path / "first.mcap", None, TimeBase(UTC0, 0.0), node="t", process=True)
+    assert not isinstance(w._out, remote.RemoteOutput)
+    w.close()
+    assert not remote._idle
     w = CanLogWriter(tmp_path / "a.mcap", None, TimeBase(UTC0, 0.0), node="t", process=True)
     assert not isinstance(w._out, remote.RemoteOutput)
     w.close()
