@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import atexit
 import contextlib
-import fcntl
 import math
 import os
 import pickle
@@ -77,7 +76,9 @@ def _spawn() -> subprocess.Popen[bytes]:
         start_new_session=True,
     )
     assert proc.stdin is not None
-    with contextlib.suppress(OSError, AttributeError):
+    with contextlib.suppress(OSError, AttributeError, ImportError):
+        import fcntl  # noqa: PLC0415 - POSIX only (the writer process is)
+
         fcntl.fcntl(proc.stdin.fileno(), fcntl.F_SETPIPE_SZ, PIPE_BYTES)
     return proc
 
@@ -88,6 +89,8 @@ def ready_writer() -> subprocess.Popen[bytes] | None:
     wait for it), and from a process's second recording on one is started for the next
     (a process that records once, ``pacc ecu``, ``pacc drive``, starts none)."""
     global _asked  # noqa: PLW0603 - the process's count, as the pool is the process's
+    if os.name != "posix":  # non-blocking pipes, select on a pipe
+        return None
     with _lock:
         _asked += 1
         for proc in list(_idle):
