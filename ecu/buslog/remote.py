@@ -4,10 +4,10 @@ A file-only recording (:func:`ecu.buslog.recording.open_recording` without a liv
 on the node's thread only what it must: the frames as tapped, each cycle packed, and at each
 flush the frames' columns read (:func:`ecu.buslog.decoded.frame_columns`). Everything else —
 the ``/can/raw`` block, decoding every DBC message, the protobuf rows, zstd, the chunk CRC and
-the writes — runs in a writer process (``python -m ecu.buslog.remote``): :class:`RemoteOutput`
-sends it the calls of :class:`~ecu.buslog.output.LogOutput` (pickled, over its stdin), and it
-runs them on a real :class:`~ecu.buslog.output.LogOutput`: the same code on the same
-arguments, so the file is the same byte for byte as one written on the node's thread.
+the writes — runs in a writer process (:mod:`ecu.buslog.serve`): :class:`RemoteOutput` sends
+it the calls of :class:`~ecu.buslog.output.LogOutput` (pickled, over its stdin), and it runs
+them on a real :class:`~ecu.buslog.output.LogOutput`: the same code on the same arguments,
+so the file is the same byte for byte as one written on the node's thread.
 
 - **One process serves a recording at a time** and is kept for the next one (the import of
   numpy, cantools and zstd is paid once per node process, not per recording); a process
@@ -28,34 +28,29 @@ from __future__ import annotations
 
 import atexit
 import contextlib
-import math
 import os
 import pickle
 import select
-import signal
 import subprocess
 import sys
 import threading
 import time
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
-from ecu.buslog.decoded import FrameBatch, floats
+from ecu.buslog.decoded import floats
 from ecu.buslog.format import CanLogError, TimeBase
-from ecu.buslog.output import LogOutput
+from ecu.buslog.serve import READY, frame_message
 from ecu.buslog.sinks import McapSink
 
-__all__ = ["READY", "RemoteOutput", "ready_writer", "serve", "start_writer"]
+__all__ = ["RemoteOutput", "ready_writer", "start_writer"]
 
 #: the writer's pipe, bytes (Linux's default cap for an unprivileged process): a cold
 #: writer (importing numpy) lets the node write this much before it waits
 PIPE_BYTES = 1 << 20
 #: what the writer answers at the end of a recording: None, or the failure's text
 _Reply = str | None
-
-#: what a writer process says on its stdout once it can take a recording
-READY = b"R"
 
 _lock = threading.Lock()
 #: writer processes with no recording: started (their pid in ``_ready``) or starting
@@ -69,7 +64,7 @@ def _spawn() -> subprocess.Popen[bytes]:
     """A new writer process (its stdin's pipe enlarged where the system lets it)."""
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
     proc = subprocess.Popen(
-        [sys.executable, "-m", "ecu.buslog.remote"],
+        [sys.executable, "-m", "ecu.buslog.serve"],
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         env=env,
@@ -212,7 +207,7 @@ class RemoteOutput:
         self.end_chunk()
 
     def _send(self, name: str, *args: Any) -> None:
-        self._backlog += pickle.dumps((name, args), pickle.HIGHEST_PROTOCOL)
+        self._backlog += frame_message((name, args))
 
     def _push(self) -> None:
         """Put what the pipe takes of the backlog into it, without waiting.
@@ -303,93 +298,3 @@ class RemoteOutput:
             _idle.append(proc)
         if reply is not None:
             raise CanLogError(reply)
-
-
-def _serve_one(inp: IO[bytes], out: IO[bytes], head: tuple[str, tuple[Any, ...]]) -> bool:
-    """One recording, from its ``open`` call to ``finish``/``abandon`` (answered on ``out``);
-    False when the node's process went away first (its ``.part`` kept)."""
-    path, db, time_base, node, attachments, metadata = head[1]
-    error: str | None = None
-    output: LogOutput | None = None
-    t_s = math.nan  # the node's clock at the latest flush
-    try:
-        output = LogOutput([McapSink(path)], db, time_base, node, attachments, metadata)
-    except Exception as exc:  # noqa: BLE001 - reported at the end of the recording
-        error = f"{path}: {type(exc).__name__}: {exc}"
-    while True:
-        try:
-            name, args = pickle.load(inp)
-        except EOFError:  # the node's process ended: write what came, keep the .part
-            if output is not None and error is None:
-                with contextlib.suppress(Exception):
-                    output.rows(b"", {})
-            if output is not None:
-                output.abandon()
-            return False
-        if name in ("finish", "abandon"):
-            reply = _end_one(output, error, path, args if name == "finish" else None)
-            pickle.dump(reply, out, pickle.HIGHEST_PROTOCOL)
-            out.flush()
-            return True
-        if error is not None or output is None:
-            continue
-        try:
-            if name == "flush":
-                t_s, frames, rows = args
-                _flush(output, frames, rows)
-            else:
-                getattr(output, name)(*args)
-        except Exception as exc:  # noqa: BLE001 - reported at the end of the recording
-            error = (
-                f"{path}: recording stopped at t = {t_s:.3f} s: {type(exc).__name__}: {exc}; "
-                f"what was written is in {path}.part"
-            )
-
-
-def _end_one(
-    output: LogOutput | None, error: str | None, path: Path, finish: tuple[Any, ...] | None
-) -> str | None:
-    """The file finished (``finish``: :meth:`LogOutput.finish`'s arguments, where nothing
-    failed before) or kept as ``.part``; the failure's text (None: finished)."""
-    if output is None:
-        return error
-    if error is None and finish is not None:
-        try:
-            output.finish(*finish)
-        except (CanLogError, OSError) as exc:
-            output.abandon()
-            return f"{path}: cannot finish the recording: {exc}"
-        return None
-    output.abandon()
-    return error
-
-
-def _flush(
-    output: LogOutput,
-    frames: tuple[bytes, ...] | None,
-    rows: tuple[bytes, Mapping[str, Sequence[float]]] | None,
-) -> None:
-    """:meth:`RemoteOutput.flush`'s calls on ``output``."""
-    if frames is not None:
-        output.frames(FrameBatch.from_columns(*frames))
-    if rows is not None:
-        output.rows(*rows)
-    output.end_chunk()
-
-
-def serve(inp: IO[bytes], out: IO[bytes]) -> None:
-    """The writer process: recordings one after the other until its stdin closes."""
-    while True:
-        try:
-            head = pickle.load(inp)
-        except EOFError:
-            return
-        if not _serve_one(inp, out, head):
-            return
-
-
-if __name__ == "__main__":
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the node's process decides when to stop
-    sys.stdout.buffer.write(READY)  # imported: ready for a recording
-    sys.stdout.buffer.flush()
-    serve(sys.stdin.buffer, sys.stdout.buffer)
