@@ -44,7 +44,7 @@ from ecu.buslog.format import CanLogError, TimeBase
 from ecu.buslog.serve import READY, frame_message
 from ecu.buslog.sinks import McapSink
 
-__all__ = ["RemoteOutput", "ready_writer", "start_writer"]
+__all__ = ["NotSendable", "RemoteOutput", "ready_writer", "start_writer"]
 
 #: the writer's pipe, bytes (Linux's default cap for an unprivileged process): a cold
 #: writer (importing numpy) lets the node write this much before it waits
@@ -171,12 +171,18 @@ atexit.register(_end_idle)
 os.register_at_fork(after_in_child=_forget_idle)
 
 
+class NotSendable(ValueError):
+    """What a recording opens with cannot be pickled (a database object of its own): the
+    recording stays on the node's thread."""
+
+
 class RemoteOutput:
     """:class:`~ecu.buslog.output.LogOutput`'s calls for the file ``path``, run in the
     writer process ``proc`` (:func:`ready_writer`; module docstring).
 
     Raises:
         CanLogError: ``path`` cannot be created (checked here).
+        NotSendable: the database, time base or attachments cannot be pickled.
     """
 
     def __init__(
@@ -203,7 +209,12 @@ class RemoteOutput:
         os.set_blocking(self._fd, False)
         #: sent and not yet in the pipe (the writer is behind: starting, or no core free)
         self._backlog = bytearray()
-        self._send("open", path, db, time_base, node, attachments, metadata)
+        try:
+            self._send("open", path, db, time_base, node, attachments, metadata)
+        except (pickle.PicklingError, TypeError, AttributeError) as exc:
+            with _lock:
+                _idle.append(proc)  # nothing sent: back to the pool
+            raise NotSendable(f"{path}: the network cannot go to a writer process: {exc}") from exc
         self.end_chunk()
 
     def _send(self, name: str, *args: Any) -> None:

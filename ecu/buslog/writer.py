@@ -20,6 +20,7 @@ Every :class:`~ecu.buslog.sinks.Sink` (the file, a live Foxglove WebSocket:
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 import operator
@@ -50,7 +51,7 @@ from ecu.buslog.format import (
     TimeBase,
 )
 from ecu.buslog.output import LogOutput
-from ecu.buslog.remote import RemoteOutput, ready_writer
+from ecu.buslog.remote import NotSendable, RemoteOutput, ready_writer
 from ecu.buslog.sinks import McapSink, Sink
 from ecu.signals import NodeInputs, NodeOutputs
 
@@ -124,9 +125,13 @@ class CanLogWriter:
         self._cycles_declared = False
         self._samples: dict[str, list[Any]] = {}
         writer = ready_writer() if process and self.path is not None and not sinks else None
-        self._out: LogOutput | RemoteOutput
+        remote: RemoteOutput | None = None
         if writer is not None and self.path is not None:
-            self._out = RemoteOutput(writer, self.path, db, time_base, node, attachments, metadata)
+            with contextlib.suppress(NotSendable):  # then on this thread
+                remote = RemoteOutput(writer, self.path, db, time_base, node, attachments, metadata)
+        self._out: LogOutput | RemoteOutput
+        if remote is not None:
+            self._out = remote
         else:
             out = [McapSink(self.path)] if self.path is not None else []
             self._out = LogOutput([*out, *sinks], db, time_base, node, attachments, metadata)

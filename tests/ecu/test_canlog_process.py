@@ -173,3 +173,27 @@ def test_a_recording_with_no_writer_ready_is_written_on_the_thread(
     assert isinstance(w._out, remote.RemoteOutput)
     w.close()
     assert (tmp_path / "a.mcap").read_bytes() == (tmp_path / "b.mcap").read_bytes()
+
+
+class _OwnDatabase:
+    """A database of its own making, which cannot be pickled (a lambda in it)."""
+
+    messages: list[object] = []
+
+    def __init__(self) -> None:
+        self.hook = lambda: None
+
+
+def test_a_database_that_cannot_be_sent_keeps_the_recording_on_the_thread(
+    tmp_path: Path,
+) -> None:
+    assert remote.start_writer()
+    idle = len(remote._idle)
+    w = CanLogWriter(
+        tmp_path / "own.mcap", _OwnDatabase(), TimeBase(UTC0, 0.0), node="t", process=True
+    )
+    assert not isinstance(w._out, remote.RemoteOutput)
+    w.frame(0.0, _frame(0), True)
+    w.close()
+    assert len(read_canlog(tmp_path / "own.mcap").frames) == 1
+    assert len(remote._idle) == idle  # the writer went back to the pool
