@@ -16,7 +16,7 @@ import can
 import pytest
 
 from dbc.codec import load_codec
-from ecu.buslog import remote
+from ecu.buslog import recording, remote
 from ecu.buslog.format import CanLogError, TimeBase
 from ecu.buslog.reader import read_canlog
 from ecu.buslog.recording import PROCESS_ENV
@@ -197,3 +197,17 @@ def test_a_database_that_cannot_be_sent_keeps_the_recording_on_the_thread(
     w.close()
     assert len(read_canlog(tmp_path / "own.mcap").frames) == 1
     assert len(remote._idle) == idle  # the writer went back to the pool
+
+
+def test_by_default_a_writer_is_used_while_a_core_is_free(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv(PROCESS_ENV, raising=False)
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    monkeypatch.setattr(os, "getloadavg", lambda: (1.2, 1.0, 1.0))
+    assert recording.use_writer()
+    monkeypatch.setattr(os, "getloadavg", lambda: (1.6, 1.0, 1.0))
+    assert not recording.use_writer()  # a study on every core: the node's thread
+    monkeypatch.setenv(PROCESS_ENV, "1")
+    assert recording.use_writer()
+    monkeypatch.setenv(PROCESS_ENV, "0")
+    monkeypatch.setattr(os, "getloadavg", lambda: (0.0, 0.0, 0.0))
+    assert not recording.use_writer()
