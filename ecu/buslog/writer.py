@@ -16,6 +16,11 @@ channel at a time (:mod:`ecu.buslog.decoded`, :mod:`ecu.buslog.proto`,
 :mod:`ecu.buslog.mcapfile`). Attachments: DBC, binding, ECU configuration, starting table.
 Every :class:`~ecu.buslog.sinks.Sink` (the file, a live Foxglove WebSocket:
 :mod:`ecu.buslog.live`) gets the same channels from this one code path.
+
+The writer keeps what the node feeds it and decides when to flush; each flush becomes
+messages in :class:`~ecu.buslog.output.LogOutput`, on the node's thread or, for a file
+without live sinks, in a writer process (``process``: :mod:`ecu.buslog.remote`), the same
+file byte for byte.
 """
 
 from __future__ import annotations
