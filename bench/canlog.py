@@ -10,12 +10,17 @@ Run: ``.venv/bin/python bench/canlog.py [--sim-s 120] [--repeats 3]``.
   frame;
 - the named peer: python-can's ``can.BLFWriter`` (zlib-compressed Vector BLF, raw frames
   only) on the same messages, same measures;
-- the drive: ``run_drive`` with and without ``can_log``, alternating, ``--repeats`` each;
+- the drive: ``run_drive`` with and without ``can_log`` (the recording written by the
+  recorder's writer process, and on the drive's thread), alternating, ``--repeats`` each;
   the real-time factors (simulated s per wall s of the whole call) and their ratio; the same
   against the process's CPU time (every thread) and against the drive thread's own CPU time
   (``time.thread_time``: what the recording costs the thread that runs the drive, whatever
   else loads the machine; work on another thread would not be in it, though the wall clock
-  still waits for it when no core is free; the recorder has none today, docs/logs.md).
+  still waits for it when no core is free); and the CPU time of the recorder's writer
+  process (:mod:`ecu.buslog.remote`: the raw blocks, decoding, rows, zstd and writes of a
+  file-only recording) per recorded drive, which the process CPU time leaves out; and the
+  bench process's first recording, made before any writer process is ready (so on the
+  drive's thread: a process's first recording never waits for a writer to start).
 
 Best of ``--repeats`` for the writers and for the drives' real-time factors (the machine is
 shared: the best run is the one least disturbed), the medians printed beside.
@@ -25,6 +30,7 @@ The last line is ``canlog: N x python-can BLF writer``.
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import tempfile
 import time
@@ -33,18 +39,22 @@ from pathlib import Path
 import can
 
 from dbc.codec import load_codec
+from ecu.buslog import remote
 from ecu.buslog.format import TimeBase
 from ecu.buslog.reader import messages, read_canlog
+from ecu.buslog.recording import PROCESS_ENV
 from ecu.buslog.writer import CanLogWriter
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.study.drive import DriveConfig, predefined_table, run_drive
 
 
-def _drive(sim_s: float, can_log: Path | None) -> tuple[float, float, float]:
+def _drive(sim_s: float, can_log: Path | None, process: bool = True) -> tuple[float, float, float]:
     """One drive; its real-time factors over the whole ``run_drive`` call (the recorder's
     opening, its last blocks and the simulated world included, not only the loop): against
     the wall clock, this process's CPU time and the calling thread's CPU time (the last two
-    less disturbed by the machine's other loads)."""
+    less disturbed by the machine's other loads). ``process``: a file recording goes to a
+    writer process when one is ready (else on the drive's thread)."""
+    os.environ[PROCESS_ENV] = "1" if process else "0"
     driver = BUILTIN_DRIVERS["d2"]
     cfg = DriveConfig(
         scenario="B", driver_id="d2", controller="predefined+oa", seed=1, duration_s=sim_s
@@ -55,6 +65,19 @@ def _drive(sim_s: float, can_log: Path | None) -> tuple[float, float, float]:
     wall_s, cpu_s = time.perf_counter() - start, time.process_time() - cpu
     own_s = time.thread_time() - own
     return result.sim_s / wall_s, result.sim_s / cpu_s, result.sim_s / own_s
+
+
+def _writers_cpu_s() -> float:
+    """CPU time (user + system) of this process's idle writer processes so far, s (Linux's
+    /proc; 0 elsewhere)."""
+    total = 0.0
+    for proc in remote._idle:
+        try:
+            fields = Path(f"/proc/{proc.pid}/stat").read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        total += (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    return total
 
 
 def _blf(msgs: list[can.Message], path: Path) -> float:
@@ -84,7 +107,9 @@ def main() -> None:
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
-        _drive(args.sim_s, d / "drive.mcap")
+        _drive(args.sim_s, None)  # warm: imports, caches
+        cold = _drive(args.sim_s, d / "drive.mcap")  # the first recording: on the thread
+        remote.start_writer()  # what a process's later recordings find
         msgs = list(messages(read_canlog(d / "drive.mcap")))
         n = len(msgs)
         blf_s = min(_blf(msgs, d / "x.blf") for _ in range(args.repeats))
@@ -93,9 +118,14 @@ def main() -> None:
         mcap_b = (d / "x.mcap").stat().st_size / n
         off: list[tuple[float, float, float]] = []
         on: list[tuple[float, float, float]] = []
+        thread: list[tuple[float, float, float]] = []
+        writer_s = 0.0
         for _ in range(args.repeats):
             off.append(_drive(args.sim_s, None))
+            before = _writers_cpu_s()
             on.append(_drive(args.sim_s, d / "drive.mcap"))
+            writer_s += _writers_cpu_s() - before
+            thread.append(_drive(args.sim_s, d / "drive.mcap", process=False))
     rt_off, rt_on = max(x[0] for x in off), max(x[0] for x in on)
     med_off = statistics.median(x[0] for x in off)
     med_on = statistics.median(x[0] for x in on)
@@ -119,6 +149,20 @@ def main() -> None:
     print(
         f"drive real-time factor on the drive thread's CPU time, best: {own_off:.1f}x off, "
         f"{own_on:.1f}x on ({own_on / own_off:.3f} of off)"
+    )
+    rt_thr, own_thr = max(x[0] for x in thread), max(x[2] for x in thread)
+    print(
+        f"recording on the drive's thread (PACC_RECORDER_PROCESS=0), best: {rt_thr:.1f}x "
+        f"({rt_thr / rt_off:.3f} of off); on the thread's CPU time {own_thr:.1f}x "
+        f"({own_thr / own_off:.3f} of off)"
+    )
+    print(
+        f"the process's first recording (no writer process yet: on the thread): "
+        f"{cold[0]:.1f}x ({cold[0] / rt_off:.3f} of the best off)"
+    )
+    print(
+        f"recorder's writer process: {1e3 * writer_s / args.repeats:.1f} ms of CPU per recorded "
+        f"drive (mean)"
     )
     print(f"canlog: {blf_s / mcap_s:.2f}x python-can BLF writer")
 

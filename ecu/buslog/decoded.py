@@ -41,6 +41,7 @@ __all__ = [
     "Tapped",
     "cycle_tables",
     "floats",
+    "frame_columns",
     "frame_copy",
     "integral_fields",
 ]
@@ -74,13 +75,13 @@ def floats(values: Iterable[Any]) -> np.ndarray:
 
 
 def cycle_tables(
-    cycles: Sequence[bytes], in_width: int
+    cycles: bytes, in_width: int, width: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The tables of control cycles each kept as float64 bytes: ``t_s``, the cycle index,
-    ``in_width - 1`` inputs, the outputs. (``t_s`` ``(n,)``, the inputs' rows ``(n,
-    in_width)``: ``t_s`` then the inputs, the outputs' rows: ``t_s``, the cycle index, the
-    outputs)."""
-    data = np.frombuffer(b"".join(cycles), np.float64).reshape(len(cycles), -1)
+    """The tables of control cycles kept as float64 bytes, ``width`` values a cycle, one
+    cycle after the other: ``t_s``, the cycle index, ``in_width - 1`` inputs, the outputs.
+    (``t_s`` ``(n,)``, the inputs' rows ``(n, in_width)``: ``t_s`` then the inputs, the
+    outputs' rows: ``t_s``, the cycle index, the outputs)."""
+    data = np.frombuffer(cycles, np.float64).reshape(-1, width)
     inputs = np.concatenate([data[:, :1], data[:, 2 : in_width + 1]], axis=1)
     outputs = np.concatenate([data[:, :2], data[:, in_width + 1 :]], axis=1)
     return data[:, 0], inputs, outputs
@@ -127,28 +128,32 @@ class FrameBatch:
     @classmethod
     def of(cls, frames: Sequence[Any]) -> FrameBatch:
         """The batch of the frames as the tap kept them: ``t_s, frame, rx`` of each frame
-        one after the other in one flat list (at least one frame). Read an attribute at a
-        time over all frames, packed by ``struct``/``bytes`` (cheaper than numpy's per-item
-        conversion); no per-frame Python code for a plain CAN frame."""
-        ts, msgs, rxs = frames[0::3], frames[1::3], frames[2::3]
-        n = len(ts)
+        one after the other in one flat list (at least one frame); :func:`frame_columns`."""
+        t, ids, flags, dlcs, lens, datas = _columns(frames)
+        out = cls.from_columns(t, ids, flags, dlcs, lens, None)
+        out.datas = datas
+        return out
+
+    @classmethod
+    def from_columns(
+        cls, t: bytes, ids: bytes, flags: bytes, dlcs: bytes, lens: bytes, data: bytes | None
+    ) -> FrameBatch:
+        """The batch of :func:`frame_columns`' bytes (``data``: the payloads joined; None:
+        the caller sets :attr:`datas`)."""
         out = cls.__new__(cls)
-        out.n = n
-        out.t = np.frombuffer(struct.pack(f"<{n}d", *ts), np.float64)
-        out.ids = np.frombuffer(struct.pack(f"<{n}I", *map(_ID, msgs)), np.uint32)
-        out.dlcs = np.frombuffer(bytes(map(_DLC, msgs)), np.uint8)
-        out.datas = list(map(_DATA, msgs))
-        out.lens = np.frombuffer(bytes(map(len, out.datas)), np.uint8)
-        ext = np.frombuffer(bytes(map(_EXT, msgs)), np.uint8)
-        rx = np.frombuffer(bytes(map(bool, rxs)), np.uint8)
-        flags = ext * np.uint8(FLAG_EXTENDED) | rx * np.uint8(FLAG_RX)
-        if any(map(_FD, msgs)) or any(map(_ERROR, msgs)) or any(map(_REMOTE, msgs)):
-            odd = (
-                frame_flags(m, r) if m.is_fd or m.is_error_frame or m.is_remote_frame else f
-                for m, r, f in zip(msgs, rxs, flags.tolist(), strict=True)
-            )
-            flags = np.fromiter(odd, np.uint8, n)
-        out.flags = flags
+        out.t = np.frombuffer(t, np.float64)
+        out.n = n = len(out.t)
+        out.ids = np.frombuffer(ids, np.uint32)
+        out.flags = np.frombuffer(flags, np.uint8)
+        out.dlcs = np.frombuffer(dlcs, np.uint8)
+        out.lens = np.frombuffer(lens, np.uint8)
+        if data is None:
+            out.datas = []
+        elif len(data) == 8 * n and all(x == 8 for x in lens):
+            out.datas = [data[i : i + 8] for i in range(0, 8 * n, 8)]
+        else:
+            ends = np.cumsum(out.lens, dtype=np.int64).tolist()
+            out.datas = [data[a:b] for a, b in zip([0, *ends[:-1]], ends, strict=True)]
         return out
 
     @classmethod
@@ -189,6 +194,40 @@ class FrameBatch:
             },
             ragged=("data",),
         )
+
+
+def frame_columns(frames: Sequence[Any]) -> tuple[bytes, bytes, bytes, bytes, bytes, bytes]:
+    """The columns of the frames as the tap kept them (``t_s, frame, rx`` of each frame one
+    after the other in one flat list, at least one frame) as little-endian bytes: ``t_s``
+    (float64), id (uint32), flags, dlc, payload length (uint8 each), the payloads joined.
+    Read an attribute at a time over all frames, packed by ``struct``/``bytes`` (cheaper than
+    numpy's per-item conversion); no per-frame Python code for a plain CAN frame."""
+    t, ids, flags, dlcs, lens, datas = _columns(frames)
+    return t, ids, flags, dlcs, lens, b"".join(datas)
+
+
+def _columns(frames: Sequence[Any]) -> tuple[bytes, bytes, bytes, bytes, bytes, list[Any]]:
+    """:func:`frame_columns` with the payloads as the frames hold them (a list)."""
+    ts, msgs, rxs = frames[0::3], frames[1::3], frames[2::3]
+    n = len(ts)
+    datas = list(map(_DATA, msgs))
+    ext = np.frombuffer(bytes(map(_EXT, msgs)), np.uint8)
+    rx = np.frombuffer(bytes(map(bool, rxs)), np.uint8)
+    flags = ext * np.uint8(FLAG_EXTENDED) | rx * np.uint8(FLAG_RX)
+    if any(map(_FD, msgs)) or any(map(_ERROR, msgs)) or any(map(_REMOTE, msgs)):
+        odd = (
+            frame_flags(m, r) if m.is_fd or m.is_error_frame or m.is_remote_frame else f
+            for m, r, f in zip(msgs, rxs, flags.tolist(), strict=True)
+        )
+        flags = np.fromiter(odd, np.uint8, n)
+    return (
+        struct.pack(f"<{n}d", *ts),
+        struct.pack(f"<{n}I", *map(_ID, msgs)),
+        flags.tobytes(),
+        bytes(map(_DLC, msgs)),
+        bytes(map(len, datas)),
+        datas,
+    )
 
 
 class _FrameCopy:

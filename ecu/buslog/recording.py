@@ -30,16 +30,36 @@ __all__ = [
     "BINDING_ATTACHMENT",
     "CONFIG_ATTACHMENT",
     "DBC_ATTACHMENT",
+    "PROCESS_ENV",
     "TABLE_ATTACHMENT",
     "config_from_json",
     "config_to_json",
     "open_recording",
+    "use_writer",
 ]
 
 DBC_ATTACHMENT = "network.dbc"
 BINDING_ATTACHMENT = "binding.toml"
 CONFIG_ATTACHMENT = "ecu_config.json"
 TABLE_ATTACHMENT = "dgpt_start.json"
+#: ``PACC_RECORDER_PROCESS``: ``1`` a file-only recording is written by a writer process
+#: (:mod:`ecu.buslog.remote`) when one is ready, ``0`` on the node's thread, unset (``auto``):
+#: by a writer while a core is free (:func:`use_writer`); the same file either way
+PROCESS_ENV = "PACC_RECORDER_PROCESS"
+
+
+def use_writer() -> bool:
+    """Whether a file-only recording goes to a writer process (:data:`PROCESS_ENV`): unset,
+    while the machine has a core free, the 1-min load average below the cores less a half
+    (a writer on a busy machine takes more CPU than it saves the node's thread)."""
+    mode = os.environ.get(PROCESS_ENV, "auto")
+    if mode in ("0", "1"):
+        return mode == "1"
+    try:
+        load = os.getloadavg()[0]
+    except (OSError, AttributeError):
+        return False
+    return load < (os.cpu_count() or 1) - 0.5
 
 
 def config_to_json(config: EcuConfig) -> str:
@@ -93,7 +113,9 @@ def open_recording(
     """A :class:`CanLogWriter` for a node on ``codec``'s network, with the DBC and binding
     files (default: the files ``codec`` was loaded from) attached, and the ECU's ``config``
     and starting ``table`` when it runs one; ``sinks`` (a live view) get the same channels
-    (``path`` None: only them, flushed every :data:`~ecu.buslog.live.LIVE_FLUSH_S`).
+    (``path`` None: only them, flushed every :data:`~ecu.buslog.live.LIVE_FLUSH_S`). A file
+    without live sinks is written by a writer process (:mod:`ecu.buslog.remote`) where
+    :func:`use_writer` says so.
 
     Raises:
         CanLogError: the file cannot be written, or an attached file cannot be read.
@@ -118,4 +140,5 @@ def open_recording(
         sinks=sinks,
         flush_s=LIVE_FLUSH_S if sinks else FLUSH_S,
         rows_s=LIVE_FLUSH_S if sinks else ROWS_S,
+        process=use_writer(),
     )

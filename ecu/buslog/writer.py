@@ -16,11 +16,18 @@ channel at a time (:mod:`ecu.buslog.decoded`, :mod:`ecu.buslog.proto`,
 :mod:`ecu.buslog.mcapfile`). Attachments: DBC, binding, ECU configuration, starting table.
 Every :class:`~ecu.buslog.sinks.Sink` (the file, a live Foxglove WebSocket:
 :mod:`ecu.buslog.live`) gets the same channels from this one code path.
+
+The writer keeps what the node feeds it and decides when to flush; each flush becomes
+messages in :class:`~ecu.buslog.output.LogOutput`, on the node's thread or, for a file
+without live sinks, in a writer process (``process``: :mod:`ecu.buslog.remote`), the same
+file byte for byte.
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import math
 import operator
 import os
 import struct
@@ -29,48 +36,28 @@ from pathlib import Path
 from typing import Any
 
 import can
-import numpy as np
 
 from ecu.buslog.decoded import (
     FrameBatch,
     FrameTap,
-    MessageDecoders,
-    Rows,
     Tapped,
-    cycle_tables,
-    floats,
+    frame_columns,
     frame_copy,
     integral_fields,
 )
 from ecu.buslog.format import (
-    EVENTS_TOPIC,
     FLUSH_S,
     INPUT_FIELDS,
     INPUTS_TOPIC,
-    LOG_SCHEMA,
-    META_RECORD,
     OUTPUT_FIELDS,
     OUTPUTS_TOPIC,
-    RAW_SCHEMA,
-    RAW_TOPIC,
     ROWS_S,
     CanLogError,
     TimeBase,
-    log_message,
-    meta_record,
-    series_columns,
-    utc_ns_array,
 )
-from ecu.buslog.proto import ProtoRows
-from ecu.buslog.sinks import (
-    McapSink,
-    Sink,
-    close_all,
-    declare,
-    emit_one,
-    json_spec,
-    rows_spec,
-)
+from ecu.buslog.output import LogOutput
+from ecu.buslog.remote import NotSendable, RemoteOutput, ready_writer
+from ecu.buslog.sinks import McapSink, Sink
 from ecu.signals import NodeInputs, NodeOutputs
 
 __all__ = ["CanLogWriter", "FrameTap"]
@@ -98,6 +85,10 @@ class CanLogWriter:
         flush_s: the flush interval on the node's clock, s (at most this much is lost when
             the process is killed).
         sinks: more sinks besides the file (e.g. :class:`ecu.buslog.live.FoxgloveSink`).
+        process: write the file in a writer process (:mod:`ecu.buslog.remote`: the same
+            file, the node's thread keeps only the taps and the frames' columns) when one
+            is ready (else on this thread, and one is started for the next recording);
+            only for a file without ``sinks``.
 
     Raises:
         CanLogError: ``path`` cannot be created.
@@ -115,14 +106,12 @@ class CanLogWriter:
         flush_s: float = FLUSH_S,
         sinks: Sequence[Sink] = (),
         rows_s: float = ROWS_S,
+        process: bool = False,
     ) -> None:
         self.path = Path(path) if path is not None else None
-        self.sinks: list[Sink] = [McapSink(path)] if path is not None else []
-        self.sinks.extend(sinks)
         self.time_base = time_base
         self.flush_s = flush_s
         self.rows_s = max(rows_s, flush_s)
-        self._pending: list[FrameBatch] = []
         self._rows_t0: float | None = None
         self.node = node
         self.frames = 0
@@ -131,39 +120,37 @@ class CanLogWriter:
         self.error: str | None = None
         #: the node's clock at the first frame or sample (the recording's start)
         self.first_t_s: float | None = None
-        self._raw = declare(self.sinks, json_spec(RAW_TOPIC, RAW_SCHEMA))
-        self._raw_seq = 0
-        self._decoders = MessageDecoders(db)
-        self._decoded = {
-            key: Rows(declare(self.sinks, rows_spec(topic, rows)), rows)
-            for key, (_, rows, topic) in self._decoders.rows.items()
-        }
-        self._series: dict[str, Rows] = {}
-        self._events: list[int] | None = None
-        self._events_seq = 0
         # the open block: its frames as tapped (one append a frame), its first frame's, cycle's
         # or sample's time (None until a cycle, sample or flush looks); the unwritten cycles
+        # and samples (topic -> rows one after the other)
         self._frames: list[Any] = []
         self._tap: Callable[[Tapped], None] = self._frames.extend
         self._block_t0: float | None = None
         self._cycles: list[bytes] = []
         self._cycles_declared = False
-        for sink in self.sinks:
-            sink.metadata(META_RECORD, meta_record(self.time_base, self.node))
-        for name, record in (metadata or {}).items():
-            for sink in self.sinks:
-                sink.metadata(name, {str(k): str(v) for k, v in record.items()})
-        for name, data in (attachments or {}).items():
-            self.attach(name, data)
-        for sink in self.sinks:  # a recording killed from now on is readable
-            sink.flush()
+        self._samples: dict[str, list[Any]] = {}
+        writer = ready_writer() if process and self.path is not None and not sinks else None
+        remote: RemoteOutput | None = None
+        if writer is not None and self.path is not None:
+            with contextlib.suppress(NotSendable):  # then on this thread
+                remote = RemoteOutput(writer, self.path, db, time_base, node, attachments, metadata)
+        self._out: LogOutput | RemoteOutput
+        if remote is not None:
+            self._out = remote
+        else:
+            out = [McapSink(self.path)] if self.path is not None else []
+            self._out = LogOutput([*out, *sinks], db, time_base, node, attachments, metadata)
+
+    @property
+    def sinks(self) -> list[Sink]:
+        """Where the recording goes, on this thread (none: a writer process writes it)."""
+        return self._out.sinks if isinstance(self._out, LogOutput) else []
 
     # -- what a node feeds ---------------------------------------------------------------
 
     def attach(self, name: str, data: bytes, media_type: str = "text/plain") -> None:
         """Store ``data`` as the attachment ``name`` (stamped with the origin's UTC)."""
-        for sink in self.sinks:
-            sink.attach(self.time_base.utc_origin_ns, name, media_type, data)
+        self._out.attach(name, data, media_type)
 
     def frame(self, t_s: float, msg: can.Message, rx: bool) -> None:
         """One frame received (``rx``) or sent at ``t_s`` on the node's clock. The frame is
@@ -189,16 +176,15 @@ class CanLogWriter:
     ) -> None:
         """Declare the sampled channel ``topic`` with ``columns`` (besides ``t_s``);
         ``integral``: per column, written as an integer (default: none)."""
-        if topic in self._series:
+        if topic in self._samples:
             return
-        title = "pacc." + topic.strip("/").replace("/", ".")
         ints = tuple(integral) if integral is not None else (False,) * len(columns)
-        rows = ProtoRows(title, list(series_columns(columns)), (False, *ints))
-        self._series[topic] = Rows(declare(self.sinks, rows_spec(topic, rows)), rows)
+        self._out.series(topic, columns, description, ints)
+        self._samples[topic] = []
 
     def sample(self, topic: str, t_s: float, values: tuple[Any, ...]) -> None:
         """One sample of a declared channel: ``values`` in its column order."""
-        row = self._series[topic].values
+        row = self._samples[topic]
         row.append(t_s)
         row.extend(values)
         if self._block_t0 is None:  # the block starts at its first frame, cycle or sample
@@ -206,12 +192,7 @@ class CanLogWriter:
 
     def event(self, t_s: float, text: str) -> None:
         """One event text, as ``foxglove.Log`` (written at once: events are rare)."""
-        if self._events is None:
-            self._events = declare(self.sinks, json_spec(EVENTS_TOPIC, LOG_SCHEMA))
-        stamp = self.time_base.utc_ns(t_s)
-        doc = log_message(t_s, stamp, text, f"pacc.{self.node}")
-        emit_one(self.sinks, self._events, self._events_seq, stamp, doc)
-        self._events_seq += 1
+        self._out.event(t_s, text)
 
     def cycle(self, t_s: float, inputs: NodeInputs, outputs: NodeOutputs, k: int = -1) -> None:
         """ECU control cycle ``k``: its inputs and outputs on ``/ecu/inputs`` and
@@ -268,20 +249,24 @@ class CanLogWriter:
         """Stop recording after a failed write; :meth:`close` reports it."""
         self.error = f"recording stopped at t = {t_s:.3f} s: {type(exc).__name__}: {exc}"
         log.error("%s: %s", self.path, self.error)
-        self._frames, self._cycles, self._pending = [], [], []
+        self._frames, self._cycles = [], []
         self._tap = lambda _: None  # a stopped recording takes no frames
-        for s in self._series.values():
-            s.values = []
+        for values in self._samples.values():
+            values.clear()
 
     # -- writing -------------------------------------------------------------------------
 
     def _flush_due(self, t_s: float) -> None:
         rows_due = self._rows_t0 is not None and t_s - self._rows_t0 >= self.rows_s
-        self.flush(rows=rows_due)
+        self._flush(rows_due, t_s)
 
     def flush(self, rows: bool = True) -> None:
         """Write the frames since the last flush and end the chunk (every sink); ``rows``:
         the decoded rows and the cycles too."""
+        self._flush(rows, None)
+
+    def _flush(self, rows: bool, t_s: float | None) -> None:
+        """:meth:`flush` at ``t_s`` on the node's clock (None: the block's start)."""
         t0 = self._block_t0
         if t0 is None and self._frames:
             t0 = self._frames[0]
@@ -289,75 +274,38 @@ class CanLogWriter:
             self.first_t_s = t0
         if self._rows_t0 is None:
             self._rows_t0 = t0
-        if self._frames:
-            frames = self._frames
+        frames = self._frames
+        if frames:
             self._frames = []
             self._tap = self._frames.extend
-            self._write_frames(frames)
+            self.frames += len(frames) // 3
         self._block_t0 = None
+        due: tuple[bytes, dict[str, list[Any]]] | None = None
         if rows:
-            self._write_decoded()
-            if self._cycles:
-                self._write_cycles()
-            for s in self._series.values():
-                if s.values:
-                    table = np.fromiter(s.values, np.float64, len(s.values)).reshape(-1, s.width)
-                    s.values = []
-                    self._write_rows(s, table)
+            due = b"".join(self._cycles), {k: v for k, v in self._samples.items() if v}
+            self._cycles = []
+            for k in due[1]:
+                self._samples[k] = []
             self._rows_t0 = None
-        for sink in self.sinks:
-            sink.flush()
-
-    def _write_cycles(self) -> None:
-        """The cycles' rows on ``/ecu/inputs`` and ``/ecu/outputs``."""
-        ins, outs = self._series[INPUTS_TOPIC], self._series[OUTPUTS_TOPIC]
-        t, inputs, outputs = cycle_tables(self._cycles, ins.width)
-        self._cycles = []
-        t_ns = utc_ns_array(self.time_base, t)
-        self._write_rows(ins, inputs, t_ns)
-        self._write_rows(outs, outputs, t_ns)
-
-    def _write_rows(self, s: Rows, table: np.ndarray, t_ns: np.ndarray | None = None) -> None:
-        """One message per row of ``table`` (``t_s`` first) on ``s``'s channel, stamped
-        ``t_ns`` (default: the UTC of ``t_s``)."""
-        if t_ns is None:
-            t_ns = utc_ns_array(self.time_base, table[:, 0])
-        for sink, handle in zip(self.sinks, s.handles, strict=True):
-            sink.write_rows(handle, s.seq, t_ns, s.rows, table)
-        s.seq += len(table)
-
-    def _write_frames(self, frames: list[Any]) -> None:
-        batch = FrameBatch.of(frames)
-        t_ns = self.time_base.utc_ns(frames[0])
-        emit_one(self.sinks, self._raw, self._raw_seq, t_ns, batch.block())
-        self._raw_seq += 1
-        self.frames += batch.n
-        if self._decoded:
-            self._pending.append(batch)
-
-    def _write_decoded(self) -> None:
-        """The decoded rows of the frames written since the last time."""
-        if not self._pending:
+        out = self._out
+        if isinstance(out, RemoteOutput):
+            t = t_s if t_s is not None else (t0 if t0 is not None else math.nan)
+            out.flush(t, frame_columns(frames) if frames else None, due)
             return
-        batch = FrameBatch.join(self._pending)
-        self._pending = []
-        t_ns = utc_ns_array(self.time_base, batch.t)
-        for key, table, sel in self._decoders.tables(batch):
-            self._write_rows(self._decoded[key], table, t_ns[sel])
+        if frames:
+            out.frames(FrameBatch.of(frames))
+        if due is not None:
+            out.rows(*due)
+        out.end_chunk()
 
     def write_series(
         self, topic: str, columns: Mapping[str, Iterable[Any]], t_s: Iterable[float]
     ) -> None:
         """Write whole columns at once (e.g. the simulated world after a drive), one message
         per row; ``topic`` must be declared with the columns' names."""
-        s = self._series[topic]
-        t = floats(t_s)
-        table = np.column_stack([t, *(floats(columns[k]) for k in s.rows.names[1:])])
-        step = 20_000  # rows per chunk
-        for start in range(0, len(t), step):
-            self._write_rows(s, table[start : start + step])
-            for sink in self.sinks:
-                sink.flush()
+        if topic not in self._samples:
+            raise KeyError(topic)
+        self._out.write_series(topic, columns, t_s)
 
     # -- end -----------------------------------------------------------------------------
 
@@ -372,21 +320,20 @@ class CanLogWriter:
             return
         self.closed = True
         if self.error is not None:
-            for sink in self.sinks:
-                sink.close(complete=False)
+            self._out.abandon()
             raise CanLogError(f"{self.path}: {self.error}; what was written is in {self.path}.part")
         base = self.time_base
         try:
             self.flush()
-            first = self.first_t_s if self.first_t_s is not None else base.clock_origin_s
-            end = {**meta_record(self.time_base, self.node), "start_utc": base.iso(first)}
-            for sink in self.sinks:
-                sink.metadata(META_RECORD, end)
         except OSError as exc:
-            for sink in self.sinks:
-                sink.close(complete=False)
+            self._out.abandon()
             raise CanLogError(f"{self.path}: cannot finish the recording: {exc}") from exc
-        close_all(self.sinks)
+        first = self.first_t_s if self.first_t_s is not None else base.clock_origin_s
+        try:
+            self._out.finish(base.iso(first))
+        except OSError as exc:
+            self._out.abandon()
+            raise CanLogError(f"{self.path}: cannot finish the recording: {exc}") from exc
 
     def __enter__(self) -> CanLogWriter:
         return self

@@ -162,7 +162,7 @@ def test_records_formatted_in_place_equal_records_of_payloads() -> None:
 def test_cycle_tables_keep_every_value_in_column_order() -> None:
     cycles = [(0.02 * k, k, (1.5 * k, True, 3), (k % 2 == 0, -0.5, math.nan)) for k in range(5)]
     packed = [struct.pack("<8d", t, k, *ins, *outs) for t, k, ins, outs in cycles]
-    t, inputs, outputs = cycle_tables(packed, 4)
+    t, inputs, outputs = cycle_tables(b"".join(packed), 4, 8)
     assert t.tolist() == [c[0] for c in cycles]
     assert inputs.tolist() == [[c[0], *map(float, c[2])] for c in cycles]
     np.testing.assert_array_equal(

@@ -1,0 +1,311 @@
+"""The recorder's writer process: a recording's rows, compression and file off the node's thread.
+
+A file-only recording (:func:`ecu.buslog.recording.open_recording` without a live view) keeps
+on the node's thread only what it must: the frames as tapped, each cycle packed, and at each
+flush the frames' columns read (:func:`ecu.buslog.decoded.frame_columns`). Everything else —
+the ``/can/raw`` block, decoding every DBC message, the protobuf rows, zstd, the chunk CRC and
+the writes — runs in a writer process (:mod:`ecu.buslog.serve`): :class:`RemoteOutput` sends
+it the calls of :class:`~ecu.buslog.output.LogOutput` (pickled, over its stdin), and it runs
+them on a real :class:`~ecu.buslog.output.LogOutput`: the same code on the same arguments,
+so the file is the same byte for byte as one written on the node's thread.
+
+- **One process serves a recording at a time** and is kept for the next one (the import of
+  numpy, cantools and zstd is paid once per node process, not per recording); a process
+  recording several at once starts more. Idle ones end when the node's process exits (their
+  stdin closes) and are waited for (no zombies); a process forked off the node's (a study's
+  worker) does not inherit them.
+- **Crash safety**: each flush reaches the pipe at once. Killed, the node's process closes the
+  pipe; the writer writes everything it got (more than the node's thread would have: the
+  decoded rows since the last 10 s too) and leaves ``FILE.part``, as the node's thread does.
+  The writer runs in its own session, so a Ctrl-C on the terminal does not stop it.
+- **Errors**: a failed write (a full disk) stops the writing, and :meth:`RemoteOutput.finish`
+  raises it as :class:`~ecu.buslog.format.CanLogError`; a writer process that died does
+  the same, with its exit code, and is reaped. Nothing is raised on the node's thread before
+  (a pipe that broke stops the recording, reported at close, like any failed write).
+"""
+
+from __future__ import annotations
+
+import atexit
+import contextlib
+import os
+import pickle
+import select
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from ecu.buslog.decoded import floats
+from ecu.buslog.format import CanLogError, TimeBase
+from ecu.buslog.serve import READY, frame_message
+from ecu.buslog.sinks import McapSink
+
+__all__ = ["NotSendable", "RemoteOutput", "ready_writer", "start_writer"]
+
+#: the writer's pipe, bytes (Linux's default cap for an unprivileged process): a cold
+#: writer (importing numpy) lets the node write this much before it waits
+PIPE_BYTES = 1 << 20
+#: what the writer answers at the end of a recording: None, or the failure's text
+_Reply = str | None
+
+_lock = threading.Lock()
+#: writer processes with no recording: started (their pid in ``_ready``) or starting
+_idle: list[subprocess.Popen[bytes]] = []
+_ready: set[int] = set()
+#: recordings that asked for a writer in this process
+_asked = 0
+
+
+def _spawn() -> subprocess.Popen[bytes]:
+    """A new writer process (its stdin's pipe enlarged where the system lets it)."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "ecu.buslog.serve"],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        env=env,
+        start_new_session=True,
+    )
+    assert proc.stdin is not None
+    with contextlib.suppress(OSError, AttributeError, ImportError):
+        import fcntl  # noqa: PLC0415 - POSIX only (the writer process is)
+
+        fcntl.fcntl(proc.stdin.fileno(), fcntl.F_SETPIPE_SZ, PIPE_BYTES)
+    return proc
+
+
+def ready_writer() -> subprocess.Popen[bytes] | None:
+    """An idle writer process that has started (taken out of the pool), or None: then this
+    recording is written on the node's thread (a writer still importing would make the node
+    wait for it), and from a process's second recording on one is started for the next
+    (a process that records once, ``pacc ecu``, ``pacc drive``, starts none)."""
+    global _asked  # noqa: PLW0603 - the process's count, as the pool is the process's
+    if os.name != "posix":  # non-blocking pipes, select on a pipe
+        return None
+    with _lock:
+        _asked += 1
+        for proc in list(_idle):
+            if proc.poll() is not None:
+                _idle.remove(proc)
+                _end(proc)
+            elif _started(proc):
+                _idle.remove(proc)
+                return proc
+        if not _idle and _asked >= 2:
+            with contextlib.suppress(OSError):
+                _idle.append(_spawn())
+    return None
+
+
+def start_writer(timeout_s: float = 60.0) -> bool:
+    """Start a writer process now and wait until it is ready for a recording (the next
+    file-only recording is then written by it); False if none became ready."""
+    deadline = time.monotonic() + timeout_s
+    with _lock:
+        if not _idle:
+            _idle.append(_spawn())
+        procs = list(_idle)
+    while time.monotonic() < deadline:
+        if any(proc.poll() is None and _started(proc) for proc in procs):
+            return True
+        time.sleep(0.01)
+    return False
+
+
+def _started(proc: subprocess.Popen[bytes]) -> bool:
+    """The writer said it is ready (one byte on its stdout after its imports)."""
+    if proc.pid in _ready:
+        return True
+    assert proc.stdout is not None
+    if select.select([proc.stdout], [], [], 0)[0] and proc.stdout.read(1) == READY:
+        _ready.add(proc.pid)
+        return True
+    return False
+
+
+def _end(proc: subprocess.Popen[bytes], timeout_s: float = 10.0, kill: bool = False) -> None:
+    """Close the writer's pipes and wait for it (killed after ``timeout_s``, or at once
+    with ``kill``: an idle writer holds nothing); never raises."""
+    _ready.discard(proc.pid)
+    if kill:
+        with contextlib.suppress(OSError):
+            proc.kill()
+    for pipe in (proc.stdin, proc.stdout):
+        with contextlib.suppress(OSError):
+            if pipe is not None:
+                pipe.close()
+    try:
+        proc.wait(timeout_s)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
+def _end_idle() -> None:
+    """At exit: every idle writer (nothing left to write) ends and is waited for."""
+    with _lock:
+        procs, _idle[:] = list(_idle), []
+    for proc in procs:
+        _end(proc, kill=True)
+
+
+def _forget_idle() -> None:
+    """In a process forked off this one: the idle writers are the parent's (their pipes,
+    flushed, are closed here; the parent keeps its own)."""
+    global _asked  # noqa: PLW0603 - a new process
+    _asked = 0
+    for proc in _idle:
+        for pipe in (proc.stdin, proc.stdout):
+            with contextlib.suppress(OSError):
+                if pipe is not None:
+                    pipe.close()
+    _idle.clear()
+    _ready.clear()
+
+
+atexit.register(_end_idle)
+os.register_at_fork(after_in_child=_forget_idle)
+
+
+class NotSendable(ValueError):
+    """What a recording opens with cannot be pickled (a database object of its own): the
+    recording stays on the node's thread."""
+
+
+class RemoteOutput:
+    """:class:`~ecu.buslog.output.LogOutput`'s calls for the file ``path``, run in the
+    writer process ``proc`` (:func:`ready_writer`; module docstring).
+
+    Raises:
+        CanLogError: ``path`` cannot be created (checked here).
+        NotSendable: the database, time base or attachments cannot be pickled.
+    """
+
+    def __init__(
+        self,
+        proc: subprocess.Popen[bytes],
+        path: Path,
+        db: Any,
+        time_base: TimeBase,
+        node: str,
+        attachments: Mapping[str, bytes] | None = None,
+        metadata: Mapping[str, Mapping[str, str]] | None = None,
+    ) -> None:
+        self.path = path
+        try:  # the same checks and errors as on the node's thread
+            McapSink(path).close(complete=False)
+        except CanLogError:
+            with _lock:
+                _idle.append(proc)  # unused: back to the pool
+            raise
+        self._proc = proc
+        stdin = self._proc.stdin
+        assert stdin is not None
+        self._fd = stdin.fileno()
+        os.set_blocking(self._fd, False)
+        #: sent and not yet in the pipe (the writer is behind: starting, or no core free)
+        self._backlog = bytearray()
+        try:
+            self._send("open", path, db, time_base, node, attachments, metadata)
+        except (pickle.PicklingError, TypeError, AttributeError) as exc:
+            with _lock:
+                _idle.append(proc)  # nothing sent: back to the pool
+            raise NotSendable(f"{path}: the network cannot go to a writer process: {exc}") from exc
+        self.end_chunk()
+
+    def _send(self, name: str, *args: Any) -> None:
+        self._backlog += frame_message((name, args))
+
+    def _push(self) -> None:
+        """Put what the pipe takes of the backlog into it, without waiting.
+
+        Raises:
+            OSError: the writer process is gone (a broken pipe).
+        """
+        backlog = self._backlog
+        while backlog:
+            try:
+                n = os.write(self._fd, backlog)
+            except BlockingIOError:
+                return
+            del backlog[:n]
+
+    def _push_all(self) -> None:
+        """Put the whole backlog into the pipe, waiting for the writer where it must."""
+        os.set_blocking(self._fd, True)
+        try:
+            self._push()
+        finally:
+            os.set_blocking(self._fd, False)
+
+    def attach(self, name: str, data: bytes, media_type: str) -> None:
+        self._send("attach", name, data, media_type)
+
+    def series(
+        self, topic: str, columns: Sequence[str], description: str, integral: Sequence[bool]
+    ) -> None:
+        self._send("series", topic, tuple(columns), description, tuple(integral))
+
+    def event(self, t_s: float, text: str) -> None:
+        self._send("event", t_s, text)
+
+    def flush(
+        self,
+        t_s: float,
+        frames: tuple[bytes, ...] | None,
+        rows: tuple[bytes, Mapping[str, Sequence[float]]] | None,
+    ) -> None:
+        """One flush at ``t_s`` (the node's clock), handed to the writer at once (crash
+        safety): the ``frames`` (:func:`~ecu.buslog.decoded.frame_columns`) as
+        :meth:`LogOutput.frames <ecu.buslog.output.LogOutput.frames>`, the ``rows`` due
+        (cycles, samples) as :meth:`LogOutput.rows <ecu.buslog.output.LogOutput.rows>`,
+        then the chunk's end."""
+        self._send("flush", t_s, frames, rows)
+        self._push()
+
+    def end_chunk(self) -> None:
+        """End the chunk in the writer, and hand it what was sent so far."""
+        self._send("end_chunk")
+        self._push()
+
+    def write_series(
+        self, topic: str, columns: Mapping[str, Iterable[Any]], t_s: Iterable[float]
+    ) -> None:
+        arrays = {k: floats(v) for k, v in columns.items()}  # pickled as bytes, not floats
+        self._send("write_series", topic, arrays, floats(t_s))
+
+    def finish(self, start_utc: str) -> None:
+        """Finish the file in the writer and wait for it.
+
+        Raises:
+            CanLogError: the writer failed (a write, finishing the file) or died.
+        """
+        self._end("finish", start_utc)
+
+    def abandon(self) -> None:
+        """Keep what was written (``path.part``); never raises."""
+        with contextlib.suppress(CanLogError):
+            self._end("abandon")
+
+    def _end(self, name: str, *args: Any) -> None:
+        proc = self._proc
+        try:
+            self._send(name, *args)
+            self._push_all()
+            assert proc.stdout is not None
+            reply: _Reply = pickle.load(proc.stdout)
+        except (OSError, EOFError, pickle.UnpicklingError) as exc:
+            _end(proc)
+            raise CanLogError(
+                f"{self.path}: the writer process ended (exit code {proc.returncode}) before "
+                f"the recording was finished ({type(exc).__name__}); what it wrote is in "
+                f"{self.path}.part"
+            ) from None
+        with _lock:
+            _idle.append(proc)
+        if reply is not None:
+            raise CanLogError(reply)

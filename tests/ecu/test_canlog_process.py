@@ -1,0 +1,213 @@
+"""The recorder's writer process (:mod:`ecu.buslog.remote`): the same file as the node's
+thread writes, crash safety when the node's process is killed, and a clean error (no hang,
+no zombie) when the writer dies."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import can
+import pytest
+
+from dbc.codec import load_codec
+from ecu.buslog import recording, remote
+from ecu.buslog.format import CanLogError, TimeBase
+from ecu.buslog.reader import read_canlog
+from ecu.buslog.recording import PROCESS_ENV
+from ecu.buslog.writer import CanLogWriter
+from sim_bus.drivers import BUILTIN_DRIVERS
+from sim_bus.study.drive import DriveConfig, predefined_table, run_drive
+
+UTC0 = 1_700_000_000_000_000_000
+
+
+def _drive(path: Path) -> None:
+    driver = BUILTIN_DRIVERS["d2"]
+    cfg = DriveConfig(scenario="B", driver_id="d2", controller="predefined+oa", seed=3)
+    cfg = DriveConfig(**{**cfg.__dict__, "duration_s": 25.0})
+    run_drive(cfg, driver, predefined_table(driver), can_log=path, utc_start_ns=UTC0)
+
+
+def test_the_writer_process_writes_the_threads_file_byte_for_byte(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A 25-s drive (3 row flushes, 25 chunks of raw frames, events, the world) recorded by
+    the writer process and on the drive's thread: the same bytes."""
+    monkeypatch.setenv(PROCESS_ENV, "0")
+    _drive(tmp_path / "thread.mcap")
+    monkeypatch.setenv(PROCESS_ENV, "1")
+    assert remote.start_writer()
+    _drive(tmp_path / "process.mcap")
+    _drive(tmp_path / "again.mcap")  # a second recording by the same (pooled) writer
+    thread = (tmp_path / "thread.mcap").read_bytes()
+    assert len(read_canlog(tmp_path / "thread.mcap").frames) > 5000
+    assert (tmp_path / "process.mcap").read_bytes() == thread
+    assert (tmp_path / "again.mcap").read_bytes() == thread
+
+
+def _frame(i: int) -> can.Message:
+    return can.Message(arbitration_id=0x123, data=i.to_bytes(4, "little") + bytes(4))
+
+
+def test_a_dead_writer_is_a_clean_error_at_close(tmp_path: Path) -> None:
+    """The writer process killed mid-recording: the node's taps and ticks never raise,
+    close raises CanLogError naming the writer, and the process is reaped (no zombie)."""
+    path = tmp_path / "dead.mcap"
+    assert remote.start_writer()
+    w = CanLogWriter(path, load_codec().db, TimeBase(UTC0, 0.0), node="t", process=True)
+    out = w._out
+    assert isinstance(out, remote.RemoteOutput)
+    proc = out._proc
+    for i in range(200):
+        w.frame(i * 0.01, _frame(i), True)
+        w.tick(i * 0.01)
+    part = Path(f"{path}.part")
+    deadline = time.monotonic() + 20
+    while _frames_in(part) < 100 and time.monotonic() < deadline:  # the writer caught up
+        time.sleep(0.05)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait(10)
+    for i in range(200, 2000):  # the pipe breaks: the recording stops, the node does not
+        w.frame(i * 0.01, _frame(i), True)
+        w.tick(i * 0.01)
+    with pytest.raises(CanLogError, match="writer process|recording stopped"):
+        w.close()
+    assert proc.returncode == -signal.SIGKILL
+    assert proc not in remote._idle
+    assert _frames_in(part) >= 100  # what the writer wrote before it died stays readable
+
+
+def _frames_in(part: Path) -> int:
+    """Frames in a recording being written (0 while it cannot be read yet)."""
+    try:
+        return len(read_canlog(part, recover=True).frames)
+    except CanLogError:
+        return 0
+
+
+_KILLED = r"""
+import json, sys, time
+import can
+from dbc.codec import load_codec
+from ecu.buslog import remote
+from ecu.buslog.format import TimeBase
+from ecu.buslog.writer import CanLogWriter
+
+path = sys.argv[1]
+assert remote.start_writer()
+w = CanLogWriter(path, load_codec().db, TimeBase(0, 0.0), node="kill", process=True, flush_s=0.1)
+print(json.dumps({"writer": w._out._proc.pid}), flush=True)
+i = 0
+while True:
+    msg = can.Message(arbitration_id=0x123, data=i.to_bytes(4, "little") + bytes(4))
+    w.frame(i * 0.001, msg, True)
+    w.tick(i * 0.001)
+    if i == 3000:
+        print(json.dumps({"sent": i}), flush=True)
+    i += 1
+    if i > 3000:
+        time.sleep(0.001)
+"""
+
+
+def _running(pid: int) -> bool:
+    """The process runs (not gone, not a zombie left for an init that does not reap)."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat.rsplit(")", 1)[1].split()[0] != "Z"
+
+
+@pytest.mark.slow
+def test_a_killed_node_leaves_what_its_writer_got(tmp_path: Path) -> None:
+    """The node's process SIGKILLed: its writer process writes every frame it was sent
+    (each 0.1-s flush), leaves ``.part`` readable, and exits."""
+    path = tmp_path / "killed.mcap"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _KILLED, str(path)], stdout=subprocess.PIPE, text=True
+    )
+    assert proc.stdout is not None
+    writer = json.loads(proc.stdout.readline())["writer"]
+    sent = json.loads(proc.stdout.readline())["sent"]
+    proc.kill()
+    proc.wait(10)
+    deadline = time.monotonic() + 20
+    while time.monotonic() < deadline:  # the writer ends on its own (its stdin closed)
+        if not _running(writer):
+            break
+        time.sleep(0.05)
+    else:
+        os.kill(writer, signal.SIGKILL)
+        pytest.fail("the writer process did not end after its node was killed")
+    frames = read_canlog(Path(f"{path}.part"), recover=True).frames
+    counters = [int.from_bytes(d[:4], "little") for d in frames.data]
+    assert counters == list(range(len(counters)))  # an unbroken prefix
+    assert len(counters) >= sent - 100  # every flush before the kill (0.1 s = 100 frames)
+
+
+def test_a_recording_with_no_writer_ready_is_written_on_the_thread(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """No writer started yet: the recording does not wait for one (it is written on the
+    node's thread); a process's first recording starts none (it may be its only one), its
+    second starts one for the next."""
+    remote._end_idle()
+    monkeypatch.setattr(remote, "_asked", 0)
+    w = CanLogWriter(tmp_path / "first.mcap", None, TimeBase(UTC0, 0.0), node="t", process=True)
+    assert not isinstance(w._out, remote.RemoteOutput)
+    w.close()
+    assert not remote._idle
+    w = CanLogWriter(tmp_path / "a.mcap", None, TimeBase(UTC0, 0.0), node="t", process=True)
+    assert not isinstance(w._out, remote.RemoteOutput)
+    w.close()
+    assert len(remote._idle) == 1  # starting
+    assert remote.start_writer()
+    w = CanLogWriter(tmp_path / "b.mcap", None, TimeBase(UTC0, 0.0), node="t", process=True)
+    assert isinstance(w._out, remote.RemoteOutput)
+    w.close()
+    assert (tmp_path / "a.mcap").read_bytes() == (tmp_path / "b.mcap").read_bytes()
+
+
+class _OwnDatabase:
+    """A database of its own making, which cannot be pickled (a lambda in it)."""
+
+    messages: list[object] = []
+
+    def __init__(self) -> None:
+        self.hook = lambda: None
+
+
+def test_a_database_that_cannot_be_sent_keeps_the_recording_on_the_thread(
+    tmp_path: Path,
+) -> None:
+    assert remote.start_writer()
+    idle = len(remote._idle)
+    w = CanLogWriter(
+        tmp_path / "own.mcap", _OwnDatabase(), TimeBase(UTC0, 0.0), node="t", process=True
+    )
+    assert not isinstance(w._out, remote.RemoteOutput)
+    w.frame(0.0, _frame(0), True)
+    w.close()
+    assert len(read_canlog(tmp_path / "own.mcap").frames) == 1
+    assert len(remote._idle) == idle  # the writer went back to the pool
+
+
+def test_by_default_a_writer_is_used_while_a_core_is_free(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv(PROCESS_ENV, raising=False)
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    monkeypatch.setattr(os, "getloadavg", lambda: (1.2, 1.0, 1.0))
+    assert recording.use_writer()
+    monkeypatch.setattr(os, "getloadavg", lambda: (1.6, 1.0, 1.0))
+    assert not recording.use_writer()  # a study on every core: the node's thread
+    monkeypatch.setenv(PROCESS_ENV, "1")
+    assert recording.use_writer()
+    monkeypatch.setenv(PROCESS_ENV, "0")
+    monkeypatch.setattr(os, "getloadavg", lambda: (0.0, 0.0, 0.0))
+    assert not recording.use_writer()
