@@ -10,17 +10,15 @@ Run: ``.venv/bin/python bench/canlog.py [--sim-s 120] [--repeats 3]``.
   frame;
 - the named peer: python-can's ``can.BLFWriter`` (zlib-compressed Vector BLF, raw frames
   only) on the same messages, same measures;
-- the drive: ``run_drive`` with and without ``can_log`` (the recording written by the
-  recorder's writer process, and on the drive's thread), alternating, ``--repeats`` each;
-  the real-time factors (simulated s per wall s of the whole call) and their ratio; the same
-  against the process's CPU time (every thread) and against the drive thread's own CPU time
-  (``time.thread_time``: what the recording costs the thread that runs the drive, whatever
-  else loads the machine; work on another thread would not be in it, though the wall clock
-  still waits for it when no core is free); and the CPU time of the recorder's writer
-  process (:mod:`ecu.buslog.remote`: the raw blocks, decoding, rows, zstd and writes of a
-  file-only recording) per recorded drive, which the process CPU time leaves out; and the
-  bench process's first recording, made before any writer process is ready (so on the
-  drive's thread: a process's first recording never waits for a writer to start).
+- the drive: ``run_drive`` without ``can_log``, with it as pacc records by default (on the
+  drive's thread), and with ``PACC_RECORDER_PROCESS=1`` (the file written by the recorder's
+  writer process, :mod:`ecu.buslog.remote`), alternating, ``--repeats`` each; the real-time
+  factors (simulated s per wall s of the whole call) and their ratios to off; the same against
+  the drive thread's own CPU time (``time.thread_time``: what the recording costs the thread
+  that runs the drive, whatever else loads the machine; the wall clock still waits for a
+  writer process when no core is free); the writer process's CPU time per recorded drive;
+  and the bench process's first recording with ``PACC_RECORDER_PROCESS=1`` (a writer started
+  and waited for, about 0.2 s, inside the drive's call).
 
 Best of ``--repeats`` for the writers and for the drives' real-time factors (the machine is
 shared: the best run is the one least disturbed), the medians printed beside.
@@ -108,8 +106,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
         _drive(args.sim_s, None)  # warm: imports, caches
-        cold = _drive(args.sim_s, d / "drive.mcap")  # the first recording: on the thread
-        remote.start_writer()  # what a process's later recordings find
+        cold = _drive(args.sim_s, d / "drive.mcap")  # the first with a writer: it starts one
         msgs = list(messages(read_canlog(d / "drive.mcap")))
         n = len(msgs)
         blf_s = min(_blf(msgs, d / "x.blf") for _ in range(args.repeats))
@@ -126,11 +123,9 @@ def main() -> None:
             on.append(_drive(args.sim_s, d / "drive.mcap"))
             writer_s += _writers_cpu_s() - before
             thread.append(_drive(args.sim_s, d / "drive.mcap", process=False))
-    rt_off, rt_on = max(x[0] for x in off), max(x[0] for x in on)
-    med_off = statistics.median(x[0] for x in off)
-    med_on = statistics.median(x[0] for x in on)
-    cpu_off, cpu_on = max(x[1] for x in off), max(x[1] for x in on)
-    own_off, own_on = max(x[2] for x in off), max(x[2] for x in on)
+    rt_off, rt_thr, rt_on = (max(x[0] for x in runs) for runs in (off, thread, on))
+    med_off, med_thr = (statistics.median(x[0] for x in runs) for runs in (off, thread))
+    own_off, own_thr, own_on = (max(x[2] for x in runs) for runs in (off, thread, on))
     print(f"frames: {n} of a {args.sim_s:g}-s drive (scenario B, d2, predefined+oa)")
     print(f"python-can BLFWriter:           {n / blf_s:10,.0f} frames/s  {blf_b:6.2f} bytes/frame")
     print(
@@ -138,31 +133,20 @@ def main() -> None:
         f"  ({mcap_b / blf_b:.2f}x BLF's bytes)"
     )
     print(
-        f"drive real-time factor, best: {rt_off:.1f}x recording off, {rt_on:.1f}x on "
-        f"({rt_on / rt_off:.3f} of off); median: {med_off:.1f}x off, {med_on:.1f}x on "
-        f"({med_on / med_off:.3f} of off)"
+        f"drive real-time factor, best: {rt_off:.1f}x recording off, {rt_thr:.1f}x on "
+        f"({rt_thr / rt_off:.3f} of off); median: {med_off:.1f}x off, {med_thr:.1f}x on "
+        f"({med_thr / med_off:.3f} of off); on the drive thread's CPU time: {own_off:.1f}x off, "
+        f"{own_thr:.1f}x on ({own_thr / own_off:.3f} of off)"
     )
     print(
-        f"drive real-time factor on CPU time, best: {cpu_off:.1f}x off, {cpu_on:.1f}x on "
-        f"({cpu_on / cpu_off:.3f} of off)"
+        f"with PACC_RECORDER_PROCESS=1 (a writer process), best: {rt_on:.1f}x "
+        f"({rt_on / rt_off:.3f} of off); on the drive thread's CPU time {own_on:.1f}x "
+        f"({own_on / own_off:.3f} of off); the writer process: "
+        f"{1e3 * writer_s / args.repeats:.1f} ms of CPU per recorded drive (mean)"
     )
     print(
-        f"drive real-time factor on the drive thread's CPU time, best: {own_off:.1f}x off, "
-        f"{own_on:.1f}x on ({own_on / own_off:.3f} of off)"
-    )
-    rt_thr, own_thr = max(x[0] for x in thread), max(x[2] for x in thread)
-    print(
-        f"recording on the drive's thread (PACC_RECORDER_PROCESS=0), best: {rt_thr:.1f}x "
-        f"({rt_thr / rt_off:.3f} of off); on the thread's CPU time {own_thr:.1f}x "
-        f"({own_thr / own_off:.3f} of off)"
-    )
-    print(
-        f"the process's first recording (no writer process yet: on the thread): "
-        f"{cold[0]:.1f}x ({cold[0] / rt_off:.3f} of the best off)"
-    )
-    print(
-        f"recorder's writer process: {1e3 * writer_s / args.repeats:.1f} ms of CPU per recorded "
-        f"drive (mean)"
+        f"the process's first recording with PACC_RECORDER_PROCESS=1 (a writer started and "
+        f"waited for): {cold[0]:.1f}x ({cold[0] / rt_off:.3f} of the best off)"
     )
     print(f"canlog: {blf_s / mcap_s:.2f}x python-can BLF writer")
 

@@ -20,6 +20,7 @@ from dbc.codec import Codec
 from ecu.adaptation import AdaptationParams
 from ecu.buslog.format import FLUSH_S, ROWS_S, CanLogError, TimeBase
 from ecu.buslog.live import LIVE_FLUSH_S
+from ecu.buslog.remote import start_writer
 from ecu.buslog.sinks import Sink
 from ecu.buslog.writer import CanLogWriter
 from ecu.config import ConfigError, EcuConfig
@@ -42,18 +43,19 @@ DBC_ATTACHMENT = "network.dbc"
 BINDING_ATTACHMENT = "binding.toml"
 CONFIG_ATTACHMENT = "ecu_config.json"
 TABLE_ATTACHMENT = "dgpt_start.json"
-#: ``PACC_RECORDER_PROCESS``: ``1`` a file-only recording is written by a writer process
-#: (:mod:`ecu.buslog.remote`) when one is ready, ``0`` on the node's thread, unset (``auto``):
-#: by a writer while a core is free (:func:`use_writer`); the same file either way
+#: ``PACC_RECORDER_PROCESS``: unset or ``0``, a recording is written on the node's thread;
+#: ``1``, a file-only recording is written by a writer process (:mod:`ecu.buslog.remote`,
+#: started and waited for at the first recording); ``auto``, by a writer that is ready while a
+#: core is free (:func:`use_writer`). The same file either way.
 PROCESS_ENV = "PACC_RECORDER_PROCESS"
 
 
 def use_writer() -> bool:
-    """Whether a file-only recording goes to a writer process (:data:`PROCESS_ENV`): unset,
-    while the machine has a core free, the 1-min load average below the cores less a half
-    (a writer on a busy machine takes more CPU than it saves the node's thread)."""
-    mode = os.environ.get(PROCESS_ENV, "auto")
-    if mode in ("0", "1"):
+    """Whether a file-only recording goes to a writer process (:data:`PROCESS_ENV`); with
+    ``auto``, while the machine has a core free: the 1-min load average below the cores less a
+    half (a writer on a busy machine takes more CPU than it saves the node's thread)."""
+    mode = os.environ.get(PROCESS_ENV, "0")
+    if mode != "auto":
         return mode == "1"
     try:
         load = os.getloadavg()[0]
@@ -140,5 +142,15 @@ def open_recording(
         sinks=sinks,
         flush_s=LIVE_FLUSH_S if sinks else FLUSH_S,
         rows_s=LIVE_FLUSH_S if sinks else ROWS_S,
-        process=use_writer(),
+        process=_writer_wanted(path is not None and not sinks),
     )
+
+
+def _writer_wanted(file_only: bool) -> bool:
+    """:func:`use_writer` for a file-only recording; with ``1`` a writer is started now and
+    waited for where none is ready (about 0.2 s, once per process)."""
+    if not file_only or not use_writer():
+        return False
+    if os.environ.get(PROCESS_ENV) == "1":
+        start_writer()
+    return True

@@ -199,9 +199,14 @@ def test_a_database_that_cannot_be_sent_keeps_the_recording_on_the_thread(
     assert len(remote._idle) == idle  # the writer went back to the pool
 
 
-def test_by_default_a_writer_is_used_while_a_core_is_free(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.delenv(PROCESS_ENV, raising=False)
+def test_a_writer_only_when_asked_or_auto_while_a_core_is_free(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    monkeypatch.setattr(os, "getloadavg", lambda: (0.0, 0.0, 0.0))
+    monkeypatch.delenv(PROCESS_ENV, raising=False)
+    assert not recording.use_writer()  # by default: the node's thread
+    monkeypatch.setenv(PROCESS_ENV, "auto")
     monkeypatch.setattr(os, "getloadavg", lambda: (1.2, 1.0, 1.0))
     assert recording.use_writer()
     monkeypatch.setattr(os, "getloadavg", lambda: (1.6, 1.0, 1.0))
@@ -211,3 +216,24 @@ def test_by_default_a_writer_is_used_while_a_core_is_free(monkeypatch: pytest.Mo
     monkeypatch.setenv(PROCESS_ENV, "0")
     monkeypatch.setattr(os, "getloadavg", lambda: (0.0, 0.0, 0.0))
     assert not recording.use_writer()
+
+
+def test_asked_for_a_writer_the_first_recording_starts_one_and_uses_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``PACC_RECORDER_PROCESS=1``: a process's first file recording (``pacc drive
+    --can-log``) starts a writer, waits for it, and is written by it; a live view (sinks) or no
+    file keeps the node's thread."""
+    remote._end_idle()
+    monkeypatch.setattr(remote, "_asked", 0)
+    monkeypatch.setenv(PROCESS_ENV, "1")
+    codec = load_codec()
+    w = recording.open_recording(tmp_path / "first.mcap", codec, TimeBase(UTC0, 0.0), node="t")
+    assert isinstance(w._out, remote.RemoteOutput)
+    w.frame(0.0, _frame(0), True)
+    w.close()
+    assert len(read_canlog(tmp_path / "first.mcap").frames) == 1
+    monkeypatch.setenv(PROCESS_ENV, "0")
+    w = recording.open_recording(tmp_path / "own.mcap", codec, TimeBase(UTC0, 0.0), node="t")
+    assert not isinstance(w._out, remote.RemoteOutput)
+    w.close()
