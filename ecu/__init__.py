@@ -4,6 +4,7 @@ Modules, one concept each:
 
 - :mod:`ecu.adaptation` — online DGPT adaptation from one takeover (Algorithm 1).
 - :mod:`ecu.controller` — PID gap controller with the acceleration/jerk envelope.
+- :mod:`ecu.road` — the road rules: target switches, lead loss, standstill (pure).
 - :mod:`ecu.state` — engagement state machine (pure transition function).
 - :mod:`ecu.recorder` — takeover recorder (pre-trigger ring buffer, segments to a sink).
 - :mod:`ecu.manual` — manual-driving recorder (the driver's car-following stretches as trips).

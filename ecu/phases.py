@@ -24,16 +24,9 @@ import math
 from collections.abc import Callable
 
 from ecu.config import MAX_DT_S, EcuConfig
-from ecu.controller import (
-    ControlInput,
-    RoadMemory,
-    desired_accel,
-    limit_command,
-    road_limit,
-    road_update,
-    time_to_collision_s,
-)
+from ecu.controller import ControlInput, desired_accel, limit_command, time_to_collision_s
 from ecu.recorder import Sample
+from ecu.road import RoadMemory, road_limit, road_update
 from ecu.signals import NodeInputs, NodeOutputs, cycle_value, input_fault
 from ecu.state import Events
 from ecu.stops import URGENT_STOP_MPS2, closing_needs_mps2, lead_stop_need_mps2, stop_limit
@@ -223,7 +216,7 @@ def plan(table: Dgpt, v_mps: float) -> Plan:
 @cycle_value
 class ControlMemory:
     """The controller's state across cycles: gap-error integral (m*s), last request (m/s^2),
-    the road (target switches, lead loss, standstill; :class:`ecu.controller.RoadMemory`)."""
+    the road (target switches, lead loss, standstill; :class:`ecu.road.RoadMemory`)."""
 
     integral_m_s: float = 0.0
     prev_accel_mps2: float = 0.0
@@ -271,7 +264,7 @@ def control(
     request ramps toward zero at the jerk limit; it stays active only in FAULT while an
     executed request is still ramping (``fault_ramp``). ``law``: a plug-in
     gap law in place of the PID (the envelope and the closing limit stay the ECU's). The road
-    rules (:func:`ecu.controller.road_update`): a target switch drops the integral, a brief
+    rules (:func:`ecu.road.road_update`): a target switch drops the integral, a brief
     lead loss does not raise the request, a standstill holds until the lead departs soon
     after the stop or the driver asks to go (``resume``: RESUME or the accelerator this cycle).
     """

@@ -40,6 +40,7 @@ MODULES = (
     "ecu/phases.py",
     "ecu/busio.py",
     "ecu/controller.py",
+    "ecu/road.py",
     "ecu/node.py",
     "ecu/runtime.py",
     "ecu/clocks.py",
