@@ -3,6 +3,7 @@
 Modules, one concept each:
 
 - :mod:`ecu.adaptation` — online DGPT adaptation from one takeover (Algorithm 1).
+- :mod:`ecu.table_update` — how an applied takeover changes the table (spread, safety filter).
 - :mod:`ecu.controller` — PID gap controller with the acceleration/jerk envelope.
 - :mod:`ecu.road` — the road rules: target switches, lead loss, standstill (pure).
 - :mod:`ecu.state` — engagement state machine (pure transition function).
