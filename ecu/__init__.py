@@ -12,6 +12,7 @@ Modules, one concept each:
 - :mod:`ecu.config` — ``EcuConfig``, the node's frozen configuration.
 - :mod:`ecu.signals` — ``NodeInputs`` / ``NodeOutputs``, the node's boundary values.
 - :mod:`ecu.phases` — the phases of one control cycle, pure functions.
+- :mod:`ecu.command` — the control phase: the cycle's request and the controller's memory.
 - :mod:`ecu.stops` — stopping behind a lead that stops or stands (the request's bound).
 - :mod:`ecu.node` — ``EcuNode.step(inputs, now) -> outputs``, pure of I/O.
 - :mod:`ecu.busio` — frames <-> node values (Inbox/Outbox), the DBC fit check.

@@ -38,6 +38,7 @@ MODULES = (
     "dbc/message.py",
     "dbc/_compiled_codecs.py",
     "ecu/phases.py",
+    "ecu/command.py",
     "ecu/busio.py",
     "ecu/controller.py",
     "ecu/road.py",
