@@ -50,6 +50,7 @@ MODULES = (
     "ecu/state.py",
     "sim_bus/node.py",
     "sim_bus/behaviour.py",
+    "sim_bus/idm.py",
     "sim_bus/plant.py",
     "sim_bus/world.py",
     "pacc/vocab/pedals.py",
