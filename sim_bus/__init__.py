@@ -6,6 +6,7 @@ and closes the loop through the ACC command frames. Modules, one concept each:
 - :mod:`sim_bus.plant` — ego longitudinal dynamics;
 - :mod:`sim_bus.dataset` — the shipped real-data file;
 - :mod:`sim_bus.scenarios` — lead speed profiles from the shipped OpenACC data;
+- :mod:`sim_bus.profile_csv` — a lead profile as a CSV file (write, read, check);
 - :mod:`sim_bus.drivers` — driver parameters, built-in drivers;
 - :mod:`sim_bus.population` — drivers drawn from distributions calibrated on real pairs;
 - :mod:`sim_bus.behaviour` — what a driver does each step;

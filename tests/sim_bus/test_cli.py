@@ -17,7 +17,7 @@ from pacc.vocab.acc_state import AccState
 from pacc.vocab.dgpt import predefined
 from pacc.vocab.dgpt_file import save_dgpt
 from pacc.vocab.triplog_file import read_trip
-from sim_bus import scenarios
+from sim_bus import profile_csv, scenarios
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.errors import SimError
 from sim_bus.manual import manual_trip
@@ -230,7 +230,7 @@ def test_scenarios_export_and_drive_the_csv(
 ) -> None:
     path = tmp_path / "b.csv"
     assert scenarios.main(["export", "B", str(path), "--seed", "2"]) == 0
-    assert scenarios.load_profile_csv(path).duration_s == pytest.approx(300.0)
+    assert profile_csv.load_profile_csv(path).duration_s == pytest.approx(300.0)
     assert scenarios.main(["export", "Q", str(path)]) == 2
     assert scenarios.main(["list"]) == 0
     assert "manual4" in capsys.readouterr().out
