@@ -11,7 +11,7 @@ import pytest
 
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
-from pacc.commands import drive
+from pacc.commands import drive, drive_report
 from pacc.commands import sim as cli
 from pacc.vocab.acc_state import AccState
 from pacc.vocab.dgpt import predefined
@@ -328,6 +328,6 @@ def test_fault_time_counts_the_seconds_in_fault() -> None:
     state = np.full(t.shape, int(AccState.ACTIVE))
     state[20:40] = int(AccState.FAULT)  # 2 s
     state[60:65] = int(AccState.FAULT)  # 0.5 s
-    fault_s, entries = drive.fault_time(t, state)
+    fault_s, entries = drive_report.fault_time(t, state)
     assert fault_s == pytest.approx(2.5) and entries == 2
-    assert drive.fault_time(t, np.zeros_like(state)) == (0.0, 0)
+    assert drive_report.fault_time(t, np.zeros_like(state)) == (0.0, 0)
