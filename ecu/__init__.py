@@ -3,13 +3,16 @@
 Modules, one concept each:
 
 - :mod:`ecu.adaptation` — online DGPT adaptation from one takeover (Algorithm 1).
+- :mod:`ecu.table_update` — how an applied takeover changes the table (spread, safety filter).
 - :mod:`ecu.controller` — PID gap controller with the acceleration/jerk envelope.
+- :mod:`ecu.road` — the road rules: target switches, lead loss, standstill (pure).
 - :mod:`ecu.state` — engagement state machine (pure transition function).
 - :mod:`ecu.recorder` — takeover recorder (pre-trigger ring buffer, segments to a sink).
 - :mod:`ecu.manual` — manual-driving recorder (the driver's car-following stretches as trips).
 - :mod:`ecu.config` — ``EcuConfig``, the node's frozen configuration.
 - :mod:`ecu.signals` — ``NodeInputs`` / ``NodeOutputs``, the node's boundary values.
 - :mod:`ecu.phases` — the phases of one control cycle, pure functions.
+- :mod:`ecu.command` — the control phase: the cycle's request and the controller's memory.
 - :mod:`ecu.stops` — stopping behind a lead that stops or stands (the request's bound).
 - :mod:`ecu.node` — ``EcuNode.step(inputs, now) -> outputs``, pure of I/O.
 - :mod:`ecu.busio` — frames <-> node values (Inbox/Outbox), the DBC fit check.

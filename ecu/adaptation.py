@@ -5,9 +5,9 @@ Two modes (``AdaptationParams.mode``; measurements in docs/ecu.md and bench/adap
 - ``"paper"``: Algorithm 1 as read in docs/paper-notes.md, unchanged (steps 1-4 below);
 - ``"timegap"`` (default): the same filter (1), prediction (2) and safety filter (4), but,
   instead of step 3, the change is made in time-gap space and spread over a wide speed range
-  (:func:`timegap_update`), because the measured error of a table is mostly a time-gap
-  offset at every speed, and a local window of +-2 m/s leaves the rest of a 5-30 m/s trip
-  unlearned.
+  (:func:`ecu.table_update.timegap_update`), because the measured error of a table is mostly
+  a time-gap offset at every speed, and a local window of +-2 m/s leaves the rest of a
+  5-30 m/s trip unlearned.
 
 Both modes (issue 11) share three rules that the printed algorithm leaves open:
 
@@ -45,7 +45,10 @@ Algorithm 1 runs once, at the moment a takeover ends (pedal released), with the 
    (:class:`~pacc.vocab.dgpt.SafetyBounds`).
 
 :func:`adapt` is pure: (table, takeover summary, params, bounds) -> (new table, decision). A
-skipped update returns the same table object and a decision naming the reason.
+skipped update returns the same table object and a decision naming the reason. This module
+decides (filter, prediction, the pedal's direction, short presses); how an update is written
+into the table (steps 3 and 4: the window or time-gap spread, the safety filter, no bin
+against the pedal) is :mod:`ecu.table_update`.
 """
 
 from __future__ import annotations
@@ -55,10 +58,9 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Literal, get_args
 
-import numpy as np
-
 from ecu import EcuError
-from pacc.vocab.dgpt import Dgpt, SafetyBounds, clamp_to_bounds
+from ecu.table_update import safety_filter, spread_weights, timegap_update, with_pedal
+from pacc.vocab.dgpt import Dgpt, SafetyBounds
 
 AdaptationMode = Literal["paper", "timegap"]
 #: the selectable adaptation modes (``AdaptationParams.mode``)
@@ -285,59 +287,10 @@ def predict_steady_gap(summary: TakeoverSummary, params: AdaptationParams) -> fl
     return summary.gap_m - params.coast_down_s * (summary.v_mps - summary.v_lead_mps)
 
 
-def spread_weights(n_bins: int, centre: int, window_size: int) -> np.ndarray:
-    """Triangular update weights, shape ``(n_bins,)``: 1 at ``centre``, 0 outside the window."""
-    half = (window_size - 1) // 2
-    idx = np.arange(n_bins)
-    w = 1.0 - np.abs(idx - centre) / (half + 1)
-    return np.clip(w, 0.0, 1.0)
-
-
 def against_pedal(pedal: str, change_m: float) -> bool:
     """The change (m) contradicts the pedal: the accelerator asks for a shorter gap, the
     brake for a longer one; ``"both"`` or ``""`` constrain nothing."""
     return (pedal == "accel" and change_m > 0.0) or (pedal == "brake" and change_m < 0.0)
-
-
-def timegap_weights(speed_mps: np.ndarray, v_mps: float, spread_speed_mps: float) -> np.ndarray:
-    """Gaussian update weights over speed, shape of ``speed_mps``: ``exp(-((v_i - v)/s)^2 / 2)``."""
-    return np.exp(-0.5 * ((speed_mps - v_mps) / spread_speed_mps) ** 2)
-
-
-def timegap_update(
-    table: Dgpt, centre: int, g_desire_m: float, params: AdaptationParams
-) -> np.ndarray:
-    """New gaps, shape ``(n,)``: the time-gap change at bin ``centre`` spread over speed.
-
-    With ``v_c`` the centre bin's speed and ``u(v) = max(v, v_min)``, the time gap above the
-    standstill distance changes by ``dh = (g_desire - DGPT[centre]) / u(v_c)`` (s) there, and
-    bin ``i`` by ``w_i * dh`` with :func:`timegap_weights` around ``v_c``:
-    ``gap_i += w_i * dh * u(v_i)`` (``dh`` times ``step_fraction``). So with a full step the
-    centre bin lands on ``g_desire`` (as in the paper
-    mode) and a preference that is a time gap (constant or slowly varying with speed) is
-    learned at every speed from one takeover.
-    """
-    vmin = params.min_speed_mps
-    speed = table.speed_mps
-    v_c = float(speed[centre])
-    dh = params.step_fraction * (g_desire_m - float(table.gap_m[centre])) / max(v_c, vmin)
-    w = timegap_weights(speed, v_c, params.spread_speed_mps)
-    return np.asarray(table.gap_m + w * dh * np.maximum(speed, vmin))
-
-
-def safety_filter(speed_mps: np.ndarray, gap_m: np.ndarray, bounds: SafetyBounds) -> np.ndarray:
-    """``gap_m`` (``(n,)``) clipped into the table's safety ``bounds`` at ``speed_mps``."""
-    return np.asarray(clamp_to_bounds(speed_mps, gap_m, bounds))
-
-
-def with_pedal(old_m: np.ndarray, new_m: np.ndarray, pedal: str) -> np.ndarray:
-    """``new_m`` with no bin moved against the pedal (``(n,)`` each): after the accelerator
-    no bin is longer than before, after the brake none is shorter."""
-    if pedal == "accel":
-        return np.asarray(np.minimum(new_m, old_m))
-    if pedal == "brake":
-        return np.asarray(np.maximum(new_m, old_m))
-    return new_m
 
 
 def adapt(
@@ -401,9 +354,4 @@ __all__ = [
     "count_short_press",
     "is_short",
     "predict_steady_gap",
-    "safety_filter",
-    "spread_weights",
-    "timegap_update",
-    "timegap_weights",
-    "with_pedal",
 ]

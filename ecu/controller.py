@@ -25,17 +25,11 @@ brake stays limited to ``jerk_max``. In the same condition the request is at mos
 11): the PID alone eased its braking once the lead stopped slowing, while the gap was still
 closing at 4 m/s with 1.9 s to collision. Behind a lead braking so hard that stopping behind
 it, were it to brake to a standstill, would need more than 2 m/s^2, the emergency build-up
-applies at any TTC (issue 21; :func:`ecu.stops.lead_stop_need_mps2`, :func:`ecu.phases.control`).
+applies at any TTC (issue 21; :func:`ecu.stops.lead_stop_need_mps2`, :func:`ecu.command.control`).
 
-Road behaviour (issue 21; :func:`road_update`, :func:`road_limit`): a jump of the radar gap
-that the relative speed cannot explain is a *target switch* (a cut-in, a cut-out revealing
-the vehicle ahead, a new lead after a free road): the integral of the old target is dropped
-and the switch's time is kept (the adaptation does not learn from a takeover that starts
-right after one). A lead lost for less than ``lead_loss_hold_s`` (a radar confirming a new
-track drops ``LeadValid`` briefly) does not make the car accelerate toward the set speed.
-At a standstill behind a lead the request holds the car (``hold_accel_mps2``); it pulls away
-when the lead departs within ``auto_resume_s`` of stopping, else only on the driver's RESUME
-or accelerator (ISO 15622's full-speed-range ACC: resuming after a stop needs the driver).
+The road rules (target switches, lead loss, standstill; issue 21) are :mod:`ecu.road`; their
+parameters, :class:`RoadParams`, sit here in ``ControllerParams.road``.
+
 """
 
 from __future__ import annotations
@@ -45,7 +39,6 @@ from bisect import bisect_right
 from dataclasses import dataclass, field
 
 from ecu import EcuError
-from ecu.signals import cycle_value
 
 
 class ControllerError(EcuError):
@@ -136,26 +129,6 @@ class RoadParams:
             raise ControllerError(f"road parameters must be finite and >= 0: {self}")
         if not ACCEL_MIN_MPS2 <= self.hold_accel_mps2 < 0.0:
             raise ControllerError("hold_accel_mps2 must lie in [-3.5, 0)")
-
-
-@cycle_value
-class RoadMemory:
-    """What the control law remembers about the road between cycles.
-
-    Attributes:
-        last_gap_m, last_rel_mps: the last valid radar gap (m) and relative speed (m/s).
-        no_lead_s: time since a lead was last valid, s (inf: never one).
-        since_switch_s: time since the last target switch, s (inf: none yet).
-        standstill_s: time standing while ACTIVE, s (< 0: moving).
-        go: the driver asked to pull away during this standstill (or it may on its own).
-    """
-
-    last_gap_m: float = math.nan
-    last_rel_mps: float = 0.0
-    no_lead_s: float = math.inf
-    since_switch_s: float = math.inf
-    standstill_s: float = -1.0
-    go: bool = False
 
 
 @dataclass(frozen=True)
@@ -335,74 +308,17 @@ def limit_command(
     return hi if out > hi else out
 
 
-def road_update(
-    params: RoadParams,
-    mem: RoadMemory,
-    *,
-    lead_valid: bool,
-    gap_m: float,
-    rel_speed_mps: float,
-    v_mps: float,
-    dt_s: float,
-    active: bool,
-    resume: bool,
-) -> tuple[RoadMemory, bool]:
-    """The road memory after one cycle of ``dt_s`` and whether the target switched (pure).
-
-    ``active``: the ACC drives the car (the standstill counter runs only then); ``resume``:
-    the driver's RESUME or accelerator this cycle (a go request at a standstill).
-    """
-    switched = False
-    if lead_valid:
-        if mem.no_lead_s >= params.reacquire_s and mem.no_lead_s < math.inf:
-            switched = True  # a lead after a free road (or a long loss) is a new target
-        elif mem.no_lead_s < math.inf and math.isfinite(mem.last_gap_m):
-            expected = mem.last_gap_m + mem.last_rel_mps * (mem.no_lead_s + dt_s)
-            switched = abs(gap_m - expected) > params.switch_jump_m
-        no_lead, last_gap, last_rel = 0.0, gap_m, rel_speed_mps
-    else:
-        no_lead = mem.no_lead_s + dt_s
-        last_gap, last_rel = mem.last_gap_m, mem.last_rel_mps
-    since = 0.0 if switched else mem.since_switch_s + dt_s
-    standing = active and v_mps < params.standstill_mps
-    still = mem.standstill_s + dt_s if standing and mem.standstill_s >= 0.0 else 0.0
-    still = still if standing else -1.0
-    go = standing and (mem.go or resume)
-    if standing and not go and still <= params.auto_resume_s:
-        go = lead_valid and rel_speed_mps > params.depart_rel_mps
-    new = RoadMemory(last_gap, last_rel, no_lead, since, still, go)
-    return new, switched
-
-
-def road_limit(
-    params: RoadParams, mem: RoadMemory, target_mps2: float, prev_mps2: float, lead_valid: bool
-) -> float:
-    """The request after the road rules (pure): at most ``prev_mps2`` while a lead lost less
-    than ``lead_loss_hold_s`` ago is missing; at most ``hold_accel_mps2`` while standing
-    without a go (``mem`` is this cycle's, from :func:`road_update`)."""
-    target = target_mps2
-    if not lead_valid and mem.no_lead_s < params.lead_loss_hold_s:
-        target = prev_mps2 if target > prev_mps2 else target  # coast through the dropout
-    if mem.standstill_s >= 0.0 and not mem.go:
-        hold = params.hold_accel_mps2
-        target = hold if target > hold else target
-    return target
-
-
 __all__ = [
     "ACCEL_MAX_MPS2",
     "ACCEL_MIN_MPS2",
     "ControlInput",
     "ControllerError",
     "ControllerParams",
-    "RoadMemory",
     "RoadParams",
     "closing_limit_mps2",
     "desired_accel",
     "interp",
     "limit_command",
-    "road_limit",
     "stopping_limit_mps2",
-    "road_update",
     "time_to_collision_s",
 ]

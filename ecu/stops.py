@@ -1,5 +1,5 @@
 """Stopping behind a lead, as pure functions: the request's bound when a lead stops or stands
-(issue 21, stop-and-go); :func:`ecu.phases.control` applies it while ACTIVE.
+(issue 21, stop-and-go); :func:`ecu.command.control` applies it while ACTIVE.
 """
 
 from __future__ import annotations

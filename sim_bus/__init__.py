@@ -6,9 +6,11 @@ and closes the loop through the ACC command frames. Modules, one concept each:
 - :mod:`sim_bus.plant` — ego longitudinal dynamics;
 - :mod:`sim_bus.dataset` — the shipped real-data file;
 - :mod:`sim_bus.scenarios` — lead speed profiles from the shipped OpenACC data;
+- :mod:`sim_bus.profile_csv` — a lead profile as a CSV file (write, read, check);
 - :mod:`sim_bus.drivers` — driver parameters, built-in drivers;
 - :mod:`sim_bus.population` — drivers drawn from distributions calibrated on real pairs;
 - :mod:`sim_bus.behaviour` — what a driver does each step;
+- :mod:`sim_bus.idm` — IDM+ car following, the driver's manual following law;
 - :mod:`sim_bus.manual` — ACC-off demonstrations;
 - :mod:`sim_bus.world` — lead + plant + driver, the drive log;
 - :mod:`sim_bus.trip` — a run's log as a trip;

@@ -1,8 +1,7 @@
 """What a synthetic driver does each step: manual following (IDM+) and ACC interventions.
 
-Manual following (ACC off) is IDM+ (Schakel et al., 2010) around the driver's own preferred
-gap: ``a = a_max·min(1 − (v/v0)⁴, 1 − (s*/s)²)`` with ``s* = g*(v) + v·(v − v_f)/(2√(a_max·b))``;
-its equilibrium gap in car following is exactly g*(v). The driver sees the lead (gap, speed)
+Manual following (ACC off) is IDM+ (:mod:`sim_bus.idm`) around the driver's own preferred gap
+g*(v), its equilibrium gap in car following. The driver sees the lead (gap, speed)
 ``reaction_s`` late but feels its own speed at once, and its control is noisy (AR(1),
 ``accel_noise_mps2``). It also estimates the lead's acceleration from what it sees (its brake
 lights, low-passed over ``LEAD_ACCEL_TAU_S``).
@@ -23,7 +22,6 @@ and presses SET (RESUME after a cancel) once the gap feels right with the pedals
 from __future__ import annotations
 
 import math
-from bisect import bisect_right
 from collections import deque
 
 import numpy as np
@@ -32,6 +30,7 @@ from dbc.codec import load_codec
 from pacc.vocab.acc_state import AccState
 from pacc.vocab.pedals import PedalScale
 from sim_bus.drivers import DriverParams
+from sim_bus.idm import DECEL_LIMIT_MPS2, idm_plus_accel, interp_float
 
 #: acceleration of a coasting car with no pedal pressed (drag, engine braking), m/s²
 COAST_MPS2 = -0.3
@@ -39,7 +38,6 @@ COAST_MPS2 = -0.3
 #: (the pedals' full scale, 100 % and 250 bar, is the network's: pacc.vocab.pedals.PedalScale)
 ACCEL_FULL_MPS2 = 3.0
 BRAKE_BAR_PER_MPS2 = 12.0
-DECEL_LIMIT_MPS2 = 8.0
 #: the AccState codes in which the ACC drives the car
 _ENGAGED = (AccState.ACTIVE, AccState.OVERRIDE)
 #: a lead slowing harder than this (its brake lights, seen ``reaction_s`` late) ends an
@@ -62,53 +60,6 @@ RESUME_LEAD_MPS = 1.0
 STANDSTILL_MPS = 0.1
 RESUME_DELAY_S = 1.0
 FAULT_RETRY_S = 5.0  # after a fault, the driver tries SET once it has lasted this long
-
-
-def interp_float(x: float, xp: tuple[float, ...], fp: tuple[float, ...]) -> float:
-    """``float(np.interp(x, xp, fp))`` for one float ``x`` and float breakpoints ``xp``
-    (increasing) and values ``fp``: the same float, the same arithmetic (numpy's own:
-    ``slope * (x - xp[j]) + fp[j]``, its NaN fallbacks, ends held), without numpy's
-    per-call conversion of the tables (1.5 us a call; the driver looks its headway up every
-    step). tests/sim_bus/test_behaviour.py checks it against ``np.interp``."""
-    if len(xp) == 1:
-        return fp[0]
-    if math.isnan(x):
-        return x
-    if x < xp[0]:
-        return fp[0]
-    if x > xp[-1]:
-        return fp[-1]
-    j = bisect_right(xp, x) - 1
-    if j == len(xp) - 1 or xp[j] == x:
-        return fp[j]
-    slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
-    out = slope * (x - xp[j]) + fp[j]
-    if math.isnan(out):  # numpy retries from the segment's other end
-        out = slope * (x - xp[j + 1]) + fp[j + 1]
-        if math.isnan(out) and fp[j] == fp[j + 1]:
-            out = fp[j]
-    return out
-
-
-def idm_plus_accel(
-    v_mps: float, v_lead_mps: float, gap_m: float, pref_gap_m: float, p: DriverParams
-) -> float:
-    """IDM+ acceleration (m/s²) around the preferred gap, limited to [−8, a_max].
-
-    ``max(a, b)`` and ``min(a, b)`` are written out (``b if a < b else a``, ``b if a > b
-    else a``: what the builtins return, NaN included, at a sixth of a call's cost); so in
-    the driver's other per-step methods."""
-    s_star = pref_gap_m + v_mps * (v_mps - v_lead_mps) / (
-        2.0 * math.sqrt(p.accel_max_mps2 * p.decel_comfort_mps2)
-    )
-    half = p.standstill_m * 0.5
-    s_star = half if s_star < half else s_star
-    s = 0.1 if gap_m < 0.1 else gap_m
-    free = 1.0 - (v_mps / p.desired_speed_mps) ** 4
-    follow = 1.0 - (s_star / s) ** 2
-    a = p.accel_max_mps2 * (follow if free > follow else free)
-    a = -DECEL_LIMIT_MPS2 if a < -DECEL_LIMIT_MPS2 else a
-    return p.accel_max_mps2 if a > p.accel_max_mps2 else a
 
 
 class DriverAgent:

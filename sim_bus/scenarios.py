@@ -11,13 +11,13 @@ scale), so a test can check that its pieces really come from the data.
 
 Profiles are 10 Hz. ``canonical_profiles(seed)`` gives the evaluation set: four manual-driving
 profiles covering 5-30 m/s, Scenario A (seen: drawn from the manual profiles, from 30 m/s
-slowing to 5 m/s) and Scenario B (unseen: newly synthesized), 300 s each.
+slowing to 5 m/s) and Scenario B (unseen: newly synthesized), 300 s each. A profile's CSV
+file (``t_s,v_lead_mps``) is :mod:`sim_bus.profile_csv`.
 """
 
 from __future__ import annotations
 
 import argparse
-import csv
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
@@ -305,63 +305,6 @@ def shorten(profile: LeadProfile, duration_s: float) -> LeadProfile:
     )
 
 
-def save_profile_csv(profile: LeadProfile, path: Path) -> None:
-    """Write ``t_s,v_lead_mps`` rows (header first) to ``path``."""
-    with Path(path).open("w", newline="") as handle:
-        writer = csv.writer(handle)
-        writer.writerow(["t_s", "v_lead_mps"])
-        for t, v in zip(profile.t_s.tolist(), profile.v_lead_mps.tolist(), strict=True):
-            writer.writerow([f"{t:.3f}", f"{v:.5f}"])
-
-
-#: the fastest lead a profile may hold, m/s (about 360 km/h)
-MAX_LEAD_SPEED_MPS = 100.0
-#: the longest profile, s (a day at 10 Hz is 864 000 samples)
-MAX_PROFILE_S = 86_400.0
-
-
-def load_profile_csv(path: Path, name: str | None = None) -> LeadProfile:
-    """Read a recorded ``t_s,v_lead_mps`` CSV and resample it to 10 Hz.
-
-    Raises ScenarioError with the file and the reason when the file is unusable (missing
-    columns, non-numeric or non-finite values, time not increasing, negative speeds or
-    speeds above :data:`MAX_LEAD_SPEED_MPS`, shorter than 1 s or longer than
-    :data:`MAX_PROFILE_S`).
-    """
-    path = Path(path)
-    try:
-        with path.open(newline="", encoding="utf-8-sig") as handle:
-            rows = list(csv.DictReader(handle))
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:  # unreadable, not text, not CSV
-        raise ScenarioError(f"{path}: {exc}") from exc
-    if not rows or not {"t_s", "v_lead_mps"} <= set(rows[0]):
-        raise ScenarioError(f"{path}: need a header with columns t_s and v_lead_mps")
-    try:
-        t = np.array([float(r["t_s"]) for r in rows])
-        v = np.array([float(r["v_lead_mps"]) for r in rows])
-    except (TypeError, ValueError) as exc:
-        raise ScenarioError(f"{path}: non-numeric value ({exc})") from exc
-    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(v))):
-        raise ScenarioError(f"{path}: non-finite values")
-    if len(t) < 2 or np.any(np.diff(t) <= 0):
-        raise ScenarioError(f"{path}: t_s must be strictly increasing")
-    if np.any(v < 0):
-        raise ScenarioError(f"{path}: negative speed")
-    if np.any(v > MAX_LEAD_SPEED_MPS):
-        raise ScenarioError(
-            f"{path}: lead speed {v.max():g} m/s above {MAX_LEAD_SPEED_MPS:g} m/s (not a car)"
-        )
-    if t[-1] - t[0] < 1.0:
-        raise ScenarioError(f"{path}: shorter than 1 s")
-    if t[-1] - t[0] > MAX_PROFILE_S:
-        raise ScenarioError(
-            f"{path}: spans {t[-1] - t[0]:g} s, more than {MAX_PROFILE_S:g} s (a day)"
-        )
-    n = int(np.floor((t[-1] - t[0]) / DT_S + 1e-9)) + 1
-    grid = np.arange(n) * DT_S
-    return LeadProfile(name or path.stem, grid, np.interp(grid + t[0], t, v))
-
-
 def main(argv: list[str] | None = None) -> int:
     """``python -m sim_bus.scenarios list|export NAME PATH [--seed N]``: inspect or export."""
     p = argparse.ArgumentParser(
@@ -388,6 +331,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.name not in profiles or args.path is None:
         print(f"error: export needs NAME (one of {sorted(profiles)}) and PATH")
         return 2
+    from sim_bus.profile_csv import save_profile_csv  # noqa: PLC0415 - it imports this module
+
     try:
         save_profile_csv(profiles[args.name], args.path)
     except OSError as exc:

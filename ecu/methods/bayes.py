@@ -36,9 +36,8 @@ from ecu.adaptation import (
     against_pedal,
     behaviour_filter,
     predict_steady_gap,
-    safety_filter,
-    with_pedal,
 )
+from ecu.table_update import safety_filter, with_pedal
 from pacc.vocab.dgpt import Dgpt, SafetyBounds
 
 

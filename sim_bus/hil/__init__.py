@@ -8,6 +8,7 @@ and the cloud around a person whose pedals and buttons come from a web page
 - :mod:`~sim_bus.hil.loop`: one drive (world + bus + ECU), lockstep or real time;
 - :mod:`~sim_bus.hil.plan`: the paper's protocol for one participant, the Latin square;
 - :mod:`~sim_bus.hil.session`: a participant's session folder, resumable;
+- :mod:`~sim_bus.hil.manifest`: the session folder's ``manifest.json`` (plan, steps done, events);
 - :mod:`~sim_bus.hil.records`: what a finished drive leaves in the session folder;
 - :mod:`~sim_bus.hil.cloud`: the session's vehicle–cloud link (upload, learn, fine-tune);
 - :mod:`~sim_bus.hil.server`: the FastAPI + WebSocket app serving the driving page;

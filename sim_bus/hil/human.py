@@ -23,8 +23,8 @@ from sim_bus.behaviour import (
     BRAKE_BAR_PER_MPS2,
     BUTTON_HOLD_S,
     COAST_MPS2,
-    DECEL_LIMIT_MPS2,
 )
+from sim_bus.idm import DECEL_LIMIT_MPS2
 
 #: keyboard ramps, fractions of full pedal travel per second
 KEY_RISE_PER_S = 2.0

@@ -1,11 +1,12 @@
 """A participant's session: the plan's steps, the drives, the session folder, resumable.
 
 Folder ``OUT/<participant>/``: ``manifest.json`` (plan, finished steps, events such as lost
-connections; rewritten atomically after every change), ``logs/<step>.mcap`` (trip logs),
-``can/<step>.mcap`` (bus recordings), ``drives/<step>.json`` (each drive's figures, its
-Table I row, pauses), ``tables/`` (the predefined, learned and adapted tables),
-``ratings.csv`` and the cloud's and spool's folders. A session opened again on the same
-folder continues at the first step not finished (a drive cut off by a crash starts over).
+connections; rewritten atomically after every change: :mod:`sim_bus.hil.manifest`),
+``logs/<step>.mcap`` (trip logs), ``can/<step>.mcap`` (bus recordings), ``drives/<step>.json``
+(each drive's figures, its Table I row, pauses), ``tables/`` (the predefined, learned and
+adapted tables), ``ratings.csv`` and the cloud's and spool's folders. A session opened again on
+the same folder continues at the first step not finished (a drive cut off by a crash starts
+over).
 
 :class:`Session` is driven by the page (:mod:`sim_bus.hil.server`): :meth:`Session.handle`
 takes one message and returns what the page shows next. Thread-safe (one lock).
@@ -14,14 +15,12 @@ takes one message and returns what the page shows next. Thread-safe (one lock).
 from __future__ import annotations
 
 import dataclasses
-import json
 import logging
 import math
 import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -36,6 +35,7 @@ from sim_bus.drivers import DriverParams, PredefinedSetting, load_driver
 from sim_bus.errors import SimError
 from sim_bus.hil.cloud import fine_tune, learn, open_cloud
 from sim_bus.hil.loop import HilDrive, RealtimeRunner
+from sim_bus.hil.manifest import MANIFEST, open_manifest, save_manifest, utc_stamp
 from sim_bus.hil.plan import Step
 from sim_bus.hil.records import append_rating, rating, save_record, write_drive
 from sim_bus.scenarios import shorten
@@ -43,7 +43,6 @@ from sim_bus.study.drive import DriveConfig, predefined_table, resolve_profile
 from sim_bus.study.irl_table import MANUAL_PROFILES
 from sim_bus.study.loop import StudyCloud
 
-MANIFEST = "manifest.json"
 #: the synthetic driver whose body a participant borrows (start gap, predefined setting)
 BODY = "d3"
 
@@ -101,33 +100,13 @@ class Session:
 
     # -- manifest ------------------------------------------------------------------------
     def _open_manifest(self) -> dict[str, Any]:
-        path = self.folder / MANIFEST
-        plan_ids = [s.id for s in self.plan]
-        if path.is_file():
-            try:
-                m: dict[str, Any] = json.loads(path.read_text(encoding="utf-8"))
-            except (OSError, ValueError) as exc:
-                raise SimError(f"{path}: not a session manifest ({exc})") from exc
-            if m.get("participant") != self.cfg.participant or m.get("plan") != plan_ids:
-                raise SimError(f"{path}: another participant's or protocol's session")
-            m["events"].append({"event": "resumed", "at": _utc()})
-            return m
-        return {
-            "participant": self.cfg.participant,
-            "protocol": self.cfg.protocol,
-            "seed": self.cfg.seed,
-            "short_s": self.cfg.short_s,
-            "plan": plan_ids,
-            "conditions": {s.id: s.controller for s in self.plan if s.kind == "drive"},
-            "done": {},
-            "events": [],
-        }
+        cfg = self.cfg
+        return open_manifest(
+            self.folder / MANIFEST, cfg.participant, cfg.protocol, cfg.seed, cfg.short_s, self.plan
+        )
 
     def _save(self) -> None:
-        path = self.folder / MANIFEST
-        tmp = path.with_name(MANIFEST + ".part")
-        tmp.write_text(json.dumps(self.manifest, indent=1, default=str), encoding="utf-8")
-        tmp.replace(path)
+        save_manifest(self.folder / MANIFEST, self.manifest)
         self.seq += 1
 
     def _at(self) -> str:
@@ -238,7 +217,7 @@ class Session:
         if step is None:
             return
         if name == "consent" and step.kind == "consent":
-            self._mark_done(step, {"consented": True, "at": _utc()})
+            self._mark_done(step, {"consented": True, "at": utc_stamp()})
         elif name == "continue" and step.kind in ("break", "done"):
             if step.kind == "break":
                 self._mark_done(step, {})
@@ -331,7 +310,7 @@ class Session:
             append_rating(self.folder, self.cfg.participant, step, **ratings)
         self.drive = None
         self.runner = None
-        self._mark_done(step, {"ratings": ratings, "at": _utc()})
+        self._mark_done(step, {"ratings": ratings, "at": utc_stamp()})
 
     # -- the cloud -----------------------------------------------------------------------
     def _cloud(self) -> StudyCloud:
@@ -354,7 +333,7 @@ class Session:
         save_dgpt(table, self.folder / "tables" / "irl.json")
         save_dgpt(predefined_table(self.participant), self.folder / "tables" / "predefined.json")
         with self._lock:
-            info = {"batches": batches, "version": table.version, "signed": True, "at": _utc()}
+            info = {"batches": batches, "version": table.version, "signed": True, "at": utc_stamp()}
             self._mark_done(step, info)
 
     def _sync(self, step: Step, record: dict[str, Any], segments: list[Trip], table: Dgpt) -> None:
@@ -363,7 +342,7 @@ class Session:
         except Exception as exc:  # noqa: BLE001 - shown; the drive's files are kept
             newer, batches = table, 0
             with self._lock:
-                self.manifest["events"].append({"event": f"sync failed: {exc}", "at": _utc()})
+                self.manifest["events"].append({"event": f"sync failed: {exc}", "at": utc_stamp()})
         save_dgpt(newer, self.folder / "tables" / "irl-latest.json")
         record["incremental"] = {"uploaded": batches, "next_version": newer.version}
         save_record(self.folder, step.id, record)
@@ -375,7 +354,7 @@ class Session:
         with self._lock:
             self.phase = "failed"
             self.message = message
-            self.manifest["events"].append({"event": message, "at": _utc()})
+            self.manifest["events"].append({"event": message, "at": utc_stamp()})
             self._save()
 
     def close(self) -> None:
@@ -400,7 +379,3 @@ def _trip_of(step: Step) -> int:
     if not step.id.startswith("inc"):
         return 0
     return int(step.id[3:].split("-")[0])
-
-
-def _utc() -> str:
-    return datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")

@@ -43,7 +43,8 @@ from sim_bus.events import ROAD_SCENARIOS, road_profile
 from sim_bus.faults import fault_rng, parse_faults
 from sim_bus.metrics import DriveMetrics, SafetyFigures
 from sim_bus.node import SimNode
-from sim_bus.scenarios import LeadProfile, canonical_profiles, load_profile_csv, shorten
+from sim_bus.profile_csv import load_profile_csv
+from sim_bus.scenarios import LeadProfile, canonical_profiles, shorten
 from sim_bus.trip import world_trip
 from sim_bus.world import WORLD_COLUMNS, World, WorldConfig, WorldLog
 

@@ -17,9 +17,8 @@ from ecu.adaptation import (
     TakeoverSummary,
     adapt,
     count_short_press,
-    spread_weights,
-    timegap_weights,
 )
+from ecu.table_update import spread_weights, timegap_weights
 from pacc.vocab.dgpt import SafetyBounds, predefined
 
 P = AdaptationParams(mode="paper")  # P_T 1 s, K_T 1 s, V_D 5 m/s, window 9

@@ -5,13 +5,8 @@ from __future__ import annotations
 import math
 
 from ecu.adaptation import AdaptationParams, Reason, TakeoverSummary, adapt
-from ecu.controller import (
-    RoadMemory,
-    RoadParams,
-    road_limit,
-    road_update,
-    stopping_limit_mps2,
-)
+from ecu.controller import RoadParams, stopping_limit_mps2
+from ecu.road import RoadMemory, road_limit, road_update
 from pacc.vocab.dgpt import predefined
 
 P = RoadParams()

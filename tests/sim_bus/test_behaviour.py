@@ -9,8 +9,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from pacc.vocab.acc_state import AccState
-from sim_bus.behaviour import ATTENTIVE_REACTION_S, DriverAgent, interp_float
+from sim_bus.behaviour import ATTENTIVE_REACTION_S, DriverAgent
 from sim_bus.drivers import DriverParams
+from sim_bus.idm import interp_float
 
 DT = 0.05
 

@@ -11,13 +11,13 @@ import pytest
 
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
-from pacc.commands import drive
+from pacc.commands import drive, drive_report
 from pacc.commands import sim as cli
 from pacc.vocab.acc_state import AccState
 from pacc.vocab.dgpt import predefined
 from pacc.vocab.dgpt_file import save_dgpt
 from pacc.vocab.triplog_file import read_trip
-from sim_bus import scenarios
+from sim_bus import profile_csv, scenarios
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.errors import SimError
 from sim_bus.manual import manual_trip
@@ -230,7 +230,7 @@ def test_scenarios_export_and_drive_the_csv(
 ) -> None:
     path = tmp_path / "b.csv"
     assert scenarios.main(["export", "B", str(path), "--seed", "2"]) == 0
-    assert scenarios.load_profile_csv(path).duration_s == pytest.approx(300.0)
+    assert profile_csv.load_profile_csv(path).duration_s == pytest.approx(300.0)
     assert scenarios.main(["export", "Q", str(path)]) == 2
     assert scenarios.main(["list"]) == 0
     assert "manual4" in capsys.readouterr().out
@@ -328,6 +328,6 @@ def test_fault_time_counts_the_seconds_in_fault() -> None:
     state = np.full(t.shape, int(AccState.ACTIVE))
     state[20:40] = int(AccState.FAULT)  # 2 s
     state[60:65] = int(AccState.FAULT)  # 0.5 s
-    fault_s, entries = drive.fault_time(t, state)
+    fault_s, entries = drive_report.fault_time(t, state)
     assert fault_s == pytest.approx(2.5) and entries == 2
-    assert drive.fault_time(t, np.zeros_like(state)) == (0.0, 0)
+    assert drive_report.fault_time(t, np.zeros_like(state)) == (0.0, 0)

@@ -13,8 +13,9 @@ from pacc.vocab.acc_state import AccState
 from pacc.vocab.pedals import PedalScale
 from pacc.vocab.triplog import Trip
 from pacc.vocab.triplog_file import read_trip, write_trip
-from sim_bus.behaviour import BRAKE_BAR_PER_MPS2, DECEL_LIMIT_MPS2
+from sim_bus.behaviour import BRAKE_BAR_PER_MPS2
 from sim_bus.drivers import BUILTIN_DRIVERS
+from sim_bus.idm import DECEL_LIMIT_MPS2
 from sim_bus.manual import manual_trip
 from sim_bus.scenarios import LeadProfile, canonical_profiles, shorten
 

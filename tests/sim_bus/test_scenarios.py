@@ -11,14 +11,13 @@ from hypothesis import strategies as st
 
 from sim_bus.dataset import load_human_pairs
 from sim_bus.errors import ScenarioError
+from sim_bus.profile_csv import load_profile_csv, save_profile_csv
 from sim_bus.scenarios import (
     DT_S,
     GeneratorConfig,
     LeadProfile,
     canonical_profiles,
-    load_profile_csv,
     random_speed_sequence,
-    save_profile_csv,
     shorten,
     synthesize,
 )
