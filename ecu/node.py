@@ -41,6 +41,7 @@ from ecu.adaptation import (
     adapt,
     count_short_press,
 )
+from ecu.command import Command, ControlMemory, control
 from ecu.config import ConfigError, EcuConfig
 from ecu.manual import ManualRecorder
 from ecu.methods import make_adaptation, make_controller
@@ -51,13 +52,10 @@ from ecu.methods.guard import (
     GuardedController,
 )
 from ecu.phases import (
-    Command,
-    ControlMemory,
     Engagement,
     InputCheck,
     Plan,
     check_inputs,
-    control,
     cycle_time,
     enter_state,
     outputs,

@@ -16,15 +16,14 @@ The takeover phase runs before the plan on purpose: an adaptation applied at a p
 is the table the same cycle plans with.
 
 Every function here is pure: values in, values out; no clock, no bus, no logging. The
-control phase has a module of its own, :mod:`ecu.command`; ``Command``, ``ControlMemory`` and
-``control`` are re-exported here, the names :class:`ecu.node.EcuNode` imports with the rest.
+control phase has a module of its own, :mod:`ecu.command`.
 """
 
 from __future__ import annotations
 
 import math
 
-from ecu.command import Command, ControlMemory, control
+from ecu.command import Command
 from ecu.config import MAX_DT_S, EcuConfig
 from ecu.recorder import Sample
 from ecu.signals import NodeInputs, NodeOutputs, cycle_value, input_fault
@@ -260,13 +259,10 @@ def outputs(
 
 
 __all__ = [
-    "Command",
-    "ControlMemory",
     "Engagement",
     "InputCheck",
     "Plan",
     "check_inputs",
-    "control",
     "cycle_time",
     "enter_state",
     "outputs",
