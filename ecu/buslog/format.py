@@ -151,15 +151,6 @@ LOG_SCHEMA: dict[str, Any] = {
     "required": ["timestamp", "level", "message", "name", "file", "line"],
 }
 
-EVENT_SCHEMA: dict[str, Any] = {
-    "$schema": "https://json-schema.org/draft/2020-12/schema",
-    "title": "pacc.EcuEvent",
-    "description": "One event of the ECU node: state change, fault, adaptation decision",
-    "type": "object",
-    "properties": {"t_s": {"type": "number"}, "text": {"type": "string"}},
-    "required": ["t_s", "text"],
-}
-
 
 @dataclass(frozen=True)
 class TimeBase:
