@@ -148,9 +148,10 @@ def open_recording(
 
 def _writer_wanted(file_only: bool) -> bool:
     """:func:`use_writer` for a file-only recording; with ``1`` a writer is started now and
-    waited for where none is ready (about 0.2 s, once per process)."""
+    waited for where none is ready (about 0.2 s, once per process; where none starts, the
+    node's thread, at once for the process's later recordings)."""
     if not file_only or not use_writer():
         return False
     if os.environ.get(PROCESS_ENV) == "1":
-        start_writer()
+        return start_writer()
     return True

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import atexit
 import contextlib
+import logging
 import os
 import pickle
 import select
@@ -46,6 +47,8 @@ from ecu.buslog.sinks import McapSink
 
 __all__ = ["NotSendable", "RemoteOutput", "ready_writer", "start_writer"]
 
+log = logging.getLogger(__name__)
+
 #: the writer's pipe, bytes (Linux's default cap for an unprivileged process): a cold
 #: writer (importing numpy) lets the node write this much before it waits
 PIPE_BYTES = 1 << 20
@@ -58,6 +61,11 @@ _idle: list[subprocess.Popen[bytes]] = []
 _ready: set[int] = set()
 #: recordings that asked for a writer in this process
 _asked = 0
+#: why a writer did not start in this process (later recordings go to the node's thread at
+#: once), None while none failed
+_failed: str | None = None
+#: how long :func:`start_writer` waits for a writer's imports, s (about 0.2 s typical)
+START_TIMEOUT_S = 5.0
 
 
 def _spawn() -> subprocess.Popen[bytes]:
@@ -88,32 +96,68 @@ def ready_writer() -> subprocess.Popen[bytes] | None:
         return None
     with _lock:
         _asked += 1
+        _drop_dead()
         for proc in list(_idle):
-            if proc.poll() is not None:
-                _idle.remove(proc)
-                _end(proc)
-            elif _started(proc):
+            if _started(proc):
                 _idle.remove(proc)
                 return proc
-        if not _idle and _asked >= 2:
+        if not _idle and _asked >= 2 and _failed is None:
             with contextlib.suppress(OSError):
                 _idle.append(_spawn())
     return None
 
 
-def start_writer(timeout_s: float = 60.0) -> bool:
-    """Start a writer process now and wait until it is ready for a recording (the next
-    file-only recording is then written by it); False if none became ready."""
-    deadline = time.monotonic() + timeout_s
+def start_writer(timeout_s: float | None = None) -> bool:
+    """Start a writer process now, unless an idle one is alive, and wait until one is ready
+    for a recording (the next file-only recording is then written by it). False, at once
+    where it can tell, if none became ready in ``timeout_s`` (default
+    :data:`START_TIMEOUT_S`): the writer exited, could not be spawned, or stayed silent (then
+    killed). A failure is remembered: later calls in this process return False at once, and
+    one warning is logged."""
+    if os.name != "posix" or _failed is not None:  # non-blocking pipes, select on a pipe
+        return False
+    wait_s = START_TIMEOUT_S if timeout_s is None else timeout_s
+    deadline = time.monotonic() + wait_s
     with _lock:
+        _drop_dead()
         if not _idle:
-            _idle.append(_spawn())
+            try:
+                _idle.append(_spawn())
+            except OSError as exc:
+                return _give_up(f"cannot be spawned: {exc}")
         procs = list(_idle)
-    while time.monotonic() < deadline:
-        if any(proc.poll() is None and _started(proc) for proc in procs):
-            return True
+    while True:
+        with _lock:  # the READY byte is read by one thread only
+            if any(proc.poll() is None and _started(proc) for proc in procs):
+                return True
+            if all(proc.poll() is not None for proc in procs):
+                _drop_dead()
+                codes = ", ".join(str(proc.returncode) for proc in procs)
+                return _give_up(f"exited at start (exit code {codes})")
+            if time.monotonic() >= deadline:
+                for proc in procs:
+                    if proc in _idle and proc.poll() is None and not _started(proc):
+                        _idle.remove(proc)
+                        _end(proc, kill=True)
+                return _give_up(f"was not ready after {wait_s:g} s (killed)")
         time.sleep(0.01)
+
+
+def _give_up(why: str) -> bool:
+    """Remember that no writer starts in this process, warn once; False."""
+    global _failed  # noqa: PLW0603 - the process's state, as the pool is the process's
+    if _failed is None:
+        _failed = why
+        log.warning("the recorder's writer process %s: recording on the node's thread", why)
     return False
+
+
+def _drop_dead() -> None:
+    """Reap the idle writers that exited (a stray kill, the OOM killer); under ``_lock``."""
+    for proc in list(_idle):
+        if proc.poll() is not None:
+            _idle.remove(proc)
+            _end(proc)
 
 
 def _started(proc: subprocess.Popen[bytes]) -> bool:

@@ -27,6 +27,12 @@ from sim_bus.study.drive import DriveConfig, predefined_table, run_drive
 UTC0 = 1_700_000_000_000_000_000
 
 
+@pytest.fixture(autouse=True)
+def _no_failure_remembered(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each test starts as a process where no writer failed to start."""
+    monkeypatch.setattr(remote, "_failed", None, raising=False)
+
+
 def _drive(path: Path) -> None:
     driver = BUILTIN_DRIVERS["d2"]
     cfg = DriveConfig(scenario="B", driver_id="d2", controller="predefined+oa", seed=3)
@@ -236,4 +242,45 @@ def test_asked_for_a_writer_the_first_recording_starts_one_and_uses_it(
     monkeypatch.setenv(PROCESS_ENV, "0")
     w = recording.open_recording(tmp_path / "own.mcap", codec, TimeBase(UTC0, 0.0), node="t")
     assert not isinstance(w._out, remote.RemoteOutput)
+    w.close()
+
+
+def test_a_writer_that_dies_at_start_costs_no_wait(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A writer that exits at once (here ``/bin/false``): the recording goes to the node's
+    thread at once, one warning, and the next recording does not try again."""
+    remote._end_idle()
+    monkeypatch.setenv(PROCESS_ENV, "1")
+    monkeypatch.setattr(sys, "executable", "/bin/false")
+    codec = load_codec()
+    t0 = time.monotonic()
+    w = recording.open_recording(tmp_path / "a.mcap", codec, TimeBase(UTC0, 0.0), node="t")
+    assert not isinstance(w._out, remote.RemoteOutput)
+    w.close()
+    w = recording.open_recording(tmp_path / "b.mcap", codec, TimeBase(UTC0, 0.0), node="t")
+    assert not isinstance(w._out, remote.RemoteOutput)
+    w.close()
+    assert time.monotonic() - t0 < 2.0
+    assert not remote._idle
+    warnings = [r for r in caplog.records if "writer process" in r.getMessage()]
+    assert len(warnings) == 1
+    assert "exit code 1" in warnings[0].getMessage()
+
+
+def test_an_idle_writer_that_died_is_replaced_at_once(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The pool's idle writer killed (a stray kill): the next recording starts a new one
+    without waiting for the dead one."""
+    assert remote.start_writer()
+    dead = remote._idle[0]
+    os.kill(dead.pid, signal.SIGKILL)
+    dead.wait(10)
+    monkeypatch.setenv(PROCESS_ENV, "1")
+    t0 = time.monotonic()
+    w = recording.open_recording(tmp_path / "a.mcap", load_codec(), TimeBase(UTC0, 0.0), node="t")
+    assert time.monotonic() - t0 < remote.START_TIMEOUT_S
+    assert isinstance(w._out, remote.RemoteOutput)
+    assert w._out._proc is not dead
     w.close()
