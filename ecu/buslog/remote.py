@@ -69,10 +69,14 @@ START_TIMEOUT_S = 5.0
 
 
 def _spawn() -> subprocess.Popen[bytes]:
-    """A new writer process (its stdin's pipe enlarged where the system lets it)."""
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
+    """A new writer process (its stdin's pipe enlarged where the system lets it), running
+    the node's own code: ``-P`` (no current directory on its path), and its ``PYTHONPATH``
+    the folder of the node's ``ecu`` package, then the node's ``sys.path``."""
+    root = str(Path(__file__).resolve().parents[2])  # ecu/buslog/remote.py -> ecu's folder
+    path = [root, *(str(Path(p).absolute()) for p in sys.path if p)]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(dict.fromkeys(path))}
     proc = subprocess.Popen(
-        [sys.executable, "-m", "ecu.buslog.serve"],
+        [sys.executable, "-P", "-m", "ecu.buslog.serve"],
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         env=env,

@@ -284,3 +284,23 @@ def test_an_idle_writer_that_died_is_replaced_at_once(
     assert isinstance(w._out, remote.RemoteOutput)
     assert w._out._proc is not dead
     w.close()
+
+
+def test_the_writer_runs_the_nodes_code_not_the_current_directorys(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Spawned from a folder holding another ``ecu`` package (another checkout), the writer
+    still imports the node's: it starts and writes the recording."""
+    fake = tmp_path / "checkout" / "ecu" / "buslog"
+    fake.mkdir(parents=True)
+    (fake.parent / "__init__.py").write_text("raise SystemExit(3)\n")
+    (fake / "__init__.py").write_text("")
+    (fake / "serve.py").write_text("raise SystemExit(3)\n")
+    remote._end_idle()
+    monkeypatch.chdir(fake.parent.parent)
+    assert remote.start_writer()
+    w = CanLogWriter(tmp_path / "a.mcap", None, TimeBase(UTC0, 0.0), node="t", process=True)
+    assert isinstance(w._out, remote.RemoteOutput)
+    w.frame(0.0, _frame(0), True)
+    w.close()
+    assert len(read_canlog(tmp_path / "a.mcap").frames) == 1
