@@ -8,7 +8,8 @@ the rows due, the chunk's end), and ``finish`` or ``abandon``, answered on stdou
 or the failure's text. Messages are pickles, each after its length (8 bytes, little-endian).
 
 Its stdin closed (the node's process ended or was killed) it writes what it got, keeps
-``FILE.part`` and exits.
+``FILE.part`` and exits. It ignores SIGINT, SIGTERM and SIGHUP (a Ctrl-C, a service's stop
+sent to every process of the service): it ends when its node closes the pipe.
 """
 
 from __future__ import annotations
@@ -161,7 +162,11 @@ def serve(inp: int, out: IO[bytes]) -> None:
 
 
 if __name__ == "__main__":
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the node's process decides when to stop
+    # the node's process decides when to stop (its pipe closes): a Ctrl-C, or a service's
+    # stop (systemd's SIGTERM to every process of the unit), must not lose the recording
+    for sig in ("SIGINT", "SIGTERM", "SIGHUP"):
+        if hasattr(signal, sig):
+            signal.signal(getattr(signal, sig), signal.SIG_IGN)
     sys.stdout.buffer.write(READY)  # imported: ready for a recording
     sys.stdout.buffer.flush()
     serve(sys.stdin.fileno(), sys.stdout.buffer)

@@ -304,3 +304,26 @@ def test_the_writer_runs_the_nodes_code_not_the_current_directorys(
     w.frame(0.0, _frame(0), True)
     w.close()
     assert len(read_canlog(tmp_path / "a.mcap").frames) == 1
+
+
+def test_a_service_stop_sigterm_to_the_writer_does_not_lose_the_recording(
+    tmp_path: Path,
+) -> None:
+    """SIGTERM to the writer mid-recording (systemd stops a service by signalling every
+    process of it): the writer goes on, the node finishes the file."""
+    path = tmp_path / "term.mcap"
+    assert remote.start_writer()
+    w = CanLogWriter(path, load_codec().db, TimeBase(UTC0, 0.0), node="t", process=True)
+    out = w._out
+    assert isinstance(out, remote.RemoteOutput)
+    for i in range(300):
+        w.frame(i * 0.01, _frame(i), True)
+        w.tick(i * 0.01)
+    os.kill(out._proc.pid, signal.SIGTERM)
+    os.kill(out._proc.pid, signal.SIGHUP)
+    time.sleep(0.2)
+    for i in range(300, 600):
+        w.frame(i * 0.01, _frame(i), True)
+        w.tick(i * 0.01)
+    w.close()
+    assert len(read_canlog(path).frames) == 600
