@@ -216,7 +216,8 @@ def _forget_idle() -> None:
 
 
 atexit.register(_end_idle)
-os.register_at_fork(after_in_child=_forget_idle)
+if hasattr(os, "register_at_fork"):  # POSIX only; elsewhere no writer process is started
+    os.register_at_fork(after_in_child=_forget_idle)
 
 
 class NotSendable(ValueError):

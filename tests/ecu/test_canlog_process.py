@@ -327,3 +327,20 @@ def test_a_service_stop_sigterm_to_the_writer_does_not_lose_the_recording(
         w.tick(i * 0.01)
     w.close()
     assert len(read_canlog(path).frames) == 600
+
+
+def test_the_recorder_imports_where_os_has_no_register_at_fork(tmp_path: Path) -> None:
+    """``os.register_at_fork`` is POSIX only: without it (Windows) the recorder still
+    imports and records on the node's thread."""
+    code = (
+        "import os, random, sys\n"
+        "import can, ecu.buslog.output, ecu.buslog.serve, ecu.buslog.sinks, ecu.signals\n"
+        "assert 'ecu.buslog.remote' not in sys.modules\n"
+        "del os.register_at_fork  # as on Windows, for the recorder's own modules\n"
+        "from ecu.buslog.writer import CanLogWriter\n"
+        "from ecu.buslog.format import TimeBase\n"
+        "w = CanLogWriter(sys.argv[1], None, TimeBase(0, 0.0), node='t')\n"
+        "w.close()\n"
+    )
+    subprocess.run([sys.executable, "-c", code, str(tmp_path / "a.mcap")], check=True)
+    assert read_canlog(tmp_path / "a.mcap").frames is not None
