@@ -64,6 +64,9 @@ _asked = 0
 #: why a writer did not start in this process (later recordings go to the node's thread at
 #: once), None while none failed
 _failed: str | None = None
+#: :func:`_end_idle` registered with multiprocessing in this process (a pool's worker ends
+#: with ``os._exit``, past ``atexit``, but runs multiprocessing's finalizers)
+_finalizer = False
 #: how long :func:`start_writer` waits for a writer's imports, s (about 0.2 s typical)
 START_TIMEOUT_S = 5.0
 
@@ -72,6 +75,12 @@ def _spawn() -> subprocess.Popen[bytes]:
     """A new writer process (its stdin's pipe enlarged where the system lets it), running
     the node's own code: ``-P`` (no current directory on its path), and its ``PYTHONPATH``
     the folder of the node's ``ecu`` package, then the node's ``sys.path``."""
+    global _finalizer  # noqa: PLW0603 - the process's state, as the pool is the process's
+    if not _finalizer:  # the idle writers of a pool's worker are waited for too
+        import multiprocessing.util  # noqa: PLC0415 - only where writers run
+
+        multiprocessing.util.Finalize(None, _end_idle, exitpriority=0)
+        _finalizer = True
     root = str(Path(__file__).resolve().parents[2])  # ecu/buslog/remote.py -> ecu's folder
     path = [root, *(str(Path(p).absolute()) for p in sys.path if p)]
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(dict.fromkeys(path))}
@@ -204,8 +213,9 @@ def _end_idle() -> None:
 def _forget_idle() -> None:
     """In a process forked off this one: the idle writers are the parent's (their pipes,
     flushed, are closed here; the parent keeps its own)."""
-    global _asked  # noqa: PLW0603 - a new process
+    global _asked, _finalizer  # noqa: PLW0603 - a new process
     _asked = 0
+    _finalizer = False  # a multiprocessing child starts with no finalizers
     for proc in _idle:
         for pipe in (proc.stdin, proc.stdout):
             with contextlib.suppress(OSError):

@@ -5,12 +5,14 @@ no zombie) when the writer dies."""
 from __future__ import annotations
 
 import json
+import multiprocessing
 import os
 import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import can
 import pytest
@@ -343,4 +345,27 @@ def test_the_recorder_imports_where_os_has_no_register_at_fork(tmp_path: Path) -
         "w.close()\n"
     )
     subprocess.run([sys.executable, "-c", code, str(tmp_path / "a.mcap")], check=True)
+    assert read_canlog(tmp_path / "a.mcap").frames is not None
+
+
+def _record_in_a_worker(path: str, pids: Any) -> None:
+    """A pool worker's task: one recording by a writer process; the writer's pid sent."""
+    assert remote.start_writer()
+    w = CanLogWriter(path, None, TimeBase(UTC0, 0.0), node="t", process=True)
+    assert isinstance(w._out, remote.RemoteOutput)
+    pids.send(w._out._proc.pid)
+    w.close()
+
+
+def test_a_pool_workers_idle_writer_is_waited_for_at_its_exit(tmp_path: Path) -> None:
+    """A multiprocessing worker ends with ``os._exit`` (no ``atexit``): its idle writer is
+    still ended and reaped by it (no zombie left to init)."""
+    ctx = multiprocessing.get_context("fork")
+    ours, theirs = ctx.Pipe()
+    worker = ctx.Process(target=_record_in_a_worker, args=(str(tmp_path / "a.mcap"), theirs))
+    worker.start()
+    pid = ours.recv()
+    worker.join(30)
+    assert worker.exitcode == 0
+    assert not Path(f"/proc/{pid}").exists()  # reaped by the worker before it exited
     assert read_canlog(tmp_path / "a.mcap").frames is not None
