@@ -231,8 +231,9 @@ if hasattr(os, "register_at_fork"):  # POSIX only; elsewhere no writer process i
 
 
 class NotSendable(ValueError):
-    """What a recording opens with cannot be pickled (a database object of its own): the
-    recording stays on the node's thread."""
+    """What a recording opens with cannot be pickled (a database object of its own), or the
+    writer process ended before the recording's first message: the recording stays on the
+    node's thread."""
 
 
 class RemoteOutput:
@@ -241,7 +242,8 @@ class RemoteOutput:
 
     Raises:
         CanLogError: ``path`` cannot be created (checked here).
-        NotSendable: the database, time base or attachments cannot be pickled.
+        NotSendable: the database, time base or attachments cannot be pickled, or the writer
+            process is gone (a broken pipe at the first message; it is reaped).
     """
 
     def __init__(
@@ -274,7 +276,11 @@ class RemoteOutput:
             with _lock:
                 _idle.append(proc)  # nothing sent: back to the pool
             raise NotSendable(f"{path}: the network cannot go to a writer process: {exc}") from exc
-        self.end_chunk()
+        try:
+            self.end_chunk()
+        except OSError as exc:  # the writer died since it said READY: reaped, not pooled
+            _end(proc)
+            raise NotSendable(f"{path}: the writer process ended before the recording") from exc
 
     def _send(self, name: str, *args: Any) -> None:
         self._backlog += frame_message((name, args))

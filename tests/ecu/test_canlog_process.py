@@ -369,3 +369,28 @@ def test_a_pool_workers_idle_writer_is_waited_for_at_its_exit(tmp_path: Path) ->
     assert worker.exitcode == 0
     assert not Path(f"/proc/{pid}").exists()  # reaped by the worker before it exited
     assert read_canlog(tmp_path / "a.mcap").frames is not None
+
+
+def test_start_up_errors_put_the_recording_on_the_thread(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A writer that cannot be spawned (no such interpreter), or that died between READY
+    and the recording's first message: the recording is written on the node's thread,
+    no exception out of opening it, the dead writer reaped."""
+    assert remote.start_writer()
+    proc = remote.ready_writer()
+    assert proc is not None
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait(10)
+    with pytest.raises(remote.NotSendable, match="ended"):
+        remote.RemoteOutput(proc, tmp_path / "a.mcap", None, TimeBase(UTC0, 0.0), "t")
+    assert proc.stdin is not None and proc.stdin.closed
+    assert proc not in remote._idle
+    remote._end_idle()
+    monkeypatch.setenv(PROCESS_ENV, "1")
+    monkeypatch.setattr(sys, "executable", str(tmp_path / "no-such-python"))
+    w = recording.open_recording(tmp_path / "b.mcap", load_codec(), TimeBase(UTC0, 0.0), node="t")
+    assert not isinstance(w._out, remote.RemoteOutput)
+    w.frame(0.0, _frame(0), True)
+    w.close()
+    assert len(read_canlog(tmp_path / "b.mcap").frames) == 1
