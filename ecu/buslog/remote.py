@@ -213,7 +213,8 @@ def _end_idle() -> None:
 def _forget_idle() -> None:
     """In a process forked off this one: the idle writers are the parent's (their pipes,
     flushed, are closed here; the parent keeps its own)."""
-    global _asked, _finalizer  # noqa: PLW0603 - a new process
+    global _asked, _finalizer, _lock  # noqa: PLW0603 - a new process
+    _lock = threading.Lock()  # held by another thread of the parent's at the fork: not ours
     _asked = 0
     _finalizer = False  # a multiprocessing child starts with no finalizers
     for proc in _idle:

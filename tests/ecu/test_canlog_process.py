@@ -394,3 +394,24 @@ def test_start_up_errors_put_the_recording_on_the_thread(
     w.frame(0.0, _frame(0), True)
     w.close()
     assert len(read_canlog(tmp_path / "b.mcap").frames) == 1
+
+
+def _start_a_writer(ok: Any) -> None:
+    ok.send(remote.start_writer())
+
+
+def test_a_fork_while_the_pool_is_locked_does_not_deadlock_the_child() -> None:
+    """Forked while another thread holds the pool's lock (spawning a writer): the child
+    has a lock of its own and starts its writer."""
+    ctx = multiprocessing.get_context("fork")
+    ours, theirs = ctx.Pipe()
+    with remote._lock:
+        child = ctx.Process(target=_start_a_writer, args=(theirs,))
+        child.start()
+    if not ours.poll(10):
+        child.kill()
+        child.join(10)
+        pytest.fail("the child deadlocked on the parent's lock")
+    assert ours.recv() is True
+    child.join(20)
+    assert child.exitcode == 0
