@@ -45,13 +45,19 @@ from ecu.buslog.format import CanLogError, TimeBase
 from ecu.buslog.serve import READY, frame_message
 from ecu.buslog.sinks import McapSink
 
-__all__ = ["NotSendable", "RemoteOutput", "ready_writer", "start_writer"]
+__all__ = ["NotSendable", "RemoteOutput", "WriterStuck", "ready_writer", "start_writer"]
 
 log = logging.getLogger(__name__)
 
 #: the writer's pipe, bytes (Linux's default cap for an unprivileged process): a cold
 #: writer (importing numpy) lets the node write this much before it waits
 PIPE_BYTES = 1 << 20
+#: the most the node keeps for a writer that does not read (stopped, on a hung disk), bytes:
+#: beyond it the recording stops (:class:`WriterStuck`, reported at close)
+MAX_BACKLOG_BYTES = 256 << 20
+#: closing a recording waits this long for a writer that takes nothing more and does not
+#: answer, s (then it is killed, and the close raises)
+CLOSE_TIMEOUT_S = 30.0
 #: what the writer answers at the end of a recording: None, or the failure's text
 _Reply = str | None
 
@@ -237,6 +243,11 @@ class NotSendable(ValueError):
     node's thread."""
 
 
+class WriterStuck(OSError):
+    """The writer process took nothing while :data:`MAX_BACKLOG_BYTES` piled up for it:
+    the recording stops (a failed write, reported at close)."""
+
+
 class RemoteOutput:
     """:class:`~ecu.buslog.output.LogOutput`'s calls for the file ``path``, run in the
     writer process ``proc`` (:func:`ready_writer`; module docstring).
@@ -271,6 +282,8 @@ class RemoteOutput:
         os.set_blocking(self._fd, False)
         #: sent and not yet in the pipe (the writer is behind: starting, or no core free)
         self._backlog = bytearray()
+        #: the backlog passed :data:`MAX_BACKLOG_BYTES` (the writer is killed at the end)
+        self._stuck = False
         try:
             self._send("open", path, db, time_base, node, attachments, metadata)
         except (pickle.PicklingError, TypeError, AttributeError) as exc:
@@ -301,12 +314,24 @@ class RemoteOutput:
             del backlog[:n]
 
     def _push_all(self) -> None:
-        """Put the whole backlog into the pipe, waiting for the writer where it must."""
-        os.set_blocking(self._fd, True)
-        try:
+        """Put the whole backlog into the pipe, waiting for the writer where it must.
+
+        Raises:
+            TimeoutError: the writer took nothing for :data:`CLOSE_TIMEOUT_S`.
+            OSError: the writer process is gone.
+        """
+        deadline = time.monotonic() + CLOSE_TIMEOUT_S
+        while True:
+            left = len(self._backlog)
             self._push()
-        finally:
-            os.set_blocking(self._fd, False)
+            if not self._backlog:
+                return
+            if len(self._backlog) < left:
+                deadline = time.monotonic() + CLOSE_TIMEOUT_S
+            wait_s = deadline - time.monotonic()
+            if wait_s <= 0:
+                raise TimeoutError
+            select.select([], [self._fd], [], min(wait_s, 1.0))
 
     def attach(self, name: str, data: bytes, media_type: str) -> None:
         self._send("attach", name, data, media_type)
@@ -332,6 +357,12 @@ class RemoteOutput:
         then the chunk's end."""
         self._send("flush", t_s, frames, rows)
         self._push()
+        if len(self._backlog) > MAX_BACKLOG_BYTES:
+            self._stuck = True
+            raise WriterStuck(
+                f"the writer process (pid {self._proc.pid}) is behind by "
+                f"{len(self._backlog) / (1 << 20):.1f} MiB (stopped, or on a hung disk?)"
+            )
 
     def end_chunk(self) -> None:
         """End the chunk in the writer, and hand it what was sent so far."""
@@ -360,10 +391,21 @@ class RemoteOutput:
     def _end(self, name: str, *args: Any) -> None:
         proc = self._proc
         try:
+            if self._stuck:
+                raise TimeoutError
             self._send(name, *args)
             self._push_all()
             assert proc.stdout is not None
+            if not select.select([proc.stdout], [], [], CLOSE_TIMEOUT_S)[0]:
+                raise TimeoutError
             reply: _Reply = pickle.load(proc.stdout)
+        except TimeoutError:
+            _end(proc, kill=True)
+            raise CanLogError(
+                f"{self.path}: the writer process (pid {proc.pid}) did not finish the recording "
+                f"(no progress for {CLOSE_TIMEOUT_S:g} s): killed; what it wrote is in "
+                f"{self.path}.part"
+            ) from None
         except (OSError, EOFError, pickle.UnpicklingError) as exc:
             _end(proc)
             raise CanLogError(

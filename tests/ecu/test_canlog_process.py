@@ -415,3 +415,56 @@ def test_a_fork_while_the_pool_is_locked_does_not_deadlock_the_child() -> None:
     assert ours.recv() is True
     child.join(20)
     assert child.exitcode == 0
+
+
+def test_a_stopped_writer_bounds_the_backlog_and_the_close(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The writer alive but taking nothing (SIGSTOP, as on a hung disk): past the backlog's
+    cap the recording stops; the close does not hang: the writer is killed and reaped,
+    CanLogError names it, and what it wrote before stays readable in ``.part``."""
+    monkeypatch.setattr(remote, "MAX_BACKLOG_BYTES", 1 << 16)
+    monkeypatch.setattr(remote, "CLOSE_TIMEOUT_S", 1.0)
+    path = tmp_path / "stuck.mcap"
+    assert remote.start_writer()
+    w = CanLogWriter(path, None, TimeBase(UTC0, 0.0), node="t", process=True, flush_s=0.01)
+    out = w._out
+    assert isinstance(out, remote.RemoteOutput)
+    proc = out._proc
+    for i in range(50):
+        w.frame(i * 0.001, _frame(i), True)
+        w.tick(i * 0.001)
+    deadline = time.monotonic() + 20
+    while _frames_in(Path(f"{path}.part")) < 40 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    os.kill(proc.pid, signal.SIGSTOP)
+    i = 50
+    while w.error is None and i < 1_000_000:
+        w.frame(i * 0.001, _frame(i), True)
+        w.tick(i * 0.001)
+        i += 1
+    assert w.error is not None and "behind by" in w.error
+    t0 = time.monotonic()
+    with pytest.raises(CanLogError, match=f"pid {proc.pid}"):
+        w.close()
+    assert time.monotonic() - t0 < 5
+    assert proc.returncode == -signal.SIGKILL
+    assert _frames_in(Path(f"{path}.part")) >= 40
+
+
+def test_a_writer_that_never_answers_the_close_is_killed(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(remote, "CLOSE_TIMEOUT_S", 1.0)
+    assert remote.start_writer()
+    w = CanLogWriter(tmp_path / "a.mcap", None, TimeBase(UTC0, 0.0), node="t", process=True)
+    out = w._out
+    assert isinstance(out, remote.RemoteOutput)
+    w.frame(0.0, _frame(0), True)
+    os.kill(out._proc.pid, signal.SIGSTOP)
+    t0 = time.monotonic()
+    with pytest.raises(CanLogError, match=f"writer process \\(pid {out._proc.pid}\\)"):
+        w.close()
+    assert time.monotonic() - t0 < 5
+    assert out._proc.returncode == -signal.SIGKILL
+    assert out._proc not in remote._idle
