@@ -468,3 +468,51 @@ def test_a_writer_that_never_answers_the_close_is_killed(
     assert time.monotonic() - t0 < 5
     assert out._proc.returncode == -signal.SIGKILL
     assert out._proc not in remote._idle
+
+
+_FULL_DISK = r"""
+import resource, sys
+import can
+import numpy as np
+from ecu.buslog import remote
+from ecu.buslog.format import CanLogError, TimeBase
+from ecu.buslog.writer import CanLogWriter
+
+path, process = sys.argv[1], sys.argv[2] == "1"
+resource.setrlimit(resource.RLIMIT_FSIZE, (40_000, 40_000))  # a full disk at 40 kB
+assert not process or remote.start_writer()  # the writer inherits the limit
+w = CanLogWriter(path, None, TimeBase(0, 0.0), node="t", process=process, flush_s=0.1)
+w.series("/sim/world", ("v",))
+for i in range(20_000):
+    msg = can.Message(arbitration_id=0x123, data=i.to_bytes(4, "little") + bytes(4))
+    w.frame(i * 0.001, msg, True)
+    w.tick(i * 0.001)
+w.event(20.0, "end")
+w.write_series("/sim/world", {"v": np.zeros(10_000)}, np.arange(10_000) * 0.05)
+try:
+    w.close()
+except CanLogError as exc:
+    print(exc)
+"""
+
+
+@pytest.mark.slow
+def test_a_full_disk_gives_the_same_first_error_on_both_paths(tmp_path: Path) -> None:
+    """A write that fails (a file-size limit): what is fed after it (the world's series,
+    an event) is not written, and closing reports the first failure, the same text on the
+    node's thread and with a writer process."""
+    said = {}
+    for process in ("0", "1"):
+        path = tmp_path / "full.mcap"
+        run = subprocess.run(
+            [sys.executable, "-c", _FULL_DISK, str(path), process],
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        said[process] = run.stdout.strip()
+        assert Path(f"{path}.part").exists()
+        Path(f"{path}.part").unlink()
+    assert "recording stopped at t = " in said["0"]
+    assert "File too large" in said["0"]
+    assert said["0"] == said["1"]
