@@ -1,27 +1,41 @@
 """The recorder's writer process: a recording's rows, compression and file off the node's thread.
 
-A file-only recording (:func:`ecu.buslog.recording.open_recording` without a live view) keeps
-on the node's thread only what it must: the frames as tapped, each cycle packed, and at each
-flush the frames' columns read (:func:`ecu.buslog.decoded.frame_columns`). Everything else —
-the ``/can/raw`` block, decoding every DBC message, the protobuf rows, zstd, the chunk CRC and
-the writes — runs in a writer process (:mod:`ecu.buslog.serve`): :class:`RemoteOutput` sends
-it the calls of :class:`~ecu.buslog.output.LogOutput` (pickled, over its stdin), and it runs
-them on a real :class:`~ecu.buslog.output.LogOutput`: the same code on the same arguments,
+Opt-in (``PACC_RECORDER_PROCESS``, :data:`ecu.buslog.recording.PROCESS_ENV`): by default every
+recording is written on the node's thread. With ``1`` or ``auto``, a file-only recording
+(:func:`ecu.buslog.recording.open_recording` without a live view) that gets a writer ready
+for it keeps on the node's thread only what it must: the frames as tapped, each cycle packed,
+and at each flush the frames' columns read (:func:`ecu.buslog.decoded.frame_columns`).
+Everything else — the ``/can/raw`` block, decoding every DBC message, the protobuf rows, zstd,
+the chunk CRC and the writes — runs in a writer process (:mod:`ecu.buslog.serve`):
+:class:`RemoteOutput` sends it the calls of :class:`~ecu.buslog.output.LogOutput` (pickled,
+over its stdin), and it runs them on a real :class:`~ecu.buslog.output.LogOutput`: the same
+code (the node's own ``ecu`` package, whatever the current directory) on the same arguments,
 so the file is the same byte for byte as one written on the node's thread.
 
+- **Starting**: with ``1`` the first recording starts a writer and waits for it
+  (:func:`start_writer`, about 0.2 s, at most :data:`START_TIMEOUT_S`); with ``auto`` a
+  recording takes only a writer that is ready (:func:`ready_writer`) and the process's second
+  recording starts one for the next. A writer that cannot be spawned, exits at start or stays
+  silent puts the recording on the node's thread, and every later one of the process (one
+  warning); so does a writer found dead when the recording opens.
 - **One process serves a recording at a time** and is kept for the next one (the import of
   numpy, cantools and zstd is paid once per node process, not per recording); a process
-  recording several at once starts more. Idle ones end when the node's process exits (their
-  stdin closes) and are waited for (no zombies); a process forked off the node's (a study's
-  worker) does not inherit them.
+  recording several at once uses the thread for those beyond the writers that are ready. Idle
+  ones end when the node's process exits (their stdin closes) and are waited for, also in a
+  multiprocessing pool's worker (:class:`multiprocessing.util.Finalize`); a process forked off
+  the node's (a study's worker) does not inherit them.
 - **Crash safety**: each flush reaches the pipe at once. Killed, the node's process closes the
   pipe; the writer writes everything it got (more than the node's thread would have: the
   decoded rows since the last 10 s too) and leaves ``FILE.part``, as the node's thread does.
-  The writer runs in its own session, so a Ctrl-C on the terminal does not stop it.
+  The writer runs in its own session and ignores SIGINT, SIGTERM and SIGHUP (a Ctrl-C, a
+  service's stop signalling every process of it): it ends when its node closes the pipe.
 - **Errors**: a failed write (a full disk) stops the writing, and :meth:`RemoteOutput.finish`
   raises it as :class:`~ecu.buslog.format.CanLogError`; a writer process that died does
   the same, with its exit code, and is reaped. Nothing is raised on the node's thread before
-  (a pipe that broke stops the recording, reported at close, like any failed write).
+  (a pipe that broke stops the recording, reported at close, like any failed write). A writer
+  alive but stuck (stopped, on a hung disk) is bounded: past :data:`MAX_BACKLOG_BYTES` unsent
+  the recording stops, and the close kills a writer that makes no progress for
+  :data:`CLOSE_TIMEOUT_S` (CanLogError naming it; ``FILE.part`` kept).
 """
 
 from __future__ import annotations
@@ -108,8 +122,9 @@ def _spawn() -> subprocess.Popen[bytes]:
 def ready_writer() -> subprocess.Popen[bytes] | None:
     """An idle writer process that has started (taken out of the pool), or None: then this
     recording is written on the node's thread (a writer still importing would make the node
-    wait for it), and from a process's second recording on one is started for the next
-    (a process that records once, ``pacc ecu``, ``pacc drive``, starts none)."""
+    wait for it). Where none is idle, from a process's second call on, one is started for the
+    next recording (with ``auto`` a process that records once starts none; with ``1``
+    :func:`start_writer` has started one before this call)."""
     global _asked  # noqa: PLW0603 - the process's count, as the pool is the process's
     if os.name != "posix":  # non-blocking pipes, select on a pipe
         return None

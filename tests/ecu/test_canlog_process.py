@@ -516,3 +516,16 @@ def test_a_full_disk_gives_the_same_first_error_on_both_paths(tmp_path: Path) ->
     assert "recording stopped at t = " in said["0"]
     assert "File too large" in said["0"]
     assert said["0"] == said["1"]
+
+
+def test_an_unknown_setting_warns_once_and_uses_the_thread(
+    monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    monkeypatch.setattr(recording, "_warned", False)
+    monkeypatch.setenv(PROCESS_ENV, "yes")
+    assert not recording.use_writer()
+    assert not recording.use_writer()
+    warned = [r.getMessage() for r in caplog.records if PROCESS_ENV in r.getMessage()]
+    assert warned == [f"{PROCESS_ENV}='yes' is not 0, 1 or auto: recording on the node's thread"]
+    monkeypatch.setenv(PROCESS_ENV, "")
+    assert not recording.use_writer()
