@@ -258,6 +258,14 @@ class NotSendable(ValueError):
     node's thread."""
 
 
+def _cwd() -> str | None:
+    """The current directory (None: it was removed)."""
+    try:
+        return str(Path.cwd())
+    except OSError:
+        return None
+
+
 class WriterStuck(OSError):
     """The writer process took nothing while :data:`MAX_BACKLOG_BYTES` piled up for it:
     the recording stops (a failed write, reported at close)."""
@@ -300,7 +308,9 @@ class RemoteOutput:
         #: the backlog passed :data:`MAX_BACKLOG_BYTES` (the writer is killed at the end)
         self._stuck = False
         try:
-            self._send("open", path, db, time_base, node, attachments, metadata)
+            # the node's current directory: a relative path means the same file (a pooled
+            # writer outlives any later chdir of the node), and the same error texts
+            self._send("open", path, db, time_base, node, attachments, metadata, _cwd())
         except (pickle.PicklingError, TypeError, AttributeError) as exc:
             with _lock:
                 _idle.append(proc)  # nothing sent: back to the pool

@@ -2,7 +2,8 @@
 
 ``python -m ecu.buslog.serve`` (started by :mod:`ecu.buslog.remote`, never by hand) says
 :data:`READY` on its stdout once imported, then serves recordings one after the other: each
-an ``open`` message (the file, the network, the time base, attachments, metadata), the
+an ``open`` message (the file, the network, the time base, attachments, metadata, the
+node's current directory), the
 :class:`~ecu.buslog.output.LogOutput` calls of the recording (a flush: its frames' columns,
 the rows due, the chunk's end), and ``finish`` or ``abandon``, answered on stdout with None
 or the failure's text. Messages are pickles, each after its length (8 bytes, little-endian).
@@ -79,11 +80,13 @@ class _Reader:
 def _serve_one(inp: _Reader, out: IO[bytes], head: tuple[str, tuple[Any, ...]]) -> bool:
     """One recording, from its ``open`` call to ``finish``/``abandon`` (answered on ``out``);
     False when the node's process went away first (its ``.part`` kept)."""
-    path, db, time_base, node, attachments, metadata = head[1]
+    path, db, time_base, node, attachments, metadata, cwd = head[1]
     error: str | None = None
     output: LogOutput | None = None
     t_s = math.nan  # the node's clock at the latest flush
     try:
+        if cwd is not None:
+            os.chdir(cwd)  # the node's: a relative path is the node's file
         output = LogOutput([McapSink(path)], db, time_base, node, attachments, metadata)
     except Exception as exc:  # noqa: BLE001 - reported at the end of the recording
         error = f"{path}: {type(exc).__name__}: {exc}"

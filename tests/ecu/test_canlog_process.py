@@ -529,3 +529,19 @@ def test_an_unknown_setting_warns_once_and_uses_the_thread(
     assert warned == [f"{PROCESS_ENV}='yes' is not 0, 1 or auto: recording on the node's thread"]
     monkeypatch.setenv(PROCESS_ENV, "")
     assert not recording.use_writer()
+
+
+def test_a_relative_path_is_the_nodes_after_it_changed_directory(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A pooled writer started in one directory, the node then in another: a relative
+    path is written where the node means it."""
+    (tmp_path / "later").mkdir()
+    monkeypatch.chdir(tmp_path)
+    assert remote.start_writer()
+    monkeypatch.chdir(tmp_path / "later")
+    w = CanLogWriter("rel.mcap", None, TimeBase(UTC0, 0.0), node="t", process=True)
+    assert isinstance(w._out, remote.RemoteOutput)
+    w.frame(0.0, _frame(0), True)
+    w.close()
+    assert len(read_canlog(tmp_path / "later" / "rel.mcap").frames) == 1
