@@ -545,3 +545,23 @@ def test_a_relative_path_is_the_nodes_after_it_changed_directory(
     w.frame(0.0, _frame(0), True)
     w.close()
     assert len(read_canlog(tmp_path / "later" / "rel.mcap").frames) == 1
+
+
+def test_a_silent_writer_is_given_up_after_the_timeout(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A writer that never says READY (stuck at start): start_writer gives up after its
+    timeout, kills and reaps it, and later recordings do not wait again."""
+    silent = tmp_path / "silent"
+    silent.write_text("#!/bin/sh\nexec sleep 60\n")
+    silent.chmod(0o755)
+    remote._end_idle()
+    monkeypatch.setattr(remote, "START_TIMEOUT_S", 0.5)
+    monkeypatch.setattr(sys, "executable", str(silent))
+    t0 = time.monotonic()
+    assert not remote.start_writer()
+    assert time.monotonic() - t0 < 2.0
+    assert not remote._idle
+    t0 = time.monotonic()
+    assert not remote.start_writer()
+    assert time.monotonic() - t0 < 0.1
