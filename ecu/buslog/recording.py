@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import logging
 import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -45,16 +46,30 @@ CONFIG_ATTACHMENT = "ecu_config.json"
 TABLE_ATTACHMENT = "dgpt_start.json"
 #: ``PACC_RECORDER_PROCESS``: unset or ``0``, a recording is written on the node's thread;
 #: ``1``, a file-only recording is written by a writer process (:mod:`ecu.buslog.remote`,
-#: started and waited for at the first recording); ``auto``, by a writer that is ready while a
-#: core is free (:func:`use_writer`). The same file either way.
+#: started and waited for at the first recording; where none starts, the node's thread);
+#: ``auto``, by a writer that is ready while a core is free (:func:`use_writer`). The same
+#: file either way.
 PROCESS_ENV = "PACC_RECORDER_PROCESS"
+
+log = logging.getLogger(__name__)
+#: an unknown :data:`PROCESS_ENV` value was warned about in this process
+_warned = False
 
 
 def use_writer() -> bool:
     """Whether a file-only recording goes to a writer process (:data:`PROCESS_ENV`); with
     ``auto``, while the machine has a core free: the 1-min load average below the cores less a
-    half (a writer on a busy machine takes more CPU than it saves the node's thread)."""
+    half (a writer on a busy machine takes more CPU than it saves the node's thread). Any
+    other value than unset, ``0``, ``1`` or ``auto``: the node's thread, and one warning."""
+    global _warned  # noqa: PLW0603 - once per process
     mode = os.environ.get(PROCESS_ENV, "0")
+    if mode not in ("", "0", "1", "auto"):
+        if not _warned:
+            _warned = True
+            log.warning(
+                "%s=%r is not 0, 1 or auto: recording on the node's thread", PROCESS_ENV, mode
+            )
+        return False
     if mode != "auto":
         return mode == "1"
     try:
@@ -148,9 +163,10 @@ def open_recording(
 
 def _writer_wanted(file_only: bool) -> bool:
     """:func:`use_writer` for a file-only recording; with ``1`` a writer is started now and
-    waited for where none is ready (about 0.2 s, once per process)."""
+    waited for where none is ready (about 0.2 s, once per process; where none starts, the
+    node's thread, at once for the process's later recordings)."""
     if not file_only or not use_writer():
         return False
     if os.environ.get(PROCESS_ENV) == "1":
-        start_writer()
+        return start_writer()
     return True

@@ -2,13 +2,15 @@
 
 ``python -m ecu.buslog.serve`` (started by :mod:`ecu.buslog.remote`, never by hand) says
 :data:`READY` on its stdout once imported, then serves recordings one after the other: each
-an ``open`` message (the file, the network, the time base, attachments, metadata), the
+an ``open`` message (the file, the network, the time base, attachments, metadata, the
+node's current directory), the
 :class:`~ecu.buslog.output.LogOutput` calls of the recording (a flush: its frames' columns,
 the rows due, the chunk's end), and ``finish`` or ``abandon``, answered on stdout with None
 or the failure's text. Messages are pickles, each after its length (8 bytes, little-endian).
 
 Its stdin closed (the node's process ended or was killed) it writes what it got, keeps
-``FILE.part`` and exits.
+``FILE.part`` and exits. It ignores SIGINT, SIGTERM and SIGHUP (a Ctrl-C, a service's stop
+sent to every process of the service): it ends when its node closes the pipe.
 """
 
 from __future__ import annotations
@@ -78,11 +80,13 @@ class _Reader:
 def _serve_one(inp: _Reader, out: IO[bytes], head: tuple[str, tuple[Any, ...]]) -> bool:
     """One recording, from its ``open`` call to ``finish``/``abandon`` (answered on ``out``);
     False when the node's process went away first (its ``.part`` kept)."""
-    path, db, time_base, node, attachments, metadata = head[1]
+    path, db, time_base, node, attachments, metadata, cwd = head[1]
     error: str | None = None
     output: LogOutput | None = None
     t_s = math.nan  # the node's clock at the latest flush
     try:
+        if cwd is not None:
+            os.chdir(cwd)  # the node's: a relative path is the node's file
         output = LogOutput([McapSink(path)], db, time_base, node, attachments, metadata)
     except Exception as exc:  # noqa: BLE001 - reported at the end of the recording
         error = f"{path}: {type(exc).__name__}: {exc}"
@@ -161,7 +165,11 @@ def serve(inp: int, out: IO[bytes]) -> None:
 
 
 if __name__ == "__main__":
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the node's process decides when to stop
+    # the node's process decides when to stop (its pipe closes): a Ctrl-C, or a service's
+    # stop (systemd's SIGTERM to every process of the unit), must not lose the recording
+    for sig in ("SIGINT", "SIGTERM", "SIGHUP"):
+        if hasattr(signal, sig):
+            signal.signal(getattr(signal, sig), signal.SIG_IGN)
     sys.stdout.buffer.write(READY)  # imported: ready for a recording
     sys.stdout.buffer.flush()
     serve(sys.stdin.fileno(), sys.stdout.buffer)

@@ -87,8 +87,10 @@ class CanLogWriter:
         sinks: more sinks besides the file (e.g. :class:`ecu.buslog.live.FoxgloveSink`).
         process: write the file in a writer process (:mod:`ecu.buslog.remote`: the same
             file, the node's thread keeps only the taps and the frames' columns) when one
-            is ready (else on this thread, and one is started for the next recording);
-            only for a file without ``sinks``.
+            is ready (:func:`~ecu.buslog.remote.ready_writer`; else on this thread, and from a
+            process's second recording on one is started for the next); only for a file
+            without ``sinks``. This never waits: :func:`~ecu.buslog.recording.open_recording`
+            with ``PACC_RECORDER_PROCESS=1`` starts a writer and waits for it before.
 
     Raises:
         CanLogError: ``path`` cannot be created.
@@ -149,8 +151,10 @@ class CanLogWriter:
     # -- what a node feeds ---------------------------------------------------------------
 
     def attach(self, name: str, data: bytes, media_type: str = "text/plain") -> None:
-        """Store ``data`` as the attachment ``name`` (stamped with the origin's UTC)."""
-        self._out.attach(name, data, media_type)
+        """Store ``data`` as the attachment ``name`` (stamped with the origin's UTC); nothing
+        once the recording stopped."""
+        if self.error is None:
+            self._out.attach(name, data, media_type)
 
     def frame(self, t_s: float, msg: can.Message, rx: bool) -> None:
         """One frame received (``rx``) or sent at ``t_s`` on the node's clock. The frame is
@@ -191,8 +195,10 @@ class CanLogWriter:
             self._block_t0 = self._frames[0] if self._frames else t_s
 
     def event(self, t_s: float, text: str) -> None:
-        """One event text, as ``foxglove.Log`` (written at once: events are rare)."""
-        self._out.event(t_s, text)
+        """One event text, as ``foxglove.Log`` (written at once: events are rare); nothing
+        once the recording stopped."""
+        if self.error is None:
+            self._out.event(t_s, text)
 
     def cycle(self, t_s: float, inputs: NodeInputs, outputs: NodeOutputs, k: int = -1) -> None:
         """ECU control cycle ``k``: its inputs and outputs on ``/ecu/inputs`` and
@@ -246,9 +252,10 @@ class CanLogWriter:
                 self._fail(t_s, exc)
 
     def _fail(self, t_s: float, exc: Exception) -> None:
-        """Stop recording after a failed write; :meth:`close` reports it."""
-        self.error = f"recording stopped at t = {t_s:.3f} s: {type(exc).__name__}: {exc}"
-        log.error("%s: %s", self.path, self.error)
+        """Stop recording after a failed write; :meth:`close` reports it (the first one)."""
+        if self.error is None:
+            self.error = f"recording stopped at t = {t_s:.3f} s: {type(exc).__name__}: {exc}"
+            log.error("%s: %s", self.path, self.error)
         self._frames, self._cycles = [], []
         self._tap = lambda _: None  # a stopped recording takes no frames
         for values in self._samples.values():
@@ -302,10 +309,12 @@ class CanLogWriter:
         self, topic: str, columns: Mapping[str, Iterable[Any]], t_s: Iterable[float]
     ) -> None:
         """Write whole columns at once (e.g. the simulated world after a drive), one message
-        per row; ``topic`` must be declared with the columns' names."""
+        per row; ``topic`` must be declared with the columns' names. Nothing once the
+        recording stopped (:attr:`error`: the first failure is the one reported)."""
         if topic not in self._samples:
             raise KeyError(topic)
-        self._out.write_series(topic, columns, t_s)
+        if self.error is None:
+            self._out.write_series(topic, columns, t_s)
 
     # -- end -----------------------------------------------------------------------------
 
