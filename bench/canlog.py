@@ -37,7 +37,7 @@ from pathlib import Path
 import can
 
 from dbc.codec import load_codec
-from ecu.buslog import remote
+from ecu.buslog import writers
 from ecu.buslog.format import TimeBase
 from ecu.buslog.reader import messages, read_canlog
 from ecu.buslog.recording import PROCESS_ENV
@@ -69,7 +69,7 @@ def _writers_cpu_s() -> float:
     """CPU time (user + system) of this process's idle writer processes so far, s (Linux's
     /proc; 0 elsewhere)."""
     total = 0.0
-    for proc in remote._idle:
+    for proc in writers._idle:
         try:
             fields = Path(f"/proc/{proc.pid}/stat").read_text().rsplit(")", 1)[1].split()
         except OSError:

@@ -21,9 +21,9 @@ from dbc.codec import Codec
 from ecu.adaptation import AdaptationParams
 from ecu.buslog.format import FLUSH_S, ROWS_S, CanLogError, TimeBase
 from ecu.buslog.live import LIVE_FLUSH_S
-from ecu.buslog.remote import start_writer
 from ecu.buslog.sinks import Sink
 from ecu.buslog.writer import CanLogWriter
+from ecu.buslog.writers import start_writer
 from ecu.config import ConfigError, EcuConfig
 from ecu.controller import ControllerParams, RoadParams
 from pacc.vocab.dgpt import Dgpt, SafetyBounds

@@ -1,6 +1,6 @@
 """The recorder's writer process: runs the calls :mod:`ecu.buslog.remote` sends it.
 
-``python -m ecu.buslog.serve`` (started by :mod:`ecu.buslog.remote`, never by hand) says
+``python -m ecu.buslog.serve`` (started by :mod:`ecu.buslog.writers`, never by hand) says
 :data:`READY` on its stdout once imported, then serves recordings one after the other: each
 an ``open`` message (the file, the network, the time base, attachments, metadata, the
 node's current directory), the

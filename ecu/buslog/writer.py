@@ -56,8 +56,9 @@ from ecu.buslog.format import (
     TimeBase,
 )
 from ecu.buslog.output import LogOutput
-from ecu.buslog.remote import NotSendable, RemoteOutput, ready_writer
+from ecu.buslog.remote import NotSendable, RemoteOutput
 from ecu.buslog.sinks import McapSink, Sink
+from ecu.buslog.writers import ready_writer
 from ecu.signals import NodeInputs, NodeOutputs
 
 __all__ = ["CanLogWriter", "FrameTap"]

@@ -18,7 +18,7 @@ import can
 import pytest
 
 from dbc.codec import load_codec
-from ecu.buslog import recording, remote
+from ecu.buslog import recording, remote, writers
 from ecu.buslog.format import CanLogError, TimeBase
 from ecu.buslog.reader import read_canlog
 from ecu.buslog.recording import PROCESS_ENV
@@ -32,7 +32,7 @@ UTC0 = 1_700_000_000_000_000_000
 @pytest.fixture(autouse=True)
 def _no_failure_remembered(monkeypatch: pytest.MonkeyPatch) -> None:
     """Each test starts as a process where no writer failed to start."""
-    monkeypatch.setattr(remote, "_failed", None, raising=False)
+    monkeypatch.setattr(writers, "_failed", None, raising=False)
 
 
 def _drive(path: Path) -> None:
@@ -50,7 +50,7 @@ def test_the_writer_process_writes_the_threads_file_byte_for_byte(
     monkeypatch.setenv(PROCESS_ENV, "0")
     _drive(tmp_path / "thread.mcap")
     monkeypatch.setenv(PROCESS_ENV, "1")
-    assert remote.start_writer()
+    assert writers.start_writer()
     _drive(tmp_path / "process.mcap")
     _drive(tmp_path / "again.mcap")  # a second recording by the same (pooled) writer
     thread = (tmp_path / "thread.mcap").read_bytes()
@@ -67,7 +67,7 @@ def test_a_dead_writer_is_a_clean_error_at_close(tmp_path: Path) -> None:
     """The writer process killed mid-recording: the node's taps and ticks never raise,
     close raises CanLogError naming the writer, and the process is reaped (no zombie)."""
     path = tmp_path / "dead.mcap"
-    assert remote.start_writer()
+    assert writers.start_writer()
     w = CanLogWriter(path, load_codec().db, TimeBase(UTC0, 0.0), node="t", process=True)
     out = w._out
     assert isinstance(out, remote.RemoteOutput)
@@ -87,7 +87,7 @@ def test_a_dead_writer_is_a_clean_error_at_close(tmp_path: Path) -> None:
     with pytest.raises(CanLogError, match="writer process|recording stopped"):
         w.close()
     assert proc.returncode == -signal.SIGKILL
-    assert proc not in remote._idle
+    assert proc not in writers._idle
     assert _frames_in(part) >= 100  # what the writer wrote before it died stays readable
 
 
@@ -103,12 +103,12 @@ _KILLED = r"""
 import json, sys, time
 import can
 from dbc.codec import load_codec
-from ecu.buslog import remote
+from ecu.buslog import writers
 from ecu.buslog.format import TimeBase
 from ecu.buslog.writer import CanLogWriter
 
 path = sys.argv[1]
-assert remote.start_writer()
+assert writers.start_writer()
 w = CanLogWriter(path, load_codec().db, TimeBase(0, 0.0), node="kill", process=True, flush_s=0.1)
 print(json.dumps({"writer": w._out._proc.pid}), flush=True)
 i = 0
@@ -166,17 +166,17 @@ def test_a_recording_with_no_writer_ready_is_written_on_the_thread(
     """No writer started yet: the recording does not wait for one (it is written on the
     node's thread); a process's first recording starts none (it may be its only one), its
     second starts one for the next."""
-    remote._end_idle()
-    monkeypatch.setattr(remote, "_asked", 0)
+    writers._end_idle()
+    monkeypatch.setattr(writers, "_asked", 0)
     w = CanLogWriter(tmp_path / "first.mcap", None, TimeBase(UTC0, 0.0), node="t", process=True)
     assert not isinstance(w._out, remote.RemoteOutput)
     w.close()
-    assert not remote._idle
+    assert not writers._idle
     w = CanLogWriter(tmp_path / "a.mcap", None, TimeBase(UTC0, 0.0), node="t", process=True)
     assert not isinstance(w._out, remote.RemoteOutput)
     w.close()
-    assert len(remote._idle) == 1  # starting
-    assert remote.start_writer()
+    assert len(writers._idle) == 1  # starting
+    assert writers.start_writer()
     w = CanLogWriter(tmp_path / "b.mcap", None, TimeBase(UTC0, 0.0), node="t", process=True)
     assert isinstance(w._out, remote.RemoteOutput)
     w.close()
@@ -195,8 +195,8 @@ class _OwnDatabase:
 def test_a_database_that_cannot_be_sent_keeps_the_recording_on_the_thread(
     tmp_path: Path,
 ) -> None:
-    assert remote.start_writer()
-    idle = len(remote._idle)
+    assert writers.start_writer()
+    idle = len(writers._idle)
     w = CanLogWriter(
         tmp_path / "own.mcap", _OwnDatabase(), TimeBase(UTC0, 0.0), node="t", process=True
     )
@@ -204,7 +204,7 @@ def test_a_database_that_cannot_be_sent_keeps_the_recording_on_the_thread(
     w.frame(0.0, _frame(0), True)
     w.close()
     assert len(read_canlog(tmp_path / "own.mcap").frames) == 1
-    assert len(remote._idle) == idle  # the writer went back to the pool
+    assert len(writers._idle) == idle  # the writer went back to the pool
 
 
 def test_a_writer_only_when_asked_or_auto_while_a_core_is_free(
@@ -232,8 +232,8 @@ def test_asked_for_a_writer_the_first_recording_starts_one_and_uses_it(
     """``PACC_RECORDER_PROCESS=1``: a process's first file recording (``pacc drive
     --can-log``) starts a writer, waits for it, and is written by it; a live view (sinks) or no
     file keeps the node's thread."""
-    remote._end_idle()
-    monkeypatch.setattr(remote, "_asked", 0)
+    writers._end_idle()
+    monkeypatch.setattr(writers, "_asked", 0)
     monkeypatch.setenv(PROCESS_ENV, "1")
     codec = load_codec()
     w = recording.open_recording(tmp_path / "first.mcap", codec, TimeBase(UTC0, 0.0), node="t")
@@ -252,7 +252,7 @@ def test_a_writer_that_dies_at_start_costs_no_wait(
 ) -> None:
     """A writer that exits at once (here ``/bin/false``): the recording goes to the node's
     thread at once, one warning, and the next recording does not try again."""
-    remote._end_idle()
+    writers._end_idle()
     monkeypatch.setenv(PROCESS_ENV, "1")
     monkeypatch.setattr(sys, "executable", "/bin/false")
     codec = load_codec()
@@ -264,7 +264,7 @@ def test_a_writer_that_dies_at_start_costs_no_wait(
     assert not isinstance(w._out, remote.RemoteOutput)
     w.close()
     assert time.monotonic() - t0 < 2.0
-    assert not remote._idle
+    assert not writers._idle
     warnings = [r for r in caplog.records if "writer process" in r.getMessage()]
     assert len(warnings) == 1
     assert "exit code 1" in warnings[0].getMessage()
@@ -275,14 +275,14 @@ def test_an_idle_writer_that_died_is_replaced_at_once(
 ) -> None:
     """The pool's idle writer killed (a stray kill): the next recording starts a new one
     without waiting for the dead one."""
-    assert remote.start_writer()
-    dead = remote._idle[0]
+    assert writers.start_writer()
+    dead = writers._idle[0]
     os.kill(dead.pid, signal.SIGKILL)
     dead.wait(10)
     monkeypatch.setenv(PROCESS_ENV, "1")
     t0 = time.monotonic()
     w = recording.open_recording(tmp_path / "a.mcap", load_codec(), TimeBase(UTC0, 0.0), node="t")
-    assert time.monotonic() - t0 < remote.START_TIMEOUT_S
+    assert time.monotonic() - t0 < writers.START_TIMEOUT_S
     assert isinstance(w._out, remote.RemoteOutput)
     assert w._out._proc is not dead
     w.close()
@@ -298,9 +298,9 @@ def test_the_writer_runs_the_nodes_code_not_the_current_directorys(
     (fake.parent / "__init__.py").write_text("raise SystemExit(3)\n")
     (fake / "__init__.py").write_text("")
     (fake / "serve.py").write_text("raise SystemExit(3)\n")
-    remote._end_idle()
+    writers._end_idle()
     monkeypatch.chdir(fake.parent.parent)
-    assert remote.start_writer()
+    assert writers.start_writer()
     w = CanLogWriter(tmp_path / "a.mcap", None, TimeBase(UTC0, 0.0), node="t", process=True)
     assert isinstance(w._out, remote.RemoteOutput)
     w.frame(0.0, _frame(0), True)
@@ -314,7 +314,7 @@ def test_a_service_stop_sigterm_to_the_writer_does_not_lose_the_recording(
     """SIGTERM to the writer mid-recording (systemd stops a service by signalling every
     process of it): the writer goes on, the node finishes the file."""
     path = tmp_path / "term.mcap"
-    assert remote.start_writer()
+    assert writers.start_writer()
     w = CanLogWriter(path, load_codec().db, TimeBase(UTC0, 0.0), node="t", process=True)
     out = w._out
     assert isinstance(out, remote.RemoteOutput)
@@ -350,7 +350,7 @@ def test_the_recorder_imports_where_os_has_no_register_at_fork(tmp_path: Path) -
 
 def _record_in_a_worker(path: str, pids: Any) -> None:
     """A pool worker's task: one recording by a writer process; the writer's pid sent."""
-    assert remote.start_writer()
+    assert writers.start_writer()
     w = CanLogWriter(path, None, TimeBase(UTC0, 0.0), node="t", process=True)
     assert isinstance(w._out, remote.RemoteOutput)
     pids.send(w._out._proc.pid)
@@ -377,16 +377,16 @@ def test_start_up_errors_put_the_recording_on_the_thread(
     """A writer that cannot be spawned (no such interpreter), or that died between READY
     and the recording's first message: the recording is written on the node's thread,
     no exception out of opening it, the dead writer reaped."""
-    assert remote.start_writer()
-    proc = remote.ready_writer()
+    assert writers.start_writer()
+    proc = writers.ready_writer()
     assert proc is not None
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait(10)
     with pytest.raises(remote.NotSendable, match="ended"):
         remote.RemoteOutput(proc, tmp_path / "a.mcap", None, TimeBase(UTC0, 0.0), "t")
     assert proc.stdin is not None and proc.stdin.closed
-    assert proc not in remote._idle
-    remote._end_idle()
+    assert proc not in writers._idle
+    writers._end_idle()
     monkeypatch.setenv(PROCESS_ENV, "1")
     monkeypatch.setattr(sys, "executable", str(tmp_path / "no-such-python"))
     w = recording.open_recording(tmp_path / "b.mcap", load_codec(), TimeBase(UTC0, 0.0), node="t")
@@ -397,7 +397,7 @@ def test_start_up_errors_put_the_recording_on_the_thread(
 
 
 def _start_a_writer(ok: Any) -> None:
-    ok.send(remote.start_writer())
+    ok.send(writers.start_writer())
 
 
 def test_a_fork_while_the_pool_is_locked_does_not_deadlock_the_child() -> None:
@@ -405,7 +405,7 @@ def test_a_fork_while_the_pool_is_locked_does_not_deadlock_the_child() -> None:
     has a lock of its own and starts its writer."""
     ctx = multiprocessing.get_context("fork")
     ours, theirs = ctx.Pipe()
-    with remote._lock:
+    with writers._lock:
         child = ctx.Process(target=_start_a_writer, args=(theirs,))
         child.start()
     if not ours.poll(10):
@@ -426,7 +426,7 @@ def test_a_stopped_writer_bounds_the_backlog_and_the_close(
     monkeypatch.setattr(remote, "MAX_BACKLOG_BYTES", 1 << 16)
     monkeypatch.setattr(remote, "CLOSE_TIMEOUT_S", 1.0)
     path = tmp_path / "stuck.mcap"
-    assert remote.start_writer()
+    assert writers.start_writer()
     w = CanLogWriter(path, None, TimeBase(UTC0, 0.0), node="t", process=True, flush_s=0.01)
     out = w._out
     assert isinstance(out, remote.RemoteOutput)
@@ -456,7 +456,7 @@ def test_a_writer_that_never_answers_the_close_is_killed(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setattr(remote, "CLOSE_TIMEOUT_S", 1.0)
-    assert remote.start_writer()
+    assert writers.start_writer()
     w = CanLogWriter(tmp_path / "a.mcap", None, TimeBase(UTC0, 0.0), node="t", process=True)
     out = w._out
     assert isinstance(out, remote.RemoteOutput)
@@ -467,20 +467,20 @@ def test_a_writer_that_never_answers_the_close_is_killed(
         w.close()
     assert time.monotonic() - t0 < 5
     assert out._proc.returncode == -signal.SIGKILL
-    assert out._proc not in remote._idle
+    assert out._proc not in writers._idle
 
 
 _FULL_DISK = r"""
 import resource, sys
 import can
 import numpy as np
-from ecu.buslog import remote
+from ecu.buslog import writers
 from ecu.buslog.format import CanLogError, TimeBase
 from ecu.buslog.writer import CanLogWriter
 
 path, process = sys.argv[1], sys.argv[2] == "1"
 resource.setrlimit(resource.RLIMIT_FSIZE, (40_000, 40_000))  # a full disk at 40 kB
-assert not process or remote.start_writer()  # the writer inherits the limit
+assert not process or writers.start_writer()  # the writer inherits the limit
 w = CanLogWriter(path, None, TimeBase(0, 0.0), node="t", process=process, flush_s=0.1)
 w.series("/sim/world", ("v",))
 for i in range(20_000):
@@ -538,7 +538,7 @@ def test_a_relative_path_is_the_nodes_after_it_changed_directory(
     path is written where the node means it."""
     (tmp_path / "later").mkdir()
     monkeypatch.chdir(tmp_path)
-    assert remote.start_writer()
+    assert writers.start_writer()
     monkeypatch.chdir(tmp_path / "later")
     w = CanLogWriter("rel.mcap", None, TimeBase(UTC0, 0.0), node="t", process=True)
     assert isinstance(w._out, remote.RemoteOutput)
@@ -555,13 +555,13 @@ def test_a_silent_writer_is_given_up_after_the_timeout(
     silent = tmp_path / "silent"
     silent.write_text("#!/bin/sh\nexec sleep 60\n")
     silent.chmod(0o755)
-    remote._end_idle()
-    monkeypatch.setattr(remote, "START_TIMEOUT_S", 0.5)
+    writers._end_idle()
+    monkeypatch.setattr(writers, "START_TIMEOUT_S", 0.5)
     monkeypatch.setattr(sys, "executable", str(silent))
     t0 = time.monotonic()
-    assert not remote.start_writer()
+    assert not writers.start_writer()
     assert time.monotonic() - t0 < 2.0
-    assert not remote._idle
+    assert not writers._idle
     t0 = time.monotonic()
-    assert not remote.start_writer()
+    assert not writers.start_writer()
     assert time.monotonic() - t0 < 0.1
