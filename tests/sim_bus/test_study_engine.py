@@ -135,6 +135,13 @@ def test_a_worker_killed_mid_run_still_gives_every_row_once(
     assert len(pids) == 2 and engine.killed_pid not in pids
 
 
+def _sigint_default() -> None:
+    """In the child before exec: SIGINT handled by default and not blocked, whatever the
+    test process's own state (an ignored signal and the signal mask survive exec)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, [signal.SIGINT])
+
+
 def test_ctrl_c_keeps_the_finished_rows_in_plan_order(tmp_path: Path) -> None:
     out = tmp_path / "out"
     argv = ["--direct", "--drivers", "d1,d3", "--scenarios", "B"]
@@ -142,22 +149,28 @@ def test_ctrl_c_keeps_the_finished_rows_in_plan_order(tmp_path: Path) -> None:
     # drives of 15 s (0.05 s each) it once finished in between
     argv += ["--controllers", "predefined", "--trials", "10", "--duration", "60", "--seed", "5"]
     argv += ["--workers", "1", "--no-logs", "-q", "--out", str(out)]
+    # what this process lets its children inherit of SIGINT (an ignored or blocked SIGINT would
+    # be theirs too): said when the study was not interrupted
+    inherited = (signal.getsignal(signal.SIGINT), signal.pthread_sigmask(signal.SIG_BLOCK, []))
     proc = subprocess.Popen(
         [sys.executable, "-m", "pacc", "study", *argv],
         env={**os.environ, "PYTHONPATH": str(ROOT)},
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        preexec_fn=_sigint_default,  # noqa: PLW1509 - signal calls only
     )
     csv_path = out / "drives.csv"
-    deadline = time.monotonic() + 60.0
-    while time.monotonic() < deadline and proc.poll() is None:
-        if csv_path.is_file() and len(csv_path.read_text().splitlines()) >= 3:  # 2 rows
-            break
+    start = time.monotonic()
+    lines = 0
+    while time.monotonic() < start + 60.0 and proc.poll() is None:
+        if csv_path.is_file() and (lines := len(csv_path.read_text().splitlines())) >= 3:
+            break  # 2 rows
         time.sleep(0.02)
+    seen = f"{lines} lines after {time.monotonic() - start:.2f} s, exit {proc.poll()}"
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
-    assert proc.returncode == 130, err
+    assert proc.returncode == 130, f"{err!r}; at SIGINT: {seen}; inherited {inherited}"
     with csv_path.open(newline="") as fh:
         kept = list(csv.DictReader(fh))
     assert 2 <= len(kept) < 20
