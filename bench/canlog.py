@@ -46,23 +46,22 @@ from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.study.drive import DriveConfig, predefined_table, run_drive
 
 
-def _drive(sim_s: float, can_log: Path | None, process: bool = True) -> tuple[float, float, float]:
+def _drive(sim_s: float, can_log: Path | None, process: bool = True) -> tuple[float, float]:
     """One drive; its real-time factors over the whole ``run_drive`` call (the recorder's
     opening, its last blocks and the simulated world included, not only the loop): against
-    the wall clock, this process's CPU time and the calling thread's CPU time (the last two
-    less disturbed by the machine's other loads). ``process``: a file recording goes to a
-    writer process when one is ready (else on the drive's thread)."""
+    the wall clock and the calling thread's CPU time (less disturbed by the machine's other
+    loads). ``process``: a file recording goes to a writer process
+    (``PACC_RECORDER_PROCESS=1``), else on the drive's thread."""
     os.environ[PROCESS_ENV] = "1" if process else "0"
     driver = BUILTIN_DRIVERS["d2"]
     cfg = DriveConfig(
         scenario="B", driver_id="d2", controller="predefined+oa", seed=1, duration_s=sim_s
     )
     table = predefined_table(driver)
-    start, cpu, own = time.perf_counter(), time.process_time(), time.thread_time()
+    start, own = time.perf_counter(), time.thread_time()
     result = run_drive(cfg, driver, table, can_log=can_log)
-    wall_s, cpu_s = time.perf_counter() - start, time.process_time() - cpu
-    own_s = time.thread_time() - own
-    return result.sim_s / wall_s, result.sim_s / cpu_s, result.sim_s / own_s
+    wall_s, own_s = time.perf_counter() - start, time.thread_time() - own
+    return result.sim_s / wall_s, result.sim_s / own_s
 
 
 def _writers_cpu_s() -> float:
@@ -113,9 +112,9 @@ def main() -> None:
         mcap_s = min(_mcap(msgs, d / "x.mcap") for _ in range(args.repeats))
         blf_b = (d / "x.blf").stat().st_size / n
         mcap_b = (d / "x.mcap").stat().st_size / n
-        off: list[tuple[float, float, float]] = []
-        on: list[tuple[float, float, float]] = []
-        thread: list[tuple[float, float, float]] = []
+        off: list[tuple[float, float]] = []
+        on: list[tuple[float, float]] = []
+        thread: list[tuple[float, float]] = []
         writer_s = 0.0
         for _ in range(args.repeats):
             off.append(_drive(args.sim_s, None))
@@ -125,7 +124,7 @@ def main() -> None:
             thread.append(_drive(args.sim_s, d / "drive.mcap", process=False))
     rt_off, rt_thr, rt_on = (max(x[0] for x in runs) for runs in (off, thread, on))
     med_off, med_thr = (statistics.median(x[0] for x in runs) for runs in (off, thread))
-    own_off, own_thr, own_on = (max(x[2] for x in runs) for runs in (off, thread, on))
+    own_off, own_thr, own_on = (max(x[1] for x in runs) for runs in (off, thread, on))
     print(f"frames: {n} of a {args.sim_s:g}-s drive (scenario B, d2, predefined+oa)")
     print(f"python-can BLFWriter:           {n / blf_s:10,.0f} frames/s  {blf_b:6.2f} bytes/frame")
     print(

@@ -23,7 +23,8 @@ import can
 import numpy as np
 
 from dbc.codec import Codec, MessageCodec, load_codec
-from dbc.endpoint import Frame, Inbox, Outbox
+from dbc.endpoint import Inbox, Outbox
+from dbc.frame import Frame
 from dbc.lockstep import LockstepBus
 from dbc.schema import resting_values
 from pacc.vocab.acc_state import AccState

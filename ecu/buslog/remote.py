@@ -6,7 +6,8 @@ recording is written on the node's thread. With ``1`` or ``auto``, a file-only r
 for it keeps on the node's thread only what it must: the frames as tapped, each cycle packed,
 and at each flush the frames' columns read (:func:`ecu.buslog.decoded.frame_columns`).
 Everything else — the ``/can/raw`` block, decoding every DBC message, the protobuf rows, zstd,
-the chunk CRC and the writes — runs in a writer process (:mod:`ecu.buslog.serve`):
+the chunk CRC and the writes — runs in a writer process (:mod:`ecu.buslog.serve`, from the pool of
+:mod:`ecu.buslog.writers`):
 :class:`RemoteOutput` sends it the calls of :class:`~ecu.buslog.output.LogOutput` (pickled,
 over its stdin), and it runs them on a real :class:`~ecu.buslog.output.LogOutput`: the same
 code (the node's own ``ecu`` package, whatever the current directory) on the same arguments,
@@ -77,7 +78,7 @@ class WriterStuck(OSError):
 
 class RemoteOutput:
     """:class:`~ecu.buslog.output.LogOutput`'s calls for the file ``path``, run in the
-    writer process ``proc`` (:func:`ready_writer`; module docstring).
+    writer process ``proc`` (:func:`ecu.buslog.writers.ready_writer`; module docstring).
 
     Raises:
         CanLogError: ``path`` cannot be created (checked here).

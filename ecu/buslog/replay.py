@@ -27,7 +27,8 @@ import can
 
 from dbc import BINDING_PATH, DBC_PATH
 from dbc.codec import Codec, load_codec
-from dbc.endpoint import Frame, Inbox
+from dbc.endpoint import Inbox
+from dbc.frame import Frame
 from ecu.buslog.format import (
     FLAG_ERROR,
     FLAG_EXTENDED,

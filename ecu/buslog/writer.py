@@ -88,7 +88,7 @@ class CanLogWriter:
         sinks: more sinks besides the file (e.g. :class:`ecu.buslog.live.FoxgloveSink`).
         process: write the file in a writer process (:mod:`ecu.buslog.remote`: the same
             file, the node's thread keeps only the taps and the frames' columns) when one
-            is ready (:func:`~ecu.buslog.remote.ready_writer`; else on this thread, and from a
+            is ready (:func:`~ecu.buslog.writers.ready_writer`; else on this thread, and from a
             process's second recording on one is started for the next); only for a file
             without ``sinks``. This never waits: :func:`~ecu.buslog.recording.open_recording`
             with ``PACC_RECORDER_PROCESS=1`` starts a writer and waits for it before.
