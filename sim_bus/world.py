@@ -295,6 +295,12 @@ class World:
         self.radar_blank_until = self.t_s + ev.dropout_s
         self.events_log.append((self.t_s, ev.kind, gap))
 
+    def logged_since(self, start: int) -> list[tuple[float | bool | int, ...]]:
+        """The samples logged from the ``start``-th on (``t_s`` first, then the
+        :data:`WORLD_COLUMNS`), as they are kept: what a live view streams while the world
+        runs (:meth:`log` gives them all as arrays)."""
+        return self._log[start:]
+
     def log(self) -> WorldLog:
         """The samples logged so far."""
         # float64 columns: what writing each sample into a float array gives (bools 0/1)

@@ -131,6 +131,13 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
                 r"bus recording  drive\.mcap",
                 "10 s",
             ),
+            short(
+                "pacc drive ... --foxglove",
+                "pacc drive --duration 4 --foxglove 127.0.0.1:0 --pace 8",
+                r"foxglove: live view on ws://127\.0\.0\.1:\d+ .*\n"
+                r"drive: paced at 8x real time(.*\n)*  collisions     0",
+                "a free port, 4 s at 8x (default 1x); tests/sim_bus/test_live_drive.py connects",
+            ),
             run("pacc replay drive.mcap --ecu", r"ECU sent +\d+ frames"),
             run("pacc export drive.mcap drive.blf", r"\d+ frames: drive\.mcap -> drive\.blf"),
             run("pacc plot drive.mcap -o drive.png", r"plot: drive\.png"),
@@ -305,9 +312,10 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
             ),
             short(
                 "pacc drive --scenario B --driver d2 --foxglove",
-                "pacc drive --scenario B --driver d2 --foxglove 127.0.0.1:0 --duration 5",
+                "pacc drive --scenario B --driver d2 --foxglove 127.0.0.1:0 --duration 5 --pace 20",
                 r"foxglove: live view on ws://127\.0\.0\.1:\d+",
-                "a free port instead of 8765, 5 s; tests/ecu/test_live.py subscribes a client",
+                "a free port instead of 8765, 5 s at 20x (default 1x); tests/ecu/test_live.py "
+                "subscribes a client",
             ),
             short(
                 "pacc ecu -i socketcan -c vcan0 --can-log ecu.mcap --foxglove 127.0.0.1:9000",

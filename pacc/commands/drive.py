@@ -115,6 +115,13 @@ def _parser() -> argparse.ArgumentParser:
     )
     add_foxglove_argument(p)
     p.add_argument(
+        "--pace",
+        type=number(0.0, 1e6),
+        metavar="X",
+        help="run the drive at X times real time (0: as fast as it runs; default 1 with "
+        "--foxglove, so the live view shows it as it happens, else 0)",
+    )
+    p.add_argument(
         "--brake-mode",
         choices=("resume", "cancel"),
         default="resume",
@@ -280,6 +287,9 @@ def main(argv: list[str] | None = None) -> int:
         table = _table(args, base, driver)
         manual = None if args.manual_trips is None else _ManualTrips(args.manual_trips)
         live = live_sinks(args.foxglove, print)
+        pace = _pace(args)
+        if pace is not None:
+            print(f"drive: paced at {pace:g}x real time (--pace 0: as fast as it runs)")
         try:
             result = run_drive(
                 cfg,
@@ -290,6 +300,7 @@ def main(argv: list[str] | None = None) -> int:
                 live=live,
                 bus=args.bus,
                 manual_sink=manual,
+                pace=pace,
             )
         finally:
             for sink in live:
@@ -316,6 +327,13 @@ def main(argv: list[str] | None = None) -> int:
     return 1 if result.collision else 0
 
 
+def _pace(args: argparse.Namespace) -> float | None:
+    """The drive's pace (times real time; None: as fast as it runs) of ``--pace`` and
+    ``--foxglove``."""
+    pace = args.pace if args.pace is not None else 1.0 if args.foxglove is not None else 0.0
+    return pace if pace > 0 else None
+
+
 def _manual(args: argparse.Namespace) -> int:
     """``pacc drive --manual``: the driver follows the scenario by hand, written to --log."""
     from sim_bus.manual import manual_trip  # noqa: PLC0415
@@ -332,6 +350,7 @@ def _manual(args: argparse.Namespace) -> int:
             ("--gap-controller", bool(args.gap_controller)),
             ("--adaptation", bool(args.adaptation)),
             ("--foxglove", args.foxglove is not None),
+            ("--pace", args.pace is not None),
             ("--bus", args.bus != BUSES[0]),
         )
         if on

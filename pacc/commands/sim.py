@@ -47,7 +47,8 @@ from sim_bus.errors import SimError
 from sim_bus.faults import FaultSpec, fault_rng, parse_faults
 from sim_bus.node import SimNode
 from sim_bus.scenarios import LeadProfile, shorten
-from sim_bus.study.drive import record_world, resolve_profile, with_condition
+from sim_bus.study.drive import resolve_profile, with_condition
+from sim_bus.study.drive_recording import WorldFeed, record_world
 from sim_bus.trip import world_trip
 from sim_bus.world import World, WorldLog
 
@@ -127,12 +128,15 @@ def _state_name(code: int) -> str:
         return f"state {code}"
 
 
-def _run(node: SimNode, duration_s: float, quiet: bool) -> None:
-    """Run ``node`` in real time, a progress line every few seconds unless ``quiet``."""
+def _run(node: SimNode, duration_s: float, quiet: bool, feed: WorldFeed | None = None) -> None:
+    """Run ``node`` in real time, a progress line every few seconds unless ``quiet``;
+    ``feed``: the world streamed to a live view as it runs."""
     world = node.world
     last_print = [time.monotonic()]
 
     def progress() -> bool:
+        if feed is not None:
+            feed()
         now = time.monotonic()
         if not quiet and now - last_print[0] >= PROGRESS_EVERY_S:
             last_print[0] = now
@@ -149,10 +153,14 @@ def _run(node: SimNode, duration_s: float, quiet: bool) -> None:
         print("pacc sim: interrupted", file=sys.stderr)
 
 
-def _finish_recording(recorder: CanLogWriter, log: WorldLog, can_log: Path | None) -> int:
-    """Add the world to the recording and close it; the exit status (2: it failed)."""
+def _finish_recording(
+    recorder: CanLogWriter, log: WorldLog, can_log: Path | None, streamed: bool = False
+) -> int:
+    """Add the world to the recording (unless it was ``streamed`` live) and close it; the
+    exit status (2: it failed)."""
     try:
-        record_world(recorder, log)
+        if not streamed:
+            record_world(recorder, log)
         recorder.close()
     except (EcuError, FormatError, OSError) as exc:
         print(f"pacc sim: error: bus recording failed: {exc}", file=sys.stderr)
@@ -201,11 +209,13 @@ def main(argv: list[str] | None = None) -> int:
         where = f"--can-log {args.can_log}" if args.can_log is not None else "--foxglove"
         print(f"pacc sim: error: {where}: {text}", file=sys.stderr)
         return 2
+    feed: WorldFeed | None = None
     if recorder is not None:
         node.tap = recorder.frame_and_tick
+        feed = WorldFeed(recorder, world) if live else None
     start = time.monotonic()
     try:
-        _run(node, profile.duration_s, args.quiet)
+        _run(node, profile.duration_s, args.quiet, feed)
     finally:
         bus.shutdown()
     log = world.log()
@@ -222,7 +232,7 @@ def main(argv: list[str] | None = None) -> int:
         f"min TTC {m.min_ttc_s:.2f} s  RMS jerk {m.rms_jerk_mps3:.3f} m/s^3  presses "
         f"{m.press_onsets}  collisions {1 if collided else 0}"
     )
-    return _save(args, world, driver, node, base, recorder)
+    return _save(args, world, driver, node, base, recorder, feed is not None)
 
 
 def _save(
@@ -232,9 +242,10 @@ def _save(
     node: SimNode,
     base: TimeBase,
     recorder: CanLogWriter | None,
+    streamed: bool = False,
 ) -> int:
-    """Write ``--log`` and close ``--can-log``; the exit status (1 collision, 2 a failed
-    output)."""
+    """Write ``--log`` and close ``--can-log`` (``streamed``: its world was fed live); the
+    exit status (1 collision, 2 a failed output)."""
     log = world.log()
     collided = world.plant.collided
     status = 1 if collided else 0
@@ -252,7 +263,7 @@ def _save(
             print(f"pacc sim: error: cannot write {args.log}: {exc}", file=sys.stderr)
             status = 2
     if recorder is not None:
-        status = max(status, _finish_recording(recorder, log, args.can_log))
+        status = max(status, _finish_recording(recorder, log, args.can_log, streamed))
     return status
 
 

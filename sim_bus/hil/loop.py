@@ -43,14 +43,8 @@ from sim_bus.faults import fault_rng
 from sim_bus.hil.human import HumanPedals
 from sim_bus.node import SimNode
 from sim_bus.scenarios import LeadProfile
-from sim_bus.study.drive import (
-    SET_SPEED_MPS,
-    DriveConfig,
-    _drive_recorder,
-    _ecu_node,
-    _finish_recording,
-    drive_codec,
-)
+from sim_bus.study.drive import SET_SPEED_MPS, DriveConfig, _ecu_node, drive_codec
+from sim_bus.study.drive_recording import WorldFeed, drive_recorder, finish_recording
 from sim_bus.trip import world_trip
 from sim_bus.world import World, WorldConfig, WorldLog
 
@@ -113,6 +107,8 @@ class HilDrive:
         self.ecu: EcuNode | None = None
         self.rt: EcuRuntime | None = None
         self.recorder: CanLogWriter | None = None
+        #: the world streamed to a live view as it runs (None: written at the end)
+        self._feed: WorldFeed | None = None
         if bus is None:
             channel = record_channel or f"pacc-hil-{next(_channels)}-{id(self):x}"
             bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
@@ -121,10 +117,12 @@ class HilDrive:
             self.ecu = _ecu_node(cfg, participant, table, profile, self.segments.append)
             self.rt = EcuRuntime(ecu_bus, self.ecu, codec=self.codec)
             if can_log is not None or live:
-                self.recorder = _drive_recorder(
+                self.recorder = drive_recorder(
                     can_log, cfg, self.ecu, table, self.codec, self.base, live
                 )
                 self.rt.record_to(self.recorder)
+                if live:
+                    self._feed = WorldFeed(self.recorder, self.world)
         else:
             self._own_buses = [bus]
         self.node = SimNode(bus, self.world, codec=self.codec, rng=fault_rng(cfg.seed))
@@ -149,6 +147,8 @@ class HilDrive:
         self.node.step()
         if self.rt is not None:
             self.rt.advance_to(now)
+        if self._feed is not None:
+            self._feed()
         state = self.node.acc_state
         tor = self.node.takeover_request
         if (tor and not self._prev_tor) or (
@@ -199,7 +199,7 @@ class HilDrive:
         if self.ecu is not None:
             self.ecu.finish()
         if self.recorder is not None:
-            err = _finish_recording(self.recorder, log)
+            err = finish_recording(self.recorder, log, streamed=self._feed is not None)
             if err:
                 extra["can_log_error"] = err
         self.close()

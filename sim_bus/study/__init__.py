@@ -18,6 +18,8 @@ concept per module:
 
 - :mod:`sim_bus.study.drive`: one closed-loop drive (:func:`run_drive`), ECU and simulator on
   one bus in lockstep;
+- :mod:`sim_bus.study.drive_recording`: a drive's bus recording and live view (the world
+  streamed as it runs, the drive paced to the wall clock);
 - :mod:`sim_bus.study.irl_table`: a driver's IRL table, learned from its manual drives, cached;
 - :mod:`sim_bus.study.tasks`: the study's drives as engine tasks (a worker imports only this
   and what it needs: this package's ``__init__`` imports nothing);

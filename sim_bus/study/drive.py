@@ -16,7 +16,7 @@ import dataclasses
 import itertools
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, get_args
@@ -27,13 +27,11 @@ from dbc.codec import Codec, load_codec, network_paths
 from dbc.lockstep import LockstepBus
 from ecu import EcuError
 from ecu.adaptation import AdaptationParams, Decision
-from ecu.buslog.format import WORLD_TOPIC, TimeBase
-from ecu.buslog.recording import open_recording
+from ecu.buslog.format import TimeBase
 from ecu.buslog.sinks import Sink
 from ecu.buslog.writer import CanLogWriter
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime, RuntimeSummary
-from pacc.vocab import FormatError
 from pacc.vocab.dgpt import Dgpt, predefined
 from pacc.vocab.pedals import PedalScale
 from pacc.vocab.triplog import Trip
@@ -45,8 +43,14 @@ from sim_bus.metrics import DriveMetrics, SafetyFigures
 from sim_bus.node import SimNode
 from sim_bus.profile_csv import load_profile_csv
 from sim_bus.scenarios import LeadProfile, canonical_profiles, shorten
+from sim_bus.study.drive_recording import (
+    WorldFeed,
+    after_tick,
+    drive_recorder,
+    finish_recording,
+)
 from sim_bus.trip import world_trip
-from sim_bus.world import WORLD_COLUMNS, World, WorldConfig, WorldLog
+from sim_bus.world import World, WorldConfig, WorldLog
 
 Controller = Literal["predefined", "predefined+oa", "irl", "irl+oa"]
 CONTROLLERS: tuple[str, ...] = get_args(Controller)
@@ -172,6 +176,7 @@ def run_drive(
     utc_start_ns: int | None = None,
     live: Sequence[Sink] = (),
     bus: str = "lockstep",
+    pace: float | None = None,
 ) -> DriveResult:
     """Run one lockstep drive; never raises for a collision (it is reported).
 
@@ -181,6 +186,9 @@ def run_drive(
     (:mod:`ecu.buslog.writer`), simulated time 0 stamped ``utc_start_ns`` (default: now);
     ``live``: more sinks of the same channels (a Foxglove live view, :mod:`ecu.buslog.live`).
     ``bus``: the python-can interface, one of :data:`BUSES` (the same frames on each).
+    ``pace``: hold the drive to this many times real time (:class:`~sim_bus.study.live.Pacer`;
+    None: as fast as it runs); with ``live`` sinks the world streams as it runs
+    (:class:`~sim_bus.study.live.WorldFeed`). Neither changes the drive.
     ``takeover_sink`` / ``manual_sink``: the ECU's takeover segments / manual car-following
     trips (:mod:`ecu.recorder`, :mod:`ecu.manual`; None: not recorded).
     """
@@ -190,6 +198,8 @@ def run_drive(
         raise DriveError(f"controller must be one of {CONTROLLERS}")
     if cfg.seed < 0:
         raise DriveError(f"seed must be >= 0, got {cfg.seed}")
+    if pace is not None and not pace > 0:
+        raise DriveError(f"pace must be > 0, got {pace}")
     prof = profile or resolve_profile(cfg.scenario, cfg.seed)
     if cfg.duration_s is not None:
         prof = shorten(prof, cfg.duration_s)
@@ -204,11 +214,13 @@ def run_drive(
     base = TimeBase(time.time_ns() if utc_start_ns is None else utc_start_ns, 0.0)
     recorder: CanLogWriter | None = None
     can_log_error: str | None = None
+    feed: WorldFeed | None = None
     try:
         rt = EcuRuntime(ecu_bus, ecu, codec=codec)
         if can_log is not None or live:
-            recorder = _drive_recorder(can_log, cfg, ecu, table, codec, base, live)
+            recorder = drive_recorder(can_log, cfg, ecu, table, codec, base, live)
             rt.record_to(recorder)
+            feed = WorldFeed(recorder, world) if live else None
         node = SimNode(
             sim_bus,
             world,
@@ -218,12 +230,16 @@ def run_drive(
             gap_setting=GAP_SETTING_CODE[driver.predefined_setting],
         )
         start = time.perf_counter()
-        events = _lockstep(node, rt, ecu, world)
+        events = _lockstep(node, rt, ecu, world, after_tick(feed, pace))
         wall = time.perf_counter() - start
         ecu.finish()
         summary = rt.summary()
         log = world.log()
-        can_log_error = _finish_recording(recorder, log) if recorder is not None else None
+        can_log_error = (
+            finish_recording(recorder, log, streamed=feed is not None)
+            if recorder is not None
+            else None
+        )
     finally:
         sim_bus.shutdown()
         ecu_bus.shutdown()
@@ -276,48 +292,6 @@ def drive_codec(cfg: DriveConfig) -> Codec:
     return load_codec(*network_paths(cfg.dbc, cfg.binding))
 
 
-def _drive_recorder(
-    path: Path | None,
-    cfg: DriveConfig,
-    ecu: EcuNode,
-    table: Dgpt,
-    codec: Codec,
-    base: TimeBase,
-    live: Sequence[Sink] = (),
-) -> CanLogWriter:
-    """The bus recorder of a drive: the ECU's port, simulated time on ``base``."""
-    # a setting left at its default (None) is absent, never the string 'None'
-    settings = {k: str(v) for k, v in dataclasses.asdict(cfg).items() if v is not None}
-    return open_recording(
-        path,
-        codec,
-        base,
-        node="drive",
-        config=ecu.config,
-        table=table,
-        metadata={"drive": settings},
-        sinks=live,
-    )
-
-
-def _finish_recording(recorder: CanLogWriter, log: WorldLog) -> str | None:
-    """Add the world to the recording and close it; the failure's text (None: written).
-    A failed recording does not cost the drive's results."""
-    try:
-        record_world(recorder, log)
-        recorder.close()
-    except (EcuError, FormatError, OSError) as exc:
-        return str(exc)
-    return None
-
-
-def record_world(recorder: CanLogWriter, log: WorldLog) -> None:
-    """The simulated world of a drive (:class:`WorldLog`) on ``/sim/world``."""
-    columns = {name: getattr(log, name) for name in WORLD_COLUMNS}
-    recorder.series(WORLD_TOPIC, WORLD_COLUMNS, "the simulated world: plant, lead, driver")
-    recorder.write_series(WORLD_TOPIC, columns, log.t_s)
-
-
 def _ecu_node(
     cfg: DriveConfig,
     driver: DriverParams,
@@ -355,9 +329,16 @@ def _ecu_node(
     )
 
 
-def _lockstep(node: SimNode, rt: EcuRuntime, ecu: EcuNode, world: World) -> list[AdaptationEvent]:
+def _lockstep(
+    node: SimNode,
+    rt: EcuRuntime,
+    ecu: EcuNode,
+    world: World,
+    after: Callable[[float], None] | None = None,
+) -> list[AdaptationEvent]:
     """Step the simulator and then the ECU to the same instant until the world is done; the
-    adaptation decisions, each traced when its takeover ends."""
+    adaptation decisions, each traced when its takeover ends. ``after(t_s)`` after each tick
+    (a live view's world feed, a pacer)."""
     step = node.step
     advance = rt.advance_to
     events: list[AdaptationEvent] = []
@@ -370,6 +351,8 @@ def _lockstep(node: SimNode, rt: EcuRuntime, ecu: EcuNode, world: World) -> list
             last = ecu.last_decision
             if last is not None:
                 events.append(AdaptationEvent(now, last, ecu.table))
+        if after is not None:
+            after(world.t_s)
     return events
 
 

@@ -1,0 +1,146 @@
+"""A drive shown live (``sim_bus.study.drive_recording``): the simulated world streamed to the
+live view as the drive runs, the drive held to the wall clock; neither changes the drive."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from ecu.buslog.live import FoxgloveSink
+from ecu.buslog.reader import read_canlog
+from pacc.commands.drive import main as drive_main
+from sim_bus.drivers import BUILTIN_DRIVERS
+from sim_bus.errors import DriveError
+from sim_bus.study.drive import DriveConfig, DriveResult, predefined_table, run_drive
+from sim_bus.study.drive_recording import Pacer
+
+#: d2 with online adaptation: a takeover at 10.2 s (the world's pedals change mid-drive)
+CFG = DriveConfig(scenario="B", driver_id="d2", controller="predefined+oa", seed=1, duration_s=14.0)
+UTC0_NS = 1_790_000_000_000_000_000
+
+
+def _drive(cfg: DriveConfig = CFG, **kwargs: Any) -> DriveResult:
+    driver = BUILTIN_DRIVERS["d2"]
+    return run_drive(cfg, driver, predefined_table(driver), utc_start_ns=UTC0_NS, **kwargs)
+
+
+def test_a_live_drive_streams_the_world_and_records_what_a_plain_one_records(
+    tmp_path: Path,
+) -> None:
+    plain = _drive(can_log=tmp_path / "plain.mcap")
+    sink = FoxgloveSink("127.0.0.1", 0)
+    try:
+        live = _drive(can_log=tmp_path / "live.mcap", live=[sink])
+    finally:
+        sink.close(complete=True)
+    assert live.metrics == plain.metrics and live.frames_sent == plain.frames_sent
+    a, b = read_canlog(tmp_path / "plain.mcap"), read_canlog(tmp_path / "live.mcap")
+    assert a.frames.data == b.frames.data and np.array_equal(a.frames.t_s, b.frames.t_s)
+    assert a.series.keys() == b.series.keys()
+    for topic, columns in a.series.items():  # /sim/world streamed, the rest as before
+        assert columns.keys() == b.series[topic].keys(), topic
+        for name, values in columns.items():
+            assert np.array_equal(values, b.series[topic][name]), (topic, name)
+    assert len(b.series["/sim/world"]["t_s"]) == 14 * 20  # the driver's 20 Hz, once each
+
+
+def test_a_paced_drive_keeps_to_the_wall_clock_and_gives_the_same_drive() -> None:
+    cfg = DriveConfig(scenario="B", driver_id="d2", controller="predefined", seed=1, duration_s=2.0)
+    fast = _drive(cfg)
+    start = time.perf_counter()
+    paced = _drive(cfg, pace=4.0)
+    wall = time.perf_counter() - start
+    assert wall >= 0.45  # 2 s at 4x: 0.5 s, less the first tick
+    assert paced.metrics == fast.metrics and paced.frames_sent == fast.frames_sent
+    with pytest.raises(DriveError, match="pace must be > 0"):
+        _drive(cfg, pace=0.0)
+    with pytest.raises(ValueError, match="pace must be > 0"):
+        Pacer(-1.0)
+
+
+async def _watch(port: int, done: threading.Event) -> list[tuple[int, bool]]:
+    """A Foxglove client subscribed to ``/sim/world`` until the drive is ``done``: each
+    message's log time, and whether the drive still ran when it came."""
+    websockets = pytest.importorskip("websockets")
+    async with websockets.connect(
+        f"ws://127.0.0.1:{port}", subprotocols=["foxglove.sdk.v1"], max_size=None
+    ) as ws:
+        channels: dict[str, int] = {}
+        while "/sim/world" not in channels:
+            msg = json.loads(await asyncio.wait_for(ws.recv(), 10))
+            if msg["op"] == "advertise":
+                channels.update({c["topic"]: c["id"] for c in msg["channels"]})
+        sub = {"id": 7, "channelId": channels["/sim/world"]}
+        await ws.send(json.dumps({"op": "subscribe", "subscriptions": [sub]}))
+        got: list[tuple[int, bool]] = []  # (log time, the drive still running)
+        while not done.is_set():
+            try:
+                m = await asyncio.wait_for(ws.recv(), 0.5)
+            except TimeoutError:
+                continue
+            except websockets.exceptions.ConnectionClosed:
+                break  # the drive ended: its recording closed the server
+            if isinstance(m, bytes) and m[0] == 1:
+                got.append((int.from_bytes(m[5:13], "little"), not done.is_set()))
+        return got
+
+
+def test_a_client_that_connects_during_a_paced_drive_sees_the_world_as_it_runs() -> None:
+    """What a person gets with ``pacc drive --foxglove``: the drive at real time (here 4x),
+    a Foxglove client connected after it started, the world's rows arriving while it runs."""
+    pytest.importorskip("websockets")
+    cfg = DriveConfig(scenario="B", driver_id="d2", controller="predefined", seed=1, duration_s=8.0)
+    sink = FoxgloveSink("127.0.0.1", 0)
+    done = threading.Event()
+    outcome: dict[str, Any] = {}
+
+    def drive() -> None:
+        try:
+            outcome["result"] = _drive(cfg, live=[sink], pace=4.0)
+        finally:
+            done.set()
+
+    seen: dict[str, list[tuple[int, bool]]] = {}
+
+    def client() -> None:  # its own thread: another test may have left a loop in this one
+        seen["got"] = asyncio.run(_watch(sink.port, done))
+
+    runner = threading.Thread(target=drive, daemon=True)
+    viewer = threading.Thread(target=client, daemon=True)
+    try:
+        runner.start()
+        time.sleep(0.3)  # the person opens the connection after the drive began
+        viewer.start()
+        viewer.join(20)
+    finally:
+        runner.join(10)
+        sink.close(complete=True)
+    got = seen["got"]
+    assert "result" in outcome and outcome["result"].sim_s == pytest.approx(8.0)
+    during = [t for t, running in got if running]
+    assert len(during) >= 40  # 2 s of the 8-s drive's 20 Hz rows at least, while it ran
+    assert during == sorted(during) and len(set(during)) == len(during)
+
+
+def test_pacc_drive_paces_with_foxglove_and_refuses_a_bad_pace(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    start = time.perf_counter()
+    assert drive_main(["--duration", "2", "--pace", "4"]) == 0
+    assert time.perf_counter() - start >= 0.45
+    assert "paced at 4x real time" in capsys.readouterr().out
+    assert drive_main(["--duration", "1", "--foxglove", "127.0.0.1:0", "--pace", "0"]) == 0
+    assert "paced" not in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        drive_main(["--pace", "-1"])
+    assert "--pace" in capsys.readouterr().err
+    log = tmp_path / "m.mcap"
+    assert drive_main(["--manual", "--log", str(log), "--pace", "2"]) == 2
+    assert "drop --pace" in capsys.readouterr().err
