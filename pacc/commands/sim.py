@@ -218,6 +218,8 @@ def main(argv: list[str] | None = None) -> int:
         _run(node, profile.duration_s, args.quiet, feed)
     finally:
         bus.shutdown()
+        if feed is not None:
+            feed()  # the rows of the last ticks (the loop feeds before each tick)
     log = world.log()
     m = log.metrics()
     collided = world.plant.collided

@@ -144,3 +144,22 @@ def test_pacc_drive_paces_with_foxglove_and_refuses_a_bad_pace(
     log = tmp_path / "m.mcap"
     assert drive_main(["--manual", "--log", str(log), "--pace", "2"]) == 2
     assert "drop --pace" in capsys.readouterr().err
+
+
+def test_pacc_sim_with_a_live_view_records_the_whole_world(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``pacc sim --foxglove --can-log``: the world streamed as the simulator runs, every row
+    of it in the file too (the last ticks' included), as without the live view."""
+    from pacc.commands import sim as sim_cli  # noqa: PLC0415 - an entry point, on top
+
+    counts = []
+    for name, extra in (("plain", []), ("live", ["--foxglove", "127.0.0.1:0"])):
+        path = tmp_path / f"{name}.mcap"
+        argv = ["-i", "virtual", "-c", f"test-live-sim-{name}", "--duration", "1", "--quiet"]
+        assert sim_cli.main([*argv, "--can-log", str(path), *extra]) == 0
+        world = read_canlog(path).series["/sim/world"]
+        assert np.allclose(np.diff(world["t_s"]), 0.05)  # the driver's 20 Hz, no gap
+        counts.append(len(world["t_s"]))
+    assert "foxglove: live view on ws://127.0.0.1:" in capsys.readouterr().out
+    assert counts[0] == counts[1] >= 20
