@@ -100,6 +100,7 @@ PACKAGES = [
     "dbc",
     "ecu",
     "ecu.buslog",
+    "ecu.buslog.process",
     "sim_bus",
     "sim_bus.study",
     "sim_bus.hil",
