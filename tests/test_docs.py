@@ -102,6 +102,7 @@ PACKAGES = [
     "ecu.buslog",
     "ecu.buslog.process",
     "sim_bus",
+    "sim_bus.lead",
     "sim_bus.study",
     "sim_bus.hil",
     "sim_bus.study.bench",
