@@ -4,7 +4,7 @@ One call per 20 ms control cycle: read the checked inputs (the runtime builds
 :class:`NodeInputs` from the bus; tests and the simulator may build them directly), run the
 engagement state machine, track takeovers (record them, adapt the DGPT at pedal release),
 plan, control within the envelope and return :class:`NodeOutputs`. Each phase is a pure
-function of :mod:`ecu.phases`; the node holds the state between cycles and wires them. The
+function of :mod:`ecu.cycle.phases`; the node holds the state between cycles and wires them. The
 node never touches a bus, a clock or a file; the only I/O is the optional takeover and manual
 trip sinks, injected.
 
@@ -41,17 +41,9 @@ from ecu.adaptation import (
     adapt,
     count_short_press,
 )
-from ecu.command import Command, ControlMemory, control
 from ecu.config import ConfigError, EcuConfig
-from ecu.manual import ManualRecorder
-from ecu.methods import make_adaptation, make_controller
-from ecu.methods.guard import (
-    ADAPTATION_BUDGET_S,
-    CONTROLLER_BUDGET_S,
-    GuardedAdaptation,
-    GuardedController,
-)
-from ecu.phases import (
+from ecu.cycle.command import Command, ControlMemory, control
+from ecu.cycle.phases import (
     Engagement,
     InputCheck,
     Plan,
@@ -64,9 +56,17 @@ from ecu.phases import (
     sample_of,
     takeover_pedal,
 )
+from ecu.cycle.state import transition
+from ecu.manual import ManualRecorder
+from ecu.methods import make_adaptation, make_controller
+from ecu.methods.guard import (
+    ADAPTATION_BUDGET_S,
+    CONTROLLER_BUDGET_S,
+    GuardedAdaptation,
+    GuardedController,
+)
 from ecu.recorder import TakeoverRecorder, TripSink
 from ecu.signals import NodeInputs, NodeOutputs, input_fault
-from ecu.state import transition
 from pacc.vocab import FormatError
 from pacc.vocab.acc_state import AccState, FaultCode
 from pacc.vocab.dgpt import Dgpt, utc_now_iso
@@ -181,7 +181,7 @@ class EcuNode:
         """Run one control cycle at time ``now_s`` (s, monotonic); never raises on bad input.
 
         A non-finite ``now_s`` (a host clock fault) is taken as no time passing since the
-        previous cycle. The phases are the pure functions of :mod:`ecu.phases`, in order."""
+        previous cycle. The phases are the pure functions of :mod:`ecu.cycle.phases`, in order."""
         config = self.config
         events = self._pending_events
         self._pending_events = []

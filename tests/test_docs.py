@@ -99,6 +99,7 @@ PACKAGES = [
     "pacc.commands.cloud",
     "dbc",
     "ecu",
+    "ecu.cycle",
     "ecu.buslog",
     "ecu.buslog.process",
     "sim_bus",
