@@ -12,6 +12,7 @@ Modules, one concept each:
 - :mod:`ecu.cycle` — one control cycle as pure functions: its phases, the engagement state
   machine, the control phase, the road rules, stopping behind a lead.
 - :mod:`ecu.node` — ``EcuNode.step(inputs, now) -> outputs``, pure of I/O.
+- :mod:`ecu.parts` — what a node is built of, from its configuration: plug-ins, recorders.
 - :mod:`ecu.busio` — frames <-> node values (Inbox/Outbox), the DBC fit check.
 - :mod:`ecu.safety` — the independent check of every command frame before it is sent.
 - :mod:`ecu.profiles` — driver profiles selected by the HMI.
