@@ -35,7 +35,7 @@ import numpy as np
 from ecu.adaptation import ADAPTATION_MODES, AdaptationParams
 from pacc.vocab.dgpt import Dgpt
 from sim_bus.drivers import DriverParams, load_driver
-from sim_bus.scenarios import canonical_profiles
+from sim_bus.lead.scenarios import canonical_profiles
 from sim_bus.study.drive import DriveConfig, DriveResult, predefined_table, run_drive
 from sim_bus.study.irl_table import irl_table
 

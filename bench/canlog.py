@@ -12,7 +12,7 @@ Run: ``.venv/bin/python bench/canlog.py [--sim-s 120] [--repeats 3]``.
   only) on the same messages, same measures;
 - the drive: ``run_drive`` without ``can_log``, with it as pacc records by default (on the
   drive's thread), and with ``PACC_RECORDER_PROCESS=1`` (the file written by the recorder's
-  writer process, :mod:`ecu.buslog.remote`), alternating, ``--repeats`` each; the real-time
+  writer process, :mod:`ecu.buslog.process.remote`), alternating, ``--repeats`` each; the real-time
   factors (simulated s per wall s of the whole call) and their ratios to off; the same against
   the drive thread's own CPU time (``time.thread_time``: what the recording costs the thread
   that runs the drive, whatever else loads the machine; the wall clock still waits for a
@@ -37,8 +37,8 @@ from pathlib import Path
 import can
 
 from dbc.codec import load_codec
-from ecu.buslog import writers
 from ecu.buslog.format import TimeBase
+from ecu.buslog.process import writers
 from ecu.buslog.reader import messages, read_canlog
 from ecu.buslog.recording import PROCESS_ENV
 from ecu.buslog.writer import CanLogWriter

@@ -31,8 +31,8 @@ from cloud_sync.irl.mdp import GridConfig, build_transitions, make_grid
 from cloud_sync.irl.trainer import IrlConfig, learn_dgpt
 from pacc.vocab.triplog import Trip
 from sim_bus.drivers import BUILTIN_DRIVERS
+from sim_bus.lead.scenarios import canonical_profiles
 from sim_bus.manual import manual_trip
-from sim_bus.scenarios import canonical_profiles
 
 
 def demonstrations() -> list[Trip]:

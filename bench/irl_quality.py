@@ -54,9 +54,9 @@ from pacc.vocab.dgpt import Dgpt
 from pacc.vocab.triplog import Trip
 from sim_bus.dataset import load_human_pairs
 from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
+from sim_bus.lead.scenarios import canonical_profiles
 from sim_bus.manual import manual_trip
 from sim_bus.population import draw_population
-from sim_bus.scenarios import canonical_profiles
 from sim_bus.study.drive import DriveConfig, log_to_trip, run_drive
 
 #: the learner measured: the default, or with --old the earlier one (argmax of the reward on

@@ -5,26 +5,24 @@ Modules, one concept each:
 - :mod:`ecu.adaptation` — online DGPT adaptation from one takeover (Algorithm 1).
 - :mod:`ecu.table_update` — how an applied takeover changes the table (spread, safety filter).
 - :mod:`ecu.controller` — PID gap controller with the acceleration/jerk envelope.
-- :mod:`ecu.road` — the road rules: target switches, lead loss, standstill (pure).
-- :mod:`ecu.state` — engagement state machine (pure transition function).
 - :mod:`ecu.recorder` — takeover recorder (pre-trigger ring buffer, segments to a sink).
 - :mod:`ecu.manual` — manual-driving recorder (the driver's car-following stretches as trips).
 - :mod:`ecu.config` — ``EcuConfig``, the node's frozen configuration.
 - :mod:`ecu.signals` — ``NodeInputs`` / ``NodeOutputs``, the node's boundary values.
-- :mod:`ecu.phases` — the phases of one control cycle, pure functions.
-- :mod:`ecu.command` — the control phase: the cycle's request and the controller's memory.
-- :mod:`ecu.stops` — stopping behind a lead that stops or stands (the request's bound).
+- :mod:`ecu.cycle` — one control cycle as pure functions: its phases, the engagement state
+  machine, the control phase, the road rules, stopping behind a lead.
 - :mod:`ecu.node` — ``EcuNode.step(inputs, now) -> outputs``, pure of I/O.
+- :mod:`ecu.parts` — what a node is built of, from its configuration: plug-ins, recorders.
 - :mod:`ecu.busio` — frames <-> node values (Inbox/Outbox), the DBC fit check.
 - :mod:`ecu.safety` — the independent check of every command frame before it is sent.
 - :mod:`ecu.profiles` — driver profiles selected by the HMI.
 - :mod:`ecu.clocks` — the cycle grid in lockstep or real time.
 - :mod:`ecu.runtime` — ``EcuRuntime``, wiring bus I/O, profiles and clocks to a node.
 
-The sub-package :mod:`ecu.buslog` records the bus (MCAP), reads, replays and converts it. The
-:mod:`ecu.methods` (plug-in methods of the ECU: the gap controller and the online adaptation);
-formats the ECU shares with the simulator and the cloud (DGPT, trip logs, ACC state, pedals)
-live in :mod:`pacc.vocab`; the command line is :mod:`pacc.commands.ecu`.
+The sub-package :mod:`ecu.buslog` records the bus (MCAP), reads, replays and converts it;
+:mod:`ecu.methods` holds the plug-in methods of the ECU (the gap controller and the online
+adaptation). Formats the ECU shares with the simulator and the cloud (DGPT, trip logs, ACC state,
+pedals) live in :mod:`pacc.vocab`; the command line is :mod:`pacc.commands.ecu`.
 
 Every error raised by this package derives from :class:`EcuError` (itself a
 :class:`pacc.errors.PaccError`).

@@ -10,7 +10,7 @@ from typing import Any
 from ecu import EcuError
 from ecu.adaptation import AdaptationParams
 from ecu.controller import ControllerParams
-from ecu.state import BrakeMode
+from ecu.cycle.state import BrakeMode
 from pacc.vocab.dgpt import SafetyBounds
 
 #: Largest time step the controller integrates over in one call, s.

@@ -4,7 +4,7 @@ One call per 20 ms control cycle: read the checked inputs (the runtime builds
 :class:`NodeInputs` from the bus; tests and the simulator may build them directly), run the
 engagement state machine, track takeovers (record them, adapt the DGPT at pedal release),
 plan, control within the envelope and return :class:`NodeOutputs`. Each phase is a pure
-function of :mod:`ecu.phases`; the node holds the state between cycles and wires them. The
+function of :mod:`ecu.cycle.phases`; the node holds the state between cycles and wires them. The
 node never touches a bus, a clock or a file; the only I/O is the optional takeover and manual
 trip sinks, injected.
 
@@ -41,17 +41,9 @@ from ecu.adaptation import (
     adapt,
     count_short_press,
 )
-from ecu.command import Command, ControlMemory, control
 from ecu.config import ConfigError, EcuConfig
-from ecu.manual import ManualRecorder
-from ecu.methods import make_adaptation, make_controller
-from ecu.methods.guard import (
-    ADAPTATION_BUDGET_S,
-    CONTROLLER_BUDGET_S,
-    GuardedAdaptation,
-    GuardedController,
-)
-from ecu.phases import (
+from ecu.cycle.command import Command, ControlMemory, control
+from ecu.cycle.phases import (
     Engagement,
     InputCheck,
     Plan,
@@ -64,9 +56,11 @@ from ecu.phases import (
     sample_of,
     takeover_pedal,
 )
+from ecu.cycle.state import transition
+from ecu.manual import ManualRecorder
+from ecu.parts import plugins, recorders
 from ecu.recorder import TakeoverRecorder, TripSink
 from ecu.signals import NodeInputs, NodeOutputs, input_fault
-from ecu.state import transition
 from pacc.vocab import FormatError
 from pacc.vocab.acc_state import AccState, FaultCode
 from pacc.vocab.dgpt import Dgpt, utc_now_iso
@@ -125,37 +119,12 @@ class EcuNode:
         self.last_decision: Decision | None = None
         self._profile_fault = False
         self._pending_events: list[str] = []
-        self._law, self._adaptation = _plugins(config)
-        self.recorder: TakeoverRecorder | None = None
-        if takeover_sink is not None:
-            self.recorder = TakeoverRecorder(
-                takeover_sink,
-                period_s=config.record_period_s,
-                pre_s=config.pre_trigger_s,
-                post_s=config.post_trigger_s,
-                meta={
-                    "driver_id": table.driver_id,
-                    "condition": table.condition,
-                    "brake_mode": config.brake_mode,
-                    **dict(config.trip_meta),
-                },
-                utc_of=utc_of,
-            )
-        self.manual: ManualRecorder | None = None
-        if manual_sink is not None:  # the driver's manual car-following, same metadata
-            self.manual = ManualRecorder(
-                manual_sink,
-                period_s=config.record_period_s,
-                cycle_s=config.cycle_s,
-                min_s=manual_min_s,
-                meta={
-                    "driver_id": table.driver_id,
-                    "condition": table.condition,
-                    "brake_mode": config.brake_mode,
-                    **dict(config.trip_meta),
-                },
-                utc_of=utc_of,
-            )
+        self._law, self._adaptation = plugins(config)
+        self.recorder: TakeoverRecorder | None
+        self.manual: ManualRecorder | None
+        self.recorder, self.manual = recorders(
+            config, table, takeover_sink, manual_sink, utc_of=utc_of, manual_min_s=manual_min_s
+        )
 
     @property
     def table(self) -> Dgpt:
@@ -181,7 +150,7 @@ class EcuNode:
         """Run one control cycle at time ``now_s`` (s, monotonic); never raises on bad input.
 
         A non-finite ``now_s`` (a host clock fault) is taken as no time passing since the
-        previous cycle. The phases are the pure functions of :mod:`ecu.phases`, in order."""
+        previous cycle. The phases are the pure functions of :mod:`ecu.cycle.phases`, in order."""
         config = self.config
         events = self._pending_events
         self._pending_events = []
@@ -409,35 +378,6 @@ class EcuNode:
         events.append(text)
         log.info("%s", text)
         return decision.reason.value
-
-
-def _plugins(config: EcuConfig) -> tuple[GuardedController | None, GuardedAdaptation | None]:
-    """The guarded plug-in methods ``config`` names (None: the built-in called directly).
-
-    Raises:
-        PluginError: a spec names nothing loadable or its factory refuses the arguments.
-    """
-    law = adaptation = None
-    budget = config.plugin_budget_s
-    controller_budget = CONTROLLER_BUDGET_S if budget is None else budget
-    if config.gap_controller:
-        args = dict(config.controller_args)
-        if config.gap_controller == "pid" and not args:
-            args = {"params": config.controller}
-        law = GuardedController(
-            make_controller(config.gap_controller, args),
-            config.controller,
-            name=config.gap_controller,
-            budget_s=controller_budget,
-        )
-    if config.adaptation_method:
-        args = dict(config.adaptation_args)
-        adaptation = GuardedAdaptation(
-            make_adaptation(config.adaptation_method, args),
-            name=config.adaptation_method,
-            budget_s=ADAPTATION_BUDGET_S if budget is None else budget,
-        )
-    return law, adaptation
 
 
 __all__ = ["ConfigError", "EcuConfig", "EcuNode", "NodeInputs", "NodeOutputs", "input_fault"]

@@ -5,8 +5,8 @@ and closes the loop through the ACC command frames. Modules, one concept each:
 
 - :mod:`sim_bus.plant` — ego longitudinal dynamics;
 - :mod:`sim_bus.dataset` — the shipped real-data file;
-- :mod:`sim_bus.scenarios` — lead speed profiles from the shipped OpenACC data;
-- :mod:`sim_bus.profile_csv` — a lead profile as a CSV file (write, read, check);
+- :mod:`sim_bus.lead` — the lead vehicle: speed profiles from the shipped OpenACC data, as CSV
+  files, road scenarios (cut-in, cut-out, lead loss, stop-and-go);
 - :mod:`sim_bus.drivers` — driver parameters, built-in drivers;
 - :mod:`sim_bus.population` — drivers drawn from distributions calibrated on real pairs;
 - :mod:`sim_bus.behaviour` — what a driver does each step;
@@ -22,8 +22,6 @@ and closes the loop through the ACC command frames. Modules, one concept each:
 On top of them, and of the ECU and the cloud, two harness sub-packages wire everything
 together: :mod:`sim_bus.study` (one drive, ``pacc drive``; the paper's Table I, ``pacc study``)
 and :mod:`sim_bus.hil` (a person drives in a browser page, ``pacc hil``). Maintainer tools
-:mod:`sim_bus.events` (road scenarios beyond one always-present lead: cut-in, cut-out, lead
-  loss, stop-and-go);
 (building the data file, calibrating the drivers) live in ``tools/`` outside the wheel.
 """
 

@@ -19,8 +19,8 @@ from pacc.vocab.tripmode import TripMode
 from sim_bus.behaviour import DriverAgent
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import DriveError
+from sim_bus.lead.scenarios import LeadProfile
 from sim_bus.plant import Plant, PlantConfig, PlantState
-from sim_bus.scenarios import LeadProfile
 from sim_bus.trip import condition_name
 
 MANUAL_DT_S = 0.05

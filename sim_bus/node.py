@@ -236,7 +236,7 @@ class SimNode:
         (lo, hi), (rlo, rhi), (alo, ahi) = self._b_radar
         gap = car.gap_m
         # no lead beyond the range or while a new track is being confirmed (a target
-        # switch of a road scenario, sim_bus.events: the sensor drops LeadValid)
+        # switch of a road scenario, sim_bus.lead.events: the sensor drops LeadValid)
         seen = lo <= gap <= hi and w.t_s >= w.radar_blank_until
         vals["lead_valid"] = 1 if seen else 0
         vals["gap_m"] = gap if lo <= gap <= hi else hi if gap > hi else lo

@@ -1,7 +1,7 @@
 """The simulated world around the ACC: lead profile, ego plant and driver, without the bus.
 
 One :meth:`World.advance` is one plant step (10 ms by default). The lead drives the profile;
-a road scenario's events (:mod:`sim_bus.events`) switch the tracked vehicle: a cut-in, a
+a road scenario's events (:mod:`sim_bus.lead.events`) switch the tracked vehicle: a cut-in, a
 cut-out revealing the vehicle ahead, a lead loss (free road: the gap is ``FREE_GAP_M``,
 beyond the radar's range) and a new lead appearing. After an event the lead holds its speed,
 then rejoins the flow (the profile's speed, with a lag and bounded accelerations).
@@ -24,10 +24,10 @@ import numpy as np
 from sim_bus.behaviour import COAST_MPS2, DriverAgent
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import DriveError
-from sim_bus.events import LeadEvent, cut_in_gap_m, reveal_gap_m
+from sim_bus.lead.events import LeadEvent, cut_in_gap_m, reveal_gap_m
+from sim_bus.lead.scenarios import LeadProfile
 from sim_bus.metrics import DriveMetrics, SafetyFigures, drive_metrics, safety_figures
 from sim_bus.plant import Plant, PlantConfig, PlantState
-from sim_bus.scenarios import LeadProfile
 
 #: the gap while no vehicle is in sight (free road), m: beyond any radar's range
 FREE_GAP_M = 1000.0

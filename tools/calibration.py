@@ -15,8 +15,8 @@ import numpy as np
 
 from sim_bus.dataset import load_human_pairs
 from sim_bus.drivers import BUILTIN_DRIVERS
+from sim_bus.lead.scenarios import LeadProfile
 from sim_bus.manual import manual_trip
-from sim_bus.scenarios import LeadProfile
 
 BANDS_MPS: tuple[tuple[float, float], ...] = (
     (10.0, 15.0),

@@ -4,7 +4,7 @@
 as packed bytes, samples) and decides when to flush; :class:`LogOutput` turns each flush into
 messages on every sink: the ``/can/raw`` block, the decoded rows of each DBC message, the
 cycles' and the sampled channels' rows, events, attachments, metadata, and ends the chunk.
-It runs on the node's thread, or in a writer process (:mod:`ecu.buslog.remote`) that gets
+It runs on the node's thread, or in a writer process (:mod:`ecu.buslog.process.remote`) that gets
 the same calls with the same arguments, so the file is the same byte for byte.
 """
 

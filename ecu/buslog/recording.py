@@ -21,9 +21,9 @@ from dbc.codec import Codec
 from ecu.adaptation import AdaptationParams
 from ecu.buslog.format import FLUSH_S, ROWS_S, CanLogError, TimeBase
 from ecu.buslog.live import LIVE_FLUSH_S
+from ecu.buslog.process.writers import start_writer
 from ecu.buslog.sinks import Sink
 from ecu.buslog.writer import CanLogWriter
-from ecu.buslog.writers import start_writer
 from ecu.config import ConfigError, EcuConfig
 from ecu.controller import ControllerParams, RoadParams
 from pacc.vocab.dgpt import Dgpt, SafetyBounds
@@ -45,7 +45,7 @@ BINDING_ATTACHMENT = "binding.toml"
 CONFIG_ATTACHMENT = "ecu_config.json"
 TABLE_ATTACHMENT = "dgpt_start.json"
 #: ``PACC_RECORDER_PROCESS``: unset or ``0``, a recording is written on the node's thread;
-#: ``1``, a file-only recording is written by a writer process (:mod:`ecu.buslog.remote`,
+#: ``1``, a file-only recording is written by a writer process (:mod:`ecu.buslog.process.remote`,
 #: started and waited for at the first recording; where none starts, the node's thread);
 #: ``auto``, by a writer that is ready while a core is free (:func:`use_writer`). The same
 #: file either way.
@@ -131,7 +131,7 @@ def open_recording(
     files (default: the files ``codec`` was loaded from) attached, and the ECU's ``config``
     and starting ``table`` when it runs one; ``sinks`` (a live view) get the same channels
     (``path`` None: only them, flushed every :data:`~ecu.buslog.live.LIVE_FLUSH_S`). A file
-    without live sinks is written by a writer process (:mod:`ecu.buslog.remote`) where
+    without live sinks is written by a writer process (:mod:`ecu.buslog.process.remote`) where
     :func:`use_writer` says so.
 
     Raises:

@@ -19,7 +19,7 @@ Every :class:`~ecu.buslog.sinks.Sink` (the file, a live Foxglove WebSocket:
 
 The writer keeps what the node feeds it and decides when to flush; each flush becomes
 messages in :class:`~ecu.buslog.output.LogOutput`, on the node's thread or, for a file
-without live sinks, in a writer process (``process``: :mod:`ecu.buslog.remote`), the same
+without live sinks, in a writer process (``process``: :mod:`ecu.buslog.process.remote`), the same
 file byte for byte.
 """
 
@@ -56,9 +56,9 @@ from ecu.buslog.format import (
     TimeBase,
 )
 from ecu.buslog.output import LogOutput
-from ecu.buslog.remote import NotSendable, RemoteOutput
+from ecu.buslog.process.remote import NotSendable, RemoteOutput
+from ecu.buslog.process.writers import ready_writer
 from ecu.buslog.sinks import McapSink, Sink
-from ecu.buslog.writers import ready_writer
 from ecu.signals import NodeInputs, NodeOutputs
 
 __all__ = ["CanLogWriter", "FrameTap"]
@@ -86,9 +86,10 @@ class CanLogWriter:
         flush_s: the flush interval on the node's clock, s (at most this much is lost when
             the process is killed).
         sinks: more sinks besides the file (e.g. :class:`ecu.buslog.live.FoxgloveSink`).
-        process: write the file in a writer process (:mod:`ecu.buslog.remote`: the same
+        process: write the file in a writer process (:mod:`ecu.buslog.process.remote`: the same
             file, the node's thread keeps only the taps and the frames' columns) when one
-            is ready (:func:`~ecu.buslog.writers.ready_writer`; else on this thread, and from a
+            is ready (:func:`~ecu.buslog.process.writers.ready_writer`; else on this thread, and
+            from a
             process's second recording on one is started for the next); only for a file
             without ``sinks``. This never waits: :func:`~ecu.buslog.recording.open_recording`
             with ``PACC_RECORDER_PROCESS=1`` starts a writer and waits for it before.

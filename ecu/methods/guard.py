@@ -71,7 +71,7 @@ class PluginReport:
 
 class GuardedController:
     """A :class:`GapController` behind the budget (see the module docstring); call it as
-    the gap law of :func:`ecu.command.control`: ``(obs, memory, dt_s) -> (accel, memory)``."""
+    the gap law of :func:`ecu.cycle.command.control`: ``(obs, memory, dt_s) -> (accel, memory)``."""
 
     def __init__(
         self,

@@ -53,7 +53,7 @@ from pacc.vocab.triplog_file import write_trip
 from sim_bus.drivers import CONDITION_FACTORS, DriverParams, load_driver
 from sim_bus.errors import SimError
 from sim_bus.faults import parse_faults
-from sim_bus.scenarios import shorten
+from sim_bus.lead.scenarios import shorten
 from sim_bus.study.drive import (
     BUSES,
     CONTROLLERS,

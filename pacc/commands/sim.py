@@ -45,8 +45,8 @@ from pacc.vocab.triplog_file import write_trip
 from sim_bus.drivers import GAP_SETTING_CODE, DriverParams, load_driver
 from sim_bus.errors import SimError
 from sim_bus.faults import FaultSpec, fault_rng, parse_faults
+from sim_bus.lead.scenarios import LeadProfile, shorten
 from sim_bus.node import SimNode
-from sim_bus.scenarios import LeadProfile, shorten
 from sim_bus.study.drive import resolve_profile, with_condition
 from sim_bus.study.drive_recording import WorldFeed, record_world
 from sim_bus.trip import world_trip

@@ -2,7 +2,7 @@
 
 Shared by the ECU (which sets them), the simulator and the trip logs (which record them) and the
 cloud (which tells manual driving from ACC driving by them). The transitions live in
-:mod:`ecu.state`.
+:mod:`ecu.cycle.state`.
 """
 
 from __future__ import annotations

@@ -34,7 +34,7 @@ FLOAT_FIELDS: tuple[str, ...] = (
     "accel_pedal",
     "brake_pedal",
 )
-#: the largest AccState code (FAULT): one definition, ecu.state
+#: the largest AccState code (FAULT): one definition, ecu.cycle.state
 _ACC_STATE_MAX = int(max(AccState))
 
 

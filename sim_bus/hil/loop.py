@@ -41,8 +41,8 @@ from pacc.vocab.triplog import Trip
 from sim_bus.drivers import DriverParams
 from sim_bus.faults import fault_rng
 from sim_bus.hil.human import HumanPedals
+from sim_bus.lead.scenarios import LeadProfile
 from sim_bus.node import SimNode
-from sim_bus.scenarios import LeadProfile
 from sim_bus.study.drive import SET_SPEED_MPS, DriveConfig, _ecu_node, drive_codec
 from sim_bus.study.drive_recording import WorldFeed, drive_recorder, finish_recording
 from sim_bus.trip import world_trip

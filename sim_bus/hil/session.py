@@ -38,7 +38,7 @@ from sim_bus.hil.loop import HilDrive, RealtimeRunner
 from sim_bus.hil.manifest import MANIFEST, open_manifest, save_manifest, utc_stamp
 from sim_bus.hil.plan import Step
 from sim_bus.hil.records import append_rating, rating, save_record, write_drive
-from sim_bus.scenarios import shorten
+from sim_bus.lead.scenarios import shorten
 from sim_bus.study.drive import DriveConfig, predefined_table, resolve_profile
 from sim_bus.study.irl_table import MANUAL_PROFILES
 from sim_bus.study.loop import StudyCloud

@@ -7,8 +7,8 @@ from dataclasses import dataclass
 from ecu.adaptation import AdaptationParams
 from sim_bus.drivers import DriverParams, load_driver
 from sim_bus.errors import SimError
-from sim_bus.events import ROAD_SCENARIOS
-from sim_bus.scenarios import canonical_profiles
+from sim_bus.lead.events import ROAD_SCENARIOS
+from sim_bus.lead.scenarios import canonical_profiles
 from sim_bus.study.drive import BUSES, CONTROLLERS
 
 

@@ -37,12 +37,12 @@ from pacc.vocab.pedals import PedalScale
 from pacc.vocab.triplog import Trip
 from sim_bus.drivers import GAP_SETTING_CODE, DriverParams
 from sim_bus.errors import DriveError, DriverError, ScenarioError
-from sim_bus.events import ROAD_SCENARIOS, road_profile
 from sim_bus.faults import fault_rng, parse_faults
+from sim_bus.lead.events import ROAD_SCENARIOS, road_profile
+from sim_bus.lead.profile_csv import load_profile_csv
+from sim_bus.lead.scenarios import LeadProfile, canonical_profiles, shorten
 from sim_bus.metrics import DriveMetrics, SafetyFigures
 from sim_bus.node import SimNode
-from sim_bus.profile_csv import load_profile_csv
-from sim_bus.scenarios import LeadProfile, canonical_profiles, shorten
 from sim_bus.study.drive_recording import (
     WorldFeed,
     after_tick,
@@ -149,7 +149,7 @@ def predefined_table(driver: DriverParams) -> Dgpt:
 
 def resolve_profile(scenario: str, seed: int) -> LeadProfile:
     """A canonical profile name (A, B, manual1..4), a road scenario (cutin, cutout, leadloss,
-    stopgo, C: :mod:`sim_bus.events`) or a CSV file of ``t_s,v_lead_mps``."""
+    stopgo, C: :mod:`sim_bus.lead.events`) or a CSV file of ``t_s,v_lead_mps``."""
     if scenario.lower().endswith(".csv"):
         return load_profile_csv(Path(scenario))
     if scenario in ROAD_SCENARIOS:

@@ -25,8 +25,8 @@ from pacc.vocab.dgpt import Dgpt, DgptError
 from pacc.vocab.dgpt_file import load_dgpt, save_dgpt
 from pacc.vocab.triplog import Trip
 from sim_bus.drivers import DriverParams
+from sim_bus.lead.scenarios import canonical_profiles
 from sim_bus.manual import manual_trip
-from sim_bus.scenarios import canonical_profiles
 
 MANUAL_PROFILES = ("manual1", "manual2", "manual3", "manual4")
 

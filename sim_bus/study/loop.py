@@ -38,7 +38,7 @@ from pacc.vocab.dgpt import Dgpt
 from pacc.vocab.triplog import Trip
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import SimError
-from sim_bus.scenarios import canonical_profiles
+from sim_bus.lead.scenarios import canonical_profiles
 from sim_bus.study.config import StudyConfig
 from sim_bus.study.drive import DriveConfig, run_drive
 from sim_bus.study.irl_table import manual_trips

@@ -20,7 +20,7 @@ from pacc.vocab.dgpt import Dgpt
 from pacc.vocab.triplog import Trip
 from pacc.vocab.triplog_file import write_trip
 from sim_bus.drivers import DriverParams
-from sim_bus.scenarios import LeadProfile
+from sim_bus.lead.scenarios import LeadProfile
 from sim_bus.study.drive import DriveConfig, log_to_trip, resolve_profile, run_drive
 from sim_bus.study.irl_table import manual_trips
 

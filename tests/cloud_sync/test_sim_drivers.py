@@ -7,8 +7,8 @@ import pytest
 
 from cloud_sync.irl.trainer import learn_dgpt
 from sim_bus.drivers import BUILTIN_DRIVERS
+from sim_bus.lead.scenarios import canonical_profiles
 from sim_bus.manual import manual_trip
-from sim_bus.scenarios import canonical_profiles
 
 
 @pytest.mark.slow

@@ -1,4 +1,4 @@
-"""The recorder's writer process (:mod:`ecu.buslog.remote`): the same file as the node's
+"""The recorder's writer process (:mod:`ecu.buslog.process.remote`): the same file as the node's
 thread writes, crash safety when the node's process is killed, and a clean error (no hang,
 no zombie) when the writer dies."""
 
@@ -18,8 +18,9 @@ import can
 import pytest
 
 from dbc.codec import load_codec
-from ecu.buslog import recording, remote, writers
+from ecu.buslog import recording
 from ecu.buslog.format import CanLogError, TimeBase
+from ecu.buslog.process import remote, writers
 from ecu.buslog.reader import read_canlog
 from ecu.buslog.recording import PROCESS_ENV
 from ecu.buslog.writer import CanLogWriter
@@ -103,7 +104,7 @@ _KILLED = r"""
 import json, sys, time
 import can
 from dbc.codec import load_codec
-from ecu.buslog import writers
+from ecu.buslog.process import writers
 from ecu.buslog.format import TimeBase
 from ecu.buslog.writer import CanLogWriter
 
@@ -336,8 +337,8 @@ def test_the_recorder_imports_where_os_has_no_register_at_fork(tmp_path: Path) -
     imports and records on the node's thread."""
     code = (
         "import os, random, sys\n"
-        "import can, ecu.buslog.output, ecu.buslog.serve, ecu.buslog.sinks, ecu.signals\n"
-        "assert 'ecu.buslog.remote' not in sys.modules\n"
+        "import can, ecu.buslog.output, ecu.buslog.process.serve, ecu.buslog.sinks, ecu.signals\n"
+        "assert 'ecu.buslog.process.remote' not in sys.modules\n"
         "del os.register_at_fork  # as on Windows, for the recorder's own modules\n"
         "from ecu.buslog.writer import CanLogWriter\n"
         "from ecu.buslog.format import TimeBase\n"
@@ -474,7 +475,7 @@ _FULL_DISK = r"""
 import resource, sys
 import can
 import numpy as np
-from ecu.buslog import writers
+from ecu.buslog.process import writers
 from ecu.buslog.format import CanLogError, TimeBase
 from ecu.buslog.writer import CanLogWriter
 

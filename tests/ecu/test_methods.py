@@ -264,9 +264,9 @@ def test_a_plugin_cannot_weaken_the_ecus_limits_through_what_it_is_handed() -> N
     """25 m/s, 30 m behind a lead 10 m/s slower braking at 4 m/s^2: a plug-in that writes into
     its ControlInput gets a frozen one (refused, as a plain assignment is), and the command
     equals the one behind a plug-in that only raises: the same braking at emergency jerk."""
-    from ecu.command import ControlMemory, control  # noqa: PLC0415
-    from ecu.phases import plan  # noqa: PLC0415
-    from ecu.road import RoadMemory  # noqa: PLC0415
+    from ecu.cycle.command import ControlMemory, control  # noqa: PLC0415
+    from ecu.cycle.phases import plan  # noqa: PLC0415
+    from ecu.cycle.road import RoadMemory  # noqa: PLC0415
     from ecu.signals import NodeInputs  # noqa: PLC0415
     from pacc.vocab.acc_state import AccState  # noqa: PLC0415
 

@@ -11,9 +11,9 @@ import pytest
 from hypothesis import event, given
 from hypothesis import strategies as st
 
-from ecu.command import ControlMemory, control
+from ecu.cycle.command import ControlMemory, control
+from ecu.cycle.phases import Plan
 from ecu.node import ConfigError, EcuConfig, EcuNode, NodeInputs, NodeOutputs
-from ecu.phases import Plan
 from pacc.vocab.acc_state import AccState, FaultCode
 from pacc.vocab.dgpt import predefined
 from pacc.vocab.triplog import Trip

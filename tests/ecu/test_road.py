@@ -6,7 +6,7 @@ import math
 
 from ecu.adaptation import AdaptationParams, Reason, TakeoverSummary, adapt
 from ecu.controller import RoadParams, stopping_limit_mps2
-from ecu.road import RoadMemory, road_limit, road_update
+from ecu.cycle.road import RoadMemory, road_limit, road_update
 from pacc.vocab.dgpt import predefined
 
 P = RoadParams()

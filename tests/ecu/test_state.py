@@ -8,7 +8,7 @@ from dataclasses import fields, replace
 import pytest
 
 from dbc.codec import load_codec
-from ecu.state import Events, transition
+from ecu.cycle.state import Events, transition
 from pacc.vocab.acc_state import AccState, FaultCode
 
 S = AccState

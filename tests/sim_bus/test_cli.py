@@ -17,9 +17,9 @@ from pacc.vocab.acc_state import AccState
 from pacc.vocab.dgpt import predefined
 from pacc.vocab.dgpt_file import save_dgpt
 from pacc.vocab.triplog_file import read_trip
-from sim_bus import profile_csv, scenarios
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.errors import SimError
+from sim_bus.lead import profile_csv, scenarios
 from sim_bus.manual import manual_trip
 from sim_bus.study.drive import with_condition
 from sim_bus.study.irl_table import cache_key, code_digest, irl_table

@@ -15,7 +15,7 @@ from pacc.vocab.acc_state import AccState
 from pacc.vocab.dgpt import Dgpt, SafetyBounds, clamp_to_bounds, speed_axis
 from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
 from sim_bus.errors import DriveError
-from sim_bus.scenarios import LeadProfile, canonical_profiles, shorten
+from sim_bus.lead.scenarios import LeadProfile, canonical_profiles, shorten
 from sim_bus.study.drive import (
     CONTROLLERS,
     DriveConfig,

@@ -1,5 +1,5 @@
 """Road scenarios in closed loop on the virtual bus (issue 21): cut-in, cut-out, lead loss and
-a new lead, stop-and-go; each asserts what the ECU must do (sim_bus.events, ecu.controller).
+a new lead, stop-and-go; each asserts what the ECU must do (sim_bus.lead.events, ecu.controller).
 
 The drives are short (30-90 s) and use a *quiet* driver (it never intervenes on its own) so
 that what is measured is the ECU's reaction, except where the driver's reaction is the point.
@@ -19,9 +19,9 @@ from ecu.adaptation import Reason
 from pacc.vocab.acc_state import AccState
 from pacc.vocab.dgpt import predefined
 from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
-from sim_bus.events import LeadEvent, road_profile
+from sim_bus.lead.events import LeadEvent, road_profile
+from sim_bus.lead.scenarios import LeadProfile
 from sim_bus.population import draw_population
-from sim_bus.scenarios import LeadProfile
 from sim_bus.study.drive import (
     DriveConfig,
     DriveResult,

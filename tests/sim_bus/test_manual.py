@@ -16,8 +16,8 @@ from pacc.vocab.triplog_file import read_trip, write_trip
 from sim_bus.behaviour import BRAKE_BAR_PER_MPS2
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.idm import DECEL_LIMIT_MPS2
+from sim_bus.lead.scenarios import LeadProfile, canonical_profiles, shorten
 from sim_bus.manual import manual_trip
-from sim_bus.scenarios import LeadProfile, canonical_profiles, shorten
 
 
 @pytest.fixture(scope="module")

@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 
 from sim_bus.dataset import load_human_pairs
 from sim_bus.errors import ScenarioError
-from sim_bus.profile_csv import load_profile_csv, save_profile_csv
-from sim_bus.scenarios import (
+from sim_bus.lead.profile_csv import load_profile_csv, save_profile_csv
+from sim_bus.lead.scenarios import (
     DT_S,
     GeneratorConfig,
     LeadProfile,

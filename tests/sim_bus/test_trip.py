@@ -14,7 +14,7 @@ from pacc.vocab.pedals import PedalScale
 from pacc.vocab.triplog import Trip
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.errors import DriveError
-from sim_bus.scenarios import canonical_profiles, shorten
+from sim_bus.lead.scenarios import canonical_profiles, shorten
 from sim_bus.study.drive import DriveConfig, log_to_trip, run_drive
 from sim_bus.trip import condition_name, world_trip
 from sim_bus.world import WorldLog

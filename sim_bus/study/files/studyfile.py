@@ -47,8 +47,8 @@ from ecu.methods import make_adaptation, make_controller
 from pacc.vocab import FormatError
 from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams, load_driver
 from sim_bus.errors import SimError
+from sim_bus.lead.scenarios import canonical_profiles
 from sim_bus.population import draw_population
-from sim_bus.scenarios import canonical_profiles
 
 #: the keys of a study file's top level and of a method
 TOP_KEYS = {

@@ -1,6 +1,6 @@
 """Road scenarios beyond one always-present lead: cut-in, cut-out, lead loss, stop-and-go.
 
-A road scenario is a :class:`~sim_bus.scenarios.LeadProfile` (the traffic flow's speed, 10 Hz)
+A road scenario is a :class:`~sim_bus.lead.scenarios.LeadProfile` (the traffic flow's speed, 10 Hz)
 plus :class:`LeadEvent` s that change *which* vehicle the radar tracks. :class:`sim_bus.world.World`
 plays them: until the first event the lead drives the profile exactly (so a profile without
 events is the paper's car following, unchanged); after an event the new lead starts at a gap
@@ -40,7 +40,7 @@ from typing import Literal, get_args
 import numpy as np
 
 from sim_bus.errors import ScenarioError
-from sim_bus.scenarios import (
+from sim_bus.lead.scenarios import (
     DT_S,
     GeneratorConfig,
     LeadProfile,

@@ -1,5 +1,5 @@
 """Stopping behind a lead, as pure functions: the request's bound when a lead stops or stands
-(issue 21, stop-and-go); :func:`ecu.command.control` applies it while ACTIVE.
+(issue 21, stop-and-go); :func:`ecu.cycle.command.control` applies it while ACTIVE.
 """
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ from ecu.config import EcuConfig
 from ecu.controller import closing_limit_mps2, stopping_limit_mps2
 from ecu.signals import NodeInputs
 
-if TYPE_CHECKING:  # ecu.phases imports this module
-    from ecu.phases import Plan
+if TYPE_CHECKING:  # ecu.cycle.phases imports this module
+    from ecu.cycle.phases import Plan
 
 #: a stop that needs more than this deceleration builds its braking at the emergency jerk
 #: (a cut-out revealing a stopped vehicle: 1.4 s at 2.5 m/s^3 to reach -3.5 is too late), m/s^2

@@ -12,7 +12,7 @@ scale), so a test can check that its pieces really come from the data.
 Profiles are 10 Hz. ``canonical_profiles(seed)`` gives the evaluation set: four manual-driving
 profiles covering 5-30 m/s, Scenario A (seen: drawn from the manual profiles, from 30 m/s
 slowing to 5 m/s) and Scenario B (unseen: newly synthesized), 300 s each. A profile's CSV
-file (``t_s,v_lead_mps``) is :mod:`sim_bus.profile_csv`.
+file (``t_s,v_lead_mps``) is :mod:`sim_bus.lead.profile_csv`.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from sim_bus.dataset import load_human_pairs
 from sim_bus.errors import ScenarioError
 
 if TYPE_CHECKING:  # events.py builds on this module; the type only
-    from sim_bus.events import LeadEvent
+    from sim_bus.lead.events import LeadEvent
 
 DT_S = 0.1
 
@@ -48,7 +48,7 @@ class SegmentRef:
 class LeadProfile:
     """A lead speed profile: ``t_s``, ``v_lead_mps`` float64 arrays of shape (n,), 10 Hz.
 
-    ``events``: changes of the tracked vehicle (:mod:`sim_bus.events`; none: the lead drives
+    ``events``: changes of the tracked vehicle (:mod:`sim_bus.lead.events`; none: the lead drives
     the profile throughout, the paper's car following). ``set_speed_mps``: the ACC set speed
     the road calls for (None: the study's, above every lead speed).
     """
@@ -306,9 +306,10 @@ def shorten(profile: LeadProfile, duration_s: float) -> LeadProfile:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m sim_bus.scenarios list|export NAME PATH [--seed N]``: inspect or export."""
+    """``python -m sim_bus.lead.scenarios list|export NAME PATH [--seed N]``: inspect or export."""
     p = argparse.ArgumentParser(
-        prog="python -m sim_bus.scenarios", description="list or export the canonical lead profiles"
+        prog="python -m sim_bus.lead.scenarios",
+        description="list or export the canonical lead profiles",
     )
     p.add_argument("command", choices=("list", "export"))
     p.add_argument("name", nargs="?", help="profile to export (A, B, manual1..manual4)")
@@ -331,7 +332,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.name not in profiles or args.path is None:
         print(f"error: export needs NAME (one of {sorted(profiles)}) and PATH")
         return 2
-    from sim_bus.profile_csv import save_profile_csv  # noqa: PLC0415 - it imports this module
+    from sim_bus.lead.profile_csv import save_profile_csv  # noqa: PLC0415 - it imports this module
 
     try:
         save_profile_csv(profiles[args.name], args.path)

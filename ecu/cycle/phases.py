@@ -4,11 +4,11 @@ One cycle, in order (the openpilot split: read -> transition -> plan -> control 
 
     cycle_time      the cycle's time and integration step (a host clock fault: time stands still)
     check_inputs    input validity, the re-engagement hold, button edges -> state-machine Events
-    transition      (ecu.state) the next AccState
+    transition      (ecu.cycle.state) the next AccState
     enter_state     what entering that state does: fault code, set speed, controller reset
     takeover        (stateful, in the node) press -> takeover; release -> adaptation, recording
     plan            the DGPT's desired gap and its slope at the current speed
-    control         (ecu.command) PID and envelope while ACTIVE; the FAULT ramp otherwise
+    control         (ecu.cycle.command) PID and envelope while ACTIVE; the FAULT ramp otherwise
     sample_of       the recorder's sample of this cycle
     outputs         NodeOutputs
 
@@ -16,18 +16,18 @@ The takeover phase runs before the plan on purpose: an adaptation applied at a p
 is the table the same cycle plans with.
 
 Every function here is pure: values in, values out; no clock, no bus, no logging. The
-control phase has a module of its own, :mod:`ecu.command`.
+control phase has a module of its own, :mod:`ecu.cycle.command`.
 """
 
 from __future__ import annotations
 
 import math
 
-from ecu.command import Command
 from ecu.config import MAX_DT_S, EcuConfig
+from ecu.cycle.command import Command
+from ecu.cycle.state import Events
 from ecu.recorder import Sample
 from ecu.signals import NodeInputs, NodeOutputs, cycle_value, input_fault
-from ecu.state import Events
 from pacc.vocab.acc_state import AccState, FaultCode
 from pacc.vocab.dgpt import Dgpt
 
@@ -205,7 +205,7 @@ def plan(table: Dgpt, v_mps: float) -> Plan:
     return Plan(v, table.lookup(v), table.slope(v))  # v_mps, desired gap, its slope
 
 
-# -- 6. control: ecu.command; 7. recording and 8. outputs -----------------------------------------
+# -- 6. control: ecu.cycle.command; 7. recording and 8. outputs ------------------------------------
 
 
 def sample_of(inp: NodeInputs, now_s: float, state: AccState) -> Sample:

@@ -6,8 +6,8 @@ recording is written on the node's thread. With ``1`` or ``auto``, a file-only r
 for it keeps on the node's thread only what it must: the frames as tapped, each cycle packed,
 and at each flush the frames' columns read (:func:`ecu.buslog.decoded.frame_columns`).
 Everything else — the ``/can/raw`` block, decoding every DBC message, the protobuf rows, zstd,
-the chunk CRC and the writes — runs in a writer process (:mod:`ecu.buslog.serve`, from the pool of
-:mod:`ecu.buslog.writers`):
+the chunk CRC and the writes — runs in a writer process (:mod:`ecu.buslog.process.serve`, from
+the pool of :mod:`ecu.buslog.process.writers`):
 :class:`RemoteOutput` sends it the calls of :class:`~ecu.buslog.output.LogOutput` (pickled,
 over its stdin), and it runs them on a real :class:`~ecu.buslog.output.LogOutput`: the same
 code (the node's own ``ecu`` package, whatever the current directory) on the same arguments,
@@ -41,9 +41,9 @@ from typing import Any
 
 from ecu.buslog.decoded import floats
 from ecu.buslog.format import CanLogError, TimeBase
-from ecu.buslog.serve import frame_message
+from ecu.buslog.process.serve import frame_message
+from ecu.buslog.process.writers import end_writer, give_back
 from ecu.buslog.sinks import McapSink
-from ecu.buslog.writers import end_writer, give_back
 
 __all__ = ["NotSendable", "RemoteOutput", "WriterStuck"]
 
@@ -78,7 +78,7 @@ class WriterStuck(OSError):
 
 class RemoteOutput:
     """:class:`~ecu.buslog.output.LogOutput`'s calls for the file ``path``, run in the
-    writer process ``proc`` (:func:`ecu.buslog.writers.ready_writer`; module docstring).
+    writer process ``proc`` (:func:`ecu.buslog.process.writers.ready_writer`; module docstring).
 
     Raises:
         CanLogError: ``path`` cannot be created (checked here).

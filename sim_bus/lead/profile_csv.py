@@ -1,6 +1,6 @@
 """A lead speed profile as a CSV file: ``t_s,v_lead_mps`` rows, read back at 10 Hz.
 
-:func:`save_profile_csv` writes a :class:`~sim_bus.scenarios.LeadProfile`;
+:func:`save_profile_csv` writes a :class:`~sim_bus.lead.scenarios.LeadProfile`;
 :func:`load_profile_csv` reads a recorded or edited file (any increasing time stamps, s;
 speeds in m/s), resampled to the profiles' 10 Hz, and refuses an unusable file with a
 :class:`~sim_bus.errors.ScenarioError` naming it (``pacc drive --scenario FILE.csv``).
@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from sim_bus.errors import ScenarioError
-from sim_bus.scenarios import DT_S, LeadProfile
+from sim_bus.lead.scenarios import DT_S, LeadProfile
 
 
 def save_profile_csv(profile: LeadProfile, path: Path) -> None:

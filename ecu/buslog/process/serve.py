@@ -1,11 +1,10 @@
-"""The recorder's writer process: runs the calls :mod:`ecu.buslog.remote` sends it.
+"""The recorder's writer process: runs the calls :mod:`ecu.buslog.process.remote` sends it.
 
-``python -m ecu.buslog.serve`` (started by :mod:`ecu.buslog.writers`, never by hand) says
-:data:`READY` on its stdout once imported, then serves recordings one after the other: each
-an ``open`` message (the file, the network, the time base, attachments, metadata, the
-node's current directory), the
-:class:`~ecu.buslog.output.LogOutput` calls of the recording (a flush: its frames' columns,
-the rows due, the chunk's end), and ``finish`` or ``abandon``, answered on stdout with None
+``python -m ecu.buslog.process.serve`` (started by :mod:`ecu.buslog.process.writers`, never by hand)
+says :data:`READY` on its stdout once imported, then serves recordings one after the other: each an
+``open`` message (the file, the network, the time base, attachments, metadata, the node's current
+directory), the :class:`~ecu.buslog.output.LogOutput` calls of the recording (a flush: its frames'
+columns, the rows due, the chunk's end), and ``finish`` or ``abandon``, answered on stdout with None
 or the failure's text. Messages are pickles, each after its length (8 bytes, little-endian).
 
 Its stdin closed (the node's process ended or was killed) it writes what it got, keeps
@@ -143,7 +142,7 @@ def _flush(
     frames: tuple[bytes, ...] | None,
     rows: tuple[bytes, Mapping[str, Sequence[float]]] | None,
 ) -> None:
-    """:meth:`ecu.buslog.remote.RemoteOutput.flush`'s calls on ``output``."""
+    """:meth:`ecu.buslog.process.remote.RemoteOutput.flush`'s calls on ``output``."""
     if frames is not None:
         output.frames(FrameBatch.from_columns(*frames))
     if rows is not None:

@@ -13,7 +13,7 @@ the driver).
 :func:`road_update` carries :class:`RoadMemory` from one cycle to the next and says whether
 the target switched; :func:`road_limit` bounds the cycle's request by the rules. Both are pure;
 their parameters are :class:`ecu.controller.RoadParams` (``ControllerParams.road``), and
-:func:`ecu.command.control` applies them while ACTIVE.
+:func:`ecu.cycle.command.control` applies them while ACTIVE.
 """
 
 from __future__ import annotations

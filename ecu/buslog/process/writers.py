@@ -1,6 +1,7 @@
-"""The pool of the recorder's writer processes (:mod:`ecu.buslog.remote` sends them recordings;
-:mod:`ecu.buslog.serve` is their side): started, made ready, kept idle between recordings,
-ended and reaped. Opt-in (``PACC_RECORDER_PROCESS``, :data:`ecu.buslog.recording.PROCESS_ENV`).
+"""The pool of the recorder's writer processes (:mod:`ecu.buslog.process.remote` sends them
+recordings; :mod:`ecu.buslog.process.serve` is their side): started, made ready, kept idle
+between recordings, ended and reaped. Opt-in (``PACC_RECORDER_PROCESS``,
+:data:`ecu.buslog.recording.PROCESS_ENV`).
 
 - **Starting**: with ``1`` the first recording starts a writer and waits for it
   (:func:`start_writer`, about 0.2 s, at most :data:`START_TIMEOUT_S`); with ``auto`` a
@@ -29,7 +30,7 @@ import threading
 import time
 from pathlib import Path
 
-from ecu.buslog.serve import READY
+from ecu.buslog.process.serve import READY
 
 __all__ = ["end_writer", "give_back", "ready_writer", "start_writer"]
 
@@ -64,11 +65,11 @@ def _spawn() -> subprocess.Popen[bytes]:
 
         multiprocessing.util.Finalize(None, _end_idle, exitpriority=0)
         _finalizer = True
-    root = str(Path(__file__).resolve().parents[2])  # ecu/buslog/writers.py -> ecu's folder
+    root = str(Path(__file__).resolve().parents[2])  # ecu/buslog/process/writers.py -> ecu's folder
     path = [root, *(str(Path(p).absolute()) for p in sys.path if p)]
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(dict.fromkeys(path))}
     proc = subprocess.Popen(
-        [sys.executable, "-P", "-m", "ecu.buslog.serve"],
+        [sys.executable, "-P", "-m", "ecu.buslog.process.serve"],
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         env=env,

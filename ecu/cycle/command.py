@@ -1,11 +1,11 @@
 """The control phase of one cycle: the acceleration request and the controller's memory.
 
-:func:`control` is the sixth phase of :mod:`ecu.phases` (which re-exports it for
-:class:`ecu.node.EcuNode`): while ACTIVE, the PID gap law of :mod:`ecu.controller` (or a
-plug-in :data:`GapLaw`) capped by cruise, bounded by the closing and stopping limits
-(:mod:`ecu.stops`) and the road rules (:mod:`ecu.road`), then the envelope and jerk limits
-with the emergency exception; otherwise the request ramps toward zero (in OVERRIDE it follows,
-or prepares, the braking the ACC would take over with). Accelerations in m/s^2, times in s.
+:func:`control` is the sixth phase of :mod:`ecu.cycle.phases` (which re-exports it for
+:class:`ecu.node.EcuNode`): while ACTIVE, the PID gap law of :mod:`ecu.controller` (or a plug-in
+:data:`GapLaw`) capped by cruise, bounded by the closing and stopping limits
+(:mod:`ecu.cycle.stops`) and the road rules (:mod:`ecu.cycle.road`), then the envelope and jerk
+limits with the emergency exception; otherwise the request ramps toward zero (in OVERRIDE it
+follows, or prepares, the braking the ACC would take over with). Accelerations in m/s^2, times in s.
 
 Pure: values in, values out; no clock, no bus, no logging.
 """
@@ -18,13 +18,13 @@ from typing import TYPE_CHECKING
 
 from ecu.config import EcuConfig
 from ecu.controller import ControlInput, desired_accel, limit_command, time_to_collision_s
-from ecu.road import RoadMemory, road_limit, road_update
+from ecu.cycle.road import RoadMemory, road_limit, road_update
+from ecu.cycle.stops import URGENT_STOP_MPS2, closing_needs_mps2, lead_stop_need_mps2, stop_limit
 from ecu.signals import NodeInputs, cycle_value
-from ecu.stops import URGENT_STOP_MPS2, closing_needs_mps2, lead_stop_need_mps2, stop_limit
 from pacc.vocab.acc_state import AccState
 
-if TYPE_CHECKING:  # ecu.phases imports this module; the type only
-    from ecu.phases import Plan
+if TYPE_CHECKING:  # ecu.cycle.phases imports this module; the type only
+    from ecu.cycle.phases import Plan
 
 #: a gap law through the plug-in interface: ``(obs, memory, dt_s) -> (accel_mps2, memory)``
 #: (:class:`ecu.methods.guard.GuardedController`); None: the built-in PID called directly
@@ -37,7 +37,7 @@ GapLaw = Callable[[ControlInput, float, float], tuple[float, float]]
 @cycle_value
 class ControlMemory:
     """The controller's state across cycles: gap-error integral (m*s), last request (m/s^2),
-    the road (target switches, lead loss, standstill; :class:`ecu.road.RoadMemory`)."""
+    the road (target switches, lead loss, standstill; :class:`ecu.cycle.road.RoadMemory`)."""
 
     integral_m_s: float = 0.0
     prev_accel_mps2: float = 0.0
@@ -85,7 +85,7 @@ def control(
     request ramps toward zero at the jerk limit; it stays active only in FAULT while an
     executed request is still ramping (``fault_ramp``). ``law``: a plug-in
     gap law in place of the PID (the envelope and the closing limit stay the ECU's). The road
-    rules (:func:`ecu.road.road_update`): a target switch drops the integral, a brief
+    rules (:func:`ecu.cycle.road.road_update`): a target switch drops the integral, a brief
     lead loss does not raise the request, a standstill holds until the lead departs soon
     after the stop or the driver asks to go (``resume``: RESUME or the accelerator this cycle).
     """

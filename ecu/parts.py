@@ -1,0 +1,110 @@
+"""What an ACC node is built of, from its configuration: the plug-ins and the trip recorders.
+
+:class:`ecu.node.EcuNode` builds these once, when it is made:
+
+- :func:`plugins` — the guarded plug-in methods :class:`~ecu.config.EcuConfig` names (the gap
+  controller and the adaptation, each inside its wall-time budget; :mod:`ecu.methods.guard`);
+- :func:`recorders` — the takeover recorder (:class:`ecu.recorder.TakeoverRecorder`) and the
+  manual-driving recorder (:class:`ecu.manual.ManualRecorder`) for the sinks given, each with
+  the trip metadata of the table and the configuration.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from ecu.config import EcuConfig
+from ecu.manual import ManualRecorder
+from ecu.methods import make_adaptation, make_controller
+from ecu.methods.guard import (
+    ADAPTATION_BUDGET_S,
+    CONTROLLER_BUDGET_S,
+    GuardedAdaptation,
+    GuardedController,
+)
+from ecu.recorder import TakeoverRecorder, TripSink
+from pacc.vocab.dgpt import Dgpt
+
+
+def plugins(config: EcuConfig) -> tuple[GuardedController | None, GuardedAdaptation | None]:
+    """The guarded plug-in methods ``config`` names (None: the built-in called directly).
+
+    Raises:
+        PluginError: a spec names nothing loadable or its factory refuses the arguments.
+    """
+    law = adaptation = None
+    budget = config.plugin_budget_s
+    controller_budget = CONTROLLER_BUDGET_S if budget is None else budget
+    if config.gap_controller:
+        args = dict(config.controller_args)
+        if config.gap_controller == "pid" and not args:
+            args = {"params": config.controller}
+        law = GuardedController(
+            make_controller(config.gap_controller, args),
+            config.controller,
+            name=config.gap_controller,
+            budget_s=controller_budget,
+        )
+    if config.adaptation_method:
+        args = dict(config.adaptation_args)
+        adaptation = GuardedAdaptation(
+            make_adaptation(config.adaptation_method, args),
+            name=config.adaptation_method,
+            budget_s=ADAPTATION_BUDGET_S if budget is None else budget,
+        )
+    return law, adaptation
+
+
+def recorders(
+    config: EcuConfig,
+    table: Dgpt,
+    takeover_sink: TripSink | None,
+    manual_sink: TripSink | None,
+    *,
+    utc_of: Callable[[float], str] | None,
+    manual_min_s: float,
+) -> tuple[TakeoverRecorder | None, ManualRecorder | None]:
+    """The node's takeover and manual-driving recorders (None where no sink is given).
+
+    Args:
+        config: node configuration (record period, pre/post-trigger windows in s, trip meta).
+        table: the DGPT the node starts with (its driver and condition go into the metadata).
+        takeover_sink: receives each recorded takeover segment; None: no takeover recorder.
+        manual_sink: receives each manual car-following trip; None: no manual recorder.
+        utc_of: maps the node's clock (s) to ISO 8601 UTC (None: the node's clock only).
+        manual_min_s: the shortest manual stretch recorded, s.
+    """
+    recorder: TakeoverRecorder | None = None
+    if takeover_sink is not None:
+        recorder = TakeoverRecorder(
+            takeover_sink,
+            period_s=config.record_period_s,
+            pre_s=config.pre_trigger_s,
+            post_s=config.post_trigger_s,
+            meta={
+                "driver_id": table.driver_id,
+                "condition": table.condition,
+                "brake_mode": config.brake_mode,
+                **dict(config.trip_meta),
+            },
+            utc_of=utc_of,
+        )
+    manual: ManualRecorder | None = None
+    if manual_sink is not None:  # the driver's manual car-following, same metadata
+        manual = ManualRecorder(
+            manual_sink,
+            period_s=config.record_period_s,
+            cycle_s=config.cycle_s,
+            min_s=manual_min_s,
+            meta={
+                "driver_id": table.driver_id,
+                "condition": table.condition,
+                "brake_mode": config.brake_mode,
+                **dict(config.trip_meta),
+            },
+            utc_of=utc_of,
+        )
+    return recorder, manual
+
+
+__all__ = ["plugins", "recorders"]
