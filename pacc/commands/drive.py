@@ -5,7 +5,7 @@
                --controller predefined|predefined+oa|irl|irl+oa
                [--profile DGPT.json] [--seed N] [--faults SPEC] [--log run.mcap]
                [--can-log bus.mcap] [--manual-trips DIR]
-               [--adaptation-mode paper|timegap]
+               [--adaptation-mode paper|timegap] [--foxglove [HOST:PORT]] [--pace X]
 
 prints PoI, NIM, min gap, min time-to-collision, RMS jerk, takeovers, adaptations and
 collisions. ``--manual`` drives the scenario by hand instead (ACC off, no bus: the driver's
@@ -14,9 +14,11 @@ own pedals) and writes the trip to ``--log``: a demonstration for ``pacc cloud l
 car-following during the drive (:class:`ecu.manual.ManualRecorder`). A drive
 is a pure function of (configuration, seed, shipped data): the ECU and
 the simulator each get a python-can ``virtual`` bus on a private channel, and time is the
-simulator's (every frame stamped with simulated time). Exit status: 0, 1 if the drive
-ended in a collision, 2 on bad options or input files, or an output (``--log``,
-``--can-log``, ``--manual-trips``) not written.
+simulator's (every frame stamped with simulated time). ``--foxglove`` streams the drive
+live, held to real time (``--pace X``: X times; 0: as fast as it runs). Exit status: 0, 1
+if the drive ended in a collision, 2 on bad options or input files, or an output
+(``--log``, ``--can-log``, ``--manual-trips``) not written; 130 after Ctrl-C (a paced drive
+first prints and writes what it drove).
 """
 
 from __future__ import annotations
@@ -66,6 +68,7 @@ from sim_bus.study.drive import (
     run_drive,
     with_condition,
 )
+from sim_bus.study.drive_recording import MIN_PACE
 from sim_bus.study.irl_table import irl_table
 
 
@@ -305,13 +308,31 @@ def main(argv: list[str] | None = None) -> int:
         finally:
             for sink in live:
                 sink.close(complete=True)
+    except KeyboardInterrupt:  # an unpaced drive (a paced one ends with its results)
+        print("pacc drive: interrupted", file=sys.stderr)
+        return 130
     except (SimError, EcuError, FormatError, DbcError, OSError) as exc:
         text = error_line(exc)
         if isinstance(exc, OSError) and exc.filename is None and args.can_log is not None:
             text = f"--can-log {args.can_log}: {text}"  # the recording's write, unnamed
         print(f"pacc drive: error: {text}", file=sys.stderr)
         return 2
+    return _outputs(args, result, driver, manual, bool(live))
+
+
+def _outputs(
+    args: argparse.Namespace,
+    result: Any,
+    driver: DriverParams,
+    manual: _ManualTrips | None,
+    live: bool,
+) -> int:
+    """Print the drive's figures and write ``--log``; the exit status (130 for a drive
+    Ctrl-C stopped, 2 for an output not written, 1 for a collision)."""
     print(format_result(result))
+    stopped = result.extra.get("interrupted_at_s")
+    if stopped is not None:
+        print(f"pacc drive: interrupted at t = {stopped:.2f} s: the drive so far", file=sys.stderr)
     if args.log is not None:
         try:
             write_trip(args.log, log_to_trip(result, driver))
@@ -324,13 +345,21 @@ def main(argv: list[str] | None = None) -> int:
     recorded = not (args.can_log is not None or live) or _recording_ok(args, result)
     if not (written and recorded):
         return 2
+    if stopped is not None:
+        return 130  # what an interrupted command exits with; its outputs are written
     return 1 if result.collision else 0
 
 
 def _pace(args: argparse.Namespace) -> float | None:
     """The drive's pace (times real time; None: as fast as it runs) of ``--pace`` and
-    ``--foxglove``."""
+    ``--foxglove``.
+
+    Raises:
+        SimError: a pace above 0 and below :data:`MIN_PACE`.
+    """
     pace = args.pace if args.pace is not None else 1.0 if args.foxglove is not None else 0.0
+    if 0 < pace < MIN_PACE:
+        raise SimError(f"--pace {pace:g}: 0 or at least {MIN_PACE:g}")
     return pace if pace > 0 else None
 
 

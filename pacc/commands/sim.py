@@ -234,7 +234,7 @@ def main(argv: list[str] | None = None) -> int:
         f"min TTC {m.min_ttc_s:.2f} s  RMS jerk {m.rms_jerk_mps3:.3f} m/s^3  presses "
         f"{m.press_onsets}  collisions {1 if collided else 0}"
     )
-    return _save(args, world, driver, node, base, recorder, feed is not None)
+    return _save(args, world, driver, node, base, recorder, streamed=feed is not None)
 
 
 def _save(
@@ -265,7 +265,7 @@ def _save(
             print(f"pacc sim: error: cannot write {args.log}: {exc}", file=sys.stderr)
             status = 2
     if recorder is not None:
-        status = max(status, _finish_recording(recorder, log, args.can_log, streamed))
+        status = max(status, _finish_recording(recorder, log, args.can_log, streamed=streamed))
     return status
 
 

@@ -44,6 +44,8 @@ from sim_bus.lead.scenarios import LeadProfile, canonical_profiles, shorten
 from sim_bus.metrics import DriveMetrics, SafetyFigures
 from sim_bus.node import SimNode
 from sim_bus.study.drive_recording import (
+    MAX_PACE,
+    MIN_PACE,
     WorldFeed,
     after_tick,
     drive_recorder,
@@ -186,20 +188,14 @@ def run_drive(
     (:mod:`ecu.buslog.writer`), simulated time 0 stamped ``utc_start_ns`` (default: now);
     ``live``: more sinks of the same channels (a Foxglove live view, :mod:`ecu.buslog.live`).
     ``bus``: the python-can interface, one of :data:`BUSES` (the same frames on each).
-    ``pace``: hold the drive to this many times real time (:class:`~sim_bus.study.live.Pacer`;
-    None: as fast as it runs); with ``live`` sinks the world streams as it runs
-    (:class:`~sim_bus.study.live.WorldFeed`). Neither changes the drive.
+    ``pace``: times real time (None: as fast as it runs); ``live`` sinks get the world as it
+    runs (:mod:`sim_bus.study.drive_recording`); neither changes the drive. Ctrl-C ends a
+    paced drive there (``extra["interrupted_at_s"]``, results and recording up to that tick);
+    an unpaced one (a study's) lets the KeyboardInterrupt through.
     ``takeover_sink`` / ``manual_sink``: the ECU's takeover segments / manual car-following
     trips (:mod:`ecu.recorder`, :mod:`ecu.manual`; None: not recorded).
     """
-    if bus not in BUSES:
-        raise DriveError(f"bus must be one of {', '.join(BUSES)}, got {bus!r}")
-    if cfg.controller not in CONTROLLERS:
-        raise DriveError(f"controller must be one of {CONTROLLERS}")
-    if cfg.seed < 0:
-        raise DriveError(f"seed must be >= 0, got {cfg.seed}")
-    if pace is not None and not pace > 0:
-        raise DriveError(f"pace must be > 0, got {pace}")
+    _check_drive(cfg, bus, pace)
     prof = profile or resolve_profile(cfg.scenario, cfg.seed)
     if cfg.duration_s is not None:
         prof = shorten(prof, cfg.duration_s)
@@ -214,6 +210,7 @@ def run_drive(
     base = TimeBase(time.time_ns() if utc_start_ns is None else utc_start_ns, 0.0)
     recorder: CanLogWriter | None = None
     can_log_error: str | None = None
+    interrupted_at: float | None = None
     feed: WorldFeed | None = None
     try:
         rt = EcuRuntime(ecu_bus, ecu, codec=codec)
@@ -230,7 +227,13 @@ def run_drive(
             gap_setting=GAP_SETTING_CODE[driver.predefined_setting],
         )
         start = time.perf_counter()
-        events = _lockstep(node, rt, ecu, world, after_tick(feed, pace))
+        events: list[AdaptationEvent] = []
+        try:
+            _lockstep(node, rt, ecu, world, events, after_tick(feed, pace))
+        except KeyboardInterrupt:
+            if pace is None:
+                raise  # a study's drive: its harness handles Ctrl-C
+            interrupted_at = world.t_s
         wall = time.perf_counter() - start
         ecu.finish()
         summary = rt.summary()
@@ -263,14 +266,28 @@ def run_drive(
         adaptation_events=events,
         start_utc=base.iso(0.0),
         road_events=list(world.events_log),
-        extra=_extra(ecu, can_log_error),
+        extra=_extra(ecu, can_log_error, interrupted_at),
     )
 
 
-def _extra(ecu: EcuNode, can_log_error: str | None) -> dict[str, Any]:
-    """:attr:`DriveResult.extra`: the recording's failure, and the number of manual trips the
-    ECU made (with a manual sink: the sink wrote those it could)."""
+def _check_drive(cfg: DriveConfig, bus: str, pace: float | None) -> None:
+    """Raise DriveError for an unknown bus or controller, a negative seed, a bad pace."""
+    if bus not in BUSES:
+        raise DriveError(f"bus must be one of {', '.join(BUSES)}, got {bus!r}")
+    if cfg.controller not in CONTROLLERS:
+        raise DriveError(f"controller must be one of {CONTROLLERS}")
+    if cfg.seed < 0:
+        raise DriveError(f"seed must be >= 0, got {cfg.seed}")
+    if pace is not None and not MIN_PACE <= pace <= MAX_PACE:
+        raise DriveError(f"pace must be within {MIN_PACE:g}..{MAX_PACE:g}, got {pace}")
+
+
+def _extra(ecu: EcuNode, can_log_error: str | None, interrupted_at: float | None) -> dict[str, Any]:
+    """:attr:`DriveResult.extra`: the recording's failure, the simulated time (s) Ctrl-C ended
+    a paced drive at, the ECU's manual trips (with a manual sink: it wrote those it could)."""
     extra: dict[str, Any] = {"can_log_error": can_log_error} if can_log_error else {}
+    if interrupted_at is not None:
+        extra["interrupted_at_s"] = interrupted_at
     if ecu.manual is not None:
         extra["manual_trips"] = ecu.manual.trips
     return extra
@@ -334,14 +351,15 @@ def _lockstep(
     rt: EcuRuntime,
     ecu: EcuNode,
     world: World,
+    events: list[AdaptationEvent],
     after: Callable[[float], None] | None = None,
-) -> list[AdaptationEvent]:
+) -> None:
     """Step the simulator and then the ECU to the same instant until the world is done; the
-    adaptation decisions, each traced when its takeover ends. ``after(t_s)`` after each tick
-    (a live view's world feed, a pacer)."""
+    adaptation decisions appended to ``events``, each traced when its takeover ends (what an
+    interrupted drive traced is kept). ``after(t_s)`` after each tick (a live view's world
+    feed, a pacer)."""
     step = node.step
     advance = rt.advance_to
-    events: list[AdaptationEvent] = []
     last = ecu.last_decision
     while not world.done:
         now = node.t_s
@@ -353,7 +371,6 @@ def _lockstep(
                 events.append(AdaptationEvent(now, last, ecu.table))
         if after is not None:
             after(world.t_s)
-    return events
 
 
 def log_to_trip(result: DriveResult, driver: DriverParams) -> Trip:

@@ -18,6 +18,7 @@ world is written at the end in one call (:func:`record_world`), as it always was
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -38,6 +39,9 @@ if TYPE_CHECKING:
     from sim_bus.study.drive import DriveConfig
 
 __all__ = [
+    "MAX_PACE",
+    "MIN_PACE",
+    "RESYNC_S",
     "WORLD_DESCRIPTION",
     "Pacer",
     "WorldFeed",
@@ -49,6 +53,10 @@ __all__ = [
 
 #: the description of the ``/sim/world`` channel
 WORLD_DESCRIPTION = "the simulated world: plant, lead, driver"
+#: the paces a drive may be held to, times real time (1e-3: 1 s of drive per 17 min)
+MIN_PACE, MAX_PACE = 1e-3, 1e6
+#: a paced loop this far behind (s of wall time) starts again from where it is (no burst)
+RESYNC_S = 0.25
 
 
 def drive_recorder(
@@ -96,7 +104,8 @@ def record_world(recorder: CanLogWriter, log: WorldLog) -> None:
 
 
 class WorldFeed:
-    """``/sim/world`` sampled into ``recorder`` while ``world`` runs: call it after each tick.
+    """``/sim/world`` sampled into ``recorder`` while ``world`` runs: call it after each tick
+    (or before the next, and once after the last).
 
     One row per driver step (20 Hz), the columns and values :func:`record_world` writes
     after a drive; the recorder sends them with its next rows (every 0.2 s of the node's
@@ -116,39 +125,53 @@ class WorldFeed:
         rows = self.world.logged_since(self.rows)
         if not rows:
             return
-        self.rows += len(rows)
         if self.recorder.error is not None or self.recorder.closed:
+            self.rows += len(rows)
             return  # a stopped recording takes nothing (its close says why)
         sample = self.recorder.sample
         for row in rows:
             sample(WORLD_TOPIC, float(row[0]), tuple(float(x) for x in row[1:]))
+            self.rows += 1  # counted once written: an interrupt between rows loses none
 
 
 class Pacer:
     """Hold a loop to ``pace`` times real time: call it with the simulated time (s) each tick.
 
     The first call sets the origin; later calls sleep while the simulation is ahead of
-    ``pace`` × the wall time since. A loop slower than that is never held: it falls behind,
-    it skips nothing.
+    ``pace`` × the wall time since. A loop that falls more than :data:`RESYNC_S` behind (a
+    stalled machine) goes on at the pace from where it is, as the HIL loop does: a viewer
+    sees a pause, not a burst that catches up.
+
+    Args:
+        pace: times real time, within :data:`MIN_PACE`..:data:`MAX_PACE`.
+        clock: the wall clock, s (monotonic).
+        sleep: waits that many s.
 
     Raises:
-        ValueError: ``pace`` is not > 0.
+        ValueError: ``pace`` is out of range.
     """
 
-    def __init__(self, pace: float) -> None:
-        if not pace > 0:
-            raise ValueError(f"pace must be > 0, got {pace}")
+    def __init__(
+        self,
+        pace: float,
+        clock: Callable[[], float] = time.perf_counter,
+        sleep: Callable[[float], None] = time.sleep,
+    ) -> None:
+        if not MIN_PACE <= pace <= MAX_PACE:
+            raise ValueError(f"pace must be within {MIN_PACE:g}..{MAX_PACE:g}, got {pace}")
         self.pace = pace
+        self.clock = clock
+        self.sleep = sleep
         self._origin: float | None = None
 
     def __call__(self, sim_s: float) -> None:
-        now = time.perf_counter()
-        if self._origin is None:
+        """Wait until the wall clock reaches ``sim_s`` (s of simulated time) at the pace."""
+        now = self.clock()
+        ahead = math.nan if self._origin is None else self._origin + sim_s / self.pace - now
+        if not ahead >= -RESYNC_S:  # the first call, or too far behind: start from here
             self._origin = now - sim_s / self.pace
-            return
-        ahead = self._origin + sim_s / self.pace - now
-        if ahead > 0:
-            time.sleep(ahead)
+        elif ahead > 0:
+            self.sleep(ahead)
 
 
 def after_tick(feed: WorldFeed | None, pace: float | None) -> Callable[[float], None] | None:

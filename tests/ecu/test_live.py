@@ -122,7 +122,7 @@ def test_pacc_drive_foxglove_serves_and_refuses_a_bad_address(
 ) -> None:
     from pacc.commands.drive import main  # noqa: PLC0415 - an entry point, on top
 
-    assert main(["--duration", "3", "--foxglove", "127.0.0.1:0"]) == 0
+    assert main(["--duration", "3", "--foxglove", "127.0.0.1:0", "--pace", "0"]) == 0
     out = capsys.readouterr().out
     assert "foxglove: live view on ws://127.0.0.1:" in out and "collisions     0" in out
     assert main(["--duration", "3", "--foxglove", "127.0.0.1:x"]) == 2

@@ -5,6 +5,11 @@ from __future__ import annotations
 
 import asyncio
 import json
+import math
+import os
+import signal
+import subprocess
+import sys
 import threading
 import time
 from pathlib import Path
@@ -19,7 +24,7 @@ from pacc.commands.drive import main as drive_main
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.errors import DriveError
 from sim_bus.study.drive import DriveConfig, DriveResult, predefined_table, run_drive
-from sim_bus.study.drive_recording import Pacer
+from sim_bus.study.drive_recording import RESYNC_S, Pacer
 
 #: d2 with online adaptation: a takeover at 10.2 s (the world's pedals change mid-drive)
 CFG = DriveConfig(scenario="B", driver_id="d2", controller="predefined+oa", seed=1, duration_s=14.0)
@@ -59,10 +64,35 @@ def test_a_paced_drive_keeps_to_the_wall_clock_and_gives_the_same_drive() -> Non
     wall = time.perf_counter() - start
     assert wall >= 0.45  # 2 s at 4x: 0.5 s, less the first tick
     assert paced.metrics == fast.metrics and paced.frames_sent == fast.frames_sent
-    with pytest.raises(DriveError, match="pace must be > 0"):
-        _drive(cfg, pace=0.0)
-    with pytest.raises(ValueError, match="pace must be > 0"):
-        Pacer(-1.0)
+    for bad in (0.0, 1e-300, -1.0, math.nan):
+        with pytest.raises(DriveError, match="pace must be within"):
+            _drive(cfg, pace=bad)
+        with pytest.raises(ValueError, match="pace must be within"):
+            Pacer(bad)
+
+
+def test_the_pacer_waits_for_the_wall_clock_and_goes_on_after_a_stall() -> None:
+    """On a clock of its own: it sleeps while the simulation is ahead; after a stall longer
+    than RESYNC_S it goes on at the pace from there, with no burst to catch up."""
+    now = [100.0]
+    slept: list[float] = []
+
+    def sleep(s: float) -> None:
+        slept.append(round(s, 9))
+        now[0] += s
+
+    pacer = Pacer(2.0, clock=lambda: now[0], sleep=sleep)
+    pacer(0.0)  # the origin
+    pacer(1.0)  # 1 s of drive at 2x: 0.5 s of wall time
+    assert slept == [0.5] and now[0] == 100.5
+    now[0] += 0.1  # a loop a little slow: no sleep, and no jump either
+    pacer(1.2)
+    assert slept == [0.5]
+    now[0] += 5.0  # a stall of 5 s: the pacer starts again from here
+    pacer(1.4)
+    pacer(2.4)
+    assert slept == [0.5, 0.5]  # 1 s of drive at 2x again, not a burst
+    assert RESYNC_S == 0.25
 
 
 async def _watch(port: int, done: threading.Event) -> list[tuple[int, bool]]:
@@ -122,6 +152,7 @@ def test_a_client_that_connects_during_a_paced_drive_sees_the_world_as_it_runs()
     finally:
         runner.join(10)
         sink.close(complete=True)
+    assert "got" in seen, "the client thread failed (its error is above)"
     got = seen["got"]
     assert "result" in outcome and outcome["result"].sim_s == pytest.approx(8.0)
     during = [t for t, running in got if running]
@@ -138,6 +169,12 @@ def test_pacc_drive_paces_with_foxglove_and_refuses_a_bad_pace(
     assert "paced at 4x real time" in capsys.readouterr().out
     assert drive_main(["--duration", "1", "--foxglove", "127.0.0.1:0", "--pace", "0"]) == 0
     assert "paced" not in capsys.readouterr().out
+    start = time.perf_counter()
+    assert drive_main(["--duration", "0.5", "--foxglove", "127.0.0.1:0"]) == 0
+    assert time.perf_counter() - start >= 0.45  # real time: the default with --foxglove
+    assert "paced at 1x real time" in capsys.readouterr().out
+    assert drive_main(["--pace", "1e-9"]) == 2
+    assert "--pace 1e-09: 0 or at least 0.001" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         drive_main(["--pace", "-1"])
     assert "--pace" in capsys.readouterr().err
@@ -163,3 +200,35 @@ def test_pacc_sim_with_a_live_view_records_the_whole_world(
         counts.append(len(world["t_s"]))
     assert "foxglove: live view on ws://127.0.0.1:" in capsys.readouterr().out
     assert counts[0] == counts[1] >= 20
+
+
+def test_ctrl_c_ends_a_paced_drive_with_its_figures_and_files(tmp_path: Path) -> None:
+    """``pacc drive --pace 1`` stopped by Ctrl-C after about 1.5 s: the figures of the drive
+    so far, ``--log`` and ``--can-log`` (the world included) written, exit status 130."""
+    log, can_log = tmp_path / "run.mcap", tmp_path / "bus.mcap"
+    argv = ["--duration", "60", "--pace", "1", "--log", str(log), "--can-log", str(can_log)]
+
+    def sigint_default() -> None:  # an ignored SIGINT would survive exec (a background CI)
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+    child = subprocess.Popen(
+        [sys.executable, "-m", "pacc", "drive", *argv],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])},
+        preexec_fn=sigint_default,  # noqa: PLW1509 - no threads in the test process here
+    )
+    assert child.stdout is not None
+    first = child.stdout.readline()  # "drive: paced at 1x ..." once the drive starts
+    assert "paced at 1x" in first
+    time.sleep(1.5)
+    child.send_signal(signal.SIGINT)
+    out, err = child.communicate(timeout=30)
+    assert child.returncode == 130, err
+    stopped = float(err.split("interrupted at t = ")[1].split(" s")[0])
+    assert 0.5 < stopped < 20.0 and "Traceback" not in err
+    assert "collisions" in out and f"log            {log}" in out
+    world = read_canlog(can_log).series["/sim/world"]
+    assert abs(world["t_s"][-1] - stopped) <= 0.1  # the world up to where it stopped
