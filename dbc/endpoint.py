@@ -17,6 +17,7 @@ from dbc.codec import Codec, RoleCodec
 from dbc.e2e import E2EReceiver, E2EStatus
 from dbc.errors import CrcError, DbcError, DecodeError, DlcError, EncodeError, RangeError
 from dbc.frame import Frame as Frame  # re-exported: the class moved to dbc.frame
+from dbc.lockstep import EFF_FLAG, ID_MASK, OTHER, raw_key
 from dbc.message import Decoded, MessageCodec, Value
 
 #: Pseudo-role under which frames of no bound message are counted.
@@ -111,6 +112,10 @@ class Inbox:
         self._routes: dict[int, _Route] = {
             fid: _Route(mc, self.receivers[mc.key], mc.role in self._merge)
             for fid, mc in self._by_id.items()
+        }
+        #: the same by raw key (the id with the IDE bit, :func:`dbc.lockstep.raw_key`)
+        self._raw_routes: dict[int, _Route] = {
+            raw_key(fid, r.extended): r for fid, r in self._routes.items()
         }
         #: the E2E receivers of each role's messages (freshness)
         self._role_receivers: dict[str, tuple[E2EReceiver, ...]] = {
@@ -216,6 +221,22 @@ class Inbox:
         if now_s is None:
             now_s = msg.timestamp
         return self._take(route, msg.data, now_s)
+
+    def accept_raw(self, key: int, data: Any, now_s: float) -> Decoded | None:
+        """:meth:`accept_message` for a raw entry of the lockstep bus (``key``:
+        :func:`dbc.lockstep.raw_key`, ``data`` the payload; for :data:`dbc.lockstep.OTHER`
+        the message itself), received at ``now_s`` (s). The same outcomes, the same counts."""
+        route = self._raw_routes.get(key)
+        if route is None:
+            if key == OTHER:
+                return self.accept_message(data, now_s)
+            self.frames_in += 1
+            mc = self.codec.by_id.get(key & ID_MASK)
+            if mc is None or mc.is_extended != (key >= EFF_FLAG):
+                self._unknown[E2EStatus.UNKNOWN_ID] += 1
+            return None
+        self.frames_in += 1
+        return self._take(route, data, now_s)
 
     def _refuse(self, msg: can.Message) -> None:
         """Count a frame :meth:`accept_message` cannot use: an error or remote frame, an id of

@@ -23,6 +23,14 @@ not need:
   :class:`ecu.busio.BusIO`; each frame comes from :func:`dbc.endpoint.new_frame`); so no
   received message aliases one its sender may still mutate.
 
+- **no message object at all between pacc's nodes.** A node that reads its end with
+  :meth:`LockstepBus.receive_raw` gets each frame as a tuple ``(timestamp, key, data)``
+  (:func:`raw_key`: the id, the extended bit on top; ``data`` immutable ``bytes``), and a
+  node that sends with :meth:`LockstepBus.hand_over_raw` never builds a :class:`can.Message`.
+  Another bus on the channel (a python-can listener, a logger) still gets a fresh message per
+  frame; a frame that is not a plain data frame (error, remote, CAN FD) reaches a raw reader as
+  ``(timestamp, OTHER, message)``. So the same frames and timestamps travel either way.
+
 A received frame carries the sender's timestamp (the simulated time it was stamped with),
 ``channel`` set to the channel name and ``is_rx`` True, exactly as the virtual bus stamps them.
 Receive filters (``can_filters``) are honoured. Not thread-safe by design: use the virtual bus
@@ -32,7 +40,7 @@ for nodes on separate threads (a real-time ECU beside a simulator).
 from __future__ import annotations
 
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import can
@@ -42,9 +50,51 @@ from can.typechecking import Channel
 #: the buses open on each channel, in the order they were opened
 _channels: dict[Channel, list[LockstepBus]] = {}
 _new_message = Message.__new__
+#: the extended-id bit of a raw frame's key (SocketCAN's CAN_EFF_FLAG)
+EFF_FLAG = 0x80000000
+#: the id bits of a raw frame's key
+ID_MASK = 0x1FFFFFFF
+#: the key of a raw entry that is not a plain data frame (its third item is the message)
+OTHER = -1
+#: one frame for a raw reader: (timestamp s, key, payload bytes) or (timestamp, OTHER, message)
+Raw = tuple[float, int, Any]
 
 
-def rx_copy(msg: Message, channel: Channel, is_rx: bool = True) -> Message:
+def raw_key(frame_id: int, extended: bool) -> int:
+    """A frame's key for raw readers: ``frame_id``, with :data:`EFF_FLAG` for a 29-bit id."""
+    return frame_id | EFF_FLAG if extended else frame_id
+
+
+def raw_of(msg: Message) -> Raw:
+    """The raw entry of ``msg``: ``(timestamp, key, bytes of the payload)`` for a classic data
+    frame, else ``(timestamp, OTHER, a received copy)``."""
+    if msg.is_error_frame or msg.is_remote_frame or msg.is_fd:
+        return (msg.timestamp, OTHER, rx_copy(msg, msg.channel))
+    return (msg.timestamp, raw_key(msg.arbitration_id, msg.is_extended_id), bytes(msg.data))
+
+
+def message_of(entry: Raw, channel: Channel | None, is_rx: bool = True) -> Message:
+    """The :class:`can.Message` a raw entry stands for, stamped with ``channel`` and ``is_rx``."""
+    t, key, data = entry
+    if key == OTHER:
+        return rx_copy(data, channel, is_rx)
+    m = _new_message(Message)
+    m.timestamp = t
+    m.arbitration_id = key & ID_MASK
+    m.is_extended_id = key >= EFF_FLAG
+    m.is_remote_frame = False
+    m.is_error_frame = False
+    m.channel = channel
+    m.dlc = len(data)
+    m.data = bytearray(data)
+    m.is_fd = False
+    m.is_rx = is_rx
+    m.bitrate_switch = False
+    m.error_state_indicator = False
+    return m
+
+
+def rx_copy(msg: Message, channel: Channel | None, is_rx: bool = True) -> Message:
     """A received copy of ``msg``: a new :class:`can.Message` that shares no mutable state
     with it (a new payload ``bytearray``), stamped with ``channel`` and ``is_rx`` (False on
     the sender's own echo, as python-can's virtual bus does)."""
@@ -84,24 +134,45 @@ class LockstepBus(BusABC):
         self.channel_id = channel
         self.channel_info = f"Lockstep bus channel {channel}"
         self.receive_own_messages = receive_own_messages
-        #: frames received and not yet read, oldest first
-        self.rx: deque[Message] = deque()
+        #: frames received and not yet read, oldest first (raw entries once
+        #: :meth:`receive_raw` was called)
+        self.rx: deque[Any] = deque()
+        #: this end is read raw (:meth:`receive_raw`)
+        self.raw = False
         self._open = True
         self._peers = _channels.setdefault(channel, [])
         self._peers.append(self)
-        self._targets: tuple[deque[Message], ...] = ()
+        self._targets: tuple[tuple[deque[Any], bool], ...] = ()
         #: the receive queue of the channel's one other bus, if it is the only target
-        self._sole: deque[Message] | None = None
+        self._sole: deque[Any] | None = None
+        #: ... and whether that bus is read raw
+        self._sole_raw = False
         self._retarget()
 
     def _retarget(self) -> None:
-        """Recompute every bus's receive queues on this channel (a bus opened or closed)."""
+        """Recompute every bus's receive queues on this channel (a bus opened or closed, or
+        read raw from now on)."""
         for bus in self._peers:
             bus._targets = tuple(
-                other.rx for other in bus._peers if other is not bus or bus.receive_own_messages
+                (other.rx, other.raw)
+                for other in bus._peers
+                if other is not bus or bus.receive_own_messages
             )
             one = bus._targets[0] if len(bus._targets) == 1 else None
-            bus._sole = one if one is not bus.rx else None
+            bus._sole = one[0] if one is not None and one[0] is not bus.rx else None
+            bus._sole_raw = one is not None and one[1]
+
+    def receive_raw(self) -> Callable[[], list[Raw]]:
+        """Read this end raw from now on: queued frames become ``(timestamp, key, data)``
+        tuples (see the module docstring); returns :meth:`take_raw`. :meth:`recv` and
+        :meth:`take_all` still give messages."""
+        if not self.raw:
+            self.raw = True
+            queued = [raw_of(m) for m in self.rx]
+            self.rx.clear()
+            self.rx.extend(queued)
+            self._retarget()
+        return self.take_raw
 
     def send(self, msg: Message, timeout: float | None = None) -> None:
         """Queue a copy of ``msg`` (what :func:`rx_copy` gives) to every other bus of the
@@ -114,7 +185,10 @@ class LockstepBus(BusABC):
         fd, brs, esi = msg.is_fd, msg.bitrate_switch, msg.error_state_indicator
         channel = self.channel_id
         own = self.rx
-        for rx in self._targets:
+        for rx, raw in self._targets:
+            if raw:
+                rx.append(raw_of(msg))
+                continue
             m = _new_message(Message)
             m.timestamp = t
             m.arbitration_id = fid
@@ -148,9 +222,32 @@ class LockstepBus(BusABC):
         if sole is None:
             self.send(msg)
             return
+        if self._sole_raw:
+            sole.append(raw_of(msg))
+            return
         msg.channel = self.channel_id
         msg.is_rx = True
         sole.append(msg)
+
+    def hand_over_raw(self, t: float, key: int, data: bytes) -> None:
+        """Send one classic data frame without a message object: stamped ``t`` (s), id and
+        IDE bit in ``key`` (:func:`raw_key`), payload ``data`` (immutable ``bytes``). A raw
+        reader gets the tuple itself; any other bus a new message, as :meth:`send` gives.
+
+        Raises:
+            CanOperationError: the bus is closed.
+        """
+        if not self._open:
+            raise CanOperationError("Cannot operate on a closed bus")
+        sole = self._sole
+        if sole is not None and self._sole_raw:
+            sole.append((t, key, data))
+            return
+        entry = (t, key, data)
+        channel = self.channel_id
+        own = self.rx
+        for rx, raw in self._targets:
+            rx.append(entry if raw else message_of(entry, channel, rx is not own))
 
     def recv(self, timeout: float | None = None) -> Message | None:
         """The oldest queued frame that passes the filters, or None at once if there is none
@@ -158,11 +255,10 @@ class LockstepBus(BusABC):
         if not self._open:
             raise CanOperationError("Cannot operate on a closed bus")
         rx = self.rx
-        if self._filters is None:
-            return rx.popleft() if rx else None
         while rx:
-            msg = rx.popleft()
-            if self._matches_filters(msg):
+            entry = rx.popleft()
+            msg: Message = message_of(entry, self.channel_id) if self.raw else entry
+            if self._filters is None or self._matches_filters(msg):
                 return msg
         return None
 
@@ -181,14 +277,40 @@ class LockstepBus(BusABC):
             return ()
         out = list(rx)
         rx.clear()
+        if self.raw:
+            out = [message_of(e, self.channel_id) for e in out]
         if self._filters is None:
             return out
         return [m for m in out if self._matches_filters(m)]
 
+    def take_raw(self) -> list[Raw]:
+        """Every queued frame as a raw entry, oldest first, taken off the queue (a raw
+        reader's drain at each tick; see :meth:`receive_raw`). Receive filters apply.
+
+        Raises:
+            CanOperationError: the bus is closed.
+        """
+        if not self._open:
+            raise CanOperationError("Cannot operate on a closed bus")
+        rx = self.rx
+        if not rx:
+            return []
+        out = list(rx)
+        rx.clear()
+        if not self.raw:
+            out = [raw_of(m) for m in out]
+        if self._filters is None:
+            return out
+        channel = self.channel_id
+        return [e for e in out if self._matches_filters(message_of(e, channel))]
+
     def _recv_internal(self, timeout: float | None) -> tuple[Message | None, bool]:
         if not self._open:
             raise CanOperationError("Cannot operate on a closed bus")
-        return (self.rx.popleft() if self.rx else None), False
+        if not self.rx:
+            return None, False
+        msg = self.rx.popleft()
+        return (message_of(msg, self.channel_id) if self.raw else msg), False
 
     @property
     def pending(self) -> int:
@@ -206,4 +328,14 @@ class LockstepBus(BusABC):
                 _channels.pop(self.channel_id, None)
 
 
-__all__ = ["LockstepBus", "rx_copy"]
+__all__ = [
+    "EFF_FLAG",
+    "ID_MASK",
+    "OTHER",
+    "LockstepBus",
+    "Raw",
+    "message_of",
+    "raw_key",
+    "raw_of",
+    "rx_copy",
+]

@@ -12,15 +12,15 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import can
 
-from dbc.codec import Codec, EncodeError, RoleCodec
+from dbc.codec import Codec, EncodeError, MessageCodec, RoleCodec
 from dbc.endpoint import Inbox, Outbox
-from dbc.lockstep import LockstepBus
+from dbc.lockstep import LockstepBus, message_of, raw_key
 from ecu import EcuError
 from ecu.config import EcuConfig
 from ecu.safety import CommandSafety
@@ -209,23 +209,29 @@ class BusIO:
         self._status = () if status is None else status.parts
         #: called with (time, frame, received) for every frame in and out (a bus recorder)
         self.tap: Callable[[float, can.Message, bool], None] | None = None
-        #: the lockstep bus's take-all (:meth:`dbc.lockstep.LockstepBus.take_all`), else None
-        self._take_all = bus.take_all if isinstance(bus, LockstepBus) else None
-        #: its hand-over (the Outbox builds a new frame per send and never touches it again)
-        self._hand_over = bus.hand_over if isinstance(bus, LockstepBus) else None
+        #: called with (time, raw key, payload, received) for every frame in and out on the
+        #: lockstep bus, read raw (a bus recorder's :meth:`~ecu.buslog.writer.CanLogWriter.
+        #: frame_raw`); where only :attr:`tap` is set, it gets each frame as a message
+        self.tap_raw: Callable[[float, int, Any, bool], None] | None = None
+        lock = bus if isinstance(bus, LockstepBus) else None
+        #: the lockstep bus, read raw: every waiting frame in one call, no message objects
+        #: (:meth:`dbc.lockstep.LockstepBus.receive_raw`), else None
+        self._take_raw = lock.receive_raw() if lock is not None else None
+        #: its raw send (:meth:`dbc.lockstep.LockstepBus.hand_over_raw`), else None
+        self._hand_over_raw = lock.hand_over_raw if lock is not None else None
+        self._channel = lock.channel_id if lock is not None else None
+        #: each output message's raw key
+        self._keys = {mc.key: raw_key(mc.frame_id, mc.is_extended) for mc in codec.parts()}
 
     # -- receive -------------------------------------------------------------------------
 
     def drain(self, now_s: float) -> None:
         """Feed every frame waiting on the bus to the Inbox, stamped ``now_s``."""
+        if self._take_raw is not None:  # the lockstep bus: every waiting frame in one call
+            self._drain_raw(now_s)
+            return
         accept = self.inbox.accept_message
         tap = self.tap
-        if self._take_all is not None:  # the lockstep bus: every waiting frame in one call
-            for frame in self._take_all():
-                accept(frame, now_s)
-                if tap is not None:
-                    tap(now_s, frame, True)
-            return
         recv = self.bus.recv
         while True:
             msg = recv(0)
@@ -234,6 +240,22 @@ class BusIO:
             accept(msg, now_s)
             if tap is not None:
                 tap(now_s, msg, True)
+
+    def _drain_raw(self, now_s: float) -> None:
+        """:meth:`drain` on the lockstep bus, read raw: no message objects."""
+        assert self._take_raw is not None
+        accept = self.inbox.accept_raw
+        tap = self.tap_raw
+        if tap is None and self.tap is not None:  # a message tap only: give it messages
+            channel = self._channel
+            for entry in self._take_raw():
+                accept(entry[1], entry[2], now_s)
+                self.tap(now_s, message_of(entry, channel), True)
+            return
+        for _, key, data in self._take_raw():
+            accept(key, data, now_s)
+            if tap is not None:
+                tap(now_s, key, data, True)
 
     def receive(self, timeout_s: float, clock: Callable[[], float]) -> float:
         """Wait up to ``timeout_s`` for one frame and accept it stamped with its arrival time
@@ -263,29 +285,38 @@ class BusIO:
         """Send ACC_Command (and ACC_Status if ``status``) stamped ``t_s``; the outputs as
         sent (after the safety check: ``out`` itself when it passed). Never raises: an
         encode or bus failure is logged and counted in :attr:`send_errors`."""
-        send, pack = self._send, self.outbox.pack_part
+        send = self._send_raw if self._hand_over_raw is not None else self._send_message
         out = self.safety.check(out, t_s)  # the independent check (ecu.safety), last word
         try:
             values = command_values(out, self.limits)
             for mc in self._command:
-                send(pack(mc, values, t_s))
+                send(mc, values, t_s)
             if status and self._status:
                 values = status_values(out, self.limits)
                 for mc in self._status:
-                    send(pack(mc, values, t_s))
+                    send(mc, values, t_s)
         except (EncodeError, can.CanError) as exc:
             self.send_errors += 1
             log.error("t=%.2f send failed: %s", t_s, exc)
         return out
 
-    def _send(self, msg: can.Message) -> None:
-        """Send a new frame of the Outbox (on the lockstep bus: handed over, no copy)."""
-        if self._hand_over is not None:
-            self._hand_over(msg)
-        else:
-            self.bus.send(msg)
+    def _send_message(self, mc: MessageCodec, values: Mapping[str, Any], t_s: float) -> None:
+        """Send one frame of message ``mc`` stamped ``t_s`` as a new python-can message."""
+        msg = self.outbox.pack_part(mc, values, t_s)
+        self.bus.send(msg)
         if self.tap is not None:
-            self.tap(msg.timestamp, msg, False)
+            self.tap(t_s, msg, False)
+
+    def _send_raw(self, mc: MessageCodec, values: Mapping[str, Any], t_s: float) -> None:
+        """Send one frame of message ``mc`` stamped ``t_s`` on the lockstep bus, raw."""
+        assert self._hand_over_raw is not None
+        data = self.outbox.encode_part(mc, values)
+        key = self._keys[mc.key]
+        self._hand_over_raw(t_s, key, data)
+        if self.tap_raw is not None:
+            self.tap_raw(t_s, key, data, False)
+        elif self.tap is not None:
+            self.tap(t_s, message_of((t_s, key, data), self._channel, False), False)
 
 
 __all__ = [

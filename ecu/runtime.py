@@ -151,6 +151,7 @@ class EcuRuntime:
         ``recorder`` (:mod:`ecu.buslog.writer`; None: stop recording). The caller closes it."""
         self.recorder = recorder
         self.io.tap = recorder.frame if recorder is not None else None
+        self.io.tap_raw = recorder.frame_raw if recorder is not None else None
 
     # -- the parts -----------------------------------------------------------------------
 

@@ -15,6 +15,7 @@ and closes the loop through the ACC command frames. Modules, one concept each:
 - :mod:`sim_bus.world` — lead + plant + driver, the drive log;
 - :mod:`sim_bus.trip` — a run's log as a trip;
 - :mod:`sim_bus.faults` — fault injection;
+- :mod:`sim_bus.readings` — what the simulated sensors read at a tick, per transmitted role;
 - :mod:`sim_bus.node` — the bus node;
 - :mod:`sim_bus.metrics` — PoI, NIM, safety figures;
 - :mod:`sim_bus.errors` — the error tree, rooted at :class:`SimError`.

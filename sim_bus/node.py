@@ -25,10 +25,10 @@ import numpy as np
 from dbc.codec import Codec, MessageCodec, load_codec
 from dbc.endpoint import Inbox, Outbox
 from dbc.frame import Frame
-from dbc.lockstep import LockstepBus
-from dbc.schema import resting_values
+from dbc.lockstep import OTHER, LockstepBus, message_of, raw_key
 from pacc.vocab.acc_state import AccState
 from sim_bus.faults import ROLES, FaultPlan, FaultSpec
+from sim_bus.readings import Readings
 from sim_bus.world import World
 
 #: the roles the simulator sends (the ones faults apply to)
@@ -83,10 +83,8 @@ class SimNode:
             )
             for due in self._due
         ]
-        self._bounds = {(r, k): roles[r].bounds(k) for r in TX_ROLES for k in roles[r].fields}
-        self._values: dict[str, dict[str, Any]] = resting_values(
-            hmi={"gap_setting": int(gap_setting), "profile_id": int(profile_id)}
-        )
+        #: each role's values at this tick, read off the world (:class:`Readings`)
+        self.readings = Readings(world, roles, gap_setting, profile_id)
         self.faults = faults if faults is not None and faults.plans else None
         self._rng = rng or np.random.default_rng(0)
         self._frozen: dict[str, dict[str, Any]] = {}
@@ -105,31 +103,20 @@ class SimNode:
         # waiting: peeking either saves a recv() call per tick with nothing to read
         queue = getattr(bus, "queue", None)
         self._rx_queue = queue if callable(getattr(queue, "empty", None)) else None
-        self._rx_deque = bus.rx if isinstance(bus, LockstepBus) else None
-        #: the lockstep bus reads every waiting frame in one call, and takes new frames
-        #: without a copy (:meth:`dbc.lockstep.LockstepBus.hand_over`)
-        self._take_all = bus.take_all if isinstance(bus, LockstepBus) else None
-        self._hand_over = bus.hand_over if isinstance(bus, LockstepBus) else None
+        lock = bus if isinstance(bus, LockstepBus) else None
+        self._rx_deque = lock.rx if lock is not None else None
+        #: the lockstep bus, read raw: every waiting frame in one call, and frames sent
+        #: without message objects (:meth:`dbc.lockstep.LockstepBus.receive_raw`,
+        #: :meth:`~dbc.lockstep.LockstepBus.hand_over_raw`)
+        self._take_raw = lock.receive_raw() if lock is not None else None
+        self._hand_over_raw = lock.hand_over_raw if lock is not None else None
         # one reusable message per role (the virtual bus copies what it sends)
         self._msgs: dict[str, can.Message] = {
             p.key: Frame(arbitration_id=p.frame_id, is_extended_id=p.is_extended, dlc=p.length)
             for p in self._parts
         }
-        b = self._bounds
-        self._b_ego = b[("ego", "speed_mps")], b[("ego", "accel_mps2")]
-        self._b_pedals = b[("pedals", "accel_pedal_pct")], b[("pedals", "brake_pressure_bar")]
-        self._b_radar = (
-            b[("radar", "gap_m")],
-            b[("radar", "rel_speed_mps")],
-            b[("radar", "lead_accel_mps2")],
-        )
-        fillers: dict[str, Callable[[], dict[str, Any]]] = {
-            "ego": self._fill_ego,
-            "pedals": self._fill_pedals,
-            "radar": self._fill_radar,
-        }
         #: each role's filler: its values for this tick (one call per role and tick)
-        self._fillers = {r: fillers.get(r, self._fill_hmi) for r in TX_ROLES}
+        self._fillers = self.readings.fillers(TX_ROLES)
         #: the hot path's schedule: (filler, ((message, its reused frame), ...)) per role due
         self._due_fill = [
             tuple(
@@ -141,6 +128,12 @@ class SimNode:
         self.commands_ok = 0
         #: called with (time, frame, received) for every frame in and out (a bus recorder)
         self.tap: Callable[[float, can.Message, bool], None] | None = None
+        #: on the lockstep bus: called with (time, raw key, payload, received) instead
+        #: (:meth:`ecu.buslog.writer.CanLogWriter.frame_raw`); where only :attr:`tap` is set,
+        #: it gets each frame as a message
+        self.tap_raw: Callable[[float, int, Any, bool], None] | None = None
+        #: each message's raw key (:func:`dbc.lockstep.raw_key`)
+        self._keys = {mc.key: raw_key(mc.frame_id, mc.is_extended) for mc in self._parts}
 
     # -- receive ------------------------------------------------------------------------
     def _idle(self) -> bool:
@@ -152,7 +145,7 @@ class SimNode:
     def _receive(self, now: float) -> None:
         if self._idle():
             return  # nothing arrived since the last tick
-        if self._take_all is not None:  # the lockstep bus
+        if self._take_raw is not None:  # the lockstep bus
             self._take_in(now)
             return
         bus = self.bus
@@ -167,16 +160,27 @@ class SimNode:
             self._accept(msg, now)
 
     def _take_in(self, now: float) -> None:
-        """The lockstep bus: take every waiting frame in, in one call."""
-        assert self._take_all is not None
+        """The lockstep bus: take every waiting frame in, in one call, raw."""
+        assert self._take_raw is not None
         try:
-            msgs = self._take_all()
+            entries = self._take_raw()
         except can.CanError:
             self.recv_errors += 1
             return
-        accept = self._accept
-        for frame in msgs:
-            accept(frame, now)
+        accept = self.inbox.accept_raw
+        tap = self.tap_raw
+        for entry in entries:
+            _, key, data = entry
+            if key == OTHER:  # an error, remote or FD frame: the message itself
+                self._accept(data, now)
+                continue
+            if tap is not None:
+                tap(now, key, data, True)
+            elif self.tap is not None:
+                self.tap(now, message_of(entry, getattr(self.bus, "channel_id", None)), True)
+            d = accept(key, data, now)
+            if d is not None:
+                self._use(d[0])
 
     def _accept(self, msg: can.Message, now: float) -> None:
         """Take one received frame in (the command and status it carries)."""
@@ -185,9 +189,11 @@ class SimNode:
         if msg.is_error_frame or msg.is_remote_frame:
             return
         d = self.inbox.accept(msg.arbitration_id, msg.data, now)
-        if d is None:
-            return
-        role = d[0]
+        if d is not None:
+            self._use(d[0])
+
+    def _use(self, role: str) -> None:
+        """A usable frame of ``role`` came in: the command and status it carries."""
         if role == "command":
             v = self.inbox.latest("command")  # every message of the role, merged
             if v is None:
@@ -204,57 +210,6 @@ class SimNode:
     def _fill(self, role: str) -> dict[str, Any]:
         """``role``'s values at this tick (its dict, updated in place)."""
         return self._fillers[role]()
-
-    # the fillers: each value limited to its field's bounds, written out (``x`` within
-    # [lo, hi]; above: hi; below or NaN: lo), never an EncodeError
-    def _fill_ego(self) -> dict[str, Any]:
-        car = self.world.plant
-        vals = self._values["ego"]
-        (lo, hi), (alo, ahi) = self._b_ego
-        x = car.v_mps
-        vals["speed_mps"] = x if lo <= x <= hi else hi if x > hi else lo
-        x = car.a_mps2
-        vals["accel_mps2"] = x if alo <= x <= ahi else ahi if x > ahi else alo
-        return vals
-
-    def _fill_pedals(self) -> dict[str, Any]:
-        agent = self.world.agent
-        vals = self._values["pedals"]
-        (lo, hi), (blo, bhi) = self._b_pedals
-        vals["accel_pressed"] = 1 if agent.accel_pressed else 0
-        vals["brake_pressed"] = 1 if agent.brake_pressed else 0
-        x = agent.accel_pct
-        vals["accel_pedal_pct"] = x if lo <= x <= hi else hi if x > hi else lo
-        x = agent.brake_bar
-        vals["brake_pressure_bar"] = x if blo <= x <= bhi else bhi if x > bhi else blo
-        return vals
-
-    def _fill_radar(self) -> dict[str, Any]:
-        w = self.world
-        car = w.plant
-        vals = self._values["radar"]
-        (lo, hi), (rlo, rhi), (alo, ahi) = self._b_radar
-        gap = car.gap_m
-        # no lead beyond the range or while a new track is being confirmed (a target
-        # switch of a road scenario, sim_bus.lead.events: the sensor drops LeadValid)
-        seen = lo <= gap <= hi and w.t_s >= w.radar_blank_until
-        vals["lead_valid"] = 1 if seen else 0
-        vals["gap_m"] = gap if lo <= gap <= hi else hi if gap > hi else lo
-        x = w.v_lead_mps - car.v_mps
-        vals["rel_speed_mps"] = x if rlo <= x <= rhi else rhi if x > rhi else rlo
-        x = w.a_lead_mps2
-        vals["lead_accel_mps2"] = x if alo <= x <= ahi else ahi if x > ahi else alo
-        return vals
-
-    def _fill_hmi(self) -> dict[str, Any]:
-        agent = self.world.agent
-        vals = self._values["hmi"]
-        vals["set"] = 1 if agent.set_button else 0
-        vals["resume"] = 1 if agent.resume_button else 0
-        hmi = getattr(agent, "hmi_buttons", None)  # a person's other buttons (sim_bus.hil)
-        if hmi is not None:
-            vals.update(hmi)
-        return vals
 
     def _send(self, msg: can.Message) -> None:
         try:
@@ -288,22 +243,18 @@ class SimNode:
         """Send the frames due at this tick, without faults: each role's values filled once;
         on the lockstep bus a new frame per message, handed over (no copy); on another bus
         the role's reused message, which the bus copies."""
+        if self._hand_over_raw is not None:
+            self._transmit_raw(now)
+            return
         encode = self.outbox.encode_part
-        pack = self.outbox.pack_part
         tap = self.tap
-        hand_over = self._hand_over
-        send = self.bus.send if hand_over is None else hand_over
+        send = self.bus.send
         sent = 0
         for fill, frames in self._due_fill[self.tick % self._hyper]:
             values = fill()  # once per role and tick, whatever its messages
-            for mc, reused in frames:
-                msg: can.Message
-                if hand_over is not None:
-                    msg = pack(mc, values, now)  # a new frame
-                else:
-                    msg = reused
-                    msg.data = bytearray(encode(mc, values))
-                    msg.timestamp = now
+            for mc, msg in frames:
+                msg.data = bytearray(encode(mc, values))
+                msg.timestamp = now
                 try:
                     send(msg)
                 except can.CanError:  # lost, like a dropped frame; the simulation goes on
@@ -312,6 +263,31 @@ class SimNode:
                 sent += 1
                 if tap is not None:
                     tap(now, msg, False)
+        self.frames_sent += sent
+
+    def _transmit_raw(self, now: float) -> None:
+        """:meth:`_transmit_due` on the lockstep bus: each frame sent raw, no message."""
+        assert self._hand_over_raw is not None
+        encode = self.outbox.encode_part
+        send = self._hand_over_raw
+        keys = self._keys
+        tap = self.tap_raw
+        sent = 0
+        for fill, frames in self._due_fill[self.tick % self._hyper]:
+            values = fill()  # once per role and tick, whatever its messages
+            for mc, _ in frames:
+                data = encode(mc, values)
+                key = keys[mc.key]
+                send(now, key, data)
+                sent += 1
+                if tap is not None:
+                    tap(now, key, data, False)
+                elif self.tap is not None:
+                    self.tap(
+                        now,
+                        message_of((now, key, data), getattr(self.bus, "channel_id", None), False),
+                        False,
+                    )
         self.frames_sent += sent
 
     def _transmit_faulty(

@@ -49,6 +49,7 @@ MODULES = (
     "ecu/safety.py",
     "ecu/cycle/state.py",
     "sim_bus/node.py",
+    "sim_bus/readings.py",
     "sim_bus/behaviour.py",
     "sim_bus/idm.py",
     "sim_bus/plant.py",

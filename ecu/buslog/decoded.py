@@ -2,9 +2,11 @@
 table of decoded signals (one row per frame) for its protobuf channel; the control cycles'
 tables likewise.
 
-The recorder's tap keeps each frame as it came, ``(t_s, frame, rx)``, and a flush reads the
-frames' columns an attribute at a time (:meth:`FrameBatch.of`): one append a frame on the
-node's path, no per-frame Python code in the batch for a plain CAN frame.
+The recorder's tap keeps each frame as it came, ``(t_s, key, frame, rx)``: a python-can
+message with ``key`` None, or a raw frame of the lockstep bus (:mod:`dbc.lockstep`: ``key`` the
+id with the IDE bit, ``frame`` the payload). A flush reads the frames' columns a field at a
+time (:meth:`FrameBatch.of`): one append a frame on the node's path, no per-frame Python code
+in the batch for a plain CAN frame.
 
 The frames are grouped by id with one sort; each DBC message's frames (its id, standard or
 extended, not error or remote frames, the DBC's length: any other frame stays in ``/can/raw``
@@ -23,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from dbc.columns import MessageColumns, message_columns
+from dbc.lockstep import ID_MASK, OTHER, message_of
 from ecu.buslog.blocks import encode_block
 from ecu.buslog.format import (
     FLAG_ERROR,
@@ -36,6 +39,7 @@ from ecu.buslog.proto import ProtoRows
 __all__ = [
     "FrameBatch",
     "FrameTap",
+    "STRIDE",
     "MessageDecoders",
     "Rows",
     "Tapped",
@@ -46,9 +50,12 @@ __all__ = [
     "integral_fields",
 ]
 
-#: A frame as the recorder's tap gets it: (time on the node's clock, s; the frame, a
-#: ``can.Message`` or anything with its attributes; received); kept flat, three items a frame.
-Tapped = tuple[float, Any, bool]
+#: A frame as the recorder's tap keeps it: (time on the node's clock, s; raw key or None; the
+#: payload for a raw key, else a ``can.Message`` or anything with its attributes; received);
+#: kept flat, four items a frame.
+Tapped = tuple[float, int | None, Any, bool]
+#: items a frame in the flat list of :data:`Tapped`
+STRIDE = 4
 
 #: A frame tap: (time on the node's clock, frame, received) -> None.
 FrameTap = Callable[[float, Any, bool], None]
@@ -197,7 +204,7 @@ class FrameBatch:
 
 
 def frame_columns(frames: Sequence[Any]) -> tuple[bytes, bytes, bytes, bytes, bytes, bytes]:
-    """The columns of the frames as the tap kept them (``t_s, frame, rx`` of each frame one
+    """The columns of the frames as the tap kept them (:data:`Tapped` of each frame one
     after the other in one flat list, at least one frame) as little-endian bytes: ``t_s``
     (float64), id (uint32), flags, dlc, payload length (uint8 each), the payloads joined.
     Read an attribute at a time over all frames, packed by ``struct``/``bytes`` (cheaper than
@@ -208,8 +215,25 @@ def frame_columns(frames: Sequence[Any]) -> tuple[bytes, bytes, bytes, bytes, by
 
 def _columns(frames: Sequence[Any]) -> tuple[bytes, bytes, bytes, bytes, bytes, list[Any]]:
     """:func:`frame_columns` with the payloads as the frames hold them (a list)."""
-    ts, msgs, rxs = frames[0::3], frames[1::3], frames[2::3]
+    ts, keys, items, rxs = frames[0::4], frames[1::4], frames[2::4], frames[3::4]
     n = len(ts)
+    if None not in keys and OTHER not in keys:  # raw frames of the lockstep bus only
+        karr = np.fromiter(keys, np.uint32, n)
+        rx = np.frombuffer(bytes(map(bool, rxs)), np.uint8)
+        ext = (karr >> np.uint32(31)).astype(np.uint8)
+        lens = bytes(map(len, items))
+        return (
+            struct.pack(f"<{n}d", *ts),
+            (karr & np.uint32(ID_MASK)).astype("<u4").tobytes(),
+            (ext * np.uint8(FLAG_EXTENDED) | rx * np.uint8(FLAG_RX)).tobytes(),
+            lens,  # a classic frame's DLC is its length
+            lens,
+            list(items),
+        )
+    msgs = [
+        item if key is None or key == OTHER else message_of((t, key, item), None)
+        for t, key, item in zip(ts, keys, items, strict=True)
+    ]
     datas = list(map(_DATA, msgs))
     ext = np.frombuffer(bytes(map(_EXT, msgs)), np.uint8)
     rx = np.frombuffer(bytes(map(bool, rxs)), np.uint8)

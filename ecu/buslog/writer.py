@@ -38,6 +38,7 @@ from typing import Any
 import can
 
 from ecu.buslog.decoded import (
+    STRIDE,
     FrameBatch,
     FrameTap,
     Tapped,
@@ -162,15 +163,21 @@ class CanLogWriter:
         """One frame received (``rx``) or sent at ``t_s`` on the node's clock. The frame is
         kept, not copied, until the next flush: its sender must not change it (a node's
         frames in and out are new objects each; else :meth:`frame_copy`)."""
-        self._tap((t_s, msg, rx))
+        self._tap((t_s, None, msg, rx))
+
+    def frame_raw(self, t_s: float, key: int, data: Any, rx: bool) -> None:
+        """:meth:`frame` of a raw frame of the lockstep bus (:mod:`dbc.lockstep`): ``key`` the
+        id with the IDE bit, ``data`` the payload (immutable bytes; for
+        :data:`dbc.lockstep.OTHER`, the message itself)."""
+        self._tap((t_s, key, data, rx))
 
     def frame_copy(self, t_s: float, msg: can.Message, rx: bool) -> None:
         """:meth:`frame` of a copy of ``msg`` (a sender that reuses its messages)."""
-        self._tap((t_s, frame_copy(msg), rx))
+        self._tap((t_s, None, frame_copy(msg), rx))
 
     def frame_and_tick(self, t_s: float, msg: can.Message, rx: bool) -> None:
         """:meth:`frame_copy`, then :meth:`tick`: a tap for a node without control cycles."""
-        self._tap((t_s, frame_copy(msg), rx))
+        self._tap((t_s, None, frame_copy(msg), rx))
         self.tick(t_s)
 
     def series(
@@ -287,7 +294,7 @@ class CanLogWriter:
         if frames:
             self._frames = []
             self._tap = self._frames.extend
-            self.frames += len(frames) // 3
+            self.frames += len(frames) // STRIDE
         self._block_t0 = None
         due: tuple[bytes, dict[str, list[Any]]] | None = None
         if rows:

@@ -8,7 +8,7 @@ from typing import Any
 import can
 import pytest
 
-from dbc.lockstep import LockstepBus
+from dbc.lockstep import EFF_FLAG, OTHER, LockstepBus, message_of, raw_key
 
 
 @pytest.fixture
@@ -190,3 +190,58 @@ def test_hand_over_delivers_what_send_delivers_without_a_copy() -> None:
     finally:
         a.shutdown()
         b.shutdown()
+
+
+def test_a_raw_reader_gets_the_frames_a_listener_gets_as_messages() -> None:
+    """Read raw (receive_raw): each frame a (timestamp, key, payload) tuple, no message;
+    another bus on the channel (a python-can listener) still gets fresh messages with the
+    same fields; frames sent as messages reach the raw reader as tuples; an error frame
+    as (timestamp, OTHER, message); recv on the raw end still gives messages."""
+    a = can.Bus(interface="lockstep", channel="raw-1")
+    b = can.Bus(interface="lockstep", channel="raw-1")
+    try:
+        assert isinstance(a, LockstepBus) and isinstance(b, LockstepBus)
+        a.send(_msg(0x10, b"\x00", 0.0))  # queued before b turns raw: converted
+        take = b.receive_raw()
+        a.hand_over_raw(0.1, raw_key(0x11, False), b"\x01\x02")  # b is the sole target
+        a.send(_msg(0x12, b"\x03", 0.2))
+        ext = can.Message(arbitration_id=0x1ABCDEF, is_extended_id=True, data=b"\x04")
+        ext.timestamp = 0.3
+        a.send(ext)
+        err = can.Message(is_error_frame=True, timestamp=0.4)
+        a.send(err)
+        got = take()
+        assert got[:4] == [
+            (0.0, 0x10, b"\x00"),
+            (0.1, 0x11, b"\x01\x02"),
+            (0.2, 0x12, b"\x03"),
+            (0.3, 0x1ABCDEF | EFF_FLAG, b"\x04"),
+        ]
+        assert got[4][:2] == (0.4, OTHER) and got[4][2].is_error_frame
+        assert got[4][2] is not err  # a copy, as send gives
+        assert take() == []
+        listener = can.Bus(interface="lockstep", channel="raw-1")  # now two targets
+        try:
+            a.hand_over_raw(0.5, raw_key(0x13, False), b"\x05\x06")
+            (entry,) = take()
+            msg = listener.recv(0)
+            assert entry == (0.5, 0x13, b"\x05\x06") and msg is not None
+            assert (msg.timestamp, msg.arbitration_id, bytes(msg.data), msg.dlc) == (
+                0.5,
+                0x13,
+                b"\x05\x06",
+                2,
+            )
+            assert msg.channel == "raw-1" and msg.is_rx and not msg.is_extended_id
+            assert message_of(entry, "raw-1").equals(msg)
+        finally:
+            listener.shutdown()
+        a.hand_over_raw(0.6, raw_key(0x14, True), b"")
+        back = b.recv(0)  # the raw end read as python-can: a message
+        assert back is not None and back.arbitration_id == 0x14 and back.is_extended_id
+        assert b.recv(0) is None
+    finally:
+        a.shutdown()
+        b.shutdown()
+    with pytest.raises(can.CanOperationError):
+        a.hand_over_raw(0.7, 0x15, b"")

@@ -15,8 +15,9 @@ import numpy as np
 import pytest
 
 from dbc.codec import load_codec
+from dbc.lockstep import OTHER, raw_key
 from ecu.buslog.blocks import decode_block
-from ecu.buslog.decoded import FrameBatch, cycle_tables
+from ecu.buslog.decoded import FrameBatch, cycle_tables, frame_columns
 from ecu.buslog.format import TimeBase, frame_flags
 from ecu.buslog.mcapfile import RECORD_HEAD, McapFile
 from ecu.buslog.proto import ProtoRows
@@ -66,7 +67,7 @@ def test_the_raw_block_of_tapped_frames_is_the_generic_block_of_their_fields(odd
         frames = [f for f in frames if not (f[1].is_error_frame or f[1].is_remote_frame)]
     else:
         frames = frames + _odd_frames()
-    batch = FrameBatch.of([x for frame in frames for x in frame])  # as the tap keeps them
+    batch = FrameBatch.of([x for t, m, rx in frames for x in (t, None, m, rx)])  # as tapped
     assert batch.block() == batch.block_generic()
     cols = decode_block(batch.block())
     assert cols["t_s"].tolist() == [t for t, _, _ in frames]
@@ -181,3 +182,22 @@ def test_a_copied_frame_is_recorded_as_it_was_when_tapped(tmp_path: Path) -> Non
     msg.data[0] = 99
     w.close()
     assert [d[0] for d in read_canlog(path).frames.data] == [0, 1, 2, 3, 4]
+
+
+def test_raw_frames_of_the_lockstep_bus_give_the_block_their_messages_give() -> None:
+    """The lockstep bus's raw frames (key, payload) tapped as ``frame_raw`` keeps them: the
+    same columns, so the same block, as the same frames tapped as python-can messages; an
+    error frame among them (key OTHER, the message itself) keeps its flags too."""
+    plain = [f for f in _frames(300, seed=8) if not (f[1].is_error_frame or f[1].is_remote_frame)]
+    as_msgs = [x for t, m, rx in plain for x in (t, None, m, rx)]
+    as_raw = [
+        x
+        for t, m, rx in plain
+        for x in (t, raw_key(m.arbitration_id, m.is_extended_id), bytes(m.data), rx)
+    ]
+    assert FrameBatch.of(as_raw).block() == FrameBatch.of(as_msgs).block()
+    assert frame_columns(as_raw) == frame_columns(as_msgs)
+    odd = _odd_frames()
+    mixed_raw = as_raw + [x for t, m, rx in odd for x in (t, OTHER, m, rx)]
+    mixed_msgs = as_msgs + [x for t, m, rx in odd for x in (t, None, m, rx)]
+    assert FrameBatch.of(mixed_raw).block() == FrameBatch.of(mixed_msgs).block()

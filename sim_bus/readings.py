@@ -1,0 +1,108 @@
+"""What the simulator's sensors read at a tick: each transmitted role's values off the world.
+
+The simulator's node (:class:`sim_bus.node.SimNode`) sends ESC (``ego``), PEDAL
+(``pedals``), RADAR (``radar``) and HMI (``hmi``) frames; :class:`Readings` fills each role's
+values from the simulated world once per tick, each value limited to its DBC field's bounds
+(``x`` within [lo, hi]; above: hi; below or NaN: lo), so encoding never fails. The radar
+reports no lead beyond its range or while a new track is being confirmed (a target switch of
+a road scenario, :mod:`sim_bus.lead.events`). Each role keeps one dict, updated in place.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Mapping
+from typing import Any
+
+from dbc.codec import RoleCodec
+from dbc.schema import resting_values
+from sim_bus.world import World
+
+__all__ = ["Readings"]
+
+
+class Readings:
+    """The transmitted roles' values of ``world`` at the current tick.
+
+    Args:
+        world: the simulated world (read at each call).
+        roles: the transmitted roles' codecs (their fields' bounds).
+        gap_setting: the HMI's gap setting code.
+        profile_id: the HMI's driver profile id.
+    """
+
+    def __init__(
+        self,
+        world: World,
+        roles: Mapping[str, RoleCodec],
+        gap_setting: int = 2,
+        profile_id: int = 0,
+    ) -> None:
+        self.world = world
+        b = {(r, k): rc.bounds(k) for r, rc in roles.items() for k in rc.fields}
+        #: each role's values, updated in place by its filler
+        self.values: dict[str, dict[str, Any]] = resting_values(
+            hmi={"gap_setting": int(gap_setting), "profile_id": int(profile_id)}
+        )
+        self._b_ego = b[("ego", "speed_mps")], b[("ego", "accel_mps2")]
+        self._b_pedals = b[("pedals", "accel_pedal_pct")], b[("pedals", "brake_pressure_bar")]
+        self._b_radar = (
+            b[("radar", "gap_m")],
+            b[("radar", "rel_speed_mps")],
+            b[("radar", "lead_accel_mps2")],
+        )
+
+    def fillers(self, roles: Iterable[str]) -> dict[str, Callable[[], dict[str, Any]]]:
+        """Each of ``roles``' filler: its values at this tick (the HMI's for any other)."""
+        named = {"ego": self.ego, "pedals": self.pedals, "radar": self.radar}
+        return {r: named.get(r, self.hmi) for r in roles}
+
+    def ego(self) -> dict[str, Any]:
+        """ESC: the ego speed (m/s) and acceleration (m/s^2)."""
+        car = self.world.plant
+        vals = self.values["ego"]
+        (lo, hi), (alo, ahi) = self._b_ego
+        x = car.v_mps
+        vals["speed_mps"] = x if lo <= x <= hi else hi if x > hi else lo
+        x = car.a_mps2
+        vals["accel_mps2"] = x if alo <= x <= ahi else ahi if x > ahi else alo
+        return vals
+
+    def pedals(self) -> dict[str, Any]:
+        """PEDAL: the switches, the accelerator travel (%) and the brake pressure (bar)."""
+        agent = self.world.agent
+        vals = self.values["pedals"]
+        (lo, hi), (blo, bhi) = self._b_pedals
+        vals["accel_pressed"] = 1 if agent.accel_pressed else 0
+        vals["brake_pressed"] = 1 if agent.brake_pressed else 0
+        x = agent.accel_pct
+        vals["accel_pedal_pct"] = x if lo <= x <= hi else hi if x > hi else lo
+        x = agent.brake_bar
+        vals["brake_pressure_bar"] = x if blo <= x <= bhi else bhi if x > bhi else blo
+        return vals
+
+    def radar(self) -> dict[str, Any]:
+        """RADAR: lead valid, the gap (m), the relative speed (m/s), the lead's acceleration."""
+        w = self.world
+        car = w.plant
+        vals = self.values["radar"]
+        (lo, hi), (rlo, rhi), (alo, ahi) = self._b_radar
+        gap = car.gap_m
+        seen = lo <= gap <= hi and w.t_s >= w.radar_blank_until
+        vals["lead_valid"] = 1 if seen else 0
+        vals["gap_m"] = gap if lo <= gap <= hi else hi if gap > hi else lo
+        x = w.v_lead_mps - car.v_mps
+        vals["rel_speed_mps"] = x if rlo <= x <= rhi else rhi if x > rhi else rlo
+        x = w.a_lead_mps2
+        vals["lead_accel_mps2"] = x if alo <= x <= ahi else ahi if x > ahi else alo
+        return vals
+
+    def hmi(self) -> dict[str, Any]:
+        """HMI: the SET and RESUME buttons, and a person's other buttons (:mod:`sim_bus.hil`)."""
+        agent = self.world.agent
+        vals = self.values["hmi"]
+        vals["set"] = 1 if agent.set_button else 0
+        vals["resume"] = 1 if agent.resume_button else 0
+        hmi = getattr(agent, "hmi_buttons", None)
+        if hmi is not None:
+            vals.update(hmi)
+        return vals
