@@ -262,6 +262,20 @@ class LockstepBus(BusABC):
                 return msg
         return None
 
+    def _take_queued(self) -> list[Any]:
+        """Every queued entry, oldest first, taken off the queue (messages, or raw entries
+        on a raw end).
+
+        Raises:
+            CanOperationError: the bus is closed.
+        """
+        if not self._open:
+            raise CanOperationError("Cannot operate on a closed bus")
+        rx = self.rx
+        out = list(rx)
+        rx.clear()
+        return out
+
     def take_all(self) -> Sequence[Message]:
         """Every queued frame that passes the filters, oldest first, taken off the queue:
         what calling :meth:`recv` until it returns None gives, in one call (a lockstep node's
@@ -270,13 +284,9 @@ class LockstepBus(BusABC):
         Raises:
             CanOperationError: the bus is closed.
         """
-        if not self._open:
-            raise CanOperationError("Cannot operate on a closed bus")
-        rx = self.rx
-        if not rx:
+        out = self._take_queued()
+        if not out:
             return ()
-        out = list(rx)
-        rx.clear()
         if self.raw:
             out = [message_of(e, self.channel_id) for e in out]
         if self._filters is None:
@@ -290,13 +300,7 @@ class LockstepBus(BusABC):
         Raises:
             CanOperationError: the bus is closed.
         """
-        if not self._open:
-            raise CanOperationError("Cannot operate on a closed bus")
-        rx = self.rx
-        if not rx:
-            return []
-        out = list(rx)
-        rx.clear()
+        out = self._take_queued()
         if not self.raw:
             out = [raw_of(m) for m in out]
         if self._filters is None:
