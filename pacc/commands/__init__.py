@@ -3,7 +3,8 @@
 ``pacc X`` is ``pacc.commands.X`` and ``pacc cloud Y`` is ``pacc.commands.cloud.Y``:
 each has ``main(argv) -> int`` and only parses options and wires the libraries together.
 
-- :mod:`pacc.commands.ecu` — ``pacc ecu``: the ACC ECU node on a CAN bus in real time.
+- :mod:`pacc.commands.ecu` — ``pacc ecu``: the ACC ECU node on a CAN bus in real time (a
+  sub-package: the command, its link to the cloud ``cloud``, its run on the bus ``run``).
 - :mod:`pacc.commands.sim` — ``pacc sim``: the simulator alone against an ECU on a bus.
 - :mod:`pacc.commands.drive` — ``pacc drive``: one closed-loop drive, ECU and simulator.
 - :mod:`pacc.commands.drive_report` — what ``pacc drive`` prints: the drive's figures as text.
@@ -19,10 +20,6 @@ each has ``main(argv) -> int`` and only parses options and wires the libraries t
   numbers, distinct outputs.
 - :mod:`pacc.commands.demos` — ``pacc demos extract LOG... -o trips/``: a real car's bus logs as
   IRL demonstrations.
-- :mod:`pacc.commands.ecu_cloud` — ``pacc ecu``'s link to the cloud: the takeover spool, the
-  vehicle link, the start table.
-- :mod:`pacc.commands.ecu_run` — ``pacc ecu``'s run on the bus: the bus recording, the
-  real-time loop, SIGTERM, the summary.
 - :mod:`pacc.commands.hil` — the command line of ``pacc hil``: a person drives in a browser
   against the ECU.
 - :mod:`pacc.commands.plugins` — ``pacc plugins``: the methods that can be named.
