@@ -113,6 +113,7 @@ PACKAGES = [
     "cloud_sync.learners",
     "cloud_sync",
     "cloud_sync.irl",
+    "cloud_sync.irl.sources",
     "cloud_sync.service",
     "cloud_sync.vehicle",
     "cloud_sync.engine",

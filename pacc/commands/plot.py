@@ -279,7 +279,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def _bus_trip(args: argparse.Namespace) -> Trip:
     """A foreign log decoded through ``--binding`` as one trip (the fixed panels)."""
-    from cloud_sync.irl.bus_demos import bus_trip, read_frames  # noqa: PLC0415
+    from cloud_sync.irl.sources.bus_demos import bus_trip, read_frames  # noqa: PLC0415
     from dbc.codec import load_codec, network_paths  # noqa: PLC0415
 
     codec = load_codec(*network_paths(args.dbc, args.binding))
