@@ -97,6 +97,7 @@ PACKAGES = [
     "pacc.vocab",
     "pacc.commands",
     "pacc.commands.cloud",
+    "pacc.commands.drive",
     "pacc.commands.ecu",
     "dbc",
     "ecu",

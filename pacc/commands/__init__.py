@@ -6,8 +6,8 @@ each has ``main(argv) -> int`` and only parses options and wires the libraries t
 - :mod:`pacc.commands.ecu` — ``pacc ecu``: the ACC ECU node on a CAN bus in real time (a
   sub-package: the command, its link to the cloud ``cloud``, its run on the bus ``run``).
 - :mod:`pacc.commands.sim` — ``pacc sim``: the simulator alone against an ECU on a bus.
-- :mod:`pacc.commands.drive` — ``pacc drive``: one closed-loop drive, ECU and simulator.
-- :mod:`pacc.commands.drive_report` — what ``pacc drive`` prints: the drive's figures as text.
+- :mod:`pacc.commands.drive` — ``pacc drive``: one closed-loop drive, ECU and simulator (a
+  sub-package: the command, what it prints ``report``).
 - :mod:`pacc.commands.study` — ``pacc study``: the paper's Table I and the population study.
 - :mod:`pacc.commands.cloud` — ``pacc cloud``: dispatch to the cloud's sub-commands (a
   sub-package: ``learn``, ``serve``, ``sync``).
