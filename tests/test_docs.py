@@ -99,6 +99,7 @@ PACKAGES = [
     "pacc.commands.cloud",
     "pacc.commands.drive",
     "pacc.commands.ecu",
+    "pacc.commands.plot",
     "dbc",
     "ecu",
     "ecu.cycle",

@@ -13,9 +13,8 @@ each has ``main(argv) -> int`` and only parses options and wires the libraries t
   sub-package: ``learn``, ``serve``, ``sync``).
 - :mod:`pacc.commands.export` — ``pacc export``: convert bus logs.
 - :mod:`pacc.commands.replay` — ``pacc replay``: a bus recording through the ECU or onto a bus.
-- :mod:`pacc.commands.plot` — ``pacc plot``: a recorded drive over time.
-- :mod:`pacc.commands.plot_layout` — ``pacc plot LOG --plotjuggler LAYOUT.xml``: a PlotJuggler
-  layout that opens the recording.
+- :mod:`pacc.commands.plot` — ``pacc plot``: a recorded drive over time (a sub-package: the
+  command, its PlotJuggler layout ``layout``).
 - :mod:`pacc.commands._args` — what several sub-commands share: the bus flags, validated
   numbers, distinct outputs.
 - :mod:`pacc.commands.demos` — ``pacc demos extract LOG... -o trips/``: a real car's bus logs as
