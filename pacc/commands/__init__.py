@@ -2,6 +2,8 @@
 
 ``pacc X`` is ``pacc.commands.X`` and ``pacc cloud Y`` is ``pacc.commands.cloud.Y``:
 each has ``main(argv) -> int`` and only parses options and wires the libraries together.
+A sub-command whose code spans several modules is a sub-package of its name, the command
+itself in the ``__init__`` (``ecu``, ``drive``, ``plot``; ``cloud`` holds its own sub-commands).
 
 - :mod:`pacc.commands.ecu` — ``pacc ecu``: the ACC ECU node on a CAN bus in real time (a
   sub-package: the command, its link to the cloud ``cloud``, its run on the bus ``run``).
