@@ -20,7 +20,7 @@
     predict a driver's gaps on data it was not trained on at least as well as the empirical
     steady-state baseline (the median gap per speed bin) trained on the same data? Time split
     per driver: every trip trains on its first 70 % and is tested on its last 30 % (the real
-    human pairs, any car-following CSV with the columns of cloud_sync.irl.tripfiles, and the
+    human pairs, any car-following CSV with the columns of cloud_sync.irl.sources.tripfiles, and the
     manual trips manual1..manual4 of N drawn drivers of population seed S, sim_bus.population,
     default 20 of seed 2). Error: mean absolute difference between the table at the ego speed
     and the actual gap over the test part's near-steady samples (|v_lead - v| < 0.5 m/s,
@@ -48,8 +48,8 @@ import numpy as np
 
 from cloud_sync.irl.demos import usable_mask
 from cloud_sync.irl.features import FeatureConfig
+from cloud_sync.irl.sources.tripfiles import read_csv_trip
 from cloud_sync.irl.trainer import IrlConfig, fine_tune, learn_dgpt
-from cloud_sync.irl.tripfiles import read_csv_trip
 from pacc.vocab.dgpt import Dgpt
 from pacc.vocab.triplog import Trip
 from sim_bus.dataset import load_human_pairs

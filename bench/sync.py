@@ -30,7 +30,7 @@ import uvicorn
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from cloud_sync.irl.synthetic import follower_trip  # noqa: E402
+from cloud_sync.irl.sources.synthetic import follower_trip  # noqa: E402
 from cloud_sync.service.http import create_app  # noqa: E402
 from cloud_sync.service.local import LocalCloud  # noqa: E402
 from cloud_sync.service.rules import CloudService  # noqa: E402

@@ -14,7 +14,7 @@ one trip log with ``meta["mode"] == "manual"`` (the takeover segments' format an
 metadata), a stretch reaching ``max_s`` (:data:`~pacc.vocab.sampling.MANUAL_MAX_S`) is
 handed over and the next sample starts a new one (a bounded buffer on the vehicle).
 ``pacc demos extract`` cuts a bus log of the same drive the same way
-(:mod:`cloud_sync.irl.bus_demos`).
+(:mod:`cloud_sync.irl.sources.bus_demos`).
 
 The trips go to the sink through the takeover segments' queue (:class:`ecu.recorder.SinkQueue`):
 a sink that raises is retried at the next trip and at :meth:`ManualRecorder.flush`, never

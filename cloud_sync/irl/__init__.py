@@ -1,6 +1,7 @@
 """Maximum-entropy IRL: a driver's DGPT learned from car-following demonstrations.
 
-- :mod:`cloud_sync.irl.tripfiles` — trip files by suffix (``.mcap`` trip logs, ``.csv`` pairs).
+- :mod:`cloud_sync.irl.sources` — where the demonstrations come from, as trips: trip files by
+  suffix, a real car's bus log, a synthetic follower (a sub-package).
 - :mod:`cloud_sync.irl.demos` — trips to segments, feature counts and start states.
 - :mod:`cloud_sync.irl.mdp` — the car-following MDP: grid, sparse transitions.
 - :mod:`cloud_sync.irl.features` — the reward basis.
@@ -14,9 +15,4 @@
 - :mod:`cloud_sync.irl.baseline` — ``empirical_baseline``, the steady-state comparison table.
 - :mod:`cloud_sync.irl.trainer` — ``learn_dgpt``, ``fine_tune``: compositions of the phases.
 - :mod:`cloud_sync.irl.plot` — the figure of a learned table.
-- :mod:`cloud_sync.irl.bus_demos` — demonstrations from a real car's bus log: the manual
-  car-following stretches as trip logs.
-- :mod:`cloud_sync.irl.synthetic` — A small synthetic car follower with a known gap preference:
-  demonstrations whose answer is known, for the IRL tests and the cloud benchmark
-  (bench/sync.py).
 """

@@ -7,7 +7,7 @@
 Every LOG (any format python-can reads: BLF, ASC, candump ``.log``, TRC, pacc's ``.mcap``) is
 decoded through the car's binding, and its manual car-following stretches (ACC not engaged,
 a valid lead, pedals and speed present and fresh; ``--min-s`` long or more) are written as
-manual trip logs ``OUT/<log>_<k>.mcap`` (:mod:`cloud_sync.irl.bus_demos`). A report says per
+manual trip logs ``OUT/<log>_<k>.mcap`` (:mod:`cloud_sync.irl.sources.bus_demos`). A report says per
 log how many seconds were kept and why the rest was dropped. Exit status: 0, 1 when no log
 gave a demonstration, 2 on a bad log, network or output folder.
 """
@@ -56,7 +56,7 @@ def main(argv: list[str] | None = None) -> int:
     if not math.isfinite(args.min_s) or args.min_s <= 0:
         print("pacc demos: error: --min-s must be a positive number", file=sys.stderr)
         return 2
-    from cloud_sync.irl.bus_demos import extract_demos  # noqa: PLC0415 - numpy, python-can
+    from cloud_sync.irl.sources.bus_demos import extract_demos  # noqa: PLC0415 - numpy, python-can
     from pacc.vocab.triplog_file import write_trip  # noqa: PLC0415
 
     written = 0

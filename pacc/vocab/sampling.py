@@ -1,5 +1,5 @@
 """How manual car-following is sampled: the rule and the limits the ECU's recorder
-(:mod:`ecu.manual`) and the bus-log extraction (:mod:`cloud_sync.irl.bus_demos`) share.
+(:mod:`ecu.manual`) and the bus-log extraction (:mod:`cloud_sync.irl.sources.bus_demos`) share.
 
 A control cycle is kept when it comes ``period_s`` after the last kept one less half a cycle
 (:func:`keep_sample`): in real time, where cycles jitter, every 5th 20-ms cycle at 10 Hz; in

@@ -1,4 +1,4 @@
-"""Fixtures of the IRL tests: the synthetic follower of :mod:`cloud_sync.irl.synthetic`."""
+"""Fixtures of the IRL tests: the synthetic follower of :mod:`cloud_sync.irl.sources.synthetic`."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from cloud_sync.irl.synthetic import follower_trip, lead_speed
+from cloud_sync.irl.sources.synthetic import follower_trip, lead_speed
 from pacc.vocab.acc_state import AccState
 from pacc.vocab.triplog import Trip
 

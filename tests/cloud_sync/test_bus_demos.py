@@ -28,8 +28,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cloud_sync.irl import bus_demos
-from cloud_sync.irl.bus_demos import extract_demos, read_frames
+from cloud_sync.irl.sources import bus_demos
+from cloud_sync.irl.sources.bus_demos import extract_demos, read_frames
 from cloud_sync.irl.trainer import learn_dgpt
 from dbc import DATA_DIR
 from dbc.codec import load_codec

@@ -19,7 +19,7 @@ from dbc.codec import load_codec
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
 from pacc.commands.ecu import main
-from pacc.commands.ecu_run import run_until_done
+from pacc.commands.ecu.run import run_until_done
 from pacc.vocab.dgpt import predefined
 from pacc.vocab.dgpt_file import load_dgpt
 from tests.cli_util import exit_code

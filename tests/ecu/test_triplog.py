@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from mcap.writer import Writer
 
-from cloud_sync.irl.tripfiles import load_trip, read_csv_trip
+from cloud_sync.irl.sources.tripfiles import load_trip, read_csv_trip
 from pacc.vocab.triplog import Trip, TripLogError
 from pacc.vocab.triplog_file import SAMPLE_TOPIC, read_trip, write_trip
 

@@ -11,8 +11,9 @@ import pytest
 
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
-from pacc.commands import drive, drive_report
+from pacc.commands import drive
 from pacc.commands import sim as cli
+from pacc.commands.drive import report as drive_report
 from pacc.vocab.acc_state import AccState
 from pacc.vocab.dgpt import predefined
 from pacc.vocab.dgpt_file import save_dgpt

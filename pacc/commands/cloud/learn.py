@@ -33,8 +33,8 @@ def _do_learn(args: argparse.Namespace) -> int:
 
     from cloud_sync.api import is_plain_name  # noqa: PLC0415
     from cloud_sync.irl.demos import is_acc_trip  # noqa: PLC0415
+    from cloud_sync.irl.sources.tripfiles import load_trip  # noqa: PLC0415
     from cloud_sync.irl.trainer import METHOD, IrlConfig, fine_tune, learn_dgpt  # noqa: PLC0415
-    from cloud_sync.irl.tripfiles import load_trip  # noqa: PLC0415
     from pacc.vocab.dgpt_file import load_dgpt, save_dgpt  # noqa: PLC0415
 
     for option, name in (("--driver", args.driver), ("--condition", args.condition)):
@@ -109,7 +109,7 @@ def _do_learn(args: argparse.Namespace) -> int:
 
 def _other_learner(args: argparse.Namespace) -> int:
     """``--learner SPEC`` other than irl: the table of that learner (docs/plugins.md)."""
-    from cloud_sync.irl.tripfiles import load_trip  # noqa: PLC0415 - numpy: a learn run only
+    from cloud_sync.irl.sources.tripfiles import load_trip  # noqa: PLC0415 - numpy: learn runs only
     from cloud_sync.learners import learn  # noqa: PLC0415
     from pacc.vocab.dgpt_file import save_dgpt  # noqa: PLC0415
 

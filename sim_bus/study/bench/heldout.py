@@ -7,7 +7,7 @@ data? Time split per driver: every trip trains on its first 70 % and is tested o
 between the table at the ego speed and the actual gap over the test part's near-steady
 samples (``|v_lead - v| < 0.5 m/s``, ``|a| < 0.3 m/s^2``) at the speeds both the learner and
 the baseline cover (elsewhere both state a prior). Drivers: real human pairs (the OpenACC
-pairs shipped with sim_bus; any car-following CSV of :mod:`cloud_sync.irl.tripfiles`), the
+pairs shipped with sim_bus; any car-following CSV of :mod:`cloud_sync.irl.sources.tripfiles`), the
 built-in d1..d5 and drawn drivers (their manual trips on manual1..manual4).
 """
 
@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from cloud_sync.errors import CloudSyncError
-from cloud_sync.irl.tripfiles import read_csv_trip
+from cloud_sync.irl.sources.tripfiles import read_csv_trip
 from cloud_sync.learners import learn
 from pacc.vocab import FormatError
 from pacc.vocab.dgpt import Dgpt

@@ -21,6 +21,13 @@ its ACC-on time, its takeover segments; :meth:`cloud_sync.vehicle.link.VehicleLi
 queued in the spool while the cloud is away.
 Exit codes: 0 run completed, 1 bus/DBC/spool error, 2 usage error (also
 ``--dbc`` without a ``--binding`` that names it).
+
+The command is a package (one concept per module):
+
+- :mod:`pacc.commands.ecu.cloud` — ``pacc ecu``'s link to the cloud: the takeover spool, the
+  vehicle link, the start table.
+- :mod:`pacc.commands.ecu.run` — ``pacc ecu``'s run on the bus: the bus recording, the
+  real-time loop, SIGTERM, the summary.
 """
 
 from __future__ import annotations
@@ -49,7 +56,7 @@ from pacc.commands._args import (
     check_distinct_outputs,
     number,
 )
-from pacc.commands.ecu_cloud import (
+from pacc.commands.ecu.cloud import (
     Exit,
     cloud_link,
     cloud_table,
@@ -57,7 +64,7 @@ from pacc.commands.ecu_cloud import (
     spool_sinks,
     warn_guest,
 )
-from pacc.commands.ecu_run import close_recorder, open_recorder, run_on_bus
+from pacc.commands.ecu.run import close_recorder, open_recorder, run_on_bus
 from pacc.vocab import FormatError
 from pacc.vocab.dgpt import Dgpt, DgptError, predefined
 from pacc.vocab.dgpt_file import load_dgpt, save_dgpt
@@ -361,7 +368,3 @@ def _check_writable_parent(target: str) -> None:
     parent = Path(target).resolve().parent
     if not (parent.is_dir() and os.access(parent, os.W_OK)):
         raise Exit(1, f"pacc ecu: error: --save-profile: {parent} is not a writable directory")
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

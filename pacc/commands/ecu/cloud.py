@@ -1,7 +1,7 @@
 """``pacc ecu``'s link to the cloud: the takeover and manual spools, the vehicle link, the
 start table.
 
-Split from :mod:`pacc.commands.ecu` (one concept per module): everything here runs only with
+Part of :mod:`pacc.commands.ecu` (one concept per module): everything here runs only with
 ``--takeovers``, ``--manual`` or ``--cloud``, and imports the cloud side lazily.
 """
 

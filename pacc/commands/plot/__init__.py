@@ -13,8 +13,11 @@ did each cycle); a recording without them (``pacc sim``) is drawn from the simul
 samples. Takeovers (the ECU's takeover events, a trip's ACTIVE -> OVERRIDE/OFF changes) are
 marked on every panel. Drawn on a bare matplotlib Figure (no pyplot); an OUT without a suffix
 gets ``.png``, and the file written is printed. ``--plotjuggler LAYOUT.xml`` (with or instead of
-``-o``) writes a PlotJuggler layout that opens the recording (:mod:`pacc.commands.plot_layout`).
+``-o``) writes a PlotJuggler layout that opens the recording (:mod:`pacc.commands.plot.layout`).
 Exit status: 0, 2 on a bad recording or one with nothing to draw.
+
+The command is a package: :mod:`pacc.commands.plot.layout` — ``pacc plot LOG --plotjuggler
+LAYOUT.xml``: a PlotJuggler layout that opens the recording.
 """
 
 from __future__ import annotations
@@ -279,7 +282,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def _bus_trip(args: argparse.Namespace) -> Trip:
     """A foreign log decoded through ``--binding`` as one trip (the fixed panels)."""
-    from cloud_sync.irl.bus_demos import bus_trip, read_frames  # noqa: PLC0415
+    from cloud_sync.irl.sources.bus_demos import bus_trip, read_frames  # noqa: PLC0415
     from dbc.codec import load_codec, network_paths  # noqa: PLC0415
 
     codec = load_codec(*network_paths(args.dbc, args.binding))
@@ -288,7 +291,7 @@ def _bus_trip(args: argparse.Namespace) -> Trip:
 
 def _write_layout(path: Path, log: CanLog | None, layout: Path) -> None:
     """Write the PlotJuggler layout of the recording ``path`` to ``layout`` and say so."""
-    from pacc.commands.plot_layout import layout_xml, recording_series  # noqa: PLC0415
+    from pacc.commands.plot.layout import layout_xml, recording_series  # noqa: PLC0415
 
     if log is None or not path.name.endswith(".mcap"):
         raise CanLogError(
@@ -340,7 +343,3 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     print(f"plot: {out}")
     return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -19,6 +19,9 @@ live, held to real time (``--pace X``: X times; 0: as fast as it runs). Exit sta
 if the drive ended in a collision, 2 on bad options or input files, or an output
 (``--log``, ``--can-log``, ``--manual-trips``) not written; 130 after Ctrl-C (a paced drive
 first prints and writes what it drove).
+
+The command is a package: :mod:`pacc.commands.drive.report` — what ``pacc drive`` prints: the
+drive's figures as text.
 """
 
 from __future__ import annotations
@@ -45,7 +48,7 @@ from pacc.commands._args import (
     integer,
     number,
 )
-from pacc.commands.drive_report import format_result
+from pacc.commands.drive.report import format_result
 from pacc.errors import UsageError
 from pacc.vocab import FormatError
 from pacc.vocab.dgpt import Dgpt
@@ -409,7 +412,3 @@ def _manual(args: argparse.Namespace) -> int:
     )
     print(f"  log            {args.log} (a demonstration for pacc cloud learn --demos)")
     return 1 if collided else 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

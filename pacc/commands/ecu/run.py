@@ -1,6 +1,6 @@
 """``pacc ecu``'s run on the bus: the bus recording, the real-time loop, SIGTERM, the summary.
 
-Split from :mod:`pacc.commands.ecu` (one concept per module): python-can, the runtime, MCAP
+Part of :mod:`pacc.commands.ecu` (one concept per module): python-can, the runtime, MCAP
 and Foxglove are imported only when the ECU runs, never for ``--help`` or a usage error.
 """
 
@@ -17,7 +17,7 @@ from ecu import EcuError
 from ecu.buslog.format import TimeBase
 from ecu.node import EcuNode
 from pacc.commands._args import bus_kwargs
-from pacc.commands.ecu_cloud import Exit, say
+from pacc.commands.ecu.cloud import Exit, say
 from pacc.vocab import FormatError
 
 if TYPE_CHECKING:
