@@ -230,10 +230,14 @@ def _columns(frames: Sequence[Any]) -> tuple[bytes, bytes, bytes, bytes, bytes, 
             lens,
             list(items),
         )
-    msgs = [
-        item if key is None or key == OTHER else message_of((t, key, item), None)
-        for t, key, item in zip(ts, keys, items, strict=True)
-    ]
+    msgs = (
+        items  # python-can messages only (a real bus)
+        if keys.count(None) == n
+        else [
+            item if key is None or key == OTHER else message_of((t, key, item), None)
+            for t, key, item in zip(ts, keys, items, strict=True)
+        ]
+    )
     datas = list(map(_DATA, msgs))
     ext = np.frombuffer(bytes(map(_EXT, msgs)), np.uint8)
     rx = np.frombuffer(bytes(map(bool, rxs)), np.uint8)
