@@ -15,7 +15,8 @@ node's inbox (decode + E2E checks) and outbox (counter + CRC on send).
   Python (``MessageCodec``).
 - :mod:`dbc.columns` — column-wise decoding of many frames of one message.
 - :mod:`dbc.endpoint` — a node's inbox (decode + E2E check) and outbox (counter + CRC).
-- :mod:`dbc.frame` — ``Frame``: the python-can message pacc's nodes send (a cheap deep copy).
+- :mod:`dbc.frame` — ``Frame`` (the python-can message pacc's nodes send, a cheap deep copy)
+  and raw frames (the lockstep bus's ``(timestamp, key, payload)``, no message object).
 - :mod:`dbc.network` — the ``--dbc`` / ``--binding`` options and the codec they name.
 - :mod:`dbc.errors` — the codec's exception tree, named by phase (load, encode, decode).
 - :mod:`dbc.lockstep` — A python-can bus for in-process simulation where the simulator owns

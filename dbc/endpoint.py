@@ -16,8 +16,8 @@ import can
 from dbc.codec import Codec, RoleCodec
 from dbc.e2e import E2EReceiver, E2EStatus
 from dbc.errors import CrcError, DbcError, DecodeError, DlcError, EncodeError, RangeError
+from dbc.frame import EFF_FLAG, ID_MASK, OTHER, raw_key
 from dbc.frame import Frame as Frame  # re-exported: the class moved to dbc.frame
-from dbc.lockstep import EFF_FLAG, ID_MASK, OTHER, raw_key
 from dbc.message import Decoded, MessageCodec, Value
 
 #: Pseudo-role under which frames of no bound message are counted.
@@ -304,7 +304,8 @@ class Outbox:
         self, mc: MessageCodec, values: Mapping[str, Any], timestamp: float = 0.0
     ) -> can.Message:
         """:meth:`encode_part` wrapped in a new python-can message (a :class:`Frame`:
-        :func:`new_frame`). The counter step is written out: this is every frame's path."""
+        :func:`new_frame`). The counter step is written out: this is every message frame's
+        path (pacc's nodes on the lockstep bus send raw: :meth:`encode_part`)."""
         key = mc.key
         counter = self.counters[key]
         data = mc.encode(values, counter)

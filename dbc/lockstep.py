@@ -18,18 +18,19 @@ not need:
   gives, without its memo and dispatch.
 - **no copy at all for a sender that gives its message up.** :meth:`LockstepBus.hand_over`
   is ``send`` for a sender that builds a new message (and payload ``bytearray``) per frame
-  and never touches it again: the one receiver gets that message itself. pacc's own nodes
-  send that way on this bus (the simulator's :class:`sim_bus.node.SimNode` and the ECU's
-  :class:`ecu.busio.BusIO`; each frame comes from :func:`dbc.endpoint.new_frame`); so no
-  received message aliases one its sender may still mutate.
-
-- **no message object at all between pacc's nodes.** A node that reads its end with
-  :meth:`LockstepBus.receive_raw` gets each frame as a tuple ``(timestamp, key, data)``
-  (:func:`raw_key`: the id, the extended bit on top; ``data`` immutable ``bytes``), and a
-  node that sends with :meth:`LockstepBus.hand_over_raw` never builds a :class:`can.Message`.
-  Another bus on the channel (a python-can listener, a logger) still gets a fresh message per
-  frame; a frame that is not a plain data frame (error, remote, CAN FD) reaches a raw reader as
-  ``(timestamp, OTHER, message)``. So the same frames and timestamps travel either way.
+  and never touches it again (a :class:`dbc.endpoint.Outbox` frame, :func:`dbc.endpoint.
+  new_frame`): the one receiver gets that message itself, so no received message aliases
+  one its sender may still mutate.
+- **no message object at all between pacc's nodes.** pacc's nodes (the simulator's
+  :class:`sim_bus.node.SimNode`, the ECU's :class:`ecu.busio.BusIO`) read their ends with
+  :meth:`LockstepBus.receive_raw`, each frame a raw tuple ``(timestamp, key, data)``
+  (:mod:`dbc.frame`: the id with the extended bit on top; ``data`` immutable ``bytes``, which
+  no one can change), and send with :meth:`LockstepBus.hand_over_raw`, never building a
+  :class:`can.Message`. Another bus on the channel (a python-can listener, a logger) still
+  gets a fresh message per frame; a frame that is not a plain classic data frame (error,
+  remote, CAN FD, a DLC other than its length) reaches a raw reader as ``(timestamp, OTHER,
+  message)``. So the same frames and timestamps travel either way. A raw end's own echo
+  (``receive_own_messages``) reads back with ``is_rx`` True (the raw tuple has no flag).
 
 A received frame carries the sender's timestamp (the simulated time it was stamped with),
 ``channel`` set to the channel name and ``is_rx`` True, exactly as the virtual bus stamps them.
@@ -47,71 +48,16 @@ import can
 from can import BusABC, CanOperationError, Message
 from can.typechecking import Channel
 
+from dbc.frame import (
+    Raw,
+    message_of,
+    raw_of,
+    rx_copy,
+)
+
+_new_message = Message.__new__
 #: the buses open on each channel, in the order they were opened
 _channels: dict[Channel, list[LockstepBus]] = {}
-_new_message = Message.__new__
-#: the extended-id bit of a raw frame's key (SocketCAN's CAN_EFF_FLAG)
-EFF_FLAG = 0x80000000
-#: the id bits of a raw frame's key
-ID_MASK = 0x1FFFFFFF
-#: the key of a raw entry that is not a plain data frame (its third item is the message)
-OTHER = -1
-#: one frame for a raw reader: (timestamp s, key, payload bytes) or (timestamp, OTHER, message)
-Raw = tuple[float, int, Any]
-
-
-def raw_key(frame_id: int, extended: bool) -> int:
-    """A frame's key for raw readers: ``frame_id``, with :data:`EFF_FLAG` for a 29-bit id."""
-    return frame_id | EFF_FLAG if extended else frame_id
-
-
-def raw_of(msg: Message) -> Raw:
-    """The raw entry of ``msg``: ``(timestamp, key, bytes of the payload)`` for a classic data
-    frame, else ``(timestamp, OTHER, a received copy)``."""
-    if msg.is_error_frame or msg.is_remote_frame or msg.is_fd:
-        return (msg.timestamp, OTHER, rx_copy(msg, msg.channel))
-    return (msg.timestamp, raw_key(msg.arbitration_id, msg.is_extended_id), bytes(msg.data))
-
-
-def message_of(entry: Raw, channel: Channel | None, is_rx: bool = True) -> Message:
-    """The :class:`can.Message` a raw entry stands for, stamped with ``channel`` and ``is_rx``."""
-    t, key, data = entry
-    if key == OTHER:
-        return rx_copy(data, channel, is_rx)
-    m = _new_message(Message)
-    m.timestamp = t
-    m.arbitration_id = key & ID_MASK
-    m.is_extended_id = key >= EFF_FLAG
-    m.is_remote_frame = False
-    m.is_error_frame = False
-    m.channel = channel
-    m.dlc = len(data)
-    m.data = bytearray(data)
-    m.is_fd = False
-    m.is_rx = is_rx
-    m.bitrate_switch = False
-    m.error_state_indicator = False
-    return m
-
-
-def rx_copy(msg: Message, channel: Channel | None, is_rx: bool = True) -> Message:
-    """A received copy of ``msg``: a new :class:`can.Message` that shares no mutable state
-    with it (a new payload ``bytearray``), stamped with ``channel`` and ``is_rx`` (False on
-    the sender's own echo, as python-can's virtual bus does)."""
-    m = _new_message(Message)
-    m.timestamp = msg.timestamp
-    m.arbitration_id = msg.arbitration_id
-    m.is_extended_id = msg.is_extended_id
-    m.is_remote_frame = msg.is_remote_frame
-    m.is_error_frame = msg.is_error_frame
-    m.channel = channel
-    m.dlc = msg.dlc
-    m.data = bytearray(msg.data)
-    m.is_fd = msg.is_fd
-    m.is_rx = is_rx
-    m.bitrate_switch = msg.bitrate_switch
-    m.error_state_indicator = msg.error_state_indicator
-    return m
 
 
 class LockstepBus(BusABC):
@@ -168,7 +114,7 @@ class LockstepBus(BusABC):
         :meth:`take_all` still give messages."""
         if not self.raw:
             self.raw = True
-            queued = [raw_of(m) for m in self.rx]
+            queued = [raw_of(m, self.channel_id) for m in self.rx]
             self.rx.clear()
             self.rx.extend(queued)
             self._retarget()
@@ -187,7 +133,7 @@ class LockstepBus(BusABC):
         own = self.rx
         for rx, raw in self._targets:
             if raw:
-                rx.append(raw_of(msg))
+                rx.append(raw_of(msg, channel))
                 continue
             m = _new_message(Message)
             m.timestamp = t
@@ -208,7 +154,7 @@ class LockstepBus(BusABC):
         """Send ``msg`` and give it up: what :meth:`send` delivers, without the copy.
 
         For a sender that builds a new message per frame and never touches it after this
-        call (pacc's own nodes: :class:`dbc.endpoint.Outbox` frames). With one receiver,
+        call (:class:`dbc.endpoint.Outbox` frames). With one receiver,
         that receiver gets ``msg`` itself, stamped with the channel and ``is_rx`` as
         :meth:`send` stamps its copy; with several (or this bus's own echo), :meth:`send`'s
         copies. ``msg.data`` must be a ``bytearray`` that only ``msg`` holds.
@@ -223,7 +169,7 @@ class LockstepBus(BusABC):
             self.send(msg)
             return
         if self._sole_raw:
-            sole.append(raw_of(msg))
+            sole.append(raw_of(msg, self.channel_id))
             return
         msg.channel = self.channel_id
         msg.is_rx = True
@@ -302,7 +248,7 @@ class LockstepBus(BusABC):
         """
         out = self._take_queued()
         if not self.raw:
-            out = [raw_of(m) for m in out]
+            out = [raw_of(m, self.channel_id) for m in out]
         if self._filters is None:
             return out
         channel = self.channel_id
@@ -332,14 +278,4 @@ class LockstepBus(BusABC):
                 _channels.pop(self.channel_id, None)
 
 
-__all__ = [
-    "EFF_FLAG",
-    "ID_MASK",
-    "OTHER",
-    "LockstepBus",
-    "Raw",
-    "message_of",
-    "raw_key",
-    "raw_of",
-    "rx_copy",
-]
+__all__ = ["LockstepBus", "rx_copy"]

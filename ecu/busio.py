@@ -20,7 +20,8 @@ import can
 
 from dbc.codec import Codec, EncodeError, MessageCodec, RoleCodec
 from dbc.endpoint import Inbox, Outbox
-from dbc.lockstep import LockstepBus, message_of, raw_key
+from dbc.frame import message_of, raw_key
+from dbc.lockstep import LockstepBus
 from ecu import EcuError
 from ecu.config import EcuConfig
 from ecu.safety import CommandSafety
@@ -181,6 +182,9 @@ def status_values(out: NodeOutputs, limits: OutputLimits) -> dict[str, Any]:
 class BusIO:
     """The ECU's port on one bus: an Inbox for the input roles, an Outbox for its outputs.
 
+    On the lockstep bus the port reads its end raw from construction on
+    (:meth:`dbc.lockstep.LockstepBus.receive_raw`) and sends raw frames: no message objects.
+
     Args:
         bus: an open python-can bus (the caller owns and closes it).
         codec: the network codec.
@@ -207,11 +211,13 @@ class BusIO:
         self._command = codec.roles["command"].parts
         status = codec.roles.get("status")
         self._status = () if status is None else status.parts
-        #: called with (time, frame, received) for every frame in and out (a bus recorder)
+        #: called with (time, frame, received) for every frame in and out (a bus recorder);
+        #: on the lockstep bus only while :attr:`tap_raw` is None (each frame then built as a
+        #: message for it)
         self.tap: Callable[[float, can.Message, bool], None] | None = None
-        #: called with (time, raw key, payload, received) for every frame in and out on the
-        #: lockstep bus, read raw (a bus recorder's :meth:`~ecu.buslog.writer.CanLogWriter.
-        #: frame_raw`); where only :attr:`tap` is set, it gets each frame as a message
+        #: on the lockstep bus, called instead of :attr:`tap` with (time, raw key, payload or
+        #: message, received) for every frame in and out (a bus recorder's
+        #: :meth:`~ecu.buslog.writer.CanLogWriter.frame_raw`; :mod:`dbc.frame`)
         self.tap_raw: Callable[[float, int, Any, bool], None] | None = None
         lock = bus if isinstance(bus, LockstepBus) else None
         #: the lockstep bus, read raw: every waiting frame in one call, no message objects

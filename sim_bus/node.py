@@ -24,8 +24,8 @@ import numpy as np
 
 from dbc.codec import Codec, MessageCodec, load_codec
 from dbc.endpoint import Inbox, Outbox
-from dbc.frame import Frame
-from dbc.lockstep import OTHER, LockstepBus, message_of, raw_key
+from dbc.frame import OTHER, Frame, message_of, raw_key
+from dbc.lockstep import LockstepBus
 from pacc.vocab.acc_state import AccState
 from sim_bus.faults import ROLES, FaultPlan, FaultSpec
 from sim_bus.readings import Readings
@@ -36,7 +36,10 @@ TX_ROLES = ROLES
 
 
 class SimNode:
-    """Bus I/O around a :class:`World`. ``bus`` is any python-can bus (virtual in lockstep).
+    """Bus I/O around a :class:`World`. ``bus`` is any python-can bus; a lockstep bus's end is
+    read raw from construction on (:meth:`dbc.lockstep.LockstepBus.receive_raw`) and the
+    node sends raw frames there, no message objects (a :attr:`tap` gets messages built for
+    it).
 
     ``faults``: per-role fault plans; ``rng``: the Generator for random faults (seeded by the
     caller); ``gap_setting`` 1..3 and ``profile_id`` 0..255 are sent on HMI_Buttons.
@@ -110,6 +113,7 @@ class SimNode:
         #: :meth:`~dbc.lockstep.LockstepBus.hand_over_raw`)
         self._take_raw = lock.receive_raw() if lock is not None else None
         self._hand_over_raw = lock.hand_over_raw if lock is not None else None
+        self._channel = lock.channel_id if lock is not None else None
         # one reusable message per role (the virtual bus copies what it sends)
         self._msgs: dict[str, can.Message] = {
             p.key: Frame(arbitration_id=p.frame_id, is_extended_id=p.is_extended, dlc=p.length)
@@ -128,10 +132,6 @@ class SimNode:
         self.commands_ok = 0
         #: called with (time, frame, received) for every frame in and out (a bus recorder)
         self.tap: Callable[[float, can.Message, bool], None] | None = None
-        #: on the lockstep bus: called with (time, raw key, payload, received) instead
-        #: (:meth:`ecu.buslog.writer.CanLogWriter.frame_raw`); where only :attr:`tap` is set,
-        #: it gets each frame as a message
-        self.tap_raw: Callable[[float, int, Any, bool], None] | None = None
         #: each message's raw key (:func:`dbc.lockstep.raw_key`)
         self._keys = {mc.key: raw_key(mc.frame_id, mc.is_extended) for mc in self._parts}
 
@@ -168,16 +168,14 @@ class SimNode:
             self.recv_errors += 1
             return
         accept = self.inbox.accept_raw
-        tap = self.tap_raw
+        tap = self.tap
         for entry in entries:
             _, key, data = entry
             if key == OTHER:  # an error, remote or FD frame: the message itself
                 self._accept(data, now)
                 continue
-            if tap is not None:
-                tap(now, key, data, True)
-            elif self.tap is not None:
-                self.tap(now, message_of(entry, getattr(self.bus, "channel_id", None)), True)
+            if tap is not None:  # a tap wants messages: built for it only
+                tap(now, message_of(entry, self._channel), True)
             d = accept(key, data, now)
             if d is not None:
                 self._use(d[0])
@@ -188,7 +186,7 @@ class SimNode:
             self.tap(now, msg, True)
         if msg.is_error_frame or msg.is_remote_frame:
             return
-        d = self.inbox.accept(msg.arbitration_id, msg.data, now)
+        d = self.inbox.accept_message(msg, now)
         if d is not None:
             self._use(d[0])
 
@@ -241,8 +239,8 @@ class SimNode:
 
     def _transmit_due(self, now: float) -> None:
         """Send the frames due at this tick, without faults: each role's values filled once;
-        on the lockstep bus a new frame per message, handed over (no copy); on another bus
-        the role's reused message, which the bus copies."""
+        on the lockstep bus raw (:meth:`_transmit_raw`); on another bus the role's reused
+        message, which the bus copies."""
         if self._hand_over_raw is not None:
             self._transmit_raw(now)
             return
@@ -271,23 +269,21 @@ class SimNode:
         encode = self.outbox.encode_part
         send = self._hand_over_raw
         keys = self._keys
-        tap = self.tap_raw
+        tap = self.tap
         sent = 0
         for fill, frames in self._due_fill[self.tick % self._hyper]:
             values = fill()  # once per role and tick, whatever its messages
             for mc, _ in frames:
                 data = encode(mc, values)
                 key = keys[mc.key]
-                send(now, key, data)
+                try:
+                    send(now, key, data)
+                except can.CanError:  # a closed bus: lost, counted; the simulation goes on
+                    self.send_errors += 1
+                    continue
                 sent += 1
-                if tap is not None:
-                    tap(now, key, data, False)
-                elif self.tap is not None:
-                    self.tap(
-                        now,
-                        message_of((now, key, data), getattr(self.bus, "channel_id", None), False),
-                        False,
-                    )
+                if tap is not None:  # a tap wants messages: built for it only
+                    tap(now, message_of((now, key, data), self._channel, False), False)
         self.frames_sent += sent
 
     def _transmit_faulty(

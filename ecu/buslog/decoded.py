@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from dbc.columns import MessageColumns, message_columns
-from dbc.lockstep import ID_MASK, OTHER, message_of
+from dbc.frame import ID_MASK, OTHER, message_of
 from ecu.buslog.blocks import encode_block
 from ecu.buslog.format import (
     FLAG_ERROR,
@@ -37,9 +37,9 @@ from ecu.buslog.format import (
 from ecu.buslog.proto import ProtoRows
 
 __all__ = [
+    "STRIDE",
     "FrameBatch",
     "FrameTap",
-    "STRIDE",
     "MessageDecoders",
     "Rows",
     "Tapped",
@@ -134,8 +134,8 @@ class FrameBatch:
 
     @classmethod
     def of(cls, frames: Sequence[Any]) -> FrameBatch:
-        """The batch of the frames as the tap kept them: ``t_s, frame, rx`` of each frame
-        one after the other in one flat list (at least one frame); :func:`frame_columns`."""
+        """The batch of the frames as the tap kept them (:data:`Tapped` of each frame one
+        after the other in one flat list, at least one frame); :func:`frame_columns`."""
         t, ids, flags, dlcs, lens, datas = _columns(frames)
         out = cls.from_columns(t, ids, flags, dlcs, lens, None)
         out.datas = datas
@@ -215,7 +215,8 @@ def frame_columns(frames: Sequence[Any]) -> tuple[bytes, bytes, bytes, bytes, by
 
 def _columns(frames: Sequence[Any]) -> tuple[bytes, bytes, bytes, bytes, bytes, list[Any]]:
     """:func:`frame_columns` with the payloads as the frames hold them (a list)."""
-    ts, keys, items, rxs = frames[0::4], frames[1::4], frames[2::4], frames[3::4]
+    step = STRIDE
+    ts, keys, items, rxs = frames[0::step], frames[1::step], frames[2::step], frames[3::step]
     n = len(ts)
     if None not in keys and OTHER not in keys:  # raw frames of the lockstep bus only
         karr = np.fromiter(keys, np.uint32, n)

@@ -4,7 +4,7 @@ The drivers are drawn by :func:`sim_bus.population.draw_population` (seed ``S``)
 scenarios and the IRL tables come from the same seed, and every driver is one job in the
 worker pool: its tables (predefined; IRL learned in-process from its manual trips, cached as
 in ``pacc study --direct``), then every scenario × controller × trial drive
-(:func:`sim_bus.study.run.run_job`, no trip logs). A finished driver's rows are appended to
+(:func:`sim_bus.study.tasks.run_job`, no trip logs). A finished driver's rows are appended to
 ``OUT/population.jsonl`` at once, so a run that is stopped resumes where it was: a second run
 with the same configuration skips the drivers already there, and a larger N extends it (a
 different configuration in the same folder is refused). The report

@@ -7,7 +7,7 @@ from collections.abc import Iterator
 import can
 import pytest
 
-from dbc.codec import EncodeError, load_codec
+from dbc.codec import Codec, EncodeError, load_codec
 from dbc.e2e import E2EStatus
 from dbc.endpoint import UNKNOWN_ROLE, Inbox, Outbox
 
@@ -133,3 +133,56 @@ def test_extended_id_frame_is_not_the_standard_one(buses: tuple[can.BusABC, can.
     tx.send(outbox.pack("ego", EGO))  # the real 11-bit frame still gets through
     msg = rx.recv(timeout=1.0)
     assert msg is not None and inbox.accept_message(msg, now_s=0.01) is not None
+
+
+def test_a_raw_frame_is_accepted_as_its_message_is() -> None:
+    """Inbox.accept_raw (the lockstep bus's raw frames) against accept_message on 3000 random
+    frames of every kind: good, corrupted, short, of unknown ids, with the wrong IDE bit,
+    error, remote and FD frames, repeated counters. The same return values, the same counts
+    and latest values after each frame."""
+    import random  # noqa: PLC0415
+
+    from dbc.frame import raw_of  # noqa: PLC0415
+
+    codec = load_codec()
+    roles = tuple(codec.roles)
+    a, b = Inbox(codec, roles), Inbox(codec, roles)
+    out = Outbox(codec)
+    rng = random.Random(28)
+    parts = list(codec.parts())
+    for i in range(3000):
+        t = i * 0.005
+        mc = rng.choice(parts)
+        data = bytearray(out.encode_part(mc, _resting(codec, mc.role)))
+        kind = rng.random()
+        msg = can.Message(arbitration_id=mc.frame_id, is_extended_id=mc.is_extended, data=data)
+        if kind < 0.1:
+            data[rng.randrange(len(data))] ^= 1 << rng.randrange(8)  # a bit flip: wrong CRC
+            msg.data = data
+        elif kind < 0.15:
+            msg = can.Message(arbitration_id=mc.frame_id, data=data[:-1])  # short
+        elif kind < 0.2:
+            msg = can.Message(arbitration_id=rng.randrange(0x700, 0x7FF), data=data)  # unknown
+        elif kind < 0.25:
+            msg = can.Message(arbitration_id=mc.frame_id, is_extended_id=True, data=data)
+        elif kind < 0.28:
+            msg = can.Message(is_error_frame=True)
+        elif kind < 0.31:
+            msg = can.Message(arbitration_id=mc.frame_id, is_remote_frame=True, dlc=len(data))
+        elif kind < 0.33:
+            msg = can.Message(arbitration_id=mc.frame_id, is_fd=True, data=data)
+        msg.timestamp = t
+        entry = raw_of(msg, "ch")
+        got_a = a.accept_message(msg, t)
+        got_b = b.accept_raw(entry[1], entry[2], t)
+        assert got_a == got_b, (i, msg)
+    assert a.counts == b.counts and a.frames_in == b.frames_in == 3000
+    assert {r: a.latest(r) for r in roles} == {r: b.latest(r) for r in roles}
+    ok = sum(n for (_, s), n in a.counts.items() if s is E2EStatus.OK)
+    assert ok > 1000 and a.frames_in - ok > 300  # both kinds, many of each
+
+
+def _resting(codec: Codec, role: str) -> dict[str, float]:
+    """Values every field of ``role`` can carry: each at the low end of its range."""
+    rc = codec.roles[role]
+    return {k: rc.bounds(k)[0] for k in rc.fields}

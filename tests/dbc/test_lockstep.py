@@ -8,7 +8,8 @@ from typing import Any
 import can
 import pytest
 
-from dbc.lockstep import EFF_FLAG, OTHER, LockstepBus, message_of, raw_key
+from dbc.frame import EFF_FLAG, OTHER, message_of, raw_key
+from dbc.lockstep import LockstepBus
 
 
 @pytest.fixture
@@ -245,3 +246,29 @@ def test_a_raw_reader_gets_the_frames_a_listener_gets_as_messages() -> None:
         b.shutdown()
     with pytest.raises(can.CanOperationError):
         a.hand_over_raw(0.7, 0x15, b"")
+
+
+def test_a_raw_end_keeps_filters_and_a_dlc_other_than_the_length() -> None:
+    """A raw end honours receive filters; a message whose DLC python-can let differ from its
+    payload's length reaches it whole, as (t, OTHER, message), so its DLC is kept."""
+    a = can.Bus(interface="lockstep", channel="raw-2")
+    b = can.Bus(
+        interface="lockstep",
+        channel="raw-2",
+        can_filters=[{"can_id": 0x20, "can_mask": 0x7F0, "extended": False}],
+    )
+    try:
+        assert isinstance(b, LockstepBus)
+        take = b.receive_raw()
+        a.send(_msg(0x21, b"\x01", 0.1))  # passes the filter
+        a.send(_msg(0x31, b"\x02", 0.2))  # does not
+        odd = can.Message(
+            arbitration_id=0x22, is_extended_id=False, data=b"\x01\x02", dlc=8, timestamp=0.3
+        )
+        a.send(odd)
+        got = take()
+        assert [e[:2] for e in got] == [(0.1, 0x21), (0.3, OTHER)]
+        assert got[1][2].dlc == 8 and got[1][2].channel == "raw-2" and got[1][2] is not odd
+    finally:
+        a.shutdown()
+        b.shutdown()

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from dbc.codec import load_codec
-from dbc.lockstep import OTHER, raw_key
+from dbc.frame import OTHER, raw_key
 from ecu.buslog.blocks import decode_block
 from ecu.buslog.decoded import FrameBatch, cycle_tables, frame_columns
 from ecu.buslog.format import TimeBase, frame_flags

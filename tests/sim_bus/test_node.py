@@ -195,16 +195,20 @@ def test_delay_and_freeze(buses: tuple[can.BusABC, can.BusABC]) -> None:
     assert len(gaps) == 20 and len(set(gaps)) == 1  # frozen values, valid E2E
 
 
-def test_a_bus_that_refuses_frames_does_not_stop_the_simulation(channel: str) -> None:
-    """A send error (a full queue on a real bus; here a closed bus) loses frames, no more."""
-    bus = can.Bus(interface="virtual", channel=channel)
+@pytest.mark.parametrize("interface", ["virtual", "lockstep"])
+def test_a_bus_that_refuses_frames_does_not_stop_the_simulation(
+    channel: str, interface: str
+) -> None:
+    """A send error (a full queue on a real bus; here a closed bus) loses frames, no more:
+    on the virtual bus (messages) and on the lockstep bus (raw frames) alike."""
+    bus = can.Bus(interface=interface, channel=channel)
     world = World(BUILTIN_DRIVERS["d2"], _flat(20.0), seed=0)
     node = SimNode(bus, world)
     for _ in range(50):
         node.step()
     sent = node.frames_sent
     assert sent > 0 and node.send_errors == 0
-    peer = can.Bus(interface="virtual", channel=channel)
+    peer = can.Bus(interface=interface, channel=channel)
     peer.send(_command(Outbox(load_codec()), 1, -1.0, 2, node.t_s))  # waiting in the queue
     peer.shutdown()
     bus.shutdown()  # from now on every send and receive raises can.CanOperationError
@@ -216,8 +220,9 @@ def test_a_bus_that_refuses_frames_does_not_stop_the_simulation(channel: str) ->
     assert world.tick == 100 and world.plant.v_mps > 0.0
 
 
-def test_faulty_path_counts_refused_frames_too(channel: str) -> None:
-    bus = can.Bus(interface="virtual", channel=channel)
+@pytest.mark.parametrize("interface", ["virtual", "lockstep"])
+def test_faulty_path_counts_refused_frames_too(channel: str, interface: str) -> None:
+    bus = can.Bus(interface=interface, channel=channel)
     world = World(BUILTIN_DRIVERS["d2"], _flat(20.0), seed=0)
     node = SimNode(bus, world, faults=parse_faults("radar:crc=0.5"))
     bus.shutdown()
