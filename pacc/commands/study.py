@@ -264,3 +264,7 @@ def _hil_table(sessions: Path, out: Path, beside: Path | None) -> int:
         return 2
     print(f"outputs in {out}/ (table1.md, drives.csv, table1.png)")
     return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
