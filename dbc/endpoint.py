@@ -113,7 +113,7 @@ class Inbox:
             fid: _Route(mc, self.receivers[mc.key], mc.role in self._merge)
             for fid, mc in self._by_id.items()
         }
-        #: the same by raw key (the id with the IDE bit, :func:`dbc.lockstep.raw_key`)
+        #: the same by raw key (the id with the IDE bit, :func:`dbc.frame.raw_key`)
         self._raw_routes: dict[int, _Route] = {
             raw_key(fid, r.extended): r for fid, r in self._routes.items()
         }
@@ -224,7 +224,7 @@ class Inbox:
 
     def accept_raw(self, key: int, data: Any, now_s: float) -> Decoded | None:
         """:meth:`accept_message` for a raw entry of the lockstep bus (``key``:
-        :func:`dbc.lockstep.raw_key`, ``data`` the payload; for :data:`dbc.lockstep.OTHER`
+        :func:`dbc.frame.raw_key`, ``data`` the payload; for :data:`dbc.frame.OTHER`
         the message itself), received at ``now_s`` (s). The same outcomes, the same counts."""
         route = self._raw_routes.get(key)
         if route is None:

@@ -67,7 +67,7 @@ def message_of(entry: Raw, channel: Channel | None, is_rx: bool = True) -> can.M
 
 
 def rx_copy(msg: can.Message, channel: Channel | None, is_rx: bool = True) -> can.Message:
-    """A received copy of ``msg``: a new :class:`can.can.Message` that shares no mutable state
+    """A received copy of ``msg``: a new :class:`can.Message` that shares no mutable state
     with it (a new payload ``bytearray``), stamped with ``channel`` and ``is_rx`` (False on
     the sender's own echo, as python-can's virtual bus does)."""
     m = _new_message(can.Message)

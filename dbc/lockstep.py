@@ -125,30 +125,10 @@ class LockstepBus(BusABC):
         channel."""
         if not self._open:
             raise CanOperationError("Cannot operate on a closed bus")
-        # rx_copy inlined (the per-frame path): read each field once, one new Message each
-        t, fid, ext = msg.timestamp, msg.arbitration_id, msg.is_extended_id
-        remote, error, dlc, data = msg.is_remote_frame, msg.is_error_frame, msg.dlc, msg.data
-        fd, brs, esi = msg.is_fd, msg.bitrate_switch, msg.error_state_indicator
         channel = self.channel_id
         own = self.rx
         for rx, raw in self._targets:
-            if raw:
-                rx.append(raw_of(msg, channel))
-                continue
-            m = _new_message(Message)
-            m.timestamp = t
-            m.arbitration_id = fid
-            m.is_extended_id = ext
-            m.is_remote_frame = remote
-            m.is_error_frame = error
-            m.channel = channel
-            m.dlc = dlc
-            m.data = bytearray(data)
-            m.is_fd = fd
-            m.is_rx = rx is not own
-            m.bitrate_switch = brs
-            m.error_state_indicator = esi
-            rx.append(m)
+            rx.append(raw_of(msg, channel) if raw else rx_copy(msg, channel, rx is not own))
 
     def hand_over(self, msg: Message) -> None:
         """Send ``msg`` and give it up: what :meth:`send` delivers, without the copy.
@@ -177,19 +157,20 @@ class LockstepBus(BusABC):
 
     def hand_over_raw(self, t: float, key: int, data: bytes) -> None:
         """Send one classic data frame without a message object: stamped ``t`` (s), id and
-        IDE bit in ``key`` (:func:`raw_key`), payload ``data`` (immutable ``bytes``). A raw
-        reader gets the tuple itself; any other bus a new message, as :meth:`send` gives.
+        IDE bit in ``key`` (:func:`dbc.frame.raw_key`), payload ``data`` (immutable
+        ``bytes``). A raw reader gets the tuple itself; any other bus a new message, as
+        :meth:`send` gives.
 
         Raises:
             CanOperationError: the bus is closed.
         """
         if not self._open:
             raise CanOperationError("Cannot operate on a closed bus")
+        entry = (t, key, data)
         sole = self._sole
         if sole is not None and self._sole_raw:
-            sole.append((t, key, data))
+            sole.append(entry)
             return
-        entry = (t, key, data)
         channel = self.channel_id
         own = self.rx
         for rx, raw in self._targets:

@@ -132,7 +132,7 @@ class SimNode:
         self.commands_ok = 0
         #: called with (time, frame, received) for every frame in and out (a bus recorder)
         self.tap: Callable[[float, can.Message, bool], None] | None = None
-        #: each message's raw key (:func:`dbc.lockstep.raw_key`)
+        #: each message's raw key (:func:`dbc.frame.raw_key`)
         self._keys = {mc.key: raw_key(mc.frame_id, mc.is_extended) for mc in self._parts}
 
     # -- receive ------------------------------------------------------------------------

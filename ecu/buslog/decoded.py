@@ -3,7 +3,7 @@ table of decoded signals (one row per frame) for its protobuf channel; the contr
 tables likewise.
 
 The recorder's tap keeps each frame as it came, ``(t_s, key, frame, rx)``: a python-can
-message with ``key`` None, or a raw frame of the lockstep bus (:mod:`dbc.lockstep`: ``key`` the
+message with ``key`` None, or a raw frame of the lockstep bus (:mod:`dbc.frame`: ``key`` the
 id with the IDE bit, ``frame`` the payload). A flush reads the frames' columns a field at a
 time (:meth:`FrameBatch.of`): one append a frame on the node's path, no per-frame Python code
 in the batch for a plain CAN frame.

@@ -166,9 +166,9 @@ class CanLogWriter:
         self._tap((t_s, None, msg, rx))
 
     def frame_raw(self, t_s: float, key: int, data: Any, rx: bool) -> None:
-        """:meth:`frame` of a raw frame of the lockstep bus (:mod:`dbc.lockstep`): ``key`` the
+        """:meth:`frame` of a raw frame of the lockstep bus (:mod:`dbc.frame`): ``key`` the
         id with the IDE bit, ``data`` the payload (immutable bytes; for
-        :data:`dbc.lockstep.OTHER`, the message itself)."""
+        :data:`dbc.frame.OTHER`, the message itself)."""
         self._tap((t_s, key, data, rx))
 
     def frame_copy(self, t_s: float, msg: can.Message, rx: bool) -> None:
