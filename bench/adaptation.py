@@ -32,12 +32,12 @@ from typing import Any
 
 import numpy as np
 
+from dbc.vocab.dgpt import Dgpt
 from ecu.adaptation import ADAPTATION_MODES, AdaptationParams
-from pacc.vocab.dgpt import Dgpt
+from pacc.study.drive import DriveConfig, DriveResult, predefined_table, run_drive
+from pacc.study.irl_table import irl_table
 from sim_bus.drivers import DriverParams, load_driver
 from sim_bus.lead.scenarios import canonical_profiles
-from sim_bus.study.drive import DriveConfig, DriveResult, predefined_table, run_drive
-from sim_bus.study.irl_table import irl_table
 
 ACC_ENGAGED = (2, 3)  # ACTIVE, OVERRIDE
 

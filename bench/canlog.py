@@ -42,8 +42,8 @@ from ecu.buslog.process import writers
 from ecu.buslog.reader import messages, read_canlog
 from ecu.buslog.recording import PROCESS_ENV
 from ecu.buslog.writer import CanLogWriter
+from pacc.study.drive import DriveConfig, predefined_table, run_drive
 from sim_bus.drivers import BUILTIN_DRIVERS
-from sim_bus.study.drive import DriveConfig, predefined_table, run_drive
 
 
 def _drive(sim_s: float, can_log: Path | None, process: bool = True) -> tuple[float, float]:

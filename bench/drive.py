@@ -2,7 +2,7 @@
 
 Run: ``python bench/drive.py [--scenario B] [--driver d2] [--controller ...]`` from the root.
 
-- drive: ``sim_bus.study.drive.run_drive`` — the full ECU (EcuNode + EcuRuntime, DBC codec, E2E)
+- drive: ``pacc.study.drive.run_drive`` — the full ECU (EcuNode + EcuRuntime, DBC codec, E2E)
   and the simulator (plant, driver, bus node), 300 s of scenario B, simulated seconds per
   wall second, on the lockstep bus (:mod:`dbc.lockstep`, the default) and on python-can's
   virtual bus (the named peer, ``--bus virtual``), alternating, best of ROUNDS each;
@@ -49,11 +49,11 @@ import dbc.endpoint
 import dbc.message
 from dbc.codec import load_codec
 from dbc.e2e import CRC8_TABLE
+from dbc.vocab.dgpt import Dgpt
 from ecu.node import EcuNode
-from pacc.vocab.dgpt import Dgpt
+from pacc.study.drive import BUSES, DriveConfig, DriveResult, predefined_table, run_drive
 from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
 from sim_bus.node import TX_ROLES
-from sim_bus.study.drive import BUSES, DriveConfig, DriveResult, predefined_table, run_drive
 from sim_bus.world import World
 
 _ROOT = str(Path(__file__).resolve().parent.parent)

@@ -28,9 +28,9 @@ import numpy as np
 from dbc.codec import Codec, load_codec
 from dbc.endpoint import Outbox
 from dbc.schema import resting_values
+from dbc.vocab.dgpt import predefined
 from ecu.node import EcuConfig, EcuNode, NodeInputs
 from ecu.runtime import EcuRuntime
-from pacc.vocab.dgpt import predefined
 
 #: the roles the peers play
 PEER_ROLES = ("ego", "pedals", "radar", "hmi")

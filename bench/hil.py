@@ -29,10 +29,10 @@ from typing import Any
 
 import numpy as np
 
-from sim_bus.hil.loop import jitter_p99_ms
-from sim_bus.hil.plan import free_plan
-from sim_bus.hil.server import ServerThread, create_app
-from sim_bus.hil.session import Session, SessionConfig
+from pacc.hil.loop import jitter_p99_ms
+from pacc.hil.plan import free_plan
+from pacc.hil.server import ServerThread, create_app
+from pacc.hil.session import Session, SessionConfig
 
 CHROMIUM = "/usr/bin/chromium"
 PEER_MS = 1000.0 / 60.0 + 10.0

@@ -29,7 +29,7 @@ from cloud_sync.irl.mce_irl import (
 )
 from cloud_sync.irl.mdp import GridConfig, build_transitions, make_grid
 from cloud_sync.irl.trainer import IrlConfig, learn_dgpt
-from pacc.vocab.triplog import Trip
+from dbc.vocab.triplog import Trip
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.lead.scenarios import canonical_profiles
 from sim_bus.manual import manual_trip

@@ -50,14 +50,14 @@ from cloud_sync.irl.demos import usable_mask
 from cloud_sync.irl.features import FeatureConfig
 from cloud_sync.irl.sources.tripfiles import read_csv_trip
 from cloud_sync.irl.trainer import IrlConfig, fine_tune, learn_dgpt
-from pacc.vocab.dgpt import Dgpt
-from pacc.vocab.triplog import Trip
+from dbc.vocab.dgpt import Dgpt
+from dbc.vocab.triplog import Trip
+from pacc.study.drive import DriveConfig, log_to_trip, run_drive
 from sim_bus.dataset import load_human_pairs
 from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
 from sim_bus.lead.scenarios import canonical_profiles
 from sim_bus.manual import manual_trip
 from sim_bus.population import draw_population
-from sim_bus.study.drive import DriveConfig, log_to_trip, run_drive
 
 #: the learner measured: the default, or with --old the earlier one (argmax of the reward on
 #: RBFs sheared along a line fitted to the data), for before/after comparisons

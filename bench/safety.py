@@ -35,10 +35,10 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
+from pacc.study.drive import DriveConfig, predefined_table, resolve_profile, run_drive
+from pacc.study.irl_table import irl_table
 from sim_bus.lead.events import ROAD_SCENARIOS
 from sim_bus.population import draw_population
-from sim_bus.study.drive import DriveConfig, predefined_table, resolve_profile, run_drive
-from sim_bus.study.irl_table import irl_table
 
 TTC_LIMIT_S = 2.0
 

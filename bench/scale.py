@@ -7,7 +7,7 @@ Run: ``.venv/bin/python bench/scale.py [--workers 2] [--drivers d1,d2,d3,d4,d5] 
   DURATION-s lockstep drive through the virtual bus with the full ECU, trip logs written
   (predefined tables: nothing to learn, the drives alone are measured);
 - local process pool (the named peer, ``pacc study --workers N``): the plan through
-  ``sim_bus.study.run.run_jobs`` on :class:`cloud_sync.engine.base.ProcessEngine`;
+  ``pacc.study.run.run_jobs`` on :class:`cloud_sync.engine.base.ProcessEngine`;
 - Dask: the same plan on a ``LocalCluster`` of N single-threaded worker processes
   (``pacc study --scheduler local``), after one warm-up drive per worker (the cluster's start
   and the workers' first imports are printed apart: a study pays them once);
@@ -26,7 +26,7 @@ Both runs must give the same rows (wall time aside), or the script fails. The la
 ``scale: R x the process pool`` (drives per second, Dask over the pool; goal >= 0.95).
 
 ``--learn``: instead, per-driver learning: each driver's four manual trips uploaded to a fresh
-embedded cloud (``sim_bus.study.loop.StudyCloud``) and its IRL table learned and downloaded,
+embedded cloud (``pacc.study.loop.StudyCloud``) and its IRL table learned and downloaded,
 in this thread (the named peer, as ``pacc study`` without ``--scheduler``) and on the Dask
 LocalCluster (drivers side by side); seconds per driver, the same tables on both, the bytes
 the cloud stores per driver. Last line ``learn: R x in-process``.
@@ -44,10 +44,10 @@ from typing import Any
 
 from cloud_sync.engine.base import Engine, InlineEngine, ProcessEngine, single_blas_thread
 from cloud_sync.engine.dask_backend import DaskEngine
-from sim_bus.study import run as study_run
-from sim_bus.study.config import StudyConfig, validate
-from sim_bus.study.irl_table import manual_trips
-from sim_bus.study.loop import StudyCloud
+from pacc.study import run as study_run
+from pacc.study.config import StudyConfig, validate
+from pacc.study.irl_table import manual_trips
+from pacc.study.loop import StudyCloud
 
 NOOP_TASKS = 400
 

@@ -37,9 +37,9 @@ from cloud_sync.service.rules import CloudService  # noqa: E402
 from cloud_sync.vehicle.client import HttpCloud  # noqa: E402
 from cloud_sync.vehicle.spool import Spool  # noqa: E402
 from cloud_sync.vehicle.uploader import Uploader, UploaderConfig  # noqa: E402
-from pacc.vocab.acc_state import AccState  # noqa: E402
-from pacc.vocab.triplog import Trip  # noqa: E402
-from pacc.vocab.tripmode import TripMode  # noqa: E402
+from dbc.vocab.acc_state import AccState  # noqa: E402
+from dbc.vocab.triplog import Trip  # noqa: E402
+from dbc.vocab.tripmode import TripMode  # noqa: E402
 
 
 def takeover_segment(seed: int) -> Trip:

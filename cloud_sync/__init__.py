@@ -12,7 +12,7 @@ Beside them: :mod:`cloud_sync.api` (the vehicle–cloud contract, whatever carri
 the folder fsync the store and the spool share) and :mod:`cloud_sync.errors` (the error tree,
 :mod:`cloud_sync.learners` (learners: trips -> a driver's DGPT, behind one small interface);
 rooted at :class:`CloudSyncError`). The formats it reads (DGPT, trip logs) are the shared
-vocabulary of :mod:`pacc.vocab`. Only the error tree is imported here.
+vocabulary of :mod:`dbc.vocab`. Only the error tree is imported here.
 """
 
 from __future__ import annotations

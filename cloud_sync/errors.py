@@ -5,7 +5,7 @@
 
 from __future__ import annotations
 
-from pacc.errors import PaccError
+from dbc.errors import PaccError
 
 
 class CloudSyncError(PaccError):

@@ -12,8 +12,8 @@ the raw public key; it names the key, it proves nothing. Keys are Ed25519 (RFC 8
 so that OpenSSL reads them too.
 
 :func:`verify_dgpt` checks, in order: the envelope's shape, the key id, the signature, then the
-table itself with :func:`pacc.vocab.dgpt_file.dgpt_from_json_dict` against the vehicle's
-:class:`~pacc.vocab.dgpt.SafetyBounds`. An unsigned, tampered, foreign-key or out-of-bounds table
+table itself with :func:`dbc.vocab.dgpt_file.dgpt_from_json_dict` against the vehicle's
+:class:`~dbc.vocab.dgpt.SafetyBounds`. An unsigned, tampered, foreign-key or out-of-bounds table
 is a
 :class:`SignatureError` naming the defect; nothing partial is returned.
 """
@@ -33,8 +33,8 @@ from cryptography.hazmat.primitives import serialization
 from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PrivateKey, Ed25519PublicKey
 
 from cloud_sync.errors import CloudSyncError
-from pacc.vocab.dgpt import Dgpt, DgptError, SafetyBounds
-from pacc.vocab.dgpt_file import dgpt_from_json_dict
+from dbc.vocab.dgpt import Dgpt, DgptError, SafetyBounds
+from dbc.vocab.dgpt_file import dgpt_from_json_dict
 
 SIGNED_FORMAT = "pacc.signed-dgpt/1"
 

@@ -1,4 +1,5 @@
-"""The emulated vehicle network: the DBC, its binding to pacc's logical quantities, the codec.
+"""The ground floor: the emulated vehicle network (the DBC, its binding to pacc's logical
+quantities, the codec), the vocabulary every room shares, and the project's error root.
 
 ``dbc/pacc.dbc`` is installed with the package, so an installed pacc finds it without the
 source tree. Import :mod:`dbc.codec` for the frame codec and :mod:`dbc.endpoint` for a
@@ -18,7 +19,10 @@ node's inbox (decode + E2E checks) and outbox (counter + CRC on send).
 - :mod:`dbc.frame` — ``Frame`` (the python-can message pacc's nodes send, a cheap deep copy)
   and raw frames (the lockstep bus's ``(timestamp, key, payload)``, no message object).
 - :mod:`dbc.network` — the ``--dbc`` / ``--binding`` options and the codec they name.
-- :mod:`dbc.errors` — the codec's exception tree, named by phase (load, encode, decode).
+- :mod:`dbc.errors` — ``PaccError``, the root of every error the project raises on purpose,
+  and the codec's exception tree, named by phase (load, encode, decode).
+- :mod:`dbc.vocab` — the vocabulary the ECU, the simulator and the cloud share: the DGPT and
+  trip-log formats, ACC state, pedal scaling.
 - :mod:`dbc.lockstep` — A python-can bus for in-process simulation where the simulator owns
   time: ``lockstep``.
 """

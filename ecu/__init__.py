@@ -22,15 +22,15 @@ Modules, one concept each:
 The sub-package :mod:`ecu.buslog` records the bus (MCAP), reads, replays and converts it;
 :mod:`ecu.methods` holds the plug-in methods of the ECU (the gap controller and the online
 adaptation). Formats the ECU shares with the simulator and the cloud (DGPT, trip logs, ACC state,
-pedals) live in :mod:`pacc.vocab`; the command line is :mod:`pacc.commands.ecu`.
+pedals) live in :mod:`dbc.vocab`; the command line is :mod:`pacc.commands.ecu`.
 
 Every error raised by this package derives from :class:`EcuError` (itself a
-:class:`pacc.errors.PaccError`).
+:class:`dbc.errors.PaccError`).
 """
 
 from __future__ import annotations
 
-from pacc.errors import PaccError
+from dbc.errors import PaccError
 
 
 class EcuError(PaccError):

@@ -11,7 +11,7 @@ Two modes (``AdaptationParams.mode``; measurements in docs/ecu.md and bench/adap
 
 Both modes (issue 11) share three rules that the printed algorithm leaves open:
 
-- **One safety bound.** Step 4 clips to the table's own :class:`~pacc.vocab.dgpt.SafetyBounds`
+- **One safety bound.** Step 4 clips to the table's own :class:`~dbc.vocab.dgpt.SafetyBounds`
   (``2 m + 0.8 s·v`` … ``10 m + 5 s·v`` by default), the bound every loaded table is checked
   against. A separate, higher floor (the earlier ``4 m + 0.8 s·v``) lifted a close
   follower's table by up to 2 m at every speed whenever one accelerator press asked for
@@ -42,7 +42,7 @@ Algorithm 1 runs once, at the moment a takeover ends (pedal released), with the 
    (smoothing the whole table at every update would erode it).
 4. Safety filter — every bin is clipped into the table's safety bounds
    ``[d0_min + Safe_TG_min * v_i, d0_max + Safe_TG_max * v_i]``
-   (:class:`~pacc.vocab.dgpt.SafetyBounds`).
+   (:class:`~dbc.vocab.dgpt.SafetyBounds`).
 
 :func:`adapt` is pure: (table, takeover summary, params, bounds) -> (new table, decision). A
 skipped update returns the same table object and a decision naming the reason. This module
@@ -58,9 +58,9 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Literal, get_args
 
+from dbc.vocab.dgpt import Dgpt, SafetyBounds
 from ecu import EcuError
 from ecu.table_update import safety_filter, spread_weights, timegap_update, with_pedal
-from pacc.vocab.dgpt import Dgpt, SafetyBounds
 
 AdaptationMode = Literal["paper", "timegap"]
 #: the selectable adaptation modes (``AdaptationParams.mode``)
@@ -76,7 +76,7 @@ class AdaptationParams:
     """Parameters of the adaptation (defaults justified in docs/ecu.md and the tests).
 
     The safety filter's band is not a parameter here: it is the table's own
-    :class:`~pacc.vocab.dgpt.SafetyBounds` (``EcuConfig.bounds``), passed to :func:`adapt`.
+    :class:`~dbc.vocab.dgpt.SafetyBounds` (``EcuConfig.bounds``), passed to :func:`adapt`.
 
     Attributes:
         min_takeover_s: P_T; a takeover this short or shorter is noise on its own (1.0 s: a

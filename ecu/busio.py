@@ -4,7 +4,7 @@ The only ECU module that knows roles and logical fields of the network (the code
 knows signal names and CAN ids; the node above it knows neither). Received frames go through
 an :class:`dbc.endpoint.Inbox` (decode, E2E check, freshness); outputs leave through an
 :class:`dbc.endpoint.Outbox` (alive counter and CRC). Pedal fractions are scaled by the DBC's
-full scale (:class:`pacc.vocab.pedals.PedalScale`). A codec that cannot carry every output of the
+full scale (:class:`dbc.vocab.pedals.PedalScale`). A codec that cannot carry every output of the
 node is refused when the port is built (:func:`check_outputs_fit`).
 """
 
@@ -22,12 +22,12 @@ from dbc.codec import Codec, EncodeError, MessageCodec, RoleCodec
 from dbc.endpoint import Inbox, Outbox
 from dbc.frame import message_of, raw_key
 from dbc.lockstep import LockstepBus
+from dbc.vocab.acc_state import AccState, FaultCode
+from dbc.vocab.pedals import PedalScale
 from ecu import EcuError
 from ecu.config import EcuConfig
 from ecu.safety import CommandSafety
 from ecu.signals import NodeInputs, NodeOutputs
-from pacc.vocab.acc_state import AccState, FaultCode
-from pacc.vocab.pedals import PedalScale
 
 log = logging.getLogger(__name__)
 

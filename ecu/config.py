@@ -7,11 +7,11 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from dbc.vocab.dgpt import SafetyBounds
 from ecu import EcuError
 from ecu.adaptation import AdaptationParams
 from ecu.controller import ControllerParams
 from ecu.cycle.state import BrakeMode
-from pacc.vocab.dgpt import SafetyBounds
 
 #: Largest time step the controller integrates over in one call, s.
 MAX_DT_S = 0.1

@@ -3,15 +3,15 @@ demonstrations the cloud learns from, recorded on the vehicle as in the paper.
 
 The node offers the takeover recorder's samples (:mod:`ecu.recorder`), each with the cycle's
 input check; :class:`ManualRecorder` keeps the first cycle at least ``period_s`` less half a
-cycle after the last kept one (:func:`pacc.vocab.sampling.keep_sample`: in real time, where
+cycle after the last kept one (:func:`dbc.vocab.sampling.keep_sample`: in real time, where
 cycles jitter, every 5th 20-ms cycle, never drifting to the 6th as the takeover recorder's
 ``period_s - 1 µs`` may; in lockstep both keep the same cycles). A kept sample is *manual
 car-following* when the ACC is not engaged (OFF or STANDBY), a lead is valid and the inputs
 the demonstration needs are good (speed, pedals and radar fresh, passed E2E and finite:
 :func:`manual_inputs_ok`). A run of such samples is one stretch; a stretch of at least
-``min_s`` (``count × period_s``, default :data:`~pacc.vocab.sampling.MANUAL_MIN_S`) becomes
+``min_s`` (``count × period_s``, default :data:`~dbc.vocab.sampling.MANUAL_MIN_S`) becomes
 one trip log with ``meta["mode"] == "manual"`` (the takeover segments' format and
-metadata), a stretch reaching ``max_s`` (:data:`~pacc.vocab.sampling.MANUAL_MAX_S`) is
+metadata), a stretch reaching ``max_s`` (:data:`~dbc.vocab.sampling.MANUAL_MAX_S`) is
 handed over and the next sample starts a new one (a bounded buffer on the vehicle).
 ``pacc demos extract`` cuts a bus log of the same drive the same way
 (:mod:`cloud_sync.irl.sources.bus_demos`).
@@ -27,10 +27,10 @@ import math
 from collections.abc import Callable, Mapping
 from typing import Any
 
+from dbc.vocab.acc_state import AccState, FaultCode
+from dbc.vocab.sampling import MANUAL_MAX_S, MANUAL_MIN_S, PERIOD_EPS_S, keep_interval_s
+from dbc.vocab.tripmode import TripMode
 from ecu.recorder import RecorderError, Sample, SinkQueue, TripSink
-from pacc.vocab.acc_state import AccState, FaultCode
-from pacc.vocab.sampling import MANUAL_MAX_S, MANUAL_MIN_S, PERIOD_EPS_S, keep_interval_s
-from pacc.vocab.tripmode import TripMode
 
 __all__ = ["ManualRecorder", "manual_inputs_ok"]
 
@@ -52,7 +52,7 @@ class ManualRecorder:
     Args:
         sink: receives each manual trip.
         period_s: recording period, s (the takeover recorder's).
-        cycle_s: the control cycle, s (:func:`~pacc.vocab.sampling.keep_sample`; 0: the
+        cycle_s: the control cycle, s (:func:`~dbc.vocab.sampling.keep_sample`; 0: the
             takeover recorder's rule).
         min_s: shortest stretch kept, s.
         max_s: longest trip, s (a longer stretch is handed over in pieces).
@@ -95,7 +95,7 @@ class ManualRecorder:
 
     def sample(self, s: Sample, fault: FaultCode) -> None:
         """Offer one cycle's sample and its input check; if kept
-        (:func:`~pacc.vocab.sampling.keep_sample`), added to the stretch or ending it."""
+        (:func:`~dbc.vocab.sampling.keep_sample`), added to the stretch or ending it."""
         if not (math.isfinite(s.t_s) and s.t_s - self._last_t >= self._interval):
             return
         self._last_t = s.t_s

@@ -32,6 +32,10 @@ import math
 from collections import Counter
 from collections.abc import Callable
 
+from dbc.vocab import FormatError
+from dbc.vocab.acc_state import AccState, FaultCode
+from dbc.vocab.dgpt import Dgpt, utc_now_iso
+from dbc.vocab.sampling import MANUAL_MIN_S
 from ecu import EcuError
 from ecu.adaptation import (
     Decision,
@@ -61,10 +65,6 @@ from ecu.manual import ManualRecorder
 from ecu.parts import plugins, recorders
 from ecu.recorder import TakeoverRecorder, TripSink
 from ecu.signals import NodeInputs, NodeOutputs, input_fault
-from pacc.vocab import FormatError
-from pacc.vocab.acc_state import AccState, FaultCode
-from pacc.vocab.dgpt import Dgpt, utc_now_iso
-from pacc.vocab.sampling import MANUAL_MIN_S
 
 log = logging.getLogger(__name__)
 

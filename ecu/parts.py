@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from dbc.vocab.dgpt import Dgpt
 from ecu.config import EcuConfig
 from ecu.manual import ManualRecorder
 from ecu.methods import make_adaptation, make_controller
@@ -23,7 +24,6 @@ from ecu.methods.guard import (
     GuardedController,
 )
 from ecu.recorder import TakeoverRecorder, TripSink
-from pacc.vocab.dgpt import Dgpt
 
 
 def plugins(config: EcuConfig) -> tuple[GuardedController | None, GuardedAdaptation | None]:

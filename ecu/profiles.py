@@ -17,10 +17,10 @@ import os
 import threading
 from pathlib import Path
 
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.dgpt import Dgpt, DgptError
+from dbc.vocab.dgpt_file import load_dgpt
 from ecu.node import EcuNode
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt import Dgpt, DgptError
-from pacc.vocab.dgpt_file import load_dgpt
 
 #: The profile id of the guest (the node's startup table).
 GUEST_PROFILE = 0

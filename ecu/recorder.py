@@ -7,7 +7,7 @@ The node feeds one sample per cycle; the recorder keeps one every ``period_s`` (
 default) in a ring buffer holding the last ``pre_s`` seconds. When a takeover starts the
 buffer becomes the head of a new segment; samples are appended through the pedal release and
 a post window of ``post_s`` seconds, then the segment is handed to the sink as a
-:class:`pacc.vocab.triplog.Trip` with ``meta["mode"] == "takeover"``. A new takeover during
+:class:`dbc.vocab.triplog.Trip` with ``meta["mode"] == "takeover"``. A new takeover during
 the post window extends the open segment (its post window restarts at the next release).
 
 The sink is I/O at the edge: any exception it raises is caught, logged and counted in
@@ -35,12 +35,12 @@ from typing import Any
 
 import numpy as np
 
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.sampling import PERIOD_EPS_S
+from dbc.vocab.triplog import Trip
+from dbc.vocab.triplog_file import write_trip
+from dbc.vocab.tripmode import TripMode
 from ecu import EcuError
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.sampling import PERIOD_EPS_S
-from pacc.vocab.triplog import Trip
-from pacc.vocab.triplog_file import write_trip
-from pacc.vocab.tripmode import TripMode
 
 log = logging.getLogger(__name__)
 

@@ -39,12 +39,12 @@ import can
 
 from dbc.codec import Codec, load_codec
 from dbc.endpoint import Inbox, Outbox
+from dbc.vocab.dgpt import Dgpt
 from ecu.busio import INPUT_ROLES, BusIO, RuntimeCodecError, inputs_from
 from ecu.buslog.writer import CanLogWriter
 from ecu.clocks import MAX_CATCHUP_S, CycleClock, RuntimeClockError
 from ecu.node import EcuNode, NodeInputs, NodeOutputs
 from ecu.profiles import GUEST_PROFILE, ProfileSwitcher, TableOffer
-from pacc.vocab.dgpt import Dgpt
 
 log = logging.getLogger(__name__)
 

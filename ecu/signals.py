@@ -1,4 +1,5 @@
-"""The node's boundary values: checked inputs of one cycle, outputs of one cycle; the
+"""The node's boundary values: checked inputs of one cycle, the plan (the DGPT at the current
+speed), outputs of one cycle; the
 :func:`cycle_value` decorator of the values the control cycle builds.
 
 No signal names or CAN ids here: the runtime turns frames into :class:`NodeInputs` and
@@ -11,7 +12,7 @@ import math
 from dataclasses import dataclass
 from typing import TypeVar, dataclass_transform
 
-from pacc.vocab.acc_state import AccState, FaultCode
+from dbc.vocab.acc_state import AccState, FaultCode
 
 _T = TypeVar("_T")
 
@@ -119,4 +120,13 @@ def input_fault(inp: NodeInputs) -> FaultCode:
     return FaultCode.NONE
 
 
-__all__ = ["NodeInputs", "NodeOutputs", "all_finite", "cycle_value", "input_fault"]
+@cycle_value
+class Plan:
+    """The DGPT at the current speed: desired gap, m, and its slope d(gap)/d(speed), s."""
+
+    v_mps: float
+    desired_gap_m: float
+    desired_gap_slope_s: float
+
+
+__all__ = ["NodeInputs", "NodeOutputs", "Plan", "all_finite", "cycle_value", "input_fault"]

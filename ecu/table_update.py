@@ -7,7 +7,7 @@ toward which gap a takeover updates the table; :func:`ecu.adaptation.adapt` call
   (:func:`spread_weights`);
 - the time-gap mode: the change made in time-gap space and spread over speed with Gaussian
   weights (:func:`timegap_weights`, :func:`timegap_update`);
-- the safety filter: every bin clipped into the table's :class:`~pacc.vocab.dgpt.SafetyBounds`
+- the safety filter: every bin clipped into the table's :class:`~dbc.vocab.dgpt.SafetyBounds`
   (:func:`safety_filter`);
 - the pedal's direction: no bin moves against the pedal (:func:`with_pedal`).
 
@@ -17,14 +17,23 @@ in m/s).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
-from pacc.vocab.dgpt import Dgpt, SafetyBounds, clamp_to_bounds
+from dbc.vocab.dgpt import Dgpt, SafetyBounds, clamp_to_bounds
 
-if TYPE_CHECKING:  # ecu.adaptation imports this module; the type only
-    from ecu.adaptation import AdaptationParams
+
+class TimegapStep(Protocol):
+    """What a time-gap update reads of the adaptation's parameters
+    (``ecu.adaptation.AdaptationParams`` has them)."""
+
+    @property
+    def min_speed_mps(self) -> float: ...
+    @property
+    def step_fraction(self) -> float: ...
+    @property
+    def spread_speed_mps(self) -> float: ...
 
 
 def spread_weights(n_bins: int, centre: int, window_size: int) -> np.ndarray:
@@ -40,9 +49,7 @@ def timegap_weights(speed_mps: np.ndarray, v_mps: float, spread_speed_mps: float
     return np.exp(-0.5 * ((speed_mps - v_mps) / spread_speed_mps) ** 2)
 
 
-def timegap_update(
-    table: Dgpt, centre: int, g_desire_m: float, params: AdaptationParams
-) -> np.ndarray:
+def timegap_update(table: Dgpt, centre: int, g_desire_m: float, params: TimegapStep) -> np.ndarray:
     """New gaps, shape ``(n,)``: the time-gap change at bin ``centre`` spread over speed.
 
     With ``v_c`` the centre bin's speed and ``u(v) = max(v, v_min)``, the time gap above the

@@ -1,16 +1,17 @@
-"""pacc: personalized adaptive cruise control on a CAN bus.
+"""pacc: personalized adaptive cruise control on a CAN bus: the harness and the commands.
 
-This package holds the bottom and the top of the house:
+This package is the top of the house; everything below it is a library it wires together:
 
-- :mod:`pacc.errors` — ``PaccError``, the root of every error the project raises on purpose;
-  it imports nothing, so every package builds its own error tree on it;
-- :mod:`pacc.vocab` — the vocabulary the ECU, the simulator and the cloud share (the DGPT and
-  trip-log formats, ACC state, pedal scaling);
-- :mod:`pacc.commands` — one module per ``pacc`` sub-command: they only wire libraries together;
+- :mod:`pacc.study` — the harness: one closed-loop drive (the ECU and the simulator on one
+  bus, the cloud beside them), the paper's Table I, the population, the bench;
+- :mod:`pacc.hil` — a person drives in a browser page against the ECU (``pacc hil``);
+- :mod:`pacc.commands` — one module per ``pacc`` sub-command: they only parse options and
+  call libraries;
 - :mod:`pacc.cli` — the ``pacc`` console script, which dispatches to those modules (imported
   only when chosen).
 
-The shape is a diamond (docs/architecture.md; tests/test_layering.py enforces it)::
+The floors (docs/architecture.md; tests/test_layering.py enforces them)::
 
-    pacc.errors <- dbc <- pacc.vocab <- ecu, sim_bus, cloud_sync <- sim_bus.study <- commands
+    dbc (network, vocabulary, errors) <- ecu, sim_bus, cloud_sync <- pacc.study, pacc.hil
+        <- pacc.commands
 """

@@ -1,12 +1,11 @@
 """The ``pacc`` console script: one command, sub-commands that live in their own packages.
 
-``pacc ecu …`` is ``python -m ecu …``, ``pacc sim …`` is ``python -m sim_bus …``,
-``pacc drive …`` runs the ECU and the simulator in one process, ``pacc study …`` runs the
-paper's study (Table I) through them, ``pacc cloud …`` is
-``python -m cloud_sync …``. Sub-command modules are imported only when chosen, so
-``pacc --help`` does not import numpy, cantools or python-can.
+``pacc ecu …`` runs the ECU alone, ``pacc sim …`` the simulator alone, ``pacc drive …`` both
+in one process, ``pacc study …`` the paper's study (Table I) through them, ``pacc cloud …``
+the cloud side (``python -m pacc`` is ``pacc``). Sub-command modules are imported only when
+chosen, so ``pacc --help`` does not import numpy, cantools or python-can.
 
-The error boundary is here, once: a :class:`~pacc.errors.PaccError` (bad input, bad
+The error boundary is here, once: a :class:`~dbc.errors.PaccError` (bad input, bad
 configuration) or an ``OSError`` (a missing file, a full disk) that a sub-command lets through
 becomes one line on stderr, ``pacc <cmd>: error: ...``, and exit status 2; ``pacc --debug
 <cmd> ...`` (or ``PACC_DEBUG=1``) shows the traceback instead.
@@ -19,7 +18,7 @@ import os
 import sys
 from collections.abc import Callable
 
-from pacc.errors import PaccError, error_line
+from dbc.errors import PaccError, error_line
 
 #: sub-command -> (module with ``main(argv) -> int``, one-line help)
 SUBCOMMANDS: dict[str, tuple[str, str]] = {

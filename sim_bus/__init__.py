@@ -21,8 +21,8 @@ and closes the loop through the ACC command frames. Modules, one concept each:
 - :mod:`sim_bus.errors` — the error tree, rooted at :class:`SimError`.
 
 On top of them, and of the ECU and the cloud, two harness sub-packages wire everything
-together: :mod:`sim_bus.study` (one drive, ``pacc drive``; the paper's Table I, ``pacc study``)
-and :mod:`sim_bus.hil` (a person drives in a browser page, ``pacc hil``). Maintainer tools
+together: :mod:`pacc.study` (one drive, ``pacc drive``; the paper's Table I, ``pacc study``)
+and :mod:`pacc.hil` (a person drives in a browser page, ``pacc hil``). Maintainer tools
 (building the data file, calibrating the drivers) live in ``tools/`` outside the wheel.
 """
 

@@ -27,15 +27,15 @@ from collections import deque
 import numpy as np
 
 from dbc.codec import load_codec
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.pedals import PedalScale
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.pedals import PedalScale
 from sim_bus.drivers import DriverParams
 from sim_bus.idm import DECEL_LIMIT_MPS2, idm_plus_accel, interp_float
 
 #: acceleration of a coasting car with no pedal pressed (drag, engine braking), m/s²
 COAST_MPS2 = -0.3
 #: manual pedal mapping: full accelerator gives this acceleration; brake pressure per m/s²
-#: (the pedals' full scale, 100 % and 250 bar, is the network's: pacc.vocab.pedals.PedalScale)
+#: (the pedals' full scale, 100 % and 250 bar, is the network's: dbc.vocab.pedals.PedalScale)
 ACCEL_FULL_MPS2 = 3.0
 BRAKE_BAR_PER_MPS2 = 12.0
 #: the AccState codes in which the ACC drives the car

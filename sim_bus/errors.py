@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pacc.errors import PaccError
+from dbc.errors import PaccError
 
 
 class SimError(PaccError):

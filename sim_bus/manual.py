@@ -12,14 +12,14 @@ from __future__ import annotations
 import numpy as np
 
 from dbc.codec import load_codec
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.pedals import PedalScale
-from pacc.vocab.triplog import Trip
-from pacc.vocab.tripmode import TripMode
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.pedals import PedalScale
+from dbc.vocab.triplog import Trip
+from dbc.vocab.tripmode import TripMode
 from sim_bus.behaviour import DriverAgent
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import DriveError
-from sim_bus.lead.scenarios import LeadProfile
+from sim_bus.lead.profile import LeadProfile
 from sim_bus.plant import Plant, PlantConfig, PlantState
 from sim_bus.trip import condition_name
 

@@ -21,7 +21,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from pacc.vocab.acc_state import AccState
+from dbc.vocab.acc_state import AccState
 
 #: a gap beyond this is no lead at all (a road scenario's free road, sim_bus.world), m
 NO_LEAD_GAP_M = 500.0

@@ -26,7 +26,7 @@ from dbc.codec import Codec, MessageCodec, load_codec
 from dbc.endpoint import Inbox, Outbox
 from dbc.frame import OTHER, Frame, message_of, raw_key
 from dbc.lockstep import LockstepBus
-from pacc.vocab.acc_state import AccState
+from dbc.vocab.acc_state import AccState
 from sim_bus.faults import ROLES, FaultPlan, FaultSpec
 from sim_bus.readings import Readings
 from sim_bus.world import World

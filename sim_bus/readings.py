@@ -97,7 +97,7 @@ class Readings:
         return vals
 
     def hmi(self) -> dict[str, Any]:
-        """HMI: the SET and RESUME buttons, and a person's other buttons (:mod:`sim_bus.hil`)."""
+        """HMI: the SET and RESUME buttons, and a person's other buttons (:mod:`pacc.hil`)."""
         agent = self.world.agent
         vals = self.values["hmi"]
         vals["set"] = 1 if agent.set_button else 0

@@ -1,8 +1,8 @@
-"""The trip log of a simulator run: the world's samples as an :class:`pacc.vocab.triplog.Trip`.
+"""The trip log of a simulator run: the world's samples as an :class:`dbc.vocab.triplog.Trip`.
 
 One function for every writer of a simulated ACC trip (``pacc drive --log``, ``pacc sim
 --log``, the study's ``logs/``): samples at 10 Hz, pedals as fractions of the network's full
-scale (:class:`pacc.vocab.pedals.PedalScale`, the scaling the ECU's own logs use), and the driving
+scale (:class:`dbc.vocab.pedals.PedalScale`, the scaling the ECU's own logs use), and the driving
 condition named from the driver's condition factor, so that the cloud, which learns one table
 per (driver, condition), never files a rain drive as a dry one.
 """
@@ -14,9 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from pacc.vocab.pedals import PedalScale
-from pacc.vocab.triplog import Trip
-from pacc.vocab.tripmode import TripMode
+from dbc.vocab.pedals import PedalScale
+from dbc.vocab.triplog import Trip
+from dbc.vocab.tripmode import TripMode
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import DriveError
 from sim_bus.world import WorldLog

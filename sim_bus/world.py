@@ -24,8 +24,8 @@ import numpy as np
 from sim_bus.behaviour import COAST_MPS2, DriverAgent
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import DriveError
-from sim_bus.lead.events import LeadEvent, cut_in_gap_m, reveal_gap_m
-from sim_bus.lead.scenarios import LeadProfile
+from sim_bus.lead.events import cut_in_gap_m, reveal_gap_m
+from sim_bus.lead.profile import LeadEvent, LeadProfile
 from sim_bus.metrics import DriveMetrics, SafetyFigures, drive_metrics, safety_figures
 from sim_bus.plant import Plant, PlantConfig, PlantState
 
@@ -77,7 +77,7 @@ class WorldConfig:
 
 class PedalSource(Protocol):
     """The driver as the world and the bus node see it (a :class:`DriverAgent`, or a person's
-    pedals from ``sim_bus.hil``): :meth:`step` once per driver step, then its outputs.
+    pedals from ``pacc.hil``): :meth:`step` once per driver step, then its outputs.
 
     Outputs: ``a_cmd_mps2`` (m/s², applied while a pedal is pressed), ``accel_pressed``,
     ``brake_pressed``, ``accel_pct`` (%), ``brake_bar`` (bar), ``set_button``,
@@ -155,7 +155,7 @@ class World:
         acc_mode: bool = True,
         pedals: PedalSource | None = None,
     ) -> None:
-        """``pedals``: an external driver (a person, ``sim_bus.hil``) instead of the synthetic
+        """``pedals``: an external driver (a person, ``pacc.hil``) instead of the synthetic
         :class:`DriverAgent` of ``driver``; the world then draws no driver noise from it."""
         if not seed >= 0:
             raise DriveError(f"a seed is an integer >= 0, got {seed}")

@@ -94,7 +94,7 @@ def test_every_name_in_the_architecture_exists() -> None:
 
 PACKAGES = [
     "pacc",
-    "pacc.vocab",
+    "dbc.vocab",
     "pacc.commands",
     "pacc.commands.cloud",
     "pacc.commands.drive",
@@ -107,10 +107,10 @@ PACKAGES = [
     "ecu.buslog.process",
     "sim_bus",
     "sim_bus.lead",
-    "sim_bus.study",
-    "sim_bus.hil",
-    "sim_bus.study.bench",
-    "sim_bus.study.files",
+    "pacc.study",
+    "pacc.hil",
+    "pacc.study.bench",
+    "pacc.study.files",
     "ecu.methods",
     "cloud_sync.learners",
     "cloud_sync",

@@ -15,7 +15,7 @@ import numpy as np
 
 from sim_bus.dataset import load_human_pairs
 from sim_bus.drivers import BUILTIN_DRIVERS
-from sim_bus.lead.scenarios import LeadProfile
+from sim_bus.lead.profile import LeadProfile
 from sim_bus.manual import manual_trip
 
 BANDS_MPS: tuple[tuple[float, float], ...] = (

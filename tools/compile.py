@@ -29,7 +29,7 @@ ROOT = Path(__file__).resolve().parent.parent
 PACKAGES = ("pacc", "dbc", "ecu", "sim_bus", "cloud_sync")
 #: the modules compiled: the per-frame and per-cycle path a drive runs, by profile
 #: (bench/drive.py). Left out: ecu/signals.py (``cycle_value`` is a dataclass_transform, a
-#: compiled function cannot carry its marker) and pacc/vocab/dgpt.py (``Dgpt`` stores its
+#: compiled function cannot carry its marker) and dbc/vocab/dgpt.py (``Dgpt`` stores its
 #: scalar fast path through ``object.__setattr__`` on names it does not declare).
 MODULES = (
     "dbc/endpoint.py",
@@ -54,7 +54,7 @@ MODULES = (
     "sim_bus/idm.py",
     "sim_bus/plant.py",
     "sim_bus/world.py",
-    "pacc/vocab/pedals.py",
+    "dbc/vocab/pedals.py",
 )
 #: the names a generated codec reads from the namespace MessageCodec gives it
 _NAMES = (

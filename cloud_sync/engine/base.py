@@ -195,30 +195,10 @@ class ProcessEngine(Engine):
             pool.shutdown(wait=finished, cancel_futures=not finished)
 
 
-def open_engine(scheduler: str | None, workers: int) -> Engine:
-    """The engine of a command line: ``scheduler`` None -> :class:`InlineEngine` for one
-    worker, else a :class:`ProcessEngine` of ``workers``; ``"local"`` -> a Dask
-    ``LocalCluster`` of ``workers`` processes; ``tcp://HOST:PORT`` (or any Dask address) ->
-    that cluster. :class:`EngineError` if Dask is missing or the scheduler does not answer."""
-    if scheduler is None:
-        return InlineEngine() if workers <= 1 else ProcessEngine(workers)
-    try:
-        # Dask is an optional extra and costs ~1 s of import: only a --scheduler needs it
-        from cloud_sync.engine.dask_backend import DaskEngine  # noqa: PLC0415
-    except ImportError as exc:
-        raise EngineError(
-            f"--scheduler needs Dask: pip install 'pacc[dask]' ({exc.name} is missing)"
-        ) from exc
-    if scheduler == "local":
-        return DaskEngine.local(workers)
-    return DaskEngine.connect(scheduler)
-
-
 __all__ = [
     "MAX_POOL_RESTARTS",
     "Engine",
     "InlineEngine",
     "ProcessEngine",
-    "open_engine",
     "single_blas_thread",
 ]

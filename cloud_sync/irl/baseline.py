@@ -15,8 +15,8 @@ from cloud_sync.errors import DemoError
 from cloud_sync.irl import demos as dm
 from cloud_sync.irl.config import IrlConfig
 from cloud_sync.irl.extract import finish_table, outside_coverage, steady_state_gaps
-from pacc.vocab.dgpt import Dgpt, speed_axis
-from pacc.vocab.triplog import Trip
+from dbc.vocab.dgpt import Dgpt, speed_axis
+from dbc.vocab.triplog import Trip
 
 __all__ = ["baseline_if_any", "empirical_baseline"]
 

@@ -1,6 +1,6 @@
 """Where the demonstrations are, per DGPT speed bin, and how new evidence joins an earlier table.
 
-All functions are pure and work on the DGPT speed axis (``pacc.vocab.dgpt.speed_axis``, shape (n,)).
+All functions are pure and work on the DGPT speed axis (``dbc.vocab.dgpt.speed_axis``, shape (n,)).
 
 - :func:`coverage_s`: seconds of usable demonstration within ±``half_window_mps`` of each bin.
 - :func:`evidence`: the coverage, the covered bins (where the learned gaps are kept; elsewhere
@@ -23,7 +23,7 @@ import numpy as np
 from cloud_sync.errors import DemoError
 from cloud_sync.irl.demos import Samples
 from cloud_sync.irl.extract import gap_support
-from pacc.vocab.dgpt import SafetyBounds, clamp_to_bounds
+from dbc.vocab.dgpt import SafetyBounds, clamp_to_bounds
 
 __all__ = ["Evidence", "coverage_s", "evidence", "blend", "covered_ranges"]
 

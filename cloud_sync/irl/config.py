@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from cloud_sync.errors import TrainingError
 from cloud_sync.irl.features import FeatureConfig
 from cloud_sync.irl.mdp import GridConfig
-from pacc.vocab.dgpt import SafetyBounds
+from dbc.vocab.dgpt import SafetyBounds
 
 __all__ = ["EXTRACTIONS", "IrlConfig"]
 

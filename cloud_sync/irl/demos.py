@@ -23,9 +23,8 @@ import numpy as np
 from cloud_sync.errors import DemoError
 from cloud_sync.irl.mce_irl import CompiledMdp, DemoStats
 from cloud_sync.irl.mdp import interp_weights
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.triplog import Trip
-from pacc.vocab.tripmode import trip_mode
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.triplog import Trip, trip_mode
 
 __all__ = [
     "Samples",
@@ -84,7 +83,7 @@ class Transitions:
 
 def is_acc_trip(trip: Trip) -> bool:
     """Whether ``trip`` was driven with the ACC on (trip mode ``acc`` or ``takeover``,
-    :func:`pacc.vocab.tripmode.trip_mode`)."""
+    :func:`dbc.vocab.tripmode.trip_mode`)."""
     return trip_mode(trip).acc_on
 
 

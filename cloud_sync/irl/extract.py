@@ -1,6 +1,6 @@
 """From a reward (or from raw data) to a DGPT: argmax, low-pass, continuation, bounds.
 
-All functions are pure and work on the DGPT speed axis (``pacc.vocab.dgpt.speed_axis``, shape (n,)).
+All functions are pure and work on the DGPT speed axis (``dbc.vocab.dgpt.speed_axis``, shape (n,)).
 
 - :func:`irl_gaps`: the table of a reward: :func:`argmax_gap` inside the safety band and the
   demonstrated gap range (:func:`gap_support`), then :func:`finish_table`.
@@ -26,7 +26,7 @@ import numpy as np
 from scipy import signal
 
 from cloud_sync.irl.features import Features
-from pacc.vocab.dgpt import SafetyBounds, clamp_to_bounds
+from dbc.vocab.dgpt import SafetyBounds, clamp_to_bounds
 
 #: covered bins slower than this do not set the time gap continued to other speeds, m/s:
 #: below it the standstill distance dominates the gap and (g − d0)/v is mostly noise (issue

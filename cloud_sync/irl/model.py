@@ -27,7 +27,7 @@ from cloud_sync.irl.features import (
 )
 from cloud_sync.irl.mce_irl import CompiledMdp
 from cloud_sync.irl.mdp import Grid, GridConfig, build_transitions, grid_from_spec, make_grid
-from pacc.vocab.dgpt import Dgpt
+from dbc.vocab.dgpt import Dgpt
 
 __all__ = [
     "METHOD",

@@ -39,8 +39,8 @@ from cloud_sync.irl.fit import Fit, fit_alpha, start_alpha
 from cloud_sync.irl.mce_irl import CompiledMdp, DemoStats
 from cloud_sync.irl.model import METHOD, RewardModel, compile_model, fresh_model, model_of_table
 from cloud_sync.irl.policy_gap import steady_drift, steady_gaps
-from pacc.vocab.dgpt import Dgpt, speed_axis
-from pacc.vocab.triplog import Trip
+from dbc.vocab.dgpt import Dgpt, speed_axis
+from dbc.vocab.triplog import Trip
 
 __all__ = [
     "IrlConfig",

@@ -1,7 +1,7 @@
 """Learners: trips -> a driver's DGPT, behind one small interface.
 
 :class:`Learner` — ``learn(trips, *, driver_id, seed) -> Dgpt``: from the driver's trips
-(:class:`~pacc.vocab.triplog.Trip`, 10 Hz; manual drives and the takeovers of ACC trips)
+(:class:`~dbc.vocab.triplog.Trip`, 10 Hz; manual drives and the takeovers of ACC trips)
 a table on the standard speed axis (m over m/s, inside its safety bounds) whose ``meta``
 holds at least ``method`` (str) and ``covered`` (one bool per speed bin: the bins the data
 set; elsewhere the table states a prior). :func:`learn` adds ``learn_s`` (wall time, s) and
@@ -17,7 +17,7 @@ Built-ins, ordinary implementations of the interface:
   over speed (as in the P-ACC literature), numpy only.
 
 Others come from the entry points of ``pacc.learners`` or ``module:attribute``
-(:mod:`pacc.vocab.plugins`); a factory takes the learner's parameters as keyword arguments.
+(:mod:`dbc.vocab.plugins`); a factory takes the learner's parameters as keyword arguments.
 :mod:`cloud_sync.learners.builtin` (the built-in learners ``irl`` and ``empirical`` as
   implementations of the interface);
 :mod:`cloud_sync.learners.gp` (``gp``: a Gaussian process of the driver's steady-state gap over
@@ -32,9 +32,9 @@ from collections.abc import Mapping, Sequence
 from typing import Any, Protocol, runtime_checkable
 
 from cloud_sync.errors import CloudSyncError
-from pacc.vocab.dgpt import Dgpt, DgptError
-from pacc.vocab.plugins import PluginError, build
-from pacc.vocab.triplog import Trip
+from dbc.vocab.dgpt import Dgpt, DgptError
+from dbc.vocab.plugins import PluginError, build
+from dbc.vocab.triplog import Trip
 
 GROUP = "pacc.learners"
 #: built-in learners: name -> factory

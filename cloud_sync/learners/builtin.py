@@ -7,8 +7,8 @@ from collections.abc import Sequence
 from typing import Any
 
 from cloud_sync.irl.trainer import IrlConfig, empirical_baseline, learn_dgpt
-from pacc.vocab.dgpt import Dgpt
-from pacc.vocab.triplog import Trip
+from dbc.vocab.dgpt import Dgpt
+from dbc.vocab.triplog import Trip
 
 
 class IrlLearner:

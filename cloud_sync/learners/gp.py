@@ -24,8 +24,8 @@ import numpy as np
 from cloud_sync.errors import DemoError
 from cloud_sync.irl import demos as dm
 from cloud_sync.irl.extract import continue_time_gap, outside_coverage, steady_state_gaps
-from pacc.vocab.dgpt import Dgpt, SafetyBounds, clamp_to_bounds, speed_axis
-from pacc.vocab.triplog import Trip
+from dbc.vocab.dgpt import Dgpt, SafetyBounds, clamp_to_bounds, speed_axis
+from dbc.vocab.triplog import Trip
 
 #: the hyper-parameter grid: signal sd s (m), length scale l (m/s), noise sigma (m s^0.5)
 SIGNAL_M = (1.0, 3.0, 6.0)

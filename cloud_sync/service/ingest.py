@@ -11,9 +11,9 @@ from collections.abc import Iterator
 
 from cloud_sync.api import BadBatchError, CloudUnavailableError
 from cloud_sync.vehicle.spool import BatchKind, kind_of
-from pacc.vocab.triplog import Trip, TripLogError
-from pacc.vocab.triplog_file import trip_from_bytes
-from pacc.vocab.tripmode import TripModeError
+from dbc.vocab.triplog import Trip, TripLogError
+from dbc.vocab.triplog_file import trip_from_bytes
+from dbc.vocab.tripmode import TripModeError
 
 
 def _kind(trip: Trip) -> BatchKind:

@@ -17,8 +17,8 @@ from typing import Any
 
 from cloud_sync.engine.base import single_blas_thread
 from cloud_sync.irl.trainer import IrlConfig, fine_tune, learn_dgpt
-from pacc.vocab.dgpt import Dgpt
-from pacc.vocab.triplog import Trip
+from dbc.vocab.dgpt import Dgpt
+from dbc.vocab.triplog import Trip
 
 
 class InlineExecutor(Executor):

@@ -59,10 +59,10 @@ from cloud_sync.signing import (
     sign_dgpt,
     verify_dgpt,
 )
-from pacc.vocab.dgpt import Dgpt
-from pacc.vocab.triplog import Trip
-from pacc.vocab.triplog_file import trip_from_bytes
-from pacc.vocab.tripmode import TripMode
+from dbc.vocab.dgpt import Dgpt
+from dbc.vocab.triplog import Trip
+from dbc.vocab.triplog_file import trip_from_bytes
+from dbc.vocab.tripmode import TripMode
 
 log = logging.getLogger(__name__)
 

@@ -41,10 +41,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cloud_sync.api import BadBatchError, TripReceipt, is_plain_name
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.triplog import Trip
-from pacc.vocab.triplog_file import trip_from_bytes
-from pacc.vocab.tripmode import TripMode
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.triplog import Trip
+from dbc.vocab.triplog_file import trip_from_bytes
+from dbc.vocab.tripmode import TripMode
 
 if TYPE_CHECKING:
     from cloud_sync.service.rules import CloudService

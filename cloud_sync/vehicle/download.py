@@ -2,7 +2,7 @@
 
 :class:`ProfileDownloader` asks the cloud for the driver's newest table, verifies its Ed25519
 signature against the key the vehicle trusts and its gaps against the vehicle's
-:class:`~pacc.vocab.dgpt.SafetyBounds` (:func:`cloud_sync.signing.verify_dgpt`), and only then keeps
+:class:`~dbc.vocab.dgpt.SafetyBounds` (:func:`cloud_sync.signing.verify_dgpt`), and only then keeps
 it: the signed bytes go to ``cache_dir/<driver>/<condition>.signed.json`` (atomically), which
 is the last good table for offline use and is verified again whenever it is read. Anything
 else is refused and reported (:attr:`ProfileDownloader.refusals`), and the last good table
@@ -32,7 +32,7 @@ from cloud_sync.api import (
 from cloud_sync.durable import write_atomic
 from cloud_sync.errors import CloudSyncError
 from cloud_sync.signing import SignatureError, verify_dgpt
-from pacc.vocab.dgpt import Dgpt, SafetyBounds
+from dbc.vocab.dgpt import Dgpt, SafetyBounds
 
 log = logging.getLogger(__name__)
 

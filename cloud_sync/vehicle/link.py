@@ -29,8 +29,8 @@ from cloud_sync.vehicle.download import ProfileDownloader
 from cloud_sync.vehicle.reports import ReportError
 from cloud_sync.vehicle.spool import Spool
 from cloud_sync.vehicle.uploader import Uploader, UploaderConfig
-from pacc.vocab.dgpt import Dgpt
-from pacc.vocab.triplog import Trip
+from dbc.vocab.dgpt import Dgpt
+from dbc.vocab.triplog import Trip
 
 log = logging.getLogger(__name__)
 

@@ -35,9 +35,9 @@ from typing import Literal
 
 from cloud_sync.durable import fsync_dir
 from cloud_sync.errors import CloudSyncError
-from pacc.vocab.triplog import Trip, TripLogError
-from pacc.vocab.triplog_file import read_trip, write_trip
-from pacc.vocab.tripmode import TripMode, TripModeError, trip_mode
+from dbc.vocab.triplog import Trip, TripLogError, trip_mode
+from dbc.vocab.triplog_file import read_trip, write_trip
+from dbc.vocab.tripmode import TripMode, TripModeError
 
 log = logging.getLogger(__name__)
 
@@ -98,7 +98,7 @@ def file_digest(path: Path) -> str:
 
 
 def kind_of(trip: Trip) -> BatchKind:
-    """The batch kind of a trip: its trip mode (:func:`pacc.vocab.tripmode.trip_mode`).
+    """The batch kind of a trip: its trip mode (:func:`dbc.vocab.tripmode.trip_mode`).
 
     Raises:
         TripModeError: the trip's ``meta["mode"]`` is not a known mode.
@@ -167,7 +167,7 @@ class Spool:
 
         Raises:
             SpoolError: the trip cannot be written (meta not JSON, full disk), its mode is
-                unknown (:class:`pacc.vocab.tripmode.TripModeError`) or it is larger than the
+                unknown (:class:`dbc.vocab.tripmode.TripModeError`) or it is larger than the
                 whole quota.
         """
         if kind is None:

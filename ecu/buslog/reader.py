@@ -21,6 +21,7 @@ from typing import Any
 import can
 import numpy as np
 
+from dbc.vocab.mcap_errors import mcap_errors
 from ecu.buslog.blocks import BlockError, decode_block
 from ecu.buslog.format import (
     EVENTS_TOPIC,
@@ -39,7 +40,6 @@ from ecu.buslog.format import (
     TimeBase,
 )
 from ecu.buslog.proto import LAYOUT_KEY, decode_rows
-from pacc.vocab.mcap_errors import mcap_errors
 
 __all__ = ["CanLog", "Frames", "messages", "read_canlog", "read_recording"]
 

@@ -18,6 +18,7 @@ from typing import Any
 
 from dbc import BINDING_PATH, DBC_PATH
 from dbc.codec import Codec
+from dbc.vocab.dgpt import Dgpt, SafetyBounds
 from ecu.adaptation import AdaptationParams
 from ecu.buslog.format import FLUSH_S, ROWS_S, CanLogError, TimeBase
 from ecu.buslog.live import LIVE_FLUSH_S
@@ -26,7 +27,6 @@ from ecu.buslog.sinks import Sink
 from ecu.buslog.writer import CanLogWriter
 from ecu.config import ConfigError, EcuConfig
 from ecu.controller import ControllerParams, RoadParams
-from pacc.vocab.dgpt import Dgpt, SafetyBounds
 
 __all__ = [
     "BINDING_ATTACHMENT",

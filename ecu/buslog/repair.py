@@ -13,9 +13,9 @@ import os
 import struct
 from pathlib import Path
 
+from dbc.vocab.mcap_errors import mcap_errors
 from ecu.buslog.format import CanLogError
 from ecu.buslog.mcapfile import McapFile
-from pacc.vocab.mcap_errors import mcap_errors
 
 __all__ = ["repair"]
 

@@ -29,6 +29,9 @@ from dbc import BINDING_PATH, DBC_PATH
 from dbc.codec import Codec, load_codec
 from dbc.endpoint import Inbox
 from dbc.frame import Frame
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.dgpt import Dgpt, predefined
+from dbc.vocab.dgpt_file import dgpt_from_json_dict
 from ecu.buslog.format import (
     FLAG_ERROR,
     FLAG_EXTENDED,
@@ -47,9 +50,6 @@ from ecu.buslog.recording import (
 )
 from ecu.node import EcuNode
 from ecu.runtime import EcuRuntime, RuntimeSummary
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt import Dgpt, predefined
-from pacc.vocab.dgpt_file import dgpt_from_json_dict
 
 __all__ = ["PlayResult", "ReplayResult", "codec_of", "play", "replay_through_ecu"]
 

@@ -14,17 +14,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import TYPE_CHECKING
 
+from dbc.vocab.acc_state import AccState
 from ecu.config import EcuConfig
 from ecu.controller import ControlInput, desired_accel, limit_command, time_to_collision_s
 from ecu.cycle.road import RoadMemory, road_limit, road_update
 from ecu.cycle.stops import URGENT_STOP_MPS2, closing_needs_mps2, lead_stop_need_mps2, stop_limit
-from ecu.signals import NodeInputs, cycle_value
-from pacc.vocab.acc_state import AccState
-
-if TYPE_CHECKING:  # ecu.cycle.phases imports this module; the type only
-    from ecu.cycle.phases import Plan
+from ecu.signals import NodeInputs, Plan, cycle_value
 
 #: a gap law through the plug-in interface: ``(obs, memory, dt_s) -> (accel_mps2, memory)``
 #: (:class:`ecu.methods.guard.GuardedController`); None: the built-in PID called directly

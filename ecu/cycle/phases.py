@@ -23,13 +23,13 @@ from __future__ import annotations
 
 import math
 
+from dbc.vocab.acc_state import AccState, FaultCode
+from dbc.vocab.dgpt import Dgpt
 from ecu.config import MAX_DT_S, EcuConfig
 from ecu.cycle.command import Command
 from ecu.cycle.state import Events
 from ecu.recorder import Sample
-from ecu.signals import NodeInputs, NodeOutputs, cycle_value, input_fault
-from pacc.vocab.acc_state import AccState, FaultCode
-from pacc.vocab.dgpt import Dgpt
+from ecu.signals import NodeInputs, NodeOutputs, Plan, cycle_value, input_fault
 
 #: Margin of the re-engagement hold time against float round-off, s.
 SETTLE_EPS_S = 1e-9
@@ -188,15 +188,6 @@ def takeover_pedal(accel: bool, brake: bool) -> str:
 
 
 # -- 5. plan -----------------------------------------------------------------------------------
-
-
-@cycle_value
-class Plan:
-    """The DGPT at the current speed: desired gap, m, and its slope d(gap)/d(speed), s."""
-
-    v_mps: float
-    desired_gap_m: float
-    desired_gap_slope_s: float
 
 
 def plan(table: Dgpt, v_mps: float) -> Plan:

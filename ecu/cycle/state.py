@@ -27,8 +27,8 @@ from __future__ import annotations
 
 from typing import Literal
 
+from dbc.vocab.acc_state import AccState, FaultCode
 from ecu.signals import cycle_value
-from pacc.vocab.acc_state import AccState, FaultCode
 
 BrakeMode = Literal["resume", "cancel"]
 

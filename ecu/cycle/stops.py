@@ -5,14 +5,10 @@
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 from ecu.config import EcuConfig
 from ecu.controller import closing_limit_mps2, stopping_limit_mps2
-from ecu.signals import NodeInputs
-
-if TYPE_CHECKING:  # ecu.cycle.phases imports this module
-    from ecu.cycle.phases import Plan
+from ecu.signals import NodeInputs, Plan
 
 #: a stop that needs more than this deceleration builds its braking at the emergency jerk
 #: (a cut-out revealing a stopped vehicle: 1.4 s at 2.5 m/s^3 to reach -3.5 is too late), m/s^2

@@ -19,7 +19,7 @@ Built-ins, ordinary implementations of the same interfaces: ``pid`` (:class:`Pid
 ``timegap`` and ``paper`` (:class:`RuleAdaptation`, Algorithm 1 and its successor) and
 ``bayes`` (:class:`ecu.methods.bayes.BayesAdaptation`). Others come from entry points
 (``pacc.controllers``, ``pacc.adaptations``) or ``module:attribute``
-(:mod:`pacc.vocab.plugins`); :mod:`ecu.methods.guard` calls them inside a wall-time budget
+(:mod:`dbc.vocab.plugins`); :mod:`ecu.methods.guard` calls them inside a wall-time budget
 :mod:`ecu.methods.bayes` (``bayes``: an online adaptation that keeps an uncertainty per speed
   bin (a Kalman filter));
 and falls back to the built-in PID / no change when one raises, returns NaN or overruns.
@@ -31,10 +31,10 @@ import dataclasses
 from collections.abc import Mapping
 from typing import Any, Protocol, runtime_checkable
 
+from dbc.vocab.dgpt import Dgpt, SafetyBounds
+from dbc.vocab.plugins import PluginError, build
 from ecu.adaptation import AdaptationParams, Decision, TakeoverSummary, adapt
 from ecu.controller import ControlInput, ControllerParams, desired_accel
-from pacc.vocab.dgpt import Dgpt, SafetyBounds
-from pacc.vocab.plugins import PluginError, build
 
 CONTROLLER_GROUP = "pacc.controllers"
 ADAPTATION_GROUP = "pacc.adaptations"

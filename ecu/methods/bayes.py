@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from dbc.vocab.dgpt import Dgpt, SafetyBounds
 from ecu.adaptation import (
     AdaptationParams,
     Decision,
@@ -38,7 +39,6 @@ from ecu.adaptation import (
     predict_steady_gap,
 )
 from ecu.table_update import safety_filter, with_pedal
-from pacc.vocab.dgpt import Dgpt, SafetyBounds
 
 
 @dataclasses.dataclass(frozen=True)

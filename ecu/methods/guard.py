@@ -33,10 +33,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from dbc.vocab.dgpt import Dgpt, SafetyBounds, clamp_to_bounds
 from ecu.adaptation import Decision, Reason, TakeoverSummary
 from ecu.controller import ControlInput, ControllerParams, desired_accel
 from ecu.methods import Adaptation, GapController
-from pacc.vocab.dgpt import Dgpt, SafetyBounds, clamp_to_bounds
 
 log = logging.getLogger(__name__)
 

@@ -21,7 +21,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn
 
-from pacc.errors import UsageError, error_line
+from dbc.errors import UsageError, error_line
 
 __all__ = [
     "CommandParser",

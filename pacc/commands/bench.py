@@ -18,17 +18,17 @@ import tomllib
 from pathlib import Path
 
 from cloud_sync.errors import CloudSyncError
+from dbc.vocab import FormatError
 from ecu import EcuError
 from pacc.commands._args import CommandParser, integer, number
-from pacc.vocab import FormatError
-from sim_bus.errors import SimError
-from sim_bus.study.bench.suite import (
+from pacc.study.bench.suite import (
     DEFAULT_METHODS,
     BenchOptions,
     fresh_seeds,
     run_bench,
     stored_options,
 )
+from sim_bus.errors import SimError
 
 
 def _parser() -> argparse.ArgumentParser:

@@ -19,11 +19,10 @@ import math
 import sys
 from pathlib import Path
 
-from dbc.errors import DbcError
+from dbc.errors import DbcError, PaccError
 from dbc.network import add_network_arguments, codec_of
+from dbc.vocab.sampling import MANUAL_MIN_S
 from pacc.commands._args import CommandParser, number
-from pacc.errors import PaccError
-from pacc.vocab.sampling import MANUAL_MIN_S
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -57,7 +56,7 @@ def main(argv: list[str] | None = None) -> int:
         print("pacc demos: error: --min-s must be a positive number", file=sys.stderr)
         return 2
     from cloud_sync.irl.sources.bus_demos import extract_demos  # noqa: PLC0415 - numpy, python-can
-    from pacc.vocab.triplog_file import write_trip  # noqa: PLC0415
+    from dbc.vocab.triplog_file import write_trip  # noqa: PLC0415
 
     written = 0
     try:

@@ -22,10 +22,10 @@ import contextlib
 import sys
 from pathlib import Path
 
+from dbc.errors import UsageError
+from dbc.vocab import FormatError
 from ecu import EcuError
 from pacc.commands._args import CommandParser, error_line
-from pacc.errors import UsageError
-from pacc.vocab import FormatError
 
 #: the formats pacc converts between, by suffix
 FORMATS = (".mcap", ".log", ".asc", ".blf", ".trc", ".csv")

@@ -17,16 +17,16 @@ import can
 
 from cloud_sync.errors import CloudSyncError
 from dbc.errors import DbcError
+from dbc.vocab import FormatError
+from dbc.vocab.dgpt_file import load_dgpt
 from ecu import EcuError
 from ecu.buslog.live import add_foxglove_argument
 from pacc.commands._args import CommandParser, integer, number
-from pacc.vocab import FormatError
-from pacc.vocab.dgpt_file import load_dgpt
+from pacc.hil.plan import free_plan, paper_plan, participant_index
+from pacc.hil.server import ServerThread, create_app, default_mapping_path
+from pacc.hil.session import Session, SessionConfig
+from pacc.study.drive import CONTROLLERS
 from sim_bus.errors import SimError
-from sim_bus.hil.plan import free_plan, paper_plan, participant_index
-from sim_bus.hil.server import ServerThread, create_app, default_mapping_path
-from sim_bus.hil.session import Session, SessionConfig
-from sim_bus.study.drive import CONTROLLERS
 
 DEFAULT_PORT = 8765
 

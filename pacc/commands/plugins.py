@@ -12,9 +12,9 @@ from __future__ import annotations
 import sys
 
 from cloud_sync.learners import BUILTIN_LEARNERS
+from dbc.vocab.plugins import GROUPS, PluginError, installed, load_target
 from ecu.methods import BUILTIN_ADAPTATIONS, BUILTIN_CONTROLLERS
 from pacc.commands._args import CommandParser
-from pacc.vocab.plugins import GROUPS, PluginError, installed, load_target
 
 BUILTINS = dict(
     zip(GROUPS, (BUILTIN_CONTROLLERS, BUILTIN_ADAPTATIONS, BUILTIN_LEARNERS), strict=True)

@@ -19,9 +19,9 @@ import argparse
 import sys
 from pathlib import Path
 
+from dbc.vocab import FormatError
 from ecu import EcuError
 from pacc.commands._args import CommandParser, add_bus_arguments, bus_kwargs
-from pacc.vocab import FormatError
 
 #: state changes printed in full; the rest are counted
 MAX_STATES_SHOWN = 12

@@ -1,4 +1,4 @@
-"""``pacc sim`` (= ``python -m sim_bus``): the simulator alone, in real time, on a CAN bus.
+"""``pacc sim``: the simulator alone, in real time, on a CAN bus.
 
 The simulator plays ESC, PEDAL, RADAR and HMI against an ACC ECU elsewhere on the bus
 (``pacc ecu`` or a real ECU) and drives the ego car with the ECU's ACC_Command frames.
@@ -24,6 +24,11 @@ import can
 
 from dbc.errors import DbcError
 from dbc.network import add_network_arguments, codec_of
+from dbc.vocab import FormatError
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.pedals import PedalScale
+from dbc.vocab.triplog import TripLogError
+from dbc.vocab.triplog_file import write_trip
 from ecu import EcuError
 from ecu.buslog.format import TimeBase
 from ecu.buslog.live import add_foxglove_argument, live_sinks
@@ -37,18 +42,14 @@ from pacc.commands._args import (
     integer,
     number,
 )
-from pacc.vocab import FormatError
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.pedals import PedalScale
-from pacc.vocab.triplog import TripLogError
-from pacc.vocab.triplog_file import write_trip
+from pacc.study.drive import resolve_profile, with_condition
+from pacc.study.drive_recording import WorldFeed, record_world
 from sim_bus.drivers import GAP_SETTING_CODE, DriverParams, load_driver
 from sim_bus.errors import SimError
 from sim_bus.faults import FaultSpec, fault_rng, parse_faults
-from sim_bus.lead.scenarios import LeadProfile, shorten
+from sim_bus.lead.profile import LeadProfile
+from sim_bus.lead.scenarios import shorten
 from sim_bus.node import SimNode
-from sim_bus.study.drive import resolve_profile, with_condition
-from sim_bus.study.drive_recording import WorldFeed, record_world
 from sim_bus.trip import world_trip
 from sim_bus.world import World, WorldLog
 

@@ -1,4 +1,4 @@
-"""The command line of ``pacc study`` (also ``python -m sim_bus.study``): ``main(argv)``."""
+"""The command line of ``pacc study`` (also ``python -m pacc.study``): ``main(argv)``."""
 
 from __future__ import annotations
 
@@ -11,16 +11,16 @@ from pathlib import Path
 from cloud_sync.errors import CloudSyncError
 from dbc.errors import DbcError
 from dbc.network import add_network_arguments, codec_of
+from dbc.vocab import FormatError
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES
 from pacc.commands._args import CommandParser, error_line, integer, number
-from pacc.vocab import FormatError
+from pacc.study.collect import StudyInterrupted
+from pacc.study.config import StudyConfig
+from pacc.study.drive import BUSES, CONTROLLERS, adaptation_params
+from pacc.study.population import run_population
+from pacc.study.run import run_study
 from sim_bus.errors import SimError
-from sim_bus.study.collect import StudyInterrupted
-from sim_bus.study.config import StudyConfig
-from sim_bus.study.drive import BUSES, CONTROLLERS, adaptation_params
-from sim_bus.study.population import run_population
-from sim_bus.study.run import run_study
 
 _DESCRIPTION = "the paper's human-in-the-loop study (its Table I), end to end on the bus"
 
@@ -254,8 +254,8 @@ def _other_mode(args: argparse.Namespace, argv: list[str] | None) -> int | None:
 
 
 def _hil_table(sessions: Path, out: Path, beside: Path | None) -> int:
-    """``pacc study --hil SESSIONS``: Table I of real participants (sim_bus.hil.report)."""
-    from sim_bus.hil.report import build_table  # noqa: PLC0415 - only this path needs it
+    """``pacc study --hil SESSIONS``: Table I of real participants (pacc.hil.report)."""
+    from pacc.hil.report import build_table  # noqa: PLC0415 - only this path needs it
 
     try:
         print(build_table(sessions, out, beside), end="")

@@ -1,9 +1,9 @@
 """``pacc study --config study.toml`` (or ``--config OUT/manifest.json``): a study file run.
 
 The file names drivers, scenarios, the methods as combinations (table source x learner x
-adaptation x controller x parameters), trials and seeds (:mod:`sim_bus.study.files.studyfile`);
+adaptation x controller x parameters), trials and seeds (:mod:`pacc.study.files.studyfile`);
 the run writes ``manifest.json``, ``drives.csv``, ``timings.csv`` and ``summary.md`` under
-``--out`` and resumes a stopped run (:mod:`sim_bus.study.files.studyrun`). ``--workers`` and
+``--out`` and resumes a stopped run (:mod:`pacc.study.files.studyrun`). ``--workers`` and
 ``--scheduler`` given on the command line replace the file's (they change where the drives
 run, never their rows).
 """
@@ -16,11 +16,11 @@ import time
 from typing import Any
 
 from cloud_sync.errors import CloudSyncError
+from dbc.vocab import FormatError
 from ecu import EcuError
-from pacc.vocab import FormatError
+from pacc.study.files.studyfile import load_study_file
+from pacc.study.files.studyrun import run_study_file
 from sim_bus.errors import SimError
-from sim_bus.study.files.studyfile import load_study_file
-from sim_bus.study.files.studyrun import run_study_file
 
 
 def run(args: argparse.Namespace, argv: list[str]) -> int:

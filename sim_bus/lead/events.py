@@ -34,23 +34,13 @@ Every builder is a pure function of its seed.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Literal, get_args
 
 import numpy as np
 
 from sim_bus.errors import ScenarioError
-from sim_bus.lead.scenarios import (
-    DT_S,
-    GeneratorConfig,
-    LeadProfile,
-    bound_filter,
-    random_speed_sequence,
-    synthesize,
-)
+from sim_bus.lead.profile import DT_S, LeadEvent, LeadProfile
+from sim_bus.lead.scenarios import GeneratorConfig, bound_filter, random_speed_sequence, synthesize
 
-EventKind = Literal["cut_in", "cut_out", "lead_loss", "lead_appear"]
-EVENT_KINDS: tuple[str, ...] = get_args(EventKind)
 #: the road scenarios of ``pacc drive --scenario`` (and "C", the study's mixed traffic)
 ROAD_SCENARIOS: tuple[str, ...] = ("cutin", "cutout", "leadloss", "stopgo", "C")
 #: the cut-in gap's floor, m, and the gap the cutter leaves to the old lead at least, m
@@ -58,45 +48,6 @@ CUT_IN_MIN_GAP_M = 3.0
 CUT_IN_ROOM_M = 5.0
 #: a revealed vehicle is never closer than a stop at this deceleration needs, m/s²
 REVEAL_DESIGN_DECEL_MPS2 = 2.0
-
-
-@dataclass(frozen=True)
-class LeadEvent:
-    """One change of the tracked vehicle at ``t_s`` (s from the profile's start).
-
-    Attributes:
-        kind: ``cut_in`` (a vehicle enters between the ego car and its lead), ``cut_out``
-            (the lead leaves and reveals the vehicle ahead of it), ``lead_loss`` (the lead
-            leaves; free road), ``lead_appear`` (a vehicle comes into sight).
-        gap_m, gap_thw_s: the new lead's gap at ``t_s`` is ``gap_m + gap_thw_s·v_ego`` (cut-in,
-            appear); for a cut-out ``gap_m`` is its distance beyond the old lead, m.
-        v_mps: the new lead's speed at ``t_s``, m/s; relative to the ego car's when
-            ``v_relative`` (cut-in), else absolute.
-        hold_s: the new lead keeps that speed this long, then rejoins the flow, s.
-        dropout_s: the radar reports no lead this long while it confirms the new track, s.
-    """
-
-    t_s: float
-    kind: EventKind
-    gap_m: float = 0.0
-    gap_thw_s: float = 0.0
-    v_mps: float = 0.0
-    v_relative: bool = False
-    hold_s: float = 0.0
-    dropout_s: float = 0.2
-
-    def __post_init__(self) -> None:
-        if self.kind not in EVENT_KINDS:
-            raise ScenarioError(f"unknown event kind {self.kind!r}: one of {EVENT_KINDS}")
-        values = (self.t_s, self.gap_m, self.gap_thw_s, self.v_mps, self.hold_s, self.dropout_s)
-        if not all(math.isfinite(x) for x in values):
-            raise ScenarioError(f"event values must be finite: {self}")
-        if self.t_s < 0 or self.gap_m < 0 or self.gap_thw_s < 0 or self.hold_s < 0:
-            raise ScenarioError(f"event times and gaps must be >= 0: {self}")
-        if not 0 <= self.dropout_s <= 0.45:  # below the ECU's 500-ms radar timeout
-            raise ScenarioError(f"dropout_s must lie in 0..0.45 s: {self}")
-        if not self.v_relative and self.v_mps < 0:
-            raise ScenarioError(f"an absolute speed must be >= 0: {self}")
 
 
 def cut_in_gap_m(event: LeadEvent, v_ego_mps: float, current_gap_m: float) -> float | None:
@@ -273,10 +224,7 @@ def _mixed(rng: np.random.Generator, flow_seed: int, duration_s: float) -> LeadP
 
 
 __all__ = [
-    "EVENT_KINDS",
     "ROAD_SCENARIOS",
-    "EventKind",
-    "LeadEvent",
     "cut_in_gap_m",
     "reveal_gap_m",
     "road_profile",

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from sim_bus.errors import ScenarioError
-from sim_bus.lead.scenarios import DT_S, LeadProfile
+from sim_bus.lead.profile import DT_S, LeadProfile
 
 
 def save_profile_csv(profile: LeadProfile, path: Path) -> None:

@@ -17,67 +17,14 @@ file (``t_s,v_lead_mps``) is :mod:`sim_bus.lead.profile_csv`.
 
 from __future__ import annotations
 
-import argparse
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import lru_cache
-from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from sim_bus.dataset import load_human_pairs
 from sim_bus.errors import ScenarioError
-
-if TYPE_CHECKING:  # events.py builds on this module; the type only
-    from sim_bus.lead.events import LeadEvent
-
-DT_S = 0.1
-
-
-@dataclass(frozen=True)
-class SegmentRef:
-    """Where one piece of a profile comes from: ``scale·source[start:start+length]``."""
-
-    source: str
-    start: int
-    length: int
-    scale: float = 1.0
-
-
-@dataclass(frozen=True)
-class LeadProfile:
-    """A lead speed profile: ``t_s``, ``v_lead_mps`` float64 arrays of shape (n,), 10 Hz.
-
-    ``events``: changes of the tracked vehicle (:mod:`sim_bus.lead.events`; none: the lead drives
-    the profile throughout, the paper's car following). ``set_speed_mps``: the ACC set speed
-    the road calls for (None: the study's, above every lead speed).
-    """
-
-    name: str
-    t_s: np.ndarray
-    v_lead_mps: np.ndarray
-    segments: tuple[SegmentRef, ...] = ()
-    raw_v_mps: np.ndarray | None = field(default=None, repr=False)
-    events: tuple[LeadEvent, ...] = ()
-    set_speed_mps: float | None = None
-
-    @property
-    def duration_s(self) -> float:
-        """Duration of the profile (s)."""
-        return float(self.t_s[-1] - self.t_s[0]) if len(self.t_s) else 0.0
-
-    def resample(self, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
-        """Lead speed and acceleration on a grid of step ``dt_s`` from 0 to the end, shape (m,).
-
-        The speed is interpolated linearly; the acceleration is the slope of the interpolant,
-        so integrating it reproduces the interpolated speed exactly.
-        """
-        n = int(round(self.duration_s / dt_s)) + 1
-        t = np.arange(n) * dt_s + self.t_s[0]
-        v = np.interp(t, self.t_s, self.v_lead_mps)
-        slopes = np.diff(self.v_lead_mps) / np.diff(self.t_s)
-        idx = np.clip(np.searchsorted(self.t_s, t, side="right") - 1, 0, len(slopes) - 1)
-        return v, slopes[idx]
+from sim_bus.lead.profile import DT_S, LeadProfile, SegmentRef
 
 
 @dataclass(frozen=True)
@@ -303,45 +250,3 @@ def shorten(profile: LeadProfile, duration_s: float) -> LeadProfile:
         events=tuple(e for e in profile.events if e.t_s <= end),
         set_speed_mps=profile.set_speed_mps,
     )
-
-
-def main(argv: list[str] | None = None) -> int:
-    """``python -m sim_bus.lead.scenarios list|export NAME PATH [--seed N]``: inspect or export."""
-    p = argparse.ArgumentParser(
-        prog="python -m sim_bus.lead.scenarios",
-        description="list or export the canonical lead profiles",
-    )
-    p.add_argument("command", choices=("list", "export"))
-    p.add_argument("name", nargs="?", help="profile to export (A, B, manual1..manual4)")
-    p.add_argument("path", nargs="?", type=Path, help="CSV file to write")
-    p.add_argument("--seed", type=int, default=0)
-    args = p.parse_args(argv)
-    try:
-        profiles = canonical_profiles(args.seed)
-    except ScenarioError as exc:
-        print(f"error: {exc}")
-        return 2
-    if args.command == "list":
-        for name, prof in profiles.items():
-            v = prof.v_lead_mps
-            print(
-                f"{name:8s} {prof.duration_s:6.1f} s  v {v.min():5.1f}..{v.max():5.1f} m/s  "
-                f"mean {v.mean():5.1f} m/s  {len(prof.segments)} segments"
-            )
-        return 0
-    if args.name not in profiles or args.path is None:
-        print(f"error: export needs NAME (one of {sorted(profiles)}) and PATH")
-        return 2
-    from sim_bus.lead.profile_csv import save_profile_csv  # noqa: PLC0415 - it imports this module
-
-    try:
-        save_profile_csv(profiles[args.name], args.path)
-    except OSError as exc:
-        print(f"error: cannot write {args.path}: {exc}")
-        return 2
-    print(f"wrote {args.path}")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from cloud_sync.irl.sources.synthetic import follower_trip, lead_speed
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.triplog import Trip
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.triplog import Trip
 
 __all__ = ["follower_trip", "lead_speed", "takeover_segment"]
 

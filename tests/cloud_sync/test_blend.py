@@ -8,7 +8,7 @@ import pytest
 from cloud_sync.errors import DemoError
 from cloud_sync.irl.blend import blend, coverage_s, covered_ranges, evidence
 from cloud_sync.irl.demos import Samples
-from pacc.vocab.dgpt import SafetyBounds, speed_axis
+from dbc.vocab.dgpt import SafetyBounds, speed_axis
 
 AXIS = speed_axis(0.5)
 

@@ -33,13 +33,13 @@ from cloud_sync.irl.sources.bus_demos import extract_demos, read_frames
 from cloud_sync.irl.trainer import learn_dgpt
 from dbc import DATA_DIR
 from dbc.codec import load_codec
+from dbc.vocab.triplog import Trip
+from dbc.vocab.triplog_file import read_trip
 from ecu.config import EcuConfig
 from pacc.commands.demos import main as demos_main
 from pacc.commands.export import main as export_main
-from pacc.vocab.triplog import Trip
-from pacc.vocab.triplog_file import read_trip
+from pacc.study.drive import DriveConfig, log_to_trip, predefined_table, run_drive
 from sim_bus.drivers import BUILTIN_DRIVERS
-from sim_bus.study.drive import DriveConfig, log_to_trip, predefined_table, run_drive
 
 pytest.importorskip("opendbc")
 from tools.opendbc_toyota import assemble  # noqa: E402
@@ -147,7 +147,7 @@ def test_the_ecu_and_the_extraction_cut_the_same_stretches(tmp_path: Path) -> No
 
 def test_the_extraction_samples_at_the_ecu_recorders_period() -> None:
     """cloud_sync does not import ecu: the trips' period is checked here (the keep rule and
-    the stretches' limits both import from pacc.vocab.sampling)."""
+    the stretches' limits both import from dbc.vocab.sampling)."""
     assert EcuConfig().record_period_s == bus_demos.DT_S
 
 

@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.dgpt_file import load_dgpt
+from dbc.vocab.triplog import Trip
+from dbc.vocab.triplog_file import write_trip
 from pacc.cli import main as pacc_main
 from pacc.commands.cloud import main
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt_file import load_dgpt
-from pacc.vocab.triplog import Trip
-from pacc.vocab.triplog_file import write_trip
 from tests.cli_util import exit_code
 
 

@@ -31,9 +31,9 @@ from cloud_sync.service.rules import CloudService, ServiceConfig
 from cloud_sync.service.store import BatchRow
 from cloud_sync.signing import load_public_key, verify_dgpt
 from cloud_sync.vehicle.client import HttpCloud
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.triplog import Trip
-from pacc.vocab.triplog_file import write_trip
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.triplog import Trip
+from dbc.vocab.triplog_file import write_trip
 from tests.cloud_sync.conftest import follower_trip
 
 LIMIT = 2 * 1024 * 1024

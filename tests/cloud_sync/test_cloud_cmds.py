@@ -14,8 +14,8 @@ import httpx
 import pytest
 
 from cloud_sync.service.rules import CloudService
+from dbc.vocab.triplog_file import write_trip
 from pacc.commands.cloud import main
-from pacc.vocab.triplog_file import write_trip
 from tests.cloud_sync.conftest import follower_trip
 from tests.cloud_sync.test_uploader import free_port
 

@@ -19,9 +19,9 @@ from cloud_sync.irl.demos import (
     usable_mask,
 )
 from cloud_sync.irl.trainer import IrlConfig, learn_dgpt
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt import speed_axis
-from pacc.vocab.triplog import Trip
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.dgpt import speed_axis
+from dbc.vocab.triplog import Trip
 
 
 def nan_trip(n: int = 600) -> Trip:

@@ -13,7 +13,7 @@ from cloud_sync.service.rules import CloudService
 from cloud_sync.signing import load_public_key
 from cloud_sync.vehicle.client import HttpCloud
 from cloud_sync.vehicle.download import ProfileDownloader
-from pacc.vocab.dgpt import Dgpt, SafetyBounds, predefined
+from dbc.vocab.dgpt import Dgpt, SafetyBounds, predefined
 from tests.cloud_sync.test_uploader import free_port
 
 

@@ -13,11 +13,12 @@ from typing import Any, TypeVar
 import numpy as np
 import pytest
 
-from cloud_sync.engine.base import Engine, InlineEngine, ProcessEngine, open_engine
+from cloud_sync.engine import open_engine
+from cloud_sync.engine.base import Engine, InlineEngine, ProcessEngine
 from cloud_sync.errors import CloudSyncError, EngineError
 from cloud_sync.irl.trainer import IrlConfig
 from cloud_sync.service.rules import CloudService, DeferredExecutor, ServiceConfig
-from pacc.vocab.triplog_file import write_trip
+from dbc.vocab.triplog_file import write_trip
 from tests.cloud_sync.conftest import follower_trip
 
 S = TypeVar("S")

@@ -19,7 +19,7 @@ from cloud_sync.irl.extract import (
     steady_state_gaps,
 )
 from cloud_sync.irl.features import Features
-from pacc.vocab.dgpt import SafetyBounds, speed_axis
+from dbc.vocab.dgpt import SafetyBounds, speed_axis
 
 AXIS = speed_axis(0.5)
 

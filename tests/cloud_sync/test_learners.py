@@ -10,13 +10,13 @@ import pytest
 
 from cloud_sync.errors import DemoError
 from cloud_sync.learners import LearnerError, learn, make_learner
+from dbc.vocab.dgpt import Dgpt, SafetyBounds, predefined
+from dbc.vocab.dgpt_file import load_dgpt
+from dbc.vocab.plugins import PluginError
 from pacc.commands.cloud import main as cloud_main
-from pacc.vocab.dgpt import Dgpt, SafetyBounds, predefined
-from pacc.vocab.dgpt_file import load_dgpt
-from pacc.vocab.plugins import PluginError
+from pacc.study.irl_table import manual_trips
 from sim_bus.dataset import load_human_pairs
 from sim_bus.drivers import BUILTIN_DRIVERS
-from sim_bus.study.irl_table import manual_trips
 
 
 def _rmse_to_truth(table: Dgpt, name: str) -> float:

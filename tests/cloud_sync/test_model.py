@@ -19,7 +19,7 @@ from cloud_sync.irl.model import (
     model_of_table,
     reference_line,
 )
-from pacc.vocab.dgpt import Dgpt, predefined
+from dbc.vocab.dgpt import Dgpt, predefined
 
 
 def line_samples(n: int = 400) -> Samples:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from cloud_sync.irl.trainer import learn_dgpt
-from pacc.vocab.triplog import Trip
+from dbc.vocab.triplog import Trip
 from sim_bus.dataset import load_human_pairs
 
 

@@ -19,7 +19,7 @@ from cloud_sync.signing import (
     sign_dgpt,
     verify_dgpt,
 )
-from pacc.vocab.dgpt import SafetyBounds, predefined
+from dbc.vocab.dgpt import SafetyBounds, predefined
 
 
 def test_a_signed_table_verifies_to_the_same_table() -> None:

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from cloud_sync.vehicle.spool import EVICTION_ORDER, Spool, SpoolError, file_digest
-from pacc.vocab.triplog import Trip
-from pacc.vocab.triplog_file import read_trip
+from dbc.vocab.triplog import Trip
+from dbc.vocab.triplog_file import read_trip
 
 #: SIGKILLs of the spool writer (every fourth after a commit)
 SPOOL_KILLS = 20

@@ -11,8 +11,8 @@ from cloud_sync.service.local import LocalCloud
 from cloud_sync.service.rules import CloudService
 from cloud_sync.service.store import StoreError, VersionRow
 from cloud_sync.signing import verify_dgpt
-from pacc.vocab.dgpt import predefined
-from pacc.vocab.triplog_file import write_trip
+from dbc.vocab.dgpt import predefined
+from dbc.vocab.triplog_file import write_trip
 from tests.cloud_sync.conftest import follower_trip
 
 

@@ -17,10 +17,10 @@ from cloud_sync.irl.trainer import (
     fine_tune,
     learn_dgpt,
 )
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt import SafetyBounds, predefined
-from pacc.vocab.dgpt_file import load_dgpt, save_dgpt
-from pacc.vocab.triplog import Trip
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.dgpt import SafetyBounds, predefined
+from dbc.vocab.dgpt_file import load_dgpt, save_dgpt
+from dbc.vocab.triplog import Trip
 
 D0, T = 4.0, 1.6
 

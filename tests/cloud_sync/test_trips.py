@@ -23,8 +23,8 @@ from cloud_sync.service.store import SCHEMA_VERSION, CloudStore, StoreError
 from cloud_sync.service.trips import segment_interventions
 from cloud_sync.signing import load_public_key, verify_dgpt
 from cloud_sync.vehicle.client import HttpCloud
-from pacc.vocab.triplog import Trip
-from pacc.vocab.triplog_file import write_trip
+from dbc.vocab.triplog import Trip
+from dbc.vocab.triplog_file import write_trip
 
 from .conftest import follower_trip, takeover_segment
 from .test_views import OPERATOR, _Served

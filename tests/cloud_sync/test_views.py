@@ -21,7 +21,7 @@ import uvicorn
 from cloud_sync.service.http import create_app
 from cloud_sync.service.rules import CloudService
 from cloud_sync.service.trips import record_trip
-from pacc.vocab.triplog_file import write_trip
+from dbc.vocab.triplog_file import write_trip
 
 from .conftest import follower_trip, takeover_segment
 

@@ -13,9 +13,9 @@ from dbc import BINDING_PATH, DBC_PATH
 from dbc.codec import load_codec, network_paths
 from dbc.endpoint import Inbox, Outbox
 from dbc.errors import BindingError
+from dbc.vocab.dgpt import predefined
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
-from pacc.vocab.dgpt import predefined
 from tests.peers import PeerNodes
 
 _ids = itertools.count()

@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+from dbc.vocab.dgpt import SafetyBounds, predefined
 from ecu.adaptation import (
     ADAPTATION_MODES,
     AdaptationError,
@@ -19,7 +20,6 @@ from ecu.adaptation import (
     count_short_press,
 )
 from ecu.table_update import spread_weights, timegap_weights
-from pacc.vocab.dgpt import SafetyBounds, predefined
 
 P = AdaptationParams(mode="paper")  # P_T 1 s, K_T 1 s, V_D 5 m/s, window 9
 #: the one safety band of tables and adaptation: 2 m + 0.8 s·v … 10 m + 5 s·v

@@ -15,6 +15,9 @@ from mcap.reader import make_reader
 from dbc import BINDING_PATH, DBC_PATH
 from dbc.codec import load_codec
 from dbc.endpoint import Outbox
+from dbc.vocab.dgpt import predefined
+from dbc.vocab.triplog import Trip
+from dbc.vocab.triplog_file import write_trip
 from ecu.buslog.format import (
     FLAG_ERROR,
     FLAG_EXTENDED,
@@ -27,9 +30,6 @@ from ecu.buslog.reader import messages, read_canlog
 from ecu.buslog.recording import config_from_json, config_to_json, open_recording
 from ecu.config import EcuConfig
 from ecu.controller import ControllerParams
-from pacc.vocab.dgpt import predefined
-from pacc.vocab.triplog import Trip
-from pacc.vocab.triplog_file import write_trip
 
 UTC0_NS = 1_790_000_000_000_000_000  # 2026-09-21T...Z
 
@@ -219,8 +219,8 @@ def test_mcaps_own_readers_decode_every_frame_and_foxglove_logs(tmp_path: Path) 
 
 def test_the_shipped_foxglove_layout_names_recorded_fields(tmp_path: Path) -> None:
     """Every message path of docs/foxglove-layout.json is a field of a drive's recording."""
+    from pacc.study.drive import DriveConfig, predefined_table, run_drive  # noqa: PLC0415
     from sim_bus.drivers import BUILTIN_DRIVERS  # noqa: PLC0415
-    from sim_bus.study.drive import DriveConfig, predefined_table, run_drive  # noqa: PLC0415
 
     layout = json.loads((Path(__file__).parents[2] / "docs" / "foxglove-layout.json").read_text())
     paths = [p["value"] for panel in layout["configById"].values() for p in panel.get("paths", [])]

@@ -24,8 +24,8 @@ from ecu.buslog.process import remote, writers
 from ecu.buslog.reader import read_canlog
 from ecu.buslog.recording import PROCESS_ENV
 from ecu.buslog.writer import CanLogWriter
+from pacc.study.drive import DriveConfig, predefined_table, run_drive
 from sim_bus.drivers import BUILTIN_DRIVERS
-from sim_bus.study.drive import DriveConfig, predefined_table, run_drive
 
 UTC0 = 1_700_000_000_000_000_000
 

@@ -16,12 +16,12 @@ import pytest
 
 from dbc import BINDING_PATH, DBC_PATH
 from dbc.codec import load_codec
+from dbc.vocab.dgpt import predefined
+from dbc.vocab.dgpt_file import load_dgpt
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
 from pacc.commands.ecu import main
 from pacc.commands.ecu.run import run_until_done
-from pacc.vocab.dgpt import predefined
-from pacc.vocab.dgpt_file import load_dgpt
 from tests.cli_util import exit_code
 from tests.peers import PeerNodes
 
@@ -173,6 +173,7 @@ def test_closed_stdout_does_not_stop_the_ecu_or_lose_the_profile(tmp_path: Path)
         [
             sys.executable,
             "-m",
+            "pacc",
             "ecu",
             "-i",
             "virtual",
@@ -368,9 +369,9 @@ def test_bus_failure_ends_the_run_cleanly() -> None:
 def test_cli_can_log_records_the_run_and_takeovers_carry_utc(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
+    from dbc.vocab.triplog_file import read_trip  # noqa: PLC0415
     from ecu.buslog.reader import read_canlog  # noqa: PLC0415
     from ecu.buslog.replay import replay_through_ecu  # noqa: PLC0415
-    from pacc.vocab.triplog_file import read_trip  # noqa: PLC0415
 
     channel = f"ecu-cli-{next(_ids)}"
     peers = Peers(channel, 4.2)

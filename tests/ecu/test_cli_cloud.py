@@ -11,8 +11,8 @@ import pytest
 from cloud_sync.service.rules import CloudService
 from cloud_sync.service.trips import trip_rows
 from cloud_sync.vehicle.connect import write_token
+from dbc.vocab.dgpt import Dgpt, predefined
 from pacc.commands.ecu import main
-from pacc.vocab.dgpt import Dgpt, predefined
 from tests.ecu.test_cli import Peers
 
 

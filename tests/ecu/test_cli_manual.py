@@ -16,11 +16,11 @@ import numpy as np
 import pytest
 
 from cloud_sync.vehicle.spool import Spool
+from dbc.vocab.triplog_file import read_trip
 from pacc import cli
 from pacc.commands.drive import main as drive_main
 from pacc.commands.ecu import main
-from pacc.vocab.triplog_file import read_trip
-from sim_bus.study.drive import run_drive
+from pacc.study.drive import run_drive
 from tests.peers import PeerNodes
 
 _ids = itertools.count()

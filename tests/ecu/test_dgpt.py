@@ -11,9 +11,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from pacc.vocab import FormatError
-from pacc.vocab.dgpt import Dgpt, DgptError, SafetyBounds, clamp_to_bounds, predefined, speed_axis
-from pacc.vocab.dgpt_file import load_dgpt, save_dgpt
+from dbc.vocab import FormatError
+from dbc.vocab.dgpt import Dgpt, DgptError, SafetyBounds, clamp_to_bounds, predefined, speed_axis
+from dbc.vocab.dgpt_file import load_dgpt, save_dgpt
 
 
 def test_predefined_paper_headways() -> None:

@@ -100,8 +100,8 @@ def test_block_schemas_name_every_object_property() -> None:
 
 
 def test_every_json_channel_of_a_recording_opens_in_foxglove(tmp_path: Path) -> None:
+    from pacc.study.drive import DriveConfig, predefined_table, run_drive  # noqa: PLC0415
     from sim_bus.drivers import BUILTIN_DRIVERS  # noqa: PLC0415
-    from sim_bus.study.drive import DriveConfig, predefined_table, run_drive  # noqa: PLC0415
 
     driver = BUILTIN_DRIVERS["d2"]
     cfg = DriveConfig(scenario="B", driver_id="d2", controller="predefined", seed=1, duration_s=3)

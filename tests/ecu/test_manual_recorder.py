@@ -11,15 +11,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dbc.vocab.acc_state import AccState, FaultCode
+from dbc.vocab.dgpt import predefined
+from dbc.vocab.sampling import MANUAL_MAX_S, keep_sample
+from dbc.vocab.triplog import Trip
+from dbc.vocab.triplog_file import read_trip
 from ecu.buslog.format import TimeBase
 from ecu.manual import ManualRecorder
 from ecu.node import EcuConfig, EcuNode, NodeInputs
 from ecu.recorder import RecorderError, Sample, TakeoverRecorder, directory_sink
-from pacc.vocab.acc_state import AccState, FaultCode
-from pacc.vocab.dgpt import predefined
-from pacc.vocab.sampling import MANUAL_MAX_S, keep_sample
-from pacc.vocab.triplog import Trip
-from pacc.vocab.triplog_file import read_trip
 
 OFF, STANDBY, ACTIVE = int(AccState.OFF), int(AccState.STANDBY), int(AccState.ACTIVE)
 

@@ -10,14 +10,14 @@ from typing import Any
 import numpy as np
 import pytest
 
+from dbc.vocab.dgpt import Dgpt, SafetyBounds, predefined
+from dbc.vocab.plugins import PluginError
 from ecu.adaptation import Decision, Reason, TakeoverSummary
 from ecu.controller import ControlInput, desired_accel
 from ecu.methods import PidController, make_adaptation, make_controller
 from ecu.methods.bayes import BayesAdaptation
 from ecu.methods.guard import GuardedController
 from ecu.node import EcuConfig, EcuNode
-from pacc.vocab.dgpt import Dgpt, SafetyBounds, predefined
-from pacc.vocab.plugins import PluginError
 from tests.ecu.test_node import DT, EPS, JERK, Loop
 
 HERE = "tests.ecu.test_methods"
@@ -264,11 +264,11 @@ def test_a_plugin_cannot_weaken_the_ecus_limits_through_what_it_is_handed() -> N
     """25 m/s, 30 m behind a lead 10 m/s slower braking at 4 m/s^2: a plug-in that writes into
     its ControlInput gets a frozen one (refused, as a plain assignment is), and the command
     equals the one behind a plug-in that only raises: the same braking at emergency jerk."""
+    from dbc.vocab.acc_state import AccState  # noqa: PLC0415
     from ecu.cycle.command import ControlMemory, control  # noqa: PLC0415
     from ecu.cycle.phases import plan  # noqa: PLC0415
     from ecu.cycle.road import RoadMemory  # noqa: PLC0415
     from ecu.signals import NodeInputs  # noqa: PLC0415
-    from pacc.vocab.acc_state import AccState  # noqa: PLC0415
 
     cfg = EcuConfig()
     inp = NodeInputs(

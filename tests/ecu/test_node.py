@@ -11,12 +11,12 @@ import pytest
 from hypothesis import event, given
 from hypothesis import strategies as st
 
+from dbc.vocab.acc_state import AccState, FaultCode
+from dbc.vocab.dgpt import predefined
+from dbc.vocab.triplog import Trip
 from ecu.cycle.command import ControlMemory, control
-from ecu.cycle.phases import Plan
 from ecu.node import ConfigError, EcuConfig, EcuNode, NodeInputs, NodeOutputs
-from pacc.vocab.acc_state import AccState, FaultCode
-from pacc.vocab.dgpt import predefined
-from pacc.vocab.triplog import Trip
+from ecu.signals import Plan
 
 DT = 0.02
 JERK = 2.5

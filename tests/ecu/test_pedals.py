@@ -7,8 +7,8 @@ import math
 import pytest
 
 from dbc.codec import load_codec
-from pacc.vocab import FormatError
-from pacc.vocab.pedals import PedalScale
+from dbc.vocab import FormatError
+from dbc.vocab.pedals import PedalScale
 
 
 def test_full_scale_is_the_dbc_maximum_of_each_pedal_field() -> None:

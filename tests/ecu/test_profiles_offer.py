@@ -8,11 +8,11 @@ from pathlib import Path
 import can
 
 from dbc.codec import load_codec
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.dgpt import predefined
 from ecu.node import EcuConfig, EcuNode
 from ecu.profiles import TableOffer, may_swap
 from ecu.runtime import EcuRuntime
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt import predefined
 from tests.peers import PeerNodes
 
 

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import pytest
 
+from dbc.vocab.triplog import Trip
+from dbc.vocab.triplog_file import read_trip
 from ecu.recorder import (
     MAX_PENDING,
     RecorderError,
@@ -15,8 +17,6 @@ from ecu.recorder import (
     TakeoverRecorder,
     directory_sink,
 )
-from pacc.vocab.triplog import Trip
-from pacc.vocab.triplog_file import read_trip
 
 
 def feed(rec: TakeoverRecorder, t0: float, t1: float, state: int = 2, dt: float = 0.02) -> float:

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import math
 
+from dbc.vocab.dgpt import predefined
 from ecu.adaptation import AdaptationParams, Reason, TakeoverSummary, adapt
 from ecu.controller import RoadParams, stopping_limit_mps2
 from ecu.cycle.road import RoadMemory, road_limit, road_update
-from pacc.vocab.dgpt import predefined
 
 P = RoadParams()
 DT = 0.02

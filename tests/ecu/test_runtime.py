@@ -14,14 +14,14 @@ import pytest
 
 from dbc import DBC_PATH
 from dbc.codec import load_codec
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.dgpt import predefined
+from dbc.vocab.dgpt_file import save_dgpt
+from dbc.vocab.triplog import Trip
 from ecu.adaptation import AdaptationParams
 from ecu.config import ConfigError
 from ecu.node import EcuConfig, EcuNode, NodeInputs
 from ecu.runtime import EcuRuntime, RuntimeClockError, RuntimeCodecError
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt import predefined
-from pacc.vocab.dgpt_file import save_dgpt
-from pacc.vocab.triplog import Trip
 from tests.peers import PeerNodes
 
 _ids = itertools.count()

@@ -24,11 +24,11 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from dbc.codec import load_codec
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.dgpt import predefined
+from dbc.vocab.dgpt_file import save_dgpt
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt import predefined
-from pacc.vocab.dgpt_file import save_dgpt
 from tests.peers import PeerNodes
 
 CODEC = load_codec()

@@ -11,6 +11,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from dbc.codec import load_codec
+from dbc.vocab.acc_state import AccState, FaultCode
 from ecu.busio import BusIO
 from ecu.config import EcuConfig
 from ecu.safety import (
@@ -25,7 +26,6 @@ from ecu.safety import (
     vet,
 )
 from ecu.signals import NodeOutputs
-from pacc.vocab.acc_state import AccState, FaultCode
 
 L = SafetyLimits()
 TOL = L.tolerance_mps2

@@ -8,8 +8,8 @@ from dataclasses import fields, replace
 import pytest
 
 from dbc.codec import load_codec
+from dbc.vocab.acc_state import AccState, FaultCode
 from ecu.cycle.state import Events, transition
-from pacc.vocab.acc_state import AccState, FaultCode
 
 S = AccState
 ON = Events(main_on=True)

@@ -12,8 +12,8 @@ from hypothesis import strategies as st
 from mcap.writer import Writer
 
 from cloud_sync.irl.sources.tripfiles import load_trip, read_csv_trip
-from pacc.vocab.triplog import Trip, TripLogError
-from pacc.vocab.triplog_file import SAMPLE_TOPIC, read_trip, write_trip
+from dbc.vocab.triplog import Trip, TripLogError
+from dbc.vocab.triplog_file import SAMPLE_TOPIC, read_trip, write_trip
 
 # ../shared beside the repository (as on the development machines and in CI)
 DATA = Path(__file__).resolve().parents[3] / "shared" / "data" / "openacc_astazero"

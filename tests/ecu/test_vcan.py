@@ -5,9 +5,9 @@ from __future__ import annotations
 import can
 import pytest
 
+from dbc.vocab.dgpt import predefined
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
-from pacc.vocab.dgpt import predefined
 from tests.peers import PeerNodes
 
 

@@ -13,9 +13,9 @@ from typing import Any
 
 import pytest
 
-from sim_bus.hil.plan import Step
-from sim_bus.hil.server import ServerThread, create_app
-from sim_bus.hil.session import Session, SessionConfig
+from pacc.hil.plan import Step
+from pacc.hil.server import ServerThread, create_app
+from pacc.hil.session import Session, SessionConfig
 
 CHROMIUM = "/usr/bin/chromium"
 

@@ -3,14 +3,14 @@
 :func:`decide` is a pure function of what the page shows (the view's ``state``): which pedal
 keys to hold and whether to press SET. :func:`drive_in_browser` plays it through a real page
 (keyboard events, lockstep steps); :func:`drive_without_browser` plays it straight into a
-:class:`~sim_bus.hil.loop.HilDrive` on the bus, for the determinism test.
+:class:`~pacc.hil.loop.HilDrive` on the bus, for the determinism test.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-from sim_bus.hil.loop import HilDrive
+from pacc.hil.loop import HilDrive
 
 #: the participant's gap rule: want 5 m + HEADWAY_S · v by hand
 HEADWAY_S = 1.6

@@ -11,9 +11,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from pacc.vocab.triplog_file import read_trip
-from sim_bus.hil.plan import Step, free_plan
-from sim_bus.hil.session import Session, SessionConfig
+from dbc.vocab.triplog_file import read_trip
+from pacc.hil.plan import Step, free_plan
+from pacc.hil.session import Session, SessionConfig
 from tests.hil.conftest import AppFactory
 from tests.hil.pages import BRAKE_LIGHT_RGB, GAMEPAD_JS, body_pixels, new_page
 from tests.hil.participant import decide, drive_in_browser, drive_without_browser

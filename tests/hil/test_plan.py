@@ -7,9 +7,9 @@ import math
 
 import pytest
 
+from pacc.hil.human import KEY_RISE_PER_S, HumanPedals, pedal_accel_mps2, ramp
+from pacc.hil.plan import CONDITIONS, acc_order, balanced_latin_square, paper_plan
 from sim_bus.errors import SimError
-from sim_bus.hil.human import KEY_RISE_PER_S, HumanPedals, pedal_accel_mps2, ramp
-from sim_bus.hil.plan import CONDITIONS, acc_order, balanced_latin_square, paper_plan
 
 
 @pytest.mark.parametrize("n", [2, 4, 8, 3, 5])

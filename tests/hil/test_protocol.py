@@ -9,11 +9,11 @@ from typing import Any
 
 import pytest
 
+from dbc.vocab.dgpt_file import load_dgpt
+from dbc.vocab.triplog_file import read_trip
 from pacc.commands import study as study_cmd
-from pacc.vocab.dgpt_file import load_dgpt
-from pacc.vocab.triplog_file import read_trip
-from sim_bus.hil.plan import paper_plan
-from sim_bus.hil.report import build_table
+from pacc.hil.plan import paper_plan
+from pacc.hil.report import build_table
 from tests.hil.conftest import AppFactory
 from tests.hil.participant import HEADWAY_S, drive_in_browser
 

@@ -12,16 +12,16 @@ import can
 import httpx
 import pytest
 
+from dbc.vocab.dgpt import predefined
 from ecu.buslog.live import FoxgloveSink
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
 from pacc.commands import hil as hil_cmd
 from pacc.commands import study as study_cmd
-from pacc.vocab.dgpt import predefined
+from pacc.hil.plan import free_plan, paper_plan
+from pacc.hil.server import ServerThread, create_app
+from pacc.hil.session import Session, SessionConfig
 from sim_bus.errors import SimError
-from sim_bus.hil.plan import free_plan, paper_plan
-from sim_bus.hil.server import ServerThread, create_app
-from sim_bus.hil.session import Session, SessionConfig
 
 
 def _cfg(tmp_path: Path, short_s: float = 5.0) -> SessionConfig:

@@ -20,8 +20,8 @@ import pytest
 
 from cloud_sync.service.rules import CloudService
 from cloud_sync.vehicle.spool import Spool
+from dbc.vocab.triplog_file import read_trip
 from pacc import cli
-from pacc.vocab.triplog_file import read_trip
 from tests.ecu.test_cli import Peers
 
 _ids = itertools.count()

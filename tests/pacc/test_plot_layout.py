@@ -19,8 +19,8 @@ from mcap_protobuf.decoder import DecoderFactory
 
 from pacc.commands.export import main as export_main
 from pacc.commands.plot import main as plot_main
+from pacc.study.drive import DriveConfig, predefined_table, run_drive
 from sim_bus.drivers import BUILTIN_DRIVERS
-from sim_bus.study.drive import DriveConfig, predefined_table, run_drive
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "plotjuggler-layout.xml"
 

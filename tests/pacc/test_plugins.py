@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 
 from pacc.commands.plugins import main
+from pacc.study.drive import DriveConfig, predefined_table, run_drive
 from sim_bus.drivers import BUILTIN_DRIVERS
-from sim_bus.study.drive import DriveConfig, predefined_table, run_drive
 
 
 def test_plugins_lists_builtins_and_entry_points(capsys: pytest.CaptureFixture[str]) -> None:

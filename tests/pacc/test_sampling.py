@@ -1,4 +1,4 @@
-"""The manual recorder's keep rule (pacc.vocab.sampling), shared by the ECU's recorder and
+"""The manual recorder's keep rule (dbc.vocab.sampling), shared by the ECU's recorder and
 ``pacc demos extract``: a cycle is kept ``period_s`` less half a cycle after the last kept."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from pacc.vocab.sampling import PERIOD_EPS_S, keep_interval_s, keep_sample
+from dbc.vocab.sampling import PERIOD_EPS_S, keep_interval_s, keep_sample
 
 
 @pytest.mark.parametrize(

@@ -11,10 +11,10 @@ from cloud_sync.api import BadBatchError
 from cloud_sync.irl.demos import is_acc_trip
 from cloud_sync.service.rules import CloudService, DeferredExecutor
 from cloud_sync.vehicle.spool import Spool, SpoolError, kind_of
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.triplog import Trip
-from pacc.vocab.triplog_file import write_trip
-from pacc.vocab.tripmode import TripMode, TripModeError, mode_of, trip_mode
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.triplog import Trip, trip_mode
+from dbc.vocab.triplog_file import write_trip
+from dbc.vocab.tripmode import TripMode, TripModeError, mode_of
 
 
 def trip(mode: str | None, states: list[int] | None = None) -> Trip:

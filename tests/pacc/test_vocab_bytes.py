@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from cloud_sync.service.rules import CloudService, DeferredExecutor
-from pacc.vocab.dgpt import DgptError, predefined
-from pacc.vocab.dgpt_file import (
+from dbc.vocab.dgpt import DgptError, predefined
+from dbc.vocab.dgpt_file import (
     dgpt_from_bytes,
     dgpt_to_bytes,
     load_dgpt,
@@ -19,8 +19,8 @@ from pacc.vocab.dgpt_file import (
     save_dgpt,
     write_dgpt,
 )
-from pacc.vocab.triplog import Trip, TripLogError
-from pacc.vocab.triplog_file import (
+from dbc.vocab.triplog import Trip, TripLogError
+from dbc.vocab.triplog_file import (
     read_trip,
     read_trip_from,
     trip_from_bytes,

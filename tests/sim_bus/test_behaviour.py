@@ -8,7 +8,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from pacc.vocab.acc_state import AccState
+from dbc.vocab.acc_state import AccState
 from sim_bus.behaviour import ATTENTIVE_REACTION_S, DriverAgent
 from sim_bus.drivers import DriverParams
 from sim_bus.idm import interp_float

@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dbc.vocab.dgpt import predefined
+from dbc.vocab.triplog import Trip
 from pacc.commands.bench import main as bench_main
-from pacc.vocab.dgpt import predefined
-from pacc.vocab.triplog import Trip
-from sim_bus.study.bench.heldout import held_out_error
-from sim_bus.study.bench.suite import fresh_seeds
+from pacc.study.bench.heldout import held_out_error
+from pacc.study.bench.suite import fresh_seeds
 
 METHODS = """
 [[methods]]

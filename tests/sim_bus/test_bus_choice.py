@@ -10,9 +10,9 @@ import can
 import numpy as np
 import pytest
 
+from pacc.study.drive import BUSES, DriveConfig, DriveResult, predefined_table, run_drive
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.errors import DriveError
-from sim_bus.study.drive import BUSES, DriveConfig, DriveResult, predefined_table, run_drive
 from sim_bus.world import WORLD_COLUMNS
 
 #: the noisiest driver, online adaptation, every kind of fault the simulator injects

@@ -9,21 +9,22 @@ import can
 import numpy as np
 import pytest
 
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.dgpt import predefined
+from dbc.vocab.dgpt_file import save_dgpt
+from dbc.vocab.triplog_file import read_trip
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
 from pacc.commands import drive
 from pacc.commands import sim as cli
 from pacc.commands.drive import report as drive_report
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt import predefined
-from pacc.vocab.dgpt_file import save_dgpt
-from pacc.vocab.triplog_file import read_trip
+from pacc.study.drive import with_condition
+from pacc.study.irl_table import cache_key, code_digest, irl_table
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.errors import SimError
 from sim_bus.lead import profile_csv, scenarios
+from sim_bus.lead.__main__ import main as lead_main
 from sim_bus.manual import manual_trip
-from sim_bus.study.drive import with_condition
-from sim_bus.study.irl_table import cache_key, code_digest, irl_table
 from sim_bus.world import World
 from tests.cli_util import exit_code
 
@@ -161,7 +162,7 @@ def test_negative_seed_is_a_clear_error(capsys: pytest.CaptureFixture[str]) -> N
     assert exit_code(cli.main, argv) == 2
     err = capsys.readouterr().err
     assert "--seed" in err and ">= 0" in err
-    assert scenarios.main(["list", "--seed", "-2"]) == 2
+    assert lead_main(["list", "--seed", "-2"]) == 2
     assert capsys.readouterr().out.count(">= 0") == 1
     profile = scenarios.canonical_profiles(0)["B"]
     with pytest.raises(SimError, match="seed"):
@@ -230,11 +231,14 @@ def test_scenarios_export_and_drive_the_csv(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     path = tmp_path / "b.csv"
-    assert scenarios.main(["export", "B", str(path), "--seed", "2"]) == 0
+    assert lead_main(["export", "B", str(path), "--seed", "2"]) == 0
     assert profile_csv.load_profile_csv(path).duration_s == pytest.approx(300.0)
-    assert scenarios.main(["export", "Q", str(path)]) == 2
-    assert scenarios.main(["list"]) == 0
-    assert "manual4" in capsys.readouterr().out
+    assert lead_main(["export", "Q", str(path)]) == 2
+    assert lead_main(["list"]) == 0
+    listed = capsys.readouterr().out
+    assert all(
+        name in listed for name in ("manual4", "cutin", "cutout", "leadloss", "stopgo", "C ")
+    )
     assert drive.main(["--scenario", str(path), "--duration", "5", "--driver", "d4"]) == 0
     assert f"scenario {path}" in capsys.readouterr().out
 

@@ -9,9 +9,9 @@ from typing import Any
 
 import pytest
 
+from pacc.study.collect import RowJournal, RowKey, StudyInterrupted, collect, row_key
+from pacc.study.report import FIELDS
 from sim_bus.errors import SimError
-from sim_bus.study.collect import RowJournal, RowKey, StudyInterrupted, collect, row_key
-from sim_bus.study.report import FIELDS
 
 KEYS: list[RowKey] = [("d1", "B", "predefined", t) for t in range(4)]
 

@@ -9,14 +9,11 @@ import can
 import numpy as np
 import pytest
 
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.dgpt import Dgpt, SafetyBounds, clamp_to_bounds, speed_axis
 from ecu.adaptation import AdaptationParams, Reason
 from pacc.commands.drive import main
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt import Dgpt, SafetyBounds, clamp_to_bounds, speed_axis
-from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
-from sim_bus.errors import DriveError
-from sim_bus.lead.scenarios import LeadProfile, canonical_profiles, shorten
-from sim_bus.study.drive import (
+from pacc.study.drive import (
     CONTROLLERS,
     DriveConfig,
     DriveResult,
@@ -24,6 +21,10 @@ from sim_bus.study.drive import (
     predefined_table,
     run_drive,
 )
+from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
+from sim_bus.errors import DriveError
+from sim_bus.lead.profile import LeadProfile
+from sim_bus.lead.scenarios import canonical_profiles, shorten
 
 SAFETY_MIN_GAP_M = 2.0  # SafetyBounds.standstill_min_m: the smallest gap the DGPT allows
 JERK_LIMIT_MPS3 = 2.5

@@ -17,6 +17,9 @@ import pytest
 from mcap.reader import make_reader
 
 from dbc import DBC_PATH
+from dbc.vocab.dgpt import predefined
+from dbc.vocab.triplog import Trip
+from dbc.vocab.triplog_file import write_trip
 from ecu.buslog.reader import CanLog, read_canlog
 from ecu.buslog.replay import play, replay_through_ecu
 from ecu.node import EcuConfig, EcuNode
@@ -28,13 +31,10 @@ from pacc.commands import sim as sim_cli
 from pacc.commands.drive import main as drive_main
 from pacc.commands.export import main as export_main
 from pacc.commands.plot import main as plot_main
-from pacc.vocab.dgpt import predefined
-from pacc.vocab.triplog import Trip
-from pacc.vocab.triplog_file import write_trip
+from pacc.study.config import StudyConfig
+from pacc.study.drive import DriveConfig, predefined_table, run_drive
+from pacc.study.tasks import DriveJob, run_job
 from sim_bus.drivers import BUILTIN_DRIVERS
-from sim_bus.study.config import StudyConfig
-from sim_bus.study.drive import DriveConfig, predefined_table, run_drive
-from sim_bus.study.tasks import DriveJob, run_job
 
 #: d2 with online adaptation: a takeover at 10.2 s, the adaptation at its release (13.2 s)
 CFG = DriveConfig(scenario="B", driver_id="d2", controller="predefined+oa", seed=1, duration_s=20.0)
@@ -316,7 +316,7 @@ def test_a_recording_is_a_pure_function_of_the_drive_and_its_start(tmp_path: Pat
 
 
 def test_study_plan_puts_bus_recordings_under_can(tmp_path: Path) -> None:
-    from sim_bus.study.run import plan  # noqa: PLC0415
+    from pacc.study.run import plan  # noqa: PLC0415
 
     driver = BUILTIN_DRIVERS["d1"]
     cfg = StudyConfig(drivers=("d1",), scenarios=("B",), controllers=("predefined",), trials=2)

@@ -1,4 +1,4 @@
-"""A drive shown live (``sim_bus.study.drive_recording``): the simulated world streamed to the
+"""A drive shown live (``pacc.study.drive_recording``): the simulated world streamed to the
 live view as the drive runs, the drive held to the wall clock; neither changes the drive."""
 
 from __future__ import annotations
@@ -21,10 +21,10 @@ import pytest
 from ecu.buslog.live import FoxgloveSink
 from ecu.buslog.reader import read_canlog
 from pacc.commands.drive import main as drive_main
+from pacc.study.drive import DriveConfig, DriveResult, predefined_table, run_drive
+from pacc.study.drive_recording import RESYNC_S, Pacer
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.errors import DriveError
-from sim_bus.study.drive import DriveConfig, DriveResult, predefined_table, run_drive
-from sim_bus.study.drive_recording import RESYNC_S, Pacer
 
 #: d2 with online adaptation: a takeover at 10.2 s (the world's pedals change mid-drive)
 CFG = DriveConfig(scenario="B", driver_id="d2", controller="predefined+oa", seed=1, duration_s=14.0)

@@ -15,20 +15,20 @@ import numpy as np
 import pytest
 
 from dbc.codec import load_codec
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.dgpt import predefined
 from ecu.adaptation import Reason
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt import predefined
-from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
-from sim_bus.lead.events import LeadEvent, road_profile
-from sim_bus.lead.scenarios import LeadProfile
-from sim_bus.population import draw_population
-from sim_bus.study.drive import (
+from pacc.study.drive import (
     DriveConfig,
     DriveResult,
     predefined_table,
     resolve_profile,
     run_drive,
 )
+from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
+from sim_bus.lead.events import road_profile
+from sim_bus.lead.profile import LeadEvent, LeadProfile
+from sim_bus.population import draw_population
 
 QUIET = DriverParams(
     "quiet",

@@ -9,14 +9,15 @@ import numpy as np
 import pytest
 
 from dbc.codec import load_codec
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.pedals import PedalScale
-from pacc.vocab.triplog import Trip
-from pacc.vocab.triplog_file import read_trip, write_trip
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.pedals import PedalScale
+from dbc.vocab.triplog import Trip
+from dbc.vocab.triplog_file import read_trip, write_trip
 from sim_bus.behaviour import BRAKE_BAR_PER_MPS2
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.idm import DECEL_LIMIT_MPS2
-from sim_bus.lead.scenarios import LeadProfile, canonical_profiles, shorten
+from sim_bus.lead.profile import LeadProfile
+from sim_bus.lead.scenarios import canonical_profiles, shorten
 from sim_bus.manual import manual_trip
 
 

@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from pacc.vocab.acc_state import AccState
+from dbc.vocab.acc_state import AccState
 from sim_bus.behaviour import DriverAgent
 from sim_bus.drivers import BUILTIN_DRIVERS, CONDITION_FACTORS, DriverParams
 from sim_bus.errors import DriverError

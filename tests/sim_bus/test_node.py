@@ -16,7 +16,7 @@ from dbc.endpoint import Inbox, Outbox
 from sim_bus.behaviour import COAST_MPS2
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.faults import parse_faults
-from sim_bus.lead.scenarios import LeadProfile
+from sim_bus.lead.profile import LeadProfile
 from sim_bus.node import SimNode
 from sim_bus.world import World, WorldConfig
 

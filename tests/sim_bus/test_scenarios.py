@@ -11,11 +11,10 @@ from hypothesis import strategies as st
 
 from sim_bus.dataset import load_human_pairs
 from sim_bus.errors import ScenarioError
+from sim_bus.lead.profile import DT_S, LeadProfile
 from sim_bus.lead.profile_csv import load_profile_csv, save_profile_csv
 from sim_bus.lead.scenarios import (
-    DT_S,
     GeneratorConfig,
-    LeadProfile,
     canonical_profiles,
     random_speed_sequence,
     shorten,

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
+from pacc.study.stats import bootstrap_ci, holm, paired_comparison
 from sim_bus.errors import SimError
-from sim_bus.study.stats import bootstrap_ci, holm, paired_comparison
 
 
 def test_bootstrap_interval_covers_the_mean_and_narrows() -> None:

@@ -9,16 +9,16 @@ from typing import Any
 
 import pytest
 
+from dbc.vocab.dgpt import Dgpt, predefined
+from dbc.vocab.dgpt_file import load_dgpt
+from dbc.vocab.triplog_file import read_trip
 from ecu.adaptation import AdaptationParams
 from pacc.commands.study import main
-from pacc.vocab.dgpt import Dgpt, predefined
-from pacc.vocab.dgpt_file import load_dgpt
-from pacc.vocab.triplog_file import read_trip
+from pacc.study import run as study_run
+from pacc.study.config import StudyConfig, validate
+from pacc.study.report import format_table, reduction_pct
+from pacc.study.run import run_study
 from sim_bus.drivers import DriverParams
-from sim_bus.study import run as study_run
-from sim_bus.study.config import StudyConfig, validate
-from sim_bus.study.report import format_table, reduction_pct
-from sim_bus.study.run import run_study
 from tests.cli_util import exit_code
 
 SMALL = StudyConfig(

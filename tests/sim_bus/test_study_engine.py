@@ -16,12 +16,12 @@ from typing import Any, TypeVar
 import pytest
 
 from cloud_sync.engine.base import Engine, InlineEngine
+from dbc.vocab.triplog_file import read_trip
 from pacc.commands.study import main
-from pacc.vocab.triplog_file import read_trip
-from sim_bus.study.collect import row_key
-from sim_bus.study.config import StudyConfig
-from sim_bus.study.population import run_population
-from sim_bus.study.run import run_study
+from pacc.study.collect import row_key
+from pacc.study.config import StudyConfig
+from pacc.study.population import run_population
+from pacc.study.run import run_study
 
 S = TypeVar("S")
 T = TypeVar("T")

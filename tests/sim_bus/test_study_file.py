@@ -10,8 +10,8 @@ import pytest
 
 from cloud_sync.engine.base import Engine, InlineEngine
 from pacc.commands.study import main as study_main
-from sim_bus.study.files.studyfile import StudyFileError, expand_methods, load_study_file, resolve
-from sim_bus.study.files.studyrun import ROWS, run_study_file
+from pacc.study.files.studyfile import StudyFileError, expand_methods, load_study_file, resolve
+from pacc.study.files.studyrun import ROWS, run_study_file
 
 STUDY = """
 seed = 4

@@ -10,11 +10,11 @@ import pytest
 
 from cloud_sync.service.rules import CloudService
 from cloud_sync.service.trips import trip_rows
+from dbc.vocab.dgpt_file import load_dgpt
 from pacc.commands.study import main
-from pacc.vocab.dgpt_file import load_dgpt
+from pacc.study.config import StudyConfig, validate
+from pacc.study.run import run_study
 from sim_bus.errors import SimError
-from sim_bus.study.config import StudyConfig, validate
-from sim_bus.study.run import run_study
 
 
 @pytest.mark.slow

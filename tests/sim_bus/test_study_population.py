@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 
 from pacc.commands.study import main
-from sim_bus.study.config import StudyConfig
-from sim_bus.study.population import ROWS_FILE, run_population
+from pacc.study.config import StudyConfig
+from pacc.study.population import ROWS_FILE, run_population
 from tests.cli_util import exit_code
 
 ARGS = ["--controllers", "predefined,predefined+oa", "--duration", "20", "--workers", "1"]

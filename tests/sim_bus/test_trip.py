@@ -8,14 +8,14 @@ import numpy as np
 import pytest
 
 from dbc.codec import load_codec
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt import Dgpt, SafetyBounds, clamp_to_bounds, speed_axis
-from pacc.vocab.pedals import PedalScale
-from pacc.vocab.triplog import Trip
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.dgpt import Dgpt, SafetyBounds, clamp_to_bounds, speed_axis
+from dbc.vocab.pedals import PedalScale
+from dbc.vocab.triplog import Trip
+from pacc.study.drive import DriveConfig, log_to_trip, run_drive
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.errors import DriveError
 from sim_bus.lead.scenarios import canonical_profiles, shorten
-from sim_bus.study.drive import DriveConfig, log_to_trip, run_drive
 from sim_bus.trip import condition_name, world_trip
 from sim_bus.world import WorldLog
 

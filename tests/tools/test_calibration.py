@@ -7,7 +7,8 @@ import pytest
 
 from sim_bus.dataset import load_human_pairs
 from sim_bus.drivers import BUILTIN_DRIVERS
-from sim_bus.lead.scenarios import LeadProfile, shorten
+from sim_bus.lead.profile import LeadProfile
+from sim_bus.lead.scenarios import shorten
 from sim_bus.manual import manual_trip
 from tools import calibration
 from tools.calibration import headway_by_band

@@ -101,7 +101,7 @@ _DRIVE = """
 import sys
 from pathlib import Path
 from sim_bus.drivers import BUILTIN_DRIVERS
-from sim_bus.study.drive import DriveConfig, predefined_table, run_drive
+from pacc.study.drive import DriveConfig, predefined_table, run_drive
 import types
 from dbc.codec import load_codec
 try:

@@ -22,10 +22,10 @@ from dbc.codec import Codec, CrcError, load_codec
 from dbc.e2e import E2EStatus
 from dbc.endpoint import Inbox, Outbox
 from dbc.errors import BindingError, DbcError
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.dgpt import predefined
 from ecu.node import EcuConfig, EcuNode
 from ecu.runtime import EcuRuntime
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.dgpt import predefined
 from tools.opendbc_toyota import assemble
 
 pytest.importorskip("opendbc.can.packer")

@@ -1,4 +1,4 @@
-"""Where the IRL's demonstrations come from: each module yields :class:`pacc.vocab.triplog.Trip`
+"""Where the IRL's demonstrations come from: each module yields :class:`dbc.vocab.triplog.Trip`
 objects, which :mod:`cloud_sync.irl.demos` cuts into segments.
 
 - :mod:`cloud_sync.irl.sources.tripfiles` — trip files by suffix (``.mcap`` trip logs, ``.csv``

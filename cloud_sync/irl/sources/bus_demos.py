@@ -12,7 +12,7 @@ recording of the same stretches). The ECU reads its inputs once per control cycl
 its command frames right after, so the log's command frames (the binding's ``command`` role,
 its last message each cycle) mark the instants the ECU sampled: the extraction samples the
 decoded values at those frames, keeping one as the recorder keeps one
-(:func:`pacc.vocab.sampling.keep_sample`, the rule both share: ``period_s`` after the last
+(:func:`dbc.vocab.sampling.keep_sample`, the rule both share: ``period_s`` after the last
 kept less half a cycle, the cycle the binding's command message's), with what the frames
 before it said and the ACC state the cycle's own frame carries. Where the log has no command
 frames, or their cycle does not divide ``period_s`` (another car's ACC), a ``period_s`` grid
@@ -27,9 +27,9 @@ A sample is manual car-following when the ACC is not engaged (OFF or STANDBY, or
 frames at all), a lead is valid and the inputs are good as the ECU checks them
 (:func:`ecu.signals.input_fault` less the HMI): speed valid, fresh and finite and >= 0,
 pedals fresh and finite, radar fresh (and finite with a lead). Runs of such samples of at
-least ``min_s`` (count × ``period_s``; :data:`~pacc.vocab.sampling.MANUAL_MIN_S`), cut at
-``max_s`` (:data:`~pacc.vocab.sampling.MANUAL_MAX_S`), become manual trip logs
-(:class:`pacc.vocab.triplog.Trip`, ``mode`` ``manual``) that the cloud learns from; the report
+least ``min_s`` (count × ``period_s``; :data:`~dbc.vocab.sampling.MANUAL_MIN_S`), cut at
+``max_s`` (:data:`~dbc.vocab.sampling.MANUAL_MAX_S`), become manual trip logs
+(:class:`dbc.vocab.triplog.Trip`, ``mode`` ``manual``) that the cloud learns from; the report
 says how many seconds were kept and why the rest was dropped.
 """
 
@@ -46,10 +46,10 @@ import numpy as np
 
 from dbc.codec import Codec
 from dbc.endpoint import Inbox
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.pedals import PedalScale
-from pacc.vocab.sampling import MANUAL_MAX_S, MANUAL_MIN_S, PERIOD_EPS_S, keep_interval_s
-from pacc.vocab.triplog import Trip
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.pedals import PedalScale
+from dbc.vocab.sampling import MANUAL_MAX_S, MANUAL_MIN_S, PERIOD_EPS_S, keep_interval_s
+from dbc.vocab.triplog import Trip
 
 __all__ = [
     "DT_S",
@@ -114,7 +114,7 @@ class _Sampler:
         #: the cycle's last command frame (the ECU sends the role's messages in order)
         self.marker = None if command is None else command.parts[-1].frame_id
         cycle = 0.0 if command is None else command.parts[-1].cycle_s
-        #: the ECU recorder's rule (pacc.vocab.sampling.keep_sample): a cycle is kept this
+        #: the ECU recorder's rule (dbc.vocab.sampling.keep_sample): a cycle is kept this
         #: long after the last kept one
         self.keep_after_s = keep_interval_s(period_s, cycle)
         self.at_cycles: dict[str, list[float]] = {k: [] for k in _COLS}

@@ -12,7 +12,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from pacc.vocab.triplog import Trip
+from dbc.vocab.triplog import Trip
 
 
 def lead_speed(rng: np.random.Generator, n: int, dt: float, v_lo: float, v_hi: float) -> np.ndarray:

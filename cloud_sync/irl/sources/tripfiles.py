@@ -16,9 +16,9 @@ from typing import Any
 
 import numpy as np
 
-from pacc.vocab.triplog import Trip, TripLogError
-from pacc.vocab.triplog_file import read_trip
-from pacc.vocab.tripmode import TripMode
+from dbc.vocab.triplog import Trip, TripLogError
+from dbc.vocab.triplog_file import read_trip
+from dbc.vocab.tripmode import TripMode
 
 __all__ = ["read_csv_trip", "load_trip", "REQUIRED_CSV_COLUMNS"]
 

@@ -1,4 +1,4 @@
-"""``pacc cloud`` (``python -m cloud_sync``): the cloud side's sub-commands.
+"""``pacc cloud``: the cloud side's sub-commands.
 
 One module per sub-command (cantools style): each has ``add_subparser(subparsers)`` and a
 private ``_do_x(args)``. Heavy libraries are imported inside the sub-commands, so ``--help``

@@ -19,9 +19,9 @@ from pathlib import Path
 from typing import Any
 
 from cloud_sync.errors import CloudSyncError
+from dbc.vocab import FormatError
 from ecu import EcuError
 from pacc.commands._args import integer, number
-from pacc.vocab import FormatError
 
 __all__ = ["add_subparser"]
 
@@ -35,7 +35,7 @@ def _do_learn(args: argparse.Namespace) -> int:
     from cloud_sync.irl.demos import is_acc_trip  # noqa: PLC0415
     from cloud_sync.irl.sources.tripfiles import load_trip  # noqa: PLC0415
     from cloud_sync.irl.trainer import METHOD, IrlConfig, fine_tune, learn_dgpt  # noqa: PLC0415
-    from pacc.vocab.dgpt_file import load_dgpt, save_dgpt  # noqa: PLC0415
+    from dbc.vocab.dgpt_file import load_dgpt, save_dgpt  # noqa: PLC0415
 
     for option, name in (("--driver", args.driver), ("--condition", args.condition)):
         if not is_plain_name(name):
@@ -111,7 +111,7 @@ def _other_learner(args: argparse.Namespace) -> int:
     """``--learner SPEC`` other than irl: the table of that learner (docs/plugins.md)."""
     from cloud_sync.irl.sources.tripfiles import load_trip  # noqa: PLC0415 - numpy: learn runs only
     from cloud_sync.learners import learn  # noqa: PLC0415
-    from pacc.vocab.dgpt_file import save_dgpt  # noqa: PLC0415
+    from dbc.vocab.dgpt_file import save_dgpt  # noqa: PLC0415
 
     try:
         if args.init or args.plot:

@@ -23,7 +23,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from cloud_sync.engine.base import open_engine
+from cloud_sync.engine import open_engine
 from cloud_sync.errors import CloudSyncError
 from cloud_sync.vehicle.connect import write_token
 from pacc.commands._args import integer, number

@@ -32,7 +32,12 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from dbc.errors import DbcError
+from dbc.errors import DbcError, UsageError
+from dbc.vocab import FormatError
+from dbc.vocab.dgpt import Dgpt
+from dbc.vocab.dgpt_file import load_dgpt
+from dbc.vocab.triplog import Trip, TripLogError
+from dbc.vocab.triplog_file import write_trip
 from ecu import EcuError
 from ecu.buslog.live import live_sinks
 from ecu.config import EcuConfig
@@ -45,17 +50,7 @@ from pacc.commands._args import (
 )
 from pacc.commands.drive.options import parser
 from pacc.commands.drive.report import format_result
-from pacc.errors import UsageError
-from pacc.vocab import FormatError
-from pacc.vocab.dgpt import Dgpt
-from pacc.vocab.dgpt_file import load_dgpt
-from pacc.vocab.triplog import Trip, TripLogError
-from pacc.vocab.triplog_file import write_trip
-from sim_bus.drivers import CONDITION_FACTORS, DriverParams, load_driver
-from sim_bus.errors import SimError
-from sim_bus.faults import parse_faults
-from sim_bus.lead.scenarios import shorten
-from sim_bus.study.drive import (
+from pacc.study.drive import (
     BUSES,
     DriveConfig,
     adaptation_params,
@@ -66,8 +61,12 @@ from sim_bus.study.drive import (
     run_drive,
     with_condition,
 )
-from sim_bus.study.drive_recording import MIN_PACE
-from sim_bus.study.irl_table import irl_table
+from pacc.study.drive_recording import MIN_PACE
+from pacc.study.irl_table import irl_table
+from sim_bus.drivers import CONDITION_FACTORS, DriverParams, load_driver
+from sim_bus.errors import SimError
+from sim_bus.faults import parse_faults
+from sim_bus.lead.scenarios import shorten
 
 
 def _recording_ok(args: argparse.Namespace, result: Any) -> bool:

@@ -9,8 +9,8 @@ from dbc.network import add_network_arguments
 from ecu.adaptation import ADAPTATION_MODES
 from ecu.buslog.live import add_foxglove_argument
 from pacc.commands._args import CommandParser, integer, number
+from pacc.study.drive import BUSES, CONTROLLERS
 from sim_bus.drivers import CONDITION_FACTORS
-from sim_bus.study.drive import BUSES, CONTROLLERS
 
 __all__ = ["parser"]
 

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from pacc.vocab.acc_state import AccState
-from sim_bus.study.drive import DriveResult
+from dbc.vocab.acc_state import AccState
+from pacc.study.drive import DriveResult
 
 
 def fault_time(t_s: np.ndarray, acc_state: np.ndarray) -> tuple[float, int]:

@@ -43,6 +43,10 @@ from cloud_sync.errors import CloudSyncError
 from dbc.codec import Codec, CodecError
 from dbc.errors import BindingError
 from dbc.network import add_network_arguments, codec_of, network_of
+from dbc.vocab import FormatError
+from dbc.vocab.dgpt import Dgpt, DgptError, predefined
+from dbc.vocab.dgpt_file import load_dgpt, save_dgpt
+from dbc.vocab.sampling import MANUAL_MAX_S, MANUAL_MIN_S
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES, AdaptationParams
 from ecu.buslog.format import TimeBase
@@ -65,10 +69,6 @@ from pacc.commands.ecu.cloud import (
     warn_guest,
 )
 from pacc.commands.ecu.run import close_recorder, open_recorder, run_on_bus
-from pacc.vocab import FormatError
-from pacc.vocab.dgpt import Dgpt, DgptError, predefined
-from pacc.vocab.dgpt_file import load_dgpt, save_dgpt
-from pacc.vocab.sampling import MANUAL_MAX_S, MANUAL_MIN_S
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -199,7 +199,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of ``pacc ecu`` / ``python -m ecu``; returns the exit code."""
+    """Entry point of ``pacc ecu``; returns the exit code."""
     args = build_parser().parse_args(argv)
     check_distinct_outputs(
         can_log=args.can_log, save_profile=args.save_profile, profile=args.profile

@@ -13,10 +13,10 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from dbc.vocab.dgpt import Dgpt
+from dbc.vocab.triplog import Trip
 from ecu.node import EcuConfig, EcuNode
 from ecu.recorder import TripSink
-from pacc.vocab.dgpt import Dgpt
-from pacc.vocab.triplog import Trip
 
 if TYPE_CHECKING:
     from cloud_sync.vehicle.link import VehicleLink

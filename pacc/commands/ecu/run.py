@@ -13,12 +13,12 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from dbc.codec import Codec
+from dbc.vocab import FormatError
 from ecu import EcuError
 from ecu.buslog.format import TimeBase
 from ecu.node import EcuNode
 from pacc.commands._args import bus_kwargs
 from pacc.commands.ecu.cloud import Exit, say
-from pacc.vocab import FormatError
 
 if TYPE_CHECKING:
     from cloud_sync.vehicle.link import VehicleLink

@@ -31,16 +31,15 @@ from typing import Any
 
 import numpy as np
 
-from dbc.errors import DbcError
+from dbc.errors import DbcError, UsageError
+from dbc.vocab import FormatError
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.triplog import Trip
+from dbc.vocab.triplog_file import read_trip
 from ecu import EcuError
 from ecu.buslog.format import INPUTS_TOPIC, OUTPUTS_TOPIC, WORLD_TOPIC, CanLogError
 from ecu.buslog.reader import CanLog
 from pacc.commands._args import CommandParser, check_distinct_outputs, integer, same_file
-from pacc.errors import UsageError
-from pacc.vocab import FormatError
-from pacc.vocab.acc_state import AccState
-from pacc.vocab.triplog import Trip
-from pacc.vocab.triplog_file import read_trip
 
 
 @dataclass(frozen=True)

@@ -13,10 +13,10 @@ from typing import Any
 
 import numpy as np
 
+from dbc.vocab.dgpt import Dgpt, SafetyBounds, predefined
+from dbc.vocab.triplog import Trip
 from ecu.adaptation import Decision, Reason, TakeoverSummary
 from ecu.controller import ControlInput
-from pacc.vocab.dgpt import Dgpt, SafetyBounds, predefined
-from pacc.vocab.triplog import Trip
 
 
 class TimeGapController:

@@ -1,0 +1,340 @@
+"""The Driving Gap Preference Table (DGPT): the desired gap to the lead per ego speed.
+
+A table holds a uniform speed axis from 0 to 40 m/s (step at most 0.5 m/s) and one desired
+bumper-to-bumper gap per speed bin. Between bins the gap is interpolated linearly; beyond the
+axis it is held at the end values. Tables carry their provenance: a version (incremented by
+every change), the driver id, a driving-condition tag, the source (``predefined``, ``irl``,
+``adapted``), an ISO 8601 creation time and free-form metadata.
+
+A table is valid by construction: the shapes, the axis, finite values and every gap within
+:class:`SafetyBounds` are checked when it is built, else :class:`DgptError`. Its file format
+(JSON, on bytes, streams or paths) is :mod:`dbc.vocab.dgpt_file`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from typing import Any, Literal, cast, get_args, overload
+
+import numpy as np
+import numpy.typing as npt
+
+from dbc.vocab import FormatError
+
+FORMAT_TAG = "pacc.dgpt/1"
+#: Upper end of the speed axis, m/s.
+AXIS_MAX_MPS = 40.0
+#: Coarsest allowed speed-axis step, m/s.
+AXIS_MAX_STEP_MPS = 0.5
+#: Default speed-axis step of generated tables, m/s.
+DEFAULT_STEP_MPS = 0.5
+_AXIS_TOL = 1e-6
+
+Source = Literal["predefined", "irl", "adapted"]
+_SOURCES: tuple[str, ...] = get_args(Source)
+FloatArray = npt.NDArray[np.float64]
+
+
+class DgptError(FormatError):
+    """A DGPT is malformed, unsafe, or cannot be read or written."""
+
+
+def utc_now_iso() -> str:
+    """Current UTC time as ISO 8601 with a ``Z`` suffix, second resolution."""
+    return datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+@dataclass(frozen=True)
+class SafetyBounds:
+    """The safe region of a DGPT, as time gaps plus standstill distances.
+
+    ``lower_m(v) = standstill_min_m + headway_min_s * v`` and
+    ``upper_m(v) = standstill_max_m + headway_max_s * v`` (v in m/s, result in m).
+    ``standstill_m`` is the nominal standstill distance d0 used to build predefined tables
+    and by the adaptation's safety filter.
+    """
+
+    standstill_m: float = 4.0
+    headway_min_s: float = 0.8
+    headway_max_s: float = 5.0
+    standstill_min_m: float = 2.0
+    standstill_max_m: float = 10.0
+
+    def __post_init__(self) -> None:
+        values = (
+            self.standstill_m,
+            self.headway_min_s,
+            self.headway_max_s,
+            self.standstill_min_m,
+            self.standstill_max_m,
+        )
+        if not all(math.isfinite(x) and x >= 0.0 for x in values):
+            raise DgptError(f"SafetyBounds must be finite and non-negative: {self}")
+        if self.headway_min_s > self.headway_max_s:
+            raise DgptError("SafetyBounds: headway_min_s exceeds headway_max_s")
+        if not self.standstill_min_m <= self.standstill_m <= self.standstill_max_m:
+            raise DgptError(
+                "SafetyBounds: need standstill_min_m <= standstill_m <= standstill_max_m"
+            )
+
+    @overload
+    def lower_m(self, v_mps: float) -> float: ...
+    @overload
+    def lower_m(self, v_mps: FloatArray) -> FloatArray: ...
+    def lower_m(self, v_mps: float | FloatArray) -> float | FloatArray:
+        """Smallest safe gap (m) at speed ``v_mps`` (scalar or array of any shape)."""
+        return self.standstill_min_m + self.headway_min_s * v_mps
+
+    @overload
+    def upper_m(self, v_mps: float) -> float: ...
+    @overload
+    def upper_m(self, v_mps: FloatArray) -> FloatArray: ...
+    def upper_m(self, v_mps: float | FloatArray) -> float | FloatArray:
+        """Largest safe gap (m) at speed ``v_mps`` (scalar or array of any shape)."""
+        return self.standstill_max_m + self.headway_max_s * v_mps
+
+
+def speed_axis(step_mps: float = DEFAULT_STEP_MPS) -> FloatArray:
+    """The uniform speed axis 0..40 m/s with ``step_mps`` (shape ``(n,)``)."""
+    if not 0.0 < step_mps <= AXIS_MAX_STEP_MPS:
+        raise DgptError(f"speed step must be in (0, {AXIS_MAX_STEP_MPS}] m/s, got {step_mps}")
+    n = int(round(AXIS_MAX_MPS / step_mps))
+    if abs(n * step_mps - AXIS_MAX_MPS) > _AXIS_TOL:
+        raise DgptError(f"speed step {step_mps} m/s does not divide {AXIS_MAX_MPS} m/s")
+    return np.linspace(0.0, AXIS_MAX_MPS, n + 1)
+
+
+def _readonly(a: Any, name: str) -> FloatArray:
+    try:
+        arr = np.array(a, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise DgptError(f"{name} is not an array of numbers: {exc}") from None
+    arr.setflags(write=False)
+    return arr
+
+
+def _check_structure(speed: FloatArray, gap: FloatArray) -> None:
+    if speed.ndim != 1 or gap.ndim != 1:
+        raise DgptError(f"speed_mps and gap_m must be 1-D, got shapes {speed.shape}, {gap.shape}")
+    if speed.shape != gap.shape:
+        raise DgptError(f"speed_mps and gap_m differ in length: {speed.size} vs {gap.size}")
+    if speed.size < 2:
+        raise DgptError("a DGPT needs at least two speed bins")
+    if not np.all(np.isfinite(speed)):
+        raise DgptError("speed_mps contains a non-finite value")
+    if not np.all(np.isfinite(gap)):
+        bad = int(np.flatnonzero(~np.isfinite(gap))[0])
+        raise DgptError(f"gap_m[{bad}] is not finite ({gap[bad]})")
+    steps = np.diff(speed)
+    if not np.all(steps > 0.0):
+        raise DgptError("speed_mps is not strictly increasing")
+    if abs(speed[0]) > _AXIS_TOL or abs(speed[-1] - AXIS_MAX_MPS) > _AXIS_TOL:
+        raise DgptError(
+            f"speed_mps must span 0..{AXIS_MAX_MPS:g} m/s, got {speed[0]:g}..{speed[-1]:g}"
+        )
+    step = float(steps.mean())
+    if np.max(np.abs(steps - step)) > 1e-4:
+        raise DgptError("speed_mps is not uniformly spaced")
+    if step > AXIS_MAX_STEP_MPS + _AXIS_TOL:
+        raise DgptError(f"speed step {step:g} m/s is coarser than {AXIS_MAX_STEP_MPS} m/s")
+
+
+def check_bounds(speed_mps: FloatArray, gap_m: FloatArray, bounds: SafetyBounds) -> None:
+    """Raise :class:`DgptError` naming the first bin whose gap is outside ``bounds``."""
+    lo = bounds.lower_m(speed_mps)
+    hi = bounds.upper_m(speed_mps)
+    bad = np.flatnonzero((gap_m < lo - 1e-9) | (gap_m > hi + 1e-9))
+    if bad.size:
+        i = int(bad[0])
+        raise DgptError(
+            f"gap {gap_m[i]:.3f} m at {speed_mps[i]:g} m/s is outside the safety bounds "
+            f"[{lo[i]:.3f}, {hi[i]:.3f}] m ({bad.size} bin(s) out of bounds)"
+        )
+
+
+def clamp_to_bounds(
+    speed_mps: FloatArray, gap_m: FloatArray, bounds: SafetyBounds | None = None
+) -> FloatArray:
+    """``gap_m`` (shape ``(n,)``) clipped bin-wise into ``bounds`` at ``speed_mps`` (``(n,)``)."""
+    b = bounds if bounds is not None else SafetyBounds()
+    return np.clip(gap_m, b.lower_m(speed_mps), b.upper_m(speed_mps))
+
+
+@dataclass(frozen=True, eq=False)
+class Dgpt:
+    """A Driving Gap Preference Table (immutable; arrays are read-only).
+
+    Attributes:
+        speed_mps: uniform speed axis, shape ``(n,)``, 0..40 m/s, step <= 0.5 m/s.
+        gap_m: desired bumper-to-bumper gap per speed bin, shape ``(n,)``, metres.
+        version: incremented by every change (:meth:`with_gaps`), >= 0.
+        driver_id: whose preference this is.
+        condition: driving-condition tag (weather/traffic/road), e.g. ``"default"``.
+        source: ``"predefined"``, ``"irl"`` or ``"adapted"``.
+        created_utc: ISO 8601 creation time.
+        meta: free-form JSON-serialisable metadata.
+    """
+
+    speed_mps: FloatArray
+    gap_m: FloatArray
+    version: int = 0
+    driver_id: str = "guest"
+    condition: str = "default"
+    source: Source = "predefined"
+    created_utc: str = field(default_factory=utc_now_iso)
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        speed = _readonly(self.speed_mps, "speed_mps")
+        gap = _readonly(self.gap_m, "gap_m")
+        _check_structure(speed, gap)
+        if isinstance(self.version, bool) or not isinstance(self.version, int | np.integer):
+            raise DgptError(f"version must be an integer, got {self.version!r}")
+        if self.version < 0:
+            raise DgptError(f"version must be >= 0, got {self.version}")
+        if self.source not in _SOURCES:
+            raise DgptError(f"source must be one of {_SOURCES}, got {self.source!r}")
+        for name in ("driver_id", "condition", "created_utc"):
+            if not isinstance(getattr(self, name), str):
+                raise DgptError(f"{name} must be a string")
+        if not isinstance(self.meta, dict):
+            raise DgptError("meta must be a JSON object")
+        object.__setattr__(self, "speed_mps", speed)
+        object.__setattr__(self, "gap_m", gap)
+        object.__setattr__(self, "version", int(self.version))
+        # Scalar fast path for lookup(): Python floats avoid numpy call overhead per cycle.
+        object.__setattr__(self, "_v0", float(speed[0]))
+        object.__setattr__(self, "_dv", float(speed[1] - speed[0]))
+        object.__setattr__(self, "_gaps", tuple(float(g) for g in gap))
+
+    @property
+    def step_mps(self) -> float:
+        """Speed-axis step, m/s."""
+        return cast(float, self._dv)  # type: ignore[attr-defined]
+
+    @overload
+    def lookup(self, v_mps: float) -> float: ...
+    @overload
+    def lookup(self, v_mps: FloatArray) -> FloatArray: ...
+    def lookup(self, v_mps: float | FloatArray) -> float | FloatArray:
+        """Desired gap (m) at speed ``v_mps``: linear interpolation, ends held.
+
+        A Python/NumPy scalar gives a float (a fast path used by the control loop); an array
+        of any shape gives an array of the same shape. A NaN speed gives NaN.
+        """
+        if isinstance(v_mps, np.ndarray):
+            return cast(FloatArray, np.interp(v_mps, self.speed_mps, self.gap_m))
+        gaps: tuple[float, ...] = self._gaps  # type: ignore[attr-defined]
+        v0: float = self._v0  # type: ignore[attr-defined]
+        dv: float = self._dv  # type: ignore[attr-defined]
+        x = (float(v_mps) - v0) / dv
+        if not x > 0.0:
+            return gaps[0] if x <= 0.0 else math.nan
+        last = len(gaps) - 1
+        if x >= last:
+            return gaps[last]
+        i = int(x)
+        f = x - i
+        return gaps[i] + f * (gaps[i + 1] - gaps[i])
+
+    def slope(self, v_mps: float) -> float:
+        """d(gap)/d(speed) of the interpolant at ``v_mps``, in s (0 beyond the axis ends)."""
+        gaps: tuple[float, ...] = self._gaps  # type: ignore[attr-defined]
+        v0: float = self._v0  # type: ignore[attr-defined]
+        dv: float = self._dv  # type: ignore[attr-defined]
+        x = (float(v_mps) - v0) / dv
+        last = len(gaps) - 1
+        if not 0.0 <= x < last:
+            return 0.0
+        i = int(x)
+        return (gaps[i + 1] - gaps[i]) / dv
+
+    def with_gaps(
+        self,
+        gap_m: FloatArray,
+        source: Source = "adapted",
+        *,
+        created_utc: str | None = None,
+        meta: dict[str, Any] | None = None,
+    ) -> Dgpt:
+        """A copy with new gaps (shape ``(n,)``), ``version + 1`` and the given source.
+
+        ``meta`` replaces the metadata when given (default: a copy of this table's).
+        """
+        return Dgpt(
+            speed_mps=self.speed_mps,
+            gap_m=np.asarray(gap_m, dtype=np.float64).copy(),
+            version=self.version + 1,
+            driver_id=self.driver_id,
+            condition=self.condition,
+            source=source,
+            created_utc=created_utc if created_utc is not None else utc_now_iso(),
+            meta=dict(self.meta) if meta is None else dict(meta),
+        )
+
+    def check_bounds(self, bounds: SafetyBounds | None = None) -> None:
+        """Raise :class:`DgptError` if any gap lies outside ``bounds`` (default bounds)."""
+        check_bounds(self.speed_mps, self.gap_m, bounds if bounds is not None else SafetyBounds())
+
+    def to_json_dict(self) -> dict[str, Any]:
+        """The JSON object of this table (format ``pacc.dgpt/1``)."""
+        return {
+            "format": FORMAT_TAG,
+            "driver_id": self.driver_id,
+            "condition": self.condition,
+            "source": self.source,
+            "version": self.version,
+            "created_utc": self.created_utc,
+            "speed_mps": [float(v) for v in self.speed_mps],  # exact: bounds are re-checked
+            "gap_m": [float(g) for g in self.gap_m],
+            "meta": self.meta,
+        }
+
+
+def predefined(
+    headway_s: float,
+    standstill_m: float = 4.0,
+    driver_id: str = "guest",
+    *,
+    condition: str = "default",
+    step_mps: float = DEFAULT_STEP_MPS,
+    bounds: SafetyBounds | None = None,
+    created_utc: str | None = None,
+) -> Dgpt:
+    """A constant-time-headway table: ``gap(v) = standstill_m + headway_s * v``.
+
+    The paper's settings are 1 s (low), 3 s (medium) and 4 s (high); any headway whose table
+    stays within ``bounds`` is accepted, anything else raises :class:`DgptError`.
+    """
+    if not (math.isfinite(headway_s) and math.isfinite(standstill_m)):
+        raise DgptError(f"headway and standstill must be finite: {headway_s}, {standstill_m}")
+    speed = speed_axis(step_mps)
+    gap = standstill_m + headway_s * speed
+    b = bounds if bounds is not None else SafetyBounds()
+    try:
+        check_bounds(speed, gap, b)
+    except DgptError as exc:
+        raise DgptError(f"predefined table {headway_s:g} s + {standstill_m:g} m: {exc}") from None
+    return Dgpt(
+        speed_mps=speed,
+        gap_m=gap,
+        version=0,
+        driver_id=driver_id,
+        condition=condition,
+        source="predefined",
+        created_utc=created_utc if created_utc is not None else utc_now_iso(),
+        meta={"headway_s": float(headway_s), "standstill_m": float(standstill_m)},
+    )
+
+
+__all__ = [
+    "Dgpt",
+    "DgptError",
+    "SafetyBounds",
+    "check_bounds",
+    "clamp_to_bounds",
+    "predefined",
+    "speed_axis",
+]

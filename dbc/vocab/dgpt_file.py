@@ -1,0 +1,130 @@
+"""The DGPT file format: a table as one JSON object, on bytes, streams or paths.
+
+A table (:class:`dbc.vocab.dgpt.Dgpt`) is stored as::
+
+    {"format": "pacc.dgpt/1", "driver_id": "d1", "condition": "dry", "source": "irl",
+     "version": 3, "created_utc": "2026-01-01T00:00:00Z",
+     "speed_mps": [0.0, 0.5, ...], "gap_m": [4.0, 4.6, ...], "meta": {...}}
+
+:func:`dgpt_from_bytes` (and :func:`read_dgpt` on a binary stream) validates the format tag,
+the keys, the shapes, the axis, that every value is finite and that every gap lies within
+:class:`dbc.vocab.dgpt.SafetyBounds`; anything else raises :class:`DgptError` naming the
+defect. :func:`dgpt_to_bytes` / :func:`write_dgpt` are the inverse. :func:`load_dgpt` and
+:func:`save_dgpt` are thin path wrappers (the error names the file; the save is atomic).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+
+from dbc.vocab.dgpt import FORMAT_TAG, Dgpt, DgptError, SafetyBounds
+
+
+def dgpt_from_json_dict(obj: Any, bounds: SafetyBounds | None = None) -> Dgpt:
+    """Build and validate a table from its parsed JSON object (see module docstring)."""
+    if not isinstance(obj, dict):
+        raise DgptError("top level is not a JSON object")
+    tag = obj.get("format")
+    if tag != FORMAT_TAG:
+        raise DgptError(f"format tag is {tag!r}, expected {FORMAT_TAG!r}")
+    missing = [k for k in ("speed_mps", "gap_m", "version", "source") if k not in obj]
+    if missing:
+        raise DgptError(f"missing key(s): {', '.join(missing)}")
+    for key in ("speed_mps", "gap_m"):
+        seq = obj[key]
+        if not isinstance(seq, list) or not all(
+            isinstance(x, int | float) and not isinstance(x, bool) for x in seq
+        ):
+            raise DgptError(f"{key} must be a list of numbers")
+    try:
+        speed = np.asarray(obj["speed_mps"], dtype=np.float64)
+        gap = np.asarray(obj["gap_m"], dtype=np.float64)
+    except OverflowError:
+        raise DgptError("speed_mps or gap_m holds a number too large for a float") from None
+    table = Dgpt(
+        speed_mps=speed,
+        gap_m=gap,
+        version=obj["version"],
+        driver_id=obj.get("driver_id", "guest"),
+        condition=obj.get("condition", "default"),
+        source=obj["source"],
+        created_utc=obj.get("created_utc", ""),
+        meta=obj.get("meta", {}),
+    )
+    table.check_bounds(bounds)
+    return table
+
+
+def dgpt_from_bytes(data: bytes, bounds: SafetyBounds | None = None) -> Dgpt:
+    """Parse and validate the bytes of a DGPT JSON file (:class:`DgptError` on any defect;
+    "not valid JSON: ..." or "invalid DGPT: ...")."""
+    try:
+        obj = json.loads(data.decode("utf-8"), parse_constant=float)
+    except (ValueError, RecursionError) as exc:  # JSONDecodeError, int digit limit, nesting
+        raise DgptError(f"not valid JSON: {exc}") from None
+    try:
+        return dgpt_from_json_dict(obj, bounds)
+    except DgptError as exc:
+        raise DgptError(f"invalid DGPT: {exc}") from None
+
+
+def dgpt_to_bytes(table: Dgpt) -> bytes:
+    """The bytes of ``table``'s DGPT JSON file (UTF-8, indented, a final newline)."""
+    return (json.dumps(table.to_json_dict(), indent=1) + "\n").encode("utf-8")
+
+
+def read_dgpt(stream: IO[bytes], bounds: SafetyBounds | None = None) -> Dgpt:
+    """Read and validate a table from a binary stream (to its end)."""
+    return dgpt_from_bytes(stream.read(), bounds)
+
+
+def write_dgpt(table: Dgpt, stream: IO[bytes]) -> None:
+    """Write ``table``'s JSON to a binary stream."""
+    stream.write(dgpt_to_bytes(table))
+
+
+def load_dgpt(path: str | os.PathLike[str], bounds: SafetyBounds | None = None) -> Dgpt:
+    """Read and validate a DGPT JSON file; :class:`DgptError` names the file and the defect."""
+    p = Path(path)
+    try:
+        raw = p.read_bytes()
+    except OSError as exc:
+        raise DgptError(f"{p}: cannot read: {exc.strerror or exc}") from None
+    try:
+        return dgpt_from_bytes(raw, bounds)
+    except DgptError as exc:
+        raise DgptError(f"{p}: {exc}") from None
+
+
+def save_dgpt(table: Dgpt, path: str | os.PathLike[str]) -> None:
+    """Write ``table`` as JSON to ``path`` atomically (temp file + rename)."""
+    p = Path(path)
+    data = dgpt_to_bytes(table)
+    tmp: str | None = None
+    try:
+        # a temp file of its own per writer, so two processes saving one path cannot collide
+        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        Path(tmp).replace(p)
+    except OSError as exc:
+        if tmp is not None:
+            Path(tmp).unlink(missing_ok=True)
+        raise DgptError(f"{p}: cannot write: {exc.strerror or exc}") from None
+
+
+__all__ = [
+    "dgpt_from_bytes",
+    "dgpt_from_json_dict",
+    "dgpt_to_bytes",
+    "load_dgpt",
+    "read_dgpt",
+    "save_dgpt",
+    "write_dgpt",
+]

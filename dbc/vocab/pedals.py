@@ -1,0 +1,70 @@
+"""The driver's pedals as fractions 0..1, scaled once from the vehicle network.
+
+The network carries the accelerator as a position in % and the brake as the master-cylinder
+pressure in bar; the ECU's inputs, its takeover logs and the simulator's trip logs all state
+the pedals as fractions of full scale. Full scale is the upper bound of the bound field in the
+DBC (``PEDAL_Status.AccelPedalPos`` 100 %, ``PEDAL_Status.BrakePressure`` 250 bar in
+``dbc/pacc.dbc``), so one pedal has one value whoever writes the trip.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from dbc.vocab import FormatError
+
+if TYPE_CHECKING:
+    from dbc.codec import Codec
+
+#: the pedals role and its fields in the binding table
+PEDALS_ROLE = "pedals"
+ACCEL_FIELD = "accel_pedal_pct"
+BRAKE_FIELD = "brake_pressure_bar"
+
+
+@dataclass(frozen=True, slots=True)
+class PedalScale:
+    """Full-scale values of the pedal fields.
+
+    Attributes:
+        accel_full_pct: accelerator position that counts as fully pressed, %.
+        brake_full_bar: brake pressure that counts as fully pressed, bar.
+    """
+
+    accel_full_pct: float
+    brake_full_bar: float
+
+    def __post_init__(self) -> None:
+        for name in ("accel_full_pct", "brake_full_bar"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise FormatError(f"PedalScale.{name} must be finite and > 0, got {value}")
+
+    @classmethod
+    def from_codec(cls, codec: Codec) -> PedalScale:
+        """Full scale = the DBC maximum of each bound pedal field (a network without a brake
+        pressure signal reports 0 bar: its full scale is then 1 bar, the fraction 0)."""
+        pedals = codec.roles[PEDALS_ROLE]
+        brake = pedals.part_of(BRAKE_FIELD)
+        return cls(
+            accel_full_pct=pedals.bounds(ACCEL_FIELD)[1],
+            brake_full_bar=1.0 if brake is None else brake.bounds(BRAKE_FIELD)[1],
+        )
+
+    def accel(self, pct: float) -> float:
+        """Accelerator fraction 0..1 of a position in % (NaN stays NaN)."""
+        return _unit(pct / self.accel_full_pct)
+
+    def brake(self, bar: float) -> float:
+        """Brake fraction 0..1 of a pressure in bar (NaN stays NaN)."""
+        return _unit(bar / self.brake_full_bar)
+
+
+def _unit(x: float) -> float:
+    """``x`` clipped to [0, 1]; NaN passes through (the caller's validity checks see it)."""
+    return 0.0 if x < 0.0 else (1.0 if x > 1.0 else x)
+
+
+__all__ = ["ACCEL_FIELD", "BRAKE_FIELD", "PEDALS_ROLE", "PedalScale"]

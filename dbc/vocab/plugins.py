@@ -1,0 +1,117 @@
+"""Finding methods by name: built-ins, Python entry points and ``module:attribute``.
+
+Three kinds of method plug into pacc, each behind a small interface of its own room:
+
+==================  =======================================  ==============================
+group               interface                                built-ins
+==================  =======================================  ==============================
+pacc.controllers    :class:`ecu.methods.GapController`       ``pid``
+pacc.adaptations    :class:`ecu.methods.Adaptation`          ``timegap``, ``paper``, ``bayes``
+pacc.learners       :class:`cloud_sync.learners.Learner`     ``irl``, ``empirical``, ``gp``
+==================  =======================================  ==============================
+
+A method is named by a *spec*: a built-in's name, the name of an entry point of the group
+(a package declares ``[project.entry-points."pacc.controllers"] mine = "pkg.mod:Factory"``),
+or ``pkg.mod:Factory`` directly. What the spec names is a **factory**: a callable taking the
+method's parameters as keyword arguments (a class does) and returning the method object.
+
+This module only finds factories; each room checks what they return and guards the calls
+(:mod:`ecu.methods.guard` for the control loop). Lookups of entry points are cached.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from functools import lru_cache
+from importlib.metadata import entry_points
+from typing import Any
+
+from dbc.vocab import FormatError
+
+GROUPS: tuple[str, ...] = ("pacc.controllers", "pacc.adaptations", "pacc.learners")
+
+
+class PluginError(FormatError):
+    """A method spec that names nothing loadable (unknown name, import error, not callable)."""
+
+
+@dataclass(frozen=True)
+class Found:
+    """One method that a spec can name: its name, where it comes from, its target."""
+
+    name: str
+    origin: str  # "built-in" or the distribution that declares the entry point
+    target: str  # "module:attribute"
+
+
+@lru_cache(maxsize=8)
+def _entry_points(group: str) -> dict[str, tuple[str, str]]:
+    """name -> (target, distribution) of the installed entry points of ``group``."""
+    found: dict[str, tuple[str, str]] = {}
+    for ep in entry_points(group=group):
+        dist = ep.dist.name if ep.dist is not None else "?"
+        found.setdefault(ep.name, (ep.value, dist))
+    return found
+
+
+def load_target(target: str) -> Any:
+    """The object at ``"module:attribute"`` (dotted attributes allowed); PluginError if none."""
+    module_name, sep, attr = target.partition(":")
+    if not sep or not module_name or not attr:
+        raise PluginError(f"{target!r} is not 'module:attribute'")
+    try:
+        obj: Any = importlib.import_module(module_name)
+        for part in attr.split("."):
+            obj = getattr(obj, part)
+    except (ImportError, AttributeError) as exc:
+        raise PluginError(f"cannot load {target!r}: {exc}") from exc
+    return obj
+
+
+def resolve(group: str, spec: str, builtins: Mapping[str, str]) -> Callable[..., Any]:
+    """The factory a spec names in ``group``: a built-in (``builtins``: name -> target), an
+    installed entry point, or ``module:attribute``. PluginError naming what exists if none."""
+    if group not in GROUPS:
+        raise PluginError(f"unknown plug-in group {group!r}: one of {GROUPS}")
+    name = spec.strip()
+    if name in builtins:
+        target = builtins[name]
+    elif name in _entry_points(group):
+        target = _entry_points(group)[name][0]
+    elif ":" in name:
+        target = name
+    else:
+        known = sorted({*builtins, *_entry_points(group)})
+        raise PluginError(
+            f"no {group.split('.')[-1][:-1]} {spec!r}: one of {', '.join(known)} "
+            "or 'module:attribute'"
+        )
+    factory = load_target(target)
+    if not callable(factory):
+        raise PluginError(f"{spec!r} ({target}) is not callable")
+    return factory  # type: ignore[no-any-return]
+
+
+def build(group: str, spec: str, builtins: Mapping[str, str], params: Mapping[str, Any]) -> Any:
+    """The method object: the factory of ``spec`` called with ``params``; PluginError if the
+    factory refuses them."""
+    factory = resolve(group, spec, builtins)
+    try:
+        return factory(**dict(params))
+    except (TypeError, ValueError, FormatError) as exc:
+        raise PluginError(f"{spec!r} refused its parameters {dict(params)}: {exc}") from exc
+
+
+def installed(group: str, builtins: Mapping[str, str]) -> list[Found]:
+    """Every method of ``group``: the built-ins, then the entry points (a name taken by a
+    built-in shadows an entry point of that name)."""
+    out = [Found(name, "built-in", target) for name, target in builtins.items()]
+    for name, (target, dist) in sorted(_entry_points(group).items()):
+        if name not in builtins:
+            out.append(Found(name, dist, target))
+    return out
+
+
+__all__ = ["GROUPS", "Found", "PluginError", "build", "installed", "load_target", "resolve"]

@@ -1,0 +1,301 @@
+"""One drive with a person at the pedals: world + bus + ECU, stepped in lockstep or real time.
+
+:class:`HilDrive` is the wiring of :func:`pacc.study.drive.run_drive` with the synthetic
+driver replaced by :class:`~pacc.hil.human.HumanPedals`: the world, the simulator's bus
+node (PEDAL frames like any other), and by default the ordinary ECU in-process on a private
+python-can ``virtual`` channel, stepped to the simulator's time. With ``bus`` given (``pacc hil
+-i/-c``) there is no ECU here: a separate ``pacc ecu`` on that bus drives the car.
+
+:meth:`HilDrive.step` is one plant tick (10 ms). :class:`RealtimeRunner` calls it on a thread
+paced to the wall clock (pausable: a lost browser pauses the world); lockstep callers (the
+page's ``step`` messages, tests) call it themselves, so a scripted participant gives the same
+drive with or without a browser.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import itertools
+import math
+import threading
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import can
+import numpy as np
+
+from dbc.vocab.acc_state import AccState
+from dbc.vocab.dgpt import Dgpt
+from dbc.vocab.pedals import PedalScale
+from dbc.vocab.triplog import Trip
+from ecu import EcuError
+from ecu.buslog.format import TimeBase
+from ecu.buslog.sinks import Sink
+from ecu.buslog.writer import CanLogWriter
+from ecu.node import EcuNode
+from ecu.runtime import EcuRuntime
+from pacc.hil.human import HumanPedals
+from pacc.study.drive import SET_SPEED_MPS, DriveConfig, _ecu_node, drive_codec
+from pacc.study.drive_recording import WorldFeed, drive_recorder, finish_recording
+from sim_bus.drivers import DriverParams
+from sim_bus.faults import fault_rng
+from sim_bus.lead.profile import LeadProfile
+from sim_bus.node import SimNode
+from sim_bus.trip import world_trip
+from sim_bus.world import World, WorldConfig, WorldLog
+
+_channels = itertools.count()
+
+
+@dataclass
+class DriveOutcome:
+    """What a finished (or abandoned) drive left: its log, figures and ECU counters."""
+
+    log: WorldLog
+    collision: bool
+    collision_t_s: float | None
+    takeovers: int
+    adaptations: int
+    final_table: Dgpt | None
+    sim_s: float
+    wall_s: float
+    start_utc: str
+    segments: list[Trip] = field(default_factory=list)
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+class HilDrive:
+    """One drive: ``profile`` followed by a person, the ECU driving with ``table``.
+
+    ``cfg``: the drive's controller, seed and network (:class:`DriveConfig`); ``acc``: False
+    for a manual drive (main switch off, buttons locked). ``bus``: an open python-can bus to a
+    separate ECU, which the drive shuts when it closes (None: the in-process ECU on
+    ``virtual``). ``can_log``: record the bus, the
+    ECU's internals and the world to this MCAP file (in-process ECU only).
+    """
+
+    def __init__(
+        self,
+        cfg: DriveConfig,
+        participant: DriverParams,
+        table: Dgpt,
+        profile: LeadProfile,
+        *,
+        acc: bool = True,
+        bus: can.BusABC | None = None,
+        can_log: Path | None = None,
+        record_channel: str | None = None,
+        live: Sequence[Sink] = (),
+    ) -> None:
+        self.cfg = cfg
+        self.participant = participant
+        self.profile = profile
+        self.acc = acc
+        self.table = table  # what the in-process ECU starts the drive with
+        self.pedals = HumanPedals(main_on=acc, locked=not acc, gap_setting=2)
+        self.world = World(
+            participant, profile, cfg.seed, WorldConfig(engage_s=cfg.engage_s), pedals=self.pedals
+        )
+        self.codec = drive_codec(cfg)
+        self.segments: list[Trip] = []
+        self.base = TimeBase(time.time_ns(), 0.0)
+        self._own_buses: list[can.BusABC] = []
+        self.ecu: EcuNode | None = None
+        self.rt: EcuRuntime | None = None
+        self.recorder: CanLogWriter | None = None
+        #: the world streamed to a live view as it runs (None: written at the end)
+        self._feed: WorldFeed | None = None
+        if bus is None:
+            channel = record_channel or f"pacc-hil-{next(_channels)}-{id(self):x}"
+            bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
+            ecu_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
+            self._own_buses = [bus, ecu_bus]
+            self.ecu = _ecu_node(cfg, participant, table, profile, self.segments.append)
+            self.rt = EcuRuntime(ecu_bus, self.ecu, codec=self.codec)
+            if can_log is not None or live:
+                self.recorder = drive_recorder(
+                    can_log, cfg, self.ecu, table, self.codec, self.base, live
+                )
+                self.rt.record_to(self.recorder)
+                if live:
+                    self._feed = WorldFeed(self.recorder, self.world)
+        else:
+            self._own_buses = [bus]
+        self.node = SimNode(bus, self.world, codec=self.codec, rng=fault_rng(cfg.seed))
+        self.dt_s = self.world.cfg.plant.dt_s
+        self.wall_s = 0.0
+        self._prev_state = AccState.OFF
+        self._prev_tor = False
+        #: takeover cues so far (the ECU asked for one, or a takeover began: the ACC left
+        #: ACTIVE for OVERRIDE, STANDBY or FAULT); the page chimes when it grows
+        self.cues = 0
+        self.closed = False
+
+    @property
+    def done(self) -> bool:
+        """The profile ended or the car hit the lead."""
+        return self.world.done
+
+    def step(self) -> None:
+        """One plant tick: the pedals, the simulator node (bus in/out, world), then the ECU."""
+        self.pedals.tick(self.dt_s)
+        now = self.node.t_s
+        self.node.step()
+        if self.rt is not None:
+            self.rt.advance_to(now)
+        if self._feed is not None:
+            self._feed()
+        state = self.node.acc_state
+        tor = self.node.takeover_request
+        if (tor and not self._prev_tor) or (
+            self._prev_state == AccState.ACTIVE and state != AccState.ACTIVE
+        ):
+            self.cues += 1  # the ECU asks for a takeover, or the ACC stops driving
+        self._prev_state, self._prev_tor = AccState(state), tor
+
+    def run_lockstep(
+        self, policy: Callable[[HilDrive], None] | None = None, every: int = 10
+    ) -> None:
+        """Step to the end; ``policy(self)`` (a scripted participant) every ``every`` ticks."""
+        start = time.perf_counter()
+        while not self.done:
+            if policy is not None and self.node.tick % every == 0:
+                policy(self)
+            self.step()
+        self.wall_s += time.perf_counter() - start
+
+    def snapshot(self) -> dict[str, Any]:
+        """What the page shows (never the controller: the drives are blind)."""
+        w = self.world
+        car = w.plant
+        status = self.node.status or {}
+        set_speed = status.get("set_speed_mps", SET_SPEED_MPS if self.acc else 0.0)
+        return {
+            "t": round(w.t_s, 3),
+            "duration": self.profile.duration_s,
+            "v": car.v_mps,
+            "gap": car.gap_m,
+            "v_lead": w.v_lead_mps,
+            "a_lead": w.a_lead_mps2,
+            "acc_state": AccState(self.node.acc_state).name,
+            "set_speed": float(set_speed) if _finite(set_speed) else 0.0,
+            "gap_setting": self.pedals.gap_setting,
+            "main": self.pedals.main_on,
+            "accel": self.pedals.accel,
+            "brake": self.pedals.brake,
+            "cues": self.cues,
+            "collided": car.collided,
+            "acc": self.acc,
+        }
+
+    def finish(self) -> DriveOutcome:
+        """Close the buses and the recording; the drive's outcome (call once)."""
+        log = self.world.log()
+        extra: dict[str, Any] = {}
+        if self.ecu is not None:
+            self.ecu.finish()
+        if self.recorder is not None:
+            err = finish_recording(self.recorder, log, streamed=self._feed is not None)
+            if err:
+                extra["can_log_error"] = err
+        self.close()
+        car = self.world.plant
+        return DriveOutcome(
+            log=log,
+            collision=car.collided,
+            collision_t_s=car.collision_t_s,
+            takeovers=self.ecu.takeovers if self.ecu else 0,
+            adaptations=self.ecu.adaptations if self.ecu else 0,
+            final_table=self.ecu.table if self.ecu else None,
+            sim_s=self.world.t_s,
+            wall_s=self.wall_s,
+            start_utc=self.base.iso(0.0),
+            segments=list(self.segments),
+            extra=extra,
+        )
+
+    def close(self) -> None:
+        """Shut the buses this drive opened (idempotent); a recording left open is closed."""
+        if self.closed:
+            return
+        self.closed = True
+        for bus in self._own_buses:
+            bus.shutdown()
+        if self.recorder is not None and not self.recorder.closed:
+            with contextlib.suppress(EcuError, OSError):
+                self.recorder.close()
+
+    def trip(self, outcome: DriveOutcome, meta: dict[str, Any]) -> Trip:
+        """The drive as a trip log (10 Hz); a manual drive's ``mode`` is ``manual``."""
+        trip = world_trip(outcome.log, self.participant, PedalScale.from_codec(self.codec), meta)
+        if not self.acc:
+            trip = dataclasses.replace(trip, meta={**trip.meta, "mode": "manual"})
+        return trip
+
+
+class RealtimeRunner:
+    """Steps a :class:`HilDrive` on a thread at its tick, paced to the wall clock.
+
+    :attr:`paused` (set from any thread) holds the world still; the tick lateness against
+    the schedule is kept (``lateness_s``, the last 10 000 ticks) for the jitter benchmark.
+    """
+
+    def __init__(self, drive: HilDrive, on_done: Callable[[], None] | None = None) -> None:
+        self.drive = drive
+        self.paused = False
+        self.lateness_s: list[float] = []
+        self._stop = threading.Event()
+        self._on_done = on_done
+        self.latest: dict[str, Any] = drive.snapshot()
+        self.thread = threading.Thread(target=self._run, name="pacc-hil-world", daemon=True)
+
+    def start(self) -> None:
+        """Start the world's thread."""
+        self.thread.start()
+
+    def stop(self) -> None:
+        """Stop the thread (the drive is left as it is) and wait for it."""
+        self._stop.set()
+        if self.thread.is_alive() and threading.current_thread() is not self.thread:
+            self.thread.join(5.0)
+
+    def _run(self) -> None:
+        drive = self.drive
+        dt = drive.dt_s
+        due = time.perf_counter()
+        while not self._stop.is_set() and not drive.done:
+            if self.paused:
+                time.sleep(0.01)
+                due = time.perf_counter()
+                continue
+            late = time.perf_counter() - due
+            start = time.perf_counter()
+            drive.step()
+            drive.wall_s += time.perf_counter() - start
+            self.latest = drive.snapshot()
+            if len(self.lateness_s) < 10_000:
+                self.lateness_s.append(late)
+            due += dt
+            delay = due - time.perf_counter()
+            if delay > 0:
+                time.sleep(delay)
+            elif delay < -0.25:  # far behind (a stall): start a new schedule, do not race
+                due = time.perf_counter()
+        self.latest = drive.snapshot()
+        if not self._stop.is_set() and self._on_done is not None:
+            self._on_done()
+
+
+def _finite(x: Any) -> bool:
+    return isinstance(x, int | float) and math.isfinite(x)
+
+
+def jitter_p99_ms(lateness_s: list[float]) -> float:
+    """The 99th percentile of the ticks' lateness against their schedule, ms."""
+    if not lateness_s:
+        return math.nan
+    return float(np.percentile(np.asarray(lateness_s) * 1000.0, 99))

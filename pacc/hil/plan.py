@@ -1,0 +1,120 @@
+"""The paper's protocol for one participant, and its counterbalancing (pure functions).
+
+A session is a list of :class:`Step`: consent, a practice drive, the four manual (ACC off)
+drives manual1..manual4, the IRL table learned in the cloud, a break, then the four
+controllers × Scenarios A and B in the participant's row of a balanced Latin square, a break
+half way. Drives are blind: a step's ``label`` (what the page shows) never names the controller.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from pacc.study.drive import CONTROLLERS
+from pacc.study.irl_table import MANUAL_PROFILES
+from sim_bus.errors import SimError
+
+#: the eight ACC conditions of Table I, (controller, scenario)
+CONDITIONS: tuple[tuple[str, str], ...] = tuple((c, s) for s in ("A", "B") for c in CONTROLLERS)
+#: step kinds: consent, drive (practice, manual or ACC), learn, break, done
+KINDS = ("consent", "drive", "learn", "break", "done")
+
+
+@dataclass(frozen=True)
+class Step:
+    """One step of a session. ``id`` names its files; ``label`` is what the page shows.
+
+    Drives: ``scenario`` (a canonical profile), ``controller`` (None: manual, ACC off),
+    ``practice`` (not part of the study's figures).
+    """
+
+    id: str
+    kind: str
+    label: str
+    scenario: str = ""
+    controller: str | None = None
+    practice: bool = False
+
+
+def balanced_latin_square(n: int, row: int) -> list[int]:
+    """Row ``row`` (any integer, taken mod n, or mod 2n for odd n) of a balanced Latin square
+    of order ``n`` (Williams 1949): over n rows (2n for odd n) each condition comes once in
+    every position and directly follows every other condition equally often."""
+    if n < 1:
+        raise ValueError(f"a Latin square has order >= 1, got {n}")
+    first = [0]
+    lo, hi = 1, n - 1
+    for k in range(1, n):
+        if k % 2 == 1:
+            first.append(lo)
+            lo += 1
+        else:
+            first.append(hi)
+            hi -= 1
+    rows = n if n % 2 == 0 else 2 * n
+    r = row % rows
+    seq = [(c + r) % n for c in first]
+    return seq if r < n else seq[::-1]
+
+
+def participant_index(participant: str) -> int:
+    """The participant's number, from the digits of its id (``P07`` -> 7)."""
+    digits = re.findall(r"\d+", participant)
+    if not digits:
+        raise SimError(f"participant id {participant!r} has no number: use e.g. P01")
+    return int(digits[-1])
+
+
+def acc_order(participant: str) -> list[tuple[str, str]]:
+    """The participant's order of the eight (controller, scenario) conditions: row
+    ``number - 1`` of the balanced Latin square of order 8."""
+    row = balanced_latin_square(len(CONDITIONS), participant_index(participant) - 1)
+    return [CONDITIONS[i] for i in row]
+
+
+def paper_plan(participant: str, incremental: int = 0) -> list[Step]:
+    """The paper's session for one participant (see the module docstring); ``incremental``:
+    then that many IRL + OA drives on Scenario B, the cloud fine-tuning the table between them
+    (the paper's incremental learning; steps ``inc1``..)."""
+    if incremental < 0:
+        raise SimError(f"incremental drives: a count >= 0, got {incremental}")
+    steps = [
+        Step("consent", "consent", "Consent"),
+        Step("practice", "drive", "Practice drive", "manual4", "predefined", practice=True),
+    ]
+    for k, name in enumerate(MANUAL_PROFILES, 1):
+        steps.append(Step(name, "drive", f"Manual drive {k} of 4 (cruise control off)", name))
+    steps.append(Step("learn", "learn", "Learning your driving style"))
+    steps.append(Step("break1", "break", "Break"))
+    order = acc_order(participant)
+    total = len(order) + incremental
+    for k, (controller, scenario) in enumerate(order, 1):
+        steps.append(
+            Step(f"acc{k}-{scenario}", "drive", f"Drive {k} of {total}", scenario, controller)
+        )
+        if k == len(order) // 2:
+            steps.append(Step("break2", "break", "Break"))
+    if incremental:
+        steps.append(Step("break3", "break", "Break"))
+    for k in range(1, incremental + 1):
+        label = f"Drive {len(order) + k} of {total}"
+        steps.append(Step(f"inc{k}-B", "drive", label, "B", "irl+oa"))
+    steps.append(Step("done", "done", "Thank you"))
+    return steps
+
+
+def free_plan(scenario: str, controller: str | None) -> list[Step]:
+    """One drive without a study (``pacc hil`` without ``--protocol``)."""
+    return [Step("drive", "drive", "Free drive", scenario, controller), Step("done", "done", "End")]
+
+
+__all__ = [
+    "CONDITIONS",
+    "Step",
+    "acc_order",
+    "balanced_latin_square",
+    "free_plan",
+    "paper_plan",
+    "participant_index",
+]

@@ -1,0 +1,180 @@
+"""Table I from real participants: the session folders of ``pacc hil --protocol paper``.
+
+Each finished ACC drive (``drives/acc*.json``) is one row of the synthetic study's
+``drives.csv`` (driver = participant, trial 1); the table, the averages, the plot and the
+paired tests are the synthetic study's code (:mod:`pacc.study.report`,
+:mod:`pacc.study.stats`). Practice and manual drives are not in the table.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pacc.study.config import StudyConfig
+from pacc.study.drive import CONTROLLERS
+from pacc.study.incremental_report import format_incremental, write_incremental_csv
+from pacc.study.report import (
+    CONTROLLER_TITLES,
+    FIELDS,
+    PAPER_AVERAGES,
+    averages,
+    cell_means,
+    format_table,
+    plot,
+    write_csv,
+)
+from pacc.study.stats import holm, paired_comparison
+from sim_bus.errors import SimError
+
+#: the seed of the bootstrap intervals (a report of the same sessions gives the same figures)
+REPORT_SEED = 0
+
+
+def session_rows(sessions: Path) -> list[dict[str, Any]]:
+    """Every finished ACC drive of every session under ``sessions``, participant order."""
+    rows: list[dict[str, Any]] = []
+    for folder in sorted(p for p in sessions.iterdir() if (p / "manifest.json").is_file()):
+        for path in sorted((folder / "drives").glob("acc*.json")):
+            try:
+                record = json.loads(path.read_text(encoding="utf-8"))
+                row = {k: record["row"][k] for k in FIELDS}
+            except (OSError, ValueError, KeyError, TypeError) as exc:
+                raise SimError(f"{path}: not a drive record ({exc})") from exc
+            rows.append(row)
+    return rows
+
+
+def incremental_rows(sessions: Path) -> list[dict[str, Any]]:
+    """The incremental drives (``drives/inc*.json``) as rows of the synthetic study's
+    incremental report: participant, trip, the DGPT version driven with, PoI, NIM, ..."""
+    rows: list[dict[str, Any]] = []
+    for folder in sorted(p for p in sessions.iterdir() if (p / "manifest.json").is_file()):
+        paths = sorted((folder / "drives").glob("inc*.json"), key=lambda p: _trip_no(p.stem))
+        for path in paths:
+            try:
+                record = json.loads(path.read_text(encoding="utf-8"))
+                row = record["row"]
+                rows.append(
+                    {
+                        "driver": row["driver"],
+                        "trip": _trip_no(path.stem),
+                        "dgpt_version": record["table_version"],
+                        "uploaded": record.get("incremental", {}).get("uploaded", 0),
+                        **{k: row[k] for k in ("poi_pct", "nim_per_min", "takeovers")},
+                        **{k: row[k] for k in ("min_ttc_s", "collision")},
+                    }
+                )
+            except (OSError, ValueError, KeyError, TypeError) as exc:
+                raise SimError(f"{path}: not a drive record ({exc})") from exc
+    return rows
+
+
+def _trip_no(stem: str) -> int:
+    """``inc3-B`` -> 3."""
+    return int(stem[3:].split("-")[0])
+
+
+def complete(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The rows of participants who drove every (controller, scenario) cell."""
+    cells: dict[str, set[tuple[str, str]]] = {}
+    for r in rows:
+        cells.setdefault(str(r["driver"]), set()).add((str(r["scenario"]), str(r["controller"])))
+    full = {d for d, c in cells.items() if len(c) == 2 * len(CONTROLLERS)}
+    return [r for r in rows if r["driver"] in full]
+
+
+def paired_tests(rows: list[dict[str, Any]]) -> list[str]:
+    """Each controller against Predefined on the participants' mean PoI and NIM: mean
+    difference, paired bootstrap 95 % interval, Wilcoxon p (Holm over the family)."""
+    means = cell_means(rows)
+    drivers = sorted({d for d, _, _ in means})
+    per: dict[str, np.ndarray] = {}
+    for c in CONTROLLERS:
+        per[c] = np.array(
+            [[np.mean([means[(d, s, c)][k] for s in ("A", "B")]) for d in drivers] for k in (0, 1)]
+        )
+    rng = np.random.default_rng(REPORT_SEED)
+    results = []
+    for c in CONTROLLERS[1:]:
+        for k, name in ((0, "PoI (points)"), (1, "NIM (/min)")):
+            results.append((c, name, paired_comparison(per["predefined"][k], per[c][k], rng)))
+    adjusted = holm([r[2].p_value for r in results])
+    lines = [f"Paired against Predefined over {len(drivers)} participants:", ""]
+    for (c, name, p), adj in zip(results, adjusted, strict=True):
+        lo, hi = p.ci
+        ci = "n/a" if math.isnan(lo) else f"[{lo:+.1f}, {hi:+.1f}]"
+        lines.append(
+            f"- {CONTROLLER_TITLES[c]} {name}: {p.mean_diff:+.1f} (95 % CI {ci}), "
+            f"Wilcoxon p {p.p_value:.3f} (Holm {adj:.3f}); better/worse/same "
+            f"{p.better}/{p.worse}/{p.ties}"
+        )
+    return lines
+
+
+def read_drives_csv(path: Path) -> list[dict[str, Any]]:
+    """The rows of a synthetic study's ``drives.csv`` (``pacc study``); SimError if none."""
+    try:
+        with path.open(newline="", encoding="utf-8") as fh:
+            rows = [dict(r) for r in csv.DictReader(fh)]
+    except (OSError, UnicodeError, csv.Error) as exc:
+        raise SimError(f"{path}: cannot read a study's drives.csv ({exc})") from exc
+    if not rows or any(k not in rows[0] for k in ("driver", "controller", "poi_pct")):
+        raise SimError(f"{path}: not a study's drives.csv")
+    return rows
+
+
+def side_by_side(people: list[dict[str, Any]], synthetic: list[dict[str, Any]]) -> str:
+    """Markdown: the averages per controller, people beside synthetic drivers and the paper."""
+    ours, syn = averages(cell_means(people)), averages(cell_means(synthetic))
+    lines = [
+        "## People beside synthetic drivers (averages over drivers and scenarios)",
+        "",
+        "| controller | people PoI | NIM | synthetic PoI | NIM | paper PoI | NIM |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    for c in CONTROLLERS:
+        if c in ours and c in syn:
+            (p, n), (sp, sn), (pp, pn) = ours[c], syn[c], PAPER_AVERAGES[c]
+            lines.append(
+                f"| {CONTROLLER_TITLES[c]} | {p:.1f} % | {n:.1f} | {sp:.1f} % | {sn:.1f} "
+                f"| {pp:.1f} % | {pn:.1f} |"
+            )
+    people_n = len({r["driver"] for r in people})
+    syn_n = len({r["driver"] for r in synthetic})
+    lines += ["", f"{people_n} people, {syn_n} synthetic drivers."]
+    return "\n".join(lines) + "\n"
+
+
+def build_table(sessions: Path, out: Path, synthetic: Path | None = None) -> str:
+    """Write ``table1.md``, ``drives.csv`` and ``table1.png`` of the sessions to ``out``;
+    the table's text. ``synthetic``: a ``pacc study`` drives.csv whose averages go beside.
+    SimError when no participant finished every cell."""
+    if not sessions.is_dir():
+        raise SimError(f"{sessions}: not a folder of hil sessions")
+    rows = complete(session_rows(sessions))
+    if not rows:
+        raise SimError(f"{sessions}: no participant has finished all eight ACC drives")
+    drivers = tuple(dict.fromkeys(str(r["driver"]) for r in rows))
+    cfg = StudyConfig(drivers=drivers, trials=1, seed=int(rows[0]["seed"]))
+    text = format_table(cfg, rows).replace(
+        "(synthetic drivers, CAN bus)", "(people in the loop, pacc hil, CAN bus)"
+    )
+    text += "\n" + "\n".join(paired_tests(rows)) + "\n"
+    if synthetic is not None:
+        text += "\n" + side_by_side(rows, read_drives_csv(synthetic))
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "table1.md").write_text(text, encoding="utf-8")
+    write_csv(out / "drives.csv", rows)
+    plot(out / "table1.png", rows)
+    inc = incremental_rows(sessions)
+    if inc:
+        text += "\n" + format_incremental(inc)
+        (out / "table1.md").write_text(text, encoding="utf-8")
+        write_incremental_csv(out / "incremental.csv", inc)
+    return text

@@ -1,0 +1,381 @@
+"""A participant's session: the plan's steps, the drives, the session folder, resumable.
+
+Folder ``OUT/<participant>/``: ``manifest.json`` (plan, finished steps, events such as lost
+connections; rewritten atomically after every change: :mod:`pacc.hil.manifest`),
+``logs/<step>.mcap`` (trip logs), ``can/<step>.mcap`` (bus recordings), ``drives/<step>.json``
+(each drive's figures, its Table I row, pauses), ``tables/`` (the predefined, learned and
+adapted tables), ``ratings.csv`` and the cloud's and spool's folders. A session opened again on
+the same folder continues at the first step not finished (a drive cut off by a crash starts
+over).
+
+:class:`Session` is driven by the page (:mod:`pacc.hil.server`): :meth:`Session.handle`
+takes one message and returns what the page shows next. Thread-safe (one lock).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import can
+
+from dbc.vocab.dgpt import Dgpt
+from dbc.vocab.dgpt_file import load_dgpt, save_dgpt
+from dbc.vocab.triplog import Trip
+from dbc.vocab.triplog_file import read_trip
+from ecu.buslog.live import live_sinks
+from pacc.hil.cloud import fine_tune, learn, open_cloud
+from pacc.hil.loop import HilDrive, RealtimeRunner
+from pacc.hil.manifest import MANIFEST, open_manifest, save_manifest, utc_stamp
+from pacc.hil.plan import Step
+from pacc.hil.records import append_rating, rating, save_record, write_drive
+from pacc.study.drive import DriveConfig, predefined_table, resolve_profile
+from pacc.study.irl_table import MANUAL_PROFILES
+from pacc.study.loop import StudyCloud
+from sim_bus.drivers import DriverParams, PredefinedSetting, load_driver
+from sim_bus.errors import SimError
+from sim_bus.lead.scenarios import shorten
+
+#: the synthetic driver whose body a participant borrows (start gap, predefined setting)
+BODY = "d3"
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class SessionConfig:
+    """How a session runs. ``short_s``: shorten every drive (tests, demos); ``lockstep``:
+    the world advances only on the page's ``step`` messages; ``cloud``: a URL or folder
+    (None: an embedded cloud in the session folder) with ``token_file`` and ``trust``;
+    ``bus``: opens the bus to a separate ECU (None: the in-process ECU); ``setting``: the
+    participant's choice of the Predefined controller's headway (low 1 s, medium 3 s, high
+    4 s)."""
+
+    participant: str
+    protocol: str
+    out: Path
+    seed: int = 0
+    short_s: float | None = None
+    lockstep: bool = False
+    cloud: str | None = None
+    token_file: Path | None = None
+    trust: Path | None = None
+    bus: Callable[[], can.BusABC] | None = None
+    setting: PredefinedSetting = "medium"
+    table: Path | None = None  # the IRL table of a free drive (the protocol learns its own)
+    #: ``HOST:PORT`` of a Foxglove live view of each drive's recording (in-process ECU only)
+    foxglove: str | None = None
+
+
+class Session:
+    """One participant walking through ``plan`` (see the module docstring)."""
+
+    def __init__(self, cfg: SessionConfig, plan: list[Step]) -> None:
+        self.cfg = cfg
+        self.plan = plan
+        self.folder = cfg.out / cfg.participant
+        for sub in ("logs", "can", "drives", "tables"):
+            (self.folder / sub).mkdir(parents=True, exist_ok=True)
+        self.participant: DriverParams = dataclasses.replace(
+            load_driver(BODY), driver_id=cfg.participant, predefined_setting=cfg.setting
+        )
+        self._lock = threading.RLock()
+        self.manifest = self._open_manifest()
+        self.drive: HilDrive | None = None
+        self.runner: RealtimeRunner | None = None
+        self.phase = "ready"  # ready | driving | paused | after | syncing | learning | failed
+        self.message = ""
+        self._conn = 0
+        self.connected = False
+        self._pauses: list[dict[str, Any]] = []
+        self._cloud_link: StudyCloud | None = None
+        self.seq = 0
+
+    # -- manifest ------------------------------------------------------------------------
+    def _open_manifest(self) -> dict[str, Any]:
+        cfg = self.cfg
+        return open_manifest(
+            self.folder / MANIFEST, cfg.participant, cfg.protocol, cfg.seed, cfg.short_s, self.plan
+        )
+
+    def _save(self) -> None:
+        save_manifest(self.folder / MANIFEST, self.manifest)
+        self.seq += 1
+
+    def _at(self) -> str:
+        step = self.current()
+        t = self.drive.world.t_s if self.drive is not None else None
+        return f"{step.id if step else '-'}@{t:.2f}s" if t is not None else "-"
+
+    # -- where we are --------------------------------------------------------------------
+    def current(self) -> Step | None:
+        """The first step not finished (None: the session is complete)."""
+        done = self.manifest["done"]
+        return next((s for s in self.plan if s.id not in done), None)
+
+    def _mark_done(self, step: Step, info: dict[str, Any]) -> None:
+        self.manifest["done"][step.id] = info
+        self._save()
+        self.phase = "ready"
+        self.message = ""
+
+    # -- the page's messages ---------------------------------------------------------------
+    def connect(self) -> int:
+        """A page connected; its connection number. A paused drive waits for ``continue``."""
+        with self._lock:
+            self._conn += 1
+            self.connected = True
+            self.seq += 1
+            return self._conn
+
+    def disconnect(self, conn: int) -> None:
+        """The page ``conn`` went away: a running drive pauses and is marked."""
+        with self._lock:
+            if conn != self._conn:
+                return
+            self.connected = False
+            if self.phase == "driving" and self.drive is not None:
+                self._pause("connection lost")
+
+    def _pause(self, why: str) -> None:
+        assert self.drive is not None
+        if self.runner is not None:
+            self.runner.paused = True
+        self.phase = "paused"
+        self._pauses.append({"t_s": round(self.drive.world.t_s, 3), "why": why})
+        self.manifest["events"].append({"event": why, "at": self._at()})
+        self._save()
+
+    def handle(self, msg: dict[str, Any]) -> dict[str, Any] | None:
+        """One message from the page; the view to send back (None: nothing)."""
+        kind = msg.get("t")
+        with self._lock:
+            drive = self.drive
+            if kind == "in" and drive is not None:
+                if "pa" in msg:
+                    drive.pedals.axes(_num(msg.get("pa")), _num(msg.get("pb")))
+                else:
+                    drive.pedals.keys(bool(msg.get("ka")), bool(msg.get("kb")))
+                return None
+            if kind == "btn" and drive is not None:
+                drive.pedals.press(str(msg.get("name", "")))
+                return None
+            if kind == "step" and drive is not None and self.cfg.lockstep:
+                if self.phase == "driving":
+                    start = time.perf_counter()
+                    for _ in range(max(1, min(int(_num(msg.get("n")) or 10), 1000))):
+                        if drive.done:
+                            break
+                        drive.step()
+                    drive.wall_s += time.perf_counter() - start
+                    if drive.done:
+                        self._end_drive()
+            elif kind == "action":
+                self._action(str(msg.get("name", "")), msg)
+            view = self.view()
+            if "id" in msg:
+                view["id"] = msg["id"]
+            return view
+
+    def view(self) -> dict[str, Any]:
+        """What the page shows: the step (never the controller), the phase, the drive."""
+        with self._lock:
+            step = self.current()
+            drives = [s for s in self.plan if s.kind == "drive"]
+            state = None
+            if self.drive is not None:
+                state = self.runner.latest if self.runner is not None else self.drive.snapshot()
+            return {
+                "t": "view",
+                "seq": self.seq,
+                "step": None if step is None else {"id": step.id, "kind": step.kind},
+                "label": "" if step is None else step.label,
+                "phase": self.phase,
+                "message": self.message,
+                "acc": bool(step is not None and step.controller is not None),
+                "rate": step is not None
+                and step.kind == "drive"
+                and not step.practice
+                and step.controller is not None,
+                "lockstep": self.cfg.lockstep,
+                "progress": [
+                    len([s for s in drives if s.id in self.manifest["done"]]),
+                    len(drives),
+                ],
+                "state": state,
+            }
+
+    def _action(self, name: str, msg: dict[str, Any]) -> None:
+        step = self.current()
+        if step is None:
+            return
+        if name == "consent" and step.kind == "consent":
+            self._mark_done(step, {"consented": True, "at": utc_stamp()})
+        elif name == "continue" and step.kind in ("break", "done"):
+            if step.kind == "break":
+                self._mark_done(step, {})
+        elif name == "start" and step.kind == "drive" and self.phase == "ready":
+            self._start_drive(step)
+        elif name == "start" and step.kind == "learn" and self.phase in ("ready", "failed"):
+            self.phase = "learning"
+            threading.Thread(target=self._learn, args=(step,), daemon=True).start()
+        elif name == "continue" and self.phase == "paused":
+            self.phase = "driving"
+            if self.runner is not None:
+                self.runner.paused = False
+        elif name == "continue" and self.phase == "after" and step.kind == "drive":
+            self._after_drive(step, msg.get("comfort"), msg.get("trust"))
+        self.seq += 1
+
+    # -- drives --------------------------------------------------------------------------
+    def _table(self, step: Step) -> Dgpt:
+        """The table a drive starts with: Predefined's, the learned one, or for the
+        incremental drives the newest fine-tuned version."""
+        tables = self.folder / "tables"
+        if step.controller not in ("irl", "irl+oa"):
+            return predefined_table(self.participant)
+        if self.cfg.table is not None:
+            return load_dgpt(self.cfg.table)
+        if step.id.startswith("inc") and (tables / "irl-latest.json").is_file():
+            return load_dgpt(tables / "irl-latest.json")
+        return load_dgpt(tables / "irl.json")
+
+    def new_drive(self, step: Step, *, can_log: Path | None = None) -> HilDrive:
+        """The drive of ``step`` (its profile, controller, table), not started."""
+        profile = resolve_profile(step.scenario, self.cfg.seed)
+        if self.cfg.short_s is not None:
+            profile = shorten(profile, self.cfg.short_s)
+        cfg = DriveConfig(
+            scenario=step.scenario,
+            driver_id=self.cfg.participant,
+            controller=step.controller or "predefined",  # type: ignore[arg-type]
+            seed=self.cfg.seed + _trip_of(step),  # the incremental trips: fresh plant noise
+        )
+        bus = self.cfg.bus() if self.cfg.bus is not None else None
+        return HilDrive(
+            cfg,
+            self.participant,
+            self._table(step),
+            profile,
+            acc=step.controller is not None,
+            bus=bus,
+            can_log=None if bus is not None else can_log,
+            live=live_sinks(self.cfg.foxglove, log.info) if bus is None else [],
+        )
+
+    def _start_drive(self, step: Step) -> None:
+        self.drive = self.new_drive(step, can_log=self.folder / "can" / f"{step.id}.mcap")
+        self._pauses = []
+        self.phase = "driving"
+        if not self.cfg.lockstep:
+            self.runner = RealtimeRunner(self.drive, on_done=self._runner_done)
+            self.runner.start()
+
+    def _runner_done(self) -> None:
+        with self._lock:
+            if self.drive is not None and self.drive.done:
+                self._end_drive()
+
+    def _end_drive(self) -> None:
+        step = self.current()
+        drive = self.drive
+        assert step is not None and drive is not None
+        outcome = drive.finish()
+        self.message = (
+            f"The drive ended in a collision at {outcome.collision_t_s:.1f} s."
+            if outcome.collision and outcome.collision_t_s is not None
+            else ""
+        )
+        record = write_drive(
+            self.folder, step, drive, outcome, seed=self.cfg.seed, pauses=self._pauses
+        )
+        self.seq += 1
+        if step.id.startswith("inc") and outcome.final_table is not None:
+            self.phase = "syncing"  # the takeovers go up, the fine-tuned table comes down
+            args = (step, record, outcome.segments, drive.table)
+            threading.Thread(target=self._sync, args=args, daemon=True).start()
+        else:
+            self.phase = "after"
+
+    def _after_drive(self, step: Step, comfort: Any, trust: Any) -> None:
+        ratings = {"comfort": rating(comfort), "trust": rating(trust)}
+        if step.controller is not None and not step.practice:
+            append_rating(self.folder, self.cfg.participant, step, **ratings)
+        self.drive = None
+        self.runner = None
+        self._mark_done(step, {"ratings": ratings, "at": utc_stamp()})
+
+    # -- the cloud -----------------------------------------------------------------------
+    def _cloud(self) -> StudyCloud:
+        if self._cloud_link is None:
+            remote = None
+            if self.cfg.cloud is not None:
+                if self.cfg.token_file is None or self.cfg.trust is None:
+                    raise SimError("--cloud needs --token-file and --trust")
+                remote = (self.cfg.cloud, self.cfg.token_file, self.cfg.trust)
+            self._cloud_link = open_cloud(self.folder, self.cfg.participant, self.cfg.seed, remote)
+        return self._cloud_link
+
+    def _learn(self, step: Step) -> None:
+        try:
+            trips = [read_trip(self.folder / "logs" / f"{name}.mcap") for name in MANUAL_PROFILES]
+            table, batches = learn(self._cloud(), trips, self.cfg.participant)
+        except Exception as exc:  # noqa: BLE001 - any failure is shown; the step can be retried
+            self._failed(f"learning failed: {exc}")
+            return
+        save_dgpt(table, self.folder / "tables" / "irl.json")
+        save_dgpt(predefined_table(self.participant), self.folder / "tables" / "predefined.json")
+        with self._lock:
+            info = {"batches": batches, "version": table.version, "signed": True, "at": utc_stamp()}
+            self._mark_done(step, info)
+
+    def _sync(self, step: Step, record: dict[str, Any], segments: list[Trip], table: Dgpt) -> None:
+        try:
+            newer, batches = fine_tune(self._cloud(), segments, table)
+        except Exception as exc:  # noqa: BLE001 - shown; the drive's files are kept
+            newer, batches = table, 0
+            with self._lock:
+                self.manifest["events"].append({"event": f"sync failed: {exc}", "at": utc_stamp()})
+        save_dgpt(newer, self.folder / "tables" / "irl-latest.json")
+        record["incremental"] = {"uploaded": batches, "next_version": newer.version}
+        save_record(self.folder, step.id, record)
+        with self._lock:
+            self.phase = "after"
+            self._save()
+
+    def _failed(self, message: str) -> None:
+        with self._lock:
+            self.phase = "failed"
+            self.message = message
+            self.manifest["events"].append({"event": message, "at": utc_stamp()})
+            self._save()
+
+    def close(self) -> None:
+        """Stop a running world (the session stays resumable)."""
+        with self._lock:
+            if self.runner is not None:
+                self.runner.stop()
+            if self.drive is not None:
+                self.drive.close()
+
+
+def _num(x: Any) -> float:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return 0.0
+    return v if math.isfinite(v) else 0.0
+
+
+def _trip_of(step: Step) -> int:
+    """The trip number of an incremental drive (``inc2-B`` -> 2), else 0."""
+    if not step.id.startswith("inc"):
+        return 0
+    return int(step.id[3:].split("-")[0])

@@ -1,0 +1,236 @@
+"""The leaderboard of ``pacc bench``: one line per method, from the drives and held-out rows.
+
+Per method: PoI (%) and NIM (/min) as the mean over drivers of each driver's mean, with a
+bootstrap 95 % interval across drivers and the spread of the per-seed means across the drawn
+populations (each fresh seed one value; the built-in d1..d5 count as drivers, not as a seed);
+the lowest min TTC over every drive and the median of the drivers' lowest; collisions; the
+held-out gap error of the method's learner (mean, and on how many drivers it is at most the
+empirical baseline's, real and drawn separately); the mean learning time. Paired tests
+against the paper's method (IRL + Algorithm 1, ``paper``) on the same drivers: the mean
+difference of the per-driver PoI and NIM, its bootstrap interval and the Wilcoxon p-value,
+Holm-adjusted over the methods (:mod:`pacc.study.stats`).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections import defaultdict
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pacc.study.stats import bootstrap_ci, holm, paired_comparison
+
+PAPER = "paper"
+
+
+def per_driver(rows: Sequence[Mapping[str, Any]], method: str, key: str) -> dict[str, float]:
+    """driver -> the mean of ``key`` over the method's drives of that driver."""
+    acc: dict[str, list[float]] = defaultdict(list)
+    for r in rows:
+        if r["method"] == method:
+            acc[r["driver"]].append(float(r[key]))
+    return {d: float(np.mean(v)) for d, v in acc.items()}
+
+
+def _seed_of(driver: str) -> str:
+    """A drawn driver's population (``p<seed>-NNNN``); "" for the others."""
+    return driver.split("-")[0][1:] if driver.startswith("p") and "-" in driver else ""
+
+
+def _fmt(x: float, ci: tuple[float, float] | None = None, digits: int = 2) -> str:
+    if not math.isfinite(x):
+        return "–"
+    text = f"{x:.{digits}f}"
+    if ci is not None and all(math.isfinite(c) for c in ci):
+        text += f" [{ci[0]:.{digits}f}, {ci[1]:.{digits}f}]"
+    return text
+
+
+def heldout_stats(records: Sequence[Mapping[str, Any]], learner: str) -> dict[str, Any]:
+    """Held-out error of ``learner``: per kind (real, drawn, builtin) the mean error, the
+    baseline's, wins (error <= baseline) and drivers; the mean learning time (s)."""
+    out: dict[str, Any] = {"learn_s": math.nan}
+    times = []
+    for kind in ("real", "drawn", "builtin"):
+        mine, base = [], []
+        for rec in records:
+            if rec["kind"] != kind:
+                continue
+            for row in rec["rows"]:
+                if row["learner"] == learner and "error_m" in row:
+                    mine.append(row["error_m"])
+                    base.append(row["baseline_m"])
+                    times.append(row["learn_s"])
+        m, b = np.asarray(mine), np.asarray(base)
+        out[kind] = {
+            "error_m": float(m.mean()) if m.size else math.nan,
+            "baseline_m": float(b.mean()) if b.size else math.nan,
+            "wins": int(np.sum(m <= b)),
+            "n": int(m.size),
+        }
+    if times:
+        out["learn_s"] = float(np.mean(times))
+    return out
+
+
+def leaderboard(
+    rows: Sequence[Mapping[str, Any]],
+    heldout: Sequence[Mapping[str, Any]],
+    methods: Sequence[Mapping[str, Any]],
+    *,
+    rng_seed: int = 0,
+) -> list[dict[str, Any]]:
+    """One dict per method (the columns of leaderboard.csv), in the order of ``methods``."""
+    rng = np.random.default_rng(rng_seed)
+    board = []
+    paper_poi = per_driver(rows, PAPER, "poi_pct")
+    paper_nim = per_driver(rows, PAPER, "nim_per_min")
+    for m in methods:
+        name = m["name"]
+        line: dict[str, Any] = {
+            "method": name,
+            "table": m["table"],
+            "adaptation": m["adaptation"],
+            "controller": m["controller"],
+        }
+        mine = [r for r in rows if r["method"] == name]
+        line["drives"] = len(mine)
+        for key, short in (("poi_pct", "poi"), ("nim_per_min", "nim")):
+            by_driver = per_driver(rows, name, key)
+            vals = np.asarray(list(by_driver.values()))
+            line[short] = float(vals.mean()) if vals.size else math.nan
+            line[f"{short}_ci"] = bootstrap_ci(vals, rng)
+            seeds: dict[str, list[float]] = defaultdict(list)
+            for d, v in by_driver.items():
+                if _seed_of(d):
+                    seeds[_seed_of(d)].append(v)
+            line[f"{short}_by_seed"] = {s: float(np.mean(v)) for s, v in sorted(seeds.items())}
+        ttc = [float(r["min_ttc_s"]) for r in mine]
+        lowest = list(per_driver_min(mine).values())
+        line["min_ttc"] = min(ttc) if ttc else math.nan
+        line["min_ttc_median"] = float(np.median(lowest)) if lowest else math.nan
+        line["collisions"] = sum(int(r["collision"]) for r in mine)
+        line["plugin_fault_drives"] = sum(1 for r in mine if r["plugin_faults"])
+        line["heldout"] = heldout_stats(heldout, m["table"]) if m["table"] != "predefined" else None
+        for key, short, ref in (("poi_pct", "poi", paper_poi), ("nim_per_min", "nim", paper_nim)):
+            line[f"{short}_vs_paper"] = _paired(ref, per_driver(rows, name, key), rng, name)
+        board.append(line)
+    for short in ("poi", "nim"):
+        tests = [(i, b[f"{short}_vs_paper"]) for i, b in enumerate(board)]
+        live = [(i, t) for i, t in tests if t is not None]
+        for (i, t), p in zip(live, holm([t["p"] for _, t in live]), strict=True):
+            board[i][f"{short}_vs_paper"] = {**t, "p_holm": p}
+    return board
+
+
+def per_driver_min(rows: Sequence[Mapping[str, Any]]) -> dict[str, float]:
+    """driver -> the lowest min TTC of its drives (s)."""
+    out: dict[str, float] = {}
+    for r in rows:
+        out[r["driver"]] = min(out.get(r["driver"], math.inf), float(r["min_ttc_s"]))
+    return out
+
+
+def _paired(
+    ref: Mapping[str, float], mine: Mapping[str, float], rng: np.random.Generator, name: str
+) -> dict[str, Any] | None:
+    if name == PAPER or not ref:
+        return None
+    common = sorted(set(ref) & set(mine))
+    if len(common) < 2:
+        return None
+    res = paired_comparison(np.array([ref[d] for d in common]), np.array([mine[d] for d in common]),
+                            rng)  # fmt: skip
+    return {"diff": res.mean_diff, "ci": res.ci, "p": res.p_value, "better": res.better,
+            "worse": res.worse, "n": len(common)}  # fmt: skip
+
+
+def _heldout_cell(h: Mapping[str, Any] | None, kind: str) -> str:
+    if h is None or not h[kind]["n"]:
+        return "–"
+    k = h[kind]
+    return f"{k['error_m']:.2f} vs {k['baseline_m']:.2f} ({k['wins']}/{k['n']})"
+
+
+def _paired_cell(t: Mapping[str, Any] | None) -> str:
+    if t is None:
+        return "–"
+    lo, hi = t["ci"]
+    return f"{t['diff']:+.2f} [{lo:+.2f}, {hi:+.2f}] p={t.get('p_holm', t['p']):.3f}"
+
+
+def markdown(board: Sequence[Mapping[str, Any]], header: str) -> str:
+    """The leaderboard as Markdown, ``header`` (seeds, sizes) above it."""
+    lines = [header, "",
+             "| method | drives | PoI % [95 % CI drivers] | PoI by seed | NIM /min [CI] | "
+             "min TTC s (lowest / median) | collisions | held-out gap error m vs baseline, "
+             "real (wins/n) | drawn (wins/n) | d1..d5 (wins/n) | learn s | "
+             "ΔPoI vs paper [CI] p(Holm) | ΔNIM vs paper [CI] p(Holm) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+    for b in board:
+        seeds = ", ".join(f"{v:.1f}" for v in b["poi_by_seed"].values()) or "–"
+        h = b["heldout"]
+        lines.append(
+            f"| {b['method']} | {b['drives']} | {_fmt(b['poi'], b['poi_ci'])} | {seeds} | "
+            f"{_fmt(b['nim'], b['nim_ci'])} | {_fmt(b['min_ttc'])} / {_fmt(b['min_ttc_median'])} "
+            f"| {b['collisions']} | {_heldout_cell(h, 'real')} | {_heldout_cell(h, 'drawn')} | "
+            f"{_heldout_cell(h, 'builtin')} | "
+            f"{_fmt(h['learn_s']) if h is not None else '–'} | "
+            f"{_paired_cell(b['poi_vs_paper'])} | {_paired_cell(b['nim_vs_paper'])} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def write_csv(path: Path, board: Sequence[Mapping[str, Any]]) -> None:
+    """The leaderboard flat, one row per method."""
+    cols = ["method", "table", "adaptation", "controller", "drives", "poi", "poi_lo", "poi_hi",
+            "nim", "nim_lo", "nim_hi", "min_ttc", "min_ttc_median", "collisions",
+            "heldout_real_m", "baseline_real_m", "wins_real", "n_real", "heldout_drawn_m",
+            "baseline_drawn_m", "wins_drawn", "n_drawn", "learn_s", "dpoi_vs_paper",
+            "p_poi_holm", "dnim_vs_paper", "p_nim_holm"]  # fmt: skip
+    with path.open("w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(cols)
+        for b in board:
+            h = b["heldout"] or {}
+            real, drawn = h.get("real", {}), h.get("drawn", {})
+            pp, pn = b["poi_vs_paper"] or {}, b["nim_vs_paper"] or {}
+            w.writerow([
+                b["method"], b["table"], b["adaptation"], b["controller"], b["drives"],
+                b["poi"], *b["poi_ci"], b["nim"], *b["nim_ci"], b["min_ttc"],
+                b["min_ttc_median"], b["collisions"], real.get("error_m"),
+                real.get("baseline_m"), real.get("wins"), real.get("n"), drawn.get("error_m"),
+                drawn.get("baseline_m"), drawn.get("wins"), drawn.get("n"), h.get("learn_s"),
+                pp.get("diff"), pp.get("p_holm"), pn.get("diff"), pn.get("p_holm"),
+            ])  # fmt: skip
+
+
+def plot(path: Path, board: Sequence[Mapping[str, Any]]) -> None:
+    """PoI and NIM per method with their intervals across drivers."""
+    import matplotlib  # noqa: PLC0415 - a second of start-up; only the report plots
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt  # noqa: PLC0415
+
+    names = [b["method"] for b in board]
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
+    for ax, short, label in ((axes[0], "poi", "PoI %"), (axes[1], "nim", "NIM /min")):
+        means = np.array([b[short] for b in board], dtype=float)
+        lo = np.array([b[f"{short}_ci"][0] for b in board], dtype=float)
+        hi = np.array([b[f"{short}_ci"][1] for b in board], dtype=float)
+        err = np.vstack([np.nan_to_num(means - lo), np.nan_to_num(hi - means)])
+        ax.bar(range(len(names)), means, yerr=err, capsize=4, color="#4c72b0")
+        ax.set_xticks(range(len(names)), names, rotation=30, ha="right", fontsize=8)
+        ax.set_ylabel(label)
+        ax.grid(axis="y", alpha=0.3)
+    fig.suptitle("pacc bench: mean over drivers, 95 % bootstrap interval")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+__all__ = ["PAPER", "heldout_stats", "leaderboard", "markdown", "plot", "write_csv"]

@@ -1,0 +1,400 @@
+"""One closed-loop drive: the ECU node and the simulator in one process, lockstep, one bus.
+
+:func:`run_drive` is a pure function of (configuration, seed, shipped data): the ECU and
+the simulator each get an end of one python-can bus on a private channel, and time is the
+simulator's (every frame stamped with simulated time). The bus is the ``lockstep`` interface
+(:mod:`dbc.lockstep`: no locks, no waiting) unless ``bus="virtual"`` asks for python-can's
+virtual bus; both carry the same frames with the same timestamps, so a drive gives the same
+results on either. ``pacc drive``
+(:mod:`pacc.commands.drive`) and the study's tasks (:mod:`pacc.study.tasks`) call it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import itertools
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal, get_args
+
+import can
+
+from dbc.codec import Codec, load_codec, network_paths
+from dbc.lockstep import LockstepBus
+from dbc.vocab.dgpt import Dgpt, predefined
+from dbc.vocab.pedals import PedalScale
+from dbc.vocab.triplog import Trip
+from ecu import EcuError
+from ecu.adaptation import AdaptationParams, Decision
+from ecu.buslog.format import TimeBase
+from ecu.buslog.sinks import Sink
+from ecu.buslog.writer import CanLogWriter
+from ecu.node import EcuConfig, EcuNode
+from ecu.runtime import EcuRuntime, RuntimeSummary
+from pacc.study.drive_recording import (
+    MAX_PACE,
+    MIN_PACE,
+    WorldFeed,
+    after_tick,
+    drive_recorder,
+    finish_recording,
+)
+from sim_bus.drivers import GAP_SETTING_CODE, DriverParams
+from sim_bus.errors import DriveError, DriverError, ScenarioError
+from sim_bus.faults import fault_rng, parse_faults
+from sim_bus.lead.events import ROAD_SCENARIOS, road_profile
+from sim_bus.lead.profile import LeadProfile
+from sim_bus.lead.profile_csv import load_profile_csv
+from sim_bus.lead.scenarios import canonical_profiles, shorten
+from sim_bus.metrics import DriveMetrics, SafetyFigures
+from sim_bus.node import SimNode
+from sim_bus.trip import world_trip
+from sim_bus.world import World, WorldConfig, WorldLog
+
+Controller = Literal["predefined", "predefined+oa", "irl", "irl+oa"]
+CONTROLLERS: tuple[str, ...] = get_args(Controller)
+#: ACC set speed in the car-following study: above every lead speed, so the lead governs
+SET_SPEED_MPS = 40.0
+#: creation time of every table a drive makes (predefined, adapted): drives stay pure
+FIXED_UTC = "2000-01-01T00:00:00Z"
+_channel_ids = itertools.count()
+#: the python-can interfaces a drive runs on (the first is the default)
+BUSES: tuple[str, ...] = ("lockstep", "virtual")
+
+
+@dataclass(frozen=True)
+class DriveConfig:
+    """One closed-loop drive (what, with whom, how long, which faults, which brake mode)."""
+
+    scenario: str = "B"
+    driver_id: str = "d1"
+    controller: Controller = "predefined"
+    seed: int = 0
+    duration_s: float | None = None  # None: the whole profile
+    faults: str = ""
+    brake_mode: Literal["resume", "cancel"] = "resume"
+    engage_s: float = 1.5
+    adaptation: AdaptationParams | None = None  # None: the ECU's default AdaptationParams
+    dbc: str | None = None  # the vehicle network's DBC and binding (None: pacc's; docs/vehicles.md)
+    binding: str | None = None
+    #: plug-in methods (:mod:`ecu.methods`; "": the built-ins called directly) and their
+    #: arguments as (name, value) pairs; the adaptation runs only for the +oa controllers
+    gap_controller: str = ""
+    controller_args: tuple[tuple[str, Any], ...] = ()
+    adaptation_method: str = ""
+    adaptation_args: tuple[tuple[str, Any], ...] = ()
+
+
+@dataclass(frozen=True)
+class AdaptationEvent:
+    """One adaptation decision of a drive: when (simulated s), what, and the table after it."""
+
+    t_s: float
+    decision: Decision
+    table: Dgpt
+
+
+@dataclass
+class DriveResult:
+    """What a drive produced: figures, the simulator log, the ECU summary, frame counts."""
+
+    config: DriveConfig
+    metrics: DriveMetrics
+    collision: bool
+    collision_t_s: float | None
+    takeovers: int
+    adaptations: int
+    sim_s: float
+    wall_s: float
+    log: WorldLog
+    summary: RuntimeSummary
+    frames_sent: int
+    frames_faulted: int
+    final_table: Dgpt
+    adaptation_events: list[AdaptationEvent] = field(default_factory=list)
+    extra: dict[str, Any] = field(default_factory=dict)
+    #: UTC of simulated time 0 (ISO 8601): when the drive ran
+    start_utc: str = ""
+    #: the road scenario's events as played: (time s, kind, new gap m or None if skipped)
+    road_events: list[tuple[float, str, float | None]] = field(default_factory=list)
+
+    def safety(self, threshold_s: float = 2.0) -> SafetyFigures:
+        """The drive's time-to-collision exposure (:meth:`WorldLog.safety`), the time after a
+        cut-in that began below ``threshold_s`` of TTC counted apart (``below_cut_in_s``)."""
+        cuts = [t for t, kind, gap in self.road_events if kind == "cut_in" and gap is not None]
+        return self.log.safety(threshold_s, cuts)
+
+    @property
+    def realtime_factor(self) -> float:
+        """Simulated seconds per wall-clock second."""
+        return self.sim_s / self.wall_s if self.wall_s > 0 else math.inf
+
+
+def with_condition(driver: DriverParams, factor: float) -> DriverParams:
+    """The driver under a driving condition: its condition factor multiplied by ``factor``."""
+    if not (math.isfinite(factor) and factor > 0):
+        raise DriverError(f"condition factor must be a positive number, got {factor}")
+    if factor == 1.0:
+        return driver
+    return dataclasses.replace(driver, condition_factor=driver.condition_factor * factor)
+
+
+def predefined_table(driver: DriverParams) -> Dgpt:
+    """The Predefined controller's table: the driver's chosen constant headway, d0 = 4 m."""
+    return predefined(
+        driver.predefined_headway_s, driver_id=driver.driver_id, created_utc=FIXED_UTC
+    )
+
+
+def resolve_profile(scenario: str, seed: int) -> LeadProfile:
+    """A canonical profile name (A, B, manual1..4), a road scenario (cutin, cutout, leadloss,
+    stopgo, C: :mod:`sim_bus.lead.events`) or a CSV file of ``t_s,v_lead_mps``."""
+    if scenario.lower().endswith(".csv"):
+        return load_profile_csv(Path(scenario))
+    if scenario in ROAD_SCENARIOS:
+        return road_profile(scenario, seed)
+    profiles = canonical_profiles(seed)
+    if scenario not in profiles:
+        raise ScenarioError(
+            f"unknown scenario {scenario!r}: one of {sorted(profiles) + list(ROAD_SCENARIOS)} "
+            "or a .csv file"
+        )
+    return profiles[scenario]
+
+
+def run_drive(
+    cfg: DriveConfig,
+    driver: DriverParams,
+    table: Dgpt,
+    profile: LeadProfile | None = None,
+    *,
+    takeover_sink: Any = None,
+    manual_sink: Any = None,
+    record_channel: str | None = None,
+    can_log: Path | None = None,
+    utc_start_ns: int | None = None,
+    live: Sequence[Sink] = (),
+    bus: str = "lockstep",
+    pace: float | None = None,
+) -> DriveResult:
+    """Run one lockstep drive; never raises for a collision (it is reported).
+
+    ``record_channel``: when given, the drive's channel name (so a test can attach a
+    listener that sees every frame); by default a private, unique channel. ``can_log``: record
+    the ECU's bus traffic, its internals and the simulated world to this MCAP file
+    (:mod:`ecu.buslog.writer`), simulated time 0 stamped ``utc_start_ns`` (default: now);
+    ``live``: more sinks of the same channels (a Foxglove live view, :mod:`ecu.buslog.live`).
+    ``bus``: the python-can interface, one of :data:`BUSES` (the same frames on each).
+    ``pace``: times real time (None: as fast as it runs); ``live`` sinks get the world as it
+    runs (:mod:`pacc.study.drive_recording`); neither changes the drive. Ctrl-C ends a
+    paced drive there (``extra["interrupted_at_s"]``, results and recording up to that tick);
+    an unpaced one (a study's) lets the KeyboardInterrupt through.
+    ``takeover_sink`` / ``manual_sink``: the ECU's takeover segments / manual car-following
+    trips (:mod:`ecu.recorder`, :mod:`ecu.manual`; None: not recorded).
+    """
+    _check_drive(cfg, bus, pace)
+    prof = profile or resolve_profile(cfg.scenario, cfg.seed)
+    if cfg.duration_s is not None:
+        prof = shorten(prof, cfg.duration_s)
+    faults = parse_faults(cfg.faults)
+    codec = drive_codec(cfg)
+    rng = fault_rng(cfg.seed)
+    world = World(driver, prof, cfg.seed, WorldConfig(engage_s=cfg.engage_s))
+    channel = record_channel or f"pacc-drive-{id(cfg):x}-{next(_channel_ids)}"
+    ecu = _ecu_node(cfg, driver, table, prof, takeover_sink, manual_sink)
+    sim_bus = _open_bus(bus, channel)
+    ecu_bus = _open_bus(bus, channel)
+    base = TimeBase(time.time_ns() if utc_start_ns is None else utc_start_ns, 0.0)
+    recorder: CanLogWriter | None = None
+    can_log_error: str | None = None
+    interrupted_at: float | None = None
+    feed: WorldFeed | None = None
+    try:
+        rt = EcuRuntime(ecu_bus, ecu, codec=codec)
+        if can_log is not None or live:
+            recorder = drive_recorder(can_log, cfg, ecu, table, codec, base, live)
+            rt.record_to(recorder)
+            feed = WorldFeed(recorder, world) if live else None
+        node = SimNode(
+            sim_bus,
+            world,
+            codec=codec,
+            faults=faults,
+            rng=rng,
+            gap_setting=GAP_SETTING_CODE[driver.predefined_setting],
+        )
+        start = time.perf_counter()
+        events: list[AdaptationEvent] = []
+        try:
+            _lockstep(node, rt, ecu, world, events, after_tick(feed, pace))
+        except KeyboardInterrupt:
+            if pace is None:
+                raise  # a study's drive: its harness handles Ctrl-C
+            interrupted_at = world.t_s
+        wall = time.perf_counter() - start
+        ecu.finish()
+        summary = rt.summary()
+        log = world.log()
+        can_log_error = (
+            finish_recording(recorder, log, streamed=feed is not None)
+            if recorder is not None
+            else None
+        )
+    finally:
+        sim_bus.shutdown()
+        ecu_bus.shutdown()
+        if recorder is not None and not recorder.closed:  # the drive failed: keep what ran
+            with contextlib.suppress(EcuError, OSError):
+                recorder.close()
+    return DriveResult(
+        config=cfg,
+        metrics=log.metrics(),
+        collision=world.plant.collided,
+        collision_t_s=world.plant.collision_t_s,
+        takeovers=ecu.takeovers,
+        adaptations=ecu.adaptations,
+        sim_s=world.t_s,
+        wall_s=wall,
+        log=log,
+        summary=summary,
+        frames_sent=node.frames_sent,
+        frames_faulted=node.frames_faulted,
+        final_table=ecu.table,
+        adaptation_events=events,
+        start_utc=base.iso(0.0),
+        road_events=list(world.events_log),
+        extra=_extra(ecu, can_log_error, interrupted_at),
+    )
+
+
+def _check_drive(cfg: DriveConfig, bus: str, pace: float | None) -> None:
+    """Raise DriveError for an unknown bus or controller, a negative seed, a bad pace."""
+    if bus not in BUSES:
+        raise DriveError(f"bus must be one of {', '.join(BUSES)}, got {bus!r}")
+    if cfg.controller not in CONTROLLERS:
+        raise DriveError(f"controller must be one of {CONTROLLERS}")
+    if cfg.seed < 0:
+        raise DriveError(f"seed must be >= 0, got {cfg.seed}")
+    if pace is not None and not MIN_PACE <= pace <= MAX_PACE:
+        raise DriveError(f"pace must be within {MIN_PACE:g}..{MAX_PACE:g}, got {pace}")
+
+
+def _extra(ecu: EcuNode, can_log_error: str | None, interrupted_at: float | None) -> dict[str, Any]:
+    """:attr:`DriveResult.extra`: the recording's failure, the simulated time (s) Ctrl-C ended
+    a paced drive at, the ECU's manual trips (with a manual sink: it wrote those it could)."""
+    extra: dict[str, Any] = {"can_log_error": can_log_error} if can_log_error else {}
+    if interrupted_at is not None:
+        extra["interrupted_at_s"] = interrupted_at
+    if ecu.manual is not None:
+        extra["manual_trips"] = ecu.manual.trips
+    return extra
+
+
+def _open_bus(interface: str, channel: str) -> can.BusABC:
+    """One end of the drive's bus: frames keep the simulated time they were stamped with."""
+    if interface == "virtual":
+        return can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
+    return LockstepBus(channel=channel)
+
+
+def drive_codec(cfg: DriveConfig) -> Codec:
+    """The codec of the drive's vehicle network (``cfg.dbc``/``cfg.binding``), loaded once.
+
+    Raises:
+        DbcError: the network cannot be loaded (a BindingError for a DBC without binding).
+    """
+    return load_codec(*network_paths(cfg.dbc, cfg.binding))
+
+
+def _ecu_node(
+    cfg: DriveConfig,
+    driver: DriverParams,
+    table: Dgpt,
+    prof: LeadProfile,
+    takeover_sink: Any,
+    manual_sink: Any = None,
+) -> EcuNode:
+    """The ECU of a drive: ``cfg``'s controller and adaptation; the road's set speed, else
+    the study's (above every lead speed)."""
+    scenario = prof.name
+    ecu_cfg = EcuConfig(
+        adaptation=cfg.controller.endswith("+oa"),
+        brake_mode=cfg.brake_mode,
+        adaptation_params=cfg.adaptation or AdaptationParams(),
+        set_speed_mps=prof.set_speed_mps or SET_SPEED_MPS,
+        trip_meta={
+            "driver_id": driver.driver_id,
+            "seed": cfg.seed,
+            "scenario": scenario,
+            "controller": cfg.controller,
+        },
+        gap_controller=cfg.gap_controller,
+        controller_args=dict(cfg.controller_args),
+        adaptation_method=cfg.adaptation_method,
+        adaptation_args=dict(cfg.adaptation_args),
+    )
+    # adapted tables get a fixed creation time: the drive stays a pure function of its inputs
+    return EcuNode(
+        ecu_cfg,
+        table,
+        takeover_sink=takeover_sink,
+        utc_now=lambda: FIXED_UTC,
+        manual_sink=manual_sink,
+    )
+
+
+def _lockstep(
+    node: SimNode,
+    rt: EcuRuntime,
+    ecu: EcuNode,
+    world: World,
+    events: list[AdaptationEvent],
+    after: Callable[[float], None] | None = None,
+) -> None:
+    """Step the simulator and then the ECU to the same instant until the world is done; the
+    adaptation decisions appended to ``events``, each traced when its takeover ends (what an
+    interrupted drive traced is kept). ``after(t_s)`` after each tick (a live view's world
+    feed, a pacer)."""
+    step = node.step
+    advance = rt.advance_to
+    last = ecu.last_decision
+    while not world.done:
+        now = node.t_s
+        step()
+        advance(now)
+        if ecu.last_decision is not last:  # a takeover ended: trace its decision
+            last = ecu.last_decision
+            if last is not None:
+                events.append(AdaptationEvent(now, last, ecu.table))
+        if after is not None:
+            after(world.t_s)
+
+
+def log_to_trip(result: DriveResult, driver: DriverParams) -> Trip:
+    """The drive's log as an ACC trip at 10 Hz (sim_bus.trip), with the drive's figures."""
+    metrics = {k: (v if math.isfinite(v) else None) for k, v in result.metrics.as_dict().items()}
+    meta: dict[str, Any] = {
+        "scenario": result.config.scenario,
+        "seed": result.config.seed,
+        "controller": result.config.controller,
+        "faults": result.config.faults,
+        "collision": result.collision,
+        "metrics": metrics,
+        "takeovers": result.takeovers,
+        "adaptations": result.adaptations,
+        "source": "pacc.study.drive",
+        "start_utc": result.start_utc,
+    }
+    pedals = PedalScale.from_codec(drive_codec(result.config))
+    return world_trip(result.log, driver, pedals, meta)
+
+
+def adaptation_params(mode: str | None) -> AdaptationParams | None:
+    """The adaptation parameters of ``--adaptation-mode`` (None: the ECU's defaults)."""
+    if mode is None:
+        return None
+    return AdaptationParams(mode=mode)  # type: ignore[arg-type]

@@ -1,0 +1,191 @@
+"""A drive's bus recording and live view: opened on the ECU's port, the simulated world
+streamed as it runs or added at the end, the lockstep loop held to the wall clock.
+
+A lockstep drive runs hundreds of times faster than real time and writes the simulated world
+(``/sim/world``) after its last tick: fine for a recording file, useless to a person watching
+the loop in Foxglove (``--foxglove``). So, for a live view:
+
+- :class:`WorldFeed` samples the world's new rows into the recorder as the drive runs, and
+  ``/sim/world`` reaches the live sinks with the frames (``pacc drive``, ``pacc sim``,
+  ``pacc hil``);
+- :class:`Pacer` holds a lockstep loop to ``pace`` times real time (``pacc drive --pace``;
+  1 by default with ``--foxglove``).
+
+Neither changes the drive: the same frames, the same rows (tested). Without a live view the
+world is written at the end in one call (:func:`record_world`), as it always was.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from dbc.codec import Codec
+from dbc.vocab import FormatError
+from dbc.vocab.dgpt import Dgpt
+from ecu import EcuError
+from ecu.buslog.format import WORLD_TOPIC, TimeBase
+from ecu.buslog.recording import open_recording
+from ecu.buslog.sinks import Sink
+from ecu.buslog.writer import CanLogWriter
+from ecu.node import EcuNode
+from sim_bus.world import WORLD_COLUMNS, World, WorldLog
+
+if TYPE_CHECKING:
+    from _typeshed import DataclassInstance
+
+__all__ = [
+    "MAX_PACE",
+    "MIN_PACE",
+    "RESYNC_S",
+    "WORLD_DESCRIPTION",
+    "Pacer",
+    "WorldFeed",
+    "after_tick",
+    "drive_recorder",
+    "finish_recording",
+    "record_world",
+]
+
+#: the description of the ``/sim/world`` channel
+WORLD_DESCRIPTION = "the simulated world: plant, lead, driver"
+#: the paces a drive may be held to, times real time (1e-3: 1 s of drive per 17 min)
+MIN_PACE, MAX_PACE = 1e-3, 1e6
+#: a paced loop this far behind (s of wall time) starts again from where it is (no burst)
+RESYNC_S = 0.25
+
+
+def drive_recorder(
+    path: Path | None,
+    cfg: DataclassInstance,
+    ecu: EcuNode,
+    table: Dgpt,
+    codec: Codec,
+    base: TimeBase,
+    live: Sequence[Sink] = (),
+) -> CanLogWriter:
+    """The bus recorder of a drive: the ECU's port, simulated time on ``base``; the drive's
+    configuration ``cfg`` (a dataclass) in the recording's metadata."""
+    # a setting left at its default (None) is absent, never the string 'None'
+    settings = {k: str(v) for k, v in dataclasses.asdict(cfg).items() if v is not None}
+    return open_recording(
+        path,
+        codec,
+        base,
+        node="drive",
+        config=ecu.config,
+        table=table,
+        metadata={"drive": settings},
+        sinks=live,
+    )
+
+
+def finish_recording(recorder: CanLogWriter, log: WorldLog, streamed: bool = False) -> str | None:
+    """Add the world to the recording (unless a :class:`WorldFeed` ``streamed`` it) and close
+    it; the failure's text (None: written). A failed recording does not cost the drive's
+    results."""
+    try:
+        if not streamed:
+            record_world(recorder, log)
+        recorder.close()
+    except (EcuError, FormatError, OSError) as exc:
+        return str(exc)
+    return None
+
+
+def record_world(recorder: CanLogWriter, log: WorldLog) -> None:
+    """The simulated world of a finished drive (:class:`WorldLog`) on ``/sim/world``, at once."""
+    columns = {name: getattr(log, name) for name in WORLD_COLUMNS}
+    recorder.series(WORLD_TOPIC, WORLD_COLUMNS, WORLD_DESCRIPTION)
+    recorder.write_series(WORLD_TOPIC, columns, log.t_s)
+
+
+class WorldFeed:
+    """``/sim/world`` sampled into ``recorder`` while ``world`` runs: call it after each tick
+    (or before the next, and once after the last).
+
+    One row per driver step (20 Hz), the columns and values :func:`record_world` writes
+    after a drive; the recorder sends them with its next rows (every 0.2 s of the node's
+    clock with a live view). A drive fed this way must not also call :func:`record_world`
+    (:func:`finish_recording` with ``streamed``), or its rows would be written twice.
+    """
+
+    def __init__(self, recorder: CanLogWriter, world: World) -> None:
+        self.recorder = recorder
+        self.world = world
+        #: the world's rows sampled so far
+        self.rows = 0
+        recorder.series(WORLD_TOPIC, WORLD_COLUMNS, WORLD_DESCRIPTION)
+
+    def __call__(self) -> None:
+        """Sample the rows the world logged since the last call."""
+        rows = self.world.logged_since(self.rows)
+        if not rows:
+            return
+        if self.recorder.error is not None or self.recorder.closed:
+            self.rows += len(rows)
+            return  # a stopped recording takes nothing (its close says why)
+        sample = self.recorder.sample
+        for row in rows:
+            sample(WORLD_TOPIC, float(row[0]), tuple(float(x) for x in row[1:]))
+            self.rows += 1  # counted once written: an interrupt between rows loses none
+
+
+class Pacer:
+    """Hold a loop to ``pace`` times real time: call it with the simulated time (s) each tick.
+
+    The first call sets the origin; later calls sleep while the simulation is ahead of
+    ``pace`` × the wall time since. A loop that falls more than :data:`RESYNC_S` behind (a
+    stalled machine) goes on at the pace from where it is, as the HIL loop does: a viewer
+    sees a pause, not a burst that catches up.
+
+    Args:
+        pace: times real time, within :data:`MIN_PACE`..:data:`MAX_PACE`.
+        clock: the wall clock, s (monotonic).
+        sleep: waits that many s.
+
+    Raises:
+        ValueError: ``pace`` is out of range.
+    """
+
+    def __init__(
+        self,
+        pace: float,
+        clock: Callable[[], float] = time.perf_counter,
+        sleep: Callable[[float], None] = time.sleep,
+    ) -> None:
+        if not MIN_PACE <= pace <= MAX_PACE:
+            raise ValueError(f"pace must be within {MIN_PACE:g}..{MAX_PACE:g}, got {pace}")
+        self.pace = pace
+        self.clock = clock
+        self.sleep = sleep
+        self._origin: float | None = None
+
+    def __call__(self, sim_s: float) -> None:
+        """Wait until the wall clock reaches ``sim_s`` (s of simulated time) at the pace."""
+        now = self.clock()
+        ahead = math.nan if self._origin is None else self._origin + sim_s / self.pace - now
+        if not ahead >= -RESYNC_S:  # the first call, or too far behind: start from here
+            self._origin = now - sim_s / self.pace
+        elif ahead > 0:
+            self.sleep(ahead)
+
+
+def after_tick(feed: WorldFeed | None, pace: float | None) -> Callable[[float], None] | None:
+    """What a live or paced drive does after each tick, given the simulated time (s); None
+    when it does nothing (the fast loop)."""
+    pacer = Pacer(pace) if pace is not None else None
+    if feed is None:
+        return pacer
+    if pacer is None:
+        return lambda _t_s: feed()
+
+    def after(t_s: float) -> None:
+        feed()
+        pacer(t_s)
+
+    return after

@@ -1,0 +1,247 @@
+"""The study through the vehicle–cloud loop, and the paper's incremental learning measured.
+
+:class:`StudyCloud` is the study's vehicle: each driver's manual trips go through the spool and
+the uploader into the cloud (embedded under ``OUT/cloud`` by default, or a running
+``pacc cloud serve``), the cloud learns the driver's table, and the IRL controllers drive with
+the table the vehicle downloaded and verified (signature and safety bounds).
+
+:func:`run_incremental` is the paper's incremental learning, which the paper describes but
+never measures: N consecutive IRL + OA trips per driver; after each trip the takeover segments
+sync up, a trip report follows (ACC-on time, the version driven, the segments' digests: the
+cloud's own per-trip learning curve, ``cloud_sync.service.trips``), the cloud fine-tunes (a
+served cloud is waited for until its job is idle), and the next trip starts from the version it
+downloads. One row per (driver, trip): the table version it drove with, PoI, NIM, takeovers.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+import threading
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from cloud_sync.api import CloudApi, CloudError
+from cloud_sync.engine.base import Engine
+from cloud_sync.errors import CloudSyncError
+from cloud_sync.service.local import LocalCloud
+from cloud_sync.service.rules import CloudService, DeferredExecutor, ServiceConfig
+from cloud_sync.signing import load_public_key
+from cloud_sync.vehicle.connect import connect, read_token
+from cloud_sync.vehicle.download import ProfileDownloader
+from cloud_sync.vehicle.spool import Spool
+from cloud_sync.vehicle.uploader import Uploader, UploaderConfig
+from dbc.vocab.dgpt import Dgpt
+from dbc.vocab.triplog import Trip
+from pacc.study.config import StudyConfig
+from pacc.study.drive import DriveConfig, run_drive
+from pacc.study.irl_table import manual_trips
+from pacc.study.tasks import manual_trips_task
+from sim_bus.drivers import DriverParams
+from sim_bus.errors import SimError
+from sim_bus.lead.scenarios import canonical_profiles
+
+#: the vehicle id the study registers in its embedded cloud
+STUDY_VEHICLE = "study"
+#: how long the study waits for a cloud that does not answer, s
+SYNC_TIMEOUT_S = 120.0
+
+
+@dataclass
+class StudyCloud:
+    """The study's link to a cloud: upload trips, download verified tables."""
+
+    api: CloudApi
+    downloader: ProfileDownloader
+    spool: Spool
+    #: the digests of the batches of the last :meth:`upload`
+    last_digests: list[str] = field(default_factory=list)
+
+    @classmethod
+    def embedded(
+        cls,
+        out: Path,
+        drivers: Mapping[str, DriverParams],
+        seed: int,
+        compute: Engine | None = None,
+    ) -> StudyCloud:
+        """A fresh embedded cloud under ``out/cloud`` (a previous study's is replaced) with
+        the study's vehicle and every driver registered. ``compute``: where its learning jobs
+        train (None: in this thread); a distributed engine trains as many drivers at once as
+        it has workers."""
+        for folder in (out / "cloud", out / "spool"):
+            shutil.rmtree(folder, ignore_errors=True)
+        threads = compute.workers if compute is not None and compute.distributed else 1
+        service = CloudService.open(
+            out / "cloud", DeferredExecutor(threads), ServiceConfig(seed=seed), compute
+        )
+        token = service.register_vehicle(STUDY_VEHICLE)
+        for driver_id in drivers:
+            service.register_driver(STUDY_VEHICLE, driver_id)
+        public = load_public_key(service.public_key_pem())
+        api = LocalCloud(service, token)
+        return cls(
+            api, ProfileDownloader(api, public, out / "spool" / "profiles"), Spool(out / "spool")
+        )
+
+    @classmethod
+    def remote(cls, target: str, token_file: Path, trust: Path, out: Path) -> StudyCloud:
+        """A running cloud (URL) or another folder; the drivers must be registered there
+        to the vehicle of ``token_file`` (``pacc cloud register``)."""
+        try:
+            api = connect(target, read_token(token_file))
+            public = load_public_key(trust)
+        except CloudSyncError as exc:
+            raise SimError(f"study cloud: {exc}") from exc
+        return cls(
+            api, ProfileDownloader(api, public, out / "spool" / "profiles"), Spool(out / "spool")
+        )
+
+    def upload(self, trips: list[Trip]) -> int:
+        """Spool ``trips`` and upload until the spool is empty; the batches uploaded.
+
+        Raises:
+            SimError: the cloud refused a batch, or did not take them in SYNC_TIMEOUT_S.
+        """
+        self.last_digests = [self.spool.put_trip(trip).digest for trip in trips]
+        uploader = Uploader(self.spool, self.api, UploaderConfig(backoff_max_s=5.0))
+        timer = threading.Timer(SYNC_TIMEOUT_S, uploader.stop)
+        timer.start()
+        try:
+            done = uploader.drain()
+        finally:
+            timer.cancel()
+        if uploader.stats.rejected or self.spool.pending():
+            raise SimError(
+                f"study cloud: {uploader.stats.rejected} batch(es) refused, "
+                f"{len(self.spool.pending())} not taken (see {self.spool.root})"
+            )
+        return done
+
+    def report_trip(self, report: dict[str, Any]) -> None:
+        """Report one ACC trip to the cloud (``cloud_sync.service.trips``), after its takeover
+        segments were uploaded: the dashboard's per-trip learning curve.
+
+        Raises:
+            SimError: the cloud refused the report or could not be reached.
+        """
+        try:
+            self.api.report_trip(report)
+        except CloudError as exc:
+            raise SimError(f"study cloud: trip report refused: {exc}") from exc
+
+    def table(self, driver_id: str, condition: str) -> Dgpt | None:
+        """The newest verified table of the driver, downloaded now or the last good one."""
+        try:
+            self.api.wait_learned(driver_id, condition, SYNC_TIMEOUT_S)  # a served cloud
+            fresh = self.downloader.fetch(driver_id, condition)
+        except CloudError as exc:  # fetch reports, but a bug must not pass silently
+            raise SimError(f"study cloud: {exc}") from exc
+        return fresh or self.downloader.last_good(driver_id, condition)
+
+    def refusals(self) -> list[str]:
+        """Why downloaded tables were refused, if any."""
+        return list(self.downloader.report.refusals)
+
+
+def cloud_irl_tables(
+    cloud: StudyCloud,
+    drivers: Mapping[str, DriverParams],
+    seed: int,
+    engine: Engine | None = None,
+) -> dict[str, Dgpt]:
+    """Driver id -> the IRL table the vehicle downloaded after uploading the manual trips.
+    Every driver's trips go up first (in driver order), so an embedded cloud with a
+    distributed engine learns the drivers side by side at the first download; a distributed
+    ``engine`` also drives the manual trips."""
+    made: dict[int, list[Trip]] = {}
+    if engine is not None and engine.distributed:
+        made = dict(engine.map_unordered(manual_trips_task, seed, list(drivers.values())))
+    conditions: dict[str, str] = {}
+    for index, (driver_id, driver) in enumerate(drivers.items()):
+        trips = made.pop(index) if index in made else manual_trips(driver, seed)
+        cloud.upload(trips)
+        conditions[driver_id] = str(trips[0].meta.get("condition", "default"))
+    tables: dict[str, Dgpt] = {}
+    for driver_id, condition in conditions.items():
+        table = cloud.table(driver_id, condition)
+        if table is None:
+            raise SimError(
+                f"study cloud: no usable table for {driver_id} after its manual trips "
+                f"({'; '.join(cloud.refusals()) or 'the cloud learned none'})"
+            )
+        tables[driver_id] = table
+    return tables
+
+
+def _report_trip(cloud: StudyCloud, table: Dgpt, run: DriveConfig, acc_on_s: float) -> None:
+    """Report the trip just driven (``run``, with ``table``, ``acc_on_s`` s of ACC on) and
+    the takeover segments just uploaded: a point of the cloud's per-trip learning curve."""
+    report: dict[str, Any] = {
+        "driver_id": run.driver_id,
+        "condition": table.condition,
+        "dgpt_version": table.version,
+        "acc_on_s": acc_on_s,
+        "segments": cloud.last_digests,
+    }
+    # the trip's id: the same drive again (a rerun against the same cloud) is the same
+    # report, a drive of another seed or length a new trip
+    drive = {**report, "seed": run.seed, "duration_s": run.duration_s}
+    digest = hashlib.sha256(json.dumps(drive, sort_keys=True).encode()).hexdigest()
+    cloud.report_trip({**report, "trip_id": f"study-s{run.seed}-{digest[:16]}"})
+
+
+def run_incremental(
+    cfg: StudyConfig,
+    drivers: Mapping[str, DriverParams],
+    cloud: StudyCloud,
+    tables: Mapping[str, Dgpt],
+) -> list[dict[str, Any]]:
+    """``cfg.incremental`` consecutive IRL + OA trips per driver on scenario B (trip k with
+    noise seed ``cfg.seed + k``); after each, its takeovers go up and the next trip drives
+    with the fine-tuned version downloaded. Rows in (driver, trip) order."""
+    profile = canonical_profiles(cfg.seed)["B"]
+    rows: list[dict[str, Any]] = []
+    for driver_id, driver in drivers.items():
+        table = tables[driver_id]
+        for trip in range(cfg.incremental):
+            segments: list[Trip] = []
+            run_cfg = DriveConfig(
+                scenario="B",
+                driver_id=driver_id,
+                controller="irl+oa",
+                seed=cfg.seed + trip,
+                duration_s=cfg.duration_s,
+                adaptation=cfg.adaptation,
+                dbc=cfg.dbc,
+                binding=cfg.binding,
+            )
+            result = run_drive(
+                run_cfg, driver, table, profile, takeover_sink=segments.append, bus=cfg.bus
+            )
+            m = result.metrics
+            uploaded = cloud.upload(segments)
+            _report_trip(cloud, table, run_cfg, m.acc_on_s)
+            rows.append(
+                {
+                    "driver": driver_id,
+                    "trip": trip + 1,
+                    "dgpt_version": table.version,
+                    "poi_pct": m.poi_pct,
+                    "nim_per_min": m.nim_per_min,
+                    "takeovers": result.takeovers,
+                    "uploaded": uploaded,
+                    "min_ttc_s": m.min_ttc_s,
+                    "collision": int(result.collision),
+                }
+            )
+            newer = cloud.table(driver_id, table.condition)
+            if newer is not None and newer.version > table.version:
+                table = newer
+    return rows
+
+
+__all__ = ["STUDY_VEHICLE", "StudyCloud", "cloud_irl_tables", "run_incremental"]
