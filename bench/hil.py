@@ -109,9 +109,9 @@ def run_split(presses: int, out: Path) -> dict[str, Any]:
             time.sleep(0.01)
         codec = session.drive.codec
 
-        def tap(t: float, msg: Any, rx: bool) -> None:
+        def tap(t: float, key: int, data: Any, rx: bool) -> None:
             if not rx:
-                d = codec.decode(msg.arbitration_id, msg.data)
+                d = codec.decode(key, data)
                 if d.role == "pedals":
                     hits.append((time.perf_counter(), int(d.values["accel_pressed"])))
 
@@ -154,10 +154,10 @@ def run(presses: int, out: Path) -> dict[str, Any]:
             assert drive is not None and session.runner is not None
             codec = drive.codec
 
-            def tap(t: float, msg: Any, rx: bool) -> None:
+            def tap(t: float, key: int, data: Any, rx: bool) -> None:
                 if rx:
                     return
-                d = codec.decode(msg.arbitration_id, msg.data)
+                d = codec.decode(key, data)
                 if d.role == "pedals":
                     hits.append((time.perf_counter(), int(d.values["accel_pressed"])))
 

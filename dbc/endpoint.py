@@ -16,15 +16,13 @@ import can
 from dbc.codec import Codec, RoleCodec
 from dbc.e2e import E2EReceiver, E2EStatus
 from dbc.errors import CrcError, DbcError, DecodeError, DlcError, EncodeError, RangeError
-from dbc.frame import EFF_FLAG, ID_MASK, OTHER, raw_key
-from dbc.frame import Frame as Frame  # re-exported: the class moved to dbc.frame
+from dbc.frame import EFF_FLAG, ID_MASK, OTHER, message_of, raw_key
 from dbc.message import Decoded, MessageCodec, Value
 
 #: Pseudo-role under which frames of no bound message are counted.
 UNKNOWN_ROLE = "?"
 
 
-_new_frame = Frame.__new__
 _OK = E2EStatus.OK
 
 
@@ -37,30 +35,11 @@ def _status_of(exc: DecodeError) -> E2EStatus:
     return E2EStatus.OUT_OF_RANGE
 
 
-def new_frame(frame_id: int, extended: bool, data: bytes | bytearray, timestamp: float) -> Frame:
-    """A data :class:`Frame` (what ``Frame(arbitration_id=..., data=..., ...)`` gives, the
-    payload copied into a new bytearray), built without the generic constructor's checks."""
-    m = _new_frame(Frame)
-    m.timestamp = timestamp
-    m.arbitration_id = frame_id
-    m.is_extended_id = extended
-    m.is_remote_frame = False
-    m.is_error_frame = False
-    m.channel = None
-    m.dlc = len(data)
-    m.data = bytearray(data)
-    m.is_fd = False
-    m.is_rx = True
-    m.bitrate_switch = False
-    m.error_state_indicator = False
-    return m
-
-
 class _Route:
     """What the Inbox needs of one received frame id, found with one lookup: the message's
     decoder, its E2E receiver, its role, whether the role is merged over several messages."""
 
-    __slots__ = ("mc", "decode", "receiver", "role", "merged", "extended")
+    __slots__ = ("mc", "decode", "receiver", "role", "merged")
 
     def __init__(self, mc: MessageCodec, receiver: E2EReceiver, merged: bool) -> None:
         self.mc = mc
@@ -68,7 +47,6 @@ class _Route:
         self.receiver = receiver
         self.role = mc.role
         self.merged = merged
-        self.extended = mc.is_extended
 
 
 class Inbox:
@@ -108,14 +86,11 @@ class Inbox:
                 self._merge[role] = rc
                 self._partial[role] = {}
                 self._seen[role] = set()
-        #: frame id -> everything its frames need (one lookup per frame)
+        #: frame key (the id with the IDE bit, :func:`dbc.frame.raw_key`) -> everything its
+        #: frames need (one lookup per frame)
         self._routes: dict[int, _Route] = {
-            fid: _Route(mc, self.receivers[mc.key], mc.role in self._merge)
+            raw_key(fid, mc.is_extended): _Route(mc, self.receivers[mc.key], mc.role in self._merge)
             for fid, mc in self._by_id.items()
-        }
-        #: the same by raw key (the id with the IDE bit, :func:`dbc.frame.raw_key`)
-        self._raw_routes: dict[int, _Route] = {
-            raw_key(fid, r.extended): r for fid, r in self._routes.items()
         }
         #: the E2E receivers of each role's messages (freshness)
         self._role_receivers: dict[str, tuple[E2EReceiver, ...]] = {
@@ -141,19 +116,30 @@ class Inbox:
             out[(UNKNOWN_ROLE, status)] += n
         return out
 
-    def accept(self, frame_id: int, data: bytes | bytearray, now_s: float) -> Decoded | None:
-        """Check one frame received at ``now_s`` (s); return it if usable, else None.
+    def accept(self, key: int, data: Any, now_s: float) -> Decoded | None:
+        """Check one frame received at ``now_s`` (s): ``key`` and ``data`` as
+        :mod:`dbc.frame` gives them (the id with the IDE bit and the payload; for
+        :data:`~dbc.frame.OTHER`, the message). Return it if usable, else None.
 
-        Never raises for bad input: unknown ids, wrong DLC, wrong CRC, out-of-range values,
-        repeated counters and old frames out of sequence are dropped and counted in
-        :attr:`counts`.
+        Never raises for bad input: unknown ids (an IDE bit other than the DBC's makes
+        another frame), wrong DLC, wrong CRC, out-of-range values, repeated counters and old
+        frames out of sequence are dropped and counted in :attr:`counts`; error and remote
+        frames are counted as WRONG_DLC of the unknown role.
         """
         self.frames_in += 1
-        route = self._routes.get(frame_id)
+        route = self._routes.get(key)
         if route is None:
-            if frame_id not in self.codec.by_id:
-                self._unknown[E2EStatus.UNKNOWN_ID] += 1
-            return None
+            if key == OTHER:  # not a plain data frame: an FD frame or an odd DLC is decoded
+                if data.is_error_frame or data.is_remote_frame:
+                    self._unknown[E2EStatus.WRONG_DLC] += 1
+                    return None
+                key, data = raw_key(data.arbitration_id, data.is_extended_id), data.data
+                route = self._routes.get(key)
+            if route is None:
+                mc = self.codec.by_id.get(key & ID_MASK)
+                if mc is None or mc.is_extended != (key >= EFF_FLAG):
+                    self._unknown[E2EStatus.UNKNOWN_ID] += 1
+                return None
         return self._take(route, data, now_s)
 
     def _take(self, route: _Route, data: bytes | bytearray, now_s: float) -> Decoded | None:
@@ -201,52 +187,6 @@ class Inbox:
         seen.add(mc.key)
         if len(seen) == len(self._keys[role]):
             self._latest[role] = {**self._merge[role].defaults, **partial}
-
-    def accept_message(self, msg: can.Message, now_s: float | None = None) -> Decoded | None:
-        """:meth:`accept` for a python-can message (its timestamp if ``now_s`` is None).
-
-        Error and remote frames are dropped and counted as WRONG_DLC of the unknown role; a
-        frame whose IDE bit (11/29-bit id) differs from the DBC's is another frame: UNKNOWN_ID.
-        """
-        self.frames_in += 1
-        route = self._routes.get(msg.arbitration_id)
-        if (
-            route is None
-            or msg.is_error_frame
-            or msg.is_remote_frame
-            or route.extended != bool(msg.is_extended_id)
-        ):
-            self._refuse(msg)
-            return None
-        if now_s is None:
-            now_s = msg.timestamp
-        return self._take(route, msg.data, now_s)
-
-    def accept_raw(self, key: int, data: Any, now_s: float) -> Decoded | None:
-        """:meth:`accept_message` for a raw entry of the lockstep bus (``key``:
-        :func:`dbc.frame.raw_key`, ``data`` the payload; for :data:`dbc.frame.OTHER`
-        the message itself), received at ``now_s`` (s). The same outcomes, the same counts."""
-        route = self._raw_routes.get(key)
-        if route is None:
-            if key == OTHER:
-                return self.accept_message(data, now_s)
-            self.frames_in += 1
-            mc = self.codec.by_id.get(key & ID_MASK)
-            if mc is None or mc.is_extended != (key >= EFF_FLAG):
-                self._unknown[E2EStatus.UNKNOWN_ID] += 1
-            return None
-        self.frames_in += 1
-        return self._take(route, data, now_s)
-
-    def _refuse(self, msg: can.Message) -> None:
-        """Count a frame :meth:`accept_message` cannot use: an error or remote frame, an id of
-        no consumed message, or the wrong IDE bit."""
-        if msg.is_error_frame or msg.is_remote_frame:
-            self._unknown[E2EStatus.WRONG_DLC] += 1
-            return
-        mc = self.codec.by_id.get(msg.arbitration_id)
-        if mc is None or mc.is_extended != bool(msg.is_extended_id):
-            self._unknown[E2EStatus.UNKNOWN_ID] += 1
 
     def latest(self, role: str) -> dict[str, Value] | None:
         """The last usable values of ``role`` (even if stale), or None if none arrived."""
@@ -300,24 +240,12 @@ class Outbox:
             raise EncodeError(f"no role {role!r} in the binding") from None
         return self.encode_part(mc, values)
 
-    def pack_part(
-        self, mc: MessageCodec, values: Mapping[str, Any], timestamp: float = 0.0
-    ) -> can.Message:
-        """:meth:`encode_part` wrapped in a new python-can message (a :class:`Frame`:
-        :func:`new_frame`). The counter step is written out: this is every message frame's
-        path (pacc's nodes on the lockstep bus send raw: :meth:`encode_part`)."""
-        key = mc.key
-        counter = self.counters[key]
-        data = mc.encode(values, counter)
-        if mc.counter_modulo:
-            self.counters[key] = (counter + 1) % mc.counter_modulo
-        self.frames_out += 1
-        return new_frame(mc.frame_id, mc.is_extended, data, timestamp)
-
     def pack(self, role: str, values: Mapping[str, Any], timestamp: float = 0.0) -> can.Message:
-        """:meth:`encode` wrapped in a python-can message (a :class:`Frame`) for ``bus.send``."""
+        """:meth:`encode` as a python-can message, for a tool that talks to a python-can bus
+        itself (pacc's nodes send frames: :mod:`dbc.frame`)."""
         try:
             mc = self.codec.by_role[role]
         except KeyError:
             raise EncodeError(f"no role {role!r} in the binding") from None
-        return self.pack_part(mc, values, timestamp)
+        data = self.encode_part(mc, values)
+        return message_of((timestamp, raw_key(mc.frame_id, mc.is_extended), data), None)

@@ -1,56 +1,77 @@
-"""The frames pacc's nodes exchange: :class:`Frame`, a python-can message whose deep copy is
-cheap, and raw frames, the in-process lockstep bus's form without any message object.
+"""The one frame form inside pacc's nodes, and the edge where python-can messages meet it.
 
-A raw frame (:data:`Raw`) is ``(timestamp s, key, payload bytes)``: the key is the id with
+A frame (:data:`Raw`) is ``(timestamp s, key, payload bytes)``: the key is the id with
 :data:`EFF_FLAG` on top for a 29-bit id (:func:`raw_key`), the payload immutable. A frame that
 is not a plain classic data frame (error, remote, CAN FD, or a DLC other than its length) is
-``(timestamp, OTHER, message)``. :func:`raw_of` and :func:`message_of` convert both ways;
-:mod:`dbc.lockstep` carries them, :meth:`dbc.endpoint.Inbox.accept_raw` and the bus recorder
-read them.
+``(timestamp, OTHER, message)``. :func:`raw_of` and :func:`message_of` convert both ways.
 
-A module of its own so that :mod:`dbc.endpoint` can be compiled (``tools/compile.py``, mypyc)
-while :class:`Frame` stays a plain Python subclass of :class:`can.Message` (mypyc refuses
-``__slots__`` on a class derived from an interpreted one).
+A node reaches its bus through a :class:`RawPort` (:func:`port_of`): the lockstep bus
+(:mod:`dbc.lockstep`) is one natively; any other python-can bus is wrapped once in a
+:class:`MessagePort`, which turns messages into frames and back.
+
+:class:`Frame` (a python-can message whose deep copy is cheap) lives here rather than in
+:mod:`dbc.endpoint` so that the latter can be compiled (``tools/compile.py``, mypyc): mypyc
+refuses ``__slots__`` on a class derived from an interpreted one.
 """
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Sequence
+from typing import Any, Protocol
 
 import can
 from can.typechecking import Channel
 
-_new_message = can.Message.__new__
-#: the extended-id bit of a raw frame's key (SocketCAN's CAN_EFF_FLAG)
+#: the extended-id bit of a frame's key (SocketCAN's CAN_EFF_FLAG)
 EFF_FLAG = 0x80000000
-#: the id bits of a raw frame's key
+#: the id bits of a frame's key
 ID_MASK = 0x1FFFFFFF
-#: the key of a raw entry that is not a plain data frame (its third item is the message)
+#: the key of a frame that is not a plain data frame (its third item is the message)
 OTHER = -1
-#: one frame for a raw reader: (timestamp s, key, payload bytes) or (timestamp, OTHER, message)
+#: one frame: (timestamp s, key, payload bytes) or (timestamp, OTHER, message)
 Raw = tuple[float, int, Any]
 
 
+class Frame(can.Message):
+    """A python-can message whose deep copy is cheap.
+
+    python-can's virtual bus deep-copies every sent message once per receiver; the generic
+    ``copy.deepcopy`` of the payload bytearray is its largest single cost. A frame's fields
+    are immutable scalars but for the payload, so copying the payload by hand gives the same
+    result (a plain :class:`can.Message` the receiver owns) at a fraction of the cost.
+    """
+
+    __slots__ = ()
+
+    def __deepcopy__(self, memo: dict[int, Any] | None) -> can.Message:
+        return rx_copy(self, self.channel, self.is_rx, can.Message)
+
+
+_new_message = can.Message.__new__
+
+
 def raw_key(frame_id: int, extended: bool) -> int:
-    """A frame's key for raw readers: ``frame_id``, with :data:`EFF_FLAG` for a 29-bit id."""
+    """A frame's key: ``frame_id``, with :data:`EFF_FLAG` for a 29-bit id."""
     return frame_id | EFF_FLAG if extended else frame_id
 
 
-def raw_of(msg: can.Message, channel: Channel | None = None) -> Raw:
-    """The raw entry of ``msg`` received on ``channel``: ``(timestamp, key, bytes of the
-    payload)`` for a classic data frame whose DLC is its length, else ``(timestamp, OTHER, a
-    received copy)`` (an error, remote or CAN FD frame, or a DLC python-can let differ)."""
+def raw_of(msg: can.Message) -> Raw:
+    """The frame of ``msg``: ``(timestamp, key, bytes of the payload)`` for a classic data
+    frame whose DLC is its length, else ``(timestamp, OTHER, msg)`` (an error, remote or CAN
+    FD frame, or a DLC python-can let differ)."""
     if msg.is_error_frame or msg.is_remote_frame or msg.is_fd or msg.dlc != len(msg.data):
-        return (msg.timestamp, OTHER, rx_copy(msg, channel))
+        return (msg.timestamp, OTHER, msg)
     return (msg.timestamp, raw_key(msg.arbitration_id, msg.is_extended_id), bytes(msg.data))
 
 
 def message_of(entry: Raw, channel: Channel | None, is_rx: bool = True) -> can.Message:
-    """The :class:`can.Message` a raw entry stands for, stamped with ``channel`` and ``is_rx``."""
+    """The python-can message a frame stands for, stamped with ``channel`` and ``is_rx`` (a
+    :class:`Frame`; for :data:`OTHER`, the message the frame holds)."""
     t, key, data = entry
     if key == OTHER:
-        return rx_copy(data, channel, is_rx)
-    m = _new_message(can.Message)
+        msg: can.Message = data
+        return msg
+    m = _new_message(Frame)
     m.timestamp = t
     m.arbitration_id = key & ID_MASK
     m.is_extended_id = key >= EFF_FLAG
@@ -66,11 +87,13 @@ def message_of(entry: Raw, channel: Channel | None, is_rx: bool = True) -> can.M
     return m
 
 
-def rx_copy(msg: can.Message, channel: Channel | None, is_rx: bool = True) -> can.Message:
-    """A received copy of ``msg``: a new :class:`can.Message` that shares no mutable state
-    with it (a new payload ``bytearray``), stamped with ``channel`` and ``is_rx`` (False on
-    the sender's own echo, as python-can's virtual bus does)."""
-    m = _new_message(can.Message)
+def rx_copy(
+    msg: can.Message, channel: Channel | None, is_rx: bool = True, cls: type = can.Message
+) -> can.Message:
+    """A received copy of ``msg``: a new message that shares no mutable state with it (a new
+    payload ``bytearray``), stamped with ``channel`` and ``is_rx`` (False on the sender's own
+    echo, as python-can's virtual bus does)."""
+    m: can.Message = _new_message(cls)
     m.timestamp = msg.timestamp
     m.arbitration_id = msg.arbitration_id
     m.is_extended_id = msg.is_extended_id
@@ -86,33 +109,57 @@ def rx_copy(msg: can.Message, channel: Channel | None, is_rx: bool = True) -> ca
     return m
 
 
-class Frame(can.Message):
-    """A python-can message whose deep copy is cheap.
+class RawPort(Protocol):
+    """A node's end of the bus, in frames."""
 
-    python-can's virtual bus deep-copies every sent message once per receiver; the generic
-    ``copy.deepcopy`` of the payload bytearray is the largest single cost of a lockstep
-    drive. A frame's fields are immutable scalars but for the payload, so copying the
-    payload by hand gives the same result (a plain :class:`can.Message` the receiver owns)
-    at a fraction of the cost.
-    """
+    def take(self, timeout_s: float = 0.0) -> Sequence[Raw]:
+        """Every frame waiting, oldest first, after waiting up to ``timeout_s`` for the first.
 
-    __slots__ = ()
+        Raises:
+            can.CanError: the bus failed (nothing was taken).
+        """
 
-    def __deepcopy__(self, memo: dict[int, Any] | None) -> can.Message:
-        return can.Message(
-            timestamp=self.timestamp,
-            arbitration_id=self.arbitration_id,
-            is_extended_id=self.is_extended_id,
-            is_remote_frame=self.is_remote_frame,
-            is_error_frame=self.is_error_frame,
-            channel=self.channel,
-            dlc=self.dlc,
-            data=bytearray(self.data),
-            is_fd=self.is_fd,
-            is_rx=self.is_rx,
-            bitrate_switch=self.bitrate_switch,
-            error_state_indicator=self.error_state_indicator,
-        )
+    def put(self, t: float, key: int, data: bytes) -> None:
+        """Send one classic data frame stamped ``t`` (s).
+
+        Raises:
+            can.CanError: the bus refused it.
+        """
+
+
+class MessagePort:
+    """Any python-can bus as a :class:`RawPort`: messages in and out at this edge only."""
+
+    def __init__(self, bus: can.BusABC) -> None:
+        self.bus = bus
+        # the virtual bus exposes its receive queue: peeking it saves a recv() per empty take
+        queue = getattr(bus, "queue", None)
+        self._empty = queue.empty if callable(getattr(queue, "empty", None)) else None
+
+    def take(self, timeout_s: float = 0.0) -> Sequence[Raw]:
+        if timeout_s <= 0.0 and self._empty is not None and self._empty():
+            return ()
+        out: list[Raw] = []
+        recv = self.bus.recv
+        try:
+            msg = recv(timeout_s)
+            while msg is not None:
+                out.append(raw_of(msg))
+                msg = recv(0.0)
+        except can.CanError:
+            if not out:
+                raise
+        return out
+
+    def put(self, t: float, key: int, data: bytes) -> None:
+        self.bus.send(message_of((t, key, data), None))
+
+
+def port_of(bus: can.BusABC) -> RawPort:
+    """``bus``'s frame port: its own where it has one (the lockstep bus's ``frame_port``),
+    else a :class:`MessagePort` around it."""
+    native = getattr(bus, "frame_port", None)
+    return native() if native is not None else MessagePort(bus)
 
 
 __all__ = [
@@ -120,8 +167,11 @@ __all__ = [
     "ID_MASK",
     "OTHER",
     "Frame",
+    "MessagePort",
     "Raw",
+    "RawPort",
     "message_of",
+    "port_of",
     "raw_key",
     "raw_of",
     "rx_copy",

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -20,8 +20,7 @@ import can
 
 from dbc.codec import Codec, EncodeError, MessageCodec, RoleCodec
 from dbc.endpoint import Inbox, Outbox
-from dbc.frame import message_of, raw_key
-from dbc.lockstep import LockstepBus
+from dbc.frame import Raw, port_of, raw_key
 from dbc.vocab.acc_state import AccState, FaultCode
 from dbc.vocab.pedals import PedalScale
 from ecu import EcuError
@@ -179,11 +178,16 @@ def status_values(out: NodeOutputs, limits: OutputLimits) -> dict[str, Any]:
     }
 
 
+def _keyed(parts: Sequence[MessageCodec]) -> tuple[tuple[MessageCodec, int], ...]:
+    return tuple((mc, raw_key(mc.frame_id, mc.is_extended)) for mc in parts)
+
+
 class BusIO:
     """The ECU's port on one bus: an Inbox for the input roles, an Outbox for its outputs.
 
-    On the lockstep bus the port reads its end raw from construction on
-    (:meth:`dbc.lockstep.LockstepBus.receive_raw`) and sends raw frames: no message objects.
+    Frames travel in :mod:`dbc.frame`'s form through the bus's port
+    (:func:`dbc.frame.port_of`: the lockstep bus's own, else python-can messages converted
+    at the edge).
 
     Args:
         bus: an open python-can bus (the caller owns and closes it).
@@ -200,6 +204,7 @@ class BusIO:
     ) -> None:
         check_outputs_fit(codec, config)
         self.bus = bus
+        self.port = port_of(bus)
         self.codec = codec
         self.inbox = Inbox(codec, roles=INPUT_ROLES, timeout_multiple=timeout_multiple)
         self.outbox = Outbox(codec)
@@ -208,71 +213,35 @@ class BusIO:
         self.send_errors = 0
         #: the independent check of every command frame (:mod:`ecu.safety`)
         self.safety = CommandSafety()
-        self._command = codec.roles["command"].parts
         status = codec.roles.get("status")
-        self._status = () if status is None else status.parts
-        #: called with (time, frame, received) for every frame in and out (a bus recorder);
-        #: on the lockstep bus only while :attr:`tap_raw` is None (each frame then built as a
-        #: message for it)
-        self.tap: Callable[[float, can.Message, bool], None] | None = None
-        #: on the lockstep bus, called instead of :attr:`tap` with (time, raw key, payload or
-        #: message, received) for every frame in and out (a bus recorder's
-        #: :meth:`~ecu.buslog.writer.CanLogWriter.frame_raw`; :mod:`dbc.frame`)
-        self.tap_raw: Callable[[float, int, Any, bool], None] | None = None
-        lock = bus if isinstance(bus, LockstepBus) else None
-        #: the lockstep bus, read raw: every waiting frame in one call, no message objects
-        #: (:meth:`dbc.lockstep.LockstepBus.receive_raw`), else None
-        self._take_raw = lock.receive_raw() if lock is not None else None
-        #: its raw send (:meth:`dbc.lockstep.LockstepBus.hand_over_raw`), else None
-        self._hand_over_raw = lock.hand_over_raw if lock is not None else None
-        self._channel = lock.channel_id if lock is not None else None
-        #: each output message's raw key
-        self._keys = {mc.key: raw_key(mc.frame_id, mc.is_extended) for mc in codec.parts()}
+        #: each output message with its frame key (:func:`dbc.frame.raw_key`)
+        self._command = _keyed(codec.roles["command"].parts)
+        self._status = _keyed(status.parts if status is not None else ())
+        #: called with (time, key, payload, received) for every frame in and out (a bus
+        #: recorder's :meth:`~ecu.buslog.writer.CanLogWriter.frame_raw`; :mod:`dbc.frame`)
+        self.tap: Callable[[float, int, Any, bool], None] | None = None
 
     # -- receive -------------------------------------------------------------------------
 
     def drain(self, now_s: float) -> None:
         """Feed every frame waiting on the bus to the Inbox, stamped ``now_s``."""
-        if self._take_raw is not None:  # the lockstep bus: every waiting frame in one call
-            self._drain_raw(now_s)
-            return
-        accept = self.inbox.accept_message
-        tap = self.tap
-        recv = self.bus.recv
-        while True:
-            msg = recv(0)
-            if msg is None:
-                return
-            accept(msg, now_s)
-            if tap is not None:
-                tap(now_s, msg, True)
+        self._feed(self.port.take(), now_s)
 
-    def _drain_raw(self, now_s: float) -> None:
-        """:meth:`drain` on the lockstep bus, read raw: no message objects."""
-        assert self._take_raw is not None
-        accept = self.inbox.accept_raw
-        tap = self.tap_raw
-        if tap is None and self.tap is not None:  # a message tap only: give it messages
-            channel = self._channel
-            for entry in self._take_raw():
-                accept(entry[1], entry[2], now_s)
-                self.tap(now_s, message_of(entry, channel), True)
-            return
-        for _, key, data in self._take_raw():
+    def receive(self, timeout_s: float, clock: Callable[[], float]) -> float:
+        """Wait up to ``timeout_s`` for a frame and accept what came, stamped with its arrival
+        time (``clock()``); return ``clock()`` after the wait."""
+        frames = self.port.take(timeout_s)
+        now = clock()
+        self._feed(frames, now)
+        return now
+
+    def _feed(self, frames: Sequence[Raw], now_s: float) -> None:
+        accept = self.inbox.accept
+        tap = self.tap
+        for _, key, data in frames:
             accept(key, data, now_s)
             if tap is not None:
                 tap(now_s, key, data, True)
-
-    def receive(self, timeout_s: float, clock: Callable[[], float]) -> float:
-        """Wait up to ``timeout_s`` for one frame and accept it stamped with its arrival time
-        (``clock()``); return ``clock()`` after the wait."""
-        msg = self.bus.recv(timeout=timeout_s)
-        now = clock()
-        if msg is not None:
-            self.inbox.accept_message(msg, now)
-            if self.tap is not None:
-                self.tap(now, msg, True)
-        return now
 
     def read_inputs(self, now_s: float) -> NodeInputs:
         """The node's inputs at ``now_s`` (:func:`inputs_from`)."""
@@ -291,38 +260,22 @@ class BusIO:
         """Send ACC_Command (and ACC_Status if ``status``) stamped ``t_s``; the outputs as
         sent (after the safety check: ``out`` itself when it passed). Never raises: an
         encode or bus failure is logged and counted in :attr:`send_errors`."""
-        send = self._send_raw if self._hand_over_raw is not None else self._send_message
         out = self.safety.check(out, t_s)  # the independent check (ecu.safety), last word
+        encode, put, tap = self.outbox.encode_part, self.port.put, self.tap
         try:
-            values = command_values(out, self.limits)
-            for mc in self._command:
-                send(mc, values, t_s)
+            batches = [(self._command, command_values(out, self.limits))]
             if status and self._status:
-                values = status_values(out, self.limits)
-                for mc in self._status:
-                    send(mc, values, t_s)
+                batches.append((self._status, status_values(out, self.limits)))
+            for parts, values in batches:
+                for mc, key in parts:
+                    data = encode(mc, values)
+                    put(t_s, key, data)
+                    if tap is not None:
+                        tap(t_s, key, data, False)
         except (EncodeError, can.CanError) as exc:
             self.send_errors += 1
             log.error("t=%.2f send failed: %s", t_s, exc)
         return out
-
-    def _send_message(self, mc: MessageCodec, values: Mapping[str, Any], t_s: float) -> None:
-        """Send one frame of message ``mc`` stamped ``t_s`` as a new python-can message."""
-        msg = self.outbox.pack_part(mc, values, t_s)
-        self.bus.send(msg)
-        if self.tap is not None:
-            self.tap(t_s, msg, False)
-
-    def _send_raw(self, mc: MessageCodec, values: Mapping[str, Any], t_s: float) -> None:
-        """Send one frame of message ``mc`` stamped ``t_s`` on the lockstep bus, raw."""
-        assert self._hand_over_raw is not None
-        data = self.outbox.encode_part(mc, values)
-        key = self._keys[mc.key]
-        self._hand_over_raw(t_s, key, data)
-        if self.tap_raw is not None:
-            self.tap_raw(t_s, key, data, False)
-        elif self.tap is not None:
-            self.tap(t_s, message_of((t_s, key, data), self._channel, False), False)
 
 
 __all__ = [

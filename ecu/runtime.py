@@ -150,8 +150,7 @@ class EcuRuntime:
         """Record every frame in and out and every cycle's inputs, outputs and events to
         ``recorder`` (:mod:`ecu.buslog.writer`; None: stop recording). The caller closes it."""
         self.recorder = recorder
-        self.io.tap = recorder.frame if recorder is not None else None
-        self.io.tap_raw = recorder.frame_raw if recorder is not None else None
+        self.io.tap = recorder.frame_raw if recorder is not None else None
 
     # -- the parts -----------------------------------------------------------------------
 

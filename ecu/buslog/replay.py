@@ -28,7 +28,7 @@ import can
 from dbc import BINDING_PATH, DBC_PATH
 from dbc.codec import Codec, load_codec
 from dbc.endpoint import Inbox
-from dbc.frame import Frame
+from dbc.frame import ID_MASK, Frame, raw_of
 from dbc.vocab.acc_state import AccState
 from dbc.vocab.dgpt import Dgpt, predefined
 from dbc.vocab.dgpt_file import dgpt_from_json_dict
@@ -163,9 +163,9 @@ def replay_through_ecu(log: CanLog, node: EcuNode | None = None) -> ReplayResult
     channel = f"pacc-replay-{next(_channels)}"
     sent: list[tuple[float, int, bytes]] = []
 
-    def tap(t: float, msg: can.Message, rx: bool) -> None:
+    def tap(t: float, key: int, data: bytes, rx: bool) -> None:
         if not rx:
-            sent.append((t, msg.arbitration_id, bytes(msg.data)))
+            sent.append((t, key & ID_MASK, data))
 
     feeder = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
     ecu_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
@@ -251,7 +251,8 @@ def play(
 def _answers(bus: can.BusABC, inbox: Inbox, result: PlayResult) -> None:
     """Decode every ACC command waiting on ``bus`` into ``result``."""
     while (msg := bus.recv(0)) is not None:
-        d = inbox.accept_message(msg)
+        t, key, data = raw_of(msg)
+        d = inbox.accept(key, data, t)
         if d is not None and d.role == "command":
             result.commands += 1
             result.states[AccState(int(d.values["acc_state"])).name] += 1

@@ -212,7 +212,13 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     feed: WorldFeed | None = None
     if recorder is not None:
-        node.tap = recorder.frame_and_tick
+        rec = recorder
+
+        def tap(t: float, key: int, data: bytes, rx: bool) -> None:
+            rec.frame_raw(t, key, data, rx)
+            rec.tick(t)
+
+        node.tap = tap
         feed = WorldFeed(recorder, world) if live else None
     start = time.monotonic()
     try:

@@ -45,4 +45,4 @@ def test_corrupt_flips_the_crc_byte_of_the_binding(tmp_path: Path, crc_start: in
     with pytest.raises(CrcError):
         codec.decode(msg.arbitration_id, msg.data)
     inbox = Inbox(codec, ["ego"])
-    assert inbox.accept_message(msg, 0.0) is None
+    assert inbox.accept(msg.arbitration_id, msg.data, 0.0) is None

@@ -124,8 +124,8 @@ def test_gamepad_calibrated_then_drives(browser: Any, hil_app: AppFactory, tmp_p
     codec = session.drive.codec
     pedals: list[dict[str, Any]] = []
 
-    def tap(t: float, msg: Any, rx: bool) -> None:
-        d = codec.decode(msg.arbitration_id, msg.data)
+    def tap(t: float, key: int, data: Any, rx: bool) -> None:
+        d = codec.decode(key, data)
         if d.role == "pedals":
             pedals.append(dict(d.values))
 

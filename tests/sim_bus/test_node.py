@@ -5,6 +5,7 @@ from __future__ import annotations
 import itertools
 from collections import Counter
 from collections.abc import Iterator
+from typing import Any
 
 import can
 import numpy as np
@@ -13,6 +14,7 @@ import pytest
 from dbc.codec import load_codec
 from dbc.e2e import E2EStatus
 from dbc.endpoint import Inbox, Outbox
+from dbc.frame import OTHER
 from sim_bus.behaviour import COAST_MPS2
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.faults import parse_faults
@@ -200,7 +202,7 @@ def test_a_bus_that_refuses_frames_does_not_stop_the_simulation(
     channel: str, interface: str
 ) -> None:
     """A send error (a full queue on a real bus; here a closed bus) loses frames, no more:
-    on the virtual bus (messages) and on the lockstep bus (raw frames) alike."""
+    through the edge adapter (the virtual bus) and the lockstep bus's own port alike."""
     bus = can.Bus(interface=interface, channel=channel)
     world = World(BUILTIN_DRIVERS["d2"], _flat(20.0), seed=0)
     node = SimNode(bus, world)
@@ -220,9 +222,8 @@ def test_a_bus_that_refuses_frames_does_not_stop_the_simulation(
     assert world.tick == 100 and world.plant.v_mps > 0.0
 
 
-@pytest.mark.parametrize("interface", ["virtual", "lockstep"])
-def test_faulty_path_counts_refused_frames_too(channel: str, interface: str) -> None:
-    bus = can.Bus(interface=interface, channel=channel)
+def test_faulty_frames_refused_are_counted_too(channel: str) -> None:
+    bus = can.Bus(interface="lockstep", channel=channel)
     world = World(BUILTIN_DRIVERS["d2"], _flat(20.0), seed=0)
     node = SimNode(bus, world, faults=parse_faults("radar:crc=0.5"))
     bus.shutdown()
@@ -232,7 +233,7 @@ def test_faulty_path_counts_refused_frames_too(channel: str, interface: str) -> 
 
 
 def test_on_the_lockstep_bus_no_received_frame_aliases_a_later_one() -> None:
-    """The simulator hands a new frame per message to the lockstep bus (no copy): a frame
+    """The simulator puts a frame per message on the lockstep bus (no copy): a frame
     received earlier keeps its payload and timestamp while later frames go out."""
     channel = f"test-sim-handover-{next(_ids)}"
     sim_bus = can.Bus(interface="lockstep", channel=channel)
@@ -253,3 +254,33 @@ def test_on_the_lockstep_bus_no_received_frame_aliases_a_later_one() -> None:
     finally:
         sim_bus.shutdown()
         listener.shutdown()
+
+
+@pytest.mark.parametrize("interface", ["virtual", "lockstep"])
+def test_the_tap_sees_every_frame_in_and_out(channel: str, interface: str) -> None:
+    """The tap gets (time, key, payload, received) of every frame sent and received, an
+    error frame as (time, OTHER, message), on any bus."""
+    bus = can.Bus(interface=interface, channel=channel, preserve_timestamps=True)
+    peer = can.Bus(interface=interface, channel=channel, preserve_timestamps=True)
+    try:
+        codec = load_codec()
+        node = SimNode(bus, World(BUILTIN_DRIVERS["d2"], _flat(20.0), seed=0), codec=codec)
+        seen: list[tuple[float, int, Any, bool]] = []
+        node.tap = lambda t, key, data, rx: seen.append((t, key, data, rx))
+        peer.send(_command(Outbox(codec), 1, -1.0, 2, 0.0))
+        peer.send(can.Message(is_error_frame=True))
+        for _ in range(10):
+            node.step()
+        received = [f for f in seen if f[3]]
+        cmd = codec.by_role["command"]
+        assert [f[1] for f in received] == [cmd.frame_id, OTHER]
+        assert received[1][2].is_error_frame and node.commands_ok == 1
+        sent = [f for f in seen if not f[3]]
+        assert len(sent) == node.frames_sent == 10 + 10 + 2 + 1
+        listened = _drain(peer)
+        assert [(m.timestamp, m.arbitration_id, bytes(m.data)) for m in listened] == [
+            (t, key, data) for t, key, data, _ in sent
+        ]
+    finally:
+        bus.shutdown()
+        peer.shutdown()

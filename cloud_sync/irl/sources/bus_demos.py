@@ -46,6 +46,7 @@ import numpy as np
 
 from dbc.codec import Codec
 from dbc.endpoint import Inbox
+from dbc.frame import raw_of
 from dbc.vocab.acc_state import AccState
 from dbc.vocab.pedals import PedalScale
 from dbc.vocab.sampling import MANUAL_MAX_S, MANUAL_MIN_S, PERIOD_EPS_S, keep_interval_s
@@ -133,7 +134,8 @@ class _Sampler:
         while t > self._k * self.period_s + PERIOD_EPS_S:  # grid points before this frame
             _sample(self.on_grid, self.inbox, self._k * self.period_s, self.pedals)
             self._k += 1
-        self.inbox.accept_message(msg, t)
+        _, key, data = raw_of(msg)
+        self.inbox.accept(key, data, t)
         if msg.arbitration_id == self.marker:
             self.markers.append(t)
             if t - self._kept >= self.keep_after_s:
