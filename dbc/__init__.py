@@ -16,8 +16,8 @@ node's inbox (decode + E2E checks) and outbox (counter + CRC on send).
   Python (``MessageCodec``).
 - :mod:`dbc.columns` — column-wise decoding of many frames of one message.
 - :mod:`dbc.endpoint` — a node's inbox (decode + E2E check) and outbox (counter + CRC).
-- :mod:`dbc.frame` — ``Frame`` (the python-can message pacc's nodes send, a cheap deep copy)
-  and raw frames (the lockstep bus's ``(timestamp, key, payload)``, no message object).
+- :mod:`dbc.frame` — the one frame form inside pacc's nodes, ``(timestamp, key, payload)``,
+  and the port that meets a python-can bus at its edge (``port_of``).
 - :mod:`dbc.network` — the ``--dbc`` / ``--binding`` options and the codec they name.
 - :mod:`dbc.errors` — ``PaccError``, the root of every error the project raises on purpose,
   and the codec's exception tree, named by phase (load, encode, decode).

@@ -16,7 +16,7 @@ refuses ``__slots__`` on a class derived from an interpreted one.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any, Protocol
 
 import can
@@ -133,8 +133,8 @@ class MessagePort:
     def __init__(self, bus: can.BusABC) -> None:
         self.bus = bus
         # the virtual bus exposes its receive queue: peeking it saves a recv() per empty take
-        queue = getattr(bus, "queue", None)
-        self._empty = queue.empty if callable(getattr(queue, "empty", None)) else None
+        empty = getattr(getattr(bus, "queue", None), "empty", None)
+        self._empty: Callable[[], bool] | None = empty if callable(empty) else None
 
     def take(self, timeout_s: float = 0.0) -> Sequence[Raw]:
         if timeout_s <= 0.0 and self._empty is not None and self._empty():

@@ -101,7 +101,8 @@ class LockstepBus(BusABC):
         Raises:
             CanOperationError: the bus is closed.
         """
-        self._check_open()
+        if not self._open:  # written out: once per frame
+            raise CanOperationError("Cannot operate on a closed bus")
         entry = (t, key, data)
         for rx in self._others:
             rx.append(entry)
@@ -126,7 +127,8 @@ class LockstepBus(BusABC):
         Raises:
             CanOperationError: the bus is closed.
         """
-        self._check_open()
+        if not self._open:  # written out: once per node and tick
+            raise CanOperationError("Cannot operate on a closed bus")
         rx = self.rx
         if not rx:
             return ()
