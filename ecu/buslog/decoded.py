@@ -15,8 +15,6 @@ only) are decoded column by column (:mod:`dbc.columns`: cantools' values).
 
 from __future__ import annotations
 
-import binascii
-import json
 import struct
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from operator import attrgetter
@@ -45,7 +43,6 @@ __all__ = [
     "Tapped",
     "cycle_tables",
     "floats",
-    "frame_columns",
     "frame_copy",
     "integral_fields",
 ]
@@ -67,9 +64,6 @@ _DATA = attrgetter("data")
 _FD = attrgetter("is_fd")
 _ERROR = attrgetter("is_error_frame")
 _REMOTE = attrgetter("is_remote_frame")
-#: the ``/can/raw`` block's columns, in order (:func:`ecu.buslog.blocks.encode_block`)
-_RAW = ("t_s", "id", "flags", "dlc", "len", "data")
-_RAW_DTYPES = {"t_s": "<f8", "id": "<u4", "flags": "|u1", "dlc": "|u1", "len": "|u1", "data": "|u1"}
 
 _INTEGRAL_TYPES = ("bool", "int", "AccState", "FaultCode")
 
@@ -101,94 +95,53 @@ def integral_fields(cls: type, names: Sequence[str]) -> tuple[bool, ...]:
 
 
 class Rows:
-    """One channel of rows: its handle in every sink, its row format, the rows of a sampled
-    channel not yet written (one flat list, no tuple per row), the next sequence number."""
+    """One channel of rows: its handle in every sink, its row format, the next sequence
+    number."""
 
     def __init__(self, handles: list[int], rows: ProtoRows) -> None:
         self.handles = handles
         self.rows = rows
         self.width = len(rows.names)
-        self.values: list[Any] = []
         self.seq = 0
 
 
 class FrameBatch:
-    """Frames as arrays, shape ``(n,)``, and the payloads."""
+    """Frames as arrays, shape ``(n,)``: times (s), ids, flags, DLCs, payload lengths; and
+    the payloads (a list)."""
 
     def __init__(
         self,
-        t: list[float],
-        ids: list[int],
-        flags: list[int],
-        dlcs: list[int],
-        datas: list[bytes],
+        t: np.ndarray,
+        ids: np.ndarray,
+        flags: np.ndarray,
+        dlcs: np.ndarray,
+        lens: np.ndarray,
+        datas: list[Any],
     ) -> None:
-        n = len(t)
-        self.n = n
+        self.t, self.ids, self.flags, self.dlcs, self.lens = t, ids, flags, dlcs, lens
         self.datas = datas
-        self.t = np.fromiter(t, np.float64, n)
-        self.ids = np.fromiter(ids, np.uint32, n)
-        self.flags = np.fromiter(flags, np.uint8, n)
-        self.dlcs = np.fromiter(dlcs, np.uint8, n)
-        self.lens = np.fromiter(map(len, datas), np.uint8, n)
+        self.n = len(t)
 
     @classmethod
     def of(cls, frames: Sequence[Any]) -> FrameBatch:
         """The batch of the frames as the tap kept them (:data:`Tapped` of each frame one
-        after the other in one flat list, at least one frame); :func:`frame_columns`."""
+        after the other in one flat list, at least one frame). Read an attribute at a time
+        over all frames, packed by ``struct``/``bytes`` (cheaper than numpy's per-item
+        conversion); no per-frame Python code for a plain CAN frame."""
         t, ids, flags, dlcs, lens, datas = _columns(frames)
-        out = cls.from_columns(t, ids, flags, dlcs, lens, None)
-        out.datas = datas
-        return out
-
-    @classmethod
-    def from_columns(
-        cls, t: bytes, ids: bytes, flags: bytes, dlcs: bytes, lens: bytes, data: bytes | None
-    ) -> FrameBatch:
-        """The batch of :func:`frame_columns`' bytes (``data``: the payloads joined; None:
-        the caller sets :attr:`datas`)."""
-        out = cls.__new__(cls)
-        out.t = np.frombuffer(t, np.float64)
-        out.n = n = len(out.t)
-        out.ids = np.frombuffer(ids, np.uint32)
-        out.flags = np.frombuffer(flags, np.uint8)
-        out.dlcs = np.frombuffer(dlcs, np.uint8)
-        out.lens = np.frombuffer(lens, np.uint8)
-        if data is None:
-            out.datas = []
-        elif len(data) == 8 * n and all(x == 8 for x in lens):
-            out.datas = [data[i : i + 8] for i in range(0, 8 * n, 8)]
-        else:
-            ends = np.cumsum(out.lens, dtype=np.int64).tolist()
-            out.datas = [data[a:b] for a, b in zip([0, *ends[:-1]], ends, strict=True)]
-        return out
+        u8 = (np.frombuffer(x, np.uint8) for x in (flags, dlcs, lens))
+        return cls(np.frombuffer(t, np.float64), np.frombuffer(ids, np.uint32), *u8, datas)
 
     @classmethod
     def join(cls, batches: Sequence[FrameBatch]) -> FrameBatch:
         """One batch of the frames of ``batches``, in order."""
         if len(batches) == 1:
             return batches[0]
-        out = cls([], [], [], [], [])
-        out.datas = [d for b in batches for d in b.datas]
-        out.n = len(out.datas)
-        for name in ("t", "ids", "flags", "dlcs", "lens"):
-            setattr(out, name, np.concatenate([getattr(b, name) for b in batches]))
-        return out
+        names = ("t", "ids", "flags", "dlcs", "lens")
+        cols = [np.concatenate([getattr(b, k) for b in batches]) for k in names]
+        return cls(*cols, [d for b in batches for d in b.datas])
 
     def block(self) -> bytes:
-        """The ``/can/raw`` block of these frames: the bytes of :meth:`block_generic`,
-        built without its generality (one join of the base64 columns)."""
-        if self.t.dtype.str != "<f8" or self.ids.dtype.str != "<u4":  # a big-endian host
-            return self.block_generic()
-        b64 = binascii.b2a_base64
-        columns: tuple[np.ndarray, ...] = (self.t, self.ids, self.flags, self.dlcs, self.lens)
-        parts = [_BLOCK_HEAD, str(self.n).encode()]
-        for key, col in zip(_BLOCK_KEYS, columns, strict=False):
-            parts += (key, b64(col.tobytes(), newline=False))
-        parts += (_BLOCK_KEYS[-1], b64(b"".join(self.datas), newline=False), b'"}')
-        return b"".join(parts)
-
-    def block_generic(self) -> bytes:
         """The ``/can/raw`` block of these frames (:func:`encode_block`)."""
         return encode_block(
             {
@@ -203,18 +156,10 @@ class FrameBatch:
         )
 
 
-def frame_columns(frames: Sequence[Any]) -> tuple[bytes, bytes, bytes, bytes, bytes, bytes]:
-    """The columns of the frames as the tap kept them (:data:`Tapped` of each frame one
-    after the other in one flat list, at least one frame) as little-endian bytes: ``t_s``
-    (float64), id (uint32), flags, dlc, payload length (uint8 each), the payloads joined.
-    Read an attribute at a time over all frames, packed by ``struct``/``bytes`` (cheaper than
-    numpy's per-item conversion); no per-frame Python code for a plain CAN frame."""
-    t, ids, flags, dlcs, lens, datas = _columns(frames)
-    return t, ids, flags, dlcs, lens, b"".join(datas)
-
-
 def _columns(frames: Sequence[Any]) -> tuple[bytes, bytes, bytes, bytes, bytes, list[Any]]:
-    """:func:`frame_columns` with the payloads as the frames hold them (a list)."""
+    """The columns of the frames as the tap kept them (:data:`Tapped` of each frame one after
+    the other in one flat list) as little-endian bytes: ``t_s`` (float64), id (uint32), flags,
+    dlc, payload length (uint8 each), and the payloads as the frames hold them (a list)."""
     step = STRIDE
     ts, keys, items, rxs = frames[0::step], frames[1::step], frames[2::step], frames[3::step]
     n = len(ts)
@@ -290,19 +235,6 @@ def frame_copy(msg: Any) -> Any:
     """What the recorder keeps of ``msg`` (a ``can.Message``), copied: its sender may change
     ``msg`` afterwards."""
     return _FrameCopy(msg)
-
-
-def _block_template() -> tuple[bytes, tuple[bytes, ...]]:
-    """(a raw block's JSON text before its row count, what comes before each column's
-    base64 text) as :func:`encode_block` writes them."""
-    head = json.dumps({"n": 0, "dtypes": _RAW_DTYPES, "ragged": ["data"]})
-    before, after = head[:-1].split("0", 1)
-    keys = [f'{after},{json.dumps(_RAW[0])}:"']
-    keys += [f'",{json.dumps(name)}:"' for name in _RAW[1:]]
-    return before.encode(), tuple(k.encode() for k in keys)
-
-
-_BLOCK_HEAD, _BLOCK_KEYS = _block_template()
 
 
 class MessageDecoders:

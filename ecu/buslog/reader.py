@@ -4,9 +4,9 @@
 MCAP footer is required, so a truncated or corrupt file is refused with :class:`CanLogError`
 naming the file and the cause. With ``recover=True`` a file without its end (a ``.part`` left
 by a killed recorder) is read up to its last complete chunk, and :attr:`CanLog.complete` is
-False (:attr:`CanLog.note` says what was read). Both formats: per-message JSON
-(``pacc.canlog/2``) and the blocks of ``pacc.canlog/1``. :func:`messages` turns the raw frames
-into python-can messages stamped with UTC seconds, as python-can's own readers do.
+False (:attr:`CanLog.note` says what was read). One format, ``pacc.canlog/2`` (a raw block
+per flush, a protobuf message per decoded frame and per cycle). :func:`messages` turns the raw
+frames into python-can messages stamped with UTC seconds, as python-can's own readers do.
 """
 
 from __future__ import annotations
@@ -33,7 +33,6 @@ from ecu.buslog.format import (
     FLAG_REMOTE,
     FLAG_RX,
     FORMAT,
-    FORMAT_BLOCKS,
     META_RECORD,
     RAW_TOPIC,
     CanLogError,
@@ -209,9 +208,7 @@ def read_canlog(path: str | os.PathLike[str], *, recover: bool = False) -> CanLo
     meta = found.metadata.get(META_RECORD, {})
     topics = sorted({c.topic for c in found.channels.values()})
     fmt = meta.get("format")
-    if fmt is None and not found.footer and RAW_TOPIC in topics:
-        fmt = FORMAT_BLOCKS  # a cut recording of the block format: no metadata yet
-    if fmt not in (FORMAT, FORMAT_BLOCKS) or RAW_TOPIC not in topics:
+    if fmt != FORMAT or RAW_TOPIC not in topics:
         raise CanLogError(
             f"{path}: not a pacc bus recording (format {fmt!r}; topics {topics or 'none'})"
         )
@@ -220,11 +217,7 @@ def read_canlog(path: str | os.PathLike[str], *, recover: bool = False) -> CanLo
     except ValueError as exc:
         raise CanLogError(f"{path}: bad time base in the metadata: {exc}") from None
     try:
-        blocks = {
-            k: [decode_block(b) for b in v]
-            for k, v in found.blocks.items()
-            if k == RAW_TOPIC or fmt == FORMAT_BLOCKS
-        }
+        raw = [decode_block(b) for b in found.blocks.get(RAW_TOPIC, [])]
     except BlockError as exc:
         raise CanLogError(f"{path}: corrupt block: {exc}") from None
     decoded: dict[str, dict[str, np.ndarray]] = {}
@@ -233,14 +226,14 @@ def read_canlog(path: str | os.PathLike[str], *, recover: bool = False) -> CanLo
         if topic == RAW_TOPIC:
             continue
         try:
-            joined = _join(blocks[topic]) if topic in blocks else _rows(found, topic)
+            joined = _rows(found, topic)
         except (ValueError, KeyError) as exc:
             raise CanLogError(f"{path}: messages of {topic} do not match: {exc}") from None
         if topic.startswith("/can/"):
             decoded[topic.removeprefix("/can/")] = joined
         else:
             series[topic] = joined
-    frames = _frames(blocks.get(RAW_TOPIC, []), path)
+    frames = _frames(raw, path)
     note = ""
     if not found.footer:
         note = (
