@@ -43,7 +43,6 @@ __all__ = [
     "Tapped",
     "cycle_tables",
     "floats",
-    "frame_copy",
     "integral_fields",
 ]
 
@@ -202,39 +201,6 @@ def _columns(frames: Sequence[Any]) -> tuple[bytes, bytes, bytes, bytes, bytes, 
         bytes(map(len, datas)),
         datas,
     )
-
-
-class _FrameCopy:
-    """The attributes of a ``can.Message`` the recorder reads, copied (:func:`frame_copy`)."""
-
-    __slots__ = (
-        "arbitration_id",
-        "bitrate_switch",
-        "data",
-        "dlc",
-        "error_state_indicator",
-        "is_error_frame",
-        "is_extended_id",
-        "is_fd",
-        "is_remote_frame",
-    )
-
-    def __init__(self, msg: Any) -> None:
-        self.arbitration_id = msg.arbitration_id
-        self.is_extended_id = msg.is_extended_id
-        self.dlc = msg.dlc
-        self.data = bytes(msg.data)
-        self.is_fd = msg.is_fd
-        self.is_error_frame = msg.is_error_frame
-        self.is_remote_frame = msg.is_remote_frame
-        self.bitrate_switch = msg.bitrate_switch
-        self.error_state_indicator = msg.error_state_indicator
-
-
-def frame_copy(msg: Any) -> Any:
-    """What the recorder keeps of ``msg`` (a ``can.Message``), copied: its sender may change
-    ``msg`` afterwards."""
-    return _FrameCopy(msg)
 
 
 class MessageDecoders:

@@ -108,9 +108,8 @@ class _Collect:
         self.messages += 1
         if ch.topic == EVENTS_TOPIC:
             doc = json.loads(record.data)
-            text = doc["text"] if "text" in doc else doc.get("message", "")
             t = doc.get("t_s")
-            self.events.append((float(t) if t is not None else float("nan"), str(text)))
+            self.events.append((float("nan") if t is None else float(t), str(doc["message"])))
         else:
             self.blocks.setdefault(ch.topic, []).append(record.data)
 
@@ -158,18 +157,12 @@ def _records(it: Iterator[Any], found: _Collect, path: Path, records: Any) -> No
             found.footer = True
 
 
-def _join(blocks: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
-    """The blocks of one channel joined column by column."""
-    names = list(blocks[0]) if blocks else []
-    return {k: np.concatenate([b[k] for b in blocks]) for k in names}
-
-
 def _frames(blocks: list[dict[str, np.ndarray]], path: Path) -> Frames:
     if not blocks:
         empty = np.zeros(0, dtype=np.int64)
         return Frames(np.zeros(0), empty, empty, empty, [])
     try:
-        cols = _join(blocks)
+        cols = {k: np.concatenate([b[k] for b in blocks]) for k in blocks[0]}
         lens = cols["len"].astype(np.int64)
         payload = cols["data"].tobytes()
         ends = np.cumsum(lens).tolist()

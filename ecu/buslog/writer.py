@@ -31,6 +31,7 @@ from typing import Any
 import can
 import numpy as np
 
+from dbc.frame import raw_of
 from ecu.buslog.decoded import (
     STRIDE,
     FrameBatch,
@@ -40,7 +41,6 @@ from ecu.buslog.decoded import (
     Tapped,
     cycle_tables,
     floats,
-    frame_copy,
     integral_fields,
 )
 from ecu.buslog.format import (
@@ -166,7 +166,7 @@ class CanLogWriter:
     def frame(self, t_s: float, msg: can.Message, rx: bool) -> None:
         """One frame received (``rx``) or sent at ``t_s`` on the node's clock. The frame is
         kept, not copied, until the next flush: its sender must not change it (a node's
-        frames in and out are new objects each; else :meth:`frame_copy`)."""
+        frames in and out are new objects each; else :meth:`frame_and_tick`)."""
         self._tap((t_s, None, msg, rx))
 
     def frame_raw(self, t_s: float, key: int, data: Any, rx: bool) -> None:
@@ -175,13 +175,12 @@ class CanLogWriter:
         :data:`dbc.frame.OTHER`, the message itself)."""
         self._tap((t_s, key, data, rx))
 
-    def frame_copy(self, t_s: float, msg: can.Message, rx: bool) -> None:
-        """:meth:`frame` of a copy of ``msg`` (a sender that reuses its messages)."""
-        self._tap((t_s, None, frame_copy(msg), rx))
-
     def frame_and_tick(self, t_s: float, msg: can.Message, rx: bool) -> None:
-        """:meth:`frame_copy`, then :meth:`tick`: a tap for a node without control cycles."""
-        self._tap((t_s, None, frame_copy(msg), rx))
+        """:meth:`frame_raw` of ``msg`` in the raw form (:func:`dbc.frame.raw_of`: its payload
+        copied, so a sender may reuse its message), then :meth:`tick`: a tap for a node
+        without control cycles."""
+        _, key, data = raw_of(msg)
+        self._tap((t_s, key, data, rx))
         self.tick(t_s)
 
     def series(
