@@ -107,16 +107,21 @@ def _library_writer(recorded: list[tuple[str, int, bytes]]) -> float:
             )
         w.add_message(ch, t_ns, data, t_ns)
         if topic == RAW_TOPIC:
-            w.flush()
-    w.finish()
+            w.flush()  # type: ignore[no-untyped-call]
+    w.finish()  # type: ignore[no-untyped-call]
     return time.perf_counter() - start
 
 
 def _protobuf_rows(path: Path) -> tuple[float, float, int]:
     """Seconds to encode the recording's ``/ecu/outputs`` rows by the protobuf runtime (a
     message object a row) and by :class:`ProtoRows`, and the number of rows."""
-    from google.protobuf import descriptor_pb2, descriptor_pool  # noqa: PLC0415
-    from google.protobuf.message_factory import GetMessageClass  # noqa: PLC0415
+    from google.protobuf import (  # type: ignore[import-untyped]  # noqa: PLC0415
+        descriptor_pb2,
+        descriptor_pool,
+    )
+    from google.protobuf.message_factory import (  # type: ignore[import-untyped]  # noqa: PLC0415
+        GetMessageClass,
+    )
 
     cols = read_canlog(path).series[OUTPUTS_TOPIC]
     names = list(cols)

@@ -16,7 +16,7 @@ only) are decoded column by column (:mod:`dbc.columns`: cantools' values).
 from __future__ import annotations
 
 import struct
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from operator import attrgetter
 from typing import Any
 
@@ -37,7 +37,6 @@ from ecu.buslog.proto import ProtoRows
 __all__ = [
     "STRIDE",
     "FrameBatch",
-    "FrameTap",
     "MessageDecoders",
     "Rows",
     "Tapped",
@@ -52,9 +51,6 @@ __all__ = [
 Tapped = tuple[float, int | None, Any, bool]
 #: items a frame in the flat list of :data:`Tapped`
 STRIDE = 4
-
-#: A frame tap: (time on the node's clock, frame, received) -> None.
-FrameTap = Callable[[float, Any, bool], None]
 
 _ID = attrgetter("arbitration_id")
 _EXT = attrgetter("is_extended_id")
@@ -128,17 +124,26 @@ class FrameBatch:
         over all frames, packed by ``struct``/``bytes`` (cheaper than numpy's per-item
         conversion); no per-frame Python code for a plain CAN frame."""
         t, ids, flags, dlcs, lens, datas = _columns(frames)
-        u8 = (np.frombuffer(x, np.uint8) for x in (flags, dlcs, lens))
-        return cls(np.frombuffer(t, np.float64), np.frombuffer(ids, np.uint32), *u8, datas)
+        u8 = np.uint8
+        return cls(
+            np.frombuffer(t, np.float64),
+            np.frombuffer(ids, np.uint32),
+            np.frombuffer(flags, u8),
+            np.frombuffer(dlcs, u8),
+            np.frombuffer(lens, u8),
+            datas,
+        )
 
     @classmethod
     def join(cls, batches: Sequence[FrameBatch]) -> FrameBatch:
         """One batch of the frames of ``batches``, in order."""
         if len(batches) == 1:
             return batches[0]
-        names = ("t", "ids", "flags", "dlcs", "lens")
-        cols = [np.concatenate([getattr(b, k) for b in batches]) for k in names]
-        return cls(*cols, [d for b in batches for d in b.datas])
+        t, ids, flags, dlcs, lens = (
+            np.concatenate([getattr(b, k) for b in batches])
+            for k in ("t", "ids", "flags", "dlcs", "lens")
+        )
+        return cls(t, ids, flags, dlcs, lens, [d for b in batches for d in b.datas])
 
     def block(self) -> bytes:
         """The ``/can/raw`` block of these frames (:func:`encode_block`)."""

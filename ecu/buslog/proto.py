@@ -74,7 +74,9 @@ class ProtoRows:
     def descriptor(self) -> bytes:
         """The schema: a serialized ``google.protobuf.FileDescriptorSet`` of one proto3 file
         holding this message."""
-        from google.protobuf import descriptor_pb2  # noqa: PLC0415 - only to declare a channel
+        from google.protobuf import (  # type: ignore[import-untyped]  # noqa: PLC0415
+            descriptor_pb2,  # only to declare a channel
+        )
 
         field = descriptor_pb2.FieldDescriptorProto
         package, _, name = self.full_name.rpartition(".")

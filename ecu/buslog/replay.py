@@ -211,8 +211,8 @@ def replay_through_ecu(log: CanLog, node: EcuNode | None = None) -> ReplayResult
     ]
     unreplayed = 0
     if "start_utc" not in log.metadata.get(META_RECORD, {}) and cycles:  # killed: no closing
-        last = cycles[-1][0]
-        kept = [r for r in recorded if r[0] <= last]
+        end_s = cycles[-1][0]
+        kept = [r for r in recorded if r[0] <= end_s]
         recorded, unreplayed = kept, len(recorded) - len(kept)
     return ReplayResult(summary, sent, recorded, states, events, unreplayed)
 

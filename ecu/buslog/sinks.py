@@ -61,7 +61,8 @@ class Sink(Protocol):
         self, handle: int, seq0: int, log_times: np.ndarray, rows: ProtoRows, table: np.ndarray
     ) -> None:
         """Messages of one channel: the rows of ``table`` as ``rows`` formats them
-        (:meth:`ProtoRows.format`), log times (ns, int64) and sequence numbers from ``seq0``."""
+        (:meth:`ProtoRows.format_into`), log times (ns, int64), sequence numbers from
+        ``seq0``."""
 
     def attach(self, log_time: int, name: str, media_type: str, data: bytes) -> None:
         """A file stored with the recording."""

@@ -2,12 +2,9 @@
 
 One MCAP file per recording (``pacc ecu|sim|drive --can-log FILE``), zstd chunks, one message
 per decoded frame and per control cycle with numeric fields, so Foxglove and PlotJuggler plot
-every signal over time (the layout: :mod:`ecu.buslog.format`): ``/can/raw`` (every frame,
-blocks of columns, for replay and export), ``/can/<Message>`` (protobuf, one per frame of
-that DBC message), ``/ecu/inputs``, ``/ecu/outputs`` (one per cycle), ``/sim/world``,
-``/ecu/events`` (``foxglove.Log``). Every message's ``log_time`` is its frame's or cycle's
-time in UTC (the :class:`~ecu.buslog.format.TimeBase`; lockstep: the drive's start plus the
-simulated time), ``t_s`` in it the node's clock exactly.
+every signal over time (the channels: :mod:`ecu.buslog.format`). Every message's ``log_time``
+is its frame's or cycle's time in UTC (the :class:`~ecu.buslog.format.TimeBase`), ``t_s`` in
+it the node's clock exactly.
 
 Every ``flush_s`` (1 s of the node's clock) the new frames go out as a raw block and the
 MCAP chunk ends: a killed recording (``FILE.part``) holds every frame older than that. The
@@ -35,7 +32,6 @@ from dbc.frame import raw_of
 from ecu.buslog.decoded import (
     STRIDE,
     FrameBatch,
-    FrameTap,
     MessageDecoders,
     Rows,
     Tapped,
@@ -65,7 +61,7 @@ from ecu.buslog.proto import ProtoRows
 from ecu.buslog.sinks import McapSink, Sink, close_all, declare, json_spec, rows_spec
 from ecu.signals import NodeInputs, NodeOutputs
 
-__all__ = ["CanLogWriter", "FrameTap"]
+__all__ = ["CanLogWriter"]
 
 log = logging.getLogger(__name__)
 _get_inputs = operator.attrgetter(*INPUT_FIELDS)
