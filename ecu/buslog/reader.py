@@ -40,7 +40,7 @@ from ecu.buslog.format import (
 )
 from ecu.buslog.proto import LAYOUT_KEY, decode_rows
 
-__all__ = ["CanLog", "Frames", "messages", "read_canlog", "read_recording"]
+__all__ = ["CanLog", "Frames", "mcap_records", "messages", "read_canlog", "read_recording"]
 
 
 @dataclass
@@ -89,7 +89,6 @@ class _Collect:
     """What the pass over the records gathered."""
 
     def __init__(self) -> None:
-        self.schemas: dict[int, Any] = {}
         self.channels: dict[int, Any] = {}
         #: topic -> its messages' data, decoded once the format is known
         self.blocks: dict[str, list[bytes]] = {}
@@ -97,7 +96,6 @@ class _Collect:
         self.metadata: dict[str, dict[str, str]] = {}
         self.attachments: dict[str, bytes] = {}
         self.footer = False
-        self.messages = 0
         self.tail_error = ""
 
     def message(self, record: Any, path: Path) -> None:
@@ -105,7 +103,6 @@ class _Collect:
         ch = self.channels.get(record.channel_id)
         if ch is None:
             raise CanLogError(f"{path}: message on an unknown channel")
-        self.messages += 1
         if ch.topic == EVENTS_TOPIC:
             doc = json.loads(record.data)
             t = doc.get("t_s")
@@ -123,30 +120,37 @@ def _rows(found: _Collect, topic: str) -> dict[str, np.ndarray]:
     return decode_rows(layout, found.blocks[topic])
 
 
-def _scan(path: Path, recover: bool) -> _Collect:
+def mcap_records(path: Path, recover: bool) -> tuple[list[Any], str]:
+    """Every record of the MCAP file ``path`` in file order (CRCs checked), and what stopped
+    the reading ("" at the file's end); with ``recover``, a file cut short (a killed recorder)
+    is read up to its last complete record.
+
+    Raises:
+        CanLogError: missing, not MCAP, cut short (without ``recover``, or before a channel).
+    """
     from mcap import records  # noqa: PLC0415 - mcap only when a recording is read
     from mcap.stream_reader import StreamReader  # noqa: PLC0415
 
-    found = _Collect()
+    out: list[Any] = []
     with mcap_errors(path, "recording", CanLogError), path.open("rb") as stream:
         try:
-            _records(StreamReader(stream, validate_crcs=True).records, found, path, records)
-        except CanLogError:
-            raise
+            for record in StreamReader(stream, validate_crcs=True).records:
+                out.append(record)
         except Exception as exc:  # noqa: BLE001 - mcap raises many types at a cut
-            if not recover or found.messages == 0 and not found.channels:
+            if not recover or not any(isinstance(r, records.Channel) for r in out):
                 raise
-            found.tail_error = f"{type(exc).__name__} at byte {stream.tell()}"
-    return found
+            return out, f"{type(exc).__name__} at byte {stream.tell()}"
+    return out, ""
 
 
-def _records(it: Iterator[Any], found: _Collect, path: Path, records: Any) -> None:
-    """File every record of ``it`` into ``found``."""
-    for record in it:
+def _scan(path: Path, recover: bool) -> _Collect:
+    from mcap import records  # noqa: PLC0415
+
+    found = _Collect()
+    got, found.tail_error = mcap_records(path, recover)
+    for record in got:
         if isinstance(record, records.Message):
             found.message(record, path)
-        elif isinstance(record, records.Schema):
-            found.schemas[record.id] = record
         elif isinstance(record, records.Channel):
             found.channels[record.id] = record
         elif isinstance(record, records.Metadata):
@@ -155,6 +159,7 @@ def _records(it: Iterator[Any], found: _Collect, path: Path, records: Any) -> No
             found.attachments[record.name] = bytes(record.data)
         elif isinstance(record, records.Footer):
             found.footer = True
+    return found
 
 
 def _frames(blocks: list[dict[str, np.ndarray]], path: Path) -> Frames:
