@@ -187,8 +187,9 @@ class CanLogWriter:
         integral: Sequence[bool] | None = None,
     ) -> None:
         """Declare the sampled channel ``topic`` with ``columns`` (besides ``t_s``);
-        ``integral``: per column, written as an integer (default: none)."""
-        del description  # the channel's fields say what they are
+        ``integral``: per column, written as an integer (default: none). ``description`` is
+        not stored: the fields' names say what they are."""
+        del description
         if topic in self._samples:
             return
         ints = tuple(integral) if integral is not None else (False,) * len(columns)
