@@ -104,7 +104,6 @@ PACKAGES = [
     "ecu",
     "ecu.cycle",
     "ecu.buslog",
-    "ecu.buslog.process",
     "sim_bus",
     "sim_bus.lead",
     "pacc.study",

@@ -1,11 +1,8 @@
 """Bus recordings: every CAN frame raw and decoded, with node internals, in MCAP, and live.
 
 - :mod:`ecu.buslog.format` — topics, frame flags, the time base, the ``foxglove.Log`` schema.
-- :mod:`ecu.buslog.writer` — ``CanLogWriter``, the recorder: one code path to every sink.
-- :mod:`ecu.buslog.output` — the writing half of a recording: a flush's frames, cycles and
-  samples as messages on every sink.
-- :mod:`ecu.buslog.process` — the writer process: a file-only recording's output off the
-  node's thread, the same bytes (the node's side, the pool of processes, the process's side).
+- :mod:`ecu.buslog.writer` — ``CanLogWriter``, the recorder: what a node feeds it, written at
+  each flush to every sink by one code path.
 - :mod:`ecu.buslog.decoded` — a flush's frames: the raw block and each DBC message's rows.
 - :mod:`ecu.buslog.proto` — rows of numeric fields as protobuf messages, built with numpy.
 - :mod:`ecu.buslog.blocks` — the block encoding of ``/can/raw``: columns as base64 arrays.

@@ -15,10 +15,8 @@ only) are decoded column by column (:mod:`dbc.columns`: cantools' values).
 
 from __future__ import annotations
 
-import binascii
-import json
 import struct
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from operator import attrgetter
 from typing import Any
 
@@ -39,14 +37,11 @@ from ecu.buslog.proto import ProtoRows
 __all__ = [
     "STRIDE",
     "FrameBatch",
-    "FrameTap",
     "MessageDecoders",
     "Rows",
     "Tapped",
     "cycle_tables",
     "floats",
-    "frame_columns",
-    "frame_copy",
     "integral_fields",
 ]
 
@@ -57,9 +52,6 @@ Tapped = tuple[float, int | None, Any, bool]
 #: items a frame in the flat list of :data:`Tapped`
 STRIDE = 4
 
-#: A frame tap: (time on the node's clock, frame, received) -> None.
-FrameTap = Callable[[float, Any, bool], None]
-
 _ID = attrgetter("arbitration_id")
 _EXT = attrgetter("is_extended_id")
 _DLC = attrgetter("dlc")
@@ -67,9 +59,6 @@ _DATA = attrgetter("data")
 _FD = attrgetter("is_fd")
 _ERROR = attrgetter("is_error_frame")
 _REMOTE = attrgetter("is_remote_frame")
-#: the ``/can/raw`` block's columns, in order (:func:`ecu.buslog.blocks.encode_block`)
-_RAW = ("t_s", "id", "flags", "dlc", "len", "data")
-_RAW_DTYPES = {"t_s": "<f8", "id": "<u4", "flags": "|u1", "dlc": "|u1", "len": "|u1", "data": "|u1"}
 
 _INTEGRAL_TYPES = ("bool", "int", "AccState", "FaultCode")
 
@@ -101,94 +90,62 @@ def integral_fields(cls: type, names: Sequence[str]) -> tuple[bool, ...]:
 
 
 class Rows:
-    """One channel of rows: its handle in every sink, its row format, the rows of a sampled
-    channel not yet written (one flat list, no tuple per row), the next sequence number."""
+    """One channel of rows: its handle in every sink, its row format, the next sequence
+    number."""
 
     def __init__(self, handles: list[int], rows: ProtoRows) -> None:
         self.handles = handles
         self.rows = rows
         self.width = len(rows.names)
-        self.values: list[Any] = []
         self.seq = 0
 
 
 class FrameBatch:
-    """Frames as arrays, shape ``(n,)``, and the payloads."""
+    """Frames as arrays, shape ``(n,)``: times (s), ids, flags, DLCs, payload lengths; and
+    the payloads (a list)."""
 
     def __init__(
         self,
-        t: list[float],
-        ids: list[int],
-        flags: list[int],
-        dlcs: list[int],
-        datas: list[bytes],
+        t: np.ndarray,
+        ids: np.ndarray,
+        flags: np.ndarray,
+        dlcs: np.ndarray,
+        lens: np.ndarray,
+        datas: list[Any],
     ) -> None:
-        n = len(t)
-        self.n = n
+        self.t, self.ids, self.flags, self.dlcs, self.lens = t, ids, flags, dlcs, lens
         self.datas = datas
-        self.t = np.fromiter(t, np.float64, n)
-        self.ids = np.fromiter(ids, np.uint32, n)
-        self.flags = np.fromiter(flags, np.uint8, n)
-        self.dlcs = np.fromiter(dlcs, np.uint8, n)
-        self.lens = np.fromiter(map(len, datas), np.uint8, n)
+        self.n = len(t)
 
     @classmethod
     def of(cls, frames: Sequence[Any]) -> FrameBatch:
         """The batch of the frames as the tap kept them (:data:`Tapped` of each frame one
-        after the other in one flat list, at least one frame); :func:`frame_columns`."""
+        after the other in one flat list, at least one frame). Read an attribute at a time
+        over all frames, packed by ``struct``/``bytes`` (cheaper than numpy's per-item
+        conversion); no per-frame Python code for a plain CAN frame."""
         t, ids, flags, dlcs, lens, datas = _columns(frames)
-        out = cls.from_columns(t, ids, flags, dlcs, lens, None)
-        out.datas = datas
-        return out
-
-    @classmethod
-    def from_columns(
-        cls, t: bytes, ids: bytes, flags: bytes, dlcs: bytes, lens: bytes, data: bytes | None
-    ) -> FrameBatch:
-        """The batch of :func:`frame_columns`' bytes (``data``: the payloads joined; None:
-        the caller sets :attr:`datas`)."""
-        out = cls.__new__(cls)
-        out.t = np.frombuffer(t, np.float64)
-        out.n = n = len(out.t)
-        out.ids = np.frombuffer(ids, np.uint32)
-        out.flags = np.frombuffer(flags, np.uint8)
-        out.dlcs = np.frombuffer(dlcs, np.uint8)
-        out.lens = np.frombuffer(lens, np.uint8)
-        if data is None:
-            out.datas = []
-        elif len(data) == 8 * n and all(x == 8 for x in lens):
-            out.datas = [data[i : i + 8] for i in range(0, 8 * n, 8)]
-        else:
-            ends = np.cumsum(out.lens, dtype=np.int64).tolist()
-            out.datas = [data[a:b] for a, b in zip([0, *ends[:-1]], ends, strict=True)]
-        return out
+        u8 = np.uint8
+        return cls(
+            np.frombuffer(t, np.float64),
+            np.frombuffer(ids, np.uint32),
+            np.frombuffer(flags, u8),
+            np.frombuffer(dlcs, u8),
+            np.frombuffer(lens, u8),
+            datas,
+        )
 
     @classmethod
     def join(cls, batches: Sequence[FrameBatch]) -> FrameBatch:
         """One batch of the frames of ``batches``, in order."""
         if len(batches) == 1:
             return batches[0]
-        out = cls([], [], [], [], [])
-        out.datas = [d for b in batches for d in b.datas]
-        out.n = len(out.datas)
-        for name in ("t", "ids", "flags", "dlcs", "lens"):
-            setattr(out, name, np.concatenate([getattr(b, name) for b in batches]))
-        return out
+        t, ids, flags, dlcs, lens = (
+            np.concatenate([getattr(b, k) for b in batches])
+            for k in ("t", "ids", "flags", "dlcs", "lens")
+        )
+        return cls(t, ids, flags, dlcs, lens, [d for b in batches for d in b.datas])
 
     def block(self) -> bytes:
-        """The ``/can/raw`` block of these frames: the bytes of :meth:`block_generic`,
-        built without its generality (one join of the base64 columns)."""
-        if self.t.dtype.str != "<f8" or self.ids.dtype.str != "<u4":  # a big-endian host
-            return self.block_generic()
-        b64 = binascii.b2a_base64
-        columns: tuple[np.ndarray, ...] = (self.t, self.ids, self.flags, self.dlcs, self.lens)
-        parts = [_BLOCK_HEAD, str(self.n).encode()]
-        for key, col in zip(_BLOCK_KEYS, columns, strict=False):
-            parts += (key, b64(col.tobytes(), newline=False))
-        parts += (_BLOCK_KEYS[-1], b64(b"".join(self.datas), newline=False), b'"}')
-        return b"".join(parts)
-
-    def block_generic(self) -> bytes:
         """The ``/can/raw`` block of these frames (:func:`encode_block`)."""
         return encode_block(
             {
@@ -203,18 +160,10 @@ class FrameBatch:
         )
 
 
-def frame_columns(frames: Sequence[Any]) -> tuple[bytes, bytes, bytes, bytes, bytes, bytes]:
-    """The columns of the frames as the tap kept them (:data:`Tapped` of each frame one
-    after the other in one flat list, at least one frame) as little-endian bytes: ``t_s``
-    (float64), id (uint32), flags, dlc, payload length (uint8 each), the payloads joined.
-    Read an attribute at a time over all frames, packed by ``struct``/``bytes`` (cheaper than
-    numpy's per-item conversion); no per-frame Python code for a plain CAN frame."""
-    t, ids, flags, dlcs, lens, datas = _columns(frames)
-    return t, ids, flags, dlcs, lens, b"".join(datas)
-
-
 def _columns(frames: Sequence[Any]) -> tuple[bytes, bytes, bytes, bytes, bytes, list[Any]]:
-    """:func:`frame_columns` with the payloads as the frames hold them (a list)."""
+    """The columns of the frames as the tap kept them (:data:`Tapped` of each frame one after
+    the other in one flat list) as little-endian bytes: ``t_s`` (float64), id (uint32), flags,
+    dlc, payload length (uint8 each), and the payloads as the frames hold them (a list)."""
     step = STRIDE
     ts, keys, items, rxs = frames[0::step], frames[1::step], frames[2::step], frames[3::step]
     n = len(ts)
@@ -257,52 +206,6 @@ def _columns(frames: Sequence[Any]) -> tuple[bytes, bytes, bytes, bytes, bytes, 
         bytes(map(len, datas)),
         datas,
     )
-
-
-class _FrameCopy:
-    """The attributes of a ``can.Message`` the recorder reads, copied (:func:`frame_copy`)."""
-
-    __slots__ = (
-        "arbitration_id",
-        "bitrate_switch",
-        "data",
-        "dlc",
-        "error_state_indicator",
-        "is_error_frame",
-        "is_extended_id",
-        "is_fd",
-        "is_remote_frame",
-    )
-
-    def __init__(self, msg: Any) -> None:
-        self.arbitration_id = msg.arbitration_id
-        self.is_extended_id = msg.is_extended_id
-        self.dlc = msg.dlc
-        self.data = bytes(msg.data)
-        self.is_fd = msg.is_fd
-        self.is_error_frame = msg.is_error_frame
-        self.is_remote_frame = msg.is_remote_frame
-        self.bitrate_switch = msg.bitrate_switch
-        self.error_state_indicator = msg.error_state_indicator
-
-
-def frame_copy(msg: Any) -> Any:
-    """What the recorder keeps of ``msg`` (a ``can.Message``), copied: its sender may change
-    ``msg`` afterwards."""
-    return _FrameCopy(msg)
-
-
-def _block_template() -> tuple[bytes, tuple[bytes, ...]]:
-    """(a raw block's JSON text before its row count, what comes before each column's
-    base64 text) as :func:`encode_block` writes them."""
-    head = json.dumps({"n": 0, "dtypes": _RAW_DTYPES, "ragged": ["data"]})
-    before, after = head[:-1].split("0", 1)
-    keys = [f'{after},{json.dumps(_RAW[0])}:"']
-    keys += [f'",{json.dumps(name)}:"' for name in _RAW[1:]]
-    return before.encode(), tuple(k.encode() for k in keys)
-
-
-_BLOCK_HEAD, _BLOCK_KEYS = _block_template()
 
 
 class MessageDecoders:

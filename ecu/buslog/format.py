@@ -10,14 +10,12 @@ in ``data``. ``/can/<Message>`` (protobuf ``dbc.<Message>``): one message per de
 ``/sim/world``): one protobuf message per sample, ``t_s`` plus numeric fields (booleans 0/1,
 NaN kept); :mod:`ecu.buslog.proto` builds and reads them. ``/ecu/events``: one
 ``foxglove.Log`` message per event (its JSON schema), with the node's clock in ``t_s``.
-Recordings of format ``pacc.canlog/1`` held every channel as blocks; the reader reads both.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
 from dataclasses import dataclass, fields
 from datetime import UTC, datetime
 from typing import TYPE_CHECKING, Any
@@ -32,7 +30,6 @@ if TYPE_CHECKING:  # python-can costs start-up time `pacc ecu --help` does witho
 __all__ = [
     "FLUSH_S",
     "ROWS_S",
-    "FORMAT_BLOCKS",
     "LOG_SCHEMA",
     "EVENTS_TOPIC",
     "FLAG_BRS",
@@ -55,13 +52,10 @@ __all__ = [
     "frame_flags",
     "log_message",
     "meta_record",
-    "series_columns",
     "utc_ns_array",
 ]
 
 FORMAT = "pacc.canlog/2"
-#: the block format of earlier recordings (still read)
-FORMAT_BLOCKS = "pacc.canlog/1"
 RAW_TOPIC = "/can/raw"
 RAW_SCHEMA_NAME = "pacc.CanFrames"
 EVENTS_TOPIC = "/ecu/events"
@@ -112,13 +106,6 @@ RAW_SCHEMA = block_schema(
     RAW_COLUMNS,
     ragged=("data",),
 )
-
-
-def series_columns(columns: Sequence[str]) -> dict[str, tuple[str, str]]:
-    """Block columns of a sampled channel: ``t_s`` plus float64 columns (booleans 0/1)."""
-    out = {"t_s": ("<f8", "sample time on the node's clock, s")}
-    out.update({name: ("<f8", name) for name in columns})
-    return out
 
 
 #: Foxglove's ``foxglove.Log`` (JSON schema), plus the node's clock ``t_s``

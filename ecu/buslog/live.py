@@ -106,25 +106,6 @@ class FoxgloveSink:
         self._channels.append(ch)
         return len(self._channels) - 1
 
-    def write(
-        self,
-        handle: int,
-        seq0: int,
-        log_times: np.ndarray,
-        payload: np.ndarray,
-        lengths: np.ndarray,
-    ) -> None:
-        del seq0  # the SDK numbers each channel's messages itself
-        ch = self._channels[handle]
-        if not ch.has_sinks():
-            return
-        data = payload.tobytes()
-        ends = np.cumsum(lengths).tolist()
-        start = 0
-        for t, end in zip(log_times.tolist(), ends, strict=True):
-            ch.log(data[start:end], log_time=t)
-            start = end
-
     def write_one(self, handle: int, seq: int, log_time: int, data: bytes) -> None:
         del seq  # the SDK numbers each channel's messages itself
         ch = self._channels[handle]
@@ -134,8 +115,11 @@ class FoxgloveSink:
     def write_rows(
         self, handle: int, seq0: int, log_times: np.ndarray, rows: ProtoRows, table: np.ndarray
     ) -> None:
-        if self._channels[handle].has_sinks():
-            self.write(handle, seq0, log_times, *rows.format(table))
+        del seq0  # the SDK numbers each channel's messages itself
+        ch = self._channels[handle]
+        if ch.has_sinks():
+            for t, data in zip(log_times.tolist(), rows.format_into(table), strict=True):
+                ch.log(data.tobytes(), log_time=t)
 
     def attach(self, log_time: int, name: str, media_type: str, data: bytes) -> None:
         """Attachments are for the file only."""

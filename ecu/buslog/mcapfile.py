@@ -2,9 +2,10 @@
 
 The bus recorder writes one MCAP message per decoded frame and per control cycle: tens of
 thousands a second in a lockstep drive. ``mcap.writer.Writer.add_message`` costs about 4 µs a
-message in Python, more than python-can's BLF writer spends on a whole frame; here the
-message records of one channel and one flush are assembled in a handful of numpy operations
-(:func:`message_records`) and appended to the open chunk. The rest is the MCAP format as the
+message in Python (measured by ``bench/canlog.py``: docs/logs.md), more than python-can's BLF
+writer spends on a whole frame; here the message records of one channel and one flush are
+assembled in a handful of numpy operations (:meth:`McapFile.records`) and appended to the
+open chunk. The rest is the MCAP format as the
 ``mcap`` package writes it (its record classes): schemas and channels in the data section as
 they are declared (so a file cut short still names them), zstd chunks each followed by their
 message indexes, attachments and metadata between chunks, and a summary (schemas,
@@ -22,7 +23,7 @@ from typing import IO, Any
 
 import numpy as np
 
-__all__ = ["RECORD_HEAD", "McapFile", "message_records"]
+__all__ = ["RECORD_HEAD", "McapFile"]
 
 MAGIC = b"\x89MCAP0\r\n"
 #: a message record's fixed part: opcode, record length, channel, sequence, log/publish time
@@ -40,58 +41,6 @@ _CHUNK_OPCODE = 0x06
 #: a zstd chunk record's head: opcode, record length, start/end time, uncompressed size and
 #: CRC, the compression name (length-prefixed), the compressed length
 _CHUNK_HEAD = struct.Struct("<BQQQQII4sQ")
-
-
-def message_records(
-    channel_id: int, seq0: int, log_times: np.ndarray, payload: np.ndarray, lengths: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """The MCAP message records of ``n`` messages of one channel, joined.
-
-    Args:
-        channel_id: the channel.
-        seq0: the first message's sequence number (then +1 each).
-        log_times: ns since the epoch, int64, shape ``(n,)`` (also the publish times).
-        payload: the messages' data one after the other, uint8.
-        lengths: each message's data length, bytes, shape ``(n,)``.
-
-    Returns:
-        (the records as uint8, each record's offset in them, shape ``(n,)``).
-    """
-    n = len(lengths)
-    if n == 1:  # one message (a raw block, an event): no arrays to scatter
-        t = int(log_times[0])
-        head = struct.pack(
-            "<BQHIQQ",
-            _MESSAGE_OPCODE,
-            int(lengths[0]) + _HEADER_BYTES - 9,
-            channel_id,
-            seq0 & 0xFFFFFFFF,
-            t,
-            t,
-        )
-        return np.frombuffer(head + payload.tobytes(), np.uint8), np.zeros(1, np.int64)
-    hdr = np.empty(n, dtype=_HEADER)
-    hdr["op"] = _MESSAGE_OPCODE
-    hdr["len"] = lengths + (_HEADER_BYTES - 9)
-    hdr["ch"] = channel_id
-    hdr["seq"] = np.arange(seq0, seq0 + n, dtype=np.uint64) & 0xFFFFFFFF
-    hdr["lt"] = log_times
-    hdr["pt"] = log_times
-    sizes = lengths + _HEADER_BYTES
-    if n and (lengths == lengths[0]).all():  # fixed-size messages: one 2-D array
-        fixed = np.empty((n, int(sizes[0])), dtype=np.uint8)
-        fixed[:, :_HEADER_BYTES] = hdr.view(np.uint8).reshape(n, _HEADER_BYTES)
-        fixed[:, _HEADER_BYTES:] = payload.reshape(n, -1)
-        return fixed.reshape(-1), np.arange(n, dtype=np.int64) * int(sizes[0])
-    ends = np.cumsum(sizes)
-    starts = ends - sizes
-    out = np.empty(int(ends[-1]) if n else 0, dtype=np.uint8)
-    is_header = np.zeros(len(out), dtype=bool)
-    where = (starts[:, None] + np.arange(_HEADER_BYTES)).ravel()
-    is_header[where] = True
-    out[where] = hdr.view(np.uint8)
-    out[~is_header] = payload
-    return out, starts
 
 
 def _message_index(channel_id: int, parts: list[bytes]) -> bytes:
@@ -177,30 +126,6 @@ class McapFile:
         return record.id
 
     # -- messages -------------------------------------------------------------------------
-
-    def messages(
-        self,
-        channel_id: int,
-        seq0: int,
-        log_times: np.ndarray,
-        payload: np.ndarray,
-        lengths: np.ndarray,
-    ) -> None:
-        """Add ``len(lengths)`` messages of one channel to the open chunk
-        (:func:`message_records` for the arguments)."""
-        n = len(lengths)
-        if not n:
-            return
-        if n == 1:
-            t = int(log_times[0])
-            self.message(channel_id, seq0, t, payload.tobytes())
-            return
-        records, starts = message_records(channel_id, seq0, log_times, payload, lengths)
-        pairs = np.empty((n, 2), dtype="<u8")
-        pairs[:, 0] = log_times
-        pairs[:, 1] = starts + self._chunk_size
-        self._index[channel_id].append(pairs.tobytes())
-        self._add(records, channel_id, n, int(log_times.min()), int(log_times.max()))
 
     def records(
         self, channel_id: int, seq0: int, log_times: np.ndarray, records: np.ndarray

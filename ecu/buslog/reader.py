@@ -4,9 +4,9 @@
 MCAP footer is required, so a truncated or corrupt file is refused with :class:`CanLogError`
 naming the file and the cause. With ``recover=True`` a file without its end (a ``.part`` left
 by a killed recorder) is read up to its last complete chunk, and :attr:`CanLog.complete` is
-False (:attr:`CanLog.note` says what was read). Both formats: per-message JSON
-(``pacc.canlog/2``) and the blocks of ``pacc.canlog/1``. :func:`messages` turns the raw frames
-into python-can messages stamped with UTC seconds, as python-can's own readers do.
+False (:attr:`CanLog.note` says what was read). One format, ``pacc.canlog/2`` (a raw block
+per flush, a protobuf message per decoded frame and per cycle). :func:`messages` turns the raw
+frames into python-can messages stamped with UTC seconds, as python-can's own readers do.
 """
 
 from __future__ import annotations
@@ -33,7 +33,6 @@ from ecu.buslog.format import (
     FLAG_REMOTE,
     FLAG_RX,
     FORMAT,
-    FORMAT_BLOCKS,
     META_RECORD,
     RAW_TOPIC,
     CanLogError,
@@ -41,7 +40,7 @@ from ecu.buslog.format import (
 )
 from ecu.buslog.proto import LAYOUT_KEY, decode_rows
 
-__all__ = ["CanLog", "Frames", "messages", "read_canlog", "read_recording"]
+__all__ = ["CanLog", "Frames", "mcap_records", "messages", "read_canlog", "read_recording"]
 
 
 @dataclass
@@ -90,7 +89,6 @@ class _Collect:
     """What the pass over the records gathered."""
 
     def __init__(self) -> None:
-        self.schemas: dict[int, Any] = {}
         self.channels: dict[int, Any] = {}
         #: topic -> its messages' data, decoded once the format is known
         self.blocks: dict[str, list[bytes]] = {}
@@ -98,7 +96,6 @@ class _Collect:
         self.metadata: dict[str, dict[str, str]] = {}
         self.attachments: dict[str, bytes] = {}
         self.footer = False
-        self.messages = 0
         self.tail_error = ""
 
     def message(self, record: Any, path: Path) -> None:
@@ -106,12 +103,10 @@ class _Collect:
         ch = self.channels.get(record.channel_id)
         if ch is None:
             raise CanLogError(f"{path}: message on an unknown channel")
-        self.messages += 1
         if ch.topic == EVENTS_TOPIC:
             doc = json.loads(record.data)
-            text = doc["text"] if "text" in doc else doc.get("message", "")
             t = doc.get("t_s")
-            self.events.append((float(t) if t is not None else float("nan"), str(text)))
+            self.events.append((float("nan") if t is None else float(t), str(doc["message"])))
         else:
             self.blocks.setdefault(ch.topic, []).append(record.data)
 
@@ -125,30 +120,37 @@ def _rows(found: _Collect, topic: str) -> dict[str, np.ndarray]:
     return decode_rows(layout, found.blocks[topic])
 
 
-def _scan(path: Path, recover: bool) -> _Collect:
+def mcap_records(path: Path, recover: bool) -> tuple[list[Any], str]:
+    """Every record of the MCAP file ``path`` in file order (CRCs checked), and what stopped
+    the reading ("" at the file's end); with ``recover``, a file cut short (a killed recorder)
+    is read up to its last complete record.
+
+    Raises:
+        CanLogError: missing, not MCAP, cut short (without ``recover``, or before a channel).
+    """
     from mcap import records  # noqa: PLC0415 - mcap only when a recording is read
     from mcap.stream_reader import StreamReader  # noqa: PLC0415
 
-    found = _Collect()
+    out: list[Any] = []
     with mcap_errors(path, "recording", CanLogError), path.open("rb") as stream:
         try:
-            _records(StreamReader(stream, validate_crcs=True).records, found, path, records)
-        except CanLogError:
-            raise
+            for record in StreamReader(stream, validate_crcs=True).records:
+                out.append(record)
         except Exception as exc:  # noqa: BLE001 - mcap raises many types at a cut
-            if not recover or found.messages == 0 and not found.channels:
+            if not recover or not any(isinstance(r, records.Channel) for r in out):
                 raise
-            found.tail_error = f"{type(exc).__name__} at byte {stream.tell()}"
-    return found
+            return out, f"{type(exc).__name__} at byte {stream.tell()}"
+    return out, ""
 
 
-def _records(it: Iterator[Any], found: _Collect, path: Path, records: Any) -> None:
-    """File every record of ``it`` into ``found``."""
-    for record in it:
+def _scan(path: Path, recover: bool) -> _Collect:
+    from mcap import records  # noqa: PLC0415
+
+    found = _Collect()
+    got, found.tail_error = mcap_records(path, recover)
+    for record in got:
         if isinstance(record, records.Message):
             found.message(record, path)
-        elif isinstance(record, records.Schema):
-            found.schemas[record.id] = record
         elif isinstance(record, records.Channel):
             found.channels[record.id] = record
         elif isinstance(record, records.Metadata):
@@ -157,12 +159,7 @@ def _records(it: Iterator[Any], found: _Collect, path: Path, records: Any) -> No
             found.attachments[record.name] = bytes(record.data)
         elif isinstance(record, records.Footer):
             found.footer = True
-
-
-def _join(blocks: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
-    """The blocks of one channel joined column by column."""
-    names = list(blocks[0]) if blocks else []
-    return {k: np.concatenate([b[k] for b in blocks]) for k in names}
+    return found
 
 
 def _frames(blocks: list[dict[str, np.ndarray]], path: Path) -> Frames:
@@ -170,7 +167,7 @@ def _frames(blocks: list[dict[str, np.ndarray]], path: Path) -> Frames:
         empty = np.zeros(0, dtype=np.int64)
         return Frames(np.zeros(0), empty, empty, empty, [])
     try:
-        cols = _join(blocks)
+        cols = {k: np.concatenate([b[k] for b in blocks]) for k in blocks[0]}
         lens = cols["len"].astype(np.int64)
         payload = cols["data"].tobytes()
         ends = np.cumsum(lens).tolist()
@@ -209,9 +206,7 @@ def read_canlog(path: str | os.PathLike[str], *, recover: bool = False) -> CanLo
     meta = found.metadata.get(META_RECORD, {})
     topics = sorted({c.topic for c in found.channels.values()})
     fmt = meta.get("format")
-    if fmt is None and not found.footer and RAW_TOPIC in topics:
-        fmt = FORMAT_BLOCKS  # a cut recording of the block format: no metadata yet
-    if fmt not in (FORMAT, FORMAT_BLOCKS) or RAW_TOPIC not in topics:
+    if fmt != FORMAT or RAW_TOPIC not in topics:
         raise CanLogError(
             f"{path}: not a pacc bus recording (format {fmt!r}; topics {topics or 'none'})"
         )
@@ -220,11 +215,7 @@ def read_canlog(path: str | os.PathLike[str], *, recover: bool = False) -> CanLo
     except ValueError as exc:
         raise CanLogError(f"{path}: bad time base in the metadata: {exc}") from None
     try:
-        blocks = {
-            k: [decode_block(b) for b in v]
-            for k, v in found.blocks.items()
-            if k == RAW_TOPIC or fmt == FORMAT_BLOCKS
-        }
+        raw = [decode_block(b) for b in found.blocks.get(RAW_TOPIC, [])]
     except BlockError as exc:
         raise CanLogError(f"{path}: corrupt block: {exc}") from None
     decoded: dict[str, dict[str, np.ndarray]] = {}
@@ -233,14 +224,14 @@ def read_canlog(path: str | os.PathLike[str], *, recover: bool = False) -> CanLo
         if topic == RAW_TOPIC:
             continue
         try:
-            joined = _join(blocks[topic]) if topic in blocks else _rows(found, topic)
+            joined = _rows(found, topic)
         except (ValueError, KeyError) as exc:
             raise CanLogError(f"{path}: messages of {topic} do not match: {exc}") from None
         if topic.startswith("/can/"):
             decoded[topic.removeprefix("/can/")] = joined
         else:
             series[topic] = joined
-    frames = _frames(blocks.get(RAW_TOPIC, []), path)
+    frames = _frames(raw, path)
     note = ""
     if not found.footer:
         note = (

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import logging
 import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -22,7 +21,6 @@ from dbc.vocab.dgpt import Dgpt, SafetyBounds
 from ecu.adaptation import AdaptationParams
 from ecu.buslog.format import FLUSH_S, ROWS_S, CanLogError, TimeBase
 from ecu.buslog.live import LIVE_FLUSH_S
-from ecu.buslog.process.writers import start_writer
 from ecu.buslog.sinks import Sink
 from ecu.buslog.writer import CanLogWriter
 from ecu.config import ConfigError, EcuConfig
@@ -32,51 +30,16 @@ __all__ = [
     "BINDING_ATTACHMENT",
     "CONFIG_ATTACHMENT",
     "DBC_ATTACHMENT",
-    "PROCESS_ENV",
     "TABLE_ATTACHMENT",
     "config_from_json",
     "config_to_json",
     "open_recording",
-    "use_writer",
 ]
 
 DBC_ATTACHMENT = "network.dbc"
 BINDING_ATTACHMENT = "binding.toml"
 CONFIG_ATTACHMENT = "ecu_config.json"
 TABLE_ATTACHMENT = "dgpt_start.json"
-#: ``PACC_RECORDER_PROCESS``: unset or ``0``, a recording is written on the node's thread;
-#: ``1``, a file-only recording is written by a writer process (:mod:`ecu.buslog.process.remote`,
-#: started and waited for at the first recording; where none starts, the node's thread);
-#: ``auto``, by a writer that is ready while a core is free (:func:`use_writer`). The same
-#: file either way.
-PROCESS_ENV = "PACC_RECORDER_PROCESS"
-
-log = logging.getLogger(__name__)
-#: an unknown :data:`PROCESS_ENV` value was warned about in this process
-_warned = False
-
-
-def use_writer() -> bool:
-    """Whether a file-only recording goes to a writer process (:data:`PROCESS_ENV`); with
-    ``auto``, while the machine has a core free: the 1-min load average below the cores less a
-    half (a writer on a busy machine takes more CPU than it saves the node's thread). Any
-    other value than unset, ``0``, ``1`` or ``auto``: the node's thread, and one warning."""
-    global _warned  # noqa: PLW0603 - once per process
-    mode = os.environ.get(PROCESS_ENV, "0")
-    if mode not in ("", "0", "1", "auto"):
-        if not _warned:
-            _warned = True
-            log.warning(
-                "%s=%r is not 0, 1 or auto: recording on the node's thread", PROCESS_ENV, mode
-            )
-        return False
-    if mode != "auto":
-        return mode == "1"
-    try:
-        load = os.getloadavg()[0]
-    except (OSError, AttributeError):
-        return False
-    return load < (os.cpu_count() or 1) - 0.5
 
 
 def config_to_json(config: EcuConfig) -> str:
@@ -95,8 +58,7 @@ def config_from_json(text: str | bytes) -> EcuConfig:
         ctl = dict(d.pop("controller"))
         for k in ("kp", "ki", "kd"):
             ctl[k] = _table(ctl[k])
-        if "road" in ctl:  # recordings before issue 21 have none: the defaults
-            ctl["road"] = RoadParams(**ctl["road"])
+        ctl["road"] = RoadParams(**ctl["road"])
         return EcuConfig(
             **{k: v for k, v in d.items() if k not in ("adaptation_params", "bounds")},
             adaptation_params=AdaptationParams(**d["adaptation_params"]),
@@ -130,9 +92,7 @@ def open_recording(
     """A :class:`CanLogWriter` for a node on ``codec``'s network, with the DBC and binding
     files (default: the files ``codec`` was loaded from) attached, and the ECU's ``config``
     and starting ``table`` when it runs one; ``sinks`` (a live view) get the same channels
-    (``path`` None: only them, flushed every :data:`~ecu.buslog.live.LIVE_FLUSH_S`). A file
-    without live sinks is written by a writer process (:mod:`ecu.buslog.process.remote`) where
-    :func:`use_writer` says so.
+    (``path`` None: only them, flushed every :data:`~ecu.buslog.live.LIVE_FLUSH_S`).
 
     Raises:
         CanLogError: the file cannot be written, or an attached file cannot be read.
@@ -157,16 +117,4 @@ def open_recording(
         sinks=sinks,
         flush_s=LIVE_FLUSH_S if sinks else FLUSH_S,
         rows_s=LIVE_FLUSH_S if sinks else ROWS_S,
-        process=_writer_wanted(path is not None and not sinks),
     )
-
-
-def _writer_wanted(file_only: bool) -> bool:
-    """:func:`use_writer` for a file-only recording; with ``1`` a writer is started now and
-    waited for where none is ready (about 0.2 s, once per process; where none starts, the
-    node's thread, at once for the process's later recordings)."""
-    if not file_only or not use_writer():
-        return False
-    if os.environ.get(PROCESS_ENV) == "1":
-        return start_writer()
-    return True

@@ -10,12 +10,11 @@ from __future__ import annotations
 
 import contextlib
 import os
-import struct
 from pathlib import Path
 
-from dbc.vocab.mcap_errors import mcap_errors
 from ecu.buslog.format import CanLogError
 from ecu.buslog.mcapfile import McapFile
+from ecu.buslog.reader import mcap_records, read_canlog
 
 __all__ = ["repair"]
 
@@ -28,51 +27,39 @@ def repair(src: str | os.PathLike[str], dst: str | os.PathLike[str]) -> int:
         CanLogError: ``src`` is missing, not MCAP, or ``dst`` cannot be written.
     """
     from mcap import records  # noqa: PLC0415 - mcap only when a file is repaired
-    from mcap.exceptions import McapError  # noqa: PLC0415
-    from mcap.stream_reader import StreamReader  # noqa: PLC0415
-
-    from ecu.buslog.reader import read_canlog  # noqa: PLC0415 - reader imports this room
 
     src, dst = Path(src), Path(dst)
+    got, _ = mcap_records(src, recover=True)
+    if not got or not isinstance(got[0], records.Header):
+        raise CanLogError(f"{src}: not an MCAP file (no header)")
     tmp = dst.with_name(f".{dst.name}.repairing")  # not dst.part: that may be src
     try:
-        out_stream = tmp.open("wb")
-    except OSError as exc:
-        raise CanLogError(f"{dst}: cannot write: {exc.strerror}") from None
-    try:
-        with mcap_errors(src, "recording", CanLogError), src.open("rb") as stream, out_stream:
-            reader = StreamReader(stream, validate_crcs=True)
-            out: McapFile | None = None
+        with tmp.open("wb") as stream:
+            out = McapFile(stream, profile=got[0].profile, library=got[0].library)
             schemas: dict[int, int] = {}
             channels: dict[int, int] = {}
             seqs: dict[int, int] = {}
-            with contextlib.suppress(McapError, struct.error, ValueError):
-                for rec in reader.records:
-                    if isinstance(rec, records.Header):
-                        out = McapFile(out_stream, profile=rec.profile, library=rec.library)
-                    elif out is None:
-                        continue
-                    elif isinstance(rec, records.Schema):
-                        schemas[rec.id] = out.schema(rec.name, rec.encoding, bytes(rec.data))
-                    elif isinstance(rec, records.Channel):
-                        sid = schemas.get(rec.schema_id, 0)
-                        meta = dict(rec.metadata)
-                        channels[rec.id] = out.channel(rec.topic, rec.message_encoding, sid, meta)
-                    elif isinstance(rec, records.Message) and rec.channel_id in channels:
-                        ch = channels[rec.channel_id]
-                        out.message(ch, seqs.get(ch, 0), rec.log_time, bytes(rec.data))
-                        seqs[ch] = seqs.get(ch, 0) + 1
-                    elif isinstance(rec, records.Attachment):
-                        data = bytes(rec.data)
-                        out.attachment(rec.log_time, rec.name, rec.media_type, data)
-                    elif isinstance(rec, records.Metadata):
-                        out.metadata(rec.name, dict(rec.metadata))
-            if out is None:
-                raise CanLogError(f"{src}: not an MCAP file (no header)")
+            for rec in got:
+                if isinstance(rec, records.Schema):
+                    schemas[rec.id] = out.schema(rec.name, rec.encoding, bytes(rec.data))
+                elif isinstance(rec, records.Channel):
+                    sid = schemas.get(rec.schema_id, 0)
+                    meta = dict(rec.metadata)
+                    channels[rec.id] = out.channel(rec.topic, rec.message_encoding, sid, meta)
+                elif isinstance(rec, records.Message) and rec.channel_id in channels:
+                    ch = channels[rec.channel_id]
+                    out.message(ch, seqs.get(ch, 0), rec.log_time, bytes(rec.data))
+                    seqs[ch] = seqs.get(ch, 0) + 1
+                elif isinstance(rec, records.Attachment):
+                    out.attachment(rec.log_time, rec.name, rec.media_type, bytes(rec.data))
+                elif isinstance(rec, records.Metadata):
+                    out.metadata(rec.name, dict(rec.metadata))
             out.finish()
         tmp.replace(dst)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(OSError):
             tmp.unlink()
+        if isinstance(exc, OSError):
+            raise CanLogError(f"{dst}: cannot write: {exc.strerror or exc}") from None
         raise
     return len(read_canlog(dst).frames)

@@ -6,8 +6,12 @@
   cycle at its recorded time and index (:meth:`ecu.runtime.EcuRuntime.cycle_at`), after the
   frames received up to then. Deterministic, for lockstep (``pacc drive``) and real-time
   (``pacc ecu``) recordings alike: the ECU sends the recorded frames again, bit for bit
-  (tested for both). What came from outside the bus is not in the recording and is not
-  replayed: a driver profile loaded from ``--profiles``, a table downloaded from the cloud.
+  (tested for both). A killed recording (no closing record: ``FILE.part``, or the file
+  ``pacc export`` made of it) holds its frames up to its last flush but its cycles only up to
+  the last rows written: the frames it sent after its last recorded cycle are not compared
+  (:attr:`ReplayResult.unreplayed`). What came from outside the bus is not in the recording
+  and is not replayed: a driver profile loaded from ``--profiles``, a table downloaded from
+  the cloud.
 - :func:`play` sends the frames onto any python-can bus with their recorded spacing (like
   python-can's ``can.player``, through :class:`can.MessageSync`), and decodes the ACC
   commands another node (``pacc ecu``) answers with.
@@ -37,6 +41,7 @@ from ecu.buslog.format import (
     FLAG_EXTENDED,
     FLAG_REMOTE,
     FLAG_RX,
+    META_RECORD,
     OUTPUTS_TOPIC,
     CanLogError,
 )
@@ -70,6 +75,9 @@ class ReplayResult:
     #: (t_s, state name) at every ACC state change of the replay
     states: list[tuple[float, str]]
     events: list[tuple[float, str]] = field(default_factory=list)
+    #: frames the recorded node sent after its last recorded cycle (a killed recording), not
+    #: in :attr:`recorded`
+    unreplayed: int = 0
 
     @property
     def identical(self) -> bool:
@@ -201,7 +209,12 @@ def replay_through_ecu(log: CanLog, node: EcuNode | None = None) -> ReplayResult
         )
         if not rx
     ]
-    return ReplayResult(summary, sent, recorded, states, events)
+    unreplayed = 0
+    if "start_utc" not in log.metadata.get(META_RECORD, {}) and cycles:  # killed: no closing
+        end_s = cycles[-1][0]
+        kept = [r for r in recorded if r[0] <= end_s]
+        recorded, unreplayed = kept, len(recorded) - len(kept)
+    return ReplayResult(summary, sent, recorded, states, events, unreplayed)
 
 
 @dataclass

@@ -29,8 +29,6 @@ __all__ = [
     "Sink",
     "close_all",
     "declare",
-    "emit",
-    "emit_one",
     "json_spec",
     "rows_spec",
 ]
@@ -56,17 +54,6 @@ class Sink(Protocol):
     def channel(self, spec: ChannelSpec) -> int:
         """Declare a channel; the sink's handle of it."""
 
-    def write(
-        self,
-        handle: int,
-        seq0: int,
-        log_times: np.ndarray,
-        payload: np.ndarray,
-        lengths: np.ndarray,
-    ) -> None:
-        """Messages of one channel: log times (ns, int64), the payloads joined (uint8) and
-        their lengths; sequence numbers from ``seq0``."""
-
     def write_one(self, handle: int, seq: int, log_time: int, data: bytes) -> None:
         """One message of one channel: log time (ns), sequence number, its data."""
 
@@ -74,7 +61,8 @@ class Sink(Protocol):
         self, handle: int, seq0: int, log_times: np.ndarray, rows: ProtoRows, table: np.ndarray
     ) -> None:
         """Messages of one channel: the rows of ``table`` as ``rows`` formats them
-        (:meth:`ProtoRows.format`), log times (ns, int64) and sequence numbers from ``seq0``."""
+        (:meth:`ProtoRows.format_into`), log times (ns, int64), sequence numbers from
+        ``seq0``."""
 
     def attach(self, log_time: int, name: str, media_type: str, data: bytes) -> None:
         """A file stored with the recording."""
@@ -110,16 +98,6 @@ class McapSink:
     def channel(self, spec: ChannelSpec) -> int:
         sid = self._file.schema(spec.schema_name, spec.schema_encoding, spec.schema_data)
         return self._file.channel(spec.topic, spec.message_encoding, sid, dict(spec.metadata))
-
-    def write(
-        self,
-        handle: int,
-        seq0: int,
-        log_times: np.ndarray,
-        payload: np.ndarray,
-        lengths: np.ndarray,
-    ) -> None:
-        self._file.messages(handle, seq0, log_times, payload, lengths)
 
     def write_one(self, handle: int, seq: int, log_time: int, data: bytes) -> None:
         self._file.message(handle, seq, log_time, data)
@@ -193,24 +171,3 @@ def rows_spec(topic: str, rows: ProtoRows) -> ChannelSpec:
 def declare(sinks: Sequence[Sink], spec: ChannelSpec) -> list[int]:
     """Declare ``spec`` on every sink; the handles, one per sink."""
     return [sink.channel(spec) for sink in sinks]
-
-
-def emit(
-    sinks: Sequence[Sink],
-    handles: Sequence[int],
-    seq0: int,
-    t_ns: np.ndarray,
-    payload: np.ndarray,
-    lengths: np.ndarray,
-) -> None:
-    """Messages of one channel to every sink (its handle in each)."""
-    for sink, handle in zip(sinks, handles, strict=True):
-        sink.write(handle, seq0, t_ns, payload, lengths)
-
-
-def emit_one(
-    sinks: Sequence[Sink], handles: Sequence[int], seq: int, t_ns: int, data: bytes
-) -> None:
-    """One message of one channel to every sink."""
-    for sink, handle in zip(sinks, handles, strict=True):
-        sink.write_one(handle, seq, t_ns, data)

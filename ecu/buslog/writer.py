@@ -2,32 +2,22 @@
 
 One MCAP file per recording (``pacc ecu|sim|drive --can-log FILE``), zstd chunks, one message
 per decoded frame and per control cycle with numeric fields, so Foxglove and PlotJuggler plot
-every signal over time (the layout: :mod:`ecu.buslog.format`): ``/can/raw`` (every frame,
-blocks of columns, for replay and export), ``/can/<Message>`` (protobuf, one per frame of
-that DBC message), ``/ecu/inputs``, ``/ecu/outputs`` (one per cycle), ``/sim/world``,
-``/ecu/events`` (``foxglove.Log``). Every message's ``log_time`` is its frame's or cycle's
-time in UTC (the :class:`~ecu.buslog.format.TimeBase`; lockstep: the drive's start plus the
-simulated time), ``t_s`` in it the node's clock exactly.
+every signal over time (the channels: :mod:`ecu.buslog.format`). Every message's ``log_time``
+is its frame's or cycle's time in UTC (the :class:`~ecu.buslog.format.TimeBase`), ``t_s`` in
+it the node's clock exactly.
 
 Every ``flush_s`` (1 s of the node's clock) the new frames go out as a raw block and the
 MCAP chunk ends: a killed recording (``FILE.part``) holds every frame older than that. The
 rows (decoded frames, cycles) go out every ``rows_s`` (10 s; live 0.2 s), built by numpy a
-channel at a time (:mod:`ecu.buslog.decoded`, :mod:`ecu.buslog.proto`,
-:mod:`ecu.buslog.mcapfile`). Attachments: DBC, binding, ECU configuration, starting table.
-Every :class:`~ecu.buslog.sinks.Sink` (the file, a live Foxglove WebSocket:
-:mod:`ecu.buslog.live`) gets the same channels from this one code path.
-
-The writer keeps what the node feeds it and decides when to flush; each flush becomes
-messages in :class:`~ecu.buslog.output.LogOutput`, on the node's thread or, for a file
-without live sinks, in a writer process (``process``: :mod:`ecu.buslog.process.remote`), the same
-file byte for byte.
+channel at a time (:mod:`ecu.buslog.decoded`, :mod:`ecu.buslog.proto`). Every
+:class:`~ecu.buslog.sinks.Sink` (the file, a live Foxglove WebSocket: :mod:`ecu.buslog.live`)
+gets the same channels from this one code path, on the node's thread.
 """
 
 from __future__ import annotations
 
 import contextlib
 import logging
-import math
 import operator
 import os
 import struct
@@ -36,33 +26,42 @@ from pathlib import Path
 from typing import Any
 
 import can
+import numpy as np
 
+from dbc.frame import raw_of
 from ecu.buslog.decoded import (
     STRIDE,
     FrameBatch,
-    FrameTap,
+    MessageDecoders,
+    Rows,
     Tapped,
-    frame_columns,
-    frame_copy,
+    cycle_tables,
+    floats,
     integral_fields,
 )
 from ecu.buslog.format import (
+    EVENTS_TOPIC,
     FLUSH_S,
     INPUT_FIELDS,
     INPUTS_TOPIC,
+    LOG_SCHEMA,
+    META_RECORD,
     OUTPUT_FIELDS,
     OUTPUTS_TOPIC,
+    RAW_SCHEMA,
+    RAW_TOPIC,
     ROWS_S,
     CanLogError,
     TimeBase,
+    log_message,
+    meta_record,
+    utc_ns_array,
 )
-from ecu.buslog.output import LogOutput
-from ecu.buslog.process.remote import NotSendable, RemoteOutput
-from ecu.buslog.process.writers import ready_writer
-from ecu.buslog.sinks import McapSink, Sink
+from ecu.buslog.proto import ProtoRows
+from ecu.buslog.sinks import McapSink, Sink, close_all, declare, json_spec, rows_spec
 from ecu.signals import NodeInputs, NodeOutputs
 
-__all__ = ["CanLogWriter", "FrameTap"]
+__all__ = ["CanLogWriter"]
 
 log = logging.getLogger(__name__)
 _get_inputs = operator.attrgetter(*INPUT_FIELDS)
@@ -70,6 +69,8 @@ _get_outputs = operator.attrgetter(*OUTPUT_FIELDS)
 #: one cycle's values as kept until its rows are written: t_s, cycle index, the inputs and the
 #: outputs in the channels' column order, float64 bytes (no Python object per value)
 _pack_cycle = struct.Struct(f"<{2 + len(INPUT_FIELDS) + len(OUTPUT_FIELDS)}d").pack
+#: rows per chunk of a whole series written at once (:meth:`CanLogWriter.write_series`)
+SERIES_STEP = 20_000
 
 
 class CanLogWriter:
@@ -83,17 +84,10 @@ class CanLogWriter:
         node: who records (``ecu``, ``sim``, ``drive``, ``export``).
         attachments: name -> bytes, stored as MCAP attachments (DBC, binding, config …).
         metadata: record name -> {key: text}, stored as MCAP metadata records.
-        rows_s: the decoded rows and cycles are written every ``rows_s`` (>= ``flush_s``).
         flush_s: the flush interval on the node's clock, s (at most this much is lost when
             the process is killed).
         sinks: more sinks besides the file (e.g. :class:`ecu.buslog.live.FoxgloveSink`).
-        process: write the file in a writer process (:mod:`ecu.buslog.process.remote`: the same
-            file, the node's thread keeps only the taps and the frames' columns) when one
-            is ready (:func:`~ecu.buslog.process.writers.ready_writer`; else on this thread, and
-            from a
-            process's second recording on one is started for the next); only for a file
-            without ``sinks``. This never waits: :func:`~ecu.buslog.recording.open_recording`
-            with ``PACC_RECORDER_PROCESS=1`` starts a writer and waits for it before.
+        rows_s: the decoded rows and cycles are written every ``rows_s`` (>= ``flush_s``).
 
     Raises:
         CanLogError: ``path`` cannot be created.
@@ -111,7 +105,6 @@ class CanLogWriter:
         flush_s: float = FLUSH_S,
         sinks: Sequence[Sink] = (),
         rows_s: float = ROWS_S,
-        process: bool = False,
     ) -> None:
         self.path = Path(path) if path is not None else None
         self.time_base = time_base
@@ -134,22 +127,28 @@ class CanLogWriter:
         self._cycles: list[bytes] = []
         self._cycles_declared = False
         self._samples: dict[str, list[Any]] = {}
-        writer = ready_writer() if process and self.path is not None and not sinks else None
-        remote: RemoteOutput | None = None
-        if writer is not None and self.path is not None:
-            with contextlib.suppress(NotSendable):  # then on this thread
-                remote = RemoteOutput(writer, self.path, db, time_base, node, attachments, metadata)
-        self._out: LogOutput | RemoteOutput
-        if remote is not None:
-            self._out = remote
-        else:
-            out = [McapSink(self.path)] if self.path is not None else []
-            self._out = LogOutput([*out, *sinks], db, time_base, node, attachments, metadata)
-
-    @property
-    def sinks(self) -> list[Sink]:
-        """Where the recording goes, on this thread (none: a writer process writes it)."""
-        return self._out.sinks if isinstance(self._out, LogOutput) else []
+        # the channels on every sink: raw, decoded per DBC message, sampled, events
+        self.sinks: list[Sink] = [McapSink(self.path)] if self.path is not None else []
+        self.sinks += sinks
+        self._raw = declare(self.sinks, json_spec(RAW_TOPIC, RAW_SCHEMA))
+        self._raw_seq = 0
+        self._decoders = MessageDecoders(db)
+        self._decoded = {
+            key: Rows(declare(self.sinks, rows_spec(topic, rows)), rows)
+            for key, (_, rows, topic) in self._decoders.rows.items()
+        }
+        self._pending: list[FrameBatch] = []
+        self._series: dict[str, Rows] = {}
+        self._events: list[int] | None = None
+        self._events_seq = 0
+        for sink in self.sinks:
+            sink.metadata(META_RECORD, meta_record(time_base, node))
+        for name, record in (metadata or {}).items():
+            for sink in self.sinks:
+                sink.metadata(name, {str(k): str(v) for k, v in record.items()})
+        for name, data in (attachments or {}).items():
+            self.attach(name, data)
+        self._end_chunk()  # a recording killed from now on is readable
 
     # -- what a node feeds ---------------------------------------------------------------
 
@@ -157,12 +156,13 @@ class CanLogWriter:
         """Store ``data`` as the attachment ``name`` (stamped with the origin's UTC); nothing
         once the recording stopped."""
         if self.error is None:
-            self._out.attach(name, data, media_type)
+            for sink in self.sinks:
+                sink.attach(self.time_base.utc_origin_ns, name, media_type, data)
 
     def frame(self, t_s: float, msg: can.Message, rx: bool) -> None:
         """One frame received (``rx``) or sent at ``t_s`` on the node's clock. The frame is
         kept, not copied, until the next flush: its sender must not change it (a node's
-        frames in and out are new objects each; else :meth:`frame_copy`)."""
+        frames in and out are new objects each; else :meth:`frame_and_tick`)."""
         self._tap((t_s, None, msg, rx))
 
     def frame_raw(self, t_s: float, key: int, data: Any, rx: bool) -> None:
@@ -171,13 +171,12 @@ class CanLogWriter:
         :data:`dbc.frame.OTHER`, the message itself)."""
         self._tap((t_s, key, data, rx))
 
-    def frame_copy(self, t_s: float, msg: can.Message, rx: bool) -> None:
-        """:meth:`frame` of a copy of ``msg`` (a sender that reuses its messages)."""
-        self._tap((t_s, None, frame_copy(msg), rx))
-
     def frame_and_tick(self, t_s: float, msg: can.Message, rx: bool) -> None:
-        """:meth:`frame_copy`, then :meth:`tick`: a tap for a node without control cycles."""
-        self._tap((t_s, None, frame_copy(msg), rx))
+        """:meth:`frame_raw` of ``msg`` in the raw form (:func:`dbc.frame.raw_of`: its payload
+        copied, so a sender may reuse its message), then :meth:`tick`: a tap for a node
+        without control cycles."""
+        _, key, data = raw_of(msg)
+        self._tap((t_s, key, data, rx))
         self.tick(t_s)
 
     def series(
@@ -188,11 +187,15 @@ class CanLogWriter:
         integral: Sequence[bool] | None = None,
     ) -> None:
         """Declare the sampled channel ``topic`` with ``columns`` (besides ``t_s``);
-        ``integral``: per column, written as an integer (default: none)."""
+        ``integral``: per column, written as an integer (default: none). ``description`` is
+        not stored: the fields' names say what they are."""
+        del description
         if topic in self._samples:
             return
         ints = tuple(integral) if integral is not None else (False,) * len(columns)
-        self._out.series(topic, columns, description, ints)
+        title = "pacc." + topic.strip("/").replace("/", ".")
+        rows = ProtoRows(title, ["t_s", *columns], (False, *ints))
+        self._series[topic] = Rows(declare(self.sinks, rows_spec(topic, rows)), rows)
         self._samples[topic] = []
 
     def sample(self, topic: str, t_s: float, values: tuple[Any, ...]) -> None:
@@ -204,10 +207,17 @@ class CanLogWriter:
             self._block_t0 = self._frames[0] if self._frames else t_s
 
     def event(self, t_s: float, text: str) -> None:
-        """One event text, as ``foxglove.Log`` (written at once: events are rare); nothing
-        once the recording stopped."""
-        if self.error is None:
-            self._out.event(t_s, text)
+        """One event text, as ``foxglove.Log`` on ``/ecu/events`` (written at once: events
+        are rare); nothing once the recording stopped."""
+        if self.error is not None:
+            return
+        if self._events is None:
+            self._events = declare(self.sinks, json_spec(EVENTS_TOPIC, LOG_SCHEMA))
+        stamp = self.time_base.utc_ns(t_s)
+        doc = log_message(t_s, stamp, text, f"pacc.{self.node}")
+        for sink, handle in zip(self.sinks, self._events, strict=True):
+            sink.write_one(handle, self._events_seq, stamp, doc)
+        self._events_seq += 1
 
     def cycle(self, t_s: float, inputs: NodeInputs, outputs: NodeOutputs, k: int = -1) -> None:
         """ECU control cycle ``k``: its inputs and outputs on ``/ecu/inputs`` and
@@ -232,18 +242,9 @@ class CanLogWriter:
             self._fail(t_s, exc)
 
     def _declare_cycles(self) -> None:
-        self.series(
-            INPUTS_TOPIC,
-            INPUT_FIELDS,
-            "the ECU node's checked inputs per cycle",
-            integral_fields(NodeInputs, INPUT_FIELDS),
-        )
-        self.series(
-            OUTPUTS_TOPIC,
-            ("cycle", *OUTPUT_FIELDS),
-            "the ECU node's outputs per cycle",
-            (True, *integral_fields(NodeOutputs, OUTPUT_FIELDS)),
-        )
+        self.series(INPUTS_TOPIC, INPUT_FIELDS, "", integral_fields(NodeInputs, INPUT_FIELDS))
+        outputs = integral_fields(NodeOutputs, OUTPUT_FIELDS)
+        self.series(OUTPUTS_TOPIC, ("cycle", *OUTPUT_FIELDS), "", (True, *outputs))
         self._cycles_declared = True
 
     def tick(self, t_s: float) -> None:
@@ -273,16 +274,11 @@ class CanLogWriter:
     # -- writing -------------------------------------------------------------------------
 
     def _flush_due(self, t_s: float) -> None:
-        rows_due = self._rows_t0 is not None and t_s - self._rows_t0 >= self.rows_s
-        self._flush(rows_due, t_s)
+        self.flush(self._rows_t0 is not None and t_s - self._rows_t0 >= self.rows_s)
 
     def flush(self, rows: bool = True) -> None:
-        """Write the frames since the last flush and end the chunk (every sink); ``rows``:
-        the decoded rows and the cycles too."""
-        self._flush(rows, None)
-
-    def _flush(self, rows: bool, t_s: float | None) -> None:
-        """:meth:`flush` at ``t_s`` on the node's clock (None: the block's start)."""
+        """Write the frames since the last flush as a ``/can/raw`` block and end the chunk
+        (every sink); ``rows``: the decoded rows, the cycles and the samples too."""
         t0 = self._block_t0
         if t0 is None and self._frames:
             t0 = self._frames[0]
@@ -291,39 +287,80 @@ class CanLogWriter:
         if self._rows_t0 is None:
             self._rows_t0 = t0
         frames = self._frames
+        self._block_t0 = None
         if frames:
             self._frames = []
             self._tap = self._frames.extend
             self.frames += len(frames) // STRIDE
-        self._block_t0 = None
-        due: tuple[bytes, dict[str, list[Any]]] | None = None
+            batch = FrameBatch.of(frames)
+            t_ns = self.time_base.utc_ns(float(batch.t[0]))
+            for sink, handle in zip(self.sinks, self._raw, strict=True):
+                sink.write_one(handle, self._raw_seq, t_ns, batch.block())
+            self._raw_seq += 1
+            if self._decoded:
+                self._pending.append(batch)
         if rows:
-            due = b"".join(self._cycles), {k: v for k, v in self._samples.items() if v}
-            self._cycles = []
-            for k in due[1]:
-                self._samples[k] = []
+            self._write_decoded()
+            if self._cycles:
+                self._write_cycles(b"".join(self._cycles))
+                self._cycles = []
+            for topic, values in self._samples.items():
+                if values:
+                    s = self._series[topic]
+                    table = np.fromiter(values, np.float64, len(values)).reshape(-1, s.width)
+                    self._write_rows(s, table)
+                    self._samples[topic] = []
             self._rows_t0 = None
-        out = self._out
-        if isinstance(out, RemoteOutput):
-            t = t_s if t_s is not None else (t0 if t0 is not None else math.nan)
-            out.flush(t, frame_columns(frames) if frames else None, due)
+        self._end_chunk()
+
+    def _end_chunk(self) -> None:
+        """Make what was written durable on every sink (the file: end the chunk)."""
+        for sink in self.sinks:
+            sink.flush()
+
+    def _write_cycles(self, cycles: bytes) -> None:
+        ins, outs = self._series[INPUTS_TOPIC], self._series[OUTPUTS_TOPIC]
+        width = ins.width + outs.width - 1  # t_s, the index, the inputs, the outputs
+        t, inputs, outputs = cycle_tables(cycles, ins.width, width)
+        t_ns = utc_ns_array(self.time_base, t)
+        self._write_rows(ins, inputs, t_ns)
+        self._write_rows(outs, outputs, t_ns)
+
+    def _write_rows(self, s: Rows, table: np.ndarray, t_ns: np.ndarray | None = None) -> None:
+        """One message per row of ``table`` (``t_s`` first) on ``s``'s channel, stamped
+        ``t_ns`` (default: the UTC of ``t_s``)."""
+        if t_ns is None:
+            t_ns = utc_ns_array(self.time_base, table[:, 0])
+        for sink, handle in zip(self.sinks, s.handles, strict=True):
+            sink.write_rows(handle, s.seq, t_ns, s.rows, table)
+        s.seq += len(table)
+
+    def _write_decoded(self) -> None:
+        if not self._pending:
             return
-        if frames:
-            out.frames(FrameBatch.of(frames))
-        if due is not None:
-            out.rows(*due)
-        out.end_chunk()
+        batch = FrameBatch.join(self._pending)
+        self._pending = []
+        t_ns = utc_ns_array(self.time_base, batch.t)
+        for key, table, sel in self._decoders.tables(batch):
+            self._write_rows(self._decoded[key], table, t_ns[sel])
 
     def write_series(
         self, topic: str, columns: Mapping[str, Iterable[Any]], t_s: Iterable[float]
     ) -> None:
         """Write whole columns at once (e.g. the simulated world after a drive), one message
-        per row; ``topic`` must be declared with the columns' names. Nothing once the
-        recording stopped (:attr:`error`: the first failure is the one reported)."""
+        per row, a chunk every :data:`SERIES_STEP` rows; ``topic`` must be declared with the
+        columns' names. Nothing once the recording stopped (:attr:`error`: the first failure
+        is the one reported)."""
         if topic not in self._samples:
             raise KeyError(topic)
-        if self.error is None:
-            self._out.write_series(topic, columns, t_s)
+        if self.error is not None:
+            return
+        s = self._series[topic]
+        t = floats(t_s)
+        table = np.column_stack([t, *(floats(columns[k]) for k in s.rows.names[1:])])
+        for start in range(0, len(t), SERIES_STEP):
+            self._write_rows(s, table[start : start + SERIES_STEP])
+            self._end_chunk()
 
     # -- end -----------------------------------------------------------------------------
 
@@ -338,20 +375,25 @@ class CanLogWriter:
             return
         self.closed = True
         if self.error is not None:
-            self._out.abandon()
+            self._abandon()
             raise CanLogError(f"{self.path}: {self.error}; what was written is in {self.path}.part")
         base = self.time_base
         try:
             self.flush()
+            first = self.first_t_s if self.first_t_s is not None else base.clock_origin_s
+            end = {**meta_record(base, self.node), "start_utc": base.iso(first)}
+            for sink in self.sinks:
+                sink.metadata(META_RECORD, end)
         except OSError as exc:
-            self._out.abandon()
+            self._abandon()
             raise CanLogError(f"{self.path}: cannot finish the recording: {exc}") from exc
-        first = self.first_t_s if self.first_t_s is not None else base.clock_origin_s
-        try:
-            self._out.finish(base.iso(first))
-        except OSError as exc:
-            self._out.abandon()
-            raise CanLogError(f"{self.path}: cannot finish the recording: {exc}") from exc
+        close_all(self.sinks)
+
+    def _abandon(self) -> None:
+        """Keep what was written (every sink closed as incomplete); never raises."""
+        for sink in self.sinks:
+            with contextlib.suppress(CanLogError, OSError):
+                sink.close(complete=False)
 
     def __enter__(self) -> CanLogWriter:
         return self

@@ -71,6 +71,11 @@ def _ecu(args: argparse.Namespace) -> int:
         else f"DIFFERENT from the recording from frame {diff} on"
     )
     print(f"  ECU sent         {len(result.sent)} frames: {verdict}")
+    if result.unreplayed:
+        print(
+            f"    (the recording was killed: the {result.unreplayed} frames its node sent "
+            "after its last recorded cycle are not compared)"
+        )
     if diff is not None:
         mine = result.sent[diff] if diff < len(result.sent) else None
         theirs = result.recorded[diff] if diff < len(result.recorded) else None
@@ -81,7 +86,9 @@ def _ecu(args: argparse.Namespace) -> int:
     if args.events:
         for t, text in result.events:
             print(f"    t={t:.2f} s  {text}")
-    print("  " + str(result.summary).replace("\n", "\n  "))
+    # the compute time of a cycle means nothing in a lockstep replay: left out
+    summary = str(result.summary).splitlines()
+    print("\n".join("  " + line for line in summary if not line.startswith("max cycle time")))
     return 0 if diff is None else 1
 
 

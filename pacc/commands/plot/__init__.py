@@ -173,6 +173,44 @@ def _draw_signals(fig: Any, curves: list[tuple[str, np.ndarray, np.ndarray]], t0
     return ax
 
 
+def signal_curves(log: CanLog, signals: Sequence[str]) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """(axis label: the name and its unit, t_s, values) of each of ``signals`` (:func:`pick`)."""
+    curves = []
+    for name in signals:
+        label, t, y = pick(log, name)
+        unit = unit_of(log, label)
+        curves.append((f"{label}, {unit}" if unit else label, t, y))
+    return curves
+
+
+def unit_of(log: CanLog, label: str) -> str:
+    """The unit of the signal ``label`` as :func:`pick` names it: a decoded frame's signal in
+    the recording's DBC's unit (else the binding's, for a signal the DBC gives none), an
+    internal in its field name's (``gap_m`` m, ``v_mps`` m/s: :mod:`dbc.units`); "" if none."""
+    from dbc.units import logical_unit  # noqa: PLC0415
+    from ecu.buslog.replay import codec_of  # noqa: PLC0415 - the DBC only for a signal's unit
+
+    message, _, name = label.rpartition(".")
+    if message.startswith("/"):
+        return logical_unit(name) or ""
+    codec = codec_of(log)
+    try:
+        unit = codec.db.get_message_by_name(message).get_signal_by_name(name).unit
+    except KeyError:
+        return ""
+    if not unit:
+        fields = [
+            f
+            for role in codec.binding.roles.values()
+            for part in role.parts
+            if part.message == message
+            for f in part.fields.values()
+            if f.signal == name and f.unit
+        ]
+        unit = fields[0].unit if fields else ""
+    return str(unit or "")
+
+
 def plot(
     log: CanLog | None,
     out: Path,
@@ -187,7 +225,7 @@ def plot(
 
     fig = Figure(figsize=(10, 9), constrained_layout=True)
     if signals and log is not None:
-        curves = [pick(log, name) for name in signals]
+        curves = signal_curves(log, signals)
         t0 = min((float(c[1][0]) for c in curves if len(c[1])), default=0.0)
         ax = _draw_signals(fig, curves, t0)
         source = "selected signals"
