@@ -48,7 +48,7 @@ from cloud_sync.api import (
 from cloud_sync.engine.base import Engine
 from cloud_sync.errors import DemoError
 from cloud_sync.irl.trainer import IrlConfig
-from cloud_sync.service.ingest import StorageFullError, _kind, _parse_trip, _storage_errors
+from cloud_sync.service.ingest import StorageFullError, parse_batch, storage_errors
 from cloud_sync.service.jobs import DeferredExecutor, InlineExecutor, train_table
 from cloud_sync.service.store import BatchRow, CloudStore, StoreError, VersionRow
 from cloud_sync.signing import (
@@ -207,8 +207,8 @@ class CloudService:
             raise PayloadTooLargeError(
                 f"{len(data)} bytes exceed the limit of {self.config.max_upload_bytes}"
             )
-        with _storage_errors():
-            trip = _parse_trip(data)
+        with storage_errors():
+            trip, kind = parse_batch(data)
         driver_id = trip.meta.get("driver_id")
         if not isinstance(driver_id, str) or not driver_id:
             raise BadBatchError("the trip log names no driver_id in its metadata")
@@ -224,12 +224,12 @@ class CloudService:
             vehicle_id=vehicle_id,
             driver_id=driver_id,
             condition=condition,
-            kind=_kind(trip),
+            kind=kind.value,
             size_bytes=len(data),
             received_utc=_utc_now(),
             used_in_version=None,
         )
-        with _storage_errors():
+        with storage_errors():
             added = self.store.add_batch(row, data)
         if added:
             self.schedule(driver_id, condition)
