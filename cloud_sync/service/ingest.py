@@ -6,10 +6,8 @@ a retryable answer, never a lost batch.
   decompressing them; their declared sizes together, and each zstd frame's own content size,
   must stay within :data:`MAX_DECOMPRESSED_BYTES`, and only zstd or uncompressed chunks are read
   (a 17 KB zstd bomb must not become 512 MiB of memory).
-- **Plausible samples** (:func:`check_plausible`), as the vehicle's adaptation filter refuses
-  non-finite or negative speeds and gaps: 1 to :data:`MAX_SAMPLES` samples, times within
-  ±:data:`MAX_T_S`, every value finite or missing (NaN), speeds 0..:data:`MAX_SPEED_MPS`, gaps
-  :data:`MIN_GAP_M`..:data:`MAX_GAP_M`, accelerations within ±:data:`MAX_ACCEL_MPS2`.
+- **Plausible samples**: :func:`cloud_sync.api.check_plausible`, the check the vehicle's spool
+  makes of a file it is given.
 """
 
 from __future__ import annotations
@@ -20,35 +18,21 @@ import io
 import sqlite3
 from collections.abc import Iterator
 
-import numpy as np
-
-from cloud_sync.api import BadBatchError, CloudUnavailableError
+from cloud_sync.api import BadBatchError, CloudUnavailableError, check_plausible
 from dbc.vocab.triplog import Trip, TripLogError, trip_mode
 from dbc.vocab.triplog_file import trip_from_bytes
 from dbc.vocab.tripmode import TripMode, TripModeError
 
 __all__ = [
     "MAX_DECOMPRESSED_BYTES",
-    "MAX_SAMPLES",
     "StorageFullError",
     "check_chunks",
-    "check_plausible",
     "parse_batch",
     "storage_errors",
 ]
 
 #: the most a batch may decompress to, bytes (a 2-hour trip is about 15 MB of samples)
 MAX_DECOMPRESSED_BYTES = 64 * 1024 * 1024
-#: the most samples of one batch: 2 hours at the trip logs' 10 Hz
-MAX_SAMPLES = 72_000
-#: sample times, s: within ±MAX_T_S (an MCAP log time, ns in 64 bits, holds ±292 years)
-MAX_T_S = 1e9
-#: the fastest plausible speed, m/s (360 km/h)
-MAX_SPEED_MPS = 100.0
-#: the gap range, m: a collision's last sample may be a little negative
-MIN_GAP_M, MAX_GAP_M = -10.0, 1000.0
-#: the largest plausible acceleration magnitude, m/s² (about 2 g)
-MAX_ACCEL_MPS2 = 20.0
 
 
 class StorageFullError(CloudUnavailableError):
@@ -119,26 +103,3 @@ def check_chunks(data: bytes) -> None:
         raise
     except Exception:  # noqa: BLE001, S110 - damaged MCAP: the reader names the cause
         pass
-
-
-def check_plausible(trip: Trip) -> None:
-    """Refuse a trip whose samples no car recorded (module docstring); BadBatchError."""
-    n = len(trip)
-    if not 1 <= n <= MAX_SAMPLES:
-        raise BadBatchError(f"a batch holds 1 to {MAX_SAMPLES} samples, this one {n}")
-    ranges = {
-        "t_s": (-MAX_T_S, MAX_T_S),
-        "v_mps": (0.0, MAX_SPEED_MPS),
-        "v_lead_mps": (0.0, MAX_SPEED_MPS),
-        "gap_m": (MIN_GAP_M, MAX_GAP_M),
-        "a_mps2": (-MAX_ACCEL_MPS2, MAX_ACCEL_MPS2),
-    }
-    for name, (lo, hi) in ranges.items():
-        column = getattr(trip, name)
-        known = column[~np.isnan(column)]
-        if known.size and not (known.min() >= lo and known.max() <= hi):
-            bad = known[(known < lo) | (known > hi)][0]
-            raise BadBatchError(
-                f"implausible trip log: {name} = {bad:g} outside {lo:g}..{hi:g} "
-                "(finite values or null only)"
-            )

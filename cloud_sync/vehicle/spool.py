@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
+from cloud_sync.api import BadBatchError, check_plausible
 from cloud_sync.durable import fsync_dir
 from cloud_sync.errors import CloudSyncError
 from dbc.vocab.triplog import Trip, TripLogError, trip_mode
@@ -188,12 +189,17 @@ class Spool:
         """Spool a copy of an MCAP trip log (checked with :func:`read_trip` first).
 
         Raises:
-            SpoolError: the file is not a readable pacc trip log, or is too large.
+            SpoolError: the file is not a readable pacc trip log, holds samples the cloud
+                would refuse (:func:`cloud_sync.api.check_plausible`), or is too large.
         """
         try:
             trip = read_trip(source)
         except TripLogError as exc:
             raise SpoolError(f"not spooled: {exc}") from exc
+        try:
+            check_plausible(trip)
+        except BadBatchError as exc:
+            raise SpoolError(f"not spooled: {source}: {exc}") from exc
         return self.put_trip(trip, kind)
 
     def _admit(self, incoming: Path, kind: BatchKind) -> Batch:

@@ -20,8 +20,8 @@ from mcap.data_stream import RecordBuilder
 from mcap.opcode import Opcode
 from mcap.records import Chunk, DataEnd, Footer, Header
 
-from cloud_sync.api import BadBatchError
-from cloud_sync.service.ingest import MAX_DECOMPRESSED_BYTES, MAX_SAMPLES
+from cloud_sync.api import MAX_SAMPLES, BadBatchError
+from cloud_sync.service.ingest import MAX_DECOMPRESSED_BYTES
 from cloud_sync.service.local import LocalCloud
 from cloud_sync.service.rules import CloudService
 from dbc.vocab.triplog import FLOAT_FIELDS, Trip
