@@ -156,10 +156,8 @@ class CloudService:
     # -- vehicles and drivers -----------------------------------------------------------
 
     def register_vehicle(self, vehicle_id: str) -> str:
-        """Register a vehicle; return its token (shown once, stored as a hash)."""
-        token = secrets.token_urlsafe(32)
-        self.store.add_vehicle(vehicle_id, _sha256(token.encode()))
-        return token
+        """Register a vehicle without drivers; return its token (:meth:`register`)."""
+        return self.register(vehicle_id, [])
 
     def register(
         self,
@@ -201,11 +199,8 @@ class CloudService:
         return fresh
 
     def register_driver(self, vehicle_id: str, driver_id: str) -> None:
-        """Bind ``driver_id`` to ``vehicle_id`` (StoreError if taken, unknown vehicle, or not
-        a plain name)."""
-        if not is_plain_name(driver_id):
-            raise StoreError(f"driver id {driver_id!r} is not a plain name (letters, digits, _.-)")
-        self.store.add_driver(driver_id, vehicle_id)
+        """Bind ``driver_id`` to ``vehicle_id`` (:meth:`update_vehicle`)."""
+        self.update_vehicle(vehicle_id, [driver_id])
 
     def authenticate(self, token: str | None) -> str:
         """The vehicle holding ``token``; :class:`AuthError` if none."""

@@ -199,14 +199,6 @@ class CloudStore:
 
     # -- vehicles and drivers -----------------------------------------------------------
 
-    def add_vehicle(self, vehicle_id: str, token_sha256: str) -> None:
-        """Register a vehicle with the SHA-256 of its token; StoreError if it exists."""
-        try:
-            with self._tx() as db:
-                db.execute("INSERT INTO vehicles VALUES (?, ?)", (vehicle_id, token_sha256))
-        except sqlite3.IntegrityError as exc:
-            raise StoreError(f"vehicle {vehicle_id!r} is already registered") from exc
-
     def register(
         self,
         vehicle_id: str,
@@ -261,17 +253,6 @@ class CloudStore:
                 "SELECT vehicle_id FROM vehicles WHERE token_sha256 = ?", (token_sha256,)
             ).fetchone()
         return None if row is None else str(row[0])
-
-    def add_driver(self, driver_id: str, vehicle_id: str) -> None:
-        """Register ``driver_id`` to ``vehicle_id``; StoreError if unknown vehicle or taken."""
-        try:
-            with self._tx() as db:
-                db.execute("INSERT INTO drivers VALUES (?, ?)", (driver_id, vehicle_id))
-        except sqlite3.IntegrityError as exc:
-            raise StoreError(
-                f"driver {driver_id!r} cannot be registered to {vehicle_id!r}: "
-                "unknown vehicle or driver already registered"
-            ) from exc
 
     def driver_vehicle(self, driver_id: str) -> str | None:
         """The vehicle ``driver_id`` is registered to, or None."""
