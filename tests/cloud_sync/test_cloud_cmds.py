@@ -271,3 +271,15 @@ def test_sync_waits_for_the_served_cloud_to_learn_before_it_fetches(
     auth = {"Authorization": f"Bearer {token.read_text().strip()}"}
     batches = httpx.get(f"{url}/v1/drivers/syn/batches", headers=auth, timeout=5.0).json()
     assert len(batches) == 3 and all(b["used_in_version"] for b in batches)  # learned from
+
+
+def test_learn_never_writes_over_its_demonstration(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    demo = tmp_path / "m.mcap"
+    write_trip(demo, follower_trip(0, minutes=2.0))
+    kept = demo.read_bytes()
+    argv = ["learn", "--demos", str(demo), "--driver", "syn", "--learner", "empirical"]
+    assert main([*argv, "-o", str(demo)]) == 2
+    assert "it would overwrite" in capsys.readouterr().err
+    assert demo.read_bytes() == kept
