@@ -123,6 +123,7 @@ def scaled_times(data: bytes, scale: float) -> bytes:
     ids: dict[str, int] = {}
     for schema, channel, msg in make_reader(io.BytesIO(data)).iter_messages():
         if channel.topic not in ids:
+            assert schema is not None
             sid = writer.register_schema(schema.name, schema.encoding, schema.data)
             ids[channel.topic] = writer.register_channel(
                 channel.topic, channel.message_encoding, sid

@@ -188,8 +188,7 @@ def _do_serve(args: argparse.Namespace) -> int:
         signal.signal(sig, lambda *_: None)
     try:
         app = create_app(service, operator)
-        config = uvicorn.Config(app, log_level="warning")
-        uvicorn.Server(config).run(sockets=[listener])
+        uvicorn.Server(uvicorn.Config(app, log_level="warning")).run(sockets=[listener])
     finally:
         pool.shutdown(wait=True)
         service.store.close()

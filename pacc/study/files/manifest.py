@@ -16,7 +16,7 @@ import json
 import platform
 import subprocess
 import sys
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
@@ -93,7 +93,7 @@ _FIELDS = {
 }
 
 
-def plugin_origins(methods: list[Mapping[str, Any]]) -> dict[str, dict[str, str | None]]:
+def plugin_origins(methods: Iterable[Mapping[str, Any]]) -> dict[str, dict[str, str | None]]:
     """``group:spec`` -> provenance of every plug-in the config's ``methods`` name."""
     out = {}
     for method in methods:
@@ -135,7 +135,7 @@ def write_manifest(
         "platform": platform_info(),
         "seeds": seeds_of(config),
         "config": dict(config),
-        "plugins": plugin_origins(list(config.get("methods", []))),
+        "plugins": plugin_origins(config.get("methods", [])),
         **(dict(extra) if extra else {}),
     }
     out.mkdir(parents=True, exist_ok=True)
