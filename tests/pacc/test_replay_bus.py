@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 
+from ecu.buslog.reader import read_canlog
 from pacc import cli
 from tests.sim_bus.test_two_processes import remote_bus
 
@@ -33,6 +34,21 @@ def test_replay_on_a_virtual_bus_is_refused_with_a_hint(
     assert cli.main(["replay", str(drive), "-i", "virtual", "-c", "bus0", "--frames", "rx"]) == 2
     err = capsys.readouterr().err
     assert "no other ECU can listen" in err and "-i remote" in err
+
+
+def test_replay_sends_every_received_frame_onto_a_shared_bus(drive: Path, remote_bus: str) -> None:
+    n_rx = int(read_canlog(drive).frames.rx.sum())
+    replay = subprocess.run(
+        [sys.executable, "-m", "pacc", "replay", str(drive), "-i", "remote", "-c", remote_bus]
+        + ["--frames", "rx"],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=ROOT,
+    )
+    assert replay.returncode == 0, replay.stderr
+    assert f"replay: {n_rx} frames of {drive} sent" in replay.stdout
 
 
 @pytest.mark.slow
