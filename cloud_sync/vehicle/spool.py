@@ -31,7 +31,7 @@ import uuid
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal, cast
+from typing import Literal
 
 from cloud_sync.api import BadBatchError, check_plausible
 from cloud_sync.durable import fsync_dir
@@ -160,7 +160,7 @@ class Spool:
         """
         if kind is None:
             try:
-                kind = cast(BatchKind, trip_mode(trip).value)
+                kind = trip_mode(trip).value
             except TripModeError as exc:
                 raise SpoolError(f"spool {self.root}: not spooled: {exc}") from exc
         incoming = self.root / _INCOMING / f"{uuid.uuid4().hex}.mcap"
