@@ -158,11 +158,10 @@ class Spool:
                 unknown (:class:`dbc.vocab.tripmode.TripModeError`) or it is larger than the
                 whole quota.
         """
-        if kind is None:
-            try:
-                kind = trip_mode(trip).value
-            except TripModeError as exc:
-                raise SpoolError(f"spool {self.root}: not spooled: {exc}") from exc
+        try:
+            kind = kind or trip_mode(trip).value
+        except TripModeError as exc:
+            raise SpoolError(f"spool {self.root}: not spooled: {exc}") from exc
         incoming = self.root / _INCOMING / f"{uuid.uuid4().hex}.mcap"
         try:
             write_trip(incoming, trip)
