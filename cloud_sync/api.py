@@ -18,6 +18,12 @@ CloudUnavailableError  503     the cloud cannot be reached or failed: retry late
 =====================  ======  ==========================================================
 
 Only :class:`CloudUnavailableError` is worth a retry; the others are answers.
+
+What the cloud accepts as a batch, the vehicle checks too before it spools a file
+(:func:`check_plausible`): 1 to :data:`MAX_SAMPLES` samples, times within ±:data:`MAX_T_S`,
+every value finite or missing (NaN), speeds 0..:data:`MAX_SPEED_MPS`, gaps
+:data:`MIN_GAP_M`..:data:`MAX_GAP_M`, accelerations within ±:data:`MAX_ACCEL_MPS2` (as the
+ECU's adaptation filter refuses non-finite or negative speeds and gaps).
 """
 
 from __future__ import annotations
@@ -25,9 +31,12 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 from cloud_sync.errors import CloudSyncError
+
+if TYPE_CHECKING:
+    from dbc.vocab.triplog import Trip
 
 
 class CloudError(CloudSyncError):
@@ -94,6 +103,43 @@ def is_plain_name(value: object) -> bool:
     digits, ``_ . -``, starting with a letter or digit (so never ``..``, ``/`` or absolute:
     these names become folder names in the cloud's store and on the vehicle)."""
     return isinstance(value, str) and _PLAIN_NAME.fullmatch(value) is not None
+
+
+#: the most samples of one batch: 2 hours at the trip logs' 10 Hz
+MAX_SAMPLES = 72_000
+#: sample times, s: within ±MAX_T_S (an MCAP log time, ns in 64 bits, holds ±292 years)
+MAX_T_S = 1e9
+#: the fastest plausible speed, m/s (360 km/h)
+MAX_SPEED_MPS = 100.0
+#: the gap range, m: a collision's last sample may be a little negative
+MIN_GAP_M, MAX_GAP_M = -10.0, 1000.0
+#: the largest plausible acceleration magnitude, m/s² (about 2 g)
+MAX_ACCEL_MPS2 = 20.0
+
+
+def check_plausible(trip: Trip) -> None:
+    """Refuse a trip whose samples no car recorded (module docstring); BadBatchError."""
+    import numpy as np  # noqa: PLC0415 - loaded with any Trip; `pacc cloud --help` skips it
+
+    n = len(trip)
+    if not 1 <= n <= MAX_SAMPLES:
+        raise BadBatchError(f"a batch holds 1 to {MAX_SAMPLES} samples, this one {n}")
+    ranges = {
+        "t_s": (-MAX_T_S, MAX_T_S),
+        "v_mps": (0.0, MAX_SPEED_MPS),
+        "v_lead_mps": (0.0, MAX_SPEED_MPS),
+        "gap_m": (MIN_GAP_M, MAX_GAP_M),
+        "a_mps2": (-MAX_ACCEL_MPS2, MAX_ACCEL_MPS2),
+    }
+    for name, (lo, hi) in ranges.items():
+        column = getattr(trip, name)
+        known = column[~np.isnan(column)]
+        if known.size and not (known.min() >= lo and known.max() <= hi):
+            bad = known[(known < lo) | (known > hi)][0]
+            raise BadBatchError(
+                f"implausible trip log: {name} = {bad:g} outside {lo:g}..{hi:g} "
+                "(finite values or null only)"
+            )
 
 
 @dataclass(frozen=True)
@@ -168,5 +214,6 @@ __all__ = [
     "PayloadTooLargeError",
     "Receipt",
     "TripReceipt",
+    "check_plausible",
     "is_plain_name",
 ]

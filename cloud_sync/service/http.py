@@ -28,6 +28,7 @@ reports, :mod:`cloud_sync.service.trips`'s.
 from __future__ import annotations
 
 import json
+import logging
 from dataclasses import asdict
 from typing import Any
 
@@ -38,12 +39,15 @@ from fastapi.security import HTTPBearer
 from fastapi.staticfiles import StaticFiles
 from pydantic import BaseModel
 from starlette.concurrency import run_in_threadpool
+from starlette.requests import ClientDisconnect
 from swagger_ui_bundle import swagger_ui_path
 
 from cloud_sync.api import BadBatchError, CloudError, PayloadTooLargeError
 from cloud_sync.service.rules import CloudService
 from cloud_sync.service.trips import record_trip
 from cloud_sync.service.views import ServiceViews
+
+log = logging.getLogger(__name__)
 
 #: seconds a vehicle is asked to wait after a 503 or 507 (full disk) answer
 RETRY_AFTER_S = 60
@@ -121,6 +125,8 @@ def create_app(service: CloudService, operator_token_sha256: str | None = None) 
         docs_url=None,  # served below from the packaged assets, not from a CDN
         redoc_url=None,
     )
+    # the bundled Swagger UI (4.x) renders OpenAPI 3.0 only, and the description needs no 3.1
+    app.openapi_version = "3.0.3"
     app.mount("/static/swagger-ui", StaticFiles(directory=swagger_ui_path), name="swagger-ui")
 
     @app.get("/docs", include_in_schema=False)
@@ -138,6 +144,15 @@ def create_app(service: CloudService, operator_token_sha256: str | None = None) 
         # 503/507: the vehicle keeps the batch and comes back later
         headers = {"Retry-After": str(RETRY_AFTER_S)} if exc.status in (503, 507) else None
         return JSONResponse({"detail": str(exc)}, status_code=exc.status, headers=headers)
+
+    @app.exception_handler(ClientDisconnect)
+    async def _gone(request: Request, _: ClientDisconnect) -> Response:
+        # the vehicle keeps the batch and retries: one line, not a traceback
+        peer = request.client.host if request.client else "?"
+        log.warning(
+            "%s %s: client %s disconnected mid-upload", request.method, request.url.path, peer
+        )
+        return Response(status_code=400)
 
     @app.post(
         "/v1/batches",
@@ -184,6 +199,8 @@ def create_app(service: CloudService, operator_token_sha256: str | None = None) 
             body = json.loads(data)
         except (ValueError, UnicodeDecodeError) as exc:
             raise BadBatchError(f"a trip report is JSON: {exc}") from exc
+        except RecursionError as exc:
+            raise BadBatchError("a trip report is JSON nested a few levels deep") from exc
         receipt = await run_in_threadpool(record_trip, service, vehicle, body)
         return JSONResponse(asdict(receipt), status_code=200 if receipt.duplicate else 201)
 

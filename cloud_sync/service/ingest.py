@@ -1,26 +1,38 @@
 """Checks of an upload before the cloud keeps it: the bytes must be a pacc trip log of a known
-kind, and a failure of the cloud's own storage becomes a retryable answer, never a lost batch.
+kind whose samples a car could have recorded, and a failure of the cloud's own storage becomes
+a retryable answer, never a lost batch.
+
+- **Size before decompressing** (:func:`check_chunks`): the MCAP chunks are read without
+  decompressing them; their declared sizes together, and each zstd frame's own content size,
+  must stay within :data:`MAX_DECOMPRESSED_BYTES`, and only zstd or uncompressed chunks are read
+  (a 17 KB zstd bomb must not become 512 MiB of memory).
+- **Plausible samples**: :func:`cloud_sync.api.check_plausible`, the check the vehicle's spool
+  makes of a file it is given.
 """
 
 from __future__ import annotations
 
 import contextlib
 import errno
+import io
 import sqlite3
 from collections.abc import Iterator
 
-from cloud_sync.api import BadBatchError, CloudUnavailableError
-from cloud_sync.vehicle.spool import BatchKind, kind_of
-from dbc.vocab.triplog import Trip, TripLogError
+from cloud_sync.api import BadBatchError, CloudUnavailableError, check_plausible
+from dbc.vocab.triplog import Trip, TripLogError, trip_mode
 from dbc.vocab.triplog_file import trip_from_bytes
-from dbc.vocab.tripmode import TripModeError
+from dbc.vocab.tripmode import TripMode, TripModeError
 
+__all__ = [
+    "MAX_DECOMPRESSED_BYTES",
+    "StorageFullError",
+    "check_chunks",
+    "parse_batch",
+    "storage_errors",
+]
 
-def _kind(trip: Trip) -> BatchKind:
-    try:
-        return kind_of(trip)
-    except TripModeError as exc:
-        raise BadBatchError(f"not a pacc trip log: {exc}") from exc
+#: the most a batch may decompress to, bytes (a 2-hour trip is about 15 MB of samples)
+MAX_DECOMPRESSED_BYTES = 64 * 1024 * 1024
 
 
 class StorageFullError(CloudUnavailableError):
@@ -30,7 +42,7 @@ class StorageFullError(CloudUnavailableError):
 
 
 @contextlib.contextmanager
-def _storage_errors() -> Iterator[None]:
+def storage_errors() -> Iterator[None]:
     """An OS or SQLite failure of the cloud's own storage becomes a retryable answer (507 for
     a full disk, else 503), never a 500 and never a batch the vehicle drops."""
     try:
@@ -49,11 +61,45 @@ def _storage_errors() -> Iterator[None]:
         raise CloudUnavailableError(f"the cloud's index failed: {exc}") from exc
 
 
-def _parse_trip(data: bytes) -> Trip:
+def parse_batch(data: bytes) -> tuple[Trip, TripMode]:
+    """The checked trip of an upload and its kind; BadBatchError (422) for anything else."""
+    check_chunks(data)
     try:
-        return trip_from_bytes(data, "uploaded trip log")
-    except TripLogError as exc:
+        trip = trip_from_bytes(data, "uploaded trip log")
+        mode = trip_mode(trip)
+    except (TripLogError, TripModeError) as exc:
         raise BadBatchError(f"not a pacc trip log: {exc}") from exc
+    check_plausible(trip)
+    return trip, mode
 
 
-__all__ = ["StorageFullError"]
+def check_chunks(data: bytes) -> None:
+    """Refuse MCAP bytes that would decompress past :data:`MAX_DECOMPRESSED_BYTES`, read
+    without decompressing (a file that is not MCAP is left to the trip-log reader)."""
+    # mcap and zstandard cost start-up; only an upload needs them
+    import zstandard  # noqa: PLC0415
+    from mcap.records import Chunk  # noqa: PLC0415
+    from mcap.stream_reader import StreamReader  # noqa: PLC0415
+
+    total = 0
+    try:
+        for record in StreamReader(io.BytesIO(data), emit_chunks=True).records:
+            if not isinstance(record, Chunk):
+                continue
+            size = record.uncompressed_size
+            if record.compression == "zstd":
+                with contextlib.suppress(zstandard.ZstdError):  # no size in the frame
+                    size = max(size, zstandard.frame_content_size(record.data))
+            elif record.compression:
+                raise BadBatchError(
+                    f"not a pacc trip log: {record.compression!r} chunks (zstd or none)"
+                )
+            total += size
+            if total > MAX_DECOMPRESSED_BYTES:
+                raise BadBatchError(
+                    f"the trip log decompresses to more than {MAX_DECOMPRESSED_BYTES} bytes"
+                )
+    except BadBatchError:
+        raise
+    except Exception:  # noqa: BLE001, S110 - damaged MCAP: the reader names the cause
+        pass

@@ -5,15 +5,24 @@ no server runs: the same rules (tokens, driver ownership, size limit, validation
 ``pacc cloud serve``, without a network. Its learning jobs are deferred until a table is asked
 for (:class:`~cloud_sync.service.rules.DeferredExecutor`): a sync pass of many batches learns once,
 in the caller's thread, deterministically.
+
+A folder has one learner at a time: ``pacc cloud serve`` holds ``DIR/serving.lock``
+exclusively (its URL inside), an embedded cloud shared (:func:`hold_folder`). So an embedded
+sync into a folder a server is serving is refused with the server's URL, instead of storing
+batches the server would never learn from, and a server does not start over a folder an
+embedded cloud is using.
 """
 
 from __future__ import annotations
 
+import fcntl
 import os
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 from cloud_sync.api import Receipt, TripReceipt
+from cloud_sync.errors import CloudSyncError
 from cloud_sync.service.rules import CloudService, DeferredExecutor, ServiceConfig
 from cloud_sync.service.trips import record_trip
 
@@ -24,13 +33,19 @@ class LocalCloud:
     def __init__(self, service: CloudService, token: str) -> None:
         self.service = service
         self.token = token
+        self.lock_fd: int | None = None
 
     @classmethod
     def open(
         cls, data_dir: str | os.PathLike[str], token: str, config: ServiceConfig | None = None
     ) -> LocalCloud:
-        """The embedded cloud over ``data_dir`` (created with its key if new)."""
-        return cls(CloudService.open(data_dir, DeferredExecutor(), config), token)
+        """The embedded cloud over ``data_dir`` (created with its key if new); CloudSyncError
+        while a server serves the folder."""
+        Path(data_dir).mkdir(parents=True, exist_ok=True)
+        lock_fd = hold_folder(data_dir)  # released when the process ends
+        cloud = cls(CloudService.open(data_dir, DeferredExecutor(), config), token)
+        cloud.lock_fd = lock_fd
+        return cloud
 
     def upload(self, data: bytes) -> Receipt:
         """Deliver one batch (its learning job waits for the next :meth:`latest_dgpt`)."""
@@ -59,4 +74,30 @@ class LocalCloud:
         return record_trip(self.service, vehicle, dict(report))
 
 
-__all__ = ["LocalCloud"]
+def hold_folder(data_dir: str | os.PathLike[str], server_url: str | None = None) -> int:
+    """Lock the data folder for this process (the module docstring): shared for an embedded
+    cloud, exclusive for a server at ``server_url``; the lock's file descriptor (closing it
+    releases the lock). CloudSyncError if the other kind holds it."""
+    path = Path(data_dir) / "serving.lock"
+    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        fcntl.flock(fd, (fcntl.LOCK_EX if server_url else fcntl.LOCK_SH) | fcntl.LOCK_NB)
+    except BlockingIOError:
+        url = os.pread(fd, 200, 0).decode(errors="replace").strip()
+        os.close(fd)
+        if server_url:
+            raise CloudSyncError(
+                f"{data_dir} is in use by an embedded cloud (pacc ... --cloud {data_dir}): "
+                "serve it when that has finished"
+            ) from None
+        raise CloudSyncError(
+            f"{data_dir} is served by pacc cloud serve at {url or 'another process'}: "
+            f"use --cloud {url or 'URL'} (an embedded sync would store batches it never learns)"
+        ) from None
+    if server_url:
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, server_url.encode(), 0)
+    return fd
+
+
+__all__ = ["LocalCloud", "hold_folder"]

@@ -1,8 +1,8 @@
 """The cloud service's rules, free of any transport: who may do what, ingest, learning, publishing.
 
-- **Vehicles and drivers**: :meth:`CloudService.register_vehicle` returns a fresh token (the
-  cloud keeps only its SHA-256); :meth:`register_driver` binds a driver to one vehicle. A
-  vehicle reads and writes only its own drivers.
+- **Vehicles and drivers**: :meth:`CloudService.register` returns a fresh token (the cloud
+  keeps only its SHA-256) and binds drivers to the vehicle; :meth:`update_vehicle` adds
+  drivers, reissues or revokes the token. A vehicle reads and writes only its own drivers.
 - **Ingest**: an upload is size-checked, parsed as a pacc trip log (a corrupt, truncated or
   foreign file is refused and stored nowhere), attributed to ``meta["driver_id"]`` and
   ``meta["condition"]`` and stored once per SHA-256 (a repeated upload is acknowledged as a
@@ -48,7 +48,7 @@ from cloud_sync.api import (
 from cloud_sync.engine.base import Engine
 from cloud_sync.errors import DemoError
 from cloud_sync.irl.trainer import IrlConfig
-from cloud_sync.service.ingest import StorageFullError, _kind, _parse_trip, _storage_errors
+from cloud_sync.service.ingest import StorageFullError, parse_batch, storage_errors
 from cloud_sync.service.jobs import DeferredExecutor, InlineExecutor, train_table
 from cloud_sync.service.store import BatchRow, CloudStore, StoreError, VersionRow
 from cloud_sync.signing import (
@@ -156,10 +156,8 @@ class CloudService:
     # -- vehicles and drivers -----------------------------------------------------------
 
     def register_vehicle(self, vehicle_id: str) -> str:
-        """Register a vehicle; return its token (shown once, stored as a hash)."""
-        token = secrets.token_urlsafe(32)
-        self.store.add_vehicle(vehicle_id, _sha256(token.encode()))
-        return token
+        """Register a vehicle without drivers; return its token (:meth:`register`)."""
+        return self.register(vehicle_id, [])
 
     def register(
         self,
@@ -171,22 +169,38 @@ class CloudService:
         and ``keep_token(token)`` (writing the token file) runs inside it, so a bad or taken
         driver id or a token that cannot be kept leaves nothing registered. StoreError for
         names that are not plain, a vehicle already registered, a driver taken."""
-        for what, name in [("vehicle id", vehicle_id)] + [("driver id", d) for d in drivers]:
-            if not is_plain_name(name):
-                raise StoreError(f"{what} {name!r} is not a plain name (letters, digits, _.-)")
-        if len(set(drivers)) != len(drivers):
-            raise StoreError(f"a driver id is repeated: {', '.join(drivers)}")
+        _check_names(vehicle_id, drivers)
         token = secrets.token_urlsafe(32)
         hook = None if keep_token is None else (lambda: keep_token(token))
         self.store.register(vehicle_id, _sha256(token.encode()), drivers, hook)
         return token
 
+    def update_vehicle(
+        self,
+        vehicle_id: str,
+        drivers: list[str],
+        *,
+        token: str | None = None,
+        keep_token: Callable[[str], None] | None = None,
+    ) -> str | None:
+        """The operator's changes to a registered vehicle, in one transaction: add ``drivers``;
+        ``token="new"``: a fresh token replaces the old one (returned; ``keep_token`` runs
+        inside the transaction as in :meth:`register`), ``token="revoke"``: no token works
+        until a new one is issued. StoreError for an unknown vehicle, a taken driver or names
+        that are not plain."""
+        _check_names(vehicle_id, drivers)
+        fresh = secrets.token_urlsafe(32) if token == "new" else None
+        if fresh is not None:
+            digest: str | None = _sha256(fresh.encode())
+        else:  # revoked: a value no token's SHA-256 (hex) can equal
+            digest = f"revoked-{secrets.token_hex(16)}" if token == "revoke" else None
+        hook = None if fresh is None or keep_token is None else (lambda: keep_token(fresh))
+        self.store.update_vehicle(vehicle_id, digest, drivers, hook)
+        return fresh
+
     def register_driver(self, vehicle_id: str, driver_id: str) -> None:
-        """Bind ``driver_id`` to ``vehicle_id`` (StoreError if taken, unknown vehicle, or not
-        a plain name)."""
-        if not is_plain_name(driver_id):
-            raise StoreError(f"driver id {driver_id!r} is not a plain name (letters, digits, _.-)")
-        self.store.add_driver(driver_id, vehicle_id)
+        """Bind ``driver_id`` to ``vehicle_id`` (:meth:`update_vehicle`)."""
+        self.update_vehicle(vehicle_id, [driver_id])
 
     def authenticate(self, token: str | None) -> str:
         """The vehicle holding ``token``; :class:`AuthError` if none."""
@@ -207,8 +221,8 @@ class CloudService:
             raise PayloadTooLargeError(
                 f"{len(data)} bytes exceed the limit of {self.config.max_upload_bytes}"
             )
-        with _storage_errors():
-            trip = _parse_trip(data)
+        with storage_errors():
+            trip, kind = parse_batch(data)
         driver_id = trip.meta.get("driver_id")
         if not isinstance(driver_id, str) or not driver_id:
             raise BadBatchError("the trip log names no driver_id in its metadata")
@@ -224,12 +238,12 @@ class CloudService:
             vehicle_id=vehicle_id,
             driver_id=driver_id,
             condition=condition,
-            kind=_kind(trip),
+            kind=kind.value,
             size_bytes=len(data),
             received_utc=_utc_now(),
             used_in_version=None,
         )
-        with _storage_errors():
+        with storage_errors():
             added = self.store.add_batch(row, data)
         if added:
             self.schedule(driver_id, condition)
@@ -361,6 +375,14 @@ class CloudService:
     def public_key_pem(self) -> bytes:
         """The public half of the signing key (PEM)."""
         return public_pem(self.key)
+
+
+def _check_names(vehicle_id: str, drivers: list[str]) -> None:
+    for what, name in [("vehicle id", vehicle_id)] + [("driver id", d) for d in drivers]:
+        if not is_plain_name(name):
+            raise StoreError(f"{what} {name!r} is not a plain name (letters, digits, _.-)")
+    if len(set(drivers)) != len(drivers):
+        raise StoreError(f"a driver id is repeated: {', '.join(drivers)}")
 
 
 def _digest(batch: BatchRow) -> str:

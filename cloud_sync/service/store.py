@@ -199,14 +199,6 @@ class CloudStore:
 
     # -- vehicles and drivers -----------------------------------------------------------
 
-    def add_vehicle(self, vehicle_id: str, token_sha256: str) -> None:
-        """Register a vehicle with the SHA-256 of its token; StoreError if it exists."""
-        try:
-            with self._tx() as db:
-                db.execute("INSERT INTO vehicles VALUES (?, ?)", (vehicle_id, token_sha256))
-        except sqlite3.IntegrityError as exc:
-            raise StoreError(f"vehicle {vehicle_id!r} is already registered") from exc
-
     def register(
         self,
         vehicle_id: str,
@@ -221,17 +213,36 @@ class CloudStore:
         """
         with self._tx() as db:
             if db.execute("SELECT 1 FROM vehicles WHERE vehicle_id = ?", (vehicle_id,)).fetchone():
-                raise StoreError(f"vehicle {vehicle_id!r} is already registered")
+                raise StoreError(
+                    f"vehicle {vehicle_id!r} is already registered (pacc cloud vehicle adds "
+                    "drivers and reissues or revokes its token)"
+                )
             db.execute("INSERT INTO vehicles VALUES (?, ?)", (vehicle_id, token_sha256))
-            for driver_id in drivers:
-                row = db.execute(
-                    "SELECT vehicle_id FROM drivers WHERE driver_id = ?", (driver_id,)
-                ).fetchone()
-                if row is not None:
-                    raise StoreError(
-                        f"driver {driver_id!r} is already registered to vehicle {row[0]!r}"
-                    )
-                db.execute("INSERT INTO drivers VALUES (?, ?)", (driver_id, vehicle_id))
+            _add_drivers(db, vehicle_id, drivers)
+            if before_commit is not None:
+                before_commit()
+
+    def update_vehicle(
+        self,
+        vehicle_id: str,
+        token_sha256: str | None,
+        drivers: list[str],
+        before_commit: Callable[[], None] | None = None,
+    ) -> None:
+        """Add ``drivers`` to a registered vehicle and, unless None, replace the SHA-256 of its
+        token (the old token stops working), in one transaction with ``before_commit`` as
+        :meth:`register`. StoreError if the vehicle is unknown or a driver is taken."""
+        with self._tx() as db:
+            if token_sha256 is not None:
+                db.execute(
+                    "UPDATE vehicles SET token_sha256 = ? WHERE vehicle_id = ?",
+                    (token_sha256, vehicle_id),
+                )
+            if not db.execute(
+                "SELECT 1 FROM vehicles WHERE vehicle_id = ?", (vehicle_id,)
+            ).fetchone():
+                raise StoreError(f"no vehicle {vehicle_id!r} (pacc cloud register adds one)")
+            _add_drivers(db, vehicle_id, drivers)
             if before_commit is not None:
                 before_commit()
 
@@ -242,17 +253,6 @@ class CloudStore:
                 "SELECT vehicle_id FROM vehicles WHERE token_sha256 = ?", (token_sha256,)
             ).fetchone()
         return None if row is None else str(row[0])
-
-    def add_driver(self, driver_id: str, vehicle_id: str) -> None:
-        """Register ``driver_id`` to ``vehicle_id``; StoreError if unknown vehicle or taken."""
-        try:
-            with self._tx() as db:
-                db.execute("INSERT INTO drivers VALUES (?, ?)", (driver_id, vehicle_id))
-        except sqlite3.IntegrityError as exc:
-            raise StoreError(
-                f"driver {driver_id!r} cannot be registered to {vehicle_id!r}: "
-                "unknown vehicle or driver already registered"
-            ) from exc
 
     def driver_vehicle(self, driver_id: str) -> str | None:
         """The vehicle ``driver_id`` is registered to, or None."""
@@ -385,3 +385,14 @@ class CloudStore:
 
 
 __all__ = ["SCHEMA_VERSION", "BatchRow", "CloudStore", "StoreError", "VersionRow"]
+
+
+def _add_drivers(db: sqlite3.Connection, vehicle_id: str, drivers: list[str]) -> None:
+    """Bind each of ``drivers`` to ``vehicle_id`` inside a transaction; StoreError if taken."""
+    for driver_id in drivers:
+        row = db.execute(
+            "SELECT vehicle_id FROM drivers WHERE driver_id = ?", (driver_id,)
+        ).fetchone()
+        if row is not None:
+            raise StoreError(f"driver {driver_id!r} is already registered to vehicle {row[0]!r}")
+        db.execute("INSERT INTO drivers VALUES (?, ?)", (driver_id, vehicle_id))

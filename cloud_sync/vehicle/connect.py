@@ -46,11 +46,22 @@ def read_token(path: str | os.PathLike[str]) -> str:
     return token
 
 
-def write_token(path: str | os.PathLike[str], token: str) -> None:
-    """Write ``token`` to ``path``, readable by the owner only (mode 0600)."""
-    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+def write_token(path: str | os.PathLike[str], token: str, *, force: bool = False) -> None:
+    """Write ``token`` to ``path``, readable by the owner only (mode 0600). An existing file
+    (perhaps another vehicle's token) is replaced only with ``force``, atomically (a
+    temporary file renamed over it); otherwise CloudSyncError."""
+    target = Path(path)
+    if not force and target.exists():
+        raise CloudSyncError(
+            f"{target} exists (another vehicle's token?): name a new file, or --force to replace it"
+        )
+    tmp = target.with_name(target.name + ".part")
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
     with os.fdopen(fd, "w", encoding="utf-8") as stream:
         stream.write(token + "\n")
+        stream.flush()
+        os.fsync(stream.fileno())
+    tmp.replace(target)
 
 
 __all__ = ["connect", "is_url", "read_token", "write_token"]

@@ -33,21 +33,18 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
+from cloud_sync.api import BadBatchError, check_plausible
 from cloud_sync.durable import fsync_dir
 from cloud_sync.errors import CloudSyncError
 from dbc.vocab.triplog import Trip, TripLogError, trip_mode
 from dbc.vocab.triplog_file import read_trip, write_trip
-from dbc.vocab.tripmode import TripMode, TripModeError
+from dbc.vocab.tripmode import TripModeError
 
 log = logging.getLogger(__name__)
 
+#: a batch's kind: its trip mode's value (:func:`dbc.vocab.triplog.trip_mode`)
 BatchKind = Literal["takeover", "manual", "acc"]
 #: eviction order under the quota: first kind first
-_KINDS: dict[TripMode, BatchKind] = {
-    TripMode.TAKEOVER: "takeover",
-    TripMode.MANUAL: "manual",
-    TripMode.ACC: "acc",
-}
 EVICTION_ORDER: tuple[BatchKind, ...] = ("manual", "acc", "takeover")
 #: default quota, bytes (a takeover segment is ~10-30 kB, a 10-min manual trip ~0.3 MB)
 DEFAULT_QUOTA_BYTES = 256 * 1024 * 1024
@@ -95,15 +92,6 @@ def file_digest(path: Path) -> str:
         while chunk := stream.read(_CHUNK):
             sha.update(chunk)
     return sha.hexdigest()
-
-
-def kind_of(trip: Trip) -> BatchKind:
-    """The batch kind of a trip: its trip mode (:func:`dbc.vocab.tripmode.trip_mode`).
-
-    Raises:
-        TripModeError: the trip's ``meta["mode"]`` is not a known mode.
-    """
-    return _KINDS[trip_mode(trip)]
 
 
 class Spool:
@@ -170,11 +158,10 @@ class Spool:
                 unknown (:class:`dbc.vocab.tripmode.TripModeError`) or it is larger than the
                 whole quota.
         """
-        if kind is None:
-            try:
-                kind = kind_of(trip)
-            except TripModeError as exc:
-                raise SpoolError(f"spool {self.root}: not spooled: {exc}") from exc
+        try:
+            kind = kind or trip_mode(trip).value
+        except TripModeError as exc:
+            raise SpoolError(f"spool {self.root}: not spooled: {exc}") from exc
         incoming = self.root / _INCOMING / f"{uuid.uuid4().hex}.mcap"
         try:
             write_trip(incoming, trip)
@@ -188,12 +175,17 @@ class Spool:
         """Spool a copy of an MCAP trip log (checked with :func:`read_trip` first).
 
         Raises:
-            SpoolError: the file is not a readable pacc trip log, or is too large.
+            SpoolError: the file is not a readable pacc trip log, holds samples the cloud
+                would refuse (:func:`cloud_sync.api.check_plausible`), or is too large.
         """
         try:
             trip = read_trip(source)
         except TripLogError as exc:
             raise SpoolError(f"not spooled: {exc}") from exc
+        try:
+            check_plausible(trip)
+        except BadBatchError as exc:
+            raise SpoolError(f"not spooled: {source}: {exc}") from exc
         return self.put_trip(trip, kind)
 
     def _admit(self, incoming: Path, kind: BatchKind) -> Batch:
@@ -311,5 +303,4 @@ __all__ = [
     "SpoolError",
     "SpoolStats",
     "file_digest",
-    "kind_of",
 ]

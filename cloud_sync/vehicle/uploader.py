@@ -141,7 +141,7 @@ class Uploader:
         except CloudError as exc:  # about the set-up (403 ...): keep it for the next pass
             self.stats.held += 1
             self.stats.last_held = f"batch {batch.seq}: {http_answer(exc)}" + (
-                " (register the driver to this vehicle: pacc cloud register ... --driver ID; "
+                " (add the driver to this vehicle: pacc cloud vehicle --vehicle V --driver ID; "
                 "ECU takeovers need pacc ecu --driver ID)"
                 if exc.status == 403
                 else ""

@@ -17,6 +17,8 @@ method's parameters as keyword arguments (a class does) and returning the method
 
 This module only finds factories; each room checks what they return and guards the calls
 (:mod:`ecu.methods.guard` for the control loop). Lookups of entry points are cached.
+:func:`provenance` says which installed distribution (and version) a spec's code comes from,
+so a run's manifest can name what a re-run elsewhere must install.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ import importlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import lru_cache
-from importlib.metadata import entry_points
+from importlib.metadata import PackageNotFoundError, entry_points, packages_distributions, version
 from typing import Any
 
 from dbc.vocab import FormatError
@@ -104,6 +106,25 @@ def build(group: str, spec: str, builtins: Mapping[str, str], params: Mapping[st
         raise PluginError(f"{spec!r} refused its parameters {dict(params)}: {exc}") from exc
 
 
+def provenance(group: str, spec: str, builtins: Mapping[str, str]) -> dict[str, str | None]:
+    """Where the code a spec names comes from: ``{"target", "distribution", "version"}`` (the
+    distribution declaring the entry point, else the one holding the target's top-level
+    module; None for a module on the path that no installed distribution holds)."""
+    name = spec.strip()
+    if name in builtins:
+        target, dist = builtins[name], None
+    else:
+        target, dist = _entry_points(group).get(name, (name, None))
+    if dist is None:
+        top = target.partition(":")[0].split(".")[0]
+        dist = next(iter(packages_distributions().get(top, [])), None)
+    try:
+        ver = version(dist) if dist else None
+    except PackageNotFoundError:
+        ver = None
+    return {"target": target, "distribution": dist, "version": ver}
+
+
 def installed(group: str, builtins: Mapping[str, str]) -> list[Found]:
     """Every method of ``group``: the built-ins, then the entry points (a name taken by a
     built-in shadows an entry point of that name)."""
@@ -114,4 +135,13 @@ def installed(group: str, builtins: Mapping[str, str]) -> list[Found]:
     return out
 
 
-__all__ = ["GROUPS", "Found", "PluginError", "build", "installed", "load_target", "resolve"]
+__all__ = [
+    "GROUPS",
+    "Found",
+    "PluginError",
+    "build",
+    "installed",
+    "load_target",
+    "provenance",
+    "resolve",
+]

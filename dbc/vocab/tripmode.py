@@ -10,8 +10,8 @@ A trip log **without** a mode (an older or foreign file) is classified by what i
 ``acc`` when its ACC state was Active at some sample (the ECU drove part of it), else
 ``manual``. A mode that is none of the three is a :class:`TripModeError`, never a guess.
 
-The vehicle's spool (:func:`cloud_sync.vehicle.spool.kind_of`), the cloud's ingest and the
-learner (:func:`cloud_sync.irl.demos.is_acc_trip`) all classify through :func:`mode_of`
+The vehicle's spool, the cloud's ingest and the learner
+(:func:`cloud_sync.irl.demos.is_acc_trip`) all classify through :func:`mode_of`
 (:func:`dbc.vocab.triplog.trip_mode` for a ``Trip``).
 """
 

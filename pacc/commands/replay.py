@@ -1,7 +1,7 @@
 """``pacc replay LOG``: a bus recording through the ECU (deterministic) or onto a bus (real time).
 
     pacc replay drive.mcap --ecu               # the recorded ECU over its recorded inputs
-    pacc replay drive.mcap -i virtual -c bus0 --frames rx   # real time, e.g. to a pacc ecu
+    pacc replay drive.mcap -i remote -c ws://127.0.0.1:54701/ --frames rx   # to a pacc ecu
 
 ``--ecu`` rebuilds the ECU from the recording (its DBC, binding, configuration and starting
 table are attached), feeds it every frame its node received at the recorded time, runs every
@@ -10,7 +10,9 @@ recorded ones (:mod:`ecu.buslog.replay`); it prints the ACC state changes, the e
 summary. Exit status 0 when the ECU sent the recorded frames exactly, 1 when they differ (the
 first difference is printed), 2 on a bad recording or options. Without ``--ecu`` the frames
 go onto the bus with their recorded spacing (python-can's player), and the ACC commands
-another ECU answers with are counted by state.
+another ECU answers with are counted by state. That ECU is another process, so the bus must
+cross processes (SocketCAN, python-can-remote: docs/vehicles.md); ``-i virtual``, a bus of
+this process alone, is refused.
 """
 
 from __future__ import annotations
@@ -132,6 +134,14 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     if args.ecu and (args.interface or args.channel or args.bitrate):
         print("pacc replay: error: --ecu needs no bus: drop the bus options", file=sys.stderr)
+        return 2
+    if not args.ecu and args.interface == "virtual":
+        print(
+            "pacc replay: error: -i virtual is this process's own bus: no other ECU can listen; "
+            "use a bus that crosses processes, -i socketcan -c vcan0 or -i remote -c "
+            "ws://127.0.0.1:54701/ (docs/vehicles.md), or --ecu",
+            file=sys.stderr,
+        )
         return 2
     try:
         return _ecu(args) if args.ecu else _realtime(args)

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import argparse
 import os
+import socket
 import sys
 import time
 from pathlib import Path
 
-from cloud_sync.errors import CloudSyncError
+from cloud_sync.errors import CloudSyncError, EngineError
 from dbc.errors import DbcError
 from dbc.network import add_network_arguments, codec_of
 from dbc.vocab import FormatError
@@ -160,6 +161,18 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _check_scheduler(address: str | None) -> None:
+    """EngineError unless the Dask scheduler at a ``tcp://HOST:PORT`` address accepts a
+    connection (5 s); ``local`` and other schemes are left to the engine."""
+    if address is None or not address.startswith("tcp://"):
+        return
+    host, _, port = address.removeprefix("tcp://").rpartition(":")
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=5.0).close()
+    except (OSError, ValueError) as exc:
+        raise EngineError(f"no Dask scheduler answers at {address}: {exc}") from exc
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc study``; 0 on success, 1 if a drive collided, 2 on bad input."""
     args = _parser().parse_args(argv)
@@ -198,6 +211,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     try:
         codec_of(args)  # a DBC without its binding, a binding that does not fit: refused now
+        _check_scheduler(args.scheduler)  # now, not after every IRL table is learned
         start = time.perf_counter()
         if any(c.startswith("irl") for c in cfg.controllers) and not args.quiet:
             where = (

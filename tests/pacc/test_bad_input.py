@@ -148,6 +148,7 @@ OUTPUT_CASES: list[list[str]] = [
     ["export", "in/rec.mcap", "in/rec.mcap"],
     ["export", "in/rec.mcap", "out/x.mf4"],
     ["plot", "in/rec.mcap", "-o", f"{UNWRITABLE}.png"],
+    ["plot", "in/rec.mcap", "-o", "out/p.xyz"],
     ["cloud", "learn", "--demos", "in/trip.mcap", "--driver", "d1", "-o", f"{UNWRITABLE}.json"],
     ["cloud", "register", "--data", "out/c", "--vehicle", "car", "--token-file", UNWRITABLE],
     ["cloud", "register", "--data", UNWRITABLE, "--vehicle", "car", "--token-file", "out/t"],

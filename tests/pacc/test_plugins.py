@@ -2,11 +2,16 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
+from dbc.vocab.plugins import PluginError
 from pacc.commands.plugins import main
 from pacc.study.drive import DriveConfig, predefined_table, run_drive
+from pacc.study.files.manifest import check_plugins, plugin_origins
 from sim_bus.drivers import BUILTIN_DRIVERS
+from tests.pacc.test_bad_input import run_case
 
 
 def test_plugins_lists_builtins_and_entry_points(capsys: pytest.CaptureFixture[str]) -> None:
@@ -36,3 +41,27 @@ def test_a_drive_with_entry_point_methods() -> None:
     assert not result.collision
     assert result.summary.plugin_faults == {}
     assert result.adaptations >= 1
+
+
+def test_the_manifest_names_each_plugins_distribution_and_a_rerun_checks_it() -> None:
+    methods = [
+        {"table": "test-timegap", "adaptation": "none", "controller": "test-timegap"},
+        {"table": "predefined", "adaptation": "bayes", "controller": "builtin"},
+        {"table": "irl", "adaptation": "none", "controller": "pacc_testplugins:TimeGapController"},
+    ]
+    origins = plugin_origins(methods)
+    plug = {"distribution": "pacc-testplugins", "version": "0.1.0"}
+    assert origins["pacc.learners:test-timegap"].items() >= plug.items()
+    assert origins["pacc.controllers:pacc_testplugins:TimeGapController"].items() >= plug.items()
+    assert origins["pacc.adaptations:bayes"]["distribution"] == "pacc"
+    assert "pacc.controllers:builtin" not in origins and "pacc.learners:predefined" not in origins
+    check_plugins(origins)  # the same here: accepted
+    elsewhere = {k: {**v, "version": "9.9"} for k, v in origins.items()}
+    with pytest.raises(PluginError, match=r"pacc-testplugins 9\.9, installed here: .* 0\.1\.0"):
+        check_plugins({"pacc.learners:test-timegap": elsewhere["pacc.learners:test-timegap"]})
+
+
+def test_an_adaptation_without_online_adaptation_is_refused(tmp_path: Path) -> None:
+    for flag in (["--adaptation", "bayes"], ["--adaptation-mode", "paper"]):
+        code, _, err = run_case(["drive", "--duration", "1", *flag], tmp_path)
+        assert code == 2 and "is for the +oa controllers" in err, err

@@ -328,19 +328,6 @@ def test_study_plan_puts_bus_recordings_under_can(tmp_path: Path) -> None:
     assert all(j.can_log_path is None for j in plan(cfg, {"d1": driver}, tables, tmp_path))
 
 
-def test_replay_cli_in_real_time_onto_a_bus(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    driver = BUILTIN_DRIVERS["d1"]
-    path = tmp_path / "short.mcap"
-    cfg = DriveConfig(scenario="B", driver_id="d1", seed=4, duration_s=0.5)
-    run_drive(cfg, driver, predefined_table(driver), can_log=path)
-    n_rx = int(read_canlog(path).frames.rx.sum())
-    argv = [str(path), "-i", "virtual", "-c", "test-replay-rt", "--frames", "rx"]
-    assert replay_cmd.main(argv) == 0
-    assert f"replay: {n_rx} frames of {path} sent" in capsys.readouterr().out
-
-
 _FULL_DISK = """
 import resource, signal, sys
 signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails with EFBIG

@@ -5,7 +5,7 @@ private ``_do_x(args)``. Heavy libraries are imported inside the sub-commands, s
 stays fast.
 
 - :mod:`pacc.commands.cloud.learn` — ``pacc cloud learn``: a driver's DGPT by IRL from files.
-- :mod:`pacc.commands.cloud.serve` — ``pacc cloud serve`` and ``pacc cloud register``.
+- :mod:`pacc.commands.cloud.serve` — ``pacc cloud serve``, ``register`` and ``vehicle``.
 - :mod:`pacc.commands.cloud.sync` — ``pacc cloud sync``: upload trip logs and trip reports.
 """
 

@@ -21,7 +21,7 @@ from typing import Any
 from cloud_sync.errors import CloudSyncError
 from dbc.vocab import FormatError
 from ecu import EcuError
-from pacc.commands._args import integer, number
+from pacc.commands._args import integer, number, same_file
 
 __all__ = ["add_subparser"]
 
@@ -48,7 +48,7 @@ def _do_learn(args: argparse.Namespace) -> int:
     if args.learner != "irl":
         return _other_learner(args)
     try:
-        _check_outputs(args.output, args.plot)  # now, not after training
+        _check_outputs(args, args.plot)  # now, not after training
         config = IrlConfig(takeover_weight=args.takeover_weight)
         trips = [load_trip(p) for p in args.demos]
         init = load_dgpt(args.init) if args.init else None
@@ -116,7 +116,7 @@ def _other_learner(args: argparse.Namespace) -> int:
     try:
         if args.init or args.plot:
             raise CloudSyncError("--init and --plot are the IRL learner's: not with --learner")
-        _check_outputs(args.output, None)
+        _check_outputs(args, None)
         trips = [load_trip(p) for p in args.demos]
         table = learn(args.learner, trips, driver_id=args.driver, seed=args.seed)
         save_dgpt(table, args.output)
@@ -131,15 +131,19 @@ def _other_learner(args: argparse.Namespace) -> int:
     return 0
 
 
-def _check_outputs(output: str, plot: str | None) -> None:
-    """Raise CloudSyncError unless ``output`` (and ``plot``) can be written, before training.
+def _check_outputs(args: argparse.Namespace, plot: str | None) -> None:
+    """Raise CloudSyncError unless ``-o`` (and ``plot``) can be written, before training.
 
-    A path must name a file in an existing, writable folder; the plot's suffix must be an
-    image format matplotlib writes (png, pdf, svg, ...).
+    A path must name a file in an existing, writable folder that is none of the inputs; the
+    plot's suffix must be an image format matplotlib writes (png, pdf, svg, ...).
     """
-    for flag, name in (("-o", output), ("--plot", plot)):
+    inputs = [*args.demos, *([args.init] if args.init else [])]
+    for flag, name in (("-o", args.output), ("--plot", plot)):
         if name is None:
             continue
+        taken = [p for p in inputs if same_file(p, name)]
+        if taken:
+            raise CloudSyncError(f"{flag} {name} is an input: it would overwrite {taken[0]}")
         path = Path(name)
         parent = path.resolve().parent
         if path.is_dir() or not (parent.is_dir() and os.access(parent, os.W_OK)):

@@ -1,12 +1,17 @@
-"""``pacc cloud serve`` and ``pacc cloud register``: run the cloud service, enrol vehicles.
+"""``pacc cloud serve``, ``register`` and ``vehicle``: run the cloud service, enrol vehicles.
 
-    pacc cloud register --data DIR --vehicle ID [--driver D ...] --token-file F
+    pacc cloud register --data DIR --vehicle ID [--driver D ...] --token-file F [--force]
+    pacc cloud vehicle --data DIR --vehicle ID [--driver D ...] [--new-token F [--force] | --revoke]
     pacc cloud serve --data DIR [--host 127.0.0.1] [--port 8080] [--workers 1]
                      [--max-upload-mb 16] [--seed 0] [--scheduler local|tcp://HOST:8786]
 
 ``register`` creates the data folder and its signing key if new, registers the vehicle and its
 drivers, writes the vehicle's token to F (mode 0600) and names the public key file the vehicle
-must trust (``DIR/keys/cloud.pub``). ``serve`` answers HTTP on HOST:PORT (see
+must trust (``DIR/keys/cloud.pub``); an existing F (perhaps another vehicle's token) is
+replaced only with ``--force``. ``vehicle`` is the operator's later change to a registered
+vehicle: add drivers, issue a new token (the old one stops working at once, also for a
+running server) or revoke it. Exit 2 when refused (names, a taken driver, a file in the
+way), 1 when the data folder fails. ``serve`` answers HTTP on HOST:PORT (see
 :mod:`cloud_sync.service.http`) and runs learning jobs on a pool of WORKERS threads; with
 ``--scheduler`` each job's training runs on a Dask cluster (``local``: a LocalCluster of
 WORKERS processes started here; an address: that cluster), the job threads as many as the
@@ -17,7 +22,9 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import signal
+import socket
 import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -35,17 +42,17 @@ def _do_register(args: argparse.Namespace) -> int:
     # the service pulls in numpy, scipy and the trainer (~2 s): `pacc cloud --help` must not
     from cloud_sync.service.rules import CloudService  # noqa: PLC0415
 
+    def keep(token: str) -> None:
+        write_token(args.token_file, token, force=args.force)
+
     try:
         service = CloudService.open(args.data)
         try:  # one transaction: the token file is written before the commit, or nothing is
-            service.register(
-                args.vehicle, args.driver, lambda token: write_token(args.token_file, token)
-            )
+            service.register(args.vehicle, args.driver, keep)
         finally:
             service.store.close()
     except (CloudSyncError, OSError) as exc:
-        print(f"pacc cloud register: error: {_one_line(exc)}", file=sys.stderr)
-        return 1
+        return _refused("register", exc)
     drivers = ", ".join(args.driver) or "none yet"
     print(f"vehicle {args.vehicle} registered (drivers: {drivers})")
     print(f"token written to {args.token_file}")
@@ -53,6 +60,42 @@ def _do_register(args: argparse.Namespace) -> int:
     if public.is_file():
         print(f"the vehicle trusts the key {public}")
     return 0
+
+
+def _do_vehicle(args: argparse.Namespace) -> int:
+    from cloud_sync.service.rules import CloudService  # noqa: PLC0415 - see _do_register
+
+    if not (args.driver or args.new_token or args.revoke):
+        print("pacc cloud vehicle: error: give --driver, --new-token or --revoke", file=sys.stderr)
+        return 2
+    token = "new" if args.new_token else "revoke" if args.revoke else None
+    try:
+        service = CloudService.open(args.data)
+        try:  # one transaction, as register
+            service.update_vehicle(
+                args.vehicle,
+                args.driver,
+                token=token,
+                keep_token=lambda t: write_token(args.new_token, t, force=args.force),
+            )
+        finally:
+            service.store.close()
+    except (CloudSyncError, OSError) as exc:
+        return _refused("vehicle", exc)
+    if args.driver:
+        print(f"vehicle {args.vehicle}: driver(s) {', '.join(args.driver)} added")
+    if args.new_token:
+        print(f"vehicle {args.vehicle}: new token written to {args.new_token}; the old one is void")
+    if args.revoke:
+        print(f"vehicle {args.vehicle}: token revoked (--new-token FILE issues another)")
+    return 0
+
+
+def _refused(command: str, exc: BaseException) -> int:
+    """One error line; exit 2 for an answer about the input (names, taken, a file in the
+    way), 1 for a storage failure."""
+    print(f"pacc cloud {command}: error: {_one_line(exc)}", file=sys.stderr)
+    return 1 if isinstance(exc, OSError) else 2
 
 
 def _operator_sha256(path: str | None) -> str | None:
@@ -70,6 +113,16 @@ def _operator_sha256(path: str | None) -> str | None:
     return hashlib.sha256(read_token(path).encode()).hexdigest()
 
 
+def _listen(host: str, port: int) -> socket.socket:
+    """A socket listening on ``host:port``; OSError naming them when taken or unknown."""
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    try:
+        return socket.create_server((host, port), family=family)
+    except OSError as exc:
+        why = os.strerror(exc.errno) if exc.errno else str(exc)
+        raise OSError(exc.errno, f"cannot listen on {host}:{port}: {why}") from exc
+
+
 def _one_line(exc: BaseException) -> str:
     if isinstance(exc, OSError) and exc.strerror:
         return f"{exc.strerror}: {exc.filename}" if exc.filename else exc.strerror
@@ -81,6 +134,7 @@ def _do_serve(args: argparse.Namespace) -> int:
     import uvicorn  # noqa: PLC0415
 
     from cloud_sync.service.http import create_app  # noqa: PLC0415
+    from cloud_sync.service.local import hold_folder  # noqa: PLC0415
     from cloud_sync.service.rules import CloudService, ServiceConfig  # noqa: PLC0415
 
     if not 1 <= args.port <= 65535 or args.workers < 1 or not args.max_upload_mb > 0:
@@ -89,6 +143,13 @@ def _do_serve(args: argparse.Namespace) -> int:
             "--max-upload-mb > 0",
             file=sys.stderr,
         )
+        return 2
+    try:  # the port and the folder first: nothing started when either is taken
+        listener = _listen(args.host, args.port)
+        Path(args.data).mkdir(parents=True, exist_ok=True)
+        hold_folder(args.data, f"http://{args.host}:{args.port}")
+    except (CloudSyncError, OSError) as exc:
+        print(f"pacc cloud serve: error: {_one_line(exc)}", file=sys.stderr)
         return 2
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
     logging.getLogger("distributed").setLevel(logging.WARNING)  # its INFO is every connection
@@ -127,7 +188,7 @@ def _do_serve(args: argparse.Namespace) -> int:
         signal.signal(sig, lambda *_: None)
     try:
         app = create_app(service, operator)
-        uvicorn.run(app, host=args.host, port=args.port, log_level="warning")
+        uvicorn.Server(uvicorn.Config(app, log_level="warning")).run(sockets=[listener])
     finally:
         pool.shutdown(wait=True)
         service.store.close()
@@ -144,7 +205,20 @@ def add_subparser(subparsers: Any) -> None:
     reg.add_argument("--vehicle", required=True, help="vehicle id")
     reg.add_argument("--driver", action="append", default=[], help="a driver id (repeatable)")
     reg.add_argument("--token-file", required=True, help="where to write the vehicle's token")
+    reg.add_argument("--force", action="store_true", help="replace an existing --token-file")
     reg.set_defaults(func=_do_register)
+
+    veh = subparsers.add_parser(
+        "vehicle", help="add drivers to a registered vehicle, reissue or revoke its token"
+    )
+    veh.add_argument("--data", required=True, help="the cloud's data folder")
+    veh.add_argument("--vehicle", required=True, help="vehicle id")
+    veh.add_argument("--driver", action="append", default=[], help="a driver to add (repeatable)")
+    what = veh.add_mutually_exclusive_group()
+    what.add_argument("--new-token", metavar="FILE", help="issue a new token into FILE")
+    what.add_argument("--revoke", action="store_true", help="void the token: no new one")
+    veh.add_argument("--force", action="store_true", help="replace an existing --new-token FILE")
+    veh.set_defaults(func=_do_vehicle)
 
     srv = subparsers.add_parser("serve", help="run the cloud service over HTTP")
     srv.add_argument("--data", required=True, help="the cloud's data folder")

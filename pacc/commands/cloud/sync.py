@@ -1,14 +1,16 @@
 """``pacc cloud sync``: spool trip logs and upload a spool to the cloud, once.
 
     pacc cloud sync --spool DIR --cloud URL|DIR --token-file F [--add FILE ...]
-                    [--quota-mb 256] [--retry-s 60] [--fetch DRIVER --trust KEY.pub]
+                    [--quota-mb 256] [--retry-s 60] [--fetch DRIVER --trust KEY.pub [--wait S]]
 
 Each ``--add`` file (an MCAP trip log) is checked and spooled; then every pending batch is
 uploaded (retrying while the cloud is unavailable, up to ``--retry-s`` seconds) and deleted
 only once the cloud acknowledged it; then the trip reports ``pacc ecu --cloud`` queued in
 ``DIR/reports`` are posted, each once its segments are up
 (:mod:`cloud_sync.vehicle.reports`). With ``--fetch`` the driver's newest signed table is
-downloaded, verified against the trusted key and kept in ``DIR/profiles``. Exits 1 while a
+downloaded, verified against the trusted key and kept in ``DIR/profiles``; a served cloud
+learns in the background, so ``--wait S`` first waits up to S s for the driver's learning job
+to be idle (the batches just uploaded learned from). Exits 1 while a
 batch or a report stays queued or one was set aside (``DIR/rejected``,
 ``DIR/reports/rejected``), so a timer can tell.
 """
@@ -18,6 +20,7 @@ from __future__ import annotations
 import argparse
 import sys
 import threading
+from pathlib import Path
 from typing import Any
 
 from cloud_sync.errors import CloudSyncError
@@ -45,12 +48,13 @@ def _do_sync(args: argparse.Namespace) -> int:
     from cloud_sync.api import is_plain_name  # noqa: PLC0415
     from cloud_sync.signing import load_public_key  # noqa: PLC0415
     from cloud_sync.vehicle.connect import connect, read_token  # noqa: PLC0415
-    from cloud_sync.vehicle.download import ProfileDownloader  # noqa: PLC0415
     from cloud_sync.vehicle.spool import Spool  # noqa: PLC0415
     from cloud_sync.vehicle.uploader import Uploader, UploaderConfig  # noqa: PLC0415
 
     if args.fetch and not args.trust:
         return _fail("--fetch needs --trust KEY.pub (the cloud's public key)", 2)
+    if args.wait and not args.fetch:
+        return _fail("--wait waits to --fetch a table: give --fetch DRIVER", 2)
     for option, name in (("--fetch", args.fetch), ("--condition", args.condition)):
         if name is not None and not is_plain_name(name):
             return _fail(f"{option} {name!r}: not a plain name (letters, digits, _.-)", 2)
@@ -96,19 +100,32 @@ def _do_sync(args: argparse.Namespace) -> int:
     refused = stats.rejected or reports.stats.rejected
     code = 0 if not left and not refused and not queued else 1
     if trusted is not None:
-        downloader = ProfileDownloader(cloud, trusted, spool.root / "profiles")
-        table = downloader.fetch(args.fetch, args.condition)
-        table = table or downloader.last_good(args.fetch, args.condition)
-        if table is None:
-            return _fail(
-                f"no usable table for {args.fetch}/{args.condition}: "
-                f"{downloader.report.describe()}{_condition_hint(downloader.report.not_found)}"
-            )
-        print(
-            f"DGPT {table.driver_id}/{table.condition} v{table.version} verified, kept in "
-            f"{downloader.cache_path(args.fetch, args.condition)}"
-        )
+        return _fetch(args, cloud, trusted, spool.root / "profiles") or code
     return code
+
+
+def _fetch(args: argparse.Namespace, cloud: Any, trusted: Any, cache: Path) -> int:
+    """Download and verify ``--fetch``'s table into ``cache`` (after ``--wait``); 0 or 1."""
+    from cloud_sync.vehicle.download import ProfileDownloader  # noqa: PLC0415 - see _do_sync
+
+    if args.wait:
+        try:  # the cloud learns in the background: let it finish with what was just uploaded
+            cloud.wait_learned(args.fetch, args.condition, timeout_s=args.wait)
+        except CloudSyncError as exc:
+            print(f"pacc cloud sync: warning: {exc}", file=sys.stderr)
+    downloader = ProfileDownloader(cloud, trusted, cache)
+    table = downloader.fetch(args.fetch, args.condition)
+    table = table or downloader.last_good(args.fetch, args.condition)
+    if table is None:
+        return _fail(
+            f"no usable table for {args.fetch}/{args.condition}: "
+            f"{downloader.report.describe()}{_condition_hint(downloader.report.not_found)}"
+        )
+    print(
+        f"DGPT {table.driver_id}/{table.condition} v{table.version} verified, kept in "
+        f"{downloader.cache_path(args.fetch, args.condition)}"
+    )
+    return 0
 
 
 def add_subparser(subparsers: Any) -> None:
@@ -139,4 +156,11 @@ def add_subparser(subparsers: Any) -> None:
     p.add_argument("--fetch", metavar="DRIVER", help="download this driver's newest table")
     p.add_argument("--condition", default="default", help="driving condition of --fetch")
     p.add_argument("--trust", help="the cloud's public key (PEM) to verify --fetch with")
+    p.add_argument(
+        "--wait",
+        type=number(0.0, 86400.0),
+        default=0.0,
+        metavar="S",
+        help="before --fetch, wait up to S seconds for the cloud to learn from the upload",
+    )
     p.set_defaults(func=_do_sync)

@@ -130,6 +130,14 @@ def _check_options(args: argparse.Namespace) -> None:
             f"--profile is for the irl controllers; --controller {args.controller} drives "
             "the driver's predefined table"
         )
+    adapts = (
+        "--adaptation" if args.adaptation else "--adaptation-mode" if args.adaptation_mode else ""
+    )
+    if adapts and not args.manual and not args.controller.endswith("+oa"):
+        raise UsageError(
+            f"{adapts} is for the +oa controllers; --controller {args.controller} never "
+            f"adapts its table (--controller {args.controller}+oa)"
+        )
 
 
 def _table(args: argparse.Namespace, base: DriverParams, driver: DriverParams) -> Dgpt:

@@ -12,8 +12,9 @@ did each cycle); a recording without them (``pacc sim``) is drawn from the simul
 (``/sim/world``), the driver's preferred gap in place of the desired one; a trip log from its
 samples. Takeovers (the ECU's takeover events, a trip's ACTIVE -> OVERRIDE/OFF changes) are
 marked on every panel. Drawn on a bare matplotlib Figure (no pyplot); an OUT without a suffix
-gets ``.png``, and the file written is printed. ``--plotjuggler LAYOUT.xml`` (with or instead of
-``-o``) writes a PlotJuggler layout that opens the recording (:mod:`pacc.commands.plot.layout`).
+gets ``.png`` (another suffix is refused), and the file written is printed. ``--plotjuggler
+LAYOUT.xml`` (with or instead of ``-o``) writes a PlotJuggler layout that opens the
+recording (:mod:`pacc.commands.plot.layout`).
 Exit status: 0, 2 on a bad recording or one with nothing to draw.
 
 The command is a package: :mod:`pacc.commands.plot.layout` — ``pacc plot LOG --plotjuggler
@@ -354,6 +355,8 @@ def main(argv: list[str] | None = None) -> int:
         None if args.out is None else args.out if args.out.suffix else args.out.with_suffix(".png")
     )
     try:
+        if png is not None and png.suffix.lower() != ".png":
+            raise UsageError(f"-o {png}: pacc plot writes a PNG; name it .png")
         check_distinct_outputs(out=png, plotjuggler=args.plotjuggler)
         for option, path in (("-o", png), ("--plotjuggler", args.plotjuggler)):
             if path is not None and same_file(path, args.log):

@@ -4,7 +4,10 @@
 imported from, when it is a git checkout; ``dirty`` when it has uncommitted changes), the
 full resolved ``config`` (:mod:`pacc.study.files.studyfile`), the ``seeds`` (the study's, each
 trial's, each drawn population's), the ``platform`` (Python, OS, machine, numpy) and the
-command. ``pacc study --config OUT/manifest.json`` reads its ``config`` and runs it again.
+command, and ``plugins``: for each method spec of the config (``group:spec``), the installed
+distribution and version its code comes from (:func:`dbc.vocab.plugins.provenance`).
+``pacc study --config OUT/manifest.json`` reads its ``config`` and runs it again, first
+refusing a plug-in that is not installed here in the recorded version (:func:`check_plugins`).
 """
 
 from __future__ import annotations
@@ -13,14 +16,17 @@ import json
 import platform
 import subprocess
 import sys
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from cloud_sync.learners import BUILTIN_LEARNERS
 from dbc.vocab.dgpt import utc_now_iso
+from dbc.vocab.plugins import PluginError, provenance
+from ecu.methods import BUILTIN_ADAPTATIONS, BUILTIN_CONTROLLERS
 
 MANIFEST = "manifest.json"
 
@@ -79,6 +85,42 @@ def seeds_of(config: Mapping[str, Any]) -> dict[str, Any]:
     }
 
 
+#: method field -> (plug-in group, built-ins, the values that name no plug-in)
+_FIELDS = {
+    "table": ("pacc.learners", BUILTIN_LEARNERS, {"predefined"}),
+    "adaptation": ("pacc.adaptations", BUILTIN_ADAPTATIONS, {"", "none"}),
+    "controller": ("pacc.controllers", BUILTIN_CONTROLLERS, {"", "builtin"}),
+}
+
+
+def plugin_origins(methods: Iterable[Mapping[str, Any]]) -> dict[str, dict[str, str | None]]:
+    """``group:spec`` -> provenance of every plug-in the config's ``methods`` name."""
+    out = {}
+    for method in methods:
+        for field, (group, builtins, none) in _FIELDS.items():
+            spec = str(method.get(field) or "")
+            if spec not in none:
+                out[f"{group}:{spec}"] = provenance(group, spec, builtins)
+    return out
+
+
+def check_plugins(recorded: Mapping[str, Any]) -> None:
+    """PluginError unless each plug-in a manifest recorded comes from the same distribution
+    and version here (one recorded without a distribution is not checked)."""
+    builtins = {group: table for group, table, _ in _FIELDS.values()}
+    for key, want in recorded.items():
+        group, _, spec = key.partition(":")
+        if not (isinstance(want, Mapping) and want.get("distribution")) or group not in builtins:
+            continue
+        have = provenance(group, spec, builtins[group])
+        if (have["distribution"], have["version"]) != (want["distribution"], want["version"]):
+            found = f"{have['distribution']} {have['version']}" if have["distribution"] else "none"
+            raise PluginError(
+                f"the manifest's {spec!r} ran from {want['distribution']} {want['version']}, "
+                f"installed here: {found} (pip install '{want['distribution']}=={want['version']}')"
+            )
+
+
 def write_manifest(
     out: Path,
     config: Mapping[str, Any],
@@ -93,6 +135,7 @@ def write_manifest(
         "platform": platform_info(),
         "seeds": seeds_of(config),
         "config": dict(config),
+        "plugins": plugin_origins(config.get("methods", [])),
         **(dict(extra) if extra else {}),
     }
     out.mkdir(parents=True, exist_ok=True)
@@ -103,4 +146,13 @@ def write_manifest(
     return path
 
 
-__all__ = ["MANIFEST", "git_commit", "pacc_version", "platform_info", "seeds_of", "write_manifest"]
+__all__ = [
+    "MANIFEST",
+    "check_plugins",
+    "git_commit",
+    "pacc_version",
+    "platform_info",
+    "plugin_origins",
+    "seeds_of",
+    "write_manifest",
+]

@@ -45,6 +45,7 @@ from typing import Any
 from cloud_sync.learners import make_learner
 from dbc.vocab import FormatError
 from ecu.methods import make_adaptation, make_controller
+from pacc.study.files.manifest import check_plugins
 from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams, load_driver
 from sim_bus.errors import SimError
 from sim_bus.lead.scenarios import canonical_profiles
@@ -257,6 +258,7 @@ def load_study_file(path: Path) -> dict[str, Any]:
     except (OSError, UnicodeDecodeError, ValueError) as exc:
         raise StudyFileError(f"cannot read the study file {path}: {exc}") from exc
     if isinstance(raw, Mapping) and "config" in raw and "pacc_version" in raw:  # a manifest
+        check_plugins(raw.get("plugins") or {})
         raw = dict(raw["config"])
         raw["methods"] = [_plain_method(m) for m in raw.get("methods", [])]
     if not isinstance(raw, Mapping):
