@@ -24,11 +24,11 @@
   const PALETTE = ['rgb(190,190,196)', 'rgb(150,30,30)', 'rgb(40,40,44)', 'rgb(200,170,60)'];
   const LOOKS = {
     day: { sky: ['#7fb6e6', '#d4e8f6'], grass: '#55803c', road: '#5b5b5f', shoulder: '#68686c',
-      line: '#f0f0f0', rail: '#b4b4ba', haze: 'rgba(210,225,240,', hazeA: 0.6, hazeM: 200 },
+      line: '#f0f0f0', rail: '#b4b4ba', haze: 'rgba(210,225,240,', hazeA: 0.6, hazeM: 200, dim: [0, 0] },
     rain: { sky: ['#7d848c', '#a9aeb4'], grass: '#3f5a36', road: '#3b3c40', shoulder: '#46474b',
-      line: '#cfcfcf', rail: '#8e9096', haze: 'rgba(160,166,172,', hazeA: 0.95, hazeM: 70 },
+      line: '#cfcfcf', rail: '#8e9096', haze: 'rgba(160,166,172,', hazeA: 0.95, hazeM: 60, dim: [0.25, 0.1] },
     night: { sky: ['#03050b', '#0b1020'], grass: '#101a0e', road: '#2a2a2e', shoulder: '#303034',
-      line: '#e8e8e8', rail: '#9a9aa0', haze: 'rgba(2,3,6,', hazeA: 0.97, hazeM: 45 },
+      line: '#e8e8e8', rail: '#9a9aa0', haze: 'rgba(2,3,6,', hazeA: 0.97, hazeM: 60, dim: [0.85, 0.3] },
   };
   // adjacent-lane traffic: lane (-1 left, +1 right), speed against the lead's flow (m/s),
   // start position (m ahead), truck or car; it never enters the ego lane
@@ -135,6 +135,11 @@
     hg.addColorStop(0, `${look.haze}${look.hazeA})`); hg.addColorStop(0.35, `${look.haze}${look.hazeA * 0.8})`);
     hg.addColorStop(1, `${look.haze}0)`);
     ctx.fillStyle = hg; ctx.fillRect(0, 0, W, yh);
+    if (look.dim[0] > 0) {   // ambient light: night is dark beyond the low beams' pool
+      const dg = ctx.createLinearGradient(0, hz, 0, H - dash);
+      dg.addColorStop(0, `${look.haze}${look.dim[0]})`); dg.addColorStop(1, `${look.haze}${look.dim[1]})`);
+      ctx.fillStyle = dg; ctx.fillRect(0, 0, W, H - dash);
+    }
     if (opts.weather !== 'day') {
       for (const [x, y, w, h, lit] of lights) { ctx.fillStyle = lit ? BRAKE : '#c01010'; ctx.fillRect(x, y, w, h); }
     }
@@ -185,7 +190,7 @@
     const rnd = () => { seed = (seed * 16807) % 2147483647; return seed / 2147483647; };
     ctx.strokeStyle = 'rgba(220,225,235,0.45)'; ctx.lineWidth = 1; ctx.beginPath();
     for (let i = 0; i < 160; i += 1) {
-      const x = rnd() * W; const y = rnd() * H; const len = 8 + rnd() * 14;
+      const x = rnd() * W; const len = 8 + rnd() * 14; const y = rnd() * (H - len);
       ctx.moveTo(x, y); ctx.lineTo(x - len * 0.15, y + len);
     }
     ctx.stroke();
@@ -195,7 +200,7 @@
   function cluster(ctx, s, W, H, D) {
     const y0 = H - D;
     ctx.fillStyle = '#15171b'; ctx.fillRect(0, y0, W, D);
-    const r = D * 0.42; const cx = W * 0.18; const cy = y0 + D * 0.55;
+    const r = D * 0.38; const cx = W * 0.16; const cy = y0 + D * 0.5;
     const a = (kmh) => Math.PI * (0.75 + (1.5 * Math.min(kmh, 200)) / 200);
     ctx.strokeStyle = '#777'; ctx.lineWidth = 2; ctx.beginPath(); ctx.arc(cx, cy, r, a(0), a(200)); ctx.stroke();
     ctx.fillStyle = '#bbb'; ctx.font = `${Math.round(D * 0.1)}px sans-serif`; ctx.textAlign = 'center';
