@@ -11,7 +11,7 @@
     resume: { button: 1 }, cancel: { button: 2 }, main: { button: 3 }, gap: { button: 5 } };
   const FCW_TTC_S = 2.6;            // forward-collision warning below this time to collision
   const hil = window.__hil = { view: null, frames: 0, frameTimes: [], manual: false, waiters: {},
-    sent: 0, nextId: 1, chimes: 0, cueShown: 0, warnings: 0, sound: false };
+    sent: 0, nextId: 1, chimes: 0, cueShown: 0, warnings: 0, sound: false, drawMs: [] };
   const road = window.__road;
   let ws = null; let inflight = false; const keysHeld = { accel: false, brake: false };
   let mapping = null; let lastPad = null; const padButtons = {}; let cues = 0;
@@ -192,10 +192,12 @@
     $('warn').classList.toggle('hidden', !warn);
     $('cue').classList.toggle('hidden', ts > cueUntil);
     if (ts <= cueUntil) hil.cueShown += 1;
-    const toast = $('toast');
-    toast.classList.toggle('hidden', !s || ts > toastUntil);
-    if (s) toast.textContent = s.main ? 'Cruise control ON (main switch)' : 'Cruise control OFF (M switches it on)';
+    const toast = $('toast'); const say = s && ts <= toastUntil
+      ? (s.main ? 'Cruise control ON (main switch)' : 'Cruise control OFF (M switches it on)') : '';
+    if (toast.textContent !== say) { toast.textContent = say; toast.classList.toggle('hidden', !say); }
+    const t0 = performance.now();
     road.draw(canvas, s, v ? { fov: v.fov, weather: v.weather } : { fov: 50, weather: 'day' });
+    hil.drawMs.push(performance.now() - t0); if (hil.drawMs.length > 600) hil.drawMs.shift();
     engineSound(s ? s.v : 0);
     if (!inflight && v) {
       if (v.lockstep && v.phase === 'driving') { if (!hil.manual) { inflight = send({ t: 'step', n: STEP_TICKS }); } }
