@@ -24,11 +24,11 @@
   const PALETTE = ['rgb(190,190,196)', 'rgb(150,30,30)', 'rgb(40,40,44)', 'rgb(200,170,60)'];
   const LOOKS = {
     day: { sky: ['#7fb6e6', '#d4e8f6'], grass: '#55803c', road: '#5b5b5f', shoulder: '#68686c',
-      line: '#f0f0f0', rail: '#b4b4ba', haze: 'rgba(210,225,240,', hazeA: 0.6, hazeM: 200, dim: [0, 0] },
+      line: '#f0f0f0', rail: '#b4b4ba', haze: [210, 225, 240], hazeA: 0.6, hazeM: 200, dim: [0, 0] },
     rain: { sky: ['#7d848c', '#a9aeb4'], grass: '#3f5a36', road: '#3b3c40', shoulder: '#46474b',
-      line: '#cfcfcf', rail: '#8e9096', haze: 'rgba(160,166,172,', hazeA: 0.95, hazeM: 60, dim: [0.25, 0.1] },
+      line: '#cfcfcf', rail: '#8e9096', haze: [160, 166, 172], hazeA: 0.95, hazeM: 60, dim: [0.25, 0.1] },
     night: { sky: ['#03050b', '#0b1020'], grass: '#101a0e', road: '#2a2a2e', shoulder: '#303034',
-      line: '#e8e8e8', rail: '#9a9aa0', haze: 'rgba(2,3,6,', hazeA: 0.97, hazeM: 60, dim: [0.85, 0.3] },
+      line: '#e8e8e8', rail: '#9a9aa0', haze: [2, 3, 6], hazeA: 0.97, hazeM: 60, dim: [0.85, 0.3] },
   };
   // adjacent-lane traffic: lane (-1 left, +1 right), speed against the lead's flow (m/s),
   // start position (m ahead), truck or car; it never enters the ego lane
@@ -127,40 +127,47 @@
       if (s.lead) cars.push({ x: road.leadSide * LANE_M * 0.7 * (1 - ease((t - road.leadSince) / 2.5)), z: s.gap, dims: CAR, color: road.leadColor, brake: s.a_lead < -0.5, lead: true });
     }
     cars.sort((a, b) => b.z - a.z);
-    const lights = [];
-    for (const c of cars) drawCar(ctx, c, u, vy, f, lights);
-    // haze (rain: spray and fog; night: the headlights' reach), then what glows through it
-    const zh = look.hazeM; const yh = Math.min(H, vy(0, zh));
-    const hg = ctx.createLinearGradient(0, hz - 40, 0, yh);
-    hg.addColorStop(0, `${look.haze}${look.hazeA})`); hg.addColorStop(0.35, `${look.haze}${look.hazeA * 0.8})`);
-    hg.addColorStop(1, `${look.haze}0)`);
+    // haze (rain: spray and fog; night: beyond the low beams) over the road by screen row;
+    // the cars, drawn after, take the haze of their own distance and their lights glow
+    const haze = `rgba(${look.haze.join(',')},`;
+    const y0 = hz - 40; const yh = Math.min(H, vy(0, look.hazeM)); const yd = H - dash;
+    const hg = ctx.createLinearGradient(0, y0, 0, yh);
+    hg.addColorStop(0, `${haze}${look.hazeA})`); hg.addColorStop(1, `${haze}0)`);
     ctx.fillStyle = hg; ctx.fillRect(0, 0, W, yh);
-    if (look.dim[0] > 0) {   // ambient light: night is dark beyond the low beams' pool
-      const dg = ctx.createLinearGradient(0, hz, 0, H - dash);
-      dg.addColorStop(0, `${look.haze}${look.dim[0]})`); dg.addColorStop(1, `${look.haze}${look.dim[1]})`);
-      ctx.fillStyle = dg; ctx.fillRect(0, 0, W, H - dash);
+    if (look.dim[0] > 0) {
+      const dg = ctx.createLinearGradient(0, hz, 0, yd);
+      dg.addColorStop(0, `${haze}${look.dim[0]})`); dg.addColorStop(1, `${haze}${look.dim[1]})`);
+      ctx.fillStyle = dg; ctx.fillRect(0, 0, W, yd);
     }
-    if (opts.weather !== 'day') {
-      for (const [x, y, w, h, lit] of lights) { ctx.fillStyle = lit ? BRAKE : '#c01010'; ctx.fillRect(x, y, w, h); }
-    }
+    const fog = (z) => {   // the overlays' opacity at a car's ground row (0 by day: clear air)
+      if (opts.weather === 'day') return 0;
+      const y = vy(0, Math.max(z, NEAR_M));
+      const a = look.hazeA * Math.min(1, Math.max(0, (yh - y) / (yh - y0)));
+      const d = look.dim[0] + (look.dim[1] - look.dim[0]) * Math.min(1, Math.max(0, (y - hz) / (yd - hz)));
+      return 1 - (1 - a) * (1 - d);
+    };
+    for (const c of cars) drawCar(ctx, c, u, vy, f, fog(c.z), look.haze, opts.weather !== 'day');
     if (opts.weather === 'rain') rain(ctx, W, H - dash);
     if (s) cluster(ctx, s, W, H, dash);
   };
 
-  function drawCar(ctx, c, u, vy, f, lights) {
+  function drawCar(ctx, c, u, vy, f, fog, hazeRgb, lightsOn) {
     const { w, h, l } = c.dims; const z = c.z;
+    const tint = (col) => (fog > 0 ? mix(col, hazeRgb, fog) : col);
     if (z + l < NEAR_M) return;
     const near = Math.max(NEAR_M, z);
     // the side facing the camera (a car in another lane, or drifting across)
     const sx = c.x > 0.3 ? c.x - w / 2 : c.x < -0.3 ? c.x + w / 2 : null;
     if (sx !== null) {
-      ctx.fillStyle = shade(c.color); ctx.beginPath();
+      ctx.fillStyle = tint(shade(c.color)); ctx.beginPath();
       ctx.moveTo(u(sx, near), vy(0.3, near)); ctx.lineTo(u(sx, z + l), vy(0.3, z + l));
       ctx.lineTo(u(sx, z + l), vy(h, z + l)); ctx.lineTo(u(sx, near), vy(h, near)); ctx.fill();
     }
     if (z < NEAR_M) return;
     const X = (x) => u(c.x + x, z); const Y = (y) => vy(y, z); const k = f / z;
-    const rect = (x, y, ww, hh, fill) => { ctx.fillStyle = fill; ctx.fillRect(X(x), Y(y + hh), ww * k, hh * k); };
+    const rect = (x, y, ww, hh, fill, glow) => {
+      ctx.fillStyle = glow ? fill : tint(fill); ctx.fillRect(X(x), Y(y + hh), ww * k, hh * k);
+    };
     rect(-w / 2 + 0.1, 0, 0.3, 0.35, '#111');                 // wheels
     rect(w / 2 - 0.4, 0, 0.3, 0.35, '#111');
     if (c.dims === TRUCK) {
@@ -173,17 +180,14 @@
       rect(-w / 2, 0.3, w, 0.1, '#222');                       // bumper
     }
     const lit = !!c.brake; const ly = c.dims === TRUCK ? 0.5 : 0.78; const lh = c.dims === TRUCK ? 0.12 : 0.16;
-    for (const x of [-w / 2, w / 2 - 0.3]) {
-      rect(x, ly, 0.3, lh, lit ? BRAKE : '#5a0000');
-      lights.push([X(x), Y(ly + lh), 0.3 * k, lh * k, lit]);
-    }
+    for (const x of [-w / 2, w / 2 - 0.3]) rect(x, ly, 0.3, lh, lit ? BRAKE : lightsOn ? '#c01010' : '#5a0000', lit || lightsOn);
   }
 
-  function shade(rgb) {
-    const m = /rgb\((\d+),(\d+),(\d+)\)/.exec(rgb.replace(/ /g, ''));
-    if (!m) return '#999';
-    return `rgb(${Math.round(m[1] * 0.7)},${Math.round(m[2] * 0.7)},${Math.round(m[3] * 0.7)})`;
-  }
+  const rgbOf = (col) => (col[0] === '#'
+    ? (col.length === 4 ? [1, 2, 3].map((i) => 17 * parseInt(col[i], 16)) : [1, 3, 5].map((i) => parseInt(col.slice(i, i + 2), 16)))
+    : col.slice(4, -1).split(',').map(Number));
+  const shade = (col) => `rgb(${rgbOf(col).map((v) => Math.round(v * 0.7)).join(',')})`;
+  const mix = (col, to, a) => `rgb(${rgbOf(col).map((v, i) => Math.round(v + (to[i] - v) * a)).join(',')})`;
 
   function rain(ctx, W, H) {
     let seed = Math.floor(performance.now() / 33) * 7919 + 1;
