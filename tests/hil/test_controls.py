@@ -11,7 +11,7 @@ import pytest
 
 from pacc.commands import hil as hil_cmd
 from pacc.hil.plan import Step
-from pacc.hil.session import Session
+from pacc.hil.session import Session, SessionConfig
 from sim_bus.faults import parse_faults
 from tests.hil.conftest import AppFactory
 from tests.hil.pages import new_page
@@ -231,3 +231,31 @@ def test_study_options_reach_the_session(tmp_path: Path) -> None:
     free = cfg("--brake", "cancel", "--fov", "70", "--weather", "rain")
     assert free.cfg.set_speed_kmh is None and free.cfg.brake_mode == "cancel"
     assert free.view()["fov"] == 70.0 and free.view()["weather"] == "rain"
+
+
+def test_a_taken_live_view_port_leaves_the_page_a_message(tmp_path: Path) -> None:
+    import socket  # noqa: PLC0415
+
+    with socket.socket() as held:
+        held.bind(("127.0.0.1", 0))
+        held.listen()
+        port = held.getsockname()[1]
+        cfg = SessionConfig(
+            "P05", "t", tmp_path, short_s=2.0, lockstep=True, foxglove=f"127.0.0.1:{port}"
+        )
+        session = Session(cfg, _acc_plan())
+        view = session.handle({"t": "action", "name": "start"})
+    assert view is not None and view["phase"] == "ready" and session.drive is None
+    assert view["message"].startswith("cannot start the drive:")
+    session.close()
+
+
+@pytest.mark.slow
+def test_calibration_link_is_readable(browser: Any, hil_app: AppFactory) -> None:
+    url, _ = hil_app(_acc_plan(), short_s=2.0)
+    page = new_page(browser)
+    page.goto(url + "/calibrate")
+    color = page.eval_on_selector("a", "a => getComputedStyle(a).color")
+    r, g, b = (int(x) for x in color[4:-1].split(","))
+    assert 0.2126 * r + 0.7152 * g + 0.0722 * b > 128, color  # light on the black page
+    page.close()
