@@ -26,10 +26,10 @@ from ecu.node import EcuNode
 GUEST_PROFILE = 0
 #: HMI ``GapSetting`` 1..3 -> the predefined table's headway, s (the paper's low, medium and
 #: high settings)
-GAP_SETTING_HEADWAY_S = {1: 1.0, 2: 3.0, 3: 4.0}
+GAP_SETTING_HEADWAY_S: dict[float, float] = {1: 1.0, 2: 3.0, 3: 4.0}
 
 
-def gap_setting_table(table: Dgpt, code: int | None) -> Dgpt | None:
+def gap_setting_table(table: Dgpt, code: float | None) -> Dgpt | None:
     """The predefined table of HMI gap setting ``code`` in place of ``table`` (same standstill
     gap, driver and condition); None when ``table`` is not a predefined one (a learned table
     is the driver's own gap) or ``code`` is not 1..3."""

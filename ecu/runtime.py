@@ -135,7 +135,7 @@ class EcuRuntime:
         self.clock = CycleClock(node.config.cycle_s)
         self.profile_dir = Path(profile_dir) if profile_dir is not None else None
         self.profiles = ProfileSwitcher(node, profile_dir) if profile_dir is not None else None
-        self._gap_setting: object = None  # the HMI GapSetting last seen (None: none yet)
+        self._gap_setting: float | None = None  # the HMI GapSetting last seen (None: none)
         #: tables offered from other threads (the cloud download), swapped in when safe
         self.table_offer = TableOffer()
         self.on_event = on_event
