@@ -122,6 +122,7 @@ class HilDrive:
             ecu_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
             self._own_buses = [bus, ecu_bus]
             self.ecu = _ecu_node(cfg, participant, table, profile, self.segments.append)
+            # a person's SET (the study's drives set a speed above every lead's)
             self.ecu.config = dataclasses.replace(self.ecu.config, set_speed_mps=set_speed_mps)
             self.rt = EcuRuntime(ecu_bus, self.ecu, codec=self.codec)
             if can_log is not None or live:

@@ -120,6 +120,11 @@ def test_set_gap_and_main_switch_in_the_bus_frames(browser: Any, hil_app: AppFac
     page.keyboard.press("s")
     view = _steps(page, 0.5)
     assert view["state"]["acc_state"] == "ACTIVE"
+    page.keyboard.press("e")  # engine sound on: its pitch follows the speed
+    view = _steps(page, 0.1)
+    page.wait_for_timeout(100)
+    kmh = view["state"]["v"] * 3.6
+    assert page.evaluate("window.__hil.engineHz") == pytest.approx(35 + 4 * (kmh % 50), abs=0.01)
     page.close()
 
 

@@ -65,7 +65,7 @@
       o.type = 'sawtooth'; lp.frequency.value = 400; o.connect(lp).connect(g).connect(audio.destination);
       o.start(); engine = { o, g };
     }
-    engine.o.frequency.value = 35 + 4.0 * ((v * 3.6) % 50);   // rises through a "gear", 50 km/h
+    engine.o.frequency.value = hil.engineHz = 35 + 4.0 * ((v * 3.6) % 50);   // a 50-km/h "gear"
     engine.g.gain.value = 0.05;
   }
   function primary() {
