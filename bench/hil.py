@@ -11,7 +11,7 @@ process (it then shares the GIL with the world's thread).
    (real time, in-process ECU on ``virtual``); the time from just before the key event to
    the first PEDAL frame on the bus with AccelPressed = 1 (a tap on the simulator's bus
    node), p50 / p99 / max. Named peer: one 60-Hz display frame plus one PEDAL period
-   (16.7 + 10 ms), the issue's budget; goal p99 <= 50 ms. The figure includes Playwright's
+   (16.7 + 10 ms), the budget; goal p99 <= 50 ms. The figure includes Playwright's
    own key dispatch (CDP), so it is an upper bound on what a person's key costs.
 2. World tick jitter: the lateness of each 10-ms world tick against its schedule while the
    page renders and the presses run, p50 / p99 / max; named peer: a bare 100-Hz loop
