@@ -102,7 +102,6 @@ class Session:
         self.phase = "ready"  # ready | driving | paused | after | syncing | learning | failed
         self.message = ""
         self._conn = 0
-        self.connected = False
         self._pauses: list[dict[str, Any]] = []
         self._cloud_link: StudyCloud | None = None
         self.seq = 0
@@ -140,7 +139,6 @@ class Session:
         """A page connected; its connection number. A paused drive waits for ``continue``."""
         with self._lock:
             self._conn += 1
-            self.connected = True
             self.seq += 1
             return self._conn
 
@@ -149,7 +147,6 @@ class Session:
         with self._lock:
             if conn != self._conn:
                 return
-            self.connected = False
             if self.phase == "driving" and self.drive is not None:
                 self._pause("connection lost")
 
@@ -195,7 +192,6 @@ class Session:
         """What the page shows: the step (never the controller), the phase, the drive."""
         with self._lock:
             step = self.current()
-            drives = [s for s in self.plan if s.kind == "drive"]
             state = None
             if self.drive is not None:
                 state = self.runner.latest if self.runner is not None else self.drive.snapshot()
@@ -216,10 +212,6 @@ class Session:
                 "weather": "day" if step is None else step.weather,
                 "brake_mode": self.cfg.brake_mode,
                 "set_kmh": self.cfg.set_speed_kmh,
-                "progress": [
-                    len([s for s in drives if s.id in self.manifest["done"]]),
-                    len(drives),
-                ],
                 "state": state,
             }
 
