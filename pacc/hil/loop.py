@@ -200,7 +200,6 @@ class HilDrive:
             "accel": self.pedals.accel,
             "brake": self.pedals.brake,
             "cues": self.cues,
-            "tor": self._prev_tor,
             "collided": car.collided,
             "acc": self.acc,
             "lead": w.lead_present,
