@@ -18,12 +18,35 @@ import threading
 from pathlib import Path
 
 from dbc.vocab.acc_state import AccState
-from dbc.vocab.dgpt import Dgpt, DgptError
+from dbc.vocab.dgpt import Dgpt, DgptError, predefined
 from dbc.vocab.dgpt_file import load_dgpt
 from ecu.node import EcuNode
 
 #: The profile id of the guest (the node's startup table).
 GUEST_PROFILE = 0
+#: HMI ``GapSetting`` 1..3 -> the predefined table's headway, s (the paper's low, medium and
+#: high settings)
+GAP_SETTING_HEADWAY_S: dict[float, float] = {1: 1.0, 2: 3.0, 3: 4.0}
+
+
+def gap_setting_table(table: Dgpt, code: float | None) -> Dgpt | None:
+    """The predefined table of HMI gap setting ``code`` in place of ``table`` (same standstill
+    gap, driver and condition); None when ``table`` is not a predefined one (a learned table
+    is the driver's own gap) or ``code`` is not 1..3."""
+    headway = GAP_SETTING_HEADWAY_S.get(code) if code is not None else None
+    if headway is None or table.source != "predefined":
+        return None
+    standstill = float(table.meta.get("standstill_m", table.gap_m[0]))
+    try:
+        return predefined(
+            headway,
+            standstill,
+            table.driver_id,
+            condition=table.condition,
+            created_utc=table.created_utc,
+        )
+    except DgptError:
+        return None
 
 
 def profile_path(profile_dir: Path, profile_id: int) -> Path:

@@ -44,7 +44,7 @@ from ecu.busio import INPUT_ROLES, BusIO, RuntimeCodecError, inputs_from
 from ecu.buslog.writer import CanLogWriter
 from ecu.clocks import MAX_CATCHUP_S, CycleClock, RuntimeClockError
 from ecu.node import EcuNode, NodeInputs, NodeOutputs
-from ecu.profiles import GUEST_PROFILE, ProfileSwitcher, TableOffer
+from ecu.profiles import GUEST_PROFILE, ProfileSwitcher, TableOffer, gap_setting_table
 
 log = logging.getLogger(__name__)
 
@@ -135,6 +135,7 @@ class EcuRuntime:
         self.clock = CycleClock(node.config.cycle_s)
         self.profile_dir = Path(profile_dir) if profile_dir is not None else None
         self.profiles = ProfileSwitcher(node, profile_dir) if profile_dir is not None else None
+        self._gap_setting: float | None = None  # the HMI GapSetting last seen (None: none)
         #: tables offered from other threads (the cloud download), swapped in when safe
         self.table_offer = TableOffer()
         self.on_event = on_event
@@ -230,6 +231,12 @@ class EcuRuntime:
             profiles.request(io.profile_request(inputs))
         if profiles is None or profiles.selected in (None, GUEST_PROFILE):
             self.table_offer.apply(self.node)  # not under another driver's HMI profile
+        hmi = io.inbox.latest("hmi") if inputs.hmi_ok else None
+        if hmi is not None and hmi.get("gap_setting") != self._gap_setting:
+            self._gap_setting, first = hmi.get("gap_setting"), self._gap_setting is None
+            table = None if first else gap_setting_table(self.node.table, self._gap_setting)
+            if table is not None:  # the driver changed the gap: the predefined headway follows
+                self.node.set_table(table, f"gap setting {self._gap_setting}")
         out = self.node.step(inputs, t)
         self.last_outputs = out
         sent = io.send(t, out, status=k % self._status_every == 0)

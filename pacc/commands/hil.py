@@ -8,6 +8,7 @@ study for one participant, resumable (docs/hil.md). The page is served on 127.0.
 from __future__ import annotations
 
 import argparse
+import socket
 import sys
 import threading
 import time
@@ -20,15 +21,18 @@ from dbc.errors import DbcError
 from dbc.vocab import FormatError
 from dbc.vocab.dgpt_file import load_dgpt
 from ecu import EcuError
-from ecu.buslog.live import add_foxglove_argument
+from ecu.buslog.live import add_foxglove_argument, parse_address
 from pacc.commands._args import CommandParser, integer, number
-from pacc.hil.plan import free_plan, paper_plan, participant_index
+from pacc.hil.plan import free_plan, paper_plan, participant_index, with_weather
 from pacc.hil.server import ServerThread, create_app, default_mapping_path
 from pacc.hil.session import Session, SessionConfig
 from pacc.study.drive import CONTROLLERS
 from sim_bus.errors import SimError
 
-DEFAULT_PORT = 8765
+#: the page's default port (not 8765: Foxglove's, which ``--foxglove`` takes by default)
+DEFAULT_PORT = 8770
+#: the protocol's set speed, km/h: the German advisory Autobahn speed, above every lead's
+PROTOCOL_SET_KMH = 130.0
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -67,6 +71,35 @@ def _parser() -> argparse.ArgumentParser:
         type=Path,
         help="free drive with irl/irl+oa: the DGPT file (e.g. tables/irl.json)",
     )
+    p.add_argument(
+        "--fov",
+        type=number(10.0, 150.0),
+        default=50.0,
+        metavar="DEG",
+        help="horizontal field of view the screen fills at the participant's eye, degrees: "
+        "2·atan(screen width / (2 · eye distance)) (default 50: a 56-cm-wide screen at 60 cm)",
+    )
+    p.add_argument(
+        "--set-speed",
+        type=number(30.0, 180.0),
+        metavar="KMH",
+        help="SET sets this speed and the ACC follows the lead below it (default with "
+        "--protocol: 130, above every lead's speed, so the lead governs as in the paper); "
+        "without: the car's speed at the press, as in a production car",
+    )
+    p.add_argument(
+        "--brake",
+        choices=("resume", "cancel"),
+        default="resume",
+        help="a brake press overrides the ACC, which drives again on release (resume, the "
+        "paper's study), or cancels it to standby (cancel, production cars)",
+    )
+    p.add_argument(
+        "--weather",
+        default="day",
+        metavar="W[,W...]",
+        help="day, rain or night for every drive, or one per drive in plan order",
+    )
     p.add_argument("--seed", type=integer(0), default=0, help="scenario and plant-noise seed")
     p.add_argument(
         "--short", type=number(1.0, 1e6), metavar="S", help="shorten every drive to S seconds"
@@ -99,6 +132,15 @@ def _bus_factory(args: argparse.Namespace) -> object:
     return open_bus
 
 
+def _check_free(host: str, port: int) -> None:
+    """SimError when ``host:port`` cannot be bound now (another server holds it)."""
+    with socket.socket() as sock:
+        try:
+            sock.bind((host, port))
+        except OSError as exc:
+            raise SimError(f"--foxglove {host}:{port}: cannot listen there ({exc})") from None
+
+
 def session_of(args: argparse.Namespace) -> Session:
     """The session the options ask for; SimError on bad options."""
     if args.protocol is not None:
@@ -112,6 +154,12 @@ def session_of(args: argparse.Namespace) -> Session:
             if args.table is None:
                 raise SimError(f"--controller {args.controller} needs --table DGPT")
             load_dgpt(args.table)  # a missing or broken table is refused now (DgptError)
+    plan = with_weather(plan, args.weather)
+    if args.foxglove is not None:
+        fox_host, fox_port = parse_address(args.foxglove)
+        if fox_port == args.port:
+            raise SimError(f"--foxglove {args.foxglove}: that is the page's port, pick another")
+        _check_free(fox_host, fox_port)
     if args.short is not None and not args.short >= 1.0:
         raise SimError("--short must be >= 1 s")
     if args.seed < 0:
@@ -132,6 +180,9 @@ def session_of(args: argparse.Namespace) -> Session:
         setting=args.setting,
         table=args.table if args.protocol is None else None,
         foxglove=args.foxglove,
+        brake_mode=args.brake,
+        fov_deg=args.fov,
+        set_speed_kmh=args.set_speed or (PROTOCOL_SET_KMH if args.protocol else None),
     )
     return Session(cfg, plan)
 

@@ -1,4 +1,4 @@
-"""A person in the loop (issue 19): the paper's experiment driven from a browser page.
+"""A person in the loop: the paper's experiment driven from a browser page.
 
 The harness room (like :mod:`pacc.study`): it wires the simulator's world, the ordinary ECU
 and the cloud around a person whose pedals and buttons come from a web page
@@ -11,6 +11,7 @@ and the cloud around a person whose pedals and buttons come from a web page
 - :mod:`~pacc.hil.manifest`: the session folder's ``manifest.json`` (plan, steps done, events);
 - :mod:`~pacc.hil.records`: what a finished drive leaves in the session folder;
 - :mod:`~pacc.hil.cloud`: the session's vehicle–cloud link (upload, learn, fine-tune);
-- :mod:`~pacc.hil.server`: the FastAPI + WebSocket app serving the driving page;
+- :mod:`~pacc.hil.server`: the FastAPI + WebSocket app serving the driving page (``static/``:
+  ``hil.js`` the participant's controls and overlays, ``road.js`` the road and cluster);
 - :mod:`~pacc.hil.report`: Table I from the session folders.
 """

@@ -6,7 +6,9 @@ press reaches the next PEDAL frame (10 ms) rather than the next driver step (50 
 
 Keyboard pedals ramp like a foot: a held key moves its pedal toward full travel at
 ``KEY_RISE_PER_S`` and a released one back at ``KEY_FALL_PER_S`` (fractions of full travel per
-second). A gamepad, wheel or pedal set gives positions 0..1 directly and overrides the keys.
+second) from a first touch of ``KEY_TOUCH`` (so the next PEDAL frame shows the press): full
+throttle after a 2.4 s hold, so a tap is a light press. A gamepad, wheel or pedal set gives
+positions 0..1 directly and overrides the keys.
 
 Pedal to acceleration: accelerator ``a = COAST + p·(ACCEL_FULL − COAST)`` (so a light press
 holds the speed), brake ``a = −p·DECEL_LIMIT``; the brake wins when both are pressed. On the
@@ -27,8 +29,9 @@ from sim_bus.behaviour import (
 from sim_bus.idm import DECEL_LIMIT_MPS2
 
 #: keyboard ramps, fractions of full pedal travel per second
-KEY_RISE_PER_S = 2.0
-KEY_FALL_PER_S = 4.0
+KEY_TOUCH = 0.05
+KEY_RISE_PER_S = 0.4
+KEY_FALL_PER_S = 3.0
 #: a pedal counts as pressed above this fraction of its travel
 PRESSED_AT = 0.005
 #: the HMI buttons a person presses (momentary); ``main`` toggles, ``gap`` cycles 1..3
@@ -38,7 +41,7 @@ BUTTONS = ("set", "resume", "cancel", "main", "gap")
 def ramp(position: float, held: bool, dt_s: float) -> float:
     """A keyboard pedal's position after ``dt_s`` s with its key ``held`` (pure, 0..1)."""
     if held:
-        return min(1.0, position + KEY_RISE_PER_S * dt_s)
+        return min(1.0, max(position, KEY_TOUCH) + KEY_RISE_PER_S * dt_s)
     return max(0.0, position - KEY_FALL_PER_S * dt_s)
 
 

@@ -39,9 +39,9 @@ from ecu.buslog.writer import CanLogWriter
 from ecu.node import EcuNode
 from ecu.runtime import EcuRuntime
 from pacc.hil.human import HumanPedals
-from pacc.study.drive import SET_SPEED_MPS, DriveConfig, _ecu_node, drive_codec
+from pacc.study.drive import DriveConfig, _ecu_node, drive_codec
 from pacc.study.drive_recording import WorldFeed, drive_recorder, finish_recording
-from sim_bus.drivers import DriverParams
+from sim_bus.drivers import GAP_SETTING_CODE, DriverParams
 from sim_bus.faults import fault_rng
 from sim_bus.lead.profile import LeadProfile
 from sim_bus.node import SimNode
@@ -76,6 +76,8 @@ class HilDrive:
     separate ECU, which the drive shuts when it closes (None: the in-process ECU on
     ``virtual``). ``can_log``: record the bus, the
     ECU's internals and the world to this MCAP file (in-process ECU only).
+    ``set_speed_mps``: what SET sets the in-process ECU to (None: the car's speed at the
+    press, as in a production car).
     """
 
     def __init__(
@@ -90,13 +92,18 @@ class HilDrive:
         can_log: Path | None = None,
         record_channel: str | None = None,
         live: Sequence[Sink] = (),
+        set_speed_mps: float | None = None,
     ) -> None:
         self.cfg = cfg
         self.participant = participant
         self.profile = profile
         self.acc = acc
         self.table = table  # what the in-process ECU starts the drive with
-        self.pedals = HumanPedals(main_on=acc, locked=not acc, gap_setting=2)
+        self.pedals = HumanPedals(
+            main_on=acc,
+            locked=not acc,
+            gap_setting=GAP_SETTING_CODE[participant.predefined_setting],
+        )
         self.world = World(
             participant, profile, cfg.seed, WorldConfig(engage_s=cfg.engage_s), pedals=self.pedals
         )
@@ -115,6 +122,8 @@ class HilDrive:
             ecu_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
             self._own_buses = [bus, ecu_bus]
             self.ecu = _ecu_node(cfg, participant, table, profile, self.segments.append)
+            # a person's SET (the study's drives set a speed above every lead's)
+            self.ecu.config = dataclasses.replace(self.ecu.config, set_speed_mps=set_speed_mps)
             self.rt = EcuRuntime(ecu_bus, self.ecu, codec=self.codec)
             if can_log is not None or live:
                 self.recorder = drive_recorder(
@@ -127,11 +136,11 @@ class HilDrive:
             self._own_buses = [bus]
         self.node = SimNode(bus, self.world, codec=self.codec, rng=fault_rng(cfg.seed))
         self.dt_s = self.world.cfg.plant.dt_s
-        self.wall_s = 0.0
-        self._prev_state = AccState.OFF
+        #: wall-clock times of the first and the latest tick (perf_counter s)
+        self._wall = (math.nan, math.nan)
         self._prev_tor = False
-        #: takeover cues so far (the ECU asked for one, or a takeover began: the ACC left
-        #: ACTIVE for OVERRIDE, STANDBY or FAULT); the page chimes when it grows
+        #: the ECU's takeover requests so far (ACC_Command TakeoverRequest rising); the page
+        #: chimes and shows TAKE OVER when it grows (a person's own override is no request)
         self.cues = 0
         self.closed = False
 
@@ -142,6 +151,8 @@ class HilDrive:
 
     def step(self) -> None:
         """One plant tick: the pedals, the simulator node (bus in/out, world), then the ECU."""
+        wall = time.perf_counter()
+        self._wall = (wall if math.isnan(self._wall[0]) else self._wall[0], wall)
         self.pedals.tick(self.dt_s)
         now = self.node.t_s
         self.node.step()
@@ -149,31 +160,32 @@ class HilDrive:
             self.rt.advance_to(now)
         if self._feed is not None:
             self._feed()
-        state = self.node.acc_state
-        tor = self.node.takeover_request
-        if (tor and not self._prev_tor) or (
-            self._prev_state == AccState.ACTIVE and state != AccState.ACTIVE
-        ):
-            self.cues += 1  # the ECU asks for a takeover, or the ACC stops driving
-        self._prev_state, self._prev_tor = AccState(state), tor
+        tor = bool(self.node.takeover_request)
+        if tor and not self._prev_tor:
+            self.cues += 1
+        self._prev_tor = tor
+
+    @property
+    def wall_s(self) -> float:
+        """Wall-clock seconds from the first tick to the latest (pauses included), s."""
+        first, last = self._wall
+        return 0.0 if math.isnan(first) else last - first
 
     def run_lockstep(
         self, policy: Callable[[HilDrive], None] | None = None, every: int = 10
     ) -> None:
         """Step to the end; ``policy(self)`` (a scripted participant) every ``every`` ticks."""
-        start = time.perf_counter()
         while not self.done:
             if policy is not None and self.node.tick % every == 0:
                 policy(self)
             self.step()
-        self.wall_s += time.perf_counter() - start
 
     def snapshot(self) -> dict[str, Any]:
         """What the page shows (never the controller: the drives are blind)."""
         w = self.world
         car = w.plant
         status = self.node.status or {}
-        set_speed = status.get("set_speed_mps", SET_SPEED_MPS if self.acc else 0.0)
+        set_speed = status.get("set_speed_mps", 0.0)
         return {
             "t": round(w.t_s, 3),
             "duration": self.profile.duration_s,
@@ -190,6 +202,8 @@ class HilDrive:
             "cues": self.cues,
             "collided": car.collided,
             "acc": self.acc,
+            "lead": w.lead_present,
+            "events": [[round(t, 2), kind] for t, kind, _ in w.events_log],
         }
 
     def finish(self) -> DriveOutcome:
@@ -273,9 +287,7 @@ class RealtimeRunner:
                 due = time.perf_counter()
                 continue
             late = time.perf_counter() - due
-            start = time.perf_counter()
             drive.step()
-            drive.wall_s += time.perf_counter() - start
             self.latest = drive.snapshot()
             if len(self.lateness_s) < 10_000:
                 self.lateness_s.append(late)

@@ -8,6 +8,7 @@ half way. Drives are blind: a step's ``label`` (what the page shows) never names
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from dataclasses import dataclass
 
@@ -19,6 +20,22 @@ from sim_bus.errors import SimError
 CONDITIONS: tuple[tuple[str, str], ...] = tuple((c, s) for s in ("A", "B") for c in CONTROLLERS)
 #: step kinds: consent, drive (practice, manual or ACC), learn, break, done
 KINDS = ("consent", "drive", "learn", "break", "done")
+#: the conditions the page can show a drive in
+WEATHER = ("day", "rain", "night")
+
+
+def with_weather(steps: list[Step], weather: str) -> list[Step]:
+    """``steps`` with their drives' ``weather``: one condition for every drive, or a
+    comma-separated list with one per drive in plan order (e.g. ``day,rain,night``)."""
+    names = [w.strip() for w in weather.split(",")]
+    drives = [s for s in steps if s.kind == "drive"]
+    if any(w not in WEATHER for w in names) or len(names) not in (1, len(drives)):
+        raise SimError(
+            f"--weather: one of {'/'.join(WEATHER)}, or {len(drives)} of them comma-separated "
+            f"(one per drive), got {weather!r}"
+        )
+    per = iter(names * len(drives) if len(names) == 1 else names)
+    return [dataclasses.replace(s, weather=next(per)) if s.kind == "drive" else s for s in steps]
 
 
 @dataclass(frozen=True)
@@ -26,7 +43,8 @@ class Step:
     """One step of a session. ``id`` names its files; ``label`` is what the page shows.
 
     Drives: ``scenario`` (a canonical profile), ``controller`` (None: manual, ACC off),
-    ``practice`` (not part of the study's figures).
+    ``practice`` (not part of the study's figures), ``weather`` (what the page shows: one
+    of :data:`WEATHER`).
     """
 
     id: str
@@ -35,6 +53,7 @@ class Step:
     scenario: str = ""
     controller: str | None = None
     practice: bool = False
+    weather: str = "day"
 
 
 def balanced_latin_square(n: int, row: int) -> list[int]:
@@ -117,4 +136,5 @@ __all__ = [
     "free_plan",
     "paper_plan",
     "participant_index",
+    "with_weather",
 ]

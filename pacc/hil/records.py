@@ -61,6 +61,8 @@ def write_drive(
     record: dict[str, Any] = {
         "step": step.id,
         "practice": step.practice,
+        "weather": step.weather,
+        "brake_mode": drive.cfg.brake_mode,
         "row": row,
         "pauses": pauses,
         "collision_t_s": outcome.collision_t_s,

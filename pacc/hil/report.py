@@ -171,7 +171,7 @@ def build_table(sessions: Path, out: Path, synthetic: Path | None = None) -> str
     out.mkdir(parents=True, exist_ok=True)
     (out / "table1.md").write_text(text, encoding="utf-8")
     write_csv(out / "drives.csv", rows)
-    plot(out / "table1.png", rows)
+    plot(out / "table1.png", rows, who="people, pacc hil")
     inc = incremental_rows(sessions)
     if inc:
         text += "\n" + format_incremental(inc)

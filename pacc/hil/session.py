@@ -18,11 +18,10 @@ import dataclasses
 import logging
 import math
 import threading
-import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import can
 
@@ -30,6 +29,7 @@ from dbc.vocab.dgpt import Dgpt
 from dbc.vocab.dgpt_file import load_dgpt, save_dgpt
 from dbc.vocab.triplog import Trip
 from dbc.vocab.triplog_file import read_trip
+from ecu import EcuError
 from ecu.buslog.live import live_sinks
 from pacc.hil.cloud import fine_tune, learn, open_cloud
 from pacc.hil.loop import HilDrive, RealtimeRunner
@@ -72,6 +72,15 @@ class SessionConfig:
     table: Path | None = None  # the IRL table of a free drive (the protocol learns its own)
     #: ``HOST:PORT`` of a Foxglove live view of each drive's recording (in-process ECU only)
     foxglove: str | None = None
+    #: what a brake press does to the ACC: ``resume`` (an override; the ACC drives again on
+    #: release: the paper's study) or ``cancel`` (back to STANDBY: production behaviour)
+    brake_mode: Literal["resume", "cancel"] = "resume"
+    #: the page's horizontal field of view, degrees: the angle the screen subtends at the
+    #: participant's eye (2·atan(width / 2·distance)), so a lead at gap g looks as in a car
+    fov_deg: float = 50.0
+    #: what SET sets, km/h: None the car's speed at the press (a production ACC); a study in
+    #: which the lead governs sets a speed above every lead's (the paper protocol: 130)
+    set_speed_kmh: float | None = None
 
 
 class Session:
@@ -93,7 +102,6 @@ class Session:
         self.phase = "ready"  # ready | driving | paused | after | syncing | learning | failed
         self.message = ""
         self._conn = 0
-        self.connected = False
         self._pauses: list[dict[str, Any]] = []
         self._cloud_link: StudyCloud | None = None
         self.seq = 0
@@ -131,7 +139,6 @@ class Session:
         """A page connected; its connection number. A paused drive waits for ``continue``."""
         with self._lock:
             self._conn += 1
-            self.connected = True
             self.seq += 1
             return self._conn
 
@@ -140,7 +147,6 @@ class Session:
         with self._lock:
             if conn != self._conn:
                 return
-            self.connected = False
             if self.phase == "driving" and self.drive is not None:
                 self._pause("connection lost")
 
@@ -169,12 +175,10 @@ class Session:
                 return None
             if kind == "step" and drive is not None and self.cfg.lockstep:
                 if self.phase == "driving":
-                    start = time.perf_counter()
                     for _ in range(max(1, min(int(_num(msg.get("n")) or 10), 1000))):
                         if drive.done:
                             break
                         drive.step()
-                    drive.wall_s += time.perf_counter() - start
                     if drive.done:
                         self._end_drive()
             elif kind == "action":
@@ -188,7 +192,6 @@ class Session:
         """What the page shows: the step (never the controller), the phase, the drive."""
         with self._lock:
             step = self.current()
-            drives = [s for s in self.plan if s.kind == "drive"]
             state = None
             if self.drive is not None:
                 state = self.runner.latest if self.runner is not None else self.drive.snapshot()
@@ -205,10 +208,10 @@ class Session:
                 and not step.practice
                 and step.controller is not None,
                 "lockstep": self.cfg.lockstep,
-                "progress": [
-                    len([s for s in drives if s.id in self.manifest["done"]]),
-                    len(drives),
-                ],
+                "fov": self.cfg.fov_deg,
+                "weather": "day" if step is None else step.weather,
+                "brake_mode": self.cfg.brake_mode,
+                "set_kmh": self.cfg.set_speed_kmh,
                 "state": state,
             }
 
@@ -257,6 +260,7 @@ class Session:
             driver_id=self.cfg.participant,
             controller=step.controller or "predefined",  # type: ignore[arg-type]
             seed=self.cfg.seed + _trip_of(step),  # the incremental trips: fresh plant noise
+            brake_mode=self.cfg.brake_mode,
         )
         bus = self.cfg.bus() if self.cfg.bus is not None else None
         return HilDrive(
@@ -268,10 +272,17 @@ class Session:
             bus=bus,
             can_log=None if bus is not None else can_log,
             live=live_sinks(self.cfg.foxglove, log.info) if bus is None else [],
+            set_speed_mps=None if self.cfg.set_speed_kmh is None else self.cfg.set_speed_kmh / 3.6,
         )
 
     def _start_drive(self, step: Step) -> None:
-        self.drive = self.new_drive(step, can_log=self.folder / "can" / f"{step.id}.mcap")
+        try:
+            self.drive = self.new_drive(step, can_log=self.folder / "can" / f"{step.id}.mcap")
+        except (EcuError, SimError, OSError) as exc:  # e.g. the live view's port is taken
+            self.message = f"cannot start the drive: {exc}"
+            log.error("%s", self.message)
+            return
+        self.message = ""
         self._pauses = []
         self.phase = "driving"
         if not self.cfg.lockstep:

@@ -182,7 +182,7 @@ def write_csv(path: Path, rows: Sequence[dict[str, Any]]) -> None:
         writer.writerows(rows)
 
 
-def plot(path: Path, rows: Sequence[dict[str, Any]]) -> None:
+def plot(path: Path, rows: Sequence[dict[str, Any]], who: str = "synthetic drivers") -> None:
     """Bar charts of the average PoI and NIM per controller, ours beside the paper's."""
     # matplotlib costs about a second of start-up and only the plot needs it (not the
     # drives' worker processes, not a refused command line)
@@ -196,7 +196,7 @@ def plot(path: Path, rows: Sequence[dict[str, Any]]) -> None:
     x = np.arange(len(controllers))
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
     for ax, k, label in ((axes[0], 0, "PoI (%)"), (axes[1], 1, "NIM (presses / min)")):
-        ax.bar(x - 0.2, [avg[c][k] for c in controllers], 0.4, label="pacc (synthetic drivers)")
+        ax.bar(x - 0.2, [avg[c][k] for c in controllers], 0.4, label=f"pacc ({who})")
         ax.bar(
             x + 0.2, [PAPER_AVERAGES[c][k] for c in controllers], 0.4, label="paper (human drivers)"
         )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import json
 import time
@@ -489,3 +490,34 @@ def test_a_max_set_speed_the_dbc_cannot_carry_is_refused() -> None:
         too_fast = EcuNode(EcuConfig(max_set_speed_mps=70.0), predefined(1.5))
         with pytest.raises(RuntimeCodecError, match="set_speed_mps range \\[0, 63.75\\]"):
             EcuRuntime(bus, too_fast, CODEC)
+
+
+def test_gap_setting_chooses_the_predefined_headway() -> None:
+    """The driver's GapSetting on HMI_Buttons switches a predefined table to the paper's
+    headway of that setting (1: 1 s, 2: 3 s, 3: 4 s): ACC_Status's desired gap at the car's
+    20 m/s follows; the code seen first is the drive's own (no switch)."""
+    b = Bench(headway_s=3.0)
+    try:
+        b.run(0.5, gap_setting=1)  # the first setting seen: the table stays 4 m + 3 s · v
+        assert b.statuses[-1]["desired_gap_m"] == pytest.approx(64.0, abs=0.05)
+        b.run(0.5, gap_setting=3)
+        assert b.statuses[-1]["desired_gap_m"] == pytest.approx(84.0, abs=0.05)
+        b.run(0.5, gap_setting=1)
+        assert b.statuses[-1]["desired_gap_m"] == pytest.approx(24.0, abs=0.05)
+        assert b.node.table.source == "predefined" and b.node.table.meta["headway_s"] == 1.0
+        assert any("gap setting 1" in e for e in b.events)
+    finally:
+        b.close()
+
+
+def test_gap_setting_leaves_a_learned_table_alone() -> None:
+    b = Bench(headway_s=3.0)
+    learned = dataclasses.replace(b.node.table, source="irl")
+    b.node.set_table(learned)
+    try:
+        b.run(0.5, gap_setting=2)
+        b.run(0.5, gap_setting=3)
+        assert b.node.table is learned
+        assert b.statuses[-1]["desired_gap_m"] == pytest.approx(64.0, abs=0.05)
+    finally:
+        b.close()

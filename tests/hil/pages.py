@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 from PIL import Image
 
-#: the lead vehicle's body colour on the driving page (hil.js BODY)
+#: the lead vehicle's body colour on the driving page (road.js BODY)
 BODY_RGB = (30, 60, 200)
 
 #: a standard-mapping gamepad injected before the page loads (window.__setPad from tests)
@@ -35,7 +35,7 @@ GAMEPAD_JS = """
 """
 
 
-#: the lead's brake lights when it brakes (hil.js '#ff2020')
+#: the lead's brake lights when it brakes (road.js BRAKE)
 BRAKE_LIGHT_RGB = (255, 32, 32)
 
 

@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from pacc.hil.human import KEY_RISE_PER_S, HumanPedals, pedal_accel_mps2, ramp
+from pacc.hil.human import KEY_RISE_PER_S, KEY_TOUCH, HumanPedals, pedal_accel_mps2, ramp
 from pacc.hil.plan import CONDITIONS, acc_order, balanced_latin_square, paper_plan
 from sim_bus.errors import SimError
 
@@ -48,7 +48,12 @@ def test_paper_plan_is_blind_and_counterbalanced() -> None:
 
 
 def test_key_ramp_and_pedal_mapping() -> None:
-    assert ramp(0.0, True, 0.01) == pytest.approx(KEY_RISE_PER_S * 0.01)
+    assert ramp(0.0, True, 0.01) == pytest.approx(KEY_TOUCH + KEY_RISE_PER_S * 0.01)
+    assert ramp(0.5, True, 0.01) == pytest.approx(0.5 + KEY_RISE_PER_S * 0.01)
+    position = 0.0
+    for _ in range(100):  # a 1-s hold is not full throttle: a gentle foot
+        position = ramp(position, True, 0.01)
+    assert 0.3 < position < 0.6
     assert ramp(1.0, True, 0.01) == 1.0 and ramp(0.01, False, 0.01) == 0.0
     assert pedal_accel_mps2(0.0, 0.0) < 0.0 < pedal_accel_mps2(0.2, 0.0)
     assert pedal_accel_mps2(1.0, 0.5) == pytest.approx(-4.0)  # the brake wins
@@ -59,7 +64,7 @@ def test_human_pedals_keys_axes_buttons() -> None:
     h.keys(True, False)
     h.tick(0.01)
     assert h.accel_pressed and not h.brake_pressed and h.accel_pct > 0.0  # within one tick
-    for _ in range(100):
+    for _ in range(300):
         h.tick(0.01)
     assert h.accel == 1.0
     h.axes(math.nan, 0.5)

@@ -67,6 +67,11 @@ def test_lost_page_pauses_and_marks_the_drive(tmp_path: Path) -> None:
     assert record["pauses"] == [
         {"t_s": pytest.approx(t_paused, abs=0.02), "why": "connection lost"}
     ]
+    # wall time as in pacc study: the 3-s drive took 3 s and the 0.3-s pause (not the
+    # milliseconds its ticks cost)
+    assert record["row"]["sim_s"] == 3.0
+    assert 3.2 < record["row"]["wall_s"] < 6.0
+    assert record["brake_mode"] == "resume" and record["weather"] == "day"
     s.close()
 
 

@@ -1,20 +1,22 @@
-// pacc hil: the driving page. Standard APIs only (Canvas 2D, WebSocket, Gamepad, Web Audio).
+// pacc hil: the driving page. Standard APIs only (WebSocket, Gamepad, Web Audio); the road is
+// drawn by road.js (Canvas 2D, pinhole projection).
 'use strict';
 (() => {
   const canvas = document.getElementById('view');
-  const ctx = canvas.getContext('2d');
   const $ = (id) => document.getElementById(id);
   const STEP_TICKS = 10;            // lockstep: plant ticks (10 ms) per step message
-  const BODY = 'rgb(30,60,200)';    // the lead's body colour (the screenshot test counts it)
   const KEYS = { accel: ['ArrowUp'], brake: ['ArrowDown'] };
   const BTN_KEYS = { m: 'main', s: 'set', r: 'resume', c: 'cancel', g: 'gap' };
   const DEFAULT_MAP = { accel: { button: 7 }, brake: { button: 6 }, set: { button: 0 },
     resume: { button: 1 }, cancel: { button: 2 }, main: { button: 3 }, gap: { button: 5 } };
+  const FCW_TTC_S = 2.6;            // forward-collision warning below this time to collision
   const hil = window.__hil = { view: null, frames: 0, frameTimes: [], manual: false, waiters: {},
-    sent: 0, nextId: 1, chimes: 0, cueShown: 0 };
-  let ws = null; let inflight = false; let keysHeld = { accel: false, brake: false };
-  let mapping = null; let lastPad = null; let padButtons = {}; let cues = 0; let odo = 0;
-  let lastT = null; let audio = null; let cueUntil = 0; let shownSeq = -1;
+    sent: 0, nextId: 1, chimes: 0, cueShown: 0, warnings: 0, sound: false, drawMs: [] };
+  const road = window.__road;
+  let ws = null; let inflight = false; const keysHeld = { accel: false, brake: false };
+  let mapping = null; let lastPad = null; const padButtons = {}; let cues = 0;
+  let audio = null; let engine = null; let cueUntil = 0; let toastUntil = 0; let lastMain = null;
+  let shownKey = ''; let ratedKey = ''; let lastBeep = 0;
 
   fetch('/api/mapping').then((r) => r.json()).then((m) => { mapping = m; }).catch(() => {});
 
@@ -44,17 +46,27 @@
   };
 
   function sendKeys() { if (!lastPad) send({ t: 'in', ka: keysHeld.accel, kb: keysHeld.brake }); }
-  function chime() {
-    hil.chimes += 1;
+  function tone(freqs, gain, len) {
     try {
       audio = audio || new AudioContext();
-      [0, 0.18].forEach((dt, i) => {
+      freqs.forEach((f, i) => {
         const o = audio.createOscillator(); const g = audio.createGain();
-        o.frequency.value = i ? 660 : 880; g.gain.value = 0.2;
+        o.frequency.value = f; g.gain.value = gain;
         o.connect(g).connect(audio.destination);
-        o.start(audio.currentTime + dt); o.stop(audio.currentTime + dt + 0.14);
+        o.start(audio.currentTime + i * (len + 0.04)); o.stop(audio.currentTime + i * (len + 0.04) + len);
       });
     } catch (e) { /* no audio device: the visual cue stays */ }
+  }
+  // engine sound (E toggles): a sawtooth whose pitch follows the speed (speed perception)
+  function engineSound(v) {
+    if (!hil.sound || !audio) { if (engine) { engine.g.gain.value = 0; } return; }
+    if (!engine) {
+      const o = audio.createOscillator(); const g = audio.createGain(); const lp = audio.createBiquadFilter();
+      o.type = 'sawtooth'; lp.frequency.value = 400; o.connect(lp).connect(g).connect(audio.destination);
+      o.start(); engine = { o, g };
+    }
+    engine.o.frequency.value = hil.engineHz = 35 + 4.0 * ((v * 3.6) % 50);   // a 50-km/h "gear"
+    engine.g.gain.value = 0.05;
   }
   function primary() {
     const v = hil.view; if (!v || !v.step) return;
@@ -75,6 +87,7 @@
     if (e.repeat) return;
     const b = BTN_KEYS[e.key.toLowerCase()];
     if (b) { send({ t: 'btn', name: b }); return; }
+    if (e.key.toLowerCase() === 'e') { hil.sound = !hil.sound; return; }
     if (e.key === 'Enter') primary();
   });
   addEventListener('keyup', (e) => {
@@ -112,16 +125,25 @@
     }
   }
 
+  // the overlay is rebuilt only when what it says changes (the per-frame replies repeat it),
+  // and the rating radios are cleared only when a new drive's rating opens
   function show(v) {
-    if (v.seq === shownSeq && v.phase === 'driving') return;
-    shownSeq = v.seq;
-    const ov = $('overlay'); const step = v.step;
+    const step = v.step;
+    const key = `${v.seq}|${v.phase}|${step ? step.id : ''}`;
+    if (key === shownKey) return;
+    shownKey = key;
+    const ov = $('overlay');
     const set = (title, text, action, label) => {
       ov.classList.remove('hidden'); $('title').textContent = title; $('text').textContent = text;
       const b = $('primary'); b.dataset.action = action || ''; b.textContent = label || '';
       b.classList.toggle('hidden', !action);
     };
-    $('rating').classList.add('hidden');
+    const rating = v.phase === 'after' && v.rate;
+    $('rating').classList.toggle('hidden', !rating);
+    if (rating && ratedKey !== step.id) {
+      ratedKey = step.id;
+      document.querySelectorAll('#rating input').forEach((i) => { i.checked = false; });
+    }
     if (!step) { set('Session complete', 'Thank you.', null); return; }
     if (step.kind === 'consent') {
       set('Consent', 'You will drive a simulated car behind another car, by hand and with an adaptive cruise '
@@ -134,77 +156,49 @@
       else set(v.label, v.message || 'Your manual drives go to the cloud, which learns your gap preference.', 'start',
         v.phase === 'failed' ? 'Try again (Enter)' : 'Upload and learn (Enter)');
     } else if (v.phase === 'ready') {
-      set(v.label, v.acc ? 'Drive off, then press S to switch the cruise control on (set). Follow the car ahead; press a pedal '
-        + 'whenever you are not happy with the gap.' : 'Drive by hand (cruise control off): follow the car ahead '
-        + 'at a distance you like.', 'start', 'Start (Enter)');
+      const brake = v.brake_mode === 'cancel' ? 'The brake switches the cruise control off (S sets it again).'
+        : 'Braking takes over only while you brake.';
+      const at = v.set_kmh ? `to ${Math.round(v.set_kmh)} km/h (it follows the car ahead below that)` : 'at your current speed';
+      set(v.label, (v.acc ? `The car starts rolling behind the car ahead. Press S to set the cruise control ${at}; `
+        + `G changes its gap. ${brake} Press a pedal whenever you are not happy with the gap.`
+        : 'Drive by hand (cruise control off): follow the car ahead at a distance you like.')
+        + (v.message ? ` — ${v.message}` : ''), 'start', 'Start (Enter)');
     } else if (v.phase === 'syncing') set('Drive finished', 'Saving your drive… please wait.', null);
     else if (v.phase === 'paused') set('Paused', 'The connection was lost; the car is held still.', 'continue', 'Continue (Enter)');
     else if (v.phase === 'after') {
       set('Drive finished', v.message || (v.rate ? 'How was this drive? (optional)' : ''), 'continue', 'Continue (Enter)');
-      if (v.rate) { $('rating').classList.remove('hidden'); document.querySelectorAll('#rating input').forEach((i) => { i.checked = false; }); }
     } else ov.classList.add('hidden');
   }
 
-  function draw(s) {
-    const W = canvas.width; const H = canvas.height; const hz = H * 0.42; const F = H * 1.2; const camH = 1.2;
-    ctx.fillStyle = '#8cc4f0'; ctx.fillRect(0, 0, W, hz);
-    ctx.fillStyle = '#3d7a3a'; ctx.fillRect(0, hz, W, H - hz);
-    const roadHalf = 5.5; const x0 = W / 2;
-    const sy = (d) => hz + (F * camH) / d;
-    ctx.fillStyle = '#555';
-    ctx.beginPath(); ctx.moveTo(x0 - (F * roadHalf) / 1.5, sy(1.5)); ctx.lineTo(x0, hz);
-    ctx.lineTo(x0 + (F * roadHalf) / 1.5, sy(1.5)); ctx.fill();
-    ctx.fillStyle = '#eee';
-    for (let d = 3 - (odo % 12); d < 300; d += 12) {
-      if (d < 2) continue;
-      const y1 = sy(d); const y2 = sy(d + 5); const w1 = (F * 0.12) / d;
-      ctx.beginPath(); ctx.moveTo(x0 - (F * 1.8) / d, y1); ctx.lineTo(x0 - (F * 1.8) / (d + 5), y2);
-      ctx.lineTo(x0 - (F * 1.8) / (d + 5) + w1, y2); ctx.lineTo(x0 - (F * 1.8) / d + w1, y1); ctx.fill();
-    }
-    if (s) {
-      const d = Math.max(1.5, s.gap + 2.0);   // gap + the bonnet's length to the eye, m
-      const w = (F * 1.8) / d; const h = (F * 1.4) / d; const yb = sy(d);
-      ctx.fillStyle = BODY; ctx.fillRect(x0 - w / 2, yb - h, w, h);
-      ctx.fillStyle = '#223'; ctx.fillRect(x0 - w * 0.4, yb - h * 0.95, w * 0.8, h * 0.3);
-      ctx.fillStyle = s.a_lead < -0.5 ? '#ff2020' : '#5a0000';
-      ctx.fillRect(x0 - w / 2, yb - h * 0.55, w * 0.18, h * 0.14);
-      ctx.fillRect(x0 + w / 2 - w * 0.18, yb - h * 0.55, w * 0.18, h * 0.14);
-      hud(s, W, H);
-    }
-  }
-  function hud(s, W, H) {
-    ctx.fillStyle = 'rgba(0,0,0,0.6)'; ctx.fillRect(0, H - 90, W, 90);
-    ctx.fillStyle = '#fff'; ctx.font = 'bold 44px sans-serif'; ctx.textAlign = 'left';
-    ctx.fillText(`${Math.round(s.v * 3.6)} km/h`, 20, H - 35);
-    ctx.font = '18px sans-serif';
-    const state = s.acc ? (s.main ? s.acc_state : 'OFF') : 'manual';
-    ctx.fillStyle = state === 'ACTIVE' ? '#5f5' : state === 'OVERRIDE' ? '#fd5' : '#ccc';
-    ctx.fillText(`ACC ${state}`, 250, H - 55);
-    ctx.fillStyle = '#ccc';
-    ctx.fillText(s.acc ? `set ${Math.round(s.set_speed * 3.6)} km/h` : '', 250, H - 28);
-    ctx.fillText('gap', 430, H - 55);
-    for (let i = 0; i < 3; i += 1) { ctx.fillStyle = i < s.gap_setting ? '#fff' : '#555'; ctx.fillRect(470 + i * 16, H - 70, 12, 18); }
-    const bar = (x, label, val, col) => {
-      ctx.fillStyle = '#333'; ctx.fillRect(x, H - 80, 18, 60); ctx.fillStyle = col;
-      ctx.fillRect(x, H - 20 - 60 * val, 18, 60 * val); ctx.fillStyle = '#ccc'; ctx.fillText(label, x - 2, H - 2);
-    };
-    bar(W - 90, 'B', s.brake, '#f44'); bar(W - 50, 'A', s.accel, '#4f4');
-    ctx.fillStyle = '#ccc'; ctx.fillText(`${Math.max(0, s.duration - s.t).toFixed(0)} s`, W - 190, H - 55);
+  // forward-collision warning: closing in on the lead with under FCW_TTC_S s to collision
+  function warning(s) {
+    if (!s || !s.lead || s.collided) return false;
+    const closing = s.v - s.v_lead;
+    return s.gap < 2.0 || (closing > 0.5 && s.gap / closing < FCW_TTC_S);
   }
 
   function frame(ts) {
     hil.frames += 1; hil.frameTimes.push(ts); if (hil.frameTimes.length > 120) hil.frameTimes.shift();
     pollPad();
-    const v = hil.view; const s = v && v.state;
+    const v = hil.view; const s = v && v.phase !== 'ready' ? v.state : null;
     if (s) {
-      if (lastT !== null && s.t >= lastT) odo += s.v * (s.t - lastT);
-      lastT = s.t;
-      if (s.cues > cues) { chime(); cueUntil = ts + 1500; }
+      if (s.cues > cues) { hil.chimes += 1; tone([880, 660], 0.2, 0.14); cueUntil = ts + 1500; }
       cues = s.cues;
+      if (lastMain !== null && s.main !== lastMain) toastUntil = ts + 2000;
+      lastMain = s.main;
     }
+    const warn = warning(s) && v.phase === 'driving';
+    if (warn) { hil.warnings += 1; if (ts - lastBeep > 400) { lastBeep = ts; tone([1400], 0.15, 0.08); } }
+    $('warn').classList.toggle('hidden', !warn);
     $('cue').classList.toggle('hidden', ts > cueUntil);
     if (ts <= cueUntil) hil.cueShown += 1;
-    draw(v && v.phase !== 'ready' ? s : null);
+    const toast = $('toast'); const say = s && ts <= toastUntil
+      ? (s.main ? 'Cruise control ON (main switch)' : 'Cruise control OFF (M switches it on)') : '';
+    if (toast.textContent !== say) { toast.textContent = say; toast.classList.toggle('hidden', !say); }
+    const t0 = performance.now();
+    road.draw(canvas, s, v ? { fov: v.fov, weather: v.weather } : { fov: 50, weather: 'day' });
+    hil.drawMs.push(performance.now() - t0); if (hil.drawMs.length > 600) hil.drawMs.shift();
+    engineSound(s ? s.v : 0);
     if (!inflight && v) {
       if (v.lockstep && v.phase === 'driving') { if (!hil.manual) { inflight = send({ t: 'step', n: STEP_TICKS }); } }
       else inflight = send({ t: 'frame' });
