@@ -43,6 +43,7 @@ import dataclasses
 import sys
 import time
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -269,7 +270,7 @@ def held_out(n: int, seed: int, csvs: list[Path]) -> None:
         # the preference it realised: g*(v) at the mean of its condition factor (1 without drift)
         c_mean = float(np.mean([t.meta.get("condition_mean", 1.0) for t in trips]))
         row = _held_out_row(
-            driver.driver_id, train, test, lambda v, d=driver, c=c_mean: d.preferred_gap_m(v, c)
+            driver.driver_id, train, test, partial(driver.preferred_gap_m, condition_factor=c_mean)
         )
         if row is not None:
             results["synthetic"].append(row)

@@ -195,7 +195,10 @@ def test_gap_preference_counts_in_steady_following_only() -> None:
     assert np.allclose(model[:-2], kappa[idv] * plain[:-2]) and kappa[idv] < 0.2
     # the same pair as a demonstration counts the same
     tr = Transitions(
-        *(np.array([x]) for x in (grid.v_mps[2], grid.gap_m[3], 1.0, grid.accels_mps2[0])),
+        v_mps=grid.v_mps[2:3],
+        gap_m=grid.gap_m[3:4],
+        dv_mps=np.array([1.0]),
+        a_mps2=grid.accels_mps2[:1],
         pos=np.array([1]),
         seg_len=np.array([1]),
         weight=np.array([1.0]),
