@@ -14,12 +14,7 @@ from cloud_sync.irl.features import FeatureConfig
 from cloud_sync.irl.mdp import GridConfig
 from dbc.vocab.dgpt import SafetyBounds
 
-__all__ = ["EXTRACTIONS", "IrlConfig"]
-
-#: how a table is read from the fitted reward: ``policy`` (default), the gap the soft-optimal
-#: policy keeps in steady following (:mod:`cloud_sync.irl.policy_gap`); ``argmax``, the gap of
-#: highest (v, g) reward (:func:`cloud_sync.irl.extract.irl_gaps`; kept for comparison)
-EXTRACTIONS = ("policy", "argmax")
+__all__ = ["IrlConfig"]
 
 
 @dataclass(frozen=True)
@@ -36,7 +31,6 @@ class IrlConfig:
     within this distance of its speeds, blended by its amount (weight c/(c + blend_half_s)
     for c seconds of new evidence); elsewhere the table is kept;
     the table's gaps may range ±``init_support_ratio`` around the earlier gaps.
-    ``extraction``: how the table is read from the reward, one of :data:`EXTRACTIONS`.
     """
 
     grid: GridConfig = field(default_factory=GridConfig)
@@ -57,13 +51,8 @@ class IrlConfig:
     blend_window_mps: float = 2.0
     blend_half_s: float = 10.0
     init_support_ratio: float = 0.3
-    extraction: str = "policy"
 
     def __post_init__(self) -> None:
-        if self.extraction not in EXTRACTIONS:
-            raise TrainingError(
-                f"extraction must be one of {', '.join(EXTRACTIONS)}, got {self.extraction!r}"
-            )
         if self.horizon_steps < 1:
             raise TrainingError("horizon_steps must be >= 1")
         if not (self.l2 >= 0 and self.max_iter >= 1 and self.gtol > 0 and self.ftol > 0):

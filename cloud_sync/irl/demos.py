@@ -217,7 +217,7 @@ def demo_stats(mdp: CompiledMdp, tr: Transitions, horizon: int) -> DemoStats:
 
     States are spread on the grid by the same multilinear interpolation as the transitions,
     actions by linear interpolation on the action set, so demonstrated and expected counts
-    live on the same support.
+    live on the same support; the (v, g) counts are weighted by κ(dv) like the model's.
     """
     if tr.n == 0:
         raise DemoError("no usable state-action pair in the demonstrations")
@@ -231,10 +231,11 @@ def demo_stats(mdp: CompiledMdp, tr: Transitions, horizon: int) -> DemoStats:
     di0, di1, wd = interp_weights(grid.dv_mps, tr.dv_mps)
     ai0, ai1, wa = interp_weights(grid.accels_mps2, tr.a_mps2)
     m_vg = np.zeros((n_v, n_g))
+    k_dv = (1 - wd) * feats.k_dv[di0] + wd * feats.k_dv[di1]
     p0 = np.zeros((horizon, grid.n_states))
     for vi, vw in ((vi0, 1 - wv), (vi1, wv)):
         for gi, gw in ((gi0, 1 - wg), (gi1, wg)):
-            np.add.at(m_vg, (vi, gi), w * vw * gw)
+            np.add.at(m_vg, (vi, gi), w * vw * gw * k_dv)
             for di, dw in ((di0, 1 - wd), (di1, wd)):
                 s = (vi * n_g + gi) * n_dv + di
                 np.add.at(p0, (tr.seg_len[starts] - 1, s[starts]), (w * vw * gw * dw)[starts])

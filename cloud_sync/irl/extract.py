@@ -1,11 +1,10 @@
-"""From a reward (or from raw data) to a DGPT: argmax, low-pass, continuation, bounds.
+"""From per-bin gaps (of the learned policy, or of raw data) to a DGPT: low-pass, continuation,
+bounds.
 
 All functions are pure and work on the DGPT speed axis (``dbc.vocab.dgpt.speed_axis``, shape (n,)).
 
-- :func:`irl_gaps`: the table of a reward: :func:`argmax_gap` inside the safety band and the
-  demonstrated gap range (:func:`gap_support`), then :func:`finish_table`.
-- :func:`argmax_gap`: ``DGPT(v) = argmax_g r(v, g)`` over a fine gap grid.
-- :func:`gap_support`: the gap range demonstrated near each speed (where the reward is known).
+- :func:`gap_support`: the gap range demonstrated near each speed (where the reward is known);
+  :func:`search_range`, that range inside the safety band.
 - :func:`lowpass`: zero-phase Butterworth filter (``scipy.signal.filtfilt``) along the axis.
 - :func:`continue_time_gap`: bins without evidence get ``d0 + T(v)·v``, where the time gap
   ``T = (g − d0)/v`` is interpolated between covered bins of at least
@@ -25,7 +24,6 @@ from __future__ import annotations
 import numpy as np
 from scipy import signal
 
-from cloud_sync.irl.features import Features
 from dbc.vocab.dgpt import SafetyBounds, clamp_to_bounds
 
 #: covered bins slower than this do not set the time gap continued to other speeds, m/s:
@@ -40,8 +38,6 @@ __all__ = [
     "CONTINUE_MIN_SPEED_MPS",
     "PRIOR_HEADWAY_S",
     "outside_coverage",
-    "irl_gaps",
-    "argmax_gap",
     "lowpass",
     "continue_time_gap",
     "steady_state_gaps",
@@ -63,7 +59,7 @@ def gap_support(
     """The demonstrated gap range per bin: the ``quantile``…``1 − quantile`` range of gaps
     within ±half_window of each bin, widened by ``margin_m``; NaN where no sample. (n,) each.
 
-    The reward is identified only where the demonstrations are; the argmax is taken there.
+    The reward is identified only where the demonstrations are; the table is read there.
     """
     order = np.argsort(v_mps)
     v, g = v_mps[order], gap_m[order]
@@ -76,11 +72,6 @@ def gap_support(
             q = np.quantile(g[a:b], [quantile, 1.0 - quantile])
             lo[i], hi[i] = q[0] - margin_m, q[1] + margin_m
     return lo, hi
-
-
-def argmax_gap(reward_fn_vg: np.ndarray, gaps_m: np.ndarray) -> np.ndarray:
-    """Per row of ``reward_fn_vg`` (n, m) evaluated at ``gaps_m`` (m,), the maximising gap (n,)."""
-    return np.asarray(gaps_m[np.argmax(reward_fn_vg, axis=1)])
 
 
 def lowpass(gap_m: np.ndarray, cutoff: float = 0.1, order: int = 2) -> np.ndarray:
@@ -193,33 +184,6 @@ def finish_table(
     smooth = lowpass(clamp_to_bounds(axis_mps, filled, bounds), cutoff)
     final = continue_time_gap(axis_mps, smooth, covered, bounds.standstill_m, fallback_m)
     return np.asarray(clamp_to_bounds(axis_mps, final, bounds))
-
-
-def irl_gaps(
-    alpha: np.ndarray,
-    features: Features,
-    axis_mps: np.ndarray,
-    covered: np.ndarray,
-    support: tuple[np.ndarray, np.ndarray],
-    *,
-    bounds: SafetyBounds,
-    resolution_m: float,
-    cutoff: float,
-) -> np.ndarray:
-    """The table (n,) of the reward with weights ``alpha`` (K,) on ``features``.
-
-    At each speed the argmax is taken over gaps every ``resolution_m`` inside the safety band
-    and the demonstrated range ``support`` ((lo, hi), (n,) each, NaN: unlimited), at least one
-    step wide; the raw gaps are then finished (:func:`finish_table`, ``covered`` (n,) bool).
-    """
-    gaps = np.arange(bounds.lower_m(0.0), float(bounds.upper_m(axis_mps[-1])) + 1e-9, resolution_m)
-    reward = features.reward_vg(alpha, axis_mps, gaps)
-    lo, hi = search_range(axis_mps, support, bounds, resolution_m)
-    reward = np.where(
-        (gaps[None, :] >= lo[:, None]) & (gaps[None, :] <= hi[:, None]), reward, -np.inf
-    )
-    raw = argmax_gap(reward, gaps)
-    return finish_table(axis_mps, raw, covered, bounds, cutoff=cutoff)
 
 
 def search_range(

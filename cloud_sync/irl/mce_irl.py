@@ -77,11 +77,12 @@ class DemoStats:
 
 
 def reward_table(mdp: CompiledMdp, alpha: np.ndarray) -> np.ndarray:
-    """``r(s, a)`` of weights ``alpha`` (K,): shape (S, A)."""
+    """``r(s, a)`` of weights ``alpha`` (K,): shape (S, A); the (v, g) part weighted by κ(dv)
+    (:mod:`cloud_sync.irl.features`)."""
     feats = mdp.features
     A, a_dv, a_a = feats.split(alpha)
     r_vg = np.einsum("kj,klj->kl", feats.Bv @ A, feats.Bg)
-    r_s = (r_vg[:, :, None] + a_dv * feats.f_dv[None, None, :]).ravel()
+    r_s = (r_vg[:, :, None] * feats.k_dv[None, None, :] + a_dv * feats.f_dv[None, None, :]).ravel()
     return np.asarray(r_s[:, None] + a_a * feats.f_a[None, :])
 
 
@@ -137,10 +138,11 @@ def state_action_visitation(PT: sp.csr_matrix, pi: np.ndarray, p0: np.ndarray) -
 
 
 def feature_expectations(mdp: CompiledMdp, d_sa: np.ndarray) -> np.ndarray:
-    """Feature counts (K,) of state-action counts ``d_sa`` (S, A)."""
+    """Feature counts (K,) of state-action counts ``d_sa`` (S, A); (v, g) counts weighted by
+    κ(dv)."""
     feats = mdp.features
     d_s = d_sa.sum(axis=1).reshape(mdp.grid.shape)
-    m_vg = d_s.sum(axis=2)
+    m_vg = d_s @ feats.k_dv
     rbf = feats.counts(m_vg)
     mu_dv = float(d_s.sum(axis=(0, 1)) @ feats.f_dv)
     mu_a = float(d_sa.sum(axis=0) @ feats.f_a)

@@ -4,7 +4,7 @@ Maximum causal entropy IRL fits the reward so that the soft-optimal *policy* rep
 demonstrations' feature counts; it is the policy, not the reward surface, that matches the
 data. The argmax of the (v, g) reward is not, in general, the gap that policy keeps: the
 reward also pays for where the dynamics lead next, and with a finite horizon and a lead
-modelled as a random walk its maximum sits off the gaps the driver actually holds (issue 11:
+modelled as a random walk its maximum sits off the gaps the driver actually holds (
 on the OpenACC human followers the argmax table was 3–6 m off the steady gaps of the densely
 driven speeds). So the table is read from the policy:
 

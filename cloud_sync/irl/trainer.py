@@ -28,13 +28,8 @@ from cloud_sync.errors import DemoError, TrainingError
 from cloud_sync.irl import demos as dm
 from cloud_sync.irl.baseline import baseline_if_any, empirical_baseline
 from cloud_sync.irl.blend import Evidence, blend, covered_ranges, evidence
-from cloud_sync.irl.config import EXTRACTIONS, IrlConfig
-from cloud_sync.irl.extract import (
-    finish_table,
-    irl_gaps,
-    outside_coverage,
-    search_range,
-)
+from cloud_sync.irl.config import IrlConfig
+from cloud_sync.irl.extract import finish_table, outside_coverage, search_range
 from cloud_sync.irl.fit import Fit, fit_alpha, start_alpha
 from cloud_sync.irl.mce_irl import CompiledMdp, DemoStats
 from cloud_sync.irl.model import METHOD, RewardModel, compile_model, fresh_model, model_of_table
@@ -49,7 +44,6 @@ __all__ = [
     "fine_tune",
     "empirical_baseline",
     "METHOD",
-    "EXTRACTIONS",
 ]
 
 
@@ -209,18 +203,7 @@ def fine_tune(
 def _extract(
     cfg: IrlConfig, alpha: np.ndarray, mdp: CompiledMdp, axis: np.ndarray, ev: Evidence
 ) -> np.ndarray:
-    """The table (n,) of the fitted weights ``alpha`` under ``cfg.extraction``."""
-    if cfg.extraction == "argmax":
-        return irl_gaps(
-            alpha,
-            mdp.features,
-            axis,
-            ev.covered,
-            ev.support,
-            bounds=cfg.bounds,
-            resolution_m=cfg.gap_resolution_m,
-            cutoff=cfg.lowpass_cutoff,
-        )
+    """The table (n,) of the fitted weights ``alpha``: the gap the policy keeps, finished."""
     drift, value = steady_drift(mdp, alpha, cfg.horizon_steps)
     support = search_range(axis, ev.support, cfg.bounds, cfg.gap_resolution_m)
     raw = steady_gaps(drift, value, mdp.grid.v_mps, mdp.grid.gap_m, axis, support)
@@ -285,7 +268,6 @@ def _irl_meta(
         "grid": model.grid.spec(),
         "features": model.features.spec(),
         "horizon_steps": cfg.horizon_steps,
-        "extraction": cfg.extraction,
         "l2": cfg.l2,
         "iterations": fit.n_iter,
         "converged": fit.converged,

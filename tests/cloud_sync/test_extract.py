@@ -1,4 +1,4 @@
-"""DGPT extraction: argmax, support, continuation, low-pass, baseline, bounds."""
+"""DGPT extraction: support, continuation, low-pass, baseline, bounds."""
 
 from __future__ import annotations
 
@@ -9,16 +9,13 @@ from hypothesis import strategies as st
 
 from cloud_sync.irl.extract import (
     PRIOR_HEADWAY_S,
-    argmax_gap,
     continue_time_gap,
     finish_table,
     gap_support,
-    irl_gaps,
     lowpass,
     outside_coverage,
     steady_state_gaps,
 )
-from cloud_sync.irl.features import Features
 from dbc.vocab.dgpt import SafetyBounds, speed_axis
 
 AXIS = speed_axis(0.5)
@@ -81,41 +78,9 @@ def test_steady_state_baseline_uses_only_steady_samples() -> None:
     assert np.isnan(gap[0]) and count[0] == 0
 
 
-def test_argmax_and_support() -> None:
-    r = -((np.arange(10.0)[None, :] - np.array([[2.0], [7.0]])) ** 2)
-    assert np.allclose(argmax_gap(r, np.arange(10.0)), [2.0, 7.0])
+def test_support() -> None:
     v = np.linspace(5, 25, 400)
     g = 3.0 + 1.4 * v
     lo, hi = gap_support(AXIS, v, g, margin_m=0.0)
     assert np.isnan(lo[0]) and lo[30] == pytest.approx(3.0 + 1.4 * 14.0, abs=0.1)
     assert hi[30] == pytest.approx(3.0 + 1.4 * 16.0, abs=0.1)
-
-
-def ridge(c0_m: float, c1_s: float) -> Features:
-    """A reward that peaks on the line ``c0 + c1·v`` at every speed (one gap-offset RBF)."""
-    z = np.zeros(1)
-    return Features(
-        v_centres_mps=np.array([20.0]),
-        gap_centres_m=np.array([0.0]),
-        v_width_mps=100.0,
-        gap_width_m=5.0,
-        Bv=z[:, None],
-        Bg=z[:, None, None],
-        f_dv=z,
-        f_a=z,
-        ref_c0_m=c0_m,
-        ref_c1_s=c1_s,
-    )
-
-
-def test_irl_gaps_take_the_ridge_inside_the_demonstrated_range() -> None:
-    b = SafetyBounds()
-    feats, alpha = ridge(4.0, 1.5), np.array([1.0, 0.0, 0.0])
-    covered = np.ones(AXIS.size, dtype=bool)
-    nowhere = (np.full(AXIS.size, np.nan), np.full(AXIS.size, np.nan))
-    free = irl_gaps(alpha, feats, AXIS, covered, nowhere, bounds=b, resolution_m=0.25, cutoff=0.1)
-    assert np.allclose(free, 4.0 + 1.5 * AXIS, atol=1e-6)
-    # demonstrated gaps all above the ridge: the argmax stops at their lower edge
-    above = (10.0 + 2.0 * AXIS, 30.0 + 2.0 * AXIS)
-    held = irl_gaps(alpha, feats, AXIS, covered, above, bounds=b, resolution_m=0.25, cutoff=0.1)
-    assert np.allclose(held, 10.0 + 2.0 * AXIS, atol=1e-6)

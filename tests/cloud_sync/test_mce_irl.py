@@ -9,6 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from cloud_sync.errors import TrainingError
+from cloud_sync.irl.demos import Transitions, demo_stats
 from cloud_sync.irl.features import FeatureConfig, make_features
 from cloud_sync.irl.mce_irl import (
     CompiledMdp,
@@ -163,3 +164,43 @@ def test_bad_inputs_raise_training_error() -> None:
         reward_table(MDP, np.zeros(3))
     with pytest.raises(TrainingError):
         GridConfig(dt_s=0.0)
+
+
+def test_gap_preference_counts_in_steady_following_only() -> None:
+    """κ(dv): the (v, g) reward and its counts are weighted by exp(−½(dv/w)²), in the model
+    (reward, expected counts) and in the demonstrations alike; w = 0 weights nothing."""
+    grid = MDP.grid
+    n_v, n_g, n_dv = grid.shape
+    w = 0.5
+
+    def mdp_of(width: float) -> CompiledMdp:
+        config = FeatureConfig(v_spacing_mps=2.0, gap_spacing_m=4.0, dv_width_mps=width)
+        return CompiledMdp.build(grid, make_features(grid, config), MDP.P)
+
+    mdp, flat = mdp_of(w), mdp_of(0.0)
+    feats = mdp.features
+    kappa = np.exp(-0.5 * (grid.dv_mps / w) ** 2)
+    assert np.allclose(feats.k_dv, kappa) and flat.features.k_dv.tolist() == [1.0] * n_dv
+    alpha = np.random.default_rng(7).normal(0.0, 1.0, feats.n_features)
+    alpha[-2:] = 0.0  # the (v, g) part alone
+    r = reward_table(mdp, alpha)[:, 0].reshape(grid.shape)
+    r_vg = feats.reward_vg(alpha, grid.v_mps, grid.gap_m)
+    assert np.allclose(r, r_vg[:, :, None] * kappa[None, None, :])
+    # one unit of visitation at (v, g) = grid point (2, 3) with dv = +1 m/s
+    idv = int(np.flatnonzero(grid.dv_mps == 1.0)[0])
+    d_sa = np.zeros((grid.n_states, grid.n_actions))
+    d_sa[(2 * n_g + 3) * n_dv + idv, 0] = 1.0
+    model = feature_expectations(mdp, d_sa)
+    plain = feature_expectations(flat, d_sa)
+    assert np.allclose(model[:-2], kappa[idv] * plain[:-2]) and kappa[idv] < 0.2
+    # the same pair as a demonstration counts the same
+    tr = Transitions(
+        v_mps=grid.v_mps[2:3],
+        gap_m=grid.gap_m[3:4],
+        dv_mps=np.array([1.0]),
+        a_mps2=grid.accels_mps2[:1],
+        pos=np.array([1]),
+        seg_len=np.array([1]),
+        weight=np.array([1.0]),
+    )
+    assert np.allclose(demo_stats(mdp, tr, 1).mu, model)

@@ -54,9 +54,11 @@ def test_without_a_stable_gap_in_range_the_gap_goes_to_an_edge() -> None:
 def test_policy_of_a_known_reward_keeps_its_preferred_gap() -> None:
     cfg = GridConfig(dv_max_mps=3.0)
     grid = make_grid(cfg, v_max_mps=12.0, gap_max_m=40.0)
-    feats = make_features(grid, FeatureConfig(v_spacing_mps=2.0, gap_spacing_m=2.0))
+    config = FeatureConfig(v_spacing_mps=2.0, gap_spacing_m=2.0, dv_width_mps=0.0)
+    feats = make_features(grid, config)
     mdp = CompiledMdp.build(grid, feats, build_transitions(grid, cfg))
-    # a (v, g) reward peaked at 20 m at every speed, plus the comfort terms
+    # a (v, g) reward peaked at 20 m at every speed and relative speed (κ off), plus the
+    # comfort terms
     rbf = -0.02 * (feats.gap_centres_m - 20.0) ** 2
     A = np.tile(rbf, (feats.v_centres_mps.size, 1))
     alpha = np.concatenate([A.ravel(), [1.0, 1.0]])

@@ -10,6 +10,8 @@ import numpy as np
 import pytest
 
 from cloud_sync.errors import TrainingError
+from cloud_sync.irl.features import FeatureConfig
+from cloud_sync.irl.sources.synthetic import lead_speed
 from cloud_sync.irl.trainer import (
     IrlConfig,
     LearnResult,
@@ -60,7 +62,7 @@ def test_non_monotonic_preference_recovered_without_a_fitted_line(
     res = learn_dgpt(trips, driver_id="hump")
     feats = res.table.meta["features"]
     assert feats["ref_c0_m"] == 0.0 and feats["ref_c1_s"] == 0.0
-    assert feats["time_gap_floor_mps"] > 0.0 and res.table.meta["extraction"] == "policy"
+    assert feats["time_gap_floor_mps"] > 0.0
     v, g, cov = res.table.speed_mps, res.table.gap_m, res.covered
     assert cov[(v >= 8.0) & (v <= 27.0)].all()
     truth = np.array([hump(float(x)) for x in v])
@@ -69,6 +71,40 @@ def test_non_monotonic_preference_recovered_without_a_fitted_line(
     peak = int(np.argmax(np.where(inner, g, -np.inf)))
     assert 15.0 <= v[peak] <= 23.0
     assert g[peak] - g[v == 8.0][0] >= 8.0 and g[peak] - g[v == 27.0][0] >= 3.0
+
+
+def lazy_follower(seed: int) -> Trip:
+    """5 min at 10 Hz of a driver who keeps 4 m + 1.6 s·v in steady following, closes on a
+    slower lead at once (gain 0.6 /s on dv) and lets a faster one pull away (0.15 /s): its gap
+    opens further in transients than it closes, so its gaps average above the preference."""
+    dt, n = 0.1, 3000
+    vl = lead_speed(np.random.default_rng(seed), n, dt, 5.0, 30.0)
+    v, g = np.empty(n), np.empty(n)
+    v[0], g[0] = vl[0], D0 + T * vl[0]
+    for i in range(n - 1):
+        dv = vl[i] - v[i]
+        a = 0.08 * (g[i] - D0 - T * v[i]) + (0.6 if dv < 0.0 else 0.15) * dv
+        v[i + 1] = max(v[i] + float(np.clip(a, -3.5, 2.0)) * dt, 0.0)
+        g[i + 1] = g[i] + dv * dt
+    t = np.arange(n) * dt
+    return Trip.manual(t, v, g, vl, np.gradient(v, t), {"driver_id": "lazy"})
+
+
+@pytest.mark.slow
+def test_gap_preference_is_read_from_steady_following() -> None:
+    """The (v, g) reward counts at relative speed ≈ 0 only (κ, FeatureConfig.dv_width_mps):
+    the lazy follower's table sits near its preference; weighting every dv alike (width 0)
+    puts it where its transients pulled the gaps, 0.8 m above."""
+    trips = [lazy_follower(s) for s in range(4)]
+
+    def offset(width: float) -> float:
+        config = IrlConfig(features=FeatureConfig(dv_width_mps=width))
+        res = learn_dgpt(trips, driver_id="lazy", config=config)
+        v, cov = res.table.speed_mps, res.covered
+        return float(np.mean(res.table.gap_m[cov] - (D0 + T * v[cov])))
+
+    steady, flat = offset(IrlConfig().features.dv_width_mps), offset(0.0)
+    assert abs(steady) <= 0.45 and flat >= 0.6
 
 
 @pytest.mark.slow
@@ -165,9 +201,8 @@ def test_init_of_another_driver_refused(syn_trips: list[Trip]) -> None:
         ("gap_resolution_m", float("nan")),
         ("min_total_demo_s", -5.0),
         ("horizon_steps", 0),
-        ("extraction", "mode"),
     ],
 )
-def test_bad_config_refused(field_name: str, value: float | str) -> None:
+def test_bad_config_refused(field_name: str, value: float) -> None:
     with pytest.raises(TrainingError, match=field_name):
         IrlConfig(**{field_name: value})  # type: ignore[arg-type]

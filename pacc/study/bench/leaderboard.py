@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from pacc.study.bench.heldout import BASELINE
 from pacc.study.stats import bootstrap_ci, holm, paired_comparison
 
 PAPER = "paper"
@@ -52,7 +53,8 @@ def _fmt(x: float, ci: tuple[float, float] | None = None, digits: int = 2) -> st
 
 def heldout_stats(records: Sequence[Mapping[str, Any]], learner: str) -> dict[str, Any]:
     """Held-out error of ``learner``: per kind (real, drawn, builtin) the mean error, the
-    baseline's, wins (error <= baseline) and drivers; the mean learning time (s)."""
+    baseline's, wins (error <= baseline; None for the baseline itself) and drivers; the mean
+    learning time (s)."""
     out: dict[str, Any] = {"learn_s": math.nan}
     times = []
     for kind in ("real", "drawn", "builtin"):
@@ -69,7 +71,7 @@ def heldout_stats(records: Sequence[Mapping[str, Any]], learner: str) -> dict[st
         out[kind] = {
             "error_m": float(m.mean()) if m.size else math.nan,
             "baseline_m": float(b.mean()) if b.size else math.nan,
-            "wins": int(np.sum(m <= b)),
+            "wins": None if learner == BASELINE else int(np.sum(m <= b)),  # not against itself
             "n": int(m.size),
         }
     if times:
@@ -153,7 +155,8 @@ def _heldout_cell(h: Mapping[str, Any] | None, kind: str) -> str:
     if h is None or not h[kind]["n"]:
         return "–"
     k = h[kind]
-    return f"{k['error_m']:.2f} vs {k['baseline_m']:.2f} ({k['wins']}/{k['n']})"
+    wins = "the baseline" if k["wins"] is None else f"{k['wins']}/{k['n']}"
+    return f"{k['error_m']:.2f} vs {k['baseline_m']:.2f} ({wins})"
 
 
 def _paired_cell(t: Mapping[str, Any] | None) -> str:
