@@ -20,12 +20,13 @@ import json
 import shutil
 import threading
 from collections.abc import Mapping
+from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from cloud_sync.api import CloudApi, CloudError
-from cloud_sync.engine.base import Engine
+from cloud_sync.engine import is_dask, map_unordered, workers_of
 from cloud_sync.errors import CloudSyncError
 from cloud_sync.service.local import LocalCloud
 from cloud_sync.service.rules import CloudService, DeferredExecutor, ServiceConfig
@@ -36,10 +37,9 @@ from cloud_sync.vehicle.spool import Spool
 from cloud_sync.vehicle.uploader import Uploader, UploaderConfig
 from dbc.vocab.dgpt import Dgpt
 from dbc.vocab.triplog import Trip
-from pacc.study.config import StudyConfig
 from pacc.study.drive import DriveConfig, run_drive
 from pacc.study.irl_table import manual_trips
-from pacc.study.tasks import manual_trips_task
+from pacc.study.spec import StudySpec
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import SimError
 from sim_bus.lead.scenarios import canonical_profiles
@@ -66,15 +66,15 @@ class StudyCloud:
         out: Path,
         drivers: Mapping[str, DriverParams],
         seed: int,
-        compute: Engine | None = None,
+        compute: Executor | None = None,
     ) -> StudyCloud:
         """A fresh embedded cloud under ``out/cloud`` (a previous study's is replaced) with
         the study's vehicle and every driver registered. ``compute``: where its learning jobs
-        train (None: in this thread); a distributed engine trains as many drivers at once as
+        train (None: in this thread); a Dask cluster's executor trains as many drivers at once as
         it has workers."""
         for folder in (out / "cloud", out / "spool"):
             shutil.rmtree(folder, ignore_errors=True)
-        threads = compute.workers if compute is not None and compute.distributed else 1
+        threads = workers_of(compute) if compute is not None else 1
         service = CloudService.open(
             out / "cloud", DeferredExecutor(threads), ServiceConfig(seed=seed), compute
         )
@@ -151,15 +151,17 @@ def cloud_irl_tables(
     cloud: StudyCloud,
     drivers: Mapping[str, DriverParams],
     seed: int,
-    engine: Engine | None = None,
+    executor: Executor | None = None,
 ) -> dict[str, Dgpt]:
     """Driver id -> the IRL table the vehicle downloaded after uploading the manual trips.
     Every driver's trips go up first (in driver order), so an embedded cloud with a
-    distributed engine learns the drivers side by side at the first download; a distributed
-    ``engine`` also drives the manual trips."""
+    Dask cluster learns the drivers side by side at the first download; a Dask ``executor``
+    also drives the manual trips."""
     made: dict[int, list[Trip]] = {}
-    if engine is not None and engine.distributed:
-        made = dict(engine.map_unordered(manual_trips_task, seed, list(drivers.values())))
+    if is_dask(executor):
+        assert executor is not None
+        tasks = [(driver, seed) for driver in drivers.values()]
+        made = dict(map_unordered(executor, _manual_trips, tasks))
     conditions: dict[str, str] = {}
     for index, (driver_id, driver) in enumerate(drivers.items()):
         trips = made.pop(index) if index in made else manual_trips(driver, seed)
@@ -175,6 +177,11 @@ def cloud_irl_tables(
             )
         tables[driver_id] = table
     return tables
+
+
+def _manual_trips(task: tuple[DriverParams, int]) -> list[Trip]:
+    """A driver's manual trips (an executor task)."""
+    return manual_trips(*task)
 
 
 def _report_trip(cloud: StudyCloud, table: Dgpt, run: DriveConfig, acc_on_s: float) -> None:
@@ -195,7 +202,7 @@ def _report_trip(cloud: StudyCloud, table: Dgpt, run: DriveConfig, acc_on_s: flo
 
 
 def run_incremental(
-    cfg: StudyConfig,
+    cfg: StudySpec,
     drivers: Mapping[str, DriverParams],
     cloud: StudyCloud,
     tables: Mapping[str, Dgpt],

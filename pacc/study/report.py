@@ -14,8 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from pacc.study.config import StudyConfig
 from pacc.study.drive import CONTROLLERS
+from pacc.study.spec import StudySpec
 
 #: Averages of the paper's Table I (PoI %, NIM per minute), for comparison.
 PAPER_AVERAGES: dict[str, tuple[float, float]] = {
@@ -95,7 +95,7 @@ def reduction_pct(base: float, value: float) -> float:
     return (base - value) / base * 100.0 if base > 0 else math.nan
 
 
-def format_table(cfg: StudyConfig, rows: Sequence[dict[str, Any]]) -> str:
+def format_table(cfg: StudySpec, rows: Sequence[dict[str, Any]]) -> str:
     """Table I in Markdown: driver × scenario rows (drivers by id, in the order of ``rows``),
     PoI / NIM per controller, the average, the reductions against Predefined and the paper's
     averages beside ours."""

@@ -1,3 +1,3 @@
-"""Study files (:mod:`~pacc.study.files.studyfile`), the run's manifest
-(:mod:`~pacc.study.files.manifest`) and running one on the engine
-(:mod:`~pacc.study.files.studyrun`): ``pacc study --config``."""
+"""Study files (:mod:`~pacc.study.files.studyfile`: TOML to a
+:class:`~pacc.study.spec.StudySpec`) and the run's manifest (:mod:`~pacc.study.files.manifest`):
+``pacc study --config``."""

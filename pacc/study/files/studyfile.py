@@ -38,17 +38,16 @@ import json
 import math
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from cloud_sync.learners import make_learner
 from dbc.vocab import FormatError
 from ecu.methods import make_adaptation, make_controller
-from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams, load_driver
+from pacc.study.spec import ECU_ADAPTATION, Method, StudySpec
+from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.errors import SimError
 from sim_bus.lead.scenarios import canonical_profiles
-from sim_bus.population import draw_population
 
 #: the keys of a study file's top level and of a method
 TOP_KEYS = {
@@ -75,36 +74,6 @@ METHOD_KEYS = {
 
 class StudyFileError(SimError):
     """A study file that cannot run: unreadable, unknown key, bad value, unknown method."""
-
-
-@dataclass(frozen=True)
-class Method:
-    """One combination: table source x learner x adaptation x controller, with arguments."""
-
-    name: str
-    table: str  # "predefined" or a learner spec
-    adaptation: str  # "" none, else an adaptation spec
-    controller: str  # "" the built-in PID directly, else a controller spec
-    learner_args: tuple[tuple[str, Any], ...] = ()
-    adaptation_args: tuple[tuple[str, Any], ...] = ()
-    controller_args: tuple[tuple[str, Any], ...] = ()
-
-    @property
-    def table_key(self) -> str:
-        """Identifies the table a driver gets (learner and its arguments)."""
-        return json.dumps([self.table, self.learner_args], sort_keys=True, default=str)
-
-    def as_dict(self) -> dict[str, Any]:
-        """JSON form (arguments as objects)."""
-        return {
-            "name": self.name,
-            "table": self.table,
-            "adaptation": self.adaptation or "none",
-            "controller": self.controller or "builtin",
-            "learner_args": dict(self.learner_args),
-            "adaptation_args": dict(self.adaptation_args),
-            "controller_args": dict(self.controller_args),
-        }
 
 
 def _list(value: Any, key: str) -> list[Any]:
@@ -171,7 +140,7 @@ def check_methods(methods: list[Method]) -> None:
         for m in methods:
             if m.table != "predefined":
                 make_learner(m.table, dict(m.learner_args))
-            if m.adaptation:
+            if m.adaptation and m.adaptation != ECU_ADAPTATION:
                 make_adaptation(m.adaptation, dict(m.adaptation_args))
             if m.controller:
                 make_controller(m.controller, dict(m.controller_args))
@@ -268,30 +237,25 @@ def _plain_method(m: Mapping[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in m.items() if k in METHOD_KEYS}
 
 
-def methods_of(config: Mapping[str, Any]) -> list[Method]:
-    """The methods of a resolved config."""
-    return expand_methods([_plain_method(m) for m in config["methods"]])
-
-
-def drivers_of(config: Mapping[str, Any]) -> list[DriverParams]:
-    """The drivers of a resolved config, in order: built-ins, files, each population."""
+def spec_of(config: Mapping[str, Any]) -> StudySpec:
+    """The study spec of a resolved config: its drivers (built-ins, files, then each
+    population as ``population:N:SEED``), scenarios and methods, learned in-process."""
     d = config["drivers"]
-    out = [BUILTIN_DRIVERS[b] for b in d["builtin"]] + [load_driver(f) for f in d["files"]]
-    for p in d["population"]:
-        out += list(draw_population(p["n"], p["seed"]))
-    ids = [x.driver_id for x in out]
-    dup = sorted({i for i in ids if ids.count(i) > 1})
-    if dup:
-        raise StudyFileError(f"two drivers have the ids {dup}")
-    return out
+    pops = [f"population:{p['n']}:{p['seed']}" for p in d["population"]]
+    return StudySpec(
+        drivers=(*d["builtin"], *d["files"], *pops),
+        scenarios=tuple(config["scenarios"]),
+        methods=tuple(expand_methods([_plain_method(m) for m in config["methods"]])),
+        trials=int(config["trials"]),
+        seed=int(config["seed"]),
+        duration_s=config["duration_s"],
+        report="summary",
+        learn_in="direct",
+        name=str(config["name"]),
+        logs=False,
+        workers=int(config["workers"]),
+        scheduler=config["scheduler"] or None,
+    )
 
 
-__all__ = [
-    "Method",
-    "StudyFileError",
-    "drivers_of",
-    "expand_methods",
-    "load_study_file",
-    "methods_of",
-    "resolve",
-]
+__all__ = ["StudyFileError", "expand_methods", "load_study_file", "resolve", "spec_of"]
