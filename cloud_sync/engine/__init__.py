@@ -86,10 +86,10 @@ class ProcessPool(Executor):
         self._pool.shutdown(wait=wait, cancel_futures=cancel_futures)
 
 
-def dask_executor(scheduler: str, workers: int) -> Executor:
+def dask_executor(scheduler: str, workers: int, timeout_s: float = CONNECT_TIMEOUT_S) -> Executor:
     """``Client.get_executor()`` of a Dask cluster: ``"local"`` starts a ``LocalCluster`` of
     ``workers`` single-threaded processes (each under a nanny that restarts it if it dies),
-    any other value is a scheduler's address. Shutting the executor down closes the client
+    any other value is a scheduler's address (waited for ``timeout_s``). Shutting the executor down closes the client
     (and the cluster it started). :class:`EngineError` if Dask is missing or no scheduler
     answers."""
     try:
@@ -120,7 +120,7 @@ def dask_executor(scheduler: str, workers: int) -> Executor:
             silence_logs=logging.ERROR,
         )
     try:
-        client = Client(cluster or scheduler, timeout=f"{CONNECT_TIMEOUT_S}s")
+        client = Client(cluster or scheduler, timeout=f"{timeout_s}s")
     except (OSError, ValueError, TypeError) as exc:  # timeouts are OSErrors
         if cluster is not None:
             cluster.close()
@@ -187,7 +187,7 @@ def _one_pass(
     executor: Executor, fn: Callable[[T], R], pending: dict[int, T]
 ) -> Iterator[tuple[int, R]]:
     """The tasks of ``pending`` on ``executor``; each leaves ``pending`` as it is yielded."""
-    window = 4 * workers_of(executor)
+    window = 1 if isinstance(executor, InlineExecutor) else 4 * workers_of(executor)
     queue = iter(list(pending.items()))
     running: dict[Future[R], int] = {}
     try:
@@ -199,7 +199,7 @@ def _one_pass(
             if not running:
                 return
             done, _ = wait(running, return_when=FIRST_COMPLETED)
-            for future in done:
+            for future in sorted(done, key=running.__getitem__):
                 index = running.pop(future)
                 result = future.result()
                 del pending[index]

@@ -169,6 +169,9 @@ def _spec(args: argparse.Namespace, argv: list[str]) -> StudySpec:
         spec = spec_of(load_study_file(args.config))
         workers = args.workers if "--workers" in argv else spec.workers
         return replace(spec, workers=workers, scheduler=args.scheduler or spec.scheduler)
+    bad = [c for c in args.controllers if c not in CONTROLLERS]
+    if bad:
+        raise SimError(f"unknown controllers {bad}: choose from {', '.join(CONTROLLERS)}")
     pop = args.population != 0
     if pop and (args.drivers is not None or args.cloud is not None or args.incremental):
         raise SimError("--population draws its drivers and learns in-process: not with "

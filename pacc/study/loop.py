@@ -1,6 +1,7 @@
 """The study through the vehicle–cloud loop, and the paper's incremental learning measured.
 
-:class:`StudyCloud` is the study's vehicle: each driver's manual trips go through the spool and
+:class:`StudyCloud` is the one vehicle-cloud wiring of the harness (the study and a
+``pacc hil`` session): each driver's manual trips go through the spool and
 the uploader into the cloud (embedded under ``OUT/cloud`` by default, or a running
 ``pacc cloud serve``), the cloud learns the driver's table, and the IRL controllers drive with
 the table the vehicle downloaded and verified (signature and safety bounds).
@@ -19,7 +20,7 @@ import hashlib
 import json
 import shutil
 import threading
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -46,6 +47,8 @@ from sim_bus.lead.scenarios import canonical_profiles
 
 #: the vehicle id the study registers in its embedded cloud
 STUDY_VEHICLE = "study"
+#: where a kept embedded cloud keeps its vehicle's token
+TOKEN_FILE = "vehicle.token"
 #: how long the study waits for a cloud that does not answer, s
 SYNC_TIMEOUT_S = 120.0
 
@@ -64,23 +67,35 @@ class StudyCloud:
     def embedded(
         cls,
         out: Path,
-        drivers: Mapping[str, DriverParams],
+        drivers: Iterable[str],
         seed: int,
         compute: Executor | None = None,
+        *,
+        keep: bool = False,
     ) -> StudyCloud:
-        """A fresh embedded cloud under ``out/cloud`` (a previous study's is replaced) with
-        the study's vehicle and every driver registered. ``compute``: where its learning jobs
-        train (None: in this thread); a Dask cluster's executor trains as many drivers at once as
-        it has workers."""
-        for folder in (out / "cloud", out / "spool"):
-            shutil.rmtree(folder, ignore_errors=True)
+        """An embedded cloud under ``out/cloud`` with the study's vehicle and ``drivers``
+        registered: a fresh one (a previous study's is replaced) or, with ``keep``, the one
+        there reopened (a resumed hil session; the vehicle's token in ``cloud/vehicle.token``).
+        ``compute``: where its learning jobs train (None: in this thread); a Dask cluster's
+        executor trains as many drivers at once as it has workers."""
+        if not keep:
+            for folder in (out / "cloud", out / "spool"):
+                shutil.rmtree(folder, ignore_errors=True)
         threads = workers_of(compute) if compute is not None else 1
         service = CloudService.open(
             out / "cloud", DeferredExecutor(threads), ServiceConfig(seed=seed), compute
         )
-        token = service.register_vehicle(STUDY_VEHICLE)
-        for driver_id in drivers:
-            service.register_driver(STUDY_VEHICLE, driver_id)
+        token_path = out / "cloud" / TOKEN_FILE
+        if keep and token_path.is_file():
+            token = token_path.read_text(encoding="utf-8").strip()
+        else:
+            token = service.register_vehicle(STUDY_VEHICLE)
+            for driver_id in drivers:
+                service.register_driver(STUDY_VEHICLE, driver_id)
+            if keep:
+                tmp = token_path.with_name(TOKEN_FILE + ".part")
+                tmp.write_text(token, encoding="utf-8")
+                tmp.replace(token_path)
         public = load_public_key(service.public_key_pem())
         api = LocalCloud(service, token)
         return cls(
@@ -146,6 +161,27 @@ class StudyCloud:
         """Why downloaded tables were refused, if any."""
         return list(self.downloader.report.refusals)
 
+    def verified(self, driver_id: str, condition: str) -> Dgpt:
+        """:meth:`table`, or SimError saying why there is none."""
+        table = self.table(driver_id, condition)
+        if table is None:
+            why = "; ".join(self.refusals()) or "the cloud learned none"
+            raise SimError(f"study cloud: no usable table for {driver_id} ({why})")
+        return table
+
+    def learn(self, trips: list[Trip], driver_id: str) -> tuple[Dgpt, int]:
+        """Upload the manual ``trips``; the learned table (downloaded, verified) and the
+        batches uploaded."""
+        batches = self.upload(trips)
+        return self.verified(driver_id, str(trips[0].meta.get("condition", "default"))), batches
+
+    def fine_tune(self, segments: list[Trip], table: Dgpt) -> tuple[Dgpt, int]:
+        """Upload a drive's takeover ``segments``; the newest verified table (``table`` when
+        the cloud has nothing newer) and the batches uploaded."""
+        batches = self.upload(segments) if segments else 0
+        newer = self.table(table.driver_id, table.condition)
+        return (newer if newer is not None and newer.version > table.version else table), batches
+
 
 def cloud_irl_tables(
     cloud: StudyCloud,
@@ -167,16 +203,7 @@ def cloud_irl_tables(
         trips = made.pop(index) if index in made else manual_trips(driver, seed)
         cloud.upload(trips)
         conditions[driver_id] = str(trips[0].meta.get("condition", "default"))
-    tables: dict[str, Dgpt] = {}
-    for driver_id, condition in conditions.items():
-        table = cloud.table(driver_id, condition)
-        if table is None:
-            raise SimError(
-                f"study cloud: no usable table for {driver_id} after its manual trips "
-                f"({'; '.join(cloud.refusals()) or 'the cloud learned none'})"
-            )
-        tables[driver_id] = table
-    return tables
+    return {driver_id: cloud.verified(driver_id, c) for driver_id, c in conditions.items()}
 
 
 def _manual_trips(task: tuple[DriverParams, int]) -> list[Trip]:
@@ -251,4 +278,4 @@ def run_incremental(
     return rows
 
 
-__all__ = ["STUDY_VEHICLE", "StudyCloud", "cloud_irl_tables", "run_incremental"]
+__all__ = ["STUDY_VEHICLE", "TOKEN_FILE", "StudyCloud", "cloud_irl_tables", "run_incremental"]

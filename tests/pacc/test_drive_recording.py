@@ -15,6 +15,8 @@ import cantools
 import numpy as np
 import pytest
 from mcap.reader import make_reader
+from pacc.study.config import StudyConfig
+from pacc.study.tasks import DriveJob, run_job
 
 from dbc import DBC_PATH
 from dbc.vocab.dgpt import predefined
@@ -31,9 +33,7 @@ from pacc.commands import sim as sim_cli
 from pacc.commands.drive import main as drive_main
 from pacc.commands.export import main as export_main
 from pacc.commands.plot import main as plot_main
-from pacc.study.config import StudyConfig
 from pacc.study.drive import DriveConfig, predefined_table, run_drive
-from pacc.study.tasks import DriveJob, run_job
 from sim_bus.drivers import BUILTIN_DRIVERS
 
 #: d2 with online adaptation: a takeover at 10.2 s, the adaptation at its release (13.2 s)
