@@ -112,7 +112,8 @@ def bench_learning(names: tuple[str, ...], workers: int) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         up_s, inline_s, inline = learn_seconds(drivers, Path(tmp) / "inline", None)
         with dask_executor("local", workers) as dask:
-            dask._client.run(importlib.import_module, "cloud_sync.irl.trainer")  # first imports
+            client = dask._client  # type: ignore[attr-defined]  # the Dask executor's client
+            client.run(importlib.import_module, "cloud_sync.irl.trainer")  # first imports
             _, dask_s, remote = learn_seconds(drivers, Path(tmp) / "dask", dask)
         blobs = folder_bytes(Path(tmp) / "inline" / "cloud" / "blobs")
         versions = folder_bytes(Path(tmp) / "inline" / "cloud" / "dgpt")

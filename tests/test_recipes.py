@@ -390,7 +390,7 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
                 "[--seed 0] [--duration S] [--workers 2] [--scheduler local|tcp://HOST:8786]",
                 "a synopsis",
             ),
-            skip("[--adaptation-mode timegap|paper]", "a synopsis"),
+            skip("[--adaptation timegap|paper]", "a synopsis"),
             skip(
                 "[--out out/study] [--no-logs] [--can-logs] [--cloud URL|DIR --token-file F "
                 "--trust KEY.pub]",

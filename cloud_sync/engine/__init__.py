@@ -101,9 +101,9 @@ def dask_executor(scheduler: str, workers: int, timeout_s: float = CONNECT_TIMEO
             f"--scheduler needs Dask: pip install 'pacc[dask]' ({exc.name} is missing)"
         ) from exc
 
-    class _Owned(ClientExecutor):  # type: ignore[misc]  # distributed is untyped
+    class _Owned(ClientExecutor):
         def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
-            super().shutdown(wait=wait)
+            super().shutdown(wait=wait)  # type: ignore[no-untyped-call]  # distributed
             client.close()
             if cluster is not None:
                 cluster.close()
@@ -125,7 +125,7 @@ def dask_executor(scheduler: str, workers: int, timeout_s: float = CONNECT_TIMEO
         if cluster is not None:
             cluster.close()
         raise EngineError(f"no Dask scheduler answers at {scheduler}: {exc}") from exc
-    executor: Executor = _Owned(client, pure=False)
+    executor: Executor = _Owned(client, pure=False)  # type: ignore[no-untyped-call]
     return executor
 
 
@@ -152,7 +152,7 @@ def workers_of(executor: Executor) -> int:
         return executor.workers
     client = getattr(executor, "_client", None)
     if client is not None:
-        return max(1, sum(client.nthreads().values()))
+        return max(1, int(sum(client.nthreads().values())))
     return 2
 
 

@@ -249,10 +249,10 @@ def run_resumable(
         with path.open("a", encoding="utf-8") as fh:
             for n, (index, rec) in enumerate(map_unordered(executor, fn, [tasks[i] for i in todo])):
                 key = keys[todo[index]]
+                done[key] = rec  # kept first: a Ctrl-C during the write loses nothing
                 fh.write(json.dumps({"key": key, "record": rec}, default=float) + "\n")
                 fh.flush()
                 os.fsync(fh.fileno())
-                done[key] = rec
                 if progress is not None:
                     progress(len(keys) - len(todo) + n + 1, len(keys))
     except KeyboardInterrupt:

@@ -132,8 +132,8 @@ class StudySpec:
         doc = json.loads(json.dumps(asdict(self), default=str))
         for key in ("workers", "scheduler", "name"):
             doc.pop(key)
-        doc["drivers"] = [_source(d)[0] + ":" + _source(d)[2] if _source(d) else d
-                          for d in self.drivers]  # fmt: skip
+        sources = [(d, _source(d)) for d in self.drivers]
+        doc["drivers"] = [d if src is None else f"{src[0]}:{src[2]}" for d, src in sources]
         return dict(doc)
 
 

@@ -60,8 +60,8 @@ def test_every_task_runs_with_one_blas_thread(dask_cluster: Executor) -> None:
     for executor in (InlineExecutor(), ProcessPool(2), dask_cluster):
         got = dict(map_unordered(executor, blas_threads, list(range(4))))
         assert got == {i: 1 for i in range(4)}
-    got = dict(map_unordered(dask_cluster, scaled, list(range(20))))
-    assert {i: r for i, (r, _) in got.items()} == {i: 3 * i for i in range(20)}
+    scaled_got = dict(map_unordered(dask_cluster, scaled, list(range(20))))
+    assert {i: r for i, (r, _) in scaled_got.items()} == {i: 3 * i for i in range(20)}
 
 
 def test_a_task_error_reaches_the_caller() -> None:

@@ -62,4 +62,4 @@ def test_population_refuses_bad_options(tmp_path: Path, capsys: pytest.CaptureFi
     # another configuration in the same folder is refused, the rows stay
     assert main(["--population", "1", "--seed", "2", "--out", out, "-q", *ARGS]) == 2
     assert "holds another study" in capsys.readouterr().err
-    assert len((tmp_path / "x" / ROWS).read_text(encoding="utf-8").splitlines()) == 2
+    assert len((tmp_path / "x" / ROWS).read_text(encoding="utf-8").splitlines()) == 3
