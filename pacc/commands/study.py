@@ -17,10 +17,9 @@ from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES
 from pacc.commands._args import CommandParser, error_line, integer, number
 from pacc.study.drive import BUSES, CONTROLLERS, adaptation_params
-from pacc.study.files.manifest import write_manifest
-from pacc.study.files.studyfile import load_study_file, spec_of
+from pacc.study.manifest import write_manifest
 from pacc.study.pipeline import StudyInterrupted, run
-from pacc.study.spec import StudySpec, table1_method
+from pacc.study.spec import StudySpec, load_study_file, spec_of, table1_method
 from sim_bus.errors import SimError
 
 _DESCRIPTION = "the paper's human-in-the-loop study (its Table I), end to end on the bus"

@@ -17,7 +17,9 @@ scenarios and the learned tables come from the study seed, the drive's noise fro
 - :mod:`pacc.study.drive_recording`: a drive's bus recording and live view (the world
   streamed as it runs, the drive paced to the wall clock);
 - :mod:`pacc.study.irl_table`: a driver's IRL table, learned from its manual drives, cached;
-- :mod:`pacc.study.spec`: :class:`StudySpec`, its methods, driver sources and validation;
+- :mod:`pacc.study.spec`: :class:`StudySpec`, its methods, driver sources, validation and
+  study files (``pacc study --config``);
+- :mod:`pacc.study.manifest`: what a run was (code, seeds, platform), to run it again;
 - :mod:`pacc.study.pipeline`: plan, tables, drives on the executor, the resumable journal;
 - :mod:`pacc.study.loop`: the one vehicle–cloud wiring (study and ``pacc hil``) and the
   paper's incremental learning;
@@ -28,9 +30,7 @@ scenarios and the learned tables come from the study seed, the drive's noise fro
 - :mod:`pacc.study.stats`: bootstrap intervals and paired tests;
 - :mod:`pacc.study.bench` — ``pacc bench``: the suite (:mod:`~pacc.study.bench.suite`),
   the held-out gap error (:mod:`~pacc.study.bench.heldout`) and the leaderboard
-  (:mod:`~pacc.study.bench.leaderboard`);
-- :mod:`pacc.study.files` — study files (:mod:`~pacc.study.files.studyfile`) and the run's
-  manifest (:mod:`~pacc.study.files.manifest`): ``pacc study --config``.
+  (:mod:`~pacc.study.bench.leaderboard`).
 
 The command line is :mod:`pacc.commands.study`.
 

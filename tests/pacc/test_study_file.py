@@ -12,14 +12,14 @@ import pytest
 
 from cloud_sync.engine import InlineExecutor
 from pacc.commands.study import main as study_main
-from pacc.study.files.studyfile import (
+from pacc.study.pipeline import ROWS, run
+from pacc.study.spec import (
     StudyFileError,
     expand_methods,
     load_study_file,
     resolve,
     spec_of,
 )
-from pacc.study.pipeline import ROWS, run
 from sim_bus.errors import SimError
 
 STUDY = """

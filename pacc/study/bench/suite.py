@@ -27,10 +27,9 @@ from typing import Any
 from cloud_sync.engine import open_executor
 from pacc.study.bench.heldout import HeldOutTask, heldout_task, real_tasks
 from pacc.study.bench.leaderboard import leaderboard, markdown, plot, write_csv
-from pacc.study.files.manifest import write_manifest
-from pacc.study.files.studyfile import StudyFileError, resolve, spec_of
+from pacc.study.manifest import write_manifest
 from pacc.study.pipeline import ROWS, run, run_resumable
-from pacc.study.spec import StudySpec
+from pacc.study.spec import StudyFileError, StudySpec, resolve, spec_of
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.population import draw_population
 
