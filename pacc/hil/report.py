@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from pacc.study.drive import CONTROLLERS
-from pacc.study.incremental_report import format_incremental, write_incremental_csv
+from pacc.study.incremental_report import INCREMENTAL_FIELDS, format_incremental
 from pacc.study.report import (
     CONTROLLER_TITLES,
     FIELDS,
@@ -176,5 +176,5 @@ def build_table(sessions: Path, out: Path, synthetic: Path | None = None) -> str
     if inc:
         text += "\n" + format_incremental(inc)
         (out / "table1.md").write_text(text, encoding="utf-8")
-        write_incremental_csv(out / "incremental.csv", inc)
+        write_csv(out / "incremental.csv", inc, INCREMENTAL_FIELDS)
     return text

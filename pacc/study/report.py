@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -174,10 +174,12 @@ def format_table(cfg: StudySpec, rows: Sequence[dict[str, Any]]) -> str:
     return "\n".join(out) + "\n"
 
 
-def write_csv(path: Path, rows: Sequence[dict[str, Any]]) -> None:
-    """One row per drive, columns :data:`FIELDS`."""
+def write_csv(
+    path: Path, rows: Sequence[Mapping[str, Any]], fields: Sequence[str] = FIELDS
+) -> None:
+    """One row per line, columns ``fields`` (other keys left out): every study CSV."""
     with path.open("w", newline="", encoding="utf-8") as fh:
-        writer = csv.DictWriter(fh, fieldnames=FIELDS)
+        writer = csv.DictWriter(fh, fieldnames=fields, extrasaction="ignore")
         writer.writeheader()
         writer.writerows(rows)
 

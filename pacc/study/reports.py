@@ -37,13 +37,9 @@ SUMMARY_FIELDS = (
 
 def write_rows(path: Path, rows: Sequence[Mapping[str, Any]], kind: str) -> None:
     """``drives.csv`` of a report ``kind``: Table I's columns, or a study file's."""
-    fields = SUMMARY_FIELDS if kind == "summary" else report.FIELDS
     if kind == "summary":  # a study file's "controller" is the gap controller
         rows = [{**r, "controller": r["gap_controller"]} for r in rows]
-    with path.open("w", newline="", encoding="utf-8") as fh:
-        writer = csv.DictWriter(fh, fieldnames=fields, extrasaction="ignore")
-        writer.writeheader()
-        writer.writerows(rows)
+    report.write_csv(path, rows, SUMMARY_FIELDS if kind == "summary" else report.FIELDS)
 
 
 def write(
@@ -79,7 +75,7 @@ def incremental(
     """The incremental-learning experiment (:func:`pacc.study.loop.run_incremental`) and its
     report; the rows."""
     rows = run_incremental(spec, drivers, cloud, cloud_irl_tables(cloud, drivers, spec.seed))
-    incremental_report.write_incremental_csv(out / "incremental.csv", rows)
+    report.write_csv(out / "incremental.csv", rows, incremental_report.INCREMENTAL_FIELDS)
     text = incremental_report.format_incremental(rows)
     (out / "incremental.md").write_text(text, encoding="utf-8")
     incremental_report.plot_incremental(out / "incremental.png", rows)
