@@ -33,7 +33,7 @@ from dbc.vocab.triplog_file import write_trip
 from pacc.study.drive import DriveConfig, log_to_trip, predefined_table, resolve_profile, run_drive
 from pacc.study.irl_table import irl_table, manual_trips
 from pacc.study.loop import StudyCloud, cloud_irl_tables
-from pacc.study.spec import ECU_ADAPTATION, Method, StudySpec
+from pacc.study.spec import ECU_ADAPTATION, Method, StudySpec, validate
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import SimError
 
@@ -271,8 +271,7 @@ def run(
     """Check ``spec``, make the tables, run every drive (or resume), write the report the
     spec names into ``out``; the rows in plan order. ``executor``: where tables and drives
     run (None: the one ``spec.scheduler`` and ``spec.workers`` name, opened here)."""
-    from pacc.study import reports  # noqa: PLC0415 - matplotlib and scipy: the main process only
-    from pacc.study.spec import validate  # noqa: PLC0415
+    from pacc.study import reports  # noqa: PLC0415 - scipy's statistics: the main process only
 
     drivers = validate(spec)
     out.mkdir(parents=True, exist_ok=True)
