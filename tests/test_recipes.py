@@ -150,7 +150,7 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
             ),
             skip(
                 "pacc study --population 100 --seed 2 --out out/pop",
-                "hours; tests/sim_bus/test_study_population.py runs a small population",
+                "hours; tests/pacc/test_study_population.py runs a small population",
             ),
             skip(
                 "pacc hil --participant P01 --protocol paper --out sessions/",
@@ -171,7 +171,7 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
             ),
             skip(
                 "pacc bench --seeds 2 --out out/bench",
-                "a minute even shortened; tests/sim_bus/test_bench.py::"
+                "a minute even shortened; tests/pacc/test_bench.py::"
                 "test_a_small_bench_stores_its_seeds_writes_the_board_and_resumes runs a small one",
             ),
             skip(
@@ -409,7 +409,7 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
             skip("[--mismatch S] [--trip-shift SD]", "a synopsis"),
             skip(
                 "pacc study --population 100 --seed 2 --out out/pop2 --cache out/cache",
-                "hours; tests/sim_bus/test_study_population.py runs a small population",
+                "hours; tests/pacc/test_study_population.py runs a small population",
             ),
         ],
     ),
