@@ -156,10 +156,21 @@ def workers_of(executor: Executor) -> int:
     return 2
 
 
+#: set once a worker process has pinned BLAS to one thread for its life
+_PINNED: list[bool] = []
+
+
 def one_blas(fn: Callable[..., R], *args: Any) -> R:
-    """``fn(*args)`` with one BLAS thread (what every task of :func:`map_unordered` runs as)."""
-    with single_blas_thread():
-        return fn(*args)
+    """``fn(*args)`` with one BLAS thread (what every task of :func:`map_unordered` runs as):
+    a worker process is pinned once, for its life (the limit costs milliseconds to set); this
+    process only for the call."""
+    if multiprocessing.parent_process() is None:
+        with single_blas_thread():
+            return fn(*args)
+    if not _PINNED:
+        single_blas_thread()
+        _PINNED.append(True)
+    return fn(*args)
 
 
 def map_unordered(
