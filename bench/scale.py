@@ -6,8 +6,8 @@ Run: ``.venv/bin/python bench/scale.py [--workers 2] [--drivers d1,d2,d3,d4,d5] 
 - the plan: every driver × scenario B × (predefined, predefined + OA) × trials, each a
   DURATION-s lockstep drive through the virtual bus with the full ECU, trip logs written
   (predefined tables: nothing to learn, the drives alone are measured);
-- local process pool (the named peer, ``pacc study --workers N``): the plan through
-  ``pacc.study.run.run_jobs`` on :class:`cloud_sync.engine.base.ProcessEngine`;
+- local process pool (the named peer, ``pacc study --workers N``): the plan's drives
+  (``pacc.study.pipeline.run_one``) on :class:`cloud_sync.engine.ProcessPool`;
 - Dask: the same plan on a ``LocalCluster`` of N single-threaded worker processes
   (``pacc study --scheduler local``), after one warm-up drive per worker (the cluster's start
   and the workers' first imports are printed apart: a study pays them once);
@@ -17,7 +17,7 @@ Run: ``.venv/bin/python bench/scale.py [--workers 2] [--drivers d1,d2,d3,d4,d5] 
 - per-task overhead: no-op tasks through each engine, ms per task (wall time × workers /
   tasks), and the drive runs' difference spread over their drives;
 - parallel efficiency: the same plan in this process, one drive after another (the serial
-  peer, :class:`cloud_sync.engine.base.InlineEngine`, one BLAS thread as in the workers),
+  peer, :class:`cloud_sync.engine.InlineExecutor`, one BLAS thread as in the workers),
   ROUNDS times once the cluster is closed (its scheduler runs in this process); the best
   rounds at N workers as serial / (N × parallel); on a shared machine it is lowered by every
   other job.
@@ -39,40 +39,45 @@ import importlib
 import sys
 import tempfile
 import time
+from concurrent.futures import Executor
 from pathlib import Path
 from typing import Any
 
-from cloud_sync.engine.base import Engine, InlineEngine, ProcessEngine, single_blas_thread
-from cloud_sync.engine.dask_backend import DaskEngine
-from pacc.study import run as study_run
-from pacc.study.config import StudyConfig, validate
+from cloud_sync.engine import (
+    InlineExecutor,
+    ProcessPool,
+    dask_executor,
+    map_unordered,
+    single_blas_thread,
+    workers_of,
+)
 from pacc.study.irl_table import manual_trips
 from pacc.study.loop import StudyCloud
+from pacc.study.pipeline import Drive, make_tables, plan, run_one
+from pacc.study.spec import StudySpec, table1_method, validate
 
 NOOP_TASKS = 400
 
 
-def noop(shared: bytes, task: int) -> int:
-    """A task that does nothing but read the shared data: the engine's own cost."""
-    return task + len(shared)
+def noop(task: bytes) -> int:
+    """A task that does nothing but carry 1 kB: the executor's own cost."""
+    return len(task)
 
 
-def per_task_ms(engine: Engine, tasks: int = NOOP_TASKS) -> float:
+def per_task_ms(executor: Executor, tasks: int = NOOP_TASKS) -> float:
     """Wall time × workers / tasks of ``tasks`` no-op tasks, ms."""
     start = time.perf_counter()
-    done = sum(1 for _ in engine.map_unordered(noop, b"x" * 1024, list(range(tasks))))
+    done = sum(1 for _ in map_unordered(executor, noop, [b"x" * 1024] * tasks))
     took = time.perf_counter() - start
     assert done == tasks
-    return took * engine.workers / tasks * 1e3
+    return took * workers_of(executor) / tasks * 1e3
 
 
-def timed_drives(
-    engine: Engine, jobs: list[Any], workers: int
-) -> tuple[float, list[dict[str, Any]]]:
-    """Wall seconds of the plan on ``engine`` and its rows."""
+def timed_drives(executor: Executor, drives: list[Drive]) -> tuple[float, list[dict[str, Any]]]:
+    """Wall seconds of the plan on ``executor`` and its rows, in plan order."""
     start = time.perf_counter()
-    rows = study_run.run_jobs(jobs, workers, progress=False, engine=engine)
-    return time.perf_counter() - start, rows
+    rows = dict(map_unordered(executor, run_one, drives))
+    return time.perf_counter() - start, [rows[i] for i in range(len(drives))]
 
 
 def _without_wall(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -80,7 +85,7 @@ def _without_wall(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 
 def learn_seconds(
-    drivers: dict[str, Any], out: Path, compute: Engine | None
+    drivers: dict[str, Any], out: Path, compute: Executor | None
 ) -> tuple[float, float, dict[str, Any]]:
     """Wall seconds to make and upload every driver's manual trips to a fresh embedded cloud,
     then to learn and download every table (as ``cloud_irl_tables``); the tables."""
@@ -103,11 +108,12 @@ def folder_bytes(folder: Path) -> int:
 
 def bench_learning(names: tuple[str, ...], workers: int) -> int:
     """The ``--learn`` benchmark (module docstring); 1 if the tables differ."""
-    drivers = validate(StudyConfig(drivers=names, controllers=("irl",), direct=True))
+    drivers = validate(StudySpec(drivers=names, learn_in="direct"))
     with tempfile.TemporaryDirectory() as tmp:
         up_s, inline_s, inline = learn_seconds(drivers, Path(tmp) / "inline", None)
-        with DaskEngine.local(workers) as dask:
-            dask.client.run(importlib.import_module, "cloud_sync.irl.trainer")  # first imports
+        with dask_executor("local", workers) as dask:
+            client = dask._client  # type: ignore[attr-defined]  # the Dask executor's client
+            client.run(importlib.import_module, "cloud_sync.irl.trainer")  # first imports
             _, dask_s, remote = learn_seconds(drivers, Path(tmp) / "dask", dask)
         blobs = folder_bytes(Path(tmp) / "inline" / "cloud" / "blobs")
         versions = folder_bytes(Path(tmp) / "inline" / "cloud" / "dgpt")
@@ -145,36 +151,35 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     if args.learn:
         return bench_learning(tuple(args.drivers.split(",")), args.workers)
-    cfg = StudyConfig(
+    cfg = StudySpec(
         drivers=tuple(args.drivers.split(",")),
         scenarios=("B",),
-        controllers=("predefined", "predefined+oa"),
+        methods=(table1_method("predefined"), table1_method("predefined+oa")),
         trials=args.trials,
         duration_s=args.duration,
         workers=args.workers,
-        direct=True,
+        learn_in="direct",
     )
     drivers = validate(cfg)
-    tables = study_run.tables_for(cfg, drivers, None)
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
         (out / "logs").mkdir()
-        jobs = study_run.plan(cfg, drivers, tables, out)
+        jobs = plan(cfg, drivers, make_tables(cfg, drivers, out, InlineExecutor(), None), out)
         n = len(jobs)
         print(f"plan: {n} drives of {args.duration:.0f} s, {args.workers} workers, logs written")
 
-        pool = ProcessEngine(args.workers)
+        pool = ProcessPool(args.workers)
         start = time.perf_counter()
-        with DaskEngine.local(args.workers) as dask:
+        with dask_executor("local", args.workers) as dask:
             started = time.perf_counter() - start
             warm = time.perf_counter()
-            timed_drives(dask, jobs[: args.workers], args.workers)  # first imports per worker
+            timed_drives(dask, jobs[: args.workers])  # first imports per worker
             warm_s = time.perf_counter() - warm
             print(f"dask LocalCluster: start {started:.2f} s, warm-up {warm_s:.2f} s (once)")
             pool_times, dask_times, serial_times = [], [], []
             for rnd in range(args.rounds):
-                pool_s, pool_rows = timed_drives(pool, jobs, args.workers)
-                dask_s, dask_rows = timed_drives(dask, jobs, args.workers)
+                pool_s, pool_rows = timed_drives(pool, jobs)
+                dask_s, dask_rows = timed_drives(dask, jobs)
                 pool_times.append(pool_s)
                 dask_times.append(dask_s)
                 pool_busy = _busy(pool_rows, pool_s, args.workers)
@@ -186,10 +191,11 @@ def main(argv: list[str] | None = None) -> int:
                 )
             pool_task_ms = per_task_ms(pool)
             dask_task_ms = per_task_ms(dask)
+        pool.shutdown()
         # the serial peer once the cluster is gone (its scheduler runs in this process)
         for rnd in range(args.rounds):
             with single_blas_thread():
-                serial_s, serial_rows = timed_drives(InlineEngine(), jobs, 1)
+                serial_s, serial_rows = timed_drives(InlineExecutor(), jobs)
             serial_times.append(serial_s)
             print(f"serial round {rnd + 1}: {serial_s:.2f} s ({n / serial_s:.2f} drives/s)")
         pool_s, dask_s, serial_s = min(pool_times), min(dask_times), min(serial_times)

@@ -6,11 +6,12 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterator
+from concurrent.futures import Executor
 
 import pytest
 from hypothesis import settings
 
-from cloud_sync.engine.base import Engine
+from cloud_sync.engine import dask_executor
 
 settings.register_profile("default", deadline=None, max_examples=100)
 settings.register_profile("thorough", deadline=None, max_examples=1000)
@@ -18,15 +19,12 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "default"))
 
 
 @pytest.fixture(scope="session")
-def dask_cluster() -> Iterator[Engine]:
+def dask_cluster() -> Iterator[Executor]:
     """One Dask LocalCluster of 2 single-threaded worker processes (each under a nanny),
     shared by the tests that need one within a test process (under pytest-xdist: at most
     one per xdist worker that runs such a test)."""
-    # Dask costs ~1 s of import: only the sessions that run a distributed test pay it
-    from cloud_sync.engine.dask_backend import DaskEngine  # noqa: PLC0415
-
-    engine = DaskEngine.local(2)
+    executor = dask_executor("local", 2)  # Dask is imported (~1 s) only here
     try:
-        yield engine
+        yield executor
     finally:
-        engine.close()
+        executor.shutdown()

@@ -109,7 +109,6 @@ PACKAGES = [
     "pacc.study",
     "pacc.hil",
     "pacc.study.bench",
-    "pacc.study.files",
     "ecu.methods",
     "cloud_sync.learners",
     "cloud_sync",

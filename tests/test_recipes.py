@@ -150,7 +150,7 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
             ),
             skip(
                 "pacc study --population 100 --seed 2 --out out/pop",
-                "hours; tests/sim_bus/test_study_population.py runs a small population",
+                "hours; tests/pacc/test_study_population.py runs a small population",
             ),
             skip(
                 "pacc hil --participant P01 --protocol paper --out sessions/",
@@ -171,7 +171,7 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
             ),
             skip(
                 "pacc bench --seeds 2 --out out/bench",
-                "a minute even shortened; tests/sim_bus/test_bench.py::"
+                "a minute even shortened; tests/pacc/test_bench.py::"
                 "test_a_small_bench_stores_its_seeds_writes_the_board_and_resumes runs a small one",
             ),
             skip(
@@ -417,7 +417,7 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
                 "[--seed 0] [--duration S] [--workers 2] [--scheduler local|tcp://HOST:8786]",
                 "a synopsis",
             ),
-            skip("[--adaptation-mode timegap|paper]", "a synopsis"),
+            skip("[--adaptation timegap|paper]", "a synopsis"),
             skip(
                 "[--out out/study] [--no-logs] [--can-logs] [--cloud URL|DIR --token-file F "
                 "--trust KEY.pub]",
@@ -436,7 +436,7 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
             skip("[--mismatch S] [--trip-shift SD]", "a synopsis"),
             skip(
                 "pacc study --population 100 --seed 2 --out out/pop2 --cache out/cache",
-                "hours; tests/sim_bus/test_study_population.py runs a small population",
+                "hours; tests/pacc/test_study_population.py runs a small population",
             ),
         ],
     ),

@@ -1,11 +1,10 @@
 """Where the cloud's learning jobs run: executors for the job loop, and the training itself.
 
-- :class:`InlineExecutor` runs each job at once in the caller's thread (deterministic);
-  :class:`DeferredExecutor` queues jobs until asked (the embedded cloud learns when a table is
+- :class:`DeferredExecutor` queues jobs until asked (the embedded cloud learns when a table is
   asked for).
 - :func:`train_table` is a job's training, a pure function of trips, seed and settings: it runs
-  in the job's thread or on a compute engine (:mod:`cloud_sync.engine.base`), e.g. a Dask
-  cluster, which gets the trips with the task.
+  in the job's thread or on an executor (:mod:`cloud_sync.engine`), e.g. a Dask cluster's,
+  which gets the trips with the task.
 """
 
 from __future__ import annotations
@@ -15,23 +14,10 @@ from collections.abc import Callable
 from concurrent.futures import Executor, Future, ThreadPoolExecutor
 from typing import Any
 
-from cloud_sync.engine.base import single_blas_thread
+from cloud_sync.engine import single_blas_thread
 from cloud_sync.irl.trainer import IrlConfig, fine_tune, learn_dgpt
 from dbc.vocab.dgpt import Dgpt
 from dbc.vocab.triplog import Trip
-
-
-class InlineExecutor(Executor):
-    """Runs each job at once in the caller's thread: deterministic, for tests and the study."""
-
-    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
-        """Run ``fn(*args, **kwargs)`` now; the returned future is already done."""
-        future: Future[Any] = Future()
-        try:
-            future.set_result(fn(*args, **kwargs))
-        except BaseException as exc:  # the future carries it, as a pool's would
-            future.set_exception(exc)
-        return future
 
 
 class DeferredExecutor(Executor):
@@ -114,4 +100,4 @@ def _train_table(
     return table
 
 
-__all__ = ["DeferredExecutor", "InlineExecutor", "train_table"]
+__all__ = ["DeferredExecutor", "train_table"]

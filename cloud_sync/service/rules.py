@@ -15,7 +15,7 @@
   depend on arrival order. Too little data is not an error: the job waits for more.
 - **Where jobs run**: the executor runs the job loop (reading the store, publishing); the
   training itself, :func:`train_table`, a pure function of trips, seed and settings, runs on
-  the compute engine (:mod:`cloud_sync.engine.base`; None: in the job's thread), e.g. a Dask
+  an executor (:mod:`cloud_sync.engine`; None: in the job's thread), e.g. a Dask
   cluster (``pacc cloud serve --scheduler``), which gets the trips with the task.
 - **Publishing**: each version is signed (Ed25519, :mod:`cloud_sync.signing`) and kept.
 """
@@ -45,11 +45,11 @@ from cloud_sync.api import (
     Receipt,
     is_plain_name,
 )
-from cloud_sync.engine.base import Engine
+from cloud_sync.engine import InlineExecutor
 from cloud_sync.errors import DemoError
 from cloud_sync.irl.trainer import IrlConfig
 from cloud_sync.service.ingest import StorageFullError, parse_batch, storage_errors
-from cloud_sync.service.jobs import DeferredExecutor, InlineExecutor, train_table
+from cloud_sync.service.jobs import DeferredExecutor, train_table
 from cloud_sync.service.store import BatchRow, CloudStore, StoreError, VersionRow
 from cloud_sync.signing import (
     load_private_key,
@@ -118,7 +118,7 @@ class CloudService:
         key: Ed25519PrivateKey,
         executor: Executor | None = None,
         config: ServiceConfig | None = None,
-        compute: Engine | None = None,
+        compute: Executor | None = None,
     ) -> None:
         self.compute = compute
         self.store = store
@@ -136,7 +136,7 @@ class CloudService:
         data_dir: str | os.PathLike[str],
         executor: Executor | None = None,
         config: ServiceConfig | None = None,
-        compute: Engine | None = None,
+        compute: Executor | None = None,
     ) -> CloudService:
         """The service over ``data_dir``, creating the folder and its signing key if new."""
         store = CloudStore(data_dir)
@@ -323,7 +323,7 @@ class CloudService:
             if self.compute is None:
                 table = train_table(*args, cfg.seed, cfg.irl)
             else:
-                table = self.compute.call(train_table, *args, cfg.seed, cfg.irl)
+                table = self.compute.submit(train_table, *args, cfg.seed, cfg.irl).result()
         except DemoError as exc:  # not enough evidence yet: wait for more batches
             log.info("learning %s/%s waits for data: %s", driver_id, condition, exc)
             return None

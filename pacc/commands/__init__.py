@@ -25,6 +25,4 @@ itself in the ``__init__`` (``ecu``, ``drive``, ``plot``; ``cloud`` holds its ow
   against the ECU.
 - :mod:`pacc.commands.plugins` — ``pacc plugins``: the methods that can be named.
 - :mod:`pacc.commands.bench` — ``pacc bench``: the leaderboard on fresh seeds.
-- :mod:`pacc.commands.study_file` — ``pacc study --config study.toml`` (or ``--config
-  OUT/manifest.json``): a study file run.
 """

@@ -110,12 +110,8 @@ def main(argv: list[str] | None = None) -> int:
         opts = _options(args)
         print(f"population seeds (drawn fresh): {', '.join(map(str, opts.seeds))}")
 
-        def say(text: str) -> None:
-            if not args.quiet:
-                print(f"  {text}", file=sys.stderr)
-
         run_bench(opts, args.out, workers=max(1, args.workers), scheduler=args.scheduler,
-                  progress=say)  # fmt: skip
+                  progress=not args.quiet)  # fmt: skip
     except (SimError, EcuError, FormatError, CloudSyncError, OSError) as exc:
         print(f"pacc bench: error: {exc}", file=sys.stderr)
         return 2

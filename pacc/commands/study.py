@@ -7,6 +7,7 @@ import os
 import socket
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 from cloud_sync.errors import CloudSyncError, EngineError
@@ -16,11 +17,10 @@ from dbc.vocab import FormatError
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES
 from pacc.commands._args import CommandParser, error_line, integer, number
-from pacc.study.collect import StudyInterrupted
-from pacc.study.config import StudyConfig
 from pacc.study.drive import BUSES, CONTROLLERS, adaptation_params
-from pacc.study.population import run_population
-from pacc.study.run import run_study
+from pacc.study.manifest import write_manifest
+from pacc.study.pipeline import StudyInterrupted, run
+from pacc.study.spec import StudySpec, load_study_file, spec_of, table1_method
 from sim_bus.errors import SimError
 
 _DESCRIPTION = "the paper's human-in-the-loop study (its Table I), end to end on the bus"
@@ -93,6 +93,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--cache", type=Path, help="cache folder of learned IRL tables")
     p.add_argument(
+        "--adaptation",
         "--adaptation-mode",
         choices=ADAPTATION_MODES,
         help="online adaptation of the +oa controllers (default: the ECU's, see docs/ecu.md)",
@@ -173,98 +174,93 @@ def _check_scheduler(address: str | None) -> None:
         raise EngineError(f"no Dask scheduler answers at {address}: {exc}") from exc
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Entry point of ``pacc study``; 0 on success, 1 if a drive collided, 2 on bad input."""
-    args = _parser().parse_args(argv)
-    other = _other_mode(args, argv)
-    if other is not None:
-        return other
+def _spec(args: argparse.Namespace, argv: list[str]) -> StudySpec:
+    """The spec of the command line: a study file's (``--config``; ``--workers`` and
+    ``--scheduler`` given here replace its own), a drawn population's, or Table I's."""
+    if args.config is not None:
+        spec = spec_of(load_study_file(args.config))
+        workers = args.workers if "--workers" in argv else spec.workers
+        return replace(spec, workers=workers, scheduler=args.scheduler or spec.scheduler)
+    bad = [c for c in args.controllers if c not in CONTROLLERS]
+    if bad:
+        raise SimError(f"unknown controllers {bad}: choose from {', '.join(CONTROLLERS)}")
     pop = args.population != 0
-    if pop and args.drivers is not None:
-        print(
-            "pacc study: error: --population draws its drivers: not with --drivers", file=sys.stderr
-        )
-        return 2
-    cfg = StudyConfig(
-        drivers=args.drivers or ("d1", "d2", "d3", "d4", "d5"),
+    if pop and (args.drivers is not None or args.cloud is not None or args.incremental):
+        raise SimError("--population draws its drivers and learns in-process: not with "
+                       "--drivers, --cloud or --incremental")  # fmt: skip
+    if pop and args.can_logs:
+        raise SimError("--population keeps no logs: not with --can-logs")
+    return StudySpec(
+        drivers=(f"population:{args.population}:{args.seed}",)
+        if pop
+        else args.drivers or ("d1", "d2", "d3", "d4", "d5"),
         scenarios=args.scenarios or (("B",) if pop else ("A", "B")),
-        controllers=tuple(args.controllers),
+        methods=tuple(table1_method(c) for c in args.controllers),
         trials=args.trials if args.trials is not None else (1 if pop else 3),
         seed=args.seed,
         duration_s=args.duration if args.duration is not None or not pop else 120.0,
-        workers=args.workers,
-        logs=not args.no_logs,
+        report="incremental" if args.incremental else "population" if pop else "table1",
+        learn_in="direct" if args.direct or pop else "cloud",
+        logs=not (args.no_logs or pop),
         can_logs=args.can_logs,
-        adaptation=adaptation_params(args.adaptation_mode),
+        adaptation=adaptation_params(args.adaptation),
         cloud=args.cloud,
         token_file=args.token_file,
         trust=args.trust,
-        direct=args.direct,
         incremental=args.incremental,
         dbc=args.dbc,
         binding=args.binding,
-        scheduler=args.scheduler,
-        population=args.population,
         bus=args.bus,
         mismatch=args.mismatch,
         trip_shift_s=args.trip_shift,
+        workers=args.workers,
+        scheduler=args.scheduler,
     )
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``pacc study``; 0 on success, 1 if a drive collided, 2 on bad input."""
+    args = _parser().parse_args(argv)
+    if args.hil is not None:
+        return _hil_table(args.hil, args.out, args.beside)
+    start = time.perf_counter()
     try:
         codec_of(args)  # a DBC without its binding, a binding that does not fit: refused now
-        _check_scheduler(args.scheduler)  # now, not after every IRL table is learned
-        start = time.perf_counter()
-        if any(c.startswith("irl") for c in cfg.controllers) and not args.quiet:
-            where = (
-                "in-process" if cfg.direct else f"in the cloud ({cfg.cloud or args.out / 'cloud'})"
-            )
-            print(
-                "pacc study: learning each driver's IRL table from its manual trips "
-                f"{where} before the drives ...",
-                file=sys.stderr,
-            )
-        if pop:
-            rows = run_population(cfg, args.out, cache_dir=args.cache, progress=not args.quiet)
-            print((args.out / "population.md").read_text(encoding="utf-8"))
-            print(
-                f"{len(rows)} drives in {time.perf_counter() - start:.1f} s; outputs in "
-                f"{args.out}/ (population.md, drives.csv, population.jsonl)"
-            )
-            return 1 if any(int(r["collision"]) for r in rows) else 0
-        rows = run_study(cfg, args.out, cache_dir=args.cache, progress=not args.quiet)
+        spec = _spec(args, list(sys.argv[1:] if argv is None else argv))
+        if args.config is not None:
+            config = load_study_file(args.config)
+            write_manifest(args.out, {**config, "workers": spec.workers,
+                                      "scheduler": spec.scheduler or ""})  # fmt: skip
+        _check_scheduler(spec.scheduler)  # now, not after every table is learned
+        if any(m.table != "predefined" for m in spec.methods) and not args.quiet:
+            where = "in-process" if spec.learn_in == "direct" else (
+                f"in the cloud ({spec.cloud or args.out / 'cloud'})")  # fmt: skip
+            print("pacc study: learning each driver's tables from its manual trips "
+                  f"{where} before the drives ...", file=sys.stderr)  # fmt: skip
+        rows = run(spec, args.out, cache_dir=args.cache, progress=not args.quiet)
     except StudyInterrupted as exc:
         print(f"pacc study: {exc}", file=sys.stderr)
         return 130
     except (SimError, EcuError, FormatError, CloudSyncError, DbcError, OSError) as exc:
         print(f"pacc study: error: {error_line(exc)}", file=sys.stderr)
         return 2
-    took = time.perf_counter() - start
-    if cfg.incremental:
-        print((args.out / "incremental.md").read_text(encoding="utf-8"))
-        print(
-            f"{len(rows)} drives in {took:.1f} s; outputs in {args.out}/ "
-            "(incremental.md, incremental.csv, incremental.png, cloud/)"
-        )
-    else:
-        print((args.out / "table1.md").read_text(encoding="utf-8"))
-        print(
-            f"{len(rows)} drives in {took:.1f} s; outputs in {args.out}/ "
-            "(table1.md, drives.csv, study.png, irl/, "
-            + ("logs/" if cfg.logs else "no logs")
-            + (", can/" if cfg.can_logs else "")
-            + (")" if cfg.direct else ", cloud/)")
-        )
+    report, files = _OUTPUTS[spec.report]
+    print((args.out / report).read_text(encoding="utf-8"))
+    print(f"{len(rows)} drives in {time.perf_counter() - start:.1f} s; outputs in {args.out}/ "
+          f"({files}" + (", logs/" if spec.logs else "") + (", can/" if spec.can_logs else "")
+          + (", cloud/)" if spec.learn_in == "cloud" else ")"))  # fmt: skip
+    if args.config is not None:
+        print(f"run it again with 'pacc study --config {args.out}/manifest.json'")
     return 1 if any(int(r["collision"]) for r in rows) else 0
 
 
-def _other_mode(args: argparse.Namespace, argv: list[str] | None) -> int | None:
-    """Run ``--hil`` (Table I of people) or ``--config`` (a study file); None: neither."""
-    if args.hil is not None:
-        return _hil_table(args.hil, args.out, args.beside)
-    if args.config is not None:
-        from pacc.commands.study_file import run  # noqa: PLC0415 - a study file run only
-
-        return run(args, list(sys.argv[1:] if argv is None else argv))
-    return None
+#: what each report prints, and the files it names
+_OUTPUTS = {
+    "table1": ("table1.md", "table1.md, drives.csv, study.png, irl/"),
+    "population": ("population.md", "population.md, drives.csv, rows.jsonl"),
+    "summary": ("summary.md", "manifest.json, drives.csv, timings.csv, summary.md"),
+    "incremental": ("incremental.md", "incremental.md, incremental.csv, incremental.png"),
+}
 
 
 def _hil_table(sessions: Path, out: Path, beside: Path | None) -> int:

@@ -16,9 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from pacc.study.config import StudyConfig
 from pacc.study.drive import CONTROLLERS
-from pacc.study.incremental_report import format_incremental, write_incremental_csv
+from pacc.study.incremental_report import INCREMENTAL_FIELDS, format_incremental
 from pacc.study.report import (
     CONTROLLER_TITLES,
     FIELDS,
@@ -29,6 +28,7 @@ from pacc.study.report import (
     plot,
     write_csv,
 )
+from pacc.study.spec import StudySpec
 from pacc.study.stats import holm, paired_comparison
 from sim_bus.errors import SimError
 
@@ -161,7 +161,7 @@ def build_table(sessions: Path, out: Path, synthetic: Path | None = None) -> str
     if not rows:
         raise SimError(f"{sessions}: no participant has finished all eight ACC drives")
     drivers = tuple(dict.fromkeys(str(r["driver"]) for r in rows))
-    cfg = StudyConfig(drivers=drivers, trials=1, seed=int(rows[0]["seed"]))
+    cfg = StudySpec(drivers=drivers, trials=1, seed=int(rows[0]["seed"]))
     text = format_table(cfg, rows).replace(
         "(synthetic drivers, CAN bus)", "(people in the loop, pacc hil, CAN bus)"
     )
@@ -176,5 +176,5 @@ def build_table(sessions: Path, out: Path, synthetic: Path | None = None) -> str
     if inc:
         text += "\n" + format_incremental(inc)
         (out / "table1.md").write_text(text, encoding="utf-8")
-        write_incremental_csv(out / "incremental.csv", inc)
+        write_csv(out / "incremental.csv", inc, INCREMENTAL_FIELDS)
     return text

@@ -31,7 +31,6 @@ from dbc.vocab.triplog import Trip
 from dbc.vocab.triplog_file import read_trip
 from ecu import EcuError
 from ecu.buslog.live import live_sinks
-from pacc.hil.cloud import fine_tune, learn, open_cloud
 from pacc.hil.loop import HilDrive, RealtimeRunner
 from pacc.hil.manifest import MANIFEST, open_manifest, save_manifest, utc_stamp
 from pacc.hil.plan import Step
@@ -331,13 +330,19 @@ class Session:
                 if self.cfg.token_file is None or self.cfg.trust is None:
                     raise SimError("--cloud needs --token-file and --trust")
                 remote = (self.cfg.cloud, self.cfg.token_file, self.cfg.trust)
-            self._cloud_link = open_cloud(self.folder, self.cfg.participant, self.cfg.seed, remote)
+            self._cloud_link = (
+                StudyCloud.remote(*remote, self.folder)
+                if remote is not None
+                else StudyCloud.embedded(
+                    self.folder, [self.cfg.participant], self.cfg.seed, keep=True
+                )
+            )
         return self._cloud_link
 
     def _learn(self, step: Step) -> None:
         try:
             trips = [read_trip(self.folder / "logs" / f"{name}.mcap") for name in MANUAL_PROFILES]
-            table, batches = learn(self._cloud(), trips, self.cfg.participant)
+            table, batches = self._cloud().learn(trips, self.cfg.participant)
         except Exception as exc:  # noqa: BLE001 - any failure is shown; the step can be retried
             self._failed(f"learning failed: {exc}")
             return
@@ -349,7 +354,7 @@ class Session:
 
     def _sync(self, step: Step, record: dict[str, Any], segments: list[Trip], table: Dgpt) -> None:
         try:
-            newer, batches = fine_tune(self._cloud(), segments, table)
+            newer, batches = self._cloud().fine_tune(segments, table)
         except Exception as exc:  # noqa: BLE001 - shown; the drive's files are kept
             newer, batches = table, 0
             with self._lock:

@@ -6,7 +6,7 @@ simulator's (every frame stamped with simulated time). The bus is the ``lockstep
 (:mod:`dbc.lockstep`: no locks, no waiting) unless ``bus="virtual"`` asks for python-can's
 virtual bus; both carry the same frames with the same timestamps, so a drive gives the same
 results on either. ``pacc drive``
-(:mod:`pacc.commands.drive`) and the study's tasks (:mod:`pacc.study.tasks`) call it.
+(:mod:`pacc.commands.drive`) and the study pipeline (:mod:`pacc.study.pipeline`) call it.
 """
 
 from __future__ import annotations

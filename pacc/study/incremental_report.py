@@ -6,7 +6,6 @@ columns :data:`INCREMENTAL_FIELDS`); nothing here runs a drive.
 
 from __future__ import annotations
 
-import csv
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -60,14 +59,6 @@ def format_incremental(rows: Sequence[dict[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_incremental_csv(path: Path, rows: Sequence[dict[str, Any]]) -> None:
-    """The rows as CSV with the columns :data:`INCREMENTAL_FIELDS`."""
-    with path.open("w", newline="", encoding="utf-8") as stream:
-        writer = csv.DictWriter(stream, fieldnames=INCREMENTAL_FIELDS, extrasaction="ignore")
-        writer.writeheader()
-        writer.writerows(rows)
-
-
 def plot_incremental(path: Path, rows: Sequence[dict[str, Any]]) -> None:
     """The learning curve: PoI and NIM per trip, each driver thin, the mean thick."""
     # matplotlib costs about a second of start-up and only the plot needs it
@@ -103,5 +94,4 @@ __all__ = [
     "format_incremental",
     "per_trip",
     "plot_incremental",
-    "write_incremental_csv",
 ]

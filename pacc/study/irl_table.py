@@ -84,7 +84,7 @@ def irl_table(driver: DriverParams, seed: int, cache_dir: Path | None = None) ->
         except DgptError:
             path.unlink(missing_ok=True)  # a damaged cache entry is rebuilt
     # the trainer (scipy) costs about a second of start-up; only a table to learn needs it
-    from cloud_sync.engine.base import single_blas_thread  # noqa: PLC0415
+    from cloud_sync.engine import single_blas_thread  # noqa: PLC0415
     from cloud_sync.irl.trainer import learn_dgpt  # noqa: PLC0415
 
     with single_blas_thread():  # the same table whatever the core count (as the cloud's)

@@ -1,6 +1,7 @@
 """The study through the vehicle–cloud loop, and the paper's incremental learning measured.
 
-:class:`StudyCloud` is the study's vehicle: each driver's manual trips go through the spool and
+:class:`StudyCloud` is the one vehicle-cloud wiring of the harness (the study and a
+``pacc hil`` session): each driver's manual trips go through the spool and
 the uploader into the cloud (embedded under ``OUT/cloud`` by default, or a running
 ``pacc cloud serve``), the cloud learns the driver's table, and the IRL controllers drive with
 the table the vehicle downloaded and verified (signature and safety bounds).
@@ -19,13 +20,14 @@ import hashlib
 import json
 import shutil
 import threading
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
+from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from cloud_sync.api import CloudApi, CloudError
-from cloud_sync.engine.base import Engine
+from cloud_sync.engine import is_dask, map_unordered, workers_of
 from cloud_sync.errors import CloudSyncError
 from cloud_sync.service.local import LocalCloud
 from cloud_sync.service.rules import CloudService, DeferredExecutor, ServiceConfig
@@ -36,16 +38,17 @@ from cloud_sync.vehicle.spool import Spool
 from cloud_sync.vehicle.uploader import Uploader, UploaderConfig
 from dbc.vocab.dgpt import Dgpt
 from dbc.vocab.triplog import Trip
-from pacc.study.config import StudyConfig
 from pacc.study.drive import DriveConfig, run_drive
 from pacc.study.irl_table import manual_trips
-from pacc.study.tasks import manual_trips_task
+from pacc.study.spec import StudySpec
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import SimError
 from sim_bus.lead.scenarios import canonical_profiles
 
 #: the vehicle id the study registers in its embedded cloud
 STUDY_VEHICLE = "study"
+#: where a kept embedded cloud keeps its vehicle's token
+TOKEN_FILE = "vehicle.token"
 #: how long the study waits for a cloud that does not answer, s
 SYNC_TIMEOUT_S = 120.0
 
@@ -64,23 +67,35 @@ class StudyCloud:
     def embedded(
         cls,
         out: Path,
-        drivers: Mapping[str, DriverParams],
+        drivers: Iterable[str],
         seed: int,
-        compute: Engine | None = None,
+        compute: Executor | None = None,
+        *,
+        keep: bool = False,
     ) -> StudyCloud:
-        """A fresh embedded cloud under ``out/cloud`` (a previous study's is replaced) with
-        the study's vehicle and every driver registered. ``compute``: where its learning jobs
-        train (None: in this thread); a distributed engine trains as many drivers at once as
-        it has workers."""
-        for folder in (out / "cloud", out / "spool"):
-            shutil.rmtree(folder, ignore_errors=True)
-        threads = compute.workers if compute is not None and compute.distributed else 1
+        """An embedded cloud under ``out/cloud`` with the study's vehicle and ``drivers``
+        registered: a fresh one (a previous study's is replaced) or, with ``keep``, the one
+        there reopened (a resumed hil session; the vehicle's token in ``cloud/vehicle.token``).
+        ``compute``: where its learning jobs train (None: in this thread); a Dask cluster's
+        executor trains as many drivers at once as it has workers."""
+        if not keep:
+            for folder in (out / "cloud", out / "spool"):
+                shutil.rmtree(folder, ignore_errors=True)
+        threads = workers_of(compute) if compute is not None else 1
         service = CloudService.open(
             out / "cloud", DeferredExecutor(threads), ServiceConfig(seed=seed), compute
         )
-        token = service.register_vehicle(STUDY_VEHICLE)
-        for driver_id in drivers:
-            service.register_driver(STUDY_VEHICLE, driver_id)
+        token_path = out / "cloud" / TOKEN_FILE
+        if keep and token_path.is_file():
+            token = token_path.read_text(encoding="utf-8").strip()
+        else:
+            token = service.register_vehicle(STUDY_VEHICLE)
+            for driver_id in drivers:
+                service.register_driver(STUDY_VEHICLE, driver_id)
+            if keep:
+                tmp = token_path.with_name(TOKEN_FILE + ".part")
+                tmp.write_text(token, encoding="utf-8")
+                tmp.replace(token_path)
         public = load_public_key(service.public_key_pem())
         api = LocalCloud(service, token)
         return cls(
@@ -146,35 +161,54 @@ class StudyCloud:
         """Why downloaded tables were refused, if any."""
         return list(self.downloader.report.refusals)
 
+    def verified(self, driver_id: str, condition: str) -> Dgpt:
+        """:meth:`table`, or SimError saying why there is none."""
+        table = self.table(driver_id, condition)
+        if table is None:
+            why = "; ".join(self.refusals()) or "the cloud learned none"
+            raise SimError(f"study cloud: no usable table for {driver_id} ({why})")
+        return table
+
+    def learn(self, trips: list[Trip], driver_id: str) -> tuple[Dgpt, int]:
+        """Upload the manual ``trips``; the learned table (downloaded, verified) and the
+        batches uploaded."""
+        batches = self.upload(trips)
+        return self.verified(driver_id, str(trips[0].meta.get("condition", "default"))), batches
+
+    def fine_tune(self, segments: list[Trip], table: Dgpt) -> tuple[Dgpt, int]:
+        """Upload a drive's takeover ``segments``; the newest verified table (``table`` when
+        the cloud has nothing newer) and the batches uploaded."""
+        batches = self.upload(segments) if segments else 0
+        newer = self.table(table.driver_id, table.condition)
+        return (newer if newer is not None and newer.version > table.version else table), batches
+
 
 def cloud_irl_tables(
     cloud: StudyCloud,
     drivers: Mapping[str, DriverParams],
     seed: int,
-    engine: Engine | None = None,
+    executor: Executor | None = None,
 ) -> dict[str, Dgpt]:
     """Driver id -> the IRL table the vehicle downloaded after uploading the manual trips.
     Every driver's trips go up first (in driver order), so an embedded cloud with a
-    distributed engine learns the drivers side by side at the first download; a distributed
-    ``engine`` also drives the manual trips."""
+    Dask cluster learns the drivers side by side at the first download; a Dask ``executor``
+    also drives the manual trips."""
     made: dict[int, list[Trip]] = {}
-    if engine is not None and engine.distributed:
-        made = dict(engine.map_unordered(manual_trips_task, seed, list(drivers.values())))
+    if is_dask(executor):
+        assert executor is not None
+        tasks = [(driver, seed) for driver in drivers.values()]
+        made = dict(map_unordered(executor, _manual_trips, tasks))
     conditions: dict[str, str] = {}
     for index, (driver_id, driver) in enumerate(drivers.items()):
         trips = made.pop(index) if index in made else manual_trips(driver, seed)
         cloud.upload(trips)
         conditions[driver_id] = str(trips[0].meta.get("condition", "default"))
-    tables: dict[str, Dgpt] = {}
-    for driver_id, condition in conditions.items():
-        table = cloud.table(driver_id, condition)
-        if table is None:
-            raise SimError(
-                f"study cloud: no usable table for {driver_id} after its manual trips "
-                f"({'; '.join(cloud.refusals()) or 'the cloud learned none'})"
-            )
-        tables[driver_id] = table
-    return tables
+    return {driver_id: cloud.verified(driver_id, c) for driver_id, c in conditions.items()}
+
+
+def _manual_trips(task: tuple[DriverParams, int]) -> list[Trip]:
+    """A driver's manual trips (an executor task)."""
+    return manual_trips(*task)
 
 
 def _report_trip(cloud: StudyCloud, table: Dgpt, run: DriveConfig, acc_on_s: float) -> None:
@@ -195,7 +229,7 @@ def _report_trip(cloud: StudyCloud, table: Dgpt, run: DriveConfig, acc_on_s: flo
 
 
 def run_incremental(
-    cfg: StudyConfig,
+    cfg: StudySpec,
     drivers: Mapping[str, DriverParams],
     cloud: StudyCloud,
     tables: Mapping[str, Dgpt],
@@ -244,4 +278,4 @@ def run_incremental(
     return rows
 
 
-__all__ = ["STUDY_VEHICLE", "StudyCloud", "cloud_irl_tables", "run_incremental"]
+__all__ = ["STUDY_VEHICLE", "TOKEN_FILE", "StudyCloud", "cloud_irl_tables", "run_incremental"]

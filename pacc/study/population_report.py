@@ -14,9 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from pacc.study.config import StudyConfig
 from pacc.study.drive import CONTROLLERS
 from pacc.study.report import CONTROLLER_TITLES
+from pacc.study.spec import StudySpec
 from pacc.study.stats import Paired, bootstrap_ci, holm, paired_comparison
 
 #: a drive whose minimum time-to-collision is below this is reported by name, s
@@ -139,7 +139,7 @@ def acceptance(rows: Sequence[dict[str, Any]], *, alpha: float = 0.05) -> list[s
     return out
 
 
-def format_population(cfg: StudyConfig, rows: Sequence[dict[str, Any]]) -> str:
+def format_population(cfg: StudySpec, rows: Sequence[dict[str, Any]]) -> str:
     """The population report in Markdown."""
     rng = np.random.default_rng(0)
     drivers, _ = per_driver(rows, "poi_pct")

@@ -8,14 +8,14 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from pacc.study.config import StudyConfig
 from pacc.study.drive import CONTROLLERS
+from pacc.study.spec import StudySpec
 
 #: Averages of the paper's Table I (PoI %, NIM per minute), for comparison.
 PAPER_AVERAGES: dict[str, tuple[float, float]] = {
@@ -95,7 +95,7 @@ def reduction_pct(base: float, value: float) -> float:
     return (base - value) / base * 100.0 if base > 0 else math.nan
 
 
-def format_table(cfg: StudyConfig, rows: Sequence[dict[str, Any]]) -> str:
+def format_table(cfg: StudySpec, rows: Sequence[dict[str, Any]]) -> str:
     """Table I in Markdown: driver × scenario rows (drivers by id, in the order of ``rows``),
     PoI / NIM per controller, the average, the reductions against Predefined and the paper's
     averages beside ours."""
@@ -174,10 +174,12 @@ def format_table(cfg: StudyConfig, rows: Sequence[dict[str, Any]]) -> str:
     return "\n".join(out) + "\n"
 
 
-def write_csv(path: Path, rows: Sequence[dict[str, Any]]) -> None:
-    """One row per drive, columns :data:`FIELDS`."""
+def write_csv(
+    path: Path, rows: Sequence[Mapping[str, Any]], fields: Sequence[str] = FIELDS
+) -> None:
+    """One row per line, columns ``fields`` (other keys left out): every study CSV."""
     with path.open("w", newline="", encoding="utf-8") as fh:
-        writer = csv.DictWriter(fh, fieldnames=FIELDS)
+        writer = csv.DictWriter(fh, fieldnames=fields, extrasaction="ignore")
         writer.writeheader()
         writer.writerows(rows)
 

@@ -1,4 +1,4 @@
-"""The engine seam: every task's result exactly once, whatever the backend and lost workers."""
+"""The executors: every task's result exactly once, whatever the backend and lost workers."""
 
 from __future__ import annotations
 
@@ -6,132 +6,112 @@ import os
 import signal
 import threading
 import time
-from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import Executor, Future
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
 import numpy as np
 import pytest
 
-from cloud_sync.engine import open_engine
-from cloud_sync.engine.base import Engine, InlineEngine, ProcessEngine
+from cloud_sync.engine import (
+    InlineExecutor,
+    ProcessPool,
+    dask_executor,
+    map_unordered,
+    open_executor,
+    workers_of,
+)
 from cloud_sync.errors import CloudSyncError, EngineError
 from cloud_sync.irl.trainer import IrlConfig
 from cloud_sync.service.rules import CloudService, DeferredExecutor, ServiceConfig
 from dbc.vocab.triplog_file import write_trip
 from tests.cloud_sync.conftest import follower_trip
 
-S = TypeVar("S")
-T = TypeVar("T")
-R = TypeVar("R")
 
-
-def scaled(shared: dict[str, int], task: int) -> tuple[int, int]:
-    """A pure task: ``task × shared["k"]``, with the pid of the process that ran it."""
+def scaled(task: int) -> tuple[int, int]:
+    """A pure task: ``task × 3``, with the pid of the process that ran it."""
     time.sleep(0.02)
-    return task * shared["k"], os.getpid()
+    return task * 3, os.getpid()
 
 
-def blas_threads(shared: None, task: int) -> int:
+def blas_threads(task: int) -> int:
     """The most threads any BLAS library of the process may use (a pure task)."""
     from threadpoolctl import threadpool_info  # noqa: PLC0415
 
     return max((i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"), default=1)
 
 
-def refuse_seven(shared: dict[str, int], task: int) -> int:
+def refuse_seven(task: int) -> int:
     if task == 7:
         raise ValueError("seven is refused")
-    return task + shared["k"]
+    return task + 1
 
 
-@pytest.mark.parametrize("engine", [InlineEngine(), ProcessEngine(2)], ids=lambda e: e.name)
-def test_every_index_once_with_its_result(engine: Engine) -> None:
-    with engine:
-        got = dict(engine.map_unordered(scaled, {"k": 3}, list(range(12))))
+@pytest.mark.parametrize("executor", [InlineExecutor(), ProcessPool(2)], ids=["inline", "pool"])
+def test_every_index_once_with_its_result(executor: Executor) -> None:
+    with executor:
+        got = dict(map_unordered(executor, scaled, list(range(12))))
     assert {i: r for i, (r, _) in got.items()} == {i: 3 * i for i in range(12)}
     pids = {pid for _, pid in got.values()}
-    assert (pids == {os.getpid()}) == (engine.workers == 1)
+    assert (pids == {os.getpid()}) == (workers_of(executor) == 1)
 
 
-def test_pool_workers_run_with_one_blas_thread() -> None:
-    with ProcessEngine(2) as engine:
-        got = dict(engine.map_unordered(blas_threads, None, list(range(4))))
-    assert got == {i: 1 for i in range(4)}
-
-
-def test_dask_batches_its_tasks_and_pins_blas(dask_cluster: Engine) -> None:
-    from cloud_sync.engine.dask_backend import MAX_BATCH, batch_size  # noqa: PLC0415
-
-    assert batch_size(5, 2) == 1  # few tasks: one each, for load balance
-    assert batch_size(20, 2) == 2
-    assert batch_size(1000, 2) == MAX_BATCH
-    got = dict(dask_cluster.map_unordered(scaled, {"k": 2}, list(range(40))))
-    assert {i: r for i, (r, _) in got.items()} == {i: 2 * i for i in range(40)}
-    assert dict(dask_cluster.map_unordered(blas_threads, None, list(range(20)))) == {
-        i: 1 for i in range(20)
-    }
+def test_every_task_runs_with_one_blas_thread(dask_cluster: Executor) -> None:
+    for executor in (InlineExecutor(), ProcessPool(2), dask_cluster):
+        got = dict(map_unordered(executor, blas_threads, list(range(4))))
+        assert got == {i: 1 for i in range(4)}
+    scaled_got = dict(map_unordered(dask_cluster, scaled, list(range(20))))
+    assert {i: r for i, (r, _) in scaled_got.items()} == {i: 3 * i for i in range(20)}
 
 
 def test_a_task_error_reaches_the_caller() -> None:
-    with ProcessEngine(2) as engine, pytest.raises(ValueError, match="seven"):
-        list(engine.map_unordered(refuse_seven, {"k": 1}, list(range(10))))
+    with ProcessPool(2) as pool, pytest.raises(ValueError, match="seven"):
+        list(map_unordered(pool, refuse_seven, list(range(10))))
 
 
 def test_a_killed_pool_worker_costs_a_rerun_not_a_result() -> None:
     got: dict[int, int] = {}
-    with ProcessEngine(2) as engine:
-        for index, (result, pid) in engine.map_unordered(scaled, {"k": 5}, list(range(40))):
+    with ProcessPool(2) as pool:
+        for index, (result, pid) in map_unordered(pool, scaled, list(range(40))):
             assert index not in got
             got[index] = result
             if len(got) == 3:
                 os.kill(pid, signal.SIGKILL)  # the pool breaks; the tasks not done run again
-    assert got == {i: 5 * i for i in range(40)}
+    assert got == {i: 3 * i for i in range(40)}
 
 
 def test_no_scheduler_at_the_address_is_an_engine_error() -> None:
-    # the import costs ~1 s: only this test and the distributed ones pay it
-    from cloud_sync.engine.dask_backend import DaskEngine  # noqa: PLC0415
-
     start = time.monotonic()
     with pytest.raises(EngineError, match="no Dask scheduler answers at tcp://127.0.0.1:9"):
-        DaskEngine.connect("tcp://127.0.0.1:9", timeout_s=0.5)
+        dask_executor("tcp://127.0.0.1:9", 1, timeout_s=0.5)
     assert time.monotonic() - start < 10.0
     assert issubclass(EngineError, CloudSyncError)
 
 
-def test_open_engine_without_a_scheduler_changes_nothing() -> None:
-    assert isinstance(open_engine(None, 1), InlineEngine)
-    pool = open_engine(None, 3)
-    assert isinstance(pool, ProcessEngine) and pool.workers == 3
+def test_open_executor_without_a_scheduler_changes_nothing() -> None:
+    assert isinstance(open_executor(None, 1), InlineExecutor)
+    pool = open_executor(None, 3)
+    assert isinstance(pool, ProcessPool) and workers_of(pool) == 3
+    pool.shutdown()
     with pytest.raises(EngineError, match=">= 1 worker"):
-        ProcessEngine(0)
+        ProcessPool(0)
+    with pytest.raises(EngineError, match="needs 'local' or a Dask scheduler"):
+        open_executor(" ", 1)
 
 
-class Counting(Engine):
-    """An engine that counts the calls it hands to another (to see where the work ran)."""
+class Counting(Executor):
+    """An executor that counts the calls it hands to another (to see where the work ran)."""
 
-    name = "counting"
-
-    def __init__(self, inner: Engine) -> None:
+    def __init__(self, inner: Executor) -> None:
         self.inner = inner
         self.calls = 0
 
-    @property
-    def workers(self) -> int:
-        return self.inner.workers
-
-    def map_unordered(
-        self, fn: Callable[[S, T], R], shared: S, tasks: Sequence[T]
-    ) -> Iterator[tuple[int, R]]:
-        return self.inner.map_unordered(fn, shared, tasks)
-
-    def call(self, fn: Callable[..., R], *args: Any) -> R:
+    def submit(self, fn: Any, /, *args: Any, **kwargs: Any) -> Future[Any]:
         self.calls += 1
-        return self.inner.call(fn, *args)
+        return self.inner.submit(fn, *args, **kwargs)
 
 
-def test_learning_jobs_train_on_dask_as_in_process(dask_cluster: Engine, tmp_path: Path) -> None:
+def test_learning_jobs_train_on_dask_as_in_process(dask_cluster: Executor, tmp_path: Path) -> None:
     config = ServiceConfig(seed=2, irl=IrlConfig(max_iter=3))  # a short fit: same on both
     write_trip(tmp_path / "manual.mcap", follower_trip(0, minutes=1.2))
     blobs = [(tmp_path / "manual.mcap").read_bytes()]

@@ -40,8 +40,8 @@ class Frames:
         codec = session.drive.codec
         self.by_role: dict[str, list[dict[str, Any]]] = {}
 
-        def tap(t: float, msg: Any, rx: bool) -> None:
-            d = codec.decode(msg.arbitration_id, msg.data)
+        def tap(t: float, key: int, data: Any, rx: bool) -> None:
+            d = codec.decode(key, data)
             self.by_role.setdefault(d.role, []).append(dict(d.values))
 
         session.drive.node.tap = tap

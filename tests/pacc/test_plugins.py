@@ -9,7 +9,7 @@ import pytest
 from dbc.vocab.plugins import PluginError
 from pacc.commands.plugins import main
 from pacc.study.drive import DriveConfig, predefined_table, run_drive
-from pacc.study.files.manifest import check_plugins, plugin_origins
+from pacc.study.manifest import check_plugins, plugin_origins
 from sim_bus.drivers import BUILTIN_DRIVERS
 from tests.pacc.test_bad_input import run_case
 

@@ -30,7 +30,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from cloud_sync.engine import open_engine
+from cloud_sync.engine import open_executor, workers_of
 from cloud_sync.errors import CloudSyncError
 from cloud_sync.vehicle.connect import write_token
 from pacc.commands._args import integer, number
@@ -161,11 +161,11 @@ def _do_serve(args: argparse.Namespace) -> int:
     compute = None
     try:
         if args.scheduler is not None:
-            compute = open_engine(args.scheduler, args.workers)
+            compute = open_executor(args.scheduler, args.workers)
     except CloudSyncError as exc:
         print(f"pacc cloud serve: error: {exc}", file=sys.stderr)
         return 2
-    threads = max(args.workers, compute.workers if compute is not None else 1)
+    threads = max(args.workers, workers_of(compute) if compute is not None else 1)
     pool = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="pacc-learn")
     config = ServiceConfig(max_upload_bytes=int(args.max_upload_mb * 1024 * 1024), seed=args.seed)
     try:
@@ -174,7 +174,7 @@ def _do_serve(args: argparse.Namespace) -> int:
         print(f"pacc cloud serve: error: {_one_line(exc)}", file=sys.stderr)
         pool.shutdown(wait=True)
         if compute is not None:
-            compute.close()
+            compute.shutdown()
         return 1
     where = f" training on Dask at {args.scheduler}" if compute is not None else ""
     print(
@@ -193,7 +193,7 @@ def _do_serve(args: argparse.Namespace) -> int:
         pool.shutdown(wait=True)
         service.store.close()
         if compute is not None:
-            compute.close()
+            compute.shutdown()
     print("pacc cloud stopped", flush=True)
     return 0
 

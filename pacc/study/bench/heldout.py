@@ -87,7 +87,7 @@ def real_tasks(csvs: Sequence[str], learners: LearnerSpecs, seed: int) -> list[H
     return tasks
 
 
-def heldout_task(_shared: None, task: HeldOutTask) -> dict[str, Any]:
+def heldout_task(task: HeldOutTask) -> dict[str, Any]:
     """Learn with each learner and the baseline on the first 70 %, test on the rest."""
     if task.trips is not None:
         trips = list(task.trips)

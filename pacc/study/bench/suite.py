@@ -3,9 +3,9 @@
 The suite: ``K`` population seeds **drawn fresh at run time** (``secrets``; printed and
 stored in ``OUT/bench.json``, never a fixed report seed) with ``N`` drivers each, Table I's
 d1..d5, and the real human follower pairs (the OpenACC pairs shipped; any CSV of the same
-columns). Two parts, each resumable on the engine (:mod:`cloud_sync.engine`):
+columns). Two parts, each resumable, on one executor (:mod:`cloud_sync.engine`):
 
-- closed loop (``OUT/drives``): a study (:mod:`pacc.study.files.studyrun`) of every
+- closed loop (``OUT/drives``): a study (:mod:`pacc.study.pipeline`) of every
   method on the drawn and built-in drivers — PoI, NIM, min TTC, collisions;
 - held out (``OUT/heldout``): each learner of the methods against the empirical baseline on
   the real, built-in and drawn drivers (:mod:`pacc.study.bench.heldout`).
@@ -18,17 +18,18 @@ from __future__ import annotations
 
 import json
 import secrets
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
+from concurrent.futures import Executor
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from cloud_sync.engine import open_engine
-from cloud_sync.engine.base import Engine
+from cloud_sync.engine import open_executor
 from pacc.study.bench.heldout import HeldOutTask, heldout_task, real_tasks
 from pacc.study.bench.leaderboard import leaderboard, markdown, plot, write_csv
-from pacc.study.files.studyfile import StudyFileError, methods_of, resolve
-from pacc.study.files.studyrun import run_study_file, run_tasks
+from pacc.study.manifest import write_manifest
+from pacc.study.pipeline import ROWS, run, run_resumable
+from pacc.study.spec import StudyFileError, StudySpec, resolve, spec_of
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.population import draw_population
 
@@ -109,12 +110,10 @@ def study_config(opts: BenchOptions, workers: int, scheduler: str) -> dict[str, 
     return resolve(raw, Path.cwd())
 
 
-def heldout_tasks(opts: BenchOptions, config: Mapping[str, Any]) -> list[HeldOutTask]:
+def heldout_tasks(opts: BenchOptions, spec: StudySpec) -> list[HeldOutTask]:
     """One task per real pair, built-in and drawn driver; every learner of the methods."""
     learners = tuple(
-        dict.fromkeys(
-            (m.table, m.learner_args) for m in methods_of(config) if m.table != "predefined"
-        )
+        dict.fromkeys((m.table, m.learner_args) for m in spec.methods if m.table != "predefined")
     )
     tasks = real_tasks(opts.csvs, learners, 0)
     if opts.builtin:
@@ -132,26 +131,28 @@ def run_bench(
     *,
     workers: int = 2,
     scheduler: str = "",
-    engine: Engine | None = None,
-    progress: Callable[[str], None] | None = None,
+    executor: Executor | None = None,
+    progress: bool = True,
 ) -> list[dict[str, Any]]:
     """Run the suite into ``out`` (module docstring); the leaderboard's lines."""
     out.mkdir(parents=True, exist_ok=True)
     (out / BENCH_FILE).write_text(json.dumps(asdict(opts), indent=2, default=list) + "\n",
                                   encoding="utf-8")  # fmt: skip
     config = study_config(opts, workers, scheduler)
-    tasks = heldout_tasks(opts, config)
-    own = engine is None
-    eng = engine or open_engine(scheduler or None, workers)
+    spec = spec_of(config)
+    tasks = heldout_tasks(opts, spec)
+    own = executor is None
+    running = executor or open_executor(scheduler or None, workers)
     try:
-        rows = run_study_file(config, out / "drives", engine=eng, progress=progress)
+        write_manifest(out / "drives", config)
+        rows = run(spec, out / "drives", progress=progress, executor=running)
         (out / "heldout").mkdir(exist_ok=True)
-        done = run_tasks(tasks, heldout_task, out / "heldout", {"bench": asdict(opts)}, eng,
-                         key=lambda t: t.name, progress=progress)  # fmt: skip
+        keys = [t.name for t in tasks]
+        path = out / "heldout" / ROWS
+        records = run_resumable(tasks, heldout_task, keys, path, {"bench": asdict(opts)}, running)
     finally:
         if own:
-            eng.close()
-    records = [done[t.name] for t in tasks]
+            running.shutdown(wait=True)
     board = leaderboard(rows, records, config["methods"])
     (out / "leaderboard.md").write_text(markdown(board, header(opts, rows)), encoding="utf-8")
     write_csv(out / "leaderboard.csv", board)

@@ -12,24 +12,24 @@ from cloud_sync.service.rules import CloudService
 from cloud_sync.service.trips import trip_rows
 from dbc.vocab.dgpt_file import load_dgpt
 from pacc.commands.study import main
-from pacc.study.config import StudyConfig, validate
-from pacc.study.run import run_study
+from pacc.study.pipeline import run
+from pacc.study.spec import StudySpec, table1_method, validate
 from sim_bus.errors import SimError
 
 
 @pytest.mark.slow
 def test_study_learns_its_irl_tables_in_the_embedded_cloud(tmp_path: Path) -> None:
-    cfg = StudyConfig(
+    cfg = StudySpec(
         drivers=("d2",),
         scenarios=("B",),
-        controllers=("irl",),
+        methods=(table1_method("irl"),),
         trials=1,
         seed=1,
         duration_s=20.0,
         workers=1,
         logs=False,
     )
-    rows = run_study(cfg, tmp_path, progress=False)
+    rows = run(cfg, tmp_path, progress=False)
     assert len(rows) == 1 and rows[0]["driver"] == "d2"
     service = CloudService.open(tmp_path / "cloud")
     kinds = [b.kind for b in service.store.batches("d2", "default")]
@@ -71,8 +71,8 @@ def test_incremental_learning_fine_tunes_between_trips(
 
 def test_cloud_options_are_checked_before_anything_runs() -> None:
     with pytest.raises(SimError, match="--token-file F and --trust"):
-        validate(StudyConfig(cloud="http://127.0.0.1:9"))
+        validate(StudySpec(cloud="http://127.0.0.1:9"))
     with pytest.raises(SimError, match="not with --cloud or --incremental"):
-        validate(StudyConfig(direct=True, incremental=2))
+        validate(StudySpec(learn_in="direct", incremental=2))
     with pytest.raises(SimError, match="--incremental must be >= 0"):
-        validate(StudyConfig(incremental=-1))
+        validate(StudySpec(incremental=-1))

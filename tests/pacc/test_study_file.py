@@ -4,14 +4,23 @@ Dask with identical rows; the manifest reproduces the run; a stopped run resumes
 from __future__ import annotations
 
 import json
+from concurrent.futures import Executor
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
 
-from cloud_sync.engine.base import Engine, InlineEngine
+from cloud_sync.engine import InlineExecutor
 from pacc.commands.study import main as study_main
-from pacc.study.files.studyfile import StudyFileError, expand_methods, load_study_file, resolve
-from pacc.study.files.studyrun import ROWS, run_study_file
+from pacc.study.pipeline import ROWS, run
+from pacc.study.spec import (
+    StudyFileError,
+    expand_methods,
+    load_study_file,
+    resolve,
+    spec_of,
+)
+from sim_bus.errors import SimError
 
 STUDY = """
 seed = 4
@@ -95,20 +104,21 @@ def test_an_unreadable_study_file_is_a_clean_error(
 
 @pytest.mark.slow
 def test_a_study_file_runs_alike_in_process_on_dask_and_from_its_manifest(
-    tmp_path: Path, dask_cluster: Engine
+    tmp_path: Path, dask_cluster: Executor
 ) -> None:
     config = load_study_file(_study(tmp_path))
-    rows = run_study_file(config, tmp_path / "inline", engine=InlineEngine())
+    assert study_main(["--config", str(_study(tmp_path)), "--out", str(tmp_path / "inline"),
+                       "--workers", "1", "-q"]) == 0  # fmt: skip
+    inline_csv = (tmp_path / "inline" / "drives.csv").read_text(encoding="utf-8")
+    rows = run(spec_of(config), tmp_path / "dask", progress=False, executor=dask_cluster)
     assert len(rows) == 2 * 2 * 3  # drivers x scenarios x methods
     assert {r["method"] for r in rows} == {
         "test-timegap@test-timegap", "test-timegap+test-halfstep@test-timegap", "pid-timegap",
     }  # fmt: skip
     assert {r["scenario"] for r in rows} == {"B", "lead"}
     assert all(r["plugin_faults"] == "" and not r["collision"] for r in rows)
-    on_dask = run_study_file(config, tmp_path / "dask", engine=dask_cluster)
-    assert on_dask == rows
-    inline_csv = (tmp_path / "inline" / "drives.csv").read_text(encoding="utf-8")
     assert (tmp_path / "dask" / "drives.csv").read_text(encoding="utf-8") == inline_csv
+    assert "test-timegap" in inline_csv.splitlines()[1]  # the gap controller's column
     manifest = json.loads((tmp_path / "inline" / "manifest.json").read_text(encoding="utf-8"))
     assert manifest["seeds"] == {"study": 4, "trials": [4], "populations": [21]}
     assert manifest["config"]["methods"][0]["controller_args"] == {"k_gap": 0.25}
@@ -118,11 +128,12 @@ def test_a_study_file_runs_alike_in_process_on_dask_and_from_its_manifest(
                        str(again), "-q"])  # fmt: skip
     assert code == 0
     assert (again / "drives.csv").read_text(encoding="utf-8") == inline_csv
-    # resumable: a run with a driver's record gone runs that driver only
+    # resumable: a run with a drive's record gone runs that drive only
     lines = (again / ROWS).read_text(encoding="utf-8").splitlines()
     (again / ROWS).write_text("\n".join(lines[:-1]) + "\n", encoding="utf-8")
-    assert run_study_file(config, again, engine=InlineEngine()) == rows
+    spec = spec_of(config)
+    resumed = run(spec, again, progress=False, executor=InlineExecutor())
+    assert [{**r, "wall_s": 0} for r in resumed] == [{**r, "wall_s": 0} for r in rows]
     assert len((again / ROWS).read_text(encoding="utf-8").splitlines()) == len(lines)
-    other = dict(config, seed=5)
-    with pytest.raises(StudyFileError, match="another study config"):
-        run_study_file(other, again, engine=InlineEngine())
+    with pytest.raises(SimError, match="holds another study"):
+        run(replace(spec, seed=5), again, progress=False, executor=InlineExecutor())

@@ -9,37 +9,36 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
+from concurrent.futures import Executor, Future
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
 import pytest
 
-from cloud_sync.engine.base import Engine, InlineEngine
+from cloud_sync.engine import InlineExecutor
 from dbc.vocab.triplog_file import read_trip
 from pacc.commands.study import main
-from pacc.study.collect import row_key
-from pacc.study.config import StudyConfig
-from pacc.study.population import run_population
-from pacc.study.run import run_study
-
-S = TypeVar("S")
-T = TypeVar("T")
-R = TypeVar("R")
+from pacc.study.pipeline import ROWS, run
+from pacc.study.spec import StudySpec, table1_method
 
 ROOT = Path(__file__).resolve().parents[2]
 
 #: 4 short drives with predefined tables (no learning): 2 drivers × 2 controllers
-TINY = StudyConfig(
+TINY = StudySpec(
     drivers=("d1", "d3"),
     scenarios=("B",),
-    controllers=("predefined", "predefined+oa"),
+    methods=(table1_method("predefined"), table1_method("predefined+oa")),
     trials=1,
     seed=5,
     duration_s=15.0,
     workers=2,
-    direct=True,
+    learn_in="direct",
 )
+
+
+def row_key(row: dict[str, Any]) -> tuple[str, ...]:
+    return (str(row["driver"]), str(row["scenario"]), str(row["controller"]), str(row["trial"]))
 
 
 def _without_wall(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -55,14 +54,14 @@ def _csv_without_wall(path: Path) -> list[dict[str, str]]:
 def inline(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[dict[str, Any]]]:
     """The tiny study in this process: the reference rows."""
     out = tmp_path_factory.mktemp("inline")
-    return out, run_study(TINY, out, progress=False, engine=InlineEngine())
+    return out, run(TINY, out, progress=False, executor=InlineExecutor())
 
 
 def test_dask_gives_the_rows_of_the_in_process_run(
-    inline: tuple[Path, list[dict[str, Any]]], dask_cluster: Engine, tmp_path: Path
+    inline: tuple[Path, list[dict[str, Any]]], dask_cluster: Executor, tmp_path: Path
 ) -> None:
     ref_out, ref = inline
-    rows = run_study(TINY, tmp_path, progress=False, engine=dask_cluster)
+    rows = run(TINY, tmp_path, progress=False, executor=dask_cluster)
     assert len(rows) == 4 and len({row_key(r) for r in rows}) == 4
     assert _without_wall(rows) == _without_wall(ref)  # bit-identical figures, plan order
     assert _csv_without_wall(tmp_path / "drives.csv") == _csv_without_wall(ref_out / "drives.csv")
@@ -75,41 +74,29 @@ def test_dask_gives_the_rows_of_the_in_process_run(
     assert ours.meta == theirs.meta
 
 
-class KillOnce(Engine):
-    """The Dask engine, but after the first result it SIGKILLs a worker process that is
-    running a task (its nanny starts a new one; the scheduler reruns the task)."""
+class KillOnce(Executor):
+    """The Dask executor, but once a task is running it SIGKILLs the worker process that runs
+    it (its nanny starts a new one; the scheduler reruns the task)."""
 
-    name = "dask-kill"
-
-    def __init__(self, inner: Engine) -> None:
-        # the import costs ~1 s: only the sessions with a distributed test pay it
-        from cloud_sync.engine.dask_backend import DaskEngine  # noqa: PLC0415
-
-        assert isinstance(inner, DaskEngine)
-        self.inner: DaskEngine = inner
+    def __init__(self, inner: Executor) -> None:
+        self.inner = inner
+        self.client = inner._client  # type: ignore[attr-defined]
         self.killed_pid: int | None = None
         self.killed_keys: list[str] = []
 
-    @property
-    def workers(self) -> int:
-        return self.inner.workers
-
-    def map_unordered(
-        self, fn: Callable[[S, T], R], shared: S, tasks: Sequence[T]
-    ) -> Iterator[tuple[int, R]]:
-        for item in self.inner.map_unordered(fn, shared, tasks):
-            yield item
-            if self.killed_pid is None:
-                self._kill_a_busy_worker()
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
+        future = self.inner.submit(fn, *args, **kwargs)
+        if self.killed_pid is None:
+            self._kill_a_busy_worker()
+        return future
 
     def _kill_a_busy_worker(self) -> None:
-        client = self.inner.client
         deadline = time.monotonic() + 10.0
         while time.monotonic() < deadline:
-            busy = {addr: keys for addr, keys in client.processing().items() if keys}
+            busy = {addr: keys for addr, keys in self.client.processing().items() if keys}
             if busy:
                 addr, keys = next(iter(busy.items()))
-                pid = client.run(os.getpid, workers=[addr])[addr]
+                pid = self.client.run(os.getpid, workers=[addr])[addr]
                 self.killed_keys = [str(k) for k in keys]
                 os.kill(pid, signal.SIGKILL)
                 self.killed_pid = pid
@@ -119,17 +106,17 @@ class KillOnce(Engine):
 
 
 def test_a_worker_killed_mid_run_still_gives_every_row_once(
-    inline: tuple[Path, list[dict[str, Any]]], dask_cluster: Engine, tmp_path: Path
+    inline: tuple[Path, list[dict[str, Any]]], dask_cluster: Executor, tmp_path: Path
 ) -> None:
     _, ref = inline
     engine = KillOnce(dask_cluster)
-    cfg = StudyConfig(**{**TINY.__dict__, "logs": False})
-    rows = run_study(cfg, tmp_path, progress=False, engine=engine)
+    cfg = StudySpec(**{**TINY.__dict__, "logs": False})
+    rows = run(cfg, tmp_path, progress=False, executor=engine)
     assert engine.killed_pid is not None and engine.killed_keys  # it was mid-task
     assert _without_wall(rows) == _without_wall(ref)  # none lost, none twice, same figures
     with (tmp_path / "drives.csv").open(newline="") as fh:
         assert [row_key(r) for r in csv.DictReader(fh)] == [row_key(r) for r in ref]
-    client = dask_cluster.client  # type: ignore[attr-defined]
+    client = engine.client
     client.wait_for_workers(2, timeout=60)  # the nanny restarted it
     pids = set(client.run(os.getpid).values())
     assert len(pids) == 2 and engine.killed_pid not in pids
@@ -158,11 +145,11 @@ def test_ctrl_c_keeps_the_finished_rows_in_plan_order(tmp_path: Path) -> None:
         text=True,
         preexec_fn=_sigint_default,  # noqa: PLW1509 - signal calls only
     )
-    csv_path = out / "drives.csv"
+    csv_path, journal = out / "drives.csv", out / ROWS
     start = time.monotonic()
     lines = 0
     while time.monotonic() < start + 60.0 and proc.poll() is None:
-        if csv_path.is_file() and (lines := len(csv_path.read_text().splitlines())) >= 3:
+        if journal.is_file() and (lines := len(journal.read_text().splitlines())) >= 3:
             break  # 2 rows
         time.sleep(0.02)
     seen = f"{lines} lines after {time.monotonic() - start:.2f} s, exit {proc.poll()}"
@@ -194,18 +181,21 @@ def test_bad_scheduler_options(
 
 @pytest.mark.slow
 def test_a_population_study_on_dask_gives_the_in_process_rows(
-    dask_cluster: Engine, tmp_path: Path
+    dask_cluster: Executor, tmp_path: Path
 ) -> None:
-    """``pacc study --population`` runs its drivers on the same engine seam."""
-    cfg = StudyConfig(
-        population=2,
+    """``pacc study --population`` is a spec of the same pipeline, on the same executors."""
+    cfg = StudySpec(
+        drivers=("population:2:5",),
         seed=5,
         scenarios=("B",),
-        controllers=("predefined", "irl+oa"),
+        methods=(table1_method("predefined"), table1_method("irl+oa")),
         trials=1,
         duration_s=8.0,
+        report="population",
+        learn_in="direct",
+        logs=False,
     )
     cache = tmp_path / "cache"
-    ref = run_population(cfg, tmp_path / "inline", cache_dir=cache, engine=InlineEngine())
-    rows = run_population(cfg, tmp_path / "dask", cache_dir=cache, engine=dask_cluster)
+    ref = run(cfg, tmp_path / "inline", cache_dir=cache, executor=InlineExecutor())
+    rows = run(cfg, tmp_path / "dask", cache_dir=cache, executor=dask_cluster)
     assert len(rows) == 4 and _without_wall(rows) == _without_wall(ref)

@@ -2,7 +2,7 @@
 
 ``OUT/manifest.json`` holds ``pacc_version``, ``git_commit`` (of the source tree pacc was
 imported from, when it is a git checkout; ``dirty`` when it has uncommitted changes), the
-full resolved ``config`` (:mod:`pacc.study.files.studyfile`), the ``seeds`` (the study's, each
+full resolved ``config`` (:mod:`pacc.study.spec`), the ``seeds`` (the study's, each
 trial's, each drawn population's), the ``platform`` (Python, OS, machine, numpy) and the
 command, and ``plugins``: for each method spec of the config (``group:spec``), the installed
 distribution and version its code comes from (:func:`dbc.vocab.plugins.provenance`).
@@ -34,7 +34,7 @@ MANIFEST = "manifest.json"
 def git_commit(root: Path | None = None) -> dict[str, Any] | None:
     """``{"commit": sha, "dirty": bool}`` of the checkout at ``root`` (default: the folder
     above this package); None when it is no git checkout or git is missing."""
-    where = root if root is not None else Path(__file__).resolve().parents[3]
+    where = root if root is not None else Path(__file__).resolve().parents[2]
     if not (where / ".git").exists():
         return None
     try:

@@ -9,27 +9,34 @@ from typing import Any
 
 import pytest
 
+from cloud_sync.engine import InlineExecutor
 from dbc.vocab.dgpt import Dgpt, predefined
 from dbc.vocab.dgpt_file import load_dgpt
 from dbc.vocab.triplog_file import read_trip
 from ecu.adaptation import AdaptationParams
 from pacc.commands.study import main
-from pacc.study import run as study_run
-from pacc.study.config import StudyConfig, validate
+from pacc.study import pipeline
+from pacc.study.pipeline import make_tables, plan, run
 from pacc.study.report import format_table, reduction_pct
-from pacc.study.run import run_study
+from pacc.study.spec import StudySpec, table1_method, validate
 from sim_bus.drivers import DriverParams
 from tests.cli_util import exit_code
 
-SMALL = StudyConfig(
+
+def methods(*names: str) -> tuple[Any, ...]:
+    """Table I's controllers as methods."""
+    return tuple(table1_method(n) for n in names)
+
+
+SMALL = StudySpec(
     drivers=("d1", "d4"),
     scenarios=("B",),
-    controllers=("predefined", "irl+oa"),
+    methods=methods("predefined", "irl+oa"),
     trials=1,
     seed=3,
     duration_s=25.0,
     workers=1,
-    direct=True,  # learned in-process and cached: the cloud loop has tests of its own
+    learn_in="direct",  # learned in-process and cached: the cloud loop has tests of its own
 )
 
 
@@ -44,9 +51,9 @@ def _without_wall(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 @pytest.mark.slow
 def test_small_study_outputs_and_determinism(tmp_path: Path, cache: Path) -> None:
-    one = run_study(SMALL, tmp_path / "w1", cache_dir=cache, progress=False)
-    two = run_study(
-        StudyConfig(**{**SMALL.__dict__, "workers": 2, "logs": False}),
+    one = run(SMALL, tmp_path / "w1", cache_dir=cache, progress=False)
+    two = run(
+        StudySpec(**{**SMALL.__dict__, "workers": 2, "logs": False}),
         tmp_path / "w2",
         cache_dir=cache,
         progress=False,
@@ -73,9 +80,8 @@ def test_small_study_outputs_and_determinism(tmp_path: Path, cache: Path) -> Non
 
 
 def test_table_arithmetic() -> None:
-    cfg = StudyConfig(
-        drivers=("d1",), scenarios=("A", "B"), controllers=("predefined", "irl"), trials=2
-    )
+    cfg = StudySpec(drivers=("d1",), scenarios=("A", "B"), methods=methods("predefined", "irl"),
+                    trials=2)  # fmt: skip
     rows = []
     for scenario, base in (("A", 20.0), ("B", 10.0)):
         for trial, extra in ((0, 0.0), (1, 2.0)):
@@ -125,17 +131,18 @@ def test_bad_options(
 def test_adaptation_mode_from_the_command_line(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    cfg = StudyConfig(
+    cfg = StudySpec(
         drivers=("d3",),
         scenarios=("B",),
-        controllers=("predefined+oa",),
+        methods=methods("predefined+oa"),
         trials=1,
         duration_s=30.0,
         adaptation=AdaptationParams(mode="timegap"),
     )
     drivers = validate(cfg)
-    jobs = study_run.plan(cfg, drivers, study_run.tables_for(cfg, drivers, None), tmp_path)
-    assert [j.adaptation for j in jobs] == [cfg.adaptation]
+    tables = make_tables(cfg, drivers, tmp_path, InlineExecutor(), None)
+    drives = plan(cfg, drivers, tables, tmp_path)
+    assert [d.config.adaptation for d in drives] == [cfg.adaptation]
     argv = [
         "--drivers",
         "d3",
@@ -153,7 +160,12 @@ def test_adaptation_mode_from_the_command_line(
     ]
     rows: dict[str, dict[str, str]] = {}
     for mode in ("paper", "timegap", None):
-        flag = [] if mode is None else ["--adaptation-mode", mode]
+        # --adaptation-mode is the old spelling of --adaptation
+        flag = (
+            []
+            if mode is None
+            else ["--adaptation-mode" if mode == "paper" else "--adaptation", mode]
+        )
         assert main([*argv, str(tmp_path / str(mode)), *flag]) == 0
         if mode is not None:
             assert f"{mode} adaptation" in capsys.readouterr().out
@@ -193,7 +205,7 @@ def learned(monkeypatch: pytest.MonkeyPatch) -> list[str]:
         calls.append(driver.driver_id)
         return predefined(2.5, driver_id=driver.driver_id, created_utc="2000-01-01T00:00:00Z")
 
-    monkeypatch.setattr(study_run, "irl_table", fake_irl_table)
+    monkeypatch.setattr(pipeline, "irl_table", fake_irl_table)
     return calls
 
 

@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 
 from pacc.commands.study import main
-from pacc.study.config import StudyConfig
-from pacc.study.population import ROWS_FILE, run_population
+from pacc.study.pipeline import ROWS, run
+from pacc.study.spec import StudySpec, table1_method
 from tests.cli_util import exit_code
 
 ARGS = ["--controllers", "predefined,predefined+oa", "--duration", "20", "--workers", "1"]
@@ -26,22 +26,25 @@ def test_population_study_reports_and_resumes(
     assert "Population study — 2 drawn drivers, population seed 3" in text
     assert "Predefined + OA vs Predefined" in text and "Holm" in text
     assert "no collision: met (0)" in text
-    lines = (out / ROWS_FILE).read_text(encoding="utf-8").splitlines()
-    assert len(lines) == 3 and json.loads(lines[0])["config"]["seed"] == 3
+    lines = (out / ROWS).read_text(encoding="utf-8").splitlines()
+    assert len(lines) == 5 and json.loads(lines[0])["fingerprint"]["seed"] == 3
     first = (out / "drives.csv").read_text(encoding="utf-8")
     assert first.count("\n") == 1 + 2 * 2  # header + 2 drivers x 2 controllers
-    # a run killed after its first driver (and half a line of the second) resumes
-    (out / ROWS_FILE).write_text("\n".join(lines[:2]) + "\n" + lines[2][:40], encoding="utf-8")
-    cfg = StudyConfig(
+    # a run killed after its first driver (and half a line of the next drive) resumes
+    (out / ROWS).write_text("\n".join(lines[:3]) + "\n" + lines[3][:40], encoding="utf-8")
+    cfg = StudySpec(
+        drivers=("population:2:3",),
         scenarios=("B",),
-        controllers=("predefined", "predefined+oa"),
+        methods=(table1_method("predefined"), table1_method("predefined+oa")),
         trials=1,
         seed=3,
         duration_s=20.0,
+        report="population",
+        learn_in="direct",
+        logs=False,
         workers=1,
-        population=2,
     )
-    rows = run_population(cfg, out, progress=False)
+    rows = run(cfg, out, progress=False)
     assert len(rows) == 4
     again = (out / "drives.csv").read_text(encoding="utf-8").splitlines()
     # the re-run driver gives the same row except its wall time
@@ -58,5 +61,5 @@ def test_population_refuses_bad_options(tmp_path: Path, capsys: pytest.CaptureFi
     assert main(["--population", "1", "--seed", "1", "--out", out, "-q", *ARGS]) == 0
     # another configuration in the same folder is refused, the rows stay
     assert main(["--population", "1", "--seed", "2", "--out", out, "-q", *ARGS]) == 2
-    assert "another population run" in capsys.readouterr().err
-    assert len((tmp_path / "x" / ROWS_FILE).read_text(encoding="utf-8").splitlines()) == 2
+    assert "holds another study" in capsys.readouterr().err
+    assert len((tmp_path / "x" / ROWS).read_text(encoding="utf-8").splitlines()) == 3

@@ -6,6 +6,7 @@ import re
 import subprocess
 import sys
 import threading
+from dataclasses import replace
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -31,9 +32,9 @@ from pacc.commands import sim as sim_cli
 from pacc.commands.drive import main as drive_main
 from pacc.commands.export import main as export_main
 from pacc.commands.plot import main as plot_main
-from pacc.study.config import StudyConfig
 from pacc.study.drive import DriveConfig, predefined_table, run_drive
-from pacc.study.tasks import DriveJob, run_job
+from pacc.study.pipeline import Drive, plan, run_one
+from pacc.study.spec import StudySpec, table1_method
 from sim_bus.drivers import BUILTIN_DRIVERS
 
 #: d2 with online adaptation: a takeover at 10.2 s, the adaptation at its release (13.2 s)
@@ -228,22 +229,15 @@ def test_drive_cli_can_log_and_utc_trip_log(
     assert cli.main(["drive", "--duration", "3", "--can-log", str(tmp_path)]) == 2
 
 
-def test_study_job_records_its_drive(tmp_path: Path) -> None:
+def test_study_drive_records_its_bus(tmp_path: Path) -> None:
     driver = BUILTIN_DRIVERS["d4"]
-    job = DriveJob(
-        driver,
-        "B",
-        "predefined",
-        0,
-        0,
-        2.0,
-        predefined_table(driver),
-        None,
-        can_log_path=str(tmp_path / "d4.mcap"),
-    )
-    run_job(job)
+    cfg = DriveConfig(scenario="B", driver_id="d4", seed=0, duration_s=2.0)
+    method = table1_method("predefined")
+    drive = Drive(cfg, driver, predefined_table(driver), method, 0, 0,
+                  can_log=str(tmp_path / "d4.mcap"))  # fmt: skip
+    run_one(drive)
     assert read_canlog(tmp_path / "d4.mcap").metadata["drive"]["driver_id"] == "d4"
-    assert StudyConfig().can_logs is False
+    assert StudySpec().can_logs is False
 
 
 @pytest.mark.slow
@@ -316,16 +310,15 @@ def test_a_recording_is_a_pure_function_of_the_drive_and_its_start(tmp_path: Pat
 
 
 def test_study_plan_puts_bus_recordings_under_can(tmp_path: Path) -> None:
-    from pacc.study.run import plan  # noqa: PLC0415
-
     driver = BUILTIN_DRIVERS["d1"]
-    cfg = StudyConfig(drivers=("d1",), scenarios=("B",), controllers=("predefined",), trials=2)
-    tables = {("d1", "predefined"): predefined_table(driver)}
-    jobs = plan(StudyConfig(**{**cfg.__dict__, "can_logs": True}), {"d1": driver}, tables, tmp_path)
-    assert [j.can_log_path for j in jobs] == [
+    method = table1_method("predefined")
+    cfg = StudySpec(drivers=("d1",), scenarios=("B",), methods=(method,), trials=2)
+    tables = {("d1", method.table_key): predefined_table(driver)}
+    drives = plan(replace(cfg, can_logs=True), {"d1": driver}, tables, tmp_path)
+    assert [d.can_log for d in drives] == [
         str(tmp_path / "can" / f"d1_B_predefined_t{t}.mcap") for t in (0, 1)
     ]
-    assert all(j.can_log_path is None for j in plan(cfg, {"d1": driver}, tables, tmp_path))
+    assert all(d.can_log is None for d in plan(cfg, {"d1": driver}, tables, tmp_path))
 
 
 _FULL_DISK = """
