@@ -106,6 +106,6 @@ def test_no_output_overwrites_the_recording_or_another_output(
         assert stop.value.code == 2
     err = capsys.readouterr().err
     assert "--plotjuggler " + str(drive) + " is LOG itself" in err
-    assert "-o " + str(drive) + " is LOG itself" in err
+    assert "-o " + str(drive) + ": pacc plot writes a PNG" in err
     assert "--out and --plotjuggler name the same file" in err
     assert drive.read_bytes() == before and not list(tmp_path.iterdir())
