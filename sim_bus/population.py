@@ -252,7 +252,7 @@ class TakeoverScales:
 
 
 #: frozen after the fit (docs/drivers.md names the seed it was fitted on)
-PEOPLE_SCALES = TakeoverScales(mismatch=1.0, taps_per_min=2.0, press_s=1.0)
+PEOPLE_SCALES = TakeoverScales(mismatch=2.0, taps_per_min=1.8, press_s=1.0)
 #: the populations by name; ``headway`` (the steady-state calibration alone) is the older one
 POPULATIONS = ("headway", "people")
 DEFAULT_POPULATION = "headway"
