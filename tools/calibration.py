@@ -17,6 +17,7 @@ tool, run from the repository root; not part of the installed package.
 from __future__ import annotations
 
 import argparse
+import sys
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -164,6 +165,7 @@ def averages(rows: list[dict[str, Any]]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     """Print the calibration table, a people run's averages, or the held-out kinds."""
+    argv = sys.argv[1:] if argv is None else argv
     if argv and argv[0] == "people":
         seed, n = int(argv[1]), int(argv[2])
         scales = TakeoverScales(*(float(x) for x in argv[3:6])) if len(argv) > 5 else PEOPLE_SCALES
