@@ -49,21 +49,21 @@ COLLISION_NRMSE = 10.0
 
 def _delayed(hist: np.ndarray, rows: np.ndarray) -> np.ndarray:
     """``hist[rows[j], j]`` per column ``j`` (rows clamped at 0); hist (n, P)."""
-    return hist[np.maximum(rows, 0), np.arange(hist.shape[1])]
+    return np.asarray(hist[np.maximum(rows, 0), np.arange(hist.shape[1])])
 
 
 def _accel(model: str, x: np.ndarray, v: np.ndarray, vl: np.ndarray, s: np.ndarray) -> np.ndarray:
     """Acceleration (m/s²) of ``model`` (``driver``, ``idm`` or ``ctg``); x (P, k)."""
     if model == "ctg":
-        return x[:, 0] * (s - x[:, 3] - x[:, 2] * v) + x[:, 1] * (vl - v)
+        return np.asarray(x[:, 0] * (s - x[:, 3] - x[:, 2] * v) + x[:, 1] * (vl - v))
     a, b, t, s0, v0 = x[:, 0], x[:, 1], x[:, 2], x[:, 3], x[:, 4]
     s_star = s0 + t * v + v * (v - vl) / (2.0 * np.sqrt(a * b))
     s_eff = np.maximum(s, 0.1)
     free = 1.0 - (v / v0) ** 4
     if model == "idm":
-        return a * (free - (np.maximum(s_star, 0.0) / s_eff) ** 2)
+        return np.asarray(a * (free - (np.maximum(s_star, 0.0) / s_eff) ** 2))
     follow = 1.0 - (np.maximum(s_star, 0.5 * s0) / s_eff) ** 2
-    return a * np.minimum(free, follow)
+    return np.asarray(a * np.minimum(free, follow))
 
 
 def _gipps_speed(x: np.ndarray, v: np.ndarray, vl: np.ndarray, s: np.ndarray) -> np.ndarray:

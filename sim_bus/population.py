@@ -264,17 +264,18 @@ def people_driver(
     """``base`` with the ``people`` prior's dynamics and takeover habits (docs/drivers.md), from
     its own random stream (the preference of ``base`` is kept)."""
     rng = np.random.default_rng([seed, index, 0x706570])
-    dyn = {
-        name: _lognormal(rng, med, sd, 0.25 * med, 4.0 * med)
-        for name, (med, sd) in FOLLOWING_PRIOR.items()
-    }
+    accel, decel, reaction = (
+        _lognormal(rng, med, sd, 0.25 * med, 4.0 * med) for med, sd in FOLLOWING_PRIOR.values()
+    )
     offset = scales.mismatch * _clip(
         MISMATCH_MEAN_S + MISMATCH_SD_S * float(rng.standard_normal()), *MISMATCH_RANGE_S
     )
     taps = scales.taps_per_min * math.exp(0.5 * float(rng.standard_normal()) - 0.125)
     return dataclasses.replace(
         base,
-        **dyn,
+        accel_max_mps2=accel,
+        decel_comfort_mps2=decel,
+        reaction_s=reaction,
         acc_offset_s=round(max(offset, 0.3 - min(base.headway_s)), 4),
         acc_preference_factor=1.0,
         trip_shift_sd_s=float(rng.uniform(0.05, 0.25)),

@@ -70,7 +70,8 @@ def people_table(rows: Sequence[dict[str, Any]]) -> str:
         "| controller | PoI % [95 % CI] | paper | NIM /min [95 % CI] | paper |",
         "|---" * 5 + "|",
     ]
-    values = {}
+    values: dict[str, dict[str, np.ndarray]] = {}
+    drivers: list[str] = []
     for metric in ("poi_pct", "nim_per_min"):
         drivers, values[metric] = per_driver(rows, metric)
     for c, poi in values["poi_pct"].items():
