@@ -74,11 +74,11 @@ def people_table(rows: Sequence[dict[str, Any]]) -> str:
     drivers: list[str] = []
     for metric in ("poi_pct", "nim_per_min"):
         drivers, values[metric] = per_driver(rows, metric)
-    for c, poi in values["poi_pct"].items():
+    for c, mine in values["poi_pct"].items():
         nim = values["nim_per_min"][c]
-        ci_p, ci_n = bootstrap_ci(poi, rng), bootstrap_ci(nim, rng)
+        ci_p, ci_n = bootstrap_ci(mine, rng), bootstrap_ci(nim, rng)
         lines.append(
-            f"| {CONTROLLER_TITLES[c]} | {poi.mean():.1f} [{ci_p[0]:.1f}, {ci_p[1]:.1f}] "
+            f"| {CONTROLLER_TITLES[c]} | {mine.mean():.1f} [{ci_p[0]:.1f}, {ci_p[1]:.1f}] "
             f"| {PAPER_AVERAGES[c][0]:.1f} | {nim.mean():.2f} [{ci_n[0]:.2f}, {ci_n[1]:.2f}] "
             f"| {PAPER_AVERAGES[c][1]:.1f} |"
         )
