@@ -1,10 +1,10 @@
 """Calibrate the drivers against real people: ``python -m tools.calibration [people ...]``.
 
-``people SEED N [MISMATCH TAPS PRESS_S [DRIVES_CSV]]``: Table I averages (PoI, NIM) of N
-drivers of the ``people`` population of SEED with the three takeover scales given (default:
-the frozen ``PEOPLE_SCALES``), 120-s drives of scenario B (the rows to DRIVES_CSV, for
-``pacc validate people``): what the scales were fitted with, on one seed, to the paper's
-four PoI averages. ``kinds``: the three held-out driver kinds under IRL and
+``people SEED N [MISMATCH TAPS PRESS_S [DRIVES_CSV [SCENARIO]]]``: Table I averages (PoI,
+NIM) of N drivers of the ``people`` population of SEED with the three takeover scales given
+(default: the frozen ``PEOPLE_SCALES``), 120-s drives of scenario B (or SCENARIO; the rows to
+DRIVES_CSV, for ``pacc validate people``): what the scales were fitted with, on one seed, to
+the paper's four PoI averages. ``kinds SEED``: the three held-out driver kinds under IRL and
 IRL + OA. Without a sub-command:
 
 Measures the steady-state time gap (gap / follower speed, samples with |v_lead − v| < 0.5 m/s)
@@ -145,9 +145,12 @@ def run_drivers(
     seed: int,
     controllers: tuple[str, ...] = CONTROLLERS,
     trials: int = 1,
+    scenario: str = "B",
 ) -> list[dict[str, Any]]:
-    """Every drive (120 s, scenario B) of ``drivers`` under ``controllers``, two processes."""
-    jobs = [DriverJob(d, ("B",), controllers, trials, seed, 120.0, None, None) for d in drivers]
+    """Every drive (120 s) of ``drivers`` under ``controllers`` in ``scenario``, two processes."""
+    jobs = [
+        DriverJob(d, (scenario,), controllers, trials, seed, 120.0, None, None) for d in drivers
+    ]
     with ProcessPoolExecutor(2) as pool:
         return [r for rows in pool.map(_drives, jobs) for r in rows]
 
@@ -170,7 +173,8 @@ def main(argv: list[str] | None = None) -> int:
         seed, n = int(argv[1]), int(argv[2])
         scales = TakeoverScales(*(float(x) for x in argv[3:6])) if len(argv) > 5 else PEOPLE_SCALES
         base = draw_population(n, seed)
-        rows = run_drivers([people_driver(d, seed, i, scales) for i, d in enumerate(base)], seed)
+        drivers = [people_driver(d, seed, i, scales) for i, d in enumerate(base)]
+        rows = run_drivers(drivers, seed, scenario=argv[7] if len(argv) > 7 else "B")
         print(averages(rows))
         if len(argv) > 6:
             write_csv(Path(argv[6]), rows)
