@@ -50,7 +50,11 @@ def following_table(fits: Sequence[Fit]) -> str:
             + " |"
         )
     mean = {m: float(np.mean([by[(p, m)].spacing for p in pairs])) for m in models}
-    lines.append("| **mean** | " + " | ".join(f"**{mean[m]:.3f}**" for m in models) + " | | |")
+    lines.append(
+        "| **mean** | "
+        + " | ".join(f"**{mean[m]:.3f}**" for m in models)
+        + " |" * (len(models) + 2)
+    )
     return "\n".join(lines)
 
 
