@@ -4,8 +4,8 @@
 NIM) of N drivers of the ``people`` population of SEED with the three takeover scales given
 (default: the frozen ``PEOPLE_SCALES``), 120-s drives of scenario B (or SCENARIO; the rows to
 DRIVES_CSV, for ``pacc validate people``): what the scales were fitted with, on one seed, to
-the paper's four PoI averages. ``kinds SEED``: the three held-out driver kinds under IRL and
-IRL + OA. Without a sub-command:
+the paper's four PoI averages. ``kinds SEED``: the three held-out driver kinds, 3 drives
+each per controller. Without a sub-command:
 
 Measures the steady-state time gap (gap / follower speed, samples with |v_lead − v| < 0.5 m/s)
 per 5 m/s speed band, median per follower: for each real human-driven pair of the shipped
@@ -108,9 +108,17 @@ def markdown(seed: int = 0) -> str:
 
 
 CONTROLLERS = ("predefined", "predefined+oa", "irl", "irl+oa")
-#: three driver kinds no calibration saw: online adaptation must not make them worse
+#: three driver kinds no calibration saw, each with a typical takeover life (an ACC-vs-manual
+#: offset, drift, a between-trip shift): online adaptation must not make them worse
+_LIFE: dict[str, Any] = {
+    "acc_offset_s": 0.4,
+    "trip_shift_sd_s": 0.15,
+    "condition_drift_per_min": 0.03,
+}
 HELD_OUT_KINDS = (
-    DriverParams("nonmono", "a preference that dips and rises", headway_s=(1.4, 2.3, 1.5, 2.4)),
+    DriverParams(
+        "nonmono", "a preference that dips and rises", headway_s=(1.4, 2.3, 1.5, 2.4), **_LIFE
+    ),
     DriverParams(
         "slowpress",
         "long gap, slow to press, long presses",
@@ -120,6 +128,7 @@ HELD_OUT_KINDS = (
         press_min_s=0.6,
         press_max_s=4.0,
         predefined_setting="high",
+        **_LIFE,
     ),
     DriverParams(
         "brief",
@@ -131,7 +140,9 @@ HELD_OUT_KINDS = (
         refractory_s=0.5,
         press_min_s=0.3,
         press_max_s=0.6,
+        spurious_press_per_min=3.0,
         predefined_setting="low",
+        **_LIFE,
     ),
 )
 
@@ -183,7 +194,7 @@ def main(argv: list[str] | None = None) -> int:
         seed = int(argv[1])
         for d in HELD_OUT_KINDS:
             print(d.driver_id, d.description)
-            print(averages(run_drivers([d], seed, ("irl", "irl+oa"), trials=3)))
+            print(averages(run_drivers([d], seed, trials=3)))
         return 0
     p = argparse.ArgumentParser(prog="python -m tools.calibration", description=__doc__)
     p.add_argument("--seed", type=int, default=0)
