@@ -40,6 +40,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "hil": ("pacc.commands.hil", "a person drives in a browser against the ECU: the paper's study"),
     "bench": ("pacc.commands.bench", "every method on fresh seeds, d1..d5, real data: leaderboard"),
     "plugins": ("pacc.commands.plugins", "list the controllers, adaptations and learners to name"),
+    "validate": (
+        "pacc.commands.validate",
+        "synthetic drivers beside real people: following, Table I",
+    ),
 }
 
 _USAGE = "usage: pacc [-h] [--debug] {" + ",".join(SUBCOMMANDS) + "} ..."

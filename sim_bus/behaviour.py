@@ -333,9 +333,9 @@ class DriverAgent:
                 return
             self.a_cmd_mps2 = max(a, 0.3)
             ok = g_ant <= pref * (1.0 + p.release_band)
-        else:  # a short random tap of the accelerator
+        else:  # a press not about the gap: a tap, mistrust, habit
             self.a_cmd_mps2 = max(a, 0.2)
-            ok = self._press_t >= 0.3
+            ok = self._press_t >= p.tap_s
         if ok and self._ok_t < 0.0:
             self._ok_t = self._press_t
         hold = 0.0 if self.mode == "tap" else p.prolong_s

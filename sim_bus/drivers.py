@@ -73,7 +73,8 @@ class DriverParams:
     decel_comfort_mps2: float = 2.0
     desired_speed_mps: float = 36.0
     accel_noise_mps2: float = 0.15
-    spurious_press_per_min: float = 0.0  # short random taps (an inconsistent driver)
+    spurious_press_per_min: float = 0.0  # presses not about the gap (taps, mistrust), per min
+    tap_s: float = 0.3  # ... and how long each lasts (at least press_min_s)
     predefined_setting: PredefinedSetting = "medium"
     # 2 (issue 21): a brake press lasts while the time-to-collision is below ttc_brake_s and
     # brakes at least as hard as stopping short of the lead needs; an accelerator press ends
@@ -146,6 +147,7 @@ class DriverParams:
             "refractory_s",
             "accel_noise_mps2",
             "spurious_press_per_min",
+            "tap_s",
         )
         for name in nonneg:
             if not getattr(self, name) >= 0:

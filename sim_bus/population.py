@@ -35,6 +35,7 @@ N drivers of a larger population are the same N drivers (a run can be extended o
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -228,32 +229,105 @@ def draw_driver(
     )
 
 
+#: the manual-following dynamics of real human followers: (median, sd of the log) of the
+#: drivers' model fitted per follower (sim_bus.following: first half of the first five shipped
+#: OpenACC human pairs, ``pacc validate following``; docs/drivers.md). The desired speed is
+#: not in it: the pairs never exceed 28 m/s, so the fits cannot tell it (they put it there)
+FOLLOWING_PRIOR: dict[str, tuple[float, float]] = {
+    "accel_max_mps2": (1.6, 0.6),
+    "decel_comfort_mps2": (0.6, 1.0),
+    "reaction_s": (0.46, 0.8),
+}
+
+
+@dataclass(frozen=True)
+class TakeoverScales:
+    """The three scales of the ``people`` population's takeover prior, fitted on one seed to
+    the paper's four PoI averages only (``python -m tools.calibration people``) and frozen."""
+
+    mismatch: float  # × the ACC-vs-manual offset prior N(MISMATCH_MEAN_S, MISMATCH_SD_S)
+    taps_per_min: float  # mean rate of presses that are not about the gap, per min
+    press_s: float  # median of a press not about the gap, and of the longest press beyond
+    # press_min_s, s
+
+
+#: frozen after the fit (docs/drivers.md names the seed it was fitted on)
+PEOPLE_SCALES = TakeoverScales(mismatch=2.0, taps_per_min=1.8, press_s=1.0)
+#: the populations by name; ``headway`` (the steady-state calibration alone) is the older one
+POPULATIONS = ("headway", "people")
+DEFAULT_POPULATION = "headway"
+
+
+def people_driver(
+    base: DriverParams, seed: int, index: int, scales: TakeoverScales = PEOPLE_SCALES
+) -> DriverParams:
+    """``base`` with the ``people`` prior's dynamics and takeover habits (docs/drivers.md), from
+    its own random stream (the preference of ``base`` is kept)."""
+    rng = np.random.default_rng([seed, index, 0x706570])
+    accel, decel, reaction = (
+        _lognormal(rng, med, sd, 0.25 * med, 4.0 * med) for med, sd in FOLLOWING_PRIOR.values()
+    )
+    offset = scales.mismatch * _clip(
+        MISMATCH_MEAN_S + MISMATCH_SD_S * float(rng.standard_normal()), *MISMATCH_RANGE_S
+    )
+    taps = scales.taps_per_min * math.exp(0.5 * float(rng.standard_normal()) - 0.125)
+    return dataclasses.replace(
+        base,
+        accel_max_mps2=accel,
+        decel_comfort_mps2=decel,
+        reaction_s=reaction,
+        acc_offset_s=round(max(offset, 0.3 - min(base.headway_s)), 4),
+        acc_preference_factor=1.0,
+        trip_shift_sd_s=float(rng.uniform(0.05, 0.25)),
+        condition_drift_per_min=float(rng.uniform(0.01, 0.05)),
+        spurious_press_per_min=taps,
+        tap_s=_lognormal(rng, scales.press_s, 0.4, 0.3, 4.0),
+        press_max_s=base.press_min_s + _lognormal(rng, scales.press_s, 0.4, 0.3, 4.0),
+    )
+
+
 def draw_population(
     n: int,
     seed: int,
     prior: PopulationPrior | None = None,
     mismatch: float = 0.0,
     trip_shift_sd_s: float = 0.0,
+    population: str = DEFAULT_POPULATION,
 ) -> tuple[DriverParams, ...]:
-    """``n`` drivers of population ``seed`` (ids ``p<seed>-0000`` …); DriverError if n < 1
-    or the mismatch scale is outside 0..3 or the trip shift outside 0..1 s."""
+    """``n`` drivers of population ``seed`` (ids ``p<seed>-0000`` …); DriverError if n < 1,
+    the mismatch scale is outside 0..3, the trip shift outside 0..1 s, or ``population``
+    unknown. ``people``: the ``headway`` drivers with :func:`people_driver`'s habits (the
+    mismatch and trip shift are then the prior's: the arguments must be 0)."""
     if n < 1 or seed < 0:
         raise DriverError(f"a population needs n >= 1 drivers and a seed >= 0, got {n}, {seed}")
     if not (0.0 <= mismatch <= 3.0 and 0.0 <= trip_shift_sd_s <= 1.0):
         raise DriverError("the mismatch scale must lie in 0..3 and the trip shift in 0..1 s")
+    if population not in POPULATIONS:
+        raise DriverError(f"unknown population {population!r}: one of {list(POPULATIONS)}")
+    if population == "people" and (mismatch or trip_shift_sd_s):
+        raise DriverError("the people population draws its own mismatch and trip shift")
     p = prior if prior is not None else shipped_prior()
-    return tuple(draw_driver(p, seed, i, mismatch, trip_shift_sd_s) for i in range(n))
+    drivers = (draw_driver(p, seed, i, mismatch, trip_shift_sd_s) for i in range(n))
+    if population == "people":
+        return tuple(people_driver(d, seed, i) for i, d in enumerate(drivers))
+    return tuple(drivers)
 
 
 __all__ = [
     "BANDS_MPS",
     "BREAKPOINTS_MPS",
+    "DEFAULT_POPULATION",
+    "FOLLOWING_PRIOR",
+    "PEOPLE_SCALES",
+    "POPULATIONS",
     "PopulationPrior",
+    "TakeoverScales",
     "band_headways",
     "calibrate",
     "draw_driver",
     "draw_population",
     "mismatch_offset_s",
     "nearest_setting",
+    "people_driver",
     "shipped_prior",
 ]

@@ -1,4 +1,11 @@
-"""Calibrate the built-in drivers against the real human pairs: ``python -m tools.calibration``.
+"""Calibrate the drivers against real people: ``python -m tools.calibration [people ...]``.
+
+``people SEED N [MISMATCH TAPS PRESS_S [DRIVES_CSV [SCENARIO]]]``: Table I averages (PoI,
+NIM) of N drivers of the ``people`` population of SEED with the three takeover scales given
+(default: the frozen ``PEOPLE_SCALES``), 120-s drives of scenario B (or SCENARIO; the rows to
+DRIVES_CSV, for ``pacc validate people``): what the scales were fitted with, on one seed, to
+the paper's four PoI averages. ``kinds SEED``: the three held-out driver kinds, 3 drives
+each per controller. Without a sub-command:
 
 Measures the steady-state time gap (gap / follower speed, samples with |v_lead − v| < 0.5 m/s)
 per 5 m/s speed band, median per follower: for each real human-driven pair of the shipped
@@ -10,13 +17,20 @@ tool, run from the repository root; not part of the installed package.
 from __future__ import annotations
 
 import argparse
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from pacc.study.population import DriverJob, run_driver
+from pacc.study.report import write_csv
 from sim_bus.dataset import load_human_pairs
-from sim_bus.drivers import BUILTIN_DRIVERS
+from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
 from sim_bus.lead.profile import LeadProfile
 from sim_bus.manual import manual_trip
+from sim_bus.population import PEOPLE_SCALES, TakeoverScales, draw_population, people_driver
 
 BANDS_MPS: tuple[tuple[float, float], ...] = (
     (10.0, 15.0),
@@ -93,8 +107,95 @@ def markdown(seed: int = 0) -> str:
     return "\n".join(lines)
 
 
+CONTROLLERS = ("predefined", "predefined+oa", "irl", "irl+oa")
+#: three driver kinds no calibration saw, each with a typical takeover life (an ACC-vs-manual
+#: offset, drift, a between-trip shift): online adaptation must not make them worse
+_LIFE: dict[str, Any] = {
+    "acc_offset_s": 0.4,
+    "trip_shift_sd_s": 0.15,
+    "condition_drift_per_min": 0.03,
+}
+HELD_OUT_KINDS = (
+    DriverParams(
+        "nonmono", "a preference that dips and rises", headway_s=(1.4, 2.3, 1.5, 2.4), **_LIFE
+    ),
+    DriverParams(
+        "slowpress",
+        "long gap, slow to press, long presses",
+        headway_s=(2.6, 2.8, 3.0, 3.1),
+        patience_s=3.0,
+        patience_far_s=7.0,
+        press_min_s=0.6,
+        press_max_s=4.0,
+        predefined_setting="high",
+        **_LIFE,
+    ),
+    DriverParams(
+        "brief",
+        "close follower pressing briefly and often",
+        standstill_m=3.0,
+        headway_s=(1.1, 1.15, 1.2, 1.25),
+        patience_s=0.8,
+        patience_far_s=2.0,
+        refractory_s=0.5,
+        press_min_s=0.3,
+        press_max_s=0.6,
+        spurious_press_per_min=3.0,
+        predefined_setting="low",
+        **_LIFE,
+    ),
+)
+
+
+def _drives(job: DriverJob) -> list[dict[str, Any]]:
+    return run_driver(job)
+
+
+def run_drivers(
+    drivers: list[DriverParams],
+    seed: int,
+    controllers: tuple[str, ...] = CONTROLLERS,
+    trials: int = 1,
+    scenario: str = "B",
+) -> list[dict[str, Any]]:
+    """Every drive (120 s) of ``drivers`` under ``controllers`` in ``scenario``, two processes."""
+    jobs = [
+        DriverJob(d, (scenario,), controllers, trials, seed, 120.0, None, None) for d in drivers
+    ]
+    with ProcessPoolExecutor(2) as pool:
+        return [r for rows in pool.map(_drives, jobs) for r in rows]
+
+
+def averages(rows: list[dict[str, Any]]) -> str:
+    """One line per controller: mean PoI % and NIM per minute over the rows."""
+    out = []
+    for c in dict.fromkeys(str(r["controller"]) for r in rows):
+        mine = [r for r in rows if r["controller"] == c]
+        poi = np.mean([float(r["poi_pct"]) for r in mine])
+        nim = np.mean([float(r["nim_per_min"]) for r in mine])
+        out.append(f"{c:<14} PoI {poi:5.1f} %  NIM {nim:5.2f} /min")
+    return "\n".join(out)
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Print the calibration table."""
+    """Print the calibration table, a people run's averages, or the held-out kinds."""
+    argv = sys.argv[1:] if argv is None else argv
+    if argv and argv[0] == "people":
+        seed, n = int(argv[1]), int(argv[2])
+        scales = TakeoverScales(*(float(x) for x in argv[3:6])) if len(argv) > 5 else PEOPLE_SCALES
+        base = draw_population(n, seed)
+        drivers = [people_driver(d, seed, i, scales) for i, d in enumerate(base)]
+        rows = run_drivers(drivers, seed, scenario=argv[7] if len(argv) > 7 else "B")
+        print(averages(rows))
+        if len(argv) > 6:
+            write_csv(Path(argv[6]), rows)
+        return 0
+    if argv and argv[0] == "kinds":
+        seed = int(argv[1])
+        for d in HELD_OUT_KINDS:
+            print(d.driver_id, d.description)
+            print(averages(run_drivers([d], seed, trials=3)))
+        return 0
     p = argparse.ArgumentParser(prog="python -m tools.calibration", description=__doc__)
     p.add_argument("--seed", type=int, default=0)
     args = p.parse_args(argv)

@@ -157,3 +157,20 @@ def test_interp_float_is_np_interp(xp: list[float], fp: list[float], x: float) -
         ours, numpy = interp_float(v, tuple(xp), tuple(fp)), float(np.interp(v, xp, fp))
         assert ours == numpy or (math.isnan(ours) and math.isnan(numpy))
         assert math.copysign(1.0, ours) == math.copysign(1.0, numpy)
+
+
+def test_a_press_not_about_the_gap_lasts_tap_s() -> None:
+    """At the preferred gap a driver with presses not about the gap makes them, each as long
+    as its ``tap_s`` (one step either side)."""
+    for tap_s in (0.3, 1.2):
+        a = _agent(spurious_press_per_min=30.0, tap_s=tap_s, press_min_s=0.3)
+        lengths, held = [], 0.0
+        for _ in range(int(60.0 / DT)):
+            a.step(15.0, 15.0, 17.0, AccState.ACTIVE)  # exactly at its preference
+            if a.accel_pressed:
+                held += DT
+            elif held:
+                lengths.append(held)
+                held = 0.0
+        assert len(lengths) > 10
+        assert all(abs(x - tap_s) <= 2 * DT for x in lengths)

@@ -12,11 +12,13 @@ from sim_bus.drivers import DriverParams
 from sim_bus.errors import DriverError
 from sim_bus.population import (
     BREAKPOINTS_MPS,
+    PEOPLE_SCALES,
     band_headways,
     calibrate,
     draw_driver,
     draw_population,
     nearest_setting,
+    people_driver,
     shipped_prior,
 )
 
@@ -69,3 +71,21 @@ def test_bad_population_refused() -> None:
     with pytest.raises(DriverError):
         draw_population(3, -1)
     assert nearest_setting(1.9) == "low" and nearest_setting(2.2) == "medium"
+
+
+def test_people_population_keeps_the_preference_and_draws_habits() -> None:
+    base = draw_population(40, 3)
+    people = draw_population(40, 3, population="people")
+    assert people == draw_population(40, 3, population="people")
+    for b, p in zip(base, people, strict=True):
+        assert (p.headway_s, p.standstill_m) == (b.headway_s, b.standstill_m)
+        assert p.tap_s >= 0.3 and p.press_max_s > p.press_min_s and p.trip_shift_sd_s > 0
+    offsets = np.array([p.acc_offset_s for p in people])
+    assert 0.1 < offsets.mean() < 0.3 * PEOPLE_SCALES.mismatch + 0.2  # prior N(0.3, 0.3)·scale
+    taps = np.array([p.spurious_press_per_min for p in people])
+    assert abs(np.median(taps) - PEOPLE_SCALES.taps_per_min) < 0.5 * PEOPLE_SCALES.taps_per_min
+    assert people_driver(base[0], 3, 0) == people[0]
+    with pytest.raises(DriverError, match="unknown population"):
+        draw_population(2, 3, population="robots")
+    with pytest.raises(DriverError, match="own mismatch"):
+        draw_population(2, 3, mismatch=1.0, population="people")

@@ -57,3 +57,18 @@ def test_calibration_against_real_human_pairs() -> None:
 def test_main_refuses_a_negative_seed(capsys: pytest.CaptureFixture[str]) -> None:
     assert calibration.main(["--seed", "-3"]) == 2
     assert "--seed must be >= 0" in capsys.readouterr().out
+
+
+def test_averages_and_held_out_kinds() -> None:
+    rows = [
+        {"controller": "irl", "poi_pct": 10.0, "nim_per_min": 4.0},
+        {"controller": "irl", "poi_pct": 20.0, "nim_per_min": 6.0},
+        {"controller": "irl+oa", "poi_pct": 5.0, "nim_per_min": 2.0},
+    ]
+    assert calibration.averages(rows).splitlines() == [
+        "irl            PoI  15.0 %  NIM  5.00 /min",
+        "irl+oa         PoI   5.0 %  NIM  2.00 /min",
+    ]
+    heads = {d.driver_id: d.headway_s for d in calibration.HELD_OUT_KINDS}
+    assert list(heads) == ["nonmono", "slowpress", "brief"]
+    assert heads["nonmono"][1] > heads["nonmono"][2] < heads["nonmono"][3]  # dips and rises

@@ -1,0 +1,167 @@
+"""``pacc validate``: the synthetic drivers side by side with real people.
+
+``pacc validate following`` fits every car-following model (:mod:`sim_bus.following`) per
+real human follower of the shipped OpenACC pairs on the first half, replays the real lead on
+the held-out rest, and prints the spacing and speed errors per pair (the drivers' model
+against per-pair calibrated IDM: the ratio). ``pacc validate people DRIVES_CSV`` puts a
+population study's Table I (``pacc study --population N``'s ``drives.csv``) beside the
+paper's people, with 95 % bootstrap intervals over drivers, and the paired verdicts.
+``--plot FILE`` draws either as a PNG.
+"""
+
+from __future__ import annotations
+
+import csv
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pacc.commands._args import CommandParser
+from pacc.study.population_report import comparisons, per_driver
+from pacc.study.report import CONTROLLER_TITLES, PAPER_AVERAGES
+from pacc.study.stats import bootstrap_ci, holm
+from sim_bus.dataset import load_human_pairs
+from sim_bus.errors import SimError
+from sim_bus.following import MODELS, Fit, fit_pair
+
+
+def following_table(fits: Sequence[Fit]) -> str:
+    """Markdown: held-out spacing NRMSE per pair and model, speed NRMSE, driver/IDM ratio."""
+    models = list(dict.fromkeys(f.model for f in fits))
+    by = {(f.pair_id, f.model): f for f in fits}
+    pairs = list(dict.fromkeys(f.pair_id for f in fits))
+    lines = [
+        "| pair | "
+        + " | ".join(f"{m} spacing" for m in models)
+        + " | driver / idm | "
+        + " | ".join(f"{m} speed" for m in models)
+        + " |",
+        "|---" * (2 * len(models) + 2) + "|",
+    ]
+    for p in pairs:
+        ratio = by[(p, "driver")].spacing / by[(p, "idm")].spacing
+        lines.append(
+            f"| {p} | "
+            + " | ".join(f"{by[(p, m)].spacing:.3f}" for m in models)
+            + f" | {ratio:.2f} | "
+            + " | ".join(f"{by[(p, m)].speed:.3f}" for m in models)
+            + " |"
+        )
+    mean = {m: float(np.mean([by[(p, m)].spacing for p in pairs])) for m in models}
+    lines.append(
+        "| **mean** | "
+        + " | ".join(f"**{mean[m]:.3f}**" for m in models)
+        + " |" * (len(models) + 2)
+    )
+    return "\n".join(lines)
+
+
+def read_drives(path: Path) -> list[dict[str, Any]]:
+    """The rows of a study's ``drives.csv``; SimError naming the file if it has none."""
+    with path.open(newline="", encoding="utf-8") as fh:
+        rows: list[dict[str, Any]] = [dict(r) for r in csv.DictReader(fh)]
+    if not rows or not {"driver", "controller", "poi_pct", "nim_per_min"} <= set(rows[0]):
+        raise SimError(f"{path}: not a study's drives.csv (no driver/controller/PoI/NIM rows)")
+    return rows
+
+
+def people_table(rows: Sequence[dict[str, Any]]) -> str:
+    """Markdown: Table I averages with 95 % CIs beside the paper's, and paired verdicts."""
+    rng = np.random.default_rng(0)
+    lines = [
+        "| controller | PoI % [95 % CI] | paper | NIM /min [95 % CI] | paper |",
+        "|---" * 5 + "|",
+    ]
+    values: dict[str, dict[str, np.ndarray]] = {}
+    drivers: list[str] = []
+    for metric in ("poi_pct", "nim_per_min"):
+        drivers, values[metric] = per_driver(rows, metric)
+    for c, mine in values["poi_pct"].items():
+        nim = values["nim_per_min"][c]
+        ci_p, ci_n = bootstrap_ci(mine, rng), bootstrap_ci(nim, rng)
+        lines.append(
+            f"| {CONTROLLER_TITLES[c]} | {mine.mean():.1f} [{ci_p[0]:.1f}, {ci_p[1]:.1f}] "
+            f"| {PAPER_AVERAGES[c][0]:.1f} | {nim.mean():.2f} [{ci_n[0]:.2f}, {ci_n[1]:.2f}] "
+            f"| {PAPER_AVERAGES[c][1]:.1f} |"
+        )
+    poi = values["poi_pct"]
+    tests = comparisons(poi, rng)
+    keys = list(tests)
+    adjusted = dict(zip(keys, holm([tests[k].p_value for k in keys]), strict=True))
+    n = len(drivers)
+    lines.append("")
+    for a, b in (("irl", "predefined+oa"), ("irl", "irl+oa")):
+        key = (a, b) if (a, b) in tests else (b, a)
+        res = tests[key]
+        diff = res.mean_diff if key == (a, b) else -res.mean_diff
+        better = int(np.sum(poi[b] < poi[a]))
+        lines.append(
+            f"- {CONTROLLER_TITLES[b]} vs {CONTROLLER_TITLES[a]}: PoI {diff:+.2f} points, "
+            f"lower for {better} of {n} drivers, Holm p {adjusted[key]:.2g}"
+        )
+    spread = {c: float(np.std(v, ddof=1)) for c, v in poi.items()}
+    lines.append(
+        "- spread between drivers (sd of PoI %): "
+        + ", ".join(f"{CONTROLLER_TITLES[c]} {s:.1f}" for c, s in spread.items())
+    )
+    return "\n".join(lines)
+
+
+def _plot_following(path: Path, fits: Sequence[Fit]) -> None:
+    import matplotlib  # noqa: PLC0415  (only the plot needs it)
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt  # noqa: PLC0415
+
+    pairs = list(dict.fromkeys(f.pair_id for f in fits))
+    models = list(dict.fromkeys(f.model for f in fits))
+    by = {(f.pair_id, f.model): f.spacing for f in fits}
+    x = np.arange(len(pairs))
+    fig, ax = plt.subplots(figsize=(10, 4))
+    w = 0.8 / len(models)
+    for i, m in enumerate(models):
+        ax.bar(x + i * w - 0.4 + w / 2, [by[(p, m)] for p in pairs], w, label=m)
+    ax.set_xticks(x, [p.replace("040719_", "") for p in pairs], rotation=20)
+    ax.set_ylabel("held-out spacing NRMSE")
+    ax.set_title("Car following on real OpenACC human pairs (fit: first half; scored: rest)")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``pacc validate``; returns the exit status."""
+    p = CommandParser(prog="pacc validate", description=__doc__.split("\n\n")[0])
+    sub = p.add_subparsers(dest="what", required=True)
+    f = sub.add_parser("following", help="car-following models against real trajectories")
+    f.add_argument("--pairs", type=int, default=0, help="only the first N pairs (default all)")
+    f.add_argument("--maxiter", type=int, default=60, help="generations of each fit")
+    f.add_argument("--plot", type=Path, help="a PNG of the held-out spacing errors")
+    g = sub.add_parser("people", help="a population study's Table I beside the paper's")
+    g.add_argument("drives", type=Path, help="drives.csv of pacc study --population")
+    g.add_argument("--plot", type=Path, help="a PNG of the averages beside the paper's")
+    args = p.parse_args(argv)
+    if args.what == "following":
+        if args.pairs < 0 or args.maxiter < 1:
+            p.error("--pairs must be >= 0 and --maxiter >= 1")
+        pairs = load_human_pairs()
+        pairs = pairs[: args.pairs] if args.pairs else pairs
+        fits = [fit_pair(m, pair, maxiter=args.maxiter) for pair in pairs for m in MODELS]
+        print(following_table(fits))
+        if args.plot:
+            _plot_following(args.plot, fits)
+        return 0
+    rows = read_drives(args.drives)
+    print(people_table(rows))
+    if args.plot:
+        from pacc.study.report import plot  # noqa: PLC0415
+
+        plot(args.plot, rows)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
