@@ -287,6 +287,8 @@ def load_binding(path: str | Path) -> Binding:
         raise BindingError(f"cannot read binding {path}: {exc.strerror or exc}") from exc
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise BindingError(f"binding {path} is not valid TOML: {exc}") from exc
+    except RecursionError:  # arrays or tables nested beyond the parser's stack
+        raise BindingError(f"binding {path} is not valid TOML: nested too deep") from None
     return parse_binding(raw, str(path), path)
 
 

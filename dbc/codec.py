@@ -33,7 +33,7 @@ from dbc.errors import (
     UnknownFrameError,
 )
 from dbc.message import Decoded, MessageCodec, Value
-from dbc.schema import ROLES
+from dbc.schema import ROLES, check_ranges
 
 __all__ = [
     "BindingError",
@@ -130,6 +130,7 @@ class Codec:
                 parts.append(mc)
             self.by_role[rb.role] = parts[0]
             self.roles[rb.role] = RoleCodec(rb.role, tuple(parts), rb.consts)
+        check_ranges(self.roles)
 
     def parts(self) -> list[MessageCodec]:
         """Every bound message, role by role."""
