@@ -87,6 +87,8 @@ class DriveConfig:
     controller_args: tuple[tuple[str, Any], ...] = ()
     adaptation_method: str = ""
     adaptation_args: tuple[tuple[str, Any], ...] = ()
+    #: the driver drives by hand, the ACC never engaged (a manual drive's bus log)
+    manual: bool = False
 
 
 @dataclass(frozen=True)
@@ -203,7 +205,7 @@ def run_drive(
     faults = parse_faults(cfg.faults)
     codec = drive_codec(cfg)
     rng = fault_rng(cfg.seed)
-    world = World(driver, prof, cfg.seed, WorldConfig(engage_s=cfg.engage_s))
+    world = World(driver, prof, cfg.seed, WorldConfig(engage_s=cfg.engage_s), not cfg.manual)
     channel = record_channel or f"pacc-drive-{id(cfg):x}-{next(_channel_ids)}"
     ecu = _ecu_node(cfg, driver, table, prof, takeover_sink, manual_sink)
     sim_bus = _open_bus(bus, channel)
