@@ -21,6 +21,7 @@ from typing import Any
 
 from dbc import BINDING_PATH, DBC_PATH
 from dbc.binding import Binding, check_against, load_binding
+from dbc.binding import binding_file as packaged_binding
 from dbc.errors import (
     BindingError,
     CodecError,
@@ -193,7 +194,7 @@ def network_paths(
                 "that network's messages (docs/vehicles.md)"
             )
         return DBC_PATH, BINDING_PATH
-    binding_file = Path(binding_path).resolve()
+    binding_file = packaged_binding(binding_path).resolve()
     named = load_binding(binding_file).dbc
     if dbc_path is None:
         if not named:
