@@ -123,6 +123,8 @@ class DriveResult:
     start_utc: str = ""
     #: the road scenario's events as played: (time s, kind, new gap m or None if skipped)
     road_events: list[tuple[float, str, float | None]] = field(default_factory=list)
+    #: the ECU's takeover requests at its braking limit (:attr:`ecu.node.EcuNode.limit_requests`)
+    limit_requests: int = 0
 
     def safety(self, threshold_s: float = 2.0) -> SafetyFigures:
         """The drive's time-to-collision exposure (:meth:`WorldLog.safety`), the time after a
@@ -269,6 +271,7 @@ def run_drive(
         adaptation_events=events,
         start_utc=base.iso(0.0),
         road_events=list(world.events_log),
+        limit_requests=ecu.limit_requests,
         extra=_extra(ecu, can_log_error, interrupted_at),
     )
 
