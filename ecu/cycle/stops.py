@@ -72,16 +72,20 @@ def closing_needs_mps2(
 
 def beyond_authority(config: EcuConfig, inp: NodeInputs, p: Plan, lead_accel_mps2: float) -> bool:
     """True when the braking needed exceeds what the ACC may command (a takeover request, as
-    a production ACC gives at its limit): matching the lead's speed at the table's lower
-    safety bound at that speed, after ``BRAKE_BUILD_S`` at the current closing speed, needs
-    a harder braking than the envelope's ``accel_min_mps2``."""
+    a production ACC gives at its limit). Needed to keep the safety bound's standstill gap
+    (2 m) after ``BRAKE_BUILD_S`` at the current closing speed: matching the lead's speed,
+    and behind a braking lead stopping behind where it would come to rest; the harder of
+    the two beyond the envelope's ``accel_min_mps2``. (Matching against the bound at the
+    lead's speed asked for takeovers at 5 to 7 s TTC behind leads braking at 1 to 3 m/s^2.)"""
     if not inp.lead_valid or not inp.rel_speed_mps < 0.0:
         return False
     v_lead = p.v_mps + inp.rel_speed_mps
-    floor = config.bounds.lower_m(0.0 if v_lead < 0.0 else v_lead)
     gap = inp.gap_m + inp.rel_speed_mps * BRAKE_BUILD_S
-    need = closing_limit_mps2(gap, inp.rel_speed_mps, lead_accel_mps2, floor)
-    return need < config.controller.accel_min_mps2
+    keep = config.bounds.lower_m(0.0)
+    match = closing_limit_mps2(gap, inp.rel_speed_mps, 0.0, keep)
+    stop = stopping_limit_mps2(p.v_mps, gap, v_lead, lead_accel_mps2, keep)
+    lo = config.controller.accel_min_mps2
+    return match < lo or stop < lo
 
 
 def stop_limit(
