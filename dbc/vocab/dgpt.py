@@ -176,8 +176,9 @@ class Dgpt:
         speed_mps: uniform speed axis, shape ``(n,)``, 0..40 m/s, step <= 0.5 m/s.
         gap_m: desired bumper-to-bumper gap per speed bin, shape ``(n,)``, metres.
         version: incremented by every change (:meth:`with_gaps`), 0 to :data:`MAX_VERSION`.
-        driver_id: whose preference this is (a :data:`PLAIN_NAME`).
-        condition: driving-condition tag (weather/traffic/road), e.g. ``"default"`` (plain).
+        driver_id: whose preference this is (a :data:`PLAIN_NAME` in a file).
+        condition: driving-condition tag (weather/traffic/road), e.g. ``"default"`` (plain
+            in a file).
         source: ``"predefined"``, ``"irl"`` or ``"adapted"``.
         created_utc: ISO 8601 creation time.
         meta: free-form JSON-serialisable metadata.
@@ -205,12 +206,6 @@ class Dgpt:
         for name in ("driver_id", "condition", "created_utc"):
             if not isinstance(getattr(self, name), str):
                 raise DgptError(f"{name} must be a string")
-        for name in ("driver_id", "condition"):
-            if PLAIN_NAME.fullmatch(getattr(self, name)) is None:
-                raise DgptError(
-                    f"{name} {getattr(self, name)!a} is not a plain name (1-64 letters, digits, "
-                    "_.-, starting with a letter or digit)"
-                )
         if not isinstance(self.meta, dict):
             raise DgptError("meta must be a JSON object")
         object.__setattr__(self, "speed_mps", speed)

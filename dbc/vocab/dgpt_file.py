@@ -7,9 +7,9 @@ A table (:class:`dbc.vocab.dgpt.Dgpt`) is stored as::
      "speed_mps": [0.0, 0.5, ...], "gap_m": [4.0, 4.6, ...], "meta": {...}}
 
 :func:`dgpt_from_bytes` (and :func:`read_dgpt` on a binary stream) validates the format tag,
-the keys, the shapes, the axis, that every value is finite and that every gap lies within
-:class:`dbc.vocab.dgpt.SafetyBounds`; anything else raises :class:`DgptError` naming the
-defect. :func:`dgpt_to_bytes` / :func:`write_dgpt` are the inverse. :func:`load_dgpt` and
+the keys, the shapes, the axis, plain driver and condition names, that every value is finite
+and that every gap lies within :class:`dbc.vocab.dgpt.SafetyBounds`; anything else raises
+:class:`DgptError` naming the defect. :func:`dgpt_to_bytes` / :func:`write_dgpt` are the inverse. :func:`load_dgpt` and
 :func:`save_dgpt` are thin path wrappers (the error names the file; the save is atomic);
 :func:`load_dgpt` reads only a regular file of at most :data:`MAX_DGPT_BYTES` (a FIFO, a
 device or a huge file is refused without blocking or reading it).
@@ -26,7 +26,7 @@ from typing import IO, Any
 
 import numpy as np
 
-from dbc.vocab.dgpt import FORMAT_TAG, Dgpt, DgptError, SafetyBounds
+from dbc.vocab.dgpt import FORMAT_TAG, PLAIN_NAME, Dgpt, DgptError, SafetyBounds
 
 #: the largest DGPT file read, bytes (a 0.5 m/s table is about 4 KB)
 MAX_DGPT_BYTES = 1 << 20
@@ -63,6 +63,12 @@ def dgpt_from_json_dict(obj: Any, bounds: SafetyBounds | None = None) -> Dgpt:
         created_utc=obj.get("created_utc", ""),
         meta=obj.get("meta", {}),
     )
+    for name in ("driver_id", "condition"):  # they name folders and are printed
+        if PLAIN_NAME.fullmatch(getattr(table, name)) is None:
+            raise DgptError(
+                f"{name} {getattr(table, name)!a} is not a plain name (1-64 letters, digits, "
+                "_.-, starting with a letter or digit)"
+            )
     table.check_bounds(bounds)
     return table
 
