@@ -9,10 +9,11 @@ A table (:class:`dbc.vocab.dgpt.Dgpt`) is stored as::
 :func:`dgpt_from_bytes` (and :func:`read_dgpt` on a binary stream) validates the format tag,
 the keys, the shapes, the axis, plain driver and condition names, that every value is finite
 and that every gap lies within :class:`dbc.vocab.dgpt.SafetyBounds`; anything else raises
-:class:`DgptError` naming the defect. :func:`dgpt_to_bytes` / :func:`write_dgpt` are the inverse. :func:`load_dgpt` and
-:func:`save_dgpt` are thin path wrappers (the error names the file; the save is atomic);
-:func:`load_dgpt` reads only a regular file of at most :data:`MAX_DGPT_BYTES` (a FIFO, a
-device or a huge file is refused without blocking or reading it).
+:class:`DgptError` naming the defect. :func:`dgpt_to_bytes` / :func:`write_dgpt` are the
+inverse. :func:`load_dgpt` and :func:`save_dgpt` are thin path wrappers (the error names the
+file; the save is atomic); :func:`load_dgpt` reads only a regular file of at most
+:data:`MAX_DGPT_BYTES` (a FIFO, a device or a huge file is refused without blocking or
+reading it).
 """
 
 from __future__ import annotations
