@@ -17,7 +17,9 @@ avoid the collision within its envelope. ``--irl`` adds the IRL controllers (eac
 table is learned from its manual trips of the population seed first, as ``pacc study
 --population`` does: about 10 s per driver, cached). ``--workers N`` runs one driver's
 drives per task in N processes (default: the machine's cores); ``--csv`` writes every
-drive's row as it finishes, so a long grid that is stopped keeps what it ran.
+drive's row as it finishes, so a long grid that is stopped keeps what it ran. ``TOR`` counts
+the ECU's takeover requests at its limit (ACC_Command TakeoverRequest while engaged: the
+braking needed exceeds what the ACC may command, :func:`ecu.cycle.stops.beyond_authority`).
 """
 
 from __future__ import annotations
@@ -77,6 +79,7 @@ def _drive(
         "below_override": s.below_override_s,
         "below_cut_in": s.below_cut_in_s,
         "poi": r.metrics.poi_pct,
+        "tor": r.limit_requests,
         "events": len([e for e in r.road_events if e[2] is not None]),
     }
 
@@ -185,7 +188,7 @@ def _report(rows: list[dict[str, Any]]) -> None:
     head = (
         f"{'controller':14s} {'kind':9s} {'drives':>6s} {'coll':>4s} {'minTTC':>7s} "
         f"{'own':>6s} {'min gap':>7s} {'<2s ACC':>8s} {'<2s acc-press':>13s} "
-        f"{'<2s cut-in':>10s} {'PoI %':>6s}"
+        f"{'<2s cut-in':>10s} {'TOR':>4s} {'PoI %':>6s}"
     )
     print(head)
     for (controller, kind), rs in sorted(groups.items()):
@@ -195,13 +198,14 @@ def _report(rows: list[dict[str, Any]]) -> None:
             f"{min(r['min_gap'] for r in rs):7.2f} {sum(r['below_own'] for r in rs):8.2f} "
             f"{sum(r['below_override'] for r in rs):13.2f} "
             f"{sum(r['below_cut_in'] for r in rs):10.2f} "
+            f"{sum(r['tor'] for r in rs):4d} "
             f"{_mean_poi(rs):6.1f}"
         )
     _drives(
         [r for r in rows if r["collision"] or r["below_own"] > 0.0],
         f"\n{{}} drives collided or fell below {TTC_LIMIT_S} s TTC outside a press:",
         "collision {collision}, min TTC {min_ttc_own:.2f} s, {below_own:.2f} s below, "
-        "min gap {min_gap:.2f} m",
+        "min gap {min_gap:.2f} m, takeover requests {tor}",
     )
     _drives(
         [r for r in rows if r["below_override"] > 0.0],

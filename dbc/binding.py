@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from dbc import DATA_DIR
 from dbc.checksums import KINDS
 from dbc.errors import BindingError
 from dbc.schema import OPTIONAL_ROLES, REQUIRED_ROLES, ROLES
@@ -278,6 +279,17 @@ def parse_binding(raw: dict[str, Any], where: str, path: Path | None = None) -> 
     return Binding(dbc=dbc, roles=roles, path=path)
 
 
+def binding_file(name: str | Path) -> Path:
+    """The binding file ``name`` gives: a path, or where no such file exists a packaged
+    binding's name (``toyota_nodsu``: ``dbc/bindings/toyota_nodsu.binding.toml`` of the
+    installed package, from any folder)."""
+    path = Path(name)
+    packaged = DATA_DIR / "bindings" / f"{path.name}.binding.toml"
+    if str(name) == path.name and not path.exists() and packaged.is_file():
+        return packaged
+    return path
+
+
 def load_binding(path: str | Path) -> Binding:
     """Read a binding table from TOML; raise :class:`BindingError` with the reason."""
     path = Path(path)
@@ -287,6 +299,8 @@ def load_binding(path: str | Path) -> Binding:
         raise BindingError(f"cannot read binding {path}: {exc.strerror or exc}") from exc
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise BindingError(f"binding {path} is not valid TOML: {exc}") from exc
+    except RecursionError:  # arrays or tables nested beyond the parser's stack
+        raise BindingError(f"binding {path} is not valid TOML: nested too deep") from None
     return parse_binding(raw, str(path), path)
 
 

@@ -21,6 +21,7 @@ from typing import Any
 
 from dbc import BINDING_PATH, DBC_PATH
 from dbc.binding import Binding, check_against, load_binding
+from dbc.binding import binding_file as packaged_binding
 from dbc.errors import (
     BindingError,
     CodecError,
@@ -33,7 +34,7 @@ from dbc.errors import (
     UnknownFrameError,
 )
 from dbc.message import Decoded, MessageCodec, Value
-from dbc.schema import ROLES
+from dbc.schema import ROLES, check_ranges
 
 __all__ = [
     "BindingError",
@@ -130,6 +131,7 @@ class Codec:
                 parts.append(mc)
             self.by_role[rb.role] = parts[0]
             self.roles[rb.role] = RoleCodec(rb.role, tuple(parts), rb.consts)
+        check_ranges(self.roles)
 
     def parts(self) -> list[MessageCodec]:
         """Every bound message, role by role."""
@@ -192,7 +194,7 @@ def network_paths(
                 "that network's messages (docs/vehicles.md)"
             )
         return DBC_PATH, BINDING_PATH
-    binding_file = Path(binding_path).resolve()
+    binding_file = packaged_binding(binding_path).resolve()
     named = load_binding(binding_file).dbc
     if dbc_path is None:
         if not named:

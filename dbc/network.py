@@ -22,7 +22,8 @@ def add_network_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument(
         "--binding",
         metavar="FILE",
-        help="binding table of pacc's roles to the DBC (TOML; alone: the DBC it names)",
+        help="binding table of pacc's roles to the DBC (TOML; alone: the DBC it names), or "
+        "a packaged binding's name: toyota_nodsu",
     )
 
 

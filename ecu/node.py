@@ -19,6 +19,9 @@ Safety behaviour:
 - an invalid input (stale, failed E2E, flagged invalid or non-finite) while ACTIVE or
   OVERRIDE goes to FAULT: the request ramps to zero within the jerk limit while
   ``request_active`` stays 1, then goes inactive; ``takeover_request`` is set in FAULT;
+- engaged (ACTIVE or OVERRIDE), ``takeover_request`` is also set while the braking needed
+  exceeds what the ACC may command (:func:`ecu.cycle.stops.beyond_authority`), as a
+  production ACC asks at its limit; each such request is counted (``limit_requests``);
 - every emitted request is inside the envelope and rate-limited, active or not;
 - outside ACTIVE (and the FAULT ramp) the request is inactive;
 - a FAULT forgets the set speed: only SET re-engages afterwards (RESUME has nothing to
@@ -107,6 +110,9 @@ class EcuNode:
         #: FAULT entries by the input that caused them
         self.faults: Counter[FaultCode] = Counter()
         self.takeovers = 0
+        #: takeover requests because the braking needed exceeded the ACC's (their onsets)
+        self.limit_requests = 0
+        self._beyond = False
         self._control_mem = ControlMemory()
         self._fault_ramp = False
         self._last_now: float | None = None
@@ -286,6 +292,10 @@ class EcuNode:
         if command.ramp_done:
             self._fault_ramp = False
             events.append("fault ramp complete: request inactive")
+        if command.beyond_limit and not self._beyond:
+            self.limit_requests += 1
+            events.append("takeover request: the braking needed exceeds the ACC's")
+        self._beyond = command.beyond_limit
         return command
 
     def _track_takeover(

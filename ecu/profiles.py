@@ -2,8 +2,11 @@
 
 ``n > 0`` loads ``profile_dir/profile_<n>.json``; an invalid file is refused (the node keeps
 its last good table and reports FaultCode PROFILE), a missing one keeps the table; ``n = 0``
-(guest) returns to the table the node started with. File I/O happens here, at the edge,
-between two cycles; nothing here raises into the control loop.
+(guest) returns to the table the node started with. The file is read in a worker thread,
+never in the control cycle (a FIFO, a slow disk or a huge file cannot stall the command
+frames; :func:`dbc.vocab.dgpt_file.load_dgpt` reads only a bounded regular file): the node
+runs on its current table until the load's outcome is applied at a later cycle. Nothing here
+raises into the control loop.
 
 A table that arrives from elsewhere (the cloud's download thread) is *offered*
 (:class:`TableOffer`) and swapped in by the cycle itself, and only while :func:`may_swap`
@@ -67,6 +70,11 @@ class ProfileSwitcher:
         self.profile_dir = Path(profile_dir)
         self._guest_table = node.table
         self._profile_id: int | None = None
+        self._lock = threading.Lock()
+        # a load's outcome: (id, the table or _KEEP, or None for a refusal; the event text)
+        self._done: tuple[int, Dgpt | None, str] | None = None
+        #: the latest load's worker thread (None: none started)
+        self.loading: threading.Thread | None = None
 
     @property
     def selected(self) -> int | None:
@@ -74,40 +82,50 @@ class ProfileSwitcher:
         return self._profile_id
 
     def request(self, profile_id: int | None) -> None:
-        """The HMI asks for ``profile_id`` (None: no valid HMI, nothing changes)."""
+        """The HMI asks for ``profile_id`` (None: no valid HMI, nothing changes); the finished
+        load of the selected profile is applied now (an older selection's is dropped)."""
+        with self._lock:
+            done, self._done = self._done, None
+        if done is not None and done[0] == self._profile_id:
+            _, table, message = done
+            if table is None:
+                self.node.report_profile_fault(message)
+            else:  # the loaded table, or the node's own (a missing file clears the fault)
+                self.node.set_table(table if table is not _KEEP else self.node.table, message)
         if profile_id is not None and profile_id != self._profile_id:
-            self._switch(profile_id)
+            self._profile_id = profile_id
+            if profile_id != GUEST_PROFILE:
+                self.loading = threading.Thread(
+                    target=self._load, args=(profile_id,), name="profile-load", daemon=True
+                )
+                self.loading.start()
+            elif self.node.table is not self._guest_table:
+                self.node.set_table(self._guest_table, "profile 0 (guest): startup table")
 
-    def _switch(self, profile_id: int) -> None:
-        """Load driver profile ``profile_id`` (never raises)."""
-        self._profile_id = profile_id
-        node = self.node
-        if profile_id == GUEST_PROFILE:
-            if node.table is not self._guest_table:
-                node.set_table(self._guest_table, "profile 0 (guest): startup table")
-            return
+    def _load(self, profile_id: int) -> None:
+        """Worker thread: read profile ``profile_id``; its outcome waits for the cycle."""
         path = profile_path(self.profile_dir, profile_id)
-        keeping = f"keeping the last good DGPT ({node.table.driver_id} v{node.table.version})"
+        current = self.node.table
+        keeping = f"keeping the last good DGPT ({current.driver_id} v{current.version})"
+        table: Dgpt | None = _KEEP
         try:
-            missing = not path.exists()
+            if not path.exists():
+                message = f"profile {profile_id}: no {path}, keeping DGPT v{current.version}"
+            else:
+                table = load_dgpt(path, self.node.config.bounds)
+                message = f"profile {profile_id}: {table.driver_id} {table.source} v{table.version}"
         except OSError as exc:  # e.g. EACCES, ENAMETOOLONG: not "missing", unusable
-            node.report_profile_fault(
-                f"profile {profile_id} refused: {path}: {exc.strerror or exc}; {keeping}"
-            )
-            return
-        if missing:
-            node.set_table(
-                node.table, f"profile {profile_id}: no {path}, keeping DGPT v{node.table.version}"
-            )
-            return
-        try:
-            table = load_dgpt(path, node.config.bounds)
+            table = None
+            message = f"profile {profile_id} refused: {path}: {exc.strerror or exc}; {keeping}"
         except DgptError as exc:
-            node.report_profile_fault(f"profile {profile_id} refused: {exc}; {keeping}")
-            return
-        node.set_table(
-            table, f"profile {profile_id}: {table.driver_id} {table.source} v{table.version}"
-        )
+            table = None
+            message = f"profile {profile_id} refused: {exc}; {keeping}"
+        with self._lock:
+            self._done = (profile_id, table, message)
+
+
+#: a load's outcome "keep the node's table" (the profile's file does not exist)
+_KEEP = predefined(1.0)
 
 
 def may_swap(state: AccState) -> bool:

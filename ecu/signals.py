@@ -74,7 +74,8 @@ class NodeOutputs:
         accel_request_mps2: requested acceleration, m/s^2 (always within the envelope).
         request_active: the powertrain shall execute the request.
         acc_state: AccState code.
-        takeover_request: the driver must take over (FAULT).
+        takeover_request: the driver must take over (FAULT, or engaged with the braking
+            needed beyond what the ACC may command).
         desired_gap_m: DGPT at the current speed, m.
         dgpt_version: version of the table in use.
         adaptation_count: adaptations applied so far.

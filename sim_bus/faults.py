@@ -18,6 +18,7 @@ one role merge; window kinds may repeat. Random decisions use the drive's seeded
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -80,8 +81,8 @@ def _window(value: str, clause: str) -> tuple[float, float]:
         raise FaultSpecError(
             f"{clause!r}: a window is START-END in seconds, got {value!r}"
         ) from None
-    if not (0 <= a < b):
-        raise FaultSpecError(f"{clause!r}: window needs 0 <= START < END, got {value!r}")
+    if not (0 <= a < b < math.inf):
+        raise FaultSpecError(f"{clause!r}: window needs finite 0 <= START < END, got {value!r}")
     return a, b
 
 

@@ -82,10 +82,7 @@ VCAN = "no SocketCAN in CI; the same options on a virtual bus: "
 HIL = "a person at a browser page; a scripted participant in headless chromium: "
 SERVER = "a server on a fixed port; tests/cloud_sync/test_cloud_api.py serves the app on an ephemeral one"
 DASK = "needs a Dask cluster; tests/cloud_sync/test_engine.py runs a LocalCluster"
-TOYOTA_DRIVE = (
-    "pacc drive --dbc toyota_nodsu_pt_generated.dbc --binding "
-    "dbc/bindings/toyota_nodsu.binding.toml"
-)
+TOYOTA_DRIVE = "pacc drive --dbc toyota_nodsu_pt_generated.dbc --binding toyota_nodsu"
 
 PLUGIN_DRIVE = (
     "pacc drive --controller irl+oa --adaptation bayes --gap-controller "
@@ -441,10 +438,10 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
         ],
     ),
     "docs/vehicles.md": (
-        ["ln -s {root}/dbc dbc"],
+        ["ln -s {root}/tools tools"],  # the checkout's script, run by its path
         [
             skip(
-                "pacc drive --binding dbc/bindings/toyota_nodsu.binding.toml --dbc "
+                "pacc drive --binding toyota_nodsu --dbc "
                 "toyota_nodsu_pt_generated.dbc",
                 "the same drive as the recipe below, run there",
             ),
@@ -456,7 +453,7 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
             ),
             skip("pip install opendbc", "the network; opendbc is a dev dependency"),
             run(
-                "python -m tools.opendbc_toyota -o toyota_nodsu_pt_generated.dbc",
+                "python tools/opendbc_toyota.py -o toyota_nodsu_pt_generated.dbc",
                 r"toyota_nodsu_pt_generated\.dbc",
             ),
             short(

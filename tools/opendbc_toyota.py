@@ -8,9 +8,8 @@ installed wheel (``pip install opendbc``) and writes one DBC that cantools loads
 binding for it is ``dbc/bindings/toyota_nodsu.binding.toml`` (docs/vehicles.md). The DBC is
 not vendored in pacc: it is opendbc's work, rebuilt from the wheel on demand.
 
-    python -m tools.opendbc_toyota -o toyota_nodsu_pt_generated.dbc
-    pacc drive --dbc toyota_nodsu_pt_generated.dbc \\
-        --binding dbc/bindings/toyota_nodsu.binding.toml
+    python tools/opendbc_toyota.py -o toyota_nodsu_pt_generated.dbc   # by its path, any folder
+    pacc drive --dbc toyota_nodsu_pt_generated.dbc --binding toyota_nodsu
 
 Exit status: 0 written, 2 opendbc not installed or the part not found.
 """
@@ -71,7 +70,7 @@ def assemble(top: str = DEFAULT_PART, folder: Path | None = None) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status."""
-    p = argparse.ArgumentParser(prog="python -m tools.opendbc_toyota", description=__doc__)
+    p = argparse.ArgumentParser(prog="python tools/opendbc_toyota.py", description=__doc__)
     p.add_argument("--part", default=DEFAULT_PART, help=f"top part (default {DEFAULT_PART})")
     p.add_argument("-o", "--out", type=Path, help="output DBC (default PART_generated.dbc)")
     args = p.parse_args(argv)

@@ -89,7 +89,9 @@ class ProfileDownloader:
         return self.cache_dir / driver_id / f"{condition}.signed.json"
 
     def last_good(self, driver_id: str, condition: str = "default") -> Dgpt | None:
-        """The cached table, verified again (a tampered cache is refused: None)."""
+        """The cached table, verified again (a tampered cache is refused: None), and only if
+        it is for ``driver_id`` in ``condition``: a signature proves who signed a table, not
+        whom it is for (another driver's signed table copied here is refused)."""
         path = self.cache_path(driver_id, condition)
         try:
             data = path.read_bytes()
@@ -99,10 +101,17 @@ class ProfileDownloader:
             self._refuse(f"cached table {path} unreadable: {exc.strerror or exc}")
             return None
         try:
-            return verify_dgpt(data, self.public_key, self.bounds)
+            table = verify_dgpt(data, self.public_key, self.bounds)
         except SignatureError as exc:
             self._refuse(f"cached table {path}: {exc}")
             return None
+        if (table.driver_id, table.condition) != (driver_id, condition):
+            self._refuse(
+                f"cached table {path} is {table.driver_id}/{table.condition}'s, "
+                f"not {driver_id}/{condition}'s"
+            )
+            return None
+        return table
 
     def fetch(self, driver_id: str, condition: str = "default") -> Dgpt | None:
         """Download, verify and cache the newest table; None if there is nothing new to use.

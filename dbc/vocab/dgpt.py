@@ -14,6 +14,7 @@ A table is valid by construction: the shapes, the axis, finite values and every 
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from typing import Any, Literal, cast, get_args, overload
@@ -24,6 +25,11 @@ import numpy.typing as npt
 from dbc.vocab import FormatError
 
 FORMAT_TAG = "pacc.dgpt/1"
+#: the highest table version: ACC_Status carries it in 16 bits (DgptVersion, dbc/pacc.dbc)
+MAX_VERSION = 0xFFFF
+#: a driver id or condition: 1-64 letters, digits, ``_ . -``, starting with a letter or
+#: digit (they name folders in the cloud's store and on the vehicle: never ``..`` or ``/``)
+PLAIN_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 #: Upper end of the speed axis, m/s.
 AXIS_MAX_MPS = 40.0
 #: Coarsest allowed speed-axis step, m/s.
@@ -169,9 +175,10 @@ class Dgpt:
     Attributes:
         speed_mps: uniform speed axis, shape ``(n,)``, 0..40 m/s, step <= 0.5 m/s.
         gap_m: desired bumper-to-bumper gap per speed bin, shape ``(n,)``, metres.
-        version: incremented by every change (:meth:`with_gaps`), >= 0.
-        driver_id: whose preference this is.
-        condition: driving-condition tag (weather/traffic/road), e.g. ``"default"``.
+        version: incremented by every change (:meth:`with_gaps`), 0 to :data:`MAX_VERSION`.
+        driver_id: whose preference this is (a :data:`PLAIN_NAME` in a file).
+        condition: driving-condition tag (weather/traffic/road), e.g. ``"default"`` (plain
+            in a file).
         source: ``"predefined"``, ``"irl"`` or ``"adapted"``.
         created_utc: ISO 8601 creation time.
         meta: free-form JSON-serialisable metadata.
@@ -192,8 +199,8 @@ class Dgpt:
         _check_structure(speed, gap)
         if isinstance(self.version, bool) or not isinstance(self.version, int | np.integer):
             raise DgptError(f"version must be an integer, got {self.version!r}")
-        if self.version < 0:
-            raise DgptError(f"version must be >= 0, got {self.version}")
+        if not 0 <= self.version <= MAX_VERSION:
+            raise DgptError(f"version must be 0 to {MAX_VERSION}, got {self.version}")
         if self.source not in _SOURCES:
             raise DgptError(f"source must be one of {_SOURCES}, got {self.source!r}")
         for name in ("driver_id", "condition", "created_utc"):
@@ -332,6 +339,8 @@ def predefined(
 __all__ = [
     "Dgpt",
     "DgptError",
+    "MAX_VERSION",
+    "PLAIN_NAME",
     "SafetyBounds",
     "check_bounds",
     "clamp_to_bounds",

@@ -7,23 +7,30 @@ A table (:class:`dbc.vocab.dgpt.Dgpt`) is stored as::
      "speed_mps": [0.0, 0.5, ...], "gap_m": [4.0, 4.6, ...], "meta": {...}}
 
 :func:`dgpt_from_bytes` (and :func:`read_dgpt` on a binary stream) validates the format tag,
-the keys, the shapes, the axis, that every value is finite and that every gap lies within
-:class:`dbc.vocab.dgpt.SafetyBounds`; anything else raises :class:`DgptError` naming the
-defect. :func:`dgpt_to_bytes` / :func:`write_dgpt` are the inverse. :func:`load_dgpt` and
-:func:`save_dgpt` are thin path wrappers (the error names the file; the save is atomic).
+the keys, the shapes, the axis, plain driver and condition names, that every value is finite
+and that every gap lies within :class:`dbc.vocab.dgpt.SafetyBounds`; anything else raises
+:class:`DgptError` naming the defect. :func:`dgpt_to_bytes` / :func:`write_dgpt` are the
+inverse. :func:`load_dgpt` and :func:`save_dgpt` are thin path wrappers (the error names the
+file; the save is atomic); :func:`load_dgpt` reads only a regular file of at most
+:data:`MAX_DGPT_BYTES` (a FIFO, a device or a huge file is refused without blocking or
+reading it).
 """
 
 from __future__ import annotations
 
 import json
 import os
+import stat
 import tempfile
 from pathlib import Path
 from typing import IO, Any
 
 import numpy as np
 
-from dbc.vocab.dgpt import FORMAT_TAG, Dgpt, DgptError, SafetyBounds
+from dbc.vocab.dgpt import FORMAT_TAG, PLAIN_NAME, Dgpt, DgptError, SafetyBounds
+
+#: the largest DGPT file read, bytes (a 0.5 m/s table is about 4 KB)
+MAX_DGPT_BYTES = 1 << 20
 
 
 def dgpt_from_json_dict(obj: Any, bounds: SafetyBounds | None = None) -> Dgpt:
@@ -57,6 +64,12 @@ def dgpt_from_json_dict(obj: Any, bounds: SafetyBounds | None = None) -> Dgpt:
         created_utc=obj.get("created_utc", ""),
         meta=obj.get("meta", {}),
     )
+    for name in ("driver_id", "condition"):  # they name folders and are printed
+        if PLAIN_NAME.fullmatch(getattr(table, name)) is None:
+            raise DgptError(
+                f"{name} {getattr(table, name)!a} is not a plain name (1-64 letters, digits, "
+                "_.-, starting with a letter or digit)"
+            )
     table.check_bounds(bounds)
     return table
 
@@ -90,12 +103,20 @@ def write_dgpt(table: Dgpt, stream: IO[bytes]) -> None:
 
 
 def load_dgpt(path: str | os.PathLike[str], bounds: SafetyBounds | None = None) -> Dgpt:
-    """Read and validate a DGPT JSON file; :class:`DgptError` names the file and the defect."""
+    """Read and validate a DGPT JSON file; :class:`DgptError` names the file and the defect
+    (also for anything but a regular file of at most :data:`MAX_DGPT_BYTES`)."""
     p = Path(path)
     try:
-        raw = p.read_bytes()
+        fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK)  # a FIFO must not block the open
+        with os.fdopen(fd, "rb") as fh:
+            st = os.fstat(fd)
+            if not stat.S_ISREG(st.st_mode):
+                raise DgptError(f"{p}: not a regular file")
+            raw = fh.read(MAX_DGPT_BYTES + 1)
     except OSError as exc:
         raise DgptError(f"{p}: cannot read: {exc.strerror or exc}") from None
+    if len(raw) > MAX_DGPT_BYTES:
+        raise DgptError(f"{p}: larger than {MAX_DGPT_BYTES} bytes")
     try:
         return dgpt_from_bytes(raw, bounds)
     except DgptError as exc:
@@ -120,6 +141,7 @@ def save_dgpt(table: Dgpt, path: str | os.PathLike[str]) -> None:
 
 
 __all__ = [
+    "MAX_DGPT_BYTES",
     "dgpt_from_bytes",
     "dgpt_from_json_dict",
     "dgpt_to_bytes",

@@ -19,7 +19,13 @@ from dbc.vocab.acc_state import AccState
 from ecu.config import EcuConfig
 from ecu.controller import ControlInput, desired_accel, limit_command, time_to_collision_s
 from ecu.cycle.road import RoadMemory, road_limit, road_update
-from ecu.cycle.stops import URGENT_STOP_MPS2, closing_needs_mps2, lead_stop_need_mps2, stop_limit
+from ecu.cycle.stops import (
+    URGENT_STOP_MPS2,
+    beyond_authority,
+    closing_needs_mps2,
+    lead_stop_need_mps2,
+    stop_limit,
+)
 from ecu.signals import NodeInputs, Plan, cycle_value
 
 #: a gap law through the plug-in interface: ``(obs, memory, dt_s) -> (accel_mps2, memory)``
@@ -49,12 +55,15 @@ class Command:
         active: the powertrain shall execute it.
         emergency: the emergency jerk exception was in force.
         ramp_done: the FAULT ramp reached zero this cycle (the request goes inactive).
+        beyond_limit: engaged, the braking needed exceeds what the ACC may command
+            (:func:`ecu.cycle.stops.beyond_authority`): the driver must take over.
     """
 
     accel_mps2: float
     active: bool
     emergency: bool = False
     ramp_done: bool = False
+    beyond_limit: bool = False
 
 
 def control(
@@ -100,8 +109,10 @@ def control(
         resume=resume,
     )
     integral0 = 0.0 if switched else mem.integral_m_s
+    lead_a = inp.lead_accel_mps2 if inp.lead_accel_valid else 0.0
+    engaged = active or state is AccState.OVERRIDE
+    beyond = engaged and beyond_authority(config, inp, p, lead_a)
     if active:
-        lead_a = inp.lead_accel_mps2 if inp.lead_accel_valid else 0.0
         obs = ControlInput(  # positional fields, as in check_inputs
             p.v_mps,  # v_mps
             inp.a_mps2,  # a_mps2
@@ -139,15 +150,15 @@ def control(
         target = road_limit(ctl.road, road, target, prev, inp.lead_valid)
         emergency = (ttc < ctl.emergency_ttc_s or urgent) and target < prev
         accel = limit_command(ctl, prev, target, dt_s, emergency=emergency)
-        command = Command(accel, True, emergency)  # accel_mps2, active, emergency
+        # accel_mps2, active, emergency, ramp_done, beyond_limit
+        command = Command(accel, True, emergency, False, beyond)
         return command, ControlMemory(integral, accel, road)
     rest = 0.0
     ttc = time_to_collision_s(inp.lead_valid, inp.gap_m, inp.rel_speed_mps)
     prepare = math.inf  # what the ACC would ask for behind a hard-braking or fast-closed lead
     if state is AccState.OVERRIDE and inp.lead_valid:
-        a_f = inp.lead_accel_mps2 if inp.lead_accel_valid else 0.0
-        alone, limit = closing_needs_mps2(config, inp, p, a_f)
-        prepare = lead_stop_need_mps2(config, inp, p, a_f)
+        alone, limit = closing_needs_mps2(config, inp, p, lead_a)
+        prepare = lead_stop_need_mps2(config, inp, p, lead_a)
         prepare = limit if alone < URGENT_STOP_MPS2 and prepare > limit else prepare
     if (
         state is AccState.OVERRIDE
@@ -170,8 +181,8 @@ def control(
     accel = limit_command(ctl, prev, rest, dt_s, emergency=urgent)
     ramping = state is AccState.FAULT and fault_ramp
     active = ramping and accel != 0.0
-    # accel_mps2, active, emergency, ramp_done
-    command = Command(accel, active, urgent, ramping and not active)
+    # accel_mps2, active, emergency, ramp_done, beyond_limit
+    command = Command(accel, active, urgent, ramping and not active, beyond)
     return command, ControlMemory(integral0, accel, road)
 
 

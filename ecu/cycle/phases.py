@@ -238,7 +238,7 @@ def outputs(
         command.accel_mps2,  # accel_request_mps2
         command.active,  # request_active
         state,  # acc_state
-        state is AccState.FAULT,  # takeover_request
+        state is AccState.FAULT or command.beyond_limit,  # takeover_request
         gap if math.isfinite(gap) else 0.0,  # desired_gap_m
         table.version,  # dgpt_version
         adaptation_count,  # adaptation_count

@@ -23,6 +23,12 @@ STANDING_LEAD_MPS = 0.3
 #: (g0 3.3 m, a 2.9 m/s^2, population seed 690274); 1.0 s keeps 2 s down to g0 = 2 m at 3.5
 STOP_SPARE_S = 1.0
 CREEP_MPS = 1.5
+#: the time the ACC's braking takes to build (the jerk-limited ramp and the powertrain's lag),
+#: s: the gap closed meanwhile is gone before the braking acts. Traced on a fresh population
+#: seed (854026, driver 6, cut-out, road seed 629805): an accelerator press as a cut-out
+#: revealed a car 10 m/s slower 31 m ahead; released at 2.2 s TTC, the ACC's -3.5 m/s^2
+#: built over 0.6 s and TTC fell to 1.72 s until the driver braked
+BRAKE_BUILD_S = 0.5
 
 
 def _standstill_gap_m(config: EcuConfig, p: Plan) -> float:
@@ -64,6 +70,24 @@ def closing_needs_mps2(
     return alone, closing_limit_mps2(inp.gap_m, inp.rel_speed_mps, lead_accel_mps2, floor)
 
 
+def beyond_authority(config: EcuConfig, inp: NodeInputs, p: Plan, lead_accel_mps2: float) -> bool:
+    """True when the braking needed exceeds what the ACC may command (a takeover request, as
+    a production ACC gives at its limit). Needed to keep the safety bound's standstill gap
+    (2 m) after ``BRAKE_BUILD_S`` at the current closing speed: matching the lead's speed,
+    and behind a braking lead stopping behind where it would come to rest; the harder of
+    the two beyond the envelope's ``accel_min_mps2``. (Matching against the bound at the
+    lead's speed asked for takeovers at 5 to 7 s TTC behind leads braking at 1 to 3 m/s^2.)"""
+    if not inp.lead_valid or not inp.rel_speed_mps < 0.0:
+        return False
+    v_lead = p.v_mps + inp.rel_speed_mps
+    gap = inp.gap_m + inp.rel_speed_mps * BRAKE_BUILD_S
+    keep = config.bounds.lower_m(0.0)
+    match = closing_limit_mps2(gap, inp.rel_speed_mps, 0.0, keep)
+    stop = stopping_limit_mps2(p.v_mps, gap, v_lead, lead_accel_mps2, keep)
+    lo = config.controller.accel_min_mps2
+    return match < lo or stop < lo
+
+
 def stop_limit(
     config: EcuConfig, inp: NodeInputs, p: Plan, lead_accel_mps2: float, need_mps2: float
 ) -> float:
@@ -97,10 +121,12 @@ def stop_limit(
 
 
 __all__ = [
+    "BRAKE_BUILD_S",
     "CREEP_MPS",
     "STANDING_LEAD_MPS",
     "STOP_SPARE_S",
     "URGENT_STOP_MPS2",
+    "beyond_authority",
     "closing_needs_mps2",
     "lead_stop_need_mps2",
     "stop_limit",

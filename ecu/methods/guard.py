@@ -94,25 +94,31 @@ class GuardedController:
     def __call__(self, obs: ControlInput, memory: float, dt_s: float) -> tuple[float, float]:
         report = self.report
         report.calls += 1
-        if not self.disabled:
-            start = time.perf_counter()
-            try:
-                out = self._call(obs, memory, dt_s)
-            except Exception as exc:  # noqa: BLE001 - any plug-in failure means the safe output
-                report.fault("raised", f"{type(exc).__name__}: {exc}")
-            else:
-                elapsed = time.perf_counter() - start
-                if elapsed > self.budget_s and self._late_call(elapsed):
-                    self._overrun(elapsed)
-                else:
-                    if elapsed <= self.budget_s:
-                        self._late = 0
-                    checked = _checked_pair(out)
-                    if checked is not None:
-                        return checked
-                    report.fault("non_finite" if _is_pair(out) else "bad_output", repr(out)[:80])
-        else:
+        if self.disabled:
             report.counts["disabled"] += 1
+        else:
+            start = time.perf_counter()
+            fault: tuple[str, str] | None = None
+            checked = None
+            try:  # the plug-in's numbers become plain floats inside the timed, guarded call
+                out = self._call(obs, memory, dt_s)
+                checked = _checked_pair(out)
+                if checked is None:
+                    fault = ("non_finite" if _is_pair(out) else "bad_output", repr(out)[:80])
+            except KeyboardInterrupt:
+                raise
+            except BaseException as exc:  # noqa: BLE001 - SystemExit too: the safe output
+                fault = ("raised", _describe(exc))
+            elapsed = time.perf_counter() - start
+            if elapsed > self.budget_s and self._late_call(elapsed):
+                self._overrun(elapsed)
+            else:
+                if elapsed <= self.budget_s:
+                    self._late = 0
+                if checked is not None:
+                    return checked
+                if fault is not None:
+                    report.fault(*fault)
         # the memory is the plug-in's: the PID reads it as its integral only inside its own
         # clamp (a plug-in's large memory would otherwise hold the PID on the cruise law)
         limit = self.fallback.integral_limit_m_s
@@ -133,6 +139,14 @@ class GuardedController:
             )
 
 
+def _describe(exc: BaseException) -> str:
+    """``Type: text`` of a plug-in's exception (its ``__str__`` is the plug-in's too)."""
+    try:
+        return f"{type(exc).__name__}: {exc}"[:200]
+    except Exception:  # noqa: BLE001
+        return type(exc).__name__
+
+
 def _is_pair(out: object) -> bool:
     return isinstance(out, tuple) and len(out) == 2
 
@@ -144,7 +158,7 @@ def _checked_pair(out: object) -> tuple[float, float] | None:
     assert isinstance(out, tuple)
     try:
         accel, memory = float(out[0]), float(out[1])
-    except Exception:  # noqa: BLE001 - a plug-in's number may raise anything (10**400: Overflow)
+    except (TypeError, ValueError, OverflowError):  # not numbers, or 10**400
         return None
     if math.isfinite(accel) and math.isfinite(memory):
         return accel, memory
@@ -175,28 +189,31 @@ class GuardedAdaptation:
         self.report.calls += 1
         refused = Decision(applied=False, reason=Reason.INVALID_INPUT)
         start = time.perf_counter()
-        try:
+        try:  # the result is checked inside the timed, guarded call
             new, decision = self.plugin.update(
                 table, takeover, bounds=bounds, short_run=short_run, created_utc=created_utc
             )
-        except Exception as exc:  # noqa: BLE001 - any plug-in failure means no change
-            self.report.fault("raised", f"{type(exc).__name__}: {exc}")
+            result = self._checked(table, new, decision, bounds)
+        except KeyboardInterrupt:
+            raise
+        except BaseException as exc:  # noqa: BLE001 - SystemExit too: no change
+            self.report.fault("raised", _describe(exc))
             return table, refused
         elapsed = time.perf_counter() - start
         if elapsed > self.budget_s:
             self.report.fault("overrun", f"{elapsed * 1e3:.1f} ms > {self.budget_s * 1e3:.1f} ms")
             return table, refused
+        return result
+
+    def _checked(
+        self, table: Dgpt, new: object, decision: object, bounds: SafetyBounds
+    ) -> tuple[Dgpt, Decision]:
+        refused = Decision(applied=False, reason=Reason.INVALID_INPUT)
         if not isinstance(decision, Decision):
-            self.report.fault("bad_output", f"decision {decision!r:.60}")
+            self.report.fault("bad_output", f"decision {type(decision).__name__}")
             return table, refused
         if new is None or not decision.applied:
             return table, decision if not decision.applied else refused
-        return self._checked(table, new, decision, bounds)
-
-    def _checked(
-        self, table: Dgpt, new: object, decision: Decision, bounds: SafetyBounds
-    ) -> tuple[Dgpt, Decision]:
-        refused = Decision(applied=False, reason=Reason.INVALID_INPUT)
         if not isinstance(new, Dgpt) or new.gap_m.shape != table.gap_m.shape:
             self.report.fault("bad_output", f"table {type(new).__name__}")
             return table, refused

@@ -2,7 +2,8 @@
 
 - :class:`CommandParser`: argparse with a one-line usage error.
 - :func:`add_bus_arguments` / :func:`bus_kwargs`: python-can's ``-i/--interface``,
-  ``-c/--channel``, ``-b/--bitrate`` (defined once; ``pacc ecu``, ``pacc sim``, ``pacc replay``).
+  ``-c/--channel``, ``-b/--bitrate`` (defined once; ``pacc ecu``, ``pacc sim``, ``pacc replay``);
+  :func:`bus_error`: a bus that cannot be opened, said with the way out.
 - :func:`number` / :func:`integer`: argparse types that refuse NaN, infinities and values out
   of a range with argparse's own usage error (exit 2, one line), so ``--quota-mb nan`` never
   reaches a library.
@@ -29,6 +30,7 @@ __all__ = [
     "check_writable_file",
     "error_line",
     "add_bus_arguments",
+    "bus_error",
     "bus_kwargs",
     "check_distinct_outputs",
     "integer",
@@ -71,6 +73,19 @@ def bus_kwargs(args: argparse.Namespace) -> dict[str, Any]:
         if value is not None:
             kwargs[name] = value
     return kwargs
+
+
+def bus_error(args: argparse.Namespace, exc: BaseException) -> str:
+    """``cannot open the CAN bus: ...`` for ``exc``; for SocketCAN with the way out where the
+    kernel has none (python-can-remote on loopback, docs/vehicles.md)."""
+    text = f"cannot open the CAN bus: {exc}"
+    if getattr(args, "interface", None) == "socketcan":
+        text += (
+            " (SocketCAN needs Linux with a can/vcan interface; without one, run pacc ecu and "
+            "pacc sim on python-can-remote: -i remote -c ws://127.0.0.1:54701/, "
+            "docs/vehicles.md)"
+        )
+    return text
 
 
 def _range_text(lo: float | None, hi: float | None, lo_open: bool) -> str:

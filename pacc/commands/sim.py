@@ -37,6 +37,7 @@ from ecu.buslog.writer import CanLogWriter
 from pacc.commands._args import (
     CommandParser,
     add_bus_arguments,
+    bus_error,
     bus_kwargs,
     check_distinct_outputs,
     integer,
@@ -185,7 +186,7 @@ def main(argv: list[str] | None = None) -> int:
         # only given flags are passed: a None bitrate would hide the one of ~/.canrc
         bus = can.Bus(**bus_kwargs(args))
     except (can.CanError, ValueError, OSError, ImportError) as exc:
-        print(f"pacc sim: error: cannot open the bus: {exc}", file=sys.stderr)
+        print(f"pacc sim: error: {bus_error(args, exc)}", file=sys.stderr)
         return 2
     world = World(driver, profile, args.seed)
     node = SimNode(

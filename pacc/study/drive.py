@@ -87,6 +87,8 @@ class DriveConfig:
     controller_args: tuple[tuple[str, Any], ...] = ()
     adaptation_method: str = ""
     adaptation_args: tuple[tuple[str, Any], ...] = ()
+    #: the driver drives by hand, the ACC never engaged (a manual drive's bus log)
+    manual: bool = False
 
 
 @dataclass(frozen=True)
@@ -121,6 +123,8 @@ class DriveResult:
     start_utc: str = ""
     #: the road scenario's events as played: (time s, kind, new gap m or None if skipped)
     road_events: list[tuple[float, str, float | None]] = field(default_factory=list)
+    #: the ECU's takeover requests at its braking limit (:attr:`ecu.node.EcuNode.limit_requests`)
+    limit_requests: int = 0
 
     def safety(self, threshold_s: float = 2.0) -> SafetyFigures:
         """The drive's time-to-collision exposure (:meth:`WorldLog.safety`), the time after a
@@ -203,7 +207,7 @@ def run_drive(
     faults = parse_faults(cfg.faults)
     codec = drive_codec(cfg)
     rng = fault_rng(cfg.seed)
-    world = World(driver, prof, cfg.seed, WorldConfig(engage_s=cfg.engage_s))
+    world = World(driver, prof, cfg.seed, WorldConfig(engage_s=cfg.engage_s), not cfg.manual)
     channel = record_channel or f"pacc-drive-{id(cfg):x}-{next(_channel_ids)}"
     ecu = _ecu_node(cfg, driver, table, prof, takeover_sink, manual_sink)
     sim_bus = _open_bus(bus, channel)
@@ -267,6 +271,7 @@ def run_drive(
         adaptation_events=events,
         start_utc=base.iso(0.0),
         road_events=list(world.events_log),
+        limit_requests=ecu.limit_requests,
         extra=_extra(ecu, can_log_error, interrupted_at),
     )
 

@@ -106,3 +106,20 @@ def test_a_signed_table_outside_the_vehicles_bounds_is_refused(
     assert dl.fetch("d1") is None
     assert "refused" in dl.report.refusals[-1]
     assert dl.last_good("d1") is None  # nothing was kept
+
+
+@pytest.mark.parametrize(("driver", "condition"), [("d3", "default"), ("d1", "wet")])
+def test_a_signed_table_in_another_drivers_or_conditions_cache_is_refused(
+    cloud: tuple[CloudService, LocalCloud], tmp_path: Path, driver: str, condition: str
+) -> None:
+    """d1's signed table copied to d3's (or to d1's wet) cache path: the signature holds, but
+    the table is not for that driver and condition; it is refused, not used."""
+    service, api = cloud
+    service.publish(table(2.0), [])
+    dl = downloader(api, service, tmp_path)
+    dl.fetch("d1")
+    other = dl.cache_path(driver, condition)
+    other.parent.mkdir(parents=True, exist_ok=True)
+    other.write_bytes(dl.cache_path("d1", "default").read_bytes())
+    assert dl.last_good(driver, condition) is None
+    assert f"not {driver}/{condition}'s" in dl.report.refusals[-1]

@@ -404,3 +404,43 @@ def test_help_path_imports_neither_python_can_nor_mcap() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+def test_a_profile_whose_driver_is_not_a_plain_name_is_refused(tmp_path: Path) -> None:
+    """A lone surrogate in the profile's driver id: refused with one line (no traceback when
+    the id is printed to a UTF-8 stdout), the ECU runs on the predefined table."""
+    bad = tmp_path / "bad.json"
+    text = json.dumps(predefined(1.5).to_json_dict()).replace('"guest"', '"d1\\ud800"')
+    bad.write_text(text)
+    proc = subprocess.run(
+        [sys.executable, "-m", "pacc", "ecu", "-i", "virtual", "-c", "s", "--duration", "0"]
+        + ["--profile", str(bad)],
+        env={**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])},
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert "profile refused" in proc.stderr and "not a plain name" in proc.stderr
+
+
+@pytest.mark.parametrize("option", ["--driver", "--condition"])
+def test_driver_and_condition_must_be_plain_names(
+    option: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = ["-i", "virtual", "-c", "x", "--duration", "0", option, "../../x"]
+    assert main(argv) == 2
+    assert f"{option} '../../x': not a plain name" in capsys.readouterr().err
+
+
+def test_missing_socketcan_points_to_the_remote_bus(capsys: pytest.CaptureFixture[str]) -> None:
+    try:
+        can.Bus(interface="socketcan", channel="vcan0").shutdown()
+        pytest.skip("this host has SocketCAN and vcan0")
+    except (OSError, can.CanError):
+        pass
+    assert main(["-i", "socketcan", "-c", "vcan0", "--duration", "0"]) == 1
+    err = capsys.readouterr().err
+    assert "cannot open the CAN bus" in err and "-i remote" in err and "docs/vehicles.md" in err

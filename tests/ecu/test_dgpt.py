@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import threading
 from pathlib import Path
 
@@ -13,7 +14,7 @@ from hypothesis import strategies as st
 
 from dbc.vocab import FormatError
 from dbc.vocab.dgpt import Dgpt, DgptError, SafetyBounds, clamp_to_bounds, predefined, speed_axis
-from dbc.vocab.dgpt_file import load_dgpt, save_dgpt
+from dbc.vocab.dgpt_file import MAX_DGPT_BYTES, load_dgpt, save_dgpt
 
 
 def test_predefined_paper_headways() -> None:
@@ -121,6 +122,11 @@ def _good() -> dict[str, object]:
         (lambda d: d["gap_m"].__setitem__(80, 500.0), "outside the safety bounds"),
         (lambda d: d.update(source="guess"), "source must be"),
         (lambda d: d.update(version=-1), "version"),
+        (lambda d: d.update(version=2**70), "version must be 0 to 65535"),
+        (lambda d: d.update(version=65536), "version must be 0 to 65535"),
+        (lambda d: d.update(driver_id="../../x"), "driver_id '../../x' is not a plain name"),
+        (lambda d: d.update(driver_id="d1\ud800"), r"driver_id 'd1\\ud800' is not a plain"),
+        (lambda d: d.update(condition="../x"), "condition '../x' is not a plain name"),
         (lambda d: d.update(gap_m=["a"] * 81), "list of numbers"),
     ],
 )
@@ -134,6 +140,23 @@ def test_invalid_files_refused_with_clear_message(
         load_dgpt(path)
     assert str(path) in str(info.value)
     assert isinstance(info.value, FormatError)
+
+
+def test_only_a_bounded_regular_file_is_read(tmp_path: Path) -> None:
+    """A FIFO (whose open would block), a device that never ends and a file over the size
+    limit are refused without being read."""
+    fifo = tmp_path / "fifo.json"
+    os.mkfifo(fifo)
+    zero = tmp_path / "zero.json"
+    zero.symlink_to("/dev/zero")
+    huge = tmp_path / "huge.json"
+    with huge.open("wb") as fh:
+        fh.truncate(MAX_DGPT_BYTES + 1)
+    for path, message in ((fifo, "not a regular file"), (zero, "not a regular file")):
+        with pytest.raises(DgptError, match=message):
+            load_dgpt(path)
+    with pytest.raises(DgptError, match="larger than"):
+        load_dgpt(huge)
 
 
 def test_unreadable_and_non_json(tmp_path: Path) -> None:

@@ -59,6 +59,39 @@ class HugeController:
         return 10**400, memory
 
 
+class ExitingController:
+    """Ends the process, if the guard let it."""
+
+    def desired_accel(self, obs: ControlInput, memory: float, dt_s: float) -> tuple[float, float]:
+        raise SystemExit(0)
+
+
+class SlowFloat:
+    """A number whose conversion to float takes 20 ms (the plug-in's time, not the ECU's)."""
+
+    def __float__(self) -> float:
+        time.sleep(0.02)
+        return 1.0
+
+
+class SlowNumberController:
+    """Returns a :class:`SlowFloat`."""
+
+    def desired_accel(self, obs: ControlInput, memory: float, dt_s: float) -> tuple[Any, float]:
+        return SlowFloat(), memory
+
+
+class ExitingNumberController:
+    """Returns a number whose conversion to float ends the process."""
+
+    class _Exit:
+        def __float__(self) -> float:
+            raise SystemExit(0)
+
+    def desired_accel(self, obs: ControlInput, memory: float, dt_s: float) -> tuple[Any, float]:
+        return self._Exit(), memory
+
+
 class WrongShapeController:
     """Returns a bare float."""
 
@@ -78,6 +111,8 @@ class BadAdaptation:
         done = Decision(applied=True, reason=Reason.APPLIED, bin_index=0)
         if self.kind == "raise":
             raise ValueError("bad adaptation")
+        if self.kind == "exit":
+            raise SystemExit(0)
         if self.kind == "nan":
             gaps = table.gap_m.copy()
             gaps[3] = math.nan
@@ -134,6 +169,9 @@ def test_the_builtins_through_the_interface_are_bit_identical() -> None:
         (f"{HERE}:WrongShapeController", "controller bad_output"),
         (f"{HERE}:HugeController", "controller non_finite"),
         (f"{HERE}:SleepyController", "controller overrun"),
+        (f"{HERE}:ExitingController", "controller raised"),
+        (f"{HERE}:ExitingNumberController", "controller raised"),
+        (f"{HERE}:SlowNumberController", "controller overrun"),
     ],
 )
 def test_a_faulty_controller_leaves_the_ecu_in_its_envelope_and_is_reported(
@@ -158,7 +196,7 @@ def test_the_nan_controller_alternates_with_wild_values_that_the_envelope_clips(
     assert node.plugin_faults["controller non_finite"] > 50
 
 
-@pytest.mark.parametrize("kind", ["raise", "nan", "shape"])
+@pytest.mark.parametrize("kind", ["raise", "exit", "nan", "shape"])
 def test_a_faulty_adaptation_keeps_the_table_and_is_reported(kind: str) -> None:
     node = EcuNode(
         EcuConfig(

@@ -579,3 +579,23 @@ def test_a_driver_override_behind_a_hard_braking_lead_prepares_the_braking() -> 
         cfg, AccState.OVERRIDE, calm, p, set_speed_mps=30.0, fault_ramp=False, mem=mem, dt_s=DT
     )
     assert cmd.accel_mps2 == pytest.approx(-0.5 + 2.5 * DT)
+
+
+def test_a_takeover_request_when_the_braking_needed_exceeds_the_accs() -> None:
+    """Following at 15 m/s, a cut-out reveals a car at 4 m/s 24 m ahead (the traced case:
+    population seed 854026, driver 6): matching its speed needs more than the ACC's
+    -3.5 m/s^2, so ACC_Command asks the driver to take over, once, and stops asking when
+    the car has it in hand; steady following never asks."""
+    node = EcuNode(EcuConfig(set_speed_mps=30.0), predefined(1.5))
+    loop = Loop(node, v=15.0, gap=26.5, v_lead=15.0)
+    loop.engage()
+    assert not loop.run(20.0).takeover_request
+    loop.gap, loop.v_lead = 24.0, 4.0
+    out = loop.run(DT)
+    assert out.takeover_request and out.acc_state is AccState.ACTIVE
+    assert node.limit_requests == 1
+    assert any("takeover request" in e for e in out.events)
+    loop.driver_accel = -7.0  # the driver brakes hard, then lets the ACC follow again
+    loop.run(2.0, brake_pressed=True, brake_pedal=0.8)
+    out = loop.run(5.0)
+    assert not out.takeover_request and node.limit_requests == 1

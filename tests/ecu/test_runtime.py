@@ -5,6 +5,8 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import json
+import os
+import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -60,17 +62,26 @@ class Bench:
         for bus in self.buses:
             bus.shutdown()
 
-    def run(self, seconds: float, **hmi: int) -> None:
-        """Advance ``seconds`` in 10 ms steps; HMI fields held at ``hmi`` meanwhile."""
+    def run(self, seconds: float, settle: bool = True, **hmi: int) -> list[float]:
+        """Advance ``seconds`` in 10 ms steps; HMI fields held at ``hmi`` meanwhile. With
+        ``settle`` a profile load started by a step ends before the next step (a lockstep
+        bench outruns the load's worker thread). The wall time of each step, s."""
         self.peers.set("hmi", **{"set": 0, "resume": 0, "cancel": 0, **hmi})
+        spent = []
         for _ in range(int(round(seconds / 0.01))):
             self.k += 1
             self.t = self.k * 0.01
             self.peers.send_due(self.t)
+            t0 = time.perf_counter()
             self.rt.advance_to(self.t)
+            spent.append(time.perf_counter() - t0)
+            loading = getattr(self.rt.profiles, "loading", None)
+            if settle and loading is not None:
+                loading.join(5.0)
             self._listen()
             if self.plant:
                 self._plant_step(0.01)
+        return spent
 
     def _listen(self) -> None:
         while (msg := self.listener.recv(0)) is not None:
@@ -379,6 +390,47 @@ def test_unusable_profile_directory_does_not_stop_the_loop(tmp_path: Path) -> No
         assert b.statuses[-1]["fault_code"] == 5
         assert b.statuses[-1]["desired_gap_m"] == pytest.approx(34.0, abs=0.05)
         assert any("profile 2 refused" in e for e in b.events)
+    finally:
+        b.close()
+
+
+def _hostile_profile(kind: str, path: Path) -> None:
+    if kind == "fifo":  # a reader of a FIFO blocks until a writer comes: one comes after 1 s
+        os.mkfifo(path)
+
+        def write() -> None:
+            try:
+                fd = os.open(path, os.O_WRONLY | os.O_NONBLOCK)  # ENXIO: nobody reads
+            except OSError:
+                return
+            os.write(fd, b"{}")
+            os.close(fd)
+
+        threading.Timer(1.0, write).start()
+    elif kind == "huge":
+        with path.open("wb") as fh:
+            fh.truncate(150 * 2**20)  # 150 MB (sparse)
+    else:
+        path.symlink_to("/dev/zero")
+
+
+@pytest.mark.parametrize("kind", ["fifo", "huge", "dev-zero"])
+def test_a_hostile_profile_never_stalls_the_command_frames(tmp_path: Path, kind: str) -> None:
+    """A profile that is a FIFO, a 150 MB file or /dev/zero, selected while ACTIVE: every
+    cycle runs on time on the current table (no step longer than two command periods), the
+    profile is refused with FaultCode Profile, and the ACC stays ACTIVE."""
+    _hostile_profile(kind, tmp_path / "profile_1.json")
+    b = Bench(profile_dir=tmp_path)
+    try:
+        b.peers.set("radar", gap_m=40.0)
+        b.engage()
+        n = len(b.commands)
+        spent = b.run(1.5, settle=False, profile_id=1)
+        assert max(spent) < 0.040
+        assert len(b.commands) - n == 75
+        assert b.node.state is AccState.ACTIVE
+        assert b.statuses[-1]["fault_code"] == 5
+        assert any("profile 1 refused" in e for e in b.events)
     finally:
         b.close()
 

@@ -95,7 +95,10 @@ def _check_commands(cmds: list[tuple[dict[str, Any], bool]]) -> None:
         if emergency:  # braking while ACTIVE, or an override's inactive preparation (docs/ecu.md)
             assert a <= prev_a + 1e-9
             assert state is AccState.ACTIVE or (state is AccState.OVERRIDE and not active)
-        assert bool(values["takeover_request"]) == (state is AccState.FAULT)
+        if state is AccState.FAULT:
+            assert values["takeover_request"]
+        elif values["takeover_request"]:  # engaged at the ACC's braking limit (docs/ecu.md)
+            assert state in (AccState.ACTIVE, AccState.OVERRIDE)
         if active and state is not AccState.ACTIVE:
             assert state is AccState.FAULT  # the ramp of an executed request
             assert prev_active and prev_state in (AccState.ACTIVE, AccState.FAULT)

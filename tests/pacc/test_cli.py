@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from dbc.vocab.triplog_file import read_trip
 from pacc import cli
 from pacc.cli import SUBCOMMANDS
 
@@ -126,3 +127,17 @@ def test_every_sub_command_runs_as_python_m_its_module(
         runpy.run_module(module, run_name="__main__", alter_sys=False)
     assert done.value.code == 0
     assert capsys.readouterr().out.startswith(f"usage: pacc {name}")
+
+
+def test_a_manual_drive_on_the_bus_gives_pacc_demos_its_demonstrations(tmp_path: Path) -> None:
+    """``pacc drive --manual --can-log``: the driver drives by hand on the bus (the ACC on,
+    never engaged), and ``pacc demos extract`` finds the manual car-following in that log."""
+    bus = tmp_path / "bus.mcap"
+    argv = ["drive", "--manual", "--scenario", "manual1", "--driver", "d2", "--seed", "1"]
+    assert cli.main([*argv, "--can-log", str(bus), "--duration", "60"]) == 0
+    assert (
+        cli.main(["demos", "extract", str(bus), "-o", str(tmp_path / "t"), "--driver", "d2"]) == 0
+    )
+    trips = [read_trip(p) for p in sorted((tmp_path / "t").glob("*.mcap"))]
+    assert trips and sum(float(t.t_s[-1] - t.t_s[0]) for t in trips) > 50.0
+    assert all(t.meta["mode"] == "manual" for t in trips)

@@ -234,4 +234,4 @@ def test_manual_drives_refuse_the_options_of_an_ecu(
     log = str(tmp_path / "m.mcap")
     for extra in (["--bus", "virtual"], ["--gap-controller", "pid"], ["--foxglove"]):
         assert cli.main(["drive", "--manual", "--log", log, *extra]) == 2, extra
-        assert "--manual has no ECU" in capsys.readouterr().err
+        assert "--manual drives the ACC off: drop" in capsys.readouterr().err

@@ -154,7 +154,7 @@ def test_sim_real_time_against_an_ecu_runtime(capsys: pytest.CaptureFixture[str]
 
 def test_sim_bad_bus(capsys: pytest.CaptureFixture[str]) -> None:
     assert cli.main(["-i", "no-such-interface", "-c", "x", "--duration", "1"]) == 2
-    assert "cannot open the bus" in capsys.readouterr().err
+    assert "cannot open the CAN bus" in capsys.readouterr().err
 
 
 def test_negative_seed_is_a_clear_error(capsys: pytest.CaptureFixture[str]) -> None:

@@ -49,6 +49,8 @@ def test_empty_spec_means_no_faults() -> None:
         ("radar:drop=x", "probability"),
         ("radar:dropout=5", "START-END"),
         ("radar:dropout=5-3", "START < END"),
+        ("radar:dropout=1e308-1e309", "finite 0 <= START < END"),
+        ("radar:freeze=inf-inf", "finite 0 <= START < END"),
         ("radar:delay=-1", "0..10"),
         ("radar:melt=1", "unknown fault kind"),
     ],

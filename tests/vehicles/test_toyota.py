@@ -9,6 +9,9 @@ wheel is not installed (it is a dev dependency on Python < 3.13).
 from __future__ import annotations
 
 import itertools
+import os
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +21,7 @@ import numpy as np
 import pytest
 
 from dbc import DATA_DIR
-from dbc.codec import Codec, CrcError, load_codec
+from dbc.codec import Codec, CrcError, load_codec, network_paths
 from dbc.e2e import E2EStatus
 from dbc.endpoint import Inbox, Outbox
 from dbc.errors import BindingError, DbcError
@@ -239,3 +242,23 @@ def test_pacc_drive_on_the_toyota_network(
     assert replay([str(tmp_path / "t.mcap"), "--ecu"]) == 0
     out = capsys.readouterr().out
     assert "identical to the recording (2000 of 2000)" in out and "E2E errors:     none" in out
+
+
+def test_the_recipe_works_from_any_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The assembly script by its path and ``--binding toyota_nodsu`` (the packaged
+    binding's name), run from a folder that is not the repository's."""
+    script = Path(__file__).resolve().parents[2] / "tools" / "opendbc_toyota.py"
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    done = subprocess.run(
+        [sys.executable, str(script), "-o", "toyota_nodsu_pt_generated.dbc"],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    monkeypatch.chdir(tmp_path)
+    dbc, binding = network_paths("toyota_nodsu_pt_generated.dbc", "toyota_nodsu")
+    assert binding == BINDING.resolve()
+    assert load_codec(dbc, binding).roles["ego"].parts[0].name == "SPEED"

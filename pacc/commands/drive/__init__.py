@@ -9,7 +9,9 @@
 
 prints PoI, NIM, min gap, min time-to-collision, RMS jerk, takeovers, adaptations and
 collisions. ``--manual`` drives the scenario by hand instead (ACC off, no bus: the driver's
-own pedals) and writes the trip to ``--log``: a demonstration for ``pacc cloud learn``.
+own pedals) and writes the trip to ``--log``: a demonstration for ``pacc cloud learn``;
+``--manual --can-log bus.mcap`` drives it by hand on the bus, the ECU on and never engaged:
+the bus log ``pacc demos extract`` turns into demonstrations.
 ``--manual-trips DIR`` writes what the ECU itself recorded of the driver's manual
 car-following during the drive (:class:`ecu.manual.ManualRecorder`). A drive
 is a pure function of (configuration, seed, shipped data): the ECU and
@@ -162,8 +164,8 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc drive``; returns the exit status."""
     args = parser(__doc__.split("\n\n")[0]).parse_args(argv)
     _check_options(args)
-    if args.manual:
-        return _manual(args)
+    if args.manual and (code := _manual(args)) is not None:
+        return code
     try:
         base = load_driver(args.driver)
         driver = with_condition(base, args.condition_factor * CONDITION_FACTORS[args.condition])
@@ -183,6 +185,7 @@ def main(argv: list[str] | None = None) -> int:
             binding=args.binding,
             gap_controller=args.gap_controller,
             adaptation_method=args.adaptation,
+            manual=args.manual,
         )
         drive_codec(cfg)  # a DBC without its binding: refused before any learning
         profile = resolve_profile(args.scenario, args.seed)
@@ -262,8 +265,10 @@ def _pace(args: argparse.Namespace) -> float | None:
     return pace if pace > 0 else None
 
 
-def _manual(args: argparse.Namespace) -> int:
-    """``pacc drive --manual``: the driver follows the scenario by hand, written to --log."""
+def _manual(args: argparse.Namespace) -> int | None:
+    """``pacc drive --manual``: the driver follows the scenario by hand, written to --log;
+    with ``--can-log`` None: the bus drive runs with the ACC never engaged (the manual bus
+    log ``pacc demos extract`` reads)."""
     from sim_bus.manual import manual_trip  # noqa: PLC0415
 
     given = [
@@ -272,7 +277,6 @@ def _manual(args: argparse.Namespace) -> int:
             ("--controller", args.controller != "predefined"),
             ("--profile", args.profile is not None),
             ("--faults", bool(args.faults)),
-            ("--can-log", args.can_log is not None),
             ("--manual-trips", args.manual_trips is not None),
             ("--adaptation-mode", args.adaptation_mode is not None),
             ("--gap-controller", bool(args.gap_controller)),
@@ -283,10 +287,16 @@ def _manual(args: argparse.Namespace) -> int:
         )
         if on
     ]
-    if args.log is None or given:
-        why = "needs --log FILE" if args.log is None else f"has no ECU: drop {', '.join(given)}"
+    if (args.log is None) == (args.can_log is None) or given:
+        why = (
+            f"drives the ACC off: drop {', '.join(given)}"
+            if given
+            else "writes --log FILE (no bus) or --can-log FILE (the bus drive), one of them"
+        )
         print(f"pacc drive: error: --manual {why}", file=sys.stderr)
         return 2
+    if args.can_log is not None:
+        return None
     try:
         driver = with_condition(load_driver(args.driver), args.condition_factor)
         profile = resolve_profile(args.scenario, args.seed)

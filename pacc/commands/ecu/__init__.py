@@ -44,7 +44,7 @@ from dbc.codec import Codec, CodecError
 from dbc.errors import BindingError
 from dbc.network import add_network_arguments, codec_of, network_of
 from dbc.vocab import FormatError
-from dbc.vocab.dgpt import Dgpt, DgptError, predefined
+from dbc.vocab.dgpt import PLAIN_NAME, Dgpt, DgptError, predefined
 from dbc.vocab.dgpt_file import load_dgpt, save_dgpt
 from dbc.vocab.sampling import MANUAL_MAX_S, MANUAL_MIN_S
 from ecu import EcuError
@@ -305,6 +305,11 @@ def _config(args: argparse.Namespace) -> tuple[EcuConfig, Dgpt]:
         raise Exit(2, "pacc ecu: error: --cloud spools the manual trips: --manual without DIR")
     if args.manual_min is not None and args.manual is None:
         raise Exit(2, "pacc ecu: error: --manual-min is for --manual (the manual trips)")
+    for option, name in (("--driver", args.driver), ("--condition", args.condition)):
+        if name is not None and PLAIN_NAME.fullmatch(name) is None:
+            raise Exit(
+                2, f"pacc ecu: error: {option} {name!a}: not a plain name (letters, digits, _.-)"
+            )
     try:
         config = EcuConfig(
             adaptation=args.adaptation,

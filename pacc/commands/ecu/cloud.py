@@ -109,11 +109,11 @@ def cloud_link(args: argparse.Namespace, config: EcuConfig) -> VehicleLink:
 
     if not (args.vehicle and args.token_file):
         raise Exit(2, "pacc ecu: error: --cloud needs --vehicle ID and --token-file F")
-    for option, name in (("--vehicle", args.vehicle), ("--driver", args.driver)):
-        if name is not None and not is_plain_name(name):
-            raise Exit(
-                2, f"pacc ecu: error: {option} {name!r}: not a plain name (letters, digits, _.-)"
-            )
+    if not is_plain_name(args.vehicle):
+        raise Exit(
+            2,
+            f"pacc ecu: error: --vehicle {args.vehicle!a}: not a plain name (letters, digits, _.-)",
+        )
     if args.takeovers:
         raise Exit(2, "pacc ecu: error: --cloud spools the takeovers: drop --takeovers")
     if args.driver and args.profile:

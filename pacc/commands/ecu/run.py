@@ -17,6 +17,7 @@ from dbc.vocab import FormatError
 from ecu import EcuError
 from ecu.buslog.format import TimeBase
 from ecu.node import EcuNode
+from pacc.commands._args import bus_error as bus_error_text
 from pacc.commands._args import bus_kwargs
 from pacc.commands.ecu.cloud import Exit, say
 
@@ -105,7 +106,7 @@ def run_on_bus(
     try:
         bus = can.Bus(**bus_kwargs(args))
     except (can.CanError, OSError, ValueError, ImportError) as exc:
-        raise Exit(1, f"pacc ecu: error: cannot open the CAN bus: {exc}") from None
+        raise Exit(1, f"pacc ecu: error: {bus_error_text(args, exc)}") from None
     with bus:
         try:
             rt = EcuRuntime(bus, node, codec, on_event=utc_events(base), profile_dir=args.profiles)
