@@ -11,6 +11,8 @@ and closes the loop through the ACC command frames. Modules, one concept each:
 - :mod:`sim_bus.population` — drivers drawn from distributions calibrated on real pairs;
 - :mod:`sim_bus.behaviour` — what a driver does each step;
 - :mod:`sim_bus.idm` — IDM+ car following, the driver's manual following law;
+- :mod:`sim_bus.following` — car-following models (IDM, constant time gap, Gipps, the
+  drivers' own) fitted to real trajectories and scored on held-out replay;
 - :mod:`sim_bus.manual` — ACC-off demonstrations;
 - :mod:`sim_bus.world` — lead + plant + driver, the drive log;
 - :mod:`sim_bus.trip` — a run's log as a trip;

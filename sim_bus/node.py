@@ -71,7 +71,6 @@ class SimNode:
         roles = {r: self.codec.roles[r] for r in TX_ROLES}
         #: each role's values at this tick, read off the world (:class:`Readings`)
         self.readings = Readings(world, roles, gap_setting, profile_id)
-        self.faults = faults if faults is not None and faults.plans else None
         self._rng = rng or np.random.default_rng(0)
         self._frozen: dict[str, dict[str, Any]] = {}
         #: delayed frames: (due time s, sequence, key, payload)
@@ -86,7 +85,24 @@ class SimNode:
         self.send_errors = 0  # frames the bus refused (can.CanError on send)
         self.recv_errors = 0  # can.CanError on receive
         self.fault_counts: Counter[tuple[str, str]] = Counter()
-        fillers = self.readings.fillers(TX_ROLES)
+        self._fillers = self.readings.fillers(TX_ROLES)
+        self._roles = roles
+        self.faults = faults  # schedules the frames (the property's setter)
+        self.commands_ok = 0
+        #: called with (time, key, payload, received) for every frame in and out (a bus
+        #: recorder's :meth:`~ecu.buslog.writer.CanLogWriter.frame_raw`; :mod:`dbc.frame`)
+        self.tap: Callable[[float, int, Any, bool], None] | None = None
+
+    @property
+    def faults(self) -> FaultSpec | None:
+        """The fault plans applied to the transmitted frames (None: none); setting them
+        re-plans the frames from the next tick on."""
+        return self._faults
+
+    @faults.setter
+    def faults(self, faults: FaultSpec | None) -> None:
+        self._faults = faults if faults is not None and faults.plans else None
+        roles, fillers = self._roles, self._fillers
         every = {r: [max(1, round(p.cycle_s / self.dt_s)) for p in roles[r].parts] for r in roles}
         self._hyper = math.lcm(*(n for ns in every.values() for n in ns))
         #: the frames due at tick k, ``_due[k % _hyper]``: per role due (in TX_ROLES order),
@@ -107,10 +123,6 @@ class SimNode:
             )
             for k in range(self._hyper)
         ]
-        self.commands_ok = 0
-        #: called with (time, key, payload, received) for every frame in and out (a bus
-        #: recorder's :meth:`~ecu.buslog.writer.CanLogWriter.frame_raw`; :mod:`dbc.frame`)
-        self.tap: Callable[[float, int, Any, bool], None] | None = None
 
     def _plan(self, role: str) -> FaultPlan | None:
         return self.faults.plan(role) if self.faults is not None else None

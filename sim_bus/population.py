@@ -255,7 +255,7 @@ class TakeoverScales:
 PEOPLE_SCALES = TakeoverScales(mismatch=2.0, taps_per_min=1.8, press_s=1.0)
 #: the populations by name; ``headway`` (the steady-state calibration alone) is the older one
 POPULATIONS = ("headway", "people")
-DEFAULT_POPULATION = "headway"
+DEFAULT_POPULATION = "people"
 
 
 def people_driver(

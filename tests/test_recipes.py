@@ -150,6 +150,14 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
                 "hours; tests/pacc/test_study_population.py runs a small population",
             ),
             skip(
+                "pacc validate people out/pop/drives.csv --plot people.png",
+                "needs the population above; tests/pacc/test_validate.py runs it on a small one",
+            ),
+            skip(
+                "pacc validate following --plot following.png",
+                "about 12 min of fitting; tests/pacc/test_validate.py fits one pair",
+            ),
+            skip(
                 "pacc hil --participant P01 --protocol paper --out sessions/",
                 "a person at a browser; tests/hil/test_protocol.py drives a shortened protocol "
                 "with a scripted participant in headless chromium",

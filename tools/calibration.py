@@ -18,14 +18,15 @@ from __future__ import annotations
 
 import argparse
 import sys
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from pacc.study.population import DriverJob, run_driver
+from cloud_sync.engine import map_unordered, open_executor
+from pacc.study.pipeline import make_tables, plan, run_one
 from pacc.study.report import write_csv
+from pacc.study.spec import StudySpec, table1_method
 from sim_bus.dataset import load_human_pairs
 from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
 from sim_bus.lead.profile import LeadProfile
@@ -147,10 +148,6 @@ HELD_OUT_KINDS = (
 )
 
 
-def _drives(job: DriverJob) -> list[dict[str, Any]]:
-    return run_driver(job)
-
-
 def run_drivers(
     drivers: list[DriverParams],
     seed: int,
@@ -158,12 +155,18 @@ def run_drivers(
     trials: int = 1,
     scenario: str = "B",
 ) -> list[dict[str, Any]]:
-    """Every drive (120 s) of ``drivers`` under ``controllers`` in ``scenario``, two processes."""
-    jobs = [
-        DriverJob(d, (scenario,), controllers, trials, seed, 120.0, None, None) for d in drivers
-    ]
-    with ProcessPoolExecutor(2) as pool:
-        return [r for rows in pool.map(_drives, jobs) for r in rows]
+    """Every drive (120 s) of ``drivers`` under ``controllers`` in ``scenario``, two processes
+    (the study pipeline's tables and drives, IRL learned in-process)."""
+    spec = StudySpec(
+        drivers=(), scenarios=(scenario,), methods=tuple(table1_method(c) for c in controllers),
+        trials=trials, seed=seed, duration_s=120.0, learn_in="direct", logs=False,
+    )  # fmt: skip
+    by_id = {d.driver_id: d for d in drivers}
+    with open_executor(None, 2) as executor:
+        tables = make_tables(spec, by_id, Path(), executor, None)
+        drives = plan(spec, by_id, tables, Path())
+        rows = dict(map_unordered(executor, run_one, drives))
+    return [rows[i] for i in sorted(rows)]
 
 
 def averages(rows: list[dict[str, Any]]) -> str:

@@ -24,5 +24,6 @@ itself in the ``__init__`` (``ecu``, ``drive``, ``plot``; ``cloud`` holds its ow
 - :mod:`pacc.commands.hil` — the command line of ``pacc hil``: a person drives in a browser
   against the ECU.
 - :mod:`pacc.commands.plugins` — ``pacc plugins``: the methods that can be named.
+- :mod:`pacc.commands.validate` — ``pacc validate``: the synthetic drivers beside real people.
 - :mod:`pacc.commands.bench` — ``pacc bench``: the leaderboard on fresh seeds.
 """

@@ -20,8 +20,9 @@ from pacc.commands._args import CommandParser, error_line, integer, number
 from pacc.study.drive import BUSES, CONTROLLERS, adaptation_params
 from pacc.study.manifest import write_manifest
 from pacc.study.pipeline import StudyInterrupted, run
-from pacc.study.spec import StudySpec, load_study_file, spec_of, table1_method
+from pacc.study.spec import POPULATIONS, StudySpec, load_study_file, spec_of, table1_method
 from sim_bus.errors import SimError
+from sim_bus.population import DEFAULT_POPULATION
 
 _DESCRIPTION = "the paper's human-in-the-loop study (its Table I), end to end on the bus"
 
@@ -124,6 +125,13 @@ def _parser() -> argparse.ArgumentParser:
         help="instead of d1..d5: N drivers drawn with --seed (docs/study.md), resumable",
     )
     p.add_argument(
+        "--population-kind",
+        choices=tuple(POPULATIONS),
+        default=DEFAULT_POPULATION,
+        help="the drawn drivers: people (calibrated to the study's people, the default) or "
+        "headway (steady-state headway drivers alone; --mismatch and --trip-shift apply)",
+    )
+    p.add_argument(
         "--bus",
         choices=BUSES,
         default=BUSES[0],
@@ -191,7 +199,7 @@ def _spec(args: argparse.Namespace, argv: list[str]) -> StudySpec:
     if pop and args.can_logs:
         raise SimError("--population keeps no logs: not with --can-logs")
     return StudySpec(
-        drivers=(f"population:{args.population}:{args.seed}",)
+        drivers=(f"{args.population_kind}:{args.population}:{args.seed}",)
         if pop
         else args.drivers or ("d1", "d2", "d3", "d4", "d5"),
         scenarios=args.scenarios or (("B",) if pop else ("A", "B")),

@@ -6,7 +6,7 @@ the incremental-learning experiment (``--incremental N``) differ only in its fie
 
 Drivers are named by source: a built-in name (``d1``), a driver file (``.toml``/``.json``) or
 ``NAME:N:SEED``, N drivers drawn from the population ``NAME`` with ``SEED``
-(:data:`POPULATIONS`; ``population:3:7``). A method (:class:`Method`) is a table source
+(:data:`POPULATIONS`; ``people:3:7``). A method (:class:`Method`) is a table source
 (``predefined`` or a learner) × an adaptation × a gap controller; Table I's four controllers
 are the methods of :data:`TABLE1_METHODS`.
 
@@ -49,6 +49,7 @@ import math
 import tomllib
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -62,13 +63,20 @@ from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams, load_driver
 from sim_bus.errors import SimError
 from sim_bus.lead.events import ROAD_SCENARIOS
 from sim_bus.lead.scenarios import canonical_profiles
-from sim_bus.population import draw_population
+from sim_bus.population import DEFAULT_POPULATION, draw_population
 
-#: driver populations by name: (N, seed, mismatch, trip shift sd s) -> the drawn drivers
+
+def _draw(
+    population: str, n: int, seed: int, mismatch: float, shift: float
+) -> tuple[DriverParams, ...]:
+    return draw_population(n, seed, mismatch=mismatch, trip_shift_sd_s=shift, population=population)
+
+
+#: driver populations by name (``people``: calibrated to the study's people, the default;
+#: ``headway``: the steady-state headway drivers alone):
+#: (N, seed, mismatch, trip shift sd s) -> the drawn drivers
 POPULATIONS: dict[str, Callable[[int, int, float, float], tuple[DriverParams, ...]]] = {
-    "population": lambda n, seed, mismatch, shift: draw_population(
-        n, seed, mismatch=mismatch, trip_shift_sd_s=shift
-    ),
+    name: partial(_draw, name) for name in ("people", "headway")
 }
 #: the ECU's own adaptation, called directly with the spec's ``adaptation`` parameters
 ECU_ADAPTATION = "ecu"
@@ -413,9 +421,9 @@ def _plain_method(m: Mapping[str, Any]) -> dict[str, Any]:
 
 def spec_of(config: Mapping[str, Any]) -> StudySpec:
     """The study spec of a resolved config: its drivers (built-ins, files, then each
-    population as ``population:N:SEED``), scenarios and methods, learned in-process."""
+    population as ``people:N:SEED``), scenarios and methods, learned in-process."""
     d = config["drivers"]
-    pops = [f"population:{p['n']}:{p['seed']}" for p in d["population"]]
+    pops = [f"{DEFAULT_POPULATION}:{p['n']}:{p['seed']}" for p in d["population"]]
     return StudySpec(
         drivers=(*d["builtin"], *d["files"], *pops),
         scenarios=tuple(config["scenarios"]),

@@ -15,11 +15,11 @@ from sim_bus.population import MISMATCH_MEAN_S, draw_population
 
 
 def test_mismatch_zero_is_the_population_as_before_and_scale_moves_only_the_offset() -> None:
-    base = draw_population(20, 5)
-    zero = draw_population(20, 5, mismatch=0.0)
+    base = draw_population(20, 5, population="headway")
+    zero = draw_population(20, 5, mismatch=0.0, population="headway")
     assert base == zero and all(d.acc_offset_s == 0.0 for d in base)
-    one = draw_population(20, 5, mismatch=1.0)
-    two = draw_population(20, 5, mismatch=2.0)
+    one = draw_population(20, 5, mismatch=1.0, population="headway")
+    two = draw_population(20, 5, mismatch=2.0, population="headway")
     for b, o, t in zip(base, one, two, strict=True):
         assert dataclasses.replace(o, acc_offset_s=0.0) == b  # nothing else moves
         if t.acc_offset_s > 0.3 - min(t.headway_s) + 1e-3:  # not at the 0.3-s floor
@@ -27,7 +27,9 @@ def test_mismatch_zero_is_the_population_as_before_and_scale_moves_only_the_offs
 
 
 def test_the_prior_leans_toward_longer_acc_gaps() -> None:
-    offsets = np.array([d.acc_offset_s for d in draw_population(300, 9, mismatch=1.0)])
+    offsets = np.array(
+        [d.acc_offset_s for d in draw_population(300, 9, mismatch=1.0, population="headway")]
+    )
     assert abs(offsets.mean() - MISMATCH_MEAN_S) < 0.06
     assert (offsets < 0).mean() < 0.25 and offsets.max() <= 1.0 + 1e-9
 

@@ -33,7 +33,7 @@ def test_population_study_reports_and_resumes(
     # a run killed after its first driver (and half a line of the next drive) resumes
     (out / ROWS).write_text("\n".join(lines[:3]) + "\n" + lines[3][:40], encoding="utf-8")
     cfg = StudySpec(
-        drivers=("population:2:3",),
+        drivers=("people:2:3",),
         scenarios=("B",),
         methods=(table1_method("predefined"), table1_method("predefined+oa")),
         trials=1,

@@ -41,16 +41,18 @@ def test_calibration_needs_data() -> None:
 
 
 def test_drivers_are_a_pure_function_of_seed_and_index() -> None:
-    a = draw_population(12, 1)
-    assert a == draw_population(12, 1)
-    assert draw_population(5, 1) == a[:5]  # a run can be extended
-    assert draw_population(5, 2) != a[:5]
+    for kind in ("headway", "people"):
+        a = draw_population(12, 1, population=kind)
+        assert a == draw_population(12, 1, population=kind)
+        assert draw_population(5, 1, population=kind) == a[:5]  # a run can be extended
+        assert draw_population(5, 2, population=kind) != a[:5]
+    a = draw_population(12, 1, population="headway")
     assert len({d.driver_id for d in a}) == 12 and a[3].driver_id == "p1-0003"
     assert draw_driver(shipped_prior(), 1, 3) == a[3]
 
 
 def test_drawn_drivers_are_valid_and_diverse() -> None:
-    pop = draw_population(200, 1)
+    pop = draw_population(200, 1, population="headway")
     for d in pop:
         DriverParams(**dataclasses.asdict(d))  # passes the driver's own validation
         assert d.headway_speeds_mps == BREAKPOINTS_MPS
@@ -74,7 +76,7 @@ def test_bad_population_refused() -> None:
 
 
 def test_people_population_keeps_the_preference_and_draws_habits() -> None:
-    base = draw_population(40, 3)
+    base = draw_population(40, 3, population="headway")
     people = draw_population(40, 3, population="people")
     assert people == draw_population(40, 3, population="people")
     for b, p in zip(base, people, strict=True):
