@@ -20,7 +20,7 @@ mypyc (``python -m tools.compile``: built into ``build/compiled`` first, rebuilt
 source changed; needs gcc and Python's headers), after the line of this, pure, build. The
 first line says which build was measured.
 
-``--plugins`` (issue 20) instead times the same drive with the built-ins called directly
+``--plugins`` instead times the same drive with the built-ins called directly
 against the same built-ins through the guarded plug-in interface (``--gap-controller pid
 --adaptation timegap``) and a trivial plug-in controller, interleaved, the median of
 ``--repeats`` drives each; the last line is ``plug-in interface: +N % drive time``.

@@ -12,7 +12,7 @@ Run from the repository root: ``python bench/ecu_step.py [--seconds 60] [--steps
    other nodes; jitter = |cycle period - 20 ms|, p50 / p99 / max, against a named peer: a
    bare 50 Hz loop sleeping to the same deadlines (``time.sleep``) in the same run.
 
-Targets (issue 3): step p99 <= 200 us, jitter p99 <= 2 ms.
+Targets: step p99 <= 200 us, jitter p99 <= 2 ms.
 """
 
 from __future__ import annotations

@@ -9,7 +9,7 @@ Two modes (``AdaptationParams.mode``; measurements in docs/ecu.md and bench/adap
   a time-gap offset at every speed, and a local window of +-2 m/s leaves the rest of a
   5-30 m/s trip unlearned.
 
-Both modes (issue 11) share three rules that the printed algorithm leaves open:
+Both modes share three rules that the printed algorithm leaves open:
 
 - **One safety bound.** Step 4 clips to the table's own :class:`~dbc.vocab.dgpt.SafetyBounds`
   (``2 m + 0.8 s·v`` … ``10 m + 5 s·v`` by default), the bound every loaded table is checked

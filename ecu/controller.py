@@ -25,10 +25,10 @@ brake stays limited to ``jerk_max``. In the same condition the request is at mos
 11): the PID alone eased its braking once the lead stopped slowing, while the gap was still
 closing at 4 m/s with 1.9 s to collision. Behind a lead braking so hard that stopping behind
 it, were it to brake to a standstill, would need more than 2 m/s^2, the emergency build-up
-applies at any TTC (issue 21; :func:`ecu.cycle.stops.lead_stop_need_mps2`,
+applies at any TTC (:func:`ecu.cycle.stops.lead_stop_need_mps2`,
 :func:`ecu.cycle.command.control`).
 
-The road rules (target switches, lead loss, standstill; issue 21) are :mod:`ecu.cycle.road`; their
+The road rules (target switches, lead loss, standstill) are :mod:`ecu.cycle.road`; their
 parameters, :class:`RoadParams`, sit here in ``ControllerParams.road``.
 
 """
@@ -57,7 +57,7 @@ MIN_MARGIN_M = 0.5
 # The functions of the control cycle write ``max(a, b)`` out as ``b if a < b else a`` and
 # ``min(a, b)`` as ``b if a > b else a``: what the builtins return, NaN and signed zeros
 # included (they keep ``a`` unless ``b`` compares beyond it), at a sixth of the cost of a
-# builtin call (issue 23).
+# builtin call.
 
 
 def interp(x: float, table: Table) -> float:

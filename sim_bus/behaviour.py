@@ -11,7 +11,7 @@ Under ACC the driver monitors the gap. Too close (or closing so fast that the ga
 ``ttc_brake_s``: it brakes. Too far for longer than ``patience_far_s``: it presses the
 accelerator, unless the lead is closing in or seen braking. While pressing it drives by its own
 IDM+ (sign-restricted to the pedal); an accelerator press ends at once when that IDM+ asks to
-slow down or the lead is seen braking (issue 11: before, a driver 1 s late kept pressing
+slow down or the lead is seen braking (before, a driver 1 s late kept pressing
 toward a braking lead until the time-to-collision was 1.2 s). Otherwise it releases when the
 gap it anticipates ``anticipation_s`` ahead is within ``release_band`` of its preference,
 holding the pedal ``prolong_s`` longer (the anticipation and prolonging the paper observed).
@@ -260,7 +260,7 @@ class DriverAgent:
         if p.revision >= 2:
             # by hand, its foot on the pedals, it sees closing as attentively as when it
             # presses under the ACC and brakes at least as hard as stopping short needs
-            # (issue 21: its IDM+, seeing the lead late, braked at 1.9 m/s^2 at 2.9 s TTC
+            # (its IDM+, seeing the lead late, braked at 1.9 m/s^2 at 2.9 s TTC
             # and hit a lead braking at 1.9 m/s^2)
             vl1, g1 = self._seen[max(len(self._seen) - 1 - self._lag[1], 0)]
             closing = v - vl1
@@ -303,7 +303,7 @@ class DriverAgent:
             steady = closing <= 0.3 and self.lead_accel_seen_mps2 > LEAD_BRAKING_MPS2
             in_sight = g < LEAD_SIGHT_M  # a free road is not a gap too long
             if p.revision >= 2 and vl < RESUME_LEAD_MPS:
-                in_sight = False  # nobody nudges up to a standing queue (issue 21: to 0.9 m)
+                in_sight = False  # nobody nudges up to a standing queue (to 0.9 m)
             self._far_t = self._far_t + dt if g > pref + band and steady and in_sight else 0.0
             rested = self.t_s - self._last_release_t >= p.refractory_s
             if ttc < p.ttc_brake_s or g < 0.5 * pref or (rested and self._close_t >= p.patience_s):
@@ -319,14 +319,14 @@ class DriverAgent:
         self._press_t += dt
         g_ant = g + (vl - v) * p.anticipation_s
         if self.mode == "brake":
-            # at least what stopping short of the lead needs as it sees it (issue 21: a
+            # at least what stopping short of the lead needs as it sees it (a
             # driver that took over with a weaker brake than the ACC's came within 1.1 s)
             need = self._needed_mps2(v, vl, g) if p.revision >= 2 else 0.0
             self.a_cmd_mps2 = min(a, -0.5, need)
             ok = g_ant >= pref * (1.0 - p.release_band) and ttc > p.ttc_brake_s
         elif self.mode == "accel":
             plan = a if a_plan is None or p.revision < 2 else a_plan
-            # the decision is its following model's, not its control noise's (issue 21)
+            # the decision is its following model's, not its control noise's
             if plan < 0.0 or self.lead_accel_seen_mps2 <= LEAD_BRAKING_MPS2:
                 # its own following model asks to slow down, or the lead brakes: lift off
                 self._release(a)
@@ -340,7 +340,7 @@ class DriverAgent:
             self._ok_t = self._press_t
         hold = 0.0 if self.mode == "tap" else p.prolong_s
         done = ok and self._press_t - self._ok_t >= hold and self._press_t >= p.press_min_s
-        # a brake press is not cut short while the gap still closes fast (issue 21)
+        # a brake press is not cut short while the gap still closes fast
         urgent = self.mode == "brake" and ttc < p.ttc_brake_s and p.revision >= 2
         if done or (self._press_t >= p.press_max_s and not urgent):
             self._release(a)
@@ -351,12 +351,12 @@ class DriverAgent:
         """Its time-to-collision (s) from the gap ``g`` it sees and the ``closing`` speed
         (m/s). Revision 2: the closing speed now (the lead's braking as seen, over its
         reaction time) and the gap now, reckoned from its late view and that closing speed (a
-        late view of a lead it closes on looks far; issue 21: behind a stopped car, the ACC
+        late view of a lead it closes on looks far; traced: behind a stopped car, the ACC
         at -3.5 m/s^2, it saw 3 s of TTC while 1.3 s was left, and never braked)."""
         if self.p.revision >= 2:
             lag_s = self._lag[int(self.mode != "idle")] * self.dt_s
             # the lead's speed now from its braking as seen (brake lights, looming): a lead
-            # braking at 3 m/s^2 seen 1 s late is 3 m/s slower than it looks (issue 21)
+            # braking at 3 m/s^2 seen 1 s late is 3 m/s slower than it looks
             seen = self.lead_accel_seen_mps2
             closing -= (0.0 if seen > 0.0 else seen) * lag_s
             g -= (0.0 if closing < 0.0 else closing) * lag_s
@@ -379,7 +379,7 @@ class DriverAgent:
             return 0.0
         g -= closing * lag_s  # the gap now, from the late view and the closing speed
         # stop with STOP_SPARE_S of its speed to spare: braking front-loaded, as drivers do
-        # (issue 21: a constant-deceleration stop exactly at standstill_m passes below 2 s TTC;
+        # (a constant-deceleration stop exactly at standstill_m passes below 2 s TTC;
         # with s to spare the stop keeps s + sqrt(2 standstill / decel): 0.5 s left 1.74 s)
         room = max(g - self.p.standstill_m - STOP_SPARE_S * v, 0.5)
         need = min(a_f, 0.0) - closing * closing / (2.0 * room)

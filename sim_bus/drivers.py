@@ -48,7 +48,7 @@ class DriverParams:
     # often want a different gap when not in control than the one they keep by hand
     acc_preference_factor: float = 1.0
     # ... and a time gap longer by acc_offset_s (s; < 0: shorter) than the one it keeps by
-    # hand: the manual-vs-ACC mismatch of issue 21 (prior in sim_bus.population)
+    # hand: the manual-vs-ACC mismatch (prior in sim_bus.population)
     acc_offset_s: float = 0.0
     # between trips the time headway shifts by N(0, trip_shift_sd_s) s, one draw per trip
     trip_shift_sd_s: float = 0.0
@@ -76,7 +76,7 @@ class DriverParams:
     spurious_press_per_min: float = 0.0  # presses not about the gap (taps, mistrust), per min
     tap_s: float = 0.3  # ... and how long each lasts (at least press_min_s)
     predefined_setting: PredefinedSetting = "medium"
-    # 2 (issue 21): a brake press lasts while the time-to-collision is below ttc_brake_s and
+    # 2: a brake press lasts while the time-to-collision is below ttc_brake_s and
     # brakes at least as hard as stopping short of the lead needs; an accelerator press ends
     # by the following model's decision, not its control noise. 1: the earlier model, kept
     # by d1..d5 so that Table I stays comparable (docs/drivers.md)

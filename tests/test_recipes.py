@@ -1,5 +1,5 @@
 # ruff: noqa: E501 - the table holds the documents' commands as printed
-"""Every command printed in README.md and docs/*.md, run as printed (issue 18).
+"""Every command printed in README.md and docs/*.md, run as printed.
 
 :func:`doc_commands` reads the ```sh blocks (continuation lines joined, comments dropped).
 :data:`PLANS` says, per document, what becomes of each of its commands, in order:

@@ -1,6 +1,6 @@
 """Compile pacc's per-frame path with mypyc into a folder of its own: ``python -m tools.compile``.
 
-An experiment (issue 23), not the way pacc is installed: the package stays pure Python and
+An experiment, not the way pacc is installed: the package stays pure Python and
 ``pip install -e .`` compiles nothing. This tool copies the packages into ``--out`` (default
 ``build/compiled``), writes there the packaged network's message codecs as one module
 (:func:`codec_module_source`: the very source :class:`dbc.message.MessageCodec` would

@@ -132,7 +132,7 @@ def control(
         urgent = False
         # brake at least as hard as the closing speed needs below 3 s TTC, and at any TTC when
         # the closing speed alone needs more than 2 m/s^2 (a cut-out revealing a car 15 m/s
-        # slower 58 m ahead: 3.9 s TTC, 2.5 m/s^2; issue 21)
+        # slower 58 m ahead: 3.9 s TTC, 2.5 m/s^2)
         alone, limit = closing_needs_mps2(config, inp, p, lead_a)
         if ttc < ctl.emergency_ttc_s or alone < URGENT_STOP_MPS2:
             urgent = alone < URGENT_STOP_MPS2 and limit < prev
@@ -142,7 +142,7 @@ def control(
             stop = stop_limit(config, inp, p, lead_a, need)
             # behind a lead braking so hard that stopping behind it, were it to brake to a
             # standstill, needs more than 2 m/s^2: that braking now, at the emergency jerk,
-            # not from 3 s TTC on (issue 21: the comfort jerk left 1.6 s TTC, and 0.36 m,
+            # not from 3 s TTC on (the comfort jerk left 1.6 s TTC, and 0.36 m,
             # behind leads braking at 3 m/s^2 beyond the stop law's 4-s horizon)
             stop = need if need < URGENT_STOP_MPS2 and stop > need else stop
             urgent = urgent or (stop < URGENT_STOP_MPS2 and stop < prev)
@@ -167,7 +167,7 @@ def control(
     ):
         # the driver brakes toward a closing lead: the inactive request follows the car's
         # deceleration, so that the ACC takes over at the release from there, not from 0
-        # (issue 21: a brake released at 2.4 s TTC let the braking sag to 1.5 m/s^2); behind
+        # (a brake released at 2.4 s TTC let the braking sag to 1.5 m/s^2); behind
         # a hard-braking lead, or closing fast, it prepares the braking the ACC would then
         # ask for (a gentle brake released at 4.6 s TTC behind a lead braking at 3 m/s^2 left
         # 1.99 s TTC; an accelerator tap as a cut-out revealed a stopped car, 1.29 s)

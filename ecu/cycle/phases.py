@@ -115,7 +115,7 @@ def check_inputs(
         inp.pedals_ok and math.isfinite(inp.accel_pedal) and math.isfinite(inp.brake_pedal)
     )
     # the cycle's values are built with positional fields (a class call with keywords builds
-    # a dict: 2.4x the cost, issue 23); each field named in a comment, in declaration order
+    # a dict: 2.4x the cost); each field named in a comment, in declaration order
     events = Events(
         inp.main_switch if inp.hmi_ok else state is not AccState.OFF,  # main_on
         set_lv and not set_prev,  # set_edge

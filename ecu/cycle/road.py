@@ -1,4 +1,4 @@
-"""The road rules of the control law: target switches, lead loss, standstill (issue 21).
+"""The road rules of the control law: target switches, lead loss, standstill.
 
 A jump of the radar gap that the relative speed cannot explain is a *target switch* (a
 cut-in, a cut-out revealing the vehicle ahead, a new lead after a free road): the integral of

@@ -1,5 +1,5 @@
 """Stopping behind a lead, as pure functions: the request's bound when a lead stops or stands
-(issue 21, stop-and-go); :func:`ecu.cycle.command.control` applies it while ACTIVE.
+(stop-and-go); :func:`ecu.cycle.command.control` applies it while ACTIVE.
 """
 
 from __future__ import annotations
@@ -91,7 +91,7 @@ def beyond_authority(config: EcuConfig, inp: NodeInputs, p: Plan, lead_accel_mps
 def stop_limit(
     config: EcuConfig, inp: NodeInputs, p: Plan, lead_accel_mps2: float, need_mps2: float
 ) -> float:
-    """The request's bound behind a lead that stops (issue 21, stop-and-go): stop at the
+    """The request's bound behind a lead that stops (stop-and-go): stop at the
     table's standstill gap (its line at the current speed extended to 0 m/s, never below the
     safety floor) behind where a braking lead comes to rest (``need_mps2``: this cycle's
     :func:`lead_stop_need_mps2`), when it will be standing within ``lead_stop_horizon_s`` at

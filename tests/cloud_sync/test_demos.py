@@ -130,9 +130,7 @@ def corrupted(trip: Trip, seed: int, nan_frac: float, spike: float) -> Trip:
     nan_frac=st.floats(0.0, 0.9),
     spike=st.sampled_from([-5.0, 0.0, 500.0, np.inf]),
 )
-@example(
-    seed=924, nan_frac=0.375, spike=-5.0
-)  # enough in all, no speed bin with 10 s (CI, stop 26)
+@example(seed=924, nan_frac=0.375, spike=-5.0)  # enough in all, no speed bin with 10 s (CI)
 def test_corrupted_demos_give_bounded_table_or_demo_error(
     follower: Callable[..., Trip], seed: int, nan_frac: float, spike: float
 ) -> None:

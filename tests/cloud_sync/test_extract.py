@@ -32,7 +32,7 @@ def test_time_gap_continuation_holds_edge_headway() -> None:
 
 
 def test_slow_evidence_is_not_continued_to_motorway_speeds() -> None:
-    """Issue 11: a table whose data lie below 5 m/s (stop-and-go) states the prior time gap
+    """a table whose data lie below 5 m/s (stop-and-go) states the prior time gap
     above them, not the time gap of its slow data (here 3 s) continued to 30 m/s; a table
     with evidence from 8 m/s up continues its own time gap; the meta names the rule."""
     covered = AXIS <= 5.0

@@ -273,7 +273,7 @@ def test_timegap_direction_from_pedal(pedal: str, g: float, applied: bool) -> No
 
 
 def test_paper_mode_respects_the_pedal_too() -> None:
-    """Issue 11: in both modes an accelerator press never lengthens the table."""
+    """in both modes an accelerator press never lengthens the table."""
     t = predefined(2.0)
     s = TakeoverSummary(duration_s=3.0, v_mps=20.0, v_lead_mps=20.0, gap_m=50.0, pedal="accel")
     new, d = adapt(t, s, P)
@@ -313,7 +313,7 @@ def test_default_timegap_keeps_table_slope_smooth() -> None:
     assert new.gap_m[80] == pytest.approx(84.0 - 0.55 * math.exp(-0.5 * 0.64) * 40.0)
 
 
-# -- issue 11: one safety bound, the pedal's direction, short presses as evidence ------------
+# -- one safety bound, the pedal's direction, short presses as evidence ------------
 
 
 @pytest.mark.parametrize("mode", ADAPTATION_MODES)

@@ -1,4 +1,4 @@
-"""A bus recording killed mid-run is readable up to its last flush (issue 18).
+"""A bus recording killed mid-run is readable up to its last flush.
 
 One subprocess imports the recorder once, then forks a recording process per trial: each child
 records frames it sends and receives on a python-can virtual bus (a counter in every payload,

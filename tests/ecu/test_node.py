@@ -93,7 +93,7 @@ def test_cruise_without_lead_holds_set_speed() -> None:
 
 @pytest.mark.parametrize(("v", "gap", "v_lead"), [(9.0, 11.0, 5.0), (12.0, 14.0, 7.0)])
 def test_braking_is_held_while_the_gap_closes_fast(v: float, gap: float, v_lead: float) -> None:
-    """Traced in issue 11: the driver releases the accelerator 11 m behind a lead that has
+    """Traced: the driver releases the accelerator 11 m behind a lead that has
     just slowed to 5 m/s, closing at 4 m/s. The PID eased its braking once the lead stopped
     slowing; the closing limit holds it until the closing stops near the table's lower
     safety bound at the lead's speed (within the 0.3-s actuator lag: 0.8 m; the PID alone
@@ -466,7 +466,7 @@ def test_every_command_inside_envelope(
 
 
 def test_two_short_accelerator_presses_adapt_once() -> None:
-    """Issue 11: a driver who only presses briefly (0.5 s < P_T) is heard: the second short
+    """a driver who only presses briefly (0.5 s < P_T) is heard: the second short
     accelerator press in a row updates the table towards the shorter gap."""
     node = EcuNode(EcuConfig(), predefined(3.0))
     loop = Loop(node, gap=40.0)  # table 64 m at 20 m/s: the driver wants less
@@ -483,7 +483,7 @@ def test_two_short_accelerator_presses_adapt_once() -> None:
 def test_closing_floor_is_the_standstill_bound_when_the_lead_speed_reads_negative() -> None:
     """Radar noise near standstill can make v + rel negative: the floor of the closing limit
     is then the standstill bound (2 m), not less, so the limit does not weaken (review of
-    issue 11: -0.91 instead of -2.0 m/s^2 for v 0.5, rel -2, gap 3)."""
+    -0.91 instead of -2.0 m/s^2 for v 0.5, rel -2, gap 3)."""
     cfg = EcuConfig()
     inp = NodeInputs(main_switch=True, v_mps=0.5, lead_valid=True, gap_m=3.0, rel_speed_mps=-2.0)
     p = Plan(v_mps=0.5, desired_gap_m=float(cfg.bounds.lower_m(0.5)), desired_gap_slope_s=0.8)
@@ -497,7 +497,7 @@ def test_closing_floor_is_the_standstill_bound_when_the_lead_speed_reads_negativ
         mem=ControlMemory(prev_accel_mps2=-2.0),
         dt_s=DT,
     )
-    # at least the closing limit against 2 m (-2.0); since issue 21 the stop law behind a
+    # at least the closing limit against 2 m (-2.0); since the road rules the stop law behind a
     # standing lead (1 s of closing speed to spare) may ask for more, never for less
     assert cmd.active and cmd.accel_mps2 <= -2.0 + 1e-6
 
@@ -531,7 +531,7 @@ def _first_request(gap_m: float, rel_mps: float, lead_accel_mps2: float) -> tupl
 
 
 def test_a_hard_braking_lead_gets_the_emergency_build_up_before_3_s_ttc() -> None:
-    """Issue 21 (traced on a fresh seed, 1.60 s TTC): 19 m behind a lead braking at 3 m/s^2,
+    """Traced on a fresh seed (1.60 s TTC): 19 m behind a lead braking at 3 m/s^2,
     closing at 2 m/s (TTC 9.5 s), stopping behind it were it to brake to a standstill needs
     2.8 m/s^2 (> 2), so braking builds at the emergency jerk (10 m/s^3: -0.2 m/s^2 in one
     20-ms cycle), not at 2.5."""
@@ -543,7 +543,7 @@ def test_a_hard_braking_lead_gets_the_emergency_build_up_before_3_s_ttc() -> Non
 
 
 def test_a_driver_override_behind_a_hard_braking_lead_prepares_the_braking() -> None:
-    """Issue 21 (a gentle brake released at 4.6 s TTC behind a lead braking at 3 m/s^2 left
+    """Traced (a gentle brake released at 4.6 s TTC behind a lead braking at 3 m/s^2 left
     1.99 s TTC): while the driver overrides there, the inactive request moves toward the
     braking the stop would need (at the emergency jerk), so the hand-back starts from it."""
     cfg = EcuConfig()

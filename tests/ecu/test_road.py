@@ -1,4 +1,4 @@
-"""The control law's road rules (issue 21): target switch, brief lead loss, standstill."""
+"""The control law's road rules: target switch, brief lead loss, standstill."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Every sub-command against bad input (issue 18): a clean refusal, nothing else.
+"""Every sub-command against bad input: a clean refusal, nothing else.
 
 Each case runs ``pacc.cli.main`` in-process (the error boundary included) in a scratch
 folder and checks: a non-zero exit; on stderr one line ``pacc <cmd>: error: ...`` and no

@@ -1,4 +1,4 @@
-"""Nothing lost (issue 18): each test here failed before its fix.
+"""Nothing lost: each test here failed before its fix.
 
 - the README's takeover flow, ``pacc ecu --takeovers spool/`` then ``pacc cloud sync --spool
   spool/``, uploads the segments under a real driver (they were quarantined as foreign files);

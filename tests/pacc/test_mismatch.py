@@ -1,4 +1,4 @@
-"""The manual-vs-ACC mismatch, the trip shift and the conditions of drawn drivers (issue 21)."""
+"""The manual-vs-ACC mismatch, the trip shift and the conditions of drawn drivers."""
 
 from __future__ import annotations
 

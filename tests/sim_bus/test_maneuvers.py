@@ -1,4 +1,4 @@
-"""Road scenarios in closed loop on the virtual bus (issue 21): cut-in, cut-out, lead loss and
+"""Road scenarios in closed loop on the virtual bus: cut-in, cut-out, lead loss and
 a new lead, stop-and-go; each asserts what the ECU must do (sim_bus.lead.events, ecu.controller).
 
 The drives are short (30-90 s) and use a *quiet* driver (it never intervenes on its own) so
@@ -221,7 +221,7 @@ def test_a_critical_cut_in_is_avoided_where_braking_at_3_5_can(gap_m: float, dv_
 def test_the_drives_traced_behind_hard_braking_leads_stay_above_2_s(
     pop_seed: int, index: int, controller: str
 ) -> None:
-    """Regression (issue 21, traced at the end of stop 16 on seeds drawn then): behind a lead
+    """Regression (traced on seeds drawn after a freeze): behind a lead
     braking at 3 m/s^2 just after the driver handed back, the ACC built its braking at the
     comfort jerk until 3 s TTC (1.60 s TTC; 0.36 m and 0.46 s). Scenario B, the drive seed
     is the population seed, as ``pacc study --population`` runs it."""
