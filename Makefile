@@ -22,8 +22,8 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install -q -e tests/plugin_pkg
 	@touch $(STAMP)
 
-# The main job: the paper's Table I, 5 drivers x 2 scenarios x 4 controllers x 3 trials, each a
-# 300-s closed-loop drive through the CAN bus, the IRL tables learned in an embedded cloud;
+# The main job: the paper's Table I, 5 drivers (drawn from the people population) x 2 scenarios
+# x 4 controllers x 3 trials, each a 300-s closed-loop drive through the CAN bus, the IRL tables learned in an embedded cloud;
 # table, plot, per-drive MCAP logs and the cloud's data in $(OUT)/study.
 demo: $(STAMP)
 	$(BIN)/pacc study --out $(OUT)/study

@@ -44,7 +44,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--drivers",
         type=_name_list,
-        help="comma-separated (d1..d5 or driver files; default d1,d2,d3,d4,d5)",
+        help="comma-separated: d1..d5 (the built-in drivers), driver files, or KIND:N:SEED "
+        "(N drawn drivers; default: 5 drawn from the people population with --seed)",
     )
     p.add_argument(
         "--scenarios", type=_name_list, help="comma-separated (default A,B; with --population: B)"
@@ -201,7 +202,7 @@ def _spec(args: argparse.Namespace, argv: list[str]) -> StudySpec:
     return StudySpec(
         drivers=(f"{args.population_kind}:{args.population}:{args.seed}",)
         if pop
-        else args.drivers or ("d1", "d2", "d3", "d4", "d5"),
+        else args.drivers or (f"{args.population_kind}:5:{args.seed}",),
         scenarios=args.scenarios or (("B",) if pop else ("A", "B")),
         methods=tuple(table1_method(c) for c in args.controllers),
         trials=args.trials if args.trials is not None else (1 if pop else 3),
