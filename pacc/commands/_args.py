@@ -16,6 +16,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
 from collections.abc import Callable
@@ -25,6 +26,7 @@ from typing import Any, NoReturn
 from dbc.errors import UsageError, error_line
 
 __all__ = [
+    "json_parameters",
     "CommandParser",
     "check_writable_dir",
     "check_writable_file",
@@ -135,6 +137,18 @@ def integer(lo: int | None = None, hi: int | None = INT_MAX) -> Callable[[str], 
 
     parse.__name__ = "integer"
     return parse
+
+
+def json_parameters(text: str) -> tuple[tuple[str, Any], ...]:
+    """A plug-in's parameters given as a JSON object on the command line, as sorted
+    ``(name, value)`` pairs (argparse reports a bad one as a usage error, exit 2)."""
+    try:
+        value = json.loads(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"not JSON: {exc}") from None
+    if not isinstance(value, dict):
+        raise argparse.ArgumentTypeError(f"give a JSON object of parameters, got {text!r}")
+    return tuple(sorted((str(k), v) for k, v in value.items()))
 
 
 def same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:

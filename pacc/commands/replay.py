@@ -23,7 +23,7 @@ from pathlib import Path
 
 from dbc.vocab import FormatError
 from ecu import EcuError
-from pacc.commands._args import CommandParser, add_bus_arguments, bus_kwargs
+from pacc.commands._args import CommandParser, add_bus_arguments, bus_error, bus_kwargs
 
 #: state changes printed in full; the rest are counted
 MAX_STATES_SHOWN = 12
@@ -108,7 +108,7 @@ def _realtime(args: argparse.Namespace) -> int:
     try:
         bus = can.Bus(**bus_kwargs(args))
     except (can.CanError, OSError, ValueError, ImportError) as exc:
-        print(f"pacc replay: error: cannot open the CAN bus: {exc}", file=sys.stderr)
+        print(f"pacc replay: error: {bus_error(args, exc)}", file=sys.stderr)
         return 2
     with bus:
         try:

@@ -444,3 +444,12 @@ def test_missing_socketcan_points_to_the_remote_bus(capsys: pytest.CaptureFixtur
     assert main(["-i", "socketcan", "-c", "vcan0", "--duration", "0"]) == 1
     err = capsys.readouterr().err
     assert "cannot open the CAN bus" in err and "-i remote" in err and "docs/vehicles.md" in err
+
+
+def test_an_adaptation_method_with_no_adaptation_is_refused(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    argv = ["-i", "virtual", "-c", f"ecu-cli-{next(_ids)}", "--duration", "0.1"]
+    rc = main([*argv, "--no-adaptation", "--adaptation-method", "bayes"])
+    assert rc == 2
+    assert "--adaptation-method with --no-adaptation" in capsys.readouterr().err

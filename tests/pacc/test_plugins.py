@@ -6,6 +6,7 @@ from pathlib import Path
 
 import pytest
 
+from dbc.errors import UsageError
 from dbc.vocab.plugins import PluginError
 from pacc.commands.plugins import main
 from pacc.study.drive import DriveConfig, predefined_table, run_drive
@@ -65,3 +66,23 @@ def test_an_adaptation_without_online_adaptation_is_refused(tmp_path: Path) -> N
     for flag in (["--adaptation", "bayes"], ["--adaptation-mode", "paper"]):
         code, _, err = run_case(["drive", "--duration", "1", *flag], tmp_path)
         assert code == 2 and "is for the +oa controllers" in err, err
+
+
+def test_pacc_drive_passes_a_plug_ins_parameters(capsys: pytest.CaptureFixture[str]) -> None:
+    """``--gap-controller-args`` reaches the plug-in (another gain drives otherwise); bad JSON,
+    a non-object and parameters without their plug-in are refused (exit 2)."""
+    from pacc.commands.drive import main as drive_main  # noqa: PLC0415
+
+    base = ["--controller", "predefined", "--driver", "d2", "--duration", "20", "--gap-controller"]
+    spec = "pacc_testplugins:TimeGapController"
+    outs = []
+    for gain in ("0.05", "0.4"):
+        assert drive_main([*base, spec, "--gap-controller-args", '{"k_gap": ' + gain + "}"]) == 0
+        outs.append(capsys.readouterr().out)
+    assert outs[0] != outs[1]  # the parameter changed the drive
+    for bad in ("{", "[1, 2]"):
+        with pytest.raises(SystemExit) as stop:
+            drive_main([*base, spec, "--gap-controller-args", bad])
+        assert stop.value.code == 2
+    with pytest.raises(UsageError, match="--adaptation-args gives the parameters of a"):
+        drive_main(["--duration", "5", "--adaptation-args", '{"fraction": 0.3}'])

@@ -9,6 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import can
 import pytest
 
 from ecu.buslog.reader import read_canlog
@@ -34,6 +35,19 @@ def test_replay_on_a_virtual_bus_is_refused_with_a_hint(
     assert cli.main(["replay", str(drive), "-i", "virtual", "-c", "bus0", "--frames", "rx"]) == 2
     err = capsys.readouterr().err
     assert "no other ECU can listen" in err and "-i remote" in err
+
+
+def test_replay_onto_a_missing_socketcan_points_to_the_remote_bus(
+    drive: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    try:
+        can.Bus(interface="socketcan", channel="vcan0").shutdown()
+        pytest.skip("this host has SocketCAN and vcan0")
+    except (OSError, can.CanError):
+        pass
+    assert cli.main(["replay", str(drive), "-i", "socketcan", "-c", "vcan0"]) == 2
+    err = capsys.readouterr().err
+    assert "cannot open the CAN bus" in err and "-i remote" in err
 
 
 def test_replay_sends_every_received_frame_onto_a_shared_bus(drive: Path, remote_bus: str) -> None:

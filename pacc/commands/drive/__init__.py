@@ -140,6 +140,12 @@ def _check_options(args: argparse.Namespace) -> None:
             f"{adapts} is for the +oa controllers; --controller {args.controller} never "
             f"adapts its table (--controller {args.controller}+oa)"
         )
+    for given, spec in (("--gap-controller-args", "--gap-controller"), ("--adaptation-args",
+                        "--adaptation")):  # fmt: skip
+        if getattr(args, given[2:].replace("-", "_")) and not getattr(
+            args, spec[2:].replace("-", "_")
+        ):
+            raise UsageError(f"{given} gives the parameters of a {spec} SPEC: name the plug-in")
 
 
 def _table(args: argparse.Namespace, base: DriverParams, driver: DriverParams) -> Dgpt:
@@ -185,6 +191,8 @@ def main(argv: list[str] | None = None) -> int:
             binding=args.binding,
             gap_controller=args.gap_controller,
             adaptation_method=args.adaptation,
+            controller_args=args.gap_controller_args,
+            adaptation_args=args.adaptation_args,
             manual=args.manual,
         )
         drive_codec(cfg)  # a DBC without its binding: refused before any learning

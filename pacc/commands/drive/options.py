@@ -8,7 +8,7 @@ from pathlib import Path
 from dbc.network import add_network_arguments
 from ecu.adaptation import ADAPTATION_MODES
 from ecu.buslog.live import add_foxglove_argument
-from pacc.commands._args import CommandParser, integer, number
+from pacc.commands._args import CommandParser, integer, json_parameters, number
 from pacc.study.drive import BUSES, CONTROLLERS
 from sim_bus.drivers import CONDITION_FACTORS
 
@@ -118,6 +118,20 @@ def parser(description: str = "") -> argparse.ArgumentParser:
         metavar="SPEC",
         help="online adaptation of the +oa controllers through the plug-in interface: "
         "timegap, paper, bayes, an entry point of pacc.adaptations or module:attribute",
+    )
+    p.add_argument(
+        "--gap-controller-args",
+        type=json_parameters,
+        default=(),
+        metavar="JSON",
+        help="the --gap-controller plug-in's parameters, a JSON object (docs/plugins.md)",
+    )
+    p.add_argument(
+        "--adaptation-args",
+        type=json_parameters,
+        default=(),
+        metavar="JSON",
+        help="the --adaptation plug-in's parameters, a JSON object (docs/plugins.md)",
     )
     add_network_arguments(p)
     return p

@@ -305,6 +305,8 @@ def _config(args: argparse.Namespace) -> tuple[EcuConfig, Dgpt]:
         raise Exit(2, "pacc ecu: error: --cloud spools the manual trips: --manual without DIR")
     if args.manual_min is not None and args.manual is None:
         raise Exit(2, "pacc ecu: error: --manual-min is for --manual (the manual trips)")
+    if not args.adaptation and args.adaptation_method:
+        raise Exit(2, "pacc ecu: error: --adaptation-method with --no-adaptation: nothing adapts")
     for option, name in (("--driver", args.driver), ("--condition", args.condition)):
         if name is not None and PLAIN_NAME.fullmatch(name) is None:
             raise Exit(
