@@ -37,8 +37,8 @@ lint: $(STAMP)
 
 # pytest exits 5 when it collects no test: make treats that as a failure, so CI never passes on nothing.
 # -n auto: one pytest-xdist worker per core; --dist worksteal: an idle worker takes tests queued
-# for a busy one (the suite's long tests no longer end it on one worker: 152 s against 174 s on
-# 2 cores); `make test-fast` leaves out the tests marked slow.
+# for a busy one, so the suite's long tests do not end it on one worker (about 240 s of pytest
+# on a quiet 2-core machine); `make test-fast` leaves out the tests marked slow.
 test: lint
 	$(BIN)/python -m pytest -n auto --dist worksteal
 
