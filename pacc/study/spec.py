@@ -64,11 +64,13 @@ from sim_bus.errors import SimError
 from sim_bus.lead.events import ROAD_SCENARIOS
 from sim_bus.lead.scenarios import canonical_profiles
 from sim_bus.population import DEFAULT_POPULATION, draw_population
+from sim_bus.population import POPULATIONS as POPULATION_NAMES
 
 
 def _draw(
     population: str, n: int, seed: int, mismatch: float, shift: float
 ) -> tuple[DriverParams, ...]:
+    """``n`` drivers of ``population`` drawn with ``seed`` (a study's driver source)."""
     return draw_population(n, seed, mismatch=mismatch, trip_shift_sd_s=shift, population=population)
 
 
@@ -76,7 +78,7 @@ def _draw(
 #: ``headway``: the steady-state headway drivers alone):
 #: (N, seed, mismatch, trip shift sd s) -> the drawn drivers
 POPULATIONS: dict[str, Callable[[int, int, float, float], tuple[DriverParams, ...]]] = {
-    name: partial(_draw, name) for name in ("people", "headway")
+    name: partial(_draw, name) for name in POPULATION_NAMES
 }
 #: the ECU's own adaptation, called directly with the spec's ``adaptation`` parameters
 ECU_ADAPTATION = "ecu"

@@ -85,6 +85,7 @@ class KillOnce(Executor):
         self.killed_pid: int | None = None
         self.killed_keys: list[str] = []
         self._watch: threading.Thread | None = None
+        self.stopped = threading.Event()  # set when the run is over: the watcher ends
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
         if self._watch is None and fn is not learn_table:  # a drive, not a table task
@@ -95,7 +96,7 @@ class KillOnce(Executor):
 
     def _kill_a_busy_worker(self) -> None:
         deadline = time.monotonic() + 30.0
-        while time.monotonic() < deadline:
+        while time.monotonic() < deadline and not self.stopped.is_set():
             busy = {addr: keys for addr, keys in self.client.processing().items() if keys}
             if busy:
                 addr, keys = next(iter(busy.items()))
@@ -114,6 +115,9 @@ def test_a_worker_killed_mid_run_still_gives_every_row_once(
     engine = KillOnce(dask_cluster)
     cfg = StudySpec(**{**TINY.__dict__, "logs": False})
     rows = run(cfg, tmp_path, progress=False, executor=engine)
+    engine.stopped.set()
+    if engine._watch is not None:
+        engine._watch.join(5.0)
     assert engine.killed_pid is not None and engine.killed_keys  # it was mid-task
     assert _without_wall(rows) == _without_wall(ref)  # none lost, none twice, same figures
     with (tmp_path / "drives.csv").open(newline="") as fh:

@@ -140,11 +140,16 @@ def _check_options(args: argparse.Namespace) -> None:
             f"{adapts} is for the +oa controllers; --controller {args.controller} never "
             f"adapts its table (--controller {args.controller}+oa)"
         )
-    for given, spec in (("--gap-controller-args", "--gap-controller"), ("--adaptation-args",
-                        "--adaptation")):  # fmt: skip
-        if getattr(args, given[2:].replace("-", "_")) and not getattr(
-            args, spec[2:].replace("-", "_")
-        ):
+    for given, spec, params, named in (
+        (
+            "--gap-controller-args",
+            "--gap-controller",
+            args.gap_controller_args,
+            args.gap_controller,
+        ),
+        ("--adaptation-args", "--adaptation", args.adaptation_args, args.adaptation),
+    ):
+        if params and not named:
             raise UsageError(f"{given} gives the parameters of a {spec} SPEC: name the plug-in")
 
 
