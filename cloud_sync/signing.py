@@ -1,21 +1,10 @@
 """Signed DGPTs: the cloud signs every table it publishes, the vehicle refuses anything else.
 
-A signed table is one JSON object::
-
-    {"format": "pacc.signed-dgpt/1", "key_id": "<16 hex>", "dgpt": "<the table's JSON text>",
-     "signature": "<base64 Ed25519 signature of the UTF-8 bytes of dgpt>"}
-
-The table travels as text, so the signed bytes are exactly the bytes verified (no JSON
-re-canonicalisation on either side). ``key_id`` is the first 16 hex digits of the SHA-256 of
-the raw public key; it names the key, it proves nothing. Keys are Ed25519 (RFC 8032) from the
-``cryptography`` package, stored as PEM (PKCS#8 private key, SubjectPublicKeyInfo public key)
-so that OpenSSL reads them too.
-
-:func:`verify_dgpt` checks, in order: the envelope's shape, the key id, the signature, then the
-table itself with :func:`dbc.vocab.dgpt_file.dgpt_from_json_dict` against the vehicle's
-:class:`~dbc.vocab.dgpt.SafetyBounds`. An unsigned, tampered, foreign-key or out-of-bounds table
-is a
-:class:`SignatureError` naming the defect; nothing partial is returned.
+Envelope: ``{"format": "pacc.signed-dgpt/1", "key_id": "<16 hex>", "dgpt": "<table JSON
+text>", "signature": "<base64 Ed25519 of the UTF-8 dgpt>"}``; the table travels as text, so the
+signed bytes are the verified bytes. Keys are Ed25519 PEM (PKCS#8 / SubjectPublicKeyInfo).
+:func:`verify_dgpt` checks envelope, key id, signature, then the table against the vehicle's
+:class:`~dbc.vocab.dgpt.SafetyBounds`; any defect is a :class:`SignatureError`.
 """
 
 from __future__ import annotations

@@ -1,17 +1,9 @@
 """Where the demonstrations are, per DGPT speed bin, and how new evidence joins an earlier table.
 
-All functions are pure and work on the DGPT speed axis (``dbc.vocab.dgpt.speed_axis``, shape (n,)).
-
-- :func:`coverage_s`: seconds of usable demonstration within ±``half_window_mps`` of each bin.
-- :func:`evidence`: the coverage, the covered bins (where the learned gaps are kept; elsewhere
-  the table is continued at a constant time gap, :func:`cloud_sync.irl.extract.finish_table`) and
-  the gap range the argmax may take (:func:`cloud_sync.irl.extract.gap_support`). Continuing an
-  earlier table, a bin counts as covered when new evidence lies within ±``window_mps`` of it,
-  and the argmax may also range ±``support_ratio`` around the earlier gaps (that table's data
-  are not at hand, but its neighbourhood is known ground).
-- :func:`blend`: continuing, the new gaps are mixed into the earlier ones by the amount of new
-  evidence, weight ``c/(c + half_s)`` for ``c`` seconds; untouched bins keep the earlier gaps.
-- :func:`covered_ranges`: the covered bins as speed ranges, for the table's metadata.
+Pure functions on the DGPT speed axis (shape (n,)): :func:`coverage_s` (s of usable
+demonstration near each bin), :func:`evidence` (coverage, covered bins, the gap range the
+search may take), :func:`blend` (new gaps mixed into an earlier table with weight
+``c/(c + half_s)`` for ``c`` s of new evidence) and :func:`covered_ranges` (for the metadata).
 """
 
 from __future__ import annotations

@@ -1,15 +1,10 @@
 """Demonstrations: from trips to the segments, feature counts and start states IRL needs.
 
-A sample is usable when the driver is in control (``acc_state`` not Active: manual
-driving, standby after a brake, or an override; in an ACC trip only after the first
-engagement), a lead is present (finite gap and lead speed, gap within ``max_gap_m``) and the
-speeds are finite and within 0 … 70 m/s. The trip is resampled at the MDP's decision interval
-at every phase offset (a 10 Hz trip and 1 s decisions give ten interleaved sub-trajectories),
-the action of a step is the mean acceleration ``(v[t+1] − v[t])/dt``, and runs of consecutive
-usable samples are cut into segments of at most ``horizon`` steps.
-
-Each trip carries a weight; :func:`takeover_weighted` gives the driver's corrections in ACC
-trips (mode ``acc``/``takeover``) a larger weight than manual drives.
+A sample is usable when the driver is in control (``acc_state`` not Active; in an ACC trip
+only after the first engagement), a lead is present (gap 0..``max_gap_m`` m) and the speeds are
+finite within 0..70 m/s. Trips are resampled at the decision interval at every phase offset;
+the action is ``(v[t+1] − v[t])/dt`` (m/s²); usable runs are cut into segments of at most
+``horizon`` steps. :func:`takeover_weighted` weighs ACC-trip corrections above manual drives.
 """
 
 from __future__ import annotations

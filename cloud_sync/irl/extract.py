@@ -1,22 +1,10 @@
 """From per-bin gaps (of the learned policy, or of raw data) to a DGPT: low-pass, continuation,
-bounds.
+bounds. Pure functions on the DGPT speed axis (shape (n,)).
 
-All functions are pure and work on the DGPT speed axis (``dbc.vocab.dgpt.speed_axis``, shape (n,)).
-
-- :func:`gap_support`: the gap range demonstrated near each speed (where the reward is known);
-  :func:`search_range`, that range inside the safety band.
-- :func:`lowpass`: zero-phase Butterworth filter (``scipy.signal.filtfilt``) along the axis.
-- :func:`continue_time_gap`: bins without evidence get ``d0 + T(v)·v``, where the time gap
-  ``T = (g − d0)/v`` is interpolated between covered bins of at least
-  :data:`CONTINUE_MIN_SPEED_MPS` and held constant beyond them; with no covered bin that fast,
-  the stated prior :data:`PRIOR_HEADWAY_S` (or, with a fallback table, the fallback's gaps
-  are kept there). :func:`outside_coverage` names the rule a table used.
-- :func:`finish_table`: raw per-bin gaps → table: continuation, low-pass, continuation, clamp.
-- :func:`steady_state_gaps`: the empirical baseline, the median gap of near-steady samples
-  (|dv| and |a| small) per speed bin.
-
-Where the evidence is (coverage) and how a table continues an earlier one:
-:mod:`cloud_sync.irl.blend`.
+:func:`gap_support`/:func:`search_range` (the demonstrated gap range per bin, m),
+:func:`lowpass` (zero-phase Butterworth), :func:`continue_time_gap` (uncovered bins at the time
+gap of covered ones of at least :data:`CONTINUE_MIN_SPEED_MPS`, else :data:`PRIOR_HEADWAY_S`),
+:func:`finish_table` (raw gaps -> table) and :func:`steady_state_gaps` (the empirical baseline).
 """
 
 from __future__ import annotations

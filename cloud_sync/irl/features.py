@@ -1,27 +1,12 @@
 """Reward features: Gaussian radial basis functions over (v, g), plus two comfort terms.
 
-The reward of the MDP is linear in ``K = n_cv·n_cg + 2`` features:
-
     r(s, a) = κ(dv)·Σ_ij α_ij·φ_i(v)·ψ_j(u(v, g))  +  α_dv·(−(dv/dv_max)²)  +  α_a·(−(a/a_max)²)
 
-with ``φ_i(v) = exp(−½((v − c_i)/w_v)²)`` on centres every ``v_spacing_mps`` and ``ψ_j``
-likewise over a gap coordinate ``u``, and ``κ(dv) = exp(−½(dv/w_dv)²)`` (``dv_width_mps``;
-1 everywhere when 0): the gap preference is a preference of steady following. Without κ the
-(v, g) weights must also reproduce where the gap goes while the lead speeds up or slows
-down: a driver's gap opens further in those transients than it closes, the mean of all its
-gaps lies above its steady gap, and so did the table (on average +0.38 m above the steady
-median on the tuning drivers; with κ of 0.35 m/s, +0.05 m; docs/irl.md). By default
-(:func:`make_time_gap_features`) ``u`` is the time gap ``g/max(v, v_floor)`` on fixed
-centres: nothing is fitted to the data, and a preference ridge ``g ≈ d0 + T·v`` (or a
-non-monotonic one) runs nearly along the basis. The
-earlier ``offset`` basis (:func:`make_features`) takes ``u = g − ℓ(v)`` from a reference line
-``ℓ(v) = c0 + c1·v`` fitted to the demonstrations (``c0 = c1 = 0`` gives plain (v, g) RBFs).
-The (v, g) part is the preference the DGPT comes from (through the policy it induces); the
-comfort terms let the model explain smooth driving without bending it. Feature counts of
-a visitation ``M`` (n_v × n_gap) are ``Σ_kl M_kl·Bv_ki·Bg_klj`` (one einsum).
-
-Parameter vector layout: ``alpha[:n_cv·n_cg]`` is ``A.ravel()`` (A of shape (n_cv, n_cg)),
-then ``alpha_dv``, ``alpha_a``.
+``φ_i``, ``ψ_j`` Gaussian RBFs in speed (m/s) and a gap coordinate ``u``; ``κ(dv) =
+exp(−½(dv/w_dv)²)`` weights steady following (1 when ``dv_width_mps`` is 0). ``u`` is the time
+gap ``g/max(v, v_floor)`` (s, :func:`make_time_gap_features`, the default) or ``g − ℓ(v)`` (m)
+from a fitted line (:func:`make_features`). Layout of ``alpha``: ``A.ravel()`` (n_cv, n_cg),
+then ``alpha_dv``, ``alpha_a``. Rationale and measurements: docs/irl.md.
 """
 
 from __future__ import annotations

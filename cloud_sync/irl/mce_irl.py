@@ -1,16 +1,8 @@
 """Maximum causal entropy IRL on a sparse finite-horizon MDP: pure functions.
 
-Shapes: ``S`` states, ``A`` actions, ``K`` features, ``H`` the longest segment (steps).
-Time is counted as *steps to go*: a demonstration segment of ``h`` steps starts with ``h``
-steps to go, so segments of every length share one backward and one forward pass.
-
-- :func:`soft_value_iteration`: ``V_h(s) = log Σ_a exp(r(s,a) + Σ_s' P(s'|s,a)·V_{h−1}(s'))``,
-  ``V_0 = 0``, in log space (logsumexp); policy ``π_h(a|s) = exp(Q_h(s,a) − V_h(s))``.
-- :func:`state_action_visitation`: expected state-action counts, summed over time, of the
-  soft-optimal policy started from the segments' initial-state distributions.
-- :func:`objective`: the dual of MCE IRL, convex in α:
-  ``f(α) = −(α·μ_D − Σ_h p0_h·V_h) + ½λ‖α − α_prior‖²``, gradient ``μ_M − μ_D + λ(α − α_prior)``
-  with ``μ_D`` the demonstrations' and ``μ_M`` the model's expected feature counts.
+Shapes: ``S`` states, ``A`` actions, ``K`` features, ``H`` the longest segment (steps); time is
+counted in steps to go. :func:`soft_value_iteration` (log space), :func:`state_action_visitation`
+and :func:`objective`, the convex dual ``f(α) = −(α·μ_D − Σ_h p0_h·V_h) + ½λ‖α − α_prior‖²``.
 """
 
 from __future__ import annotations

@@ -1,22 +1,11 @@
 """The car-following MDP of the paper, discretised: grid, sparse transitions, reward features.
 
-State ``s = (v, g, dv)``: ego speed v (m/s), gap g (m), relative speed dv = v_lead − v (m/s).
-The paper's state is (v, g) with the lead speed "considered"; the gap dynamics (eq. 2) need
-the lead speed, and an action changes the gap only through dv, so dv is part of the state
-(the reward stays a function of (v, g) plus two comfort terms). Action ``a``: ego
-acceleration (m/s²) from a fixed set. One decision every ``dt_s``:
-
-    v'  = v + a·dt + ε_v                         (eq. 1)
-    dv' = dv + (a_f − a)·dt − ε_v
-    g'  = g + dv·dt + ½·(a_f − a)·dt²            (eq. 2, the sign corrected)
-
-The lead acceleration a_f and the speed noise ε_v are zero-mean with standard deviations
-``lead_accel_sigma_mps2`` and ``speed_noise_sigma_mps``; each is represented by three points
-{−h, 0, +h} whose probabilities match the variance, with h one grid step, so a next state lands
-on the dv / v grid exactly and the transition matrix stays sparse. The continuous next state
-is spread on the grid by multilinear interpolation and clipped to the grid's box.
-
-State index: ``s = (iv·n_gap + ig)·n_dv + idv``; state-action row: ``s·n_actions + a``.
+State ``s = (v, g, dv)``: ego speed (m/s), gap (m), lead minus ego speed (m/s); action: ego
+acceleration (m/s²) from a fixed set; one decision every ``dt_s`` s:
+``v' = v + a·dt + ε_v`` (eq. 1), ``dv' = dv + (a_f − a)·dt − ε_v``, ``g' = g + dv·dt +
+½·(a_f − a)·dt²`` (eq. 2, sign corrected). Lead acceleration and speed noise are three-point
+{−h, 0, +h} distributions; next states are spread by multilinear interpolation, clipped to the
+grid. Index: ``s = (iv·n_gap + ig)·n_dv + idv``; state-action row ``s·n_actions + a``.
 """
 
 from __future__ import annotations

@@ -1,23 +1,10 @@
 """The gap the learned policy keeps in steady following: the DGPT of a fitted reward.
 
-Maximum causal entropy IRL fits the reward so that the soft-optimal *policy* reproduces the
-demonstrations' feature counts; it is the policy, not the reward surface, that matches the
-data. The argmax of the (v, g) reward is not, in general, the gap that policy keeps: the
-reward also pays for where the dynamics lead next, and with a finite horizon and a lead
-modelled as a random walk its maximum sits off the gaps the driver actually holds (
-on the OpenACC human followers the argmax table was 3–6 m off the steady gaps of the densely
-driven speeds). So the table is read from the policy:
-
-- :func:`steady_drift`: ``E_π[a | v, g, dv = 0]`` (m/s²) of the policy with ``horizon``
-  steps to go, on the grid's (v, g), with the lead at the ego's speed; and the soft value
-  ``V_H(v, g, 0)`` of those states.
-- :func:`steady_gaps`: per DGPT speed, the gap where that drift changes sign from braking
-  (below) to accelerating (above): a gap the policy returns to from either side. With the
-  drift interpolated linearly in v and g, the crossing is found to sub-grid resolution;
-  among several such gaps the one of highest soft value is taken; where there is none inside
-  the demonstrated range, the policy drives the gap to that range's edge.
-
-All functions are pure.
+The table is read from the soft-optimal policy, not the reward's argmax (which sat 3–6 m off
+the steady gaps of the OpenACC followers; docs/irl.md). :func:`steady_drift`: ``E_π[a | v, g,
+dv = 0]`` (m/s²) and the soft value on the grid's (v, g); :func:`steady_gaps`: per DGPT speed,
+the gap (m) where that drift changes sign from braking to accelerating, the highest-value one
+if several, else the demonstrated range's edge. Pure functions.
 """
 
 from __future__ import annotations

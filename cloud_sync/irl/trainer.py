@@ -1,19 +1,10 @@
 """The IRL trainer: trips in, a driver's DGPT out (a thin composition of the pure phases).
 
-:func:`learn_dgpt` learns from demonstrations (manual drives, plus the takeovers of ACC trips,
-weighted); :func:`fine_tune` continues from an earlier IRL table with new takeovers;
-:func:`empirical_baseline` (:mod:`~cloud_sync.irl.baseline`, re-exported here with
-:class:`IrlConfig` of :mod:`~cloud_sync.irl.config`) is the comparison table. Every result is
-a pure function of (configuration, seed, data): the optimiser is deterministic and the seed
-only draws the starting weights, which the convex objective forgets.
-
-The phases of :func:`learn_dgpt`, one module each: the demonstrations
-(:mod:`~cloud_sync.irl.demos`), the evidence per speed (:mod:`~cloud_sync.irl.blend`), the reward
-model
-(:mod:`~cloud_sync.irl.model`), the fit (:mod:`~cloud_sync.irl.fit`), the extraction of the table
-(:mod:`~cloud_sync.irl.policy_gap`, the gap the learned policy keeps, then
-:mod:`~cloud_sync.irl.extract`) and, continuing an earlier table, the blend into it
-(:mod:`~cloud_sync.irl.blend`).
+:func:`learn_dgpt` learns from demonstrations (manual drives, plus weighted ACC takeovers);
+:func:`fine_tune` continues an earlier IRL table; :func:`empirical_baseline` is the comparison.
+Phases: :mod:`~cloud_sync.irl.demos`, :mod:`~cloud_sync.irl.blend`, :mod:`~cloud_sync.irl.model`,
+:mod:`~cloud_sync.irl.fit`, :mod:`~cloud_sync.irl.policy_gap`, :mod:`~cloud_sync.irl.extract`.
+Every result is a pure function of (configuration, seed, data).
 """
 
 from __future__ import annotations

@@ -1,23 +1,11 @@
 """The cloud service's rules, free of any transport: who may do what, ingest, learning, publishing.
 
-- **Vehicles and drivers**: :meth:`CloudService.register` returns a fresh token (the cloud
-  keeps only its SHA-256) and binds drivers to the vehicle; :meth:`update_vehicle` adds
-  drivers, reissues or revokes the token. A vehicle reads and writes only its own drivers.
-- **Ingest**: an upload is size-checked, parsed as a pacc trip log (a corrupt, truncated or
-  foreign file is refused and stored nowhere), attributed to ``meta["driver_id"]`` and
-  ``meta["condition"]`` and stored once per SHA-256 (a repeated upload is acknowledged as a
-  duplicate: at-least-once delivery becomes exactly-once storage).
-- **Learning jobs**: every new batch schedules a job for its (driver, condition) on the
-  executor, off the request path. A job is a pure function of the stored batches: the first
-  version comes from the manual trips (:func:`cloud_sync.irl.trainer.learn_dgpt`); later batches
-  (takeover segments, more manual trips) fine-tune the newest version
-  (:func:`cloud_sync.irl.trainer.fine_tune`). Trips are ordered by digest, so the result does not
-  depend on arrival order. Too little data is not an error: the job waits for more.
-- **Where jobs run**: the executor runs the job loop (reading the store, publishing); the
-  training itself, :func:`train_table`, a pure function of trips, seed and settings, runs on
-  an executor (:mod:`cloud_sync.engine`; None: in the job's thread), e.g. a Dask
-  cluster (``pacc cloud serve --scheduler``), which gets the trips with the task.
-- **Publishing**: each version is signed (Ed25519, :mod:`cloud_sync.signing`) and kept.
+A vehicle (token kept as its SHA-256) reads and writes only its own drivers. An upload is
+checked (:mod:`cloud_sync.service.ingest`), attributed to its ``driver_id``/``condition`` and
+stored once per SHA-256. Each new batch schedules a learning job for its (driver, condition):
+a pure function of the stored batches in digest order (manual trips learn a table, later
+takeovers fine-tune it; too little data waits). Training may run on ``compute``
+(:mod:`cloud_sync.engine`); each version is signed (:mod:`cloud_sync.signing`) and kept.
 """
 
 from __future__ import annotations

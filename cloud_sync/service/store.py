@@ -1,22 +1,11 @@
 """The cloud's storage: an SQLite index and content-addressed files under one data folder.
 
-Layout of ``data_dir``::
-
-    index.sqlite                     vehicles, drivers, batches, DGPT versions, trip reports
-                                     (WAL mode; ``PRAGMA user_version`` = SCHEMA_VERSION)
-    blobs/<d[:2]>/<digest>.mcap      every uploaded batch, named by its SHA-256
-    dgpt/<driver>/<condition>/v<version>.json   every signed DGPT version, never overwritten
-    keys/cloud.key, keys/cloud.pub   the signing key pair (see cloud_sync.signing)
-
-Files are written to a temporary name, fsynced and renamed before their row is committed, so
-a row never points at a partial file; a file without a row (a crash between the two) is
-written again by the next upload of the same batch; a temporary file left by a killed
-process (``.<name>.part``) is removed when the store opens. Every DGPT version is kept. One
-store object may be shared by threads (one connection behind a lock); one process per folder.
-
-**Migration**: an index of an older schema (``user_version`` below :data:`SCHEMA_VERSION`:
-version 1 had no ``trips``/``trip_segments`` tables) is brought up to date when the store
-opens, in one transaction that only adds tables: no row of the older index is touched.
+Layout: ``index.sqlite`` (vehicles, drivers, batches, DGPT versions, trip reports; WAL;
+``user_version`` = :data:`SCHEMA_VERSION`), ``blobs/<d[:2]>/<digest>.mcap`` (uploaded batches
+by SHA-256), ``dgpt/<driver>/<condition>/v<version>.json`` (every signed version, never
+overwritten), ``keys/cloud.key|.pub``. A file is written, fsynced and renamed before its row is
+committed; ``.<name>.part`` leftovers are removed at open; an older schema is migrated by adding
+tables only. One connection behind a lock; one process per folder.
 """
 
 from __future__ import annotations

@@ -1,32 +1,11 @@
-"""Trip reports: what the cloud knows of each trip a vehicle drove with the ACC, for the
-per-trip learning curve of an incremental study.
+"""Trip reports: what the cloud knows of each ACC trip, for the per-trip learning curve.
 
-During an ACC trip the vehicle uploads only its **takeover segments** (the batches the cloud
-learns from); a trip without a takeover uploads nothing. So after each trip the vehicle also
-sends a small **trip report** (``POST /v1/trips``, JSON)::
-
-    {"driver_id": "d1", "condition": "default", "trip_id": "study-1-t3",
-     "dgpt_version": 2, "acc_on_s": 287.4, "segments": ["<sha256>", ...],
-     "start_utc": "2026-11-24T10:00:00Z"}            (start_utc optional)
-
-What comes from where:
-
-- **from the uploaded data** (the cloud computes it from the stored segments, the report only
-  names them): the intervention time ``intervention_s`` (s; samples with a pedal pressed,
-  ``accel_pedal > 0`` or ``brake_pedal > 0``, while the ACC was on — Active or Override, or
-  Standby after the segment's first engagement — times the segment's sample period) and the
-  takeovers (press onsets while on: a change from no pedal to a pedal or from one pedal to
-  the other), the definitions of the study's PoI and NIM (``sim_bus.metrics.poi_nim``);
-- **from the vehicle, validated**: the trip's ACC-on time ``acc_on_s`` (s; the vehicle alone
-  saw the whole trip: finite, 0..86,400 s, and not shorter than the intervention time the
-  cloud computed, less one sample per segment) and the table version it drove with
-  (``dgpt_version``: a version the cloud published for the driver and condition).
-
-Each named segment must be a stored takeover batch of the same driver and condition, claimed
-by no other trip. The per-trip measures are then ``poi_pct = 100·intervention_s/acc_on_s``
-(%) and ``takeovers_per_min = takeovers/(acc_on_s/60)`` (None when ``acc_on_s`` is 0).
-A report is stored once per (driver, trip id): the same report again is a duplicate, a
-different one under a taken id is refused (422).
+``POST /v1/trips`` body: ``{"driver_id", "condition", "trip_id", "dgpt_version", "acc_on_s",
+"segments": [sha256...], "start_utc"?}``. The cloud computes the intervention time (s; pedal
+pressed while the ACC was on) and takeovers (press onsets) from the named stored takeover
+segments; the vehicle states ``acc_on_s`` (s, 0..86,400, not below the interventions) and a
+published ``dgpt_version``. Then ``poi_pct = 100·intervention_s/acc_on_s`` and
+``takeovers_per_min``. Stored once per (driver, trip id); another report under a taken id: 422.
 """
 
 from __future__ import annotations

@@ -1,16 +1,9 @@
 """Profile download: the newest signed DGPT for (driver, condition), checked before use.
 
-:class:`ProfileDownloader` asks the cloud for the driver's newest table, verifies its Ed25519
-signature against the key the vehicle trusts and its gaps against the vehicle's
-:class:`~dbc.vocab.dgpt.SafetyBounds` (:func:`cloud_sync.signing.verify_dgpt`), and only then keeps
-it: the signed bytes go to ``cache_dir/<driver>/<condition>.signed.json`` (atomically), which
-is the last good table for offline use and is verified again whenever it is read. Anything
-else is refused and reported (:attr:`ProfileDownloader.refusals`), and the last good table
-stays in use.
-
-Swapping a new table into a running ECU is the ECU's business: ``EcuRuntime.offer_table``
-swaps it in at a cycle where :func:`ecu.profiles.may_swap` holds (never while the ACC is
-ACTIVE).
+:class:`ProfileDownloader` verifies the table's Ed25519 signature and its gaps against the
+vehicle's :class:`~dbc.vocab.dgpt.SafetyBounds` (:func:`cloud_sync.signing.verify_dgpt`) and
+keeps the signed bytes as ``cache_dir/<driver>/<condition>.signed.json``: the last good table,
+verified again whenever read. Anything else is refused and reported; the last good one stays.
 """
 
 from __future__ import annotations

@@ -1,22 +1,11 @@
 """The vehicle's spool: trip logs waiting for the cloud, crash-safe, inside a size quota.
 
-Every finished takeover segment and every manual (ACC OFF) trip becomes one *batch*: an MCAP
-trip log in the spool folder named ``<seq>-<kind>-<sha256>.mcap``, where ``seq`` orders the
-batches (oldest first), ``kind`` is ``takeover``, ``manual`` or ``acc`` and the digest of the
-file's bytes is the batch's identity (the uploader's idempotency key).
-
-Writing is atomic: the batch is written under ``.incoming/``, flushed with fsync, renamed into
-the spool and the folder is fsynced, so after a crash at any instant a batch is either whole
-under its final name or absent; leftovers in ``.incoming/`` are removed when the spool opens
-(counted in :attr:`SpoolStats.partials_removed`). A batch leaves the spool only when the cloud
-acknowledged it (:meth:`Spool.ack`), when the quota evicts it, or when the cloud refused it for
-good (:meth:`Spool.reject` moves it to ``rejected/`` with the reason: kept, not retried).
-
-Quota policy: when the batches exceed ``quota_bytes``, the oldest manual trips go first, then
-the oldest ACC trips, takeovers last (they carry the driver's corrections); the batch just
-added is never evicted, and a batch larger than the whole quota is refused. Every eviction is
-counted per kind and logged. A file whose bytes no longer match its digest (bit rot, a
-foreign file) is moved to ``quarantine/`` and counted, never uploaded.
+Each batch is one MCAP trip log ``<seq>-<kind>-<sha256>.mcap`` (kind ``takeover``, ``manual``
+or ``acc``; the digest is the upload's idempotency key), written under ``.incoming/``, fsynced
+and renamed (whole or absent after a crash). A batch leaves on the cloud's ack, by quota
+eviction (manual first, then acc, takeovers last; never the one just added) or to
+``rejected/`` with the reason; a file whose bytes no longer match its digest goes to
+``quarantine/``.
 """
 
 from __future__ import annotations

@@ -1,21 +1,10 @@
 """The uploader: drains the spool into the cloud on a thread of its own, nothing lost.
 
-Each pending batch (oldest first) is uploaded; the spool deletes it only after the cloud's
-receipt names the same digest (at-least-once delivery; the cloud's de-duplication by digest
-makes the storage exactly-once). A retryable failure (:class:`CloudUnavailableError`: no
-network, timeout, dropped connection, 5xx) is retried with exponential backoff and full jitter
-(tenacity's ``wait_random_exponential``). Only an answer about the batch itself (413 too
-large, 422 not a trip log) moves it to the spool's ``rejected/`` folder with the reason, so one
-bad batch never blocks the queue. An answer about the vehicle's set-up keeps the batch: 401
-(token) ends the pass, 403 (driver not registered yet) and any other 4xx skip the batch for
-this pass; they are counted in :attr:`UploadStats.held` and tried again on the next pass.
-
-After the batches, each pass posts the trip reports queued in the spool's ``reports/`` folder
-whose segments have left the spool (:mod:`cloud_sync.vehicle.reports`).
-
-The thread never touches the control loop: the ECU only writes batches into the spool (a file
-rename), and :meth:`Uploader.notify` wakes the thread. :meth:`Uploader.stop` ends it promptly,
-even in the middle of a backoff.
+Pending batches go oldest first; one is deleted only when the receipt names its digest. A
+retryable failure (:class:`CloudUnavailableError`) is retried with exponential backoff and full
+jitter; 413/422 move the batch to ``rejected/``; 401 ends the pass and 403 or another 4xx skips
+the batch for this pass (:attr:`UploadStats.held`). After the batches each pass posts the trip
+reports that may go (:mod:`cloud_sync.vehicle.reports`).
 """
 
 from __future__ import annotations

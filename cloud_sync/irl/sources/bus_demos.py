@@ -1,36 +1,11 @@
 """Demonstrations from a real car's bus log: the manual car-following stretches as trip logs.
 
-``pacc demos extract LOG... --dbc CAR.dbc --binding CAR.binding.toml -o trips/``
-(:mod:`pacc.commands.demos`). Any log python-can reads (BLF, ASC, candump ``.log``, TRC …,
-and pacc's ``.mcap`` recordings through pacc's python-can plugin) is read frame by frame and
-decoded through the car's binding (:class:`dbc.endpoint.Inbox`: the bound messages, their
-checksums and counters, physical units): the ego speed and acceleration, the pedals, the
-radar's lead, and the ACC's state where the car sends one.
-
-**Sampling, as the ECU records** (:class:`ecu.manual.ManualRecorder`, the vehicle-side
-recording of the same stretches). The ECU reads its inputs once per control cycle and sends
-its command frames right after, so the log's command frames (the binding's ``command`` role,
-its last message each cycle) mark the instants the ECU sampled: the extraction samples the
-decoded values at those frames, keeping one as the recorder keeps one
-(:func:`dbc.vocab.sampling.keep_sample`, the rule both share: ``period_s`` after the last
-kept less half a cycle, the cycle the binding's command message's), with what the frames
-before it said and the ACC state the cycle's own frame carries. Where the log has no command
-frames, or their cycle does not divide ``period_s`` (another car's ACC), a ``period_s`` grid
-from the first frame is used instead, each grid point seeing the frames up to its instant. Times are
-taken relative to the log's first frame and rounded to 1 µs (:data:`TIME_RESOLUTION_S`): a
-log's absolute float timestamps (UTC seconds, ~0.24 µs apart near 2026) and BLF's start time
-(whole milliseconds, python-can's writer) plus truncated nanoseconds move them by a fraction
-of a microsecond, which the rounding takes back out; a bus frame's time means nothing finer
-(candump and ASC write µs).
-
-A sample is manual car-following when the ACC is not engaged (OFF or STANDBY, or no ACC
-frames at all), a lead is valid and the inputs are good as the ECU checks them
-(:func:`ecu.signals.input_fault` less the HMI): speed valid, fresh and finite and >= 0,
-pedals fresh and finite, radar fresh (and finite with a lead). Runs of such samples of at
-least ``min_s`` (count × ``period_s``; :data:`~dbc.vocab.sampling.MANUAL_MIN_S`), cut at
-``max_s`` (:data:`~dbc.vocab.sampling.MANUAL_MAX_S`), become manual trip logs
-(:class:`dbc.vocab.triplog.Trip`, ``mode`` ``manual``) that the cloud learns from; the report
-says how many seconds were kept and why the rest was dropped.
+``pacc demos extract LOG... -o trips/`` (:mod:`pacc.commands.demos`): any log python-can reads
+is decoded through the car's binding (:class:`dbc.endpoint.Inbox`) and sampled as the ECU
+records (:class:`ecu.manual.ManualRecorder`, :func:`dbc.vocab.sampling.keep_sample`) at its
+command frames, else on a ``period_s`` grid; times relative to the first frame, rounded to
+:data:`TIME_RESOLUTION_S` s. Samples with the ACC not engaged, a valid lead and good inputs,
+in runs of ``min_s``..``max_s`` s, become manual trip logs; the report says what was dropped.
 """
 
 from __future__ import annotations
