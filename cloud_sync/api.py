@@ -121,14 +121,8 @@ def check_plausible(trip: Trip) -> None:
 
 @dataclass(frozen=True)
 class Receipt:
-    """The cloud's acknowledgement of one uploaded batch.
-
-    Attributes:
-        digest: SHA-256 of the batch's bytes, hex (the vehicle deletes its copy by it).
-        driver_id: whose trip it is (from the trip's metadata).
-        kind: ``takeover``, ``manual`` or ``acc``.
-        duplicate: the cloud held this batch already (nothing stored again).
-    """
+    """The cloud's receipt of one batch: its SHA-256 (hex), driver, kind (``takeover``,
+    ``manual``, ``acc``) and whether the cloud held it already."""
 
     digest: str
     driver_id: str
@@ -138,13 +132,7 @@ class Receipt:
 
 @dataclass(frozen=True)
 class TripReceipt:
-    """The cloud's acknowledgement of one trip report (:mod:`cloud_sync.service.trips`).
-
-    Attributes:
-        trip_id: the vehicle's id of the trip.
-        driver_id: whose trip it was.
-        duplicate: the cloud held this very report already (nothing stored again).
-    """
+    """The cloud's receipt of one trip report: trip id, driver, held already."""
 
     trip_id: str
     driver_id: str

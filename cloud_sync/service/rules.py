@@ -68,13 +68,7 @@ def _utc_now() -> str:
 
 @dataclass(frozen=True)
 class ServiceConfig:
-    """Settings of the service.
-
-    Attributes:
-        max_upload_bytes: the largest accepted batch, bytes.
-        seed: the learning jobs' seed (every job is a pure function of seed and data).
-        irl: IRL settings (None: the trainer's defaults).
-    """
+    """Settings: the largest batch (bytes), the jobs' seed, IRL settings (None: defaults)."""
 
     max_upload_bytes: int = DEFAULT_MAX_UPLOAD_BYTES
     seed: int = 0
@@ -89,16 +83,8 @@ class _JobState:
 
 
 class CloudService:
-    """The cloud (see the module docstring). Thread-safe.
-
-    Args:
-        store: the data folder.
-        key: the signing key.
-        executor: where learning jobs run (None: inline, in the uploading thread).
-        config: limits and learning settings.
-        compute: where a job's training runs (None: in the job's thread); the service does
-            not close it.
-    """
+    """The cloud over ``store``, signing with ``key``; learning jobs on ``executor`` (None:
+    inline), their training on ``compute`` (None: the job's thread; not closed here)."""
 
     def __init__(
         self,
@@ -153,10 +139,8 @@ class CloudService:
         drivers: list[str],
         keep_token: Callable[[str], None] | None = None,
     ) -> str:
-        """Register a vehicle and its drivers at once and return the token: one transaction,
-        and ``keep_token(token)`` (writing the token file) runs inside it, so a bad or taken
-        driver id or a token that cannot be kept leaves nothing registered. StoreError for
-        names that are not plain, a vehicle already registered, a driver taken."""
+        """Register a vehicle and its drivers in one transaction (``keep_token(token)`` inside
+        it: all or nothing); the token. StoreError: names not plain, vehicle or driver taken."""
         _check_names(vehicle_id, drivers)
         token = secrets.token_urlsafe(32)
         hook = None if keep_token is None else (lambda: keep_token(token))
@@ -171,11 +155,8 @@ class CloudService:
         token: str | None = None,
         keep_token: Callable[[str], None] | None = None,
     ) -> str | None:
-        """The operator's changes to a registered vehicle, in one transaction: add ``drivers``;
-        ``token="new"``: a fresh token replaces the old one (returned; ``keep_token`` runs
-        inside the transaction as in :meth:`register`), ``token="revoke"``: no token works
-        until a new one is issued. StoreError for an unknown vehicle, a taken driver or names
-        that are not plain."""
+        """Add ``drivers`` to a vehicle and, with ``token`` ``"new"``, issue a fresh token
+        (returned; ``keep_token`` inside the transaction) or ``"revoke"`` it. StoreError."""
         _check_names(vehicle_id, drivers)
         fresh = secrets.token_urlsafe(32) if token == "new" else None
         if fresh is not None:
@@ -288,13 +269,8 @@ class CloudService:
             future.result(timeout=timeout_s)
 
     def learn_once(self, driver_id: str, condition: str) -> int | None:
-        """Learn the driver's next table from the unused batches; the new version or None.
-
-        New manual trips: the table is learned again from every manual trip (learn_dgpt),
-        then fine-tuned with every takeover batch so far. Only new takeover (or ACC)
-        batches: the newest version is fine-tuned with them. Trips are taken in digest order,
-        so a version is a pure function of the stored batches and the seed.
-        """
+        """Learn the driver's next version from the unused batches (new manual trips: relearn
+        from all, then fine-tune with every correction; else fine-tune); None if nothing."""
         unused = self.store.batches(driver_id, condition, unused_only=True)
         if not unused:
             return None

@@ -195,11 +195,8 @@ class CloudStore:
         drivers: list[str],
         before_commit: Callable[[], None] | None = None,
     ) -> None:
-        """Register a vehicle and its drivers in one transaction: all or nothing.
-
-        ``before_commit`` runs inside the transaction (e.g. writing the token file); if it
-        raises, nothing is registered. StoreError if the vehicle exists or a driver is taken.
-        """
+        """Register a vehicle and its drivers in one transaction, ``before_commit`` inside it
+        (all or nothing). StoreError if the vehicle exists or a driver is taken."""
         with self._tx() as db:
             if db.execute("SELECT 1 FROM vehicles WHERE vehicle_id = ?", (vehicle_id,)).fetchone():
                 raise StoreError(
@@ -325,11 +322,8 @@ class CloudStore:
         return path
 
     def add_version(self, row: VersionRow, signed: bytes, used: list[str]) -> None:
-        """Publish a signed DGPT version and mark the batches ``used`` for it.
-
-        The row is inserted first, in the transaction that then puts the file in place, so a
-        version that exists already is refused (StoreError) without touching its file.
-        """
+        """Publish a signed DGPT version and mark the batches ``used``; an existing version
+        is refused (StoreError) before its file is touched."""
         final = self.version_path(row.driver_id, row.condition, row.version)
         tmp = write_temp(final, signed)
         try:

@@ -121,12 +121,9 @@ def _is_utc(text: object) -> bool:
 
 
 def segment_interventions(trip: Trip) -> tuple[float, int]:
-    """(intervention seconds, takeovers) of one takeover segment, pure.
-
-    Intervention: samples with a pedal pressed (position > 0; NaN: not pressed) while the
-    ACC was on (Active or Override, or Standby after the segment's first engagement), each
-    worth the segment's median sample period (s). Takeovers: press onsets while on (no pedal
-    → a pedal, or one pedal → the other)."""
+    """(intervention s, takeovers) of one takeover segment (module docstring), pure: pedal
+    samples while on (Active, Override, Standby after the first engagement) times the median
+    period, and press onsets while on."""
     n = len(trip)
     if n == 0:
         return 0.0, 0
@@ -169,13 +166,8 @@ def _measure(service: CloudService, report: TripReport) -> tuple[float, int, flo
 
 
 def record_trip(service: CloudService, vehicle_id: str, body: object) -> TripReceipt:
-    """Check and keep one trip report of ``vehicle_id`` (module docstring); its receipt.
-
-    Raises:
-        ForbiddenError: the driver is not the vehicle's.
-        BadBatchError: a malformed report, unknown segments or version, an ACC-on time
-            shorter than the segments' interventions, or a taken trip id.
-    """
+    """Check and keep one trip report of ``vehicle_id``; its receipt (ForbiddenError: not
+    the vehicle's driver; BadBatchError: malformed, unknown segment or version, taken id)."""
     report = TripReport.parse(body)
     service._own(vehicle_id, report.driver_id)  # noqa: SLF001 - the service's ownership rule
     published = {v.version for v in service.store.versions(report.driver_id, report.condition)}

@@ -30,12 +30,7 @@ def _sha256(text: str) -> str:
 
 
 class ServiceViews:
-    """The read-only views of ``service`` (module docstring).
-
-    Args:
-        service: the cloud.
-        operator_token_sha256: SHA-256 (hex) of the operator token (None: no operator).
-    """
+    """The read-only views of ``service``; ``operator_token_sha256`` (hex; None: no operator)."""
 
     def __init__(self, service: CloudService, operator_token_sha256: str | None = None) -> None:
         self.service = service

@@ -34,16 +34,9 @@ DEFAULT_SYNC_EVERY_S = 60.0
 
 
 class VehicleLink:
-    """Spool + uploader + verified profile download for one vehicle.
-
-    Args:
-        cloud: the cloud client.
-        spool: the vehicle's spool.
-        vehicle_id: written into every spooled trip's metadata (None: trips spooled as given).
-        downloader: None: upload only.
-        driver_id / condition: whose table the schedule fetches (None: no schedule).
-        sync_every_s: download period, s (> 0).
-    """
+    """Spool + uploader + verified download for the vehicle ``vehicle_id`` (tagged into each
+    spooled trip's meta; None: not tagged). ``downloader`` None: upload only; ``driver_id``,
+    ``condition``: whose table is fetched every ``sync_every_s`` s (None: no schedule)."""
 
     def __init__(
         self,

@@ -27,7 +27,7 @@ from cloud_sync.api import (
     CloudUnavailableError,
     PayloadTooLargeError,
 )
-from cloud_sync.durable import fsync_dir, write_atomic
+from cloud_sync.durable import set_aside, write_atomic
 from cloud_sync.errors import CloudSyncError
 from dbc.vocab.dgpt import PLAIN_NAME
 
@@ -36,7 +36,6 @@ log = logging.getLogger(__name__)
 #: the spool's sub-folder of reports
 REPORTS = "reports"
 _NAME = re.compile(rf"^\d{{12}}-({PLAIN_NAME.pattern})\.json$")
-_REJECTED = "rejected"
 _STATUS_PREFIX = re.compile(r"^HTTP \d{3}: ")
 
 
@@ -58,11 +57,7 @@ class ReportStats:
 
 
 class ReportQueue:
-    """The ``reports/`` folder of a spool (module docstring). Thread-safe.
-
-    Args:
-        spool_root: the spool folder; the reports live in ``spool_root/reports``.
-    """
+    """The ``reports/`` folder of the spool at ``spool_root``. Thread-safe."""
 
     def __init__(self, spool_root: str | os.PathLike[str]) -> None:
         self.root = Path(spool_root) / REPORTS
@@ -74,11 +69,8 @@ class ReportQueue:
                     part.unlink()
 
     def put(self, report: Mapping[str, Any]) -> Path:
-        """Queue ``report`` (its ``trip_id`` a plain name); the file it was written to.
-
-        Raises:
-            ReportError: the report is not JSON, has no usable trip id, or cannot be written.
-        """
+        """Queue ``report`` (its ``trip_id`` a plain name); its file. ReportError: not JSON,
+        no plain trip id, or not written."""
         trip_id = report.get("trip_id")
         try:
             text = json.dumps(dict(report), sort_keys=True, allow_nan=False)
@@ -145,19 +137,14 @@ class ReportQueue:
         return done
 
     def _reject(self, path: Path, reason: str) -> None:
-        target = self.root / _REJECTED
-        target.mkdir(exist_ok=True)
-        (target / f"{path.name}.reason").write_text(reason + "\n", encoding="utf-8")
-        path.replace(target / path.name)
-        fsync_dir(self.root)
+        set_aside(path, reason)
         self.stats.rejected += 1
-        log.error("trip report %s set aside in %s: %s", path.name, target, reason)
+        log.error("trip report %s set aside in %s/rejected: %s", path.name, self.root, reason)
 
 
 def http_answer(exc: CloudError) -> str:
-    """What the cloud answered: ``HTTP <status>: <detail>``, the status said once (the HTTP
-    client's messages start with it already, the embedded cloud's do not); the cloud out of
-    reach, its own words."""
+    """What the cloud answered: ``HTTP <status>: <detail>`` (the status said once), or that
+    it is unavailable."""
     if isinstance(exc, CloudUnavailableError):
         return f"the cloud is unavailable: {exc}"
     return f"HTTP {exc.status}: {_STATUS_PREFIX.sub('', str(exc), count=1)}"

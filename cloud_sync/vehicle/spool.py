@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Literal
 
 from cloud_sync.api import BadBatchError, check_plausible
-from cloud_sync.durable import fsync_dir
+from cloud_sync.durable import fsync_dir, set_aside
 from cloud_sync.errors import CloudSyncError
 from dbc.vocab.triplog import Trip, TripLogError, trip_mode
 from dbc.vocab.triplog_file import read_trip, write_trip
@@ -43,7 +43,6 @@ _NAME = re.compile(
 )
 _INCOMING = ".incoming"
 _QUARANTINE = "quarantine"
-_REJECTED = "rejected"
 _CHUNK = 1 << 20
 
 
@@ -84,12 +83,8 @@ def file_digest(path: Path) -> str:
 
 
 class Spool:
-    """A spool folder (see the module docstring). Thread-safe; one writing process per folder.
-
-    Args:
-        root: the spool folder (created if missing).
-        quota_bytes: the most the batches may occupy, bytes (> 0).
-    """
+    """The spool folder ``root`` (created if missing), its batches within ``quota_bytes``.
+    Thread-safe; one writing process per folder."""
 
     def __init__(self, root: str | os.PathLike[str], *, quota_bytes: int = DEFAULT_QUOTA_BYTES):
         if quota_bytes <= 0:
@@ -138,15 +133,8 @@ class Spool:
     # -- adding --------------------------------------------------------------------------
 
     def put_trip(self, trip: Trip, kind: BatchKind | None = None) -> Batch:
-        """Spool ``trip`` as one batch (kind from its meta unless given); return the batch.
-
-        A trip already spooled (same bytes) is not stored twice: its batch is returned.
-
-        Raises:
-            SpoolError: the trip cannot be written (meta not JSON, full disk), its mode is
-                unknown (:class:`dbc.vocab.tripmode.TripModeError`) or it is larger than the
-                whole quota.
-        """
+        """Spool ``trip`` as one batch (kind from its mode unless given; the same bytes
+        again: the batch spooled). SpoolError: not written, unknown mode, over the quota."""
         try:
             kind = kind or trip_mode(trip).value
         except TripModeError as exc:
@@ -161,12 +149,8 @@ class Spool:
         return self._admit(incoming, kind)
 
     def put_file(self, source: str | os.PathLike[str], kind: BatchKind | None = None) -> Batch:
-        """Spool a copy of an MCAP trip log (checked with :func:`read_trip` first).
-
-        Raises:
-            SpoolError: the file is not a readable pacc trip log, holds samples the cloud
-                would refuse (:func:`cloud_sync.api.check_plausible`), or is too large.
-        """
+        """Spool a copy of an MCAP trip log; SpoolError if it is not a readable pacc trip
+        log, holds implausible samples (:func:`cloud_sync.api.check_plausible`) or is too large."""
         try:
             trip = read_trip(source)
         except TripLogError as exc:
@@ -227,11 +211,7 @@ class Spool:
             total -= victim.size_bytes
             self.stats.evicted[victim.kind] += 1
             log.warning(
-                "spool quota %d bytes: evicted %s batch %d (%s)",
-                self.quota_bytes,
-                victim.kind,
-                victim.seq,
-                victim.digest[:12],
+                "spool quota %d B: evicted %s batch %d", self.quota_bytes, victim.kind, victim.seq
             )
 
     def _remove(self, batch: Batch) -> None:
@@ -253,18 +233,13 @@ class Spool:
             return sum(b.size_bytes for b in self._batches.values())
 
     def reject(self, digest: str, reason: str) -> bool:
-        """The cloud refused batch ``digest`` for good (not a retryable failure): move it to
-        ``rejected/`` with a ``.reason`` file beside it, so it neither blocks the queue nor is
-        lost. False if no such batch is pending."""
+        """The cloud refused batch ``digest`` for good: set it aside in ``rejected/`` with
+        the reason. False if no such batch is pending."""
         with self._lock:
             batch = self._batches.get(digest)
             if batch is None:
                 return False
-            target = self.root / _REJECTED
-            target.mkdir(exist_ok=True)
-            (target / f"{batch.path.name}.reason").write_text(reason + "\n", encoding="utf-8")
-            batch.path.replace(target / batch.path.name)
-            fsync_dir(self.root)
+            set_aside(batch.path, reason)
             del self._batches[digest]
             self.stats.rejected += 1
             log.error(

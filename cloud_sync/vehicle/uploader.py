@@ -36,13 +36,7 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class UploaderConfig:
-    """Timing of the uploader, s.
-
-    Attributes:
-        backoff_s: the first retry waits up to this long (full jitter), doubling each time.
-        backoff_max_s: the longest wait between two attempts.
-        poll_s: how often an idle uploader looks at the spool without being notified.
-    """
+    """Timing, s: first retry's wait (doubling, full jitter), the longest wait, idle poll."""
 
     backoff_s: float = 0.5
     backoff_max_s: float = 60.0
@@ -79,11 +73,8 @@ class Uploader:
     # -- one pass ------------------------------------------------------------------------
 
     def drain(self) -> int:
-        """Upload every pending batch, retrying until each is answered or stop() is called,
-        then post the trip reports that may go (:class:`ReportQueue`).
-
-        Returns the number of batches the cloud acknowledged in this pass.
-        """
+        """Upload every pending batch (retrying until answered or stopped), then the trip
+        reports that may go; the batches acknowledged in this pass."""
         done = 0
         for batch in self.spool.pending():
             if self._stop.is_set():
