@@ -1,9 +1,7 @@
 """The IRL optimisation: reward weights α that explain the demonstrations (L-BFGS-B).
 
-- :func:`start_alpha`: the starting weights, the prior α (or zeros) plus N(0, 10⁻³) noise
-  drawn from the seed; the objective is convex, so the seed moves the start, not the answer.
-- :func:`fit_alpha`: minimise :func:`cloud_sync.irl.mce_irl.objective` from there; returns the
-  weights and the optimiser's outcome as a :class:`Fit`.
+:func:`start_alpha` (the prior α or zeros plus N(0, 10⁻³) noise from the seed; the objective is
+convex) and :func:`fit_alpha` (minimises :func:`cloud_sync.irl.mce_irl.objective`; a :class:`Fit`).
 """
 
 from __future__ import annotations

@@ -207,23 +207,9 @@ def _reasons(g: dict[str, np.ndarray]) -> np.ndarray:
 
 def bus_trip(frames: Iterable[Any], codec: Codec, meta: dict[str, Any] | None = None) -> Trip:
     """The whole log as one trip (every 10-Hz sample, ACC on or off; NaN where a role is
-    missing): what ``pacc plot --binding`` draws from a foreign log.
-
-    Raises:
-        TripLogError: fewer than two samples.
-    """
+    missing), as ``pacc plot --binding`` draws it; TripLogError for fewer than two samples."""
     g, _ = _grid(frames, codec)
-    return Trip(
-        t_s=g["t_s"] - (g["t_s"][0] if len(g["t_s"]) else 0.0),
-        v_mps=g["v"],
-        gap_m=g["gap"],
-        v_lead_mps=g["v_lead"],
-        a_mps2=g["a"],
-        accel_pedal=g["accel"],
-        brake_pedal=g["brake"],
-        acc_state=g["state"].astype(np.int64),
-        meta={"mode": "bus", "source": "pacc plot", **(meta or {})},
-    )
+    return _trip(g, slice(0, len(g["t_s"])), {"mode": "bus", "source": "pacc plot", **(meta or {})})
 
 
 def extract_demos(
@@ -236,17 +222,9 @@ def extract_demos(
     max_s: float = MANUAL_MAX_S,
     frames: Iterable[Any] | None = None,
 ) -> ExtractReport:
-    """The manual car-following stretches of the log at ``path`` (module docstring).
-
-    Args:
-        path: the log (any format python-can reads).
-        codec: the car's DBC and binding.
-        driver_id: the driver the trips are tagged with.
-        condition: the driving condition they are tagged with.
-        min_s: shorter stretches are dropped ("stretch shorter than …").
-        max_s: longer stretches are cut into trips of this length (as the ECU hands over).
-        frames: the frames, if already read (default: read ``path``).
-    """
+    """The manual car-following stretches of the log at ``path`` (``frames``: already read)
+    decoded by ``codec``, tagged ``driver_id``/``condition``: stretches under ``min_s`` s
+    dropped, longer than ``max_s`` s cut."""
     path = Path(path)
     g, n = _grid(read_frames(path) if frames is None else frames, codec)
     report = ExtractReport(path, frames=n)
@@ -264,24 +242,24 @@ def extract_demos(
                 short = f"stretch shorter than {min_s:g} s"
                 report.dropped_s[short] = report.dropped_s.get(short, 0.0) + seconds
                 continue
-            report.trips.append(_trip(g, slice(start, stop), path, driver_id, condition))
+            meta = {
+                "driver_id": driver_id,
+                "condition": condition,
+                "mode": "manual",
+                "source": "pacc demos extract",
+                "log": path.name,
+                "log_t0_s": float(g["t_s"][start]),
+            }
+            report.trips.append(_trip(g, slice(start, stop), meta))
             report.kept_s += seconds
     return report
 
 
-def _trip(g: dict[str, np.ndarray], sl: slice, path: Path, driver_id: str, condition: str) -> Trip:
-    """The samples ``sl`` as a manual trip log, time from its first sample."""
-    t0 = float(g["t_s"][sl.start])
-    meta = {
-        "driver_id": driver_id,
-        "condition": condition,
-        "mode": "manual",
-        "source": "pacc demos extract",
-        "log": path.name,
-        "log_t0_s": t0,
-    }
+def _trip(g: dict[str, np.ndarray], sl: slice, meta: dict[str, Any]) -> Trip:
+    """The samples ``sl`` as a trip log, time from its first sample."""
+    t = g["t_s"][sl]
     return Trip(
-        t_s=g["t_s"][sl] - t0,
+        t_s=t - (t[0] if len(t) else 0.0),
         v_mps=g["v"][sl],
         gap_m=g["gap"][sl],
         v_lead_mps=g["v_lead"][sl],

@@ -1,10 +1,8 @@
 """Trip files by suffix: ``.mcap`` (pacc trip logs) and ``.csv`` (car-following pairs).
 
-The CSV format is that of the OpenACC leader/follower pairs (``t, x_follower, v_follower,
-a_follower, x_leader, v_leader, a_leader, leader_length, spacing, dv``; SI units, gap bumper to
-bumper). Required columns: ``t, v_follower, spacing, v_leader``; ``a_follower`` is optional
-(the derivative of ``v_follower`` otherwise). Such files record manual driving (ACC off), so
-``acc_state`` is 0 and the pedals, which are not recorded, are NaN.
+CSV: the OpenACC leader/follower columns (SI units, gap bumper to bumper); required ``t,
+v_follower, spacing, v_leader``, ``a_follower`` optional (else the derivative of
+``v_follower``). Manual driving: ``acc_state`` 0, pedals NaN.
 """
 
 from __future__ import annotations
