@@ -46,9 +46,7 @@ def new_private_key() -> Ed25519PrivateKey:
 def save_private_key(key: Ed25519PrivateKey, path: str | os.PathLike[str]) -> None:
     """Write ``key`` as unencrypted PKCS#8 PEM, readable by the owner only (mode 0600)."""
     pem = key.private_bytes(
-        serialization.Encoding.PEM,
-        serialization.PrivateFormat.PKCS8,
-        serialization.NoEncryption(),
+        serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8, serialization.NoEncryption()
     )
     fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
     with os.fdopen(fd, "wb") as stream:

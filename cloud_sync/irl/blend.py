@@ -86,12 +86,7 @@ def evidence(
 
 
 def blend(
-    axis_mps: np.ndarray,
-    gap_m: np.ndarray,
-    ev: Evidence,
-    *,
-    half_s: float,
-    bounds: SafetyBounds,
+    axis_mps: np.ndarray, gap_m: np.ndarray, ev: Evidence, *, half_s: float, bounds: SafetyBounds
 ) -> tuple[np.ndarray, np.ndarray]:
     """The table's gaps (n,) and the bins the new evidence touched (n,) bool.
 

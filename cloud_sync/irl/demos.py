@@ -166,12 +166,7 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
 
 
 def extract_transitions(
-    trips: Sequence[Trip],
-    weights: Sequence[float],
-    *,
-    dt_s: float,
-    horizon: int,
-    max_gap_m: float,
+    trips: Sequence[Trip], weights: Sequence[float], *, dt_s: float, horizon: int, max_gap_m: float
 ) -> Transitions:
     """All demonstrated state-action pairs of ``trips`` at decision interval ``dt_s``."""
     cols: dict[str, list[np.ndarray]] = {k: [] for k in Transitions.__dataclass_fields__}

@@ -28,14 +28,7 @@ from cloud_sync.irl.policy_gap import steady_drift, steady_gaps
 from dbc.vocab.dgpt import Dgpt, speed_axis
 from dbc.vocab.triplog import Trip
 
-__all__ = [
-    "IrlConfig",
-    "LearnResult",
-    "learn_dgpt",
-    "fine_tune",
-    "empirical_baseline",
-    "METHOD",
-]
+__all__ = ["IrlConfig", "LearnResult", "learn_dgpt", "fine_tune", "empirical_baseline", "METHOD"]
 
 
 @dataclass(frozen=True)

@@ -134,10 +134,7 @@ class CloudService:
         return self.register(vehicle_id, [])
 
     def register(
-        self,
-        vehicle_id: str,
-        drivers: list[str],
-        keep_token: Callable[[str], None] | None = None,
+        self, vehicle_id: str, drivers: list[str], keep_token: Callable[[str], None] | None = None
     ) -> str:
         """Register a vehicle and its drivers in one transaction (``keep_token(token)`` inside
         it: all or nothing); the token. StoreError: names not plain, vehicle or driver taken."""

@@ -221,8 +221,7 @@ def record_trip(service: CloudService, vehicle_id: str, body: object) -> TripRec
             ),
         )
         db.executemany(
-            "INSERT INTO trip_segments VALUES (?, ?)",
-            [(d, cur.lastrowid) for d in report.segments],
+            "INSERT INTO trip_segments VALUES (?, ?)", [(d, cur.lastrowid) for d in report.segments]
         )
     return TripReceipt(report.trip_id, report.driver_id, duplicate=False)
 

@@ -13,13 +13,7 @@ from urllib.parse import quote
 
 import httpx
 
-from cloud_sync.api import (
-    ERRORS_BY_STATUS,
-    CloudError,
-    CloudUnavailableError,
-    Receipt,
-    TripReceipt,
-)
+from cloud_sync.api import ERRORS_BY_STATUS, CloudError, CloudUnavailableError, Receipt, TripReceipt
 
 #: seconds to connect, and to wait for an answer (an upload waits for its ingest)
 DEFAULT_TIMEOUT_S = 30.0

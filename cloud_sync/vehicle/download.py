@@ -15,13 +15,7 @@ from pathlib import Path
 
 from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PublicKey
 
-from cloud_sync.api import (
-    CloudApi,
-    CloudError,
-    CloudUnavailableError,
-    NotFoundError,
-    is_plain_name,
-)
+from cloud_sync.api import CloudApi, CloudError, CloudUnavailableError, NotFoundError, is_plain_name
 from cloud_sync.durable import write_atomic
 from cloud_sync.errors import CloudSyncError
 from cloud_sync.signing import SignatureError, verify_dgpt

@@ -24,10 +24,7 @@ REQUIRED_CSV_COLUMNS: tuple[str, ...] = ("t", "v_follower", "spacing", "v_leader
 
 
 def read_csv_trip(
-    path: str | os.PathLike[str],
-    *,
-    driver_id: str | None = None,
-    condition: str = "default",
+    path: str | os.PathLike[str], *, driver_id: str | None = None, condition: str = "default"
 ) -> Trip:
     """Read a car-following CSV (columns above) as a manual-driving :class:`Trip`.
 
