@@ -22,14 +22,8 @@ __all__ = ["Evidence", "coverage_s", "evidence", "blend", "covered_ranges"]
 
 @dataclass(frozen=True)
 class Evidence:
-    """The demonstrations seen from the DGPT axis; arrays of shape (n,).
-
-    Attributes:
-        coverage_s: seconds of demonstration within ±0.5 m/s of each bin.
-        covered: bins whose learned gaps are kept. support: (lo, hi) gap range of the argmax,
-            m (NaN: no sample nearby). previous_m: the earlier table's gaps on the axis, None
-            when not continuing. window_s: seconds within ±window of each bin (continuing).
-    """
+    """The demonstrations on the DGPT axis, (n,) each: ``coverage_s`` (s within ±0.5 m/s),
+    ``covered``, ``support`` (lo, hi) m, ``previous_m`` (None: not continuing), ``window_s``."""
 
     coverage_s: np.ndarray
     covered: np.ndarray
@@ -59,12 +53,8 @@ def evidence(
     window_mps: float,
     support_ratio: float,
 ) -> Evidence:
-    """Coverage, covered bins and argmax range of ``samples`` (see the module docstring).
-
-    A bin is covered with ``min_coverage_s`` seconds within ±0.5 m/s, or, continuing from
-    ``previous_m`` (n,), within ±``window_mps``. Raises :class:`DemoError` when no bin above
-    standstill is covered: there is nothing to build a table from.
-    """
+    """The :class:`Evidence` of ``samples``: a bin is covered with ``min_coverage_s`` s within
+    ±0.5 m/s (continuing ``previous_m``: within ±``window_mps``); DemoError if none moving is."""
     cov = coverage_s(axis_mps, samples.v_mps, samples.dt_s)
     support = gap_support(axis_mps, samples.v_mps, samples.gap_m)
     window: np.ndarray | None = None
@@ -88,12 +78,8 @@ def evidence(
 def blend(
     axis_mps: np.ndarray, gap_m: np.ndarray, ev: Evidence, *, half_s: float, bounds: SafetyBounds
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The table's gaps (n,) and the bins the new evidence touched (n,) bool.
-
-    Not continuing: ``gap_m`` and ``ev.covered`` unchanged. Continuing: weight
-    ``w = c/(c + half_s)`` for the ``c`` seconds within the window, ``w·gap + (1 − w)·previous``
-    clamped to ``bounds`` where ``c > 0``, the earlier gaps exactly elsewhere.
-    """
+    """The gaps (n,) and touched bins (n,): continuing, ``w·gap + (1 − w)·previous`` with
+    ``w = c/(c + half_s)`` where ``c > 0`` s (clamped), the earlier gaps elsewhere."""
     if ev.previous_m is None or ev.window_s is None:
         return gap_m, ev.covered
     weight = ev.window_s / (ev.window_s + half_s)

@@ -83,11 +83,7 @@ def is_acc_trip(trip: Trip) -> bool:
 
 
 def usable_mask(trip: Trip, max_gap_m: float) -> np.ndarray:
-    """Boolean (n,): the driver is in control and following a lead (see module docstring).
-
-    In an ACC trip only the driver's corrections count: samples not Active after the ACC
-    was first engaged (driving before the first engagement is not a correction).
-    """
+    """Boolean (n,): the driver is in control and following a lead (module docstring)."""
     in_control = trip.acc_state != AccState.ACTIVE  # Active: the ECU drives, not the driver
     if is_acc_trip(trip):
         engaged = np.cumsum(trip.acc_state == AccState.ACTIVE) > 0
@@ -126,12 +122,8 @@ def pooled_samples(trips: Sequence[Trip], max_gap_m: float) -> Samples:
 def check_demos(
     trips: Sequence[Trip], *, max_gap_m: float, min_total_s: float, dt_s: float = 1.0
 ) -> float:
-    """Refuse unusable demonstrations with a clear :class:`DemoError`; return usable seconds.
-
-    Refused: no trip; a trip with fewer than two samples; a trip without one finite
-    speed/gap/lead-speed sample; a trip sampled more coarsely than the decision interval
-    ``dt_s`` or at a period that does not divide it; less than ``min_total_s`` usable seconds.
-    """
+    """The usable seconds; DemoError for no trip, one under two samples or NaN-filled, a
+    sample period not dividing ``dt_s`` (s), or under ``min_total_s`` s usable in all."""
     if len(trips) == 0:
         raise DemoError("no demonstrations given (empty list of trips)")
     total = 0.0
@@ -203,12 +195,8 @@ def extract_transitions(
 
 
 def demo_stats(mdp: CompiledMdp, tr: Transitions, horizon: int) -> DemoStats:
-    """Weighted per-segment feature counts and start distributions of ``tr`` on ``mdp``.
-
-    States are spread on the grid by the same multilinear interpolation as the transitions,
-    actions by linear interpolation on the action set, so demonstrated and expected counts
-    live on the same support; the (v, g) counts are weighted by κ(dv) like the model's.
-    """
+    """Weighted per-segment feature counts and start distributions of ``tr`` on ``mdp``,
+    spread on the grid as the transitions are (the (v, g) counts weighted by κ(dv))."""
     if tr.n == 0:
         raise DemoError("no usable state-action pair in the demonstrations")
     grid, feats = mdp.grid, mdp.features

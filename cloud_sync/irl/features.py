@@ -36,15 +36,8 @@ GAP_BASES = ("time_gap", "offset")
 
 @dataclass(frozen=True)
 class FeatureConfig:
-    """RBF layout: centre spacings and width as a multiple of the spacing.
-
-    ``gap_basis`` (one of :data:`GAP_BASES`) picks the gap coordinate. Time gap: centres every
-    ``time_gap_spacing_s`` over 0 … ``time_gap_max_s``, the time gap taken as
-    ``g/max(v, time_gap_floor_mps)`` (below the floor speed the gap itself counts, scaled).
-    Offset: centres every ``gap_spacing_m`` over ±``offset_range_m`` around the fitted line.
-    ``dv_width_mps``: width of κ(dv), the weight of the (v, g) reward at relative speed dv
-    (0: no weighting).
-    """
+    """RBF layout (units in names): centre spacings, width as a multiple of the spacing, the
+    ``gap_basis`` (:data:`GAP_BASES`) and its centres, κ(dv)'s width (0: none)."""
 
     v_spacing_mps: float = 2.0
     gap_spacing_m: float = 3.0
@@ -81,16 +74,9 @@ class FeatureConfig:
 
 @dataclass(frozen=True)
 class Features:
-    """RBF centres and widths, and the basis evaluated on a grid.
-
-    Attributes:
-        v_centres_mps: (n_cv,) speed centres. gap_centres_m: (n_cg,) gap-offset centres.
-        v_width_mps, gap_width_m: Gaussian widths. ref_c0_m, ref_c1_s: the reference line.
-        Bv: (n_v, n_cv) speed basis on the grid. Bg: (n_v, n_gap, n_cg) gap basis on the grid.
-        f_dv: (n_dv,) comfort feature of dv. f_a: (n_actions,) comfort feature of a.
-        k_dv: (n_dv,) κ(dv), the weight of the (v, g) reward on the grid's dv axis.
-        dv_width_mps: κ's width (0: κ = 1).
-    """
+    """RBF centres (n_cv,), (n_cg,) and widths, the reference line, and on the grid: ``Bv``
+    (n_v, n_cv), ``Bg`` (n_v, n_gap, n_cg), comfort ``f_dv`` (n_dv,), ``f_a`` (n_actions,),
+    κ(dv) ``k_dv`` (n_dv,)."""
 
     v_centres_mps: np.ndarray
     gap_centres_m: np.ndarray
@@ -171,11 +157,8 @@ def gap_basis(
     c1: float,
     time_gap_floor_mps: float = 0.0,
 ) -> np.ndarray:
-    """Gap RBFs of ``gap_m`` (m,) at each speed of ``v_mps`` (n,): shape (n, m, k).
-
-    With ``time_gap_floor_mps`` > 0 the coordinate is the time gap ``g/max(v, floor)`` (s);
-    otherwise the gap offset ``g − (c0 + c1·v)`` (m).
-    """
+    """Gap RBFs (n, m, k) of ``gap_m`` (m,) at each speed of ``v_mps`` (n,): of the time gap
+    ``g/max(v, floor)`` (s) with a floor > 0, else of the offset ``g − (c0 + c1·v)`` (m)."""
     g = np.asarray(gap_m, dtype=np.float64)[None, :]
     v = np.asarray(v_mps, dtype=np.float64)[:, None]
     time_gap = time_gap_floor_mps > 0.0

@@ -23,12 +23,8 @@ __all__ = ["GridConfig", "Grid", "make_grid", "build_transitions", "interp_weigh
 
 @dataclass(frozen=True)
 class GridConfig:
-    """Discretisation and noise of the MDP (units in names).
-
-    Defaults: a 1-s decision interval (about a driver's reaction time), 1 m/s speed and
-    relative-speed steps, 2 m gap steps, ten accelerations within the production envelope
-    −3.0…+2.0 m/s², ±6 m/s relative speed.
-    """
+    """Discretisation and noise of the MDP (units in names; defaults: 1 s decisions, 1 m/s
+    and 2 m steps, ten accelerations within −3.0…+2.0 m/s², ±6 m/s relative speed)."""
 
     dt_s: float = 1.0
     v_step_mps: float = 1.0
@@ -149,11 +145,8 @@ def make_grid(config: GridConfig, v_max_mps: float, gap_max_m: float) -> Grid:
 
 
 def interp_weights(axis: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Linear interpolation of points ``x`` (any shape) on a uniform ``axis`` (n,), clipped.
-
-    Returns ``(i0, i1, w1)``, same shape as ``x``: the two neighbouring indices and the weight
-    of ``i1`` (the weight of ``i0`` is ``1 − w1``).
-    """
+    """Linear interpolation of ``x`` (any shape) on a uniform ``axis`` (n,), clipped:
+    ``(i0, i1, w1)`` shaped as ``x``, the neighbours and the weight of ``i1``."""
     step = axis[1] - axis[0]
     pos = np.clip((x - axis[0]) / step, 0.0, axis.size - 1)
     i0 = np.minimum(np.floor(pos).astype(np.int64), axis.size - 2)

@@ -81,11 +81,8 @@ def fresh_model(
 
 
 def model_of_table(table: Dgpt | None) -> RewardModel | None:
-    """The grid, features and α stored in an earlier IRL table of :data:`METHOD`.
-
-    ``None`` for no table or a table of another method (a predefined or empirical one).
-    Raises :class:`TrainingError` when the metadata are there but unusable.
-    """
+    """The grid, features and α of an earlier :data:`METHOD` table (None: no table or another
+    method); TrainingError when its metadata are unusable."""
     if table is None or table.meta.get("method") != METHOD:
         return None
     try:

@@ -50,15 +50,9 @@ def steady_gaps(
     axis_mps: np.ndarray,
     support: tuple[np.ndarray, np.ndarray],
 ) -> np.ndarray:
-    """The steady-following gap (n,) at each speed of ``axis_mps`` (see the module docstring).
-
-    ``drift`` and ``value`` are (n_v, n_gap) on the grid axes ``grid_v_mps`` (n_v,) and
-    ``grid_gap_m`` (n_gap,); ``support`` is the demonstrated gap range (lo, hi) per axis speed,
-    (n,) each. NaN where the support is NaN (no demonstration near that speed) or the speed
-    lies above the grid. (The trainer passes :func:`cloud_sync.irl.extract.search_range`, which
-    is never NaN: there uncovered speeds get a gap at the edge of the range, and
-    :func:`cloud_sync.irl.extract.finish_table` replaces them by the stated prior.)
-    """
+    """The steady-following gap (n,) at each speed of ``axis_mps``: ``drift``, ``value``
+    (n_v, n_gap) on the grid axes, ``support`` (lo, hi) (n,) each; NaN where the support is NaN
+    or the speed lies above the grid."""
     out = np.full(axis_mps.size, np.nan)
     g = grid_gap_m
     for k, v in enumerate(axis_mps.tolist()):

@@ -26,11 +26,8 @@ REQUIRED_CSV_COLUMNS: tuple[str, ...] = ("t", "v_follower", "spacing", "v_leader
 def read_csv_trip(
     path: str | os.PathLike[str], *, driver_id: str | None = None, condition: str = "default"
 ) -> Trip:
-    """Read a car-following CSV (columns above) as a manual-driving :class:`Trip`.
-
-    ``driver_id`` defaults to the file stem. Raises :class:`TripLogError` naming the file for a
-    missing file, a missing column, a non-numeric cell or a non-increasing time column.
-    """
+    """A car-following CSV as a manual :class:`Trip` (``driver_id``: the stem unless given);
+    TripLogError naming the file if unreadable, a column missing or a cell not numeric."""
     path = Path(path)
     try:
         with path.open(newline="") as stream:
