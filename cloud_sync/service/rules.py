@@ -18,7 +18,6 @@ import threading
 from collections.abc import Callable, Iterable
 from concurrent.futures import Executor, Future
 from dataclasses import dataclass, field, replace
-from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -47,7 +46,7 @@ from cloud_sync.signing import (
     sign_dgpt,
     verify_dgpt,
 )
-from dbc.vocab.dgpt import Dgpt
+from dbc.vocab.dgpt import Dgpt, utc_now_iso
 from dbc.vocab.triplog import Trip
 from dbc.vocab.triplog_file import trip_from_bytes
 from dbc.vocab.tripmode import TripMode
@@ -60,10 +59,6 @@ DEFAULT_MAX_UPLOAD_BYTES = 16 * 1024 * 1024
 
 def _sha256(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
-
-
-def _utc_now() -> str:
-    return datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
 @dataclass(frozen=True)
@@ -206,7 +201,7 @@ class CloudService:
             condition=condition,
             kind=kind.value,
             size_bytes=len(data),
-            received_utc=_utc_now(),
+            received_utc=utc_now_iso(),
             used_in_version=None,
         )
         with storage_errors():

@@ -12,15 +12,17 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
-from datetime import UTC, datetime
+from datetime import datetime
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from cloud_sync.api import BadBatchError, TripReceipt, is_plain_name
 from dbc.vocab.acc_state import AccState
+from dbc.vocab.dgpt import utc_now_iso
 from dbc.vocab.triplog import Trip
 from dbc.vocab.triplog_file import trip_from_bytes
 from dbc.vocab.tripmode import TripMode
@@ -34,6 +36,7 @@ __all__ = ["MAX_ACC_ON_S", "TripReport", "record_trip", "segment_interventions",
 MAX_ACC_ON_S = 86_400.0
 #: the most segments one report may name
 MAX_SEGMENTS = 10_000
+_SHA256 = re.compile(r"[0-9a-f]{64}")
 _KEYS = {"driver_id", "condition", "trip_id", "dgpt_version", "acc_on_s", "segments", "start_utc"}
 
 
@@ -99,15 +102,11 @@ def _digests(segments: object) -> tuple[str, ...]:
     if not isinstance(segments, list) or len(segments) > MAX_SEGMENTS:
         raise BadBatchError(f"trip report: segments is a list of <= {MAX_SEGMENTS} digests")
     for digest in segments:
-        if not (isinstance(digest, str) and len(digest) == 64 and _is_hex(digest)):
+        if not (isinstance(digest, str) and _SHA256.fullmatch(digest)):
             raise BadBatchError(f"trip report: {digest!r} is not a SHA-256 digest")
     if len(set(segments)) != len(segments):
         raise BadBatchError("trip report: a segment is named twice")
     return tuple(segments)
-
-
-def _is_hex(text: str) -> bool:
-    return all(c in "0123456789abcdef" for c in text)
 
 
 def _is_utc(text: object) -> bool:
@@ -183,7 +182,6 @@ def record_trip(service: CloudService, vehicle_id: str, body: object) -> TripRec
             f"{seconds:.1f} s of interventions in its segments"
         )
     text = report.canonical()
-    received = datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
     with service.store.transaction() as db:
         old = db.execute(
             "SELECT report FROM trips WHERE driver_id = ? AND trip_id = ?",
@@ -212,7 +210,7 @@ def record_trip(service: CloudService, vehicle_id: str, body: object) -> TripRec
                 report.condition,
                 report.trip_id,
                 report.start_utc,
-                received,
+                utc_now_iso(),
                 report.dgpt_version,
                 report.acc_on_s,
                 seconds,
