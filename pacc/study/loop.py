@@ -26,7 +26,7 @@ from cloud_sync.errors import CloudSyncError
 from cloud_sync.service.local import LocalCloud
 from cloud_sync.service.rules import CloudService, DeferredExecutor, ServiceConfig
 from cloud_sync.signing import load_public_key
-from cloud_sync.vehicle.connect import connect, read_token
+from cloud_sync.vehicle.connect import connect, read_token, write_token
 from cloud_sync.vehicle.download import ProfileDownloader
 from cloud_sync.vehicle.link import VehicleLink
 from cloud_sync.vehicle.spool import Spool
@@ -84,9 +84,7 @@ class StudyCloud:
             for driver_id in drivers:
                 service.register_driver(STUDY_VEHICLE, driver_id)
             if keep:
-                tmp = token_path.with_name(TOKEN_FILE + ".part")
-                tmp.write_text(token, encoding="utf-8")
-                tmp.replace(token_path)
+                write_token(token_path, token, force=True)
         return cls._linked(LocalCloud(service, token), service.public_key_pem(), out)
 
     @classmethod
