@@ -25,7 +25,7 @@ from starlette.concurrency import run_in_threadpool
 from starlette.requests import ClientDisconnect
 from swagger_ui_bundle import swagger_ui_path
 
-from cloud_sync.api import BadBatchError, CloudError, PayloadTooLargeError
+from cloud_sync.api import BadBatchError, CloudError, PayloadTooLargeError, Receipt, TripReceipt
 from cloud_sync.service.rules import CloudService
 from cloud_sync.service.trips import record_trip
 from cloud_sync.service.views import ServiceViews
@@ -42,23 +42,6 @@ class ErrorDetail(BaseModel):
     """The body of every error answer."""
 
     detail: str
-
-
-class TripReceiptBody(BaseModel):
-    """The cloud's receipt of one trip report."""
-
-    trip_id: str
-    driver_id: str
-    duplicate: bool
-
-
-class ReceiptBody(BaseModel):
-    """The cloud's receipt of one uploaded batch."""
-
-    digest: str
-    driver_id: str
-    kind: str
-    duplicate: bool
 
 
 #: documents the bearer scheme; the check itself is CloudService.authenticate
@@ -140,10 +123,10 @@ def create_app(service: CloudService, operator_token_sha256: str | None = None) 
     @app.post(
         "/v1/batches",
         status_code=201,
-        response_model=ReceiptBody,
+        response_model=Receipt,
         dependencies=[Security(_BEARER)],
         responses=_errors(401, 403, 413, 422, 503, 507)
-        | {200: {"model": ReceiptBody, "description": "already held (a duplicate)"}},
+        | {200: {"model": Receipt, "description": "already held (a duplicate)"}},
         openapi_extra={
             "requestBody": {
                 "required": True,
@@ -163,10 +146,10 @@ def create_app(service: CloudService, operator_token_sha256: str | None = None) 
     @app.post(
         "/v1/trips",
         status_code=201,
-        response_model=TripReceiptBody,
+        response_model=TripReceipt,
         dependencies=[Security(_BEARER)],
         responses=_errors(401, 403, 413, 422, 503)
-        | {200: {"model": TripReceiptBody, "description": "already held (a duplicate)"}},
+        | {200: {"model": TripReceipt, "description": "already held (a duplicate)"}},
         openapi_extra={
             "requestBody": {
                 "required": True,
