@@ -120,13 +120,8 @@ def _envelope(data: bytes) -> dict[str, Any]:
 def verify_dgpt(
     data: bytes, public_key: Ed25519PublicKey, bounds: SafetyBounds | None = None
 ) -> Dgpt:
-    """The table inside signed-table bytes ``data`` once signature and bounds hold.
-
-    Raises:
-        SignatureError: malformed envelope, another key, a bad signature (tampered), or a
-            table that is malformed or outside ``bounds``; nothing else, whatever the bytes
-            (non-ASCII signatures, lone surrogates, absurd nesting included).
-    """
+    """The table inside signed-table bytes ``data`` once signature and bounds hold; any
+    defect, whatever the bytes, is a SignatureError (nothing else is raised)."""
     try:
         return _verify(data, public_key, bounds)
     except (ValueError, RecursionError) as exc:  # UnicodeError and binascii.Error included

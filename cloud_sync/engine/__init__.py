@@ -78,11 +78,9 @@ class ProcessPool(Executor):
 
 
 def dask_executor(scheduler: str, workers: int, timeout_s: float = CONNECT_TIMEOUT_S) -> Executor:
-    """``Client.get_executor()`` of a Dask cluster: ``"local"`` starts a ``LocalCluster`` of
-    ``workers`` single-threaded processes (each under a nanny that restarts it if it dies),
-    any other value is a scheduler's address (waited for ``timeout_s``). Shutting the
-    executor down closes the client (and the cluster it started). :class:`EngineError` if
-    Dask is missing or no scheduler answers."""
+    """A Dask cluster's executor: ``"local"`` starts a ``LocalCluster`` of ``workers``
+    processes, else a scheduler's address (waited for ``timeout_s`` s); its shutdown closes
+    client and cluster. EngineError if Dask is missing or no scheduler answers."""
     try:
         # Dask is an optional extra and costs ~1 s of import: only a --scheduler needs it
         from distributed import Client, LocalCluster  # noqa: PLC0415

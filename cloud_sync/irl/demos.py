@@ -39,12 +39,8 @@ MAX_SPEED_MPS = 70.0  # faster samples are sensor garbage, not car following
 
 @dataclass(frozen=True)
 class Samples:
-    """The usable samples of a set of trips, concatenated; each array of shape (k,).
-
-    ``v_mps, gap_m`` ego speed and gap, ``dv_mps`` the relative speed ``v_lead − v``,
-    ``a_mps2`` the ego acceleration (+inf where the trip has none, so it never counts as
-    steady), ``dt_s`` the time each sample stands for (its step to the next sample).
-    """
+    """The usable samples of a set of trips, (k,) each: speed, gap, ``v_lead − v``, ego
+    acceleration (+inf where none: never steady), the time each stands for (s)."""
 
     v_mps: np.ndarray
     gap_m: np.ndarray
@@ -55,12 +51,8 @@ class Samples:
 
 @dataclass(frozen=True)
 class Transitions:
-    """Demonstrated state-action pairs, each array of shape (n,).
-
-    ``v_mps, gap_m, dv_mps`` the state, ``a_mps2`` the action, ``pos`` the steps to go of the
-    pair within its segment (the first pair of a segment of h steps has ``pos == h``),
-    ``weight`` the trip weight.
-    """
+    """Demonstrated state-action pairs, (n,) each: the state, the action ``a_mps2``, ``pos``
+    the steps to go within the segment (``h`` at a segment's start), the trip weight."""
 
     v_mps: np.ndarray
     gap_m: np.ndarray

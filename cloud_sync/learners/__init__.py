@@ -57,14 +57,9 @@ def learn(
     seed: int,
     params: Mapping[str, Any] | None = None,
 ) -> Dgpt:
-    """Learn with the learner ``spec``; the table's meta gain ``learner`` and ``learn_s``.
-
-    Raises:
-        PluginError: ``spec`` names no learner. LearnerError: it returned no DGPT, or one
-        whose meta lack ``covered`` of the table's length, or one outside its safety bounds.
-        Whatever the learner raises for unusable trips (e.g.
-        :class:`~cloud_sync.irl.demos.DemoError`) passes through.
-    """
+    """Learn with the learner ``spec``; the table's meta gain ``learner`` and ``learn_s`` (s).
+    PluginError: no such learner; LearnerError: no DGPT, no ``covered`` per bin, or out of
+    bounds; the learner's own errors (DemoError ...) pass through."""
     learner = make_learner(spec, params)
     start = time.perf_counter()
     table = learner.learn(trips, driver_id=driver_id, seed=seed)
