@@ -82,6 +82,13 @@ def is_plain_name(value: object) -> bool:
     return isinstance(value, str) and PLAIN_NAME.fullmatch(value) is not None
 
 
+def check_plain(error: type[CloudSyncError], /, **names: object) -> None:
+    """Raise ``error`` naming the first of ``names`` (what=value) that is not plain."""
+    for what, name in names.items():
+        if not is_plain_name(name):
+            raise error(f"{what} {name!r} is not a plain name (letters, digits, _.-)")
+
+
 #: the most samples of one batch: 2 hours at the trip logs' 10 Hz
 MAX_SAMPLES = 72_000
 #: sample times, s: within ±MAX_T_S (an MCAP log time, ns in 64 bits, holds ±292 years)
@@ -179,6 +186,7 @@ __all__ = [
     "PayloadTooLargeError",
     "Receipt",
     "TripReceipt",
+    "check_plain",
     "check_plausible",
     "is_plain_name",
 ]

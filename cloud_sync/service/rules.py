@@ -30,6 +30,7 @@ from cloud_sync.api import (
     NotFoundError,
     PayloadTooLargeError,
     Receipt,
+    check_plain,
     is_plain_name,
 )
 from cloud_sync.engine import InlineExecutor
@@ -188,9 +189,7 @@ class CloudService:
         if not isinstance(driver_id, str) or not driver_id:
             raise BadBatchError("the trip log names no driver_id in its metadata")
         condition = trip.meta.get("condition") or "default"
-        for what, name in (("driver_id", driver_id), ("condition", condition)):
-            if not is_plain_name(name):
-                raise BadBatchError(f"{what} {name!r} is not a plain name (letters, digits, _.-)")
+        check_plain(BadBatchError, driver_id=driver_id, condition=condition)
         self._own(vehicle_id, driver_id)
         digest = _sha256(data)
         row = BatchRow(
@@ -334,9 +333,9 @@ class CloudService:
 
 
 def _check_names(vehicle_id: str, drivers: list[str]) -> None:
-    for what, name in [("vehicle id", vehicle_id)] + [("driver id", d) for d in drivers]:
-        if not is_plain_name(name):
-            raise StoreError(f"{what} {name!r} is not a plain name (letters, digits, _.-)")
+    check_plain(StoreError, vehicle_id=vehicle_id)
+    for driver_id in drivers:
+        check_plain(StoreError, driver_id=driver_id)
     if len(set(drivers)) != len(drivers):
         raise StoreError(f"a driver id is repeated: {', '.join(drivers)}")
 

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from cloud_sync.api import BadBatchError, TripReceipt, is_plain_name
+from cloud_sync.api import BadBatchError, TripReceipt, check_plain
 from dbc.vocab.acc_state import AccState
 from dbc.vocab.dgpt import utc_now_iso
 from dbc.vocab.triplog import Trip
@@ -61,9 +61,7 @@ class TripReport:
         if unknown:
             raise BadBatchError(f"trip report: unknown field(s) {', '.join(sorted(unknown))}")
         names = {k: body.get(k, "default" if k == "condition" else None) for k in _KEYS}
-        for key in ("driver_id", "condition", "trip_id"):
-            if not is_plain_name(names[key]):
-                raise BadBatchError(f"trip report: {key} {names[key]!r} is not a plain name")
+        check_plain(BadBatchError, **{k: names[k] for k in ("driver_id", "condition", "trip_id")})
         version, acc_on = _numbers(names["dgpt_version"], names["acc_on_s"])
         segments = _digests(names["segments"] if names["segments"] is not None else [])
         start = names["start_utc"]

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PublicKey
 
-from cloud_sync.api import CloudApi, CloudError, CloudUnavailableError, NotFoundError, is_plain_name
+from cloud_sync.api import CloudApi, CloudError, CloudUnavailableError, NotFoundError, check_plain
 from cloud_sync.durable import write_atomic
 from cloud_sync.errors import CloudSyncError
 from cloud_sync.signing import SignatureError, verify_dgpt
@@ -63,10 +63,7 @@ class ProfileDownloader:
     def cache_path(self, driver_id: str, condition: str) -> Path:
         """Where the last good signed table of (driver, condition) is kept (CloudSyncError
         for a name that is not plain: it would leave the cache folder)."""
-        if not (is_plain_name(driver_id) and is_plain_name(condition)):
-            raise CloudSyncError(
-                f"not plain names (letters, digits, _.-): {driver_id!r}, {condition!r}"
-            )
+        check_plain(CloudSyncError, driver_id=driver_id, condition=condition)
         return self.cache_dir / driver_id / f"{condition}.signed.json"
 
     def last_good(self, driver_id: str, condition: str = "default") -> Dgpt | None:
