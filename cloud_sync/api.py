@@ -1,34 +1,14 @@
 """The contract between a vehicle and the cloud, whatever carries it.
 
-Two backends implement :class:`CloudApi`: :class:`cloud_sync.service.local.LocalCloud` (the service
-in-process over a local folder: the zero-set-up default) and
-:class:`cloud_sync.vehicle.client.HttpCloud`
-(a running ``pacc cloud serve``). Both raise the same errors, each with the HTTP status the
-service answers with, so one test suite checks both:
-
-=====================  ======  ==========================================================
-error                  status  meaning
-=====================  ======  ==========================================================
-AuthError              401     no token, or a token the cloud does not know
-ForbiddenError         403     the driver is not registered to this vehicle
-NotFoundError          404     no such driver table (yet)
-PayloadTooLargeError   413     the upload exceeds the service's size limit
-BadBatchError          422     the upload is not a readable pacc trip log (stored nowhere)
-CloudUnavailableError  503     the cloud cannot be reached or failed: retry later
-=====================  ======  ==========================================================
-
-Only :class:`CloudUnavailableError` is worth a retry; the others are answers.
-
-What the cloud accepts as a batch, the vehicle checks too before it spools a file
-(:func:`check_plausible`): 1 to :data:`MAX_SAMPLES` samples, times within ±:data:`MAX_T_S`,
-every value finite or missing (NaN), speeds 0..:data:`MAX_SPEED_MPS`, gaps
-:data:`MIN_GAP_M`..:data:`MAX_GAP_M`, accelerations within ±:data:`MAX_ACCEL_MPS2` (as the
-ECU's adaptation filter refuses non-finite or negative speeds and gaps).
+Two backends implement :class:`CloudApi`: :class:`cloud_sync.service.local.LocalCloud` (in
+process, over a folder) and :class:`cloud_sync.vehicle.client.HttpCloud` (``pacc cloud
+serve``). Both raise the same errors, each with its HTTP status: AuthError 401, ForbiddenError
+403, NotFoundError 404, PayloadTooLargeError 413, BadBatchError 422, CloudUnavailableError 503
+(the only one worth a retry). :func:`check_plausible` is what both sides accept as a batch.
 """
 
 from __future__ import annotations
 
-import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol
@@ -95,14 +75,18 @@ ERRORS_BY_STATUS: dict[int, type[CloudError]] = {
 }
 
 
-_PLAIN_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
-
-
 def is_plain_name(value: object) -> bool:
-    """True for a driver id or condition the cloud accepts: 1-64 characters of letters,
-    digits, ``_ . -``, starting with a letter or digit (so never ``..``, ``/`` or absolute:
-    these names become folder names in the cloud's store and on the vehicle)."""
-    return isinstance(value, str) and _PLAIN_NAME.fullmatch(value) is not None
+    """True for a vehicle id, driver id or condition: :data:`dbc.vocab.dgpt.PLAIN_NAME`."""
+    from dbc.vocab.dgpt import PLAIN_NAME  # noqa: PLC0415 - numpy: `pacc cloud --help` skips it
+
+    return isinstance(value, str) and PLAIN_NAME.fullmatch(value) is not None
+
+
+def check_plain(error: type[CloudSyncError], /, **names: object) -> None:
+    """Raise ``error`` naming the first of ``names`` (what=value) that is not plain."""
+    for what, name in names.items():
+        if not is_plain_name(name):
+            raise error(f"{what} {name!r} is not a plain name (letters, digits, _.-)")
 
 
 #: the most samples of one batch: 2 hours at the trip logs' 10 Hz
@@ -144,14 +128,8 @@ def check_plausible(trip: Trip) -> None:
 
 @dataclass(frozen=True)
 class Receipt:
-    """The cloud's acknowledgement of one uploaded batch.
-
-    Attributes:
-        digest: SHA-256 of the batch's bytes, hex (the vehicle deletes its copy by it).
-        driver_id: whose trip it is (from the trip's metadata).
-        kind: ``takeover``, ``manual`` or ``acc``.
-        duplicate: the cloud held this batch already (nothing stored again).
-    """
+    """The cloud's receipt of one batch: its SHA-256 (hex), driver, kind (``takeover``,
+    ``manual``, ``acc``) and whether the cloud held it already."""
 
     digest: str
     driver_id: str
@@ -161,13 +139,7 @@ class Receipt:
 
 @dataclass(frozen=True)
 class TripReceipt:
-    """The cloud's acknowledgement of one trip report (:mod:`cloud_sync.service.trips`).
-
-    Attributes:
-        trip_id: the vehicle's id of the trip.
-        driver_id: whose trip it was.
-        duplicate: the cloud held this very report already (nothing stored again).
-    """
+    """The cloud's receipt of one trip report: trip id, driver, held already."""
 
     trip_id: str
     driver_id: str
@@ -214,6 +186,7 @@ __all__ = [
     "PayloadTooLargeError",
     "Receipt",
     "TripReceipt",
+    "check_plain",
     "check_plausible",
     "is_plain_name",
 ]

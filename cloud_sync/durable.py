@@ -1,8 +1,5 @@
-"""Durable files: what the cloud's store and the vehicle's spool need to survive a crash.
-
-A file is made durable by writing it under a temporary name, fsyncing it, renaming it into place
-and fsyncing the folder (:func:`fsync_dir`): after a crash at any instant it is whole under its
-final name or absent.
+"""Durable files for the cloud's store and the vehicle's spool: written under a temporary name,
+fsynced, renamed into place and the folder fsynced, so after a crash a file is whole or absent.
 """
 
 from __future__ import annotations
@@ -49,4 +46,14 @@ def write_atomic(path: Path, data: bytes) -> None:
     fsync_dir(path.parent)
 
 
-__all__ = ["fsync_dir", "write_atomic", "write_temp"]
+def set_aside(path: Path, reason: str) -> Path:
+    """Move ``path`` into ``rejected/`` beside it with a ``.reason`` file; the new path."""
+    target = path.parent / "rejected"
+    target.mkdir(exist_ok=True)
+    (target / f"{path.name}.reason").write_text(reason + "\n", encoding="utf-8")
+    path.replace(target / path.name)
+    fsync_dir(path.parent)
+    return target / path.name
+
+
+__all__ = ["fsync_dir", "set_aside", "write_atomic", "write_temp"]

@@ -1,21 +1,10 @@
 """Signed DGPTs: the cloud signs every table it publishes, the vehicle refuses anything else.
 
-A signed table is one JSON object::
-
-    {"format": "pacc.signed-dgpt/1", "key_id": "<16 hex>", "dgpt": "<the table's JSON text>",
-     "signature": "<base64 Ed25519 signature of the UTF-8 bytes of dgpt>"}
-
-The table travels as text, so the signed bytes are exactly the bytes verified (no JSON
-re-canonicalisation on either side). ``key_id`` is the first 16 hex digits of the SHA-256 of
-the raw public key; it names the key, it proves nothing. Keys are Ed25519 (RFC 8032) from the
-``cryptography`` package, stored as PEM (PKCS#8 private key, SubjectPublicKeyInfo public key)
-so that OpenSSL reads them too.
-
-:func:`verify_dgpt` checks, in order: the envelope's shape, the key id, the signature, then the
-table itself with :func:`dbc.vocab.dgpt_file.dgpt_from_json_dict` against the vehicle's
-:class:`~dbc.vocab.dgpt.SafetyBounds`. An unsigned, tampered, foreign-key or out-of-bounds table
-is a
-:class:`SignatureError` naming the defect; nothing partial is returned.
+Envelope: ``{"format": "pacc.signed-dgpt/1", "key_id": "<16 hex>", "dgpt": "<table JSON
+text>", "signature": "<base64 Ed25519 of the UTF-8 dgpt>"}``; the table travels as text, so the
+signed bytes are the verified bytes. Keys are Ed25519 PEM (PKCS#8 / SubjectPublicKeyInfo).
+:func:`verify_dgpt` checks envelope, key id, signature, then the table against the vehicle's
+:class:`~dbc.vocab.dgpt.SafetyBounds`; any defect is a :class:`SignatureError`.
 """
 
 from __future__ import annotations
@@ -57,9 +46,7 @@ def new_private_key() -> Ed25519PrivateKey:
 def save_private_key(key: Ed25519PrivateKey, path: str | os.PathLike[str]) -> None:
     """Write ``key`` as unencrypted PKCS#8 PEM, readable by the owner only (mode 0600)."""
     pem = key.private_bytes(
-        serialization.Encoding.PEM,
-        serialization.PrivateFormat.PKCS8,
-        serialization.NoEncryption(),
+        serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8, serialization.NoEncryption()
     )
     fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
     with os.fdopen(fd, "wb") as stream:
@@ -133,13 +120,8 @@ def _envelope(data: bytes) -> dict[str, Any]:
 def verify_dgpt(
     data: bytes, public_key: Ed25519PublicKey, bounds: SafetyBounds | None = None
 ) -> Dgpt:
-    """The table inside signed-table bytes ``data`` once signature and bounds hold.
-
-    Raises:
-        SignatureError: malformed envelope, another key, a bad signature (tampered), or a
-            table that is malformed or outside ``bounds``; nothing else, whatever the bytes
-            (non-ASCII signatures, lone surrogates, absurd nesting included).
-    """
+    """The table inside signed-table bytes ``data`` once signature and bounds hold; any
+    defect, whatever the bytes, is a SignatureError (nothing else is raised)."""
     try:
         return _verify(data, public_key, bounds)
     except (ValueError, RecursionError) as exc:  # UnicodeError and binascii.Error included

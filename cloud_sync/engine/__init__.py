@@ -1,19 +1,10 @@
 """Where pure work runs: a standard :class:`concurrent.futures.Executor`.
 
-Every drive of a study and every learning job is a pure function of (configuration, seed,
-data), so it may run anywhere. :func:`open_executor` gives the executor of a command line's
-``--scheduler`` and ``--workers``: :class:`InlineExecutor` (this thread, one worker),
-:class:`ProcessPool` (local processes) or Dask's ``Client.get_executor()`` (``local``: a
-``LocalCluster`` started here; ``tcp://HOST:8786``: that cluster; extra ``pacc[dask]``).
-
-:func:`map_unordered` runs a function over tasks on any of them and yields ``(index,
-result)`` as tasks finish, every index exactly once. Each task runs with one BLAS thread
-(:func:`single_blas_thread`): results then do not depend on how many threads BLAS would take
-on a machine (tables learned with 1 and 16 threads differed by 1e-13 m), and workers do not
-oversubscribe the cores they share. A lost worker costs a rerun, never a lost or a repeated
-result: Dask reschedules on its own (up to its ``distributed.scheduler.allowed-failures``,
-then :class:`~cloud_sync.errors.EngineError`); a broken :class:`ProcessPool` is restarted for
-the tasks not done, up to :data:`MAX_POOL_RESTARTS` times.
+:func:`open_executor` gives the executor of ``--scheduler``/``--workers``:
+:class:`InlineExecutor` (this thread), :class:`ProcessPool` or Dask's executor (``local`` or
+``tcp://HOST:8786``). :func:`map_unordered` yields ``(index, result)`` as tasks finish, every
+index once, each task with one BLAS thread (results independent of the thread count); a broken
+:class:`ProcessPool` is restarted up to :data:`MAX_POOL_RESTARTS` times, Dask reschedules itself.
 """
 
 from __future__ import annotations
@@ -87,11 +78,9 @@ class ProcessPool(Executor):
 
 
 def dask_executor(scheduler: str, workers: int, timeout_s: float = CONNECT_TIMEOUT_S) -> Executor:
-    """``Client.get_executor()`` of a Dask cluster: ``"local"`` starts a ``LocalCluster`` of
-    ``workers`` single-threaded processes (each under a nanny that restarts it if it dies),
-    any other value is a scheduler's address (waited for ``timeout_s``). Shutting the
-    executor down closes the client (and the cluster it started). :class:`EngineError` if
-    Dask is missing or no scheduler answers."""
+    """A Dask cluster's executor: ``"local"`` starts a ``LocalCluster`` of ``workers``
+    processes, else a scheduler's address (waited for ``timeout_s`` s); its shutdown closes
+    client and cluster. EngineError if Dask is missing or no scheduler answers."""
     try:
         # Dask is an optional extra and costs ~1 s of import: only a --scheduler needs it
         from distributed import Client, LocalCluster  # noqa: PLC0415

@@ -1,8 +1,6 @@
-"""The empirical baseline: the table of the gaps a driver kept in steady following.
-
-The comparison for a learned table (same format, meta ``method = empirical``): per speed bin
-the gap of the steady-state samples (:func:`cloud_sync.irl.extract.steady_state_gaps`),
-continued and low-passed like a learned table.
+"""The empirical baseline: per speed bin the gap of the steady-state samples
+(:func:`cloud_sync.irl.extract.steady_state_gaps`), continued and low-passed like a learned
+table (meta ``method = empirical``).
 """
 
 from __future__ import annotations

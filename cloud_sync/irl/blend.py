@@ -1,17 +1,9 @@
 """Where the demonstrations are, per DGPT speed bin, and how new evidence joins an earlier table.
 
-All functions are pure and work on the DGPT speed axis (``dbc.vocab.dgpt.speed_axis``, shape (n,)).
-
-- :func:`coverage_s`: seconds of usable demonstration within ±``half_window_mps`` of each bin.
-- :func:`evidence`: the coverage, the covered bins (where the learned gaps are kept; elsewhere
-  the table is continued at a constant time gap, :func:`cloud_sync.irl.extract.finish_table`) and
-  the gap range the argmax may take (:func:`cloud_sync.irl.extract.gap_support`). Continuing an
-  earlier table, a bin counts as covered when new evidence lies within ±``window_mps`` of it,
-  and the argmax may also range ±``support_ratio`` around the earlier gaps (that table's data
-  are not at hand, but its neighbourhood is known ground).
-- :func:`blend`: continuing, the new gaps are mixed into the earlier ones by the amount of new
-  evidence, weight ``c/(c + half_s)`` for ``c`` seconds; untouched bins keep the earlier gaps.
-- :func:`covered_ranges`: the covered bins as speed ranges, for the table's metadata.
+Pure functions on the DGPT speed axis (shape (n,)): :func:`coverage_s` (s of usable
+demonstration near each bin), :func:`evidence` (coverage, covered bins, the gap range the
+search may take), :func:`blend` (new gaps mixed into an earlier table with weight
+``c/(c + half_s)`` for ``c`` s of new evidence) and :func:`covered_ranges` (for the metadata).
 """
 
 from __future__ import annotations
@@ -30,14 +22,8 @@ __all__ = ["Evidence", "coverage_s", "evidence", "blend", "covered_ranges"]
 
 @dataclass(frozen=True)
 class Evidence:
-    """The demonstrations seen from the DGPT axis; arrays of shape (n,).
-
-    Attributes:
-        coverage_s: seconds of demonstration within ±0.5 m/s of each bin.
-        covered: bins whose learned gaps are kept. support: (lo, hi) gap range of the argmax,
-            m (NaN: no sample nearby). previous_m: the earlier table's gaps on the axis, None
-            when not continuing. window_s: seconds within ±window of each bin (continuing).
-    """
+    """The demonstrations on the DGPT axis, (n,) each: ``coverage_s`` (s within ±0.5 m/s),
+    ``covered``, ``support`` (lo, hi) m, ``previous_m`` (None: not continuing), ``window_s``."""
 
     coverage_s: np.ndarray
     covered: np.ndarray
@@ -67,12 +53,8 @@ def evidence(
     window_mps: float,
     support_ratio: float,
 ) -> Evidence:
-    """Coverage, covered bins and argmax range of ``samples`` (see the module docstring).
-
-    A bin is covered with ``min_coverage_s`` seconds within ±0.5 m/s, or, continuing from
-    ``previous_m`` (n,), within ±``window_mps``. Raises :class:`DemoError` when no bin above
-    standstill is covered: there is nothing to build a table from.
-    """
+    """The :class:`Evidence` of ``samples``: a bin is covered with ``min_coverage_s`` s within
+    ±0.5 m/s (continuing ``previous_m``: within ±``window_mps``); DemoError if none moving is."""
     cov = coverage_s(axis_mps, samples.v_mps, samples.dt_s)
     support = gap_support(axis_mps, samples.v_mps, samples.gap_m)
     window: np.ndarray | None = None
@@ -94,19 +76,10 @@ def evidence(
 
 
 def blend(
-    axis_mps: np.ndarray,
-    gap_m: np.ndarray,
-    ev: Evidence,
-    *,
-    half_s: float,
-    bounds: SafetyBounds,
+    axis_mps: np.ndarray, gap_m: np.ndarray, ev: Evidence, *, half_s: float, bounds: SafetyBounds
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The table's gaps (n,) and the bins the new evidence touched (n,) bool.
-
-    Not continuing: ``gap_m`` and ``ev.covered`` unchanged. Continuing: weight
-    ``w = c/(c + half_s)`` for the ``c`` seconds within the window, ``w·gap + (1 − w)·previous``
-    clamped to ``bounds`` where ``c > 0``, the earlier gaps exactly elsewhere.
-    """
+    """The gaps (n,) and touched bins (n,): continuing, ``w·gap + (1 − w)·previous`` with
+    ``w = c/(c + half_s)`` where ``c > 0`` s (clamped), the earlier gaps elsewhere."""
     if ev.previous_m is None or ev.window_s is None:
         return gap_m, ev.covered
     weight = ev.window_s / (ev.window_s + half_s)

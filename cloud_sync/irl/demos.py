@@ -1,15 +1,10 @@
 """Demonstrations: from trips to the segments, feature counts and start states IRL needs.
 
-A sample is usable when the driver is in control (``acc_state`` not Active: manual
-driving, standby after a brake, or an override; in an ACC trip only after the first
-engagement), a lead is present (finite gap and lead speed, gap within ``max_gap_m``) and the
-speeds are finite and within 0 … 70 m/s. The trip is resampled at the MDP's decision interval
-at every phase offset (a 10 Hz trip and 1 s decisions give ten interleaved sub-trajectories),
-the action of a step is the mean acceleration ``(v[t+1] − v[t])/dt``, and runs of consecutive
-usable samples are cut into segments of at most ``horizon`` steps.
-
-Each trip carries a weight; :func:`takeover_weighted` gives the driver's corrections in ACC
-trips (mode ``acc``/``takeover``) a larger weight than manual drives.
+A sample is usable when the driver is in control (``acc_state`` not Active; in an ACC trip
+only after the first engagement), a lead is present (gap 0..``max_gap_m`` m) and the speeds are
+finite within 0..70 m/s. Trips are resampled at the decision interval at every phase offset;
+the action is ``(v[t+1] − v[t])/dt`` (m/s²); usable runs are cut into segments of at most
+``horizon`` steps. :func:`takeover_weighted` weighs ACC-trip corrections above manual drives.
 """
 
 from __future__ import annotations
@@ -44,12 +39,8 @@ MAX_SPEED_MPS = 70.0  # faster samples are sensor garbage, not car following
 
 @dataclass(frozen=True)
 class Samples:
-    """The usable samples of a set of trips, concatenated; each array of shape (k,).
-
-    ``v_mps, gap_m`` ego speed and gap, ``dv_mps`` the relative speed ``v_lead − v``,
-    ``a_mps2`` the ego acceleration (+inf where the trip has none, so it never counts as
-    steady), ``dt_s`` the time each sample stands for (its step to the next sample).
-    """
+    """The usable samples of a set of trips, (k,) each: speed, gap, ``v_lead − v``, ego
+    acceleration (+inf where none: never steady), the time each stands for (s)."""
 
     v_mps: np.ndarray
     gap_m: np.ndarray
@@ -60,12 +51,8 @@ class Samples:
 
 @dataclass(frozen=True)
 class Transitions:
-    """Demonstrated state-action pairs, each array of shape (n,).
-
-    ``v_mps, gap_m, dv_mps`` the state, ``a_mps2`` the action, ``pos`` the steps to go of the
-    pair within its segment (the first pair of a segment of h steps has ``pos == h``),
-    ``weight`` the trip weight.
-    """
+    """Demonstrated state-action pairs, (n,) each: the state, the action ``a_mps2``, ``pos``
+    the steps to go within the segment (``h`` at a segment's start), the trip weight."""
 
     v_mps: np.ndarray
     gap_m: np.ndarray
@@ -88,11 +75,7 @@ def is_acc_trip(trip: Trip) -> bool:
 
 
 def usable_mask(trip: Trip, max_gap_m: float) -> np.ndarray:
-    """Boolean (n,): the driver is in control and following a lead (see module docstring).
-
-    In an ACC trip only the driver's corrections count: samples not Active after the ACC
-    was first engaged (driving before the first engagement is not a correction).
-    """
+    """Boolean (n,): the driver is in control and following a lead (module docstring)."""
     in_control = trip.acc_state != AccState.ACTIVE  # Active: the ECU drives, not the driver
     if is_acc_trip(trip):
         engaged = np.cumsum(trip.acc_state == AccState.ACTIVE) > 0
@@ -131,12 +114,8 @@ def pooled_samples(trips: Sequence[Trip], max_gap_m: float) -> Samples:
 def check_demos(
     trips: Sequence[Trip], *, max_gap_m: float, min_total_s: float, dt_s: float = 1.0
 ) -> float:
-    """Refuse unusable demonstrations with a clear :class:`DemoError`; return usable seconds.
-
-    Refused: no trip; a trip with fewer than two samples; a trip without one finite
-    speed/gap/lead-speed sample; a trip sampled more coarsely than the decision interval
-    ``dt_s`` or at a period that does not divide it; less than ``min_total_s`` usable seconds.
-    """
+    """The usable seconds; DemoError for no trip, one under two samples or NaN-filled, a
+    sample period not dividing ``dt_s`` (s), or under ``min_total_s`` s usable in all."""
     if len(trips) == 0:
         raise DemoError("no demonstrations given (empty list of trips)")
     total = 0.0
@@ -171,12 +150,7 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
 
 
 def extract_transitions(
-    trips: Sequence[Trip],
-    weights: Sequence[float],
-    *,
-    dt_s: float,
-    horizon: int,
-    max_gap_m: float,
+    trips: Sequence[Trip], weights: Sequence[float], *, dt_s: float, horizon: int, max_gap_m: float
 ) -> Transitions:
     """All demonstrated state-action pairs of ``trips`` at decision interval ``dt_s``."""
     cols: dict[str, list[np.ndarray]] = {k: [] for k in Transitions.__dataclass_fields__}
@@ -213,12 +187,8 @@ def extract_transitions(
 
 
 def demo_stats(mdp: CompiledMdp, tr: Transitions, horizon: int) -> DemoStats:
-    """Weighted per-segment feature counts and start distributions of ``tr`` on ``mdp``.
-
-    States are spread on the grid by the same multilinear interpolation as the transitions,
-    actions by linear interpolation on the action set, so demonstrated and expected counts
-    live on the same support; the (v, g) counts are weighted by κ(dv) like the model's.
-    """
+    """Weighted per-segment feature counts and start distributions of ``tr`` on ``mdp``,
+    spread on the grid as the transitions are (the (v, g) counts weighted by κ(dv))."""
     if tr.n == 0:
         raise DemoError("no usable state-action pair in the demonstrations")
     grid, feats = mdp.grid, mdp.features

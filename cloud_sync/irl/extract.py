@@ -1,22 +1,10 @@
 """From per-bin gaps (of the learned policy, or of raw data) to a DGPT: low-pass, continuation,
-bounds.
+bounds. Pure functions on the DGPT speed axis (shape (n,)).
 
-All functions are pure and work on the DGPT speed axis (``dbc.vocab.dgpt.speed_axis``, shape (n,)).
-
-- :func:`gap_support`: the gap range demonstrated near each speed (where the reward is known);
-  :func:`search_range`, that range inside the safety band.
-- :func:`lowpass`: zero-phase Butterworth filter (``scipy.signal.filtfilt``) along the axis.
-- :func:`continue_time_gap`: bins without evidence get ``d0 + T(v)·v``, where the time gap
-  ``T = (g − d0)/v`` is interpolated between covered bins of at least
-  :data:`CONTINUE_MIN_SPEED_MPS` and held constant beyond them; with no covered bin that fast,
-  the stated prior :data:`PRIOR_HEADWAY_S` (or, with a fallback table, the fallback's gaps
-  are kept there). :func:`outside_coverage` names the rule a table used.
-- :func:`finish_table`: raw per-bin gaps → table: continuation, low-pass, continuation, clamp.
-- :func:`steady_state_gaps`: the empirical baseline, the median gap of near-steady samples
-  (|dv| and |a| small) per speed bin.
-
-Where the evidence is (coverage) and how a table continues an earlier one:
-:mod:`cloud_sync.irl.blend`.
+:func:`gap_support`/:func:`search_range` (the demonstrated gap range per bin, m),
+:func:`lowpass` (zero-phase Butterworth), :func:`continue_time_gap` (uncovered bins at the time
+gap of covered ones of at least :data:`CONTINUE_MIN_SPEED_MPS`, else :data:`PRIOR_HEADWAY_S`),
+:func:`finish_table` (raw gaps -> table) and :func:`steady_state_gaps` (the empirical baseline).
 """
 
 from __future__ import annotations
@@ -56,11 +44,8 @@ def gap_support(
     quantile: float = 0.01,
     margin_m: float = 2.0,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The demonstrated gap range per bin: the ``quantile``…``1 − quantile`` range of gaps
-    within ±half_window of each bin, widened by ``margin_m``; NaN where no sample. (n,) each.
-
-    The reward is identified only where the demonstrations are; the table is read there.
-    """
+    """The demonstrated gap range (lo, hi) per bin, m, (n,) each: the ``quantile`` range of
+    gaps within ±``half_window_mps`` widened by ``margin_m``; NaN where no sample."""
     order = np.argsort(v_mps)
     v, g = v_mps[order], gap_m[order]
     lo_i = np.searchsorted(v, axis_mps - half_window_mps, side="left")
@@ -75,11 +60,8 @@ def gap_support(
 
 
 def lowpass(gap_m: np.ndarray, cutoff: float = 0.1, order: int = 2) -> np.ndarray:
-    """Zero-phase Butterworth low-pass of ``gap_m`` (n,) along the axis.
-
-    ``cutoff`` is the normalised cut-off frequency (1 = Nyquist, i.e. 1/(2 bins)); 0.1 keeps
-    variations slower than about 20 bins (10 m/s at 0.5 m/s per bin).
-    """
+    """Zero-phase Butterworth low-pass of ``gap_m`` (n,); ``cutoff`` normalised to Nyquist
+    (0.1 keeps variations slower than about 20 bins)."""
     b, a = signal.butter(order, cutoff)
     x = np.arange(gap_m.size, dtype=np.float64)
     slope, icpt = np.polyfit(x, gap_m, 1)
@@ -96,16 +78,9 @@ def continue_time_gap(
     standstill_m: float,
     fallback_m: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Replace the gaps of uncovered bins (``covered`` False) by a time-gap continuation.
-
-    Without ``fallback_m``: the time gap ``T_i = (g_i − d0)/v_i`` of covered bins with
-    ``v >= CONTINUE_MIN_SPEED_MPS`` is interpolated linearly over speed and held beyond them;
-    an uncovered bin gets ``d0 + T(v)·v`` (so a standstill bin gets ``d0``). Without such a
-    bin (nothing covered, or only slow speeds) an uncovered bin gets the prior
-    ``d0 + PRIOR_HEADWAY_S·v``: a table never states a gap at speeds far from its data that
-    the data do not support. With ``fallback_m`` (n,): uncovered bins keep the fallback's gaps
-    (an earlier table), covered bins take ``gap_m``.
-    """
+    """Uncovered bins (n,) get ``d0 + T(v)·v`` (m), ``T`` the time gap (s) of covered bins of
+    at least :data:`CONTINUE_MIN_SPEED_MPS` interpolated and held, else :data:`PRIOR_HEADWAY_S`;
+    with ``fallback_m`` (n,) they keep the fallback's gaps."""
     out = np.array(gap_m, dtype=np.float64)
     if fallback_m is not None:
         if not covered.any():
@@ -144,12 +119,8 @@ def steady_state_gaps(
     max_abs_a_mps2: float = 0.3,
     half_window_mps: float = 0.5,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The empirical baseline: median gap of steady-state samples per speed bin.
-
-    Inputs are sample arrays of shape (k,). Returns ``(gap_m, count)`` of shape (n,): the median
-    gap of samples with ``|dv| ≤ max_abs_dv`` and ``|a| ≤ max_abs_a`` within ±half_window of
-    each bin (NaN where none), and the number of such samples.
-    """
+    """``(gap_m, count)`` (n,): the median gap (m; NaN where none) and number of the samples
+    (k,) with ``|dv| ≤ max_abs_dv`` and ``|a| ≤ max_abs_a`` within ±half_window of each bin."""
     steady = (np.abs(dv_mps) <= max_abs_dv_mps) & (np.abs(a_mps2) <= max_abs_a_mps2)
     v, g = v_mps[steady], gap_m[steady]
     order = np.argsort(v)
@@ -172,12 +143,8 @@ def finish_table(
     cutoff: float = 0.1,
     fallback_m: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Raw per-bin gaps → the final table (n,): continuation, low-pass, continuation, clamp.
-
-    Uncovered bins are first filled by continuation so the filter sees no holes; after the
-    filter the covered bins keep their filtered values and the uncovered ones are continued
-    again from them (or taken from ``fallback_m``); last, everything is clamped to ``bounds``.
-    """
+    """Raw per-bin gaps → the final table (n,): continuation (so the filter sees no holes),
+    low-pass, continuation of the uncovered bins again (or ``fallback_m``), clamp to bounds."""
     raw = np.where(np.isfinite(raw_gap_m), raw_gap_m, 0.0)
     covered = covered & np.isfinite(raw_gap_m)
     filled = continue_time_gap(axis_mps, raw, covered, bounds.standstill_m, fallback_m)

@@ -1,27 +1,12 @@
 """Reward features: Gaussian radial basis functions over (v, g), plus two comfort terms.
 
-The reward of the MDP is linear in ``K = n_cv·n_cg + 2`` features:
-
     r(s, a) = κ(dv)·Σ_ij α_ij·φ_i(v)·ψ_j(u(v, g))  +  α_dv·(−(dv/dv_max)²)  +  α_a·(−(a/a_max)²)
 
-with ``φ_i(v) = exp(−½((v − c_i)/w_v)²)`` on centres every ``v_spacing_mps`` and ``ψ_j``
-likewise over a gap coordinate ``u``, and ``κ(dv) = exp(−½(dv/w_dv)²)`` (``dv_width_mps``;
-1 everywhere when 0): the gap preference is a preference of steady following. Without κ the
-(v, g) weights must also reproduce where the gap goes while the lead speeds up or slows
-down: a driver's gap opens further in those transients than it closes, the mean of all its
-gaps lies above its steady gap, and so did the table (on average +0.38 m above the steady
-median on the tuning drivers; with κ of 0.35 m/s, +0.05 m; docs/irl.md). By default
-(:func:`make_time_gap_features`) ``u`` is the time gap ``g/max(v, v_floor)`` on fixed
-centres: nothing is fitted to the data, and a preference ridge ``g ≈ d0 + T·v`` (or a
-non-monotonic one) runs nearly along the basis. The
-earlier ``offset`` basis (:func:`make_features`) takes ``u = g − ℓ(v)`` from a reference line
-``ℓ(v) = c0 + c1·v`` fitted to the demonstrations (``c0 = c1 = 0`` gives plain (v, g) RBFs).
-The (v, g) part is the preference the DGPT comes from (through the policy it induces); the
-comfort terms let the model explain smooth driving without bending it. Feature counts of
-a visitation ``M`` (n_v × n_gap) are ``Σ_kl M_kl·Bv_ki·Bg_klj`` (one einsum).
-
-Parameter vector layout: ``alpha[:n_cv·n_cg]`` is ``A.ravel()`` (A of shape (n_cv, n_cg)),
-then ``alpha_dv``, ``alpha_a``.
+``φ_i``, ``ψ_j`` Gaussian RBFs in speed (m/s) and a gap coordinate ``u``; ``κ(dv) =
+exp(−½(dv/w_dv)²)`` weights steady following (1 when ``dv_width_mps`` is 0). ``u`` is the time
+gap ``g/max(v, v_floor)`` (s, :func:`make_time_gap_features`, the default) or ``g − ℓ(v)`` (m)
+from a fitted line (:func:`make_features`). Layout of ``alpha``: ``A.ravel()`` (n_cv, n_cg),
+then ``alpha_dv``, ``alpha_a``. Rationale and measurements: docs/irl.md.
 """
 
 from __future__ import annotations
@@ -51,15 +36,8 @@ GAP_BASES = ("time_gap", "offset")
 
 @dataclass(frozen=True)
 class FeatureConfig:
-    """RBF layout: centre spacings and width as a multiple of the spacing.
-
-    ``gap_basis`` (one of :data:`GAP_BASES`) picks the gap coordinate. Time gap: centres every
-    ``time_gap_spacing_s`` over 0 … ``time_gap_max_s``, the time gap taken as
-    ``g/max(v, time_gap_floor_mps)`` (below the floor speed the gap itself counts, scaled).
-    Offset: centres every ``gap_spacing_m`` over ±``offset_range_m`` around the fitted line.
-    ``dv_width_mps``: width of κ(dv), the weight of the (v, g) reward at relative speed dv
-    (0: no weighting).
-    """
+    """RBF layout (units in names): centre spacings, width as a multiple of the spacing, the
+    ``gap_basis`` (:data:`GAP_BASES`) and its centres, κ(dv)'s width (0: none)."""
 
     v_spacing_mps: float = 2.0
     gap_spacing_m: float = 3.0
@@ -96,16 +74,9 @@ class FeatureConfig:
 
 @dataclass(frozen=True)
 class Features:
-    """RBF centres and widths, and the basis evaluated on a grid.
-
-    Attributes:
-        v_centres_mps: (n_cv,) speed centres. gap_centres_m: (n_cg,) gap-offset centres.
-        v_width_mps, gap_width_m: Gaussian widths. ref_c0_m, ref_c1_s: the reference line.
-        Bv: (n_v, n_cv) speed basis on the grid. Bg: (n_v, n_gap, n_cg) gap basis on the grid.
-        f_dv: (n_dv,) comfort feature of dv. f_a: (n_actions,) comfort feature of a.
-        k_dv: (n_dv,) κ(dv), the weight of the (v, g) reward on the grid's dv axis.
-        dv_width_mps: κ's width (0: κ = 1).
-    """
+    """RBF centres (n_cv,), (n_cg,) and widths, the reference line, and on the grid: ``Bv``
+    (n_v, n_cv), ``Bg`` (n_v, n_gap, n_cg), comfort ``f_dv`` (n_dv,), ``f_a`` (n_actions,),
+    κ(dv) ``k_dv`` (n_dv,)."""
 
     v_centres_mps: np.ndarray
     gap_centres_m: np.ndarray
@@ -186,11 +157,8 @@ def gap_basis(
     c1: float,
     time_gap_floor_mps: float = 0.0,
 ) -> np.ndarray:
-    """Gap RBFs of ``gap_m`` (m,) at each speed of ``v_mps`` (n,): shape (n, m, k).
-
-    With ``time_gap_floor_mps`` > 0 the coordinate is the time gap ``g/max(v, floor)`` (s);
-    otherwise the gap offset ``g − (c0 + c1·v)`` (m).
-    """
+    """Gap RBFs (n, m, k) of ``gap_m`` (m,) at each speed of ``v_mps`` (n,): of the time gap
+    ``g/max(v, floor)`` (s) with a floor > 0, else of the offset ``g − (c0 + c1·v)`` (m)."""
     g = np.asarray(gap_m, dtype=np.float64)[None, :]
     v = np.asarray(v_mps, dtype=np.float64)[:, None]
     time_gap = time_gap_floor_mps > 0.0

@@ -1,9 +1,7 @@
 """The IRL optimisation: reward weights α that explain the demonstrations (L-BFGS-B).
 
-- :func:`start_alpha`: the starting weights, the prior α (or zeros) plus N(0, 10⁻³) noise
-  drawn from the seed; the objective is convex, so the seed moves the start, not the answer.
-- :func:`fit_alpha`: minimise :func:`cloud_sync.irl.mce_irl.objective` from there; returns the
-  weights and the optimiser's outcome as a :class:`Fit`.
+:func:`start_alpha` (the prior α or zeros plus N(0, 10⁻³) noise from the seed; the objective is
+convex) and :func:`fit_alpha` (minimises :func:`cloud_sync.irl.mce_irl.objective`; a :class:`Fit`).
 """
 
 from __future__ import annotations
@@ -22,13 +20,8 @@ __all__ = ["Fit", "start_alpha", "fit_alpha"]
 
 @dataclass(frozen=True)
 class Fit:
-    """The outcome of :func:`fit_alpha`.
-
-    Attributes:
-        alpha: (K,) reward weights. n_iter: iterations. converged: the stopping rule was met.
-        message: the optimiser's reason to stop. objective: the final objective value.
-        train_s: wall time, s.
-    """
+    """The outcome of :func:`fit_alpha`: ``alpha`` (K,), iterations, whether the stopping
+    rule was met and the optimiser's message, the final objective, wall time ``train_s`` (s)."""
 
     alpha: np.ndarray
     n_iter: int
@@ -57,12 +50,8 @@ def fit_alpha(
     ftol: float,
     progress: bool = False,
 ) -> Fit:
-    """Minimise the MCE-IRL dual from ``alpha0`` (K,), the L2 term pulling towards ``prior``.
-
-    L-BFGS-B stops after ``max_iter`` iterations, at a projected gradient ≤ ``gtol`` (max
-    component) or at a relative decrease of the objective below ``ftol``. ``progress`` shows a
-    tqdm bar. Raises :class:`~cloud_sync.errors.TrainingError` if the objective diverges.
-    """
+    """Minimise the MCE-IRL dual by L-BFGS-B from ``alpha0`` (K,), L2 towards ``prior``
+    (stops at ``max_iter``, ``gtol``, ``ftol``); TrainingError if the objective diverges."""
     bar = tqdm(total=max_iter, desc="IRL", unit="it", leave=False) if progress else None
 
     def fun(alpha: np.ndarray) -> tuple[float, np.ndarray]:

@@ -1,16 +1,8 @@
 """Maximum causal entropy IRL on a sparse finite-horizon MDP: pure functions.
 
-Shapes: ``S`` states, ``A`` actions, ``K`` features, ``H`` the longest segment (steps).
-Time is counted as *steps to go*: a demonstration segment of ``h`` steps starts with ``h``
-steps to go, so segments of every length share one backward and one forward pass.
-
-- :func:`soft_value_iteration`: ``V_h(s) = log Σ_a exp(r(s,a) + Σ_s' P(s'|s,a)·V_{h−1}(s'))``,
-  ``V_0 = 0``, in log space (logsumexp); policy ``π_h(a|s) = exp(Q_h(s,a) − V_h(s))``.
-- :func:`state_action_visitation`: expected state-action counts, summed over time, of the
-  soft-optimal policy started from the segments' initial-state distributions.
-- :func:`objective`: the dual of MCE IRL, convex in α:
-  ``f(α) = −(α·μ_D − Σ_h p0_h·V_h) + ½λ‖α − α_prior‖²``, gradient ``μ_M − μ_D + λ(α − α_prior)``
-  with ``μ_D`` the demonstrations' and ``μ_M`` the model's expected feature counts.
+Shapes: ``S`` states, ``A`` actions, ``K`` features, ``H`` the longest segment (steps); time is
+counted in steps to go. :func:`soft_value_iteration` (log space), :func:`state_action_visitation`
+and :func:`objective`, the convex dual ``f(α) = −(α·μ_D − Σ_h p0_h·V_h) + ½λ‖α − α_prior‖²``.
 """
 
 from __future__ import annotations
@@ -57,14 +49,9 @@ class CompiledMdp:
 
 @dataclass(frozen=True)
 class DemoStats:
-    """What IRL needs from the demonstrations (weights normalised to sum to one).
-
-    Attributes:
-        mu: (K,) expected feature counts per segment.
-        p0: (H, S) initial-state distribution, row ``h−1`` for segments of ``h`` steps;
-            ``p0.sum() == 1``.
-        n_segments: number of segments.
-    """
+    """What IRL needs from the demonstrations (weights summing to one): ``mu`` (K,) feature
+    counts per segment, ``p0`` (H, S) start distribution (row ``h−1``: segments of ``h``
+    steps; sums to 1), ``n_segments``."""
 
     mu: np.ndarray
     p0: np.ndarray
@@ -94,14 +81,9 @@ def _logsumexp_rows(q: np.ndarray) -> np.ndarray:
 def soft_value_iteration(
     P: sp.csr_matrix, reward: np.ndarray, horizon: int
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Finite-horizon soft value iteration in log space.
-
-    Args:
-        P: (S·A, S) transition matrix. reward: (S, A). horizon: H ≥ 1 steps.
-    Returns:
-        ``V`` of shape (H+1, S) with ``V[h]`` the soft value with ``h`` steps to go (``V[0] = 0``),
-        and ``pi`` of shape (H, S, A) with ``pi[h−1]`` the policy with ``h`` steps to go.
-    """
+    """Soft value iteration in log space on ``P`` (S·A, S) and ``reward`` (S, A) over H ≥ 1
+    steps: ``V`` (H+1, S), ``V[h]`` with ``h`` steps to go (``V[0] = 0``), and ``pi`` (H, S, A),
+    ``pi[h−1]`` with ``h`` steps to go."""
     if horizon < 1:
         raise TrainingError(f"horizon must be >= 1, got {horizon}")
     n_s, n_a = reward.shape
@@ -115,14 +97,9 @@ def soft_value_iteration(
 
 
 def state_action_visitation(PT: sp.csr_matrix, pi: np.ndarray, p0: np.ndarray) -> np.ndarray:
-    """Expected state-action counts summed over time, shape (S, A).
-
-    Args:
-        PT: (S, S·A) transposed transition matrix. pi: (H, S, A) from
-            :func:`soft_value_iteration`. p0: (H, S), row ``h−1`` the start mass of segments
-            with ``h`` steps (each segment's mass enters when it has ``h`` steps to go).
-    The total equals ``Σ_h h·p0[h−1].sum()``: the (mean) horizon for normalised ``p0``.
-    """
+    """Expected state-action counts summed over time (S, A), from ``PT`` (S, S·A), ``pi``
+    (H, S, A) and ``p0`` (H, S) (row ``h−1`` enters with ``h`` steps to go); they total
+    ``Σ_h h·p0[h−1].sum()``."""
     horizon, n_s, n_a = pi.shape
     if p0.shape != (horizon, n_s):
         raise TrainingError(f"p0 has shape {p0.shape}, expected {(horizon, n_s)}")

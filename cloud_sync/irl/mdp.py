@@ -1,22 +1,11 @@
 """The car-following MDP of the paper, discretised: grid, sparse transitions, reward features.
 
-State ``s = (v, g, dv)``: ego speed v (m/s), gap g (m), relative speed dv = v_lead − v (m/s).
-The paper's state is (v, g) with the lead speed "considered"; the gap dynamics (eq. 2) need
-the lead speed, and an action changes the gap only through dv, so dv is part of the state
-(the reward stays a function of (v, g) plus two comfort terms). Action ``a``: ego
-acceleration (m/s²) from a fixed set. One decision every ``dt_s``:
-
-    v'  = v + a·dt + ε_v                         (eq. 1)
-    dv' = dv + (a_f − a)·dt − ε_v
-    g'  = g + dv·dt + ½·(a_f − a)·dt²            (eq. 2, the sign corrected)
-
-The lead acceleration a_f and the speed noise ε_v are zero-mean with standard deviations
-``lead_accel_sigma_mps2`` and ``speed_noise_sigma_mps``; each is represented by three points
-{−h, 0, +h} whose probabilities match the variance, with h one grid step, so a next state lands
-on the dv / v grid exactly and the transition matrix stays sparse. The continuous next state
-is spread on the grid by multilinear interpolation and clipped to the grid's box.
-
-State index: ``s = (iv·n_gap + ig)·n_dv + idv``; state-action row: ``s·n_actions + a``.
+State ``s = (v, g, dv)``: ego speed (m/s), gap (m), lead minus ego speed (m/s); action: ego
+acceleration (m/s²) from a fixed set; one decision every ``dt_s`` s:
+``v' = v + a·dt + ε_v`` (eq. 1), ``dv' = dv + (a_f − a)·dt − ε_v``, ``g' = g + dv·dt +
+½·(a_f − a)·dt²`` (eq. 2, sign corrected). Lead acceleration and speed noise are three-point
+{−h, 0, +h} distributions; next states are spread by multilinear interpolation, clipped to the
+grid. Index: ``s = (iv·n_gap + ig)·n_dv + idv``; state-action row ``s·n_actions + a``.
 """
 
 from __future__ import annotations
@@ -34,12 +23,8 @@ __all__ = ["GridConfig", "Grid", "make_grid", "build_transitions", "interp_weigh
 
 @dataclass(frozen=True)
 class GridConfig:
-    """Discretisation and noise of the MDP (units in names).
-
-    Defaults: a 1-s decision interval (about a driver's reaction time), 1 m/s speed and
-    relative-speed steps, 2 m gap steps, ten accelerations within the production envelope
-    −3.0…+2.0 m/s², ±6 m/s relative speed.
-    """
+    """Discretisation and noise of the MDP (units in names; defaults: 1 s decisions, 1 m/s
+    and 2 m steps, ten accelerations within −3.0…+2.0 m/s², ±6 m/s relative speed)."""
 
     dt_s: float = 1.0
     v_step_mps: float = 1.0
@@ -160,11 +145,8 @@ def make_grid(config: GridConfig, v_max_mps: float, gap_max_m: float) -> Grid:
 
 
 def interp_weights(axis: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Linear interpolation of points ``x`` (any shape) on a uniform ``axis`` (n,), clipped.
-
-    Returns ``(i0, i1, w1)``, same shape as ``x``: the two neighbouring indices and the weight
-    of ``i1`` (the weight of ``i0`` is ``1 − w1``).
-    """
+    """Linear interpolation of ``x`` (any shape) on a uniform ``axis`` (n,), clipped:
+    ``(i0, i1, w1)`` shaped as ``x``, the neighbours and the weight of ``i1``."""
     step = axis[1] - axis[0]
     pos = np.clip((x - axis[0]) / step, 0.0, axis.size - 1)
     i0 = np.minimum(np.floor(pos).astype(np.int64), axis.size - 2)

@@ -1,13 +1,9 @@
-"""The reward model a table is learned in: a fresh one fitted to the data, or an earlier table's.
+"""The reward model a table is learned in: the MDP's grid, the reward basis and, from an earlier
+table, its weights α (the fit's start and prior).
 
-A model is the MDP's grid, the reward basis on it and, when it comes from an earlier table,
-that table's reward weights α (the prior the fit starts from and is pulled towards).
-
-- :func:`reference_line`: the line ``g ≈ c0 + c1·v`` the gap basis is sheared along.
-- :func:`fresh_model`: a grid spanning the demonstrations and a basis around their line.
-- :func:`model_of_table`: the grid, basis and α stored in the metadata of an earlier table of
-  this method (:data:`METHOD`), or ``None`` for a table of another kind.
-- :func:`compile_model`: the model with its sparse transitions, ready for IRL.
+:func:`reference_line` (``g ≈ c0 + c1·v``, the offset basis's line), :func:`fresh_model` (a grid
+spanning the demonstrations), :func:`model_of_table` (an earlier :data:`METHOD` table's model,
+else None) and :func:`compile_model` (with sparse transitions, ready for IRL).
 """
 
 from __future__ import annotations
@@ -85,11 +81,8 @@ def fresh_model(
 
 
 def model_of_table(table: Dgpt | None) -> RewardModel | None:
-    """The grid, features and α stored in an earlier IRL table of :data:`METHOD`.
-
-    ``None`` for no table or a table of another method (a predefined or empirical one).
-    Raises :class:`TrainingError` when the metadata are there but unusable.
-    """
+    """The grid, features and α of an earlier :data:`METHOD` table (None: no table or another
+    method); TrainingError when its metadata are unusable."""
     if table is None or table.meta.get("method") != METHOD:
         return None
     try:

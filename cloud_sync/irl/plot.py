@@ -1,10 +1,6 @@
-"""The figure of a learned table: recovered reward over (v, g), the DGPT and the baseline.
-
-Like the paper's figure of reward and desired gap: a heatmap of ``r(v, g)`` (the (v, g) part of
-the recovered reward, normalised per speed so every column shows where its maximum lies),
-the DGPT curve on it, the empirical baseline dashed, and the speeds without evidence shaded.
-Drawn on a bare :class:`matplotlib.figure.Figure` (no pyplot, no global backend state, no
-display needed); this module is imported only when a figure is asked for.
+"""The figure of a learned table: the recovered (v, g) reward as a heatmap (normalised per
+speed), the DGPT on it, the empirical baseline dashed and speeds without evidence shaded; drawn
+on a bare :class:`matplotlib.figure.Figure` (no pyplot), imported only for ``--plot``.
 """
 
 from __future__ import annotations

@@ -1,23 +1,10 @@
 """The gap the learned policy keeps in steady following: the DGPT of a fitted reward.
 
-Maximum causal entropy IRL fits the reward so that the soft-optimal *policy* reproduces the
-demonstrations' feature counts; it is the policy, not the reward surface, that matches the
-data. The argmax of the (v, g) reward is not, in general, the gap that policy keeps: the
-reward also pays for where the dynamics lead next, and with a finite horizon and a lead
-modelled as a random walk its maximum sits off the gaps the driver actually holds (
-on the OpenACC human followers the argmax table was 3–6 m off the steady gaps of the densely
-driven speeds). So the table is read from the policy:
-
-- :func:`steady_drift`: ``E_π[a | v, g, dv = 0]`` (m/s²) of the policy with ``horizon``
-  steps to go, on the grid's (v, g), with the lead at the ego's speed; and the soft value
-  ``V_H(v, g, 0)`` of those states.
-- :func:`steady_gaps`: per DGPT speed, the gap where that drift changes sign from braking
-  (below) to accelerating (above): a gap the policy returns to from either side. With the
-  drift interpolated linearly in v and g, the crossing is found to sub-grid resolution;
-  among several such gaps the one of highest soft value is taken; where there is none inside
-  the demonstrated range, the policy drives the gap to that range's edge.
-
-All functions are pure.
+The table is read from the soft-optimal policy, not the reward's argmax (which sat 3–6 m off
+the steady gaps of the OpenACC followers; docs/irl.md). :func:`steady_drift`: ``E_π[a | v, g,
+dv = 0]`` (m/s²) and the soft value on the grid's (v, g); :func:`steady_gaps`: per DGPT speed,
+the gap (m) where that drift changes sign from braking to accelerating, the highest-value one
+if several, else the demonstrated range's edge. Pure functions.
 """
 
 from __future__ import annotations
@@ -63,15 +50,9 @@ def steady_gaps(
     axis_mps: np.ndarray,
     support: tuple[np.ndarray, np.ndarray],
 ) -> np.ndarray:
-    """The steady-following gap (n,) at each speed of ``axis_mps`` (see the module docstring).
-
-    ``drift`` and ``value`` are (n_v, n_gap) on the grid axes ``grid_v_mps`` (n_v,) and
-    ``grid_gap_m`` (n_gap,); ``support`` is the demonstrated gap range (lo, hi) per axis speed,
-    (n,) each. NaN where the support is NaN (no demonstration near that speed) or the speed
-    lies above the grid. (The trainer passes :func:`cloud_sync.irl.extract.search_range`, which
-    is never NaN: there uncovered speeds get a gap at the edge of the range, and
-    :func:`cloud_sync.irl.extract.finish_table` replaces them by the stated prior.)
-    """
+    """The steady-following gap (n,) at each speed of ``axis_mps``: ``drift``, ``value``
+    (n_v, n_gap) on the grid axes, ``support`` (lo, hi) (n,) each; NaN where the support is NaN
+    or the speed lies above the grid."""
     out = np.full(axis_mps.size, np.nan)
     g = grid_gap_m
     for k, v in enumerate(axis_mps.tolist()):

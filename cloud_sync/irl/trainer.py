@@ -1,19 +1,10 @@
 """The IRL trainer: trips in, a driver's DGPT out (a thin composition of the pure phases).
 
-:func:`learn_dgpt` learns from demonstrations (manual drives, plus the takeovers of ACC trips,
-weighted); :func:`fine_tune` continues from an earlier IRL table with new takeovers;
-:func:`empirical_baseline` (:mod:`~cloud_sync.irl.baseline`, re-exported here with
-:class:`IrlConfig` of :mod:`~cloud_sync.irl.config`) is the comparison table. Every result is
-a pure function of (configuration, seed, data): the optimiser is deterministic and the seed
-only draws the starting weights, which the convex objective forgets.
-
-The phases of :func:`learn_dgpt`, one module each: the demonstrations
-(:mod:`~cloud_sync.irl.demos`), the evidence per speed (:mod:`~cloud_sync.irl.blend`), the reward
-model
-(:mod:`~cloud_sync.irl.model`), the fit (:mod:`~cloud_sync.irl.fit`), the extraction of the table
-(:mod:`~cloud_sync.irl.policy_gap`, the gap the learned policy keeps, then
-:mod:`~cloud_sync.irl.extract`) and, continuing an earlier table, the blend into it
-(:mod:`~cloud_sync.irl.blend`).
+:func:`learn_dgpt` learns from demonstrations (manual drives, plus weighted ACC takeovers);
+:func:`fine_tune` continues an earlier IRL table; :func:`empirical_baseline` is the comparison.
+Phases: :mod:`~cloud_sync.irl.demos`, :mod:`~cloud_sync.irl.blend`, :mod:`~cloud_sync.irl.model`,
+:mod:`~cloud_sync.irl.fit`, :mod:`~cloud_sync.irl.policy_gap`, :mod:`~cloud_sync.irl.extract`.
+Every result is a pure function of (configuration, seed, data).
 """
 
 from __future__ import annotations
@@ -37,29 +28,14 @@ from cloud_sync.irl.policy_gap import steady_drift, steady_gaps
 from dbc.vocab.dgpt import Dgpt, speed_axis
 from dbc.vocab.triplog import Trip
 
-__all__ = [
-    "IrlConfig",
-    "LearnResult",
-    "learn_dgpt",
-    "fine_tune",
-    "empirical_baseline",
-    "METHOD",
-]
+__all__ = ["IrlConfig", "LearnResult", "learn_dgpt", "fine_tune", "empirical_baseline", "METHOD"]
 
 
 @dataclass(frozen=True)
 class LearnResult:
-    """A learned table and how it was obtained.
-
-    Attributes:
-        table: the DGPT (source ``irl``; its meta hold the data digest, the coverage per speed
-            bin and the model). baseline: the empirical steady-state table (None when the data
-            hold no steady-state following, e.g. takeovers alone).
-        alpha: (K,) reward weights. mdp: the compiled MDP (grid, features, transitions).
-        covered: (n,) bool, the speed bins the demonstrations set (the others are continued
-            or, continuing an earlier table, kept). n_iter, converged, message: the
-            optimiser's outcome. train_s: wall time of the optimisation, s.
-    """
+    """A learned table (its meta: data digest, coverage, model), the empirical baseline (None
+    without steady following), ``alpha`` (K,), the compiled MDP, ``covered`` (n,) bool bins
+    set by the data, and the optimiser's outcome (``train_s`` in s)."""
 
     table: Dgpt
     baseline: Dgpt | None
@@ -87,16 +63,9 @@ def learn_dgpt(
     config: IrlConfig | None = None,
     weights: Sequence[float] | None = None,
 ) -> LearnResult:
-    """Learn a driver's DGPT by maximum causal entropy IRL from ``trips``.
-
-    Manual drives count with weight 1 and the takeovers of ACC trips with
-    ``config.takeover_weight`` (or explicit per-trip ``weights``). With ``init`` (an earlier
-    table of this method) the grid, the features and α are taken from it, α starts from and is
-    pulled towards the earlier α, speeds without new evidence keep the earlier gaps, and the
-    result is ``init.version + 1``. Raises :class:`DemoError` for empty, NaN-filled or too
-    short demonstrations, :class:`TrainingError` for a negative seed or if the optimisation
-    fails.
-    """
+    """Learn a driver's DGPT by MCE IRL from ``trips`` (manual weight 1, ACC takeovers
+    ``config.takeover_weight``, or ``weights``); with ``init`` its model and α are the start and
+    prior, uncovered speeds keep its gaps, version + 1. DemoError, TrainingError."""
     cfg = config if config is not None else IrlConfig()
     w = _trip_weights(trips, weights, init, driver_id=driver_id, seed=seed, config=cfg)
     usable_s = dm.check_demos(
@@ -167,13 +136,8 @@ def fine_tune(
     progress: bool = False,
     config: IrlConfig | None = None,
 ) -> LearnResult:
-    """The next version of ``init`` from the takeover segments of ACC trips.
-
-    Only the samples where the driver was in control count (``acc_state`` ≠ Active), with
-    weight ``config.takeover_weight``; optional earlier ``demos`` count with weight 1. α starts
-    from ``init``'s α and is pulled towards it, and speeds the takeovers do not cover keep
-    ``init``'s gaps. ``init`` must be an IRL table of this method (it carries α and the grid).
-    """
+    """The next version of ``init`` (an IRL table of this method) from the takeovers of ACC
+    trips (weight ``config.takeover_weight``; earlier ``demos`` weight 1)."""
     cfg = config if config is not None else IrlConfig()
     if model_of_table(init) is None:
         raise TrainingError(

@@ -1,27 +1,10 @@
 """Learners: trips -> a driver's DGPT, behind one small interface.
 
-:class:`Learner` — ``learn(trips, *, driver_id, seed) -> Dgpt``: from the driver's trips
-(:class:`~dbc.vocab.triplog.Trip`, 10 Hz; manual drives and the takeovers of ACC trips)
-a table on the standard speed axis (m over m/s, inside its safety bounds) whose ``meta``
-holds at least ``method`` (str) and ``covered`` (one bool per speed bin: the bins the data
-set; elsewhere the table states a prior). :func:`learn` adds ``learn_s`` (wall time, s) and
-``learner`` (the spec) to the meta.
-
-Built-ins, ordinary implementations of the interface:
-
-- ``irl`` (:class:`~cloud_sync.learners.builtin.IrlLearner`): the maximum causal entropy IRL
-  of the paper (:func:`cloud_sync.irl.trainer.learn_dgpt`);
-- ``empirical`` (:class:`~cloud_sync.learners.builtin.EmpiricalLearner`): the median
-  steady-state gap per speed bin (the baseline every claim is measured against);
-- ``gp`` (:class:`~cloud_sync.learners.gp.GpLearner`): a Gaussian process of the steady gap
-  over speed (as in the P-ACC literature), numpy only.
-
-Others come from the entry points of ``pacc.learners`` or ``module:attribute``
-(:mod:`dbc.vocab.plugins`); a factory takes the learner's parameters as keyword arguments.
-:mod:`cloud_sync.learners.builtin` (the built-in learners ``irl`` and ``empirical`` as
-  implementations of the interface);
-:mod:`cloud_sync.learners.gp` (``gp``: a Gaussian process of the driver's steady-state gap over
-  speed (numpy only));
+:class:`Learner` — ``learn(trips, *, driver_id, seed) -> Dgpt`` (a table on the standard speed
+axis, m over m/s, whose ``meta`` holds ``method`` and ``covered``, one bool per bin);
+:func:`learn` adds ``learn_s`` (s) and ``learner``. Built-ins: ``irl`` and ``empirical``
+(:mod:`cloud_sync.learners.builtin`), ``gp`` (:mod:`cloud_sync.learners.gp`); others from the
+``pacc.learners`` entry points or ``module:attribute`` (:mod:`dbc.vocab.plugins`).
 """
 
 from __future__ import annotations
@@ -74,14 +57,9 @@ def learn(
     seed: int,
     params: Mapping[str, Any] | None = None,
 ) -> Dgpt:
-    """Learn with the learner ``spec``; the table's meta gain ``learner`` and ``learn_s``.
-
-    Raises:
-        PluginError: ``spec`` names no learner. LearnerError: it returned no DGPT, or one
-        whose meta lack ``covered`` of the table's length, or one outside its safety bounds.
-        Whatever the learner raises for unusable trips (e.g.
-        :class:`~cloud_sync.irl.demos.DemoError`) passes through.
-    """
+    """Learn with the learner ``spec``; the table's meta gain ``learner`` and ``learn_s`` (s).
+    PluginError: no such learner; LearnerError: no DGPT, no ``covered`` per bin, or out of
+    bounds; the learner's own errors (DemoError ...) pass through."""
     learner = make_learner(spec, params)
     start = time.perf_counter()
     table = learner.learn(trips, driver_id=driver_id, seed=seed)

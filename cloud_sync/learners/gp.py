@@ -1,16 +1,10 @@
 """``gp``: a Gaussian process of the driver's steady-state gap over speed (numpy only).
 
-The P-ACC literature models a driver's car-following preference as a smooth function of
-speed learned by GP regression. Here the data are the steady-state samples of the trips
-(``|v_lead - v| <= 0.5 m/s``, ``|a| <= 0.3 m/s^2``, as the empirical baseline): per speed bin
-of the table (0.5 m/s) their median gap ``y_i`` (m) and the seconds of evidence ``w_i``. The
-model is ``g(v) = d0 + h v + f(v)``, a linear time-gap mean (``d0``, ``h`` by weighted least
-squares, ``h >= 0``) plus a GP ``f`` with the squared-exponential kernel
-``s^2 exp(-(v - v')^2 / (2 l^2))`` and per-bin noise ``sigma^2 / w_i`` (m^2; a bin seen for
-longer is trusted more). ``s`` (m), ``l`` (m/s) and ``sigma`` (m s^0.5) maximise the log
-marginal likelihood over a small grid. The table is the posterior mean at the covered bins
-(posterior sd below ``cover_ratio * s`` and within 1 m/s of the data), continued in time gap
-elsewhere (:func:`cloud_sync.irl.extract.continue_time_gap`) and clipped into the bounds.
+Data: per speed bin the median steady-state gap ``y_i`` (m) and its seconds ``w_i``. Model
+``g(v) = d0 + h·v + f(v)``: a weighted least-squares time-gap line plus a GP with the
+squared-exponential kernel ``s² exp(−(v − v')²/(2 l²))`` and noise ``σ²/w_i`` (m²), ``s``, ``l``,
+``σ`` maximising the log marginal likelihood on a small grid. The table is the posterior mean
+where the posterior sd is below ``cover_ratio·s``, continued in time gap elsewhere.
 """
 
 from __future__ import annotations

@@ -1,28 +1,11 @@
-"""The cloud as an HTTP service: ``pacc cloud serve --data DIR --host 127.0.0.1 --port 8080``.
+"""The cloud as an HTTP service (FastAPI): ``pacc cloud serve --data DIR --port 8080``.
 
-A FastAPI application over :class:`cloud_sync.service.rules.CloudService` (its OpenAPI description
-is served at ``/openapi.json``, the interactive one at ``/docs`` with Swagger UI's assets from
-the ``swagger-ui-bundle`` package, served here: it works offline). Every call but
-``/v1/health`` and ``/v1/key`` needs ``Authorization: Bearer <vehicle token>`` (the ``bearer``
-security scheme of the description).
-
-=======  ==================================  ==========================================
-method   path                                what
-=======  ==================================  ==========================================
-POST     /v1/batches                         upload one batch (raw MCAP bytes) -> receipt
-POST     /v1/trips                           report one ACC trip (JSON) -> trip receipt
-GET      /v1/drivers/{driver}/dgpt           newest signed DGPT (``?condition=``)
-GET      /v1/key                             the cloud's public signing key (PEM)
-GET      /v1/health                          liveness and counts
-=======  ==================================  ==========================================
-
-Errors answer ``{"detail": "..."}`` with the status of :mod:`cloud_sync.api`'s table (each
-route's possible statuses are in the description); a full disk answers 507 and any other
-storage failure 503, both with ``Retry-After``: the vehicle keeps the batch. An upload
-is refused with 413 as soon as its declared or streamed size passes the limit, before it is
-read whole. Learning jobs run on the service's executor, never in the request. The
-read-only list endpoints and the dashboard are :mod:`cloud_sync.service.views`'s; trip
-reports, :mod:`cloud_sync.service.trips`'s.
+Routes: ``POST /v1/batches`` (raw MCAP bytes -> receipt), ``POST /v1/trips`` (a trip report),
+``GET /v1/drivers/{driver}/dgpt`` (newest signed DGPT, ``?condition=``), ``GET /v1/key`` (PEM)
+and ``GET /v1/health``; every call but the last two needs ``Authorization: Bearer <token>``.
+Errors answer ``{"detail": ...}`` with :mod:`cloud_sync.api`'s statuses; a full disk 507, any
+other storage failure 503 (both with ``Retry-After``); an upload past the limit 413 before it
+is read whole. OpenAPI at ``/openapi.json``, Swagger UI at ``/docs`` (served offline).
 """
 
 from __future__ import annotations
@@ -42,7 +25,7 @@ from starlette.concurrency import run_in_threadpool
 from starlette.requests import ClientDisconnect
 from swagger_ui_bundle import swagger_ui_path
 
-from cloud_sync.api import BadBatchError, CloudError, PayloadTooLargeError
+from cloud_sync.api import BadBatchError, CloudError, PayloadTooLargeError, Receipt, TripReceipt
 from cloud_sync.service.rules import CloudService
 from cloud_sync.service.trips import record_trip
 from cloud_sync.service.views import ServiceViews
@@ -59,23 +42,6 @@ class ErrorDetail(BaseModel):
     """The body of every error answer."""
 
     detail: str
-
-
-class TripReceiptBody(BaseModel):
-    """The cloud's receipt of one trip report."""
-
-    trip_id: str
-    driver_id: str
-    duplicate: bool
-
-
-class ReceiptBody(BaseModel):
-    """The cloud's receipt of one uploaded batch."""
-
-    digest: str
-    driver_id: str
-    kind: str
-    duplicate: bool
 
 
 #: documents the bearer scheme; the check itself is CloudService.authenticate
@@ -157,10 +123,10 @@ def create_app(service: CloudService, operator_token_sha256: str | None = None) 
     @app.post(
         "/v1/batches",
         status_code=201,
-        response_model=ReceiptBody,
+        response_model=Receipt,
         dependencies=[Security(_BEARER)],
         responses=_errors(401, 403, 413, 422, 503, 507)
-        | {200: {"model": ReceiptBody, "description": "already held (a duplicate)"}},
+        | {200: {"model": Receipt, "description": "already held (a duplicate)"}},
         openapi_extra={
             "requestBody": {
                 "required": True,
@@ -180,10 +146,10 @@ def create_app(service: CloudService, operator_token_sha256: str | None = None) 
     @app.post(
         "/v1/trips",
         status_code=201,
-        response_model=TripReceiptBody,
+        response_model=TripReceipt,
         dependencies=[Security(_BEARER)],
         responses=_errors(401, 403, 413, 422, 503)
-        | {200: {"model": TripReceiptBody, "description": "already held (a duplicate)"}},
+        | {200: {"model": TripReceipt, "description": "already held (a duplicate)"}},
         openapi_extra={
             "requestBody": {
                 "required": True,

@@ -1,13 +1,7 @@
-"""Checks of an upload before the cloud keeps it: the bytes must be a pacc trip log of a known
-kind whose samples a car could have recorded, and a failure of the cloud's own storage becomes
-a retryable answer, never a lost batch.
-
-- **Size before decompressing** (:func:`check_chunks`): the MCAP chunks are read without
-  decompressing them; their declared sizes together, and each zstd frame's own content size,
-  must stay within :data:`MAX_DECOMPRESSED_BYTES`, and only zstd or uncompressed chunks are read
-  (a 17 KB zstd bomb must not become 512 MiB of memory).
-- **Plausible samples**: :func:`cloud_sync.api.check_plausible`, the check the vehicle's spool
-  makes of a file it is given.
+"""Checks of an upload before the cloud keeps it: a pacc trip log of a known kind, no larger than
+:data:`MAX_DECOMPRESSED_BYTES` decompressed (:func:`check_chunks` reads the MCAP chunk sizes
+without decompressing), with plausible samples (:func:`cloud_sync.api.check_plausible`); a
+failure of the cloud's own storage becomes a retryable answer (:func:`storage_errors`).
 """
 
 from __future__ import annotations

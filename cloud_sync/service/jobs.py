@@ -1,10 +1,6 @@
-"""Where the cloud's learning jobs run: executors for the job loop, and the training itself.
-
-- :class:`DeferredExecutor` queues jobs until asked (the embedded cloud learns when a table is
-  asked for).
-- :func:`train_table` is a job's training, a pure function of trips, seed and settings: it runs
-  in the job's thread or on an executor (:mod:`cloud_sync.engine`), e.g. a Dask cluster's,
-  which gets the trips with the task.
+"""Where the cloud's learning jobs run: :class:`DeferredExecutor` queues jobs until asked (the
+embedded cloud learns when a table is asked for); :func:`train_table`, a job's training, is a
+pure function of trips, seed and settings, run anywhere (:mod:`cloud_sync.engine`).
 """
 
 from __future__ import annotations
@@ -21,10 +17,8 @@ from dbc.vocab.triplog import Trip
 
 
 class DeferredExecutor(Executor):
-    """Queues jobs until :meth:`run_pending` (the embedded cloud learns when a table is asked
-    for, so a sync pass of many batches learns once, not once per batch). ``threads`` > 1
-    runs the queued jobs that many at a time (jobs of different drivers are independent;
-    worth it when their training runs elsewhere, on a Dask cluster)."""
+    """Queues jobs until :meth:`run_pending` (a sync pass of many batches learns once);
+    ``threads`` > 1 runs that many queued jobs at a time (training elsewhere, on Dask)."""
 
     def __init__(self, threads: int = 1) -> None:
         self._queue: list[tuple[Future[Any], Callable[..., Any], tuple[Any, ...]]] = []
@@ -72,32 +66,18 @@ def train_table(
     seed: int,
     irl: IrlConfig | None,
 ) -> Dgpt:
-    """A learning job's training, pure: a table learned from the ``manual`` trips (or
-    ``previous`` when None is to be relearned), then fine-tuned with the ``corrections``
-    (takeover and ACC trips). DemoError if the data are not enough yet. One BLAS thread:
-    the same table whichever engine (and core count) runs it."""
+    """A job's training, pure: ``previous`` (None: learned from the ``manual`` trips)
+    fine-tuned with the ``corrections``; DemoError if the data are not enough yet. One BLAS
+    thread: the same table on any engine."""
     with single_blas_thread():
-        return _train_table(manual, corrections, previous, driver_id, condition, seed, irl)
-
-
-def _train_table(
-    manual: list[Trip],
-    corrections: list[Trip],
-    previous: Dgpt | None,
-    driver_id: str,
-    condition: str,
-    seed: int,
-    irl: IrlConfig | None,
-) -> Dgpt:
-    if previous is None:
-        table = learn_dgpt(
-            manual, driver_id=driver_id, condition=condition, seed=seed, config=irl
-        ).table
-    else:
+        if previous is None:
+            previous = learn_dgpt(
+                manual, driver_id=driver_id, condition=condition, seed=seed, config=irl
+            ).table
         table = previous
-    if corrections:
-        table = fine_tune(corrections, table, seed=seed, config=irl).table
-    return table
+        if corrections:
+            table = fine_tune(corrections, table, seed=seed, config=irl).table
+        return table
 
 
 __all__ = ["DeferredExecutor", "train_table"]

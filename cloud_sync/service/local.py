@@ -1,16 +1,9 @@
 """The embedded cloud: the service in-process over a local folder, as a :class:`CloudApi`.
 
-``LocalCloud.open(DIR, token)`` is what ``pacc study`` and ``pacc ecu --cloud DIR`` use when
-no server runs: the same rules (tokens, driver ownership, size limit, validation, signing) as
-``pacc cloud serve``, without a network. Its learning jobs are deferred until a table is asked
-for (:class:`~cloud_sync.service.rules.DeferredExecutor`): a sync pass of many batches learns once,
-in the caller's thread, deterministically.
-
-A folder has one learner at a time: ``pacc cloud serve`` holds ``DIR/serving.lock``
-exclusively (its URL inside), an embedded cloud shared (:func:`hold_folder`). So an embedded
-sync into a folder a server is serving is refused with the server's URL, instead of storing
-batches the server would never learn from, and a server does not start over a folder an
-embedded cloud is using.
+``LocalCloud.open(DIR, token)``: the rules of ``pacc cloud serve`` without a network; its
+learning jobs are deferred until a table is asked for, in the caller's thread. A folder has one
+learner at a time (:func:`hold_folder`): ``pacc cloud serve`` holds ``DIR/serving.lock``
+exclusively (its URL inside), an embedded cloud shared.
 """
 
 from __future__ import annotations
@@ -75,9 +68,8 @@ class LocalCloud:
 
 
 def hold_folder(data_dir: str | os.PathLike[str], server_url: str | None = None) -> int:
-    """Lock the data folder for this process (the module docstring): shared for an embedded
-    cloud, exclusive for a server at ``server_url``; the lock's file descriptor (closing it
-    releases the lock). CloudSyncError if the other kind holds it."""
+    """Lock the data folder: shared for an embedded cloud, exclusive for a server at
+    ``server_url``; the lock's file descriptor. CloudSyncError if the other kind holds it."""
     path = Path(data_dir) / "serving.lock"
     fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
     try:

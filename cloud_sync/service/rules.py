@@ -1,23 +1,11 @@
 """The cloud service's rules, free of any transport: who may do what, ingest, learning, publishing.
 
-- **Vehicles and drivers**: :meth:`CloudService.register` returns a fresh token (the cloud
-  keeps only its SHA-256) and binds drivers to the vehicle; :meth:`update_vehicle` adds
-  drivers, reissues or revokes the token. A vehicle reads and writes only its own drivers.
-- **Ingest**: an upload is size-checked, parsed as a pacc trip log (a corrupt, truncated or
-  foreign file is refused and stored nowhere), attributed to ``meta["driver_id"]`` and
-  ``meta["condition"]`` and stored once per SHA-256 (a repeated upload is acknowledged as a
-  duplicate: at-least-once delivery becomes exactly-once storage).
-- **Learning jobs**: every new batch schedules a job for its (driver, condition) on the
-  executor, off the request path. A job is a pure function of the stored batches: the first
-  version comes from the manual trips (:func:`cloud_sync.irl.trainer.learn_dgpt`); later batches
-  (takeover segments, more manual trips) fine-tune the newest version
-  (:func:`cloud_sync.irl.trainer.fine_tune`). Trips are ordered by digest, so the result does not
-  depend on arrival order. Too little data is not an error: the job waits for more.
-- **Where jobs run**: the executor runs the job loop (reading the store, publishing); the
-  training itself, :func:`train_table`, a pure function of trips, seed and settings, runs on
-  an executor (:mod:`cloud_sync.engine`; None: in the job's thread), e.g. a Dask
-  cluster (``pacc cloud serve --scheduler``), which gets the trips with the task.
-- **Publishing**: each version is signed (Ed25519, :mod:`cloud_sync.signing`) and kept.
+A vehicle (token kept as its SHA-256) reads and writes only its own drivers. An upload is
+checked (:mod:`cloud_sync.service.ingest`), attributed to its ``driver_id``/``condition`` and
+stored once per SHA-256. Each new batch schedules a learning job for its (driver, condition):
+a pure function of the stored batches in digest order (manual trips learn a table, later
+takeovers fine-tune it; too little data waits). Training may run on ``compute``
+(:mod:`cloud_sync.engine`); each version is signed (:mod:`cloud_sync.signing`) and kept.
 """
 
 from __future__ import annotations
@@ -30,7 +18,6 @@ import threading
 from collections.abc import Callable, Iterable
 from concurrent.futures import Executor, Future
 from dataclasses import dataclass, field, replace
-from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +30,7 @@ from cloud_sync.api import (
     NotFoundError,
     PayloadTooLargeError,
     Receipt,
+    check_plain,
     is_plain_name,
 )
 from cloud_sync.engine import InlineExecutor
@@ -59,7 +47,7 @@ from cloud_sync.signing import (
     sign_dgpt,
     verify_dgpt,
 )
-from dbc.vocab.dgpt import Dgpt
+from dbc.vocab.dgpt import Dgpt, utc_now_iso
 from dbc.vocab.triplog import Trip
 from dbc.vocab.triplog_file import trip_from_bytes
 from dbc.vocab.tripmode import TripMode
@@ -74,19 +62,9 @@ def _sha256(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
-def _utc_now() -> str:
-    return datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
-
-
 @dataclass(frozen=True)
 class ServiceConfig:
-    """Settings of the service.
-
-    Attributes:
-        max_upload_bytes: the largest accepted batch, bytes.
-        seed: the learning jobs' seed (every job is a pure function of seed and data).
-        irl: IRL settings (None: the trainer's defaults).
-    """
+    """Settings: the largest batch (bytes), the jobs' seed, IRL settings (None: defaults)."""
 
     max_upload_bytes: int = DEFAULT_MAX_UPLOAD_BYTES
     seed: int = 0
@@ -101,16 +79,8 @@ class _JobState:
 
 
 class CloudService:
-    """The cloud (see the module docstring). Thread-safe.
-
-    Args:
-        store: the data folder.
-        key: the signing key.
-        executor: where learning jobs run (None: inline, in the uploading thread).
-        config: limits and learning settings.
-        compute: where a job's training runs (None: in the job's thread); the service does
-            not close it.
-    """
+    """The cloud over ``store``, signing with ``key``; learning jobs on ``executor`` (None:
+    inline), their training on ``compute`` (None: the job's thread; not closed here)."""
 
     def __init__(
         self,
@@ -160,15 +130,10 @@ class CloudService:
         return self.register(vehicle_id, [])
 
     def register(
-        self,
-        vehicle_id: str,
-        drivers: list[str],
-        keep_token: Callable[[str], None] | None = None,
+        self, vehicle_id: str, drivers: list[str], keep_token: Callable[[str], None] | None = None
     ) -> str:
-        """Register a vehicle and its drivers at once and return the token: one transaction,
-        and ``keep_token(token)`` (writing the token file) runs inside it, so a bad or taken
-        driver id or a token that cannot be kept leaves nothing registered. StoreError for
-        names that are not plain, a vehicle already registered, a driver taken."""
+        """Register a vehicle and its drivers in one transaction (``keep_token(token)`` inside
+        it: all or nothing); the token. StoreError: names not plain, vehicle or driver taken."""
         _check_names(vehicle_id, drivers)
         token = secrets.token_urlsafe(32)
         hook = None if keep_token is None else (lambda: keep_token(token))
@@ -183,11 +148,8 @@ class CloudService:
         token: str | None = None,
         keep_token: Callable[[str], None] | None = None,
     ) -> str | None:
-        """The operator's changes to a registered vehicle, in one transaction: add ``drivers``;
-        ``token="new"``: a fresh token replaces the old one (returned; ``keep_token`` runs
-        inside the transaction as in :meth:`register`), ``token="revoke"``: no token works
-        until a new one is issued. StoreError for an unknown vehicle, a taken driver or names
-        that are not plain."""
+        """Add ``drivers`` to a vehicle and, with ``token`` ``"new"``, issue a fresh token
+        (returned; ``keep_token`` inside the transaction) or ``"revoke"`` it. StoreError."""
         _check_names(vehicle_id, drivers)
         fresh = secrets.token_urlsafe(32) if token == "new" else None
         if fresh is not None:
@@ -227,9 +189,7 @@ class CloudService:
         if not isinstance(driver_id, str) or not driver_id:
             raise BadBatchError("the trip log names no driver_id in its metadata")
         condition = trip.meta.get("condition") or "default"
-        for what, name in (("driver_id", driver_id), ("condition", condition)):
-            if not is_plain_name(name):
-                raise BadBatchError(f"{what} {name!r} is not a plain name (letters, digits, _.-)")
+        check_plain(BadBatchError, driver_id=driver_id, condition=condition)
         self._own(vehicle_id, driver_id)
         digest = _sha256(data)
         row = BatchRow(
@@ -240,7 +200,7 @@ class CloudService:
             condition=condition,
             kind=kind.value,
             size_bytes=len(data),
-            received_utc=_utc_now(),
+            received_utc=utc_now_iso(),
             used_in_version=None,
         )
         with storage_errors():
@@ -300,13 +260,8 @@ class CloudService:
             future.result(timeout=timeout_s)
 
     def learn_once(self, driver_id: str, condition: str) -> int | None:
-        """Learn the driver's next table from the unused batches; the new version or None.
-
-        New manual trips: the table is learned again from every manual trip (learn_dgpt),
-        then fine-tuned with every takeover batch so far. Only new takeover (or ACC)
-        batches: the newest version is fine-tuned with them. Trips are taken in digest order,
-        so a version is a pure function of the stored batches and the seed.
-        """
+        """Learn the driver's next version from the unused batches (new manual trips: relearn
+        from all, then fine-tune with every correction; else fine-tune); None if nothing."""
         unused = self.store.batches(driver_id, condition, unused_only=True)
         if not unused:
             return None
@@ -378,9 +333,9 @@ class CloudService:
 
 
 def _check_names(vehicle_id: str, drivers: list[str]) -> None:
-    for what, name in [("vehicle id", vehicle_id)] + [("driver id", d) for d in drivers]:
-        if not is_plain_name(name):
-            raise StoreError(f"{what} {name!r} is not a plain name (letters, digits, _.-)")
+    check_plain(StoreError, vehicle_id=vehicle_id)
+    for driver_id in drivers:
+        check_plain(StoreError, driver_id=driver_id)
     if len(set(drivers)) != len(drivers):
         raise StoreError(f"a driver id is repeated: {', '.join(drivers)}")
 

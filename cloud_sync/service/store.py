@@ -1,22 +1,11 @@
 """The cloud's storage: an SQLite index and content-addressed files under one data folder.
 
-Layout of ``data_dir``::
-
-    index.sqlite                     vehicles, drivers, batches, DGPT versions, trip reports
-                                     (WAL mode; ``PRAGMA user_version`` = SCHEMA_VERSION)
-    blobs/<d[:2]>/<digest>.mcap      every uploaded batch, named by its SHA-256
-    dgpt/<driver>/<condition>/v<version>.json   every signed DGPT version, never overwritten
-    keys/cloud.key, keys/cloud.pub   the signing key pair (see cloud_sync.signing)
-
-Files are written to a temporary name, fsynced and renamed before their row is committed, so
-a row never points at a partial file; a file without a row (a crash between the two) is
-written again by the next upload of the same batch; a temporary file left by a killed
-process (``.<name>.part``) is removed when the store opens. Every DGPT version is kept. One
-store object may be shared by threads (one connection behind a lock); one process per folder.
-
-**Migration**: an index of an older schema (``user_version`` below :data:`SCHEMA_VERSION`:
-version 1 had no ``trips``/``trip_segments`` tables) is brought up to date when the store
-opens, in one transaction that only adds tables: no row of the older index is touched.
+Layout: ``index.sqlite`` (vehicles, drivers, batches, DGPT versions, trip reports; WAL;
+``user_version`` = :data:`SCHEMA_VERSION`), ``blobs/<d[:2]>/<digest>.mcap`` (uploaded batches
+by SHA-256), ``dgpt/<driver>/<condition>/v<version>.json`` (every signed version, never
+overwritten), ``keys/cloud.key|.pub``. A file is written, fsynced and renamed before its row is
+committed; ``.<name>.part`` leftovers are removed at open; an older schema is migrated by adding
+tables only. One connection behind a lock; one process per folder.
 """
 
 from __future__ import annotations
@@ -25,8 +14,8 @@ import os
 import sqlite3
 import threading
 from collections.abc import Callable, Iterator
-from contextlib import AbstractContextManager, contextmanager
-from dataclasses import dataclass
+from contextlib import contextmanager
+from dataclasses import astuple, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -158,10 +147,18 @@ class CloudStore:
             raise
         self._db.execute("COMMIT")
 
-    def transaction(self) -> AbstractContextManager[sqlite3.Connection]:
+    @contextmanager
+    def transaction(self) -> Iterator[sqlite3.Connection]:
         """An immediate transaction on the index, under the store's lock (committed when the
         block ends, rolled back if it raises)."""
-        return self._tx()
+        with self._lock:
+            self._db.execute("BEGIN IMMEDIATE")
+            try:
+                yield self._db
+            except BaseException:
+                self._db.execute("ROLLBACK")
+                raise
+            self._db.execute("COMMIT")
 
     def query(self, sql: str, args: tuple[object, ...] = ()) -> list[tuple[Any, ...]]:
         """The rows of a read-only ``sql`` on the index, under the store's lock."""
@@ -186,17 +183,6 @@ class CloudStore:
         with self._lock:
             self._db.close()
 
-    @contextmanager
-    def _tx(self) -> Iterator[sqlite3.Connection]:
-        with self._lock:
-            self._db.execute("BEGIN IMMEDIATE")
-            try:
-                yield self._db
-            except BaseException:
-                self._db.execute("ROLLBACK")
-                raise
-            self._db.execute("COMMIT")
-
     # -- vehicles and drivers -----------------------------------------------------------
 
     def register(
@@ -206,12 +192,9 @@ class CloudStore:
         drivers: list[str],
         before_commit: Callable[[], None] | None = None,
     ) -> None:
-        """Register a vehicle and its drivers in one transaction: all or nothing.
-
-        ``before_commit`` runs inside the transaction (e.g. writing the token file); if it
-        raises, nothing is registered. StoreError if the vehicle exists or a driver is taken.
-        """
-        with self._tx() as db:
+        """Register a vehicle and its drivers in one transaction, ``before_commit`` inside it
+        (all or nothing). StoreError if the vehicle exists or a driver is taken."""
+        with self.transaction() as db:
             if db.execute("SELECT 1 FROM vehicles WHERE vehicle_id = ?", (vehicle_id,)).fetchone():
                 raise StoreError(
                     f"vehicle {vehicle_id!r} is already registered (pacc cloud vehicle adds "
@@ -232,7 +215,7 @@ class CloudStore:
         """Add ``drivers`` to a registered vehicle and, unless None, replace the SHA-256 of its
         token (the old token stops working), in one transaction with ``before_commit`` as
         :meth:`register`. StoreError if the vehicle is unknown or a driver is taken."""
-        with self._tx() as db:
+        with self.transaction() as db:
             if token_sha256 is not None:
                 db.execute(
                     "UPDATE vehicles SET token_sha256 = ? WHERE vehicle_id = ?",
@@ -248,19 +231,13 @@ class CloudStore:
 
     def vehicle_by_token(self, token_sha256: str) -> str | None:
         """The vehicle whose token hashes to ``token_sha256``, or None."""
-        with self._lock:
-            row = self._db.execute(
-                "SELECT vehicle_id FROM vehicles WHERE token_sha256 = ?", (token_sha256,)
-            ).fetchone()
-        return None if row is None else str(row[0])
+        rows = self.query("SELECT vehicle_id FROM vehicles WHERE token_sha256 = ?", (token_sha256,))
+        return str(rows[0][0]) if rows else None
 
     def driver_vehicle(self, driver_id: str) -> str | None:
         """The vehicle ``driver_id`` is registered to, or None."""
-        with self._lock:
-            row = self._db.execute(
-                "SELECT vehicle_id FROM drivers WHERE driver_id = ?", (driver_id,)
-            ).fetchone()
-        return None if row is None else str(row[0])
+        rows = self.query("SELECT vehicle_id FROM drivers WHERE driver_id = ?", (driver_id,))
+        return str(rows[0][0]) if rows else None
 
     # -- batches ------------------------------------------------------------------------
 
@@ -271,27 +248,16 @@ class CloudStore:
     def add_batch(self, row: BatchRow, data: bytes) -> bool:
         """Store a batch's bytes and its row; False (nothing changed) if already stored."""
         with self._lock:
-            known = self._db.execute(
-                "SELECT 1 FROM batches WHERE digest = ?", (row.digest,)
-            ).fetchone()
-            if known is not None:
+            if self.query("SELECT 1 FROM batches WHERE digest = ?", (row.digest,)):
                 if not self.blob_path(row.digest).is_file():  # lost after its row: heal it
                     write_atomic(self.blob_path(row.digest), data)
                 return False
             write_atomic(self.blob_path(row.digest), data)
-            with self._tx() as db:
+            with self.transaction() as db:
                 db.execute(
                     "INSERT INTO batches (digest, vehicle_id, driver_id, condition, kind, "
                     "size_bytes, received_utc) VALUES (?, ?, ?, ?, ?, ?, ?)",
-                    (
-                        row.digest,
-                        row.vehicle_id,
-                        row.driver_id,
-                        row.condition,
-                        row.kind,
-                        row.size_bytes,
-                        row.received_utc,
-                    ),
+                    astuple(row)[1:8],  # digest ... received_utc
                 )
             return True
 
@@ -302,23 +268,19 @@ class CloudStore:
         sql = "SELECT * FROM batches WHERE driver_id = ? AND condition = ?"
         if unused_only:
             sql += " AND used_in_version IS NULL"
-        with self._lock:
-            rows = self._db.execute(sql + " ORDER BY seq", (driver_id, condition)).fetchall()
-        return [BatchRow(*r) for r in rows]
+        return [BatchRow(*r) for r in self.query(sql + " ORDER BY seq", (driver_id, condition))]
 
     def unused_keys(self) -> list[tuple[str, str]]:
         """(driver, condition) pairs with batches no version was learned from yet."""
-        with self._lock:
-            rows = self._db.execute(
-                "SELECT DISTINCT driver_id, condition FROM batches "
-                "WHERE used_in_version IS NULL ORDER BY driver_id, condition"
-            ).fetchall()
+        rows = self.query(
+            "SELECT DISTINCT driver_id, condition FROM batches "
+            "WHERE used_in_version IS NULL ORDER BY driver_id, condition"
+        )
         return [(str(d), str(c)) for d, c in rows]
 
     def batch_count(self) -> int:
         """How many batches the cloud holds."""
-        with self._lock:
-            return int(self._db.execute("SELECT COUNT(*) FROM batches").fetchone()[0])
+        return int(self.query("SELECT COUNT(*) FROM batches")[0][0])
 
     def read_blob(self, digest: str) -> bytes:
         """The bytes of batch ``digest``."""
@@ -336,25 +298,15 @@ class CloudStore:
         return path
 
     def add_version(self, row: VersionRow, signed: bytes, used: list[str]) -> None:
-        """Publish a signed DGPT version and mark the batches ``used`` for it.
-
-        The row is inserted first, in the transaction that then puts the file in place, so a
-        version that exists already is refused (StoreError) without touching its file.
-        """
+        """Publish a signed DGPT version and mark the batches ``used``; an existing version
+        is refused (StoreError) before its file is touched."""
         final = self.version_path(row.driver_id, row.condition, row.version)
         tmp = write_temp(final, signed)
         try:
-            with self._tx() as db:
+            with self.transaction() as db:
                 db.execute(
                     "INSERT INTO dgpt_versions VALUES (?, ?, ?, ?, ?, ?)",
-                    (
-                        row.driver_id,
-                        row.condition,
-                        row.version,
-                        row.source,
-                        row.created_utc,
-                        row.n_batches,
-                    ),
+                    astuple(row),
                 )
                 db.executemany(
                     "UPDATE batches SET used_in_version = ? WHERE digest = ?",
@@ -371,12 +323,10 @@ class CloudStore:
 
     def versions(self, driver_id: str, condition: str) -> list[VersionRow]:
         """Every published version of the driver's table under ``condition``, oldest first."""
-        with self._lock:
-            rows = self._db.execute(
-                "SELECT * FROM dgpt_versions WHERE driver_id = ? AND condition = ? "
-                "ORDER BY version",
-                (driver_id, condition),
-            ).fetchall()
+        rows = self.query(
+            "SELECT * FROM dgpt_versions WHERE driver_id = ? AND condition = ? ORDER BY version",
+            (driver_id, condition),
+        )
         return [VersionRow(*r) for r in rows]
 
     def read_version(self, row: VersionRow) -> bytes:

@@ -1,47 +1,28 @@
-"""Trip reports: what the cloud knows of each trip a vehicle drove with the ACC, for the
-per-trip learning curve of an incremental study.
+"""Trip reports: what the cloud knows of each ACC trip, for the per-trip learning curve.
 
-During an ACC trip the vehicle uploads only its **takeover segments** (the batches the cloud
-learns from); a trip without a takeover uploads nothing. So after each trip the vehicle also
-sends a small **trip report** (``POST /v1/trips``, JSON)::
-
-    {"driver_id": "d1", "condition": "default", "trip_id": "study-1-t3",
-     "dgpt_version": 2, "acc_on_s": 287.4, "segments": ["<sha256>", ...],
-     "start_utc": "2026-11-24T10:00:00Z"}            (start_utc optional)
-
-What comes from where:
-
-- **from the uploaded data** (the cloud computes it from the stored segments, the report only
-  names them): the intervention time ``intervention_s`` (s; samples with a pedal pressed,
-  ``accel_pedal > 0`` or ``brake_pedal > 0``, while the ACC was on — Active or Override, or
-  Standby after the segment's first engagement — times the segment's sample period) and the
-  takeovers (press onsets while on: a change from no pedal to a pedal or from one pedal to
-  the other), the definitions of the study's PoI and NIM (``sim_bus.metrics.poi_nim``);
-- **from the vehicle, validated**: the trip's ACC-on time ``acc_on_s`` (s; the vehicle alone
-  saw the whole trip: finite, 0..86,400 s, and not shorter than the intervention time the
-  cloud computed, less one sample per segment) and the table version it drove with
-  (``dgpt_version``: a version the cloud published for the driver and condition).
-
-Each named segment must be a stored takeover batch of the same driver and condition, claimed
-by no other trip. The per-trip measures are then ``poi_pct = 100·intervention_s/acc_on_s``
-(%) and ``takeovers_per_min = takeovers/(acc_on_s/60)`` (None when ``acc_on_s`` is 0).
-A report is stored once per (driver, trip id): the same report again is a duplicate, a
-different one under a taken id is refused (422).
+``POST /v1/trips`` body: ``{"driver_id", "condition", "trip_id", "dgpt_version", "acc_on_s",
+"segments": [sha256...], "start_utc"?}``. The cloud computes the intervention time (s; pedal
+pressed while the ACC was on) and takeovers (press onsets) from the named stored takeover
+segments; the vehicle states ``acc_on_s`` (s, 0..86,400, not below the interventions) and a
+published ``dgpt_version``. Then ``poi_pct = 100·intervention_s/acc_on_s`` and
+``takeovers_per_min``. Stored once per (driver, trip id); another report under a taken id: 422.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
-from datetime import UTC, datetime
+from datetime import datetime
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from cloud_sync.api import BadBatchError, TripReceipt, is_plain_name
+from cloud_sync.api import BadBatchError, TripReceipt, check_plain
 from dbc.vocab.acc_state import AccState
+from dbc.vocab.dgpt import utc_now_iso
 from dbc.vocab.triplog import Trip
 from dbc.vocab.triplog_file import trip_from_bytes
 from dbc.vocab.tripmode import TripMode
@@ -55,6 +36,7 @@ __all__ = ["MAX_ACC_ON_S", "TripReport", "record_trip", "segment_interventions",
 MAX_ACC_ON_S = 86_400.0
 #: the most segments one report may name
 MAX_SEGMENTS = 10_000
+_SHA256 = re.compile(r"[0-9a-f]{64}")
 _KEYS = {"driver_id", "condition", "trip_id", "dgpt_version", "acc_on_s", "segments", "start_utc"}
 
 
@@ -79,9 +61,7 @@ class TripReport:
         if unknown:
             raise BadBatchError(f"trip report: unknown field(s) {', '.join(sorted(unknown))}")
         names = {k: body.get(k, "default" if k == "condition" else None) for k in _KEYS}
-        for key in ("driver_id", "condition", "trip_id"):
-            if not is_plain_name(names[key]):
-                raise BadBatchError(f"trip report: {key} {names[key]!r} is not a plain name")
+        check_plain(BadBatchError, **{k: names[k] for k in ("driver_id", "condition", "trip_id")})
         version, acc_on = _numbers(names["dgpt_version"], names["acc_on_s"])
         segments = _digests(names["segments"] if names["segments"] is not None else [])
         start = names["start_utc"]
@@ -120,15 +100,11 @@ def _digests(segments: object) -> tuple[str, ...]:
     if not isinstance(segments, list) or len(segments) > MAX_SEGMENTS:
         raise BadBatchError(f"trip report: segments is a list of <= {MAX_SEGMENTS} digests")
     for digest in segments:
-        if not (isinstance(digest, str) and len(digest) == 64 and _is_hex(digest)):
+        if not (isinstance(digest, str) and _SHA256.fullmatch(digest)):
             raise BadBatchError(f"trip report: {digest!r} is not a SHA-256 digest")
     if len(set(segments)) != len(segments):
         raise BadBatchError("trip report: a segment is named twice")
     return tuple(segments)
-
-
-def _is_hex(text: str) -> bool:
-    return all(c in "0123456789abcdef" for c in text)
 
 
 def _is_utc(text: object) -> bool:
@@ -142,12 +118,9 @@ def _is_utc(text: object) -> bool:
 
 
 def segment_interventions(trip: Trip) -> tuple[float, int]:
-    """(intervention seconds, takeovers) of one takeover segment, pure.
-
-    Intervention: samples with a pedal pressed (position > 0; NaN: not pressed) while the
-    ACC was on (Active or Override, or Standby after the segment's first engagement), each
-    worth the segment's median sample period (s). Takeovers: press onsets while on (no pedal
-    → a pedal, or one pedal → the other)."""
+    """(intervention s, takeovers) of one takeover segment (module docstring), pure: pedal
+    samples while on (Active, Override, Standby after the first engagement) times the median
+    period, and press onsets while on."""
     n = len(trip)
     if n == 0:
         return 0.0, 0
@@ -190,13 +163,8 @@ def _measure(service: CloudService, report: TripReport) -> tuple[float, int, flo
 
 
 def record_trip(service: CloudService, vehicle_id: str, body: object) -> TripReceipt:
-    """Check and keep one trip report of ``vehicle_id`` (module docstring); its receipt.
-
-    Raises:
-        ForbiddenError: the driver is not the vehicle's.
-        BadBatchError: a malformed report, unknown segments or version, an ACC-on time
-            shorter than the segments' interventions, or a taken trip id.
-    """
+    """Check and keep one trip report of ``vehicle_id``; its receipt (ForbiddenError: not
+    the vehicle's driver; BadBatchError: malformed, unknown segment or version, taken id)."""
     report = TripReport.parse(body)
     service._own(vehicle_id, report.driver_id)  # noqa: SLF001 - the service's ownership rule
     published = {v.version for v in service.store.versions(report.driver_id, report.condition)}
@@ -212,7 +180,6 @@ def record_trip(service: CloudService, vehicle_id: str, body: object) -> TripRec
             f"{seconds:.1f} s of interventions in its segments"
         )
     text = report.canonical()
-    received = datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
     with service.store.transaction() as db:
         old = db.execute(
             "SELECT report FROM trips WHERE driver_id = ? AND trip_id = ?",
@@ -241,7 +208,7 @@ def record_trip(service: CloudService, vehicle_id: str, body: object) -> TripRec
                 report.condition,
                 report.trip_id,
                 report.start_utc,
-                received,
+                utc_now_iso(),
                 report.dgpt_version,
                 report.acc_on_s,
                 seconds,
@@ -250,8 +217,7 @@ def record_trip(service: CloudService, vehicle_id: str, body: object) -> TripRec
             ),
         )
         db.executemany(
-            "INSERT INTO trip_segments VALUES (?, ?)",
-            [(d, cur.lastrowid) for d in report.segments],
+            "INSERT INTO trip_segments VALUES (?, ?)", [(d, cur.lastrowid) for d in report.segments]
         )
     return TripReceipt(report.trip_id, report.driver_id, duplicate=False)
 

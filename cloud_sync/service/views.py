@@ -1,29 +1,10 @@
-"""What a person looks at: read-only lists of the cloud's state, and the dashboard page.
+"""What a person looks at: read-only JSON lists of the cloud's state, and the dashboard page.
 
-Endpoints (JSON; ``Authorization: Bearer TOKEN``), under the vehicle token rules — a vehicle
-sees its own drivers only — plus an **operator token** that sees the whole service
-(``pacc cloud serve --operator-token-file FILE``; its SHA-256 is kept, never the token):
-
-- ``GET /v1/drivers``: the drivers (a vehicle's, or every one for the operator), each with
-  its vehicle and conditions;
-- ``GET /v1/drivers/{driver}/versions``: the driver's table versions per condition, each with
-  its metadata (source, creation, batches used, trips, usable demonstration seconds, the
-  covered speed range and the coverage per speed) and its DGPT (gap over speed);
-- ``GET /v1/drivers/{driver}/batches``: the driver's batches (digest, kind, size, arrival,
-  the version that used it);
-- ``GET /v1/drivers/{driver}/trips``: the driver's reported ACC trips in arrival order, one
-  point each of the per-trip learning curve of an incremental study: the table version the
-  trip drove with, and the intervention share of ACC-on time (PoI, %) and takeovers per
-  minute that the cloud computed from the trip's uploaded takeover segments
-  (:mod:`cloud_sync.service.trips` says what comes from where);
-- ``GET /v1/jobs``: the learning jobs and their state (running, queued, idle).
-
-``GET /dashboard`` is a small page (HTML, CSS and JavaScript in one file, nothing from a CDN)
-that logs in with a token and draws these: drivers, each driver's table versions over speed
-with the covered range shaded, the batches behind each version, the job states, the
-learning curve of the versions (the gap at each covered speed, version after version) and the
-per-trip learning curve (PoI and takeovers per minute, trip after trip, each point marked
-with the table version it drove with).
+``GET /v1/drivers``, ``/v1/drivers/{driver}/versions`` (tables with their metadata and gaps),
+``/v1/drivers/{driver}/batches``, ``/v1/drivers/{driver}/trips`` (the per-trip learning curve,
+:mod:`cloud_sync.service.trips`) and ``/v1/jobs``: a vehicle token sees its own drivers, an
+operator token (``pacc cloud serve --operator-token-file``; only its SHA-256 kept) all of them.
+``GET /dashboard`` is one self-contained page (no CDN) that draws these.
 """
 
 from __future__ import annotations
@@ -40,6 +21,8 @@ from cloud_sync.service.trips import trip_rows
 __all__ = ["DASHBOARD", "ServiceViews"]
 
 DASHBOARD = Path(__file__).with_name("dashboard.html")
+#: the table metadata a version's view shows
+_META = ("n_trips", "usable_demo_s", "covered_mps", "coverage_s", "method")
 
 
 def _sha256(text: str) -> str:
@@ -47,31 +30,17 @@ def _sha256(text: str) -> str:
 
 
 class ServiceViews:
-    """The read-only views of ``service`` (module docstring).
-
-    Args:
-        service: the cloud.
-        operator_token_sha256: SHA-256 (hex) of the operator token (None: no operator).
-    """
+    """The read-only views of ``service``; ``operator_token_sha256`` (hex; None: no operator)."""
 
     def __init__(self, service: CloudService, operator_token_sha256: str | None = None) -> None:
         self.service = service
         self.operator_sha = operator_token_sha256
 
     def viewer(self, token: str | None) -> str | None:
-        """Who ``token`` is: a vehicle id, or None for the operator.
-
-        Raises:
-            AuthError: neither a vehicle's token nor the operator's.
-        """
+        """Who ``token`` is: a vehicle id, or None for the operator (AuthError: neither)."""
         if token and self.operator_sha and hmac.compare_digest(_sha256(token), self.operator_sha):
             return None
         return self.service.authenticate(token)
-
-    def _query(self, sql: str, args: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
-        store = self.service.store
-        with store._lock:  # noqa: SLF001 - a read of the store's own index, under its lock
-            return list(store._db.execute(sql, args).fetchall())  # noqa: SLF001
 
     def _check(self, viewer: str | None, driver_id: str) -> None:
         owner = self.service.store.driver_vehicle(driver_id)
@@ -83,24 +52,19 @@ class ServiceViews:
     def drivers(self, viewer: str | None) -> list[dict[str, Any]]:
         """The drivers ``viewer`` may see, with their vehicle and conditions."""
         sql = "SELECT driver_id, vehicle_id FROM drivers"
-        rows = self._query(
+        rows = self.service.store.query(
             sql + (" WHERE vehicle_id = ?" if viewer else "") + " ORDER BY driver_id",
             (viewer,) if viewer else (),
         )
         out = []
         for driver_id, vehicle_id in rows:
-            conds = self._query(
+            conds = self.service.store.query(
                 "SELECT DISTINCT condition FROM batches WHERE driver_id = ? UNION "
                 "SELECT DISTINCT condition FROM dgpt_versions WHERE driver_id = ?",
                 (driver_id, driver_id),
             )
-            out.append(
-                {
-                    "driver_id": driver_id,
-                    "vehicle_id": vehicle_id,
-                    "conditions": sorted(c for (c,) in conds),
-                }
-            )
+            conditions = sorted(c for (c,) in conds)
+            out.append({"driver_id": driver_id, "vehicle_id": vehicle_id, "conditions": conditions})
         return out
 
     def versions(self, viewer: str | None, driver_id: str) -> list[dict[str, Any]]:
@@ -110,13 +74,13 @@ class ServiceViews:
 
         out = []
         key = self.service.key.public_key()
-        for (condition,) in self._query(
+        for (condition,) in self.service.store.query(
             "SELECT DISTINCT condition FROM dgpt_versions WHERE driver_id = ?", (driver_id,)
         ):
             for row in self.service.store.versions(driver_id, condition):
                 table = verify_dgpt(self.service.store.read_version(row), key).to_json_dict()
                 meta = table.get("meta", {})
-                used = self._query(
+                used = self.service.store.query(
                     "SELECT digest FROM batches WHERE driver_id = ? AND condition = ? "
                     "AND used_in_version = ? ORDER BY seq",
                     (driver_id, condition, row.version),
@@ -131,17 +95,7 @@ class ServiceViews:
                         "batches": [d for (d,) in used],
                         "speed_mps": table["speed_mps"],
                         "gap_m": table["gap_m"],
-                        "meta": {
-                            k: meta[k]
-                            for k in (
-                                "n_trips",
-                                "usable_demo_s",
-                                "covered_mps",
-                                "coverage_s",
-                                "method",
-                            )
-                            if k in meta
-                        },
+                        "meta": {k: meta[k] for k in _META if k in meta},
                     }
                 )
         return out
@@ -149,7 +103,7 @@ class ServiceViews:
     def batches(self, viewer: str | None, driver_id: str) -> list[dict[str, Any]]:
         """The driver's batches in arrival order."""
         self._check(viewer, driver_id)
-        rows = self._query(
+        rows = self.service.store.query(
             "SELECT digest, condition, kind, size_bytes, received_utc, used_in_version "
             "FROM batches WHERE driver_id = ? ORDER BY seq",
             (driver_id,),

@@ -1,11 +1,6 @@
-"""The vehicle's side of the cloud link: spool, uploader, signed-profile download.
-
-- :mod:`cloud_sync.vehicle.spool` — trip logs waiting for the cloud, crash-safe, in a quota.
-- :mod:`cloud_sync.vehicle.uploader` — drains the spool into the cloud, nothing lost.
-- :mod:`cloud_sync.vehicle.reports` — end-of-trip reports queued in the spool, behind their
-  segments.
-- :mod:`cloud_sync.vehicle.download` — the newest signed DGPT, checked before use.
-- :mod:`cloud_sync.vehicle.client` — the HTTP client of ``pacc cloud serve``.
-- :mod:`cloud_sync.vehicle.connect` — ``--cloud URL`` (a service) or ``--cloud DIR`` (embedded).
-- :mod:`cloud_sync.vehicle.link` — the vehicle's link as ``pacc ecu --cloud`` wires it.
+"""The vehicle's side of the cloud link: :mod:`cloud_sync.vehicle.link` (the one wiring) of
+:mod:`cloud_sync.vehicle.spool`, :mod:`cloud_sync.vehicle.uploader`,
+:mod:`cloud_sync.vehicle.reports` (trip reports behind their segments),
+:mod:`cloud_sync.vehicle.download` (verified tables), over :mod:`cloud_sync.vehicle.client`
+(HTTP) or what :mod:`cloud_sync.vehicle.connect` picks (``--cloud URL`` or ``DIR``).
 """

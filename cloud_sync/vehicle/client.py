@@ -1,10 +1,7 @@
 """The vehicle's HTTP client of ``pacc cloud serve``, as a :class:`cloud_sync.api.CloudApi`.
 
-Transport failures (refused connection, timeout, a dropped connection) and 5xx answers become
-:class:`~cloud_sync.api.CloudUnavailableError`, the one error worth a retry; 4xx answers become
-the error of their status (a plain :class:`~cloud_sync.api.CloudError` with that status for
-one the contract does not name: 405, 409, 429 ...). Retrying is the uploader's business, not
-the client's.
+Transport failures and 5xx answers become :class:`~cloud_sync.api.CloudUnavailableError`; a
+4xx the error of its status (a plain :class:`~cloud_sync.api.CloudError` for 405, 409 ...).
 """
 
 from __future__ import annotations
@@ -16,13 +13,7 @@ from urllib.parse import quote
 
 import httpx
 
-from cloud_sync.api import (
-    ERRORS_BY_STATUS,
-    CloudError,
-    CloudUnavailableError,
-    Receipt,
-    TripReceipt,
-)
+from cloud_sync.api import ERRORS_BY_STATUS, CloudError, CloudUnavailableError, Receipt, TripReceipt
 
 #: seconds to connect, and to wait for an answer (an upload waits for its ingest)
 DEFAULT_TIMEOUT_S = 30.0
@@ -31,13 +22,7 @@ POLL_S = 0.1
 
 
 class HttpCloud:
-    """One vehicle's connection to a running cloud service.
-
-    Args:
-        url: the service's base URL, e.g. ``http://127.0.0.1:8080``.
-        token: the vehicle's token.
-        timeout_s: connect and read timeout, s.
-    """
+    """One vehicle's (``token``) connection to the service at ``url``; ``timeout_s`` per call, s."""
 
     def __init__(self, url: str, token: str, *, timeout_s: float = DEFAULT_TIMEOUT_S) -> None:
         self.url = url.rstrip("/")
@@ -80,17 +65,10 @@ class HttpCloud:
 
     def upload(self, data: bytes) -> Receipt:
         """Deliver one batch; the receipt the service answered with."""
-        body = self._call(
-            "POST",
-            "/v1/batches",
-            content=data,
-            headers={"Content-Type": "application/octet-stream"},
-        ).json()
+        headers = {"Content-Type": "application/octet-stream"}
+        body = self._call("POST", "/v1/batches", content=data, headers=headers).json()
         return Receipt(
-            digest=str(body["digest"]),
-            driver_id=str(body["driver_id"]),
-            kind=str(body["kind"]),
-            duplicate=bool(body["duplicate"]),
+            str(body["digest"]), str(body["driver_id"]), str(body["kind"]), bool(body["duplicate"])
         )
 
     def latest_dgpt(self, driver_id: str, condition: str = "default") -> bytes:
@@ -106,9 +84,8 @@ class HttpCloud:
     def wait_learned(
         self, driver_id: str, condition: str = "default", timeout_s: float = 120.0
     ) -> None:
-        """Poll ``GET /v1/jobs`` (every ``POLL_S`` s) until the job of (driver, condition) is
-        idle or gone; CloudUnavailableError after ``timeout_s`` s. An upload's receipt comes
-        after its job was scheduled, so a wait after an upload sees that job."""
+        """Poll ``GET /v1/jobs`` every ``POLL_S`` s until the job of (driver, condition) is
+        idle or gone; CloudUnavailableError after ``timeout_s`` s."""
         deadline = time.monotonic() + timeout_s
         while True:
             busy = [
@@ -129,11 +106,7 @@ class HttpCloud:
     def report_trip(self, report: Mapping[str, Any]) -> TripReceipt:
         """Report one ACC trip (``POST /v1/trips``); the receipt the service answered with."""
         body = self._call("POST", "/v1/trips", json=dict(report)).json()
-        return TripReceipt(
-            trip_id=str(body["trip_id"]),
-            driver_id=str(body["driver_id"]),
-            duplicate=bool(body["duplicate"]),
-        )
+        return TripReceipt(str(body["trip_id"]), str(body["driver_id"]), bool(body["duplicate"]))
 
 
 __all__ = ["DEFAULT_TIMEOUT_S", "HttpCloud"]

@@ -1,11 +1,7 @@
-"""Where the vehicle's cloud is: ``--cloud URL`` (a running service) or ``--cloud DIR`` (embedded).
-
-:func:`connect` turns the command-line target into a :class:`~cloud_sync.api.CloudApi`:
-``http://`` or ``https://`` gives an :class:`~cloud_sync.vehicle.client.HttpCloud`, anything else
-is a
-folder served in-process by :class:`~cloud_sync.service.local.LocalCloud` (created if new). Tokens
-live
-in files (``--token-file``), never on the command line where ``ps`` would show them.
+"""Where the vehicle's cloud is: :func:`connect` gives an
+:class:`~cloud_sync.vehicle.client.HttpCloud` for an ``http(s)://`` target, else an embedded
+:class:`~cloud_sync.service.local.LocalCloud` over the folder. Tokens live in files
+(``--token-file``), never on the command line.
 """
 
 from __future__ import annotations

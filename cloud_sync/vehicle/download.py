@@ -1,16 +1,9 @@
 """Profile download: the newest signed DGPT for (driver, condition), checked before use.
 
-:class:`ProfileDownloader` asks the cloud for the driver's newest table, verifies its Ed25519
-signature against the key the vehicle trusts and its gaps against the vehicle's
-:class:`~dbc.vocab.dgpt.SafetyBounds` (:func:`cloud_sync.signing.verify_dgpt`), and only then keeps
-it: the signed bytes go to ``cache_dir/<driver>/<condition>.signed.json`` (atomically), which
-is the last good table for offline use and is verified again whenever it is read. Anything
-else is refused and reported (:attr:`ProfileDownloader.refusals`), and the last good table
-stays in use.
-
-Swapping a new table into a running ECU is the ECU's business: ``EcuRuntime.offer_table``
-swaps it in at a cycle where :func:`ecu.profiles.may_swap` holds (never while the ACC is
-ACTIVE).
+:class:`ProfileDownloader` verifies the table's Ed25519 signature and its gaps against the
+vehicle's :class:`~dbc.vocab.dgpt.SafetyBounds` (:func:`cloud_sync.signing.verify_dgpt`) and
+keeps the signed bytes as ``cache_dir/<driver>/<condition>.signed.json``: the last good table,
+verified again whenever read. Anything else is refused and reported; the last good one stays.
 """
 
 from __future__ import annotations
@@ -22,13 +15,7 @@ from pathlib import Path
 
 from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PublicKey
 
-from cloud_sync.api import (
-    CloudApi,
-    CloudError,
-    CloudUnavailableError,
-    NotFoundError,
-    is_plain_name,
-)
+from cloud_sync.api import CloudApi, CloudError, CloudUnavailableError, NotFoundError, check_plain
 from cloud_sync.durable import write_atomic
 from cloud_sync.errors import CloudSyncError
 from cloud_sync.signing import SignatureError, verify_dgpt
@@ -57,14 +44,8 @@ class FetchReport:
 
 
 class ProfileDownloader:
-    """Downloads and verifies one driver's table (see the module docstring).
-
-    Args:
-        cloud: the vehicle's cloud client.
-        public_key: the cloud key this vehicle trusts.
-        cache_dir: where the last good signed tables are kept.
-        bounds: the vehicle's safety bounds (None: the defaults).
-    """
+    """Downloads from ``cloud`` the tables ``public_key`` signed within ``bounds`` (None:
+    the defaults), the last good ones kept under ``cache_dir``."""
 
     def __init__(
         self,
@@ -82,16 +63,12 @@ class ProfileDownloader:
     def cache_path(self, driver_id: str, condition: str) -> Path:
         """Where the last good signed table of (driver, condition) is kept (CloudSyncError
         for a name that is not plain: it would leave the cache folder)."""
-        if not (is_plain_name(driver_id) and is_plain_name(condition)):
-            raise CloudSyncError(
-                f"not plain names (letters, digits, _.-): {driver_id!r}, {condition!r}"
-            )
+        check_plain(CloudSyncError, driver_id=driver_id, condition=condition)
         return self.cache_dir / driver_id / f"{condition}.signed.json"
 
     def last_good(self, driver_id: str, condition: str = "default") -> Dgpt | None:
-        """The cached table, verified again (a tampered cache is refused: None), and only if
-        it is for ``driver_id`` in ``condition``: a signature proves who signed a table, not
-        whom it is for (another driver's signed table copied here is refused)."""
+        """The cached table, verified again, and only if it is ``driver_id``'s in
+        ``condition`` (a signature proves who signed, not for whom); else None."""
         path = self.cache_path(driver_id, condition)
         try:
             data = path.read_bytes()
@@ -100,25 +77,11 @@ class ProfileDownloader:
         except OSError as exc:
             self._refuse(f"cached table {path} unreadable: {exc.strerror or exc}")
             return None
-        try:
-            table = verify_dgpt(data, self.public_key, self.bounds)
-        except SignatureError as exc:
-            self._refuse(f"cached table {path}: {exc}")
-            return None
-        if (table.driver_id, table.condition) != (driver_id, condition):
-            self._refuse(
-                f"cached table {path} is {table.driver_id}/{table.condition}'s, "
-                f"not {driver_id}/{condition}'s"
-            )
-            return None
-        return table
+        return self._verified(data, driver_id, condition, f"cached table {path}")
 
     def fetch(self, driver_id: str, condition: str = "default") -> Dgpt | None:
-        """Download, verify and cache the newest table; None if there is nothing new to use.
-
-        Never raises for the cloud's or the table's faults: offline, not found and refused
-        are counted in :attr:`report` and the last good table stays the one to use.
-        """
+        """Download, verify and cache the newest table; None if nothing new. The cloud's or
+        the table's faults are counted in :attr:`report`, never raised."""
         data = self._download(driver_id, condition)
         table = None if data is None else self._verified(data, driver_id, condition)
         if data is None or table is None:
@@ -146,15 +109,17 @@ class ProfileDownloader:
             self._refuse(f"cloud refused the download: {exc}")
         return None
 
-    def _verified(self, data: bytes, driver_id: str, condition: str) -> Dgpt | None:
+    def _verified(
+        self, data: bytes, driver_id: str, condition: str, what: str = "downloaded table"
+    ) -> Dgpt | None:
         try:
             table = verify_dgpt(data, self.public_key, self.bounds)
         except SignatureError as exc:
-            self._refuse(f"downloaded table refused: {exc}")
+            self._refuse(f"{what} refused: {exc}")
             return None
         if table.driver_id != driver_id or table.condition != condition:
             self._refuse(
-                f"downloaded table is for {table.driver_id}/{table.condition}, "
+                f"{what} is for {table.driver_id}/{table.condition}, "
                 f"asked for {driver_id}/{condition}"
             )
             return None

@@ -1,18 +1,12 @@
-"""The vehicle's link to the cloud, as ``pacc ecu --cloud`` wires it.
+"""The vehicle's link to the cloud: the one wiring of spool, uploader and verified download.
 
-:class:`VehicleLink` bundles the three vehicle-side parts: the takeover recorder's sink puts
-each finished segment into the :class:`~cloud_sync.vehicle.spool.Spool` (tagged with the vehicle id)
-and wakes the :class:`~cloud_sync.vehicle.uploader.Uploader` thread; a schedule thread asks the
-:class:`~cloud_sync.vehicle.download.ProfileDownloader` for the driver's newest table every
-``sync_every_s`` and hands a verified one to the ECU through a callback (the ECU swaps it in
-only while not ACTIVE). Nothing here runs in the control cycle but the sink, which is a file
-write and a rename.
-
-At the end of the trip :meth:`VehicleLink.end_trip` queues the trip's report (the driver, the
-cloud table version the trip started with, its ACC-on time, the takeover segments it
-spooled: :mod:`cloud_sync.service.trips`) in the spool's ``reports/`` folder; the uploader
-posts it once its segments are up (:mod:`cloud_sync.vehicle.reports`), in the final drain of
-:meth:`VehicleLink.stop` or, if the cloud is away, on a later run.
+:class:`VehicleLink` is used by ``pacc ecu --cloud`` (threads: the recorder's
+:meth:`~VehicleLink.sink` spools each takeover segment and wakes the uploader; a schedule
+fetches the driver's newest verified table every ``sync_every_s`` s and offers it to the ECU)
+and by the study harness
+(:class:`pacc.study.loop.StudyCloud`: :meth:`~VehicleLink.put`, then a blocking
+:meth:`~VehicleLink.drain`). Trip reports (:mod:`cloud_sync.service.trips`) are queued in the
+spool's ``reports/`` folder and posted behind their segments (:mod:`cloud_sync.vehicle.reports`).
 """
 
 from __future__ import annotations
@@ -21,7 +15,8 @@ import dataclasses
 import logging
 import threading
 import uuid
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from typing import Any
 
 from cloud_sync.api import CloudApi
 from cloud_sync.errors import CloudSyncError
@@ -39,22 +34,15 @@ DEFAULT_SYNC_EVERY_S = 60.0
 
 
 class VehicleLink:
-    """Spool + uploader + scheduled, verified profile download for one vehicle.
-
-    Args:
-        cloud: the cloud client.
-        spool: the vehicle's spool.
-        vehicle_id: written into every spooled batch's metadata.
-        downloader: None: upload only.
-        driver_id / condition: whose table the downloader fetches.
-        sync_every_s: download period, s (> 0).
-    """
+    """Spool + uploader + verified download for the vehicle ``vehicle_id`` (tagged into each
+    spooled trip's meta; None: not tagged). ``downloader`` None: upload only; ``driver_id``,
+    ``condition``: whose table is fetched every ``sync_every_s`` s (None: no schedule)."""
 
     def __init__(
         self,
         cloud: CloudApi,
         spool: Spool,
-        vehicle_id: str,
+        vehicle_id: str | None,
         *,
         downloader: ProfileDownloader | None = None,
         driver_id: str | None = None,
@@ -68,7 +56,7 @@ class VehicleLink:
         self.spool = spool
         self.vehicle_id = vehicle_id
         self.uploader = Uploader(spool, cloud, uploader_config)
-        self.downloader = downloader if driver_id is not None else None
+        self.downloader = downloader
         self.driver_id = driver_id
         self.condition = condition
         self.sync_every_s = sync_every_s
@@ -82,28 +70,44 @@ class VehicleLink:
         self.segments: list[str] = []
         self.reports_queued = 0
 
-    def sink(self, trip: Trip) -> None:
-        """The recorder's sink: spool ``trip`` (raises SpoolError: the recorder retries)."""
-        meta = {**trip.meta, "vehicle_id": self.vehicle_id}
-        batch = self.spool.put_trip(dataclasses.replace(trip, meta=meta))
+    def put(self, trip: Trip) -> str:
+        """Spool ``trip`` (tagged with the vehicle id); its batch digest (SpoolError)."""
+        if self.vehicle_id is not None:
+            trip = dataclasses.replace(trip, meta={**trip.meta, "vehicle_id": self.vehicle_id})
+        batch = self.spool.put_trip(trip)
         if batch.kind == "takeover" and batch.digest not in self.segments:
             self.segments.append(batch.digest)
+        return batch.digest
+
+    def sink(self, trip: Trip) -> None:
+        """The recorder's sink: :meth:`put` and wake the uploader (SpoolError: it retries)."""
+        self.put(trip)
         self.uploader.notify()
 
-    def initial_table(self) -> Dgpt | None:
-        """The newest verified table at start: downloaded now, else the last good one."""
-        if self.downloader is None or self.driver_id is None:
+    def table(self, driver_id: str, condition: str) -> Dgpt | None:
+        """The driver's newest verified table: downloaded now, else the last good one."""
+        if self.downloader is None:
             return None
-        table = self.downloader.fetch(self.driver_id, self.condition)
-        table = table or self.downloader.last_good(self.driver_id, self.condition)
+        fresh = self.downloader.fetch(driver_id, condition)
+        return fresh or self.downloader.last_good(driver_id, condition)
+
+    def initial_table(self) -> Dgpt | None:
+        """:meth:`table` of the link's driver at start (its version is the trip's)."""
+        if self.driver_id is None:
+            return None
+        table = self.table(self.driver_id, self.condition)
         self.start_version = None if table is None else table.version
         return table
 
+    def queue_report(self, report: Mapping[str, Any]) -> None:
+        """Queue a trip report behind its segments (ReportError if it cannot be)."""
+        self.uploader.reports.put(report)
+        self.reports_queued += 1
+        self.uploader.notify()
+
     def end_trip(self, acc_on_s: float, start_utc: str | None = None) -> str:
-        """Queue the trip's report (module docstring): ``acc_on_s`` s of ACC on, the trip
-        started at ``start_utc`` (ISO 8601 UTC). Returns a line saying what was done; a trip
-        without a driver, a cloud table or any ACC time is not reported (said so). Never
-        raises: a report that cannot be queued is said so too."""
+        """Queue the report of the trip (``acc_on_s`` s of ACC on, started at ISO 8601 UTC
+        ``start_utc``); a line saying what was done. Never raises."""
         if self.driver_id is None or self.start_version is None:
             return "cloud: no trip report (the trip drove no verified cloud table of a --driver)"
         if not acc_on_s > 0.0:
@@ -120,11 +124,9 @@ class VehicleLink:
         if start_utc:
             report["start_utc"] = start_utc
         try:
-            self.uploader.reports.put(report)
+            self.queue_report(report)
         except ReportError as exc:  # its message says "trip report not queued: <why>"
             return f"cloud: {exc}"
-        self.reports_queued += 1
-        self.uploader.notify()
         return (
             f"cloud: trip report {report['trip_id']} queued (v{self.start_version}, "
             f"{report['acc_on_s']:.1f} s ACC on, {len(self.segments)} takeover segment(s))"
@@ -133,7 +135,7 @@ class VehicleLink:
     def start(self, offer: Callable[[Dgpt, str], None]) -> None:
         """Start the uploader and the download schedule; new tables go to ``offer``."""
         self.uploader.start()
-        if self.downloader is None:
+        if self.downloader is None or self.driver_id is None:
             return
         self._stop.clear()
         self._thread = threading.Thread(
@@ -153,27 +155,32 @@ class VehicleLink:
                 offer(table, f"cloud: {table.driver_id} {table.source} v{table.version}")
                 self.offered += 1
 
+    def drain(self, timeout_s: float, backoff_max_s: float = 1.0) -> Uploader:
+        """Upload what is spooled, then the reports that may go, for up to ``timeout_s`` s;
+        the pass's uploader (its counts are added to :attr:`uploader`'s too)."""
+        last = Uploader(self.spool, self.cloud, UploaderConfig(backoff_max_s=backoff_max_s))
+        timer = threading.Timer(timeout_s, last.stop)
+        timer.start()
+        try:
+            last.drain()
+        finally:
+            timer.cancel()
+        self.uploader.stats.uploaded += last.stats.uploaded
+        self.uploader.stats.rejected += last.stats.rejected
+        self.uploader.reports.stats.sent += last.reports.stats.sent
+        self.uploader.reports.stats.rejected += last.reports.stats.rejected
+        return last
+
     def stop(self, drain_s: float = 5.0) -> None:
-        """Stop both threads, then try for up to ``drain_s`` s to upload what is still
-        spooled (the last takeover is flushed at the very end of a run); whatever the cloud
-        did not acknowledge stays spooled for the next run."""
+        """Stop both threads, then :meth:`drain` for up to ``drain_s`` s; what the cloud did
+        not acknowledge stays spooled for the next run."""
         self._stop.set()
         if self._thread is not None:
             self._thread.join(10.0)
             self._thread = None
         self.uploader.stop()
         if drain_s > 0 and (self.spool.pending() or self.uploader.reports.pending()):
-            last = Uploader(self.spool, self.cloud, UploaderConfig(backoff_max_s=1.0))
-            timer = threading.Timer(drain_s, last.stop)
-            timer.start()
-            try:
-                last.drain()
-            finally:
-                timer.cancel()
-            self.uploader.stats.uploaded += last.stats.uploaded
-            self.uploader.stats.rejected += last.stats.rejected
-            self.uploader.reports.stats.sent += last.reports.stats.sent
-            self.uploader.reports.stats.rejected += last.reports.stats.rejected
+            self.drain(drain_s)
 
     def report(self) -> str:
         """One line of what the link did."""

@@ -1,31 +1,10 @@
 """Trip reports waiting for the cloud: the vehicle's end-of-trip reports, queued on disk.
 
-At the end of each ACC trip the vehicle reports it (``POST /v1/trips``,
-:mod:`cloud_sync.service.trips`): the driver, the table version it drove with, its ACC-on
-time and the digests of the takeover segments it spooled. A report names segments, and the
-cloud accepts it only once they are stored, so reports travel behind the batches: each is a
-JSON file in the spool's ``reports/`` folder, written atomically (a temporary file, fsync,
-rename, fsync of the folder: after a crash it is whole or absent), named
-``<seq>-<trip_id>.json`` so that they go in order. :meth:`ReportQueue.send` (called by the
-uploader after each pass over the batches, :mod:`cloud_sync.vehicle.uploader`) posts the
-pending reports oldest first, each only once none of its segments is still spooled:
-
-- acknowledged (or a duplicate: the cloud holds this very report) — deleted;
-- refused for good, an answer about the report itself that no retry changes (as the uploader
-  decides for batches: 422 :class:`~cloud_sync.api.BadBatchError`, a segment the cloud never
-  got because the quota evicted it, an unpublished version, a taken trip id; 413
-  :class:`~cloud_sync.api.PayloadTooLargeError`) — moved to ``reports/rejected/`` with the
-  reason, and so is a file the cloud never saw because it cannot be read or is not a trip
-  report (the reason says which);
-- any other answer — kept, the pass ends, tried again on the next pass or the next run
-  (``pacc ecu --cloud``, ``pacc cloud sync --spool``): the cloud cannot be reached
-  (:class:`~cloud_sync.api.CloudUnavailableError`, 5xx), the token is refused (401), the driver
-  is not the vehicle's (403), or an answer about the set-up that a later cloud may change
-  (404: an older cloud without ``POST /v1/trips`` or a wrong URL prefix; 405, 409, 429 ...).
-  :attr:`ReportStats.last_held` says why.
-
-Nothing is lost while the cloud is away: delivery is at least once, and the cloud stores a
-report once per (driver, trip id).
+Each report (:mod:`cloud_sync.service.trips`) is a JSON file ``reports/<seq>-<trip_id>.json``
+in the spool, written atomically. :meth:`ReportQueue.send` posts them oldest first, each once
+none of its segments is still spooled: acknowledged or duplicate — deleted; refused for good
+(422, 413) or unreadable — moved to ``reports/rejected/`` with the reason; anything else
+(unreachable, 401, 403, 404 ...) — kept for the next pass (:attr:`ReportStats.last_held`).
 """
 
 from __future__ import annotations
@@ -48,15 +27,15 @@ from cloud_sync.api import (
     CloudUnavailableError,
     PayloadTooLargeError,
 )
-from cloud_sync.durable import fsync_dir, write_atomic
+from cloud_sync.durable import set_aside, write_atomic
 from cloud_sync.errors import CloudSyncError
+from dbc.vocab.dgpt import PLAIN_NAME
 
 log = logging.getLogger(__name__)
 
 #: the spool's sub-folder of reports
 REPORTS = "reports"
-_NAME = re.compile(r"^(?P<seq>\d{12})-(?P<trip>[A-Za-z0-9][A-Za-z0-9_.-]{0,63})\.json$")
-_REJECTED = "rejected"
+_NAME = re.compile(rf"^\d{{12}}-({PLAIN_NAME.pattern})\.json$")
 _STATUS_PREFIX = re.compile(r"^HTTP \d{3}: ")
 
 
@@ -78,11 +57,7 @@ class ReportStats:
 
 
 class ReportQueue:
-    """The ``reports/`` folder of a spool (module docstring). Thread-safe.
-
-    Args:
-        spool_root: the spool folder; the reports live in ``spool_root/reports``.
-    """
+    """The ``reports/`` folder of the spool at ``spool_root``. Thread-safe."""
 
     def __init__(self, spool_root: str | os.PathLike[str]) -> None:
         self.root = Path(spool_root) / REPORTS
@@ -94,11 +69,8 @@ class ReportQueue:
                     part.unlink()
 
     def put(self, report: Mapping[str, Any]) -> Path:
-        """Queue ``report`` (its ``trip_id`` a plain name); the file it was written to.
-
-        Raises:
-            ReportError: the report is not JSON, has no usable trip id, or cannot be written.
-        """
+        """Queue ``report`` (its ``trip_id`` a plain name); its file. ReportError: not JSON,
+        no plain trip id, or not written."""
         trip_id = report.get("trip_id")
         try:
             text = json.dumps(dict(report), sort_keys=True, allow_nan=False)
@@ -165,19 +137,14 @@ class ReportQueue:
         return done
 
     def _reject(self, path: Path, reason: str) -> None:
-        target = self.root / _REJECTED
-        target.mkdir(exist_ok=True)
-        (target / f"{path.name}.reason").write_text(reason + "\n", encoding="utf-8")
-        path.replace(target / path.name)
-        fsync_dir(self.root)
+        set_aside(path, reason)
         self.stats.rejected += 1
-        log.error("trip report %s set aside in %s: %s", path.name, target, reason)
+        log.error("trip report %s set aside in %s/rejected: %s", path.name, self.root, reason)
 
 
 def http_answer(exc: CloudError) -> str:
-    """What the cloud answered: ``HTTP <status>: <detail>``, the status said once (the HTTP
-    client's messages start with it already, the embedded cloud's do not); the cloud out of
-    reach, its own words."""
+    """What the cloud answered: ``HTTP <status>: <detail>`` (the status said once), or that
+    it is unavailable."""
     if isinstance(exc, CloudUnavailableError):
         return f"the cloud is unavailable: {exc}"
     return f"HTTP {exc.status}: {_STATUS_PREFIX.sub('', str(exc), count=1)}"

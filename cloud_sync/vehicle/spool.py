@@ -1,22 +1,11 @@
 """The vehicle's spool: trip logs waiting for the cloud, crash-safe, inside a size quota.
 
-Every finished takeover segment and every manual (ACC OFF) trip becomes one *batch*: an MCAP
-trip log in the spool folder named ``<seq>-<kind>-<sha256>.mcap``, where ``seq`` orders the
-batches (oldest first), ``kind`` is ``takeover``, ``manual`` or ``acc`` and the digest of the
-file's bytes is the batch's identity (the uploader's idempotency key).
-
-Writing is atomic: the batch is written under ``.incoming/``, flushed with fsync, renamed into
-the spool and the folder is fsynced, so after a crash at any instant a batch is either whole
-under its final name or absent; leftovers in ``.incoming/`` are removed when the spool opens
-(counted in :attr:`SpoolStats.partials_removed`). A batch leaves the spool only when the cloud
-acknowledged it (:meth:`Spool.ack`), when the quota evicts it, or when the cloud refused it for
-good (:meth:`Spool.reject` moves it to ``rejected/`` with the reason: kept, not retried).
-
-Quota policy: when the batches exceed ``quota_bytes``, the oldest manual trips go first, then
-the oldest ACC trips, takeovers last (they carry the driver's corrections); the batch just
-added is never evicted, and a batch larger than the whole quota is refused. Every eviction is
-counted per kind and logged. A file whose bytes no longer match its digest (bit rot, a
-foreign file) is moved to ``quarantine/`` and counted, never uploaded.
+Each batch is one MCAP trip log ``<seq>-<kind>-<sha256>.mcap`` (kind ``takeover``, ``manual``
+or ``acc``; the digest is the upload's idempotency key), written under ``.incoming/``, fsynced
+and renamed (whole or absent after a crash). A batch leaves on the cloud's ack, by quota
+eviction (manual first, then acc, takeovers last; never the one just added) or to
+``rejected/`` with the reason; a file whose bytes no longer match its digest goes to
+``quarantine/``.
 """
 
 from __future__ import annotations
@@ -34,7 +23,7 @@ from pathlib import Path
 from typing import Literal
 
 from cloud_sync.api import BadBatchError, check_plausible
-from cloud_sync.durable import fsync_dir
+from cloud_sync.durable import fsync_dir, set_aside
 from cloud_sync.errors import CloudSyncError
 from dbc.vocab.triplog import Trip, TripLogError, trip_mode
 from dbc.vocab.triplog_file import read_trip, write_trip
@@ -54,7 +43,6 @@ _NAME = re.compile(
 )
 _INCOMING = ".incoming"
 _QUARANTINE = "quarantine"
-_REJECTED = "rejected"
 _CHUNK = 1 << 20
 
 
@@ -95,12 +83,8 @@ def file_digest(path: Path) -> str:
 
 
 class Spool:
-    """A spool folder (see the module docstring). Thread-safe; one writing process per folder.
-
-    Args:
-        root: the spool folder (created if missing).
-        quota_bytes: the most the batches may occupy, bytes (> 0).
-    """
+    """The spool folder ``root`` (created if missing), its batches within ``quota_bytes``.
+    Thread-safe; one writing process per folder."""
 
     def __init__(self, root: str | os.PathLike[str], *, quota_bytes: int = DEFAULT_QUOTA_BYTES):
         if quota_bytes <= 0:
@@ -149,15 +133,8 @@ class Spool:
     # -- adding --------------------------------------------------------------------------
 
     def put_trip(self, trip: Trip, kind: BatchKind | None = None) -> Batch:
-        """Spool ``trip`` as one batch (kind from its meta unless given); return the batch.
-
-        A trip already spooled (same bytes) is not stored twice: its batch is returned.
-
-        Raises:
-            SpoolError: the trip cannot be written (meta not JSON, full disk), its mode is
-                unknown (:class:`dbc.vocab.tripmode.TripModeError`) or it is larger than the
-                whole quota.
-        """
+        """Spool ``trip`` as one batch (kind from its mode unless given; the same bytes
+        again: the batch spooled). SpoolError: not written, unknown mode, over the quota."""
         try:
             kind = kind or trip_mode(trip).value
         except TripModeError as exc:
@@ -172,12 +149,8 @@ class Spool:
         return self._admit(incoming, kind)
 
     def put_file(self, source: str | os.PathLike[str], kind: BatchKind | None = None) -> Batch:
-        """Spool a copy of an MCAP trip log (checked with :func:`read_trip` first).
-
-        Raises:
-            SpoolError: the file is not a readable pacc trip log, holds samples the cloud
-                would refuse (:func:`cloud_sync.api.check_plausible`), or is too large.
-        """
+        """Spool a copy of an MCAP trip log; SpoolError if it is not a readable pacc trip
+        log, holds implausible samples (:func:`cloud_sync.api.check_plausible`) or is too large."""
         try:
             trip = read_trip(source)
         except TripLogError as exc:
@@ -238,11 +211,7 @@ class Spool:
             total -= victim.size_bytes
             self.stats.evicted[victim.kind] += 1
             log.warning(
-                "spool quota %d bytes: evicted %s batch %d (%s)",
-                self.quota_bytes,
-                victim.kind,
-                victim.seq,
-                victim.digest[:12],
+                "spool quota %d B: evicted %s batch %d", self.quota_bytes, victim.kind, victim.seq
             )
 
     def _remove(self, batch: Batch) -> None:
@@ -264,18 +233,13 @@ class Spool:
             return sum(b.size_bytes for b in self._batches.values())
 
     def reject(self, digest: str, reason: str) -> bool:
-        """The cloud refused batch ``digest`` for good (not a retryable failure): move it to
-        ``rejected/`` with a ``.reason`` file beside it, so it neither blocks the queue nor is
-        lost. False if no such batch is pending."""
+        """The cloud refused batch ``digest`` for good: set it aside in ``rejected/`` with
+        the reason. False if no such batch is pending."""
         with self._lock:
             batch = self._batches.get(digest)
             if batch is None:
                 return False
-            target = self.root / _REJECTED
-            target.mkdir(exist_ok=True)
-            (target / f"{batch.path.name}.reason").write_text(reason + "\n", encoding="utf-8")
-            batch.path.replace(target / batch.path.name)
-            fsync_dir(self.root)
+            set_aside(batch.path, reason)
             del self._batches[digest]
             self.stats.rejected += 1
             log.error(

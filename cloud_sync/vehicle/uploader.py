@@ -1,21 +1,10 @@
 """The uploader: drains the spool into the cloud on a thread of its own, nothing lost.
 
-Each pending batch (oldest first) is uploaded; the spool deletes it only after the cloud's
-receipt names the same digest (at-least-once delivery; the cloud's de-duplication by digest
-makes the storage exactly-once). A retryable failure (:class:`CloudUnavailableError`: no
-network, timeout, dropped connection, 5xx) is retried with exponential backoff and full jitter
-(tenacity's ``wait_random_exponential``). Only an answer about the batch itself (413 too
-large, 422 not a trip log) moves it to the spool's ``rejected/`` folder with the reason, so one
-bad batch never blocks the queue. An answer about the vehicle's set-up keeps the batch: 401
-(token) ends the pass, 403 (driver not registered yet) and any other 4xx skip the batch for
-this pass; they are counted in :attr:`UploadStats.held` and tried again on the next pass.
-
-After the batches, each pass posts the trip reports queued in the spool's ``reports/`` folder
-whose segments have left the spool (:mod:`cloud_sync.vehicle.reports`).
-
-The thread never touches the control loop: the ECU only writes batches into the spool (a file
-rename), and :meth:`Uploader.notify` wakes the thread. :meth:`Uploader.stop` ends it promptly,
-even in the middle of a backoff.
+Pending batches go oldest first; one is deleted only when the receipt names its digest. A
+retryable failure (:class:`CloudUnavailableError`) is retried with exponential backoff and full
+jitter; 413/422 move the batch to ``rejected/``; 401 ends the pass and 403 or another 4xx skips
+the batch for this pass (:attr:`UploadStats.held`). After the batches each pass posts the trip
+reports that may go (:mod:`cloud_sync.vehicle.reports`).
 """
 
 from __future__ import annotations
@@ -24,12 +13,7 @@ import logging
 import threading
 from dataclasses import dataclass
 
-from tenacity import (
-    RetryCallState,
-    Retrying,
-    retry_if_exception_type,
-    wait_random_exponential,
-)
+from tenacity import RetryCallState, Retrying, retry_if_exception_type, wait_random_exponential
 
 from cloud_sync.api import (
     AuthError,
@@ -47,13 +31,7 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class UploaderConfig:
-    """Timing of the uploader, s.
-
-    Attributes:
-        backoff_s: the first retry waits up to this long (full jitter), doubling each time.
-        backoff_max_s: the longest wait between two attempts.
-        poll_s: how often an idle uploader looks at the spool without being notified.
-    """
+    """Timing, s: first retry's wait (doubling, full jitter), the longest wait, idle poll."""
 
     backoff_s: float = 0.5
     backoff_max_s: float = 60.0
@@ -90,11 +68,8 @@ class Uploader:
     # -- one pass ------------------------------------------------------------------------
 
     def drain(self) -> int:
-        """Upload every pending batch, retrying until each is answered or stop() is called,
-        then post the trip reports that may go (:class:`ReportQueue`).
-
-        Returns the number of batches the cloud acknowledged in this pass.
-        """
+        """Upload every pending batch (retrying until answered or stopped), then the trip
+        reports that may go; the batches acknowledged in this pass."""
         done = 0
         for batch in self.spool.pending():
             if self._stop.is_set():

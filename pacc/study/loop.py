@@ -1,17 +1,12 @@
 """The study through the vehicle–cloud loop, and the paper's incremental learning measured.
 
-:class:`StudyCloud` is the one vehicle-cloud wiring of the harness (the study and a
-``pacc hil`` session): each driver's manual trips go through the spool and
-the uploader into the cloud (embedded under ``OUT/cloud`` by default, or a running
-``pacc cloud serve``), the cloud learns the driver's table, and the IRL controllers drive with
-the table the vehicle downloaded and verified (signature and safety bounds).
-
-:func:`run_incremental` is the paper's incremental learning, which the paper describes but
-never measures: N consecutive IRL + OA trips per driver; after each trip the takeover segments
-sync up, a trip report follows (ACC-on time, the version driven, the segments' digests: the
-cloud's own per-trip learning curve, ``cloud_sync.service.trips``), the cloud fine-tunes (a
-served cloud is waited for until its job is idle), and the next trip starts from the version it
-downloads. One row per (driver, trip): the table version it drove with, PoI, NIM, takeovers.
+:class:`StudyCloud` is the harness's (the study's, a ``pacc hil`` session's) use of the
+vehicle's one cloud wiring, :class:`cloud_sync.vehicle.link.VehicleLink`: manual trips are
+spooled and uploaded to the cloud (embedded under ``OUT/cloud`` or a running ``pacc cloud
+serve``), which learns the driver's table; the IRL controllers drive the table the vehicle
+downloaded and verified. :func:`run_incremental`: N consecutive IRL + OA trips per driver,
+each trip's takeovers and report uploaded and the next trip driving the fine-tuned version;
+one row per (driver, trip): version driven, PoI, NIM, takeovers.
 """
 
 from __future__ import annotations
@@ -19,7 +14,6 @@ from __future__ import annotations
 import hashlib
 import json
 import shutil
-import threading
 from collections.abc import Iterable, Mapping
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
@@ -32,10 +26,10 @@ from cloud_sync.errors import CloudSyncError
 from cloud_sync.service.local import LocalCloud
 from cloud_sync.service.rules import CloudService, DeferredExecutor, ServiceConfig
 from cloud_sync.signing import load_public_key
-from cloud_sync.vehicle.connect import connect, read_token
+from cloud_sync.vehicle.connect import connect, read_token, write_token
 from cloud_sync.vehicle.download import ProfileDownloader
+from cloud_sync.vehicle.link import VehicleLink
 from cloud_sync.vehicle.spool import Spool
-from cloud_sync.vehicle.uploader import Uploader, UploaderConfig
 from dbc.vocab.dgpt import Dgpt
 from dbc.vocab.triplog import Trip
 from pacc.study.drive import DriveConfig, run_drive
@@ -55,11 +49,9 @@ SYNC_TIMEOUT_S = 120.0
 
 @dataclass
 class StudyCloud:
-    """The study's link to a cloud: upload trips, download verified tables."""
+    """The harness's use of the vehicle's :class:`VehicleLink`: blocking upload and download."""
 
-    api: CloudApi
-    downloader: ProfileDownloader
-    spool: Spool
+    link: VehicleLink
     #: the digests of the batches of the last :meth:`upload`
     last_digests: list[str] = field(default_factory=list)
 
@@ -74,10 +66,9 @@ class StudyCloud:
         keep: bool = False,
     ) -> StudyCloud:
         """An embedded cloud under ``out/cloud`` with the study's vehicle and ``drivers``
-        registered: a fresh one (a previous study's is replaced) or, with ``keep``, the one
-        there reopened (a resumed hil session; the vehicle's token in ``cloud/vehicle.token``).
-        ``compute``: where its learning jobs train (None: in this thread); a Dask cluster's
-        executor trains as many drivers at once as it has workers."""
+        registered: a fresh one or, with ``keep``, the one there reopened (its vehicle's
+        token in ``cloud/vehicle.token``). ``compute``: where its learning jobs train (None:
+        in this thread)."""
         if not keep:
             for folder in (out / "cloud", out / "spool"):
                 shutil.rmtree(folder, ignore_errors=True)
@@ -93,79 +84,62 @@ class StudyCloud:
             for driver_id in drivers:
                 service.register_driver(STUDY_VEHICLE, driver_id)
             if keep:
-                tmp = token_path.with_name(TOKEN_FILE + ".part")
-                tmp.write_text(token, encoding="utf-8")
-                tmp.replace(token_path)
-        public = load_public_key(service.public_key_pem())
-        api = LocalCloud(service, token)
-        return cls(
-            api, ProfileDownloader(api, public, out / "spool" / "profiles"), Spool(out / "spool")
-        )
+                write_token(token_path, token, force=True)
+        return cls._linked(LocalCloud(service, token), service.public_key_pem(), out)
 
     @classmethod
     def remote(cls, target: str, token_file: Path, trust: Path, out: Path) -> StudyCloud:
         """A running cloud (URL) or another folder; the drivers must be registered there
         to the vehicle of ``token_file`` (``pacc cloud register``)."""
         try:
-            api = connect(target, read_token(token_file))
-            public = load_public_key(trust)
+            return cls._linked(connect(target, read_token(token_file)), trust, out)
         except CloudSyncError as exc:
             raise SimError(f"study cloud: {exc}") from exc
-        return cls(
-            api, ProfileDownloader(api, public, out / "spool" / "profiles"), Spool(out / "spool")
-        )
+
+    @classmethod
+    def _linked(cls, api: CloudApi, key: bytes | Path, out: Path) -> StudyCloud:
+        downloader = ProfileDownloader(api, load_public_key(key), out / "spool" / "profiles")
+        return cls(VehicleLink(api, Spool(out / "spool"), None, downloader=downloader))
 
     def upload(self, trips: list[Trip]) -> int:
-        """Spool ``trips`` and upload until the spool is empty; the batches uploaded.
-
-        Raises:
-            SimError: the cloud refused a batch, or did not take them in SYNC_TIMEOUT_S.
-        """
-        self.last_digests = [self.spool.put_trip(trip).digest for trip in trips]
-        uploader = Uploader(self.spool, self.api, UploaderConfig(backoff_max_s=5.0))
-        timer = threading.Timer(SYNC_TIMEOUT_S, uploader.stop)
-        timer.start()
-        try:
-            done = uploader.drain()
-        finally:
-            timer.cancel()
-        if uploader.stats.rejected or self.spool.pending():
+        """Spool ``trips`` and upload until the spool is empty; the batches uploaded
+        (SimError: the cloud refused one, or did not take them in SYNC_TIMEOUT_S s)."""
+        self.last_digests = [self.link.put(trip) for trip in trips]
+        stats = self.link.drain(SYNC_TIMEOUT_S, backoff_max_s=5.0).stats
+        spool = self.link.spool
+        if stats.rejected or spool.pending():
             raise SimError(
-                f"study cloud: {uploader.stats.rejected} batch(es) refused, "
-                f"{len(self.spool.pending())} not taken (see {self.spool.root})"
+                f"study cloud: {stats.rejected} batch(es) refused, "
+                f"{len(spool.pending())} not taken (see {spool.root})"
             )
-        return done
+        return stats.uploaded
 
     def report_trip(self, report: dict[str, Any]) -> None:
-        """Report one ACC trip to the cloud (``cloud_sync.service.trips``), after its takeover
-        segments were uploaded: the dashboard's per-trip learning curve.
-
-        Raises:
-            SimError: the cloud refused the report or could not be reached.
-        """
+        """Report one ACC trip (``cloud_sync.service.trips``) behind its uploaded segments
+        (SimError: the cloud refused it or could not be reached; a held one stays queued)."""
         try:
-            self.api.report_trip(report)
-        except CloudError as exc:
-            raise SimError(f"study cloud: trip report refused: {exc}") from exc
+            self.link.queue_report(report)
+        except CloudSyncError as exc:
+            raise SimError(f"study cloud: {exc}") from exc
+        sent = self.link.drain(SYNC_TIMEOUT_S, backoff_max_s=5.0).reports.stats
+        if sent.rejected or self.link.uploader.reports.pending():
+            why = sent.last_held or f"see {self.link.uploader.reports.root}"
+            raise SimError(f"study cloud: trip report refused: {why}")
 
     def table(self, driver_id: str, condition: str) -> Dgpt | None:
         """The newest verified table of the driver, downloaded now or the last good one."""
         try:
-            self.api.wait_learned(driver_id, condition, SYNC_TIMEOUT_S)  # a served cloud
-            fresh = self.downloader.fetch(driver_id, condition)
+            self.link.cloud.wait_learned(driver_id, condition, SYNC_TIMEOUT_S)  # a served cloud
+            return self.link.table(driver_id, condition)
         except CloudError as exc:  # fetch reports, but a bug must not pass silently
             raise SimError(f"study cloud: {exc}") from exc
-        return fresh or self.downloader.last_good(driver_id, condition)
-
-    def refusals(self) -> list[str]:
-        """Why downloaded tables were refused, if any."""
-        return list(self.downloader.report.refusals)
 
     def verified(self, driver_id: str, condition: str) -> Dgpt:
         """:meth:`table`, or SimError saying why there is none."""
         table = self.table(driver_id, condition)
         if table is None:
-            why = "; ".join(self.refusals()) or "the cloud learned none"
+            assert self.link.downloader is not None
+            why = "; ".join(self.link.downloader.report.refusals) or "the cloud learned none"
             raise SimError(f"study cloud: no usable table for {driver_id} ({why})")
         return table
 

@@ -90,14 +90,16 @@ def test_learn_refuses_bad_demos_with_message(
     bad.write_bytes(b"\x89MCAP0\r\n" + b"\x00" * 40)
     out = tmp_path / "x.json"
     rc = main(["learn", "--demos", str(bad), "--driver", "d", "-o", str(out), "-q"])
-    assert rc == 1 and not out.exists()
+    assert rc == 2 and not out.exists()  # bad input: 2, as every refusal of pacc
     assert "bad.mcap" in capsys.readouterr().err
     nan = tmp_path / "nan.csv"
     nan.write_text(
         "t,v_follower,spacing,v_leader\n" + "".join(f"{i / 10},nan,nan,nan\n" for i in range(100))
     )
     rc = main(["learn", "--demos", str(nan), "--driver", "d", "-o", str(out), "-q"])
-    assert rc == 1
+    assert rc == 2
+    rc = main(["learn", "--demos", str(nan), "--driver", "d", "-o", str(out), "--learner", "gp"])
+    assert rc == 2  # every learner refuses bad input alike
     assert "NaN-filled" in capsys.readouterr().err
 
 
@@ -125,7 +127,7 @@ def test_learn_refuses_bad_outputs_and_options_before_training(
     write_trip(demo, syn_trips[0])
     rc = exit_code(main, ["learn", "--demos", str(demo), "--driver", "d", "-q", *extra])
     captured = capsys.readouterr()
-    assert rc in (1, 2) and match in captured.err  # 2: argparse's usage error
+    assert rc == 2 and match in captured.err  # usage or bad input: 2, as argparse
     assert "IRL:" not in captured.out  # refused before any training
     assert sorted(p.name for p in tmp_path.iterdir()) == ["m.mcap"]  # nothing written
 

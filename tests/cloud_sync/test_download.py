@@ -122,4 +122,4 @@ def test_a_signed_table_in_another_drivers_or_conditions_cache_is_refused(
     other.parent.mkdir(parents=True, exist_ok=True)
     other.write_bytes(dl.cache_path("d1", "default").read_bytes())
     assert dl.last_good(driver, condition) is None
-    assert f"not {driver}/{condition}'s" in dl.report.refusals[-1]
+    assert f"asked for {driver}/{condition}" in dl.report.refusals[-1]

@@ -8,13 +8,17 @@ from pathlib import Path
 
 import pytest
 
+from cloud_sync.service.local import LocalCloud
 from cloud_sync.service.rules import CloudService
 from cloud_sync.service.trips import trip_rows
 from dbc.vocab.dgpt_file import load_dgpt
 from pacc.commands.study import main
+from pacc.study.loop import StudyCloud
 from pacc.study.pipeline import run
 from pacc.study.spec import StudySpec, table1_method, validate
 from sim_bus.errors import SimError
+from tests.cloud_sync.conftest import takeover_segment
+from tests.ecu.test_cli_cloud import cloud_table
 
 
 @pytest.mark.slow
@@ -76,3 +80,33 @@ def test_cloud_options_are_checked_before_anything_runs() -> None:
         validate(StudySpec(learn_in="direct", incremental=2))
     with pytest.raises(SimError, match="--incremental must be >= 0"):
         validate(StudySpec(incremental=-1))
+
+
+def test_the_study_reports_its_trips_through_the_vehicles_report_queue(tmp_path: Path) -> None:
+    """StudyCloud is a use of the vehicle's one wiring (VehicleLink): a trip report goes
+    through the spool's report queue behind its segment; a refused one is SimError and set
+    aside with its reason, not lost."""
+    cloud = StudyCloud.embedded(tmp_path, ["syn"], seed=0)
+    assert isinstance(cloud.link.cloud, LocalCloud)
+    service = cloud.link.cloud.service
+    version = service.publish(cloud_table(2.5, version=1), [])
+    assert cloud.upload([takeover_segment(7, [(50, 80, "accel")])]) == 1
+    report = {
+        "driver_id": "syn",
+        "condition": "default",
+        "trip_id": "study-t1",
+        "dgpt_version": version,
+        "acc_on_s": 20.0,
+        "segments": cloud.last_digests,
+    }
+    cloud.report_trip(report)
+    assert cloud.link.uploader.reports.pending() == []
+    (row,) = trip_rows(service, "syn")
+    assert (row["trip_id"], row["takeovers"], row["dgpt_version"]) == ("study-t1", 1, version)
+    bad = {**report, "trip_id": "study-t2", "dgpt_version": version + 5, "segments": []}
+    with pytest.raises(SimError, match="trip report refused"):
+        cloud.report_trip(bad)
+    rejected = tmp_path / "spool" / "reports" / "rejected"
+    (reason,) = rejected.glob("*-study-t2.json.reason")
+    assert "no published version" in reason.read_text()
+    assert [r["trip_id"] for r in trip_rows(service, "syn")] == ["study-t1"]

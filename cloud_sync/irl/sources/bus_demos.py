@@ -1,36 +1,11 @@
 """Demonstrations from a real car's bus log: the manual car-following stretches as trip logs.
 
-``pacc demos extract LOG... --dbc CAR.dbc --binding CAR.binding.toml -o trips/``
-(:mod:`pacc.commands.demos`). Any log python-can reads (BLF, ASC, candump ``.log``, TRC …,
-and pacc's ``.mcap`` recordings through pacc's python-can plugin) is read frame by frame and
-decoded through the car's binding (:class:`dbc.endpoint.Inbox`: the bound messages, their
-checksums and counters, physical units): the ego speed and acceleration, the pedals, the
-radar's lead, and the ACC's state where the car sends one.
-
-**Sampling, as the ECU records** (:class:`ecu.manual.ManualRecorder`, the vehicle-side
-recording of the same stretches). The ECU reads its inputs once per control cycle and sends
-its command frames right after, so the log's command frames (the binding's ``command`` role,
-its last message each cycle) mark the instants the ECU sampled: the extraction samples the
-decoded values at those frames, keeping one as the recorder keeps one
-(:func:`dbc.vocab.sampling.keep_sample`, the rule both share: ``period_s`` after the last
-kept less half a cycle, the cycle the binding's command message's), with what the frames
-before it said and the ACC state the cycle's own frame carries. Where the log has no command
-frames, or their cycle does not divide ``period_s`` (another car's ACC), a ``period_s`` grid
-from the first frame is used instead, each grid point seeing the frames up to its instant. Times are
-taken relative to the log's first frame and rounded to 1 µs (:data:`TIME_RESOLUTION_S`): a
-log's absolute float timestamps (UTC seconds, ~0.24 µs apart near 2026) and BLF's start time
-(whole milliseconds, python-can's writer) plus truncated nanoseconds move them by a fraction
-of a microsecond, which the rounding takes back out; a bus frame's time means nothing finer
-(candump and ASC write µs).
-
-A sample is manual car-following when the ACC is not engaged (OFF or STANDBY, or no ACC
-frames at all), a lead is valid and the inputs are good as the ECU checks them
-(:func:`ecu.signals.input_fault` less the HMI): speed valid, fresh and finite and >= 0,
-pedals fresh and finite, radar fresh (and finite with a lead). Runs of such samples of at
-least ``min_s`` (count × ``period_s``; :data:`~dbc.vocab.sampling.MANUAL_MIN_S`), cut at
-``max_s`` (:data:`~dbc.vocab.sampling.MANUAL_MAX_S`), become manual trip logs
-(:class:`dbc.vocab.triplog.Trip`, ``mode`` ``manual``) that the cloud learns from; the report
-says how many seconds were kept and why the rest was dropped.
+``pacc demos extract LOG... -o trips/`` (:mod:`pacc.commands.demos`): any log python-can reads
+is decoded through the car's binding (:class:`dbc.endpoint.Inbox`) and sampled as the ECU
+records (:class:`ecu.manual.ManualRecorder`, :func:`dbc.vocab.sampling.keep_sample`) at its
+command frames, else on a ``period_s`` grid; times relative to the first frame, rounded to
+:data:`TIME_RESOLUTION_S` s. Samples with the ACC not engaged, a valid lead and good inputs,
+in runs of ``min_s``..``max_s`` s, become manual trip logs; the report says what was dropped.
 """
 
 from __future__ import annotations
@@ -52,14 +27,7 @@ from dbc.vocab.pedals import PedalScale
 from dbc.vocab.sampling import MANUAL_MAX_S, MANUAL_MIN_S, PERIOD_EPS_S, keep_interval_s
 from dbc.vocab.triplog import Trip
 
-__all__ = [
-    "DT_S",
-    "TIME_RESOLUTION_S",
-    "ExtractReport",
-    "bus_trip",
-    "extract_demos",
-    "read_frames",
-]
+__all__ = ["DT_S", "TIME_RESOLUTION_S", "ExtractReport", "bus_trip", "extract_demos", "read_frames"]
 
 #: the trips' sample period, s (the ECU recorder's and the simulator's trip logs' too)
 DT_S = 0.1
@@ -232,23 +200,9 @@ def _reasons(g: dict[str, np.ndarray]) -> np.ndarray:
 
 def bus_trip(frames: Iterable[Any], codec: Codec, meta: dict[str, Any] | None = None) -> Trip:
     """The whole log as one trip (every 10-Hz sample, ACC on or off; NaN where a role is
-    missing): what ``pacc plot --binding`` draws from a foreign log.
-
-    Raises:
-        TripLogError: fewer than two samples.
-    """
+    missing), as ``pacc plot --binding`` draws it; TripLogError for fewer than two samples."""
     g, _ = _grid(frames, codec)
-    return Trip(
-        t_s=g["t_s"] - (g["t_s"][0] if len(g["t_s"]) else 0.0),
-        v_mps=g["v"],
-        gap_m=g["gap"],
-        v_lead_mps=g["v_lead"],
-        a_mps2=g["a"],
-        accel_pedal=g["accel"],
-        brake_pedal=g["brake"],
-        acc_state=g["state"].astype(np.int64),
-        meta={"mode": "bus", "source": "pacc plot", **(meta or {})},
-    )
+    return _trip(g, slice(0, len(g["t_s"])), {"mode": "bus", "source": "pacc plot", **(meta or {})})
 
 
 def extract_demos(
@@ -261,17 +215,9 @@ def extract_demos(
     max_s: float = MANUAL_MAX_S,
     frames: Iterable[Any] | None = None,
 ) -> ExtractReport:
-    """The manual car-following stretches of the log at ``path`` (module docstring).
-
-    Args:
-        path: the log (any format python-can reads).
-        codec: the car's DBC and binding.
-        driver_id: the driver the trips are tagged with.
-        condition: the driving condition they are tagged with.
-        min_s: shorter stretches are dropped ("stretch shorter than …").
-        max_s: longer stretches are cut into trips of this length (as the ECU hands over).
-        frames: the frames, if already read (default: read ``path``).
-    """
+    """The manual car-following stretches of the log at ``path`` (``frames``: already read)
+    decoded by ``codec``, tagged ``driver_id``/``condition``: stretches under ``min_s`` s
+    dropped, longer than ``max_s`` s cut."""
     path = Path(path)
     g, n = _grid(read_frames(path) if frames is None else frames, codec)
     report = ExtractReport(path, frames=n)
@@ -289,24 +235,24 @@ def extract_demos(
                 short = f"stretch shorter than {min_s:g} s"
                 report.dropped_s[short] = report.dropped_s.get(short, 0.0) + seconds
                 continue
-            report.trips.append(_trip(g, slice(start, stop), path, driver_id, condition))
+            meta = {
+                "driver_id": driver_id,
+                "condition": condition,
+                "mode": "manual",
+                "source": "pacc demos extract",
+                "log": path.name,
+                "log_t0_s": float(g["t_s"][start]),
+            }
+            report.trips.append(_trip(g, slice(start, stop), meta))
             report.kept_s += seconds
     return report
 
 
-def _trip(g: dict[str, np.ndarray], sl: slice, path: Path, driver_id: str, condition: str) -> Trip:
-    """The samples ``sl`` as a manual trip log, time from its first sample."""
-    t0 = float(g["t_s"][sl.start])
-    meta = {
-        "driver_id": driver_id,
-        "condition": condition,
-        "mode": "manual",
-        "source": "pacc demos extract",
-        "log": path.name,
-        "log_t0_s": t0,
-    }
+def _trip(g: dict[str, np.ndarray], sl: slice, meta: dict[str, Any]) -> Trip:
+    """The samples ``sl`` as a trip log, time from its first sample."""
+    t = g["t_s"][sl]
     return Trip(
-        t_s=g["t_s"][sl] - t0,
+        t_s=t - (t[0] if len(t) else 0.0),
         v_mps=g["v"][sl],
         gap_m=g["gap"][sl],
         v_lead_mps=g["v_lead"][sl],

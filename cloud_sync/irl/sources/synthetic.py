@@ -1,9 +1,6 @@
-"""A small synthetic car follower with a known gap preference: demonstrations whose answer is
-known, for the IRL tests and the cloud benchmark (bench/sync.py).
-
-The follower tracks ``g*(v) = d0 + T·v`` (or any given preference ``g*(v)``) with an IDM-like law,
-``a = k_g·(g − g*(v)) + k_v·(v_lead − v) + ε`` (ε an AR(1) disturbance), behind a lead
-whose speed ramps between random targets. Everything is drawn from a seeded Generator.
+"""A synthetic car follower with a known gap preference ``g*(v)`` (m), for the IRL tests and
+bench/sync.py: ``a = k_g·(g − g*(v)) + k_v·(v_lead − v) + ε`` (m/s², ε AR(1)) behind a lead
+ramping between random speeds, all drawn from a seeded Generator.
 """
 
 from __future__ import annotations

@@ -1,10 +1,8 @@
 """Trip files by suffix: ``.mcap`` (pacc trip logs) and ``.csv`` (car-following pairs).
 
-The CSV format is that of the OpenACC leader/follower pairs (``t, x_follower, v_follower,
-a_follower, x_leader, v_leader, a_leader, leader_length, spacing, dv``; SI units, gap bumper to
-bumper). Required columns: ``t, v_follower, spacing, v_leader``; ``a_follower`` is optional
-(the derivative of ``v_follower`` otherwise). Such files record manual driving (ACC off), so
-``acc_state`` is 0 and the pedals, which are not recorded, are NaN.
+CSV: the OpenACC leader/follower columns (SI units, gap bumper to bumper); required ``t,
+v_follower, spacing, v_leader``, ``a_follower`` optional (else the derivative of
+``v_follower``). Manual driving: ``acc_state`` 0, pedals NaN.
 """
 
 from __future__ import annotations
@@ -26,16 +24,10 @@ REQUIRED_CSV_COLUMNS: tuple[str, ...] = ("t", "v_follower", "spacing", "v_leader
 
 
 def read_csv_trip(
-    path: str | os.PathLike[str],
-    *,
-    driver_id: str | None = None,
-    condition: str = "default",
+    path: str | os.PathLike[str], *, driver_id: str | None = None, condition: str = "default"
 ) -> Trip:
-    """Read a car-following CSV (columns above) as a manual-driving :class:`Trip`.
-
-    ``driver_id`` defaults to the file stem. Raises :class:`TripLogError` naming the file for a
-    missing file, a missing column, a non-numeric cell or a non-increasing time column.
-    """
+    """A car-following CSV as a manual :class:`Trip` (``driver_id``: the stem unless given);
+    TripLogError naming the file if unreadable, a column missing or a cell not numeric."""
     path = Path(path)
     try:
         with path.open(newline="") as stream:

@@ -7,7 +7,7 @@ FILES are ``.mcap`` trip logs or ``.csv`` car-following pairs. With ``--init`` (
 IRL table) training continues from its reward weights, speeds without new evidence keep its
 gaps, and the output is its next version; when some FILES are ACC trips (trip-log mode
 ``acc``), this is fine-tuning from their takeovers (``cloud_sync.irl.trainer.fine_tune``), the
-manual FILES counting as earlier demonstrations.
+manual FILES counting as earlier demonstrations. Bad input (files, names, options) exits 2.
 """
 
 from __future__ import annotations
@@ -39,12 +39,7 @@ def _do_learn(args: argparse.Namespace) -> int:
 
     for option, name in (("--driver", args.driver), ("--condition", args.condition)):
         if not is_plain_name(name):
-            print(
-                f"pacc cloud learn: error: {option} {name!r}: not a plain name "
-                "(letters, digits, _.-)",
-                file=sys.stderr,
-            )
-            return 2
+            return _refused(f"{option} {name!r}: not a plain name (letters, digits, _.-)")
     if args.learner != "irl":
         return _other_learner(args)
     try:
@@ -81,8 +76,7 @@ def _do_learn(args: argparse.Namespace) -> int:
 
             plot_result(result, args.plot)
     except (CloudSyncError, EcuError, FormatError) as exc:
-        print(f"pacc cloud learn: error: {exc}", file=sys.stderr)
-        return 1
+        return _refused(exc)
     t = result.table
     cov = result.covered
     ranges = ", ".join(f"{a:g}-{b:g}" for a, b in t.meta["covered_mps"])
@@ -121,14 +115,19 @@ def _other_learner(args: argparse.Namespace) -> int:
         table = learn(args.learner, trips, driver_id=args.driver, seed=args.seed)
         save_dgpt(table, args.output)
     except (CloudSyncError, EcuError, FormatError) as exc:
-        print(f"pacc cloud learn: error: {exc}", file=sys.stderr)
-        return 2
+        return _refused(exc)
     covered = sum(bool(c) for c in table.meta["covered"])
     print(
         f"{args.learner}: {covered} of {table.speed_mps.size} speed bins covered, "
         f"{table.meta['learn_s']:.2f} s; table written to {args.output}"
     )
     return 0
+
+
+def _refused(why: object) -> int:
+    """Say why the input is refused, in one line; exit status 2 (bad input, as argparse)."""
+    print(f"pacc cloud learn: error: {why}", file=sys.stderr)
+    return 2
 
 
 def _check_outputs(args: argparse.Namespace, plot: str | None) -> None:

@@ -137,13 +137,6 @@ def _do_serve(args: argparse.Namespace) -> int:
     from cloud_sync.service.local import hold_folder  # noqa: PLC0415
     from cloud_sync.service.rules import CloudService, ServiceConfig  # noqa: PLC0415
 
-    if not 1 <= args.port <= 65535 or args.workers < 1 or not args.max_upload_mb > 0:
-        print(
-            "pacc cloud serve: error: need 1 <= --port <= 65535, --workers >= 1, "
-            "--max-upload-mb > 0",
-            file=sys.stderr,
-        )
-        return 2
     try:  # the port and the folder first: nothing started when either is taken
         listener = _listen(args.host, args.port)
         Path(args.data).mkdir(parents=True, exist_ok=True)
@@ -156,7 +149,7 @@ def _do_serve(args: argparse.Namespace) -> int:
     try:
         operator = _operator_sha256(args.operator_token_file)
     except (CloudSyncError, OSError) as exc:
-        print(f"pacc cloud serve: error: operator token: {exc}")
+        print(f"pacc cloud serve: error: operator token: {exc}", file=sys.stderr)
         return 2
     compute = None
     try:

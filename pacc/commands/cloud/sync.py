@@ -19,8 +19,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import threading
-from pathlib import Path
 from typing import Any
 
 from cloud_sync.errors import CloudSyncError
@@ -48,8 +46,9 @@ def _do_sync(args: argparse.Namespace) -> int:
     from cloud_sync.api import is_plain_name  # noqa: PLC0415
     from cloud_sync.signing import load_public_key  # noqa: PLC0415
     from cloud_sync.vehicle.connect import connect, read_token  # noqa: PLC0415
+    from cloud_sync.vehicle.download import ProfileDownloader  # noqa: PLC0415
+    from cloud_sync.vehicle.link import VehicleLink  # noqa: PLC0415
     from cloud_sync.vehicle.spool import Spool  # noqa: PLC0415
-    from cloud_sync.vehicle.uploader import Uploader, UploaderConfig  # noqa: PLC0415
 
     if args.fetch and not args.trust:
         return _fail("--fetch needs --trust KEY.pub (the cloud's public key)", 2)
@@ -64,7 +63,11 @@ def _do_sync(args: argparse.Namespace) -> int:
             batch = spool.put_file(path)
             print(f"spooled {path}: {batch.kind} batch {batch.seq} ({batch.digest[:12]})")
         cloud = connect(args.cloud, read_token(args.token_file))
-        trusted = load_public_key(args.trust) if args.fetch else None
+        downloader = None
+        if args.fetch:
+            key = load_public_key(args.trust)
+            downloader = ProfileDownloader(cloud, key, spool.root / "profiles")
+        link = VehicleLink(cloud, spool, None, downloader=downloader)
     except (CloudSyncError, OSError) as exc:
         return _fail(str(exc))
     if spool.stats.quarantined:
@@ -73,17 +76,20 @@ def _do_sync(args: argparse.Namespace) -> int:
             f"not spool batches (name or digest): moved to {args.spool}/quarantine/",
             file=sys.stderr,
         )
-    uploader = Uploader(spool, cloud, UploaderConfig(backoff_max_s=min(args.retry_s, 30.0)))
-    timer = threading.Timer(args.retry_s, uploader.stop)  # give up retrying after --retry-s
-    timer.start()
-    try:
-        done = uploader.drain()
-    finally:
-        timer.cancel()
-    left = spool.pending()
+    code = _upload(link, args.retry_s)
+    if downloader is not None:
+        return _fetch(args, link, downloader) or code
+    return code
+
+
+def _upload(link: Any, retry_s: float) -> int:
+    """One upload pass of the spool and its reports, for up to ``retry_s`` s, said; 0 when
+    nothing stays queued and nothing was set aside, else 1."""
+    uploader = link.drain(retry_s, backoff_max_s=min(retry_s, 30.0))
+    left = link.spool.pending()
     stats = uploader.stats
     print(
-        f"uploaded {done} batch(es) ({stats.duplicates} already held), "
+        f"uploaded {stats.uploaded} batch(es) ({stats.duplicates} already held), "
         f"{stats.rejected} rejected, {len(left)} still spooled"
     )
     if stats.held and stats.last_held:
@@ -98,24 +104,17 @@ def _do_sync(args: argparse.Namespace) -> int:
     if reports.stats.held and reports.stats.last_held:
         print(f"pacc cloud sync: trip reports kept: {reports.stats.last_held}", file=sys.stderr)
     refused = stats.rejected or reports.stats.rejected
-    code = 0 if not left and not refused and not queued else 1
-    if trusted is not None:
-        return _fetch(args, cloud, trusted, spool.root / "profiles") or code
-    return code
+    return 0 if not left and not refused and not queued else 1
 
 
-def _fetch(args: argparse.Namespace, cloud: Any, trusted: Any, cache: Path) -> int:
-    """Download and verify ``--fetch``'s table into ``cache`` (after ``--wait``); 0 or 1."""
-    from cloud_sync.vehicle.download import ProfileDownloader  # noqa: PLC0415 - see _do_sync
-
+def _fetch(args: argparse.Namespace, link: Any, downloader: Any) -> int:
+    """Download and verify ``--fetch``'s table (after ``--wait``); 0 or 1."""
     if args.wait:
         try:  # the cloud learns in the background: let it finish with what was just uploaded
-            cloud.wait_learned(args.fetch, args.condition, timeout_s=args.wait)
+            link.cloud.wait_learned(args.fetch, args.condition, timeout_s=args.wait)
         except CloudSyncError as exc:
             print(f"pacc cloud sync: warning: {exc}", file=sys.stderr)
-    downloader = ProfileDownloader(cloud, trusted, cache)
-    table = downloader.fetch(args.fetch, args.condition)
-    table = table or downloader.last_good(args.fetch, args.condition)
+    table = link.table(args.fetch, args.condition)
     if table is None:
         return _fail(
             f"no usable table for {args.fetch}/{args.condition}: "
