@@ -70,11 +70,7 @@ def check_outputs_fit(codec: Codec, config: EcuConfig) -> None:
 
 
 def inputs_from(inbox: Inbox, now_s: float, pedals: PedalScale) -> NodeInputs:
-    """The node's inputs from ``inbox`` at ``now_s``: latest values plus freshness.
-
-    A role that never delivered a usable frame is not ok; one that stopped is not ok once it
-    timed out (its last values are still reported).
-    """
+    """The node's inputs from ``inbox`` at ``now_s``: latest values plus freshness."""
     latest, fresh = inbox.latest, inbox.fresh
     # each role's values, or NodeInputs' defaults and not ok when it never delivered one
     ego = latest("ego")
@@ -185,10 +181,6 @@ def _keyed(parts: Sequence[MessageCodec]) -> tuple[tuple[MessageCodec, int], ...
 class BusIO:
     """The ECU's port on one bus: an Inbox for the input roles, an Outbox for its outputs.
 
-    Frames travel in :mod:`dbc.frame`'s form through the bus's port
-    (:func:`dbc.frame.port_of`: the lockstep bus's own, else python-can messages converted
-    at the edge).
-
     Args:
         bus: an open python-can bus (the caller owns and closes it).
         codec: the network codec.
@@ -276,15 +268,3 @@ class BusIO:
             self.send_errors += 1
             log.error("t=%.2f send failed: %s", t_s, exc)
         return out
-
-
-__all__ = [
-    "INPUT_ROLES",
-    "BusIO",
-    "OutputLimits",
-    "RuntimeCodecError",
-    "check_outputs_fit",
-    "command_values",
-    "inputs_from",
-    "status_values",
-]

@@ -1,16 +1,10 @@
 """The two clocks that run the ECU's control cycles: lockstep and real time.
 
-Both keep one cycle grid, ``t0 + k * cycle_s``, fixed by the first call, and call a cycle
-function with each cycle's time and index:
-
-- **lockstep** (:meth:`CycleClock.advance_to`) — the simulator owns time. After it has put
-  its frames on the bus it calls ``advance_to(now_s)``: every pending frame is drained and
-  stamped ``now_s``, then every cycle due up to ``now_s`` runs. Deterministic, as fast as the
-  CPU allows. A jump of more than :data:`MAX_CATCHUP_S` skips the missed cycles.
-- **real time** (:meth:`CycleClock.run_realtime`) — cycles from ``time.monotonic``; between
-  cycles the clock blocks in the port's receive until the next deadline, stamping frames
-  with their arrival time. Overruns of more than one period skip the missed cycles.
-  :meth:`CycleClock.stop` (another thread, a signal handler) ends it.
+Both keep one cycle grid, ``t0 + k * cycle_s`` (s), fixed by the first call. **Lockstep**
+(:meth:`CycleClock.advance_to`): the simulator owns time; pending frames are stamped
+``now_s``, then every cycle due runs (a jump over :data:`MAX_CATCHUP_S` skips the missed
+cycles). **Real time** (:meth:`CycleClock.run_realtime`): cycles from ``time.monotonic``,
+blocking in the port's receive between deadlines; :meth:`CycleClock.stop` ends it.
 """
 
 from __future__ import annotations
@@ -111,11 +105,7 @@ class CycleClock:
         run_cycle: RunCycle,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
-        """Run cycles on ``clock`` for ``duration_s`` s (None: until :meth:`stop`).
-
-        A :meth:`stop` that came before the run ends it at once (a SIGTERM arriving as it
-        starts is not lost); the stop is consumed when the run returns.
-        """
+        """Run cycles on ``clock`` for ``duration_s`` s (None: until :meth:`stop`)."""
         if duration_s is not None and not duration_s >= 0.0:
             raise RuntimeClockError(f"run_realtime: duration must be >= 0 s, got {duration_s}")
         try:
@@ -162,13 +152,3 @@ class CycleClock:
         """Ask :meth:`run_realtime` to return after the current cycle, or at once if called
         before it starts (thread-safe, signal-safe)."""
         self._stop.set()
-
-
-__all__ = [
-    "MAX_CATCHUP_S",
-    "MAX_CYCLE_STARTS",
-    "CycleClock",
-    "FramePort",
-    "RunCycle",
-    "RuntimeClockError",
-]

@@ -1,24 +1,5 @@
 """The ECU's manual-driving recorder: the driver's car-following stretches as trip logs, the
 demonstrations the cloud learns from, recorded on the vehicle as in the paper.
-
-The node offers the takeover recorder's samples (:mod:`ecu.recorder`), each with the cycle's
-input check; :class:`ManualRecorder` keeps the first cycle at least ``period_s`` less half a
-cycle after the last kept one (:func:`dbc.vocab.sampling.keep_sample`: in real time, where
-cycles jitter, every 5th 20-ms cycle, never drifting to the 6th as the takeover recorder's
-``period_s - 1 µs`` may; in lockstep both keep the same cycles). A kept sample is *manual
-car-following* when the ACC is not engaged (OFF or STANDBY), a lead is valid and the inputs
-the demonstration needs are good (speed, pedals and radar fresh, passed E2E and finite:
-:func:`manual_inputs_ok`). A run of such samples is one stretch; a stretch of at least
-``min_s`` (``count × period_s``, default :data:`~dbc.vocab.sampling.MANUAL_MIN_S`) becomes
-one trip log with ``meta["mode"] == "manual"`` (the takeover segments' format and
-metadata), a stretch reaching ``max_s`` (:data:`~dbc.vocab.sampling.MANUAL_MAX_S`) is
-handed over and the next sample starts a new one (a bounded buffer on the vehicle).
-``pacc demos extract`` cuts a bus log of the same drive the same way
-(:mod:`cloud_sync.irl.sources.bus_demos`).
-
-The trips go to the sink through the takeover segments' queue (:class:`ecu.recorder.SinkQueue`):
-a sink that raises is retried at the next trip and at :meth:`ManualRecorder.flush`, never
-raised into the control loop.
 """
 
 from __future__ import annotations
@@ -31,8 +12,6 @@ from dbc.vocab.acc_state import AccState, FaultCode
 from dbc.vocab.sampling import MANUAL_MAX_S, MANUAL_MIN_S, PERIOD_EPS_S, keep_interval_s
 from dbc.vocab.tripmode import TripMode
 from ecu.recorder import RecorderError, Sample, SinkQueue, TripSink
-
-__all__ = ["ManualRecorder", "manual_inputs_ok"]
 
 _NOT_ENGAGED = (int(AccState.OFF), int(AccState.STANDBY))
 #: input faults a manual demonstration does not care about (the buttons' HMI frame)

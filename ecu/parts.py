@@ -64,16 +64,7 @@ def recorders(
     utc_of: Callable[[float], str] | None,
     manual_min_s: float,
 ) -> tuple[TakeoverRecorder | None, ManualRecorder | None]:
-    """The node's takeover and manual-driving recorders (None where no sink is given).
-
-    Args:
-        config: node configuration (record period, pre/post-trigger windows in s, trip meta).
-        table: the DGPT the node starts with (its driver and condition go into the metadata).
-        takeover_sink: receives each recorded takeover segment; None: no takeover recorder.
-        manual_sink: receives each manual car-following trip; None: no manual recorder.
-        utc_of: maps the node's clock (s) to ISO 8601 UTC (None: the node's clock only).
-        manual_min_s: the shortest manual stretch recorded, s.
-    """
+    """The node's takeover and manual-driving recorders (None where no sink is given)."""
     recorder: TakeoverRecorder | None = None
     if takeover_sink is not None:
         recorder = TakeoverRecorder(
@@ -105,6 +96,3 @@ def recorders(
             utc_of=utc_of,
         )
     return recorder, manual
-
-
-__all__ = ["plugins", "recorders"]

@@ -7,11 +7,6 @@ never in the control cycle (a FIFO, a slow disk or a huge file cannot stall the 
 frames; :func:`dbc.vocab.dgpt_file.load_dgpt` reads only a bounded regular file): the node
 runs on its current table until the load's outcome is applied at a later cycle. Nothing here
 raises into the control loop.
-
-A table that arrives from elsewhere (the cloud's download thread) is *offered*
-(:class:`TableOffer`) and swapped in by the cycle itself, and only while :func:`may_swap`
-holds: never while the ACC is ACTIVE, so the driver never feels the gap jump under control;
-and never while the HMI has another driver's profile selected (the runtime checks).
 """
 
 from __future__ import annotations
@@ -134,11 +129,7 @@ def may_swap(state: AccState) -> bool:
 
 
 class TableOffer:
-    """A one-slot mailbox for a table from another thread; the newest offer wins.
-
-    :meth:`offer` is thread-safe and cheap; :meth:`apply` runs in the control cycle and swaps
-    the pending table in when :func:`may_swap` allows (it stays pending otherwise).
-    """
+    """A one-slot mailbox for a table from another thread; the newest offer wins."""
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
@@ -167,6 +158,3 @@ class TableOffer:
         node.set_table(*pending)
         self.applied += 1
         return True
-
-
-__all__ = ["GUEST_PROFILE", "ProfileSwitcher", "TableOffer", "may_swap", "profile_path"]

@@ -9,17 +9,6 @@ buffer becomes the head of a new segment; samples are appended through the pedal
 a post window of ``post_s`` seconds, then the segment is handed to the sink as a
 :class:`dbc.vocab.triplog.Trip` with ``meta["mode"] == "takeover"``. A new takeover during
 the post window extends the open segment (its post window restarts at the next release).
-
-The sink is I/O at the edge: any exception it raises is caught, logged and counted in
-:attr:`TakeoverRecorder.sink_errors`; recording never stops the control loop. A segment the
-sink refused is kept (up to :data:`MAX_PENDING` of them) and offered again, in order, at the
-next emit and at :meth:`TakeoverRecorder.flush`.
-
-The takeover recorder and the manual one (:class:`ecu.manual.ManualRecorder`, the driver's
-manual car-following trips) hand their trips to the sink through the same queue
-(:class:`SinkQueue`): a sink that raises is retried later, and a trip's ``start_utc`` that
-cannot be stamped is left out (logged); neither is ever raised into the control loop.
-:func:`directory_sink` writes each trip as an MCAP file into a directory.
 """
 
 from __future__ import annotations
@@ -56,10 +45,7 @@ class RecorderError(EcuError):
 
 @dataclass(frozen=True, slots=True)
 class Sample:
-    """One recorded instant: SI units, pedals 0..1, ``acc_state`` an AccState code.
-
-    ``gap_m`` and ``v_lead_mps`` are NaN without a lead.
-    """
+    """One recorded instant: SI units, pedals 0..1, ``acc_state`` an AccState code."""
 
     t_s: float
     v_mps: float
@@ -184,18 +170,12 @@ class SinkQueue:
 class TakeoverRecorder:
     """Ring buffer plus open segment; see the module docstring.
 
-    Also keeps the trip's ACC-on time (:attr:`acc_on_s`, s: Active or Override, and Standby
-    after the first engagement, the study's definition), counted on the kept samples.
-
     Args:
         sink: receives each complete segment.
-        period_s: recording period, s.
-        pre_s: pre-trigger length, s.
-        post_s: post-release length, s.
+        period_s / pre_s / post_s: recording period, pre-trigger and post-release lengths, s.
         meta: metadata copied into every segment (driver_id, condition, seed, ...).
-        utc_of: maps a sample time (the node's clock, s) to ISO 8601 UTC; when given, every
-            segment's ``meta["start_utc"]`` is its first sample's, and the trip log is
-            stamped with real UTC (a real-time ECU, whose clock is the boot clock).
+        utc_of: maps a sample time (the node's clock, s) to ISO 8601 UTC for the segment's
+            ``meta["start_utc"]`` (None: the node's clock only).
     """
 
     def __init__(
@@ -237,10 +217,7 @@ class TakeoverRecorder:
         return self.queue.pending
 
     def sample(self, s: Sample) -> None:
-        """Offer one sample; kept if ``period_s`` has passed since the last kept one.
-
-        A sample with a non-finite time is ignored (it would stop the recording for good).
-        """
+        """Offer one sample; kept if ``period_s`` has passed since the last kept one."""
         if not (math.isfinite(s.t_s) and s.t_s - self._last_t >= self.period_s - PERIOD_EPS_S):
             return
         if self._on:
@@ -300,10 +277,7 @@ class TakeoverRecorder:
 
 
 def directory_sink(directory: str | os.PathLike[str], prefix: str = "takeover") -> TripSink:
-    """A sink writing each trip to ``directory/<prefix>_NNNN.mcap``, never overwriting.
-
-    The directory is created if needed; numbering continues after the files already there.
-    """
+    """A sink writing each trip to ``directory/<prefix>_NNNN.mcap``, never overwriting."""
     d = Path(directory)
     try:
         d.mkdir(parents=True, exist_ok=True)
@@ -324,15 +298,3 @@ def directory_sink(directory: str | os.PathLike[str], prefix: str = "takeover") 
         log.info("%s trip written: %s (%d samples)", prefix, path, len(trip))
 
     return write
-
-
-__all__ = [
-    "MAX_PENDING",
-    "RecorderError",
-    "Sample",
-    "SinkQueue",
-    "TakeoverRecorder",
-    "TripSink",
-    "directory_sink",
-    "trip_of",
-]

@@ -10,19 +10,6 @@ Thin wiring of three parts, one module each:
 - :mod:`ecu.clocks` — the cycle grid, run in **lockstep** (``rt.advance_to(now_s)``: the
   simulator owns time; deterministic) or in **real time** (``rt.run_realtime(duration_s)``:
   50 Hz on ``time.monotonic``; ``rt.stop()`` from another thread or a signal ends it).
-
-API::
-
-    from ecu.node import EcuNode, EcuConfig
-    from ecu.runtime import EcuRuntime
-    rt = EcuRuntime(bus, EcuNode(EcuConfig(), table), codec=None)  # None: packaged DBC
-    rt.advance_to(now_s)          # lockstep
-    rt.run_realtime(60.0)         # or real time
-    print(rt.summary())           # cycles, frames in/out, E2E errors by kind, ...
-
-A frame that fails its E2E check is dropped and counted by the Inbox; a role is usable while
-it is fresh (within 10 of its periods). The runtime never raises from a cycle: an encode
-failure (which the clamping in :mod:`ecu.busio` should make impossible) is logged and counted.
 """
 
 from __future__ import annotations
@@ -106,16 +93,10 @@ class EcuRuntime:
         codec: the network codec; None loads the packaged pacc DBC.
         on_event: called with each node event text (state changes, faults, adaptations).
         timeout_multiple: an input role times out after this many of its DBC periods.
-        profile_dir: driver profiles (:mod:`ecu.profiles`): when HMI ``DriverProfileId``
-            changes to ``n > 0`` the runtime loads ``profile_dir/profile_<n>.json``; an
-            invalid file is refused (the node keeps its last good table and reports FaultCode
-            Profile), a missing one keeps the table; ``n = 0`` (guest) returns to the table
-            the node started with.
+        profile_dir: driver profiles ``profile_<n>.json`` (:mod:`ecu.profiles`).
 
     Raises:
-        RuntimeCodecError: the codec's ACC_Command / ACC_Status cannot carry every output
-            (AccState FAULT, every FaultCode, the node's acceleration envelope, its highest
-            set speed).
+        RuntimeCodecError: the codec cannot carry every output of the node.
     """
 
     def __init__(
@@ -193,12 +174,7 @@ class EcuRuntime:
         self.clock.advance_to(now_s, self.io, self._cycle)
 
     def run_realtime(self, duration_s: float | None = None) -> None:
-        """Run 50 Hz cycles on ``time.monotonic`` for ``duration_s`` s (None: until stop()).
-
-        Overruns of more than one period skip the missed cycles (counted in
-        ``skipped_cycles``) instead of bursting them. A :meth:`stop` that came before the
-        run ends it at once (a SIGTERM arriving as it starts is not lost).
-        """
+        """Run 50 Hz cycles on ``time.monotonic`` for ``duration_s`` s (None: until stop())."""
         self.clock.run_realtime(duration_s, self.io, self._cycle)
 
     def cycle_at(self, t_s: float, k: int) -> None:
@@ -275,11 +251,4 @@ class EcuRuntime:
         )
 
 
-__all__ = [
-    "INPUT_ROLES",
-    "MAX_CATCHUP_S",
-    "EcuRuntime",
-    "RuntimeClockError",
-    "RuntimeCodecError",
-    "RuntimeSummary",
-]
+__all__ = ["INPUT_ROLES", "MAX_CATCHUP_S", "RuntimeClockError", "RuntimeCodecError"]

@@ -1,25 +1,11 @@
 """An independent check of every ACC command frame before it leaves the ECU.
 
-As opendbc's safety layer does for a car, this module vets what goes on the bus without
-trusting the code that computed it: it shares no code with the controller (:mod:`ecu.controller`)
-and knows only the frame's values and the limits of the vehicle, written down here again on
-purpose. For each ``ACC_Command`` (the ``command`` role's values: the request
-``accel_request_mps2``, ``request_active`` and ``acc_state``, taken from the node's
-:class:`ecu.signals.NodeOutputs` before they are scaled into the frame), in this order:
-
-1. non-finite: a request that is NaN or infinite goes out as 0 m/s^2, inactive;
-2. engaged: a request may be active only while the frame's ACC state is ACTIVE; in FAULT only
-   while it ramps toward zero (between 0 and the last request sent); else it goes inactive
-   (in FAULT: it is held on its way to zero);
-3. envelope: the request lies in [-3.5, +2.0] m/s^2 (ISO 15622), else it is clamped;
-4. jerk: an active request rises by at most 2.5 m/s^3 and falls by at most 10 m/s^3 (the
-   controller's emergency braking build-up) times the time since the last frame; else it is
-   clamped to the reachable value.
-
-Every intervention is counted by rule (:attr:`CommandSafety.stopped`) and logged; outputs the
-check does not change pass as the same object, so a correct controller's frames are
-bit-identical with and without it. :class:`ecu.busio.BusIO` runs it on every command frame
-and :class:`ecu.runtime.RuntimeSummary` reports the counts.
+As opendbc's safety layer, it shares no code with :mod:`ecu.controller` (the vehicle's limits
+are written down again here on purpose). On each command's values, in order: a non-finite
+request goes out as 0 m/s^2, inactive; a request is active only in ACTIVE (in FAULT only
+while ramping toward zero); the envelope [-3.5, +2.0] m/s^2 (ISO 15622); jerk at most
++2.5 / -10 m/s^3. Interventions are counted by rule (:attr:`CommandSafety.stopped`); an
+output it does not change passes as the same object (frames bit-identical without it).
 """
 
 from __future__ import annotations
@@ -146,14 +132,4 @@ class CommandSafety:
         return replace(out, accel_request_mps2=verdict.accel_mps2, request_active=verdict.active)
 
 
-__all__ = [
-    "ENVELOPE",
-    "JERK",
-    "NON_FINITE",
-    "NOT_ENGAGED",
-    "RULES",
-    "CommandSafety",
-    "SafetyLimits",
-    "Verdict",
-    "vet",
-]
+__all__ = ["ENVELOPE", "JERK", "NON_FINITE", "NOT_ENGAGED"]

@@ -22,15 +22,6 @@ from ecu.buslog.format import CanLogError
 from ecu.buslog.proto import ProtoRows
 from ecu.buslog.sinks import ChannelSpec
 
-__all__ = [
-    "DEFAULT_ADDRESS",
-    "LIVE_FLUSH_S",
-    "FoxgloveSink",
-    "add_foxglove_argument",
-    "live_sinks",
-    "parse_address",
-]
-
 DEFAULT_ADDRESS = "127.0.0.1:8765"
 #: the recorder's flush interval with a live view, s of the node's clock (the view's delay)
 LIVE_FLUSH_S = 0.2

@@ -1,18 +1,4 @@
-"""A minimal MCAP writer that takes many messages of one channel at once, built with numpy.
-
-The bus recorder writes one MCAP message per decoded frame and per control cycle: tens of
-thousands a second in a lockstep drive. ``mcap.writer.Writer.add_message`` costs about 4 µs a
-message in Python (measured by ``bench/canlog.py``: docs/logs.md), more than python-can's BLF
-writer spends on a whole frame; here the message records of one channel and one flush are
-assembled in a handful of numpy operations (:meth:`McapFile.records`) and appended to the
-open chunk. The rest is the MCAP format as the
-``mcap`` package writes it (its record classes): schemas and channels in the data section as
-they are declared (so a file cut short still names them), zstd chunks each followed by their
-message indexes, attachments and metadata between chunks, and a summary (schemas,
-channels, statistics, chunk, attachment and metadata indexes, summary offsets) and footer
-on :meth:`McapFile.finish`. :meth:`McapFile.flush` ends the chunk in progress: everything
-written before the last flush survives the process being killed.
-"""
+"""A minimal MCAP writer that takes many messages of one channel at once, built with numpy."""
 
 from __future__ import annotations
 
@@ -22,8 +8,6 @@ from collections import defaultdict
 from typing import IO, Any
 
 import numpy as np
-
-__all__ = ["RECORD_HEAD", "McapFile"]
 
 MAGIC = b"\x89MCAP0\r\n"
 #: a message record's fixed part: opcode, record length, channel, sequence, log/publish time

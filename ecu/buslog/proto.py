@@ -1,29 +1,10 @@
-"""Rows of numeric fields as protobuf messages, built and read with numpy.
-
-The bus recorder writes every decoded frame and every control cycle as its own MCAP message
-so that Foxglove and PlotJuggler plot the fields over time. A protobuf message whose fields
-are all fixed-width (``double``, ``sfixed64``: wire type 1, eight bytes each after a one- or
-two-byte tag) has the same layout for every row, so a whole table of rows is a few numpy
-copies into one array (:meth:`ProtoRows.format_into`) and reads back the same way
-(:func:`decode_rows`). The protobuf runtime encodes a row field by field (6.5 µs a row of
-/ecu/outputs, measured by ``bench/canlog.py``; numpy: under 0.1 µs), and leaves out a field
-that is 0 (proto3), so its bytes differ for the same values: every field is written here,
-and the runtime decodes both to the same values (tested). The schema, a
-``FileDescriptorSet`` (MCAP ``protobuf`` schema encoding), is built by the runtime.
-
-Field numbers are 1, 2, … in column order; ``double`` for measured values (NaN kept),
-``sfixed64`` for counts, ids, states and booleans (0/1). A channel's layout is also kept in
-its MCAP channel metadata (``pacc.layout``: ``name:d`` or ``name:q`` per field, comma
-separated), which is what the reader needs.
-"""
+"""Rows of numeric fields as protobuf messages, built and read with numpy."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 
 import numpy as np
-
-__all__ = ["LAYOUT_KEY", "ProtoRows", "decode_rows"]
 
 #: channel metadata key of a channel's field layout
 LAYOUT_KEY = "pacc.layout"

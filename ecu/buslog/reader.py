@@ -40,8 +40,6 @@ from ecu.buslog.format import (
 )
 from ecu.buslog.proto import LAYOUT_KEY, decode_rows
 
-__all__ = ["CanLog", "Frames", "mcap_records", "messages", "read_canlog", "read_recording"]
-
 
 @dataclass
 class Frames:
@@ -189,11 +187,6 @@ def _frames(blocks: list[dict[str, np.ndarray]], path: Path) -> Frames:
 
 def read_canlog(path: str | os.PathLike[str], *, recover: bool = False) -> CanLog:
     """Read a recording of :mod:`ecu.buslog.writer`.
-
-    Args:
-        path: the ``.mcap`` (or a ``.mcap.part`` left by a killed recorder).
-        recover: read a file without its end (no footer, a cut chunk) up to its last
-            complete chunk instead of refusing it (:attr:`CanLog.complete` False).
 
     Raises:
         CanLogError: missing, not MCAP, truncated (no footer; unless ``recover``), bad CRC,

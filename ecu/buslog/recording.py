@@ -26,16 +26,6 @@ from ecu.buslog.writer import CanLogWriter
 from ecu.config import ConfigError, EcuConfig
 from ecu.controller import ControllerParams, RoadParams
 
-__all__ = [
-    "BINDING_ATTACHMENT",
-    "CONFIG_ATTACHMENT",
-    "DBC_ATTACHMENT",
-    "TABLE_ATTACHMENT",
-    "config_from_json",
-    "config_to_json",
-    "open_recording",
-]
-
 DBC_ATTACHMENT = "network.dbc"
 BINDING_ATTACHMENT = "binding.toml"
 CONFIG_ATTACHMENT = "ecu_config.json"

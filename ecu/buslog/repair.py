@@ -16,8 +16,6 @@ from ecu.buslog.format import CanLogError
 from ecu.buslog.mcapfile import McapFile
 from ecu.buslog.reader import mcap_records, read_canlog
 
-__all__ = ["repair"]
-
 
 def repair(src: str | os.PathLike[str], dst: str | os.PathLike[str]) -> int:
     """Copy what is readable of the recording ``src`` into the complete file ``dst``; the

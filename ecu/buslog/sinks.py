@@ -23,16 +23,6 @@ from ecu.buslog.format import FORMAT, CanLogError
 from ecu.buslog.mcapfile import RECORD_HEAD, McapFile
 from ecu.buslog.proto import LAYOUT_KEY, ProtoRows
 
-__all__ = [
-    "ChannelSpec",
-    "McapSink",
-    "Sink",
-    "close_all",
-    "declare",
-    "json_spec",
-    "rows_spec",
-]
-
 
 @dataclass(frozen=True)
 class ChannelSpec:

@@ -5,13 +5,6 @@ per decoded frame and per control cycle with numeric fields, so Foxglove and Plo
 every signal over time (the channels: :mod:`ecu.buslog.format`). Every message's ``log_time``
 is its frame's or cycle's time in UTC (the :class:`~ecu.buslog.format.TimeBase`), ``t_s`` in
 it the node's clock exactly.
-
-Every ``flush_s`` (1 s of the node's clock) the new frames go out as a raw block and the
-MCAP chunk ends: a killed recording (``FILE.part``) holds every frame older than that. The
-rows (decoded frames, cycles) go out every ``rows_s`` (10 s; live 0.2 s), built by numpy a
-channel at a time (:mod:`ecu.buslog.decoded`, :mod:`ecu.buslog.proto`). Every
-:class:`~ecu.buslog.sinks.Sink` (the file, a live Foxglove WebSocket: :mod:`ecu.buslog.live`)
-gets the same channels from this one code path, on the node's thread.
 """
 
 from __future__ import annotations
@@ -61,8 +54,6 @@ from ecu.buslog.proto import ProtoRows
 from ecu.buslog.sinks import McapSink, Sink, close_all, declare, json_spec, rows_spec
 from ecu.signals import NodeInputs, NodeOutputs
 
-__all__ = ["CanLogWriter"]
-
 log = logging.getLogger(__name__)
 _get_inputs = operator.attrgetter(*INPUT_FIELDS)
 _get_outputs = operator.attrgetter(*OUTPUT_FIELDS)
@@ -77,17 +68,14 @@ class CanLogWriter:
     """Writes one recording (module docstring). Not thread-safe: one node's thread feeds it.
 
     Args:
-        path: the MCAP file to write (``path.part`` until :meth:`close`); None: no file,
-            only ``sinks`` (a live view without a recording).
+        path: the MCAP file (``path.part`` until :meth:`close`); None: only ``sinks``.
         db: the cantools database of the network (``None``: raw frames only).
         time_base: maps the node's clock to UTC.
         node: who records (``ecu``, ``sim``, ``drive``, ``export``).
-        attachments: name -> bytes, stored as MCAP attachments (DBC, binding, config …).
-        metadata: record name -> {key: text}, stored as MCAP metadata records.
-        flush_s: the flush interval on the node's clock, s (at most this much is lost when
-            the process is killed).
-        sinks: more sinks besides the file (e.g. :class:`ecu.buslog.live.FoxgloveSink`).
-        rows_s: the decoded rows and cycles are written every ``rows_s`` (>= ``flush_s``).
+        attachments / metadata: stored as MCAP attachments / metadata records.
+        flush_s: the flush interval on the node's clock, s (at most this is lost on a kill).
+        sinks: more sinks besides the file (:class:`ecu.buslog.live.FoxgloveSink`).
+        rows_s: the decoded rows and cycles are written every ``rows_s``, s (>= ``flush_s``).
 
     Raises:
         CanLogError: ``path`` cannot be created.
@@ -118,15 +106,12 @@ class CanLogWriter:
         self.error: str | None = None
         #: the node's clock at the first frame or sample (the recording's start)
         self.first_t_s: float | None = None
-        # the open block: its frames as tapped (one append a frame), its first frame's, cycle's
-        # or sample's time (None until a cycle, sample or flush looks); the unwritten cycles
-        # and samples (topic -> rows one after the other)
+        # the open block: its frames as tapped, its first frame's or cycle's time, its cycles
         self._frames: list[Any] = []
         self._tap: Callable[[Tapped], None] = self._frames.extend
         self._block_t0: float | None = None
         self._cycles: list[bytes] = []
         self._cycles_declared = False
-        self._samples: dict[str, list[Any]] = {}
         # the channels on every sink: raw, decoded per DBC message, sampled, events
         self.sinks: list[Sink] = [McapSink(self.path)] if self.path is not None else []
         self.sinks += sinks
@@ -150,8 +135,6 @@ class CanLogWriter:
             self.attach(name, data)
         self._end_chunk()  # a recording killed from now on is readable
 
-    # -- what a node feeds ---------------------------------------------------------------
-
     def attach(self, name: str, data: bytes, media_type: str = "text/plain") -> None:
         """Store ``data`` as the attachment ``name`` (stamped with the origin's UTC); nothing
         once the recording stopped."""
@@ -159,16 +142,10 @@ class CanLogWriter:
             for sink in self.sinks:
                 sink.attach(self.time_base.utc_origin_ns, name, media_type, data)
 
-    def frame(self, t_s: float, msg: can.Message, rx: bool) -> None:
-        """One frame received (``rx``) or sent at ``t_s`` on the node's clock. The frame is
-        kept, not copied, until the next flush: its sender must not change it (a node's
-        frames in and out are new objects each; else :meth:`frame_and_tick`)."""
-        self._tap((t_s, None, msg, rx))
-
     def frame_raw(self, t_s: float, key: int, data: Any, rx: bool) -> None:
-        """:meth:`frame` of a raw frame of the lockstep bus (:mod:`dbc.frame`): ``key`` the
-        id with the IDE bit, ``data`` the payload (immutable bytes; for
-        :data:`dbc.frame.OTHER`, the message itself)."""
+        """One frame received (``rx``) or sent at ``t_s`` (s, the node's clock), in the raw
+        form of :mod:`dbc.frame`: ``key`` the id with the IDE bit, ``data`` the immutable
+        payload (for :data:`dbc.frame.OTHER`, the message itself, kept until the flush)."""
         self._tap((t_s, key, data, rx))
 
     def frame_and_tick(self, t_s: float, msg: can.Message, rx: bool) -> None:
@@ -190,21 +167,12 @@ class CanLogWriter:
         ``integral``: per column, written as an integer (default: none). ``description`` is
         not stored: the fields' names say what they are."""
         del description
-        if topic in self._samples:
+        if topic in self._series:
             return
         ints = tuple(integral) if integral is not None else (False,) * len(columns)
         title = "pacc." + topic.strip("/").replace("/", ".")
         rows = ProtoRows(title, ["t_s", *columns], (False, *ints))
         self._series[topic] = Rows(declare(self.sinks, rows_spec(topic, rows)), rows)
-        self._samples[topic] = []
-
-    def sample(self, topic: str, t_s: float, values: tuple[Any, ...]) -> None:
-        """One sample of a declared channel: ``values`` in its column order."""
-        row = self._samples[topic]
-        row.append(t_s)
-        row.extend(values)
-        if self._block_t0 is None:  # the block starts at its first frame, cycle or sample
-            self._block_t0 = self._frames[0] if self._frames else t_s
 
     def event(self, t_s: float, text: str) -> None:
         """One event text, as ``foxglove.Log`` on ``/ecu/events`` (written at once: events
@@ -268,10 +236,6 @@ class CanLogWriter:
             log.error("%s: %s", self.path, self.error)
         self._frames, self._cycles = [], []
         self._tap = lambda _: None  # a stopped recording takes no frames
-        for values in self._samples.values():
-            values.clear()
-
-    # -- writing -------------------------------------------------------------------------
 
     def _flush_due(self, t_s: float) -> None:
         self.flush(self._rows_t0 is not None and t_s - self._rows_t0 >= self.rows_s)
@@ -304,12 +268,6 @@ class CanLogWriter:
             if self._cycles:
                 self._write_cycles(b"".join(self._cycles))
                 self._cycles = []
-            for topic, values in self._samples.items():
-                if values:
-                    s = self._series[topic]
-                    table = np.fromiter(values, np.float64, len(values)).reshape(-1, s.width)
-                    self._write_rows(s, table)
-                    self._samples[topic] = []
             self._rows_t0 = None
         self._end_chunk()
 
@@ -351,7 +309,7 @@ class CanLogWriter:
         per row, a chunk every :data:`SERIES_STEP` rows; ``topic`` must be declared with the
         columns' names. Nothing once the recording stopped (:attr:`error`: the first failure
         is the one reported)."""
-        if topic not in self._samples:
+        if topic not in self._series:
             raise KeyError(topic)
         if self.error is not None:
             return
@@ -361,8 +319,6 @@ class CanLogWriter:
         for start in range(0, len(t), SERIES_STEP):
             self._write_rows(s, table[start : start + SERIES_STEP])
             self._end_chunk()
-
-    # -- end -----------------------------------------------------------------------------
 
     def close(self) -> None:
         """Write what is open, finish the file and rename it to ``path``.

@@ -79,21 +79,7 @@ def control(
     law: GapLaw | None = None,
     resume: bool = False,
 ) -> tuple[Command, ControlMemory]:
-    """The request of this cycle and the controller's next memory.
-
-    ACTIVE: the PID gap law capped by cruise, then the envelope (emergency exception when a
-    closing lead is within ``emergency_ttc_s`` and the request decreases; there the request
-    is also at most the closing limit against the table's lower safety bound at the lead's
-    speed; behind a braking lead whose stop, were it to brake to a standstill, would need
-    more than 2 m/s^2, the request is at most that need, with the emergency build-up, at any
-    TTC; while the driver overrides there, the inactive request prepares it). Otherwise the
-    request ramps toward zero at the jerk limit; it stays active only in FAULT while an
-    executed request is still ramping (``fault_ramp``). ``law``: a plug-in
-    gap law in place of the PID (the envelope and the closing limit stay the ECU's). The road
-    rules (:func:`ecu.cycle.road.road_update`): a target switch drops the integral, a brief
-    lead loss does not raise the request, a standstill holds until the lead departs soon
-    after the stop or the driver asks to go (``resume``: RESUME or the accelerator this cycle).
-    """
+    """The request of this cycle and the controller's next memory."""
     ctl = config.controller
     prev = mem.prev_accel_mps2
     active = state is AccState.ACTIVE
@@ -184,6 +170,3 @@ def control(
     # accel_mps2, active, emergency, ramp_done, beyond_limit
     command = Command(accel, active, urgent, ramping and not active, beyond)
     return command, ControlMemory(integral0, accel, road)
-
-
-__all__ = ["Command", "ControlMemory", "GapLaw", "control"]

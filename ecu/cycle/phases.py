@@ -1,22 +1,10 @@
 """The phases of one control cycle, as pure functions; :class:`ecu.node.EcuNode` runs them.
 
-One cycle, in order (the openpilot split: read -> transition -> plan -> control -> outputs)::
-
-    cycle_time      the cycle's time and integration step (a host clock fault: time stands still)
-    check_inputs    input validity, the re-engagement hold, button edges -> state-machine Events
-    transition      (ecu.cycle.state) the next AccState
-    enter_state     what entering that state does: fault code, set speed, controller reset
-    takeover        (stateful, in the node) press -> takeover; release -> adaptation, recording
-    plan            the DGPT's desired gap and its slope at the current speed
-    control         (ecu.cycle.command) PID and envelope while ACTIVE; the FAULT ramp otherwise
-    sample_of       the recorder's sample of this cycle
-    outputs         NodeOutputs
-
-The takeover phase runs before the plan on purpose: an adaptation applied at a pedal release
-is the table the same cycle plans with.
-
-Every function here is pure: values in, values out; no clock, no bus, no logging. The
-control phase has a module of its own, :mod:`ecu.cycle.command`.
+In order: ``cycle_time`` -> ``check_inputs`` (validity, re-engagement hold, button edges) ->
+``transition`` (:mod:`ecu.cycle.state`) -> ``enter_state`` -> takeover (in the node) ->
+``plan`` (the DGPT's gap and slope at the current speed) -> ``control``
+(:mod:`ecu.cycle.command`) -> ``sample_of`` -> ``outputs``. The takeover runs before the plan
+so that a table adapted at a release is the one the same cycle plans with.
 """
 
 from __future__ import annotations
@@ -43,11 +31,7 @@ _RELEASED = (False, False, False)
 
 
 def cycle_time(now_s: float, last_now_s: float | None, cycle_s: float) -> tuple[float, float]:
-    """``(now_s, dt_s)`` of a cycle called at ``now_s`` after one at ``last_now_s`` (s).
-
-    A non-finite ``now_s`` (a host clock fault) is taken as no time passing; the first cycle
-    integrates over one period; ``dt_s`` is clipped to ``[0, MAX_DT_S]``.
-    """
+    """``(now_s, dt_s)`` of a cycle called at ``now_s`` after one at ``last_now_s`` (s)."""
     if not math.isfinite(now_s):
         now_s = last_now_s if last_now_s is not None else 0.0
     dt = cycle_s if last_now_s is None else now_s - last_now_s
@@ -97,9 +81,6 @@ def check_inputs(
 ) -> InputCheck:
     """Validity, the hold time before re-engagement (``settle_s``), rising button edges
     (``buttons``: last cycle's levels) and pedals, as the state machine's :class:`Events`.
-
-    A stale HMI counts as every button released and the main switch unchanged; unknown
-    pedals (stale, failed E2E or non-finite) count as released.
     """
     fault = input_fault(inp)
     valid = fault is FaultCode.NONE
@@ -160,11 +141,6 @@ def enter_state(
 ) -> tuple[Engagement, bool]:
     """The engagement memory after the change ``old -> new`` (``new is not old``), and
     whether the controller starts afresh (its integral reset).
-
-    - FAULT records the fault, ramps only a request that was being executed (after an
-      override it stays off) and forgets the set speed: only SET re-engages afterwards;
-    - engaging from STANDBY or FAULT clears the fault; SET (or engaging without a set speed)
-      takes ``config.set_speed_mps``, else the current speed up to ``config.max_set_speed_mps``.
     """
     if new is AccState.FAULT:
         mem = Engagement(fault_code=fault, set_speed_mps=0.0, fault_ramp=old is AccState.ACTIVE)
@@ -249,16 +225,4 @@ def outputs(
     )
 
 
-__all__ = [
-    "Engagement",
-    "InputCheck",
-    "Plan",
-    "check_inputs",
-    "cycle_time",
-    "enter_state",
-    "outputs",
-    "plan",
-    "reported_fault",
-    "sample_of",
-    "takeover_pedal",
-]
+__all__ = ["Plan"]

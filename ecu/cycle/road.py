@@ -9,11 +9,6 @@ the set speed. At a standstill behind a lead the request holds the car (``hold_a
 it pulls away when the lead departs within ``auto_resume_s`` of stopping, else only on the
 driver's RESUME or accelerator (ISO 15622's full-speed-range ACC: resuming after a stop needs
 the driver).
-
-:func:`road_update` carries :class:`RoadMemory` from one cycle to the next and says whether
-the target switched; :func:`road_limit` bounds the cycle's request by the rules. Both are pure;
-their parameters are :class:`ecu.controller.RoadParams` (``ControllerParams.road``), and
-:func:`ecu.cycle.command.control` applies them while ACTIVE.
 """
 
 from __future__ import annotations
@@ -56,11 +51,7 @@ def road_update(
     active: bool,
     resume: bool,
 ) -> tuple[RoadMemory, bool]:
-    """The road memory after one cycle of ``dt_s`` and whether the target switched (pure).
-
-    ``active``: the ACC drives the car (the standstill counter runs only then); ``resume``:
-    the driver's RESUME or accelerator this cycle (a go request at a standstill).
-    """
+    """The road memory after one cycle of ``dt_s`` and whether the target switched (pure)."""
     switched = False
     if lead_valid:
         if mem.no_lead_s >= params.reacquire_s and mem.no_lead_s < math.inf:
@@ -96,6 +87,3 @@ def road_limit(
         hold = params.hold_accel_mps2
         target = hold if target > hold else target
     return target
-
-
-__all__ = ["RoadMemory", "road_limit", "road_update"]

@@ -118,16 +118,3 @@ def stop_limit(
         match = closing_limit_mps2(inp.gap_m - spare, inp.rel_speed_mps, lead_accel_mps2, floor)
         limit = match if limit > match else limit
     return limit
-
-
-__all__ = [
-    "BRAKE_BUILD_S",
-    "CREEP_MPS",
-    "STANDING_LEAD_MPS",
-    "STOP_SPARE_S",
-    "URGENT_STOP_MPS2",
-    "beyond_authority",
-    "closing_needs_mps2",
-    "lead_stop_need_mps2",
-    "stop_limit",
-]
