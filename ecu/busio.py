@@ -213,8 +213,6 @@ class BusIO:
         #: recorder's :meth:`~ecu.buslog.writer.CanLogWriter.frame_raw`; :mod:`dbc.frame`)
         self.tap: Callable[[float, int, Any, bool], None] | None = None
 
-    # -- receive -------------------------------------------------------------------------
-
     def drain(self, now_s: float) -> None:
         """Feed every frame waiting on the bus to the Inbox, stamped ``now_s``."""
         self._feed(self.port.take(), now_s)
@@ -245,8 +243,6 @@ class BusIO:
             return None
         hmi = self.inbox.latest("hmi")
         return None if hmi is None else int(hmi["profile_id"])
-
-    # -- send ----------------------------------------------------------------------------
 
     def send(self, t_s: float, out: NodeOutputs, *, status: bool) -> NodeOutputs:
         """Send ACC_Command (and ACC_Status if ``status``) stamped ``t_s``; the outputs as

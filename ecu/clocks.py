@@ -65,8 +65,6 @@ class CycleClock:
         self._max_catchup = int(MAX_CATCHUP_S / cycle_s)
         self._stop = threading.Event()
 
-    # -- lockstep ------------------------------------------------------------------------
-
     def advance_to(self, now_s: float, port: FramePort, run_cycle: RunCycle) -> None:
         """Drain ``port`` at ``now_s`` and run every cycle due up to ``now_s``.
 
@@ -95,8 +93,6 @@ class CycleClock:
         while (t := t0 + self.k * cycle) <= due:
             run_cycle(t, self.k)
             self.k += 1
-
-    # -- real time -----------------------------------------------------------------------
 
     def run_realtime(
         self,

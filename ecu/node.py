@@ -196,8 +196,6 @@ class EcuNode:
         if self.manual is not None:
             self.manual.flush()
 
-    # -- internals -------------------------------------------------------------------------
-
     def _check_inputs(self, inp: NodeInputs, now_s: float) -> InputCheck:
         check = check_inputs(
             inp,

@@ -18,7 +18,8 @@ import math
 import os
 from collections import deque
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
+from operator import attrgetter
 from pathlib import Path
 from typing import Any
 
@@ -57,39 +58,27 @@ class Sample:
     acc_state: int
 
 
+_values = attrgetter(*(f.name for f in fields(Sample)))
+
+
 def trip_of(samples: list[Sample], meta: dict[str, Any]) -> Trip:
     """The samples as a trip log (pedals clipped to 0..1).
 
     Raises:
         TripLogError: the samples do not make a valid trip (non-monotonic time ...).
     """
-    cols = list(
-        zip(
-            *(
-                (
-                    s.t_s,
-                    s.v_mps,
-                    s.gap_m,
-                    s.v_lead_mps,
-                    s.a_mps2,
-                    s.accel_pedal,
-                    s.brake_pedal,
-                    s.acc_state,
-                )
-                for s in samples
-            ),
-            strict=True,
-        )
+    t, v, gap, v_lead, a, accel, brake, state = (
+        np.asarray(c) for c in zip(*map(_values, samples), strict=True)
     )
     return Trip(
-        t_s=np.asarray(cols[0]),
-        v_mps=np.asarray(cols[1]),
-        gap_m=np.asarray(cols[2]),
-        v_lead_mps=np.asarray(cols[3]),
-        a_mps2=np.asarray(cols[4]),
-        accel_pedal=np.clip(np.asarray(cols[5]), 0.0, 1.0),
-        brake_pedal=np.clip(np.asarray(cols[6]), 0.0, 1.0),
-        acc_state=np.asarray(cols[7], dtype=np.int64),
+        t_s=t,
+        v_mps=v,
+        gap_m=gap,
+        v_lead_mps=v_lead,
+        a_mps2=a,
+        accel_pedal=np.clip(accel, 0.0, 1.0),
+        brake_pedal=np.clip(brake, 0.0, 1.0),
+        acc_state=state.astype(np.int64),
         meta=meta,
     )
 

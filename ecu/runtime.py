@@ -134,8 +134,6 @@ class EcuRuntime:
         self.recorder = recorder
         self.io.tap = recorder.frame_raw if recorder is not None else None
 
-    # -- the parts -----------------------------------------------------------------------
-
     @property
     def inbox(self) -> Inbox:
         """The receive side (E2E counts, latest values, freshness)."""
@@ -161,8 +159,6 @@ class EcuRuntime:
     def cycle_starts(self) -> deque[float]:
         """Real time: start times of the latest cycles (s, monotonic), for jitter statistics."""
         return self.clock.starts
-
-    # -- clocks --------------------------------------------------------------------------
 
     def advance_to(self, now_s: float) -> None:
         """Lockstep: drain the bus at ``now_s`` and run every cycle due up to ``now_s``.
@@ -190,8 +186,6 @@ class EcuRuntime:
         """Ask :meth:`run_realtime` to return after the current cycle, or at once if called
         before it starts (thread-safe, signal-safe)."""
         self.clock.stop()
-
-    # -- one cycle -----------------------------------------------------------------------
 
     def read_inputs(self, now_s: float) -> NodeInputs:
         """The node's inputs from the Inbox at ``now_s``: latest values plus freshness."""
@@ -226,8 +220,6 @@ class EcuRuntime:
         spent = time.perf_counter() - t_start
         if spent > self.max_cycle_s:  # noqa: PLR1730 - max() without the builtin call
             self.max_cycle_s = spent
-
-    # -- reporting -----------------------------------------------------------------------
 
     def summary(self) -> RuntimeSummary:
         """Counters of the run so far."""

@@ -64,8 +64,6 @@ class McapFile:
         self._write(MAGIC)
         self._record(Header(profile=profile, library=library))
 
-    # -- low level ------------------------------------------------------------------------
-
     def _write(self, data: bytes) -> None:
         self._stream.write(data)
         self._pos += len(data)
@@ -80,8 +78,6 @@ class McapFile:
         start = self._pos
         self._write(data)
         return start, len(data)
-
-    # -- declarations ---------------------------------------------------------------------
 
     def schema(self, name: str, encoding: str, data: bytes) -> int:
         """Declare a schema; its id."""
@@ -108,8 +104,6 @@ class McapFile:
         self._channels.append(record)
         self._record(record)
         return record.id
-
-    # -- messages -------------------------------------------------------------------------
 
     def records(
         self, channel_id: int, seq0: int, log_times: np.ndarray, records: np.ndarray
@@ -212,8 +206,6 @@ class McapFile:
             )
         )
         self._chunk, self._chunk_size, self._index = [], 0, defaultdict(list)
-
-    # -- between chunks -------------------------------------------------------------------
 
     def attachment(self, log_time: int, name: str, media_type: str, data: bytes) -> None:
         """Write an attachment (after ending the chunk in progress)."""

@@ -33,9 +33,6 @@ from ecu.signals import NodeInputs, Plan, cycle_value
 GapLaw = Callable[[ControlInput, float, float], tuple[float, float]]
 
 
-# -- 6. control --------------------------------------------------------------------------------
-
-
 @cycle_value
 class ControlMemory:
     """The controller's state across cycles: gap-error integral (m*s), last request (m/s^2),

@@ -27,9 +27,6 @@ DISENGAGED = (AccState.STANDBY, AccState.FAULT)
 _RELEASED = (False, False, False)
 
 
-# -- 1. clock ---------------------------------------------------------------------------------
-
-
 def cycle_time(now_s: float, last_now_s: float | None, cycle_s: float) -> tuple[float, float]:
     """``(now_s, dt_s)`` of a cycle called at ``now_s`` after one at ``last_now_s`` (s)."""
     if not math.isfinite(now_s):
@@ -41,9 +38,6 @@ def cycle_time(now_s: float, last_now_s: float | None, cycle_s: float) -> tuple[
     else:
         dt = 0.0
     return now_s, dt
-
-
-# -- 2. inputs ---------------------------------------------------------------------------------
 
 
 @cycle_value
@@ -111,9 +105,6 @@ def check_inputs(
     return InputCheck(fault, since, levels, events)
 
 
-# -- 3. state entry -----------------------------------------------------------------------------
-
-
 @cycle_value
 class Engagement:
     """What the node remembers about engagement across cycles.
@@ -153,9 +144,6 @@ def enter_state(
     return mem, False
 
 
-# -- 4. takeover -------------------------------------------------------------------------------
-
-
 def takeover_pedal(accel: bool, brake: bool) -> str:
     """The pedal of a takeover: ``"accel"``, ``"brake"`` or ``"both"``."""
     if accel and brake:
@@ -163,16 +151,10 @@ def takeover_pedal(accel: bool, brake: bool) -> str:
     return "accel" if accel else "brake"
 
 
-# -- 5. plan -----------------------------------------------------------------------------------
-
-
 def plan(table: Dgpt, v_mps: float) -> Plan:
     """Look the desired gap up at ``v_mps`` (a non-finite speed counts as 0 m/s)."""
     v = v_mps if math.isfinite(v_mps) else 0.0
     return Plan(v, table.lookup(v), table.slope(v))  # v_mps, desired gap, its slope
-
-
-# -- 6. control: ecu.cycle.command; 7. recording and 8. outputs ------------------------------------
 
 
 def sample_of(inp: NodeInputs, now_s: float, state: AccState) -> Sample:
