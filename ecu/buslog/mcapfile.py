@@ -18,9 +18,6 @@ _HEADER_BYTES = _HEADER.itemsize  # 31
 #: the bytes before a message's data in its record (:meth:`McapFile.records`)
 RECORD_HEAD = _HEADER_BYTES
 _MESSAGE_OPCODE = 0x05
-_HEAD = struct.Struct("<BQHIQQ")
-#: a message index entry: log time, offset in the chunk
-_PAIR = struct.Struct("<QQ")
 _CHUNK_OPCODE = 0x06
 #: a zstd chunk record's head: opcode, record length, start/end time, uncompressed size and
 #: CRC, the compression name (length-prefixed), the compressed length
@@ -51,16 +48,15 @@ class McapFile:
         self._pos = 0
         self._schemas: list[object] = []
         self._channels: list[object] = []
-        self._chunk: list[bytes | memoryview] = []
+        self._chunk: list[memoryview] = []
         self._chunk_size = 0
         self._chunk_t = (0, 0)
         self._zstd: Any = None
         self._index: dict[int, list[bytes]] = defaultdict(list)
-        self._chunk_indexes: list[object] = []
+        self._chunk_indexes: list[Any] = []
         self._attachment_indexes: list[object] = []
         self._metadata_indexes: list[object] = []
         self._counts: dict[int, int] = defaultdict(int)
-        self._t_range: tuple[int, int] | None = None
         self._write(MAGIC)
         self._record(Header(profile=profile, library=library))
 
@@ -126,32 +122,19 @@ class McapFile:
         pairs[:, 0] = log_times
         pairs[:, 1] = np.arange(self._chunk_size, self._chunk_size + n * size, size)
         self._index[channel_id].append(pairs.tobytes())
-        self._add(records, channel_id, n, int(log_times.min()), int(log_times.max()))
+        lo, hi = int(log_times.min()), int(log_times.max())
+        if self._chunk:
+            lo, hi = min(lo, self._chunk_t[0]), max(hi, self._chunk_t[1])
+        self._chunk_t = (lo, hi)
+        self._chunk.append(records.data)  # kept, not copied, until the chunk ends
+        self._chunk_size += records.nbytes
+        self._counts[channel_id] += n
 
     def message(self, channel_id: int, seq: int, log_time: int, data: bytes) -> None:
-        """Add one message to the open chunk (a raw block, an event: no arrays)."""
-        size = len(data) + _HEADER_BYTES
-        head = _HEAD.pack(
-            _MESSAGE_OPCODE, size - 9, channel_id, seq & 0xFFFFFFFF, log_time, log_time
-        )
-        self._index[channel_id].append(_PAIR.pack(log_time, self._chunk_size))
-        self._add(head + data, channel_id, 1, log_time, log_time)
-
-    def _add(self, records: bytes | np.ndarray, channel_id: int, n: int, lo: int, hi: int) -> None:
-        """Append ``n`` message records of a channel, log times in ``[lo, hi]`` (ns); an
-        array of records is kept (not copied) until the chunk ends."""
-        first = not self._chunk
-        if isinstance(records, np.ndarray):
-            self._chunk.append(records.data)
-            self._chunk_size += records.nbytes
-        else:
-            self._chunk.append(records)
-            self._chunk_size += len(records)
-        self._counts[channel_id] += n
-        rng = self._t_range
-        self._t_range = (lo, hi) if rng is None else (min(lo, rng[0]), max(hi, rng[1]))
-        c_lo, c_hi = self._chunk_t
-        self._chunk_t = (lo, hi) if first else (min(lo, c_lo), max(hi, c_hi))
+        """Add one message (a raw block, an event) to the open chunk."""
+        record = np.empty((1, _HEADER_BYTES + len(data)), np.uint8)
+        record[0, _HEADER_BYTES:] = np.frombuffer(data, np.uint8)
+        self.records(channel_id, seq, np.array([log_time], np.uint64), record)
 
     def flush(self) -> None:
         """End the chunk in progress (if any) and flush the stream (no fsync)."""
@@ -249,7 +232,9 @@ class McapFile:
         self.flush()
         self._record(DataEnd(data_section_crc=0))  # 0: not computed (chunks carry CRCs)
         summary_start = self._pos
-        lo, hi = self._t_range or (0, 0)
+        idx = self._chunk_indexes
+        lo = min((c.message_start_time for c in idx), default=0)
+        hi = max((c.message_end_time for c in idx), default=0)
         stats = Statistics(
             attachment_count=len(self._attachment_indexes),
             channel_count=len(self._channels),
