@@ -105,34 +105,24 @@ class CycleClock:
         if duration_s is not None and not duration_s >= 0.0:
             raise RuntimeClockError(f"run_realtime: duration must be >= 0 s, got {duration_s}")
         try:
-            self._run_realtime(duration_s, port, run_cycle, clock)
+            start = clock()
+            self.t0 = start if self.t0 is None else self.t0
+            first_k = self.k
+            end = math.inf if duration_s is None else start + duration_s
+            next_t = start
+            while not self._stop.is_set():
+                now = clock()
+                while now < next_t:
+                    now = port.receive(next_t - now, clock)
+                if now >= end:
+                    break
+                self.starts.append(now)
+                port.drain(now)
+                run_cycle(now, self.k)
+                self.k += 1
+                next_t = self._skip_overrun(start + (self.k - first_k) * self.cycle_s, clock())
         finally:
             self._stop.clear()  # consumed: the next run starts afresh
-
-    def _run_realtime(
-        self,
-        duration_s: float | None,
-        port: FramePort,
-        run_cycle: RunCycle,
-        clock: Callable[[], float],
-    ) -> None:
-        start = clock()
-        self.t0 = start if self.t0 is None else self.t0
-        first_k = self.k
-        end = math.inf if duration_s is None else start + duration_s
-        next_t = start
-        while not self._stop.is_set():
-            now = clock()
-            while now < next_t:
-                now = port.receive(next_t - now, clock)
-            if now >= end:
-                break
-            self.starts.append(now)
-            port.drain(now)
-            run_cycle(now, self.k)
-            self.k += 1
-            next_t = start + (self.k - first_k) * self.cycle_s
-            next_t = self._skip_overrun(next_t, clock())
 
     def _skip_overrun(self, next_t: float, now: float) -> float:
         """The next deadline, moved past the missed ones if the loop overran by more than a

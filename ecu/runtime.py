@@ -17,20 +17,17 @@ from __future__ import annotations
 import logging
 import os
 import time
-from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import can
 
 from dbc.codec import Codec, load_codec
-from dbc.endpoint import Inbox, Outbox
 from dbc.vocab.dgpt import Dgpt
 from ecu.busio import INPUT_ROLES, BusIO, RuntimeCodecError, inputs_from
 from ecu.buslog.writer import CanLogWriter
 from ecu.clocks import MAX_CATCHUP_S, CycleClock, RuntimeClockError
-from ecu.node import EcuNode, NodeInputs, NodeOutputs
+from ecu.node import EcuNode, NodeOutputs
 from ecu.profiles import GUEST_PROFILE, ProfileSwitcher, TableOffer, gap_setting_table
 
 log = logging.getLogger(__name__)
@@ -114,7 +111,6 @@ class EcuRuntime:
         self.codec = codec if codec is not None else load_codec()
         self.io = BusIO(bus, self.codec, node.config, timeout_multiple)
         self.clock = CycleClock(node.config.cycle_s)
-        self.profile_dir = Path(profile_dir) if profile_dir is not None else None
         self.profiles = ProfileSwitcher(node, profile_dir) if profile_dir is not None else None
         self._gap_setting: float | None = None  # the HMI GapSetting last seen (None: none)
         #: tables offered from other threads (the cloud download), swapped in when safe
@@ -133,32 +129,6 @@ class EcuRuntime:
         ``recorder`` (:mod:`ecu.buslog.writer`; None: stop recording). The caller closes it."""
         self.recorder = recorder
         self.io.tap = recorder.frame_raw if recorder is not None else None
-
-    @property
-    def inbox(self) -> Inbox:
-        """The receive side (E2E counts, latest values, freshness)."""
-        return self.io.inbox
-
-    @property
-    def outbox(self) -> Outbox:
-        """The send side (alive counters, frames out)."""
-        return self.io.outbox
-
-    @property
-    def send_errors(self) -> int:
-        """Frames that could not be encoded or sent."""
-        return self.io.send_errors
-
-    @property
-    def skipped_cycles(self) -> int:
-        """Cycles not run because the clock jumped by more than ``MAX_CATCHUP_S`` (lockstep)
-        or the loop overran by more than a period (real time)."""
-        return self.clock.skipped
-
-    @property
-    def cycle_starts(self) -> deque[float]:
-        """Real time: start times of the latest cycles (s, monotonic), for jitter statistics."""
-        return self.clock.starts
 
     def advance_to(self, now_s: float) -> None:
         """Lockstep: drain the bus at ``now_s`` and run every cycle due up to ``now_s``.
@@ -186,10 +156,6 @@ class EcuRuntime:
         """Ask :meth:`run_realtime` to return after the current cycle, or at once if called
         before it starts (thread-safe, signal-safe)."""
         self.clock.stop()
-
-    def read_inputs(self, now_s: float) -> NodeInputs:
-        """The node's inputs from the Inbox at ``now_s``: latest values plus freshness."""
-        return self.io.read_inputs(now_s)
 
     def _cycle(self, t: float, k: int) -> None:
         """Cycle ``k`` at ``t``: inputs, profile, step, frames, events."""
@@ -226,16 +192,16 @@ class EcuRuntime:
         node = self.node
         return RuntimeSummary(
             cycles=self.cycles,
-            frames_in=self.inbox.frames_in,
-            frames_out=self.outbox.frames_out,
-            e2e_errors=self.inbox.errors(),
+            frames_in=self.io.inbox.frames_in,
+            frames_out=self.io.outbox.frames_out,
+            e2e_errors=self.io.inbox.errors(),
             takeovers=node.takeovers,
             adaptations=node.adaptations,
             max_cycle_s=self.max_cycle_s,
             state=node.state.name,
             dgpt_version=node.table.version,
-            send_errors=self.send_errors,
-            skipped_cycles=self.skipped_cycles,
+            send_errors=self.io.send_errors,
+            skipped_cycles=self.clock.skipped,
             adaptation_decisions={r.value: n for r, n in node.decisions.items()},
             faults={f.name: n for f, n in node.faults.items()},
             safety_stops=dict(self.io.safety.stopped),

@@ -40,19 +40,16 @@ MAX_OVERRUNS = 3
 
 @dataclass
 class PluginReport:
-    """What a guarded plug-in did: calls and faults by kind."""
+    """What a guarded plug-in did: faults by kind."""
 
     name: str
-    calls: int = 0
     counts: Counter[str] = field(default_factory=Counter)
-    last_error: str = ""
 
     def fault(self, kind: str, detail: str) -> None:
         """Count one fault of ``kind``; the first of each kind is logged."""
         if not self.counts[kind]:
             log.warning("plug-in %s: %s (%s); safe output used", self.name, kind, detail)
         self.counts[kind] += 1
-        self.last_error = f"{kind}: {detail}"
 
 
 class GuardedController:
@@ -79,7 +76,6 @@ class GuardedController:
 
     def __call__(self, obs: ControlInput, memory: float, dt_s: float) -> tuple[float, float]:
         report = self.report
-        report.calls += 1
         if self.disabled:
             report.counts["disabled"] += 1
         else:
@@ -172,7 +168,6 @@ class GuardedAdaptation:
         created_utc: str,
     ) -> tuple[Dgpt, Decision]:
         """The table after the takeover (``table`` itself when nothing applies)."""
-        self.report.calls += 1
         refused = Decision(applied=False, reason=Reason.INVALID_INPUT)
         start = time.perf_counter()
         try:  # the result is checked inside the timed, guarded call
