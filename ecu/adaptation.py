@@ -107,16 +107,9 @@ class Reason(StrEnum):
 
 @dataclass(frozen=True, slots=True)
 class TakeoverSummary:
-    """The state at the end of one takeover (pedal release).
-
-    Attributes:
-        duration_s: p_t, time from the first pedal press to the release, s.
-        v_mps: ego speed at release, m/s.
-        v_lead_mps: lead speed v_f at release, m/s (NaN without a lead).
-        gap_m: bumper-to-bumper gap at release, m (NaN without a lead).
-        lead_valid: the radar tracked a lead at release.
-        pedal: the pedal that started the takeover: ``"accel"`` (the driver wanted a shorter
-            gap), ``"brake"`` (a longer one), ``"both"`` or ``""`` (unknown: no direction).
+    """The state at the end of one takeover (pedal release): ``duration_s`` p_t (s), ego and lead
+    speed (m/s), the gap (m; NaN without a lead), and the pedal that started it (``"accel"``: the
+    driver wants a shorter gap, ``"brake"`` a longer one, ``"both"`` or ``""``: no direction).
     """
 
     duration_s: float
@@ -130,14 +123,8 @@ class TakeoverSummary:
 
 @dataclass(frozen=True, slots=True)
 class Decision:
-    """Outcome of one adaptation.
-
-    Attributes:
-        applied: the table changed.
-        reason: why (``Reason.APPLIED`` or the skip reason).
-        bin_index: centre bin of the update (-1 when skipped).
-        g_desire_m: predicted steady-state gap before the safety filter, m (NaN if skipped).
-        delta_m: change of the centre bin after the safety filter, m (0 if skipped).
+    """Outcome of one adaptation: the reason, the centre bin (-1 when skipped), the predicted
+    steady-state gap before the safety filter (m, NaN if skipped), the centre's change (m).
     """
 
     applied: bool
@@ -157,12 +144,8 @@ class Decision:
 
 @dataclass(frozen=True, slots=True)
 class ShortPresses:
-    """The run of short presses so far (state of :func:`count_short_press`).
-
-    Attributes:
-        pedal: the pedal of the run (``"accel"`` or ``"brake"``; ``""``: no run).
-        count: short presses in the run.
-        last_end_s: when the last of them ended, s (the node's clock).
+    """The run of short presses so far (state of :func:`count_short_press`): its pedal
+    (``""``: no run), its length, when the last one ended (s, the node's clock).
     """
 
     pedal: str = ""

@@ -18,13 +18,6 @@ _NOT_ENGAGED = (int(AccState.OFF), int(AccState.STANDBY))
 _MANUAL_OK = (FaultCode.NONE, FaultCode.HMI_INPUT)
 
 
-def manual_inputs_ok(fault: FaultCode) -> bool:
-    """True when a cycle's input check (:func:`ecu.signals.input_fault`) leaves what a manual
-    demonstration needs good: speed, pedals and radar fresh, passed E2E and finite (a stale
-    HMI, the buttons, does not matter)."""
-    return fault in _MANUAL_OK
-
-
 class ManualRecorder:
     """The driver's manual car-following stretches as trip logs (module docstring).
 

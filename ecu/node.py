@@ -178,14 +178,12 @@ class EcuNode:
         desired gap."""
         self._table = table
         self._profile_fault = False
+        ids = {"driver_id": table.driver_id, "condition": table.condition}
+        ids = {k: v for k, v in ids.items() if k not in self.config.trip_meta}
         if self.recorder is not None:  # later takeover segments are the new driver's
-            ids = {"driver_id": table.driver_id, "condition": table.condition}
-            self.recorder.meta.update(
-                {k: v for k, v in ids.items() if k not in self.config.trip_meta}
-            )
+            self.recorder.meta.update(ids)
         if self.manual is not None:  # an open manual stretch ends with a new driver
-            ids = {"driver_id": table.driver_id, "condition": table.condition}
-            self.manual.set_meta({k: v for k, v in ids.items() if k not in self.config.trip_meta})
+            self.manual.set_meta(ids)
         if message:
             self._pending_events.append(message)
 

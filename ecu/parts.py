@@ -65,6 +65,12 @@ def recorders(
     manual_min_s: float,
 ) -> tuple[TakeoverRecorder | None, ManualRecorder | None]:
     """The node's takeover and manual-driving recorders (None where no sink is given)."""
+    meta = {
+        "driver_id": table.driver_id,
+        "condition": table.condition,
+        "brake_mode": config.brake_mode,
+        **dict(config.trip_meta),
+    }
     recorder: TakeoverRecorder | None = None
     if takeover_sink is not None:
         recorder = TakeoverRecorder(
@@ -72,27 +78,17 @@ def recorders(
             period_s=config.record_period_s,
             pre_s=config.pre_trigger_s,
             post_s=config.post_trigger_s,
-            meta={
-                "driver_id": table.driver_id,
-                "condition": table.condition,
-                "brake_mode": config.brake_mode,
-                **dict(config.trip_meta),
-            },
+            meta=meta,
             utc_of=utc_of,
         )
     manual: ManualRecorder | None = None
-    if manual_sink is not None:  # the driver's manual car-following, same metadata
+    if manual_sink is not None:
         manual = ManualRecorder(
             manual_sink,
             period_s=config.record_period_s,
             cycle_s=config.cycle_s,
             min_s=manual_min_s,
-            meta={
-                "driver_id": table.driver_id,
-                "condition": table.condition,
-                "brake_mode": config.brake_mode,
-                **dict(config.trip_meta),
-            },
+            meta=meta,
             utc_of=utc_of,
         )
     return recorder, manual

@@ -76,15 +76,9 @@ class NodeOutputs:
     events: tuple[str, ...] = ()
 
 
-def all_finite(*xs: float) -> bool:
-    """True when every one of ``xs`` is finite (the cycle itself calls ``math.isfinite``
-    directly: a call of this function costs more than the checks)."""
-    return all(map(math.isfinite, xs))
-
-
 def input_fault(inp: NodeInputs) -> FaultCode:
     """The first invalid safety-relevant input of ``inp`` (speed, pedals, radar, buttons)."""
-    finite = math.isfinite  # all_finite written out: this runs every cycle
+    finite = math.isfinite
     if not (inp.speed_ok and finite(inp.v_mps) and finite(inp.a_mps2) and inp.v_mps >= 0.0):
         return FaultCode.SPEED_INPUT
     if not (inp.pedals_ok and finite(inp.accel_pedal) and finite(inp.brake_pedal)):

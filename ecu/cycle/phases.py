@@ -42,14 +42,9 @@ def cycle_time(now_s: float, last_now_s: float | None, cycle_s: float) -> tuple[
 
 @cycle_value
 class InputCheck:
-    """The checked inputs of one cycle.
-
-    Attributes:
-        fault: the first invalid safety-relevant input (``FaultCode.NONE``: all valid).
-        valid_since_s: since when the inputs have been valid without a break, s (None: not
-            valid now).
-        buttons: the HMI button levels (set, resume, cancel) of this cycle.
-        events: the state machine's inputs.
+    """The checked inputs of one cycle: the first invalid safety-relevant input (``NONE``: all
+    valid), since when the inputs have been valid (s; None: not now), the HMI button levels (set,
+    resume, cancel) and the state machine's inputs.
     """
 
     fault: FaultCode
