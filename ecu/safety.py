@@ -130,6 +130,3 @@ class CommandSafety:
             verdict.active,
         )
         return replace(out, accel_request_mps2=verdict.accel_mps2, request_active=verdict.active)
-
-
-__all__ = ["ENVELOPE", "JERK", "NON_FINITE", "NOT_ENGAGED"]

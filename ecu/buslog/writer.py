@@ -106,12 +106,14 @@ class CanLogWriter:
         self.error: str | None = None
         #: the node's clock at the first frame or sample (the recording's start)
         self.first_t_s: float | None = None
-        # the open block: its frames as tapped, its first frame's or cycle's time, its cycles
+        # the open block: its frames as tapped, its first frame's, cycle's or sample's time,
+        # its cycles and samples
         self._frames: list[Any] = []
         self._tap: Callable[[Tapped], None] = self._frames.extend
         self._block_t0: float | None = None
         self._cycles: list[bytes] = []
         self._cycles_declared = False
+        self._samples: dict[str, list[Any]] = {}  # topic -> unwritten rows, one after the other
         # the channels on every sink: raw, decoded per DBC message, sampled, events
         self.sinks: list[Sink] = [McapSink(self.path)] if self.path is not None else []
         self.sinks += sinks
@@ -173,6 +175,15 @@ class CanLogWriter:
         title = "pacc." + topic.strip("/").replace("/", ".")
         rows = ProtoRows(title, ["t_s", *columns], (False, *ints))
         self._series[topic] = Rows(declare(self.sinks, rows_spec(topic, rows)), rows)
+        self._samples[topic] = []
+
+    def sample(self, topic: str, t_s: float, values: tuple[Any, ...]) -> None:
+        """One sample of a declared channel at ``t_s`` (s): ``values`` in its column order."""
+        row = self._samples[topic]
+        row.append(t_s)
+        row.extend(values)
+        if self._block_t0 is None:  # the block starts at its first frame, cycle or sample
+            self._block_t0 = self._frames[0] if self._frames else t_s
 
     def event(self, t_s: float, text: str) -> None:
         """One event text, as ``foxglove.Log`` on ``/ecu/events`` (written at once: events
@@ -236,6 +247,8 @@ class CanLogWriter:
             log.error("%s: %s", self.path, self.error)
         self._frames, self._cycles = [], []
         self._tap = lambda _: None  # a stopped recording takes no frames
+        for values in self._samples.values():
+            values.clear()
 
     def _flush_due(self, t_s: float) -> None:
         self.flush(self._rows_t0 is not None and t_s - self._rows_t0 >= self.rows_s)
@@ -268,6 +281,12 @@ class CanLogWriter:
             if self._cycles:
                 self._write_cycles(b"".join(self._cycles))
                 self._cycles = []
+            for topic, values in self._samples.items():
+                if values:
+                    s = self._series[topic]
+                    table = np.fromiter(values, np.float64, len(values)).reshape(-1, s.width)
+                    self._write_rows(s, table)
+                    self._samples[topic] = []
             self._rows_t0 = None
         self._end_chunk()
 
