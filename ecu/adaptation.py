@@ -109,8 +109,7 @@ class Reason(StrEnum):
 class TakeoverSummary:
     """The state at the end of one takeover (pedal release): ``duration_s`` p_t (s), ego and lead
     speed (m/s), the gap (m; NaN without a lead), and the pedal that started it (``"accel"``: the
-    driver wants a shorter gap, ``"brake"`` a longer one, ``"both"`` or ``""``: no direction).
-    """
+    driver wants a shorter gap, ``"brake"`` a longer one, ``"both"`` or ``""``: no direction)."""
 
     duration_s: float
     v_mps: float
@@ -124,8 +123,7 @@ class TakeoverSummary:
 @dataclass(frozen=True, slots=True)
 class Decision:
     """Outcome of one adaptation: the reason, the centre bin (-1 when skipped), the predicted
-    steady-state gap before the safety filter (m, NaN if skipped), the centre's change (m).
-    """
+    steady-state gap before the safety filter (m, NaN if skipped), the centre's change (m)."""
 
     applied: bool
     reason: Reason
@@ -145,8 +143,7 @@ class Decision:
 @dataclass(frozen=True, slots=True)
 class ShortPresses:
     """The run of short presses so far (state of :func:`count_short_press`): its pedal
-    (``""``: no run), its length, when the last one ended (s, the node's clock).
-    """
+    (``""``: no run), its length, when the last one ended (s, the node's clock)."""
 
     pedal: str = ""
     count: int = 0

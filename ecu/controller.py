@@ -164,8 +164,7 @@ class ControllerParams:
 @dataclass(frozen=True, slots=True)
 class ControlInput:
     """What the controller sees in one cycle (all finite; units in the names; ``gap_m``
-    ignored without a lead; ``rel_speed_mps`` lead minus ego; ``desired_gap_slope_s`` dDGPT/dv).
-    """
+    ignored without a lead; ``rel_speed_mps`` lead minus ego; ``desired_gap_slope_s`` dDGPT/dv)."""
 
     v_mps: float
     a_mps2: float
@@ -191,8 +190,7 @@ def closing_limit_mps2(
     """The constant acceleration (m/s^2) that matches the lead's speed just as the gap shrinks
     to ``floor_gap_m``: ``a_f - dv^2 / (2 (g - g_floor))`` with ``dv`` the closing speed
     (the deceleration rate to avoid a crash, measured against the floor instead of contact).
-    ``inf`` when not closing; the margin ``g - g_floor`` counts as at least ``MIN_MARGIN_M``.
-    """
+    ``inf`` when not closing; the margin ``g - g_floor`` counts as at least ``MIN_MARGIN_M``."""
     if rel_speed_mps >= 0.0:
         return math.inf
     margin = gap_m - floor_gap_m

@@ -173,9 +173,7 @@ class EcuNode:
 
     def set_table(self, table: Dgpt, message: str = "") -> None:
         """Use ``table`` from the next cycle on (a driver profile switch); clears the profile
-        fault; takeover segments started from now on carry the table's driver and condition
-        (unless ``trip_meta`` fixes them). The request's jerk limit smooths the change of the
-        desired gap."""
+        fault; later trips carry its driver and condition (unless ``trip_meta`` sets them)."""
         self._table = table
         self._profile_fault = False
         ids = {"driver_id": table.driver_id, "condition": table.condition}

@@ -118,10 +118,8 @@ class SinkQueue:
         meta: dict[str, Any],
         utc_of: Callable[[float], str] | None = None,
     ) -> None:
-        """:meth:`put` the trip of ``samples``, with ``meta["start_utc"] = utc_of(first
-        sample's time)`` when ``utc_of`` is given (left out, logged, where it raises: a clock
-        fault). A trip that cannot be built is counted, logged and dropped, and the pending
-        ones are offered again. Never raises into the control loop."""
+        """Put the trip of ``samples`` (``meta["start_utc"] = utc_of(first t_s)`` when given); a
+        trip that cannot be built is counted, logged and dropped. Never raises."""
         if utc_of is not None and samples:
             try:
                 meta["start_utc"] = utc_of(samples[0].t_s)

@@ -20,8 +20,7 @@ _T = TypeVar("_T")
 @dataclass_transform(frozen_default=True)
 def cycle_value(cls: type[_T]) -> type[_T]:
     """A value the control cycle builds every 20 ms: immutable to the type checker, a plain
-    slotted dataclass at run time.
-    """
+    slotted dataclass at run time."""
     return dataclass(slots=True, unsafe_hash=True)(cls)
 
 

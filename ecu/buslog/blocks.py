@@ -76,8 +76,7 @@ def block_schema(
     ragged: Collection[str] = (),
 ) -> dict[str, Any]:
     """The JSON schema of a block whose ``columns`` map name -> (dtype, description), the
-    columns named in ``ragged`` of any length.
-    """
+    columns named in ``ragged`` of any length."""
     props: dict[str, Any] = {
         "n": {"type": "integer", "minimum": 0, "description": "rows in this block"},
         "dtypes": {

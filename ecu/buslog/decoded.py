@@ -44,10 +44,9 @@ def floats(values: Iterable[Any]) -> np.ndarray:
 def cycle_tables(
     cycles: bytes, in_width: int, width: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The tables of control cycles kept as float64 bytes, ``width`` values a cycle, one
-    cycle after the other: ``t_s``, the cycle index, ``in_width - 1`` inputs, the outputs.
-    (``t_s`` ``(n,)``, the inputs' rows ``(n, in_width)``: ``t_s`` then the inputs, the
-    outputs' rows: ``t_s``, the cycle index, the outputs)."""
+    """The control cycles kept as float64 bytes (``width`` values a cycle: ``t_s``, index, inputs,
+    outputs) as ``t_s`` ``(n,)``, the inputs' rows ``(n, in_width)`` (``t_s`` first) and the
+    outputs' rows (``t_s``, index, outputs)."""
     data = np.frombuffer(cycles, np.float64).reshape(-1, width)
     inputs = np.concatenate([data[:, :1], data[:, 2 : in_width + 1]], axis=1)
     outputs = np.concatenate([data[:, :2], data[:, in_width + 1 :]], axis=1)
@@ -90,10 +89,8 @@ class FrameBatch:
 
     @classmethod
     def of(cls, frames: Sequence[Any]) -> FrameBatch:
-        """The batch of the frames as the tap kept them (:data:`Tapped` of each frame one
-        after the other in one flat list, at least one frame). Read an attribute at a time
-        over all frames, packed by ``struct``/``bytes`` (cheaper than numpy's per-item
-        conversion); no per-frame Python code for a plain CAN frame."""
+        """The batch of the tapped frames (:data:`Tapped`, flat, at least one frame), read an
+        attribute at a time over all frames."""
         t, ids, flags, dlcs, lens, datas = _columns(frames)
         u8 = np.uint8
         return cls(

@@ -78,10 +78,9 @@ class ProtoRows:
         return out
 
     def format_into(self, table: np.ndarray, head: int = 0) -> np.ndarray:
-        """The rows of ``table`` (float64, shape ``(n, len(names))``) as messages: the rows
-        of a uint8 array ``(n, head + itemsize)``, each after ``head`` bytes left for the
-        caller (an MCAP message record's header). An integral field that is not finite is
-        written 0."""
+        """The rows of ``table`` (float64 ``(n, len(names))``) as messages: a uint8 array
+        ``(n, head + itemsize)``, each row after ``head`` bytes left for the caller (a record
+        header); a non-finite integral field is written 0."""
         n, width = len(table), len(self.names)
         values = np.array(table, dtype="<f8", order="C")  # a copy: the integral fields in place
         if len(self._ints):

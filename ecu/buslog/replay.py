@@ -214,10 +214,9 @@ def play(
     gap_s: float = 0.0001,
     skip_s: float = 60.0,
 ) -> PlayResult:
-    """Send the recording's frames (``which``: ``all``, ``rx`` the ones its node received,
-    ``tx`` the ones it sent) onto ``bus`` with their recorded spacing, and decode the ACC
-    commands that come back. ``skip_s``: longer pauses are cut to this (python-can's player
-    default). Stops early when ``stop()`` returns True."""
+    """Send the recording's frames (``which``: ``all``, ``rx``, ``tx``) onto ``bus`` with their
+    recorded spacing (pauses cut to ``skip_s``, s) and decode the ACC commands that come back;
+    stops early when ``stop()`` returns True."""
     codec = codec if codec is not None else codec_of(log)
     inbox = Inbox(codec, ("command",))
     result = PlayResult(frames_sent=0)

@@ -199,10 +199,8 @@ class CanLogWriter:
         self._events_seq += 1
 
     def cycle(self, t_s: float, inputs: NodeInputs, outputs: NodeOutputs, k: int = -1) -> None:
-        """ECU control cycle ``k``: its inputs and outputs on ``/ecu/inputs`` and
-        ``/ecu/outputs`` (``cycle`` the index on the node's cycle grid), its events on
-        ``/ecu/events``; flushes when due. Never raises: a failed write stops the recording
-        (:attr:`error`), not the node."""
+        """ECU control cycle ``k`` at ``t_s`` (s) on ``/ecu/inputs`` and ``/ecu/outputs``, its
+        events on ``/ecu/events``; flushes when due. Never raises: a failure stops the recording."""
         if self.error is not None:
             return
         try:  # written out: one call a cycle
@@ -324,10 +322,8 @@ class CanLogWriter:
     def write_series(
         self, topic: str, columns: Mapping[str, Iterable[Any]], t_s: Iterable[float]
     ) -> None:
-        """Write whole columns at once (e.g. the simulated world after a drive), one message
-        per row, a chunk every :data:`SERIES_STEP` rows; ``topic`` must be declared with the
-        columns' names. Nothing once the recording stopped (:attr:`error`: the first failure
-        is the one reported)."""
+        """Write whole columns of the declared ``topic`` at once (the simulated world after a
+        drive), a chunk every :data:`SERIES_STEP` rows; nothing once the recording stopped."""
         if topic not in self._series:
             raise KeyError(topic)
         if self.error is not None:

@@ -44,8 +44,7 @@ def cycle_time(now_s: float, last_now_s: float | None, cycle_s: float) -> tuple[
 class InputCheck:
     """The checked inputs of one cycle: the first invalid safety-relevant input (``NONE``: all
     valid), since when the inputs have been valid (s; None: not now), the HMI button levels (set,
-    resume, cancel) and the state machine's inputs.
-    """
+    resume, cancel) and the state machine's inputs."""
 
     fault: FaultCode
     valid_since_s: float | None
@@ -69,8 +68,7 @@ def check_inputs(
     has_set_speed: bool,
 ) -> InputCheck:
     """Validity, the hold time before re-engagement (``settle_s``), rising button edges
-    (``buttons``: last cycle's levels) and pedals, as the state machine's :class:`Events`.
-    """
+    (``buttons``: last cycle's levels) and pedals, as the state machine's :class:`Events`."""
     fault = input_fault(inp)
     valid = fault is FaultCode.NONE
     since = (now_s if valid_since_s is None else valid_since_s) if valid else None
@@ -126,8 +124,7 @@ def enter_state(
     config: EcuConfig,
 ) -> tuple[Engagement, bool]:
     """The engagement memory after the change ``old -> new`` (``new is not old``), and
-    whether the controller starts afresh (its integral reset).
-    """
+    whether the controller starts afresh (its integral reset)."""
     if new is AccState.FAULT:
         mem = Engagement(fault_code=fault, set_speed_mps=0.0, fault_ramp=old is AccState.ACTIVE)
     if new in ENGAGED and old in DISENGAGED:
