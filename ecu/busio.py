@@ -179,17 +179,11 @@ def _keyed(parts: Sequence[MessageCodec]) -> tuple[tuple[MessageCodec, int], ...
 
 
 class BusIO:
-    """The ECU's port on one bus: an Inbox for the input roles, an Outbox for its outputs.
-
-    Args:
-        bus: an open python-can bus (the caller owns and closes it).
-        codec: the network codec.
-        config: the node's configuration (what the outputs must be able to carry).
-        timeout_multiple: an input role times out after this many of its DBC periods.
+    """The ECU's port on ``bus`` (owned by the caller): an Inbox for the input roles (timing out
+    after ``timeout_multiple`` DBC periods), an Outbox for the outputs of a node of ``config``.
 
     Raises:
-        RuntimeCodecError: the codec cannot carry every output (:func:`check_outputs_fit`).
-    """
+        RuntimeCodecError: the codec cannot carry every output (:func:`check_outputs_fit`)."""
 
     def __init__(
         self, bus: can.BusABC, codec: Codec, config: EcuConfig, timeout_multiple: float = 10.0

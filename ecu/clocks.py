@@ -47,11 +47,7 @@ class FramePort(Protocol):
 
 
 class CycleClock:
-    """The cycle grid of one node and the two ways of running it (module docstring).
-
-    Args:
-        cycle_s: control period, s.
-    """
+    """The cycle grid of one node (period ``cycle_s``, s) and the two ways of running it."""
 
     def __init__(self, cycle_s: float) -> None:
         self.cycle_s = cycle_s

@@ -38,7 +38,7 @@ class EcuConfig:
             through the guard with ``controller_args`` / ``adaptation_args``; ``""``: the
             built-in PID (``controller``) / rule (``adaptation_params``) called directly.
         plugin_budget_s: wall-time budget of one plug-in call (None: 10 ms for a controller,
-            20 ms for an adaptation).
+            100 ms for an adaptation).
     """
 
     adaptation: bool = True

@@ -23,14 +23,10 @@ class ManualRecorder:
 
     Args:
         sink: receives each manual trip.
-        period_s: recording period, s (the takeover recorder's).
-        cycle_s: the control cycle, s (:func:`~dbc.vocab.sampling.keep_sample`; 0: the
-            takeover recorder's rule).
-        min_s: shortest stretch kept, s.
-        max_s: longest trip, s (a longer stretch is handed over in pieces).
-        meta: metadata copied into every trip (driver_id, condition, ...).
-        utc_of: as :class:`ecu.recorder.TakeoverRecorder`'s (``meta["start_utc"]``).
-    """
+        period_s / cycle_s: recording period and control cycle, s (``cycle_s`` 0: the takeover
+            recorder's rule, :func:`~dbc.vocab.sampling.keep_sample`).
+        min_s / max_s: shortest stretch kept, longest trip (longer ones in pieces), s.
+        meta / utc_of: as :class:`ecu.recorder.TakeoverRecorder`'s."""
 
     def __init__(
         self,

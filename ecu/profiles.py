@@ -53,12 +53,8 @@ def profile_path(profile_dir: Path, profile_id: int) -> Path:
 
 
 class ProfileSwitcher:
-    """Switches ``node`` to the profile the HMI asks for, once per change of the id.
-
-    Args:
-        node: the node whose table is switched.
-        profile_dir: the folder of ``profile_<n>.json`` files.
-    """
+    """Switches ``node`` to the profile the HMI asks for (``profile_dir/profile_<n>.json``), once
+    per change of the id."""
 
     def __init__(self, node: EcuNode, profile_dir: str | os.PathLike[str]) -> None:
         self.node = node

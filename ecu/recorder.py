@@ -84,14 +84,9 @@ def trip_of(samples: list[Sample], meta: dict[str, Any]) -> Trip:
 
 
 class SinkQueue:
-    """Trips on their way to a sink: a refused trip is kept (up to :data:`MAX_PENDING`) and
-    offered again, in order, at the next :meth:`put` and :meth:`store`; the sink's
-    exceptions are caught, logged and counted, never raised.
-
-    Args:
-        sink: receives each trip.
-        what: the trips' name in log lines ("takeover segment", "manual trip").
-    """
+    """Trips on their way to ``sink``: a refused trip is kept (up to :data:`MAX_PENDING`) and
+    offered again, in order; the sink's exceptions are logged and counted, never raised
+    (``what``: the trips' name in log lines)."""
 
     def __init__(self, sink: TripSink, what: str) -> None:
         self.sink = sink

@@ -56,13 +56,12 @@ class RuntimeSummary:
     plugin_faults: dict[str, int] = field(default_factory=dict)
 
     def __str__(self) -> str:
-        errors = ", ".join(f"{k} {v}" for k, v in sorted(self.e2e_errors.items())) or "none"
-        decisions = (
-            ", ".join(f"{k} {v}" for k, v in sorted(self.adaptation_decisions.items())) or "none"
-        )
-        faults = ", ".join(f"{k} {v}" for k, v in sorted(self.faults.items())) or "none"
-        stops = ", ".join(f"{k} {v}" for k, v in sorted(self.safety_stops.items())) or "none"
-        plugin = ", ".join(f"{k} {v}" for k, v in sorted(self.plugin_faults.items()))
+        def counts(d: dict[str, int]) -> str:
+            return ", ".join(f"{k} {v}" for k, v in sorted(d.items()))
+
+        errors, faults = counts(self.e2e_errors) or "none", counts(self.faults) or "none"
+        decisions = counts(self.adaptation_decisions) or "none"
+        stops, plugin = counts(self.safety_stops) or "none", counts(self.plugin_faults)
         return "\n".join(
             [
                 f"cycles:         {self.cycles}",

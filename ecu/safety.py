@@ -34,14 +34,8 @@ RULES = (NON_FINITE, NOT_ENGAGED, ENVELOPE, JERK)
 
 @dataclass(frozen=True, slots=True)
 class SafetyLimits:
-    """What may leave the ECU.
-
-    Attributes:
-        accel_min_mps2 / accel_max_mps2: the acceleration envelope, m/s^2.
-        jerk_rise_mps3: the fastest rise of an active request, m/s^3.
-        jerk_fall_mps3: the fastest fall of an active request, m/s^3.
-        tolerance_mps2: slack on every comparison, m/s^2 (float rounding).
-    """
+    """What may leave the ECU: the acceleration envelope (m/s^2), the fastest rise and fall of an
+    active request (m/s^3), the slack on every comparison (m/s^2, float rounding)."""
 
     accel_min_mps2: float = -3.5
     accel_max_mps2: float = 2.0
@@ -96,11 +90,7 @@ def vet(
 
 
 class CommandSafety:
-    """The check on one ECU's command frames, with its memory (the last request sent).
-
-    Args:
-        limits: what may leave the ECU.
-    """
+    """The check on one ECU's command frames, with its memory (the last request sent)."""
 
     def __init__(self, limits: SafetyLimits | None = None) -> None:
         self.limits = limits if limits is not None else SafetyLimits()

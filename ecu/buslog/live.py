@@ -48,16 +48,11 @@ def parse_address(text: str) -> tuple[str, int]:
 
 
 class FoxgloveSink:
-    """A :class:`~ecu.buslog.sinks.Sink` serving the channels on a Foxglove WebSocket server.
-
-    Args:
-        host: the address to listen on (default loopback).
-        port: the TCP port (0: any free one; :attr:`port` says which).
-        name: the server's name shown in Foxglove.
+    """A :class:`~ecu.buslog.sinks.Sink` serving the channels on a Foxglove WebSocket server on
+    ``host:port`` (port 0: any free one, :attr:`port` says which).
 
     Raises:
-        CanLogError: the server cannot start (port taken, foxglove-sdk missing).
-    """
+        CanLogError: the server cannot start (port taken, foxglove-sdk missing)."""
 
     def __init__(self, host: str = "127.0.0.1", port: int = 8765, name: str = "pacc") -> None:
         try:

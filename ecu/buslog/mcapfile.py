@@ -33,13 +33,7 @@ def _message_index(channel_id: int, parts: list[bytes]) -> bytes:
 
 
 class McapFile:
-    """An MCAP file written to ``stream`` (module docstring). Not thread-safe.
-
-    Args:
-        stream: a binary stream open for writing at its start.
-        profile: the header's profile.
-        library: the header's library.
-    """
+    """An MCAP file written to ``stream`` (open for writing at its start). Not thread-safe."""
 
     def __init__(self, stream: IO[bytes], profile: str, library: str) -> None:
         from mcap.records import Header  # noqa: PLC0415 - mcap only when a file is written

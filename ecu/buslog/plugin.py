@@ -41,13 +41,8 @@ class McapReader(MessageReader):
 
 
 class McapWriter(MessageWriter):
-    """python-can writer of a pacc bus recording.
-
-    Args:
-        file: the ``.mcap`` path.
-        dbc: the DBC whose messages get decoded channels (default: the packaged network).
-        flush_s: flush interval, s of message time.
-    """
+    """python-can writer of a pacc bus recording to the ``.mcap`` path ``file``, decoded by ``dbc``
+    (default: the packaged network), flushed every ``flush_s`` s of message time."""
 
     def __init__(
         self, file: Any, dbc: str | None = None, flush_s: float = FLUSH_S, **kwargs: Any

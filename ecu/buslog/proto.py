@@ -27,13 +27,8 @@ def _dtype(integral: Sequence[bool]) -> np.dtype:
 
 
 class ProtoRows:
-    """The protobuf message of one kind of row.
-
-    Args:
-        full_name: the message's full name, ``package.Message`` (e.g. ``dbc.ESC_Speed``).
-        names: the fields (identifiers), in the table's column order.
-        integral: per field, True for ``sfixed64`` (else ``double``).
-    """
+    """The protobuf message of one kind of row: ``full_name`` ``package.Message``, the fields'
+    ``names`` in the table's column order, ``integral`` per field (sfixed64, else double)."""
 
     def __init__(self, full_name: str, names: Sequence[str], integral: Sequence[bool]) -> None:
         self.full_name = full_name

@@ -31,16 +31,9 @@ from ecu.table_update import safety_filter, with_pedal
 
 @dataclasses.dataclass(frozen=True)
 class BayesParams:
-    """Parameters of :class:`BayesAdaptation` (units s and m/s; see the module docstring).
-
-    Attributes:
-        prior_sigma_s: prior standard deviation of the time gap, s (0.4 s: the spread of
-            preferred time gaps among the OpenACC drivers is about that).
-        obs_sigma_s: noise of one release gap as a time gap, s (0.3 s).
-        length_mps: correlation length over speed, m/s (15 m/s, as ``spread_speed_mps``).
-        process_sigma_s: drift added per update, s (0.05 s).
-        min_speed_mps: speeds below count as this one in time-gap space, m/s.
-    """
+    """Parameters of :class:`BayesAdaptation`: prior and observation standard deviations of the
+    time gap (s; 0.4 s about the spread of preferred time gaps among the OpenACC drivers), the
+    correlation length over speed (m/s), the drift per update (s), the slowest speed (m/s)."""
 
     prior_sigma_s: float = 0.4
     obs_sigma_s: float = 0.3
