@@ -78,7 +78,7 @@ class FoxgloveSink:
         """The WebSocket URL a Foxglove client connects to."""
         return f"ws://{self.host}:{self.port}"
 
-    def channel(self, spec: ChannelSpec) -> int:
+    def declare(self, spec: ChannelSpec) -> int:
         schema = self._fg.Schema(
             name=spec.schema_name, encoding=spec.schema_encoding, data=spec.schema_data
         )

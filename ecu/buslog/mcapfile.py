@@ -5,6 +5,7 @@ from __future__ import annotations
 import struct
 import zlib
 from collections import defaultdict
+from collections.abc import Mapping
 from typing import IO, Any
 
 import numpy as np
@@ -124,7 +125,7 @@ class McapFile:
         self._chunk_size += records.nbytes
         self._counts[channel_id] += n
 
-    def message(self, channel_id: int, seq: int, log_time: int, data: bytes) -> None:
+    def write_one(self, channel_id: int, seq: int, log_time: int, data: bytes) -> None:
         """Add one message (a raw block, an event) to the open chunk."""
         record = np.empty((1, _HEADER_BYTES + len(data)), np.uint8)
         record[0, _HEADER_BYTES:] = np.frombuffer(data, np.uint8)
@@ -184,7 +185,7 @@ class McapFile:
         )
         self._chunk, self._chunk_size, self._index = [], 0, defaultdict(list)
 
-    def attachment(self, log_time: int, name: str, media_type: str, data: bytes) -> None:
+    def attach(self, log_time: int, name: str, media_type: str, data: bytes) -> None:
         """Write an attachment (after ending the chunk in progress)."""
         from mcap.records import Attachment, AttachmentIndex  # noqa: PLC0415
 
@@ -205,12 +206,12 @@ class McapFile:
             )
         )
 
-    def metadata(self, name: str, values: dict[str, str]) -> None:
+    def metadata(self, name: str, values: Mapping[str, str]) -> None:
         """Write a metadata record (after ending the chunk in progress)."""
         from mcap.records import Metadata, MetadataIndex  # noqa: PLC0415
 
         self.flush()
-        start, length = self._record(Metadata(name=name, metadata=values))
+        start, length = self._record(Metadata(name=name, metadata=dict(values)))
         self._metadata_indexes.append(MetadataIndex(offset=start, length=length, name=name))
 
     def finish(self) -> None:

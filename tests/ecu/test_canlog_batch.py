@@ -147,7 +147,7 @@ def test_records_formatted_in_place_read_back_through_mcaps_reader() -> None:
     stream = io.BytesIO()
     f = McapFile(stream, profile="p", library="l")
     ch = f.channel("/r", "protobuf", f.schema("pacc.R", "protobuf", rows.descriptor()))
-    f.message(ch, 0, 5, b"one message first")
+    f.write_one(ch, 0, 5, b"one message first")
     f.records(ch, 1, t_ns, rows.format_into(table, RECORD_HEAD))
     f.finish()
     stream.seek(0)
