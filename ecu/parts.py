@@ -1,12 +1,8 @@
 """What an ACC node is built of, from its configuration: the plug-ins and the trip recorders.
 
-:class:`ecu.node.EcuNode` builds these once, when it is made:
-
-- :func:`plugins` — the guarded plug-in methods :class:`~ecu.config.EcuConfig` names (the gap
-  controller and the adaptation, each inside its wall-time budget; :mod:`ecu.methods.guard`);
-- :func:`recorders` — the takeover recorder (:class:`ecu.recorder.TakeoverRecorder`) and the
-  manual-driving recorder (:class:`ecu.manual.ManualRecorder`) for the sinks given, each with
-  the trip metadata of the table and the configuration.
+:func:`plugins`: the guarded plug-in methods :class:`~ecu.config.EcuConfig` names
+(:mod:`ecu.methods.guard`); :func:`recorders`: the takeover and manual-driving recorders for
+the sinks given, with the trip metadata of the table and the configuration.
 """
 
 from __future__ import annotations

@@ -1,11 +1,8 @@
 """Driver profiles: the HMI's ``DriverProfileId`` selects the DGPT the node runs on.
 
-``n > 0`` loads ``profile_dir/profile_<n>.json``; an invalid file is refused (the node keeps
-its last good table and reports FaultCode PROFILE), a missing one keeps the table; ``n = 0``
-(guest) returns to the table the node started with. The file is read in a worker thread,
-never in the control cycle (a FIFO, a slow disk or a huge file cannot stall the command
-frames; :func:`dbc.vocab.dgpt_file.load_dgpt` reads only a bounded regular file): the node
-runs on its current table until the load's outcome is applied at a later cycle. Nothing here
+``n > 0`` loads ``profile_dir/profile_<n>.json`` in a worker thread, never in the control
+cycle; an invalid file is refused (the node keeps its table and reports FaultCode PROFILE), a
+missing one keeps the table; ``n = 0`` (guest) returns to the startup table. Nothing here
 raises into the control loop.
 """
 

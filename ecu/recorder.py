@@ -1,14 +1,9 @@
 """The ECU's takeover recorder and the queue its trips, and the manual ones, go through.
 
-**Takeovers** (:class:`TakeoverRecorder`): a pre-trigger ring buffer and complete takeover
-segments for a sink.
-
-The node feeds one sample per cycle; the recorder keeps one every ``period_s`` (10 Hz by
-default) in a ring buffer holding the last ``pre_s`` seconds. When a takeover starts the
-buffer becomes the head of a new segment; samples are appended through the pedal release and
-a post window of ``post_s`` seconds, then the segment is handed to the sink as a
-:class:`dbc.vocab.triplog.Trip` with ``meta["mode"] == "takeover"``. A new takeover during
-the post window extends the open segment (its post window restarts at the next release).
+:class:`TakeoverRecorder` keeps one sample every ``period_s`` (s) in a ring buffer of the last
+``pre_s`` seconds; a takeover makes the buffer the head of a segment, which runs through the
+pedal release and ``post_s`` seconds after it (a takeover in that window extends it) and goes
+to the sink as a :class:`dbc.vocab.triplog.Trip` with ``meta["mode"] == "takeover"``.
 """
 
 from __future__ import annotations

@@ -1,15 +1,9 @@
 """The ECU runtime: wires a python-can bus, the codec, a clock and the log to an EcuNode.
 
-Thin wiring of three parts, one module each:
-
-- :mod:`ecu.busio` — bus I/O: frames -> :class:`~ecu.signals.NodeInputs` through the Inbox
-  (E2E, freshness, pedal scaling), :class:`~ecu.signals.NodeOutputs` -> ACC_Command every
-  cycle and ACC_Status every 5th (100 ms) through the Outbox; refuses a DBC that cannot carry
-  every output;
-- :mod:`ecu.profiles` — the HMI's driver profile id -> the node's table (``profile_dir``);
-- :mod:`ecu.clocks` — the cycle grid, run in **lockstep** (``rt.advance_to(now_s)``: the
-  simulator owns time; deterministic) or in **real time** (``rt.run_realtime(duration_s)``:
-  50 Hz on ``time.monotonic``; ``rt.stop()`` from another thread or a signal ends it).
+Thin wiring of :mod:`ecu.busio` (frames <-> node values, ACC_Command every cycle, ACC_Status
+every 100 ms), :mod:`ecu.profiles` (the HMI's driver profile -> the node's table) and
+:mod:`ecu.clocks` (the cycle grid in lockstep, ``rt.advance_to(now_s)``, or in real time,
+``rt.run_realtime(duration_s)`` at 50 Hz until ``rt.stop()``).
 """
 
 from __future__ import annotations

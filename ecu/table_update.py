@@ -1,15 +1,9 @@
 """How one applied takeover changes the DGPT: the spread, the safety filter, the pedal.
 
-The array mathematics of steps 3 and 4 of :mod:`ecu.adaptation` (which decides whether and
-toward which gap a takeover updates the table; :func:`ecu.adaptation.adapt` calls these):
-
-- the paper's window: the change at the centre bin spread with triangular weights
-  (:func:`spread_weights`);
-- the time-gap mode: the change made in time-gap space and spread over speed with Gaussian
-  weights (:func:`timegap_weights`, :func:`timegap_update`);
-- the safety filter: every bin clipped into the table's :class:`~dbc.vocab.dgpt.SafetyBounds`
-  (:func:`safety_filter`);
-- the pedal's direction: no bin moves against the pedal (:func:`with_pedal`).
+The array mathematics of steps 3 and 4 of :mod:`ecu.adaptation`: the paper's triangular window
+(:func:`spread_weights`), the time-gap mode's Gaussian spread over speed
+(:func:`timegap_weights`, :func:`timegap_update`), the safety filter (:func:`safety_filter`)
+and no bin moving against the pedal (:func:`with_pedal`). Gaps in m, speeds in m/s.
 """
 
 from __future__ import annotations

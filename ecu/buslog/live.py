@@ -1,13 +1,9 @@
 """The live view: the recorder's channels streamed to Foxglove over a WebSocket.
 
-``pacc ecu|sim|drive --foxglove [HOST:PORT]`` (loopback ``127.0.0.1:8765`` by default) starts
-the Foxglove SDK's WebSocket server (foxglove-sdk, subprotocol ``foxglove.sdk.v1``) and adds
-:class:`FoxgloveSink` to the recorder (:class:`ecu.buslog.writer.CanLogWriter`): the same
-channels, schemas and messages as the recording file, from the same code path, written
-when the recorder flushes (every ``flush_s`` of the node's clock). Open Foxglove, "Open
-connection", ``ws://HOST:PORT``. A message nobody subscribed to costs nothing
-(``Channel.has_sinks``); a client too slow to keep up loses the oldest messages
-(``message_backlog_size``), the node never waits.
+``pacc ecu|sim|drive --foxglove [HOST:PORT]`` (default ``127.0.0.1:8765``) starts the Foxglove
+SDK's server and adds :class:`FoxgloveSink` to the recorder: the channels and messages of the
+recording file, sent at each flush. A channel nobody subscribed to costs nothing; a slow
+client loses the oldest messages (``message_backlog_size``), the node never waits.
 """
 
 from __future__ import annotations

@@ -1,13 +1,9 @@
 """The control phase of one cycle: the acceleration request and the controller's memory.
 
-:func:`control` is the sixth phase of :mod:`ecu.cycle.phases` (which re-exports it for
-:class:`ecu.node.EcuNode`): while ACTIVE, the PID gap law of :mod:`ecu.controller` (or a plug-in
-:data:`GapLaw`) capped by cruise, bounded by the closing and stopping limits
-(:mod:`ecu.cycle.stops`) and the road rules (:mod:`ecu.cycle.road`), then the envelope and jerk
-limits with the emergency exception; otherwise the request ramps toward zero (in OVERRIDE it
-follows, or prepares, the braking the ACC would take over with). Accelerations in m/s^2, times in s.
-
-Pure: values in, values out; no clock, no bus, no logging.
+While ACTIVE: the PID gap law of :mod:`ecu.controller` (or a plug-in :data:`GapLaw`) capped by
+cruise, bounded by the closing and stopping limits (:mod:`ecu.cycle.stops`) and the road rules
+(:mod:`ecu.cycle.road`), then the envelope and jerk limits; otherwise the request ramps toward
+zero (in OVERRIDE it follows the braking the ACC would take over with). Pure; m/s^2 and s.
 """
 
 from __future__ import annotations

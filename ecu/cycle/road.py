@@ -1,14 +1,11 @@
 """The road rules of the control law: target switches, lead loss, standstill.
 
-A jump of the radar gap that the relative speed cannot explain is a *target switch* (a
-cut-in, a cut-out revealing the vehicle ahead, a new lead after a free road): the integral of
-the old target is dropped and the switch's time is kept (the adaptation does not learn from a
-takeover that starts right after one). A lead lost for less than ``lead_loss_hold_s`` (a radar
-confirming a new track drops ``LeadValid`` briefly) does not make the car accelerate toward
-the set speed. At a standstill behind a lead the request holds the car (``hold_accel_mps2``);
-it pulls away when the lead departs within ``auto_resume_s`` of stopping, else only on the
-driver's RESUME or accelerator (ISO 15622's full-speed-range ACC: resuming after a stop needs
-the driver).
+A radar gap jump the relative speed cannot explain is a *target switch* (cut-in, cut-out, new
+lead): the old target's integral is dropped and its time kept (the adaptation skips a takeover
+right after one). A lead lost for less than ``lead_loss_hold_s`` does not make the car speed
+up. At a standstill the request holds the car (``hold_accel_mps2``); it pulls away on its own
+only when the lead departs within ``auto_resume_s``, else on RESUME or the accelerator
+(ISO 15622 full-speed-range ACC).
 """
 
 from __future__ import annotations
