@@ -202,6 +202,12 @@ def against_pedal(pedal: str, change_m: float) -> bool:
     return (pedal == "accel" and change_m > 0.0) or (pedal == "brake" and change_m < 0.0)
 
 
+def centre_bin(table: Dgpt, v_mps: float) -> int:
+    """The speed bin of ``table`` nearest ``v_mps`` (m/s), clipped to the axis."""
+    centre = int(round((v_mps - float(table.speed_mps[0])) / table.step_mps))
+    return min(max(centre, 0), table.speed_mps.size - 1)
+
+
 def adapt(
     table: Dgpt,
     summary: TakeoverSummary,
@@ -220,8 +226,7 @@ def adapt(
         return table, Decision(applied=False, reason=reason)
     g_desire = predict_steady_gap(summary, params)
     speed = table.speed_mps
-    centre = int(round((summary.v_mps - float(speed[0])) / table.step_mps))
-    centre = min(max(centre, 0), speed.size - 1)
+    centre = centre_bin(table, summary.v_mps)
     if against_pedal(summary.pedal, g_desire - float(table.gap_m[centre])):
         return table, Decision(applied=False, reason=Reason.AGAINST_PEDAL, g_desire_m=g_desire)
     if params.mode == "timegap":

@@ -24,6 +24,7 @@ from ecu.adaptation import (
     TakeoverSummary,
     against_pedal,
     behaviour_filter,
+    centre_bin,
     predict_steady_gap,
 )
 from ecu.table_update import safety_filter, with_pedal
@@ -85,8 +86,7 @@ class BayesAdaptation:
         if self._table is not table or self._cov is None:  # a new table: a fresh belief
             self._cov = prior_covariance(speed, self.params.prior_sigma_s, self.params)
         g_desire = predict_steady_gap(takeover, self.rule)
-        centre = int(round((takeover.v_mps - float(speed[0])) / table.step_mps))
-        centre = min(max(centre, 0), speed.size - 1)
+        centre = centre_bin(table, takeover.v_mps)
         if against_pedal(takeover.pedal, g_desire - float(table.gap_m[centre])):
             return None, Decision(applied=False, reason=Reason.AGAINST_PEDAL, g_desire_m=g_desire)
         p = self.params
