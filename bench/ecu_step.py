@@ -167,7 +167,7 @@ def bench_realtime(seconds: float) -> tuple[np.ndarray, float, str]:
     finally:
         stop.set()
         player.join()
-    periods = np.diff(np.asarray(rt.cycle_starts))
+    periods = np.diff(np.asarray(rt.clock.starts))
     return np.abs(periods - DT), rt.max_cycle_s, node.state.name
 
 

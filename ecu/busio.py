@@ -70,11 +70,7 @@ def check_outputs_fit(codec: Codec, config: EcuConfig) -> None:
 
 
 def inputs_from(inbox: Inbox, now_s: float, pedals: PedalScale) -> NodeInputs:
-    """The node's inputs from ``inbox`` at ``now_s``: latest values plus freshness.
-
-    A role that never delivered a usable frame is not ok; one that stopped is not ok once it
-    timed out (its last values are still reported).
-    """
+    """The node's inputs from ``inbox`` at ``now_s``: latest values plus freshness."""
     latest, fresh = inbox.latest, inbox.fresh
     # each role's values, or NodeInputs' defaults and not ok when it never delivered one
     ego = latest("ego")
@@ -183,21 +179,11 @@ def _keyed(parts: Sequence[MessageCodec]) -> tuple[tuple[MessageCodec, int], ...
 
 
 class BusIO:
-    """The ECU's port on one bus: an Inbox for the input roles, an Outbox for its outputs.
-
-    Frames travel in :mod:`dbc.frame`'s form through the bus's port
-    (:func:`dbc.frame.port_of`: the lockstep bus's own, else python-can messages converted
-    at the edge).
-
-    Args:
-        bus: an open python-can bus (the caller owns and closes it).
-        codec: the network codec.
-        config: the node's configuration (what the outputs must be able to carry).
-        timeout_multiple: an input role times out after this many of its DBC periods.
+    """The ECU's port on ``bus`` (owned by the caller): an Inbox for the input roles (timing out
+    after ``timeout_multiple`` DBC periods), an Outbox for the outputs of a node of ``config``.
 
     Raises:
-        RuntimeCodecError: the codec cannot carry every output (:func:`check_outputs_fit`).
-    """
+        RuntimeCodecError: the codec cannot carry every output (:func:`check_outputs_fit`)."""
 
     def __init__(
         self, bus: can.BusABC, codec: Codec, config: EcuConfig, timeout_multiple: float = 10.0
@@ -220,8 +206,6 @@ class BusIO:
         #: called with (time, key, payload, received) for every frame in and out (a bus
         #: recorder's :meth:`~ecu.buslog.writer.CanLogWriter.frame_raw`; :mod:`dbc.frame`)
         self.tap: Callable[[float, int, Any, bool], None] | None = None
-
-    # -- receive -------------------------------------------------------------------------
 
     def drain(self, now_s: float) -> None:
         """Feed every frame waiting on the bus to the Inbox, stamped ``now_s``."""
@@ -254,8 +238,6 @@ class BusIO:
         hmi = self.inbox.latest("hmi")
         return None if hmi is None else int(hmi["profile_id"])
 
-    # -- send ----------------------------------------------------------------------------
-
     def send(self, t_s: float, out: NodeOutputs, *, status: bool) -> NodeOutputs:
         """Send ACC_Command (and ACC_Status if ``status``) stamped ``t_s``; the outputs as
         sent (after the safety check: ``out`` itself when it passed). Never raises: an
@@ -276,15 +258,3 @@ class BusIO:
             self.send_errors += 1
             log.error("t=%.2f send failed: %s", t_s, exc)
         return out
-
-
-__all__ = [
-    "INPUT_ROLES",
-    "BusIO",
-    "OutputLimits",
-    "RuntimeCodecError",
-    "check_outputs_fit",
-    "command_values",
-    "inputs_from",
-    "status_values",
-]

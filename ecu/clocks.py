@@ -1,16 +1,10 @@
 """The two clocks that run the ECU's control cycles: lockstep and real time.
 
-Both keep one cycle grid, ``t0 + k * cycle_s``, fixed by the first call, and call a cycle
-function with each cycle's time and index:
-
-- **lockstep** (:meth:`CycleClock.advance_to`) — the simulator owns time. After it has put
-  its frames on the bus it calls ``advance_to(now_s)``: every pending frame is drained and
-  stamped ``now_s``, then every cycle due up to ``now_s`` runs. Deterministic, as fast as the
-  CPU allows. A jump of more than :data:`MAX_CATCHUP_S` skips the missed cycles.
-- **real time** (:meth:`CycleClock.run_realtime`) — cycles from ``time.monotonic``; between
-  cycles the clock blocks in the port's receive until the next deadline, stamping frames
-  with their arrival time. Overruns of more than one period skip the missed cycles.
-  :meth:`CycleClock.stop` (another thread, a signal handler) ends it.
+Both keep one cycle grid, ``t0 + k * cycle_s`` (s), fixed by the first call. **Lockstep**
+(:meth:`CycleClock.advance_to`): the simulator owns time; pending frames are stamped
+``now_s``, then every cycle due runs (a jump over :data:`MAX_CATCHUP_S` skips the missed
+cycles). **Real time** (:meth:`CycleClock.run_realtime`): cycles from ``time.monotonic``,
+blocking in the port's receive between deadlines; :meth:`CycleClock.stop` ends it.
 """
 
 from __future__ import annotations
@@ -53,11 +47,7 @@ class FramePort(Protocol):
 
 
 class CycleClock:
-    """The cycle grid of one node and the two ways of running it (module docstring).
-
-    Args:
-        cycle_s: control period, s.
-    """
+    """The cycle grid of one node (period ``cycle_s``, s) and the two ways of running it."""
 
     def __init__(self, cycle_s: float) -> None:
         self.cycle_s = cycle_s
@@ -70,8 +60,6 @@ class CycleClock:
         self.starts: deque[float] = deque(maxlen=MAX_CYCLE_STARTS)
         self._max_catchup = int(MAX_CATCHUP_S / cycle_s)
         self._stop = threading.Event()
-
-    # -- lockstep ------------------------------------------------------------------------
 
     def advance_to(self, now_s: float, port: FramePort, run_cycle: RunCycle) -> None:
         """Drain ``port`` at ``now_s`` and run every cycle due up to ``now_s``.
@@ -102,8 +90,6 @@ class CycleClock:
             run_cycle(t, self.k)
             self.k += 1
 
-    # -- real time -----------------------------------------------------------------------
-
     def run_realtime(
         self,
         duration_s: float | None,
@@ -111,42 +97,28 @@ class CycleClock:
         run_cycle: RunCycle,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
-        """Run cycles on ``clock`` for ``duration_s`` s (None: until :meth:`stop`).
-
-        A :meth:`stop` that came before the run ends it at once (a SIGTERM arriving as it
-        starts is not lost); the stop is consumed when the run returns.
-        """
+        """Run cycles on ``clock`` for ``duration_s`` s (None: until :meth:`stop`)."""
         if duration_s is not None and not duration_s >= 0.0:
             raise RuntimeClockError(f"run_realtime: duration must be >= 0 s, got {duration_s}")
         try:
-            self._run_realtime(duration_s, port, run_cycle, clock)
+            start = clock()
+            self.t0 = start if self.t0 is None else self.t0
+            first_k = self.k
+            end = math.inf if duration_s is None else start + duration_s
+            next_t = start
+            while not self._stop.is_set():
+                now = clock()
+                while now < next_t:
+                    now = port.receive(next_t - now, clock)
+                if now >= end:
+                    break
+                self.starts.append(now)
+                port.drain(now)
+                run_cycle(now, self.k)
+                self.k += 1
+                next_t = self._skip_overrun(start + (self.k - first_k) * self.cycle_s, clock())
         finally:
             self._stop.clear()  # consumed: the next run starts afresh
-
-    def _run_realtime(
-        self,
-        duration_s: float | None,
-        port: FramePort,
-        run_cycle: RunCycle,
-        clock: Callable[[], float],
-    ) -> None:
-        start = clock()
-        self.t0 = start if self.t0 is None else self.t0
-        first_k = self.k
-        end = math.inf if duration_s is None else start + duration_s
-        next_t = start
-        while not self._stop.is_set():
-            now = clock()
-            while now < next_t:
-                now = port.receive(next_t - now, clock)
-            if now >= end:
-                break
-            self.starts.append(now)
-            port.drain(now)
-            run_cycle(now, self.k)
-            self.k += 1
-            next_t = start + (self.k - first_k) * self.cycle_s
-            next_t = self._skip_overrun(next_t, clock())
 
     def _skip_overrun(self, next_t: float, now: float) -> float:
         """The next deadline, moved past the missed ones if the loop overran by more than a
@@ -162,13 +134,3 @@ class CycleClock:
         """Ask :meth:`run_realtime` to return after the current cycle, or at once if called
         before it starts (thread-safe, signal-safe)."""
         self._stop.set()
-
-
-__all__ = [
-    "MAX_CATCHUP_S",
-    "MAX_CYCLE_STARTS",
-    "CycleClock",
-    "FramePort",
-    "RunCycle",
-    "RuntimeClockError",
-]

@@ -25,35 +25,20 @@ class ConfigError(EcuError):
 
 @dataclass(frozen=True)
 class EcuConfig:
-    """Configuration of the ACC node (frozen; validated on construction).
+    """Configuration of the ACC node (frozen; validated on construction; units in the names).
 
     Attributes:
-        adaptation: run the online DGPT adaptation at each takeover release.
-        brake_mode: ``"resume"`` (brake = override, resume on release: the paper's study) or
-            ``"cancel"`` (brake returns to STANDBY: production behaviour).
-        adaptation_params: Algorithm 1 parameters.
-        controller: PID gains and envelope.
-        bounds: DGPT safety bounds (for loading tables, and the adaptation's safety filter).
-        cycle_s: control period, s (ACC_Command every cycle).
-        status_period_s: ACC_Status period, s.
-        settle_s: inputs must be valid this long before SET re-engages, s.
-        set_speed_mps: if given, SET engages with this set speed, m/s (car-following studies
-            set it above every lead speed); None: SET takes the current speed, capped at
-            ``max_set_speed_mps``.
-        max_set_speed_mps: the highest set speed the ACC accepts, m/s (default 50 m/s =
-            180 km/h, a production value). A property of the function, not of the network:
-            the runtime refuses a DBC whose ``ACC_Status`` cannot carry it.
-        record_period_s / pre_trigger_s / post_trigger_s: takeover recorder, s.
+        brake_mode: ``"resume"`` (brake = override, the paper's study) or ``"cancel"`` (brake
+            returns to STANDBY: production behaviour).
+        set_speed_mps: if given, SET engages with this set speed; None: the current speed,
+            capped at ``max_set_speed_mps``.
+        settle_s: inputs must be valid this long before SET re-engages.
         trip_meta: metadata copied into every takeover segment (driver_id, seed, ...).
-        gap_controller: a gap controller by spec (:mod:`ecu.methods`: ``"pid"``, an entry
-            point of ``pacc.controllers`` or ``module:attribute``), called through the guarded
-            plug-in interface with ``controller_args``; ``""``: the built-in PID called
-            directly (``controller``'s gains).
-        adaptation_method: an adaptation by spec (``"timegap"``, ``"paper"``, ``"bayes"``, an
-            entry point of ``pacc.adaptations`` or ``module:attribute``) with
-            ``adaptation_args``; ``""``: the built-in rule of ``adaptation_params`` directly.
-        plugin_budget_s: wall-time budget of one plug-in call, s (None: 10 ms for a
-            controller, 20 ms for an adaptation; :mod:`ecu.methods.guard`).
+        gap_controller / adaptation_method: a plug-in by spec (:mod:`ecu.methods`), called
+            through the guard with ``controller_args`` / ``adaptation_args``; ``""``: the
+            built-in PID (``controller``) / rule (``adaptation_params``) called directly.
+        plugin_budget_s: wall-time budget of one plug-in call (None: 10 ms for a controller,
+            100 ms for an adaptation).
     """
 
     adaptation: bool = True
@@ -96,6 +81,3 @@ class EcuConfig:
         top = self.max_set_speed_mps
         if self.set_speed_mps is not None and not 0.0 <= self.set_speed_mps <= top:
             raise ConfigError(f"set_speed_mps must be within 0..max_set_speed_mps ({top:g} m/s)")
-
-
-__all__ = ["MAX_DT_S", "MAX_SET_SPEED_MPS", "ConfigError", "EcuConfig"]

@@ -10,27 +10,6 @@ where ``v_f - v`` is the radar's relative speed (the relative-speed term) and ``
 lead acceleration when the radar reports one. Without a valid lead the car cruises:
 ``a_cruise = K_cruise * (v_set - v)``; with a lead the command is ``min(a_gap, a_cruise)`` so
 the set speed is never exceeded. Gains are (breakpoint, value) tables over ego speed.
-
-Anti-windup: the integral ``I`` (m*s) only runs while the gap law is in control (ACTIVE, lead
-valid, not capped by cruise), is frozen while the output sits at an acceleration limit in the
-direction the error pushes, and is clamped to ``+-integral_limit_m_s``.
-
-Envelope (:func:`limit_command`): every emitted request lies in ``[accel_min, accel_max]``
-(-3.5 ... +2.0 m/s^2, ISO 15622) and moves by at most ``jerk_max * dt`` per cycle (2.5 m/s^3).
-Emergency exception: when a valid lead is closing with a time-to-collision below
-``emergency_ttc_s`` (3 s), the request may *decrease* at up to ``emergency_jerk_mps3``
-(10 m/s^3) so braking builds quickly; the acceleration bounds still hold and releasing the
-brake stays limited to ``jerk_max``. In the same condition the request is at most
-:func:`closing_limit_mps2` against the table's lower safety bound at the lead's speed (issue
-11): the PID alone eased its braking once the lead stopped slowing, while the gap was still
-closing at 4 m/s with 1.9 s to collision. Behind a lead braking so hard that stopping behind
-it, were it to brake to a standstill, would need more than 2 m/s^2, the emergency build-up
-applies at any TTC (:func:`ecu.cycle.stops.lead_stop_need_mps2`,
-:func:`ecu.cycle.command.control`).
-
-The road rules (target switches, lead loss, standstill) are :mod:`ecu.cycle.road`; their
-parameters, :class:`RoadParams`, sit here in ``ControllerParams.road``.
-
 """
 
 from __future__ import annotations
@@ -96,13 +75,9 @@ class RoadParams:
         hold_accel_mps2: the request that holds a standing car, m/s^2 (< 0).
         auto_resume_s: a stop shorter than this resumes on its own when the lead departs, s.
         depart_rel_mps: the lead departs when it pulls away faster than this, m/s.
-        stop_lead_mps: behind a lead slower than this (stopping, stopped, crawling) the
-            request is at most the closing limit against the table's gap at the lead's
-            speed: the car stops at its standstill gap, not at the safety floor, m/s.
-        lead_stop_horizon_s: a braking lead that stands within this time at its current
-            deceleration is one to stop behind (the stopping limit applies), s. 4 s: the
-            stop-and-go scenario needed it (3 s let the approach fall to 1.8 s TTC); the
-            canonical Table I drives, whose leads never stop, are unchanged by it.
+        stop_lead_mps: behind a lead slower than this the car stops at its standstill gap, m/s.
+        lead_stop_horizon_s: a braking lead that stands within this time is one to stop
+            behind, s.
     """
 
     switch_jump_m: float = 3.0
@@ -188,23 +163,8 @@ class ControllerParams:
 
 @dataclass(frozen=True, slots=True)
 class ControlInput:
-    """What the controller sees in one cycle (all finite; the node checks validity).
-
-    Frozen at run time, unlike the other values of a cycle (:func:`ecu.signals.cycle_value`):
-    it is handed to gap-controller plug-ins, code the type checker never sees, and the ECU's
-    own limits must not read what a plug-in wrote into it.
-
-    Attributes:
-        v_mps: ego speed, m/s.
-        a_mps2: measured ego acceleration, m/s^2.
-        set_speed_mps: cruise set speed, m/s.
-        lead_valid: a lead is tracked.
-        gap_m: gap to the lead, m (ignored without a lead).
-        rel_speed_mps: lead speed minus ego speed, m/s.
-        lead_accel_mps2: lead acceleration, m/s^2 (0 when unavailable).
-        desired_gap_m: DGPT(v), m.
-        desired_gap_slope_s: dDGPT/dv at v, s.
-    """
+    """What the controller sees in one cycle (all finite; units in the names; ``gap_m``
+    ignored without a lead; ``rel_speed_mps`` lead minus ego; ``desired_gap_slope_s`` dDGPT/dv)."""
 
     v_mps: float
     a_mps2: float
@@ -230,8 +190,7 @@ def closing_limit_mps2(
     """The constant acceleration (m/s^2) that matches the lead's speed just as the gap shrinks
     to ``floor_gap_m``: ``a_f - dv^2 / (2 (g - g_floor))`` with ``dv`` the closing speed
     (the deceleration rate to avoid a crash, measured against the floor instead of contact).
-    ``inf`` when not closing; the margin ``g - g_floor`` counts as at least ``MIN_MARGIN_M``.
-    """
+    ``inf`` when not closing; the margin ``g - g_floor`` counts as at least ``MIN_MARGIN_M``."""
     if rel_speed_mps >= 0.0:
         return math.inf
     margin = gap_m - floor_gap_m
@@ -262,10 +221,7 @@ def desired_accel(
     *,
     integrate: bool,
 ) -> tuple[float, float]:
-    """The unlimited acceleration request and the next integral: ``(accel_mps2, integral_m_s)``.
-
-    ``integrate`` False freezes the integral (override, standby, fault).
-    """
+    """The unlimited acceleration request and the next integral: ``(accel_mps2, integral_m_s)``."""
     v = obs.v_mps
     a_cruise = params.k_cruise_per_s * (obs.set_speed_mps - v)
     if not obs.lead_valid:
@@ -290,10 +246,7 @@ def desired_accel(
 def limit_command(
     params: ControllerParams, prev_mps2: float, target_mps2: float, dt_s: float, *, emergency: bool
 ) -> float:
-    """Clip ``target_mps2`` into the envelope and rate-limit it from ``prev_mps2``.
-
-    A non-finite target is treated as 0 (the safe direction of a ramp).
-    """
+    """Clip ``target_mps2`` into the envelope and rate-limit it from ``prev_mps2``."""
     if not math.isfinite(target_mps2):
         target_mps2 = 0.0
     lo, hi = params.accel_min_mps2, params.accel_max_mps2
@@ -307,19 +260,3 @@ def limit_command(
     out = rise if out > rise else out
     out = lo if out < lo else out
     return hi if out > hi else out
-
-
-__all__ = [
-    "ACCEL_MAX_MPS2",
-    "ACCEL_MIN_MPS2",
-    "ControlInput",
-    "ControllerError",
-    "ControllerParams",
-    "RoadParams",
-    "closing_limit_mps2",
-    "desired_accel",
-    "interp",
-    "limit_command",
-    "stopping_limit_mps2",
-    "time_to_collision_s",
-]

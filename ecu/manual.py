@@ -1,24 +1,5 @@
 """The ECU's manual-driving recorder: the driver's car-following stretches as trip logs, the
 demonstrations the cloud learns from, recorded on the vehicle as in the paper.
-
-The node offers the takeover recorder's samples (:mod:`ecu.recorder`), each with the cycle's
-input check; :class:`ManualRecorder` keeps the first cycle at least ``period_s`` less half a
-cycle after the last kept one (:func:`dbc.vocab.sampling.keep_sample`: in real time, where
-cycles jitter, every 5th 20-ms cycle, never drifting to the 6th as the takeover recorder's
-``period_s - 1 µs`` may; in lockstep both keep the same cycles). A kept sample is *manual
-car-following* when the ACC is not engaged (OFF or STANDBY), a lead is valid and the inputs
-the demonstration needs are good (speed, pedals and radar fresh, passed E2E and finite:
-:func:`manual_inputs_ok`). A run of such samples is one stretch; a stretch of at least
-``min_s`` (``count × period_s``, default :data:`~dbc.vocab.sampling.MANUAL_MIN_S`) becomes
-one trip log with ``meta["mode"] == "manual"`` (the takeover segments' format and
-metadata), a stretch reaching ``max_s`` (:data:`~dbc.vocab.sampling.MANUAL_MAX_S`) is
-handed over and the next sample starts a new one (a bounded buffer on the vehicle).
-``pacc demos extract`` cuts a bus log of the same drive the same way
-(:mod:`cloud_sync.irl.sources.bus_demos`).
-
-The trips go to the sink through the takeover segments' queue (:class:`ecu.recorder.SinkQueue`):
-a sink that raises is retried at the next trip and at :meth:`ManualRecorder.flush`, never
-raised into the control loop.
 """
 
 from __future__ import annotations
@@ -32,18 +13,9 @@ from dbc.vocab.sampling import MANUAL_MAX_S, MANUAL_MIN_S, PERIOD_EPS_S, keep_in
 from dbc.vocab.tripmode import TripMode
 from ecu.recorder import RecorderError, Sample, SinkQueue, TripSink
 
-__all__ = ["ManualRecorder", "manual_inputs_ok"]
-
 _NOT_ENGAGED = (int(AccState.OFF), int(AccState.STANDBY))
 #: input faults a manual demonstration does not care about (the buttons' HMI frame)
 _MANUAL_OK = (FaultCode.NONE, FaultCode.HMI_INPUT)
-
-
-def manual_inputs_ok(fault: FaultCode) -> bool:
-    """True when a cycle's input check (:func:`ecu.signals.input_fault`) leaves what a manual
-    demonstration needs good: speed, pedals and radar fresh, passed E2E and finite (a stale
-    HMI, the buttons, does not matter)."""
-    return fault in _MANUAL_OK
 
 
 class ManualRecorder:
@@ -51,14 +23,10 @@ class ManualRecorder:
 
     Args:
         sink: receives each manual trip.
-        period_s: recording period, s (the takeover recorder's).
-        cycle_s: the control cycle, s (:func:`~dbc.vocab.sampling.keep_sample`; 0: the
-            takeover recorder's rule).
-        min_s: shortest stretch kept, s.
-        max_s: longest trip, s (a longer stretch is handed over in pieces).
-        meta: metadata copied into every trip (driver_id, condition, ...).
-        utc_of: as :class:`ecu.recorder.TakeoverRecorder`'s (``meta["start_utc"]``).
-    """
+        period_s / cycle_s: recording period and control cycle, s (``cycle_s`` 0: the takeover
+            recorder's rule, :func:`~dbc.vocab.sampling.keep_sample`).
+        min_s / max_s: shortest stretch kept, longest trip (longer ones in pieces), s.
+        meta / utc_of: as :class:`ecu.recorder.TakeoverRecorder`'s."""
 
     def __init__(
         self,

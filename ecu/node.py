@@ -1,31 +1,11 @@
 """The ACC node: ``EcuNode.step(inputs, now_s) -> outputs``, pure of I/O.
 
-One call per 20 ms control cycle: read the checked inputs (the runtime builds
-:class:`NodeInputs` from the bus; tests and the simulator may build them directly), run the
-engagement state machine, track takeovers (record them, adapt the DGPT at pedal release),
-plan, control within the envelope and return :class:`NodeOutputs`. Each phase is a pure
-function of :mod:`ecu.cycle.phases`; the node holds the state between cycles and wires them. The
-node never touches a bus, a clock or a file; the only I/O is the optional takeover and manual
-trip sinks, injected.
-
-Usage (the simulator drives it in lockstep through :class:`ecu.runtime.EcuRuntime`)::
-
-    from ecu.node import EcuNode, EcuConfig
-    node = EcuNode(EcuConfig(adaptation=True, brake_mode="resume"), predefined(1.5))
-    out = node.step(NodeInputs(...), now_s)
-    node.table, node.takeovers, node.adaptations
-
-Safety behaviour:
-- an invalid input (stale, failed E2E, flagged invalid or non-finite) while ACTIVE or
-  OVERRIDE goes to FAULT: the request ramps to zero within the jerk limit while
-  ``request_active`` stays 1, then goes inactive; ``takeover_request`` is set in FAULT;
-- engaged (ACTIVE or OVERRIDE), ``takeover_request`` is also set while the braking needed
-  exceeds what the ACC may command (:func:`ecu.cycle.stops.beyond_authority`), as a
-  production ACC asks at its limit; each such request is counted (``limit_requests``);
-- every emitted request is inside the envelope and rate-limited, active or not;
-- outside ACTIVE (and the FAULT ramp) the request is inactive;
-- a FAULT forgets the set speed: only SET re-engages afterwards (RESUME has nothing to
-  resume, also after CANCEL or the main switch off and on).
+One call per 20 ms control cycle: the engagement state machine, takeovers (recorded, the DGPT
+adapted at pedal release), plan and control within the envelope, each phase a pure function
+of :mod:`ecu.cycle.phases`; the node holds the state between cycles. It never touches a bus,
+a clock or a file; the trip sinks are injected. An invalid input while engaged goes to FAULT
+(the request ramps to zero within the jerk limit); ``takeover_request`` is set in FAULT and
+while the braking needed exceeds the ACC's authority (counted in ``limit_requests``).
 """
 
 from __future__ import annotations
@@ -78,13 +58,10 @@ class EcuNode:
     Args:
         config: node configuration.
         table: the DGPT to start with.
-        takeover_sink: receives each recorded takeover segment; None disables recording.
-        utc_now: clock giving the ISO 8601 ``created_utc`` of adapted tables (injected so a
-            lockstep drive can make its tables reproducible; default: the wall clock).
-        utc_of: maps the node's clock (s) to ISO 8601 UTC, for the takeover segments'
-            ``start_utc`` (None: segments carry the node's clock only, as lockstep drives).
-        manual_sink: receives each manual car-following trip (:class:`ManualRecorder`);
-            None disables it.
+        takeover_sink / manual_sink: receive the takeover segments and the manual
+            car-following trips (None: not recorded).
+        utc_now: the ISO 8601 ``created_utc`` of adapted tables (default: the wall clock).
+        utc_of: maps the node's clock (s) to ISO 8601 UTC for the segments' ``start_utc``.
         manual_min_s: the shortest manual stretch recorded, s.
     """
 
@@ -153,10 +130,7 @@ class EcuNode:
         return self._applied
 
     def step(self, inp: NodeInputs, now_s: float) -> NodeOutputs:
-        """Run one control cycle at time ``now_s`` (s, monotonic); never raises on bad input.
-
-        A non-finite ``now_s`` (a host clock fault) is taken as no time passing since the
-        previous cycle. The phases are the pure functions of :mod:`ecu.cycle.phases`, in order."""
+        """Run one control cycle at time ``now_s`` (s, monotonic); never raises on bad input."""
         config = self.config
         events = self._pending_events
         self._pending_events = []
@@ -192,31 +166,22 @@ class EcuNode:
         )
 
     def report_profile_fault(self, message: str = "") -> None:
-        """The requested profile was refused: report FaultCode PROFILE on the status.
-
-        The node keeps running on the table it has (the last good one, or the predefined
-        fallback); the code shows whenever no input fault is being reported. ``message``
-        appears among the next step's events.
-        """
+        """The requested profile was refused: report FaultCode PROFILE on the status."""
         self._profile_fault = True
         if message:
             self._pending_events.append(message)
 
     def set_table(self, table: Dgpt, message: str = "") -> None:
         """Use ``table`` from the next cycle on (a driver profile switch); clears the profile
-        fault; takeover segments started from now on carry the table's driver and condition
-        (unless ``trip_meta`` fixes them). The request's jerk limit smooths the change of the
-        desired gap."""
+        fault; later trips carry its driver and condition (unless ``trip_meta`` sets them)."""
         self._table = table
         self._profile_fault = False
+        ids = {"driver_id": table.driver_id, "condition": table.condition}
+        ids = {k: v for k, v in ids.items() if k not in self.config.trip_meta}
         if self.recorder is not None:  # later takeover segments are the new driver's
-            ids = {"driver_id": table.driver_id, "condition": table.condition}
-            self.recorder.meta.update(
-                {k: v for k, v in ids.items() if k not in self.config.trip_meta}
-            )
+            self.recorder.meta.update(ids)
         if self.manual is not None:  # an open manual stretch ends with a new driver
-            ids = {"driver_id": table.driver_id, "condition": table.condition}
-            self.manual.set_meta({k: v for k, v in ids.items() if k not in self.config.trip_meta})
+            self.manual.set_meta(ids)
         if message:
             self._pending_events.append(message)
 
@@ -226,8 +191,6 @@ class EcuNode:
             self.recorder.flush()
         if self.manual is not None:
             self.manual.flush()
-
-    # -- internals -------------------------------------------------------------------------
 
     def _check_inputs(self, inp: NodeInputs, now_s: float) -> InputCheck:
         check = check_inputs(
@@ -390,4 +353,4 @@ class EcuNode:
         return decision.reason.value
 
 
-__all__ = ["ConfigError", "EcuConfig", "EcuNode", "NodeInputs", "NodeOutputs", "input_fault"]
+__all__ = ["ConfigError", "EcuConfig", "NodeInputs", "NodeOutputs", "input_fault"]

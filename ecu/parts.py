@@ -1,12 +1,8 @@
 """What an ACC node is built of, from its configuration: the plug-ins and the trip recorders.
 
-:class:`ecu.node.EcuNode` builds these once, when it is made:
-
-- :func:`plugins` — the guarded plug-in methods :class:`~ecu.config.EcuConfig` names (the gap
-  controller and the adaptation, each inside its wall-time budget; :mod:`ecu.methods.guard`);
-- :func:`recorders` — the takeover recorder (:class:`ecu.recorder.TakeoverRecorder`) and the
-  manual-driving recorder (:class:`ecu.manual.ManualRecorder`) for the sinks given, each with
-  the trip metadata of the table and the configuration.
+:func:`plugins`: the guarded plug-in methods :class:`~ecu.config.EcuConfig` names
+(:mod:`ecu.methods.guard`); :func:`recorders`: the takeover and manual-driving recorders for
+the sinks given, with the trip metadata of the table and the configuration.
 """
 
 from __future__ import annotations
@@ -64,16 +60,13 @@ def recorders(
     utc_of: Callable[[float], str] | None,
     manual_min_s: float,
 ) -> tuple[TakeoverRecorder | None, ManualRecorder | None]:
-    """The node's takeover and manual-driving recorders (None where no sink is given).
-
-    Args:
-        config: node configuration (record period, pre/post-trigger windows in s, trip meta).
-        table: the DGPT the node starts with (its driver and condition go into the metadata).
-        takeover_sink: receives each recorded takeover segment; None: no takeover recorder.
-        manual_sink: receives each manual car-following trip; None: no manual recorder.
-        utc_of: maps the node's clock (s) to ISO 8601 UTC (None: the node's clock only).
-        manual_min_s: the shortest manual stretch recorded, s.
-    """
+    """The node's takeover and manual-driving recorders (None where no sink is given)."""
+    meta = {
+        "driver_id": table.driver_id,
+        "condition": table.condition,
+        "brake_mode": config.brake_mode,
+        **dict(config.trip_meta),
+    }
     recorder: TakeoverRecorder | None = None
     if takeover_sink is not None:
         recorder = TakeoverRecorder(
@@ -81,30 +74,17 @@ def recorders(
             period_s=config.record_period_s,
             pre_s=config.pre_trigger_s,
             post_s=config.post_trigger_s,
-            meta={
-                "driver_id": table.driver_id,
-                "condition": table.condition,
-                "brake_mode": config.brake_mode,
-                **dict(config.trip_meta),
-            },
+            meta=meta,
             utc_of=utc_of,
         )
     manual: ManualRecorder | None = None
-    if manual_sink is not None:  # the driver's manual car-following, same metadata
+    if manual_sink is not None:
         manual = ManualRecorder(
             manual_sink,
             period_s=config.record_period_s,
             cycle_s=config.cycle_s,
             min_s=manual_min_s,
-            meta={
-                "driver_id": table.driver_id,
-                "condition": table.condition,
-                "brake_mode": config.brake_mode,
-                **dict(config.trip_meta),
-            },
+            meta=meta,
             utc_of=utc_of,
         )
     return recorder, manual
-
-
-__all__ = ["plugins", "recorders"]

@@ -1,17 +1,9 @@
 """Driver profiles: the HMI's ``DriverProfileId`` selects the DGPT the node runs on.
 
-``n > 0`` loads ``profile_dir/profile_<n>.json``; an invalid file is refused (the node keeps
-its last good table and reports FaultCode PROFILE), a missing one keeps the table; ``n = 0``
-(guest) returns to the table the node started with. The file is read in a worker thread,
-never in the control cycle (a FIFO, a slow disk or a huge file cannot stall the command
-frames; :func:`dbc.vocab.dgpt_file.load_dgpt` reads only a bounded regular file): the node
-runs on its current table until the load's outcome is applied at a later cycle. Nothing here
+``n > 0`` loads ``profile_dir/profile_<n>.json`` in a worker thread, never in the control
+cycle; an invalid file is refused (the node keeps its table and reports FaultCode PROFILE), a
+missing one keeps the table; ``n = 0`` (guest) returns to the startup table. Nothing here
 raises into the control loop.
-
-A table that arrives from elsewhere (the cloud's download thread) is *offered*
-(:class:`TableOffer`) and swapped in by the cycle itself, and only while :func:`may_swap`
-holds: never while the ACC is ACTIVE, so the driver never feels the gap jump under control;
-and never while the HMI has another driver's profile selected (the runtime checks).
 """
 
 from __future__ import annotations
@@ -58,12 +50,8 @@ def profile_path(profile_dir: Path, profile_id: int) -> Path:
 
 
 class ProfileSwitcher:
-    """Switches ``node`` to the profile the HMI asks for, once per change of the id.
-
-    Args:
-        node: the node whose table is switched.
-        profile_dir: the folder of ``profile_<n>.json`` files.
-    """
+    """Switches ``node`` to the profile the HMI asks for (``profile_dir/profile_<n>.json``), once
+    per change of the id."""
 
     def __init__(self, node: EcuNode, profile_dir: str | os.PathLike[str]) -> None:
         self.node = node
@@ -134,11 +122,7 @@ def may_swap(state: AccState) -> bool:
 
 
 class TableOffer:
-    """A one-slot mailbox for a table from another thread; the newest offer wins.
-
-    :meth:`offer` is thread-safe and cheap; :meth:`apply` runs in the control cycle and swaps
-    the pending table in when :func:`may_swap` allows (it stays pending otherwise).
-    """
+    """A one-slot mailbox for a table from another thread; the newest offer wins."""
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
@@ -167,6 +151,3 @@ class TableOffer:
         node.set_table(*pending)
         self.applied += 1
         return True
-
-
-__all__ = ["GUEST_PROFILE", "ProfileSwitcher", "TableOffer", "may_swap", "profile_path"]

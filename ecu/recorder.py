@@ -1,25 +1,9 @@
 """The ECU's takeover recorder and the queue its trips, and the manual ones, go through.
 
-**Takeovers** (:class:`TakeoverRecorder`): a pre-trigger ring buffer and complete takeover
-segments for a sink.
-
-The node feeds one sample per cycle; the recorder keeps one every ``period_s`` (10 Hz by
-default) in a ring buffer holding the last ``pre_s`` seconds. When a takeover starts the
-buffer becomes the head of a new segment; samples are appended through the pedal release and
-a post window of ``post_s`` seconds, then the segment is handed to the sink as a
-:class:`dbc.vocab.triplog.Trip` with ``meta["mode"] == "takeover"``. A new takeover during
-the post window extends the open segment (its post window restarts at the next release).
-
-The sink is I/O at the edge: any exception it raises is caught, logged and counted in
-:attr:`TakeoverRecorder.sink_errors`; recording never stops the control loop. A segment the
-sink refused is kept (up to :data:`MAX_PENDING` of them) and offered again, in order, at the
-next emit and at :meth:`TakeoverRecorder.flush`.
-
-The takeover recorder and the manual one (:class:`ecu.manual.ManualRecorder`, the driver's
-manual car-following trips) hand their trips to the sink through the same queue
-(:class:`SinkQueue`): a sink that raises is retried later, and a trip's ``start_utc`` that
-cannot be stamped is left out (logged); neither is ever raised into the control loop.
-:func:`directory_sink` writes each trip as an MCAP file into a directory.
+:class:`TakeoverRecorder` keeps one sample every ``period_s`` (s) in a ring buffer of the last
+``pre_s`` seconds; a takeover makes the buffer the head of a segment, which runs through the
+pedal release and ``post_s`` seconds after it (a takeover in that window extends it) and goes
+to the sink as a :class:`dbc.vocab.triplog.Trip` with ``meta["mode"] == "takeover"``.
 """
 
 from __future__ import annotations
@@ -29,7 +13,8 @@ import math
 import os
 from collections import deque
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
+from operator import attrgetter
 from pathlib import Path
 from typing import Any
 
@@ -56,10 +41,7 @@ class RecorderError(EcuError):
 
 @dataclass(frozen=True, slots=True)
 class Sample:
-    """One recorded instant: SI units, pedals 0..1, ``acc_state`` an AccState code.
-
-    ``gap_m`` and ``v_lead_mps`` are NaN without a lead.
-    """
+    """One recorded instant: SI units, pedals 0..1, ``acc_state`` an AccState code."""
 
     t_s: float
     v_mps: float
@@ -71,52 +53,35 @@ class Sample:
     acc_state: int
 
 
+_values = attrgetter(*(f.name for f in fields(Sample)))
+
+
 def trip_of(samples: list[Sample], meta: dict[str, Any]) -> Trip:
     """The samples as a trip log (pedals clipped to 0..1).
 
     Raises:
         TripLogError: the samples do not make a valid trip (non-monotonic time ...).
     """
-    cols = list(
-        zip(
-            *(
-                (
-                    s.t_s,
-                    s.v_mps,
-                    s.gap_m,
-                    s.v_lead_mps,
-                    s.a_mps2,
-                    s.accel_pedal,
-                    s.brake_pedal,
-                    s.acc_state,
-                )
-                for s in samples
-            ),
-            strict=True,
-        )
+    t, v, gap, v_lead, a, accel, brake, state = (
+        np.asarray(c) for c in zip(*map(_values, samples), strict=True)
     )
     return Trip(
-        t_s=np.asarray(cols[0]),
-        v_mps=np.asarray(cols[1]),
-        gap_m=np.asarray(cols[2]),
-        v_lead_mps=np.asarray(cols[3]),
-        a_mps2=np.asarray(cols[4]),
-        accel_pedal=np.clip(np.asarray(cols[5]), 0.0, 1.0),
-        brake_pedal=np.clip(np.asarray(cols[6]), 0.0, 1.0),
-        acc_state=np.asarray(cols[7], dtype=np.int64),
+        t_s=t,
+        v_mps=v,
+        gap_m=gap,
+        v_lead_mps=v_lead,
+        a_mps2=a,
+        accel_pedal=np.clip(accel, 0.0, 1.0),
+        brake_pedal=np.clip(brake, 0.0, 1.0),
+        acc_state=state.astype(np.int64),
         meta=meta,
     )
 
 
 class SinkQueue:
-    """Trips on their way to a sink: a refused trip is kept (up to :data:`MAX_PENDING`) and
-    offered again, in order, at the next :meth:`put` and :meth:`store`; the sink's
-    exceptions are caught, logged and counted, never raised.
-
-    Args:
-        sink: receives each trip.
-        what: the trips' name in log lines ("takeover segment", "manual trip").
-    """
+    """Trips on their way to ``sink``: a refused trip is kept (up to :data:`MAX_PENDING`) and
+    offered again, in order; the sink's exceptions are logged and counted, never raised
+    (``what``: the trips' name in log lines)."""
 
     def __init__(self, sink: TripSink, what: str) -> None:
         self.sink = sink
@@ -143,10 +108,8 @@ class SinkQueue:
         meta: dict[str, Any],
         utc_of: Callable[[float], str] | None = None,
     ) -> None:
-        """:meth:`put` the trip of ``samples``, with ``meta["start_utc"] = utc_of(first
-        sample's time)`` when ``utc_of`` is given (left out, logged, where it raises: a clock
-        fault). A trip that cannot be built is counted, logged and dropped, and the pending
-        ones are offered again. Never raises into the control loop."""
+        """Put the trip of ``samples`` (``meta["start_utc"] = utc_of(first t_s)`` when given); a
+        trip that cannot be built is counted, logged and dropped. Never raises."""
         if utc_of is not None and samples:
             try:
                 meta["start_utc"] = utc_of(samples[0].t_s)
@@ -184,18 +147,12 @@ class SinkQueue:
 class TakeoverRecorder:
     """Ring buffer plus open segment; see the module docstring.
 
-    Also keeps the trip's ACC-on time (:attr:`acc_on_s`, s: Active or Override, and Standby
-    after the first engagement, the study's definition), counted on the kept samples.
-
     Args:
         sink: receives each complete segment.
-        period_s: recording period, s.
-        pre_s: pre-trigger length, s.
-        post_s: post-release length, s.
+        period_s / pre_s / post_s: recording period, pre-trigger and post-release lengths, s.
         meta: metadata copied into every segment (driver_id, condition, seed, ...).
-        utc_of: maps a sample time (the node's clock, s) to ISO 8601 UTC; when given, every
-            segment's ``meta["start_utc"]`` is its first sample's, and the trip log is
-            stamped with real UTC (a real-time ECU, whose clock is the boot clock).
+        utc_of: maps a sample time (the node's clock, s) to ISO 8601 UTC for the segment's
+            ``meta["start_utc"]`` (None: the node's clock only).
     """
 
     def __init__(
@@ -237,10 +194,7 @@ class TakeoverRecorder:
         return self.queue.pending
 
     def sample(self, s: Sample) -> None:
-        """Offer one sample; kept if ``period_s`` has passed since the last kept one.
-
-        A sample with a non-finite time is ignored (it would stop the recording for good).
-        """
+        """Offer one sample; kept if ``period_s`` has passed since the last kept one."""
         if not (math.isfinite(s.t_s) and s.t_s - self._last_t >= self.period_s - PERIOD_EPS_S):
             return
         if self._on:
@@ -300,10 +254,7 @@ class TakeoverRecorder:
 
 
 def directory_sink(directory: str | os.PathLike[str], prefix: str = "takeover") -> TripSink:
-    """A sink writing each trip to ``directory/<prefix>_NNNN.mcap``, never overwriting.
-
-    The directory is created if needed; numbering continues after the files already there.
-    """
+    """A sink writing each trip to ``directory/<prefix>_NNNN.mcap``, never overwriting."""
     d = Path(directory)
     try:
         d.mkdir(parents=True, exist_ok=True)
@@ -324,15 +275,3 @@ def directory_sink(directory: str | os.PathLike[str], prefix: str = "takeover") 
         log.info("%s trip written: %s (%d samples)", prefix, path, len(trip))
 
     return write
-
-
-__all__ = [
-    "MAX_PENDING",
-    "RecorderError",
-    "Sample",
-    "SinkQueue",
-    "TakeoverRecorder",
-    "TripSink",
-    "directory_sink",
-    "trip_of",
-]

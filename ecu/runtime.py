@@ -1,28 +1,9 @@
 """The ECU runtime: wires a python-can bus, the codec, a clock and the log to an EcuNode.
 
-Thin wiring of three parts, one module each:
-
-- :mod:`ecu.busio` — bus I/O: frames -> :class:`~ecu.signals.NodeInputs` through the Inbox
-  (E2E, freshness, pedal scaling), :class:`~ecu.signals.NodeOutputs` -> ACC_Command every
-  cycle and ACC_Status every 5th (100 ms) through the Outbox; refuses a DBC that cannot carry
-  every output;
-- :mod:`ecu.profiles` — the HMI's driver profile id -> the node's table (``profile_dir``);
-- :mod:`ecu.clocks` — the cycle grid, run in **lockstep** (``rt.advance_to(now_s)``: the
-  simulator owns time; deterministic) or in **real time** (``rt.run_realtime(duration_s)``:
-  50 Hz on ``time.monotonic``; ``rt.stop()`` from another thread or a signal ends it).
-
-API::
-
-    from ecu.node import EcuNode, EcuConfig
-    from ecu.runtime import EcuRuntime
-    rt = EcuRuntime(bus, EcuNode(EcuConfig(), table), codec=None)  # None: packaged DBC
-    rt.advance_to(now_s)          # lockstep
-    rt.run_realtime(60.0)         # or real time
-    print(rt.summary())           # cycles, frames in/out, E2E errors by kind, ...
-
-A frame that fails its E2E check is dropped and counted by the Inbox; a role is usable while
-it is fresh (within 10 of its periods). The runtime never raises from a cycle: an encode
-failure (which the clamping in :mod:`ecu.busio` should make impossible) is logged and counted.
+Thin wiring of :mod:`ecu.busio` (frames <-> node values, ACC_Command every cycle, ACC_Status
+every 100 ms), :mod:`ecu.profiles` (the HMI's driver profile -> the node's table) and
+:mod:`ecu.clocks` (the cycle grid in lockstep, ``rt.advance_to(now_s)``, or in real time,
+``rt.run_realtime(duration_s)`` at 50 Hz until ``rt.stop()``).
 """
 
 from __future__ import annotations
@@ -30,20 +11,17 @@ from __future__ import annotations
 import logging
 import os
 import time
-from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import can
 
 from dbc.codec import Codec, load_codec
-from dbc.endpoint import Inbox, Outbox
 from dbc.vocab.dgpt import Dgpt
 from ecu.busio import INPUT_ROLES, BusIO, RuntimeCodecError, inputs_from
 from ecu.buslog.writer import CanLogWriter
 from ecu.clocks import MAX_CATCHUP_S, CycleClock, RuntimeClockError
-from ecu.node import EcuNode, NodeInputs, NodeOutputs
+from ecu.node import EcuNode, NodeOutputs
 from ecu.profiles import GUEST_PROFILE, ProfileSwitcher, TableOffer, gap_setting_table
 
 log = logging.getLogger(__name__)
@@ -72,13 +50,12 @@ class RuntimeSummary:
     plugin_faults: dict[str, int] = field(default_factory=dict)
 
     def __str__(self) -> str:
-        errors = ", ".join(f"{k} {v}" for k, v in sorted(self.e2e_errors.items())) or "none"
-        decisions = (
-            ", ".join(f"{k} {v}" for k, v in sorted(self.adaptation_decisions.items())) or "none"
-        )
-        faults = ", ".join(f"{k} {v}" for k, v in sorted(self.faults.items())) or "none"
-        stops = ", ".join(f"{k} {v}" for k, v in sorted(self.safety_stops.items())) or "none"
-        plugin = ", ".join(f"{k} {v}" for k, v in sorted(self.plugin_faults.items()))
+        def counts(d: dict[str, int]) -> str:
+            return ", ".join(f"{k} {v}" for k, v in sorted(d.items()))
+
+        errors, faults = counts(self.e2e_errors) or "none", counts(self.faults) or "none"
+        decisions = counts(self.adaptation_decisions) or "none"
+        stops, plugin = counts(self.safety_stops) or "none", counts(self.plugin_faults)
         return "\n".join(
             [
                 f"cycles:         {self.cycles}",
@@ -106,16 +83,10 @@ class EcuRuntime:
         codec: the network codec; None loads the packaged pacc DBC.
         on_event: called with each node event text (state changes, faults, adaptations).
         timeout_multiple: an input role times out after this many of its DBC periods.
-        profile_dir: driver profiles (:mod:`ecu.profiles`): when HMI ``DriverProfileId``
-            changes to ``n > 0`` the runtime loads ``profile_dir/profile_<n>.json``; an
-            invalid file is refused (the node keeps its last good table and reports FaultCode
-            Profile), a missing one keeps the table; ``n = 0`` (guest) returns to the table
-            the node started with.
+        profile_dir: driver profiles ``profile_<n>.json`` (:mod:`ecu.profiles`).
 
     Raises:
-        RuntimeCodecError: the codec's ACC_Command / ACC_Status cannot carry every output
-            (AccState FAULT, every FaultCode, the node's acceleration envelope, its highest
-            set speed).
+        RuntimeCodecError: the codec cannot carry every output of the node.
     """
 
     def __init__(
@@ -133,7 +104,6 @@ class EcuRuntime:
         self.codec = codec if codec is not None else load_codec()
         self.io = BusIO(bus, self.codec, node.config, timeout_multiple)
         self.clock = CycleClock(node.config.cycle_s)
-        self.profile_dir = Path(profile_dir) if profile_dir is not None else None
         self.profiles = ProfileSwitcher(node, profile_dir) if profile_dir is not None else None
         self._gap_setting: float | None = None  # the HMI GapSetting last seen (None: none)
         #: tables offered from other threads (the cloud download), swapped in when safe
@@ -153,36 +123,6 @@ class EcuRuntime:
         self.recorder = recorder
         self.io.tap = recorder.frame_raw if recorder is not None else None
 
-    # -- the parts -----------------------------------------------------------------------
-
-    @property
-    def inbox(self) -> Inbox:
-        """The receive side (E2E counts, latest values, freshness)."""
-        return self.io.inbox
-
-    @property
-    def outbox(self) -> Outbox:
-        """The send side (alive counters, frames out)."""
-        return self.io.outbox
-
-    @property
-    def send_errors(self) -> int:
-        """Frames that could not be encoded or sent."""
-        return self.io.send_errors
-
-    @property
-    def skipped_cycles(self) -> int:
-        """Cycles not run because the clock jumped by more than ``MAX_CATCHUP_S`` (lockstep)
-        or the loop overran by more than a period (real time)."""
-        return self.clock.skipped
-
-    @property
-    def cycle_starts(self) -> deque[float]:
-        """Real time: start times of the latest cycles (s, monotonic), for jitter statistics."""
-        return self.clock.starts
-
-    # -- clocks --------------------------------------------------------------------------
-
     def advance_to(self, now_s: float) -> None:
         """Lockstep: drain the bus at ``now_s`` and run every cycle due up to ``now_s``.
 
@@ -193,12 +133,7 @@ class EcuRuntime:
         self.clock.advance_to(now_s, self.io, self._cycle)
 
     def run_realtime(self, duration_s: float | None = None) -> None:
-        """Run 50 Hz cycles on ``time.monotonic`` for ``duration_s`` s (None: until stop()).
-
-        Overruns of more than one period skip the missed cycles (counted in
-        ``skipped_cycles``) instead of bursting them. A :meth:`stop` that came before the
-        run ends it at once (a SIGTERM arriving as it starts is not lost).
-        """
+        """Run 50 Hz cycles on ``time.monotonic`` for ``duration_s`` s (None: until stop())."""
         self.clock.run_realtime(duration_s, self.io, self._cycle)
 
     def cycle_at(self, t_s: float, k: int) -> None:
@@ -214,12 +149,6 @@ class EcuRuntime:
         """Ask :meth:`run_realtime` to return after the current cycle, or at once if called
         before it starts (thread-safe, signal-safe)."""
         self.clock.stop()
-
-    # -- one cycle -----------------------------------------------------------------------
-
-    def read_inputs(self, now_s: float) -> NodeInputs:
-        """The node's inputs from the Inbox at ``now_s``: latest values plus freshness."""
-        return self.io.read_inputs(now_s)
 
     def _cycle(self, t: float, k: int) -> None:
         """Cycle ``k`` at ``t``: inputs, profile, step, frames, events."""
@@ -251,23 +180,21 @@ class EcuRuntime:
         if spent > self.max_cycle_s:  # noqa: PLR1730 - max() without the builtin call
             self.max_cycle_s = spent
 
-    # -- reporting -----------------------------------------------------------------------
-
     def summary(self) -> RuntimeSummary:
         """Counters of the run so far."""
         node = self.node
         return RuntimeSummary(
             cycles=self.cycles,
-            frames_in=self.inbox.frames_in,
-            frames_out=self.outbox.frames_out,
-            e2e_errors=self.inbox.errors(),
+            frames_in=self.io.inbox.frames_in,
+            frames_out=self.io.outbox.frames_out,
+            e2e_errors=self.io.inbox.errors(),
             takeovers=node.takeovers,
             adaptations=node.adaptations,
             max_cycle_s=self.max_cycle_s,
             state=node.state.name,
             dgpt_version=node.table.version,
-            send_errors=self.send_errors,
-            skipped_cycles=self.skipped_cycles,
+            send_errors=self.io.send_errors,
+            skipped_cycles=self.clock.skipped,
             adaptation_decisions={r.value: n for r, n in node.decisions.items()},
             faults={f.name: n for f, n in node.faults.items()},
             safety_stops=dict(self.io.safety.stopped),
@@ -275,11 +202,4 @@ class EcuRuntime:
         )
 
 
-__all__ = [
-    "INPUT_ROLES",
-    "MAX_CATCHUP_S",
-    "EcuRuntime",
-    "RuntimeClockError",
-    "RuntimeCodecError",
-    "RuntimeSummary",
-]
+__all__ = ["INPUT_ROLES", "MAX_CATCHUP_S", "RuntimeClockError", "RuntimeCodecError"]

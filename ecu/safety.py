@@ -1,25 +1,11 @@
 """An independent check of every ACC command frame before it leaves the ECU.
 
-As opendbc's safety layer does for a car, this module vets what goes on the bus without
-trusting the code that computed it: it shares no code with the controller (:mod:`ecu.controller`)
-and knows only the frame's values and the limits of the vehicle, written down here again on
-purpose. For each ``ACC_Command`` (the ``command`` role's values: the request
-``accel_request_mps2``, ``request_active`` and ``acc_state``, taken from the node's
-:class:`ecu.signals.NodeOutputs` before they are scaled into the frame), in this order:
-
-1. non-finite: a request that is NaN or infinite goes out as 0 m/s^2, inactive;
-2. engaged: a request may be active only while the frame's ACC state is ACTIVE; in FAULT only
-   while it ramps toward zero (between 0 and the last request sent); else it goes inactive
-   (in FAULT: it is held on its way to zero);
-3. envelope: the request lies in [-3.5, +2.0] m/s^2 (ISO 15622), else it is clamped;
-4. jerk: an active request rises by at most 2.5 m/s^3 and falls by at most 10 m/s^3 (the
-   controller's emergency braking build-up) times the time since the last frame; else it is
-   clamped to the reachable value.
-
-Every intervention is counted by rule (:attr:`CommandSafety.stopped`) and logged; outputs the
-check does not change pass as the same object, so a correct controller's frames are
-bit-identical with and without it. :class:`ecu.busio.BusIO` runs it on every command frame
-and :class:`ecu.runtime.RuntimeSummary` reports the counts.
+As opendbc's safety layer, it shares no code with :mod:`ecu.controller` (the vehicle's limits
+are written down again here on purpose). On each command's values, in order: a non-finite
+request goes out as 0 m/s^2, inactive; a request is active only in ACTIVE (in FAULT only
+while ramping toward zero); the envelope [-3.5, +2.0] m/s^2 (ISO 15622); jerk at most
++2.5 / -10 m/s^3. Interventions are counted by rule (:attr:`CommandSafety.stopped`); an
+output it does not change passes as the same object (frames bit-identical without it).
 """
 
 from __future__ import annotations
@@ -48,14 +34,8 @@ RULES = (NON_FINITE, NOT_ENGAGED, ENVELOPE, JERK)
 
 @dataclass(frozen=True, slots=True)
 class SafetyLimits:
-    """What may leave the ECU.
-
-    Attributes:
-        accel_min_mps2 / accel_max_mps2: the acceleration envelope, m/s^2.
-        jerk_rise_mps3: the fastest rise of an active request, m/s^3.
-        jerk_fall_mps3: the fastest fall of an active request, m/s^3.
-        tolerance_mps2: slack on every comparison, m/s^2 (float rounding).
-    """
+    """What may leave the ECU: the acceleration envelope (m/s^2), the fastest rise and fall of an
+    active request (m/s^3), the slack on every comparison (m/s^2, float rounding)."""
 
     accel_min_mps2: float = -3.5
     accel_max_mps2: float = 2.0
@@ -110,11 +90,7 @@ def vet(
 
 
 class CommandSafety:
-    """The check on one ECU's command frames, with its memory (the last request sent).
-
-    Args:
-        limits: what may leave the ECU.
-    """
+    """The check on one ECU's command frames, with its memory (the last request sent)."""
 
     def __init__(self, limits: SafetyLimits | None = None) -> None:
         self.limits = limits if limits is not None else SafetyLimits()
@@ -144,16 +120,3 @@ class CommandSafety:
             verdict.active,
         )
         return replace(out, accel_request_mps2=verdict.accel_mps2, request_active=verdict.active)
-
-
-__all__ = [
-    "ENVELOPE",
-    "JERK",
-    "NON_FINITE",
-    "NOT_ENGAGED",
-    "RULES",
-    "CommandSafety",
-    "SafetyLimits",
-    "Verdict",
-    "vet",
-]

@@ -20,30 +20,13 @@ _T = TypeVar("_T")
 @dataclass_transform(frozen_default=True)
 def cycle_value(cls: type[_T]) -> type[_T]:
     """A value the control cycle builds every 20 ms: immutable to the type checker, a plain
-    slotted dataclass at run time.
-
-    The type checker (mypy strict) treats the class as ``@dataclass(frozen=True)``: an
-    assignment to a field is an error, ``dataclasses.replace`` makes changed copies. At run
-    time it is ``@dataclass(slots=True, unsafe_hash=True)``: the same fields, ``__eq__``,
-    ``__repr__`` and the same field-wise ``__hash__`` as a frozen dataclass, but an
-    assignment is not refused at run time. The trade-off, measured: a frozen
-    dataclass's ``__init__`` stores each field through ``object.__setattr__`` (about 0.1 us
-    per field, 1.3 us for nine fields against 0.5 us plain); the node builds about ten such
-    values per cycle. Immutability is therefore a checked contract (``make lint`` runs mypy
-    strict on every module), not a run-time guard: code outside the type checker's reach must
-    not assign to these values, so none is handed to a plug-in (``ControlInput``, which gap
-    controllers get, stays a frozen dataclass).
-    """
+    slotted dataclass at run time."""
     return dataclass(slots=True, unsafe_hash=True)(cls)
 
 
 @dataclass(slots=True)
 class NodeInputs:
-    """Checked inputs of one cycle. ``*_ok`` = fresh and passed E2E (set by the runtime).
-
-    Units: speeds m/s, accelerations m/s^2, gap m, pedals 0..1. ``rel_speed_mps`` is lead
-    speed minus ego speed. Button fields are levels (pressed = True).
-    """
+    """Checked inputs of one cycle. ``*_ok`` = fresh and passed E2E (set by the runtime)."""
 
     v_mps: float = 0.0
     a_mps2: float = 0.0
@@ -72,15 +55,9 @@ class NodeOutputs:
 
     Attributes:
         accel_request_mps2: requested acceleration, m/s^2 (always within the envelope).
-        request_active: the powertrain shall execute the request.
-        acc_state: AccState code.
-        takeover_request: the driver must take over (FAULT, or engaged with the braking
-            needed beyond what the ACC may command).
+        takeover_request: the driver must take over (FAULT, or braking beyond authority).
         desired_gap_m: DGPT at the current speed, m.
-        dgpt_version: version of the table in use.
-        adaptation_count: adaptations applied so far.
         fault_code: FaultCode of the last fault (0 none).
-        set_speed_mps: cruise set speed, m/s.
         emergency: the emergency jerk exception was in force this cycle.
         events: human-readable events of this cycle (state changes, faults, adaptations).
     """
@@ -98,15 +75,9 @@ class NodeOutputs:
     events: tuple[str, ...] = ()
 
 
-def all_finite(*xs: float) -> bool:
-    """True when every one of ``xs`` is finite (the cycle itself calls ``math.isfinite``
-    directly: a call of this function costs more than the checks)."""
-    return all(map(math.isfinite, xs))
-
-
 def input_fault(inp: NodeInputs) -> FaultCode:
     """The first invalid safety-relevant input of ``inp`` (speed, pedals, radar, buttons)."""
-    finite = math.isfinite  # all_finite written out: this runs every cycle
+    finite = math.isfinite
     if not (inp.speed_ok and finite(inp.v_mps) and finite(inp.a_mps2) and inp.v_mps >= 0.0):
         return FaultCode.SPEED_INPUT
     if not (inp.pedals_ok and finite(inp.accel_pedal) and finite(inp.brake_pedal)):
@@ -128,6 +99,3 @@ class Plan:
     v_mps: float
     desired_gap_m: float
     desired_gap_slope_s: float
-
-
-__all__ = ["NodeInputs", "NodeOutputs", "Plan", "all_finite", "cycle_value", "input_fault"]

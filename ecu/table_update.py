@@ -1,18 +1,9 @@
 """How one applied takeover changes the DGPT: the spread, the safety filter, the pedal.
 
-The array mathematics of steps 3 and 4 of :mod:`ecu.adaptation` (which decides whether and
-toward which gap a takeover updates the table; :func:`ecu.adaptation.adapt` calls these):
-
-- the paper's window: the change at the centre bin spread with triangular weights
-  (:func:`spread_weights`);
-- the time-gap mode: the change made in time-gap space and spread over speed with Gaussian
-  weights (:func:`timegap_weights`, :func:`timegap_update`);
-- the safety filter: every bin clipped into the table's :class:`~dbc.vocab.dgpt.SafetyBounds`
-  (:func:`safety_filter`);
-- the pedal's direction: no bin moves against the pedal (:func:`with_pedal`).
-
-Pure functions of numpy arrays of shape ``(n,)`` (one value per speed bin; gaps in m, speeds
-in m/s).
+The array mathematics of steps 3 and 4 of :mod:`ecu.adaptation`: the paper's triangular window
+(:func:`spread_weights`), the time-gap mode's Gaussian spread over speed
+(:func:`timegap_weights`, :func:`timegap_update`), the safety filter (:func:`safety_filter`)
+and no bin moving against the pedal (:func:`with_pedal`). Gaps in m, speeds in m/s.
 """
 
 from __future__ import annotations
@@ -50,16 +41,7 @@ def timegap_weights(speed_mps: np.ndarray, v_mps: float, spread_speed_mps: float
 
 
 def timegap_update(table: Dgpt, centre: int, g_desire_m: float, params: TimegapStep) -> np.ndarray:
-    """New gaps, shape ``(n,)``: the time-gap change at bin ``centre`` spread over speed.
-
-    With ``v_c`` the centre bin's speed and ``u(v) = max(v, v_min)``, the time gap above the
-    standstill distance changes by ``dh = (g_desire - DGPT[centre]) / u(v_c)`` (s) there, and
-    bin ``i`` by ``w_i * dh`` with :func:`timegap_weights` around ``v_c``:
-    ``gap_i += w_i * dh * u(v_i)`` (``dh`` times ``step_fraction``). So with a full step the
-    centre bin lands on ``g_desire`` (as in the paper
-    mode) and a preference that is a time gap (constant or slowly varying with speed) is
-    learned at every speed from one takeover.
-    """
+    """New gaps, shape ``(n,)``: the time-gap change at bin ``centre`` spread over speed."""
     vmin = params.min_speed_mps
     speed = table.speed_mps
     v_c = float(speed[centre])
@@ -81,6 +63,3 @@ def with_pedal(old_m: np.ndarray, new_m: np.ndarray, pedal: str) -> np.ndarray:
     if pedal == "brake":
         return np.asarray(np.maximum(new_m, old_m))
     return new_m
-
-
-__all__ = ["safety_filter", "spread_weights", "timegap_update", "timegap_weights", "with_pedal"]

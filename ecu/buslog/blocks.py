@@ -17,8 +17,6 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["BlockError", "block_schema", "decode_block", "encode_block"]
-
 
 class BlockError(ValueError):
     """A block is not the encoding of this module."""
@@ -78,11 +76,7 @@ def block_schema(
     ragged: Collection[str] = (),
 ) -> dict[str, Any]:
     """The JSON schema of a block whose ``columns`` map name -> (dtype, description), the
-    columns named in ``ragged`` of any length.
-
-    Every object in it names its properties: Foxglove (its ``parseJsonSchema``, Studio 1.48 and
-    Lichtblick alike) refuses a channel whose schema holds an object without ``properties``.
-    """
+    columns named in ``ragged`` of any length."""
     props: dict[str, Any] = {
         "n": {"type": "integer", "minimum": 0, "description": "rows in this block"},
         "dtypes": {

@@ -1,23 +1,13 @@
 """The frames of one flush as the recorder writes them: the raw block, and per DBC message a
-table of decoded signals (one row per frame) for its protobuf channel; the control cycles'
-tables likewise.
-
-The recorder's tap keeps each frame as it came, ``(t_s, key, frame, rx)``: a python-can
-message with ``key`` None, or a raw frame of the lockstep bus (:mod:`dbc.frame`: ``key`` the
-id with the IDE bit, ``frame`` the payload). A flush reads the frames' columns a field at a
-time (:meth:`FrameBatch.of`): one append a frame on the node's path, no per-frame Python code
-in the batch for a plain CAN frame.
-
-The frames are grouped by id with one sort; each DBC message's frames (its id, standard or
-extended, not error or remote frames, the DBC's length: any other frame stays in ``/can/raw``
-only) are decoded column by column (:mod:`dbc.columns`: cantools' values).
+table of decoded signals (one row per frame, float64) for its protobuf channel; the control
+cycles' tables likewise. The tap keeps each frame in the raw form of :mod:`dbc.frame`; a flush
+reads the columns a field at a time (:meth:`FrameBatch.of`).
 """
 
 from __future__ import annotations
 
 import struct
 from collections.abc import Iterable, Iterator, Sequence
-from operator import attrgetter
 from typing import Any
 
 import numpy as np
@@ -34,31 +24,12 @@ from ecu.buslog.format import (
 )
 from ecu.buslog.proto import ProtoRows
 
-__all__ = [
-    "STRIDE",
-    "FrameBatch",
-    "MessageDecoders",
-    "Rows",
-    "Tapped",
-    "cycle_tables",
-    "floats",
-    "integral_fields",
-]
-
-#: A frame as the recorder's tap keeps it: (time on the node's clock, s; raw key or None; the
-#: payload for a raw key, else a ``can.Message`` or anything with its attributes; received);
-#: kept flat, four items a frame.
-Tapped = tuple[float, int | None, Any, bool]
+#: A frame as the recorder's tap keeps it, flat, four items a frame: (time on the node's clock,
+#: s; raw key, :mod:`dbc.frame`; the payload, or the message for ``OTHER``; received)
+Tapped = tuple[float, int, Any, bool]
 #: items a frame in the flat list of :data:`Tapped`
 STRIDE = 4
 
-_ID = attrgetter("arbitration_id")
-_EXT = attrgetter("is_extended_id")
-_DLC = attrgetter("dlc")
-_DATA = attrgetter("data")
-_FD = attrgetter("is_fd")
-_ERROR = attrgetter("is_error_frame")
-_REMOTE = attrgetter("is_remote_frame")
 
 _INTEGRAL_TYPES = ("bool", "int", "AccState", "FaultCode")
 
@@ -73,10 +44,9 @@ def floats(values: Iterable[Any]) -> np.ndarray:
 def cycle_tables(
     cycles: bytes, in_width: int, width: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The tables of control cycles kept as float64 bytes, ``width`` values a cycle, one
-    cycle after the other: ``t_s``, the cycle index, ``in_width - 1`` inputs, the outputs.
-    (``t_s`` ``(n,)``, the inputs' rows ``(n, in_width)``: ``t_s`` then the inputs, the
-    outputs' rows: ``t_s``, the cycle index, the outputs)."""
+    """The control cycles kept as float64 bytes (``width`` values a cycle: ``t_s``, index, inputs,
+    outputs) as ``t_s`` ``(n,)``, the inputs' rows ``(n, in_width)`` (``t_s`` first) and the
+    outputs' rows (``t_s``, index, outputs)."""
     data = np.frombuffer(cycles, np.float64).reshape(-1, width)
     inputs = np.concatenate([data[:, :1], data[:, 2 : in_width + 1]], axis=1)
     outputs = np.concatenate([data[:, :2], data[:, in_width + 1 :]], axis=1)
@@ -119,10 +89,8 @@ class FrameBatch:
 
     @classmethod
     def of(cls, frames: Sequence[Any]) -> FrameBatch:
-        """The batch of the frames as the tap kept them (:data:`Tapped` of each frame one
-        after the other in one flat list, at least one frame). Read an attribute at a time
-        over all frames, packed by ``struct``/``bytes`` (cheaper than numpy's per-item
-        conversion); no per-frame Python code for a plain CAN frame."""
+        """The batch of the tapped frames (:data:`Tapped`, flat, at least one frame), read an
+        attribute at a time over all frames."""
         t, ids, flags, dlcs, lens, datas = _columns(frames)
         u8 = np.uint8
         return cls(
@@ -161,13 +129,11 @@ class FrameBatch:
 
 
 def _columns(frames: Sequence[Any]) -> tuple[bytes, bytes, bytes, bytes, bytes, list[Any]]:
-    """The columns of the frames as the tap kept them (:data:`Tapped` of each frame one after
-    the other in one flat list) as little-endian bytes: ``t_s`` (float64), id (uint32), flags,
-    dlc, payload length (uint8 each), and the payloads as the frames hold them (a list)."""
-    step = STRIDE
-    ts, keys, items, rxs = frames[0::step], frames[1::step], frames[2::step], frames[3::step]
+    """The columns of the tapped frames (:data:`Tapped`, flat) as little-endian bytes: ``t_s``
+    (float64), id (uint32), flags, dlc, payload length (uint8 each); and the payloads."""
+    ts, keys, items, rxs = (frames[i::STRIDE] for i in range(STRIDE))
     n = len(ts)
-    if None not in keys and OTHER not in keys:  # raw frames of the lockstep bus only
+    if OTHER not in keys:  # classic data frames only: no per-frame Python code
         karr = np.fromiter(keys, np.uint32, n)
         rx = np.frombuffer(bytes(map(bool, rxs)), np.uint8)
         ext = (karr >> np.uint32(31)).astype(np.uint8)
@@ -180,29 +146,22 @@ def _columns(frames: Sequence[Any]) -> tuple[bytes, bytes, bytes, bytes, bytes, 
             lens,
             list(items),
         )
-    msgs = (
-        items  # python-can messages only (a real bus)
-        if keys.count(None) == n
-        else [
-            item if key is None or key == OTHER else message_of((t, key, item), None)
-            for t, key, item in zip(ts, keys, items, strict=True)
-        ]
+    msgs = [
+        item if key == OTHER else message_of((t, key, item), None)
+        for t, key, item in zip(ts, keys, items, strict=True)
+    ]
+    datas = [m.data for m in msgs]
+    flags = bytes(
+        frame_flags(m, r)
+        if m.is_fd or m.is_error_frame or m.is_remote_frame
+        else (FLAG_EXTENDED if m.is_extended_id else 0) | (FLAG_RX if r else 0)
+        for m, r in zip(msgs, rxs, strict=True)
     )
-    datas = list(map(_DATA, msgs))
-    ext = np.frombuffer(bytes(map(_EXT, msgs)), np.uint8)
-    rx = np.frombuffer(bytes(map(bool, rxs)), np.uint8)
-    flags = ext * np.uint8(FLAG_EXTENDED) | rx * np.uint8(FLAG_RX)
-    if any(map(_FD, msgs)) or any(map(_ERROR, msgs)) or any(map(_REMOTE, msgs)):
-        odd = (
-            frame_flags(m, r) if m.is_fd or m.is_error_frame or m.is_remote_frame else f
-            for m, r, f in zip(msgs, rxs, flags.tolist(), strict=True)
-        )
-        flags = np.fromiter(odd, np.uint8, n)
     return (
         struct.pack(f"<{n}d", *ts),
-        struct.pack(f"<{n}I", *map(_ID, msgs)),
-        flags.tobytes(),
-        bytes(map(_DLC, msgs)),
+        struct.pack(f"<{n}I", *(m.arbitration_id for m in msgs)),
+        flags,
+        bytes(m.dlc for m in msgs),
         bytes(map(len, datas)),
         datas,
     )

@@ -1,15 +1,5 @@
 """The layout of a bus recording (:mod:`ecu.buslog.writer`): topics, frame flags, schemas, the
 time base that maps a node's clock onto UTC.
-
-``/can/raw``: the frames as blocks (:mod:`ecu.buslog.blocks`), one message per flush interval,
-rows ``t_s`` (the node's clock, s: simulated time in lockstep, the monotonic clock in real
-time), ``id``, ``flags`` (bit 0 extended id, 1 received, 2 CAN FD, 3 error frame, 4 remote
-frame, 5 bit-rate switch, 6 error state indicator), ``dlc``, ``len`` and the payloads joined
-in ``data``. ``/can/<Message>`` (protobuf ``dbc.<Message>``): one message per decoded frame,
-``t_s`` and every signal. Sampled channels (``/ecu/inputs``, ``/ecu/outputs``,
-``/sim/world``): one protobuf message per sample, ``t_s`` plus numeric fields (booleans 0/1,
-NaN kept); :mod:`ecu.buslog.proto` builds and reads them. ``/ecu/events``: one
-``foxglove.Log`` message per event (its JSON schema), with the node's clock in ``t_s``.
 """
 
 from __future__ import annotations
@@ -26,34 +16,6 @@ from ecu.signals import NodeInputs, NodeOutputs
 
 if TYPE_CHECKING:  # python-can costs start-up time `pacc ecu --help` does without
     import can
-
-__all__ = [
-    "FLUSH_S",
-    "ROWS_S",
-    "LOG_SCHEMA",
-    "EVENTS_TOPIC",
-    "FLAG_BRS",
-    "FLAG_ERROR",
-    "FLAG_ESI",
-    "FLAG_EXTENDED",
-    "FLAG_FD",
-    "FLAG_REMOTE",
-    "FLAG_RX",
-    "FORMAT",
-    "INPUTS_TOPIC",
-    "INPUT_FIELDS",
-    "META_RECORD",
-    "OUTPUTS_TOPIC",
-    "OUTPUT_FIELDS",
-    "RAW_TOPIC",
-    "WORLD_TOPIC",
-    "CanLogError",
-    "TimeBase",
-    "frame_flags",
-    "log_message",
-    "meta_record",
-    "utc_ns_array",
-]
 
 FORMAT = "pacc.canlog/2"
 RAW_TOPIC = "/can/raw"
@@ -141,11 +103,7 @@ LOG_SCHEMA: dict[str, Any] = {
 
 @dataclass(frozen=True)
 class TimeBase:
-    """Maps a node's clock (s) onto UTC: ``utc_ns = utc_origin_ns + (t - clock_origin_s)``.
-
-    Lockstep drives: the clock is simulated time from 0 and the origin the drive's start on
-    the wall clock. Real time: the monotonic clock and the wall clock read together.
-    """
+    """Maps a node's clock (s) onto UTC: ``utc_ns = utc_origin_ns + (t - clock_origin_s)``."""
 
     utc_origin_ns: int
     clock_origin_s: float

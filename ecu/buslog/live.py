@@ -1,13 +1,9 @@
 """The live view: the recorder's channels streamed to Foxglove over a WebSocket.
 
-``pacc ecu|sim|drive --foxglove [HOST:PORT]`` (loopback ``127.0.0.1:8765`` by default) starts
-the Foxglove SDK's WebSocket server (foxglove-sdk, subprotocol ``foxglove.sdk.v1``) and adds
-:class:`FoxgloveSink` to the recorder (:class:`ecu.buslog.writer.CanLogWriter`): the same
-channels, schemas and messages as the recording file, from the same code path, written
-when the recorder flushes (every ``flush_s`` of the node's clock). Open Foxglove, "Open
-connection", ``ws://HOST:PORT``. A message nobody subscribed to costs nothing
-(``Channel.has_sinks``); a client too slow to keep up loses the oldest messages
-(``message_backlog_size``), the node never waits.
+``pacc ecu|sim|drive --foxglove [HOST:PORT]`` (default ``127.0.0.1:8765``) starts the Foxglove
+SDK's server and adds :class:`FoxgloveSink` to the recorder: the channels and messages of the
+recording file, sent at each flush. A channel nobody subscribed to costs nothing; a slow
+client loses the oldest messages (``message_backlog_size``), the node never waits.
 """
 
 from __future__ import annotations
@@ -21,15 +17,6 @@ import numpy as np
 from ecu.buslog.format import CanLogError
 from ecu.buslog.proto import ProtoRows
 from ecu.buslog.sinks import ChannelSpec
-
-__all__ = [
-    "DEFAULT_ADDRESS",
-    "LIVE_FLUSH_S",
-    "FoxgloveSink",
-    "add_foxglove_argument",
-    "live_sinks",
-    "parse_address",
-]
 
 DEFAULT_ADDRESS = "127.0.0.1:8765"
 #: the recorder's flush interval with a live view, s of the node's clock (the view's delay)
@@ -57,16 +44,11 @@ def parse_address(text: str) -> tuple[str, int]:
 
 
 class FoxgloveSink:
-    """A :class:`~ecu.buslog.sinks.Sink` serving the channels on a Foxglove WebSocket server.
-
-    Args:
-        host: the address to listen on (default loopback).
-        port: the TCP port (0: any free one; :attr:`port` says which).
-        name: the server's name shown in Foxglove.
+    """A :class:`~ecu.buslog.sinks.Sink` serving the channels on a Foxglove WebSocket server on
+    ``host:port`` (port 0: any free one, :attr:`port` says which).
 
     Raises:
-        CanLogError: the server cannot start (port taken, foxglove-sdk missing).
-    """
+        CanLogError: the server cannot start (port taken, foxglove-sdk missing)."""
 
     def __init__(self, host: str = "127.0.0.1", port: int = 8765, name: str = "pacc") -> None:
         try:
@@ -92,7 +74,7 @@ class FoxgloveSink:
         """The WebSocket URL a Foxglove client connects to."""
         return f"ws://{self.host}:{self.port}"
 
-    def channel(self, spec: ChannelSpec) -> int:
+    def declare(self, spec: ChannelSpec) -> int:
         schema = self._fg.Schema(
             name=spec.schema_name, encoding=spec.schema_encoding, data=spec.schema_data
         )

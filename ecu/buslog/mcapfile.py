@@ -1,29 +1,14 @@
-"""A minimal MCAP writer that takes many messages of one channel at once, built with numpy.
-
-The bus recorder writes one MCAP message per decoded frame and per control cycle: tens of
-thousands a second in a lockstep drive. ``mcap.writer.Writer.add_message`` costs about 4 µs a
-message in Python (measured by ``bench/canlog.py``: docs/logs.md), more than python-can's BLF
-writer spends on a whole frame; here the message records of one channel and one flush are
-assembled in a handful of numpy operations (:meth:`McapFile.records`) and appended to the
-open chunk. The rest is the MCAP format as the
-``mcap`` package writes it (its record classes): schemas and channels in the data section as
-they are declared (so a file cut short still names them), zstd chunks each followed by their
-message indexes, attachments and metadata between chunks, and a summary (schemas,
-channels, statistics, chunk, attachment and metadata indexes, summary offsets) and footer
-on :meth:`McapFile.finish`. :meth:`McapFile.flush` ends the chunk in progress: everything
-written before the last flush survives the process being killed.
-"""
+"""A minimal MCAP writer that takes many messages of one channel at once, built with numpy."""
 
 from __future__ import annotations
 
 import struct
 import zlib
 from collections import defaultdict
+from collections.abc import Mapping
 from typing import IO, Any
 
 import numpy as np
-
-__all__ = ["RECORD_HEAD", "McapFile"]
 
 MAGIC = b"\x89MCAP0\r\n"
 #: a message record's fixed part: opcode, record length, channel, sequence, log/publish time
@@ -34,9 +19,6 @@ _HEADER_BYTES = _HEADER.itemsize  # 31
 #: the bytes before a message's data in its record (:meth:`McapFile.records`)
 RECORD_HEAD = _HEADER_BYTES
 _MESSAGE_OPCODE = 0x05
-_HEAD = struct.Struct("<BQHIQQ")
-#: a message index entry: log time, offset in the chunk
-_PAIR = struct.Struct("<QQ")
 _CHUNK_OPCODE = 0x06
 #: a zstd chunk record's head: opcode, record length, start/end time, uncompressed size and
 #: CRC, the compression name (length-prefixed), the compressed length
@@ -52,13 +34,7 @@ def _message_index(channel_id: int, parts: list[bytes]) -> bytes:
 
 
 class McapFile:
-    """An MCAP file written to ``stream`` (module docstring). Not thread-safe.
-
-    Args:
-        stream: a binary stream open for writing at its start.
-        profile: the header's profile.
-        library: the header's library.
-    """
+    """An MCAP file written to ``stream`` (open for writing at its start). Not thread-safe."""
 
     def __init__(self, stream: IO[bytes], profile: str, library: str) -> None:
         from mcap.records import Header  # noqa: PLC0415 - mcap only when a file is written
@@ -67,20 +43,17 @@ class McapFile:
         self._pos = 0
         self._schemas: list[object] = []
         self._channels: list[object] = []
-        self._chunk: list[bytes | memoryview] = []
+        self._chunk: list[memoryview] = []
         self._chunk_size = 0
         self._chunk_t = (0, 0)
         self._zstd: Any = None
         self._index: dict[int, list[bytes]] = defaultdict(list)
-        self._chunk_indexes: list[object] = []
+        self._chunk_indexes: list[Any] = []
         self._attachment_indexes: list[object] = []
         self._metadata_indexes: list[object] = []
         self._counts: dict[int, int] = defaultdict(int)
-        self._t_range: tuple[int, int] | None = None
         self._write(MAGIC)
         self._record(Header(profile=profile, library=library))
-
-    # -- low level ------------------------------------------------------------------------
 
     def _write(self, data: bytes) -> None:
         self._stream.write(data)
@@ -96,8 +69,6 @@ class McapFile:
         start = self._pos
         self._write(data)
         return start, len(data)
-
-    # -- declarations ---------------------------------------------------------------------
 
     def schema(self, name: str, encoding: str, data: bytes) -> int:
         """Declare a schema; its id."""
@@ -125,8 +96,6 @@ class McapFile:
         self._record(record)
         return record.id
 
-    # -- messages -------------------------------------------------------------------------
-
     def records(
         self, channel_id: int, seq0: int, log_times: np.ndarray, records: np.ndarray
     ) -> None:
@@ -148,32 +117,19 @@ class McapFile:
         pairs[:, 0] = log_times
         pairs[:, 1] = np.arange(self._chunk_size, self._chunk_size + n * size, size)
         self._index[channel_id].append(pairs.tobytes())
-        self._add(records, channel_id, n, int(log_times.min()), int(log_times.max()))
-
-    def message(self, channel_id: int, seq: int, log_time: int, data: bytes) -> None:
-        """Add one message to the open chunk (a raw block, an event: no arrays)."""
-        size = len(data) + _HEADER_BYTES
-        head = _HEAD.pack(
-            _MESSAGE_OPCODE, size - 9, channel_id, seq & 0xFFFFFFFF, log_time, log_time
-        )
-        self._index[channel_id].append(_PAIR.pack(log_time, self._chunk_size))
-        self._add(head + data, channel_id, 1, log_time, log_time)
-
-    def _add(self, records: bytes | np.ndarray, channel_id: int, n: int, lo: int, hi: int) -> None:
-        """Append ``n`` message records of a channel, log times in ``[lo, hi]`` (ns); an
-        array of records is kept (not copied) until the chunk ends."""
-        first = not self._chunk
-        if isinstance(records, np.ndarray):
-            self._chunk.append(records.data)
-            self._chunk_size += records.nbytes
-        else:
-            self._chunk.append(records)
-            self._chunk_size += len(records)
+        lo, hi = int(log_times.min()), int(log_times.max())
+        if self._chunk:
+            lo, hi = min(lo, self._chunk_t[0]), max(hi, self._chunk_t[1])
+        self._chunk_t = (lo, hi)
+        self._chunk.append(records.data)  # kept, not copied, until the chunk ends
+        self._chunk_size += records.nbytes
         self._counts[channel_id] += n
-        rng = self._t_range
-        self._t_range = (lo, hi) if rng is None else (min(lo, rng[0]), max(hi, rng[1]))
-        c_lo, c_hi = self._chunk_t
-        self._chunk_t = (lo, hi) if first else (min(lo, c_lo), max(hi, c_hi))
+
+    def write_one(self, channel_id: int, seq: int, log_time: int, data: bytes) -> None:
+        """Add one message (a raw block, an event) to the open chunk."""
+        record = np.empty((1, _HEADER_BYTES + len(data)), np.uint8)
+        record[0, _HEADER_BYTES:] = np.frombuffer(data, np.uint8)
+        self.records(channel_id, seq, np.array([log_time], np.uint64), record)
 
     def flush(self) -> None:
         """End the chunk in progress (if any) and flush the stream (no fsync)."""
@@ -229,9 +185,7 @@ class McapFile:
         )
         self._chunk, self._chunk_size, self._index = [], 0, defaultdict(list)
 
-    # -- between chunks -------------------------------------------------------------------
-
-    def attachment(self, log_time: int, name: str, media_type: str, data: bytes) -> None:
+    def attach(self, log_time: int, name: str, media_type: str, data: bytes) -> None:
         """Write an attachment (after ending the chunk in progress)."""
         from mcap.records import Attachment, AttachmentIndex  # noqa: PLC0415
 
@@ -252,12 +206,12 @@ class McapFile:
             )
         )
 
-    def metadata(self, name: str, values: dict[str, str]) -> None:
+    def metadata(self, name: str, values: Mapping[str, str]) -> None:
         """Write a metadata record (after ending the chunk in progress)."""
         from mcap.records import Metadata, MetadataIndex  # noqa: PLC0415
 
         self.flush()
-        start, length = self._record(Metadata(name=name, metadata=values))
+        start, length = self._record(Metadata(name=name, metadata=dict(values)))
         self._metadata_indexes.append(MetadataIndex(offset=start, length=length, name=name))
 
     def finish(self) -> None:
@@ -273,7 +227,9 @@ class McapFile:
         self.flush()
         self._record(DataEnd(data_section_crc=0))  # 0: not computed (chunks carry CRCs)
         summary_start = self._pos
-        lo, hi = self._t_range or (0, 0)
+        idx = self._chunk_indexes
+        lo = min((c.message_start_time for c in idx), default=0)
+        hi = max((c.message_end_time for c in idx), default=0)
         stats = Statistics(
             attachment_count=len(self._attachment_indexes),
             channel_count=len(self._channels),

@@ -7,11 +7,6 @@ python-can's own tools read and write pacc recordings::
     python -m can.logconvert drive.mcap drive.blf      # or: pacc export drive.mcap drive.blf
     python -m can.player drive.mcap -i virtual -c x
     python -m can.logger -i socketcan -c vcan0 -f bus.mcap
-
-Messages read carry UTC seconds as ``timestamp`` and the direction as ``is_rx``. The writer
-keeps each message's timestamp as the node clock and as UTC (python-can's readers give
-seconds since the epoch), decodes every frame of the DBC (``dbc=PATH``; default the packaged
-pacc network) into its message channel, and attaches the DBC.
 """
 
 from __future__ import annotations
@@ -28,8 +23,6 @@ from ecu.buslog.format import FLUSH_S, CanLogError, TimeBase
 from ecu.buslog.reader import messages, read_canlog
 from ecu.buslog.recording import DBC_ATTACHMENT
 from ecu.buslog.writer import CanLogWriter
-
-__all__ = ["McapReader", "McapWriter"]
 
 
 class McapReader(MessageReader):
@@ -48,13 +41,8 @@ class McapReader(MessageReader):
 
 
 class McapWriter(MessageWriter):
-    """python-can writer of a pacc bus recording.
-
-    Args:
-        file: the ``.mcap`` path.
-        dbc: the DBC whose messages get decoded channels (default: the packaged network).
-        flush_s: flush interval, s of message time.
-    """
+    """python-can writer of a pacc bus recording to the ``.mcap`` path ``file``, decoded by ``dbc``
+    (default: the packaged network), flushed every ``flush_s`` s of message time."""
 
     def __init__(
         self, file: Any, dbc: str | None = None, flush_s: float = FLUSH_S, **kwargs: Any

@@ -1,29 +1,10 @@
-"""Rows of numeric fields as protobuf messages, built and read with numpy.
-
-The bus recorder writes every decoded frame and every control cycle as its own MCAP message
-so that Foxglove and PlotJuggler plot the fields over time. A protobuf message whose fields
-are all fixed-width (``double``, ``sfixed64``: wire type 1, eight bytes each after a one- or
-two-byte tag) has the same layout for every row, so a whole table of rows is a few numpy
-copies into one array (:meth:`ProtoRows.format_into`) and reads back the same way
-(:func:`decode_rows`). The protobuf runtime encodes a row field by field (6.5 µs a row of
-/ecu/outputs, measured by ``bench/canlog.py``; numpy: under 0.1 µs), and leaves out a field
-that is 0 (proto3), so its bytes differ for the same values: every field is written here,
-and the runtime decodes both to the same values (tested). The schema, a
-``FileDescriptorSet`` (MCAP ``protobuf`` schema encoding), is built by the runtime.
-
-Field numbers are 1, 2, … in column order; ``double`` for measured values (NaN kept),
-``sfixed64`` for counts, ids, states and booleans (0/1). A channel's layout is also kept in
-its MCAP channel metadata (``pacc.layout``: ``name:d`` or ``name:q`` per field, comma
-separated), which is what the reader needs.
-"""
+"""Rows of numeric fields as protobuf messages, built and read with numpy."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 
 import numpy as np
-
-__all__ = ["LAYOUT_KEY", "ProtoRows", "decode_rows"]
 
 #: channel metadata key of a channel's field layout
 LAYOUT_KEY = "pacc.layout"
@@ -46,13 +27,8 @@ def _dtype(integral: Sequence[bool]) -> np.dtype:
 
 
 class ProtoRows:
-    """The protobuf message of one kind of row.
-
-    Args:
-        full_name: the message's full name, ``package.Message`` (e.g. ``dbc.ESC_Speed``).
-        names: the fields (identifiers), in the table's column order.
-        integral: per field, True for ``sfixed64`` (else ``double``).
-    """
+    """The protobuf message of one kind of row: ``full_name`` ``package.Message``, the fields'
+    ``names`` in the table's column order, ``integral`` per field (sfixed64, else double)."""
 
     def __init__(self, full_name: str, names: Sequence[str], integral: Sequence[bool]) -> None:
         self.full_name = full_name
@@ -97,10 +73,9 @@ class ProtoRows:
         return out
 
     def format_into(self, table: np.ndarray, head: int = 0) -> np.ndarray:
-        """The rows of ``table`` (float64, shape ``(n, len(names))``) as messages: the rows
-        of a uint8 array ``(n, head + itemsize)``, each after ``head`` bytes left for the
-        caller (an MCAP message record's header). An integral field that is not finite is
-        written 0."""
+        """The rows of ``table`` (float64 ``(n, len(names))``) as messages: a uint8 array
+        ``(n, head + itemsize)``, each row after ``head`` bytes left for the caller (a record
+        header); a non-finite integral field is written 0."""
         n, width = len(table), len(self.names)
         values = np.array(table, dtype="<f8", order="C")  # a copy: the integral fields in place
         if len(self._ints):

@@ -40,8 +40,6 @@ from ecu.buslog.format import (
 )
 from ecu.buslog.proto import LAYOUT_KEY, decode_rows
 
-__all__ = ["CanLog", "Frames", "mcap_records", "messages", "read_canlog", "read_recording"]
-
 
 @dataclass
 class Frames:
@@ -85,41 +83,6 @@ class CanLog:
     note: str = ""
 
 
-class _Collect:
-    """What the pass over the records gathered."""
-
-    def __init__(self) -> None:
-        self.channels: dict[int, Any] = {}
-        #: topic -> its messages' data, decoded once the format is known
-        self.blocks: dict[str, list[bytes]] = {}
-        self.events: list[tuple[float, str]] = []
-        self.metadata: dict[str, dict[str, str]] = {}
-        self.attachments: dict[str, bytes] = {}
-        self.footer = False
-        self.tail_error = ""
-
-    def message(self, record: Any, path: Path) -> None:
-        """File one MCAP message record: an event, a block or a row kept encoded for later."""
-        ch = self.channels.get(record.channel_id)
-        if ch is None:
-            raise CanLogError(f"{path}: message on an unknown channel")
-        if ch.topic == EVENTS_TOPIC:
-            doc = json.loads(record.data)
-            t = doc.get("t_s")
-            self.events.append((float("nan") if t is None else float(t), str(doc["message"])))
-        else:
-            self.blocks.setdefault(ch.topic, []).append(record.data)
-
-
-def _rows(found: _Collect, topic: str) -> dict[str, np.ndarray]:
-    """The protobuf rows of ``topic`` as columns (:mod:`ecu.buslog.proto`)."""
-    ch = next(c for c in found.channels.values() if c.topic == topic)
-    layout = ch.metadata.get(LAYOUT_KEY)
-    if layout is None:
-        raise ValueError(f"channel has no {LAYOUT_KEY}")
-    return decode_rows(layout, found.blocks[topic])
-
-
 def mcap_records(path: Path, recover: bool) -> tuple[list[Any], str]:
     """Every record of the MCAP file ``path`` in file order (CRCs checked), and what stopped
     the reading ("" at the file's end); with ``recover``, a file cut short (a killed recorder)
@@ -143,23 +106,38 @@ def mcap_records(path: Path, recover: bool) -> tuple[list[Any], str]:
     return out, ""
 
 
-def _scan(path: Path, recover: bool) -> _Collect:
+def _scan(path: Path, recover: bool) -> tuple[Any, ...]:
+    """The file's channels, messages' data by topic, events, metadata, attachments, whether it
+    has its footer, and what cut it short."""
     from mcap import records  # noqa: PLC0415
 
-    found = _Collect()
-    got, found.tail_error = mcap_records(path, recover)
-    for record in got:
-        if isinstance(record, records.Message):
-            found.message(record, path)
-        elif isinstance(record, records.Channel):
-            found.channels[record.id] = record
-        elif isinstance(record, records.Metadata):
-            found.metadata[record.name] = dict(record.metadata)
-        elif isinstance(record, records.Attachment):
-            found.attachments[record.name] = bytes(record.data)
-        elif isinstance(record, records.Footer):
-            found.footer = True
-    return found
+    got, tail_error = mcap_records(path, recover)
+    channels: dict[int, Any] = {}
+    blocks: dict[str, list[bytes]] = {}  # topic -> its messages' data
+    events: list[tuple[float, str]] = []
+    metadata: dict[str, dict[str, str]] = {}
+    attachments: dict[str, bytes] = {}
+    footer = False
+    for rec in got:
+        if isinstance(rec, records.Message):
+            ch = channels.get(rec.channel_id)
+            if ch is None:
+                raise CanLogError(f"{path}: message on an unknown channel")
+            if ch.topic == EVENTS_TOPIC:
+                doc = json.loads(rec.data)
+                t = doc.get("t_s")
+                events.append((float("nan") if t is None else float(t), str(doc["message"])))
+            else:
+                blocks.setdefault(ch.topic, []).append(rec.data)
+        elif isinstance(rec, records.Channel):
+            channels[rec.id] = rec
+        elif isinstance(rec, records.Metadata):
+            metadata[rec.name] = dict(rec.metadata)
+        elif isinstance(rec, records.Attachment):
+            attachments[rec.name] = bytes(rec.data)
+        elif isinstance(rec, records.Footer):
+            footer = True
+    return channels, blocks, events, metadata, attachments, footer, tail_error
 
 
 def _frames(blocks: list[dict[str, np.ndarray]], path: Path) -> Frames:
@@ -190,21 +168,17 @@ def _frames(blocks: list[dict[str, np.ndarray]], path: Path) -> Frames:
 def read_canlog(path: str | os.PathLike[str], *, recover: bool = False) -> CanLog:
     """Read a recording of :mod:`ecu.buslog.writer`.
 
-    Args:
-        path: the ``.mcap`` (or a ``.mcap.part`` left by a killed recorder).
-        recover: read a file without its end (no footer, a cut chunk) up to its last
-            complete chunk instead of refusing it (:attr:`CanLog.complete` False).
-
     Raises:
         CanLogError: missing, not MCAP, truncated (no footer; unless ``recover``), bad CRC,
             or not a pacc bus recording (no ``/can/raw`` channel and no ``pacc`` metadata).
     """
     path = Path(path)
-    found = _scan(path, recover)
-    if not found.footer and not recover:
+    channels, blocks, events, metadata, attachments, footer, tail_error = _scan(path, recover)
+    if not footer and not recover:
         raise CanLogError(f"{path}: truncated recording (no MCAP footer)")
-    meta = found.metadata.get(META_RECORD, {})
-    topics = sorted({c.topic for c in found.channels.values()})
+    meta = metadata.get(META_RECORD, {})
+    layouts = {c.topic: c.metadata.get(LAYOUT_KEY) for c in channels.values()}
+    topics = sorted(layouts)
     fmt = meta.get("format")
     if fmt != FORMAT or RAW_TOPIC not in topics:
         raise CanLogError(
@@ -215,16 +189,19 @@ def read_canlog(path: str | os.PathLike[str], *, recover: bool = False) -> CanLo
     except ValueError as exc:
         raise CanLogError(f"{path}: bad time base in the metadata: {exc}") from None
     try:
-        raw = [decode_block(b) for b in found.blocks.get(RAW_TOPIC, [])]
+        raw = [decode_block(b) for b in blocks.get(RAW_TOPIC, [])]
     except BlockError as exc:
         raise CanLogError(f"{path}: corrupt block: {exc}") from None
     decoded: dict[str, dict[str, np.ndarray]] = {}
     series: dict[str, dict[str, np.ndarray]] = {}
-    for topic in found.blocks:
+    for topic, data in blocks.items():
         if topic == RAW_TOPIC:
             continue
         try:
-            joined = _rows(found, topic)
+            layout = layouts[topic]
+            if layout is None:
+                raise ValueError(f"channel has no {LAYOUT_KEY}")
+            joined = decode_rows(layout, data)
         except (ValueError, KeyError) as exc:
             raise CanLogError(f"{path}: messages of {topic} do not match: {exc}") from None
         if topic.startswith("/can/"):
@@ -233,24 +210,24 @@ def read_canlog(path: str | os.PathLike[str], *, recover: bool = False) -> CanLo
             series[topic] = joined
     frames = _frames(raw, path)
     note = ""
-    if not found.footer:
+    if not footer:
         note = (
             f"{path}: unfinished recording (no MCAP end: the recorder was killed?); read "
             f"{len(frames)} frames up to its last complete chunk"
-            + (f" ({found.tail_error})" if found.tail_error else "")
+            + (f" ({tail_error})" if tail_error else "")
         )
     return CanLog(
         path=path,
         frames=frames,
         decoded=decoded,
         series=series,
-        events=found.events,
-        metadata=found.metadata,
-        attachments=found.attachments,
+        events=events,
+        metadata=metadata,
+        attachments=attachments,
         time_base=base,
         node=meta.get("node", ""),
         topics=topics,
-        complete=found.footer,
+        complete=footer,
         note=note,
     )
 

@@ -26,16 +26,6 @@ from ecu.buslog.writer import CanLogWriter
 from ecu.config import ConfigError, EcuConfig
 from ecu.controller import ControllerParams, RoadParams
 
-__all__ = [
-    "BINDING_ATTACHMENT",
-    "CONFIG_ATTACHMENT",
-    "DBC_ATTACHMENT",
-    "TABLE_ATTACHMENT",
-    "config_from_json",
-    "config_to_json",
-    "open_recording",
-]
-
 DBC_ATTACHMENT = "network.dbc"
 BINDING_ATTACHMENT = "binding.toml"
 CONFIG_ATTACHMENT = "ecu_config.json"
@@ -89,10 +79,9 @@ def open_recording(
     metadata: Mapping[str, Mapping[str, str]] | None = None,
     sinks: Sequence[Sink] = (),
 ) -> CanLogWriter:
-    """A :class:`CanLogWriter` for a node on ``codec``'s network, with the DBC and binding
-    files (default: the files ``codec`` was loaded from) attached, and the ECU's ``config``
-    and starting ``table`` when it runs one; ``sinks`` (a live view) get the same channels
-    (``path`` None: only them, flushed every :data:`~ecu.buslog.live.LIVE_FLUSH_S`).
+    """A :class:`CanLogWriter` for a node on ``codec``'s network with the DBC and binding (default:
+    ``codec``'s files), and the ECU's ``config`` and starting ``table``, attached; ``sinks`` get
+    the same channels (flushed every :data:`~ecu.buslog.live.LIVE_FLUSH_S`).
 
     Raises:
         CanLogError: the file cannot be written, or an attached file cannot be read.

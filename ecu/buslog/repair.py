@@ -16,8 +16,6 @@ from ecu.buslog.format import CanLogError
 from ecu.buslog.mcapfile import McapFile
 from ecu.buslog.reader import mcap_records, read_canlog
 
-__all__ = ["repair"]
-
 
 def repair(src: str | os.PathLike[str], dst: str | os.PathLike[str]) -> int:
     """Copy what is readable of the recording ``src`` into the complete file ``dst``; the
@@ -48,10 +46,10 @@ def repair(src: str | os.PathLike[str], dst: str | os.PathLike[str]) -> int:
                     channels[rec.id] = out.channel(rec.topic, rec.message_encoding, sid, meta)
                 elif isinstance(rec, records.Message) and rec.channel_id in channels:
                     ch = channels[rec.channel_id]
-                    out.message(ch, seqs.get(ch, 0), rec.log_time, bytes(rec.data))
+                    out.write_one(ch, seqs.get(ch, 0), rec.log_time, bytes(rec.data))
                     seqs[ch] = seqs.get(ch, 0) + 1
                 elif isinstance(rec, records.Attachment):
-                    out.attachment(rec.log_time, rec.name, rec.media_type, bytes(rec.data))
+                    out.attach(rec.log_time, rec.name, rec.media_type, bytes(rec.data))
                 elif isinstance(rec, records.Metadata):
                     out.metadata(rec.name, dict(rec.metadata))
             out.finish()

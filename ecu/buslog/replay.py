@@ -1,21 +1,4 @@
-"""Replaying a bus recording: through the ECU in lockstep, or onto a bus in real time.
-
-- :func:`replay_through_ecu` rebuilds the ECU the recording names (its attached DBC, binding,
-  configuration and starting table), puts every frame the recorded node received onto a
-  python-can ``virtual`` bus, accepted at its recorded time, and runs every recorded control
-  cycle at its recorded time and index (:meth:`ecu.runtime.EcuRuntime.cycle_at`), after the
-  frames received up to then. Deterministic, for lockstep (``pacc drive``) and real-time
-  (``pacc ecu``) recordings alike: the ECU sends the recorded frames again, bit for bit
-  (tested for both). A killed recording (no closing record: ``FILE.part``, or the file
-  ``pacc export`` made of it) holds its frames up to its last flush but its cycles only up to
-  the last rows written: the frames it sent after its last recorded cycle are not compared
-  (:attr:`ReplayResult.unreplayed`). What came from outside the bus is not in the recording
-  and is not replayed: a driver profile loaded from ``--profiles``, a table downloaded from
-  the cloud.
-- :func:`play` sends the frames onto any python-can bus with their recorded spacing (like
-  python-can's ``can.player``, through :class:`can.MessageSync`), and decodes the ACC
-  commands another node (``pacc ecu``) answers with.
-"""
+"""Replaying a bus recording: through the ECU in lockstep, or onto a bus in real time."""
 
 from __future__ import annotations
 
@@ -55,8 +38,6 @@ from ecu.buslog.recording import (
 )
 from ecu.node import EcuNode
 from ecu.runtime import EcuRuntime, RuntimeSummary
-
-__all__ = ["PlayResult", "ReplayResult", "codec_of", "play", "replay_through_ecu"]
 
 #: creation time of the tables a replay adapts (the replay stays a pure function of the log)
 REPLAY_UTC = "2000-01-01T00:00:00Z"
@@ -158,10 +139,6 @@ def _cycles(log: CanLog) -> list[tuple[float, int]]:
 def replay_through_ecu(log: CanLog, node: EcuNode | None = None) -> ReplayResult:
     """Run the recording's received frames and cycles through the ECU (module docstring).
 
-    Every received frame is put on a virtual bus and accepted at its recorded time; every
-    recorded cycle runs at its recorded time with its index, after the frames received up
-    to then. Lockstep (``pacc drive``) and real-time (``pacc ecu``) recordings alike.
-
     Raises:
         CanLogError: the recording names no ECU (no attached configuration, no cycles).
     """
@@ -237,10 +214,9 @@ def play(
     gap_s: float = 0.0001,
     skip_s: float = 60.0,
 ) -> PlayResult:
-    """Send the recording's frames (``which``: ``all``, ``rx`` the ones its node received,
-    ``tx`` the ones it sent) onto ``bus`` with their recorded spacing, and decode the ACC
-    commands that come back. ``skip_s``: longer pauses are cut to this (python-can's player
-    default). Stops early when ``stop()`` returns True."""
+    """Send the recording's frames (``which``: ``all``, ``rx``, ``tx``) onto ``bus`` with their
+    recorded spacing (pauses cut to ``skip_s``, s) and decode the ACC commands that come back;
+    stops early when ``stop()`` returns True."""
     codec = codec if codec is not None else codec_of(log)
     inbox = Inbox(codec, ("command",))
     result = PlayResult(frames_sent=0)

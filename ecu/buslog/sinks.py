@@ -23,16 +23,6 @@ from ecu.buslog.format import FORMAT, CanLogError
 from ecu.buslog.mcapfile import RECORD_HEAD, McapFile
 from ecu.buslog.proto import LAYOUT_KEY, ProtoRows
 
-__all__ = [
-    "ChannelSpec",
-    "McapSink",
-    "Sink",
-    "close_all",
-    "declare",
-    "json_spec",
-    "rows_spec",
-]
-
 
 @dataclass(frozen=True)
 class ChannelSpec:
@@ -51,7 +41,7 @@ class ChannelSpec:
 class Sink(Protocol):
     """What the recorder writes to."""
 
-    def channel(self, spec: ChannelSpec) -> int:
+    def declare(self, spec: ChannelSpec) -> int:
         """Declare a channel; the sink's handle of it."""
 
     def write_one(self, handle: int, seq: int, log_time: int, data: bytes) -> None:
@@ -77,7 +67,7 @@ class Sink(Protocol):
         """Finish (``complete``: the recording ended normally; else keep what was written)."""
 
 
-class McapSink:
+class McapSink(McapFile):
     """The recording file: ``path.part`` while it is written, renamed ``path`` when complete.
 
     Raises:
@@ -90,32 +80,20 @@ class McapSink:
         if self.path.is_dir():
             raise CanLogError(f"{self.path}: is a directory, not a recording file")
         try:
-            self._stream = self.tmp.open("wb")
+            stream = self.tmp.open("wb")
         except OSError as exc:
             raise CanLogError(f"{self.path}: cannot write the recording: {exc.strerror}") from None
-        self._file = McapFile(self._stream, profile=FORMAT, library="pacc.ecu.buslog")
+        super().__init__(stream, profile=FORMAT, library="pacc.ecu.buslog")
 
-    def channel(self, spec: ChannelSpec) -> int:
-        sid = self._file.schema(spec.schema_name, spec.schema_encoding, spec.schema_data)
-        return self._file.channel(spec.topic, spec.message_encoding, sid, dict(spec.metadata))
-
-    def write_one(self, handle: int, seq: int, log_time: int, data: bytes) -> None:
-        self._file.message(handle, seq, log_time, data)
+    def declare(self, spec: ChannelSpec) -> int:
+        sid = self.schema(spec.schema_name, spec.schema_encoding, spec.schema_data)
+        return self.channel(spec.topic, spec.message_encoding, sid, dict(spec.metadata))
 
     def write_rows(
         self, handle: int, seq0: int, log_times: np.ndarray, rows: ProtoRows, table: np.ndarray
     ) -> None:
         """The rows formatted in place after room for their record headers (one array)."""
-        self._file.records(handle, seq0, log_times, rows.format_into(table, RECORD_HEAD))
-
-    def attach(self, log_time: int, name: str, media_type: str, data: bytes) -> None:
-        self._file.attachment(log_time, name, media_type, data)
-
-    def metadata(self, name: str, values: Mapping[str, str]) -> None:
-        self._file.metadata(name, dict(values))
-
-    def flush(self) -> None:
-        self._file.flush()
+        self.records(handle, seq0, log_times, rows.format_into(table, RECORD_HEAD))
 
     def close(self, complete: bool) -> None:
         """Finish the file and rename it (``complete``), else end the chunk and keep the
@@ -126,12 +104,12 @@ class McapSink:
         """
         if not complete:
             with contextlib.suppress(Exception):
-                self._file.flush()
+                self.flush()
             with contextlib.suppress(Exception):
                 self._stream.close()
             return
         try:
-            self._file.finish()
+            self.finish()
             self._stream.close()
             self.tmp.replace(self.path)
         except OSError as exc:
@@ -170,4 +148,4 @@ def rows_spec(topic: str, rows: ProtoRows) -> ChannelSpec:
 
 def declare(sinks: Sequence[Sink], spec: ChannelSpec) -> list[int]:
     """Declare ``spec`` on every sink; the handles, one per sink."""
-    return [sink.channel(spec) for sink in sinks]
+    return [sink.declare(spec) for sink in sinks]

@@ -5,13 +5,6 @@ per decoded frame and per control cycle with numeric fields, so Foxglove and Plo
 every signal over time (the channels: :mod:`ecu.buslog.format`). Every message's ``log_time``
 is its frame's or cycle's time in UTC (the :class:`~ecu.buslog.format.TimeBase`), ``t_s`` in
 it the node's clock exactly.
-
-Every ``flush_s`` (1 s of the node's clock) the new frames go out as a raw block and the
-MCAP chunk ends: a killed recording (``FILE.part``) holds every frame older than that. The
-rows (decoded frames, cycles) go out every ``rows_s`` (10 s; live 0.2 s), built by numpy a
-channel at a time (:mod:`ecu.buslog.decoded`, :mod:`ecu.buslog.proto`). Every
-:class:`~ecu.buslog.sinks.Sink` (the file, a live Foxglove WebSocket: :mod:`ecu.buslog.live`)
-gets the same channels from this one code path, on the node's thread.
 """
 
 from __future__ import annotations
@@ -61,8 +54,6 @@ from ecu.buslog.proto import ProtoRows
 from ecu.buslog.sinks import McapSink, Sink, close_all, declare, json_spec, rows_spec
 from ecu.signals import NodeInputs, NodeOutputs
 
-__all__ = ["CanLogWriter"]
-
 log = logging.getLogger(__name__)
 _get_inputs = operator.attrgetter(*INPUT_FIELDS)
 _get_outputs = operator.attrgetter(*OUTPUT_FIELDS)
@@ -77,17 +68,14 @@ class CanLogWriter:
     """Writes one recording (module docstring). Not thread-safe: one node's thread feeds it.
 
     Args:
-        path: the MCAP file to write (``path.part`` until :meth:`close`); None: no file,
-            only ``sinks`` (a live view without a recording).
+        path: the MCAP file (``path.part`` until :meth:`close`); None: only ``sinks``.
         db: the cantools database of the network (``None``: raw frames only).
         time_base: maps the node's clock to UTC.
         node: who records (``ecu``, ``sim``, ``drive``, ``export``).
-        attachments: name -> bytes, stored as MCAP attachments (DBC, binding, config …).
-        metadata: record name -> {key: text}, stored as MCAP metadata records.
-        flush_s: the flush interval on the node's clock, s (at most this much is lost when
-            the process is killed).
-        sinks: more sinks besides the file (e.g. :class:`ecu.buslog.live.FoxgloveSink`).
-        rows_s: the decoded rows and cycles are written every ``rows_s`` (>= ``flush_s``).
+        attachments / metadata: stored as MCAP attachments / metadata records.
+        flush_s: the flush interval on the node's clock, s (at most this is lost on a kill).
+        sinks: more sinks besides the file (:class:`ecu.buslog.live.FoxgloveSink`).
+        rows_s: the decoded rows and cycles are written every ``rows_s``, s (>= ``flush_s``).
 
     Raises:
         CanLogError: ``path`` cannot be created.
@@ -118,15 +106,14 @@ class CanLogWriter:
         self.error: str | None = None
         #: the node's clock at the first frame or sample (the recording's start)
         self.first_t_s: float | None = None
-        # the open block: its frames as tapped (one append a frame), its first frame's, cycle's
-        # or sample's time (None until a cycle, sample or flush looks); the unwritten cycles
-        # and samples (topic -> rows one after the other)
+        # the open block: its frames as tapped, its first frame's, cycle's or sample's time,
+        # its cycles and samples
         self._frames: list[Any] = []
         self._tap: Callable[[Tapped], None] = self._frames.extend
         self._block_t0: float | None = None
         self._cycles: list[bytes] = []
         self._cycles_declared = False
-        self._samples: dict[str, list[Any]] = {}
+        self._samples: dict[str, list[Any]] = {}  # topic -> unwritten rows, one after the other
         # the channels on every sink: raw, decoded per DBC message, sampled, events
         self.sinks: list[Sink] = [McapSink(self.path)] if self.path is not None else []
         self.sinks += sinks
@@ -150,8 +137,6 @@ class CanLogWriter:
             self.attach(name, data)
         self._end_chunk()  # a recording killed from now on is readable
 
-    # -- what a node feeds ---------------------------------------------------------------
-
     def attach(self, name: str, data: bytes, media_type: str = "text/plain") -> None:
         """Store ``data`` as the attachment ``name`` (stamped with the origin's UTC); nothing
         once the recording stopped."""
@@ -159,16 +144,10 @@ class CanLogWriter:
             for sink in self.sinks:
                 sink.attach(self.time_base.utc_origin_ns, name, media_type, data)
 
-    def frame(self, t_s: float, msg: can.Message, rx: bool) -> None:
-        """One frame received (``rx``) or sent at ``t_s`` on the node's clock. The frame is
-        kept, not copied, until the next flush: its sender must not change it (a node's
-        frames in and out are new objects each; else :meth:`frame_and_tick`)."""
-        self._tap((t_s, None, msg, rx))
-
     def frame_raw(self, t_s: float, key: int, data: Any, rx: bool) -> None:
-        """:meth:`frame` of a raw frame of the lockstep bus (:mod:`dbc.frame`): ``key`` the
-        id with the IDE bit, ``data`` the payload (immutable bytes; for
-        :data:`dbc.frame.OTHER`, the message itself)."""
+        """One frame received (``rx``) or sent at ``t_s`` (s, the node's clock), in the raw
+        form of :mod:`dbc.frame`: ``key`` the id with the IDE bit, ``data`` the immutable
+        payload (for :data:`dbc.frame.OTHER`, the message itself, kept until the flush)."""
         self._tap((t_s, key, data, rx))
 
     def frame_and_tick(self, t_s: float, msg: can.Message, rx: bool) -> None:
@@ -190,7 +169,7 @@ class CanLogWriter:
         ``integral``: per column, written as an integer (default: none). ``description`` is
         not stored: the fields' names say what they are."""
         del description
-        if topic in self._samples:
+        if topic in self._series:
             return
         ints = tuple(integral) if integral is not None else (False,) * len(columns)
         title = "pacc." + topic.strip("/").replace("/", ".")
@@ -199,7 +178,7 @@ class CanLogWriter:
         self._samples[topic] = []
 
     def sample(self, topic: str, t_s: float, values: tuple[Any, ...]) -> None:
-        """One sample of a declared channel: ``values`` in its column order."""
+        """One sample of a declared channel at ``t_s`` (s): ``values`` in its column order."""
         row = self._samples[topic]
         row.append(t_s)
         row.extend(values)
@@ -220,10 +199,8 @@ class CanLogWriter:
         self._events_seq += 1
 
     def cycle(self, t_s: float, inputs: NodeInputs, outputs: NodeOutputs, k: int = -1) -> None:
-        """ECU control cycle ``k``: its inputs and outputs on ``/ecu/inputs`` and
-        ``/ecu/outputs`` (``cycle`` the index on the node's cycle grid), its events on
-        ``/ecu/events``; flushes when due. Never raises: a failed write stops the recording
-        (:attr:`error`), not the node."""
+        """ECU control cycle ``k`` at ``t_s`` (s) on ``/ecu/inputs`` and ``/ecu/outputs``, its
+        events on ``/ecu/events``; flushes when due. Never raises: a failure stops the recording."""
         if self.error is not None:
             return
         try:  # written out: one call a cycle
@@ -270,8 +247,6 @@ class CanLogWriter:
         self._tap = lambda _: None  # a stopped recording takes no frames
         for values in self._samples.values():
             values.clear()
-
-    # -- writing -------------------------------------------------------------------------
 
     def _flush_due(self, t_s: float) -> None:
         self.flush(self._rows_t0 is not None and t_s - self._rows_t0 >= self.rows_s)
@@ -347,11 +322,9 @@ class CanLogWriter:
     def write_series(
         self, topic: str, columns: Mapping[str, Iterable[Any]], t_s: Iterable[float]
     ) -> None:
-        """Write whole columns at once (e.g. the simulated world after a drive), one message
-        per row, a chunk every :data:`SERIES_STEP` rows; ``topic`` must be declared with the
-        columns' names. Nothing once the recording stopped (:attr:`error`: the first failure
-        is the one reported)."""
-        if topic not in self._samples:
+        """Write whole columns of the declared ``topic`` at once (the simulated world after a
+        drive), a chunk every :data:`SERIES_STEP` rows; nothing once the recording stopped."""
+        if topic not in self._series:
             raise KeyError(topic)
         if self.error is not None:
             return
@@ -361,8 +334,6 @@ class CanLogWriter:
         for start in range(0, len(t), SERIES_STEP):
             self._write_rows(s, table[start : start + SERIES_STEP])
             self._end_chunk()
-
-    # -- end -----------------------------------------------------------------------------
 
     def close(self) -> None:
         """Write what is open, finish the file and rename it to ``path``.

@@ -1,13 +1,9 @@
 """The control phase of one cycle: the acceleration request and the controller's memory.
 
-:func:`control` is the sixth phase of :mod:`ecu.cycle.phases` (which re-exports it for
-:class:`ecu.node.EcuNode`): while ACTIVE, the PID gap law of :mod:`ecu.controller` (or a plug-in
-:data:`GapLaw`) capped by cruise, bounded by the closing and stopping limits
-(:mod:`ecu.cycle.stops`) and the road rules (:mod:`ecu.cycle.road`), then the envelope and jerk
-limits with the emergency exception; otherwise the request ramps toward zero (in OVERRIDE it
-follows, or prepares, the braking the ACC would take over with). Accelerations in m/s^2, times in s.
-
-Pure: values in, values out; no clock, no bus, no logging.
+While ACTIVE: the PID gap law of :mod:`ecu.controller` (or a plug-in :data:`GapLaw`) capped by
+cruise, bounded by the closing and stopping limits (:mod:`ecu.cycle.stops`) and the road rules
+(:mod:`ecu.cycle.road`), then the envelope and jerk limits; otherwise the request ramps toward
+zero (in OVERRIDE it follows the braking the ACC would take over with). Pure; m/s^2 and s.
 """
 
 from __future__ import annotations
@@ -33,9 +29,6 @@ from ecu.signals import NodeInputs, Plan, cycle_value
 GapLaw = Callable[[ControlInput, float, float], tuple[float, float]]
 
 
-# -- 6. control --------------------------------------------------------------------------------
-
-
 @cycle_value
 class ControlMemory:
     """The controller's state across cycles: gap-error integral (m*s), last request (m/s^2),
@@ -48,16 +41,9 @@ class ControlMemory:
 
 @cycle_value
 class Command:
-    """The request of one cycle.
-
-    Attributes:
-        accel_mps2: requested acceleration, m/s^2 (inside the envelope, rate-limited).
-        active: the powertrain shall execute it.
-        emergency: the emergency jerk exception was in force.
-        ramp_done: the FAULT ramp reached zero this cycle (the request goes inactive).
-        beyond_limit: engaged, the braking needed exceeds what the ACC may command
-            (:func:`ecu.cycle.stops.beyond_authority`): the driver must take over.
-    """
+    """The request of one cycle: acceleration (m/s^2, in the envelope, rate-limited), whether
+    the powertrain executes it, the emergency jerk exception, the FAULT ramp done, and the
+    braking needed beyond the ACC's authority (:func:`ecu.cycle.stops.beyond_authority`)."""
 
     accel_mps2: float
     active: bool
@@ -79,21 +65,7 @@ def control(
     law: GapLaw | None = None,
     resume: bool = False,
 ) -> tuple[Command, ControlMemory]:
-    """The request of this cycle and the controller's next memory.
-
-    ACTIVE: the PID gap law capped by cruise, then the envelope (emergency exception when a
-    closing lead is within ``emergency_ttc_s`` and the request decreases; there the request
-    is also at most the closing limit against the table's lower safety bound at the lead's
-    speed; behind a braking lead whose stop, were it to brake to a standstill, would need
-    more than 2 m/s^2, the request is at most that need, with the emergency build-up, at any
-    TTC; while the driver overrides there, the inactive request prepares it). Otherwise the
-    request ramps toward zero at the jerk limit; it stays active only in FAULT while an
-    executed request is still ramping (``fault_ramp``). ``law``: a plug-in
-    gap law in place of the PID (the envelope and the closing limit stay the ECU's). The road
-    rules (:func:`ecu.cycle.road.road_update`): a target switch drops the integral, a brief
-    lead loss does not raise the request, a standstill holds until the lead departs soon
-    after the stop or the driver asks to go (``resume``: RESUME or the accelerator this cycle).
-    """
+    """The request of this cycle and the controller's next memory."""
     ctl = config.controller
     prev = mem.prev_accel_mps2
     active = state is AccState.ACTIVE
@@ -113,26 +85,18 @@ def control(
     engaged = active or state is AccState.OVERRIDE
     beyond = engaged and beyond_authority(config, inp, p, lead_a)
     if active:
-        obs = ControlInput(  # positional fields, as in check_inputs
-            p.v_mps,  # v_mps
-            inp.a_mps2,  # a_mps2
-            set_speed_mps,  # set_speed_mps
-            inp.lead_valid,  # lead_valid
-            inp.gap_m,  # gap_m
-            inp.rel_speed_mps,  # rel_speed_mps
-            lead_a,  # lead_accel_mps2
-            p.desired_gap_m,  # desired_gap_m
-            p.desired_gap_slope_s,  # desired_gap_slope_s
-        )
+        obs = ControlInput(  # positional fields in declaration order
+            p.v_mps, inp.a_mps2, set_speed_mps, inp.lead_valid, inp.gap_m, inp.rel_speed_mps,
+            lead_a, p.desired_gap_m, p.desired_gap_slope_s,
+        )  # fmt: skip
         if law is None:
             target, integral = desired_accel(ctl, obs, integral0, dt_s, integrate=True)
         else:
             target, integral = law(obs, integral0, dt_s)
         ttc = time_to_collision_s(inp.lead_valid, inp.gap_m, inp.rel_speed_mps)
         urgent = False
-        # brake at least as hard as the closing speed needs below 3 s TTC, and at any TTC when
-        # the closing speed alone needs more than 2 m/s^2 (a cut-out revealing a car 15 m/s
-        # slower 58 m ahead: 3.9 s TTC, 2.5 m/s^2)
+        # brake as hard as the closing speed needs below 3 s TTC, and at any TTC when it alone
+        # needs more than 2 m/s^2 (a cut-out revealing a much slower car)
         alone, limit = closing_needs_mps2(config, inp, p, lead_a)
         if ttc < ctl.emergency_ttc_s or alone < URGENT_STOP_MPS2:
             urgent = alone < URGENT_STOP_MPS2 and limit < prev
@@ -140,10 +104,8 @@ def control(
         if inp.lead_valid:  # a lead stopping or stopped: stop at the table's standstill gap
             need = lead_stop_need_mps2(config, inp, p, lead_a)
             stop = stop_limit(config, inp, p, lead_a, need)
-            # behind a lead braking so hard that stopping behind it, were it to brake to a
-            # standstill, needs more than 2 m/s^2: that braking now, at the emergency jerk,
-            # not from 3 s TTC on (the comfort jerk left 1.6 s TTC, and 0.36 m,
-            # behind leads braking at 3 m/s^2 beyond the stop law's 4-s horizon)
+            # a lead braking so hard that stopping behind it needs more than 2 m/s^2: brake
+            # now, at the emergency jerk, not from 3 s TTC on
             stop = need if need < URGENT_STOP_MPS2 and stop > need else stop
             urgent = urgent or (stop < URGENT_STOP_MPS2 and stop < prev)
             target = stop if target > stop else target
@@ -166,11 +128,8 @@ def control(
         and math.isfinite(inp.a_mps2)
     ):
         # the driver brakes toward a closing lead: the inactive request follows the car's
-        # deceleration, so that the ACC takes over at the release from there, not from 0
-        # (a brake released at 2.4 s TTC let the braking sag to 1.5 m/s^2); behind
-        # a hard-braking lead, or closing fast, it prepares the braking the ACC would then
-        # ask for (a gentle brake released at 4.6 s TTC behind a lead braking at 3 m/s^2 left
-        # 1.99 s TTC; an accelerator tap as a cut-out revealed a stopped car, 1.29 s)
+        # deceleration (or prepares the braking the ACC would ask for), so that the ACC takes
+        # over at the release from there, not from 0
         lo = ctl.accel_min_mps2
         rest = lo if inp.a_mps2 < lo else inp.a_mps2  # min(max(a, lo), 0), written out
         rest = 0.0 if rest > 0.0 else rest
@@ -184,6 +143,3 @@ def control(
     # accel_mps2, active, emergency, ramp_done, beyond_limit
     command = Command(accel, active, urgent, ramping and not active, beyond)
     return command, ControlMemory(integral0, accel, road)
-
-
-__all__ = ["Command", "ControlMemory", "GapLaw", "control"]

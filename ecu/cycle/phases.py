@@ -1,22 +1,10 @@
 """The phases of one control cycle, as pure functions; :class:`ecu.node.EcuNode` runs them.
 
-One cycle, in order (the openpilot split: read -> transition -> plan -> control -> outputs)::
-
-    cycle_time      the cycle's time and integration step (a host clock fault: time stands still)
-    check_inputs    input validity, the re-engagement hold, button edges -> state-machine Events
-    transition      (ecu.cycle.state) the next AccState
-    enter_state     what entering that state does: fault code, set speed, controller reset
-    takeover        (stateful, in the node) press -> takeover; release -> adaptation, recording
-    plan            the DGPT's desired gap and its slope at the current speed
-    control         (ecu.cycle.command) PID and envelope while ACTIVE; the FAULT ramp otherwise
-    sample_of       the recorder's sample of this cycle
-    outputs         NodeOutputs
-
-The takeover phase runs before the plan on purpose: an adaptation applied at a pedal release
-is the table the same cycle plans with.
-
-Every function here is pure: values in, values out; no clock, no bus, no logging. The
-control phase has a module of its own, :mod:`ecu.cycle.command`.
+In order: ``cycle_time`` -> ``check_inputs`` (validity, re-engagement hold, button edges) ->
+``transition`` (:mod:`ecu.cycle.state`) -> ``enter_state`` -> takeover (in the node) ->
+``plan`` (the DGPT's gap and slope at the current speed) -> ``control``
+(:mod:`ecu.cycle.command`) -> ``sample_of`` -> ``outputs``. The takeover runs before the plan
+so that a table adapted at a release is the one the same cycle plans with.
 """
 
 from __future__ import annotations
@@ -39,15 +27,8 @@ DISENGAGED = (AccState.STANDBY, AccState.FAULT)
 _RELEASED = (False, False, False)
 
 
-# -- 1. clock ---------------------------------------------------------------------------------
-
-
 def cycle_time(now_s: float, last_now_s: float | None, cycle_s: float) -> tuple[float, float]:
-    """``(now_s, dt_s)`` of a cycle called at ``now_s`` after one at ``last_now_s`` (s).
-
-    A non-finite ``now_s`` (a host clock fault) is taken as no time passing; the first cycle
-    integrates over one period; ``dt_s`` is clipped to ``[0, MAX_DT_S]``.
-    """
+    """``(now_s, dt_s)`` of a cycle called at ``now_s`` after one at ``last_now_s`` (s)."""
     if not math.isfinite(now_s):
         now_s = last_now_s if last_now_s is not None else 0.0
     dt = cycle_s if last_now_s is None else now_s - last_now_s
@@ -59,20 +40,11 @@ def cycle_time(now_s: float, last_now_s: float | None, cycle_s: float) -> tuple[
     return now_s, dt
 
 
-# -- 2. inputs ---------------------------------------------------------------------------------
-
-
 @cycle_value
 class InputCheck:
-    """The checked inputs of one cycle.
-
-    Attributes:
-        fault: the first invalid safety-relevant input (``FaultCode.NONE``: all valid).
-        valid_since_s: since when the inputs have been valid without a break, s (None: not
-            valid now).
-        buttons: the HMI button levels (set, resume, cancel) of this cycle.
-        events: the state machine's inputs.
-    """
+    """The checked inputs of one cycle: the first invalid safety-relevant input (``NONE``: all
+    valid), since when the inputs have been valid (s; None: not now), the HMI button levels (set,
+    resume, cancel) and the state machine's inputs."""
 
     fault: FaultCode
     valid_since_s: float | None
@@ -96,11 +68,7 @@ def check_inputs(
     has_set_speed: bool,
 ) -> InputCheck:
     """Validity, the hold time before re-engagement (``settle_s``), rising button edges
-    (``buttons``: last cycle's levels) and pedals, as the state machine's :class:`Events`.
-
-    A stale HMI counts as every button released and the main switch unchanged; unknown
-    pedals (stale, failed E2E or non-finite) count as released.
-    """
+    (``buttons``: last cycle's levels) and pedals, as the state machine's :class:`Events`."""
     fault = input_fault(inp)
     valid = fault is FaultCode.NONE
     since = (now_s if valid_since_s is None else valid_since_s) if valid else None
@@ -130,9 +98,6 @@ def check_inputs(
     return InputCheck(fault, since, levels, events)
 
 
-# -- 3. state entry -----------------------------------------------------------------------------
-
-
 @cycle_value
 class Engagement:
     """What the node remembers about engagement across cycles.
@@ -159,13 +124,7 @@ def enter_state(
     config: EcuConfig,
 ) -> tuple[Engagement, bool]:
     """The engagement memory after the change ``old -> new`` (``new is not old``), and
-    whether the controller starts afresh (its integral reset).
-
-    - FAULT records the fault, ramps only a request that was being executed (after an
-      override it stays off) and forgets the set speed: only SET re-engages afterwards;
-    - engaging from STANDBY or FAULT clears the fault; SET (or engaging without a set speed)
-      takes ``config.set_speed_mps``, else the current speed up to ``config.max_set_speed_mps``.
-    """
+    whether the controller starts afresh (its integral reset)."""
     if new is AccState.FAULT:
         mem = Engagement(fault_code=fault, set_speed_mps=0.0, fault_ramp=old is AccState.ACTIVE)
     if new in ENGAGED and old in DISENGAGED:
@@ -177,9 +136,6 @@ def enter_state(
     return mem, False
 
 
-# -- 4. takeover -------------------------------------------------------------------------------
-
-
 def takeover_pedal(accel: bool, brake: bool) -> str:
     """The pedal of a takeover: ``"accel"``, ``"brake"`` or ``"both"``."""
     if accel and brake:
@@ -187,16 +143,10 @@ def takeover_pedal(accel: bool, brake: bool) -> str:
     return "accel" if accel else "brake"
 
 
-# -- 5. plan -----------------------------------------------------------------------------------
-
-
 def plan(table: Dgpt, v_mps: float) -> Plan:
     """Look the desired gap up at ``v_mps`` (a non-finite speed counts as 0 m/s)."""
     v = v_mps if math.isfinite(v_mps) else 0.0
     return Plan(v, table.lookup(v), table.slope(v))  # v_mps, desired gap, its slope
-
-
-# -- 6. control: ecu.cycle.command; 7. recording and 8. outputs ------------------------------------
 
 
 def sample_of(inp: NodeInputs, now_s: float, state: AccState) -> Sample:
@@ -249,16 +199,4 @@ def outputs(
     )
 
 
-__all__ = [
-    "Engagement",
-    "InputCheck",
-    "Plan",
-    "check_inputs",
-    "cycle_time",
-    "enter_state",
-    "outputs",
-    "plan",
-    "reported_fault",
-    "sample_of",
-    "takeover_pedal",
-]
+__all__ = ["Plan"]

@@ -1,19 +1,11 @@
 """The road rules of the control law: target switches, lead loss, standstill.
 
-A jump of the radar gap that the relative speed cannot explain is a *target switch* (a
-cut-in, a cut-out revealing the vehicle ahead, a new lead after a free road): the integral of
-the old target is dropped and the switch's time is kept (the adaptation does not learn from a
-takeover that starts right after one). A lead lost for less than ``lead_loss_hold_s`` (a radar
-confirming a new track drops ``LeadValid`` briefly) does not make the car accelerate toward
-the set speed. At a standstill behind a lead the request holds the car (``hold_accel_mps2``);
-it pulls away when the lead departs within ``auto_resume_s`` of stopping, else only on the
-driver's RESUME or accelerator (ISO 15622's full-speed-range ACC: resuming after a stop needs
-the driver).
-
-:func:`road_update` carries :class:`RoadMemory` from one cycle to the next and says whether
-the target switched; :func:`road_limit` bounds the cycle's request by the rules. Both are pure;
-their parameters are :class:`ecu.controller.RoadParams` (``ControllerParams.road``), and
-:func:`ecu.cycle.command.control` applies them while ACTIVE.
+A radar gap jump the relative speed cannot explain is a *target switch* (cut-in, cut-out, new
+lead): the old target's integral is dropped and its time kept (the adaptation skips a takeover
+right after one). A lead lost for less than ``lead_loss_hold_s`` does not make the car speed
+up. At a standstill the request holds the car (``hold_accel_mps2``); it pulls away on its own
+only when the lead departs within ``auto_resume_s``, else on RESUME or the accelerator
+(ISO 15622 full-speed-range ACC).
 """
 
 from __future__ import annotations
@@ -56,11 +48,7 @@ def road_update(
     active: bool,
     resume: bool,
 ) -> tuple[RoadMemory, bool]:
-    """The road memory after one cycle of ``dt_s`` and whether the target switched (pure).
-
-    ``active``: the ACC drives the car (the standstill counter runs only then); ``resume``:
-    the driver's RESUME or accelerator this cycle (a go request at a standstill).
-    """
+    """The road memory after one cycle of ``dt_s`` and whether the target switched (pure)."""
     switched = False
     if lead_valid:
         if mem.no_lead_s >= params.reacquire_s and mem.no_lead_s < math.inf:
@@ -96,6 +84,3 @@ def road_limit(
         hold = params.hold_accel_mps2
         target = hold if target > hold else target
     return target
-
-
-__all__ = ["RoadMemory", "road_limit", "road_update"]

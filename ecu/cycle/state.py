@@ -1,26 +1,17 @@
 """Engagement state machine of the ACC: a pure transition function.
 
-States (the DBC's ``AccState`` codes): OFF 0, STANDBY 1 (main switch on), ACTIVE 2,
-OVERRIDE 3 (a driver pedal is pressed: the paper's takeover), FAULT 4.
-
-Transitions, first matching rule wins::
+States (the DBC's ``AccState`` codes): OFF 0, STANDBY 1, ACTIVE 2, OVERRIDE 3 (a driver pedal
+pressed: the paper's takeover), FAULT 4. Transitions, first matching rule wins::
 
     any      --main off-->                          OFF
     OFF      --main on-->                           STANDBY
     ACTIVE, OVERRIDE --input invalid-->             FAULT
-    ACTIVE, OVERRIDE --cancel-->                    STANDBY
-    ACTIVE, OVERRIDE --brake, brake_mode=cancel-->  STANDBY   (production behaviour)
-    ACTIVE   --accelerator or brake-->              OVERRIDE  (brake: the paper's study)
+    ACTIVE, OVERRIDE --cancel, or brake with brake_mode=cancel-->  STANDBY
+    ACTIVE   --accelerator or brake-->              OVERRIDE
     OVERRIDE --both pedals released-->              ACTIVE
-    STANDBY, FAULT --SET (STANDBY also: RESUME with a set speed), inputs valid >= 1 s,
-                     no brake-->                    ACTIVE, or OVERRIDE if the accelerator
-                                                    is pressed
+    STANDBY, FAULT --SET (STANDBY also RESUME with a set speed), inputs valid >= 1 s,
+                     no brake-->                    ACTIVE (OVERRIDE if accelerator pressed)
     FAULT    --cancel-->                            STANDBY
-    otherwise                                       unchanged
-
-"Input invalid" means a safety-relevant input (speed, pedals, radar, buttons) is stale or
-failed its E2E check; the caller also passes whether the inputs have been valid for the
-re-engagement hold time (1 s).
 """
 
 from __future__ import annotations
@@ -35,19 +26,7 @@ BrakeMode = Literal["resume", "cancel"]
 
 @cycle_value
 class Events:
-    """Inputs of one transition.
-
-    Attributes:
-        main_on: main switch level.
-        set_edge: rising edge of SET.
-        resume_edge: rising edge of RESUME.
-        cancel_edge: rising edge of CANCEL.
-        accel_pressed: accelerator pedal pressed.
-        brake_pressed: brake pedal pressed.
-        inputs_valid: every safety-relevant input is fresh and passed E2E this cycle.
-        inputs_settled: inputs have been valid continuously for the re-engagement hold time.
-        has_set_speed: a set speed exists (RESUME can engage).
-    """
+    """Inputs of one transition: levels, rising edges of the buttons, pedals, input validity."""
 
     main_on: bool = False
     set_edge: bool = False
@@ -91,4 +70,4 @@ def _from_disengaged(state: AccState, ev: Events) -> AccState:
     return state
 
 
-__all__ = ["AccState", "BrakeMode", "Events", "FaultCode", "transition"]
+__all__ = ["AccState", "FaultCode"]

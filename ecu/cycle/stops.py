@@ -45,8 +45,7 @@ def lead_stop_need_mps2(
 ) -> float:
     """The constant acceleration (m/s^2) that stops the car at the table's standstill gap, with
     ``STOP_SPARE_S`` of the closing speed to spare, behind where a braking lead would come to
-    rest if it kept its deceleration to a standstill (``inf`` when the lead is not braking):
-    the worst case a braking lead can turn into, whenever it would stand."""
+    rest (``inf`` when the lead is not braking)."""
     v_lead = p.v_mps + inp.rel_speed_mps
     v_lead = 0.0 if v_lead < 0.0 else v_lead
     closing = p.v_mps - v_lead
@@ -58,10 +57,9 @@ def lead_stop_need_mps2(
 def closing_needs_mps2(
     config: EcuConfig, inp: NodeInputs, p: Plan, lead_accel_mps2: float
 ) -> tuple[float, float]:
-    """What closing on the lead needs, m/s^2: the closing speed alone (the lead's acceleration
-    taken as 0) and the closing limit with the lead's acceleration, both against the table's
-    lower safety bound at the lead's speed (:func:`ecu.controller.closing_limit_mps2`);
-    ``(inf, inf)`` without a lead or when not closing."""
+    """What closing on the lead needs, m/s^2: the closing limit with the lead's acceleration
+    taken as 0 and with it, against the table's lower bound at the lead's speed; ``(inf, inf)``
+    without a lead or when not closing."""
     if not inp.lead_valid or inp.rel_speed_mps >= 0.0:
         return math.inf, math.inf
     v_lead = p.v_mps + inp.rel_speed_mps
@@ -71,12 +69,9 @@ def closing_needs_mps2(
 
 
 def beyond_authority(config: EcuConfig, inp: NodeInputs, p: Plan, lead_accel_mps2: float) -> bool:
-    """True when the braking needed exceeds what the ACC may command (a takeover request, as
-    a production ACC gives at its limit). Needed to keep the safety bound's standstill gap
-    (2 m) after ``BRAKE_BUILD_S`` at the current closing speed: matching the lead's speed,
-    and behind a braking lead stopping behind where it would come to rest; the harder of
-    the two beyond the envelope's ``accel_min_mps2``. (Matching against the bound at the
-    lead's speed asked for takeovers at 5 to 7 s TTC behind leads braking at 1 to 3 m/s^2.)"""
+    """True when the braking needed to keep the safety bound's standstill gap after
+    ``BRAKE_BUILD_S`` (matching the lead's speed, or stopping behind a braking lead) exceeds the
+    envelope's ``accel_min_mps2``: a takeover request, as a production ACC gives at its limit."""
     if not inp.lead_valid or not inp.rel_speed_mps < 0.0:
         return False
     v_lead = p.v_mps + inp.rel_speed_mps
@@ -91,12 +86,9 @@ def beyond_authority(config: EcuConfig, inp: NodeInputs, p: Plan, lead_accel_mps
 def stop_limit(
     config: EcuConfig, inp: NodeInputs, p: Plan, lead_accel_mps2: float, need_mps2: float
 ) -> float:
-    """The request's bound behind a lead that stops (stop-and-go): stop at the
-    table's standstill gap (its line at the current speed extended to 0 m/s, never below the
-    safety floor) behind where a braking lead comes to rest (``need_mps2``: this cycle's
-    :func:`lead_stop_need_mps2`), when it will be standing within ``lead_stop_horizon_s`` at
-    its deceleration; behind a lead slower than ``stop_lead_mps`` also match its speed at the
-    table's gap at that speed (m/s^2)."""
+    """The request's bound behind a lead that stops (m/s^2): stop at the table's standstill gap
+    behind where a braking lead standing within ``lead_stop_horizon_s`` comes to rest
+    (``need_mps2``); behind a lead slower than ``stop_lead_mps`` also match its speed."""
     road = config.controller.road
     standstill = _standstill_gap_m(config, p)
     v_lead = p.v_mps + inp.rel_speed_mps
@@ -118,16 +110,3 @@ def stop_limit(
         match = closing_limit_mps2(inp.gap_m - spare, inp.rel_speed_mps, lead_accel_mps2, floor)
         limit = match if limit > match else limit
     return limit
-
-
-__all__ = [
-    "BRAKE_BUILD_S",
-    "CREEP_MPS",
-    "STANDING_LEAD_MPS",
-    "STOP_SPARE_S",
-    "URGENT_STOP_MPS2",
-    "beyond_authority",
-    "closing_needs_mps2",
-    "lead_stop_need_mps2",
-    "stop_limit",
-]

@@ -1,28 +1,17 @@
-"""Plug-in methods of the ECU: the gap controller and the online adaptation.
+"""Plug-in methods of the ECU: the gap controller and the online adaptation (docs/plugins.md).
 
-Two small interfaces with stable signatures and units (docs/plugins.md):
+- :class:`GapController`: ``desired_accel(obs, memory, dt_s) -> (accel_mps2, memory)``, the
+  unlimited request (m/s^2) of one 20 ms ACTIVE cycle from :class:`~ecu.controller.ControlInput`;
+  ``memory`` a float the ECU keeps (the PID's gap-error integral, m*s). The ECU clips and
+  rate-limits the result (:func:`ecu.controller.limit_command`).
+- :class:`Adaptation`: ``update(table, takeover, *, bounds, short_run, created_utc) ->
+  (new table or None, Decision)`` at each takeover release; the ECU clips the table into
+  ``bounds``.
 
-- :class:`GapController` — ``desired_accel(obs, memory, dt_s) -> (accel_mps2, memory)``:
-  the unlimited acceleration request (m/s^2) for one 20 ms cycle while ACTIVE, from the
-  checked inputs :class:`~ecu.controller.ControlInput` (SI units, all finite), a float of
-  memory the ECU keeps for the controller (the PID's gap-error integral, m*s; reset to 0 when
-  the ACC engages) and the step ``dt_s`` (s). The envelope, the jerk limit, the emergency
-  closing limit and the safe output stay the ECU's: whatever a controller returns is clipped
-  and rate-limited by :func:`ecu.controller.limit_command`.
-- :class:`Adaptation` — ``update(table, takeover, *, bounds, short_run, created_utc) ->
-  (new table or None, Decision)``: called once when a takeover ends (pedal released) with
-  the state at release (:class:`~ecu.adaptation.TakeoverSummary`); None keeps the table,
-  the :class:`~ecu.adaptation.Decision` says why. The ECU clips every returned table into
-  the safety ``bounds`` (the safety filter stays the ECU's).
-
-Built-ins, ordinary implementations of the same interfaces: ``pid`` (:class:`PidController`),
-``timegap`` and ``paper`` (:class:`RuleAdaptation`, Algorithm 1 and its successor) and
-``bayes`` (:class:`ecu.methods.bayes.BayesAdaptation`). Others come from entry points
-(``pacc.controllers``, ``pacc.adaptations``) or ``module:attribute``
-(:mod:`dbc.vocab.plugins`); :mod:`ecu.methods.guard` calls them inside a wall-time budget
-:mod:`ecu.methods.bayes` (``bayes``: an online adaptation that keeps an uncertainty per speed
-  bin (a Kalman filter));
-and falls back to the built-in PID / no change when one raises, returns NaN or overruns.
+Built-ins: ``pid``, ``timegap``, ``paper`` and ``bayes`` (:mod:`ecu.methods.bayes`: a Kalman
+filter per speed bin); others from entry points (``pacc.controllers``, ``pacc.adaptations``)
+or ``module:attribute``. :mod:`ecu.methods.guard` calls them inside a wall-time budget and
+falls back to the built-in PID / no change when one raises, returns NaN or overruns.
 """
 
 from __future__ import annotations

@@ -1,23 +1,11 @@
 """``bayes``: an online adaptation that keeps an uncertainty per speed bin (a Kalman filter).
 
-The paper's future work asks for an adaptation that moves the table by evidence rather than
-by the last release gap. This one keeps a Gaussian belief over the whole table: a mean (the
-table, m) and a covariance between bins, in time-gap space with the prior
-
-    P_ij = (sigma_h * u_i) (sigma_h * u_j) exp(-(v_i - v_j)^2 / (2 l^2)),  u = max(v, v_min)
-
-(``sigma_h`` s: how far a driver's time gap may sit from the table's; ``l`` m/s: how far over
-speed one preference carries). A takeover that passes the same behaviour filter as
-Algorithm 1 is one noisy observation ``z = g_desire`` (the predicted steady gap, m) of the
-bin at the release speed, with noise ``(sigma_obs * u_c)^2``; the Kalman update moves every
-bin by its gain ``P[:, c] / (P_cc + R)`` and shrinks the covariance. The first takeover moves
-the table most of the way, later ones less, the more agree, the less: the weight of a release
-gap is its evidence against what is already known. A little process noise ``q`` per update
-keeps the belief able to follow a driver whose preference drifts.
-
-As the rule adaptations: the pedal's direction (an accelerator takeover never lengthens a
-bin, a brake takeover never shortens one), the short-press runs (``short_run``) and the
-table's safety bounds apply. Units: gaps m, speeds m/s, ``sigma_*``, ``q`` s.
+A Gaussian belief over the table in time-gap space, prior
+``P_ij = (sigma_h u_i)(sigma_h u_j) exp(-(v_i - v_j)^2 / (2 l^2))``, ``u = max(v, v_min)``.
+A takeover passing Algorithm 1's behaviour filter is one observation ``z = g_desire`` of the
+bin at the release speed (noise ``(sigma_obs u_c)^2``); process noise ``q`` per update lets
+it follow a drifting preference. The pedal's direction, short-press runs and the safety
+bounds apply as in :mod:`ecu.adaptation`. Units: gaps m, speeds m/s, ``sigma_*``, ``q`` s.
 """
 
 from __future__ import annotations
@@ -36,6 +24,7 @@ from ecu.adaptation import (
     TakeoverSummary,
     against_pedal,
     behaviour_filter,
+    centre_bin,
     predict_steady_gap,
 )
 from ecu.table_update import safety_filter, with_pedal
@@ -43,16 +32,9 @@ from ecu.table_update import safety_filter, with_pedal
 
 @dataclasses.dataclass(frozen=True)
 class BayesParams:
-    """Parameters of :class:`BayesAdaptation` (units s and m/s; see the module docstring).
-
-    Attributes:
-        prior_sigma_s: prior standard deviation of the time gap, s (0.4 s: the spread of
-            preferred time gaps among the OpenACC drivers is about that).
-        obs_sigma_s: noise of one release gap as a time gap, s (0.3 s).
-        length_mps: correlation length over speed, m/s (15 m/s, as ``spread_speed_mps``).
-        process_sigma_s: drift added per update, s (0.05 s).
-        min_speed_mps: speeds below count as this one in time-gap space, m/s.
-    """
+    """Parameters of :class:`BayesAdaptation`: prior and observation standard deviations of the
+    time gap (s; 0.4 s about the spread of preferred time gaps among the OpenACC drivers), the
+    correlation length over speed (m/s), the drift per update (s), the slowest speed (m/s)."""
 
     prior_sigma_s: float = 0.4
     obs_sigma_s: float = 0.3
@@ -74,10 +56,7 @@ def prior_covariance(speed_mps: np.ndarray, sigma_s: float, p: BayesParams) -> n
 
 
 class BayesAdaptation:
-    """The Bayesian adaptation (module docstring). One object per ECU: it keeps the belief.
-
-    Parameters: the fields of :class:`BayesParams` and of the behaviour filter's
-    :class:`~ecu.adaptation.AdaptationParams` (``min_takeover_s``, ``coast_down_s``, ...)."""
+    """The Bayesian adaptation (module docstring). One object per ECU: it keeps the belief."""
 
     def __init__(self, **fields: Any) -> None:
         names = {f.name for f in dataclasses.fields(BayesParams)}
@@ -107,8 +86,7 @@ class BayesAdaptation:
         if self._table is not table or self._cov is None:  # a new table: a fresh belief
             self._cov = prior_covariance(speed, self.params.prior_sigma_s, self.params)
         g_desire = predict_steady_gap(takeover, self.rule)
-        centre = int(round((takeover.v_mps - float(speed[0])) / table.step_mps))
-        centre = min(max(centre, 0), speed.size - 1)
+        centre = centre_bin(table, takeover.v_mps)
         if against_pedal(takeover.pedal, g_desire - float(table.gap_m[centre])):
             return None, Decision(applied=False, reason=Reason.AGAINST_PEDAL, g_desire_m=g_desire)
         p = self.params
@@ -129,6 +107,3 @@ class BayesAdaptation:
             delta_m=float(new.gap_m[centre] - table.gap_m[centre]),
         )
         return new, decision
-
-
-__all__ = ["BayesAdaptation", "BayesParams", "prior_covariance"]

@@ -1,26 +1,12 @@
 """Calling a plug-in from the control loop without trusting it.
 
-:class:`GuardedController` and :class:`GuardedAdaptation` wrap a plug-in and call it
-inside a per-call **wall-time budget** (measured with ``time.perf_counter`` around the call:
-no thread, no signal, so the loop stays single-threaded). A call that raises, returns
-something malformed or non-finite, or overruns is discarded and the **safe output** used
-instead:
-
-- controller: the built-in PID's request of that cycle (same memory), which the ECU then
-  clips into its envelope and rate-limits as always; after ``max_overruns`` overruns the
-  plug-in is switched off for the rest of the trip (each overrun has already cost the loop
-  its time);
-- adaptation: no change of the table (decision ``invalid_input``).
-
-An overrun of a controller is a call over ``HARD_FACTOR`` times the budget, or the third
-call in a row over the budget: one late call on a loaded host (the process preempted for a
-few ms inside a call of microseconds) is used as it is, so that a lockstep drive gives the
-same rows on an idle and on a busy machine, while a controller that is slow every cycle, or
-blocks, is caught within three cycles. An adaptation (once per takeover) overruns when it
-takes longer than its budget.
-
-Every fault is counted by kind in :attr:`PluginReport.counts` (``raised``, ``non_finite``,
-``bad_output``, ``overrun``, ``disabled``), which the runtime summary reports.
+:class:`GuardedController` and :class:`GuardedAdaptation` call a plug-in inside a per-call
+wall-time budget (``time.perf_counter`` around the call: no thread, no signal). A call that
+raises, returns something malformed or non-finite, or overruns is discarded for the safe
+output: the built-in PID's request (a controller; off after ``max_overruns`` overruns) or no
+change of the table (an adaptation). A controller overruns at ``HARD_FACTOR`` times the
+budget or on a third call in a row over it, so one preempted call on a busy host does not
+change a lockstep drive. Faults are counted by kind in :attr:`PluginReport.counts`.
 """
 
 from __future__ import annotations
@@ -54,19 +40,16 @@ MAX_OVERRUNS = 3
 
 @dataclass
 class PluginReport:
-    """What a guarded plug-in did: calls and faults by kind."""
+    """What a guarded plug-in did: faults by kind."""
 
     name: str
-    calls: int = 0
     counts: Counter[str] = field(default_factory=Counter)
-    last_error: str = ""
 
     def fault(self, kind: str, detail: str) -> None:
         """Count one fault of ``kind``; the first of each kind is logged."""
         if not self.counts[kind]:
             log.warning("plug-in %s: %s (%s); safe output used", self.name, kind, detail)
         self.counts[kind] += 1
-        self.last_error = f"{kind}: {detail}"
 
 
 class GuardedController:
@@ -93,7 +76,6 @@ class GuardedController:
 
     def __call__(self, obs: ControlInput, memory: float, dt_s: float) -> tuple[float, float]:
         report = self.report
-        report.calls += 1
         if self.disabled:
             report.counts["disabled"] += 1
         else:
@@ -186,7 +168,6 @@ class GuardedAdaptation:
         created_utc: str,
     ) -> tuple[Dgpt, Decision]:
         """The table after the takeover (``table`` itself when nothing applies)."""
-        self.report.calls += 1
         refused = Decision(applied=False, reason=Reason.INVALID_INPUT)
         start = time.perf_counter()
         try:  # the result is checked inside the timed, guarded call
@@ -227,15 +208,3 @@ class GuardedAdaptation:
         if not np.array_equal(clipped, new.gap_m):
             new = new.with_gaps(clipped, "adapted", created_utc=new.created_utc)
         return new, decision
-
-
-__all__ = [
-    "ADAPTATION_BUDGET_S",
-    "CONTROLLER_BUDGET_S",
-    "HARD_FACTOR",
-    "LATE_STREAK",
-    "MAX_OVERRUNS",
-    "GuardedAdaptation",
-    "GuardedController",
-    "PluginReport",
-]

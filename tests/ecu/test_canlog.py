@@ -93,8 +93,7 @@ def _record(
     )
     rec.flush_s = flush_s
     for t, msg, rx in frames:
-        rec.frame(t, msg, rx)
-        rec.tick(t)
+        rec.frame_and_tick(t, msg, rx)
     rec.close()
 
 

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from dbc.codec import load_codec
-from dbc.frame import OTHER, raw_key
+from dbc.frame import raw_of
 from ecu.buslog.blocks import decode_block
 from ecu.buslog.decoded import FrameBatch, cycle_tables
 from ecu.buslog.format import TimeBase, frame_flags
@@ -67,7 +67,7 @@ def test_the_raw_block_of_tapped_frames_holds_their_fields(odd: bool) -> None:
         frames = [f for f in frames if not (f[1].is_error_frame or f[1].is_remote_frame)]
     else:
         frames = frames + _odd_frames()
-    batch = FrameBatch.of([x for t, m, rx in frames for x in (t, None, m, rx)])  # as tapped
+    batch = FrameBatch.of([x for t, m, rx in frames for x in (t, *raw_of(m)[1:], rx)])
     cols = decode_block(batch.block())
     assert cols["t_s"].tolist() == [t for t, _, _ in frames]
     assert cols["id"].tolist() == [m.arbitration_id for _, m, _ in frames]
@@ -147,7 +147,7 @@ def test_records_formatted_in_place_read_back_through_mcaps_reader() -> None:
     stream = io.BytesIO()
     f = McapFile(stream, profile="p", library="l")
     ch = f.channel("/r", "protobuf", f.schema("pacc.R", "protobuf", rows.descriptor()))
-    f.message(ch, 0, 5, b"one message first")
+    f.write_one(ch, 0, 5, b"one message first")
     f.records(ch, 1, t_ns, rows.format_into(table, RECORD_HEAD))
     f.finish()
     stream.seek(0)
@@ -178,25 +178,3 @@ def test_a_copied_frame_is_recorded_as_it_was_when_tapped(tmp_path: Path) -> Non
     msg.data[0] = 99
     w.close()
     assert [d[0] for d in read_canlog(path).frames.data] == [0, 1, 2, 3, 4]
-
-
-def test_raw_frames_of_the_lockstep_bus_give_the_block_their_messages_give() -> None:
-    """The lockstep bus's raw frames (key, payload) tapped as ``frame_raw`` keeps them: the
-    same columns, so the same block, as the same frames tapped as python-can messages; an
-    error frame among them (key OTHER, the message itself) keeps its flags too."""
-    plain = [f for f in _frames(300, seed=8) if not (f[1].is_error_frame or f[1].is_remote_frame)]
-    as_msgs = [x for t, m, rx in plain for x in (t, None, m, rx)]
-    as_raw = [
-        x
-        for t, m, rx in plain
-        for x in (t, raw_key(m.arbitration_id, m.is_extended_id), bytes(m.data), rx)
-    ]
-    assert FrameBatch.of(as_raw).block() == FrameBatch.of(as_msgs).block()
-    a, b = FrameBatch.of(as_raw), FrameBatch.of(as_msgs)
-    for name in ("t", "ids", "flags", "dlcs", "lens"):
-        assert getattr(a, name).tolist() == getattr(b, name).tolist()
-    assert a.datas == [bytes(d) for d in b.datas]
-    odd = _odd_frames()
-    mixed_raw = as_raw + [x for t, m, rx in odd for x in (t, OTHER, m, rx)]
-    mixed_msgs = as_msgs + [x for t, m, rx in odd for x in (t, None, m, rx)]
-    assert FrameBatch.of(mixed_raw).block() == FrameBatch.of(mixed_msgs).block()

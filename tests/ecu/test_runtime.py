@@ -242,7 +242,7 @@ def test_bad_crc_frames_dropped_and_counted(bench: Bench) -> None:
     errors = bench.rt.summary().e2e_errors
     assert errors.get("wrong_crc") == 5
     assert bench.node.state.name == "ACTIVE"
-    assert bench.rt.inbox.fresh("radar", bench.t)
+    assert bench.rt.io.inbox.fresh("radar", bench.t)
 
 
 def test_garbage_frames_ignored(bench: Bench) -> None:
@@ -268,8 +268,8 @@ def test_realtime_mode_runs_and_stops() -> None:
         b.rt.run_realtime(0.25)
         took = time.monotonic() - t0
         assert 0.25 <= took < 5.0
-        assert b.rt.cycles >= 1 and b.rt.cycles + b.rt.skipped_cycles <= 14
-        starts = list(b.rt.cycle_starts)
+        assert b.rt.cycles >= 1 and b.rt.cycles + b.rt.clock.skipped <= 14
+        starts = list(b.rt.clock.starts)
         assert len(starts) == b.rt.cycles
         assert all(s - starts[0] >= i * 0.02 - 1e-6 for i, s in enumerate(starts))
         assert b.node.state.name == "OFF"  # no HMI on the bus
@@ -485,7 +485,7 @@ def test_brake_pressure_is_a_fraction_of_the_dbc_full_scale(bench: Bench) -> Non
     assert full == 250.0
     bench.peers.set("pedals", brake_pressed=1, brake_pressure_bar=75.0, accel_pedal_pct=40.0)
     bench.run(0.1)
-    inputs = bench.rt.read_inputs(bench.t)
+    inputs = bench.rt.io.read_inputs(bench.t)
     assert inputs.pedals_ok
     assert inputs.brake_pedal == pytest.approx(75.0 / full)
     assert inputs.accel_pedal == pytest.approx(0.4)

@@ -187,7 +187,7 @@ def test_arbitrary_traffic_keeps_the_command_contract(
                     assert rt.last_outputs is not None
                     cmds.append((got[0], rt.last_outputs.emergency))
         assert all((b - a) % 16 == 1 for a, b in itertools.pairwise(counters))
-        assert rt.send_errors == 0
+        assert rt.io.send_errors == 0
         assert rt.summary().safety_stops == {}  # a correct controller never trips the check
         _check_commands(cmds)
         event(f"states seen: {sorted({c['acc_state'] for c, _ in cmds})}")
