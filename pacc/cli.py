@@ -117,7 +117,3 @@ def main(argv: list[str] | None = None) -> int:
             traceback.print_exc()
         print(f"{_prog(name, rest)}: error: {error_line(exc)}", file=sys.stderr)
         return 2
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -118,7 +118,3 @@ def main(argv: list[str] | None = None) -> int:
     print((args.out / "leaderboard.md").read_text(encoding="utf-8"))
     print(f"took {time.perf_counter() - start:.0f} s; {args.out}/leaderboard.md, .csv, .png")
     return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

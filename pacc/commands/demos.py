@@ -78,7 +78,3 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     print(f"demos: {written} trip logs written to {args.out}")
     return 0 if written else 1
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

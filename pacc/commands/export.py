@@ -125,7 +125,3 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     print(f"{n} frames: {args.src} -> {args.dst}")
     return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

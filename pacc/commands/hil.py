@@ -210,7 +210,3 @@ def main(argv: list[str] | None = None) -> int:
         session.close()
         server.stop()
     return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

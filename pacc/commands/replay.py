@@ -148,7 +148,3 @@ def main(argv: list[str] | None = None) -> int:
     except (EcuError, FormatError) as exc:
         print(f"pacc replay: error: {exc}", file=sys.stderr)
         return 2
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -275,7 +275,3 @@ def _save(
     if recorder is not None:
         status = max(status, _finish_recording(recorder, log, args.can_log, streamed=streamed))
     return status
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

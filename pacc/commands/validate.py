@@ -19,9 +19,8 @@ from typing import Any
 import numpy as np
 
 from pacc.commands._args import CommandParser
-from pacc.study.population_report import comparisons, per_driver
 from pacc.study.report import CONTROLLER_TITLES, PAPER_AVERAGES
-from pacc.study.stats import bootstrap_ci, holm
+from pacc.study.stats import bootstrap_ci, comparisons, holm, per_driver
 from sim_bus.dataset import load_human_pairs
 from sim_bus.errors import SimError
 from sim_bus.following import MODELS, Fit, fit_pair
@@ -161,7 +160,3 @@ def main(argv: list[str] | None = None) -> int:
 
         plot(args.plot, rows)
     return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -17,19 +17,18 @@ from typing import Any
 import numpy as np
 
 from pacc.study.drive import CONTROLLERS
-from pacc.study.incremental_report import INCREMENTAL_FIELDS, format_incremental
 from pacc.study.report import (
     CONTROLLER_TITLES,
     FIELDS,
+    INCREMENTAL_FIELDS,
     PAPER_AVERAGES,
-    averages,
-    cell_means,
+    format_incremental,
     format_table,
     plot,
     write_csv,
 )
 from pacc.study.spec import StudySpec
-from pacc.study.stats import holm, paired_comparison
+from pacc.study.stats import averages, cell_means, holm, paired_comparison
 from sim_bus.errors import SimError
 
 #: the seed of the bootstrap intervals (a report of the same sessions gives the same figures)

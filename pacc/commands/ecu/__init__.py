@@ -34,14 +34,12 @@ from __future__ import annotations
 
 import argparse
 import logging
-import os
 import sys
 import time
-from pathlib import Path
 
 from cloud_sync.errors import CloudSyncError
 from dbc.codec import Codec, CodecError
-from dbc.errors import BindingError
+from dbc.errors import BindingError, UsageError
 from dbc.network import add_network_arguments, codec_of, network_of
 from dbc.vocab import FormatError
 from dbc.vocab.dgpt import PLAIN_NAME, Dgpt, DgptError, predefined
@@ -58,6 +56,7 @@ from pacc.commands._args import (
     CommandParser,
     add_bus_arguments,
     check_distinct_outputs,
+    check_writable_file,
     number,
 )
 from pacc.commands.ecu.cloud import (
@@ -234,8 +233,10 @@ def _serve(args: argparse.Namespace) -> int:
     codec, sink, manual = _codec_and_sinks(args)
     if link is not None:
         sink, manual = link.sink, (link.sink if args.manual == "" else None)
-    if args.save_profile:  # refuse now, not after the drive when the table would be lost
-        _check_writable_parent(args.save_profile)
+    try:  # refuse now, not after the drive when the table would be lost
+        check_writable_file(args.save_profile, "--save-profile")
+    except UsageError as exc:
+        raise Exit(1, f"pacc ecu: error: {exc}") from None
     base = TimeBase.now(time.monotonic())  # the real-time clock against the wall clock
     node = EcuNode(
         config,
@@ -369,9 +370,3 @@ def _codec_and_sinks(
     except (CodecError, EcuError, FormatError, CloudSyncError) as exc:
         raise Exit(1, f"pacc ecu: error: {exc}") from None
     return codec, takeovers, manual
-
-
-def _check_writable_parent(target: str) -> None:
-    parent = Path(target).resolve().parent
-    if not (parent.is_dir() and os.access(parent, os.W_OK)):
-        raise Exit(1, f"pacc ecu: error: --save-profile: {parent} is not a writable directory")
