@@ -1,16 +1,10 @@
-"""What several sub-commands share: the bus flags, validated numbers, distinct outputs.
+"""What several sub-commands share: the bus flags, argparse types, output checks.
 
-- :class:`CommandParser`: argparse with a one-line usage error.
-- :func:`add_bus_arguments` / :func:`bus_kwargs`: python-can's ``-i/--interface``,
-  ``-c/--channel``, ``-b/--bitrate`` (defined once; ``pacc ecu``, ``pacc sim``, ``pacc replay``);
-  :func:`bus_error`: a bus that cannot be opened, said with the way out.
-- :func:`number` / :func:`integer`: argparse types that refuse NaN, infinities and values out
-  of a range with argparse's own usage error (exit 2, one line), so ``--quota-mb nan`` never
-  reaches a library.
-- :func:`check_distinct_outputs`: two output options naming one file would keep one of them
-  (``pacc drive --log x --can-log x``): refused before anything runs.
-- :func:`check_writable_file` / :func:`check_writable_dir`: an output that could not be
-  written, refused before the run whose result it would lose.
+:class:`CommandParser` (a one-line usage error), python-can's ``-i/-c/-b`` flags
+(:func:`add_bus_arguments`, :func:`bus_kwargs`, :func:`bus_error`), finite ranged numbers
+(:func:`number`, :func:`integer`), and outputs refused before a run: two options naming one
+file (:func:`check_distinct_outputs`), an unwritable file or folder
+(:func:`check_writable_file`, :func:`check_writable_dir`).
 """
 
 from __future__ import annotations
@@ -23,21 +17,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn
 
-from dbc.errors import UsageError, error_line
-
-__all__ = [
-    "json_parameters",
-    "CommandParser",
-    "check_writable_dir",
-    "check_writable_file",
-    "error_line",
-    "add_bus_arguments",
-    "bus_error",
-    "bus_kwargs",
-    "check_distinct_outputs",
-    "integer",
-    "number",
-]
+from dbc.errors import UsageError
 
 
 class CommandParser(argparse.ArgumentParser):

@@ -12,12 +12,12 @@ from dataclasses import replace
 from pathlib import Path
 
 from cloud_sync.errors import CloudSyncError, EngineError
-from dbc.errors import DbcError
+from dbc.errors import DbcError, error_line
 from dbc.network import add_network_arguments, codec_of
 from dbc.vocab import FormatError
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES
-from pacc.commands._args import CommandParser, error_line, integer, number
+from pacc.commands._args import CommandParser, integer, number
 from pacc.study.drive import BUSES, CONTROLLERS, adaptation_params
 from pacc.study.manifest import write_manifest
 from pacc.study.pipeline import StudyInterrupted, run

@@ -66,6 +66,3 @@ def save_manifest(path: Path, manifest: dict[str, Any]) -> None:
 def utc_stamp() -> str:
     """The wall clock's UTC to the second, ``YYYY-MM-DDTHH:MM:SSZ``."""
     return datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
-
-
-__all__ = ["MANIFEST", "open_manifest", "save_manifest", "utc_stamp"]

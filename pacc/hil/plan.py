@@ -126,15 +126,3 @@ def paper_plan(participant: str, incremental: int = 0) -> list[Step]:
 def free_plan(scenario: str, controller: str | None) -> list[Step]:
     """One drive without a study (``pacc hil`` without ``--protocol``)."""
     return [Step("drive", "drive", "Free drive", scenario, controller), Step("done", "done", "End")]
-
-
-__all__ = [
-    "CONDITIONS",
-    "Step",
-    "acc_order",
-    "balanced_latin_square",
-    "free_plan",
-    "paper_plan",
-    "participant_index",
-    "with_weather",
-]

@@ -1,12 +1,8 @@
 """One closed-loop drive: the ECU node and the simulator in one process, lockstep, one bus.
 
-:func:`run_drive` is a pure function of (configuration, seed, shipped data): the ECU and
-the simulator each get an end of one python-can bus on a private channel, and time is the
-simulator's (every frame stamped with simulated time). The bus is the ``lockstep`` interface
-(:mod:`dbc.lockstep`: no locks, no waiting) unless ``bus="virtual"`` asks for python-can's
-virtual bus; both carry the same frames with the same timestamps, so a drive gives the same
-results on either. ``pacc drive``
-(:mod:`pacc.commands.drive`) and the study pipeline (:mod:`pacc.study.pipeline`) call it.
+:func:`run_drive` is a pure function of (configuration, seed, shipped data): the ECU and the
+simulator each get an end of one python-can bus (``lockstep``, :mod:`dbc.lockstep`, or
+``virtual``: the same frames) and time is the simulator's.
 """
 
 from __future__ import annotations
@@ -185,20 +181,13 @@ def run_drive(
     bus: str = "lockstep",
     pace: float | None = None,
 ) -> DriveResult:
-    """Run one lockstep drive; never raises for a collision (it is reported).
+    """Run one lockstep drive; a collision is reported, never raised.
 
-    ``record_channel``: when given, the drive's channel name (so a test can attach a
-    listener that sees every frame); by default a private, unique channel. ``can_log``: record
-    the ECU's bus traffic, its internals and the simulated world to this MCAP file
-    (:mod:`ecu.buslog.writer`), simulated time 0 stamped ``utc_start_ns`` (default: now);
-    ``live``: more sinks of the same channels (a Foxglove live view, :mod:`ecu.buslog.live`).
-    ``bus``: the python-can interface, one of :data:`BUSES` (the same frames on each).
-    ``pace``: times real time (None: as fast as it runs); ``live`` sinks get the world as it
-    runs (:mod:`pacc.study.drive_recording`); neither changes the drive. Ctrl-C ends a
-    paced drive there (``extra["interrupted_at_s"]``, results and recording up to that tick);
-    an unpaced one (a study's) lets the KeyboardInterrupt through.
-    ``takeover_sink`` / ``manual_sink``: the ECU's takeover segments / manual car-following
-    trips (:mod:`ecu.recorder`, :mod:`ecu.manual`; None: not recorded).
+    ``record_channel``: the bus channel (default: a private one); ``can_log``: record the bus, the
+    ECU's internals and the world to this MCAP file, simulated time 0 at ``utc_start_ns``;
+    ``live``: more sinks (a Foxglove view); ``pace``: times real time (None: as fast as it runs;
+    Ctrl-C ends a paced drive there, ``extra["interrupted_at_s"]``); ``takeover_sink`` /
+    ``manual_sink``: the ECU's takeover segments and manual trips.
     """
     _check_drive(cfg, bus, pace)
     prof = profile or resolve_profile(cfg.scenario, cfg.seed)

@@ -1,14 +1,10 @@
-"""One study pipeline: spec → plan → tables → drives on an executor → rows → reports.
+"""One study pipeline: spec → plan → tables → drives on an executor → rows → report.
 
-:func:`run` takes a :class:`~pacc.study.spec.StudySpec` and an output folder. The plan is
-every (driver, scenario, method, trial) in that order, each one :class:`Drive`. Each driver's
-tables are made first: predefined, learned in the vehicle-cloud loop
-(:mod:`pacc.study.loop`) or in-process (:func:`learn_table`, an executor task); then every
-drive runs on the executor (:mod:`cloud_sync.engine`: this process, local processes or Dask)
-as :func:`run_one`, a pure function of its :class:`Drive`. Rows go to ``OUT/rows.jsonl`` as
-they finish (:func:`run_resumable`): a stopped run started again with the same spec skips
-what is there (another spec in the same folder is refused). The rows come out in plan order
-whatever the executor; the report the spec names (:mod:`pacc.study.report`) is written last.
+The plan is every (driver, scenario, method, trial), each a :class:`Drive` holding its
+:class:`~pacc.study.drive.DriveConfig`. Tables come first (predefined, learned in the
+vehicle-cloud loop or in-process); every drive then runs on the executor as :func:`run_one`.
+Rows go to ``OUT/rows.jsonl`` as they finish, so a stopped run resumes; they come out in
+plan order whatever the executor, and the report is written last.
 """
 
 from __future__ import annotations
@@ -302,20 +298,3 @@ def run(
             running.shutdown(wait=True)
     report.write(spec, drivers, tables, rows, out)
     return rows
-
-
-__all__ = [
-    "ROWS",
-    "Drive",
-    "StudyInterrupted",
-    "TableTask",
-    "learn_table",
-    "log_name",
-    "make_tables",
-    "plan",
-    "read_done",
-    "row_key",
-    "run",
-    "run_one",
-    "run_resumable",
-]

@@ -12,8 +12,6 @@ from pacc.commands._args import CommandParser, integer, json_parameters, number
 from pacc.study.drive import BUSES, CONTROLLERS
 from sim_bus.drivers import CONDITION_FACTORS
 
-__all__ = ["parser"]
-
 
 def parser(description: str = "") -> argparse.ArgumentParser:
     """The parser of ``pacc drive``'s options (``--help`` prints them after
