@@ -1,28 +1,21 @@
 """``pacc sim``: the simulator alone, in real time, on a CAN bus.
 
-The simulator plays ESC, PEDAL, RADAR and HMI against an ACC ECU elsewhere on the bus
-(``pacc ecu`` or a real ECU) and drives the ego car with the ECU's ACC_Command frames.
-Bus flags follow python-can: ``--interface/-i``, ``--channel/-c``, ``--bitrate/-b``; when
-omitted, python-can's own configuration applies (CAN_INTERFACE, ~/.canrc).
-
-    pacc sim -i socketcan -c vcan0 --scenario B --driver d2 --duration 120 --log sim.mcap
-
-At the end (or on Ctrl-C) it prints the same figures as ``pacc drive``. Exit status: 0,
-1 after a collision, 2 on bad options, input files or a bus that cannot be opened.
+It plays ESC, PEDAL, RADAR and HMI against an ACC ECU elsewhere on the bus and drives the ego
+car with its ACC_Command frames; at the end (or Ctrl-C) it prints the drive's figures. Exit
+status: 0, 1 after a collision, 2 on bad options, input files or a bus that cannot be opened.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
-import os
 import sys
 import time
 from pathlib import Path
 
 import can
 
-from dbc.errors import DbcError
+from dbc.errors import DbcError, UsageError
 from dbc.network import add_network_arguments, codec_of
 from dbc.vocab import FormatError
 from dbc.vocab.acc_state import AccState
@@ -40,6 +33,7 @@ from pacc.commands._args import (
     bus_error,
     bus_kwargs,
     check_distinct_outputs,
+    check_writable_file,
     integer,
     number,
 )
@@ -92,13 +86,6 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-def _check_writable(path: Path) -> None:
-    """Raise SimError unless ``path`` can be created or overwritten (a file, not a folder)."""
-    parent = path.resolve().parent
-    if path.is_dir() or not (parent.is_dir() and os.access(parent, os.W_OK)):
-        raise SimError(f"--log {path}: not a writable file location")
-
-
 def _setup(args: argparse.Namespace) -> tuple[DriverParams, FaultSpec, LeadProfile]:
     """The driver, the faults and the lead profile of the run; SimError on bad options."""
     if args.seed < 0:
@@ -110,10 +97,8 @@ def _setup(args: argparse.Namespace) -> tuple[DriverParams, FaultSpec, LeadProfi
         if not args.duration > 0:
             raise SimError("--duration must be > 0")
         profile = shorten(profile, args.duration)
-    if args.log is not None:  # refuse now, not after the drive when the run would be lost
-        _check_writable(args.log)
-    if args.can_log is not None:
-        _check_writable(args.can_log)
+    check_writable_file(args.log, "--log")  # now, not after the drive when it would be lost
+    check_writable_file(args.can_log, "--can-log")
     return driver, faults, profile
 
 
@@ -179,7 +164,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         driver, faults, profile = _setup(args)
         codec = codec_of(args)
-    except (SimError, DbcError) as exc:
+    except (SimError, DbcError, UsageError) as exc:
         print(f"pacc sim: error: {exc}", file=sys.stderr)
         return 2
     try:
