@@ -28,7 +28,7 @@ from pacc.study.report import (
     write_csv,
 )
 from pacc.study.spec import StudySpec
-from pacc.study.stats import averages, cell_means, holm, paired_comparison
+from pacc.study.stats import averages, cell_means, holm, paired_comparison, per_driver
 from sim_bus.errors import SimError
 
 #: the seed of the bootstrap intervals (a report of the same sessions gives the same figures)
@@ -91,18 +91,14 @@ def complete(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
 def paired_tests(rows: list[dict[str, Any]]) -> list[str]:
     """Each controller against Predefined on the participants' mean PoI and NIM: mean
     difference, paired bootstrap 95 % interval, Wilcoxon p (Holm over the family)."""
-    means = cell_means(rows)
-    drivers = sorted({d for d, _, _ in means})
-    per: dict[str, np.ndarray] = {}
-    for c in CONTROLLERS:
-        per[c] = np.array(
-            [[np.mean([means[(d, s, c)][k] for s in ("A", "B")]) for d in drivers] for k in (0, 1)]
-        )
+    drivers, poi = per_driver(rows, "poi_pct")
+    values = (poi, per_driver(rows, "nim_per_min")[1])
     rng = np.random.default_rng(REPORT_SEED)
-    results = []
-    for c in CONTROLLERS[1:]:
-        for k, name in ((0, "PoI (points)"), (1, "NIM (/min)")):
-            results.append((c, name, paired_comparison(per["predefined"][k], per[c][k], rng)))
+    results = [
+        (c, name, paired_comparison(values[k]["predefined"], values[k][c], rng))
+        for c in CONTROLLERS[1:]
+        for k, name in ((0, "PoI (points)"), (1, "NIM (/min)"))
+    ]
     adjusted = holm([r[2].p_value for r in results])
     lines = [f"Paired against Predefined over {len(drivers)} participants:", ""]
     for (c, name, p), adj in zip(results, adjusted, strict=True):
