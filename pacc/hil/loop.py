@@ -1,15 +1,10 @@
 """One drive with a person at the pedals: world + bus + ECU, stepped in lockstep or real time.
 
-:class:`HilDrive` is the wiring of :func:`pacc.study.drive.run_drive` with the synthetic
-driver replaced by :class:`~pacc.hil.human.HumanPedals`: the world, the simulator's bus
-node (PEDAL frames like any other), and by default the ordinary ECU in-process on a private
-python-can ``virtual`` channel, stepped to the simulator's time. With ``bus`` given (``pacc hil
--i/-c``) there is no ECU here: a separate ``pacc ecu`` on that bus drives the car.
-
-:meth:`HilDrive.step` is one plant tick (10 ms). :class:`RealtimeRunner` calls it on a thread
-paced to the wall clock (pausable: a lost browser pauses the world); lockstep callers (the
-page's ``step`` messages, tests) call it themselves, so a scripted participant gives the same
-drive with or without a browser.
+:class:`HilDrive` wires :func:`pacc.study.drive.run_drive`'s parts with
+:class:`~pacc.hil.human.HumanPedals` as the driver and the ECU in-process on a private
+``virtual`` channel (or a separate ``pacc ecu`` on ``bus``). :meth:`HilDrive.step` is one plant
+tick (10 ms); :class:`RealtimeRunner` calls it on a thread paced to the wall clock, lockstep
+callers (the page's ``step`` messages, tests) call it themselves.
 """
 
 from __future__ import annotations
@@ -69,15 +64,10 @@ class DriveOutcome:
 
 
 class HilDrive:
-    """One drive: ``profile`` followed by a person, the ECU driving with ``table``.
-
-    ``cfg``: the drive's controller, seed and network (:class:`DriveConfig`); ``acc``: False
-    for a manual drive (main switch off, buttons locked). ``bus``: an open python-can bus to a
-    separate ECU, which the drive shuts when it closes (None: the in-process ECU on
-    ``virtual``). ``can_log``: record the bus, the
-    ECU's internals and the world to this MCAP file (in-process ECU only).
-    ``set_speed_mps``: what SET sets the in-process ECU to (None: the car's speed at the
-    press, as in a production car).
+    """One drive: ``profile`` followed by a person, the ECU driving with ``table``. ``acc``:
+    False for a manual drive; ``bus``: a separate ECU's bus, shut on close (None: the ECU
+    in-process); ``can_log``: record to this MCAP file; ``set_speed_mps``: what SET sets (None:
+    the car's speed at the press).
     """
 
     def __init__(
@@ -252,10 +242,8 @@ class HilDrive:
 
 
 class RealtimeRunner:
-    """Steps a :class:`HilDrive` on a thread at its tick, paced to the wall clock.
-
-    :attr:`paused` (set from any thread) holds the world still; the tick lateness against
-    the schedule is kept (``lateness_s``, the last 10 000 ticks) for the jitter benchmark.
+    """Steps a :class:`HilDrive` on a thread, paced to the wall clock; :attr:`paused` holds
+    the world still; ``lateness_s``: the ticks' lateness against the schedule (first 10 000).
     """
 
     def __init__(self, drive: HilDrive, on_done: Callable[[], None] | None = None) -> None:

@@ -40,11 +40,9 @@ def with_weather(steps: list[Step], weather: str) -> list[Step]:
 
 @dataclass(frozen=True)
 class Step:
-    """One step of a session. ``id`` names its files; ``label`` is what the page shows.
-
-    Drives: ``scenario`` (a canonical profile), ``controller`` (None: manual, ACC off),
-    ``practice`` (not part of the study's figures), ``weather`` (what the page shows: one
-    of :data:`WEATHER`).
+    """One step of a session: ``id`` names its files, ``label`` is what the page shows (never
+    the controller); a drive's ``scenario``, ``controller`` (None: manual), ``practice``,
+    ``weather`` (:data:`WEATHER`).
     """
 
     id: str

@@ -1,12 +1,8 @@
 """The web app of ``pacc hil``: the driving page, the gamepad calibration, one WebSocket.
 
-``GET /`` the driving page, ``GET /calibrate`` the gamepad calibration page (both static, no
-CDN: ``pacc/hil/static``), ``GET/PUT /api/mapping`` the gamepad mapping (a JSON file on
-the server), ``WS /ws`` the session (:meth:`pacc.hil.session.Session.handle`): the page
-sends its pedals (``in``), HMI buttons (``btn``), frames (``frame``; ``step`` in lockstep)
-and actions; the server answers each frame with the view.
-
-:class:`ServerThread` runs the app with uvicorn on a thread (tests, benchmarks).
+``GET /`` and ``GET /calibrate`` (static, no CDN), ``GET/PUT /api/mapping`` (the gamepad
+mapping file), ``WS /ws`` the session (:meth:`pacc.hil.session.Session.handle`: pedals,
+buttons, frames, actions in; the view out). :class:`ServerThread` runs it with uvicorn.
 """
 
 from __future__ import annotations

@@ -1,15 +1,10 @@
 """A participant's session: the plan's steps, the drives, the session folder, resumable.
 
-Folder ``OUT/<participant>/``: ``manifest.json`` (plan, finished steps, events such as lost
-connections; rewritten atomically after every change: :mod:`pacc.hil.manifest`),
-``logs/<step>.mcap`` (trip logs), ``can/<step>.mcap`` (bus recordings), ``drives/<step>.json``
-(each drive's figures, its Table I row, pauses), ``tables/`` (the predefined, learned and
-adapted tables), ``ratings.csv`` and the cloud's and spool's folders. A session opened again on
-the same folder continues at the first step not finished (a drive cut off by a crash starts
-over).
-
-:class:`Session` is driven by the page (:mod:`pacc.hil.server`): :meth:`Session.handle`
-takes one message and returns what the page shows next. Thread-safe (one lock).
+Folder ``OUT/<participant>/``: ``manifest.json`` and the drives' records
+(:mod:`pacc.hil.records`), ``can/<step>.mcap`` (bus recordings), ``tables/``, the cloud's and
+spool's folders. Opened again, a session continues at the first step not finished.
+:meth:`Session.handle` takes one message of the page (:mod:`pacc.hil.server`) and returns
+what it shows next; thread-safe (one lock).
 """
 
 from __future__ import annotations
@@ -32,9 +27,17 @@ from dbc.vocab.triplog_file import read_trip
 from ecu import EcuError
 from ecu.buslog.live import live_sinks
 from pacc.hil.loop import HilDrive, RealtimeRunner
-from pacc.hil.manifest import MANIFEST, open_manifest, save_manifest, utc_stamp
 from pacc.hil.plan import Step
-from pacc.hil.records import append_rating, rating, save_record, write_drive
+from pacc.hil.records import (
+    MANIFEST,
+    append_rating,
+    open_manifest,
+    rating,
+    save_manifest,
+    save_record,
+    utc_stamp,
+    write_drive,
+)
 from pacc.study.drive import DriveConfig, predefined_table, resolve_profile
 from pacc.study.irl_table import MANUAL_PROFILES
 from pacc.study.loop import StudyCloud
@@ -50,12 +53,10 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class SessionConfig:
-    """How a session runs. ``short_s``: shorten every drive (tests, demos); ``lockstep``:
-    the world advances only on the page's ``step`` messages; ``cloud``: a URL or folder
-    (None: an embedded cloud in the session folder) with ``token_file`` and ``trust``;
-    ``bus``: opens the bus to a separate ECU (None: the in-process ECU); ``setting``: the
-    participant's choice of the Predefined controller's headway (low 1 s, medium 3 s, high
-    4 s)."""
+    """How a session runs. ``short_s``: shorten every drive, s; ``lockstep``: the world advances
+    on the page's ``step`` messages; ``cloud``: a URL or folder (None: embedded); ``bus``: opens
+    the bus to a separate ECU (None: in-process); ``setting``: the Predefined headway choice.
+    """
 
     participant: str
     protocol: str
