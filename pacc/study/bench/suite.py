@@ -68,16 +68,8 @@ def stored_options(out: Path) -> BenchOptions | None:
         return None
     try:
         raw = json.loads(path.read_text(encoding="utf-8"))
-        return BenchOptions(
-            seeds=tuple(raw["seeds"]),
-            drivers_per_seed=int(raw["drivers_per_seed"]),
-            builtin=bool(raw["builtin"]),
-            scenarios=tuple(raw["scenarios"]),
-            duration_s=raw["duration_s"],
-            trials=int(raw["trials"]),
-            csvs=tuple(raw["csvs"]),
-            methods=tuple(raw["methods"]),
-        )
+        tuples = {k: tuple(raw[k]) for k in ("seeds", "scenarios", "csvs", "methods")}
+        return BenchOptions(**{**raw, **tuples})
     except (OSError, ValueError, KeyError, TypeError) as exc:
         raise StudyFileError(f"{path} is damaged ({exc}): use another --out") from exc
 
