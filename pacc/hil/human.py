@@ -71,7 +71,6 @@ class HumanPedals:
         self.hmi_buttons: dict[str, int] = {}
         self._publish_hmi()
 
-    # -- inputs (any thread) -------------------------------------------------------------
     def keys(self, accel: bool, brake: bool) -> None:
         """The accelerator and brake keys held now (keyboard ramps; ends a gamepad's say)."""
         self._keys = (bool(accel), bool(brake))
@@ -86,7 +85,6 @@ class HumanPedals:
         if name in BUTTONS and not self.locked:
             self._pending.append(name)
 
-    # -- the drive loop ------------------------------------------------------------------
     def tick(self, dt_s: float) -> None:
         """Advance the pedals and buttons by one plant tick of ``dt_s`` s."""
         self.t_s += dt_s

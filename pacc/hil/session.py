@@ -106,7 +106,6 @@ class Session:
         self._cloud_link: StudyCloud | None = None
         self.seq = 0
 
-    # -- manifest ------------------------------------------------------------------------
     def _open_manifest(self) -> dict[str, Any]:
         cfg = self.cfg
         return open_manifest(
@@ -122,7 +121,6 @@ class Session:
         t = self.drive.world.t_s if self.drive is not None else None
         return f"{step.id if step else '-'}@{t:.2f}s" if t is not None else "-"
 
-    # -- where we are --------------------------------------------------------------------
     def current(self) -> Step | None:
         """The first step not finished (None: the session is complete)."""
         done = self.manifest["done"]
@@ -134,7 +132,6 @@ class Session:
         self.phase = "ready"
         self.message = ""
 
-    # -- the page's messages ---------------------------------------------------------------
     def connect(self) -> int:
         """A page connected; its connection number. A paused drive waits for ``continue``."""
         with self._lock:
@@ -237,7 +234,6 @@ class Session:
             self._after_drive(step, msg.get("comfort"), msg.get("trust"))
         self.seq += 1
 
-    # -- drives --------------------------------------------------------------------------
     def _table(self, step: Step) -> Dgpt:
         """The table a drive starts with: Predefined's, the learned one, or for the
         incremental drives the newest fine-tuned version."""
@@ -323,7 +319,6 @@ class Session:
         self.runner = None
         self._mark_done(step, {"ratings": ratings, "at": utc_stamp()})
 
-    # -- the cloud -----------------------------------------------------------------------
     def _cloud(self) -> StudyCloud:
         if self._cloud_link is None:
             remote = None
