@@ -8,7 +8,6 @@ paired tests are the synthetic study's code (:mod:`pacc.study.report`,
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 from pathlib import Path
@@ -25,6 +24,7 @@ from pacc.study.report import (
     format_incremental,
     format_table,
     plot,
+    read_drives,
     write_csv,
 )
 from pacc.study.spec import StudySpec
@@ -112,18 +112,6 @@ def paired_tests(rows: list[dict[str, Any]]) -> list[str]:
     return lines
 
 
-def read_drives_csv(path: Path) -> list[dict[str, Any]]:
-    """The rows of a synthetic study's ``drives.csv`` (``pacc study``); SimError if none."""
-    try:
-        with path.open(newline="", encoding="utf-8") as fh:
-            rows = [dict(r) for r in csv.DictReader(fh)]
-    except (OSError, UnicodeError, csv.Error) as exc:
-        raise SimError(f"{path}: cannot read a study's drives.csv ({exc})") from exc
-    if not rows or any(k not in rows[0] for k in ("driver", "controller", "poi_pct")):
-        raise SimError(f"{path}: not a study's drives.csv")
-    return rows
-
-
 def side_by_side(people: list[dict[str, Any]], synthetic: list[dict[str, Any]]) -> str:
     """Markdown: the averages per controller, people beside synthetic drivers and the paper."""
     ours, syn = averages(cell_means(people)), averages(cell_means(synthetic))
@@ -162,7 +150,7 @@ def build_table(sessions: Path, out: Path, synthetic: Path | None = None) -> str
     )
     text += "\n" + "\n".join(paired_tests(rows)) + "\n"
     if synthetic is not None:
-        text += "\n" + side_by_side(rows, read_drives_csv(synthetic))
+        text += "\n" + side_by_side(rows, read_drives(synthetic))
     out.mkdir(parents=True, exist_ok=True)
     (out / "table1.md").write_text(text, encoding="utf-8")
     write_csv(out / "drives.csv", rows)

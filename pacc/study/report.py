@@ -34,6 +34,7 @@ from pacc.study.stats import (
     reduction_pct,
 )
 from sim_bus.drivers import DriverParams
+from sim_bus.errors import SimError
 
 #: averages of the paper's Table I (PoI %, NIM /min), for comparison
 PAPER_AVERAGES: dict[str, tuple[float, float]] = {
@@ -103,6 +104,18 @@ def write_csv(
         writer = csv.DictWriter(fh, fieldnames=fields, extrasaction="ignore")
         writer.writeheader()
         writer.writerows(rows)
+
+
+def read_drives(path: Path) -> list[dict[str, Any]]:
+    """The rows of a study's ``drives.csv``; SimError naming the file if it has none."""
+    try:
+        with path.open(newline="", encoding="utf-8") as fh:
+            rows = [dict(r) for r in csv.DictReader(fh)]
+    except (OSError, UnicodeError, csv.Error) as exc:
+        raise SimError(f"{path}: cannot read a study's drives.csv ({exc})") from exc
+    if not rows or not {"driver", "controller", "poi_pct", "nim_per_min"} <= set(rows[0]):
+        raise SimError(f"{path}: not a study's drives.csv (no driver/controller/PoI/NIM rows)")
+    return rows
 
 
 def write_rows(path: Path, rows: Sequence[Mapping[str, Any]], kind: str) -> None:
