@@ -124,3 +124,8 @@ def paper_plan(participant: str, incremental: int = 0) -> list[Step]:
 def free_plan(scenario: str, controller: str | None) -> list[Step]:
     """One drive without a study (``pacc hil`` without ``--protocol``)."""
     return [Step("drive", "drive", "Free drive", scenario, controller), Step("done", "done", "End")]
+
+
+def trip_of(step_id: str) -> int:
+    """The trip number of an incremental drive's step (``inc2-B`` -> 2), else 0."""
+    return int(step_id[3:].split("-")[0]) if step_id.startswith("inc") else 0

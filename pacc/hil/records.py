@@ -77,15 +77,14 @@ def write_drive(
     if outcome.final_table is not None and step.controller is not None:
         save_dgpt(outcome.final_table, folder / "tables" / f"{step.id}-final.json")
         record["final_table_version"] = outcome.final_table.version
-    save_record(folder, step.id, record)
+    save_json(folder / "drives" / f"{step.id}.json", record)
     return record
 
 
-def save_record(folder: Path, step_id: str, record: dict[str, Any]) -> None:
-    """``drives/<step>.json`` (written whole, then renamed into place)."""
-    path = folder / "drives" / f"{step_id}.json"
+def save_json(path: Path, doc: Any) -> None:
+    """Write ``doc`` to ``path`` atomically (``path.part``, then renamed over it)."""
     tmp = path.with_name(path.name + ".part")
-    tmp.write_text(json.dumps(record, indent=1, default=str), encoding="utf-8")
+    tmp.write_text(json.dumps(doc, indent=1, default=str), encoding="utf-8")
     tmp.replace(path)
 
 
@@ -144,13 +143,6 @@ def open_manifest(
         "done": {},
         "events": [],
     }
-
-
-def save_manifest(path: Path, manifest: dict[str, Any]) -> None:
-    """Write ``manifest`` to ``path`` atomically (``path.part``, then renamed over it)."""
-    tmp = path.with_name(path.name + ".part")
-    tmp.write_text(json.dumps(manifest, indent=1, default=str), encoding="utf-8")
-    tmp.replace(path)
 
 
 def utc_stamp() -> str:

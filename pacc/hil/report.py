@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from pacc.hil.plan import trip_of
 from pacc.study.drive import CONTROLLERS
 from pacc.study.report import (
     CONTROLLER_TITLES,
@@ -54,7 +55,7 @@ def incremental_rows(sessions: Path) -> list[dict[str, Any]]:
     incremental report: participant, trip, the DGPT version driven with, PoI, NIM, ..."""
     rows: list[dict[str, Any]] = []
     for folder in sorted(p for p in sessions.iterdir() if (p / "manifest.json").is_file()):
-        paths = sorted((folder / "drives").glob("inc*.json"), key=lambda p: _trip_no(p.stem))
+        paths = sorted((folder / "drives").glob("inc*.json"), key=lambda p: trip_of(p.stem))
         for path in paths:
             try:
                 record = json.loads(path.read_text(encoding="utf-8"))
@@ -62,7 +63,7 @@ def incremental_rows(sessions: Path) -> list[dict[str, Any]]:
                 rows.append(
                     {
                         "driver": row["driver"],
-                        "trip": _trip_no(path.stem),
+                        "trip": trip_of(path.stem),
                         "dgpt_version": record["table_version"],
                         "uploaded": record.get("incremental", {}).get("uploaded", 0),
                         **{k: row[k] for k in ("poi_pct", "nim_per_min", "takeovers")},
@@ -72,11 +73,6 @@ def incremental_rows(sessions: Path) -> list[dict[str, Any]]:
             except (OSError, ValueError, KeyError, TypeError) as exc:
                 raise SimError(f"{path}: not a drive record ({exc})") from exc
     return rows
-
-
-def _trip_no(stem: str) -> int:
-    """``inc3-B`` -> 3."""
-    return int(stem[3:].split("-")[0])
 
 
 def complete(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:

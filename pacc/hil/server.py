@@ -19,6 +19,7 @@ from fastapi import FastAPI, HTTPException, Request, WebSocket, WebSocketDisconn
 from fastapi.responses import FileResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
 
+from pacc.hil.records import save_json
 from pacc.hil.session import Session
 from sim_bus.errors import SimError
 
@@ -96,9 +97,7 @@ def save_mapping(body: bytes, path: Path) -> Path:
     except (ValueError, TypeError, KeyError, SimError) as exc:
         raise HTTPException(400, f"not a gamepad mapping: {exc}") from exc
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".part")
-    tmp.write_text(json.dumps(mapping, indent=1), encoding="utf-8")
-    tmp.replace(path)
+    save_json(path, mapping)
     return path
 
 

@@ -27,14 +27,13 @@ from dbc.vocab.triplog_file import read_trip
 from ecu import EcuError
 from ecu.buslog.live import live_sinks
 from pacc.hil.loop import HilDrive, RealtimeRunner
-from pacc.hil.plan import Step
+from pacc.hil.plan import Step, trip_of
 from pacc.hil.records import (
     MANIFEST,
     append_rating,
     open_manifest,
     rating,
-    save_manifest,
-    save_record,
+    save_json,
     utc_stamp,
     write_drive,
 )
@@ -113,7 +112,7 @@ class Session:
         )
 
     def _save(self) -> None:
-        save_manifest(self.folder / MANIFEST, self.manifest)
+        save_json(self.folder / MANIFEST, self.manifest)
         self.seq += 1
 
     def _at(self) -> str:
@@ -255,7 +254,7 @@ class Session:
             scenario=step.scenario,
             driver_id=self.cfg.participant,
             controller=step.controller or "predefined",  # type: ignore[arg-type]
-            seed=self.cfg.seed + _trip_of(step),  # the incremental trips: fresh plant noise
+            seed=self.cfg.seed + trip_of(step.id),  # the incremental trips: fresh plant noise
             brake_mode=self.cfg.brake_mode,
         )
         bus = self.cfg.bus() if self.cfg.bus is not None else None
@@ -357,7 +356,7 @@ class Session:
                 self.manifest["events"].append({"event": f"sync failed: {exc}", "at": utc_stamp()})
         save_dgpt(newer, self.folder / "tables" / "irl-latest.json")
         record["incremental"] = {"uploaded": batches, "next_version": newer.version}
-        save_record(self.folder, step.id, record)
+        save_json(self.folder / "drives" / f"{step.id}.json", record)
         with self._lock:
             self.phase = "after"
             self._save()
@@ -384,10 +383,3 @@ def _num(x: Any) -> float:
     except (TypeError, ValueError):
         return 0.0
     return v if math.isfinite(v) else 0.0
-
-
-def _trip_of(step: Step) -> int:
-    """The trip number of an incremental drive (``inc2-B`` -> 2), else 0."""
-    if not step.id.startswith("inc"):
-        return 0
-    return int(step.id[3:].split("-")[0])
