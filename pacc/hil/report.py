@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -36,43 +37,31 @@ from sim_bus.errors import SimError
 REPORT_SEED = 0
 
 
-def session_rows(sessions: Path) -> list[dict[str, Any]]:
-    """Every finished ACC drive of every session under ``sessions``, participant order."""
-    rows: list[dict[str, Any]] = []
+def _records(sessions: Path, pattern: str, fields: Sequence[str]) -> list[dict[str, Any]]:
+    """The drive records ``drives/<pattern>`` of every session (participant, then trip order):
+    their row's ``fields``, the table version and trip; SimError naming one not readable."""
+    out = []
     for folder in sorted(p for p in sessions.iterdir() if (p / "manifest.json").is_file()):
-        for path in sorted((folder / "drives").glob("acc*.json")):
+        for path in sorted((folder / "drives").glob(pattern), key=lambda p: (trip_of(p.stem), p)):
             try:
-                record = json.loads(path.read_text(encoding="utf-8"))
-                row = {k: record["row"][k] for k in FIELDS}
-            except (OSError, ValueError, KeyError, TypeError) as exc:
+                rec = json.loads(path.read_text(encoding="utf-8"))
+                out.append({**{k: rec["row"][k] for k in fields}, "trip": trip_of(path.stem),
+                            "dgpt_version": rec["table_version"],
+                            "uploaded": rec.get("incremental", {}).get("uploaded", 0)})  # fmt: skip
+            except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
                 raise SimError(f"{path}: not a drive record ({exc})") from exc
-            rows.append(row)
-    return rows
+    return out
+
+
+def session_rows(sessions: Path) -> list[dict[str, Any]]:
+    """Every finished ACC drive of every session under ``sessions`` (Table I's columns)."""
+    return [{k: r[k] for k in FIELDS} for r in _records(sessions, "acc*.json", FIELDS)]
 
 
 def incremental_rows(sessions: Path) -> list[dict[str, Any]]:
-    """The incremental drives (``drives/inc*.json``) as rows of the synthetic study's
-    incremental report: participant, trip, the DGPT version driven with, PoI, NIM, ..."""
-    rows: list[dict[str, Any]] = []
-    for folder in sorted(p for p in sessions.iterdir() if (p / "manifest.json").is_file()):
-        paths = sorted((folder / "drives").glob("inc*.json"), key=lambda p: trip_of(p.stem))
-        for path in paths:
-            try:
-                record = json.loads(path.read_text(encoding="utf-8"))
-                row = record["row"]
-                rows.append(
-                    {
-                        "driver": row["driver"],
-                        "trip": trip_of(path.stem),
-                        "dgpt_version": record["table_version"],
-                        "uploaded": record.get("incremental", {}).get("uploaded", 0),
-                        **{k: row[k] for k in ("poi_pct", "nim_per_min", "takeovers")},
-                        **{k: row[k] for k in ("min_ttc_s", "collision")},
-                    }
-                )
-            except (OSError, ValueError, KeyError, TypeError) as exc:
-                raise SimError(f"{path}: not a drive record ({exc})") from exc
-    return rows
+    """The incremental drives as rows of the synthetic study's incremental report."""
+    fields = ("driver", "poi_pct", "nim_per_min", "takeovers", "min_ttc_s", "collision")
+    return _records(sessions, "inc*.json", fields)
 
 
 def complete(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
