@@ -38,7 +38,7 @@ from pacc.commands._args import (
     number,
 )
 from pacc.study.drive import resolve_profile, with_condition
-from pacc.study.drive_recording import WorldFeed, record_world
+from pacc.study.drive_recording import WorldFeed, finish_recording
 from sim_bus.drivers import GAP_SETTING_CODE, DriverParams, load_driver
 from sim_bus.errors import SimError
 from sim_bus.faults import FaultSpec, fault_rng, parse_faults
@@ -143,14 +143,10 @@ def _run(node: SimNode, duration_s: float, quiet: bool, feed: WorldFeed | None =
 def _finish_recording(
     recorder: CanLogWriter, log: WorldLog, can_log: Path | None, streamed: bool = False
 ) -> int:
-    """Add the world to the recording (unless it was ``streamed`` live) and close it; the
-    exit status (2: it failed)."""
-    try:
-        if not streamed:
-            record_world(recorder, log)
-        recorder.close()
-    except (EcuError, FormatError, OSError) as exc:
-        print(f"pacc sim: error: bus recording failed: {exc}", file=sys.stderr)
+    """Close the recording with the world (unless ``streamed`` live); the exit status."""
+    failed = finish_recording(recorder, log, streamed)
+    if failed is not None:
+        print(f"pacc sim: error: bus recording failed: {failed}", file=sys.stderr)
         return 2
     if can_log is not None:
         print(f"bus recording: {recorder.frames} frames written to {can_log}")

@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import csv
 import json
-from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from dbc.vocab.dgpt import utc_now_iso
 from dbc.vocab.dgpt_file import save_dgpt
 from dbc.vocab.triplog_file import write_trip
 from pacc.hil.loop import DriveOutcome, HilDrive
@@ -131,7 +131,7 @@ def open_manifest(
             raise SimError(f"{path}: not a session manifest ({exc})") from exc
         if m.get("participant") != participant or m.get("plan") != plan_ids:
             raise SimError(f"{path}: another participant's or protocol's session")
-        m["events"].append({"event": "resumed", "at": utc_stamp()})
+        m["events"].append({"event": "resumed", "at": utc_now_iso()})
         return m
     return {
         "participant": participant,
@@ -143,8 +143,3 @@ def open_manifest(
         "done": {},
         "events": [],
     }
-
-
-def utc_stamp() -> str:
-    """The wall clock's UTC to the second, ``YYYY-MM-DDTHH:MM:SSZ``."""
-    return datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")

@@ -20,7 +20,7 @@ from typing import Any, Literal
 
 import can
 
-from dbc.vocab.dgpt import Dgpt
+from dbc.vocab.dgpt import Dgpt, utc_now_iso
 from dbc.vocab.dgpt_file import load_dgpt, save_dgpt
 from dbc.vocab.triplog import Trip
 from dbc.vocab.triplog_file import read_trip
@@ -34,7 +34,6 @@ from pacc.hil.records import (
     open_manifest,
     rating,
     save_json,
-    utc_stamp,
     write_drive,
 )
 from pacc.study.drive import DriveConfig, predefined_table, resolve_profile
@@ -216,7 +215,7 @@ class Session:
         if step is None:
             return
         if name == "consent" and step.kind == "consent":
-            self._mark_done(step, {"consented": True, "at": utc_stamp()})
+            self._mark_done(step, {"consented": True, "at": utc_now_iso()})
         elif name == "continue" and step.kind in ("break", "done"):
             if step.kind == "break":
                 self._mark_done(step, {})
@@ -316,7 +315,7 @@ class Session:
             append_rating(self.folder, self.cfg.participant, step, **ratings)
         self.drive = None
         self.runner = None
-        self._mark_done(step, {"ratings": ratings, "at": utc_stamp()})
+        self._mark_done(step, {"ratings": ratings, "at": utc_now_iso()})
 
     def _cloud(self) -> StudyCloud:
         if self._cloud_link is None:
@@ -344,7 +343,12 @@ class Session:
         save_dgpt(table, self.folder / "tables" / "irl.json")
         save_dgpt(predefined_table(self.participant), self.folder / "tables" / "predefined.json")
         with self._lock:
-            info = {"batches": batches, "version": table.version, "signed": True, "at": utc_stamp()}
+            info = {
+                "batches": batches,
+                "version": table.version,
+                "signed": True,
+                "at": utc_now_iso(),
+            }
             self._mark_done(step, info)
 
     def _sync(self, step: Step, record: dict[str, Any], segments: list[Trip], table: Dgpt) -> None:
@@ -353,7 +357,9 @@ class Session:
         except Exception as exc:  # noqa: BLE001 - shown; the drive's files are kept
             newer, batches = table, 0
             with self._lock:
-                self.manifest["events"].append({"event": f"sync failed: {exc}", "at": utc_stamp()})
+                self.manifest["events"].append(
+                    {"event": f"sync failed: {exc}", "at": utc_now_iso()}
+                )
         save_dgpt(newer, self.folder / "tables" / "irl-latest.json")
         record["incremental"] = {"uploaded": batches, "next_version": newer.version}
         save_json(self.folder / "drives" / f"{step.id}.json", record)
@@ -365,7 +371,7 @@ class Session:
         with self._lock:
             self.phase = "failed"
             self.message = message
-            self.manifest["events"].append({"event": message, "at": utc_stamp()})
+            self.manifest["events"].append({"event": message, "at": utc_now_iso()})
             self._save()
 
     def close(self) -> None:
