@@ -30,12 +30,11 @@ from ecu.buslog.writer import CanLogWriter
 from pacc.commands._args import (
     CommandParser,
     add_bus_arguments,
+    add_world_arguments,
     bus_error,
     bus_kwargs,
     check_distinct_outputs,
     check_writable_file,
-    integer,
-    number,
 )
 from pacc.study.drive import resolve_profile, with_condition
 from pacc.study.drive_recording import WorldFeed, finish_recording
@@ -55,30 +54,13 @@ PROGRESS_EVERY_S = 5.0
 def _parser() -> argparse.ArgumentParser:
     p = CommandParser(prog="pacc sim", description=__doc__.split("\n\n")[0])
     add_bus_arguments(p)
-    p.add_argument(
-        "--scenario",
-        default="B",
-        help="A, B, manual1..manual4 or a CSV of t_s,v_lead_mps (default B)",
-    )
-    p.add_argument("--driver", default="d1", help="d1..d5 or a driver .toml/.json (default d1)")
-    p.add_argument("--seed", type=integer(0), default=0)
-    p.add_argument("--faults", default="", help="fault SPEC, e.g. 'radar:dropout=100-105'")
-    p.add_argument(
-        "--duration", type=number(0.0, 1e6, lo_open=True), help="run only the first N seconds"
-    )
-    p.add_argument("--log", type=Path, help="write the run as an MCAP trip log")
+    add_world_arguments(p)
     p.add_argument(
         "--can-log",
         type=Path,
         metavar="FILE",
         help="record every frame in and out (raw and decoded) and the simulated world to "
         "this MCAP file",
-    )
-    p.add_argument(
-        "--condition-factor",
-        type=number(0.1, 10.0),
-        default=1.0,
-        help="multiply the driver's preference, e.g. 1.2 for rain (default 1)",
     )
     p.add_argument("--quiet", action="store_true", help="no progress line")
     add_network_arguments(p)
