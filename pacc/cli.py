@@ -1,14 +1,7 @@
-"""The ``pacc`` console script: one command, sub-commands that live in their own packages.
+"""The ``pacc`` console script: dispatch to the sub-commands, imported only when chosen.
 
-``pacc ecu …`` runs the ECU alone, ``pacc sim …`` the simulator alone, ``pacc drive …`` both
-in one process, ``pacc study …`` the paper's study (Table I) through them, ``pacc cloud …``
-the cloud side (``python -m pacc`` is ``pacc``). Sub-command modules are imported only when
-chosen, so ``pacc --help`` does not import numpy, cantools or python-can.
-
-The error boundary is here, once: a :class:`~dbc.errors.PaccError` (bad input, bad
-configuration) or an ``OSError`` (a missing file, a full disk) that a sub-command lets through
-becomes one line on stderr, ``pacc <cmd>: error: ...``, and exit status 2; ``pacc --debug
-<cmd> ...`` (or ``PACC_DEBUG=1``) shows the traceback instead.
+The error boundary, once: a :class:`~dbc.errors.PaccError` or ``OSError`` a sub-command lets
+through is one line on stderr, exit 2 (``--debug`` or ``PACC_DEBUG=1``: the traceback).
 """
 
 from __future__ import annotations
@@ -117,7 +110,3 @@ def main(argv: list[str] | None = None) -> int:
             traceback.print_exc()
         print(f"{_prog(name, rest)}: error: {error_line(exc)}", file=sys.stderr)
         return 2
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,16 +1,11 @@
-"""What several sub-commands share: the bus flags, validated numbers, distinct outputs.
+"""What several sub-commands share: the bus flags, argparse types, output checks.
 
-- :class:`CommandParser`: argparse with a one-line usage error.
-- :func:`add_bus_arguments` / :func:`bus_kwargs`: python-can's ``-i/--interface``,
-  ``-c/--channel``, ``-b/--bitrate`` (defined once; ``pacc ecu``, ``pacc sim``, ``pacc replay``);
-  :func:`bus_error`: a bus that cannot be opened, said with the way out.
-- :func:`number` / :func:`integer`: argparse types that refuse NaN, infinities and values out
-  of a range with argparse's own usage error (exit 2, one line), so ``--quota-mb nan`` never
-  reaches a library.
-- :func:`check_distinct_outputs`: two output options naming one file would keep one of them
-  (``pacc drive --log x --can-log x``): refused before anything runs.
-- :func:`check_writable_file` / :func:`check_writable_dir`: an output that could not be
-  written, refused before the run whose result it would lose.
+:class:`CommandParser` (a one-line usage error), python-can's ``-i/-c/-b`` flags
+(:func:`add_bus_arguments`, :func:`bus_kwargs`, :func:`bus_error`), the simulated world's
+options (:func:`add_world_arguments`), finite ranged numbers
+(:func:`number`, :func:`integer`), and outputs refused before a run: two options naming one
+file (:func:`check_distinct_outputs`), an unwritable file or folder
+(:func:`check_writable_file`, :func:`check_writable_dir`).
 """
 
 from __future__ import annotations
@@ -23,21 +18,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn
 
-from dbc.errors import UsageError, error_line
-
-__all__ = [
-    "json_parameters",
-    "CommandParser",
-    "check_writable_dir",
-    "check_writable_file",
-    "error_line",
-    "add_bus_arguments",
-    "bus_error",
-    "bus_kwargs",
-    "check_distinct_outputs",
-    "integer",
-    "number",
-]
+from dbc.errors import UsageError
 
 
 class CommandParser(argparse.ArgumentParser):
@@ -63,6 +44,30 @@ def add_bus_arguments(parser: argparse.ArgumentParser, title: str | None = None)
     group.add_argument("-c", "--channel", help="channel, e.g. vcan0")
     group.add_argument(
         "-b", "--bitrate", type=integer(1, 10_000_000), help="bitrate, bit/s (1..10000000)"
+    )
+
+
+def add_world_arguments(p: argparse.ArgumentParser) -> None:
+    """The simulated world's options, ``pacc drive``'s and ``pacc sim``'s: scenario, driver,
+    seed, faults, duration (s), the trip log, the condition factor."""
+    p.add_argument(
+        "--scenario",
+        default="B",
+        help="A, B, manual1..manual4, a road scenario (cutin, cutout, leadloss, stopgo, C: "
+        "mixed traffic) or a CSV of t_s,v_lead_mps (default B)",
+    )
+    p.add_argument("--driver", default="d1", help="d1..d5 or a driver .toml/.json (default d1)")
+    p.add_argument("--seed", type=integer(0), default=0)
+    p.add_argument("--faults", default="", help="fault SPEC, e.g. 'radar:dropout=100-105'")
+    p.add_argument(
+        "--duration", type=number(0.0, 1e6, lo_open=True), help="simulate only the first N s"
+    )
+    p.add_argument("--log", type=Path, help="write the drive as an MCAP trip log")
+    p.add_argument(
+        "--condition-factor",
+        type=number(0.1, 10.0),
+        default=1.0,
+        help="multiply the driver's preference, e.g. 1.2 for rain (default 1)",
     )
 
 

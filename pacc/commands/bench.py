@@ -76,14 +76,11 @@ def _options(args: argparse.Namespace) -> BenchOptions:
     if stored is not None:
         print(f"resuming the bench in {args.out} (seeds {list(stored.seeds)})", file=sys.stderr)
         return stored
-    if args.seed_list:
-        seeds = tuple(int(s) for s in args.seed_list.split(",") if s.strip())
-    else:
-        if args.seeds < 1:
-            raise SimError("--seeds must be >= 1")
-        seeds = fresh_seeds(args.seeds)
-    if args.drivers_per_seed < 1 or args.trials < 1 or not args.duration > 0:
-        raise SimError("need --drivers-per-seed >= 1, --trials >= 1, --duration > 0")
+    try:
+        seeds = tuple(int(s) for s in (args.seed_list or "").split(",") if s.strip())
+    except ValueError as exc:
+        raise SimError(f"--seed-list {args.seed_list}: whole numbers, comma-separated") from exc
+    seeds = seeds or fresh_seeds(args.seeds)
     methods = DEFAULT_METHODS
     if args.methods is not None:
         try:
@@ -118,7 +115,3 @@ def main(argv: list[str] | None = None) -> int:
     print((args.out / "leaderboard.md").read_text(encoding="utf-8"))
     print(f"took {time.perf_counter() - start:.0f} s; {args.out}/leaderboard.md, .csv, .png")
     return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

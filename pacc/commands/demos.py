@@ -1,15 +1,9 @@
 """``pacc demos extract LOG... -o trips/``: a real car's bus logs as IRL demonstrations.
 
-    pacc demos extract drive1.blf drive2.asc --dbc car.dbc --binding car.binding.toml \\
-        --driver alice -o trips/
-    pacc cloud learn --demos trips/*.mcap ...
-
-Every LOG (any format python-can reads: BLF, ASC, candump ``.log``, TRC, pacc's ``.mcap``) is
-decoded through the car's binding, and its manual car-following stretches (ACC not engaged,
-a valid lead, pedals and speed present and fresh; ``--min-s`` long or more) are written as
-manual trip logs ``OUT/<log>_<k>.mcap`` (:mod:`cloud_sync.irl.sources.bus_demos`). A report says per
-log how many seconds were kept and why the rest was dropped. Exit status: 0, 1 when no log
-gave a demonstration, 2 on a bad log, network or output folder.
+Every LOG (any python-can format or pacc's ``.mcap``) is decoded through the car's binding and
+its manual car-following stretches (``--min-s`` or longer) are written as manual trip logs
+``OUT/<log>_<k>.mcap`` (:mod:`cloud_sync.irl.sources.bus_demos`), with a report per log. Exit
+status: 0, 1 when no log gave a demonstration, 2 on a bad log, network or output folder.
 """
 
 from __future__ import annotations
@@ -78,7 +72,3 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     print(f"demos: {written} trip logs written to {args.out}")
     return 0 if written else 1
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,18 +1,9 @@
 """``pacc export IN OUT``: convert a CAN log between python-can's formats and pacc's MCAP.
 
-    pacc export drive.mcap drive.blf            # a pacc recording to Vector BLF
-    pacc export trace.asc trace.mcap --dbc car.dbc   # any python-can log to MCAP, decoded
-
-Formats by suffix: ``.mcap`` (pacc bus recordings, :mod:`ecu.buslog.writer`), ``.log`` (candump),
-``.asc``, ``.blf``, ``.trc``, ``.csv`` (another suffix is refused: ``.mf4`` needs asammdf,
-which pacc does not install). The
-conversion is python-can's readers and writers (``can.LogReader``, ``can.Logger``), the
-``.mcap`` ones registered by pacc as a python-can plugin (:mod:`ecu.buslog.plugin`). A failed
-conversion (also one that read no frame) leaves no output file behind, not even its
-``OUT.part``. A recording killed mid-run (``x.mcap.part``) is read up to its last complete
-chunk, with a warning; ``pacc export x.mcap.part x.mcap`` copies all of it (every channel,
-attachment and metadata record) into a complete file (:func:`ecu.buslog.repair.repair`).
-Exit status: 0, 2 on a bad file or format.
+Formats by suffix: ``.mcap``, ``.log`` (candump), ``.asc``, ``.blf``, ``.trc``, ``.csv``, through
+python-can's readers and writers (pacc's MCAP registered as a plugin). A failed conversion
+leaves no output behind; ``pacc export x.mcap.part x.mcap`` repairs a killed recording
+(:func:`ecu.buslog.repair.repair`). Exit status: 0, 2 on a bad file or format.
 """
 
 from __future__ import annotations
@@ -22,10 +13,10 @@ import contextlib
 import sys
 from pathlib import Path
 
-from dbc.errors import UsageError
+from dbc.errors import UsageError, error_line
 from dbc.vocab import FormatError
 from ecu import EcuError
-from pacc.commands._args import CommandParser, error_line
+from pacc.commands._args import CommandParser
 
 #: the formats pacc converts between, by suffix
 FORMATS = (".mcap", ".log", ".asc", ".blf", ".trc", ".csv")
@@ -125,7 +116,3 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     print(f"{n} frames: {args.src} -> {args.dst}")
     return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

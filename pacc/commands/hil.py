@@ -12,6 +12,7 @@ import socket
 import sys
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import can
@@ -22,7 +23,14 @@ from dbc.vocab import FormatError
 from dbc.vocab.dgpt_file import load_dgpt
 from ecu import EcuError
 from ecu.buslog.live import add_foxglove_argument, parse_address
-from pacc.commands._args import CommandParser, integer, number
+from pacc.commands._args import (
+    CommandParser,
+    add_bus_arguments,
+    bus_error,
+    bus_kwargs,
+    integer,
+    number,
+)
 from pacc.hil.plan import free_plan, paper_plan, participant_index, with_weather
 from pacc.hil.server import ServerThread, create_app, default_mapping_path
 from pacc.hil.session import Session, SessionConfig
@@ -113,21 +121,21 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--cloud", metavar="URL|DIR", help="learn in this cloud (default: embedded)")
     p.add_argument("--token-file", type=Path, help="with --cloud: the vehicle's token file")
     p.add_argument("--trust", type=Path, help="with --cloud: the cloud's public key (PEM)")
-    p.add_argument("-i", "--interface", help="python-can interface of a separate pacc ecu")
-    p.add_argument("-c", "--channel", help="python-can channel of a separate pacc ecu")
+    add_bus_arguments(p, "the bus of a separate pacc ecu (omitted: the ECU in-process)")
     add_foxglove_argument(p)
     return p
 
 
-def _bus_factory(args: argparse.Namespace) -> object:
-    if args.interface is None and args.channel is None:
+def _bus_factory(args: argparse.Namespace) -> Callable[[], can.BusABC] | None:
+    """What opens the bus to a separate ECU (None: the ECU runs in-process)."""
+    if not bus_kwargs(args):
         return None
 
     def open_bus() -> can.BusABC:
         try:
-            return can.Bus(interface=args.interface, channel=args.channel)
+            return can.Bus(**bus_kwargs(args))
         except (can.CanError, ValueError, OSError, ImportError) as exc:
-            raise SimError(f"cannot open the bus: {exc}") from exc
+            raise SimError(bus_error(args, exc)) from exc
 
     return open_bus
 
@@ -176,7 +184,7 @@ def session_of(args: argparse.Namespace) -> Session:
         cloud=args.cloud,
         token_file=args.token_file,
         trust=args.trust,
-        bus=_bus_factory(args),  # type: ignore[arg-type]
+        bus=_bus_factory(args),
         setting=args.setting,
         table=args.table if args.protocol is None else None,
         foxglove=args.foxglove,
@@ -210,7 +218,3 @@ def main(argv: list[str] | None = None) -> int:
         session.close()
         server.stop()
     return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

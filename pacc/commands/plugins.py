@@ -43,7 +43,3 @@ def main(argv: list[str] | None = None) -> int:
         print(f"pacc plugins: {failed} method(s) failed to load", file=sys.stderr)
         return 1
     return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,18 +1,10 @@
 """``pacc replay LOG``: a bus recording through the ECU (deterministic) or onto a bus (real time).
 
-    pacc replay drive.mcap --ecu               # the recorded ECU over its recorded inputs
-    pacc replay drive.mcap -i remote -c ws://127.0.0.1:54701/ --frames rx   # to a pacc ecu
-
-``--ecu`` rebuilds the ECU from the recording (its DBC, binding, configuration and starting
-table are attached), feeds it every frame its node received at the recorded time, runs every
-recorded control cycle at its recorded time, and compares the frames it sends with the
-recorded ones (:mod:`ecu.buslog.replay`); it prints the ACC state changes, the events and the
-summary. Exit status 0 when the ECU sent the recorded frames exactly, 1 when they differ (the
-first difference is printed), 2 on a bad recording or options. Without ``--ecu`` the frames
-go onto the bus with their recorded spacing (python-can's player), and the ACC commands
-another ECU answers with are counted by state. That ECU is another process, so the bus must
-cross processes (SocketCAN, python-can-remote: docs/vehicles.md); ``-i virtual``, a bus of
-this process alone, is refused.
+``--ecu`` rebuilds the recorded ECU, feeds it its recorded inputs at their times and compares
+the frames it sends with the recorded ones (:mod:`ecu.buslog.replay`). Without ``--ecu`` the
+frames go onto a bus (another process's: ``-i virtual`` is refused) at their recorded spacing
+and the answering ECU's ACC commands are counted. Exit status: 0 (the same frames), 1 (they
+differ: the first difference printed), 2 on a bad recording or options.
 """
 
 from __future__ import annotations
@@ -148,7 +140,3 @@ def main(argv: list[str] | None = None) -> int:
     except (EcuError, FormatError) as exc:
         print(f"pacc replay: error: {exc}", file=sys.stderr)
         return 2
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,28 +1,21 @@
 """``pacc sim``: the simulator alone, in real time, on a CAN bus.
 
-The simulator plays ESC, PEDAL, RADAR and HMI against an ACC ECU elsewhere on the bus
-(``pacc ecu`` or a real ECU) and drives the ego car with the ECU's ACC_Command frames.
-Bus flags follow python-can: ``--interface/-i``, ``--channel/-c``, ``--bitrate/-b``; when
-omitted, python-can's own configuration applies (CAN_INTERFACE, ~/.canrc).
-
-    pacc sim -i socketcan -c vcan0 --scenario B --driver d2 --duration 120 --log sim.mcap
-
-At the end (or on Ctrl-C) it prints the same figures as ``pacc drive``. Exit status: 0,
-1 after a collision, 2 on bad options, input files or a bus that cannot be opened.
+It plays ESC, PEDAL, RADAR and HMI against an ACC ECU elsewhere on the bus and drives the ego
+car with its ACC_Command frames; at the end (or Ctrl-C) it prints the drive's figures. Exit
+status: 0, 1 after a collision, 2 on bad options, input files or a bus that cannot be opened.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
-import os
 import sys
 import time
 from pathlib import Path
 
 import can
 
-from dbc.errors import DbcError
+from dbc.errors import DbcError, UsageError
 from dbc.network import add_network_arguments, codec_of
 from dbc.vocab import FormatError
 from dbc.vocab.acc_state import AccState
@@ -37,14 +30,14 @@ from ecu.buslog.writer import CanLogWriter
 from pacc.commands._args import (
     CommandParser,
     add_bus_arguments,
+    add_world_arguments,
     bus_error,
     bus_kwargs,
     check_distinct_outputs,
-    integer,
-    number,
+    check_writable_file,
 )
 from pacc.study.drive import resolve_profile, with_condition
-from pacc.study.drive_recording import WorldFeed, record_world
+from pacc.study.drive_recording import WorldFeed, finish_recording
 from sim_bus.drivers import GAP_SETTING_CODE, DriverParams, load_driver
 from sim_bus.errors import SimError
 from sim_bus.faults import FaultSpec, fault_rng, parse_faults
@@ -61,18 +54,7 @@ PROGRESS_EVERY_S = 5.0
 def _parser() -> argparse.ArgumentParser:
     p = CommandParser(prog="pacc sim", description=__doc__.split("\n\n")[0])
     add_bus_arguments(p)
-    p.add_argument(
-        "--scenario",
-        default="B",
-        help="A, B, manual1..manual4 or a CSV of t_s,v_lead_mps (default B)",
-    )
-    p.add_argument("--driver", default="d1", help="d1..d5 or a driver .toml/.json (default d1)")
-    p.add_argument("--seed", type=integer(0), default=0)
-    p.add_argument("--faults", default="", help="fault SPEC, e.g. 'radar:dropout=100-105'")
-    p.add_argument(
-        "--duration", type=number(0.0, 1e6, lo_open=True), help="run only the first N seconds"
-    )
-    p.add_argument("--log", type=Path, help="write the run as an MCAP trip log")
+    add_world_arguments(p)
     p.add_argument(
         "--can-log",
         type=Path,
@@ -80,23 +62,10 @@ def _parser() -> argparse.ArgumentParser:
         help="record every frame in and out (raw and decoded) and the simulated world to "
         "this MCAP file",
     )
-    p.add_argument(
-        "--condition-factor",
-        type=number(0.1, 10.0),
-        default=1.0,
-        help="multiply the driver's preference, e.g. 1.2 for rain (default 1)",
-    )
     p.add_argument("--quiet", action="store_true", help="no progress line")
     add_network_arguments(p)
     add_foxglove_argument(p)
     return p
-
-
-def _check_writable(path: Path) -> None:
-    """Raise SimError unless ``path`` can be created or overwritten (a file, not a folder)."""
-    parent = path.resolve().parent
-    if path.is_dir() or not (parent.is_dir() and os.access(parent, os.W_OK)):
-        raise SimError(f"--log {path}: not a writable file location")
 
 
 def _setup(args: argparse.Namespace) -> tuple[DriverParams, FaultSpec, LeadProfile]:
@@ -110,10 +79,8 @@ def _setup(args: argparse.Namespace) -> tuple[DriverParams, FaultSpec, LeadProfi
         if not args.duration > 0:
             raise SimError("--duration must be > 0")
         profile = shorten(profile, args.duration)
-    if args.log is not None:  # refuse now, not after the drive when the run would be lost
-        _check_writable(args.log)
-    if args.can_log is not None:
-        _check_writable(args.can_log)
+    check_writable_file(args.log, "--log")  # now, not after the drive when it would be lost
+    check_writable_file(args.can_log, "--can-log")
     return driver, faults, profile
 
 
@@ -158,14 +125,10 @@ def _run(node: SimNode, duration_s: float, quiet: bool, feed: WorldFeed | None =
 def _finish_recording(
     recorder: CanLogWriter, log: WorldLog, can_log: Path | None, streamed: bool = False
 ) -> int:
-    """Add the world to the recording (unless it was ``streamed`` live) and close it; the
-    exit status (2: it failed)."""
-    try:
-        if not streamed:
-            record_world(recorder, log)
-        recorder.close()
-    except (EcuError, FormatError, OSError) as exc:
-        print(f"pacc sim: error: bus recording failed: {exc}", file=sys.stderr)
+    """Close the recording with the world (unless ``streamed`` live); the exit status."""
+    failed = finish_recording(recorder, log, streamed)
+    if failed is not None:
+        print(f"pacc sim: error: bus recording failed: {failed}", file=sys.stderr)
         return 2
     if can_log is not None:
         print(f"bus recording: {recorder.frames} frames written to {can_log}")
@@ -179,7 +142,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         driver, faults, profile = _setup(args)
         codec = codec_of(args)
-    except (SimError, DbcError) as exc:
+    except (SimError, DbcError, UsageError) as exc:
         print(f"pacc sim: error: {exc}", file=sys.stderr)
         return 2
     try:
@@ -275,7 +238,3 @@ def _save(
     if recorder is not None:
         status = max(status, _finish_recording(recorder, log, args.can_log, streamed=streamed))
     return status
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,4 +1,5 @@
-"""The command line of ``pacc study`` (also ``python -m pacc.study``): ``main(argv)``."""
+"""``pacc study``: the command line builds one :class:`~pacc.study.spec.StudySpec` (every mode
+is a choice of it), the pipeline runs it (:func:`pacc.study.pipeline.run`)."""
 
 from __future__ import annotations
 
@@ -11,18 +12,18 @@ from dataclasses import replace
 from pathlib import Path
 
 from cloud_sync.errors import CloudSyncError, EngineError
-from dbc.errors import DbcError
+from dbc.errors import DbcError, error_line
 from dbc.network import add_network_arguments, codec_of
 from dbc.vocab import FormatError
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES
-from pacc.commands._args import CommandParser, error_line, integer, number
+from pacc.commands._args import CommandParser, integer, number
 from pacc.study.drive import BUSES, CONTROLLERS, adaptation_params
 from pacc.study.manifest import write_manifest
 from pacc.study.pipeline import StudyInterrupted, run
-from pacc.study.spec import POPULATIONS, StudySpec, load_study_file, spec_of, table1_method
+from pacc.study.spec import StudySpec, load_study_file, spec_of, table1_method
 from sim_bus.errors import SimError
-from sim_bus.population import DEFAULT_POPULATION
+from sim_bus.population import DEFAULT_POPULATION, POPULATIONS
 
 _DESCRIPTION = "the paper's human-in-the-loop study (its Table I), end to end on the bus"
 
@@ -129,8 +130,8 @@ def _parser() -> argparse.ArgumentParser:
         "--population-kind",
         choices=tuple(POPULATIONS),
         default=DEFAULT_POPULATION,
-        help="the drawn drivers: people (calibrated to the study's people, the default) or "
-        "headway (steady-state headway drivers alone; --mismatch and --trip-shift apply)",
+        help="the drawn drivers: people (calibrated to the study's people, the default; they "
+        "draw their own manual-vs-ACC mismatch) or headway (steady-state headway drivers)",
     )
     p.add_argument(
         "--bus",
@@ -151,21 +152,6 @@ def _parser() -> argparse.ArgumentParser:
         metavar="DRIVES_CSV",
         help="with --hil: a synthetic study's drives.csv, its averages put beside the people's",
     )
-    p.add_argument(
-        "--mismatch",
-        type=number(0.0, 10.0),
-        default=0.0,
-        metavar="S",
-        help="with --population: drawn drivers want under ACC a time gap longer by S times "
-        "a per-driver offset from the prior N(0.3, 0.3) s (docs/drivers.md; default 0)",
-    )
-    p.add_argument(
-        "--trip-shift",
-        type=number(0.0, 5.0),
-        default=0.0,
-        metavar="SD",
-        help="with --population: each trip shifts a driver's headway by N(0, SD) s",
-    )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     add_network_arguments(p)
     return p
@@ -185,7 +171,10 @@ def _check_scheduler(address: str | None) -> None:
 
 def _spec(args: argparse.Namespace, argv: list[str]) -> StudySpec:
     """The spec of the command line: a study file's (``--config``; ``--workers`` and
-    ``--scheduler`` given here replace its own), a drawn population's, or Table I's."""
+    ``--scheduler`` given here replace its own), HIL sessions', a population's, or Table I's."""
+    if args.hil is not None:
+        beside = None if args.beside is None else str(args.beside)
+        return StudySpec(report="hil", sessions=str(args.hil), beside=beside)
     if args.config is not None:
         spec = spec_of(load_study_file(args.config))
         workers = args.workers if "--workers" in argv else spec.workers
@@ -220,8 +209,6 @@ def _spec(args: argparse.Namespace, argv: list[str]) -> StudySpec:
         dbc=args.dbc,
         binding=args.binding,
         bus=args.bus,
-        mismatch=args.mismatch,
-        trip_shift_s=args.trip_shift,
         workers=args.workers,
         scheduler=args.scheduler,
     )
@@ -230,12 +217,12 @@ def _spec(args: argparse.Namespace, argv: list[str]) -> StudySpec:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc study``; 0 on success, 1 if a drive collided, 2 on bad input."""
     args = _parser().parse_args(argv)
-    if args.hil is not None:
-        return _hil_table(args.hil, args.out, args.beside)
     start = time.perf_counter()
     try:
-        codec_of(args)  # a DBC without its binding, a binding that does not fit: refused now
         spec = _spec(args, list(sys.argv[1:] if argv is None else argv))
+        if spec.report == "hil":
+            return _hil_table(spec, args.out)
+        codec_of(args)  # a DBC without its binding, a binding that does not fit: refused now
         if args.config is not None:
             config = load_study_file(args.config)
             write_manifest(args.out, {**config, "workers": spec.workers,
@@ -272,18 +259,16 @@ _OUTPUTS = {
 }
 
 
-def _hil_table(sessions: Path, out: Path, beside: Path | None) -> int:
+def _hil_table(spec: StudySpec, out: Path) -> int:
     """``pacc study --hil SESSIONS``: Table I of real participants (pacc.hil.report)."""
     from pacc.hil.report import build_table  # noqa: PLC0415 - only this path needs it
 
+    assert spec.sessions is not None
     try:
-        print(build_table(sessions, out, beside), end="")
+        beside = None if spec.beside is None else Path(spec.beside)
+        print(build_table(Path(spec.sessions), out, beside), end="")
     except (SimError, FormatError, OSError) as exc:
         print(f"pacc study: error: {exc}", file=sys.stderr)
         return 2
     print(f"outputs in {out}/ (table1.md, drives.csv, table1.png)")
     return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

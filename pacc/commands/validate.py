@@ -11,7 +11,6 @@ paper's people, with 95 % bootstrap intervals over drivers, and the paired verdi
 
 from __future__ import annotations
 
-import csv
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -19,11 +18,9 @@ from typing import Any
 import numpy as np
 
 from pacc.commands._args import CommandParser
-from pacc.study.population_report import comparisons, per_driver
-from pacc.study.report import CONTROLLER_TITLES, PAPER_AVERAGES
-from pacc.study.stats import bootstrap_ci, holm
+from pacc.study.report import CONTROLLER_TITLES, PAPER_AVERAGES, read_drives
+from pacc.study.stats import bootstrap_ci, comparisons, holm, per_driver
 from sim_bus.dataset import load_human_pairs
-from sim_bus.errors import SimError
 from sim_bus.following import MODELS, Fit, fit_pair
 
 
@@ -56,15 +53,6 @@ def following_table(fits: Sequence[Fit]) -> str:
         + " |" * (len(models) + 2)
     )
     return "\n".join(lines)
-
-
-def read_drives(path: Path) -> list[dict[str, Any]]:
-    """The rows of a study's ``drives.csv``; SimError naming the file if it has none."""
-    with path.open(newline="", encoding="utf-8") as fh:
-        rows: list[dict[str, Any]] = [dict(r) for r in csv.DictReader(fh)]
-    if not rows or not {"driver", "controller", "poi_pct", "nim_per_min"} <= set(rows[0]):
-        raise SimError(f"{path}: not a study's drives.csv (no driver/controller/PoI/NIM rows)")
-    return rows
 
 
 def people_table(rows: Sequence[dict[str, Any]]) -> str:
@@ -161,7 +149,3 @@ def main(argv: list[str] | None = None) -> int:
 
         plot(args.plot, rows)
     return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

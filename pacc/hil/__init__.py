@@ -8,8 +8,7 @@ and the cloud around a person whose pedals and buttons come from a web page
 - :mod:`~pacc.hil.loop`: one drive (world + bus + ECU), lockstep or real time;
 - :mod:`~pacc.hil.plan`: the paper's protocol for one participant, the Latin square;
 - :mod:`~pacc.hil.session`: a participant's session folder, resumable;
-- :mod:`~pacc.hil.manifest`: the session folder's ``manifest.json`` (plan, steps done, events);
-- :mod:`~pacc.hil.records`: what a finished drive leaves in the session folder;
+- :mod:`~pacc.hil.records`: the session folder's ``manifest.json`` and drive records;
 - the vehicle–cloud link is the study's (:class:`pacc.study.loop.StudyCloud`);
 - :mod:`~pacc.hil.server`: the FastAPI + WebSocket app serving the driving page (``static/``:
   ``hil.js`` the participant's controls and overlays, ``road.js`` the road and cluster);

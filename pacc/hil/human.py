@@ -1,19 +1,11 @@
 """The person's pedals and HMI buttons as the world's driver (a ``PedalSource``).
 
-Inputs arrive from the page at any time (:meth:`HumanPedals.keys`, :meth:`HumanPedals.axes`,
-:meth:`HumanPedals.press`); :meth:`HumanPedals.tick` advances them by one plant tick, so a key
-press reaches the next PEDAL frame (10 ms) rather than the next driver step (50 ms).
-
-Keyboard pedals ramp like a foot: a held key moves its pedal toward full travel at
-``KEY_RISE_PER_S`` and a released one back at ``KEY_FALL_PER_S`` (fractions of full travel per
-second) from a first touch of ``KEY_TOUCH`` (so the next PEDAL frame shows the press): full
-throttle after a 2.4 s hold, so a tap is a light press. A gamepad, wheel or pedal set gives
-positions 0..1 directly and overrides the keys.
-
-Pedal to acceleration: accelerator ``a = COAST + p·(ACCEL_FULL − COAST)`` (so a light press
-holds the speed), brake ``a = −p·DECEL_LIMIT``; the brake wins when both are pressed. On the
-bus: ``accel_pct = 100·p``, ``brake_bar = 12 bar/(m/s²)·|a|``, the scaling of the synthetic
-drivers (:mod:`sim_bus.behaviour`).
+Page inputs arrive any time (:meth:`HumanPedals.keys`, :meth:`HumanPedals.axes`,
+:meth:`HumanPedals.press`); :meth:`HumanPedals.tick` advances them one plant tick. A held
+key ramps its pedal at ``KEY_RISE_PER_S`` from ``KEY_TOUCH`` (full after 2.4 s), a released
+one falls at ``KEY_FALL_PER_S``; a gamepad gives positions 0..1 and overrides the keys.
+Accelerator ``a = COAST_MPS2 + p·(ACCEL_FULL_MPS2 − COAST_MPS2)``, brake
+``a = −p·DECEL_LIMIT_MPS2``; on the bus the synthetic drivers' scaling (:mod:`sim_bus.behaviour`).
 """
 
 from __future__ import annotations
@@ -53,10 +45,8 @@ def pedal_accel_mps2(accel: float, brake: float) -> float:
 
 
 class HumanPedals:
-    """A person's pedals and buttons, advanced by the drive loop one plant tick at a time.
-
-    ``main_on``: the main switch at the start (False in manual drives); ``locked``: the HMI
-    buttons do nothing (manual drives, ACC off throughout); ``gap_setting``: 1..3.
+    """A person's pedals and buttons, advanced one plant tick at a time. ``main_on``: the main
+    switch at the start; ``locked``: the buttons do nothing (manual drives); ``gap_setting``: 1..3.
     """
 
     def __init__(self, *, main_on: bool = True, locked: bool = False, gap_setting: int = 2):
@@ -81,7 +71,6 @@ class HumanPedals:
         self.hmi_buttons: dict[str, int] = {}
         self._publish_hmi()
 
-    # -- inputs (any thread) -------------------------------------------------------------
     def keys(self, accel: bool, brake: bool) -> None:
         """The accelerator and brake keys held now (keyboard ramps; ends a gamepad's say)."""
         self._keys = (bool(accel), bool(brake))
@@ -96,7 +85,6 @@ class HumanPedals:
         if name in BUTTONS and not self.locked:
             self._pending.append(name)
 
-    # -- the drive loop ------------------------------------------------------------------
     def tick(self, dt_s: float) -> None:
         """Advance the pedals and buttons by one plant tick of ``dt_s`` s."""
         self.t_s += dt_s

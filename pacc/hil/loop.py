@@ -1,20 +1,14 @@
 """One drive with a person at the pedals: world + bus + ECU, stepped in lockstep or real time.
 
-:class:`HilDrive` is the wiring of :func:`pacc.study.drive.run_drive` with the synthetic
-driver replaced by :class:`~pacc.hil.human.HumanPedals`: the world, the simulator's bus
-node (PEDAL frames like any other), and by default the ordinary ECU in-process on a private
-python-can ``virtual`` channel, stepped to the simulator's time. With ``bus`` given (``pacc hil
--i/-c``) there is no ECU here: a separate ``pacc ecu`` on that bus drives the car.
-
-:meth:`HilDrive.step` is one plant tick (10 ms). :class:`RealtimeRunner` calls it on a thread
-paced to the wall clock (pausable: a lost browser pauses the world); lockstep callers (the
-page's ``step`` messages, tests) call it themselves, so a scripted participant gives the same
-drive with or without a browser.
+:class:`HilDrive` wires :func:`pacc.study.drive.run_drive`'s parts with
+:class:`~pacc.hil.human.HumanPedals` as the driver and the ECU in-process on a private
+``virtual`` channel (or a separate ``pacc ecu`` on ``bus``). :meth:`HilDrive.step` is one plant
+tick (10 ms); :class:`RealtimeRunner` calls it on a thread paced to the wall clock, lockstep
+callers (the page's ``step`` messages, tests) call it themselves.
 """
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import itertools
 import math
@@ -32,19 +26,12 @@ from dbc.vocab.acc_state import AccState
 from dbc.vocab.dgpt import Dgpt
 from dbc.vocab.pedals import PedalScale
 from dbc.vocab.triplog import Trip
-from ecu import EcuError
 from ecu.buslog.format import TimeBase
 from ecu.buslog.sinks import Sink
-from ecu.buslog.writer import CanLogWriter
-from ecu.node import EcuNode
-from ecu.runtime import EcuRuntime
 from pacc.hil.human import HumanPedals
-from pacc.study.drive import DriveConfig, _ecu_node, drive_codec
-from pacc.study.drive_recording import WorldFeed, drive_recorder, finish_recording
+from pacc.study.drive import DriveConfig, Rig, ecu_node
 from sim_bus.drivers import GAP_SETTING_CODE, DriverParams
-from sim_bus.faults import fault_rng
 from sim_bus.lead.profile import LeadProfile
-from sim_bus.node import SimNode
 from sim_bus.trip import world_trip
 from sim_bus.world import World, WorldConfig, WorldLog
 
@@ -68,16 +55,11 @@ class DriveOutcome:
     extra: dict[str, Any] = field(default_factory=dict)
 
 
-class HilDrive:
-    """One drive: ``profile`` followed by a person, the ECU driving with ``table``.
-
-    ``cfg``: the drive's controller, seed and network (:class:`DriveConfig`); ``acc``: False
-    for a manual drive (main switch off, buttons locked). ``bus``: an open python-can bus to a
-    separate ECU, which the drive shuts when it closes (None: the in-process ECU on
-    ``virtual``). ``can_log``: record the bus, the
-    ECU's internals and the world to this MCAP file (in-process ECU only).
-    ``set_speed_mps``: what SET sets the in-process ECU to (None: the car's speed at the
-    press, as in a production car).
+class HilDrive(Rig):
+    """One drive: ``profile`` followed by a person, the ECU driving with ``table``. ``acc``:
+    False for a manual drive; ``bus``: a separate ECU's bus, shut on close (None: the ECU
+    in-process); ``can_log``: record to this MCAP file; ``set_speed_mps``: what SET sets (None:
+    the car's speed at the press).
     """
 
     def __init__(
@@ -94,47 +76,24 @@ class HilDrive:
         live: Sequence[Sink] = (),
         set_speed_mps: float | None = None,
     ) -> None:
-        self.cfg = cfg
         self.participant = participant
         self.profile = profile
         self.acc = acc
         self.table = table  # what the in-process ECU starts the drive with
-        self.pedals = HumanPedals(
-            main_on=acc,
-            locked=not acc,
-            gap_setting=GAP_SETTING_CODE[participant.predefined_setting],
-        )
-        self.world = World(
+        gap = GAP_SETTING_CODE[participant.predefined_setting]
+        self.pedals = HumanPedals(main_on=acc, locked=not acc, gap_setting=gap)
+        world = World(
             participant, profile, cfg.seed, WorldConfig(engage_s=cfg.engage_s), pedals=self.pedals
         )
-        self.codec = drive_codec(cfg)
         self.segments: list[Trip] = []
-        self.base = TimeBase(time.time_ns(), 0.0)
-        self._own_buses: list[can.BusABC] = []
-        self.ecu: EcuNode | None = None
-        self.rt: EcuRuntime | None = None
-        self.recorder: CanLogWriter | None = None
-        #: the world streamed to a live view as it runs (None: written at the end)
-        self._feed: WorldFeed | None = None
+        ecu = None
         if bus is None:
-            channel = record_channel or f"pacc-hil-{next(_channels)}-{id(self):x}"
-            bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
-            ecu_bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
-            self._own_buses = [bus, ecu_bus]
-            self.ecu = _ecu_node(cfg, participant, table, profile, self.segments.append)
+            ecu = ecu_node(cfg, participant, table, profile, self.segments.append)
             # a person's SET (the study's drives set a speed above every lead's)
-            self.ecu.config = dataclasses.replace(self.ecu.config, set_speed_mps=set_speed_mps)
-            self.rt = EcuRuntime(ecu_bus, self.ecu, codec=self.codec)
-            if can_log is not None or live:
-                self.recorder = drive_recorder(
-                    can_log, cfg, self.ecu, table, self.codec, self.base, live
-                )
-                self.rt.record_to(self.recorder)
-                if live:
-                    self._feed = WorldFeed(self.recorder, self.world)
-        else:
-            self._own_buses = [bus]
-        self.node = SimNode(bus, self.world, codec=self.codec, rng=fault_rng(cfg.seed))
+            ecu.config = dataclasses.replace(ecu.config, set_speed_mps=set_speed_mps)
+        channel = record_channel or f"pacc-hil-{next(_channels)}-{id(self):x}"
+        super().__init__(cfg, world, ecu, table, TimeBase(time.time_ns(), 0.0), channel=channel,
+                         bus=bus, can_log=can_log, live=live)  # fmt: skip
         self.dt_s = self.world.cfg.plant.dt_s
         #: wall-clock times of the first and the latest tick (perf_counter s)
         self._wall = (math.nan, math.nan)
@@ -142,7 +101,6 @@ class HilDrive:
         #: the ECU's takeover requests so far (ACC_Command TakeoverRequest rising); the page
         #: chimes and shows TAKE OVER when it grows (a person's own override is no request)
         self.cues = 0
-        self.closed = False
 
     @property
     def done(self) -> bool:
@@ -158,8 +116,8 @@ class HilDrive:
         self.node.step()
         if self.rt is not None:
             self.rt.advance_to(now)
-        if self._feed is not None:
-            self._feed()
+        if self.feed is not None:
+            self.feed()
         tor = bool(self.node.takeover_request)
         if tor and not self._prev_tor:
             self.cues += 1
@@ -212,10 +170,9 @@ class HilDrive:
         extra: dict[str, Any] = {}
         if self.ecu is not None:
             self.ecu.finish()
-        if self.recorder is not None:
-            err = finish_recording(self.recorder, log, streamed=self._feed is not None)
-            if err:
-                extra["can_log_error"] = err
+        err = self.finish_recording(log)
+        if err:
+            extra["can_log_error"] = err
         self.close()
         car = self.world.plant
         return DriveOutcome(
@@ -232,17 +189,6 @@ class HilDrive:
             extra=extra,
         )
 
-    def close(self) -> None:
-        """Shut the buses this drive opened (idempotent); a recording left open is closed."""
-        if self.closed:
-            return
-        self.closed = True
-        for bus in self._own_buses:
-            bus.shutdown()
-        if self.recorder is not None and not self.recorder.closed:
-            with contextlib.suppress(EcuError, OSError):
-                self.recorder.close()
-
     def trip(self, outcome: DriveOutcome, meta: dict[str, Any]) -> Trip:
         """The drive as a trip log (10 Hz); a manual drive's ``mode`` is ``manual``."""
         trip = world_trip(outcome.log, self.participant, PedalScale.from_codec(self.codec), meta)
@@ -252,10 +198,8 @@ class HilDrive:
 
 
 class RealtimeRunner:
-    """Steps a :class:`HilDrive` on a thread at its tick, paced to the wall clock.
-
-    :attr:`paused` (set from any thread) holds the world still; the tick lateness against
-    the schedule is kept (``lateness_s``, the last 10 000 ticks) for the jitter benchmark.
+    """Steps a :class:`HilDrive` on a thread, paced to the wall clock; :attr:`paused` holds
+    the world still; ``lateness_s``: the ticks' lateness against the schedule (first 10 000).
     """
 
     def __init__(self, drive: HilDrive, on_done: Callable[[], None] | None = None) -> None:

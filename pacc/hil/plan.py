@@ -40,11 +40,9 @@ def with_weather(steps: list[Step], weather: str) -> list[Step]:
 
 @dataclass(frozen=True)
 class Step:
-    """One step of a session. ``id`` names its files; ``label`` is what the page shows.
-
-    Drives: ``scenario`` (a canonical profile), ``controller`` (None: manual, ACC off),
-    ``practice`` (not part of the study's figures), ``weather`` (what the page shows: one
-    of :data:`WEATHER`).
+    """One step of a session: ``id`` names its files, ``label`` is what the page shows (never
+    the controller); a drive's ``scenario``, ``controller`` (None: manual), ``practice``,
+    ``weather`` (:data:`WEATHER`).
     """
 
     id: str
@@ -128,13 +126,6 @@ def free_plan(scenario: str, controller: str | None) -> list[Step]:
     return [Step("drive", "drive", "Free drive", scenario, controller), Step("done", "done", "End")]
 
 
-__all__ = [
-    "CONDITIONS",
-    "Step",
-    "acc_order",
-    "balanced_latin_square",
-    "free_plan",
-    "paper_plan",
-    "participant_index",
-    "with_weather",
-]
+def trip_of(step_id: str) -> int:
+    """The trip number of an incremental drive's step (``inc2-B`` -> 2), else 0."""
+    return int(step_id[3:].split("-")[0]) if step_id.startswith("inc") else 0

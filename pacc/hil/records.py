@@ -1,8 +1,10 @@
-"""What a finished drive leaves in the session folder: trip log, record, tables, ratings.
+"""The session folder's files: ``manifest.json`` and what each finished drive leaves.
 
-``logs/<step>.mcap`` (the trip log), ``drives/<step>.json`` (the Table I row, pauses, the
-table versions), ``tables/<step>-final.json`` (the table after online adaptation) and one
-line of ``ratings.csv`` per rated drive.
+``manifest.json``: the participant, protocol, seed, ``short_s`` (s or null), the plan's step
+ids, each drive's controller, ``done`` (step id -> what it left) and ``events`` (lost
+connections, pauses, failures, resumptions); rewritten atomically after every change.
+Per drive: ``logs/<step>.mcap`` (the trip log), ``drives/<step>.json`` (the Table I row,
+pauses, table versions), ``tables/<step>-final.json`` and a line of ``ratings.csv``.
 """
 
 from __future__ import annotations
@@ -12,11 +14,13 @@ import json
 from pathlib import Path
 from typing import Any
 
+from dbc.vocab.dgpt import utc_now_iso
 from dbc.vocab.dgpt_file import save_dgpt
 from dbc.vocab.triplog_file import write_trip
 from pacc.hil.loop import DriveOutcome, HilDrive
 from pacc.hil.plan import Step
 from pacc.study.report import METRIC_FIELDS
+from sim_bus.errors import SimError
 
 RATINGS_HEAD = ("participant", "step", "scenario", "controller", "comfort", "trust")
 
@@ -73,15 +77,14 @@ def write_drive(
     if outcome.final_table is not None and step.controller is not None:
         save_dgpt(outcome.final_table, folder / "tables" / f"{step.id}-final.json")
         record["final_table_version"] = outcome.final_table.version
-    save_record(folder, step.id, record)
+    save_json(folder / "drives" / f"{step.id}.json", record)
     return record
 
 
-def save_record(folder: Path, step_id: str, record: dict[str, Any]) -> None:
-    """``drives/<step>.json`` (written whole, then renamed into place)."""
-    path = folder / "drives" / f"{step_id}.json"
+def save_json(path: Path, doc: Any) -> None:
+    """Write ``doc`` to ``path`` atomically (``path.part``, then renamed over it)."""
     tmp = path.with_name(path.name + ".part")
-    tmp.write_text(json.dumps(record, indent=1, default=str), encoding="utf-8")
+    tmp.write_text(json.dumps(doc, indent=1, default=str), encoding="utf-8")
     tmp.replace(path)
 
 
@@ -105,3 +108,38 @@ def rating(x: Any) -> int | None:
     except (TypeError, ValueError):
         return None
     return v if 1 <= v <= 7 else None
+
+
+MANIFEST = "manifest.json"
+
+
+def open_manifest(
+    path: Path,
+    participant: str,
+    protocol: str,
+    seed: int,
+    short_s: float | None,
+    plan: list[Step],
+) -> dict[str, Any]:
+    """The manifest at ``path``, a ``resumed`` event appended, or a new one for ``plan``;
+    SimError when it is not a manifest, or another participant's or plan's."""
+    plan_ids = [s.id for s in plan]
+    if path.is_file():
+        try:
+            m: dict[str, Any] = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as exc:
+            raise SimError(f"{path}: not a session manifest ({exc})") from exc
+        if m.get("participant") != participant or m.get("plan") != plan_ids:
+            raise SimError(f"{path}: another participant's or protocol's session")
+        m["events"].append({"event": "resumed", "at": utc_now_iso()})
+        return m
+    return {
+        "participant": participant,
+        "protocol": protocol,
+        "seed": seed,
+        "short_s": short_s,
+        "plan": plan_ids,
+        "conditions": {s.id: s.controller for s in plan if s.kind == "drive"},
+        "done": {},
+        "events": [],
+    }

@@ -8,76 +8,60 @@ paired tests are the synthetic study's code (:mod:`pacc.study.report`,
 
 from __future__ import annotations
 
-import csv
 import json
 import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from pacc.hil.plan import trip_of
 from pacc.study.drive import CONTROLLERS
-from pacc.study.incremental_report import INCREMENTAL_FIELDS, format_incremental
 from pacc.study.report import (
     CONTROLLER_TITLES,
     FIELDS,
+    INCREMENTAL_FIELDS,
     PAPER_AVERAGES,
-    averages,
-    cell_means,
+    format_incremental,
     format_table,
     plot,
+    read_drives,
     write_csv,
 )
 from pacc.study.spec import StudySpec
-from pacc.study.stats import holm, paired_comparison
+from pacc.study.stats import averages, cell_means, holm, paired_comparison, per_driver
 from sim_bus.errors import SimError
 
 #: the seed of the bootstrap intervals (a report of the same sessions gives the same figures)
 REPORT_SEED = 0
 
 
-def session_rows(sessions: Path) -> list[dict[str, Any]]:
-    """Every finished ACC drive of every session under ``sessions``, participant order."""
-    rows: list[dict[str, Any]] = []
+def _records(sessions: Path, pattern: str, fields: Sequence[str]) -> list[dict[str, Any]]:
+    """The drive records ``drives/<pattern>`` of every session (participant, then trip order):
+    their row's ``fields``, the table version and trip; SimError naming one not readable."""
+    out = []
     for folder in sorted(p for p in sessions.iterdir() if (p / "manifest.json").is_file()):
-        for path in sorted((folder / "drives").glob("acc*.json")):
+        for path in sorted((folder / "drives").glob(pattern), key=lambda p: (trip_of(p.stem), p)):
             try:
-                record = json.loads(path.read_text(encoding="utf-8"))
-                row = {k: record["row"][k] for k in FIELDS}
-            except (OSError, ValueError, KeyError, TypeError) as exc:
+                rec = json.loads(path.read_text(encoding="utf-8"))
+                out.append({**{k: rec["row"][k] for k in fields}, "trip": trip_of(path.stem),
+                            "dgpt_version": rec["table_version"],
+                            "uploaded": rec.get("incremental", {}).get("uploaded", 0)})  # fmt: skip
+            except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
                 raise SimError(f"{path}: not a drive record ({exc})") from exc
-            rows.append(row)
-    return rows
+    return out
+
+
+def session_rows(sessions: Path) -> list[dict[str, Any]]:
+    """Every finished ACC drive of every session under ``sessions`` (Table I's columns)."""
+    return [{k: r[k] for k in FIELDS} for r in _records(sessions, "acc*.json", FIELDS)]
 
 
 def incremental_rows(sessions: Path) -> list[dict[str, Any]]:
-    """The incremental drives (``drives/inc*.json``) as rows of the synthetic study's
-    incremental report: participant, trip, the DGPT version driven with, PoI, NIM, ..."""
-    rows: list[dict[str, Any]] = []
-    for folder in sorted(p for p in sessions.iterdir() if (p / "manifest.json").is_file()):
-        paths = sorted((folder / "drives").glob("inc*.json"), key=lambda p: _trip_no(p.stem))
-        for path in paths:
-            try:
-                record = json.loads(path.read_text(encoding="utf-8"))
-                row = record["row"]
-                rows.append(
-                    {
-                        "driver": row["driver"],
-                        "trip": _trip_no(path.stem),
-                        "dgpt_version": record["table_version"],
-                        "uploaded": record.get("incremental", {}).get("uploaded", 0),
-                        **{k: row[k] for k in ("poi_pct", "nim_per_min", "takeovers")},
-                        **{k: row[k] for k in ("min_ttc_s", "collision")},
-                    }
-                )
-            except (OSError, ValueError, KeyError, TypeError) as exc:
-                raise SimError(f"{path}: not a drive record ({exc})") from exc
-    return rows
-
-
-def _trip_no(stem: str) -> int:
-    """``inc3-B`` -> 3."""
-    return int(stem[3:].split("-")[0])
+    """The incremental drives as rows of the synthetic study's incremental report."""
+    fields = ("driver", "poi_pct", "nim_per_min", "takeovers", "min_ttc_s", "collision")
+    return _records(sessions, "inc*.json", fields)
 
 
 def complete(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -92,18 +76,14 @@ def complete(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
 def paired_tests(rows: list[dict[str, Any]]) -> list[str]:
     """Each controller against Predefined on the participants' mean PoI and NIM: mean
     difference, paired bootstrap 95 % interval, Wilcoxon p (Holm over the family)."""
-    means = cell_means(rows)
-    drivers = sorted({d for d, _, _ in means})
-    per: dict[str, np.ndarray] = {}
-    for c in CONTROLLERS:
-        per[c] = np.array(
-            [[np.mean([means[(d, s, c)][k] for s in ("A", "B")]) for d in drivers] for k in (0, 1)]
-        )
+    drivers, poi = per_driver(rows, "poi_pct")
+    values = (poi, per_driver(rows, "nim_per_min")[1])
     rng = np.random.default_rng(REPORT_SEED)
-    results = []
-    for c in CONTROLLERS[1:]:
-        for k, name in ((0, "PoI (points)"), (1, "NIM (/min)")):
-            results.append((c, name, paired_comparison(per["predefined"][k], per[c][k], rng)))
+    results = [
+        (c, name, paired_comparison(values[k]["predefined"], values[k][c], rng))
+        for c in CONTROLLERS[1:]
+        for k, name in ((0, "PoI (points)"), (1, "NIM (/min)"))
+    ]
     adjusted = holm([r[2].p_value for r in results])
     lines = [f"Paired against Predefined over {len(drivers)} participants:", ""]
     for (c, name, p), adj in zip(results, adjusted, strict=True):
@@ -115,18 +95,6 @@ def paired_tests(rows: list[dict[str, Any]]) -> list[str]:
             f"{p.better}/{p.worse}/{p.ties}"
         )
     return lines
-
-
-def read_drives_csv(path: Path) -> list[dict[str, Any]]:
-    """The rows of a synthetic study's ``drives.csv`` (``pacc study``); SimError if none."""
-    try:
-        with path.open(newline="", encoding="utf-8") as fh:
-            rows = [dict(r) for r in csv.DictReader(fh)]
-    except (OSError, UnicodeError, csv.Error) as exc:
-        raise SimError(f"{path}: cannot read a study's drives.csv ({exc})") from exc
-    if not rows or any(k not in rows[0] for k in ("driver", "controller", "poi_pct")):
-        raise SimError(f"{path}: not a study's drives.csv")
-    return rows
 
 
 def side_by_side(people: list[dict[str, Any]], synthetic: list[dict[str, Any]]) -> str:
@@ -167,7 +135,7 @@ def build_table(sessions: Path, out: Path, synthetic: Path | None = None) -> str
     )
     text += "\n" + "\n".join(paired_tests(rows)) + "\n"
     if synthetic is not None:
-        text += "\n" + side_by_side(rows, read_drives_csv(synthetic))
+        text += "\n" + side_by_side(rows, read_drives(synthetic))
     out.mkdir(parents=True, exist_ok=True)
     (out / "table1.md").write_text(text, encoding="utf-8")
     write_csv(out / "drives.csv", rows)

@@ -1,12 +1,8 @@
 """The web app of ``pacc hil``: the driving page, the gamepad calibration, one WebSocket.
 
-``GET /`` the driving page, ``GET /calibrate`` the gamepad calibration page (both static, no
-CDN: ``pacc/hil/static``), ``GET/PUT /api/mapping`` the gamepad mapping (a JSON file on
-the server), ``WS /ws`` the session (:meth:`pacc.hil.session.Session.handle`): the page
-sends its pedals (``in``), HMI buttons (``btn``), frames (``frame``; ``step`` in lockstep)
-and actions; the server answers each frame with the view.
-
-:class:`ServerThread` runs the app with uvicorn on a thread (tests, benchmarks).
+``GET /`` and ``GET /calibrate`` (static, no CDN), ``GET/PUT /api/mapping`` (the gamepad
+mapping file), ``WS /ws`` the session (:meth:`pacc.hil.session.Session.handle`: pedals,
+buttons, frames, actions in; the view out). :class:`ServerThread` runs it with uvicorn.
 """
 
 from __future__ import annotations
@@ -23,6 +19,7 @@ from fastapi import FastAPI, HTTPException, Request, WebSocket, WebSocketDisconn
 from fastapi.responses import FileResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
 
+from pacc.hil.records import save_json
 from pacc.hil.session import Session
 from sim_bus.errors import SimError
 
@@ -100,9 +97,7 @@ def save_mapping(body: bytes, path: Path) -> Path:
     except (ValueError, TypeError, KeyError, SimError) as exc:
         raise HTTPException(400, f"not a gamepad mapping: {exc}") from exc
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".part")
-    tmp.write_text(json.dumps(mapping, indent=1), encoding="utf-8")
-    tmp.replace(path)
+    save_json(path, mapping)
     return path
 
 

@@ -1,15 +1,10 @@
 """A participant's session: the plan's steps, the drives, the session folder, resumable.
 
-Folder ``OUT/<participant>/``: ``manifest.json`` (plan, finished steps, events such as lost
-connections; rewritten atomically after every change: :mod:`pacc.hil.manifest`),
-``logs/<step>.mcap`` (trip logs), ``can/<step>.mcap`` (bus recordings), ``drives/<step>.json``
-(each drive's figures, its Table I row, pauses), ``tables/`` (the predefined, learned and
-adapted tables), ``ratings.csv`` and the cloud's and spool's folders. A session opened again on
-the same folder continues at the first step not finished (a drive cut off by a crash starts
-over).
-
-:class:`Session` is driven by the page (:mod:`pacc.hil.server`): :meth:`Session.handle`
-takes one message and returns what the page shows next. Thread-safe (one lock).
+Folder ``OUT/<participant>/``: ``manifest.json`` and the drives' records
+(:mod:`pacc.hil.records`), ``can/<step>.mcap`` (bus recordings), ``tables/``, the cloud's and
+spool's folders. Opened again, a session continues at the first step not finished.
+:meth:`Session.handle` takes one message of the page (:mod:`pacc.hil.server`) and returns
+what it shows next; thread-safe (one lock).
 """
 
 from __future__ import annotations
@@ -25,16 +20,22 @@ from typing import Any, Literal
 
 import can
 
-from dbc.vocab.dgpt import Dgpt
+from dbc.vocab.dgpt import Dgpt, utc_now_iso
 from dbc.vocab.dgpt_file import load_dgpt, save_dgpt
 from dbc.vocab.triplog import Trip
 from dbc.vocab.triplog_file import read_trip
 from ecu import EcuError
 from ecu.buslog.live import live_sinks
 from pacc.hil.loop import HilDrive, RealtimeRunner
-from pacc.hil.manifest import MANIFEST, open_manifest, save_manifest, utc_stamp
-from pacc.hil.plan import Step
-from pacc.hil.records import append_rating, rating, save_record, write_drive
+from pacc.hil.plan import Step, trip_of
+from pacc.hil.records import (
+    MANIFEST,
+    append_rating,
+    open_manifest,
+    rating,
+    save_json,
+    write_drive,
+)
 from pacc.study.drive import DriveConfig, predefined_table, resolve_profile
 from pacc.study.irl_table import MANUAL_PROFILES
 from pacc.study.loop import StudyCloud
@@ -50,12 +51,10 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class SessionConfig:
-    """How a session runs. ``short_s``: shorten every drive (tests, demos); ``lockstep``:
-    the world advances only on the page's ``step`` messages; ``cloud``: a URL or folder
-    (None: an embedded cloud in the session folder) with ``token_file`` and ``trust``;
-    ``bus``: opens the bus to a separate ECU (None: the in-process ECU); ``setting``: the
-    participant's choice of the Predefined controller's headway (low 1 s, medium 3 s, high
-    4 s)."""
+    """How a session runs. ``short_s``: shorten every drive, s; ``lockstep``: the world advances
+    on the page's ``step`` messages; ``cloud``: a URL or folder (None: embedded); ``bus``: opens
+    the bus to a separate ECU (None: in-process); ``setting``: the Predefined headway choice.
+    """
 
     participant: str
     protocol: str
@@ -105,7 +104,6 @@ class Session:
         self._cloud_link: StudyCloud | None = None
         self.seq = 0
 
-    # -- manifest ------------------------------------------------------------------------
     def _open_manifest(self) -> dict[str, Any]:
         cfg = self.cfg
         return open_manifest(
@@ -113,7 +111,7 @@ class Session:
         )
 
     def _save(self) -> None:
-        save_manifest(self.folder / MANIFEST, self.manifest)
+        save_json(self.folder / MANIFEST, self.manifest)
         self.seq += 1
 
     def _at(self) -> str:
@@ -121,7 +119,6 @@ class Session:
         t = self.drive.world.t_s if self.drive is not None else None
         return f"{step.id if step else '-'}@{t:.2f}s" if t is not None else "-"
 
-    # -- where we are --------------------------------------------------------------------
     def current(self) -> Step | None:
         """The first step not finished (None: the session is complete)."""
         done = self.manifest["done"]
@@ -133,7 +130,6 @@ class Session:
         self.phase = "ready"
         self.message = ""
 
-    # -- the page's messages ---------------------------------------------------------------
     def connect(self) -> int:
         """A page connected; its connection number. A paused drive waits for ``continue``."""
         with self._lock:
@@ -219,7 +215,7 @@ class Session:
         if step is None:
             return
         if name == "consent" and step.kind == "consent":
-            self._mark_done(step, {"consented": True, "at": utc_stamp()})
+            self._mark_done(step, {"consented": True, "at": utc_now_iso()})
         elif name == "continue" and step.kind in ("break", "done"):
             if step.kind == "break":
                 self._mark_done(step, {})
@@ -236,7 +232,6 @@ class Session:
             self._after_drive(step, msg.get("comfort"), msg.get("trust"))
         self.seq += 1
 
-    # -- drives --------------------------------------------------------------------------
     def _table(self, step: Step) -> Dgpt:
         """The table a drive starts with: Predefined's, the learned one, or for the
         incremental drives the newest fine-tuned version."""
@@ -258,7 +253,7 @@ class Session:
             scenario=step.scenario,
             driver_id=self.cfg.participant,
             controller=step.controller or "predefined",  # type: ignore[arg-type]
-            seed=self.cfg.seed + _trip_of(step),  # the incremental trips: fresh plant noise
+            seed=self.cfg.seed + trip_of(step.id),  # the incremental trips: fresh plant noise
             brake_mode=self.cfg.brake_mode,
         )
         bus = self.cfg.bus() if self.cfg.bus is not None else None
@@ -320,9 +315,8 @@ class Session:
             append_rating(self.folder, self.cfg.participant, step, **ratings)
         self.drive = None
         self.runner = None
-        self._mark_done(step, {"ratings": ratings, "at": utc_stamp()})
+        self._mark_done(step, {"ratings": ratings, "at": utc_now_iso()})
 
-    # -- the cloud -----------------------------------------------------------------------
     def _cloud(self) -> StudyCloud:
         if self._cloud_link is None:
             remote = None
@@ -349,7 +343,12 @@ class Session:
         save_dgpt(table, self.folder / "tables" / "irl.json")
         save_dgpt(predefined_table(self.participant), self.folder / "tables" / "predefined.json")
         with self._lock:
-            info = {"batches": batches, "version": table.version, "signed": True, "at": utc_stamp()}
+            info = {
+                "batches": batches,
+                "version": table.version,
+                "signed": True,
+                "at": utc_now_iso(),
+            }
             self._mark_done(step, info)
 
     def _sync(self, step: Step, record: dict[str, Any], segments: list[Trip], table: Dgpt) -> None:
@@ -358,10 +357,12 @@ class Session:
         except Exception as exc:  # noqa: BLE001 - shown; the drive's files are kept
             newer, batches = table, 0
             with self._lock:
-                self.manifest["events"].append({"event": f"sync failed: {exc}", "at": utc_stamp()})
+                self.manifest["events"].append(
+                    {"event": f"sync failed: {exc}", "at": utc_now_iso()}
+                )
         save_dgpt(newer, self.folder / "tables" / "irl-latest.json")
         record["incremental"] = {"uploaded": batches, "next_version": newer.version}
-        save_record(self.folder, step.id, record)
+        save_json(self.folder / "drives" / f"{step.id}.json", record)
         with self._lock:
             self.phase = "after"
             self._save()
@@ -370,7 +371,7 @@ class Session:
         with self._lock:
             self.phase = "failed"
             self.message = message
-            self.manifest["events"].append({"event": message, "at": utc_stamp()})
+            self.manifest["events"].append({"event": message, "at": utc_now_iso()})
             self._save()
 
     def close(self) -> None:
@@ -388,10 +389,3 @@ def _num(x: Any) -> float:
     except (TypeError, ValueError):
         return 0.0
     return v if math.isfinite(v) else 0.0
-
-
-def _trip_of(step: Step) -> int:
-    """The trip number of an incremental drive (``inc2-B`` -> 2), else 0."""
-    if not step.id.startswith("inc"):
-        return 0
-    return int(step.id[3:].split("-")[0])

@@ -1,12 +1,8 @@
 """One closed-loop drive: the ECU node and the simulator in one process, lockstep, one bus.
 
-:func:`run_drive` is a pure function of (configuration, seed, shipped data): the ECU and
-the simulator each get an end of one python-can bus on a private channel, and time is the
-simulator's (every frame stamped with simulated time). The bus is the ``lockstep`` interface
-(:mod:`dbc.lockstep`: no locks, no waiting) unless ``bus="virtual"`` asks for python-can's
-virtual bus; both carry the same frames with the same timestamps, so a drive gives the same
-results on either. ``pacc drive``
-(:mod:`pacc.commands.drive`) and the study pipeline (:mod:`pacc.study.pipeline`) call it.
+:func:`run_drive` is a pure function of (configuration, seed, shipped data): the ECU and the
+simulator each get an end of one python-can bus (``lockstep``, :mod:`dbc.lockstep`, or
+``virtual``: the same frames) and time is the simulator's.
 """
 
 from __future__ import annotations
@@ -45,7 +41,7 @@ from pacc.study.drive_recording import (
 )
 from sim_bus.drivers import GAP_SETTING_CODE, DriverParams
 from sim_bus.errors import DriveError, DriverError, ScenarioError
-from sim_bus.faults import fault_rng, parse_faults
+from sim_bus.faults import FaultSpec, fault_rng, parse_faults
 from sim_bus.lead.events import ROAD_SCENARIOS, road_profile
 from sim_bus.lead.profile import LeadProfile
 from sim_bus.lead.profile_csv import load_profile_csv
@@ -185,75 +181,44 @@ def run_drive(
     bus: str = "lockstep",
     pace: float | None = None,
 ) -> DriveResult:
-    """Run one lockstep drive; never raises for a collision (it is reported).
+    """Run one lockstep drive; a collision is reported, never raised.
 
-    ``record_channel``: when given, the drive's channel name (so a test can attach a
-    listener that sees every frame); by default a private, unique channel. ``can_log``: record
-    the ECU's bus traffic, its internals and the simulated world to this MCAP file
-    (:mod:`ecu.buslog.writer`), simulated time 0 stamped ``utc_start_ns`` (default: now);
-    ``live``: more sinks of the same channels (a Foxglove live view, :mod:`ecu.buslog.live`).
-    ``bus``: the python-can interface, one of :data:`BUSES` (the same frames on each).
-    ``pace``: times real time (None: as fast as it runs); ``live`` sinks get the world as it
-    runs (:mod:`pacc.study.drive_recording`); neither changes the drive. Ctrl-C ends a
-    paced drive there (``extra["interrupted_at_s"]``, results and recording up to that tick);
-    an unpaced one (a study's) lets the KeyboardInterrupt through.
-    ``takeover_sink`` / ``manual_sink``: the ECU's takeover segments / manual car-following
-    trips (:mod:`ecu.recorder`, :mod:`ecu.manual`; None: not recorded).
+    ``record_channel``: the bus channel (default: a private one); ``can_log``: record the bus, the
+    ECU's internals and the world to this MCAP file, simulated time 0 at ``utc_start_ns``;
+    ``live``: more sinks (a Foxglove view); ``pace``: times real time (None: as fast as it runs;
+    Ctrl-C ends a paced drive there, ``extra["interrupted_at_s"]``); ``takeover_sink`` /
+    ``manual_sink``: the ECU's takeover segments and manual trips.
     """
     _check_drive(cfg, bus, pace)
     prof = profile or resolve_profile(cfg.scenario, cfg.seed)
     if cfg.duration_s is not None:
         prof = shorten(prof, cfg.duration_s)
     faults = parse_faults(cfg.faults)
-    codec = drive_codec(cfg)
-    rng = fault_rng(cfg.seed)
     world = World(driver, prof, cfg.seed, WorldConfig(engage_s=cfg.engage_s), not cfg.manual)
-    channel = record_channel or f"pacc-drive-{id(cfg):x}-{next(_channel_ids)}"
-    ecu = _ecu_node(cfg, driver, table, prof, takeover_sink, manual_sink)
-    sim_bus = _open_bus(bus, channel)
-    ecu_bus = _open_bus(bus, channel)
+    ecu = ecu_node(cfg, driver, table, prof, takeover_sink, manual_sink)
     base = TimeBase(time.time_ns() if utc_start_ns is None else utc_start_ns, 0.0)
-    recorder: CanLogWriter | None = None
-    can_log_error: str | None = None
+    channel = record_channel or f"pacc-drive-{id(cfg):x}-{next(_channel_ids)}"
+    gap = GAP_SETTING_CODE[driver.predefined_setting]
+    rig = Rig(cfg, world, ecu, table, base, interface=bus, channel=channel, can_log=can_log,
+              live=live, faults=faults, gap_setting=gap)  # fmt: skip
     interrupted_at: float | None = None
-    feed: WorldFeed | None = None
     try:
-        rt = EcuRuntime(ecu_bus, ecu, codec=codec)
-        if can_log is not None or live:
-            recorder = drive_recorder(can_log, cfg, ecu, table, codec, base, live)
-            rt.record_to(recorder)
-            feed = WorldFeed(recorder, world) if live else None
-        node = SimNode(
-            sim_bus,
-            world,
-            codec=codec,
-            faults=faults,
-            rng=rng,
-            gap_setting=GAP_SETTING_CODE[driver.predefined_setting],
-        )
+        assert rig.rt is not None
         start = time.perf_counter()
         events: list[AdaptationEvent] = []
         try:
-            _lockstep(node, rt, ecu, world, events, after_tick(feed, pace))
+            _lockstep(rig.node, rig.rt, ecu, world, events, after_tick(rig.feed, pace))
         except KeyboardInterrupt:
             if pace is None:
                 raise  # a study's drive: its harness handles Ctrl-C
             interrupted_at = world.t_s
         wall = time.perf_counter() - start
         ecu.finish()
-        summary = rt.summary()
+        summary = rig.rt.summary()
         log = world.log()
-        can_log_error = (
-            finish_recording(recorder, log, streamed=feed is not None)
-            if recorder is not None
-            else None
-        )
+        can_log_error = rig.finish_recording(log)
     finally:
-        sim_bus.shutdown()
-        ecu_bus.shutdown()
-        if recorder is not None and not recorder.closed:  # the drive failed: keep what ran
-            with contextlib.suppress(EcuError, OSError):
-                recorder.close()
+        rig.close()
     return DriveResult(
         config=cfg,
         metrics=log.metrics(),
@@ -265,8 +230,8 @@ def run_drive(
         wall_s=wall,
         log=log,
         summary=summary,
-        frames_sent=node.frames_sent,
-        frames_faulted=node.frames_faulted,
+        frames_sent=rig.node.frames_sent,
+        frames_faulted=rig.node.frames_faulted,
         final_table=ecu.table,
         adaptation_events=events,
         start_utc=base.iso(0.0),
@@ -274,6 +239,70 @@ def run_drive(
         limit_requests=ecu.limit_requests,
         extra=_extra(ecu, can_log_error, interrupted_at),
     )
+
+
+class Rig:
+    """A drive's wiring: ``world`` on the simulator's node at one end of a private bus
+    (``interface``, ``channel``) and ``ecu`` at the other, stepped to the simulator's time and
+    recorded to ``can_log`` and ``live`` sinks; ``ecu`` None: ``bus`` is a separate ECU's."""
+
+    def __init__(
+        self,
+        cfg: DriveConfig,
+        world: World,
+        ecu: EcuNode | None,
+        table: Dgpt,
+        base: TimeBase,
+        *,
+        interface: str = "virtual",
+        channel: str = "",
+        bus: can.BusABC | None = None,
+        can_log: Path | None = None,
+        live: Sequence[Sink] = (),
+        faults: FaultSpec | None = None,
+        gap_setting: int = 2,
+    ) -> None:
+        self.cfg, self.world, self.ecu, self.base = cfg, world, ecu, base
+        self.codec = drive_codec(cfg)
+        self.rt: EcuRuntime | None = None
+        self.recorder: CanLogWriter | None = None
+        self.feed: WorldFeed | None = None  # the world streamed to a live view as it runs
+        self.closed = False
+        if ecu is None:
+            assert bus is not None
+            self.buses = [bus]
+        else:
+            bus, ecu_bus = _open_bus(interface, channel), _open_bus(interface, channel)
+            self.buses = [bus, ecu_bus]
+        try:
+            if ecu is not None:
+                self.rt = EcuRuntime(ecu_bus, ecu, codec=self.codec)
+                if can_log is not None or live:
+                    self.recorder = drive_recorder(can_log, cfg, ecu, table, self.codec, base, live)
+                    self.rt.record_to(self.recorder)
+                    self.feed = WorldFeed(self.recorder, world) if live else None
+            self.node = SimNode(bus, world, codec=self.codec, faults=faults,
+                                rng=fault_rng(cfg.seed), gap_setting=gap_setting)  # fmt: skip
+        except BaseException:
+            self.close()
+            raise
+
+    def finish_recording(self, log: WorldLog) -> str | None:
+        """Close the recording with ``log``'s world; why it failed (None: it did not)."""
+        if self.recorder is None:
+            return None
+        return finish_recording(self.recorder, log, streamed=self.feed is not None)
+
+    def close(self) -> None:
+        """Shut the buses this drive opened (idempotent); a recording left open is closed."""
+        if self.closed:
+            return
+        self.closed = True
+        for bus in self.buses:
+            bus.shutdown()
+        if self.recorder is not None and not self.recorder.closed:  # a failed drive's: kept
+            with contextlib.suppress(EcuError, OSError):
+                self.recorder.close()
 
 
 def _check_drive(cfg: DriveConfig, bus: str, pace: float | None) -> None:
@@ -315,7 +344,7 @@ def drive_codec(cfg: DriveConfig) -> Codec:
     return load_codec(*network_paths(cfg.dbc, cfg.binding))
 
 
-def _ecu_node(
+def ecu_node(
     cfg: DriveConfig,
     driver: DriverParams,
     table: Dgpt,

@@ -1,18 +1,9 @@
 """A drive's bus recording and live view: opened on the ECU's port, the simulated world
 streamed as it runs or added at the end, the lockstep loop held to the wall clock.
 
-A lockstep drive runs hundreds of times faster than real time and writes the simulated world
-(``/sim/world``) after its last tick: fine for a recording file, useless to a person watching
-the loop in Foxglove (``--foxglove``). So, for a live view:
-
-- :class:`WorldFeed` samples the world's new rows into the recorder as the drive runs, and
-  ``/sim/world`` reaches the live sinks with the frames (``pacc drive``, ``pacc sim``,
-  ``pacc hil``);
-- :class:`Pacer` holds a lockstep loop to ``pace`` times real time (``pacc drive --pace``;
-  1 by default with ``--foxglove``).
-
-Neither changes the drive: the same frames, the same rows (tested). Without a live view the
-world is written at the end in one call (:func:`record_world`), as it always was.
+For a live view (``--foxglove``) :class:`WorldFeed` samples the world into the recorder as the
+drive runs and :class:`Pacer` holds the loop to ``pace`` times real time; neither changes the
+drive. Without one the world is written at the end (:func:`record_world`).
 """
 
 from __future__ import annotations
@@ -38,18 +29,6 @@ from sim_bus.world import WORLD_COLUMNS, World, WorldLog
 if TYPE_CHECKING:
     from _typeshed import DataclassInstance
 
-__all__ = [
-    "MAX_PACE",
-    "MIN_PACE",
-    "RESYNC_S",
-    "WORLD_DESCRIPTION",
-    "Pacer",
-    "WorldFeed",
-    "after_tick",
-    "drive_recorder",
-    "finish_recording",
-    "record_world",
-]
 
 #: the description of the ``/sim/world`` channel
 WORLD_DESCRIPTION = "the simulated world: plant, lead, driver"
@@ -105,13 +84,8 @@ def record_world(recorder: CanLogWriter, log: WorldLog) -> None:
 
 
 class WorldFeed:
-    """``/sim/world`` sampled into ``recorder`` while ``world`` runs: call it after each tick
-    (or before the next, and once after the last).
-
-    One row per driver step (20 Hz), the columns and values :func:`record_world` writes
-    after a drive; the recorder sends them with its next rows (every 0.2 s of the node's
-    clock with a live view). A drive fed this way must not also call :func:`record_world`
-    (:func:`finish_recording` with ``streamed``), or its rows would be written twice.
+    """``/sim/world`` sampled into ``recorder`` while ``world`` runs (one row per driver step,
+    20 Hz): call it after each tick. A drive fed so must not also call :func:`record_world`.
     """
 
     def __init__(self, recorder: CanLogWriter, world: World) -> None:
@@ -136,20 +110,9 @@ class WorldFeed:
 
 
 class Pacer:
-    """Hold a loop to ``pace`` times real time: call it with the simulated time (s) each tick.
-
-    The first call sets the origin; later calls sleep while the simulation is ahead of
-    ``pace`` × the wall time since. A loop that falls more than :data:`RESYNC_S` behind (a
-    stalled machine) goes on at the pace from where it is, as the HIL loop does: a viewer
-    sees a pause, not a burst that catches up.
-
-    Args:
-        pace: times real time, within :data:`MIN_PACE`..:data:`MAX_PACE`.
-        clock: the wall clock, s (monotonic).
-        sleep: waits that many s.
-
-    Raises:
-        ValueError: ``pace`` is out of range.
+    """Hold a loop to ``pace`` times real time (:data:`MIN_PACE`..:data:`MAX_PACE`, else
+    ValueError): call it with the simulated time (s) each tick. A loop more than
+    :data:`RESYNC_S` behind goes on from where it is (a pause, not a burst).
     """
 
     def __init__(

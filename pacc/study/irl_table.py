@@ -1,15 +1,8 @@
-"""The IRL table of a driver for ``pacc drive --controller irl|irl+oa`` and ``pacc study``.
+"""A driver's IRL table for ``pacc drive --controller irl|irl+oa`` and ``pacc study``.
 
-With ``--profile`` the given DGPT file is used. Without it the table is learned by the cloud
-trainer (``cloud_sync.irl.trainer.learn_dgpt``) from the driver's manual trips on the canonical
-profiles manual1..manual4 and cached (JSON DGPT) under the cache directory, keyed by the
-driver parameters, the seed and a digest of the code that makes the table (every module of
-``cloud_sync``, ``sim_bus`` and ``ecu``, whose trips, learner and table format it depends on).
-The cache only saves time: a folder that cannot be written means learning again next time,
-not an error.
-
-It lives beside ``pacc.study.drive`` rather than in the study harness (``pacc.study``): the
-drive needs it and the study depends on the drive, not the other way round.
+Learned by the cloud trainer from the driver's manual trips on manual1..manual4 and cached
+(JSON DGPT) under a key of the driver, the seed and a digest of the code it depends on
+(``cloud_sync``, ``sim_bus``, ``ecu``); a cache that cannot be written only costs time.
 """
 
 from __future__ import annotations

@@ -1,13 +1,7 @@
-"""The manifest of a run: what ran, with which code, on what, so that it can run again.
-
-``OUT/manifest.json`` holds ``pacc_version``, ``git_commit`` (of the source tree pacc was
-imported from, when it is a git checkout; ``dirty`` when it has uncommitted changes), the
-full resolved ``config`` (:mod:`pacc.study.spec`), the ``seeds`` (the study's, each
-trial's, each drawn population's), the ``platform`` (Python, OS, machine, numpy) and the
-command, and ``plugins``: for each method spec of the config (``group:spec``), the installed
-distribution and version its code comes from (:func:`dbc.vocab.plugins.provenance`).
-``pacc study --config OUT/manifest.json`` reads its ``config`` and runs it again, first
-refusing a plug-in that is not installed here in the recorded version (:func:`check_plugins`).
+"""The manifest of a run (``OUT/manifest.json``): what ran, with which code, so that it can run
+again: pacc's version and git commit, the resolved ``config``, the seeds, the platform, the
+command, and each plug-in's distribution and version (:func:`check_plugins` refuses a
+rerun with another).
 """
 
 from __future__ import annotations
@@ -144,15 +138,3 @@ def write_manifest(
     tmp.write_text(json.dumps(doc, indent=2, sort_keys=True, default=str) + "\n", encoding="utf-8")
     tmp.replace(path)
     return path
-
-
-__all__ = [
-    "MANIFEST",
-    "check_plugins",
-    "git_commit",
-    "pacc_version",
-    "platform_info",
-    "plugin_origins",
-    "seeds_of",
-    "write_manifest",
-]

@@ -1,14 +1,10 @@
-"""One study pipeline: spec → plan → tables → drives on an executor → rows → reports.
+"""One study pipeline: spec → plan → tables → drives on an executor → rows → report.
 
-:func:`run` takes a :class:`~pacc.study.spec.StudySpec` and an output folder. The plan is
-every (driver, scenario, method, trial) in that order, each one :class:`Drive`. Each driver's
-tables are made first: predefined, learned in the vehicle-cloud loop
-(:mod:`pacc.study.loop`) or in-process (:func:`learn_table`, an executor task); then every
-drive runs on the executor (:mod:`cloud_sync.engine`: this process, local processes or Dask)
-as :func:`run_one`, a pure function of its :class:`Drive`. Rows go to ``OUT/rows.jsonl`` as
-they finish (:func:`run_resumable`): a stopped run started again with the same spec skips
-what is there (another spec in the same folder is refused). The rows come out in plan order
-whatever the executor; the report the spec names (:mod:`pacc.study.reports`) is written last.
+The plan is every (driver, scenario, method, trial), each a :class:`Drive` holding its
+:class:`~pacc.study.drive.DriveConfig`. Tables come first (predefined, learned in the
+vehicle-cloud loop or in-process); every drive then runs on the executor as :func:`run_one`.
+Rows go to ``OUT/rows.jsonl`` as they finish, so a stopped run resumes; they come out in
+plan order whatever the executor, and the report is written last.
 """
 
 from __future__ import annotations
@@ -271,7 +267,7 @@ def run(
     """Check ``spec``, make the tables, run every drive (or resume), write the report the
     spec names into ``out``; the rows in plan order. ``executor``: where tables and drives
     run (None: the one ``spec.scheduler`` and ``spec.workers`` name, opened here)."""
-    from pacc.study import reports  # noqa: PLC0415 - scipy's statistics: the main process only
+    from pacc.study import report  # noqa: PLC0415 - scipy's statistics: the main process only
 
     drivers = validate(spec)
     out.mkdir(parents=True, exist_ok=True)
@@ -280,7 +276,7 @@ def run(
     if spec.can_logs:
         (out / "can").mkdir(exist_ok=True)
     if spec.report == "incremental":
-        return reports.incremental(spec, drivers, out, study_cloud(spec, drivers, out, None))
+        return report.incremental(spec, drivers, out, study_cloud(spec, drivers, out, None))
     own = executor is None
     running = open_executor(spec.scheduler, spec.workers) if executor is None else executor
     try:
@@ -293,29 +289,12 @@ def run(
                                  spec.fingerprint(), running,
                                  lambda n, _: bar.update(n - bar.n))  # fmt: skip
         except StudyInterrupted as exc:
-            reports.write_rows(out / "drives.csv", exc.rows, spec.report)
+            report.write_rows(out / "drives.csv", exc.rows, spec.report)
             raise StudyInterrupted(exc.rows, len(drives), out / "drives.csv") from None
         finally:
             bar.close()
     finally:
         if own:
             running.shutdown(wait=True)
-    reports.write(spec, drivers, tables, rows, out)
+    report.write(spec, drivers, tables, rows, out)
     return rows
-
-
-__all__ = [
-    "ROWS",
-    "Drive",
-    "StudyInterrupted",
-    "TableTask",
-    "learn_table",
-    "log_name",
-    "make_tables",
-    "plan",
-    "read_done",
-    "row_key",
-    "run",
-    "run_one",
-    "run_resumable",
-]

@@ -1,23 +1,42 @@
-"""The study's outputs: Table I in Markdown, ``drives.csv`` and the plot of the averages.
+"""The study's one report writer: every mode's Markdown, CSV and plots, from the per-drive rows.
 
-Pure functions of the per-drive rows (dicts with the columns :data:`FIELDS`); nothing here
-runs a drive.
+:func:`write` writes the outputs of the spec's mode: ``table1`` (``table1.md``, ``drives.csv``,
+``study.png``, ``irl/<driver>.json``), ``population`` (``population.md``: bootstrap intervals
+and paired tests over drivers, :mod:`pacc.study.stats`), ``summary`` (a study file or ``pacc
+bench``: ``summary.md``, ``drives.csv`` without wall times, ``timings.csv``); :func:`incremental`
+runs and writes ``--incremental N`` (``incremental.md``, ``.csv``, ``.png``).
 """
 
 from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from dbc.vocab.dgpt import Dgpt
+from dbc.vocab.dgpt_file import save_dgpt
 from pacc.study.drive import CONTROLLERS
+from pacc.study.loop import StudyCloud, cloud_irl_tables, run_incremental
 from pacc.study.spec import StudySpec
+from pacc.study.stats import (
+    Paired,
+    averages,
+    bootstrap_ci,
+    cell_means,
+    comparisons,
+    holm,
+    per_driver,
+    per_trip,
+    reduction_pct,
+)
+from sim_bus.drivers import DriverParams
+from sim_bus.errors import SimError
 
-#: Averages of the paper's Table I (PoI %, NIM per minute), for comparison.
+#: averages of the paper's Table I (PoI %, NIM /min), for comparison
 PAPER_AVERAGES: dict[str, tuple[float, float]] = {
     "predefined": (20.3, 10.7),
     "predefined+oa": (8.2, 6.3),
@@ -31,58 +50,91 @@ CONTROLLER_TITLES = {
     "irl+oa": "IRL + OA",
 }
 SCENARIO_TITLES = {"A": "Seen (A)", "B": "Unseen (B)"}
-#: Per-drive columns of drives.csv.
 #: a drive's metrics, in the columns of drives.csv (also a hil session's records)
-METRIC_FIELDS = (
-    "poi_pct",
-    "nim_per_min",
-    "press_onsets",
-    "acc_on_s",
-    "min_gap_m",
-    "min_ttc_s",
-    "rms_jerk_mps3",
-    "gap_error_rms_m",
-)
-FIELDS = (
-    "driver",
-    "scenario",
-    "controller",
-    "trial",
-    "seed",
-    *METRIC_FIELDS,
-    "takeovers",
-    "adaptations",
-    "collision",
-    "sim_s",
-    "wall_s",
-)
+METRIC_FIELDS = ("poi_pct", "nim_per_min", "press_onsets", "acc_on_s", "min_gap_m", "min_ttc_s",
+                 "rms_jerk_mps3", "gap_error_rms_m")  # fmt: skip
+#: Table I's drives.csv
+FIELDS = ("driver", "scenario", "controller", "trial", "seed", *METRIC_FIELDS, "takeovers",
+          "adaptations", "collision", "sim_s", "wall_s")  # fmt: skip
+#: a study file's drives.csv
+SUMMARY_FIELDS = (
+    "driver", "scenario", "method", "table", "adaptation", "controller", "trial", "seed",
+    "poi_pct", "nim_per_min", "press_onsets", "min_gap_m", "min_ttc_s", "rms_jerk_mps3",
+    "gap_error_rms_m", "takeovers", "adaptations", "collision", "plugin_faults",
+)  # fmt: skip
+INCREMENTAL_FIELDS = ("driver", "trip", "dgpt_version", "poi_pct", "nim_per_min", "takeovers",
+                      "uploaded", "min_ttc_s", "collision")  # fmt: skip
+#: a drive whose minimum time-to-collision is below this is reported by name, s
+TTC_FLOOR_S = 2.0
+METRICS = (("poi_pct", "PoI %"), ("nim_per_min", "NIM /min"))
 
 
-def cell_means(rows: Iterable[dict[str, Any]]) -> dict[tuple[str, str, str], tuple[float, float]]:
-    """(driver, scenario, controller) -> (mean PoI %, mean NIM /min) over the trials."""
-    acc: dict[tuple[str, str, str], list[tuple[float, float]]] = {}
-    for r in rows:
-        acc.setdefault((r["driver"], r["scenario"], r["controller"]), []).append(
-            (float(r["poi_pct"]), float(r["nim_per_min"]))
-        )
-    return {
-        k: (sum(p for p, _ in v) / len(v), sum(n for _, n in v) / len(v)) for k, v in acc.items()
-    }
+def write(
+    spec: StudySpec,
+    drivers: Mapping[str, DriverParams],
+    tables: Mapping[tuple[str, str], Dgpt | str],
+    rows: Sequence[dict[str, Any]],
+    out: Path,
+) -> None:
+    """The outputs of ``spec.report`` (module docstring) into ``out``."""
+    write_rows(out / "drives.csv", rows, spec.report)
+    if spec.report == "table1":
+        (out / "irl").mkdir(exist_ok=True)
+        for m in spec.methods:
+            if m.table != "predefined":
+                for d in drivers:
+                    table = tables[(d, m.table_key)]
+                    if isinstance(table, Dgpt):
+                        save_dgpt(table, out / "irl" / f"{d}.json")
+        (out / "table1.md").write_text(format_table(spec, rows), encoding="utf-8")
+        plot(out / "study.png", rows)
+    elif spec.report == "population":
+        (out / "population.md").write_text(format_population(spec, rows), encoding="utf-8")
+    else:
+        write_timings(out / "timings.csv", tables, rows)
+        names = [m.name for m in spec.methods]
+        (out / "summary.md").write_text(summary_table(rows, names), encoding="utf-8")
 
 
-def averages(
-    means: dict[tuple[str, str, str], tuple[float, float]],
-) -> dict[str, tuple[float, float]]:
-    """controller -> (PoI %, NIM) averaged over every driver and scenario cell."""
-    out: dict[str, tuple[float, float]] = {}
-    for controller in CONTROLLERS:
-        cells = [v for (_, _, c), v in means.items() if c == controller]
-        if cells:
-            out[controller] = (
-                sum(p for p, _ in cells) / len(cells),
-                sum(n for _, n in cells) / len(cells),
-            )
-    return out
+def write_csv(
+    path: Path, rows: Sequence[Mapping[str, Any]], fields: Sequence[str] = FIELDS
+) -> None:
+    """One row per line, columns ``fields`` (other keys left out): every study CSV."""
+    with path.open("w", newline="", encoding="utf-8") as fh:
+        writer = csv.DictWriter(fh, fieldnames=fields, extrasaction="ignore")
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def read_drives(path: Path) -> list[dict[str, Any]]:
+    """The rows of a study's ``drives.csv``; SimError naming the file if it has none."""
+    try:
+        with path.open(newline="", encoding="utf-8") as fh:
+            rows = [dict(r) for r in csv.DictReader(fh)]
+    except (OSError, UnicodeError, csv.Error) as exc:
+        raise SimError(f"{path}: cannot read a study's drives.csv ({exc})") from exc
+    if not rows or not {"driver", "controller", "poi_pct", "nim_per_min"} <= set(rows[0]):
+        raise SimError(f"{path}: not a study's drives.csv (no driver/controller/PoI/NIM rows)")
+    return rows
+
+
+def write_rows(path: Path, rows: Sequence[Mapping[str, Any]], kind: str) -> None:
+    """``drives.csv`` of a report ``kind``: Table I's columns, or a study file's."""
+    if kind == "summary":  # a study file's "controller" is the gap controller
+        rows = [{**r, "controller": r["gap_controller"]} for r in rows]
+    write_csv(path, rows, SUMMARY_FIELDS if kind == "summary" else FIELDS)
+
+
+def incremental(
+    spec: StudySpec, drivers: Mapping[str, DriverParams], out: Path, cloud: StudyCloud
+) -> list[dict[str, Any]]:
+    """Run the incremental-learning experiment (:func:`pacc.study.loop.run_incremental`) and
+    write its report; the rows."""
+    rows = run_incremental(spec, drivers, cloud, cloud_irl_tables(cloud, drivers, spec.seed))
+    write_csv(out / "incremental.csv", rows, INCREMENTAL_FIELDS)
+    (out / "incremental.md").write_text(format_incremental(rows), encoding="utf-8")
+    plot_incremental(out / "incremental.png", rows)
+    return rows
 
 
 def pct(value: float) -> str:
@@ -90,48 +142,32 @@ def pct(value: float) -> str:
     return f"{value:.1f} %" if math.isfinite(value) else "n/a"
 
 
-def reduction_pct(base: float, value: float) -> float:
-    """Relative reduction of ``value`` against ``base`` in percent (nan if base is 0)."""
-    return (base - value) / base * 100.0 if base > 0 else math.nan
-
-
 def format_table(cfg: StudySpec, rows: Sequence[dict[str, Any]]) -> str:
-    """Table I in Markdown: driver × scenario rows (drivers by id, in the order of ``rows``),
-    PoI / NIM per controller, the average, the reductions against Predefined and the paper's
-    averages beside ours."""
+    """Table I in Markdown: driver × scenario rows (row order), PoI / NIM per controller, the
+    average, the reductions against Predefined and the paper's averages beside ours."""
     means = cell_means(rows)
-    drivers = list(dict.fromkeys(str(r["driver"]) for r in rows))  # driver ids, plan order
+    drivers = list(dict.fromkeys(str(r["driver"]) for r in rows))
     controllers = [c for c in CONTROLLERS if c in cfg.controllers]
-    head = (
+    lines = [
         "| driver | scenario | "
         + " | ".join(f"{CONTROLLER_TITLES[c]} PoI | NIM" for c in controllers)
-        + " |"
-    )
-    lines = [head, "|" + "---|" * (2 + 2 * len(controllers))]
+        + " |",
+        "|" + "---|" * (2 + 2 * len(controllers)),
+    ]
     for name in drivers:
         for scenario in cfg.scenarios:
-            cells = []
-            for c in controllers:
-                poi, nim = means[(name, scenario, c)]
-                cells.append(f"{poi:.1f} % | {nim:.1f}")
-            lines.append(
-                f"| {name} | {SCENARIO_TITLES.get(scenario, scenario)} | "
-                + " | ".join(cells)
-                + " |"
-            )
+            cells = [f"{means[(name, scenario, c)][0]:.1f} % | {means[(name, scenario, c)][1]:.1f}"
+                     for c in controllers]  # fmt: skip
+            title = SCENARIO_TITLES.get(scenario, scenario)
+            lines.append(f"| {name} | {title} | " + " | ".join(cells) + " |")
     avg = averages(means)
-    lines.append(
-        "| **average** | | "
-        + " | ".join(f"**{avg[c][0]:.1f} %** | **{avg[c][1]:.1f}**" for c in controllers)
-        + " |"
-    )
-    lines.append(
-        "| paper (average) | | "
-        + " | ".join(
-            f"{PAPER_AVERAGES[c][0]:.1f} % | {PAPER_AVERAGES[c][1]:.1f}" for c in controllers
-        )
-        + " |"
-    )
+    lines.append("| **average** | | "
+                 + " | ".join(f"**{avg[c][0]:.1f} %** | **{avg[c][1]:.1f}**" for c in controllers)
+                 + " |")  # fmt: skip
+    lines.append("| paper (average) | | "
+                 + " | ".join(f"{PAPER_AVERAGES[c][0]:.1f} % | {PAPER_AVERAGES[c][1]:.1f}"
+                              for c in controllers)
+                 + " |")  # fmt: skip
     out = [
         "# Table I — interventions per controller (synthetic drivers, CAN bus)",
         "",
@@ -147,66 +183,251 @@ def format_table(cfg: StudySpec, rows: Sequence[dict[str, Any]]) -> str:
         "",
     ]
     if "predefined" in avg:
-        base = avg["predefined"]
-        out.append("Reduction against Predefined (ours; paper in brackets):")
-        out.append("")
-        for c in controllers:
-            if c == "predefined":
-                continue
+        base, p = avg["predefined"], PAPER_AVERAGES
+        out += ["Reduction against Predefined (ours; paper in brackets):", ""]
+        for c in (c for c in controllers if c != "predefined"):
             ours = (reduction_pct(base[0], avg[c][0]), reduction_pct(base[1], avg[c][1]))
-            p = PAPER_AVERAGES
-            paper = (
-                reduction_pct(p["predefined"][0], p[c][0]),
-                reduction_pct(p["predefined"][1], p[c][1]),
-            )
-            out.append(
-                f"- {CONTROLLER_TITLES[c]}: PoI {pct(ours[0])} ({pct(paper[0])}), "
-                f"NIM {pct(ours[1])} ({pct(paper[1])})"
-            )
+            paper = (reduction_pct(p["predefined"][0], p[c][0]),
+                     reduction_pct(p["predefined"][1], p[c][1]))  # fmt: skip
+            out.append(f"- {CONTROLLER_TITLES[c]}: PoI {pct(ours[0])} ({pct(paper[0])}), "
+                       f"NIM {pct(ours[1])} ({pct(paper[1])})")  # fmt: skip
         out.append("")
     collisions = sum(int(r["collision"]) for r in rows)
     min_gap = min(float(r["min_gap_m"]) for r in rows)
     min_ttc = min(float(r["min_ttc_s"]) for r in rows)
-    out.append(
-        f"Safety over all drives: {collisions} collisions, min gap {min_gap:.2f} m, "
-        f"min TTC {min_ttc:.2f} s."
-    )
+    out.append(f"Safety over all drives: {collisions} collisions, min gap {min_gap:.2f} m, "
+               f"min TTC {min_ttc:.2f} s.")  # fmt: skip
     return "\n".join(out) + "\n"
 
 
-def write_csv(
-    path: Path, rows: Sequence[Mapping[str, Any]], fields: Sequence[str] = FIELDS
+def bars(
+    path: Path, title: str, labels: Sequence[str], bars: Sequence[tuple[str, np.ndarray, Any]]
 ) -> None:
-    """One row per line, columns ``fields`` (other keys left out): every study CSV."""
-    with path.open("w", newline="", encoding="utf-8") as fh:
-        writer = csv.DictWriter(fh, fieldnames=fields, extrasaction="ignore")
-        writer.writeheader()
-        writer.writerows(rows)
-
-
-def plot(path: Path, rows: Sequence[dict[str, Any]], who: str = "synthetic drivers") -> None:
-    """Bar charts of the average PoI and NIM per controller, ours beside the paper's."""
-    # matplotlib costs about a second of start-up and only the plot needs it (not the
-    # drives' worker processes, not a refused command line)
-    import matplotlib  # noqa: PLC0415
+    """Two bar charts (PoI, NIM) side by side; ``bars``: (legend, values shape (2, n), yerr)."""
+    import matplotlib  # noqa: PLC0415 - a second of start-up; only the plots need it
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt  # noqa: PLC0415
 
-    avg = averages(cell_means(rows))
-    controllers = [c for c in CONTROLLERS if c in avg]
-    x = np.arange(len(controllers))
+    x = np.arange(len(labels))
+    width = 0.8 / len(bars)
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
-    for ax, k, label in ((axes[0], 0, "PoI (%)"), (axes[1], 1, "NIM (presses / min)")):
-        ax.bar(x - 0.2, [avg[c][k] for c in controllers], 0.4, label=f"pacc ({who})")
-        ax.bar(
-            x + 0.2, [PAPER_AVERAGES[c][k] for c in controllers], 0.4, label="paper (human drivers)"
-        )
-        ax.set_xticks(x, [CONTROLLER_TITLES[c] for c in controllers], rotation=15)
+    for k, (ax, label) in enumerate(zip(axes, ("PoI (%)", "NIM (presses / min)"), strict=True)):
+        for i, (legend, values, err) in enumerate(bars):
+            offset = (i - (len(bars) - 1) / 2) * width if len(bars) > 1 else 0.0
+            ax.bar(x + offset, values[k], width, yerr=None if err is None else err[k],
+                   capsize=4, label=legend)  # fmt: skip
+        ax.set_xticks(x, labels, rotation=15 if len(bars) > 1 else 30, fontsize=8)
         ax.set_ylabel(label)
         ax.grid(axis="y", alpha=0.3)
-    axes[0].legend()
-    fig.suptitle("Interventions per controller (Table I averages)")
+    if len(bars) > 1:
+        axes[0].legend()
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def plot(path: Path, rows: Sequence[dict[str, Any]], who: str = "synthetic drivers") -> None:
+    """Bar charts of the average PoI and NIM per controller, ours beside the paper's."""
+    avg = averages(cell_means(rows))
+    controllers = [c for c in CONTROLLERS if c in avg]
+    ours = np.array([[avg[c][k] for c in controllers] for k in (0, 1)])
+    paper = np.array([[PAPER_AVERAGES[c][k] for c in controllers] for k in (0, 1)])
+    bars(path, "Interventions per controller (Table I averages)",
+          [CONTROLLER_TITLES[c] for c in controllers],
+          [(f"pacc ({who})", ours, None), ("paper (human drivers)", paper, None)])  # fmt: skip
+
+
+def _fmt_ci(mean: float, ci: tuple[float, float]) -> str:
+    return f"{mean:.2f} [{ci[0]:.2f}, {ci[1]:.2f}]"
+
+
+def _population_tests(
+    rows: Sequence[dict[str, Any]], rng: np.random.Generator
+) -> list[tuple[str, tuple[str, str], Paired, float]]:
+    """(metric, (a, b), b against a, Holm p) for every pair of controllers, PoI then NIM."""
+    tests: list[tuple[str, tuple[str, str], Paired]] = []
+    for metric, _ in METRICS:
+        _, values = per_driver(rows, metric)
+        tests += [(metric, pair, res) for pair, res in comparisons(values, rng).items()]
+    adjusted = holm([t[2].p_value for t in tests])
+    return [(*t, p) for t, p in zip(tests, adjusted, strict=True)]
+
+
+def acceptance(rows: Sequence[dict[str, Any]], *, alpha: float = 0.05) -> list[str]:
+    """The population study's goals, each ``met`` or ``NOT met`` with its figures."""
+    tests = {(m, pair): (res, p) for m, pair, res, p in
+             _population_tests(rows, np.random.default_rng(0))}  # fmt: skip
+    out = []
+    if all(c in {p for _, pair in tests for p in pair} for c in CONTROLLERS):
+        for metric, name in METRICS:
+            worse = []
+            for other in CONTROLLERS[:-1]:
+                res, p = tests[(metric, (other, "irl+oa"))]
+                if not (res.mean_diff < 0 and p < alpha):
+                    worse.append(f"{CONTROLLER_TITLES[other]} ({res.mean_diff:+.2f}, p {p:.2g})")
+            verdict = "met" if not worse else "NOT met against " + ", ".join(worse)
+            out.append(f"- IRL + OA lowest mean {name}, Holm p < {alpha:g}: {verdict}")
+        for base in ("predefined", "irl"):
+            res, p = tests[("poi_pct", (base, f"{base}+oa"))]
+            verdict = "met" if res.mean_diff < 0 and p < alpha else "NOT met"
+            out.append(f"- {CONTROLLER_TITLES[base + '+oa']} lowers PoI against "
+                       f"{CONTROLLER_TITLES[base]}: {verdict} ({res.mean_diff:+.2f} points, "
+                       f"Holm p {p:.2g})")  # fmt: skip
+    collisions = sum(int(r["collision"]) for r in rows)
+    out.append(f"- no collision: {'met' if collisions == 0 else 'NOT met'} ({collisions})")
+    return out
+
+
+def format_population(cfg: StudySpec, rows: Sequence[dict[str, Any]]) -> str:
+    """The population report in Markdown: means with bootstrap intervals over drivers, paired
+    tests, goals, the drives below :data:`TTC_FLOOR_S` (a fixed generator: same rows, same text)."""
+    rng = np.random.default_rng(0)
+    drivers, poi = per_driver(rows, "poi_pct")
+    _, nim = per_driver(rows, "nim_per_min")
+    summary = [
+        "| controller | PoI % (mean, 95 % CI) | NIM /min (mean, 95 % CI) | min TTC s | "
+        f"drives < {TTC_FLOOR_S:g} s TTC | min gap m | collisions |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for c in poi:
+        mine = [r for r in rows if r["controller"] == c]
+        poi_ci = _fmt_ci(float(poi[c].mean()), bootstrap_ci(poi[c], rng))
+        nim_ci = _fmt_ci(float(nim[c].mean()), bootstrap_ci(nim[c], rng))
+        summary.append(
+            f"| {CONTROLLER_TITLES[c]} | {poi_ci} | {nim_ci} "
+            f"| {min(float(r['min_ttc_s']) for r in mine):.2f} "
+            f"| {sum(float(r['min_ttc_s']) < TTC_FLOOR_S for r in mine)} "
+            f"| {min(float(r['min_gap_m']) for r in mine):.2f} "
+            f"| {sum(int(r['collision']) for r in mine)} |"
+        )
+    paired = [
+        "| metric | B vs A | mean B − A (95 % CI) | B better / worse / same | Wilcoxon p "
+        "| Holm p |",
+        "|---|---|---|---|---|---|",
+    ]
+    for metric, (a, b), res, p_adj in _population_tests(rows, rng):
+        paired.append(
+            f"| {dict(METRICS)[metric]} | {CONTROLLER_TITLES[b]} vs {CONTROLLER_TITLES[a]} "
+            f"| {_fmt_ci(res.mean_diff, res.ci)} | {res.better} / {res.worse} / {res.ties} "
+            f"| {res.p_value:.2g} | {p_adj:.2g} |"
+        )
+    low = sorted((r for r in rows if float(r["min_ttc_s"]) < TTC_FLOOR_S),
+                 key=lambda r: float(r["min_ttc_s"]))  # fmt: skip
+    out = [
+        f"# Population study — {len(drivers)} drawn drivers, population seed {cfg.seed}",
+        "",
+        f"Scenarios {', '.join(cfg.scenarios)}; {cfg.trials} trial(s) per cell; "
+        + ("full-length drives" if cfg.duration_s is None else f"{cfg.duration_s:g}-s drives")
+        + ("" if cfg.adaptation is None else f"; {cfg.adaptation.mode} adaptation")
+        + f"; {len(rows)} drives. A driver's value is its mean over scenarios and trials;",
+        "intervals: percentile bootstrap over drivers (2000 resamples); tests: paired "
+        "Wilcoxon signed-rank over drivers, Holm-adjusted over the 12 comparisons.",
+        "",
+        *summary,
+        "",
+        "Paired comparisons (lower is better; B better = lower for B):",
+        "",
+        *paired,
+        "",
+        "Goals:",
+        "",
+        *acceptance(rows),
+        "",
+    ]
+    if low:
+        out += [f"Drives below {TTC_FLOOR_S:g} s TTC:", ""]
+        out += [
+            f"- {r['driver']} {r['scenario']} {r['controller']} t{r['trial']}: "
+            f"min TTC {float(r['min_ttc_s']):.2f} s, min gap {float(r['min_gap_m']):.2f} m"
+            for r in low[:20]
+        ]
+        out.append("")
+    return "\n".join(out)
+
+
+def write_timings(
+    path: Path, tables: Mapping[tuple[str, str], Dgpt | str], rows: Sequence[Mapping[str, Any]]
+) -> None:
+    """Learning and drive wall times (s), and why a learner learned no table."""
+    with path.open("w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(["driver", "what", "name", "wall_s", "error"])
+        for (driver, key), table in tables.items():
+            name = key.split('"')[1]
+            if isinstance(table, str):
+                w.writerow([driver, "learn", name, "", table])
+            elif "learn_s" in table.meta:
+                w.writerow([driver, "learn", name, table.meta["learn_s"], ""])
+        for r in rows:
+            what = f"{r['method']} {r['scenario']} {r['trial']}"
+            w.writerow([r["driver"], "drive", what, f"{float(r['wall_s']):.3f}", ""])
+
+
+def summary_table(rows: Sequence[Mapping[str, Any]], methods: Sequence[str]) -> str:
+    """Markdown: per method, drives, mean PoI and NIM, lowest TTC, collisions, plug-in faults."""
+    lines = [
+        "| method | drives | PoI % | NIM /min | min TTC s | collisions | plug-in faults |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for name in methods:
+        mine = [r for r in rows if r["method"] == name]
+        if not mine:
+            lines.append(f"| {name} | 0 | – | – | – | – | – |")
+            continue
+        lines.append(
+            f"| {name} | {len(mine)} | {np.mean([r['poi_pct'] for r in mine]):.2f} | "
+            f"{np.mean([r['nim_per_min'] for r in mine]):.2f} | "
+            f"{min(float(r['min_ttc_s']) for r in mine):.2f} | "
+            f"{sum(int(r['collision']) for r in mine)} | "
+            f"{sum(1 for r in mine if r['plugin_faults'])} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def format_incremental(rows: Sequence[dict[str, Any]]) -> str:
+    """Markdown: the mean over drivers per trip, then every driver's trips."""
+    lines = [
+        "# Incremental learning (IRL + OA, scenario B): takeovers -> cloud fine-tune -> next trip",
+        "",
+        "| trip | PoI (%) | NIM (/min) | drivers |",
+        "|---:|---:|---:|---:|",
+        *(f"| {k} | {poi:.1f} | {nim:.2f} | {n} |" for k, poi, nim, n in per_trip(rows)),
+        "",
+        "| driver | trip | DGPT version | PoI (%) | NIM (/min) | takeovers | min TTC (s) |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    lines += [
+        f"| {r['driver']} | {r['trip']} | {r['dgpt_version']} | {float(r['poi_pct']):.1f} "
+        f"| {float(r['nim_per_min']):.2f} | {r['takeovers']} | {float(r['min_ttc_s']):.1f} |"
+        for r in rows
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def plot_incremental(path: Path, rows: Sequence[dict[str, Any]]) -> None:
+    """The learning curve: PoI and NIM per trip, each driver thin, the mean thick."""
+    import matplotlib  # noqa: PLC0415 - a second of start-up; only the plots need it
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt  # noqa: PLC0415
+
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+    curve = per_trip(rows)
+    for ax, key, k, label in ((axes[0], "poi_pct", 1, "PoI (%)"),
+                              (axes[1], "nim_per_min", 2, "NIM (presses / min)")):  # fmt: skip
+        for driver in sorted({str(r["driver"]) for r in rows}):
+            sel = [r for r in rows if r["driver"] == driver]
+            ax.plot([int(r["trip"]) for r in sel], [float(r[key]) for r in sel], alpha=0.5,
+                    lw=1, label=driver)  # fmt: skip
+        ax.plot([c[0] for c in curve], [c[k] for c in curve], "k-o", lw=2.5, label="mean")
+        ax.set_xticks([c[0] for c in curve])
+        ax.set_xlabel("trip (each after the cloud fine-tuned on the previous takeovers)")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.suptitle("Incremental learning through the cloud (IRL + OA)")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)

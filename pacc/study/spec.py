@@ -1,44 +1,11 @@
-"""What a study runs: :class:`StudySpec` (the study file's schema) and its validation.
+"""What a study runs: :class:`StudySpec` (every mode of ``pacc study`` and ``pacc bench``) and
+the study file (TOML, or a run's ``manifest.json``) that resolves to one.
 
-One spec for every study: Table I over d1..d5 (``pacc study``), over a drawn population
-(``--population N``), a study file's methods (``--config``), ``pacc bench``'s closed loop and
-the incremental-learning experiment (``--incremental N``) differ only in its fields.
-
-Drivers are named by source: a built-in name (``d1``), a driver file (``.toml``/``.json``) or
-``NAME:N:SEED``, N drivers drawn from the population ``NAME`` with ``SEED``
-(:data:`POPULATIONS`; ``people:3:7``). A method (:class:`Method`) is a table source
-(``predefined`` or a learner) × an adaptation × a gap controller; Table I's four controllers
-are the methods of :data:`TABLE1_METHODS`.
-
-A study file (TOML; or the JSON manifest a run wrote, whose ``config`` is read) names::
-
-    seed = 0              # the scenarios' and the learners' seed; trial k drives with seed + k
-    trials = 1
-    duration_s = 60.0     # shortens every drive (omit: the whole profile)
-    workers = 2           # local processes; scheduler = "local" or "tcp://HOST:8786": Dask
-
-    [drivers]
-    builtin = ["d1", "d2"]                        # d1..d5
-    files = ["my_driver.toml"]                    # driver files (docs/drivers.md)
-    population = [{ n = 3, seed = 7 }]            # drawn drivers (sim_bus.population)
-
-    [scenarios]
-    names = ["A", "B"]                            # A, B, manual1..manual4
-    csv = ["lead.csv"]                            # lead profiles t_s,v_lead_mps
-
-    [[methods]]                                   # one table of combinations; lists expand
-    table = ["predefined", "irl"]                 # "predefined" or a learner spec
-    adaptation = ["none", "paper", "bayes"]       # "none" or an adaptation spec
-    controller = "pid"                            # "pid"/"builtin" or a controller spec
-    learner_args = {}                             # parameters of the learner, adaptation,
-    adaptation_args = {}                          # controller (keyword arguments of their
-    controller_args = {}                          # factories)
-    name = "..."                                  # optional; default table+adaptation[@ctl]
-
-:func:`resolve` turns a study file into the **resolved config**: every default filled in, every
-combination spelled out, relative paths made absolute. That dict is what runs, what the
-manifest stores and what a manifest reproduces (:func:`spec_of`: its spec). Specs are
-checked (each one loads) before anything runs.
+Drivers are named by source: a built-in (``d1``), a driver file (``.toml``/``.json``) or
+``NAME:N:SEED``, N drivers drawn from population NAME (``people:3:7``, ``headway:5:0``). A
+:class:`Method` is a table source × an adaptation × a gap controller. :func:`resolve` fills a
+study file's defaults and expands its ``[[methods]]`` lists into the resolved config (what runs,
+what the manifest stores); :func:`spec_of` is its spec. docs/plugins.md shows a study file.
 """
 
 from __future__ import annotations
@@ -47,9 +14,8 @@ import itertools
 import json
 import math
 import tomllib
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass
-from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -63,29 +29,15 @@ from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams, load_driver
 from sim_bus.errors import SimError
 from sim_bus.lead.events import ROAD_SCENARIOS
 from sim_bus.lead.scenarios import canonical_profiles
-from sim_bus.population import DEFAULT_POPULATION, draw_population
-from sim_bus.population import POPULATIONS as POPULATION_NAMES
+from sim_bus.population import DEFAULT_POPULATION, POPULATIONS, draw_population
 
-
-def _draw(
-    population: str, n: int, seed: int, mismatch: float, shift: float
-) -> tuple[DriverParams, ...]:
-    """``n`` drivers of ``population`` drawn with ``seed`` (a study's driver source)."""
-    return draw_population(n, seed, mismatch=mismatch, trip_shift_sd_s=shift, population=population)
-
-
-#: driver populations by name (``people``: calibrated to the study's people, the default;
-#: ``headway``: the steady-state headway drivers alone):
-#: (N, seed, mismatch, trip shift sd s) -> the drawn drivers
-POPULATIONS: dict[str, Callable[[int, int, float, float], tuple[DriverParams, ...]]] = {
-    name: partial(_draw, name) for name in POPULATION_NAMES
-}
 #: the ECU's own adaptation, called directly with the spec's ``adaptation`` parameters
 ECU_ADAPTATION = "ecu"
 #: what a study learns its tables in: the vehicle-cloud loop, or in-process (cached)
 LEARN_IN = ("cloud", "direct")
-#: the reports a study writes (pacc.study.reports)
-REPORTS = ("table1", "population", "summary", "incremental")
+#: the study's modes, each named by the report it writes (pacc.study.report; ``hil``: Table I of
+#: pacc hil's session folders, pacc.hil.report)
+REPORTS = ("table1", "population", "summary", "incremental", "hil")
 
 
 @dataclass(frozen=True)
@@ -135,15 +87,11 @@ TABLE1_METHODS = tuple(table1_method(c) for c in CONTROLLERS)
 
 @dataclass(frozen=True)
 class StudySpec:
-    """What to run. ``seed`` fixes the scenarios and the learned tables; trial k drives with
-    noise seed ``seed + k``. ``duration_s`` shortens every drive (None: the whole profile).
-    ``adaptation``: the parameters of the ECU's own adaptation (None: its defaults).
-    ``learn_in``: ``cloud``, the tables learned in the vehicle-cloud loop (``cloud`` None: a
-    fresh embedded cloud under ``OUT/cloud``; else a URL or folder where the drivers are
-    registered to the vehicle of ``token_file``, verified with ``trust``); ``direct``:
-    in-process, cached. ``incremental`` N > 0: N trips per driver through the cloud.
-    ``dbc``/``binding``/``bus``: the vehicle network and python-can bus of every drive.
-    ``workers``/``scheduler``: where the drives run (never what they give)."""
+    """What to run. Trial k drives with noise seed ``seed + k``; ``duration_s`` shortens every
+    drive, s (None: the whole profile). ``learn_in``: ``cloud`` (``cloud`` None: a fresh
+    embedded one under OUT/cloud) or ``direct`` (in-process, cached). ``report``: the mode
+    (:data:`REPORTS`); ``sessions``/``beside``: the ``hil`` mode's session folder and a
+    synthetic drives.csv. ``workers``/``scheduler``: where drives run (never what they give)."""
 
     drivers: tuple[str, ...] = ("d1", "d2", "d3", "d4", "d5")
     scenarios: tuple[str, ...] = ("A", "B")
@@ -164,8 +112,8 @@ class StudySpec:
     dbc: str | None = None  # the vehicle network of every drive (None: pacc's)
     binding: str | None = None
     bus: str = "lockstep"  # the python-can interface of every drive (pacc.study.drive.BUSES)
-    mismatch: float = 0.0  # manual-vs-ACC mismatch scale of drawn drivers (0: none)
-    trip_shift_s: float = 0.0  # between-trip shift of drawn drivers' headway, sd in s
+    sessions: str | None = None
+    beside: str | None = None
     workers: int = 2
     scheduler: str | None = None
 
@@ -178,7 +126,7 @@ class StudySpec:
         """What makes two runs the same run (JSON): not where they run, nor how many drivers
         a population draws (its first N are the same whatever N, so a run can be extended)."""
         doc = json.loads(json.dumps(asdict(self), default=str))
-        for key in ("workers", "scheduler", "name"):
+        for key in ("workers", "scheduler", "name", "sessions", "beside"):
             doc.pop(key)
         sources = [(d, _source(d)) for d in self.drivers]
         doc["drivers"] = [d if src is None else f"{src[0]}:{src[2]}" for d, src in sources]
@@ -199,7 +147,7 @@ def load_drivers(spec: StudySpec) -> dict[str, DriverParams]:
         if source is not None:
             name, n, seed = source
             try:
-                drawn = POPULATIONS[name](int(n), int(seed), spec.mismatch, spec.trip_shift_s)
+                drawn = draw_population(int(n), int(seed), population=name)
             except ValueError as exc:
                 raise SimError(f"{entry!r}: {name}:N:SEED with whole numbers ({exc})") from exc
         else:
@@ -440,20 +388,3 @@ def spec_of(config: Mapping[str, Any]) -> StudySpec:
         workers=int(config["workers"]),
         scheduler=config["scheduler"] or None,
     )
-
-
-__all__ = [
-    "ECU_ADAPTATION",
-    "StudyFileError",
-    "expand_methods",
-    "load_study_file",
-    "resolve",
-    "spec_of",
-    "POPULATIONS",
-    "TABLE1_METHODS",
-    "Method",
-    "StudySpec",
-    "load_drivers",
-    "table1_method",
-    "validate",
-]

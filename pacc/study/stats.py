@@ -1,28 +1,26 @@
-"""Statistics over drivers: bootstrap confidence intervals and paired tests (pure functions).
+"""Statistics of a study's rows, the one module every report uses (pure functions).
 
-A population study gives one value per driver and controller (the mean over its drives).
-Drivers are the unit of replication: intervals resample drivers, and two controllers are
-compared on the same drivers (paired).
-
-- :func:`bootstrap_ci`: percentile bootstrap interval of the mean over drivers.
-- :func:`paired_comparison`: mean difference ``b - a`` with its paired bootstrap interval, the
-  Wilcoxon signed-rank test (``scipy.stats.wilcoxon``, two-sided, zero differences dropped as
-  in Wilcoxon's original method) and how many drivers did better, worse, the same.
-- :func:`holm`: Holm's step-down adjustment of a family of p-values.
+Drivers are the unit of replication: a driver's value per controller or method is the mean of
+its drives; intervals resample drivers (:func:`bootstrap_ci`), two controllers are compared on
+the same drivers (:func:`paired_comparison`: the paired bootstrap and ``scipy.stats.wilcoxon``,
+zero differences dropped) and a family of p-values is Holm-adjusted (:func:`holm`).
 """
 
 from __future__ import annotations
 
+import itertools
 import math
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy import stats
 
+from pacc.study.drive import CONTROLLERS
 from sim_bus.errors import SimError
 
-#: resamples of every bootstrap (2000: the percentile interval's ends move < 0.1 % of the
-#: spread between seeds)
+#: resamples of every bootstrap (2000: the interval's ends move < 0.1 % of the seeds' spread)
 N_BOOT = 2000
 
 
@@ -42,14 +40,9 @@ def bootstrap_ci(
 
 @dataclass(frozen=True)
 class Paired:
-    """Controller ``b`` against ``a`` on the same drivers (differences ``b - a``).
-
-    Attributes:
-        mean_diff: mean of the per-driver differences.
-        ci: paired bootstrap 95 % interval of ``mean_diff``.
-        p_value: two-sided Wilcoxon signed-rank p-value (1.0 if every difference is 0).
-        better, worse, ties: drivers with ``b < a``, ``b > a``, ``b == a`` (lower is better).
-    """
+    """``b`` against ``a`` on the same drivers (differences ``b - a``, lower is better):
+    mean difference, its paired bootstrap 95 % interval, the two-sided Wilcoxon p (1.0 if
+    every difference is 0), and the drivers with ``b < a``, ``b > a``, ``b == a``."""
 
     mean_diff: float
     ci: tuple[float, float]
@@ -80,13 +73,89 @@ def paired_comparison(a: np.ndarray, b: np.ndarray, rng: np.random.Generator) ->
 def holm(p_values: list[float]) -> list[float]:
     """Holm-adjusted p-values of a family (same order as given; each at most 1)."""
     m = len(p_values)
-    order = sorted(range(m), key=lambda i: p_values[i])
     adjusted = [0.0] * m
     running = 0.0
-    for rank, i in enumerate(order):
+    for rank, i in enumerate(sorted(range(m), key=lambda i: p_values[i])):
         running = max(running, min(1.0, (m - rank) * p_values[i]))
         adjusted[i] = running
     return adjusted
 
 
-__all__ = ["N_BOOT", "Paired", "bootstrap_ci", "holm", "paired_comparison"]
+def driver_means(
+    rows: Iterable[Mapping[str, Any]], metric: str, by: str = "controller"
+) -> dict[str, dict[str, float]]:
+    """Group (a row's ``by``) -> driver -> mean ``metric`` of its drives (first-seen order)."""
+    acc: dict[str, dict[str, list[float]]] = {}
+    for r in rows:
+        acc.setdefault(str(r[by]), {}).setdefault(str(r["driver"]), []).append(float(r[metric]))
+    return {g: {d: float(np.mean(v)) for d, v in ds.items()} for g, ds in acc.items()}
+
+
+def per_driver(
+    rows: Sequence[Mapping[str, Any]], metric: str
+) -> tuple[list[str], dict[str, np.ndarray]]:
+    """(drivers in row order, controller -> their mean ``metric``, shape (n,)): only drivers
+    with drives of every controller present (paired data), controllers in Table I order."""
+    means = driver_means(rows, metric)
+    controllers = [c for c in CONTROLLERS if c in means]
+    drivers = [
+        d
+        for d in dict.fromkeys(str(r["driver"]) for r in rows)
+        if all(d in means[c] for c in controllers)
+    ]
+    return drivers, {c: np.array([means[c][d] for d in drivers]) for c in controllers}
+
+
+def comparisons(
+    values: dict[str, np.ndarray], rng: np.random.Generator
+) -> dict[tuple[str, str], Paired]:
+    """Every pair (a, b) of the controllers in ``values``' order: b against a."""
+    return {
+        (a, b): paired_comparison(values[a], values[b], rng)
+        for a, b in itertools.combinations(list(values), 2)
+    }
+
+
+def cell_means(
+    rows: Iterable[Mapping[str, Any]],
+) -> dict[tuple[str, str, str], tuple[float, float]]:
+    """(driver, scenario, controller) -> (mean PoI %, mean NIM /min) over the trials."""
+    acc: dict[tuple[str, str, str], list[tuple[float, float]]] = {}
+    for r in rows:
+        acc.setdefault((r["driver"], r["scenario"], r["controller"]), []).append(
+            (float(r["poi_pct"]), float(r["nim_per_min"]))
+        )
+    return {
+        k: (sum(p for p, _ in v) / len(v), sum(n for _, n in v) / len(v)) for k, v in acc.items()
+    }
+
+
+def averages(
+    means: dict[tuple[str, str, str], tuple[float, float]],
+) -> dict[str, tuple[float, float]]:
+    """Controller -> (PoI %, NIM /min) averaged over every driver and scenario cell."""
+    out: dict[str, tuple[float, float]] = {}
+    for controller in CONTROLLERS:
+        cells = [v for (_, _, c), v in means.items() if c == controller]
+        if cells:
+            out[controller] = (
+                sum(p for p, _ in cells) / len(cells),
+                sum(n for _, n in cells) / len(cells),
+            )
+    return out
+
+
+def reduction_pct(base: float, value: float) -> float:
+    """Relative reduction of ``value`` against ``base``, % (nan if base is 0)."""
+    return (base - value) / base * 100.0 if base > 0 else math.nan
+
+
+def per_trip(rows: Sequence[Mapping[str, Any]]) -> list[tuple[int, float, float, int]]:
+    """(trip, mean PoI %, mean NIM /min, drives) over the drivers, by trip number."""
+    out = []
+    for k in sorted({int(r["trip"]) for r in rows}):
+        sel = [r for r in rows if int(r["trip"]) == k]
+        poi = float(np.mean([float(r["poi_pct"]) for r in sel]))
+        nim = float(np.mean([float(r["nim_per_min"]) for r in sel]))
+        out.append((k, poi, nim, len(sel)))
+    return out

@@ -10,7 +10,6 @@ import pytest
 
 from dbc.vocab.triplog_file import read_trip
 from pacc import cli
-from pacc.cli import SUBCOMMANDS
 
 
 def test_help_lists_every_subcommand(capsys: pytest.CaptureFixture[str]) -> None:
@@ -110,23 +109,6 @@ def test_python_m_goes_through_the_boundary(tmp_path: Path) -> None:
         text=True,
     )
     assert out.returncode == 2 and out.stderr.startswith("pacc sim: error: --log and --can-log")
-
-
-@pytest.mark.filterwarnings("ignore:.*found in sys.modules:RuntimeWarning")  # runpy, re-run
-@pytest.mark.parametrize("name", sorted(SUBCOMMANDS))
-def test_every_sub_command_runs_as_python_m_its_module(
-    name: str, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
-) -> None:
-    """``python -m pacc.commands.X --help`` is ``pacc X --help`` for every sub-command
-    (a module, or a package through its ``__main__``); run in this process."""
-    import runpy  # noqa: PLC0415
-
-    module = SUBCOMMANDS[name][0]
-    monkeypatch.setattr(sys, "argv", [module, "--help"])
-    with pytest.raises(SystemExit) as done:
-        runpy.run_module(module, run_name="__main__", alter_sys=False)
-    assert done.value.code == 0
-    assert capsys.readouterr().out.startswith(f"usage: pacc {name}")
 
 
 def test_a_manual_drive_on_the_bus_gives_pacc_demos_its_demonstrations(tmp_path: Path) -> None:

@@ -17,8 +17,9 @@ from ecu.adaptation import AdaptationParams
 from pacc.commands.study import main
 from pacc.study import pipeline
 from pacc.study.pipeline import make_tables, plan, run
-from pacc.study.report import format_table, reduction_pct
+from pacc.study.report import format_table
 from pacc.study.spec import StudySpec, table1_method, validate
+from pacc.study.stats import reduction_pct
 from sim_bus.drivers import DriverParams
 from tests.cli_util import exit_code
 

@@ -9,7 +9,9 @@ import pytest
 
 from pacc.commands.study import main
 from pacc.study.pipeline import ROWS, run
-from pacc.study.spec import StudySpec, table1_method
+from pacc.study.spec import StudySpec, load_drivers, table1_method
+from sim_bus.drivers import BUILTIN_DRIVERS
+from sim_bus.population import draw_population
 from tests.cli_util import exit_code
 
 ARGS = ["--controllers", "predefined,predefined+oa", "--duration", "20", "--workers", "1"]
@@ -63,3 +65,17 @@ def test_population_refuses_bad_options(tmp_path: Path, capsys: pytest.CaptureFi
     assert main(["--population", "1", "--seed", "2", "--out", out, "-q", *ARGS]) == 2
     assert "holds another study" in capsys.readouterr().err
     assert len((tmp_path / "x" / ROWS).read_text(encoding="utf-8").splitlines()) == 3
+
+
+def test_the_people_draw_their_own_mismatch_and_headway_stays_by_name(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """``--mismatch``/``--trip-shift`` are gone (the people population draws its own); the
+    headway population is still a driver source by name, ``headway:N:SEED``."""
+    for flag in ("--mismatch", "--trip-shift"):
+        assert exit_code(main, ["--population", "2", flag, "1"]) == 2
+        assert f"unrecognized arguments: {flag} 1" in capsys.readouterr().err
+    drivers = load_drivers(StudySpec(drivers=("headway:3:4", "d1")))
+    drawn = draw_population(3, 4, population="headway")
+    assert list(drivers.values()) == [*drawn, BUILTIN_DRIVERS["d1"]]
+    assert "mismatch" not in StudySpec().fingerprint()

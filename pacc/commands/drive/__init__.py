@@ -1,29 +1,13 @@
-"""``pacc drive``: the ECU node and the simulator in one process, lockstep, one virtual bus.
+"""``pacc drive``: the ECU node and the simulator in one process, lockstep, one bus.
 
-    pacc drive --manual --scenario manual1 --driver d2 --seed 1 --log trip.mcap
-    pacc drive --scenario B|A|cutin|cutout|leadloss|stopgo|C|FILE.csv --driver d3
-               --controller predefined|predefined+oa|irl|irl+oa
-               [--profile DGPT.json] [--seed N] [--faults SPEC] [--log run.mcap]
-               [--can-log bus.mcap] [--manual-trips DIR]
-               [--adaptation-mode paper|timegap] [--foxglove [HOST:PORT]] [--pace X]
+Prints PoI, NIM, min gap, min TTC, RMS jerk, takeovers, adaptations, collisions.
+``--manual`` drives by hand (ACC off) and writes the trip to ``--log``, a demonstration; with
+``--can-log`` it drives by hand on the bus, the ECU on and never engaged. ``--foxglove``
+streams the drive live at ``--pace`` times real time. Exit status: 0, 1 after a collision,
+2 on bad options, input files or an output not written; 130 after Ctrl-C.
 
-prints PoI, NIM, min gap, min time-to-collision, RMS jerk, takeovers, adaptations and
-collisions. ``--manual`` drives the scenario by hand instead (ACC off, no bus: the driver's
-own pedals) and writes the trip to ``--log``: a demonstration for ``pacc cloud learn``;
-``--manual --can-log bus.mcap`` drives it by hand on the bus, the ECU on and never engaged:
-the bus log ``pacc demos extract`` turns into demonstrations.
-``--manual-trips DIR`` writes what the ECU itself recorded of the driver's manual
-car-following during the drive (:class:`ecu.manual.ManualRecorder`). A drive
-is a pure function of (configuration, seed, shipped data): the ECU and
-the simulator each get a python-can ``virtual`` bus on a private channel, and time is the
-simulator's (every frame stamped with simulated time). ``--foxglove`` streams the drive
-live, held to real time (``--pace X``: X times; 0: as fast as it runs). Exit status: 0, 1
-if the drive ended in a collision, 2 on bad options or input files, or an output
-(``--log``, ``--can-log``, ``--manual-trips``) not written; 130 after Ctrl-C (a paced drive
-first prints and writes what it drove).
-
-The command is a package: :mod:`pacc.commands.drive.options` — its options;
-:mod:`pacc.commands.drive.report` — what ``pacc drive`` prints: the drive's figures as text.
+The command is a package: :mod:`pacc.commands.drive.options` (its options),
+:mod:`pacc.commands.drive.report` (the drive's figures as text).
 """
 
 from __future__ import annotations
@@ -34,7 +18,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from dbc.errors import DbcError, UsageError
+from dbc.errors import DbcError, UsageError, error_line
 from dbc.vocab import FormatError
 from dbc.vocab.dgpt import Dgpt
 from dbc.vocab.dgpt_file import load_dgpt
@@ -48,7 +32,6 @@ from pacc.commands._args import (
     check_distinct_outputs,
     check_writable_dir,
     check_writable_file,
-    error_line,
 )
 from pacc.commands.drive.options import parser
 from pacc.commands.drive.report import format_result
@@ -267,10 +250,7 @@ def _outputs(
 
 def _pace(args: argparse.Namespace) -> float | None:
     """The drive's pace (times real time; None: as fast as it runs) of ``--pace`` and
-    ``--foxglove``.
-
-    Raises:
-        SimError: a pace above 0 and below :data:`MIN_PACE`.
+    ``--foxglove``; SimError for a pace above 0 and below :data:`MIN_PACE`.
     """
     pace = args.pace if args.pace is not None else 1.0 if args.foxglove is not None else 0.0
     if 0 < pace < MIN_PACE:

@@ -8,11 +8,9 @@ from pathlib import Path
 from dbc.network import add_network_arguments
 from ecu.adaptation import ADAPTATION_MODES
 from ecu.buslog.live import add_foxglove_argument
-from pacc.commands._args import CommandParser, integer, json_parameters, number
+from pacc.commands._args import CommandParser, add_world_arguments, json_parameters, number
 from pacc.study.drive import BUSES, CONTROLLERS
 from sim_bus.drivers import CONDITION_FACTORS
-
-__all__ = ["parser"]
 
 
 def parser(description: str = "") -> argparse.ArgumentParser:
@@ -23,18 +21,9 @@ def parser(description: str = "") -> argparse.ArgumentParser:
         description=description,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument(
-        "--scenario",
-        default="B",
-        help="A, B, manual1..manual4, a road scenario (cutin, cutout, leadloss, stopgo, C: "
-        "mixed traffic) or a CSV of t_s,v_lead_mps (default B)",
-    )
-    p.add_argument("--driver", default="d1", help="d1..d5 or a driver .toml/.json (default d1)")
+    add_world_arguments(p)
     p.add_argument("--controller", default="predefined", choices=CONTROLLERS)
     p.add_argument("--profile", type=Path, help="DGPT JSON for the irl controllers")
-    p.add_argument("--seed", type=integer(0), default=0)
-    p.add_argument("--faults", default="", help="fault SPEC, e.g. 'radar:dropout=100-105'")
-    p.add_argument("--log", type=Path, help="write the drive as an MCAP trip log")
     p.add_argument(
         "--manual",
         action="store_true",
@@ -56,11 +45,6 @@ def parser(description: str = "") -> argparse.ArgumentParser:
         "brake takeover) as trip logs DIR/manual_NNNN.mcap, demonstrations for pacc cloud "
         "learn",
     )
-    p.add_argument(
-        "--duration",
-        type=number(0.0, 1e6, lo_open=True),
-        help="simulate only the first N seconds",
-    )
     add_foxglove_argument(p)
     p.add_argument(
         "--pace",
@@ -74,12 +58,6 @@ def parser(description: str = "") -> argparse.ArgumentParser:
         choices=("resume", "cancel"),
         default="resume",
         help="brake press: override and resume (paper) or cancel (production)",
-    )
-    p.add_argument(
-        "--condition-factor",
-        type=number(0.1, 10.0),
-        default=1.0,
-        help="multiply the driver's preference, e.g. 1.2 for rain (default 1)",
     )
     p.add_argument(
         "--condition",

@@ -73,6 +73,3 @@ def format_result(r: DriveResult) -> str:
         losses = sum(1 for _, kind, _ in r.road_events if kind == "lead_loss")
         lines.append(f"  road events    {played}" + (f"; {losses} lead loss(es)" if losses else ""))
     return "\n".join(lines)
-
-
-__all__ = ["fault_time", "format_result"]

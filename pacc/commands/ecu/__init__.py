@@ -1,47 +1,29 @@
 """``pacc ecu``: run the ACC ECU node on a CAN bus in real time.
 
-Example::
-
     pacc ecu -i virtual -c vcan0 --headway 1.5 --driver d2 --takeovers spool/ --duration 300
 
-The node starts from ``--profile`` (a DGPT JSON file) or a predefined constant-headway table.
-An invalid profile is refused with a clear message; the ECU then runs on the predefined
-table, says so, and reports FaultCode Profile on ACC_Status. State changes, faults and
-adaptation decisions are printed as they happen; at exit (``--duration`` elapsed, Ctrl-C or
-SIGTERM) the open takeover segment and manual stretch are written and a summary printed:
-cycles, frames in/out, E2E errors by kind, takeovers, adaptations, max cycle time.
-``--takeovers DIR`` is a spool (:mod:`cloud_sync.vehicle.spool`): each segment becomes one
-batch that ``pacc cloud sync --spool DIR`` uploads, tagged with ``--driver`` (else the
-profile's driver; the predefined table's ``guest`` is refused by the cloud, and said so).
-``--manual DIR`` spools the driver's manual car-following stretches the same way (batches of
-kind ``manual``, :class:`ecu.manual.ManualRecorder`: the demonstrations the cloud learns
-from); with ``--cloud``, ``--manual`` alone puts them in the link's spool. With ``--cloud``
-the trip is reported at exit (``POST /v1/trips``: the cloud table version it started with,
-its ACC-on time, its takeover segments; :meth:`cloud_sync.vehicle.link.VehicleLink.end_trip`),
-queued in the spool while the cloud is away.
-Exit codes: 0 run completed, 1 bus/DBC/spool error, 2 usage error (also
-``--dbc`` without a ``--binding`` that names it).
+The node starts from ``--profile`` (a DGPT file; refused: the predefined table and FaultCode
+Profile) or a predefined constant-headway table, prints state changes, faults and
+adaptations, and at exit (``--duration``, Ctrl-C, SIGTERM) writes the open takeover segment
+and manual stretch and prints a summary. ``--takeovers DIR`` / ``--manual DIR`` spool them for
+``pacc cloud sync``; ``--cloud`` links to the cloud (docs/cloud.md). Exit codes: 0 done, 1
+bus/DBC/spool error, 2 usage error.
 
-The command is a package (one concept per module):
-
-- :mod:`pacc.commands.ecu.cloud` — ``pacc ecu``'s link to the cloud: the takeover spool, the
-  vehicle link, the start table.
-- :mod:`pacc.commands.ecu.run` — ``pacc ecu``'s run on the bus: the bus recording, the
-  real-time loop, SIGTERM, the summary.
+The command is a package: :mod:`pacc.commands.ecu.cloud` (its link to the cloud: spool,
+vehicle link, start table), :mod:`pacc.commands.ecu.run` (its run on the bus: recording,
+real-time loop, SIGTERM, summary).
 """
 
 from __future__ import annotations
 
 import argparse
 import logging
-import os
 import sys
 import time
-from pathlib import Path
 
 from cloud_sync.errors import CloudSyncError
 from dbc.codec import Codec, CodecError
-from dbc.errors import BindingError
+from dbc.errors import BindingError, UsageError
 from dbc.network import add_network_arguments, codec_of, network_of
 from dbc.vocab import FormatError
 from dbc.vocab.dgpt import PLAIN_NAME, Dgpt, DgptError, predefined
@@ -58,6 +40,7 @@ from pacc.commands._args import (
     CommandParser,
     add_bus_arguments,
     check_distinct_outputs,
+    check_writable_file,
     number,
 )
 from pacc.commands.ecu.cloud import (
@@ -234,8 +217,10 @@ def _serve(args: argparse.Namespace) -> int:
     codec, sink, manual = _codec_and_sinks(args)
     if link is not None:
         sink, manual = link.sink, (link.sink if args.manual == "" else None)
-    if args.save_profile:  # refuse now, not after the drive when the table would be lost
-        _check_writable_parent(args.save_profile)
+    try:  # refuse now, not after the drive when the table would be lost
+        check_writable_file(args.save_profile, "--save-profile")
+    except UsageError as exc:
+        raise Exit(1, f"pacc ecu: error: {exc}") from None
     base = TimeBase.now(time.monotonic())  # the real-time clock against the wall clock
     node = EcuNode(
         config,
@@ -369,9 +354,3 @@ def _codec_and_sinks(
     except (CodecError, EcuError, FormatError, CloudSyncError) as exc:
         raise Exit(1, f"pacc ecu: error: {exc}") from None
     return codec, takeovers, manual
-
-
-def _check_writable_parent(target: str) -> None:
-    parent = Path(target).resolve().parent
-    if not (parent.is_dir() and os.access(parent, os.W_OK)):
-        raise Exit(1, f"pacc ecu: error: --save-profile: {parent} is not a writable directory")

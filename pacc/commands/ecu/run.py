@@ -26,8 +26,6 @@ if TYPE_CHECKING:
     from ecu.buslog.writer import CanLogWriter
     from ecu.runtime import EcuRuntime
 
-__all__ = ["close_recorder", "open_recorder", "run_on_bus", "run_until_done", "utc_events"]
-
 
 def _stop_on_sigterm(stop: Callable[[], None]) -> Callable[[], None]:
     """Make SIGTERM call ``stop`` (a service stop ends the run like Ctrl-C: the open takeover
@@ -146,11 +144,9 @@ _EVENT = re.compile(r"t=(-?[0-9.]+) s  (.*)", re.S)
 
 
 def run_until_done(rt: EcuRuntime, duration_s: float | None) -> str | None:
-    """Run ``rt`` (an EcuRuntime) in real time until ``duration_s``, Ctrl-C or SIGTERM.
-
-    The open takeover segment is always flushed. A failure of the bus itself
-    (``can.CanError`` from receive or send) ends the run like a stop, so the caller still
-    prints the summary and saves the profile; its text is returned (None: clean end).
+    """Run ``rt`` in real time until ``duration_s``, Ctrl-C or SIGTERM, flushing the open
+    takeover segment; a bus failure ends the run like a stop and its text is returned (None: a
+    clean end).
     """
     import can  # noqa: PLC0415 - see run_on_bus: python-can only when the ECU runs
 

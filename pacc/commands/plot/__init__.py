@@ -1,24 +1,14 @@
 """``pacc plot LOG [SIGNAL ...] -o fig.png``: one recorded drive over time.
 
-LOG is a pacc bus recording (``.mcap``, or a ``.mcap.part`` left by a killed recorder: read up
-to its last chunk, with a warning), a trip log (``pacc drive --log``, the study's trips, ``pacc
-demos extract``), or any log python-can reads (``.blf``, ``.asc``, candump ``.log`` …), decoded
-with ``--dbc`` (default: the pacc network). SIGNALs (``Message.signal``, ``/topic.field`` or a
-bare name found in one place) are drawn one panel each. Without SIGNALs, the fixed panels
-sharing the time axis (s from the start, the UTC start in the title): ego and lead speed; the
-gap and the ECU's desired gap; the pedals (0..1); the ACC's acceleration request while active;
-the ACC state. The values are the ECU's own (``/ecu/inputs``, ``/ecu/outputs``: what it saw and
-did each cycle); a recording without them (``pacc sim``) is drawn from the simulated world
-(``/sim/world``), the driver's preferred gap in place of the desired one; a trip log from its
-samples. Takeovers (the ECU's takeover events, a trip's ACTIVE -> OVERRIDE/OFF changes) are
-marked on every panel. Drawn on a bare matplotlib Figure (no pyplot); an OUT without a suffix
-gets ``.png`` (another suffix is refused), and the file written is printed. ``--plotjuggler
-LAYOUT.xml`` (with or instead of ``-o``) writes a PlotJuggler layout that opens the
-recording (:mod:`pacc.commands.plot.layout`).
-Exit status: 0, 2 on a bad recording or one with nothing to draw.
+LOG is a pacc bus recording (``.mcap`` or a killed recorder's ``.mcap.part``), a trip log, or
+any log python-can reads, decoded with ``--dbc``. SIGNALs (``Message.signal``,
+``/topic.field`` or a bare name) get a panel each; without them the fixed panels over time
+(s): speeds, gap and desired gap, pedals, the ACC's request and state, takeovers marked. A
+recording without the ECU's channels (``pacc sim``) is drawn from ``/sim/world``. Exit status:
+0, 2 on a bad recording or one with nothing to draw.
 
-The command is a package: :mod:`pacc.commands.plot.layout` — ``pacc plot LOG --plotjuggler
-LAYOUT.xml``: a PlotJuggler layout that opens the recording.
+The command is a package: :mod:`pacc.commands.plot.layout` (``--plotjuggler LAYOUT.xml``: a
+PlotJuggler layout that opens the recording).
 """
 
 from __future__ import annotations
@@ -243,10 +233,7 @@ def plot(
 
 def pick(log: CanLog, name: str) -> tuple[str, np.ndarray, np.ndarray]:
     """(label, t_s, values) of the signal ``name``: ``Message.signal``, ``/topic.field`` or a
-    bare name found in exactly one message or channel.
-
-    Raises:
-        CanLogError: no such signal, or a bare name found in several places.
+    bare name found in exactly one place; CanLogError otherwise.
     """
     tables = {f"{m}.": cols for m, cols in log.decoded.items()}
     tables.update({f"{topic}.": cols for topic, cols in log.series.items()})

@@ -1,14 +1,9 @@
 """``pacc plot LOG --plotjuggler OUT.xml``: a PlotJuggler layout that opens a bus recording.
 
-PlotJuggler (3.x, its MCAP loader and protobuf parser) names a recording's series
-``<topic>/<field>``: ``/ecu/inputs/gap_m``, ``/can/ESC_Speed/VehicleSpeed``. The layout written
-here holds two tabs: the drive (the panels of ``docs/foxglove-layout.json``: gap against the
-desired gap and the driver's preferred gap, speeds, pedals, the ACC's request and state) and the
-bus (the decoded CAN signals behind them), with only the curves the recording has, so
-PlotJuggler asks nothing about missing ones. The layout names the recording relative to its own
-folder with the MCAP loader's settings (log times, every protobuf topic), so
-``plotjuggler -l OUT.xml`` loads the recording and draws the panels without its topic dialog.
-``docs/plotjuggler-layout.xml`` is this layout for a ``drive.mcap`` beside it.
+PlotJuggler 3.x names a recording's series ``<topic>/<field>`` (``/ecu/inputs/gap_m``). The
+layout has two tabs, the drive (the panels of ``docs/foxglove-layout.json``) and the bus (the
+decoded CAN signals), with only the curves the recording has, and names the recording relative
+to itself with the MCAP loader's settings, so ``plotjuggler -l OUT.xml`` opens it directly.
 """
 
 from __future__ import annotations
@@ -18,8 +13,6 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from xml.etree import ElementTree as ET
-
-__all__ = ["BUS_PANELS", "DRIVE_PANELS", "Panel", "layout_xml", "recording_series"]
 
 
 @dataclass(frozen=True)
@@ -115,11 +108,8 @@ def _present(panels: Sequence[Panel], have: Mapping[str, set[str]]) -> list[Pane
 
 
 def layout_xml(recording: Path, layout: Path, have: Mapping[str, set[str]]) -> str:
-    """The PlotJuggler layout (XML text) for ``recording`` written at ``layout``; ``have`` is
-    :func:`recording_series` of the recording.
-
-    Raises:
-        ValueError: the recording has none of the layout's curves.
+    """The PlotJuggler layout (XML text) for ``recording`` written at ``layout``; ``have``:
+    :func:`recording_series` of it. ValueError if it has none of the layout's curves.
     """
     tabs = [
         (name, _present(panels, have))

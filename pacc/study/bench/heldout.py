@@ -1,14 +1,9 @@
 """Held-out gap error of each learner against the empirical baseline, per driver.
 
-Does a learned table predict a driver's gaps on data it was not trained on at least as well
-as the empirical steady-state baseline (the median gap per speed bin) trained on the same
-data? Time split per driver: every trip trains on its first 70 % and is tested on its last
-30 % (the method of bench/irl_quality.py (e), made a task). Error: mean absolute difference
-between the table at the ego speed and the actual gap over the test part's near-steady
-samples (``|v_lead - v| < 0.5 m/s``, ``|a| < 0.3 m/s^2``) at the speeds both the learner and
-the baseline cover (elsewhere both state a prior). Drivers: real human pairs (the OpenACC
-pairs shipped with sim_bus; any car-following CSV of :mod:`cloud_sync.irl.sources.tripfiles`), the
-built-in d1..d5 and drawn drivers (their manual trips on manual1..manual4).
+Every trip trains on its first 70 % and is tested on the rest: the mean absolute difference
+(m) between the table at the ego speed and the actual gap over the near-steady test samples
+(``|v_lead - v| < 0.5 m/s``, ``|a| < 0.3 m/s^2``), at speeds both cover. Drivers: real human
+pairs (OpenACC), d1..d5 and drawn drivers.
 """
 
 from __future__ import annotations
@@ -123,6 +118,3 @@ def heldout_task(task: HeldOutTask) -> dict[str, Any]:
             row["baseline_m"] = float(np.mean([theirs[i] for i in ok]))
         rec["rows"].append(row)
     return rec
-
-
-__all__ = ["HeldOutTask", "held_out_error", "heldout_task", "part", "real_tasks"]

@@ -1,14 +1,9 @@
 """The leaderboard of ``pacc bench``: one line per method, from the drives and held-out rows.
 
-Per method: PoI (%) and NIM (/min) as the mean over drivers of each driver's mean, with a
-bootstrap 95 % interval across drivers and the spread of the per-seed means across the drawn
-populations (each fresh seed one value; the built-in d1..d5 count as drivers, not as a seed);
-the lowest min TTC over every drive and the median of the drivers' lowest; collisions; the
-held-out gap error of the method's learner (mean, and on how many drivers it is at most the
-empirical baseline's, real and drawn separately); the mean learning time. Paired tests
-against the paper's method (IRL + Algorithm 1, ``paper``) on the same drivers: the mean
-difference of the per-driver PoI and NIM, its bootstrap interval and the Wilcoxon p-value,
-Holm-adjusted over the methods (:mod:`pacc.study.stats`).
+Per method: PoI % and NIM /min as the mean over drivers with a bootstrap 95 % interval, the
+per-seed means, the lowest and median-lowest min TTC (s), collisions, the held-out gap error
+of its learner against the empirical baseline (m) and paired tests against the paper's method
+on the same drivers, Holm-adjusted over the methods (:mod:`pacc.study.stats`).
 """
 
 from __future__ import annotations
@@ -23,18 +18,10 @@ from typing import Any
 import numpy as np
 
 from pacc.study.bench.heldout import BASELINE
-from pacc.study.stats import bootstrap_ci, holm, paired_comparison
+from pacc.study.report import bars
+from pacc.study.stats import bootstrap_ci, driver_means, holm, paired_comparison
 
 PAPER = "paper"
-
-
-def per_driver(rows: Sequence[Mapping[str, Any]], method: str, key: str) -> dict[str, float]:
-    """driver -> the mean of ``key`` over the method's drives of that driver."""
-    acc: dict[str, list[float]] = defaultdict(list)
-    for r in rows:
-        if r["method"] == method:
-            acc[r["driver"]].append(float(r[key]))
-    return {d: float(np.mean(v)) for d, v in acc.items()}
 
 
 def _seed_of(driver: str) -> str:
@@ -89,8 +76,7 @@ def leaderboard(
     """One dict per method (the columns of leaderboard.csv), in the order of ``methods``."""
     rng = np.random.default_rng(rng_seed)
     board = []
-    paper_poi = per_driver(rows, PAPER, "poi_pct")
-    paper_nim = per_driver(rows, PAPER, "nim_per_min")
+    means = {key: driver_means(rows, key, by="method") for key in ("poi_pct", "nim_per_min")}
     for m in methods:
         name = m["name"]
         line: dict[str, Any] = {
@@ -102,7 +88,7 @@ def leaderboard(
         mine = [r for r in rows if r["method"] == name]
         line["drives"] = len(mine)
         for key, short in (("poi_pct", "poi"), ("nim_per_min", "nim")):
-            by_driver = per_driver(rows, name, key)
+            by_driver = means[key].get(name, {})
             vals = np.asarray(list(by_driver.values()))
             line[short] = float(vals.mean()) if vals.size else math.nan
             line[f"{short}_ci"] = bootstrap_ci(vals, rng)
@@ -118,8 +104,9 @@ def leaderboard(
         line["collisions"] = sum(int(r["collision"]) for r in mine)
         line["plugin_fault_drives"] = sum(1 for r in mine if r["plugin_faults"])
         line["heldout"] = heldout_stats(heldout, m["table"]) if m["table"] != "predefined" else None
-        for key, short, ref in (("poi_pct", "poi", paper_poi), ("nim_per_min", "nim", paper_nim)):
-            line[f"{short}_vs_paper"] = _paired(ref, per_driver(rows, name, key), rng, name)
+        for key, short in (("poi_pct", "poi"), ("nim_per_min", "nim")):
+            ref, mine_d = means[key].get(PAPER, {}), means[key].get(name, {})
+            line[f"{short}_vs_paper"] = _paired(ref, mine_d, rng, name)
         board.append(line)
     for short in ("poi", "nim"):
         tests = [(i, b[f"{short}_vs_paper"]) for i, b in enumerate(board)]
@@ -214,26 +201,9 @@ def write_csv(path: Path, board: Sequence[Mapping[str, Any]]) -> None:
 
 def plot(path: Path, board: Sequence[Mapping[str, Any]]) -> None:
     """PoI and NIM per method with their intervals across drivers."""
-    import matplotlib  # noqa: PLC0415 - a second of start-up; only the report plots
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt  # noqa: PLC0415
-
-    names = [b["method"] for b in board]
-    fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
-    for ax, short, label in ((axes[0], "poi", "PoI %"), (axes[1], "nim", "NIM /min")):
-        means = np.array([b[short] for b in board], dtype=float)
-        lo = np.array([b[f"{short}_ci"][0] for b in board], dtype=float)
-        hi = np.array([b[f"{short}_ci"][1] for b in board], dtype=float)
-        err = np.vstack([np.nan_to_num(means - lo), np.nan_to_num(hi - means)])
-        ax.bar(range(len(names)), means, yerr=err, capsize=4, color="#4c72b0")
-        ax.set_xticks(range(len(names)), names, rotation=30, ha="right", fontsize=8)
-        ax.set_ylabel(label)
-        ax.grid(axis="y", alpha=0.3)
-    fig.suptitle("pacc bench: mean over drivers, 95 % bootstrap interval")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
-__all__ = ["PAPER", "heldout_stats", "leaderboard", "markdown", "plot", "write_csv"]
+    means = np.array([[b[short] for b in board] for short in ("poi", "nim")], dtype=float)
+    ci = np.array([[b[f"{short}_ci"] for b in board] for short in ("poi", "nim")], dtype=float)
+    err = [np.vstack([np.nan_to_num(means[k] - ci[k, :, 0]), np.nan_to_num(ci[k, :, 1] - means[k])])
+           for k in (0, 1)]  # fmt: skip
+    bars(path, "pacc bench: mean over drivers, 95 % bootstrap interval",
+         [b["method"] for b in board], [("", means, err)])  # fmt: skip

@@ -1,17 +1,8 @@
 """``pacc bench``: every selected method on a suite that is hard to overfit.
 
-The suite: ``K`` population seeds **drawn fresh at run time** (``secrets``; printed and
-stored in ``OUT/bench.json``, never a fixed report seed) with ``N`` drivers each, Table I's
-d1..d5, and the real human follower pairs (the OpenACC pairs shipped; any CSV of the same
-columns). Two parts, each resumable, on one executor (:mod:`cloud_sync.engine`):
-
-- closed loop (``OUT/drives``): a study (:mod:`pacc.study.pipeline`) of every
-  method on the drawn and built-in drivers — PoI, NIM, min TTC, collisions;
-- held out (``OUT/heldout``): each learner of the methods against the empirical baseline on
-  the real, built-in and drawn drivers (:mod:`pacc.study.bench.heldout`).
-
-The leaderboard (:mod:`pacc.study.bench.leaderboard`) goes to ``OUT/leaderboard.md``,
-``.csv`` and ``.png``. A second run into the same folder resumes with the stored seeds.
+Population seeds drawn fresh at run time (stored in ``OUT/bench.json``), d1..d5 and the real
+OpenACC pairs; two resumable parts on one executor: the closed loop (``OUT/drives``, a study)
+and the held-out gap error (``OUT/heldout``); then ``leaderboard.md``, ``.csv``, ``.png``.
 """
 
 from __future__ import annotations
@@ -77,16 +68,8 @@ def stored_options(out: Path) -> BenchOptions | None:
         return None
     try:
         raw = json.loads(path.read_text(encoding="utf-8"))
-        return BenchOptions(
-            seeds=tuple(raw["seeds"]),
-            drivers_per_seed=int(raw["drivers_per_seed"]),
-            builtin=bool(raw["builtin"]),
-            scenarios=tuple(raw["scenarios"]),
-            duration_s=raw["duration_s"],
-            trials=int(raw["trials"]),
-            csvs=tuple(raw["csvs"]),
-            methods=tuple(raw["methods"]),
-        )
+        tuples = {k: tuple(raw[k]) for k in ("seeds", "scenarios", "csvs", "methods")}
+        return BenchOptions(**{**raw, **tuples})
     except (OSError, ValueError, KeyError, TypeError) as exc:
         raise StudyFileError(f"{path} is damaged ({exc}): use another --out") from exc
 
@@ -171,6 +154,3 @@ def header(opts: BenchOptions, rows: Sequence[Mapping[str, Any]]) -> str:
         f"{opts.duration_s or 'full'} s, {opts.trials} trial(s); held out: the OpenACC pairs "
         f"shipped{' and ' + ', '.join(opts.csvs) if opts.csvs else ''}, 70 % train / 30 % test"
     )
-
-
-__all__ = ["DEFAULT_METHODS", "BenchOptions", "fresh_seeds", "run_bench", "stored_options"]
