@@ -245,14 +245,15 @@ class TakeoverScales:
     """The three scales of the ``people`` population's takeover prior, fitted on one seed to
     the paper's four PoI averages only (``python -m tools.calibration people``) and frozen."""
 
-    mismatch: float  # × the ACC-vs-manual offset prior N(MISMATCH_MEAN_S, MISMATCH_SD_S)
+    mismatch: float  # × the ACC-vs-manual offset prior N(MISMATCH_MEAN_S, MISMATCH_SD_S),
+    # clipped to MISMATCH_RANGE_S after scaling
     taps_per_min: float  # mean rate of presses that are not about the gap, per min
     press_s: float  # median of a press not about the gap, and of the longest press beyond
     # press_min_s, s
 
 
 #: frozen after the fit (docs/drivers.md names the seed it was fitted on)
-PEOPLE_SCALES = TakeoverScales(mismatch=2.0, taps_per_min=1.8, press_s=1.0)
+PEOPLE_SCALES = TakeoverScales(mismatch=1.3, taps_per_min=1.8, press_s=0.7)
 #: the populations by name; ``headway`` (the steady-state calibration alone) is the older one
 POPULATIONS = ("headway", "people")
 DEFAULT_POPULATION = "people"
@@ -267,8 +268,9 @@ def people_driver(
     accel, decel, reaction = (
         _lognormal(rng, med, sd, 0.25 * med, 4.0 * med) for med, sd in FOLLOWING_PRIOR.values()
     )
-    offset = scales.mismatch * _clip(
-        MISMATCH_MEAN_S + MISMATCH_SD_S * float(rng.standard_normal()), *MISMATCH_RANGE_S
+    offset = _clip(
+        scales.mismatch * (MISMATCH_MEAN_S + MISMATCH_SD_S * float(rng.standard_normal())),
+        *MISMATCH_RANGE_S,
     )
     taps = scales.taps_per_min * math.exp(0.5 * float(rng.standard_normal()) - 0.125)
     return dataclasses.replace(
