@@ -80,6 +80,7 @@ def test_bad_population_refused() -> None:
 def test_people_population_keeps_the_preference_and_draws_habits() -> None:
     base = draw_population(40, 3, population="headway")
     people = draw_population(40, 3, population="people")
+    assert all(b.acc_offset_s == 0.0 == b.trip_shift_sd_s for b in base)  # headway: no mismatch
     assert people == draw_population(40, 3, population="people")
     for b, p in zip(base, people, strict=True):
         assert (p.headway_s, p.standstill_m) == (b.headway_s, b.standstill_m)
@@ -93,5 +94,3 @@ def test_people_population_keeps_the_preference_and_draws_habits() -> None:
     assert people_driver(base[0], 3, 0) == people[0]
     with pytest.raises(DriverError, match="unknown population"):
         draw_population(2, 3, population="robots")
-    with pytest.raises(DriverError, match="own mismatch"):
-        draw_population(2, 3, mismatch=1.0, population="people")
