@@ -158,7 +158,8 @@ def nearest_setting(headway_s: float) -> str:
 
 
 #: the manual-vs-ACC mismatch prior: the time gap wanted under ACC minus the one kept by
-#: hand, N(mean, sd) s clipped (docs/drivers.md: direction from field tests, size thin)
+#: hand, scale·N(mean, sd) s clipped to the range (docs/drivers.md: direction from field
+#: tests, bounds from reported ACC headways, size fitted)
 MISMATCH_MEAN_S = 0.3
 MISMATCH_SD_S = 0.3
 MISMATCH_RANGE_S = (-0.5, 1.0)
