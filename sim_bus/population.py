@@ -158,32 +158,16 @@ def nearest_setting(headway_s: float) -> str:
 
 
 #: the manual-vs-ACC mismatch prior: the time gap wanted under ACC minus the one kept by
-#: hand, N(mean, sd) s clipped (docs/drivers.md: direction from field tests, size thin)
+#: hand, scale·N(mean, sd) s clipped to the range (docs/drivers.md: direction from field
+#: tests, bounds from reported ACC headways, size fitted)
 MISMATCH_MEAN_S = 0.3
 MISMATCH_SD_S = 0.3
 MISMATCH_RANGE_S = (-0.5, 1.0)
 
 
-def mismatch_offset_s(seed: int, index: int, scale: float) -> float:
-    """Driver ``index``'s ACC time-gap offset (s) at mismatch ``scale`` (0: none, 1: the
-    prior, 2: twice it): ``scale · clip(N(MISMATCH_MEAN_S, MISMATCH_SD_S))``, from its own
-    random stream (the rest of the driver does not change with the scale)."""
-    if scale == 0.0:
-        return 0.0
-    z = float(np.random.default_rng([seed, index, 0x6D6D]).standard_normal())
-    return scale * _clip(MISMATCH_MEAN_S + MISMATCH_SD_S * z, *MISMATCH_RANGE_S)
-
-
-def draw_driver(
-    prior: PopulationPrior,
-    seed: int,
-    index: int,
-    mismatch: float = 0.0,
-    trip_shift_sd_s: float = 0.0,
-) -> DriverParams:
-    """Driver ``index`` of population ``seed``: a pure function of (prior, seed, index,
-    mismatch, trip shift). ``mismatch``: the scale of the manual-vs-ACC offset
-    (:func:`mismatch_offset_s`); ``trip_shift_sd_s``: its between-trip shift, s."""
+def draw_driver(prior: PopulationPrior, seed: int, index: int) -> DriverParams:
+    """Driver ``index`` of population ``seed`` (``headway``: no ACC-vs-manual mismatch): a pure
+    function of (prior, seed, index)."""
     rng = np.random.default_rng([seed, index, 0x706F70])
     level = math.exp(prior.log_headway_mean + prior.log_headway_sd * float(rng.standard_normal()))
     slope = prior.slope_mean_s_per_mps + prior.slope_sd_s_per_mps * float(rng.standard_normal())
@@ -199,7 +183,6 @@ def draw_driver(
     press_min = float(rng.uniform(0.3, 0.6))
     drifting = rng.random() < 0.2
     tapping = rng.random() < 0.2
-    offset = max(mismatch_offset_s(seed, index, mismatch), 0.3 - min(heads))
     return DriverParams(
         driver_id=f"p{seed}-{index:04d}",
         description=f"drawn driver {index} of population seed {seed}",
@@ -224,8 +207,6 @@ def draw_driver(
         accel_noise_mps2=float(rng.uniform(0.1, 0.3)),
         spurious_press_per_min=float(rng.uniform(0.2, 1.0)) if tapping else 0.0,
         predefined_setting=nearest_setting(float(np.mean(heads))),  # type: ignore[arg-type]
-        acc_offset_s=round(offset, 4),
-        trip_shift_sd_s=trip_shift_sd_s,
     )
 
 
@@ -245,14 +226,15 @@ class TakeoverScales:
     """The three scales of the ``people`` population's takeover prior, fitted on one seed to
     the paper's four PoI averages only (``python -m tools.calibration people``) and frozen."""
 
-    mismatch: float  # × the ACC-vs-manual offset prior N(MISMATCH_MEAN_S, MISMATCH_SD_S)
+    mismatch: float  # × the ACC-vs-manual offset prior N(MISMATCH_MEAN_S, MISMATCH_SD_S),
+    # clipped to MISMATCH_RANGE_S after scaling
     taps_per_min: float  # mean rate of presses that are not about the gap, per min
     press_s: float  # median of a press not about the gap, and of the longest press beyond
     # press_min_s, s
 
 
 #: frozen after the fit (docs/drivers.md names the seed it was fitted on)
-PEOPLE_SCALES = TakeoverScales(mismatch=2.0, taps_per_min=1.8, press_s=1.0)
+PEOPLE_SCALES = TakeoverScales(mismatch=1.3, taps_per_min=1.8, press_s=0.7)
 #: the populations by name; ``headway`` (the steady-state calibration alone) is the older one
 POPULATIONS = ("headway", "people")
 DEFAULT_POPULATION = "people"
@@ -267,8 +249,9 @@ def people_driver(
     accel, decel, reaction = (
         _lognormal(rng, med, sd, 0.25 * med, 4.0 * med) for med, sd in FOLLOWING_PRIOR.values()
     )
-    offset = scales.mismatch * _clip(
-        MISMATCH_MEAN_S + MISMATCH_SD_S * float(rng.standard_normal()), *MISMATCH_RANGE_S
+    offset = _clip(
+        scales.mismatch * (MISMATCH_MEAN_S + MISMATCH_SD_S * float(rng.standard_normal())),
+        *MISMATCH_RANGE_S,
     )
     taps = scales.taps_per_min * math.exp(0.5 * float(rng.standard_normal()) - 0.125)
     return dataclasses.replace(
@@ -290,24 +273,17 @@ def draw_population(
     n: int,
     seed: int,
     prior: PopulationPrior | None = None,
-    mismatch: float = 0.0,
-    trip_shift_sd_s: float = 0.0,
     population: str = DEFAULT_POPULATION,
 ) -> tuple[DriverParams, ...]:
-    """``n`` drivers of population ``seed`` (ids ``p<seed>-0000`` …); DriverError if n < 1,
-    the mismatch scale is outside 0..3, the trip shift outside 0..1 s, or ``population``
-    unknown. ``people``: the ``headway`` drivers with :func:`people_driver`'s habits (the
-    mismatch and trip shift are then the prior's: the arguments must be 0)."""
+    """``n`` drivers of population ``seed`` (ids ``p<seed>-0000`` …); DriverError if n < 1 or
+    ``population`` is unknown. ``people``: the ``headway`` drivers with :func:`people_driver`'s
+    dynamics and takeover habits (its mismatch and trip shift are the prior's)."""
     if n < 1 or seed < 0:
         raise DriverError(f"a population needs n >= 1 drivers and a seed >= 0, got {n}, {seed}")
-    if not (0.0 <= mismatch <= 3.0 and 0.0 <= trip_shift_sd_s <= 1.0):
-        raise DriverError("the mismatch scale must lie in 0..3 and the trip shift in 0..1 s")
     if population not in POPULATIONS:
         raise DriverError(f"unknown population {population!r}: one of {list(POPULATIONS)}")
-    if population == "people" and (mismatch or trip_shift_sd_s):
-        raise DriverError("the people population draws its own mismatch and trip shift")
     p = prior if prior is not None else shipped_prior()
-    drivers = (draw_driver(p, seed, i, mismatch, trip_shift_sd_s) for i in range(n))
+    drivers = (draw_driver(p, seed, i) for i in range(n))
     if population == "people":
         return tuple(people_driver(d, seed, i) for i, d in enumerate(drivers))
     return tuple(drivers)
@@ -326,7 +302,6 @@ __all__ = [
     "calibrate",
     "draw_driver",
     "draw_population",
-    "mismatch_offset_s",
     "nearest_setting",
     "people_driver",
     "shipped_prior",

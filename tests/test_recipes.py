@@ -381,10 +381,9 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
                 "[--duration 120] [--cache DIR]",
                 "a synopsis",
             ),
-            skip("[--mismatch S] [--trip-shift SD]", "a synopsis"),
             skip(
-                "pacc study --population 100 --seed 2 --out out/pop2 --cache out/cache",
-                "hours; tests/pacc/test_study_population.py runs a small population",
+                "pacc study --population 20 --seed 884094 --out out/pop --cache out/cache",
+                "minutes; tests/pacc/test_study_population.py runs a small population",
             ),
         ],
     ),

@@ -5,7 +5,8 @@ NIM) of N drivers of the ``people`` population of SEED with the three takeover s
 (default: the frozen ``PEOPLE_SCALES``), 120-s drives of scenario B (or SCENARIO; the rows to
 DRIVES_CSV, for ``pacc validate people``): what the scales were fitted with, on one seed, to
 the paper's four PoI averages. ``kinds SEED``: the three held-out driver kinds, 3 drives
-each per controller. Without a sub-command:
+each per controller. ``trace SEED N``: why IRL draws presses (:func:`trace`). Without a
+sub-command:
 
 Measures the steady-state time gap (gap / follower speed, samples with |v_lead − v| < 0.5 m/s)
 per 5 m/s speed band, median per follower: for each real human-driven pair of the shipped
@@ -17,13 +18,16 @@ tool, run from the repository root; not part of the installed package.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy import stats
 
 from cloud_sync.engine import map_unordered, open_executor
+from dbc.vocab.dgpt import Dgpt, clamp_to_bounds
 from pacc.study.pipeline import make_tables, plan, run_one
 from pacc.study.report import write_csv
 from pacc.study.spec import StudySpec, table1_method
@@ -148,22 +152,40 @@ HELD_OUT_KINDS = (
 )
 
 
+def manual_view(driver: DriverParams) -> DriverParams:
+    """``driver`` without what only shows under ACC (offset, taps, press lengths): its manual
+    trips, hence its IRL table, are the same, so a table learned once serves every scale."""
+    return dataclasses.replace(
+        driver, acc_offset_s=0.0, spurious_press_per_min=0.0, tap_s=0.3,
+        press_max_s=driver.press_min_s + 1.0,
+    )  # fmt: skip
+
+
 def run_drivers(
     drivers: list[DriverParams],
     seed: int,
     controllers: tuple[str, ...] = CONTROLLERS,
     trials: int = 1,
     scenario: str = "B",
+    irl_from: str = "learned",
 ) -> list[dict[str, Any]]:
     """Every drive (120 s) of ``drivers`` under ``controllers`` in ``scenario``, two processes
-    (the study pipeline's tables and drives, IRL learned in-process)."""
+    (the study pipeline's tables and drives; IRL learned in-process from :func:`manual_view`,
+    cached in the default cache folder). ``irl_from`` ``manual``/``acc``: the IRL table is the
+    driver's own manual or ACC preference instead (what a perfect learner would give)."""
     spec = StudySpec(
         drivers=(), scenarios=(scenario,), methods=tuple(table1_method(c) for c in controllers),
         trials=trials, seed=seed, duration_s=120.0, learn_in="direct", logs=False,
     )  # fmt: skip
     by_id = {d.driver_id: d for d in drivers}
     with open_executor(None, 2) as executor:
-        tables = make_tables(spec, by_id, Path(), executor, None)
+        views = {i: manual_view(d) for i, d in by_id.items()}
+        tables = make_tables(spec, views, Path(), executor, None)
+        for (i, key), t in list(tables.items()):
+            d = by_id[i]
+            if irl_from != "learned" and isinstance(t, Dgpt) and t.source != "predefined":
+                pref = d.preferred_gap_m if irl_from == "manual" else d.acc_preferred_gap_m
+                tables[(i, key)] = t.with_gaps(clamp_to_bounds(t.speed_mps, pref(t.speed_mps)))
         drives = plan(spec, by_id, tables, Path())
         rows = dict(map_unordered(executor, run_one, drives))
     return [rows[i] for i in sorted(rows)]
@@ -180,18 +202,42 @@ def averages(rows: list[dict[str, Any]]) -> str:
     return "\n".join(out)
 
 
+def trace(drivers: list[DriverParams], seed: int) -> str:
+    """Why IRL draws presses: per controller the mean PoI, IRL with the learned table, with the
+    driver's manual preference and with its ACC preference, and what IRL's PoI follows."""
+    rows = run_drivers(drivers, seed, ("predefined", "irl"))
+    rows += [dict(r, controller=f"irl={src}") for src in ("manual", "acc")
+             for r in run_drivers(drivers, seed, ("irl",), irl_from=src)]  # fmt: skip
+    poi = {(r["driver"], r["controller"]): float(r["poi_pct"]) for r in rows}
+    irl = np.array([poi[(d.driver_id, "irl")] for d in drivers])
+    pre = np.array([poi[(d.driver_id, "predefined")] for d in drivers])
+    offset = np.array([abs(d.acc_offset_s) for d in drivers])
+    far = np.array([abs(d.predefined_headway_s - float(np.mean(d.headway_s)) - d.acc_offset_s)
+                    for d in drivers])  # fmt: skip
+    return "\n".join([
+        averages(rows),
+        f"IRL below Predefined for {int((irl < pre).sum())} of {len(drivers)} drivers",
+        f"Spearman: IRL PoI vs |ACC offset| {stats.spearmanr(irl, offset)[0]:.2f}; "
+        f"Predefined PoI vs |setting - ACC headway| {stats.spearmanr(pre, far)[0]:.2f}",
+        f"|ACC offset| s: mean {offset.mean():.2f}, max {offset.max():.2f}",
+    ])  # fmt: skip
+
+
 def main(argv: list[str] | None = None) -> int:
     """Print the calibration table, a people run's averages, or the held-out kinds."""
     argv = sys.argv[1:] if argv is None else argv
     if argv and argv[0] == "people":
         seed, n = int(argv[1]), int(argv[2])
         scales = TakeoverScales(*(float(x) for x in argv[3:6])) if len(argv) > 5 else PEOPLE_SCALES
-        base = draw_population(n, seed)
+        base = draw_population(n, seed, population="headway")
         drivers = [people_driver(d, seed, i, scales) for i, d in enumerate(base)]
         rows = run_drivers(drivers, seed, scenario=argv[7] if len(argv) > 7 else "B")
         print(averages(rows))
         if len(argv) > 6:
             write_csv(Path(argv[6]), rows)
+        return 0
+    if argv and argv[0] == "trace":
+        print(trace(list(draw_population(int(argv[2]), int(argv[1]))), int(argv[1])))
         return 0
     if argv and argv[0] == "kinds":
         seed = int(argv[1])

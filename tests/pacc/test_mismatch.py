@@ -1,4 +1,4 @@
-"""The manual-vs-ACC mismatch, the trip shift and the conditions of drawn drivers."""
+"""The ACC-vs-manual offset, the trip shift and the conditions of a driver."""
 
 from __future__ import annotations
 
@@ -11,27 +11,6 @@ from dbc.vocab.acc_state import AccState
 from sim_bus.behaviour import DriverAgent
 from sim_bus.drivers import BUILTIN_DRIVERS, CONDITION_FACTORS, DriverParams
 from sim_bus.errors import DriverError
-from sim_bus.population import MISMATCH_MEAN_S, draw_population
-
-
-def test_mismatch_zero_is_the_population_as_before_and_scale_moves_only_the_offset() -> None:
-    base = draw_population(20, 5, population="headway")
-    zero = draw_population(20, 5, mismatch=0.0, population="headway")
-    assert base == zero and all(d.acc_offset_s == 0.0 for d in base)
-    one = draw_population(20, 5, mismatch=1.0, population="headway")
-    two = draw_population(20, 5, mismatch=2.0, population="headway")
-    for b, o, t in zip(base, one, two, strict=True):
-        assert dataclasses.replace(o, acc_offset_s=0.0) == b  # nothing else moves
-        if t.acc_offset_s > 0.3 - min(t.headway_s) + 1e-3:  # not at the 0.3-s floor
-            assert t.acc_offset_s == pytest.approx(2 * o.acc_offset_s, abs=1e-3)
-
-
-def test_the_prior_leans_toward_longer_acc_gaps() -> None:
-    offsets = np.array(
-        [d.acc_offset_s for d in draw_population(300, 9, mismatch=1.0, population="headway")]
-    )
-    assert abs(offsets.mean() - MISMATCH_MEAN_S) < 0.06
-    assert (offsets < 0).mean() < 0.25 and offsets.max() <= 1.0 + 1e-9
 
 
 def test_the_acc_preference_adds_the_offset_as_a_time_gap() -> None:

@@ -12,7 +12,9 @@ from sim_bus.drivers import DriverParams
 from sim_bus.errors import DriverError
 from sim_bus.population import (
     BREAKPOINTS_MPS,
+    MISMATCH_RANGE_S,
     PEOPLE_SCALES,
+    TakeoverScales,
     band_headways,
     calibrate,
     draw_driver,
@@ -78,16 +80,17 @@ def test_bad_population_refused() -> None:
 def test_people_population_keeps_the_preference_and_draws_habits() -> None:
     base = draw_population(40, 3, population="headway")
     people = draw_population(40, 3, population="people")
+    assert all(b.acc_offset_s == 0.0 == b.trip_shift_sd_s for b in base)  # headway: no mismatch
     assert people == draw_population(40, 3, population="people")
     for b, p in zip(base, people, strict=True):
         assert (p.headway_s, p.standstill_m) == (b.headway_s, b.standstill_m)
         assert p.tap_s >= 0.3 and p.press_max_s > p.press_min_s and p.trip_shift_sd_s > 0
     offsets = np.array([p.acc_offset_s for p in people])
     assert 0.1 < offsets.mean() < 0.3 * PEOPLE_SCALES.mismatch + 0.2  # prior N(0.3, 0.3)·scale
+    wide = [people_driver(b, 3, i, TakeoverScales(3.0, 1.0, 1.0)) for i, b in enumerate(base)]
+    assert max(p.acc_offset_s for p in wide) == MISMATCH_RANGE_S[1]  # clipped after scaling
     taps = np.array([p.spurious_press_per_min for p in people])
     assert abs(np.median(taps) - PEOPLE_SCALES.taps_per_min) < 0.5 * PEOPLE_SCALES.taps_per_min
     assert people_driver(base[0], 3, 0) == people[0]
     with pytest.raises(DriverError, match="unknown population"):
         draw_population(2, 3, population="robots")
-    with pytest.raises(DriverError, match="own mismatch"):
-        draw_population(2, 3, mismatch=1.0, population="people")

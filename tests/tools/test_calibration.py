@@ -8,8 +8,9 @@ import pytest
 from sim_bus.dataset import load_human_pairs
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.lead.profile import LeadProfile
-from sim_bus.lead.scenarios import shorten
+from sim_bus.lead.scenarios import canonical_profiles, shorten
 from sim_bus.manual import manual_trip
+from sim_bus.population import draw_population
 from tools import calibration
 from tools.calibration import headway_by_band
 
@@ -72,3 +73,13 @@ def test_averages_and_held_out_kinds() -> None:
     heads = {d.driver_id: d.headway_s for d in calibration.HELD_OUT_KINDS}
     assert list(heads) == ["nonmono", "slowpress", "brief"]
     assert heads["nonmono"][1] > heads["nonmono"][2] < heads["nonmono"][3]  # dips and rises
+
+
+def test_a_manual_view_drives_by_hand_exactly_as_its_driver() -> None:
+    """The IRL table learned from the manual view serves the driver at every takeover scale."""
+    profile = shorten(canonical_profiles(3)["manual2"], 60.0)
+    for d in draw_population(3, 3):
+        view = calibration.manual_view(d)
+        assert view != d and view.acc_offset_s == 0.0
+        a, b = manual_trip(d, profile, 5), manual_trip(view, profile, 5)
+        assert np.array_equal(a.gap_m, b.gap_m) and np.array_equal(a.v_mps, b.v_mps)
