@@ -1,17 +1,9 @@
-"""Column-wise decoding of many frames of one DBC message, and what its columns mean.
+"""Column-wise decoding of many frames of any DBC message (bound or not), for the bus recorder.
 
-The bus recorder (:mod:`ecu.buslog.writer`) decodes a block of frames at a time: the payloads of one
-message become an ``(n, 8)`` byte array, read as one 64-bit integer per frame (little- or
-big-endian, as the signal), and each signal is a shift, a mask, a sign extension and
-``raw * scale + offset`` over the whole column (numpy). The arithmetic is cantools' own
-(``raw * scale + offset`` in float64; integers when scale is 1 and offset 0, or both are
-integers), so the values equal ``cantools``' ``Message.decode(data, decode_choices=False)``
-frame by frame (tested). Messages this cannot vectorise — multiplexed ones, IEEE float
-signals, payloads longer than 8 bytes — are decoded frame by frame with cantools, with NaN
-for a signal a frame does not carry.
-
-Works on the cantools message itself, not on pacc's binding: every message of any DBC gets
-a decoded channel, bound or not.
+A block of payloads becomes one 64-bit integer per frame; each signal is a shift, a mask, a
+sign extension and cantools' own ``raw * scale + offset`` over the column (numpy), so values
+equal cantools' ``decode(data, decode_choices=False)`` (tested). Multiplexed, float and
+longer-than-8-byte messages are decoded frame by frame with cantools (NaN: not carried).
 """
 
 from __future__ import annotations
@@ -70,11 +62,7 @@ def _column(signal: Any) -> _SignalColumn:
 
 
 class MessageColumns:
-    """The decoder of one cantools message over blocks of payloads.
-
-    Args:
-        message: a ``cantools.database.can.Message``.
-    """
+    """The decoder of one cantools message over blocks of payloads."""
 
     def __init__(self, message: Any) -> None:
         self.message = message
@@ -90,9 +78,8 @@ class MessageColumns:
         self._columns = tuple(_column(s) for s in message.signals) if self.vectorised else ()
 
     def decode(self, payloads: Sequence[bytes]) -> dict[str, np.ndarray]:
-        """Every signal of the message over ``payloads`` (each exactly ``length`` bytes),
-        physical values, arrays of shape ``(len(payloads),)``: int64 where cantools gives
-        integers, else float64 (NaN: a signal the frame does not carry)."""
+        """Every signal over ``payloads`` (each ``length`` bytes), physical values, arrays
+        (n,): int64 where cantools gives integers, else float64 (NaN: not carried)."""
         if not self.vectorised:
             return self._decode_each(payloads)
         n = len(payloads)
@@ -148,8 +135,8 @@ def _signal_description(signal: Any) -> str:
 
 
 def message_columns(columns: MessageColumns) -> dict[str, tuple[str, str]]:
-    """Column name -> (dtype, description) of a decoded block of ``columns``' message: the
-    time ``t_s`` and every signal with its unit, range, choices and comment from the DBC."""
+    """Column name -> (dtype, description) of a decoded block: ``t_s`` and every signal with
+    its unit, range, choices and comment from the DBC."""
     out = {TIME_KEY: ("<f8", "receive/send time of each frame on the recording node's clock, s")}
     dtypes = columns.dtypes()
     for signal in columns.message.signals:

@@ -1,11 +1,8 @@
-"""One bound message's encoder and decoder, compiled once into straight-line Python.
-
-For a message of the binding (one part of a role), :class:`MessageCodec` generates an
-encoder and a decoder: shifts and masks on one integer and an unrolled table CRC, which is
-what makes them several times faster than cantools' generic ``Message.encode``/``decode``.
-Encoding fills the alive counter and the checksum; decoding checks length, checksum and
-ranges and raises a :class:`~dbc.errors.DecodeError` subclass. :mod:`dbc.codec` puts the
-messages of a whole network together.
+"""One bound message's encoder and decoder, generated once as straight-line Python (shifts and
+masks on one integer, an unrolled table CRC: several times cantools' speed). Encoding fills
+the alive counter and checksum; decoding checks length, checksum and ranges, raising a
+:class:`~dbc.errors.DecodeError` subclass. ``tools/compile.py`` may compile the same source
+ahead (mypyc: ``dbc._compiled_codecs``).
 """
 
 from __future__ import annotations
@@ -34,9 +31,8 @@ Value = float | int
 
 
 def _compiled_factories() -> dict[str, Any]:
-    """Source text -> factory of the (encode, decode) pair compiled from it, from the module
-    ``dbc._compiled_codecs`` that ``tools/compile.py`` generates and compiles (the packaged
-    network's messages); empty where there is none (the plain, pure-Python install)."""
+    """Source text -> factory of its compiled (encode, decode) pair from
+    ``dbc._compiled_codecs`` (empty in the pure-Python install)."""
     try:
         module = importlib.import_module("dbc._compiled_codecs")
     except ModuleNotFoundError as exc:
@@ -65,14 +61,10 @@ class Decoded(NamedTuple):
 class MessageCodec:
     """Compiled encoder/decoder of one bound message (one part of a role).
 
-    Attributes:
-        role: logical role (``"radar"``); key: the role for its first message,
-        ``role#i`` for its i-th further one (the key of its alive counter and E2E state);
-        name: DBC message name; frame_id: CAN id; length: DLC in bytes; cycle_s: period
-        (binding ``cycle_ms`` or GenMsgCycleTime, s, 0 if none); fields: logical field
-        names in DBC order; checksum: its kind (:mod:`dbc.checksums`); protected: carries
-        a checksum; crc_byte: index of the byte holding the checksum (None: none);
-        counter_modulo: alive counter period (0: no counter); data_id: 16-bit E2E data id.
+    Attributes: ``role``; ``key`` (the role, ``role#i`` for its i-th further message: its
+    counter's and E2E state's key); ``name``, ``frame_id``, ``length`` (bytes); ``cycle_s``
+    (s, 0: none); ``fields`` (DBC order); ``checksum`` kind; ``crc_byte`` (None: none);
+    ``counter_modulo`` (0: no counter); ``data_id`` (16-bit E2E data id).
     """
 
     def __init__(self, message: Any, part: PartBinding, role: str, key: str | None = None) -> None:
@@ -108,8 +100,7 @@ class MessageCodec:
         self._cs_fn: checksums.Checksum | None = None
         if part.checksum_signal is not None:
             self._bind_checksum(message.get_signal_by_name(part.checksum_signal))
-        # not ``self._cs is not None``: mypy narrows ``self._cs`` to None after the line that
-        # sets it, which a mypyc build would check (and refuse) at run time
+        # not ``self._cs is not None``: mypy narrows it to None, which mypyc would enforce
         self.protected = part.checksum_signal is not None
         self._counter: FieldLayout | None = None
         self.counter_modulo = 0

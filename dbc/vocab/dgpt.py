@@ -1,14 +1,10 @@
-"""The Driving Gap Preference Table (DGPT): the desired gap to the lead per ego speed.
+"""The Driving Gap Preference Table (DGPT): the desired gap to the lead (m) per ego speed.
 
-A table holds a uniform speed axis from 0 to 40 m/s (step at most 0.5 m/s) and one desired
-bumper-to-bumper gap per speed bin. Between bins the gap is interpolated linearly; beyond the
-axis it is held at the end values. Tables carry their provenance: a version (incremented by
-every change), the driver id, a driving-condition tag, the source (``predefined``, ``irl``,
-``adapted``), an ISO 8601 creation time and free-form metadata.
-
-A table is valid by construction: the shapes, the axis, finite values and every gap within
-:class:`SafetyBounds` are checked when it is built, else :class:`DgptError`. Its file format
-(JSON, on bytes, streams or paths) is :mod:`dbc.vocab.dgpt_file`.
+A uniform speed axis 0..40 m/s (step <= 0.5 m/s), one bumper-to-bumper gap per bin,
+interpolated linearly and held beyond the ends, with its provenance (version, driver,
+condition, source, creation time, meta). Valid by construction (shapes, axis, finite values;
+:class:`SafetyBounds` where asked), else :class:`DgptError`. File format:
+:mod:`dbc.vocab.dgpt_file`.
 """
 
 from __future__ import annotations
@@ -54,13 +50,9 @@ def utc_now_iso() -> str:
 
 @dataclass(frozen=True)
 class SafetyBounds:
-    """The safe region of a DGPT, as time gaps plus standstill distances.
-
-    ``lower_m(v) = standstill_min_m + headway_min_s * v`` and
-    ``upper_m(v) = standstill_max_m + headway_max_s * v`` (v in m/s, result in m).
-    ``standstill_m`` is the nominal standstill distance d0 used to build predefined tables
-    and by the adaptation's safety filter.
-    """
+    """The safe region of a DGPT: ``standstill_min_m + headway_min_s * v`` to
+    ``standstill_max_m + headway_max_s * v`` (v m/s, gaps m); ``standstill_m`` is the nominal
+    standstill distance d0 (predefined tables, the adaptation's safety filter)."""
 
     standstill_m: float = 4.0
     headway_min_s: float = 0.8
@@ -170,19 +162,9 @@ def clamp_to_bounds(
 
 @dataclass(frozen=True, eq=False)
 class Dgpt:
-    """A Driving Gap Preference Table (immutable; arrays are read-only).
-
-    Attributes:
-        speed_mps: uniform speed axis, shape ``(n,)``, 0..40 m/s, step <= 0.5 m/s.
-        gap_m: desired bumper-to-bumper gap per speed bin, shape ``(n,)``, metres.
-        version: incremented by every change (:meth:`with_gaps`), 0 to :data:`MAX_VERSION`.
-        driver_id: whose preference this is (a :data:`PLAIN_NAME` in a file).
-        condition: driving-condition tag (weather/traffic/road), e.g. ``"default"`` (plain
-            in a file).
-        source: ``"predefined"``, ``"irl"`` or ``"adapted"``.
-        created_utc: ISO 8601 creation time.
-        meta: free-form JSON-serialisable metadata.
-    """
+    """A DGPT (immutable, read-only arrays): ``speed_mps`` (n,) axis, m/s; ``gap_m`` (n,)
+    gaps, m; ``version`` 0..:data:`MAX_VERSION`, +1 per change; ``driver_id`` and
+    ``condition`` (plain names in a file); ``source``; ``created_utc`` ISO 8601; ``meta``."""
 
     speed_mps: FloatArray
     gap_m: FloatArray
@@ -211,7 +193,7 @@ class Dgpt:
         object.__setattr__(self, "speed_mps", speed)
         object.__setattr__(self, "gap_m", gap)
         object.__setattr__(self, "version", int(self.version))
-        # Scalar fast path for lookup(): Python floats avoid numpy call overhead per cycle.
+        # lookup()'s scalar fast path: Python floats, no numpy call per control cycle
         object.__setattr__(self, "_v0", float(speed[0]))
         object.__setattr__(self, "_dv", float(speed[1] - speed[0]))
         object.__setattr__(self, "_gaps", tuple(float(g) for g in gap))
@@ -226,11 +208,8 @@ class Dgpt:
     @overload
     def lookup(self, v_mps: FloatArray) -> FloatArray: ...
     def lookup(self, v_mps: float | FloatArray) -> float | FloatArray:
-        """Desired gap (m) at speed ``v_mps``: linear interpolation, ends held.
-
-        A Python/NumPy scalar gives a float (a fast path used by the control loop); an array
-        of any shape gives an array of the same shape. A NaN speed gives NaN.
-        """
+        """Desired gap (m) at speed ``v_mps`` (m/s; a scalar or an array of any shape),
+        interpolated linearly, ends held; NaN gives NaN."""
         if isinstance(v_mps, np.ndarray):
             return cast(FloatArray, np.interp(v_mps, self.speed_mps, self.gap_m))
         gaps: tuple[float, ...] = self._gaps  # type: ignore[attr-defined]
@@ -266,10 +245,8 @@ class Dgpt:
         created_utc: str | None = None,
         meta: dict[str, Any] | None = None,
     ) -> Dgpt:
-        """A copy with new gaps (shape ``(n,)``), ``version + 1`` and the given source.
-
-        ``meta`` replaces the metadata when given (default: a copy of this table's).
-        """
+        """A copy with new gaps (n,), m, ``version + 1``, ``source`` and ``meta`` (default: a
+        copy of this table's)."""
         return Dgpt(
             speed_mps=self.speed_mps,
             gap_m=np.asarray(gap_m, dtype=np.float64).copy(),
@@ -310,11 +287,8 @@ def predefined(
     bounds: SafetyBounds | None = None,
     created_utc: str | None = None,
 ) -> Dgpt:
-    """A constant-time-headway table: ``gap(v) = standstill_m + headway_s * v``.
-
-    The paper's settings are 1 s (low), 3 s (medium) and 4 s (high); any headway whose table
-    stays within ``bounds`` is accepted, anything else raises :class:`DgptError`.
-    """
+    """A constant-time-headway table ``gap(v) = standstill_m + headway_s * v`` (the paper's
+    1, 3 and 4 s); :class:`DgptError` if it leaves ``bounds``."""
     if not (math.isfinite(headway_s) and math.isfinite(standstill_m)):
         raise DgptError(f"headway and standstill must be finite: {headway_s}, {standstill_m}")
     speed = speed_axis(step_mps)

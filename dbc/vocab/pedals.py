@@ -1,10 +1,8 @@
-"""The driver's pedals as fractions 0..1, scaled once from the vehicle network.
+"""The driver's pedals as fractions 0..1 of full scale, scaled once from the network.
 
-The network carries the accelerator as a position in % and the brake as the master-cylinder
-pressure in bar; the ECU's inputs, its takeover logs and the simulator's trip logs all state
-the pedals as fractions of full scale. Full scale is the upper bound of the bound field in the
-DBC (``PEDAL_Status.AccelPedalPos`` 100 %, ``PEDAL_Status.BrakePressure`` 250 bar in
-``dbc/pacc.dbc``), so one pedal has one value whoever writes the trip.
+The bus carries the accelerator in % and the brake pressure in bar; full scale is the DBC's
+upper bound of the bound field (100 %, 250 bar in ``dbc/pacc.dbc``), so the ECU's and the
+simulator's trip logs give one pedal one value.
 """
 
 from __future__ import annotations
@@ -26,12 +24,7 @@ BRAKE_FIELD = "brake_pressure_bar"
 
 @dataclass(frozen=True, slots=True)
 class PedalScale:
-    """Full-scale values of the pedal fields.
-
-    Attributes:
-        accel_full_pct: accelerator position that counts as fully pressed, %.
-        brake_full_bar: brake pressure that counts as fully pressed, bar.
-    """
+    """Full scale of the pedal fields: accelerator %, brake pressure bar."""
 
     accel_full_pct: float
     brake_full_bar: float

@@ -1,24 +1,11 @@
 """Finding methods by name: built-ins, Python entry points and ``module:attribute``.
 
-Three kinds of method plug into pacc, each behind a small interface of its own room:
-
-==================  =======================================  ==============================
-group               interface                                built-ins
-==================  =======================================  ==============================
-pacc.controllers    :class:`ecu.methods.GapController`       ``pid``
-pacc.adaptations    :class:`ecu.methods.Adaptation`          ``timegap``, ``paper``, ``bayes``
-pacc.learners       :class:`cloud_sync.learners.Learner`     ``irl``, ``empirical``, ``gp``
-==================  =======================================  ==============================
-
-A method is named by a *spec*: a built-in's name, the name of an entry point of the group
-(a package declares ``[project.entry-points."pacc.controllers"] mine = "pkg.mod:Factory"``),
-or ``pkg.mod:Factory`` directly. What the spec names is a **factory**: a callable taking the
-method's parameters as keyword arguments (a class does) and returning the method object.
-
-This module only finds factories; each room checks what they return and guards the calls
-(:mod:`ecu.methods.guard` for the control loop). Lookups of entry points are cached.
-:func:`provenance` says which installed distribution (and version) a spec's code comes from,
-so a run's manifest can name what a re-run elsewhere must install.
+Groups: ``pacc.controllers`` (:class:`ecu.methods.GapController`), ``pacc.adaptations``
+(:class:`ecu.methods.Adaptation`), ``pacc.learners`` (:class:`cloud_sync.learners.Learner`).
+A *spec* (a built-in's name, an entry point of the group, or ``pkg.mod:Factory``) names a
+factory: a callable taking the method's parameters as keywords. This module only finds
+factories (entry points cached); each room checks and guards what they return.
+:func:`provenance` names the distribution a spec's code comes from (a run's manifest).
 """
 
 from __future__ import annotations
