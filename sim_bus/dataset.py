@@ -1,8 +1,6 @@
-"""Read the shipped real-data file ``sim_bus/data/openacc_human.npz`` (built by build_dataset).
-
-Only this packaged file is read at run time. It holds the human-driven leader->follower pairs
-of the JRC OpenACC AstaZero campaign (Makridis et al., 2021) at 10 Hz.
-"""
+"""The shipped real-data file ``sim_bus/data/openacc_human.npz`` (tools/build_dataset.py): the
+human-driven leader->follower pairs of the JRC OpenACC AstaZero campaign (Makridis et al.,
+2021), 10 Hz."""
 
 from __future__ import annotations
 

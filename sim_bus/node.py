@@ -1,13 +1,9 @@
 """The simulator's bus node: plays ESC, PEDAL, RADAR and HMI, consumes ACC_Command.
 
-Frames go out at their DBC periods (ego and pedals 10 ms, radar 50 ms, hmi 100 ms) with the
-alive counter and CRC of the codec's Outbox, stamped with simulated time. ACC_Command frames
-are checked by an Inbox (E2E); the request is applied only while the command is fresh
-(``command_timeout_s``), ``request_active`` is 1 and no pedal is pressed (see world.World).
-
-Two clocks: :meth:`SimNode.step` (lockstep, one tick; the caller owns time: same seed, same
-frame sequence) and :meth:`SimNode.run_realtime` (sleeps to the wall clock).
-Fault injection (sim_bus.faults) is applied to the transmitted frames.
+Frames go out at their DBC periods through the Outbox (counter, CRC) and the role's fault plan
+(:mod:`sim_bus.faults`), stamped with simulated time; ACC_Command is E2E-checked by an Inbox
+and applied while fresh (``command_timeout_s``, s). :meth:`SimNode.step` is one lockstep tick
+(same seed, same frames); :meth:`SimNode.run_realtime` sleeps to the wall clock.
 """
 
 from __future__ import annotations
@@ -35,13 +31,8 @@ TX_ROLES = ROLES
 
 
 class SimNode:
-    """Bus I/O around a :class:`World`. ``bus`` is any python-can bus, reached through its
-    frame port (:func:`dbc.frame.port_of`: the lockstep bus's own, else python-can messages
-    converted at the edge).
-
-    ``faults``: per-role fault plans; ``rng``: the Generator for random faults (seeded by the
-    caller); ``gap_setting`` 1..3 and ``profile_id`` 0..255 are sent on HMI_Buttons.
-    """
+    """Bus I/O around a :class:`World` on any python-can ``bus`` (:func:`dbc.frame.port_of`);
+    ``rng`` draws the random faults; ``gap_setting`` 1..3 and ``profile_id`` go on the HMI."""
 
     def __init__(
         self,
@@ -89,14 +80,12 @@ class SimNode:
         self._roles = roles
         self.faults = faults  # schedules the frames (the property's setter)
         self.commands_ok = 0
-        #: called with (time, key, payload, received) for every frame in and out (a bus
-        #: recorder's :meth:`~ecu.buslog.writer.CanLogWriter.frame_raw`; :mod:`dbc.frame`)
+        #: called with (time s, key, payload, received) for every frame in and out (a recorder)
         self.tap: Callable[[float, int, Any, bool], None] | None = None
 
     @property
     def faults(self) -> FaultSpec | None:
-        """The fault plans applied to the transmitted frames (None: none); setting them
-        re-plans the frames from the next tick on."""
+        """The fault plans of the transmitted frames (None: none); setting re-plans them."""
         return self._faults
 
     @faults.setter
@@ -105,9 +94,8 @@ class SimNode:
         roles, fillers = self._roles, self._fillers
         every = {r: [max(1, round(p.cycle_s / self.dt_s)) for p in roles[r].parts] for r in roles}
         self._hyper = math.lcm(*(n for ns in every.values() for n in ns))
-        #: the frames due at tick k, ``_due[k % _hyper]``: per role due (in TX_ROLES order),
-        #: its filler (its values at this tick) and its messages due, each with its frame key
-        #: and its role's fault plan
+        #: ``_due[k % _hyper]``: per role due at tick k, its filler and its messages due (each
+        #: with its frame key and fault plan)
         self._due = [
             tuple(
                 (
@@ -160,8 +148,7 @@ class SimNode:
 
     # -- transmit -----------------------------------------------------------------------
     def _transmit(self, now: float) -> None:
-        """Send the frames due at this tick (each role's values filled once), through their
-        role's fault plan where it has one, then the delayed frames now due."""
+        """Send the frames due at this tick (through their fault plans), then delayed ones."""
         encode = self.outbox.encode_part
         put = self.port.put
         tap = self.tap
@@ -198,12 +185,8 @@ class SimNode:
         now: float,
         out: list[tuple[int, bytes]],
     ) -> None:
-        """One frame of message ``mc`` through its role's fault plan: added to ``out`` if it
-        goes out now.
-
-        One uniform draw per frame decides the random faults (``u < counter``, ``u < crc``,
-        ``u < drop``), so with one seed the same frames are hit whatever the kind.
-        """
+        """One frame of ``mc`` through its role's fault plan, into ``out`` if it goes now; one
+        uniform draw decides every random fault (one seed hits the same frames)."""
         counts = self.fault_counts
         role = mc.role
         if plan.silent_at(now):

@@ -1,13 +1,10 @@
-"""Ego vehicle longitudinal dynamics: eq. 1-2 of the paper with the sign fix of docs/paper-notes.md.
+"""Ego longitudinal dynamics: eq. 1-2 of the paper with the sign fix of docs/paper-notes.md.
 
     v[t+1] = v[t] + a[t]·Δt + σ_v·n_v
     g[t+1] = g[t] + (v_f[t] − v[t])·Δt + ½·(a_f[t] − a[t])·Δt² + σ_g·n_g
 
-with n ~ N(0, 1) scaled so that σ_v, σ_g are standard deviations per 0.1 s (the paper's
-10 Hz step) whatever the simulation step is. Between the requested acceleration and the
-actual one sits a first-order actuator lag (time constant ``actuator_tau_s``, 0 = none).
-The speed never goes below zero: at standstill a negative acceleration holds the car.
-A gap at or below zero is a collision; the plant records it, it never hides it.
+n ~ N(0, 1), σ per 0.1 s (the paper's step) whatever Δt; a first-order actuator lag
+(``actuator_tau_s``); the speed stops at zero; a gap <= 0 is a recorded collision.
 """
 
 from __future__ import annotations
@@ -122,10 +119,8 @@ def _step_floats(
 
 
 class Plant:
-    """Stateful wrapper around :func:`step` for the hot loop (floats, pre-drawn noise).
-
-    ``rng`` draws the noise in blocks; with both sigmas zero no noise is drawn at all.
-    """
+    """Stateful :func:`step` for the hot loop: floats, noise drawn from ``rng`` in blocks
+    (none with both sigmas zero)."""
 
     def __init__(self, cfg: PlantConfig, initial: PlantState, rng: np.random.Generator) -> None:
         self.cfg = cfg

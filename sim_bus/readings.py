@@ -1,11 +1,7 @@
-"""What the simulator's sensors read at a tick: each transmitted role's values off the world.
-
-The simulator's node (:class:`sim_bus.node.SimNode`) sends ESC (``ego``), PEDAL
-(``pedals``), RADAR (``radar``) and HMI (``hmi``) frames; :class:`Readings` fills each role's
-values from the simulated world once per tick, each value limited to its DBC field's bounds
-(``x`` within [lo, hi]; above: hi; below or NaN: lo), so encoding never fails. The radar
-reports no lead beyond its range or while a new track is being confirmed (a target switch of
-a road scenario, :mod:`sim_bus.lead.events`). Each role keeps one dict, updated in place.
+"""What the simulator's sensors read at a tick: each transmitted role's values off the world,
+limited to the field's DBC bounds (above: hi; below or NaN: lo) so encoding never fails. The
+radar reports no lead beyond its range or while it confirms a new track. One dict per role,
+updated in place.
 """
 
 from __future__ import annotations
@@ -21,14 +17,8 @@ __all__ = ["Readings"]
 
 
 class Readings:
-    """The transmitted roles' values of ``world`` at the current tick.
-
-    Args:
-        world: the simulated world (read at each call).
-        roles: the transmitted roles' codecs (their fields' bounds).
-        gap_setting: the HMI's gap setting code.
-        profile_id: the HMI's driver profile id.
-    """
+    """The transmitted roles' values of ``world`` at the current tick (``roles``: their
+    codecs, for the bounds; ``gap_setting``, ``profile_id``: the HMI's)."""
 
     def __init__(
         self,

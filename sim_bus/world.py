@@ -1,22 +1,17 @@
 """The simulated world around the ACC: lead profile, ego plant and driver, without the bus.
 
-One :meth:`World.advance` is one plant step (10 ms by default). The lead drives the profile;
-a road scenario's events (:mod:`sim_bus.lead.events`) switch the tracked vehicle: a cut-in, a
-cut-out revealing the vehicle ahead, a lead loss (free road: the gap is ``FREE_GAP_M``,
-beyond the radar's range) and a new lead appearing. After an event the lead holds its speed,
-then rejoins the flow (the profile's speed, with a lag and bounded accelerations).
-
-The driver decides at its own rate (20 Hz), from what it perceived ``reaction_s`` ago. The
-applied acceleration is chosen like a powertrain would: the driver's pedals when one is
-pressed, else the ACC request while the ACC command is active and fresh, else coasting. The
-world logs one sample per driver step (shape (m,) arrays, see :class:`WorldLog`).
+One :meth:`World.advance` is one plant step (10 ms). The lead drives the profile until a road
+scenario's event (:mod:`sim_bus.lead.events`) switches the tracked vehicle (free road: the gap
+is ``FREE_GAP_M``); then it holds its speed and rejoins the flow. The driver decides at 20 Hz;
+the applied acceleration is the pressed pedal's, else the fresh active ACC request, else
+coasting. One logged sample per driver step (:class:`WorldLog`).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Protocol
 
 import numpy as np
@@ -34,67 +29,6 @@ FREE_GAP_M = 1000.0
 #: how a lead that left its profile rejoins the flow: lag (s), acceleration bounds (m/s²)
 REJOIN_TAU_S = 2.0
 REJOIN_ACCEL_MPS2 = (-3.0, 1.5)
-
-_COLUMNS = (
-    "t_s",
-    "v_mps",
-    "gap_m",
-    "v_lead_mps",
-    "a_mps2",
-    "accel_pressed",
-    "brake_pressed",
-    "acc_state",
-    "pref_gap_m",
-    "a_request_mps2",
-    "request_active",
-    "accel_pct",
-    "brake_bar",
-)
-
-
-#: the logged columns but time (the /sim/world channel of a bus recording)
-WORLD_COLUMNS: tuple[str, ...] = _COLUMNS[1:]
-
-
-@dataclass(frozen=True)
-class WorldConfig:
-    """Simulation settings: plant (its ``dt_s`` is the tick), driver rate, engagement time."""
-
-    plant: PlantConfig = field(default_factory=PlantConfig)
-    driver_dt_s: float = 0.05
-    engage_s: float = 1.5
-    initial_gap_factor: float = 1.0  # initial gap = factor · driver's preferred gap
-
-    def __post_init__(self) -> None:
-        ratio = self.driver_dt_s / self.plant.dt_s
-        if not 1 <= ratio < math.inf or abs(ratio - round(ratio)) > 1e-9:
-            raise DriveError("driver_dt_s must be a whole multiple of plant.dt_s")
-        if not 0 <= self.engage_s < math.inf:
-            raise DriveError("engage_s must be finite and >= 0")
-        if not 0 < self.initial_gap_factor < math.inf:
-            raise DriveError("initial_gap_factor must be finite and > 0")
-
-
-class PedalSource(Protocol):
-    """The driver as the world and the bus node see it (a :class:`DriverAgent`, or a person's
-    pedals from ``pacc.hil``): :meth:`step` once per driver step, then its outputs.
-
-    Outputs: ``a_cmd_mps2`` (m/s², applied while a pedal is pressed), ``accel_pressed``,
-    ``brake_pressed``, ``accel_pct`` (%), ``brake_bar`` (bar), ``set_button``,
-    ``resume_button``, ``pref_gap_m`` (m, NaN when unknown).
-    """
-
-    a_cmd_mps2: float
-    accel_pressed: bool
-    brake_pressed: bool
-    accel_pct: float
-    brake_bar: float
-    set_button: bool
-    resume_button: bool
-    pref_gap_m: float
-
-    def step(self, v_mps: float, v_lead_mps: float, gap_m: float, acc_state: int) -> None:
-        """Decide this driver step from the ego speed, lead speed (m/s), gap (m), AccState."""
 
 
 @dataclass(frozen=True)
@@ -116,8 +50,7 @@ class WorldLog:
     brake_bar: np.ndarray
 
     def safety(self, threshold_s: float = 2.0, cut_in_t_s: Sequence[float] = ()) -> SafetyFigures:
-        """Time-to-collision exposure (sim_bus.metrics.safety_figures) of these samples;
-        ``cut_in_t_s``: the times of the drive's cut-ins, s."""
+        """TTC exposure (:func:`sim_bus.metrics.safety_figures`); cut-ins at ``cut_in_t_s``."""
         return safety_figures(
             self.t_s,
             self.gap_m,
@@ -129,7 +62,7 @@ class WorldLog:
         )
 
     def metrics(self) -> DriveMetrics:
-        """The drive's figures (PoI, NIM, safety; sim_bus.metrics) from these samples."""
+        """The drive's figures (:func:`sim_bus.metrics.drive_metrics`)."""
         return drive_metrics(
             self.t_s,
             self.v_mps,
@@ -141,6 +74,48 @@ class WorldLog:
             self.brake_pressed,
             self.pref_gap_m,
         )
+
+
+_COLUMNS = tuple(f.name for f in fields(WorldLog))
+#: the logged columns but time (the /sim/world channel of a bus recording)
+WORLD_COLUMNS: tuple[str, ...] = _COLUMNS[1:]
+
+
+@dataclass(frozen=True)
+class WorldConfig:
+    """Simulation settings: plant (its ``dt_s`` is the tick), driver step s, engagement s."""
+
+    plant: PlantConfig = field(default_factory=PlantConfig)
+    driver_dt_s: float = 0.05
+    engage_s: float = 1.5
+    initial_gap_factor: float = 1.0  # initial gap = factor · driver's preferred gap
+
+    def __post_init__(self) -> None:
+        ratio = self.driver_dt_s / self.plant.dt_s
+        if not 1 <= ratio < math.inf or abs(ratio - round(ratio)) > 1e-9:
+            raise DriveError("driver_dt_s must be a whole multiple of plant.dt_s")
+        if not 0 <= self.engage_s < math.inf:
+            raise DriveError("engage_s must be finite and >= 0")
+        if not 0 < self.initial_gap_factor < math.inf:
+            raise DriveError("initial_gap_factor must be finite and > 0")
+
+
+class PedalSource(Protocol):
+    """The driver as the world sees it (a :class:`DriverAgent` or a person, ``pacc.hil``):
+    :meth:`step` once per driver step, then its outputs (``a_cmd_mps2`` m/s² while a pedal is
+    pressed, ``accel_pct`` %, ``brake_bar`` bar, ``pref_gap_m`` m, NaN when unknown)."""
+
+    a_cmd_mps2: float
+    accel_pressed: bool
+    brake_pressed: bool
+    accel_pct: float
+    brake_bar: float
+    set_button: bool
+    resume_button: bool
+    pref_gap_m: float
+
+    def step(self, v_mps: float, v_lead_mps: float, gap_m: float, acc_state: int) -> None:
+        """Decide this driver step from the ego speed, lead speed (m/s), gap (m), AccState."""
 
 
 class World:
@@ -155,8 +130,7 @@ class World:
         acc_mode: bool = True,
         pedals: PedalSource | None = None,
     ) -> None:
-        """``pedals``: an external driver (a person, ``pacc.hil``) instead of the synthetic
-        :class:`DriverAgent` of ``driver``; the world then draws no driver noise from it."""
+        """``pedals``: a person (``pacc.hil``) instead of ``driver``'s :class:`DriverAgent`."""
         if not seed >= 0:
             raise DriveError(f"a seed is an integer >= 0, got {seed}")
         self.cfg = cfg = cfg or WorldConfig()
@@ -188,7 +162,7 @@ class World:
         self.radar_blank_until = -1.0
         #: the events played so far: (time s, kind, new gap m or None when skipped)
         self.events_log: list[tuple[float, str, float | None]] = []
-        #: logged samples, at most ``_log_max``: one tuple of the _COLUMNS per driver step
+        #: one tuple of the _COLUMNS per driver step, at most ``_log_max``
         self._log_max = self.n_ticks // self._every + 1
         self._log: list[tuple[float | bool | int, ...]] = []
         self._dt_s = cfg.plant.dt_s
@@ -296,9 +270,8 @@ class World:
         self.events_log.append((self.t_s, ev.kind, gap))
 
     def logged_since(self, start: int) -> list[tuple[float | bool | int, ...]]:
-        """The samples logged from the ``start``-th on (``t_s`` first, then the
-        :data:`WORLD_COLUMNS`), as they are kept: what a live view streams while the world
-        runs (:meth:`log` gives them all as arrays)."""
+        """The samples logged from the ``start``-th on (``t_s``, then :data:`WORLD_COLUMNS`):
+        what a live view streams."""
         return self._log[start:]
 
     def log(self) -> WorldLog:

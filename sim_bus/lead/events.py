@@ -1,39 +1,18 @@
 """Road scenarios beyond one always-present lead: cut-in, cut-out, lead loss, stop-and-go.
 
-A road scenario is a :class:`~sim_bus.lead.scenarios.LeadProfile` (the traffic flow's speed, 10 Hz)
-plus :class:`LeadEvent` s that change *which* vehicle the radar tracks. :class:`sim_bus.world.World`
-plays them: until the first event the lead drives the profile exactly (so a profile without
-events is the paper's car following, unchanged); after an event the new lead starts at a gap
-and speed set relative to the ego car at that instant, holds its speed for ``hold_s`` and then
-rejoins the flow (tracks the profile's speed with a 2-s lag, accelerations within
--3..+1.5 m/s²). The radar shows a target switch as a real sensor does: ``LeadValid = 0`` for
-``dropout_s`` (the new track is confirmed), then the new target's gap, relative speed and
-acceleration; with no vehicle in sight ``LeadValid`` stays 0.
-
-Parameters (docs/sim.md, "Road scenarios", gives the sources; where the literature is thin
-the value is an assumption and says so):
-
-- cut-in gap: time gap to the ego car log-normal, median 0.9 s (Waymo Open Motion Dataset,
-  human-driven targets: median accepted gap 9.6 m at 37.7 km/h, Alhuraish et al. 2026),
-  sd 0.35 in log, clipped 0.4-2.0 s, plus 2 m; relative speed of the cutter N(+1, 1.5) m/s
-  clipped -3..+4 (thin: a cutter usually merges at or above the lane's speed, the slower ones
-  are the hard case);
-- cut-out: the revealed vehicle is stopped (half the cut-outs) or at 30-70 % of the flow's
-  speed, 15-40 m beyond the old lead and never closer than a 2-m/s² stop needs (ISO 15622
-  does not require an ACC to react to stationary objects: one revealed closer is the
-  driver's and AEB's);
-- lead loss: the lead leaves (an exit), the road is free for 25-45 s (cruise at the set
-  speed), then a slower vehicle (14-20 m/s) appears 100-150 m ahead;
-- stop-and-go: cruise at 8-14 m/s, brake at 1-2.5 m/s² to a standstill, stand 1-20 s (short
-  stops resume on their own in a full-speed-range ACC, long ones need the driver's RESUME),
-  pull away at 1-1.8 m/s² (assumptions: the shipped OpenACC traces stop only at their ends).
-
-Every builder is a pure function of its seed.
+A road scenario is a :class:`~sim_bus.lead.profile.LeadProfile` (the flow's speed, 10 Hz) plus
+:class:`~sim_bus.lead.profile.LeadEvent` s that change which vehicle the radar tracks
+(:class:`sim_bus.world.World` plays them; the radar reports no lead for ``dropout_s``).
+Parameters, sources and assumptions: docs/sim.md, "Road scenarios" (cut-in time gap
+log-normal, median 0.9 s: Waymo Open Motion Dataset, Alhuraish et al. 2026; a revealed
+vehicle never closer than a 2-m/s² stop needs; lead loss free for 25-45 s; stop-and-go
+stands 1-20 s). Every builder is a pure function of its seed.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -51,9 +30,8 @@ REVEAL_DESIGN_DECEL_MPS2 = 2.0
 
 
 def cut_in_gap_m(event: LeadEvent, v_ego_mps: float, current_gap_m: float) -> float | None:
-    """The gap (m) a cut-in takes in front of an ego car at ``v_ego_mps`` following at
-    ``current_gap_m``: the drawn gap, at most what leaves ``CUT_IN_ROOM_M`` to the old lead,
-    at least ``CUT_IN_MIN_GAP_M``; None when the cutter does not fit."""
+    """The gap (m) a cut-in takes ahead of an ego car at ``v_ego_mps`` following at
+    ``current_gap_m`` (m), leaving ``CUT_IN_ROOM_M`` to the old lead; None if it does not fit."""
     gap = event.gap_m + event.gap_thw_s * max(v_ego_mps, 0.0)
     room = current_gap_m - CUT_IN_ROOM_M
     gap = min(gap, room)
@@ -61,14 +39,11 @@ def cut_in_gap_m(event: LeadEvent, v_ego_mps: float, current_gap_m: float) -> fl
 
 
 def reveal_gap_m(event: LeadEvent, v_ego_mps: float, current_gap_m: float) -> float:
-    """The gap (m) to the vehicle a cut-out reveals: ``gap_m`` beyond the old lead, and never
-    closer than stopping (matching its speed) at ``REVEAL_DESIGN_DECEL_MPS2`` needs + 3 m."""
+    """The gap (m) to the vehicle a cut-out reveals: ``gap_m`` beyond the old lead, never
+    closer than matching its speed at ``REVEAL_DESIGN_DECEL_MPS2`` needs + 3 m."""
     closing = max(v_ego_mps - event.v_mps, 0.0)
     need = closing * closing / (2.0 * REVEAL_DESIGN_DECEL_MPS2) + 3.0
     return max(current_gap_m + event.gap_m, need)
-
-
-# -- builders -------------------------------------------------------------------------------
 
 
 def _flow(speed_mps: float, duration_s: float, seed: int, name: str) -> LeadProfile:
@@ -79,15 +54,8 @@ def _flow(speed_mps: float, duration_s: float, seed: int, name: str) -> LeadProf
 
 
 def _with(profile: LeadProfile, events: list[LeadEvent], set_speed: float | None) -> LeadProfile:
-    return LeadProfile(
-        profile.name,
-        profile.t_s,
-        profile.v_lead_mps,
-        profile.segments,
-        profile.raw_v_mps,
-        events=tuple(sorted(events, key=lambda e: e.t_s)),
-        set_speed_mps=set_speed,
-    )
+    ordered = tuple(sorted(events, key=lambda e: e.t_s))
+    return replace(profile, events=ordered, set_speed_mps=set_speed)
 
 
 def _cut_in(rng: np.random.Generator, t_s: float) -> LeadEvent:
@@ -134,8 +102,8 @@ def _loss_and_appear(rng: np.random.Generator, t_s: float) -> list[LeadEvent]:
 
 
 def stop_and_go_profile(seed: int, duration_s: float = 180.0, name: str = "stopgo") -> LeadProfile:
-    """A lead that cruises, brakes to a standstill, stands and pulls away, again and again
-    (parameters in the module docstring); 10 Hz, bound-filtered like the generator's."""
+    """A lead that cruises (8-14 m/s), brakes (1-2.5 m/s²) to a stand (1-20 s) and pulls away
+    (1-1.8 m/s²), again and again; 10 Hz, bound-filtered like the generator's."""
     rng = np.random.default_rng([seed, 0x73746F70])
     n = int(round(duration_s / DT_S)) + 1
     v = np.empty(n)
@@ -174,11 +142,8 @@ def stop_and_go_profile(seed: int, duration_s: float = 180.0, name: str = "stopg
 
 
 def road_profile(kind: str, seed: int, duration_s: float | None = None) -> LeadProfile:
-    """The road scenario ``kind`` (one of :data:`ROAD_SCENARIOS`) drawn with ``seed``.
-
-    ``duration_s``: length (default 180 s; "C": 300 s, the study's length). Pure function of
-    (kind, seed, duration, shipped data); ScenarioError for an unknown kind.
-    """
+    """The road scenario ``kind`` (:data:`ROAD_SCENARIOS`) drawn with ``seed``, ``duration_s``
+    long (default 180 s; "C" 300 s); ScenarioError for an unknown kind."""
     if kind not in ROAD_SCENARIOS:
         raise ScenarioError(f"unknown road scenario {kind!r}: one of {ROAD_SCENARIOS}")
     if not seed >= 0:
