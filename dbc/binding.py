@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -131,17 +131,7 @@ def _field(key: str, spec: Any, where: str, consts: dict[str, float]) -> FieldBi
     )
 
 
-_PART_KEYS = {
-    "message",
-    "fields",
-    "checksum",
-    "checksum_signal",
-    "counter",
-    "constants",
-    "unused",
-    "cycle_ms",
-    "crc",
-}
+_PART_KEYS = {f.name for f in fields(PartBinding)} | {"crc"}  # crc: version 1
 
 
 def _names(value: Any, where: str) -> tuple[str, ...]:

@@ -13,37 +13,11 @@ from typing import Any
 from dbc import BINDING_PATH, DBC_PATH
 from dbc.binding import Binding, check_against, load_binding
 from dbc.binding import binding_file as packaged_binding
-from dbc.errors import (
-    BindingError,
-    CodecError,
-    CrcError,
-    DbcError,
-    DecodeError,
-    DlcError,
-    EncodeError,
-    RangeError,
-    UnknownFrameError,
-)
+from dbc.errors import BindingError, DbcError, UnknownFrameError
 from dbc.message import Decoded, MessageCodec, Value
 from dbc.schema import ROLES, check_ranges
 
-__all__ = [
-    "BindingError",
-    "Codec",
-    "CodecError",
-    "CrcError",
-    "DbcError",
-    "DecodeError",
-    "Decoded",
-    "DlcError",
-    "EncodeError",
-    "MessageCodec",
-    "RangeError",
-    "RoleCodec",
-    "UnknownFrameError",
-    "load_codec",
-    "network_paths",
-]
+__all__ = ["Codec", "Decoded", "MessageCodec", "RoleCodec", "load_codec", "network_paths"]
 
 
 class RoleCodec:

@@ -11,7 +11,7 @@ import can
 
 from dbc.codec import Codec, RoleCodec
 from dbc.e2e import E2EReceiver, E2EStatus
-from dbc.errors import CrcError, DbcError, DecodeError, DlcError, EncodeError, RangeError
+from dbc.errors import CrcError, DecodeError, DlcError, EncodeError, RangeError
 from dbc.frame import EFF_FLAG, ID_MASK, OTHER, message_of, raw_key
 from dbc.message import Decoded, MessageCodec, Value
 
@@ -53,39 +53,27 @@ class Inbox:
     def __init__(self, codec: Codec, roles: Iterable[str], timeout_multiple: float = 10.0) -> None:
         self.codec = codec
         self.roles = tuple(roles)
-        self._by_id: dict[int, MessageCodec] = {}
         #: E2E state per message, keyed by MessageCodec.key (the role for its first message)
         self.receivers: dict[str, E2EReceiver] = {}
         self._role_of: dict[str, str] = {}
-        self._keys: dict[str, tuple[str, ...]] = {}
         #: roles over several messages or with defaults: merged before they are reported
         self._merge: dict[str, RoleCodec] = {}
         self._partial: dict[str, dict[str, Value]] = {}
         self._seen: dict[str, set[str]] = {}
+        #: frame key (:func:`dbc.frame.raw_key`) -> its route
+        self._routes: dict[int, _Route] = {}
+        #: the E2E receivers of each role's messages (freshness)
+        self._role_receivers: dict[str, tuple[E2EReceiver, ...]] = {}
         for role in self.roles:
             rc = codec.roles[role]
-            for mc in rc.parts:
-                if mc.cycle_s <= 0:
-                    raise DbcError(f"role {role}: message {mc.name} has no GenMsgCycleTime")
-                self._by_id[mc.frame_id] = mc
-                self.receivers[mc.key] = E2EReceiver(
-                    mc.cycle_s, timeout_multiple, mc.counter_modulo or 16
-                )
-                self._role_of[mc.key] = role
-            self._keys[role] = tuple(mc.key for mc in rc.parts)
-            if len(rc.parts) > 1 or rc.defaults:
-                self._merge[role] = rc
-                self._partial[role] = {}
-                self._seen[role] = set()
-        #: frame key (:func:`dbc.frame.raw_key`) -> its route
-        self._routes: dict[int, _Route] = {
-            raw_key(fid, mc.is_extended): _Route(mc, self.receivers[mc.key], mc.role in self._merge)
-            for fid, mc in self._by_id.items()
-        }
-        #: the E2E receivers of each role's messages (freshness)
-        self._role_receivers: dict[str, tuple[E2EReceiver, ...]] = {
-            role: tuple(self.receivers[key] for key in keys) for role, keys in self._keys.items()
-        }
+            merged = len(rc.parts) > 1 or bool(rc.defaults)
+            if merged:
+                self._merge[role], self._partial[role], self._seen[role] = rc, {}, set()
+            for mc in rc.parts:  # the codec refuses a message without a period
+                rx = E2EReceiver(mc.cycle_s, timeout_multiple, mc.counter_modulo or 16)
+                self.receivers[mc.key], self._role_of[mc.key] = rx, role
+                self._routes[raw_key(mc.frame_id, mc.is_extended)] = _Route(mc, rx, merged)
+            self._role_receivers[role] = tuple(self.receivers[mc.key] for mc in rc.parts)
         #: the receiver of each one-message role: freshness in one lookup
         self._sole: dict[str, E2EReceiver] = {
             role: rx[0] for role, rx in self._role_receivers.items() if len(rx) == 1
@@ -168,7 +156,7 @@ class Inbox:
         partial.update(values)
         seen = self._seen[role]
         seen.add(mc.key)
-        if len(seen) == len(self._keys[role]):
+        if len(seen) == len(self._merge[role].parts):
             self._latest[role] = {**self._merge[role].defaults, **partial}
 
     def latest(self, role: str) -> dict[str, Value] | None:

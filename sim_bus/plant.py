@@ -57,38 +57,6 @@ def lag_factor(dt_s: float, tau_s: float) -> float:
 
 
 def step(
-    state: PlantState,
-    a_cmd_mps2: float,
-    v_lead_mps: float,
-    a_lead_mps2: float,
-    cfg: PlantConfig,
-    noise_v: float = 0.0,
-    noise_g: float = 0.0,
-) -> PlantState:
-    """One plant step of ``cfg.dt_s``; ``noise_v``, ``noise_g`` are N(0, 1) draws (pure)."""
-    v, a, g, x = _step_floats(
-        state.v_mps,
-        state.a_mps2,
-        state.gap_m,
-        state.x_m,
-        a_cmd_mps2,
-        v_lead_mps,
-        a_lead_mps2,
-        cfg.dt_s,
-        lag_factor(cfg.dt_s, cfg.actuator_tau_s),
-        cfg.accel_min_mps2,
-        cfg.accel_max_mps2,
-        _noise_scale(cfg) * cfg.sigma_v_mps * noise_v,
-        _noise_scale(cfg) * cfg.sigma_g_m * noise_g,
-    )
-    return PlantState(v, a, g, x)
-
-
-def _noise_scale(cfg: PlantConfig) -> float:
-    return math.sqrt(cfg.dt_s / NOISE_REF_DT_S)
-
-
-def _step_floats(
     v: float,
     a: float,
     g: float,
@@ -103,7 +71,9 @@ def _step_floats(
     dv_noise: float,
     dg_noise: float,
 ) -> tuple[float, float, float, float]:
-    """Scalar core of :func:`step` (floats in, floats out, no allocation beyond the tuple)."""
+    """One plant step (pure, floats): speed m/s, acceleration m/s², gap m and position m
+    after ``dt`` s under command ``a_cmd`` (clipped to [a_lo, a_hi], lagged by ``k_lag``), the
+    lead at ``v_f``, ``a_f``, and the scaled noise increments."""
     a_cmd = a_lo if a_cmd < a_lo else a_hi if a_cmd > a_hi else a_cmd
     a = a + k_lag * (a_cmd - a)
     a_eff = a
@@ -132,7 +102,7 @@ class Plant:
         self.collision_t_s: float | None = 0.0 if self.collided else None
         self.t_s = 0.0
         self._k = lag_factor(cfg.dt_s, cfg.actuator_tau_s)
-        scale = _noise_scale(cfg)
+        scale = math.sqrt(cfg.dt_s / NOISE_REF_DT_S)
         self._sv = scale * cfg.sigma_v_mps
         self._sg = scale * cfg.sigma_g_m
         self._rng = rng
@@ -161,7 +131,7 @@ class Plant:
             nv, ng = self._sv * noise[i], self._sg * noise[i + 1]
         if not math.isfinite(a_cmd_mps2):
             a_cmd_mps2 = 0.0
-        self.v_mps, self.a_mps2, self.gap_m, self.x_m = _step_floats(
+        self.v_mps, self.a_mps2, self.gap_m, self.x_m = step(
             self.v_mps,
             self.a_mps2,
             self.gap_m,

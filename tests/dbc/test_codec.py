@@ -12,20 +12,19 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from dbc import BINDING_PATH, DBC_PATH
-from dbc.codec import (
+from dbc.codec import MessageCodec, load_codec
+from dbc.e2e import e2e_crc
+from dbc.endpoint import Outbox
+from dbc.errors import (
     CodecError,
     CrcError,
     DbcError,
     DecodeError,
     DlcError,
     EncodeError,
-    MessageCodec,
     RangeError,
     UnknownFrameError,
-    load_codec,
 )
-from dbc.e2e import e2e_crc
-from dbc.endpoint import Outbox
 
 CODEC = load_codec()
 ROLES = sorted(CODEC.by_role)
