@@ -64,11 +64,6 @@ class RoleBinding:
     parts: tuple[PartBinding, ...]
     consts: dict[str, float] = field(default_factory=dict)
 
-    @property
-    def message(self) -> str:
-        """The first message of the role."""
-        return self.parts[0].message
-
     def bound(self) -> set[str]:
         """Every field this role gives a value: signal-bound or constant."""
         keys = set(self.consts)

@@ -242,31 +242,23 @@ class World:
         """Switch the tracked vehicle as ``ev`` says (skipped when a cutter does not fit)."""
         car = self.plant
         v_ego = car.v_mps
+        gap: float | None = None
         if ev.kind == "lead_loss":
             self._lead_mode = "none"
             car.gap_m = FREE_GAP_M
             self.v_lead_mps, self.a_lead_mps2 = v_ego, 0.0
-            self.events_log.append((self.t_s, ev.kind, None))
-            return
-        present = self._lead_mode != "none"
-        if ev.kind == "cut_in":
-            gap = cut_in_gap_m(ev, v_ego, car.gap_m) if present else None
-            if gap is None:
-                self.events_log.append((self.t_s, ev.kind, None))
-                return
-        elif ev.kind == "cut_out":
-            if not present:
-                self.events_log.append((self.t_s, ev.kind, None))
-                return
-            gap = reveal_gap_m(ev, v_ego, car.gap_m)
-        else:  # lead_appear
+        elif ev.kind == "lead_appear":
             gap = ev.gap_m + ev.gap_thw_s * v_ego
-        v_new = max(v_ego + ev.v_mps, 0.0) if ev.v_relative else ev.v_mps
-        car.gap_m = gap
-        self._lead_mode = "track"
-        self.v_lead_mps, self.a_lead_mps2 = v_new, 0.0
-        self._hold_v, self._hold_until = v_new, self.t_s + ev.hold_s
-        self.radar_blank_until = self.t_s + ev.dropout_s
+        elif self.lead_present:
+            reveal = ev.kind == "cut_out"
+            gap = (reveal_gap_m if reveal else cut_in_gap_m)(ev, v_ego, car.gap_m)
+        if gap is not None:
+            v_new = max(v_ego + ev.v_mps, 0.0) if ev.v_relative else ev.v_mps
+            car.gap_m = gap
+            self._lead_mode = "track"
+            self.v_lead_mps, self.a_lead_mps2 = v_new, 0.0
+            self._hold_v, self._hold_until = v_new, self.t_s + ev.hold_s
+            self.radar_blank_until = self.t_s + ev.dropout_s
         self.events_log.append((self.t_s, ev.kind, gap))
 
     def logged_since(self, start: int) -> list[tuple[float | bool | int, ...]]:

@@ -46,12 +46,7 @@ SAMPLE_SCHEMA: dict[str, Any] = {
     "type": "object",
     "properties": {
         "t_s": {"type": "number"},
-        "v_mps": _NUM,
-        "gap_m": _NUM,
-        "v_lead_mps": _NUM,
-        "a_mps2": _NUM,
-        "accel_pedal": _NUM,
-        "brake_pedal": _NUM,
+        **dict.fromkeys(FLOAT_FIELDS[1:], _NUM),
         "acc_state": {"type": "integer", "minimum": 0, "maximum": ACC_STATE_MAX},
     },
     "required": [*FLOAT_FIELDS, "acc_state"],
