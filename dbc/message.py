@@ -138,12 +138,11 @@ class MessageCodec:
         byte = self._cs_shift // 8
         last = self.length - 1
         need = {
-            "pacc_crc8": (cs.length == 8 and self._cs_shift % 8 == 0, "one whole byte"),
-            "autosar_p01": (cs.length == 8 and self._cs_shift % 8 == 0, "one whole byte"),
             "toyota": (cs.length == 8 and self._cs_shift == 8 * last, "the whole last byte"),
             "honda": (cs.length == 4 and self._cs_shift == 8 * last, "the last byte's low nibble"),
-        }
-        ok, where = need[self.checksum]
+        }  # a table CRC: one whole byte
+        whole = (cs.length == 8 and self._cs_shift % 8 == 0, "one whole byte")
+        ok, where = need.get(self.checksum, whole)
         if not ok:
             raise BindingError(f"{self.name}: a {self.checksum} checksum must be {where}")
         self.crc_byte = byte
@@ -159,7 +158,6 @@ class MessageCodec:
                     raise DbcError(f"{self.name}: bound signals {used[bit]} and {f.key} overlap")
                 used[bit] = f.key
 
-    # -- code generation ---------------------------------------------------------------
     def _crc_lines(self, buf: str, indent: str) -> list[str]:
         """Unrolled CRC over the data id (precomputed) and every byte but the CRC byte."""
         assert self.crc_byte is not None
@@ -213,7 +211,7 @@ class MessageCodec:
         ]
         if narrowing:
             d.append(f"    if not ({' and '.join(narrowing)}):")
-            d.append("        range_error(data)")
+            d.append(f"        range_error({', '.join(f'r{i}' for i in range(len(layouts)))})")
         items = ", ".join(f"{f.key!r}: {physical(f, f'r{i}')}" for i, f in enumerate(layouts))
         cnt = extract(counter) if counter else "None"
         if counter and self.counter_modulo < 1 << counter.length:  # AUTOSAR P01: 15 invalid
@@ -295,18 +293,13 @@ class MessageCodec:
         exec(compile(source, f"<codec {self.name}>", "exec"), ns)  # noqa: S102 - generated above
         return ns["encode"], ns["decode"]
 
-    # -- slow paths (errors only) ----------------------------------------------------------
-    def _range_error(self, data: bytes | bytearray) -> None:
-        n_le, n_be = int.from_bytes(data, "little"), int.from_bytes(data, "big")
-        bad = []
-        for f in self.layouts:
-            raw = ((n_be if f.big_endian else n_le) >> f.shift) & f.mask
-            if f.signed and raw >> (f.length - 1):
-                raw -= 1 << f.length
-            if f.invert:
-                raw ^= 1
-            if not f.raw_min <= raw <= f.raw_max:
-                bad.append(f"{f.key}={raw * f.scale + f.offset:g}")
+    def _range_error(self, *raws: int) -> None:
+        """The decode error naming the fields whose raw values (``raws``) are out of range."""
+        bad = [
+            f"{f.key}={r * f.scale + f.offset:g}"
+            for f, r in zip(self.layouts, raws, strict=True)
+            if not f.raw_min <= r <= f.raw_max
+        ]
         raise RangeError(f"{self.name}: out of DBC range: {', '.join(bad)}")
 
     def _encode_error(self, values: Mapping[str, Any], exc: BaseException | None) -> None:

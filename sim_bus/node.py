@@ -115,7 +115,6 @@ class SimNode:
     def _plan(self, role: str) -> FaultPlan | None:
         return self.faults.plan(role) if self.faults is not None else None
 
-    # -- receive ------------------------------------------------------------------------
     def _receive(self, now: float) -> None:
         """Take every waiting frame in (the command and status they carry)."""
         try:
@@ -146,7 +145,6 @@ class SimNode:
         elif role == "status":
             self.status = self.inbox.latest("status")
 
-    # -- transmit -----------------------------------------------------------------------
     def _transmit(self, now: float) -> None:
         """Send the frames due at this tick (through their fault plans), then delayed ones."""
         encode = self.outbox.encode_part
@@ -225,7 +223,6 @@ class SimNode:
         """Frames hit by any fault so far."""
         return sum(self.fault_counts.values())
 
-    # -- clocks -------------------------------------------------------------------------
     def command_now(self, now: float) -> tuple[bool, float, int]:
         """(request active and fresh, request m/s², AccState the driver sees) at ``now``."""
         fresh = self.inbox.fresh("command", now) if self.commands_ok else False

@@ -13,7 +13,7 @@ import math
 import re
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
-from typing import Any, Literal, cast, get_args, overload
+from typing import Any, Literal, TypeVar, cast, get_args, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -37,6 +37,7 @@ _AXIS_TOL = 1e-6
 Source = Literal["predefined", "irl", "adapted"]
 _SOURCES: tuple[str, ...] = get_args(Source)
 FloatArray = npt.NDArray[np.float64]
+_V = TypeVar("_V", float, FloatArray)
 
 
 class DgptError(FormatError):
@@ -77,19 +78,11 @@ class SafetyBounds:
                 "SafetyBounds: need standstill_min_m <= standstill_m <= standstill_max_m"
             )
 
-    @overload
-    def lower_m(self, v_mps: float) -> float: ...
-    @overload
-    def lower_m(self, v_mps: FloatArray) -> FloatArray: ...
-    def lower_m(self, v_mps: float | FloatArray) -> float | FloatArray:
+    def lower_m(self, v_mps: _V) -> _V:
         """Smallest safe gap (m) at speed ``v_mps`` (scalar or array of any shape)."""
         return self.standstill_min_m + self.headway_min_s * v_mps
 
-    @overload
-    def upper_m(self, v_mps: float) -> float: ...
-    @overload
-    def upper_m(self, v_mps: FloatArray) -> FloatArray: ...
-    def upper_m(self, v_mps: float | FloatArray) -> float | FloatArray:
+    def upper_m(self, v_mps: _V) -> _V:
         """Largest safe gap (m) at speed ``v_mps`` (scalar or array of any shape)."""
         return self.standstill_max_m + self.headway_max_s * v_mps
 

@@ -38,7 +38,7 @@ def test_kmh_signal_decodes_to_mps(tmp_path: Path) -> None:
     assert SPEED in text
     kmh = text.replace(SPEED, 'SG_ VehicleSpeed : 16|16@1+ (0.01,0) [0|250] "km/h" ACC')
     codec = load_codec(*_network(tmp_path, kmh, BINDING_PATH.read_text()))
-    data = codec.by_role["ego"].encode({"speed_mps": 20.0, "accel_mps2": 0.0, "speed_valid": 1})
+    data = codec.by_role["ego"].encode({"speed_mps": 20.0, "accel_mps2": 0.0, "speed_valid": 1}, 0)
     assert int.from_bytes(data[2:4], "little") == 7200
     assert codec.decode(0xB0, data).values["speed_mps"] == pytest.approx(20.0)
     assert codec.roles["ego"].bounds("speed_mps")[1] == pytest.approx(250 / 3.6)
@@ -60,7 +60,7 @@ def test_binding_states_the_unit_the_dbc_lacks(tmp_path: Path) -> None:
     )
     codec = load_codec(*_network(tmp_path, text, binding))
     data = codec.by_role["ego"].encode(
-        {"speed_mps": 0.44704 * 50, "accel_mps2": 0.0, "speed_valid": 1}
+        {"speed_mps": 0.44704 * 50, "accel_mps2": 0.0, "speed_valid": 1}, 0
     )
     assert int.from_bytes(data[2:4], "little") == 5000  # 50.00 mph
 
@@ -74,7 +74,7 @@ def test_inverted_flag_and_constants(tmp_path: Path) -> None:
         "speed_valid = { const = 1 } }\nconstants = { SpeedValid = 1 }",
     )
     codec = load_codec(*_network(tmp_path, DBC_PATH.read_text(), binding))
-    data = codec.by_role["ego"].encode({"speed_mps": 3.0, "accel_mps2": 0.5, "speed_valid": 0})
+    data = codec.by_role["ego"].encode({"speed_mps": 3.0, "accel_mps2": 0.5, "speed_valid": 0}, 0)
     assert data[1] & 0x10  # SpeedValid (bit 12) fixed at 1 whatever the caller says
     assert codec.roles["ego"].defaults == {"speed_valid": 1.0}
     flipped = BINDING_PATH.read_text().replace(
@@ -82,7 +82,7 @@ def test_inverted_flag_and_constants(tmp_path: Path) -> None:
     )
     (tmp_path / "flipped").mkdir()
     codec = load_codec(*_network(tmp_path / "flipped", DBC_PATH.read_text(), flipped))
-    data = codec.by_role["ego"].encode({"speed_mps": 3.0, "accel_mps2": 0.5, "speed_valid": 1})
+    data = codec.by_role["ego"].encode({"speed_mps": 3.0, "accel_mps2": 0.5, "speed_valid": 1}, 0)
     assert not data[1] & 0x10
     assert codec.decode(0xB0, data).values["speed_valid"] == 1
 
@@ -179,7 +179,7 @@ def test_scale_is_a_further_factor(tmp_path: Path) -> None:
         "lead_accel_mps2": 0.0,
         "lead_accel_valid": 1,
     }
-    data = codec.by_role["radar"].encode(radar)
+    data = codec.by_role["radar"].encode(radar, 0)
     assert int.from_bytes(data[2:4], "little") == 300  # 15 m at 0.05 m per bit
     assert codec.decode(0x120, data).values["gap_m"] == pytest.approx(30.0)
     assert codec.roles["radar"].bounds("gap_m") == (0.0, 500.0)

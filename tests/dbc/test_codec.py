@@ -109,7 +109,7 @@ def test_physical_rounding_to_resolution() -> None:
 )
 def test_encode_refuses_bad_values(values: dict[str, Any], message: str) -> None:
     with pytest.raises(EncodeError, match=message):
-        CODEC.by_role["ego"].encode(values)
+        CODEC.by_role["ego"].encode(values, 0)
 
 
 def test_encode_unknown_role() -> None:
@@ -212,7 +212,7 @@ def test_other_vehicle_dbc_with_renamed_message_needs_matching_binding(tmp_path:
     binding.write_text(BINDING_PATH.read_text().replace('"ESC_Speed"', '"VehSpd"'))
     other = load_codec(renamed, binding)
     assert other.by_role["ego"].name == "VehSpd"
-    data = other.by_role["ego"].encode({"speed_mps": 5, "accel_mps2": 1, "speed_valid": 1})
+    data = other.by_role["ego"].encode({"speed_mps": 5, "accel_mps2": 1, "speed_valid": 1}, 0)
     assert other.decode(other.by_role["ego"].frame_id, data).values["speed_mps"] == 5
 
 
