@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from dbc.layout import placement
+
 __all__ = ["MessageColumns", "message_columns"]
 
 #: The time column of every decoded block, s (the recording node's clock).
@@ -40,12 +42,7 @@ def _is_integer(x: Any) -> bool:
 
 
 def _column(signal: Any) -> _SignalColumn:
-    big = signal.byte_order == "big_endian"
-    if big:  # payload padded to 8 bytes on the right and read as one big-endian integer
-        msb = (7 - signal.start // 8) * 8 + signal.start % 8
-        shift = msb - signal.length + 1
-    else:
-        shift = signal.start
+    shift, big = placement(signal, 8)  # the payload padded to 8 bytes on the right
     scale, offset = signal.scale, signal.offset
     integral = (scale == 1 and offset == 0) or (_is_integer(scale) and _is_integer(offset))
     return _SignalColumn(

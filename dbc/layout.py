@@ -68,6 +68,14 @@ def bit_bounds(length: int, signed: bool) -> tuple[int, int]:
     return 0, (1 << length) - 1
 
 
+def placement(signal: Any, length_bytes: int) -> tuple[int, bool]:
+    """(shift, big-endian) of cantools ``signal``'s LSB in a ``length_bytes`` payload read as
+    one integer of the signal's byte order."""
+    if signal.byte_order != "big_endian":
+        return signal.start, False
+    return (length_bytes - 1 - signal.start // 8) * 8 + signal.start % 8 - signal.length + 1, True
+
+
 def _raw_range(signal: Any, factor: float, override: tuple[float, float] | None) -> tuple[int, int]:
     """Usable raw range: ``override`` (logical units) or the DBC's [min, max] ([0|0]: none),
     within the bits."""
@@ -108,12 +116,7 @@ def layout(
         raise DbcError(f"signal {signal.name}: only positive scales are supported")
     if invert and (signal.length != 1 or signal.is_signed):
         raise BindingError(f"signal {signal.name}: invert needs a 1-bit unsigned signal")
-    big = signal.byte_order == "big_endian"
-    if big:
-        msb = (length_bytes - 1 - signal.start // 8) * 8 + signal.start % 8
-        shift = msb - signal.length + 1
-    else:
-        shift = signal.start
+    shift, big = placement(signal, length_bytes)
     if shift < 0 or shift + signal.length > 8 * length_bytes:
         raise DbcError(f"signal {signal.name}: does not fit in {length_bytes} bytes")
     raw_min, raw_max = _raw_range(signal, factor, override)
@@ -168,6 +171,3 @@ def placed_le(f: FieldLayout, raw: int, length_bytes: int) -> int:
     if not f.big_endian:
         return bits
     return int.from_bytes(bits.to_bytes(length_bytes, "big"), "little")
-
-
-__all__ = ["FieldLayout", "bit_bounds", "extract", "layout", "physical", "placed_le", "raw_from"]

@@ -92,6 +92,7 @@ class SimNode:
     def faults(self, faults: FaultSpec | None) -> None:
         self._faults = faults if faults is not None and faults.plans else None
         roles, fillers = self._roles, self._fillers
+        plans = self._faults.plans if self._faults is not None else {}
         every = {r: [max(1, round(p.cycle_s / self.dt_s)) for p in roles[r].parts] for r in roles}
         self._hyper = math.lcm(*(n for ns in every.values() for n in ns))
         #: ``_due[k % _hyper]``: per role due at tick k, its filler and its messages due (each
@@ -101,7 +102,7 @@ class SimNode:
                 (
                     fillers[r],
                     tuple(
-                        (mc, raw_key(mc.frame_id, mc.is_extended), self._plan(r))
+                        (mc, raw_key(mc.frame_id, mc.is_extended), plans.get(r))
                         for mc, n in zip(roles[r].parts, every[r], strict=True)
                         if k % n == 0
                     ),
@@ -111,9 +112,6 @@ class SimNode:
             )
             for k in range(self._hyper)
         ]
-
-    def _plan(self, role: str) -> FaultPlan | None:
-        return self.faults.plan(role) if self.faults is not None else None
 
     def _receive(self, now: float) -> None:
         """Take every waiting frame in (the command and status they carry)."""

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from typing import Any, Literal, TypeVar, cast, get_args, overload
 
@@ -240,12 +240,10 @@ class Dgpt:
     ) -> Dgpt:
         """A copy with new gaps (n,), m, ``version + 1``, ``source`` and ``meta`` (default: a
         copy of this table's)."""
-        return Dgpt(
-            speed_mps=self.speed_mps,
+        return replace(
+            self,
             gap_m=np.asarray(gap_m, dtype=np.float64).copy(),
             version=self.version + 1,
-            driver_id=self.driver_id,
-            condition=self.condition,
             source=source,
             created_utc=created_utc if created_utc is not None else utc_now_iso(),
             meta=dict(self.meta) if meta is None else dict(meta),

@@ -46,13 +46,6 @@ def reveal_gap_m(event: LeadEvent, v_ego_mps: float, current_gap_m: float) -> fl
     return max(current_gap_m + event.gap_m, need)
 
 
-def _flow(speed_mps: float, duration_s: float, seed: int, name: str) -> LeadProfile:
-    """A flow of real leader segments around one average speed (the paper's generator)."""
-    cfg = GeneratorConfig(duration_s=duration_s)
-    n_seg = int(math.ceil(duration_s / cfg.segment_s)) + 1
-    return synthesize(np.full(n_seg, speed_mps), seed, name, cfg)
-
-
 def _with(profile: LeadProfile, events: list[LeadEvent], set_speed: float | None) -> LeadProfile:
     ordered = tuple(sorted(events, key=lambda e: e.t_s))
     return replace(profile, events=ordered, set_speed_mps=set_speed)
@@ -116,17 +109,12 @@ def stop_and_go_profile(seed: int, duration_s: float = 180.0, name: str = "stopg
         down = float(rng.uniform(1.0, 2.5))
         hold = holds[k % 2] if k < 2 else float(rng.uniform(1.0, 20.0))
         k += 1
-        phases = [
-            (cruise, up, float(rng.uniform(15.0, 30.0))),  # pull away and cruise
-            (0.0, down, hold),  # brake and stand
-        ]
+        # pull away and cruise, then brake and stand
+        phases = [(cruise, up, float(rng.uniform(15.0, 30.0))), (0.0, down, hold)]
         for target, rate, dwell in phases:
+            d = rate * DT_S
             while i < n and abs(speed - target) > 1e-9:
-                speed = (
-                    min(speed + rate * DT_S, target)
-                    if target > speed
-                    else max(speed - rate * DT_S, target)
-                )
+                speed = min(speed + d, target) if target > speed else max(speed - d, target)
                 v[i] = speed
                 i += 1
             for _ in range(int(round(dwell / DT_S))):
@@ -156,11 +144,10 @@ def road_profile(kind: str, seed: int, duration_s: float | None = None) -> LeadP
     if kind == "C":
         return _mixed(rng, flow_seed, dur)
     flow = float(rng.uniform(15.0, 27.0)) if kind != "cutout" else float(rng.uniform(12.0, 22.0))
-    base = _flow(flow, dur, flow_seed, kind)
-    times = np.arange(30.0, dur - 20.0, 45.0) + rng.uniform(
-        -5.0, 5.0, len(np.arange(30.0, dur - 20.0, 45.0))
-    )
-    events: list[LeadEvent] = []
+    cfg = GeneratorConfig(duration_s=dur)  # a flow of real segments around one speed
+    base = synthesize(np.full(cfg.n_segments, flow), flow_seed, kind, cfg)
+    grid = np.arange(30.0, dur - 20.0, 45.0)
+    times = grid + rng.uniform(-5.0, 5.0, len(grid))
     if kind == "cutin":
         events = [_cut_in(rng, float(t)) for t in times]
     elif kind == "cutout":
@@ -176,8 +163,7 @@ def _mixed(rng: np.random.Generator, flow_seed: int, duration_s: float) -> LeadP
     """Scenario C: the paper's unseen-B kind of flow (5-30 m/s) with three cut-ins, a
     cut-out revealing a slower vehicle, and a lead loss followed by a new lead."""
     cfg = GeneratorConfig(duration_s=duration_s)
-    n_seg = int(math.ceil(duration_s / cfg.segment_s)) + 1
-    seq = random_speed_sequence(5.0, 30.0, n_seg, rng, max_step_mps=6.0)
+    seq = random_speed_sequence(5.0, 30.0, cfg.n_segments, rng, max_step_mps=6.0)
     base = synthesize(seq, flow_seed, "C", cfg)
     frac = duration_s / 300.0
     events = [_cut_in(rng, t * frac) for t in (40.0, 130.0, 250.0)]

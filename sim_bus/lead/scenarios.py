@@ -32,6 +32,11 @@ class GeneratorConfig:
     duration_s: float = 300.0
     max_spread_mps: float = 8.0
 
+    @property
+    def n_segments(self) -> int:
+        """How many segments of ``segment_s`` cover ``duration_s`` with one to spare."""
+        return int(np.ceil(self.duration_s / self.segment_s)) + 1
+
 
 @dataclass(frozen=True)
 class _Library:
@@ -165,8 +170,7 @@ MANUAL_RANGES_MPS: tuple[tuple[float, float], ...] = (
 
 def _scenario_a(manual: list[LeadProfile], seed: int, cfg: GeneratorConfig) -> LeadProfile:
     """Seen scenario: segments of the manual profiles, average speed from 30 down to 5 m/s."""
-    n_seg = int(np.ceil(cfg.duration_s / cfg.segment_s)) + 1
-    speeds = np.linspace(30.0, 5.0, n_seg)
+    speeds = np.linspace(30.0, 5.0, cfg.n_segments)
     sources = [(p.name, p.v_lead_mps) for p in manual]
     return synthesize(speeds, seed, "A", cfg, sources)
 
@@ -181,7 +185,7 @@ def canonical_profiles(seed: int = 0) -> dict[str, LeadProfile]:
 @lru_cache(maxsize=8)
 def _canonical_profiles(seed: int) -> dict[str, LeadProfile]:
     cfg = GeneratorConfig()
-    n_seg = int(np.ceil(cfg.duration_s / cfg.segment_s)) + 1
+    n_seg = cfg.n_segments
     ss = np.random.SeedSequence(seed)
     children = ss.spawn(len(MANUAL_RANGES_MPS) + 1)
     out: dict[str, LeadProfile] = {}
