@@ -11,24 +11,16 @@ import can
 
 from dbc.codec import Codec, RoleCodec
 from dbc.e2e import E2EReceiver, E2EStatus
-from dbc.errors import CrcError, DecodeError, DlcError, EncodeError, RangeError
+from dbc.errors import CrcError, DlcError, EncodeError, RangeError
 from dbc.frame import EFF_FLAG, ID_MASK, OTHER, message_of, raw_key
 from dbc.message import Decoded, MessageCodec, Value
 
 #: Pseudo-role under which frames of no bound message are counted.
 UNKNOWN_ROLE = "?"
-
-
-_OK = E2EStatus.OK
-
-
-def _status_of(exc: DecodeError) -> E2EStatus:
-    """The E2E outcome of a frame the codec refused."""
-    if isinstance(exc, CrcError):
-        return E2EStatus.WRONG_CRC
-    if isinstance(exc, DlcError):
-        return E2EStatus.WRONG_DLC
-    return E2EStatus.OUT_OF_RANGE
+#: the E2E outcome of a frame the codec refused, by the error's type (else OUT_OF_RANGE)
+_REFUSED: dict[type, E2EStatus] = {CrcError: E2EStatus.WRONG_CRC, DlcError: E2EStatus.WRONG_DLC}
+#: the counter outcomes whose frame is dropped
+_DROPPED = (E2EStatus.REPEATED, E2EStatus.WRONG_SEQUENCE)
 
 
 class _Route:
@@ -120,7 +112,7 @@ class Inbox:
         try:
             decoded = route.decode(data)
         except (CrcError, DlcError, RangeError) as exc:
-            receiver.record(_status_of(exc))
+            receiver.record(_REFUSED.get(type(exc), E2EStatus.OUT_OF_RANGE))
             return None
         counter = decoded[2]
         last = receiver.last_counter
@@ -130,23 +122,16 @@ class Inbox:
             receiver.last_counter = counter
             receiver.last_ok_s = now_s
             receiver.ok += 1
-        elif not self._check(receiver, counter, now_s):
+        elif counter is None:  # a message without an alive counter
+            receiver.last_ok_s = now_s
+            receiver.ok += 1
+        elif receiver.check_counter(counter, now_s) in _DROPPED:  # counted there
             return None
         if route.merged:
             self._merge_part(route.mc, decoded[1])
         else:
             self._latest[route.role] = decoded[1]
         return decoded
-
-    @staticmethod
-    def _check(receiver: E2EReceiver, counter: int | None, now_s: float) -> bool:
-        """The counted E2E check off the fast path; True when the frame is usable."""
-        if counter is None:
-            receiver.last_ok_s = now_s
-            receiver.record(_OK)
-            return True
-        status = receiver.check_counter(counter, now_s)  # counts it too
-        return status is not E2EStatus.REPEATED and status is not E2EStatus.WRONG_SEQUENCE
 
     def _merge_part(self, mc: MessageCodec, values: dict[str, Value]) -> None:
         """Fold one message's values into its role, reported (with its defaults) once every

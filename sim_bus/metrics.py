@@ -152,17 +152,13 @@ CUT_IN_REACTION_S = 1.0
 
 
 def pressed_episodes(below: np.ndarray, pressed: np.ndarray) -> np.ndarray:
-    """``pressed`` (bool mask) widened to every run of ``below`` that began while pressed: a
-    gap the driver's accelerator closed stays the driver's until the TTC recovers."""
-    out = pressed.copy()
-    k, n = 0, len(below)
-    while k < n:
-        if below[k] and pressed[k] and (k == 0 or not below[k - 1] or out[k - 1]):
-            while k < n and below[k]:
-                out[k] = True
-                k += 1
-        else:
-            k += 1
+    """``pressed`` (bool mask) widened over each run of ``below`` from its start if pressed
+    there, else from two pressed samples in a row: what the driver's accelerator closed."""
+    prev_below, prev_pressed = np.r_[False, below[:-1]], np.r_[False, pressed[:-1]]
+    first = below & pressed & (~prev_below | prev_pressed)  # where a run becomes the driver's
+    seen = np.cumsum(first)
+    before = np.maximum.accumulate(np.where(below & ~prev_below, seen - first, 0))
+    out: np.ndarray = pressed | (below & (seen > before))
     return out
 
 

@@ -22,12 +22,10 @@ from dbc.codec import Codec, MessageCodec, load_codec
 from dbc.endpoint import Inbox, Outbox
 from dbc.frame import port_of, raw_key
 from dbc.vocab.acc_state import AccState
-from sim_bus.faults import ROLES, FaultPlan, FaultSpec
+from sim_bus.faults import ROLES as TX_ROLES
+from sim_bus.faults import FaultPlan, FaultSpec
 from sim_bus.readings import Readings
 from sim_bus.world import World
-
-#: the roles the simulator sends (the ones faults apply to)
-TX_ROLES = ROLES
 
 
 class SimNode:
