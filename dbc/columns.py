@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -23,39 +22,15 @@ __all__ = ["MessageColumns", "message_columns"]
 TIME_KEY = "t_s"
 
 
-@dataclass(frozen=True)
-class _SignalColumn:
-    name: str
-    shift: int
-    mask: int
-    length: int
-    signed: bool
-    big_endian: bool
-    scale: Any  # int or float, as cantools keeps it
-    offset: Any
-    integral: bool  # cantools returns ints (scale 1, offset 0, or both integers)
-
-
 def _is_integer(x: Any) -> bool:
     """cantools' test for an integer scale or offset (an int, or a float with no fraction)."""
     return isinstance(x, int) or (isinstance(x, float) and x.is_integer())
 
 
-def _column(signal: Any) -> _SignalColumn:
-    shift, big = placement(signal, 8)  # the payload padded to 8 bytes on the right
+def _integral(signal: Any) -> bool:
+    """Whether cantools decodes ``signal`` to ints (scale 1 and offset 0, or both integers)."""
     scale, offset = signal.scale, signal.offset
-    integral = (scale == 1 and offset == 0) or (_is_integer(scale) and _is_integer(offset))
-    return _SignalColumn(
-        name=signal.name,
-        shift=shift,
-        mask=(1 << signal.length) - 1,
-        length=signal.length,
-        signed=bool(signal.is_signed),
-        big_endian=big,
-        scale=scale,
-        offset=offset,
-        integral=integral,
-    )
+    return (scale == 1 and offset == 0) or (_is_integer(scale) and _is_integer(offset))
 
 
 class MessageColumns:
@@ -72,7 +47,12 @@ class MessageColumns:
             and not message.is_multiplexed()
             and not any(s.is_float for s in message.signals)
         )
-        self._columns = tuple(_column(s) for s in message.signals) if self.vectorised else ()
+        #: per signal: the signal, its LSB's shift and byte order in the payload padded to 8
+        #: bytes (one integer per frame), and whether it decodes to ints
+        self._columns = tuple(
+            (s, *placement(s, 8), _integral(s))
+            for s in (message.signals if self.vectorised else ())
+        )
 
     def decode(self, payloads: Sequence[bytes]) -> dict[str, np.ndarray]:
         """Every signal over ``payloads`` (each ``length`` bytes), physical values, arrays
@@ -88,17 +68,18 @@ class MessageColumns:
         little = buf.view("<u8").reshape(n)
         big = buf.view(">u8").reshape(n)
         out: dict[str, np.ndarray] = {}
-        for c in self._columns:
-            word = big if c.big_endian else little
-            raw = ((word >> np.uint64(c.shift)) & np.uint64(c.mask)).astype(np.int64)
-            if c.signed:
-                raw = np.where(raw >= (1 << (c.length - 1)), raw - (1 << c.length), raw)
-            if c.scale == 1 and c.offset == 0:
-                out[c.name] = raw
-            elif c.integral:
-                out[c.name] = raw * int(c.scale) + int(c.offset)
+        for s, shift, big_endian, integral in self._columns:
+            word = big if big_endian else little
+            mask = np.uint64((1 << s.length) - 1)
+            raw = ((word >> np.uint64(shift)) & mask).astype(np.int64)
+            if s.is_signed:
+                raw = np.where(raw >= (1 << (s.length - 1)), raw - (1 << s.length), raw)
+            if s.scale == 1 and s.offset == 0:
+                out[s.name] = raw
+            elif integral:
+                out[s.name] = raw * int(s.scale) + int(s.offset)
             else:
-                out[c.name] = raw * float(c.scale) + float(c.offset)
+                out[s.name] = raw * float(s.scale) + float(s.offset)
         return out
 
     def _decode_each(self, payloads: Sequence[bytes]) -> dict[str, np.ndarray]:
@@ -114,7 +95,7 @@ class MessageColumns:
         """Signal name -> the dtype :meth:`decode` gives it (``<i8`` or ``<f8``)."""
         if not self.vectorised:
             return dict.fromkeys(self.signal_names, "<f8")
-        return {c.name: "<i8" if c.integral else "<f8" for c in self._columns}
+        return {s.name: "<i8" if integral else "<f8" for s, _, _, integral in self._columns}
 
 
 def _signal_description(signal: Any) -> str:

@@ -46,14 +46,10 @@ def world_trip(
     clash = sorted(set(own) & set(meta))
     if clash:
         raise DriveError(f"world_trip: meta may not set {clash}")
+    kept = ("t_s", "v_mps", "gap_m", "v_lead_mps", "a_mps2", "acc_state")
     return Trip(
-        t_s=log.t_s[sl],
-        v_mps=log.v_mps[sl],
-        gap_m=log.gap_m[sl],
-        v_lead_mps=log.v_lead_mps[sl],
-        a_mps2=log.a_mps2[sl],
+        **{k: getattr(log, k)[sl] for k in kept},
         accel_pedal=accel(log.accel_pct[sl]),
         brake_pedal=brake(log.brake_bar[sl]),
-        acc_state=log.acc_state[sl],
         meta={**own, **meta},
     )

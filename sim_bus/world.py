@@ -269,10 +269,7 @@ class World:
     def log(self) -> WorldLog:
         """The samples logged so far."""
         # float64 columns: what writing each sample into a float array gives (bools 0/1)
-        if self._log:
-            cols = np.array(self._log, dtype=np.float64).T
-        else:
-            cols = np.zeros((len(_COLUMNS), 0))
+        cols = np.array(self._log, dtype=np.float64).reshape(-1, len(_COLUMNS)).T
         d = {name: cols[j].copy() for j, name in enumerate(_COLUMNS)}
         for name in ("accel_pressed", "brake_pressed", "request_active"):
             d[name] = d[name].astype(bool)

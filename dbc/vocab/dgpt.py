@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, field, replace
+from dataclasses import astuple, dataclass, field, replace
 from datetime import UTC, datetime
 from typing import Any, Literal, TypeVar, cast, get_args, overload
 
@@ -62,14 +62,7 @@ class SafetyBounds:
     standstill_max_m: float = 10.0
 
     def __post_init__(self) -> None:
-        values = (
-            self.standstill_m,
-            self.headway_min_s,
-            self.headway_max_s,
-            self.standstill_min_m,
-            self.standstill_max_m,
-        )
-        if not all(math.isfinite(x) and x >= 0.0 for x in values):
+        if not all(math.isfinite(x) and x >= 0.0 for x in astuple(self)):
             raise DgptError(f"SafetyBounds must be finite and non-negative: {self}")
         if self.headway_min_s > self.headway_max_s:
             raise DgptError("SafetyBounds: headway_min_s exceeds headway_max_s")
