@@ -131,10 +131,7 @@ class E2EReceiver:
                 status = E2EStatus.SKIPPED
         self.last_counter = counter
         self.last_ok_s = now_s
-        if status is E2EStatus.OK:
-            self.ok += 1
-        else:
-            self._counts[status] += 1
+        self.record(status)
         return status
 
     def record(self, status: E2EStatus) -> None:

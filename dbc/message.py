@@ -14,14 +14,7 @@ from typing import Any, NamedTuple
 from dbc import checksums
 from dbc.binding import PartBinding
 from dbc.e2e import CRC8_TABLE, crc8_update, data_id_of
-from dbc.errors import (
-    BindingError,
-    CrcError,
-    DbcError,
-    DlcError,
-    EncodeError,
-    RangeError,
-)
+from dbc.errors import BindingError, CrcError, DbcError, DlcError, EncodeError, RangeError
 from dbc.layout import FieldLayout, extract, layout, physical, placed_le, raw_from
 from dbc.units import UnitError, conversion
 

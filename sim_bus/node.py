@@ -188,10 +188,7 @@ class SimNode:
             return
         window = plan.frozen_at(now)
         if window is not None:
-            frozen = f"{mc.key}@{window[0]}"
-            if frozen not in self._frozen:
-                self._frozen[frozen] = dict(vals)
-            vals = self._frozen[frozen]
+            vals = self._frozen.setdefault(f"{mc.key}@{window[0]}", dict(vals))
             counts[(role, "frozen")] += 1
         u = float(self._rng.random()) if plan.random else 1.0
         if u < plan.counter and mc.counter_modulo:  # repeat the previous alive counter

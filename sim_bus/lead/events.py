@@ -174,10 +174,4 @@ def _mixed(rng: np.random.Generator, flow_seed: int, duration_s: float) -> LeadP
     return _with(base, events, 32.0)
 
 
-__all__ = [
-    "ROAD_SCENARIOS",
-    "cut_in_gap_m",
-    "reveal_gap_m",
-    "road_profile",
-    "stop_and_go_profile",
-]
+__all__ = ["ROAD_SCENARIOS", "cut_in_gap_m", "reveal_gap_m", "road_profile", "stop_and_go_profile"]
