@@ -70,12 +70,8 @@ def table_crc(kind: str, frame_id: int, crc_byte: int) -> Checksum:
 
 
 def make(kind: str, frame_id: int, length: int, byte: int) -> Checksum | None:
-    """The checksum function of ``kind`` for one message (None for ``none``); ``byte`` is the
-    index of the byte holding the checksum.
-
-    Raises:
-        DbcError: unknown kind.
-    """
+    """The checksum function of ``kind`` for one message (None for ``none``; DbcError for an
+    unknown kind); ``byte``: the index of the byte holding the checksum."""
     if kind in TABLE_CRCS:
         return table_crc(kind, frame_id, byte)
     if kind in ("toyota", "honda"):

@@ -125,11 +125,8 @@ def network_paths(
     dbc_path: str | Path | None = None, binding_path: str | Path | None = None
 ) -> tuple[Path, Path]:
     """The (DBC, binding) files the command line gives: neither, the packaged network; a
-    binding alone, the DBC it names beside it; both, the binding must name that DBC.
-
-    Raises:
-        BindingError: a DBC without a binding, or a binding that names another DBC.
-    """
+    binding alone, the DBC it names beside it; both, the binding must name that DBC (else,
+    and for a DBC alone, BindingError)."""
     if binding_path is None:
         if dbc_path is not None:
             raise BindingError(
@@ -151,11 +148,7 @@ def network_paths(
 
 def load_codec(dbc_path: str | Path | None = None, binding_path: str | Path | None = None) -> Codec:
     """The codec of a DBC and binding (default: the packaged ones; a binding alone brings
-    its DBC), loaded once. Unlike the command line, a DBC alone takes the packaged binding.
-
-    Raises:
-        DbcError: the DBC or binding cannot be read, parsed or matched.
-    """
+    its DBC; a DBC alone takes the packaged binding), loaded once; DbcError if unusable."""
     if binding_path is not None and dbc_path is None:
         dbc, binding = network_paths(None, binding_path)
         return _load_codec(dbc, binding)

@@ -160,6 +160,10 @@ class Dgpt:
     source: Source = "predefined"
     created_utc: str = field(default_factory=utc_now_iso)
     meta: dict[str, Any] = field(default_factory=dict)
+    # lookup()'s scalar fast path: Python floats, no numpy call per control cycle
+    _v0: float = field(init=False, repr=False)
+    _dv: float = field(init=False, repr=False)
+    _gaps: tuple[float, ...] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         speed = _readonly(self.speed_mps, "speed_mps")
@@ -179,7 +183,6 @@ class Dgpt:
         object.__setattr__(self, "speed_mps", speed)
         object.__setattr__(self, "gap_m", gap)
         object.__setattr__(self, "version", int(self.version))
-        # lookup()'s scalar fast path: Python floats, no numpy call per control cycle
         object.__setattr__(self, "_v0", float(speed[0]))
         object.__setattr__(self, "_dv", float(speed[1] - speed[0]))
         object.__setattr__(self, "_gaps", tuple(float(g) for g in gap))
@@ -187,7 +190,7 @@ class Dgpt:
     @property
     def step_mps(self) -> float:
         """Speed-axis step, m/s."""
-        return cast(float, self._dv)  # type: ignore[attr-defined]
+        return self._dv
 
     @overload
     def lookup(self, v_mps: float) -> float: ...
@@ -198,9 +201,7 @@ class Dgpt:
         interpolated linearly, ends held; NaN gives NaN."""
         if isinstance(v_mps, np.ndarray):
             return cast(FloatArray, np.interp(v_mps, self.speed_mps, self.gap_m))
-        gaps: tuple[float, ...] = self._gaps  # type: ignore[attr-defined]
-        v0: float = self._v0  # type: ignore[attr-defined]
-        dv: float = self._dv  # type: ignore[attr-defined]
+        gaps, v0, dv = self._gaps, self._v0, self._dv
         x = (float(v_mps) - v0) / dv
         if not x > 0.0:
             return gaps[0] if x <= 0.0 else math.nan
@@ -213,9 +214,7 @@ class Dgpt:
 
     def slope(self, v_mps: float) -> float:
         """d(gap)/d(speed) of the interpolant at ``v_mps``, in s (0 beyond the axis ends)."""
-        gaps: tuple[float, ...] = self._gaps  # type: ignore[attr-defined]
-        v0: float = self._v0  # type: ignore[attr-defined]
-        dv: float = self._dv  # type: ignore[attr-defined]
+        gaps, v0, dv = self._gaps, self._v0, self._dv
         x = (float(v_mps) - v0) / dv
         last = len(gaps) - 1
         if not 0.0 <= x < last:

@@ -35,11 +35,8 @@ class TripMode(StrEnum):
 
 
 def mode_of(meta: dict[str, Any], acc_state: np.ndarray) -> TripMode:
-    """The trip mode from a trip's ``meta`` and its ACC-state column (n,).
-
-    Raises:
-        TripModeError: ``meta["mode"]`` is given but is not a :class:`TripMode` value.
-    """
+    """The trip mode from a trip's ``meta`` and its ACC-state column (n,) (TripModeError: an
+    unknown ``meta["mode"]``)."""
     mode = meta.get("mode")
     if mode is None:
         active = np.asarray(acc_state) == int(AccState.ACTIVE)
