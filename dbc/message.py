@@ -167,12 +167,9 @@ class MessageCodec:
     def _decode_source(self) -> list[str]:
         layouts, counter, n = list(self.layouts), self._counter, self.length
         generic = self._cs is not None and self.checksum not in checksums.TABLE_CRCS
-        need_le = (
-            generic
-            or any(not f.big_endian for f in layouts)
-            or (counter is not None and not counter.big_endian)
-        )
-        need_be = any(f.big_endian for f in layouts) or (counter is not None and counter.big_endian)
+        placed = [*layouts, *([counter] if counter else [])]
+        need_le = generic or any(not f.big_endian for f in placed)
+        need_be = any(f.big_endian for f in placed)
         d = [
             "def decode(data):",
             f"    if len(data) != {n}:",

@@ -103,22 +103,15 @@ def parse_faults(text: str | None) -> FaultSpec:
 
 
 def _apply(draft: dict[str, Any], kind: str, value: str, clause: str) -> None:
-    if kind in _PROB:
+    if kind in (*_PROB, "delay"):  # a probability 0..1, or a delay of 0..10 s
+        what, top, unit = ("seconds", 10.0, " s") if kind == "delay" else ("a probability", 1, "")
         try:
-            p = float(value)
+            x = float(value)
         except ValueError:
-            raise FaultSpecError(f"{clause!r}: {kind} needs a probability, got {value!r}") from None
-        if not 0.0 <= p <= 1.0:
-            raise FaultSpecError(f"{clause!r}: {kind} probability must lie in 0..1")
-        draft[kind] = p
-    elif kind == "delay":
-        try:
-            d = float(value)
-        except ValueError:
-            raise FaultSpecError(f"{clause!r}: delay needs seconds, got {value!r}") from None
-        if not 0.0 <= d <= 10.0:
-            raise FaultSpecError(f"{clause!r}: delay must lie in 0..10 s")
-        draft["delay_s"] = d
+            raise FaultSpecError(f"{clause!r}: {kind} needs {what}, got {value!r}") from None
+        if not 0.0 <= x <= top:
+            raise FaultSpecError(f"{clause!r}: {kind} must lie in 0..{top:g}{unit}")
+        draft["delay_s" if kind == "delay" else kind] = x
     elif kind in _WINDOW:
         key = "freeze" if kind == "freeze" else "silent"
         draft[key] = (*draft.get(key, ()), _window(value, clause))
