@@ -16,11 +16,6 @@ from dbc.vocab import FormatError
 if TYPE_CHECKING:
     from dbc.codec import Codec
 
-#: the pedals role and its fields in the binding table
-PEDALS_ROLE = "pedals"
-ACCEL_FIELD = "accel_pedal_pct"
-BRAKE_FIELD = "brake_pressure_bar"
-
 
 @dataclass(frozen=True, slots=True)
 class PedalScale:
@@ -39,11 +34,11 @@ class PedalScale:
     def from_codec(cls, codec: Codec) -> PedalScale:
         """Full scale = the DBC maximum of each bound pedal field (a network without a brake
         pressure signal reports 0 bar: its full scale is then 1 bar, the fraction 0)."""
-        pedals = codec.roles[PEDALS_ROLE]
-        brake = pedals.part_of(BRAKE_FIELD)
+        pedals = codec.roles["pedals"]
+        brake = pedals.part_of("brake_pressure_bar")
         return cls(
-            accel_full_pct=pedals.bounds(ACCEL_FIELD)[1],
-            brake_full_bar=1.0 if brake is None else brake.bounds(BRAKE_FIELD)[1],
+            accel_full_pct=pedals.bounds("accel_pedal_pct")[1],
+            brake_full_bar=1.0 if brake is None else brake.bounds("brake_pressure_bar")[1],
         )
 
     def accel(self, pct: float) -> float:
@@ -60,4 +55,4 @@ def _unit(x: float) -> float:
     return 0.0 if x < 0.0 else (1.0 if x > 1.0 else x)
 
 
-__all__ = ["ACCEL_FIELD", "BRAKE_FIELD", "PEDALS_ROLE", "PedalScale"]
+__all__ = ["PedalScale"]

@@ -59,24 +59,29 @@ def load_target(target: str) -> Any:
     return obj
 
 
+def _find(group: str, name: str, builtins: Mapping[str, str]) -> tuple[str, str | None] | None:
+    """(target, declaring distribution or None) of a built-in, an entry point or
+    ``module:attribute`` named ``name``; None if it names none."""
+    if name in builtins:
+        return builtins[name], None
+    if name in _entry_points(group):
+        return _entry_points(group)[name]
+    return (name, None) if ":" in name else None
+
+
 def resolve(group: str, spec: str, builtins: Mapping[str, str]) -> Callable[..., Any]:
     """The factory a spec names in ``group``: a built-in (``builtins``: name -> target), an
     installed entry point, or ``module:attribute``. PluginError naming what exists if none."""
     if group not in GROUPS:
         raise PluginError(f"unknown plug-in group {group!r}: one of {GROUPS}")
-    name = spec.strip()
-    if name in builtins:
-        target = builtins[name]
-    elif name in _entry_points(group):
-        target = _entry_points(group)[name][0]
-    elif ":" in name:
-        target = name
-    else:
+    found = _find(group, spec.strip(), builtins)
+    if found is None:
         known = sorted({*builtins, *_entry_points(group)})
         raise PluginError(
             f"no {group.split('.')[-1][:-1]} {spec!r}: one of {', '.join(known)} "
             "or 'module:attribute'"
         )
+    target = found[0]
     factory = load_target(target)
     if not callable(factory):
         raise PluginError(f"{spec!r} ({target}) is not callable")
@@ -98,10 +103,7 @@ def provenance(group: str, spec: str, builtins: Mapping[str, str]) -> dict[str, 
     distribution declaring the entry point, else the one holding the target's top-level
     module; None for a module on the path that no installed distribution holds)."""
     name = spec.strip()
-    if name in builtins:
-        target, dist = builtins[name], None
-    else:
-        target, dist = _entry_points(group).get(name, (name, None))
+    target, dist = _find(group, name, builtins) or (name, None)
     if dist is None:
         top = target.partition(":")[0].split(".")[0]
         dist = next(iter(packages_distributions().get(top, [])), None)

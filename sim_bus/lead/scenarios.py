@@ -168,13 +168,6 @@ MANUAL_RANGES_MPS: tuple[tuple[float, float], ...] = (
 )
 
 
-def _scenario_a(manual: list[LeadProfile], seed: int, cfg: GeneratorConfig) -> LeadProfile:
-    """Seen scenario: segments of the manual profiles, average speed from 30 down to 5 m/s."""
-    speeds = np.linspace(30.0, 5.0, cfg.n_segments)
-    sources = [(p.name, p.v_lead_mps) for p in manual]
-    return synthesize(speeds, seed, "A", cfg, sources)
-
-
 def canonical_profiles(seed: int = 0) -> dict[str, LeadProfile]:
     """The evaluation set of ``seed`` >= 0 (else ScenarioError): cached, arrays read-only."""
     if not seed >= 0:
@@ -196,7 +189,10 @@ def _canonical_profiles(seed: int) -> dict[str, LeadProfile]:
         prof = synthesize(seq, int(rng.integers(2**31)), f"manual{k + 1}", cfg)
         manual.append(prof)
         out[prof.name] = prof
-    out["A"] = _scenario_a(manual, int(np.random.default_rng(children[-1]).integers(2**31)), cfg)
+    # A, seen: segments of the manual profiles, average speed from 30 down to 5 m/s
+    seed_a = int(np.random.default_rng(children[-1]).integers(2**31))
+    sources = [(p.name, p.v_lead_mps) for p in manual]
+    out["A"] = synthesize(np.linspace(30.0, 5.0, n_seg), seed_a, "A", cfg, sources)
     rng = np.random.default_rng(ss.spawn(1)[0])
     seq = random_speed_sequence(5.0, 30.0, n_seg, rng, max_step_mps=6.0)
     out["B"] = synthesize(seq, int(rng.integers(2**31)), "B", cfg)
