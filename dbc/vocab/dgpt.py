@@ -125,19 +125,6 @@ def _check_structure(speed: FloatArray, gap: FloatArray) -> None:
         raise DgptError(f"speed step {step:g} m/s is coarser than {AXIS_MAX_STEP_MPS} m/s")
 
 
-def check_bounds(speed_mps: FloatArray, gap_m: FloatArray, bounds: SafetyBounds) -> None:
-    """Raise :class:`DgptError` naming the first bin whose gap is outside ``bounds``."""
-    lo = bounds.lower_m(speed_mps)
-    hi = bounds.upper_m(speed_mps)
-    bad = np.flatnonzero((gap_m < lo - 1e-9) | (gap_m > hi + 1e-9))
-    if bad.size:
-        i = int(bad[0])
-        raise DgptError(
-            f"gap {gap_m[i]:.3f} m at {speed_mps[i]:g} m/s is outside the safety bounds "
-            f"[{lo[i]:.3f}, {hi[i]:.3f}] m ({bad.size} bin(s) out of bounds)"
-        )
-
-
 def clamp_to_bounds(
     speed_mps: FloatArray, gap_m: FloatArray, bounds: SafetyBounds | None = None
 ) -> FloatArray:
@@ -242,8 +229,17 @@ class Dgpt:
         )
 
     def check_bounds(self, bounds: SafetyBounds | None = None) -> None:
-        """Raise :class:`DgptError` if any gap lies outside ``bounds`` (default bounds)."""
-        check_bounds(self.speed_mps, self.gap_m, bounds if bounds is not None else SafetyBounds())
+        """Raise :class:`DgptError` naming the first bin whose gap lies outside ``bounds``
+        (default bounds)."""
+        b, speed, gap = bounds if bounds is not None else SafetyBounds(), self.speed_mps, self.gap_m
+        lo, hi = b.lower_m(speed), b.upper_m(speed)
+        bad = np.flatnonzero((gap < lo - 1e-9) | (gap > hi + 1e-9))
+        if bad.size:
+            i = int(bad[0])
+            raise DgptError(
+                f"gap {gap[i]:.3f} m at {speed[i]:g} m/s is outside the safety bounds "
+                f"[{lo[i]:.3f}, {hi[i]:.3f}] m ({bad.size} bin(s) out of bounds)"
+            )
 
     def to_json_dict(self) -> dict[str, Any]:
         """The JSON object of this table (format ``pacc.dgpt/1``)."""
@@ -275,15 +271,9 @@ def predefined(
     if not (math.isfinite(headway_s) and math.isfinite(standstill_m)):
         raise DgptError(f"headway and standstill must be finite: {headway_s}, {standstill_m}")
     speed = speed_axis(step_mps)
-    gap = standstill_m + headway_s * speed
-    b = bounds if bounds is not None else SafetyBounds()
-    try:
-        check_bounds(speed, gap, b)
-    except DgptError as exc:
-        raise DgptError(f"predefined table {headway_s:g} s + {standstill_m:g} m: {exc}") from None
-    return Dgpt(
+    table = Dgpt(
         speed_mps=speed,
-        gap_m=gap,
+        gap_m=standstill_m + headway_s * speed,
         version=0,
         driver_id=driver_id,
         condition=condition,
@@ -291,6 +281,11 @@ def predefined(
         created_utc=created_utc if created_utc is not None else utc_now_iso(),
         meta={"headway_s": float(headway_s), "standstill_m": float(standstill_m)},
     )
+    try:
+        table.check_bounds(bounds)
+    except DgptError as exc:
+        raise DgptError(f"predefined table {headway_s:g} s + {standstill_m:g} m: {exc}") from None
+    return table
 
 
 __all__ = [
@@ -299,7 +294,6 @@ __all__ = [
     "MAX_VERSION",
     "PLAIN_NAME",
     "SafetyBounds",
-    "check_bounds",
     "clamp_to_bounds",
     "predefined",
     "speed_axis",
