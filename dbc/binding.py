@@ -206,12 +206,11 @@ def _role(role: str, raw: Any, where: str) -> RoleBinding:
         for i, t in enumerate(tables)
     )
     rb = RoleBinding(role=role, parts=parts, consts=consts)
-    seen: dict[str, str] = {}
-    for part in parts:
-        for key in part.fields:
-            if key in seen or key in consts:
-                raise BindingError(f"{where}: role {role}: field {key} is bound twice")
-            seen[key] = part.message
+    seen = set(consts)
+    for key in (k for part in parts for k in part.fields):
+        if key in seen:
+            raise BindingError(f"{where}: role {role}: field {key} is bound twice")
+        seen.add(key)
     schema = ROLES[role]
     unknown = rb.bound() - set(schema)
     if unknown:

@@ -28,17 +28,15 @@ class Readings:
         profile_id: int = 0,
     ) -> None:
         self.world = world
-        b = {(r, k): rc.bounds(k) for r, rc in roles.items() for k in rc.fields}
         #: each role's values, updated in place by its filler
         self.values: dict[str, dict[str, Any]] = resting_values(
             hmi={"gap_setting": int(gap_setting), "profile_id": int(profile_id)}
         )
-        self._b_ego = b[("ego", "speed_mps")], b[("ego", "accel_mps2")]
-        self._b_pedals = b[("pedals", "accel_pedal_pct")], b[("pedals", "brake_pressure_bar")]
-        self._b_radar = (
-            b[("radar", "gap_m")],
-            b[("radar", "rel_speed_mps")],
-            b[("radar", "lead_accel_mps2")],
+        ego, pedals, radar = roles["ego"], roles["pedals"], roles["radar"]
+        self._b_ego = ego.bounds("speed_mps"), ego.bounds("accel_mps2")
+        self._b_pedals = pedals.bounds("accel_pedal_pct"), pedals.bounds("brake_pressure_bar")
+        self._b_radar = tuple(
+            radar.bounds(k) for k in ("gap_m", "rel_speed_mps", "lead_accel_mps2")
         )
 
     def fillers(self, roles: Iterable[str]) -> dict[str, Callable[[], dict[str, Any]]]:

@@ -14,7 +14,7 @@ import io
 import json
 import math
 import os
-from datetime import UTC, datetime
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import IO, Any
 
@@ -130,8 +130,7 @@ def _stamp_origin(trip: Trip) -> tuple[int, float]:
         except ValueError:
             when = None
         if when is not None and when.tzinfo is not None:
-            delta = when - datetime(1970, 1, 1, tzinfo=UTC)
-            us = (delta.days * 86400 + delta.seconds) * 1_000_000 + delta.microseconds
+            us = (when - datetime(1970, 1, 1, tzinfo=UTC)) // timedelta(microseconds=1)
             return us * 1000, t_first
     return int(round(t_first * 1e9)), t_first
 
