@@ -55,8 +55,7 @@ class SimNode:
             timeout_multiple=command_timeout_s / cmd_cycle,
         )
         self.dt_s = world.cfg.plant.dt_s
-        self.tick = 0
-        self.t_s = 0.0
+        self.tick, self.t_s = 0, 0.0
         roles = {r: self.codec.roles[r] for r in TX_ROLES}
         #: each role's values at this tick, read off the world (:class:`Readings`)
         self.readings = Readings(world, roles, gap_setting, profile_id)

@@ -94,10 +94,8 @@ class Plant:
 
     def __init__(self, cfg: PlantConfig, initial: PlantState, rng: np.random.Generator) -> None:
         self.cfg = cfg
-        self.v_mps = initial.v_mps
-        self.a_mps2 = initial.a_mps2
-        self.gap_m = initial.gap_m
-        self.x_m = initial.x_m
+        self.v_mps, self.a_mps2 = initial.v_mps, initial.a_mps2
+        self.gap_m, self.x_m = initial.gap_m, initial.x_m
         self.collided = initial.gap_m <= 0.0
         self.collision_t_s: float | None = 0.0 if self.collided else None
         self.t_s = 0.0

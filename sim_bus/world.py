@@ -149,15 +149,12 @@ class World:
             driver, rng_driver, dt_s=cfg.driver_dt_s, acc_mode=acc_mode, engage_s=cfg.engage_s
         )
         self._every = int(round(cfg.driver_dt_s / cfg.plant.dt_s))
-        self.tick = 0
-        self.t_s = 0.0
-        self.v_lead_mps = v0
-        self.a_lead_mps2 = self._a_lead[0]
+        self.tick, self.t_s = 0, 0.0
+        self.v_lead_mps, self.a_lead_mps2 = v0, self._a_lead[0]
         self.applied_mps2 = 0.0
         self._events: list[LeadEvent] = sorted(profile.events, key=lambda e: e.t_s)
         self._lead_mode = "profile"  # profile | track (after an event) | none (free road)
-        self._hold_v = 0.0
-        self._hold_until = 0.0
+        self._hold_v, self._hold_until = 0.0, 0.0  # the held speed m/s, until s
         #: the radar reports no lead until this time (a new track being confirmed), s
         self.radar_blank_until = -1.0
         #: the events played so far: (time s, kind, new gap m or None when skipped)

@@ -121,12 +121,9 @@ def synthesize(
     for target in speeds.tolist():
         err = np.abs(lib.mean_mps - target)
         ok = np.flatnonzero(err <= cfg.tolerance_mps)
-        if len(ok):
-            j = int(ok[rng.integers(len(ok))])
-            scale = 1.0
-        else:
-            j = int(np.argmin(err))
-            scale = target / float(lib.mean_mps[j])
+        # a random matching segment, else the nearest one scaled to the target
+        j = int(ok[rng.integers(len(ok))]) if len(ok) else int(np.argmin(err))
+        scale = 1.0 if len(ok) else target / float(lib.mean_mps[j])
         src = int(lib.source_index[j])
         s = int(lib.start[j])
         pieces.append(scale * lib.speeds[src][s : s + lib.length])
