@@ -168,11 +168,8 @@ def _part(table: Any, where: str, consts: dict[str, float]) -> PartBinding:
     fields_raw = table.get("fields", {})
     if not isinstance(fields_raw, dict):
         raise BindingError(f"{where}.fields must map field names to signals")
-    fields = {}
-    for key, spec in fields_raw.items():
-        fb = _field(key, spec, where, consts)
-        if fb is not None:
-            fields[key] = fb
+    parsed = {key: _field(key, spec, where, consts) for key, spec in fields_raw.items()}
+    fields = {key: fb for key, fb in parsed.items() if fb is not None}
     checksum, checksum_signal, counter = _e2e(table, where)
     constants_raw = table.get("constants", {})
     if not isinstance(constants_raw, dict):

@@ -73,7 +73,8 @@ class SimNode:
         self.send_errors = 0  # frames the bus refused (can.CanError on send)
         self.recv_errors = 0  # can.CanError on receive
         self.fault_counts: Counter[tuple[str, str]] = Counter()
-        self._fillers = self.readings.fillers(TX_ROLES)
+        rd = self.readings  # each role's filler: its values at this tick
+        self._fillers = {"ego": rd.ego, "pedals": rd.pedals, "radar": rd.radar, "hmi": rd.hmi}
         self._roles = roles
         self.faults = faults  # schedules the frames (the property's setter)
         self.commands_ok = 0

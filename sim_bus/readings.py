@@ -6,7 +6,7 @@ updated in place.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Mapping
 from typing import Any
 
 from dbc.codec import RoleCodec
@@ -38,11 +38,6 @@ class Readings:
         self._b_radar = tuple(
             radar.bounds(k) for k in ("gap_m", "rel_speed_mps", "lead_accel_mps2")
         )
-
-    def fillers(self, roles: Iterable[str]) -> dict[str, Callable[[], dict[str, Any]]]:
-        """Each of ``roles``' filler: its values at this tick (the HMI's for any other)."""
-        named = {"ego": self.ego, "pedals": self.pedals, "radar": self.radar}
-        return {r: named.get(r, self.hmi) for r in roles}
 
     def ego(self) -> dict[str, Any]:
         """ESC: the ego speed (m/s) and acceleration (m/s^2)."""
