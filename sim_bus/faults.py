@@ -43,10 +43,7 @@ class FaultPlan:
 
     def frozen_at(self, t_s: float) -> tuple[float, float] | None:
         """The freeze window containing ``t_s``, if any."""
-        for w in self.freeze:
-            if w[0] <= t_s < w[1]:
-                return w
-        return None
+        return next((w for w in self.freeze if w[0] <= t_s < w[1]), None)
 
     @property
     def random(self) -> bool:

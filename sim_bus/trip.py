@@ -19,13 +19,11 @@ from sim_bus.world import WorldLog
 
 #: sample period of a trip log, s
 TRIP_DT_S = 0.1
-#: the condition of the nominal condition factor 1
-NOMINAL_CONDITION = "default"
 
 
 def condition_name(condition_factor: float) -> str:
     """The trip's condition: ``"default"`` for the factor 1, else ``"factor-<f>"``."""
-    return NOMINAL_CONDITION if condition_factor == 1.0 else f"factor-{condition_factor:g}"
+    return "default" if condition_factor == 1.0 else f"factor-{condition_factor:g}"
 
 
 def world_trip(

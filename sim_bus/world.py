@@ -193,26 +193,21 @@ class World:
                         agent.brake_bar,
                     )
                 )
-        if agent.accel_pressed or agent.brake_pressed:
-            a = agent.a_cmd_mps2
-        elif request_active:
-            a = a_request_mps2
-        else:
-            a = COAST_MPS2
+        # the pressed pedal's acceleration, else the ACC request's, else coasting
+        pedal = agent.accel_pressed or agent.brake_pressed
+        a = agent.a_cmd_mps2 if pedal else a_request_mps2 if request_active else COAST_MPS2
         self.applied_mps2 = a
         car.advance(a, self.v_lead_mps, self.a_lead_mps2)
         self.tick = tick = self.tick + 1
         self.t_s = tick * self._dt_s
         i = tick if tick < self.n_ticks else self.n_ticks
         if self._lead_mode == "profile":
-            self.v_lead_mps = self._v_lead[i]
-            self.a_lead_mps2 = self._a_lead[i]
+            self.v_lead_mps, self.a_lead_mps2 = self._v_lead[i], self._a_lead[i]
         elif self._lead_mode == "track":
             self._track(i)
         else:  # free road: nothing in sight
             car.gap_m = FREE_GAP_M
-            self.v_lead_mps = car.v_mps
-            self.a_lead_mps2 = 0.0
+            self.v_lead_mps, self.a_lead_mps2 = car.v_mps, 0.0
         while self._events and self._events[0].t_s <= self.t_s + 1e-9:
             self._play(self._events.pop(0), i)
 
@@ -232,8 +227,7 @@ class World:
         v = self.v_lead_mps + a * dt
         if v <= 0.0:
             v, a = 0.0, 0.0
-        self.v_lead_mps = v
-        self.a_lead_mps2 = a
+        self.v_lead_mps, self.a_lead_mps2 = v, a
 
     def _play(self, ev: LeadEvent, i: int) -> None:
         """Switch the tracked vehicle as ``ev`` says (skipped when a cutter does not fit)."""
