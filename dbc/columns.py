@@ -106,17 +106,16 @@ def _signal_description(signal: Any) -> str:
         parts.append(f"range [{signal.minimum}, {signal.maximum}]")
     if signal.choices:
         parts.append("choices " + ", ".join(f"{int(k)}={v}" for k, v in signal.choices.items()))
-    comment = signal.comment if isinstance(signal.comment, str) else None
-    if comment:
-        parts.append(comment)
+    if isinstance(signal.comment, str) and signal.comment:
+        parts.append(signal.comment)
     return "; ".join(parts) or signal.name
 
 
 def message_columns(columns: MessageColumns) -> dict[str, tuple[str, str]]:
     """Column name -> (dtype, description) of a decoded block: ``t_s`` and every signal with
     its unit, range, choices and comment from the DBC."""
-    out = {TIME_KEY: ("<f8", "receive/send time of each frame on the recording node's clock, s")}
     dtypes = columns.dtypes()
-    for signal in columns.message.signals:
-        out[signal.name] = (dtypes[signal.name], _signal_description(signal))
-    return out
+    return {
+        TIME_KEY: ("<f8", "receive/send time of each frame on the recording node's clock, s"),
+        **{s.name: (dtypes[s.name], _signal_description(s)) for s in columns.message.signals},
+    }

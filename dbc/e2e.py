@@ -51,10 +51,9 @@ def data_id_of(frame_id: int) -> int:
 def e2e_crc(data_id: int, payload: bytes | bytearray, crc_byte: int) -> int:
     """The E2E CRC of ``payload`` under ``data_id``, skipping the byte at ``crc_byte``
     (reference form of what the codec unrolls)."""
-    crc = crc8_update(CRC8_INIT, bytes((data_id & 0xFF, data_id >> 8)))
-    crc = crc8_update(crc, payload[:crc_byte])
-    crc = crc8_update(crc, payload[crc_byte + 1 :])
-    return crc ^ CRC8_XOROUT
+    return crc8_j1850(
+        bytes((data_id & 0xFF, data_id >> 8)) + payload[:crc_byte] + payload[crc_byte + 1 :]
+    )
 
 
 class E2EStatus(Enum):
