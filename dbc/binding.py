@@ -66,10 +66,7 @@ class RoleBinding:
 
     def bound(self) -> set[str]:
         """Every field this role gives a value: signal-bound or constant."""
-        keys = set(self.consts)
-        for part in self.parts:
-            keys |= set(part.fields)
-        return keys
+        return set(self.consts).union(*(part.fields for part in self.parts))
 
 
 @dataclass(frozen=True)

@@ -137,12 +137,10 @@ class Inbox:
         """Fold one message's values into its role, reported (with its defaults) once every
         message of it has arrived."""
         role = mc.role
-        partial = self._partial[role]
-        partial.update(values)
-        seen = self._seen[role]
-        seen.add(mc.key)
-        if len(seen) == len(self._merge[role].parts):
-            self._latest[role] = {**self._merge[role].defaults, **partial}
+        self._partial[role].update(values)
+        self._seen[role].add(mc.key)
+        if len(self._seen[role]) == len(self._merge[role].parts):
+            self._latest[role] = {**self._merge[role].defaults, **self._partial[role]}
 
     def latest(self, role: str) -> dict[str, Value] | None:
         """The last usable values of ``role`` (even if stale), or None if none arrived."""

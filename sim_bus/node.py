@@ -64,10 +64,9 @@ class SimNode:
         #: delayed frames: (due time s, sequence, key, payload)
         self._pending: list[tuple[float, int, int, bytes]] = []
         self._seq = 0
-        self.request_active = False
-        self.a_request_mps2 = 0.0
+        #: the last usable command: request active, request m/s², AccState, takeover request
+        self.request_active, self.a_request_mps2, self.takeover_request = False, 0.0, False
         self.acc_state: int = AccState.OFF
-        self.takeover_request = False
         self.status: dict[str, Any] | None = None
         self.frames_sent = 0
         self.send_errors = 0  # frames the bus refused (can.CanError on send)

@@ -138,9 +138,7 @@ class World:
         self.profile = profile
         ss = np.random.SeedSequence([seed, 0x776F726C64])
         rng_plant, rng_driver = (np.random.default_rng(s) for s in ss.spawn(2))
-        v_lead, a_lead = profile.resample(cfg.plant.dt_s)
-        self._v_lead = v_lead.tolist()
-        self._a_lead = a_lead.tolist()
+        self._v_lead, self._a_lead = (x.tolist() for x in profile.resample(cfg.plant.dt_s))
         self.n_ticks = len(self._v_lead) - 1
         v0 = self._v_lead[0]
         gap0 = float(driver.preferred_gap_m(v0)) * cfg.initial_gap_factor
