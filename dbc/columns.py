@@ -22,15 +22,12 @@ __all__ = ["MessageColumns", "message_columns"]
 TIME_KEY = "t_s"
 
 
-def _is_integer(x: Any) -> bool:
-    """cantools' test for an integer scale or offset (an int, or a float with no fraction)."""
-    return isinstance(x, int) or (isinstance(x, float) and x.is_integer())
-
-
 def _integral(signal: Any) -> bool:
-    """Whether cantools decodes ``signal`` to ints (scale 1 and offset 0, or both integers)."""
-    scale, offset = signal.scale, signal.offset
-    return (scale == 1 and offset == 0) or (_is_integer(scale) and _is_integer(offset))
+    """Whether cantools decodes ``signal`` to ints: scale 1 and offset 0, or both integers
+    (an int, or a float with no fraction: cantools' own test)."""
+    pair = (signal.scale, signal.offset)
+    whole = all(isinstance(x, int) or (isinstance(x, float) and x.is_integer()) for x in pair)
+    return pair == (1, 0) or whole
 
 
 class MessageColumns:

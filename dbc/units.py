@@ -33,10 +33,7 @@ class UnitError(ValueError):
 def logical_unit(field: str) -> str | None:
     """The unit of logical field ``field`` (``"m/s"`` for ``speed_mps``), None if
     dimensionless."""
-    for suffix, unit in SUFFIX_UNITS:
-        if field.endswith(suffix):
-            return unit
-    return None
+    return next((unit for suffix, unit in SUFFIX_UNITS if field.endswith(suffix)), None)
 
 
 def conversion(field: str, unit: str | None) -> float:

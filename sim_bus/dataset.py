@@ -44,8 +44,8 @@ def load_human_pairs(path: Path = DATA_PATH) -> tuple[HumanPair, ...]:
         raise DataError(f"cannot read the simulator data file {path}: {exc}") from exc
     if len(offsets) != len(ids) + 1 or offsets[-1] != len(v_lead):
         raise DataError(f"{path}: offsets do not match the arrays")
-    pairs = []
-    for i, pair_id in enumerate(ids):
-        sl = slice(int(offsets[i]), int(offsets[i + 1]))
-        pairs.append(HumanPair(pair_id, makes[i], v_lead[sl], v_fol[sl], gap[sl], dt_s))
-    return tuple(pairs)
+    cuts = [slice(int(a), int(b)) for a, b in zip(offsets[:-1], offsets[1:], strict=True)]
+    return tuple(
+        HumanPair(pair_id, make, v_lead[sl], v_fol[sl], gap[sl], dt_s)
+        for pair_id, make, sl in zip(ids, makes, cuts, strict=True)
+    )

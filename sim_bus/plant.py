@@ -109,12 +109,6 @@ class Plant:
         self._noise: list[float] = []
         self._i = 0
 
-    def _refill(self) -> int:
-        """Draw the next block of noise; the index of its first pair (0)."""
-        # the same draws as rows of a (4096, 2) array; tolist: the same floats
-        self._noise = self._rng.standard_normal((4096, 2)).ravel().tolist()
-        return 0
-
     def advance(self, a_cmd_mps2: float, v_lead_mps: float, a_lead_mps2: float) -> None:
         """Advance one step of ``cfg.dt_s`` with the given command and lead motion."""
         cfg = self.cfg
@@ -123,7 +117,8 @@ class Plant:
         else:
             i = self._i
             if i >= len(self._noise):
-                i = self._refill()
+                # the next block: the draws of a (4096, 2) array, as Python floats
+                self._noise, i = self._rng.standard_normal((4096, 2)).ravel().tolist(), 0
             noise = self._noise
             self._i = i + 2
             nv, ng = self._sv * noise[i], self._sg * noise[i + 1]
