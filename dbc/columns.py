@@ -59,9 +59,8 @@ class MessageColumns:
         n = len(payloads)
         buf = np.zeros((n, 8), dtype=np.uint8)
         if n:
-            buf[:, : self.length] = np.frombuffer(b"".join(payloads), dtype=np.uint8).reshape(
-                n, self.length
-            )
+            data = np.frombuffer(b"".join(payloads), dtype=np.uint8)
+            buf[:, : self.length] = data.reshape(n, self.length)
         little = buf.view("<u8").reshape(n)
         big = buf.view(">u8").reshape(n)
         out: dict[str, np.ndarray] = {}

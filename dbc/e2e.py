@@ -113,8 +113,7 @@ class E2EReceiver:
         """Classify a frame that passed the CRC by its alive counter, received at ``now_s``
         (s); OK and SKIPPED are usable and refresh the timeout (module docstring)."""
         last = self.last_counter
-        timed_out = self.last_ok_s is None or now_s - self.last_ok_s > self.timeout_s
-        if last is None or (timed_out and counter != last):
+        if last is None or (self.timed_out(now_s) and counter != last):
             status = E2EStatus.OK
         else:
             delta = (counter - last) % self.modulo

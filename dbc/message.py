@@ -125,10 +125,8 @@ class MessageCodec:
         return cl
 
     def _bind_checksum(self, signal: Any) -> None:
-        cs = layout(signal, "_checksum", self.length)
-        self._cs = cs
+        self._cs = cs = layout(signal, "_checksum", self.length)
         self._cs_shift = cs.le_shift(self.length)
-        byte = self._cs_shift // 8
         last = self.length - 1
         need = {
             "toyota": (cs.length == 8 and self._cs_shift == 8 * last, "the whole last byte"),
@@ -138,7 +136,7 @@ class MessageCodec:
         ok, where = need.get(self.checksum, whole)
         if not ok:
             raise BindingError(f"{self.name}: a {self.checksum} checksum must be {where}")
-        self.crc_byte = byte
+        self.crc_byte = byte = self._cs_shift // 8
         if self.checksum not in checksums.TABLE_CRCS:  # table CRCs are generated inline
             self._cs_fn = checksums.make(self.checksum, self.frame_id, self.length, byte)
 

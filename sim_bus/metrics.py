@@ -60,8 +60,7 @@ def poi_nim(
     t_s: np.ndarray, acc_state: np.ndarray, accel_pressed: np.ndarray, brake_pressed: np.ndarray
 ) -> tuple[float, float, float, int]:
     """(PoI %, NIM per min, ACC-ON seconds, onsets) of one drive; NaN figures if never ON."""
-    t = np.asarray(t_s, dtype=np.float64)
-    dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    dt = float(np.median(np.diff(np.asarray(t_s, dtype=np.float64)))) if len(t_s) > 1 else 0.0
     on = acc_on_mask(acc_state)
     a = np.asarray(accel_pressed, dtype=bool)
     b = np.asarray(brake_pressed, dtype=bool)
@@ -113,10 +112,8 @@ def drive_metrics(
 ) -> DriveMetrics:
     """All figures of one drive; the gap error uses ACC-ON samples without a pedal pressed."""
     poi, nim, on_s, n_on = poi_nim(t_s, acc_state, accel_pressed, brake_pressed)
-    on = acc_on_mask(acc_state) & ~(
-        np.asarray(accel_pressed, bool) | np.asarray(brake_pressed, bool)
-    )
-    on &= np.asarray(gap_m) < NO_LEAD_GAP_M  # a free road has no gap to err about
+    pressed = np.asarray(accel_pressed, bool) | np.asarray(brake_pressed, bool)
+    on = acc_on_mask(acc_state) & ~pressed & (np.asarray(gap_m) < NO_LEAD_GAP_M)  # a lead ahead
     err = (np.asarray(gap_m) - np.asarray(pref_gap_m))[on]
     return DriveMetrics(
         poi_pct=poi,

@@ -48,11 +48,10 @@ class SimNode:
         self.world = world
         self.codec = codec or load_codec()
         self.outbox = Outbox(self.codec)
-        cmd_cycle = self.codec.by_role["command"].cycle_s
         self.inbox = Inbox(
             self.codec,
             tuple(r for r in ("command", "status") if r in self.codec.roles),
-            timeout_multiple=command_timeout_s / cmd_cycle,
+            timeout_multiple=command_timeout_s / self.codec.by_role["command"].cycle_s,
         )
         self.dt_s = world.cfg.plant.dt_s
         self.tick, self.t_s = 0, 0.0

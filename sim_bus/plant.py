@@ -101,8 +101,7 @@ class Plant:
         self.t_s = 0.0
         self._k = lag_factor(cfg.dt_s, cfg.actuator_tau_s)
         scale = math.sqrt(cfg.dt_s / NOISE_REF_DT_S)
-        self._sv = scale * cfg.sigma_v_mps
-        self._sg = scale * cfg.sigma_g_m
+        self._sv, self._sg = scale * cfg.sigma_v_mps, scale * cfg.sigma_g_m
         self._rng = rng
         self._quiet = self._sv == 0.0 and self._sg == 0.0
         #: a block of N(0, 1) draws, (speed, gap) pairs flattened into Python floats
@@ -141,5 +140,4 @@ class Plant:
         )
         self.t_s += cfg.dt_s
         if self.gap_m <= 0.0 and not self.collided:
-            self.collided = True
-            self.collision_t_s = self.t_s
+            self.collided, self.collision_t_s = True, self.t_s

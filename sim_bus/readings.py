@@ -85,7 +85,5 @@ class Readings:
         vals = self.values["hmi"]
         vals["set"] = 1 if agent.set_button else 0
         vals["resume"] = 1 if agent.resume_button else 0
-        hmi = getattr(agent, "hmi_buttons", None)
-        if hmi is not None:
-            vals.update(hmi)
+        vals.update(getattr(agent, "hmi_buttons", None) or {})  # a person's other buttons
         return vals

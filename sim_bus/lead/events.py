@@ -80,11 +80,10 @@ def _cut_out(rng: np.random.Generator, t_s: float, flow_mps: float) -> LeadEvent
 
 
 def _loss_and_appear(rng: np.random.Generator, t_s: float) -> list[LeadEvent]:
-    free = float(rng.uniform(25.0, 45.0))
     return [
         LeadEvent(t_s, "lead_loss", dropout_s=0.0),
         LeadEvent(
-            t_s + free,
+            t_s + float(rng.uniform(25.0, 45.0)),  # a free road for 25-45 s
             "lead_appear",
             gap_m=float(rng.uniform(100.0, 150.0)),
             v_mps=float(rng.uniform(14.0, 20.0)),
