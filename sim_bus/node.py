@@ -27,6 +27,8 @@ from sim_bus.faults import FaultPlan, FaultSpec
 from sim_bus.readings import Readings
 from sim_bus.world import World
 
+__all__ = ["TX_ROLES", "SimNode"]  # TX_ROLES: the roles the simulator sends
+
 
 class SimNode:
     """Bus I/O around a :class:`World` on any python-can ``bus`` (:func:`dbc.frame.port_of`);
@@ -116,8 +118,7 @@ class SimNode:
         except can.CanError:  # a bus error (real bus): nothing more to read this tick
             self.recv_errors += 1
             return
-        accept = self.inbox.accept
-        tap = self.tap
+        accept, tap = self.inbox.accept, self.tap
         for _, key, data in frames:
             if tap is not None:
                 tap(now, key, data, True)
@@ -141,9 +142,7 @@ class SimNode:
 
     def _transmit(self, now: float) -> None:
         """Send the frames due at this tick (through their fault plans), then delayed ones."""
-        encode = self.outbox.encode_part
-        put = self.port.put
-        tap = self.tap
+        encode, put, tap = self.outbox.encode_part, self.port.put, self.tap
         out: list[tuple[int, bytes]] = []
         for fill, frames in self._due[self.tick % self._hyper]:
             values = fill()
