@@ -1,31 +1,18 @@
-"""The binding table: pacc's logical roles and fields → a vehicle's messages and signals.
+"""The binding table (TOML): pacc's logical roles and fields → a vehicle's messages and signals.
 
-A binding is data (``dbc/pacc.binding.toml``, ``dbc/bindings/*.toml``), so that driving
-another vehicle's network means writing a table, not code (docs/vehicles.md). Version 2:
-
-* a role spans one or more messages (``[[roles.ego]]`` once per message);
-* a field is a signal name, or a table ``{ signal, unit, scale, invert, range }`` (the
-  signal's unit, converted to the field's; a further factor; a 1-bit flag of opposite
-  sense; the usable range in the field's unit when the DBC's is missing or wrong), or
-  ``{ const = value }`` for a quantity the vehicle does not carry;
-* ``constants`` fix other signals of a sent message (``PERMIT_BRAKING = 1``), ``unused``
-  names the signals pacc neither reads nor sets (they are sent as raw 0);
-* ``checksum`` (``pacc_crc8``, ``autosar_p01``, ``toyota``, ``honda``, ``none``) with
-  ``checksum_signal``, and ``counter`` (an alive-counter signal), per message;
-* ``cycle_ms`` gives the period a DBC without ``GenMsgCycleTime`` lacks.
-
-Version 1 tables (one ``[roles.x]`` with ``message``, ``crc``, ``counter`` and ``fields`` of
-signal names) still load: ``crc`` means ``checksum = "pacc_crc8"``.
-
-Loading checks the table against pacc's schema (:mod:`dbc.schema`): a required role or field
-that is not bound is a :class:`BindingError` at start, never a KeyError in the control loop.
+Driving another vehicle means writing a table, not code (docs/vehicles.md): a role spans one
+or more messages (``[[roles.ego]]``); a field is a signal name, a table ``{ signal, unit,
+scale, invert, range }`` or ``{ const = value }``; per message ``constants``, ``unused``,
+``checksum`` with ``checksum_signal``, ``counter`` and ``cycle_ms``. A version 1 ``crc`` key
+means ``checksum = "pacc_crc8"``. Loading checks the table against :mod:`dbc.schema`:
+:class:`BindingError` at start, never a KeyError in the control loop.
 """
 
 from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -37,14 +24,9 @@ from dbc.schema import OPTIONAL_ROLES, REQUIRED_ROLES, ROLES
 
 @dataclass(frozen=True)
 class FieldBinding:
-    """One logical field bound to one signal.
-
-    Attributes:
-        key: logical field name; signal: DBC signal name; unit: the signal's unit (None:
-        the DBC's); invert: a 1-bit flag whose 1 means the field's 0; range: usable
-        [min, max] in the field's unit (None: the DBC's); scale: a further factor from
-        the signal's value to the field's (after the unit conversion; > 0).
-    """
+    """One field bound to one signal: ``unit`` (None: the DBC's), ``invert`` (a 1-bit flag
+    of opposite sense), ``range`` (usable [min, max] in the field's unit; None: the DBC's),
+    ``scale`` (a further factor > 0 after the unit conversion)."""
 
     key: str
     signal: str
@@ -82,17 +64,9 @@ class RoleBinding:
     parts: tuple[PartBinding, ...]
     consts: dict[str, float] = field(default_factory=dict)
 
-    @property
-    def message(self) -> str:
-        """The first message of the role."""
-        return self.parts[0].message
-
     def bound(self) -> set[str]:
         """Every field this role gives a value: signal-bound or constant."""
-        keys = set(self.consts)
-        for part in self.parts:
-            keys |= set(part.fields)
-        return keys
+        return set(self.consts).union(*(part.fields for part in self.parts))
 
 
 @dataclass(frozen=True)
@@ -149,17 +123,7 @@ def _field(key: str, spec: Any, where: str, consts: dict[str, float]) -> FieldBi
     )
 
 
-_PART_KEYS = {
-    "message",
-    "fields",
-    "checksum",
-    "checksum_signal",
-    "counter",
-    "constants",
-    "unused",
-    "cycle_ms",
-    "crc",
-}
+_PART_KEYS = {f.name for f in fields(PartBinding)} | {"crc"}  # crc: version 1
 
 
 def _names(value: Any, where: str) -> tuple[str, ...]:
@@ -201,11 +165,8 @@ def _part(table: Any, where: str, consts: dict[str, float]) -> PartBinding:
     fields_raw = table.get("fields", {})
     if not isinstance(fields_raw, dict):
         raise BindingError(f"{where}.fields must map field names to signals")
-    fields = {}
-    for key, spec in fields_raw.items():
-        fb = _field(key, spec, where, consts)
-        if fb is not None:
-            fields[key] = fb
+    parsed = {key: _field(key, spec, where, consts) for key, spec in fields_raw.items()}
+    fields = {key: fb for key, fb in parsed.items() if fb is not None}
     checksum, checksum_signal, counter = _e2e(table, where)
     constants_raw = table.get("constants", {})
     if not isinstance(constants_raw, dict):
@@ -239,12 +200,11 @@ def _role(role: str, raw: Any, where: str) -> RoleBinding:
         for i, t in enumerate(tables)
     )
     rb = RoleBinding(role=role, parts=parts, consts=consts)
-    seen: dict[str, str] = {}
-    for part in parts:
-        for key in part.fields:
-            if key in seen or key in consts:
-                raise BindingError(f"{where}: role {role}: field {key} is bound twice")
-            seen[key] = part.message
+    seen = set(consts)
+    for key in (k for part in parts for k in part.fields):
+        if key in seen:
+            raise BindingError(f"{where}: role {role}: field {key} is bound twice")
+        seen.add(key)
     schema = ROLES[role]
     unknown = rb.bound() - set(schema)
     if unknown:
@@ -280,9 +240,8 @@ def parse_binding(raw: dict[str, Any], where: str, path: Path | None = None) -> 
 
 
 def binding_file(name: str | Path) -> Path:
-    """The binding file ``name`` gives: a path, or where no such file exists a packaged
-    binding's name (``toyota_nodsu``: ``dbc/bindings/toyota_nodsu.binding.toml`` of the
-    installed package, from any folder)."""
+    """The binding file ``name`` gives: a path, or else a packaged binding's name
+    (``toyota_nodsu``: ``dbc/bindings/toyota_nodsu.binding.toml``)."""
     path = Path(name)
     packaged = DATA_DIR / "bindings" / f"{path.name}.binding.toml"
     if str(name) == path.name and not path.exists() and packaged.is_file():
@@ -305,9 +264,8 @@ def load_binding(path: str | Path) -> Binding:
 
 
 def check_against(binding: Binding, db: Any) -> None:
-    """Validate ``binding`` against a cantools Database ``db``: every named message and
-    signal exists and every signal of a bound message is named (a field, the checksum, the
-    counter, a constant or ``unused``); raise :class:`BindingError`."""
+    """BindingError unless every message and signal ``binding`` names exists in cantools
+    ``db`` and every signal of a bound message is named exactly once."""
     for role in binding.roles.values():
         for part in role.parts:
             try:

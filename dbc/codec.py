@@ -1,20 +1,11 @@
-"""The frame codec shared by the ECU and the simulator.
-
-The DBC is loaded once (cantools) and bound to logical roles and fields by
-the binding table (:mod:`dbc.binding`). For every message, an encoder and a decoder are
-compiled once into straight-line Python (shifts and masks on one integer, an unrolled
-table CRC), which is what makes them several times faster than cantools' generic
-``Message.encode``/``decode``. Encoding fills the alive counter and the E2E CRC; decoding
-checks length, CRC and ranges and raises a :class:`~dbc.errors.DecodeError` subclass
-(:mod:`dbc.message` compiles them).
-
-Values are keyed by logical field names (``speed_mps``, ``gap_m`` …), never by signal
-names: code above the codec knows roles and fields only.
+"""The frame codec shared by the ECU and the simulator: a DBC (cantools, loaded once) bound
+to pacc's roles and fields by the binding table (:mod:`dbc.binding`), one compiled
+:class:`~dbc.message.MessageCodec` per bound message. Values are keyed by logical field names
+(``speed_mps``, ``gap_m``), never by signal names.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -22,47 +13,16 @@ from typing import Any
 from dbc import BINDING_PATH, DBC_PATH
 from dbc.binding import Binding, check_against, load_binding
 from dbc.binding import binding_file as packaged_binding
-from dbc.errors import (
-    BindingError,
-    CodecError,
-    CrcError,
-    DbcError,
-    DecodeError,
-    DlcError,
-    EncodeError,
-    RangeError,
-    UnknownFrameError,
-)
+from dbc.errors import BindingError, DbcError, UnknownFrameError
 from dbc.message import Decoded, MessageCodec, Value
 from dbc.schema import ROLES, check_ranges
 
-__all__ = [
-    "BindingError",
-    "Codec",
-    "CodecError",
-    "CrcError",
-    "DbcError",
-    "DecodeError",
-    "Decoded",
-    "DlcError",
-    "EncodeError",
-    "MessageCodec",
-    "RangeError",
-    "RoleCodec",
-    "UnknownFrameError",
-    "load_codec",
-    "network_paths",
-]
+__all__ = ["Codec", "Decoded", "MessageCodec", "RoleCodec", "load_codec", "network_paths"]
 
 
 class RoleCodec:
-    """One role: its messages (parts), and the values of fields no signal carries.
-
-    Attributes:
-        role: the role; parts: its message codecs, the first one first; defaults: logical
-        values of the fields bound to a constant or left out (optional), which receivers
-        assume; fields: every field the role gives a value (signal-bound or default).
-    """
+    """One role: its message codecs (``parts``), the ``defaults`` receivers assume for fields
+    held constant or left out, and every field it gives a value (``fields``)."""
 
     def __init__(self, role: str, parts: tuple[MessageCodec, ...], consts: dict[str, float]):
         self.role = role
@@ -101,10 +61,8 @@ class RoleCodec:
 
 
 class Codec:
-    """All bound messages of one vehicle network, by role and by frame id.
-
-    ``by_role[role]`` is the role's first message; ``roles[role]`` the whole role.
-    """
+    """All bound messages of one network: ``by_role`` (each role's first message), ``roles``
+    (whole roles), ``by_id`` (by frame id)."""
 
     def __init__(self, db: Any, binding: Binding, dbc_path: Path | None = None) -> None:
         check_against(binding, db)
@@ -137,16 +95,6 @@ class Codec:
         """Every bound message, role by role."""
         return [p for rc in self.roles.values() for p in rc.parts]
 
-    def encode(self, role: str, values: Mapping[str, Any], counter: int = 0) -> bytes:
-        """Payload of a one-message ``role`` with ``values``, alive ``counter`` and checksum."""
-        try:
-            rc = self.roles[role]
-        except KeyError:
-            raise EncodeError(f"no role {role!r} in the binding") from None
-        if len(rc.parts) != 1:
-            raise EncodeError(f"role {role} spans {len(rc.parts)} messages: encode each part")
-        return rc.parts[0].encode(values, counter)
-
     def decode(self, frame_id: int, data: bytes | bytearray) -> Decoded:
         """Decode and check one frame; raise a :class:`DecodeError` subclass if unusable."""
         mc = self.by_id.get(frame_id)
@@ -156,11 +104,9 @@ class Codec:
 
 
 def _load_db(dbc_path: Path) -> Any:
-    # cantools costs ~0.3 s of start-up: only loading a DBC needs it (not `pacc ecu --help`)
-    import cantools  # noqa: PLC0415
+    import cantools  # noqa: PLC0415 - ~0.3 s of start-up, only when a DBC is loaded
 
-    # not strict: real networks overlap signals pacc does not use (opendbc's Toyota PCS_HUD);
-    # the codec checks the signals the binding names (fit, overlap, ranges) itself
+    # not strict: real networks overlap signals pacc does not use; the bound ones are checked
     try:
         return cantools.database.load_file(str(dbc_path), database_format="dbc", strict=False)
     except FileNotFoundError as exc:
@@ -178,15 +124,9 @@ def _load_codec(dbc_path: Path, binding_path: Path) -> Codec:
 def network_paths(
     dbc_path: str | Path | None = None, binding_path: str | Path | None = None
 ) -> tuple[Path, Path]:
-    """The (DBC, binding) files of a network, as the command line gives them.
-
-    Neither: the packaged pacc network. A binding alone: the DBC its ``dbc`` key names,
-    beside the binding file. Both: the binding must name that DBC's file. A DBC alone is
-    refused: a binding written for another network would not fit it.
-
-    Raises:
-        BindingError: a DBC without a binding, or a binding that names another DBC.
-    """
+    """The (DBC, binding) files the command line gives: neither, the packaged network; a
+    binding alone, the DBC it names beside it; both, the binding must name that DBC (else,
+    and for a DBC alone, BindingError)."""
     if binding_path is None:
         if dbc_path is not None:
             raise BindingError(
@@ -207,16 +147,8 @@ def network_paths(
 
 
 def load_codec(dbc_path: str | Path | None = None, binding_path: str | Path | None = None) -> Codec:
-    """The codec of a DBC and binding, loaded once.
-
-    Defaults: the packaged pacc DBC and binding; a binding alone brings the DBC it names
-    (beside it). The library, unlike the command line, lets a test pair an edited pacc DBC
-    with the packaged binding: :meth:`Codec` still checks that they fit.
-
-    Raises:
-        DbcError: the DBC or the binding cannot be read, parsed or matched (a
-            :class:`BindingError` for the binding).
-    """
+    """The codec of a DBC and binding (default: the packaged ones; a binding alone brings
+    its DBC; a DBC alone takes the packaged binding), loaded once; DbcError if unusable."""
     if binding_path is not None and dbc_path is None:
         dbc, binding = network_paths(None, binding_path)
         return _load_codec(dbc, binding)

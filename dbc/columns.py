@@ -1,27 +1,20 @@
-"""Column-wise decoding of many frames of one DBC message, and what its columns mean.
+"""Column-wise decoding of many frames of any DBC message (bound or not), for the bus recorder.
 
-The bus recorder (:mod:`ecu.buslog.writer`) decodes a block of frames at a time: the payloads of one
-message become an ``(n, 8)`` byte array, read as one 64-bit integer per frame (little- or
-big-endian, as the signal), and each signal is a shift, a mask, a sign extension and
-``raw * scale + offset`` over the whole column (numpy). The arithmetic is cantools' own
-(``raw * scale + offset`` in float64; integers when scale is 1 and offset 0, or both are
-integers), so the values equal ``cantools``' ``Message.decode(data, decode_choices=False)``
-frame by frame (tested). Messages this cannot vectorise — multiplexed ones, IEEE float
-signals, payloads longer than 8 bytes — are decoded frame by frame with cantools, with NaN
-for a signal a frame does not carry.
-
-Works on the cantools message itself, not on pacc's binding: every message of any DBC gets
-a decoded channel, bound or not.
+A block of payloads becomes one 64-bit integer per frame; each signal is a shift, a mask, a
+sign extension and cantools' own ``raw * scale + offset`` over the column (numpy), so values
+equal cantools' ``decode(data, decode_choices=False)`` (tested). Multiplexed, float and
+longer-than-8-byte messages are decoded frame by frame with cantools (NaN: not carried).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
+from dbc.layout import placement
 
 __all__ = ["MessageColumns", "message_columns"]
 
@@ -29,52 +22,16 @@ __all__ = ["MessageColumns", "message_columns"]
 TIME_KEY = "t_s"
 
 
-@dataclass(frozen=True)
-class _SignalColumn:
-    name: str
-    shift: int
-    mask: int
-    length: int
-    signed: bool
-    big_endian: bool
-    scale: Any  # int or float, as cantools keeps it
-    offset: Any
-    integral: bool  # cantools returns ints (scale 1, offset 0, or both integers)
-
-
-def _is_integer(x: Any) -> bool:
-    """cantools' test for an integer scale or offset (an int, or a float with no fraction)."""
-    return isinstance(x, int) or (isinstance(x, float) and x.is_integer())
-
-
-def _column(signal: Any) -> _SignalColumn:
-    big = signal.byte_order == "big_endian"
-    if big:  # payload padded to 8 bytes on the right and read as one big-endian integer
-        msb = (7 - signal.start // 8) * 8 + signal.start % 8
-        shift = msb - signal.length + 1
-    else:
-        shift = signal.start
-    scale, offset = signal.scale, signal.offset
-    integral = (scale == 1 and offset == 0) or (_is_integer(scale) and _is_integer(offset))
-    return _SignalColumn(
-        name=signal.name,
-        shift=shift,
-        mask=(1 << signal.length) - 1,
-        length=signal.length,
-        signed=bool(signal.is_signed),
-        big_endian=big,
-        scale=scale,
-        offset=offset,
-        integral=integral,
-    )
+def _integral(signal: Any) -> bool:
+    """Whether cantools decodes ``signal`` to ints: scale 1 and offset 0, or both integers
+    (an int, or a float with no fraction: cantools' own test)."""
+    pair = (signal.scale, signal.offset)
+    whole = all(isinstance(x, int) or (isinstance(x, float) and x.is_integer()) for x in pair)
+    return pair == (1, 0) or whole
 
 
 class MessageColumns:
-    """The decoder of one cantools message over blocks of payloads.
-
-    Args:
-        message: a ``cantools.database.can.Message``.
-    """
+    """The decoder of one cantools message over blocks of payloads."""
 
     def __init__(self, message: Any) -> None:
         self.message = message
@@ -87,34 +44,38 @@ class MessageColumns:
             and not message.is_multiplexed()
             and not any(s.is_float for s in message.signals)
         )
-        self._columns = tuple(_column(s) for s in message.signals) if self.vectorised else ()
+        #: per signal: the signal, its LSB's shift and byte order in the payload padded to 8
+        #: bytes (one integer per frame), and whether it decodes to ints
+        self._columns = tuple(
+            (s, *placement(s, 8), _integral(s))
+            for s in (message.signals if self.vectorised else ())
+        )
 
     def decode(self, payloads: Sequence[bytes]) -> dict[str, np.ndarray]:
-        """Every signal of the message over ``payloads`` (each exactly ``length`` bytes),
-        physical values, arrays of shape ``(len(payloads),)``: int64 where cantools gives
-        integers, else float64 (NaN: a signal the frame does not carry)."""
+        """Every signal over ``payloads`` (each ``length`` bytes), physical values, arrays
+        (n,): int64 where cantools gives integers, else float64 (NaN: not carried)."""
         if not self.vectorised:
             return self._decode_each(payloads)
         n = len(payloads)
         buf = np.zeros((n, 8), dtype=np.uint8)
         if n:
-            buf[:, : self.length] = np.frombuffer(b"".join(payloads), dtype=np.uint8).reshape(
-                n, self.length
-            )
+            data = np.frombuffer(b"".join(payloads), dtype=np.uint8)
+            buf[:, : self.length] = data.reshape(n, self.length)
         little = buf.view("<u8").reshape(n)
         big = buf.view(">u8").reshape(n)
         out: dict[str, np.ndarray] = {}
-        for c in self._columns:
-            word = big if c.big_endian else little
-            raw = ((word >> np.uint64(c.shift)) & np.uint64(c.mask)).astype(np.int64)
-            if c.signed:
-                raw = np.where(raw >= (1 << (c.length - 1)), raw - (1 << c.length), raw)
-            if c.scale == 1 and c.offset == 0:
-                out[c.name] = raw
-            elif c.integral:
-                out[c.name] = raw * int(c.scale) + int(c.offset)
+        for s, shift, big_endian, integral in self._columns:
+            word = big if big_endian else little
+            mask = np.uint64((1 << s.length) - 1)
+            raw = ((word >> np.uint64(shift)) & mask).astype(np.int64)
+            if s.is_signed:
+                raw = np.where(raw >= (1 << (s.length - 1)), raw - (1 << s.length), raw)
+            if s.scale == 1 and s.offset == 0:
+                out[s.name] = raw
+            elif integral:
+                out[s.name] = raw * int(s.scale) + int(s.offset)
             else:
-                out[c.name] = raw * float(c.scale) + float(c.offset)
+                out[s.name] = raw * float(s.scale) + float(s.offset)
         return out
 
     def _decode_each(self, payloads: Sequence[bytes]) -> dict[str, np.ndarray]:
@@ -130,7 +91,7 @@ class MessageColumns:
         """Signal name -> the dtype :meth:`decode` gives it (``<i8`` or ``<f8``)."""
         if not self.vectorised:
             return dict.fromkeys(self.signal_names, "<f8")
-        return {c.name: "<i8" if c.integral else "<f8" for c in self._columns}
+        return {s.name: "<i8" if integral else "<f8" for s, _, _, integral in self._columns}
 
 
 def _signal_description(signal: Any) -> str:
@@ -141,17 +102,16 @@ def _signal_description(signal: Any) -> str:
         parts.append(f"range [{signal.minimum}, {signal.maximum}]")
     if signal.choices:
         parts.append("choices " + ", ".join(f"{int(k)}={v}" for k, v in signal.choices.items()))
-    comment = signal.comment if isinstance(signal.comment, str) else None
-    if comment:
-        parts.append(comment)
+    if isinstance(signal.comment, str) and signal.comment:
+        parts.append(signal.comment)
     return "; ".join(parts) or signal.name
 
 
 def message_columns(columns: MessageColumns) -> dict[str, tuple[str, str]]:
-    """Column name -> (dtype, description) of a decoded block of ``columns``' message: the
-    time ``t_s`` and every signal with its unit, range, choices and comment from the DBC."""
-    out = {TIME_KEY: ("<f8", "receive/send time of each frame on the recording node's clock, s")}
+    """Column name -> (dtype, description) of a decoded block: ``t_s`` and every signal with
+    its unit, range, choices and comment from the DBC."""
     dtypes = columns.dtypes()
-    for signal in columns.message.signals:
-        out[signal.name] = (dtypes[signal.name], _signal_description(signal))
-    return out
+    return {
+        TIME_KEY: ("<f8", "receive/send time of each frame on the recording node's clock, s"),
+        **{s.name: (dtypes[s.name], _signal_description(s)) for s in columns.message.signals},
+    }

@@ -1,21 +1,11 @@
 """End-to-end protection of CAN frames: CRC-8 SAE J1850 and the alive-counter receiver check.
 
-pacc's own scheme (``pacc_crc8`` in binding tables; not AUTOSAR E2E profile 1, whose CRC
-start and XOR values and counter range differ: docs/e2e.md):
-
-* CRC: CRC-8 SAE J1850 — polynomial 0x1D, initial value 0xFF, no reflection, final XOR 0xFF
-  (check value ``crc8_j1850(b"123456789") == 0x4B``) — computed over the 16-bit data id
-  (low byte, then high byte) followed by every payload byte except the CRC byte itself.
-  The data id is the CAN identifier (``frame_id & 0xFFFF``), so a frame received under
-  another identifier (masquerade) fails the check.
-* Alive counter: 4 bits, +1 modulo 16 per transmission. The receiver classifies each frame
-  that passed the CRC as OK (delta 1), REPEATED (delta 0, the frame is dropped),
-  SKIPPED (1 < delta <= timeout_multiple + 1: delta − 1 frames were lost; the frame is used
-  and counted as SKIPPED) or WRONG_SEQUENCE (a larger delta: more frames lost than the timeout
-  allows, so an old frame delivered out of order; dropped).
-* Timeout: no usable frame for ``timeout_multiple`` × the DBC cycle time. After a timeout
-  the first frame re-synchronises the counter, unless it repeats the last accepted counter
-  (a frozen sender must not revive itself once per timeout).
+pacc's scheme (``pacc_crc8``; docs/e2e.md): CRC-8 SAE J1850 (poly 0x1D, init 0xFF, final XOR
+0xFF) over the data id (the CAN id's low 16 bits, low byte first: a masquerade fails) and
+every payload byte but the CRC's. The 4-bit alive counter's delta classifies a frame: 1 OK,
+0 REPEATED (dropped), up to ``timeout_multiple + 1`` SKIPPED (used), more WRONG_SEQUENCE
+(dropped). Timeout: no usable frame for ``timeout_multiple`` periods; after it the first
+frame resynchronises unless it repeats the last counter (a frozen sender stays out).
 """
 
 from __future__ import annotations
@@ -25,24 +15,19 @@ from enum import Enum
 
 from dbc.errors import DbcError
 
-CRC8_POLY = 0x1D
 CRC8_INIT = 0xFF
 CRC8_XOROUT = 0xFF
 COUNTER_MODULO = 16
 
 
-def _make_table(poly: int) -> tuple[int, ...]:
-    table = []
-    for byte in range(256):
-        crc = byte
-        for _ in range(8):
-            crc = ((crc << 1) ^ poly) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
-        table.append(crc)
-    return tuple(table)
+def _table_entry(crc: int) -> int:
+    for _ in range(8):
+        crc = ((crc << 1) ^ 0x1D) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
+    return crc
 
 
-#: Byte-wise lookup table of CRC-8 with polynomial 0x1D (MSB first).
-CRC8_TABLE: tuple[int, ...] = _make_table(CRC8_POLY)
+#: byte-wise lookup table of CRC-8 with polynomial 0x1D (MSB first)
+CRC8_TABLE: tuple[int, ...] = tuple(_table_entry(b) for b in range(256))
 
 
 def crc8_update(crc: int, data: bytes | bytearray | memoryview) -> int:
@@ -64,15 +49,11 @@ def data_id_of(frame_id: int) -> int:
 
 
 def e2e_crc(data_id: int, payload: bytes | bytearray, crc_byte: int) -> int:
-    """The E2E CRC of ``payload`` under ``data_id``, skipping the byte at ``crc_byte``.
-
-    Reference implementation (the codec uses a precomputed register per message that
-    yields the same value).
-    """
-    crc = crc8_update(CRC8_INIT, bytes((data_id & 0xFF, data_id >> 8)))
-    crc = crc8_update(crc, payload[:crc_byte])
-    crc = crc8_update(crc, payload[crc_byte + 1 :])
-    return crc ^ CRC8_XOROUT
+    """The E2E CRC of ``payload`` under ``data_id``, skipping the byte at ``crc_byte``
+    (reference form of what the codec unrolls)."""
+    return crc8_j1850(
+        bytes((data_id & 0xFF, data_id >> 8)) + payload[:crc_byte] + payload[crc_byte + 1 :]
+    )
 
 
 class E2EStatus(Enum):
@@ -89,14 +70,9 @@ class E2EStatus(Enum):
 
 
 class E2EReceiver:
-    """Alive-counter and timeout state of one received message (one per message and node).
-
-    Args:
-        cycle_s: the message's transmission period (s), from the DBC's GenMsgCycleTime.
-        timeout_multiple: the message times out after this many periods without a usable
-            frame (opendbc uses about 10).
-        counter_modulo: the alive counter's period (16 for pacc's 4-bit counter; 2**bits).
-    """
+    """Alive-counter and timeout state of one received message: ``cycle_s`` its period, s;
+    it times out after ``timeout_multiple`` periods without a usable frame (opendbc: about
+    10); ``counter_modulo`` the alive counter's period."""
 
     __slots__ = (
         "modulo",
@@ -121,8 +97,7 @@ class E2EReceiver:
         self.max_delta = min(counter_modulo - 1, int(timeout_multiple) + 1)
         self.last_counter: int | None = None
         self.last_ok_s: float | None = None
-        #: OK frames counted by a receiver's fast path (:class:`dbc.endpoint.Inbox`): an int,
-        #: not a Counter keyed by an Enum, once per frame
+        #: OK frames (an int: the Inbox's fast path counts them once per frame)
         self.ok = 0
         self._counts: Counter[E2EStatus] = Counter()
 
@@ -135,17 +110,10 @@ class E2EReceiver:
         return out
 
     def check_counter(self, counter: int, now_s: float) -> E2EStatus:
-        """Classify a frame whose CRC was correct by its alive counter, received at ``now_s``.
-
-        OK and SKIPPED frames are usable and refresh the timeout; REPEATED and
-        WRONG_SEQUENCE frames are not.
-        The first frame after start, or the first after a timeout whose counter differs
-        from the last accepted one, is accepted as OK; a frozen sender (the same counter
-        forever) stays REPEATED and so stays timed out.
-        """
+        """Classify a frame that passed the CRC by its alive counter, received at ``now_s``
+        (s); OK and SKIPPED are usable and refresh the timeout (module docstring)."""
         last = self.last_counter
-        timed_out = self.last_ok_s is None or now_s - self.last_ok_s > self.timeout_s
-        if last is None or (timed_out and counter != last):
+        if last is None or (self.timed_out(now_s) and counter != last):
             status = E2EStatus.OK
         else:
             delta = (counter - last) % self.modulo
@@ -161,15 +129,12 @@ class E2EReceiver:
                 status = E2EStatus.SKIPPED
         self.last_counter = counter
         self.last_ok_s = now_s
-        if status is E2EStatus.OK:
-            self.ok += 1
-        else:
-            self._counts[status] += 1
+        self.record(status)
         return status
 
     def record(self, status: E2EStatus) -> None:
-        """Count a frame not classified by :meth:`check_counter` (wrong CRC, DLC or range; OK
-        for a message without an alive counter)."""
+        """Count a frame :meth:`check_counter` did not classify (bad CRC, DLC, range; no
+        counter)."""
         if status is E2EStatus.OK:
             self.ok += 1
         else:

@@ -1,9 +1,5 @@
-"""A node's two ends on the bus: the inbox (decode + E2E check) and the outbox (counter + CRC).
-
-Counters and checksums live here and in the codec, never in the callers: a node hands
-the outbox logical values and gets a ready frame; it hands the inbox raw frames and gets
-checked logical values, with every outcome counted per role and kind.
-"""
+"""A node's two ends on the bus: the inbox (decode + E2E check, every outcome counted per
+role) and the outbox (alive counter + checksum): callers see logical values only."""
 
 from __future__ import annotations
 
@@ -15,29 +11,21 @@ import can
 
 from dbc.codec import Codec, RoleCodec
 from dbc.e2e import E2EReceiver, E2EStatus
-from dbc.errors import CrcError, DbcError, DecodeError, DlcError, EncodeError, RangeError
+from dbc.errors import CrcError, DlcError, EncodeError, RangeError
 from dbc.frame import EFF_FLAG, ID_MASK, OTHER, message_of, raw_key
 from dbc.message import Decoded, MessageCodec, Value
 
 #: Pseudo-role under which frames of no bound message are counted.
 UNKNOWN_ROLE = "?"
-
-
-_OK = E2EStatus.OK
-
-
-def _status_of(exc: DecodeError) -> E2EStatus:
-    """The E2E outcome of a frame the codec refused."""
-    if isinstance(exc, CrcError):
-        return E2EStatus.WRONG_CRC
-    if isinstance(exc, DlcError):
-        return E2EStatus.WRONG_DLC
-    return E2EStatus.OUT_OF_RANGE
+#: the E2E outcome of a frame the codec refused, by the error's type (else OUT_OF_RANGE)
+_REFUSED: dict[type, E2EStatus] = {CrcError: E2EStatus.WRONG_CRC, DlcError: E2EStatus.WRONG_DLC}
+#: the counter outcomes whose frame is dropped
+_DROPPED = (E2EStatus.REPEATED, E2EStatus.WRONG_SEQUENCE)
 
 
 class _Route:
-    """What the Inbox needs of one received frame id, found with one lookup: the message's
-    decoder, its E2E receiver, its role, whether the role is merged over several messages."""
+    """What the Inbox needs of one frame id, in one lookup: decoder, E2E receiver, role,
+    whether the role merges several messages."""
 
     __slots__ = ("mc", "decode", "receiver", "role", "merged")
 
@@ -50,53 +38,35 @@ class _Route:
 
 
 class Inbox:
-    """Receive side of a node: accepts raw frames, keeps the latest checked values per role.
-
-    Args:
-        codec: the network's codec.
-        roles: the roles this node consumes; frames of other bound roles are ignored
-            (counted as ``(role, OK)`` nowhere), frames of unknown ids counted as UNKNOWN_ID.
-        timeout_multiple: a role times out after this many of its DBC periods.
-    """
+    """Receive side of a node: the latest checked values of each consumed role (``roles``;
+    other bound roles ignored, unknown ids counted as UNKNOWN_ID); a role times out after
+    ``timeout_multiple`` of its periods."""
 
     def __init__(self, codec: Codec, roles: Iterable[str], timeout_multiple: float = 10.0) -> None:
         self.codec = codec
         self.roles = tuple(roles)
-        self._by_id: dict[int, MessageCodec] = {}
         #: E2E state per message, keyed by MessageCodec.key (the role for its first message)
         self.receivers: dict[str, E2EReceiver] = {}
         self._role_of: dict[str, str] = {}
-        self._keys: dict[str, tuple[str, ...]] = {}
         #: roles over several messages or with defaults: merged before they are reported
         self._merge: dict[str, RoleCodec] = {}
         self._partial: dict[str, dict[str, Value]] = {}
         self._seen: dict[str, set[str]] = {}
+        #: frame key (:func:`dbc.frame.raw_key`) -> its route
+        self._routes: dict[int, _Route] = {}
+        #: the E2E receivers of each role's messages (freshness)
+        self._role_receivers: dict[str, tuple[E2EReceiver, ...]] = {}
         for role in self.roles:
             rc = codec.roles[role]
-            for mc in rc.parts:
-                if mc.cycle_s <= 0:
-                    raise DbcError(f"role {role}: message {mc.name} has no GenMsgCycleTime")
-                self._by_id[mc.frame_id] = mc
-                self.receivers[mc.key] = E2EReceiver(
-                    mc.cycle_s, timeout_multiple, mc.counter_modulo or 16
-                )
-                self._role_of[mc.key] = role
-            self._keys[role] = tuple(mc.key for mc in rc.parts)
-            if len(rc.parts) > 1 or rc.defaults:
-                self._merge[role] = rc
-                self._partial[role] = {}
-                self._seen[role] = set()
-        #: frame key (the id with the IDE bit, :func:`dbc.frame.raw_key`) -> everything its
-        #: frames need (one lookup per frame)
-        self._routes: dict[int, _Route] = {
-            raw_key(fid, mc.is_extended): _Route(mc, self.receivers[mc.key], mc.role in self._merge)
-            for fid, mc in self._by_id.items()
-        }
-        #: the E2E receivers of each role's messages (freshness)
-        self._role_receivers: dict[str, tuple[E2EReceiver, ...]] = {
-            role: tuple(self.receivers[key] for key in keys) for role, keys in self._keys.items()
-        }
-        #: the receiver of each role of one message (most roles): freshness in one lookup
+            merged = len(rc.parts) > 1 or bool(rc.defaults)
+            if merged:
+                self._merge[role], self._partial[role], self._seen[role] = rc, {}, set()
+            for mc in rc.parts:  # the codec refuses a message without a period
+                rx = E2EReceiver(mc.cycle_s, timeout_multiple, mc.counter_modulo or 16)
+                self.receivers[mc.key], self._role_of[mc.key] = rx, role
+                self._routes[raw_key(mc.frame_id, mc.is_extended)] = _Route(mc, rx, merged)
+            self._role_receivers[role] = tuple(self.receivers[mc.key] for mc in rc.parts)
+        #: the receiver of each one-message role: freshness in one lookup
         self._sole: dict[str, E2EReceiver] = {
             role: rx[0] for role, rx in self._role_receivers.items() if len(rx) == 1
         }
@@ -117,15 +87,9 @@ class Inbox:
         return out
 
     def accept(self, key: int, data: Any, now_s: float) -> Decoded | None:
-        """Check one frame received at ``now_s`` (s): ``key`` and ``data`` as
-        :mod:`dbc.frame` gives them (the id with the IDE bit and the payload; for
-        :data:`~dbc.frame.OTHER`, the message). Return it if usable, else None.
-
-        Never raises for bad input: unknown ids (an IDE bit other than the DBC's makes
-        another frame), wrong DLC, wrong CRC, out-of-range values, repeated counters and old
-        frames out of sequence are dropped and counted in :attr:`counts`; error and remote
-        frames are counted as WRONG_DLC of the unknown role.
-        """
+        """Check one frame (``key``, ``data`` as :mod:`dbc.frame` gives them) received at
+        ``now_s`` (s): the decoded frame if usable, else None. Never raises: bad frames are
+        dropped and counted (error and remote frames as WRONG_DLC of the unknown role)."""
         self.frames_in += 1
         route = self._routes.get(key)
         if route is None:
@@ -148,7 +112,7 @@ class Inbox:
         try:
             decoded = route.decode(data)
         except (CrcError, DlcError, RangeError) as exc:
-            receiver.record(_status_of(exc))
+            receiver.record(_REFUSED.get(type(exc), E2EStatus.OUT_OF_RANGE))
             return None
         counter = decoded[2]
         last = receiver.last_counter
@@ -158,7 +122,10 @@ class Inbox:
             receiver.last_counter = counter
             receiver.last_ok_s = now_s
             receiver.ok += 1
-        elif not self._check(receiver, counter, now_s):
+        elif counter is None:  # a message without an alive counter
+            receiver.last_ok_s = now_s
+            receiver.ok += 1
+        elif receiver.check_counter(counter, now_s) in _DROPPED:  # counted there
             return None
         if route.merged:
             self._merge_part(route.mc, decoded[1])
@@ -166,35 +133,21 @@ class Inbox:
             self._latest[route.role] = decoded[1]
         return decoded
 
-    @staticmethod
-    def _check(receiver: E2EReceiver, counter: int | None, now_s: float) -> bool:
-        """The E2E check of a decoded frame off the fast path (first frame, a skip, a repeat,
-        no counter); True when the frame is usable. Counts the outcome."""
-        if counter is None:
-            receiver.last_ok_s = now_s
-            receiver.record(_OK)
-            return True
-        status = receiver.check_counter(counter, now_s)  # counts it too
-        return status is not E2EStatus.REPEATED and status is not E2EStatus.WRONG_SEQUENCE
-
     def _merge_part(self, mc: MessageCodec, values: dict[str, Value]) -> None:
-        """Fold one message's values into its role; the role is reported (a new dict, with
-        its defaults) once every message of it has arrived."""
+        """Fold one message's values into its role, reported (with its defaults) once every
+        message of it has arrived."""
         role = mc.role
-        partial = self._partial[role]
-        partial.update(values)
-        seen = self._seen[role]
-        seen.add(mc.key)
-        if len(seen) == len(self._keys[role]):
-            self._latest[role] = {**self._merge[role].defaults, **partial}
+        self._partial[role].update(values)
+        self._seen[role].add(mc.key)
+        if len(self._seen[role]) == len(self._merge[role].parts):
+            self._latest[role] = {**self._merge[role].defaults, **self._partial[role]}
 
     def latest(self, role: str) -> dict[str, Value] | None:
         """The last usable values of ``role`` (even if stale), or None if none arrived."""
         return self._latest.get(role)
 
     def fresh(self, role: str, now_s: float) -> bool:
-        """True when every message of ``role`` delivered a usable frame within its timeout
-        before ``now_s``."""
+        """True when every message of ``role`` was usable within its timeout of ``now_s``."""
         sole = self._sole.get(role)
         if sole is not None:
             last = sole.last_ok_s
@@ -211,10 +164,8 @@ class Inbox:
 
 
 class Outbox:
-    """Send side of a node: one alive counter per message, checksum filled by the codec.
-
-    ``counters`` is keyed by :attr:`MessageCodec.key` (the role for a role's first message).
-    """
+    """Send side of a node: one alive counter per message (``counters`` by
+    :attr:`MessageCodec.key`), the checksum filled by the codec."""
 
     def __init__(self, codec: Codec) -> None:
         self.codec = codec
@@ -222,8 +173,8 @@ class Outbox:
         self.frames_out = 0
 
     def encode_part(self, mc: MessageCodec, values: Mapping[str, Any]) -> bytes:
-        """Payload of message ``mc`` with the next alive counter; raise EncodeError on bad
-        values. The counter advances only when the frame was built."""
+        """Payload of message ``mc`` with the next alive counter (advanced only when built);
+        EncodeError on bad values."""
         counter = self.counters[mc.key]
         data = mc.encode(values, counter)
         if mc.counter_modulo:
@@ -231,21 +182,18 @@ class Outbox:
         self.frames_out += 1
         return data
 
-    def encode(self, role: str, values: Mapping[str, Any]) -> bytes:
-        """Payload of ``role``'s first (for most networks: only) message; see
-        :meth:`encode_part`."""
+    def _first(self, role: str) -> MessageCodec:
         try:
-            mc = self.codec.by_role[role]
+            return self.codec.by_role[role]
         except KeyError:
             raise EncodeError(f"no role {role!r} in the binding") from None
-        return self.encode_part(mc, values)
+
+    def encode(self, role: str, values: Mapping[str, Any]) -> bytes:
+        """Payload of ``role``'s first message (:meth:`encode_part`)."""
+        return self.encode_part(self._first(role), values)
 
     def pack(self, role: str, values: Mapping[str, Any], timestamp: float = 0.0) -> can.Message:
-        """:meth:`encode` as a python-can message, for a tool that talks to a python-can bus
-        itself (pacc's nodes send frames: :mod:`dbc.frame`)."""
-        try:
-            mc = self.codec.by_role[role]
-        except KeyError:
-            raise EncodeError(f"no role {role!r} in the binding") from None
+        """:meth:`encode` as a python-can message, for a tool on a python-can bus."""
+        mc = self._first(role)
         data = self.encode_part(mc, values)
         return message_of((timestamp, raw_key(mc.frame_id, mc.is_extended), data), None)

@@ -1,10 +1,7 @@
 """The project's exception root, and the codec's tree named by phase (load, encode, decode).
 
-Every package's own root derives from :class:`PaccError` (``CodecError`` here,
-``ecu.EcuError``, ``cloud_sync.errors.CloudSyncError``, ``sim_bus.errors.SimError``,
-``dbc.vocab.FormatError``), so a caller that drives the whole tool can catch one class:
-``pacc.cli.main`` catches it once, prints one line (``pacc <cmd>: error: ...``) on stderr and
-exits 2. This module imports nothing.
+Every package's root derives from :class:`PaccError`, which ``pacc.cli.main`` catches once
+(one line on stderr, exit 2).
 """
 
 
@@ -13,8 +10,7 @@ class PaccError(Exception):
 
 
 class UsageError(PaccError):
-    """Options that contradict each other or name unusable paths (the commands' own checks
-    beyond what argparse sees)."""
+    """Options that contradict each other or name unusable paths (beyond argparse)."""
 
 
 def error_line(exc: BaseException) -> str:

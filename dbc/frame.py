@@ -1,17 +1,9 @@
 """The one frame form inside pacc's nodes, and the edge where python-can messages meet it.
 
-A frame (:data:`Raw`) is ``(timestamp s, key, payload bytes)``: the key is the id with
-:data:`EFF_FLAG` on top for a 29-bit id (:func:`raw_key`), the payload immutable. A frame that
-is not a plain classic data frame (error, remote, CAN FD, or a DLC other than its length) is
-``(timestamp, OTHER, message)``. :func:`raw_of` and :func:`message_of` convert both ways.
-
-A node reaches its bus through a :class:`RawPort` (:func:`port_of`): the lockstep bus
-(:mod:`dbc.lockstep`) is one natively; any other python-can bus is wrapped once in a
-:class:`MessagePort`, which turns messages into frames and back.
-
-:class:`Frame` (a python-can message whose deep copy is cheap) lives here rather than in
-:mod:`dbc.endpoint` so that the latter can be compiled (``tools/compile.py``, mypyc): mypyc
-refuses ``__slots__`` on a class derived from an interpreted one.
+A frame (:data:`Raw`) is ``(timestamp s, key, payload bytes)``, the key the id with
+:data:`EFF_FLAG` for a 29-bit id; anything but a classic data frame whose DLC is its length
+is ``(timestamp, OTHER, message)``. A node reaches its bus through a :class:`RawPort`
+(:func:`port_of`): the lockstep bus natively, any other bus wrapped in a :class:`MessagePort`.
 """
 
 from __future__ import annotations
@@ -33,13 +25,9 @@ Raw = tuple[float, int, Any]
 
 
 class Frame(can.Message):
-    """A python-can message whose deep copy is cheap.
-
-    python-can's virtual bus deep-copies every sent message once per receiver; the generic
-    ``copy.deepcopy`` of the payload bytearray is its largest single cost. A frame's fields
-    are immutable scalars but for the payload, so copying the payload by hand gives the same
-    result (a plain :class:`can.Message` the receiver owns) at a fraction of the cost.
-    """
+    """A python-can message whose deep copy (the virtual bus's, once per receiver) copies
+    only the payload: the same result at a fraction of the generic cost. Here, not in
+    :mod:`dbc.endpoint`, so that mypyc can compile the latter."""
 
     __slots__ = ()
 
@@ -56,17 +44,16 @@ def raw_key(frame_id: int, extended: bool) -> int:
 
 
 def raw_of(msg: can.Message) -> Raw:
-    """The frame of ``msg``: ``(timestamp, key, bytes of the payload)`` for a classic data
-    frame whose DLC is its length, else ``(timestamp, OTHER, msg)`` (an error, remote or CAN
-    FD frame, or a DLC python-can let differ)."""
+    """The frame of ``msg``: ``(timestamp, key, payload bytes)``, or ``(timestamp, OTHER,
+    msg)`` for anything but a classic data frame whose DLC is its length."""
     if msg.is_error_frame or msg.is_remote_frame or msg.is_fd or msg.dlc != len(msg.data):
         return (msg.timestamp, OTHER, msg)
     return (msg.timestamp, raw_key(msg.arbitration_id, msg.is_extended_id), bytes(msg.data))
 
 
 def message_of(entry: Raw, channel: Channel | None, is_rx: bool = True) -> can.Message:
-    """The python-can message a frame stands for, stamped with ``channel`` and ``is_rx`` (a
-    :class:`Frame`; for :data:`OTHER`, the message the frame holds)."""
+    """The python-can message (a :class:`Frame`) of a frame, stamped with ``channel`` and
+    ``is_rx``; for :data:`OTHER`, the message it holds."""
     t, key, data = entry
     if key == OTHER:
         msg: can.Message = data
@@ -90,9 +77,8 @@ def message_of(entry: Raw, channel: Channel | None, is_rx: bool = True) -> can.M
 def rx_copy(
     msg: can.Message, channel: Channel | None, is_rx: bool = True, cls: type = can.Message
 ) -> can.Message:
-    """A received copy of ``msg``: a new message that shares no mutable state with it (a new
-    payload ``bytearray``), stamped with ``channel`` and ``is_rx`` (False on the sender's own
-    echo, as python-can's virtual bus does)."""
+    """A received copy of ``msg`` sharing no mutable state, stamped with ``channel`` and
+    ``is_rx`` (False on an own echo, as on the virtual bus)."""
     m: can.Message = _new_message(cls)
     m.timestamp = msg.timestamp
     m.arbitration_id = msg.arbitration_id
@@ -113,18 +99,11 @@ class RawPort(Protocol):
     """A node's end of the bus, in frames."""
 
     def take(self, timeout_s: float = 0.0) -> Sequence[Raw]:
-        """Every frame waiting, oldest first, after waiting up to ``timeout_s`` for the first.
-
-        Raises:
-            can.CanError: the bus failed (nothing was taken).
-        """
+        """Every frame waiting, oldest first, after up to ``timeout_s`` for the first
+        (can.CanError: the bus failed, nothing taken)."""
 
     def put(self, t: float, key: int, data: bytes) -> None:
-        """Send one classic data frame stamped ``t`` (s).
-
-        Raises:
-            can.CanError: the bus refused it.
-        """
+        """Send one classic data frame stamped ``t`` (s) (can.CanError: refused)."""
 
 
 class MessagePort:
@@ -156,8 +135,7 @@ class MessagePort:
 
 
 def port_of(bus: can.BusABC) -> RawPort:
-    """``bus``'s frame port: its own where it has one (the lockstep bus's ``frame_port``),
-    else a :class:`MessagePort` around it."""
+    """``bus``'s frame port: its own ``frame_port`` (lockstep), else a :class:`MessagePort`."""
     native = getattr(bus, "frame_port", None)
     return native() if native is not None else MessagePort(bus)
 

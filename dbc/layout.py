@@ -1,9 +1,7 @@
-"""Where a bound signal sits in a payload and how its raw value maps to the logical value.
-
-A :class:`FieldLayout` is built once per bound signal from the cantools signal and the
-binding's field entry: the unit conversion (:mod:`dbc.units`) is folded into scale and
-offset, the usable raw range is the DBC's [min, max] (or the binding's ``range``) inside
-what the bits hold. The codec generates its straight-line encoders and decoders from these.
+"""Where a bound signal sits in a payload and how its raw value maps to the logical value:
+one :class:`FieldLayout` per bound signal (unit conversion folded into scale and offset, the
+usable raw range the DBC's or the binding's inside what the bits hold), and the source
+snippets the codec's generated encoders and decoders are made of.
 """
 
 from __future__ import annotations
@@ -17,13 +15,9 @@ from dbc.errors import BindingError, DbcError
 
 @dataclass(frozen=True)
 class FieldLayout:
-    """Where one signal sits in the payload and how raw maps to logical.
-
-    ``shift`` is the position of the signal's least significant bit in the payload read as
-    one little-endian (Intel) or big-endian (Motorola) integer, per ``big_endian``.
-    Logical value = raw * scale + offset (unit conversion included); ``invert`` flips a
-    1-bit flag first.
-    """
+    """One signal: ``shift`` is its LSB's position in the payload read as one little- or
+    big-endian integer (``big_endian``); logical = raw * scale + offset; ``invert`` flips a
+    1-bit flag first."""
 
     key: str
     shift: int
@@ -61,11 +55,7 @@ class FieldLayout:
         }
 
     def le_shift(self, length_bytes: int) -> int:
-        """The little-endian position of a signal that lies within one byte.
-
-        Raises:
-            DbcError: the signal crosses a byte boundary.
-        """
+        """The little-endian position of a signal within one byte (else DbcError)."""
         if self.shift % 8 + self.length > 8:
             raise DbcError(f"{self.key}: must lie within one byte")
         return min(self.le_bits(length_bytes))
@@ -78,9 +68,17 @@ def bit_bounds(length: int, signed: bool) -> tuple[int, int]:
     return 0, (1 << length) - 1
 
 
+def placement(signal: Any, length_bytes: int) -> tuple[int, bool]:
+    """(shift, big-endian) of cantools ``signal``'s LSB in a ``length_bytes`` payload read as
+    one integer of the signal's byte order."""
+    if signal.byte_order != "big_endian":
+        return signal.start, False
+    return (length_bytes - 1 - signal.start // 8) * 8 + signal.start % 8 - signal.length + 1, True
+
+
 def _raw_range(signal: Any, factor: float, override: tuple[float, float] | None) -> tuple[int, int]:
-    """Usable raw range: ``override`` (logical units) or the DBC's [min, max] (a [0|0]
-    range counts as none, as DBC editors write it), intersected with the bits."""
+    """Usable raw range: ``override`` (logical units) or the DBC's [min, max] ([0|0]: none),
+    within the bits."""
     lo, hi = bit_bounds(signal.length, bool(signal.is_signed))
     scale, offset = float(signal.scale), float(signal.offset)
     pmin: float | None
@@ -109,25 +107,16 @@ def layout(
     invert: bool = False,
     override: tuple[float, float] | None = None,
 ) -> FieldLayout:
-    """The layout of cantools ``signal`` bound to logical ``key``; ``factor`` converts the
-    signal's unit to the field's.
-
-    Raises:
-        DbcError: float or non-positive-scale signals, a signal outside the payload.
-        BindingError: ``invert`` on anything but a 1-bit unsigned signal.
-    """
+    """The layout of cantools ``signal`` bound to ``key``; ``factor`` converts its unit to
+    the field's. DbcError: a float or non-positive-scale signal, or one outside the payload;
+    BindingError: ``invert`` on anything but a 1-bit unsigned signal."""
     if signal.is_float:
         raise DbcError(f"signal {signal.name}: IEEE float signals are not supported")
     if float(signal.scale) <= 0:
         raise DbcError(f"signal {signal.name}: only positive scales are supported")
     if invert and (signal.length != 1 or signal.is_signed):
         raise BindingError(f"signal {signal.name}: invert needs a 1-bit unsigned signal")
-    big = signal.byte_order == "big_endian"
-    if big:
-        msb = (length_bytes - 1 - signal.start // 8) * 8 + signal.start % 8
-        shift = msb - signal.length + 1
-    else:
-        shift = signal.start
+    shift, big = placement(signal, length_bytes)
     if shift < 0 or shift + signal.length > 8 * length_bytes:
         raise DbcError(f"signal {signal.name}: does not fit in {length_bytes} bytes")
     raw_min, raw_max = _raw_range(signal, factor, override)
@@ -182,6 +171,3 @@ def placed_le(f: FieldLayout, raw: int, length_bytes: int) -> int:
     if not f.big_endian:
         return bits
     return int.from_bytes(bits.to_bytes(length_bytes, "big"), "little")
-
-
-__all__ = ["FieldLayout", "bit_bounds", "extract", "layout", "physical", "placed_le", "raw_from"]

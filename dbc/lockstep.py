@@ -1,29 +1,12 @@
 """A python-can bus for in-process simulation where the simulator owns time: ``lockstep``.
 
-``can.Bus(interface="lockstep", channel="drive-1")`` (registered through the ``can.interface``
-entry point) opens one end of an in-process bus; every bus opened on the same channel sees
-the frames the others send, in the order they were sent, as python-can's ``virtual`` bus
-does with ``preserve_timestamps=True``. What it leaves out is what a lockstep simulation does
-not need:
-
-- **no locks, no waiting.** The buses of one channel live in one thread (the simulator's
-  loop): a send appends to each receiver's ``deque``, a receive pops from its own. Time only
-  moves when the simulator steps, so a frame cannot arrive while a receiver waits: ``recv``
-  returns the next queued frame or None at once, whatever its ``timeout``.
-- **no message objects between pacc's nodes.** Each end queues frames in :mod:`dbc.frame`'s
-  form ``(timestamp, key, payload bytes)``: the payload immutable, so one tuple serves every
-  receiver and no received frame aliases anything its sender may change (python-can's
-  contract). The bus is its own :class:`dbc.frame.RawPort` (:meth:`LockstepBus.frame_port`):
-  pacc's nodes :meth:`~LockstepBus.take` and :meth:`~LockstepBus.put` frames as they are
-  queued. ``recv`` builds the message a python-can reader expects (:func:`dbc.frame.
-  message_of`); a frame that is not a plain classic data frame (error, remote, CAN FD, a DLC
-  other than its length) travels as ``(timestamp, OTHER, a received copy)``, as does an
-  own echo (``receive_own_messages``, ``is_rx`` False as on the virtual bus).
-
-A received frame carries the sender's timestamp (the simulated time it was stamped with),
-``channel`` set to the channel name and ``is_rx`` True, exactly as the virtual bus stamps them.
-Receive filters (``can_filters``) are honoured. Not thread-safe by design: use the virtual bus
-for nodes on separate threads (a real-time ECU beside a simulator).
+``can.Bus(interface="lockstep", channel="drive-1")`` (the ``can.interface`` entry point):
+every bus of a channel sees the others' frames in send order, stamped as python-can's
+``virtual`` bus stamps them (``preserve_timestamps=True``, ``is_rx``, ``channel``; filters
+honoured). One thread, no locks, no waiting: ``recv`` returns the next queued frame or None
+at once. Ends queue :mod:`dbc.frame`'s immutable frames, so the bus is its own
+:class:`dbc.frame.RawPort` (``take``/``put``); anything but a classic data frame, and an own
+echo, travels as a received copy. Use the virtual bus for nodes on separate threads.
 """
 
 from __future__ import annotations
@@ -43,13 +26,8 @@ _channels: dict[Channel, list[LockstepBus]] = {}
 
 
 class LockstepBus(BusABC):
-    """One end of an in-process lockstep bus (see the module docstring).
-
-    Args:
-        channel: the bus's name; every LockstepBus of one channel sees the others' frames.
-        receive_own_messages: also queue this bus's own frames to itself.
-        can_filters: python-can receive filters (:meth:`can.BusABC.set_filters`).
-    """
+    """One end of an in-process lockstep bus on ``channel`` (``receive_own_messages``:
+    its own frames too; ``can_filters``: python-can receive filters)."""
 
     def __init__(
         self,
@@ -95,12 +73,8 @@ class LockstepBus(BusABC):
             self.rx.append((msg.timestamp, OTHER, rx_copy(msg, channel, False)))
 
     def put(self, t: float, key: int, data: bytes) -> None:
-        """Send one classic data frame stamped ``t`` (s), id and IDE bit in ``key``
-        (:func:`dbc.frame.raw_key`), payload ``data`` (immutable ``bytes``).
-
-        Raises:
-            CanOperationError: the bus is closed.
-        """
+        """Send one classic data frame stamped ``t`` (s): id and IDE bit in ``key``
+        (:func:`dbc.frame.raw_key`), ``data`` bytes. CanOperationError if closed."""
         if not self._open:  # written out: once per frame
             raise CanOperationError("Cannot operate on a closed bus")
         entry = (t, key, data)
@@ -110,8 +84,8 @@ class LockstepBus(BusABC):
             self.rx.append((t, OTHER, message_of(entry, self.channel_id, False)))
 
     def recv(self, timeout: float | None = None) -> Message | None:
-        """The oldest queued frame that passes the filters, or None at once if there is none
-        (``timeout`` is accepted and ignored: nothing arrives while the simulator waits)."""
+        """The oldest queued frame that passes the filters, or None at once (``timeout``
+        ignored: nothing arrives while the simulator waits)."""
         self._check_open()
         rx = self.rx
         while rx:
@@ -121,12 +95,8 @@ class LockstepBus(BusABC):
         return None
 
     def take(self, timeout_s: float = 0.0) -> Sequence[Raw]:
-        """Every queued frame that passes the filters, oldest first, taken off the queue
-        (``timeout_s`` ignored, as :meth:`recv`'s).
-
-        Raises:
-            CanOperationError: the bus is closed.
-        """
+        """Every queued frame that passes the filters, oldest first (``timeout_s`` ignored).
+        CanOperationError if closed."""
         if not self._open:  # written out: once per node and tick
             raise CanOperationError("Cannot operate on a closed bus")
         rx = self.rx

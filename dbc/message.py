@@ -1,11 +1,8 @@
-"""One bound message's encoder and decoder, compiled once into straight-line Python.
-
-For a message of the binding (one part of a role), :class:`MessageCodec` generates an
-encoder and a decoder: shifts and masks on one integer and an unrolled table CRC, which is
-what makes them several times faster than cantools' generic ``Message.encode``/``decode``.
-Encoding fills the alive counter and the checksum; decoding checks length, checksum and
-ranges and raises a :class:`~dbc.errors.DecodeError` subclass. :mod:`dbc.codec` puts the
-messages of a whole network together.
+"""One bound message's encoder and decoder, generated once as straight-line Python (shifts and
+masks on one integer, an unrolled table CRC: several times cantools' speed). Encoding fills
+the alive counter and checksum; decoding checks length, checksum and ranges, raising a
+:class:`~dbc.errors.DecodeError` subclass. ``tools/compile.py`` may compile the same source
+ahead (mypyc: ``dbc._compiled_codecs``).
 """
 
 from __future__ import annotations
@@ -17,14 +14,7 @@ from typing import Any, NamedTuple
 from dbc import checksums
 from dbc.binding import PartBinding
 from dbc.e2e import CRC8_TABLE, crc8_update, data_id_of
-from dbc.errors import (
-    BindingError,
-    CrcError,
-    DbcError,
-    DlcError,
-    EncodeError,
-    RangeError,
-)
+from dbc.errors import BindingError, CrcError, DbcError, DlcError, EncodeError, RangeError
 from dbc.layout import FieldLayout, extract, layout, physical, placed_le, raw_from
 from dbc.units import UnitError, conversion
 
@@ -34,9 +24,8 @@ Value = float | int
 
 
 def _compiled_factories() -> dict[str, Any]:
-    """Source text -> factory of the (encode, decode) pair compiled from it, from the module
-    ``dbc._compiled_codecs`` that ``tools/compile.py`` generates and compiles (the packaged
-    network's messages); empty where there is none (the plain, pure-Python install)."""
+    """Source text -> factory of its compiled (encode, decode) pair from
+    ``dbc._compiled_codecs`` (empty in the pure-Python install)."""
     try:
         module = importlib.import_module("dbc._compiled_codecs")
     except ModuleNotFoundError as exc:
@@ -65,14 +54,10 @@ class Decoded(NamedTuple):
 class MessageCodec:
     """Compiled encoder/decoder of one bound message (one part of a role).
 
-    Attributes:
-        role: logical role (``"radar"``); key: the role for its first message,
-        ``role#i`` for its i-th further one (the key of its alive counter and E2E state);
-        name: DBC message name; frame_id: CAN id; length: DLC in bytes; cycle_s: period
-        (binding ``cycle_ms`` or GenMsgCycleTime, s, 0 if none); fields: logical field
-        names in DBC order; checksum: its kind (:mod:`dbc.checksums`); protected: carries
-        a checksum; crc_byte: index of the byte holding the checksum (None: none);
-        counter_modulo: alive counter period (0: no counter); data_id: 16-bit E2E data id.
+    Attributes: ``role``; ``key`` (the role, ``role#i`` for its i-th further message: its
+    counter's and E2E state's key); ``name``, ``frame_id``, ``length`` (bytes); ``cycle_s``
+    (s, 0: none); ``fields`` (DBC order); ``checksum`` kind; ``crc_byte`` (None: none);
+    ``counter_modulo`` (0: no counter); ``data_id`` (16-bit E2E data id).
     """
 
     def __init__(self, message: Any, part: PartBinding, role: str, key: str | None = None) -> None:
@@ -108,8 +93,7 @@ class MessageCodec:
         self._cs_fn: checksums.Checksum | None = None
         if part.checksum_signal is not None:
             self._bind_checksum(message.get_signal_by_name(part.checksum_signal))
-        # not ``self._cs is not None``: mypy narrows ``self._cs`` to None after the line that
-        # sets it, which a mypyc build would check (and refuse) at run time
+        # not ``self._cs is not None``: mypy narrows it to None, which mypyc would enforce
         self.protected = part.checksum_signal is not None
         self._counter: FieldLayout | None = None
         self.counter_modulo = 0
@@ -141,21 +125,18 @@ class MessageCodec:
         return cl
 
     def _bind_checksum(self, signal: Any) -> None:
-        cs = layout(signal, "_checksum", self.length)
-        self._cs = cs
+        self._cs = cs = layout(signal, "_checksum", self.length)
         self._cs_shift = cs.le_shift(self.length)
-        byte = self._cs_shift // 8
         last = self.length - 1
         need = {
-            "pacc_crc8": (cs.length == 8 and self._cs_shift % 8 == 0, "one whole byte"),
-            "autosar_p01": (cs.length == 8 and self._cs_shift % 8 == 0, "one whole byte"),
             "toyota": (cs.length == 8 and self._cs_shift == 8 * last, "the whole last byte"),
             "honda": (cs.length == 4 and self._cs_shift == 8 * last, "the last byte's low nibble"),
-        }
-        ok, where = need[self.checksum]
+        }  # a table CRC: one whole byte
+        whole = (cs.length == 8 and self._cs_shift % 8 == 0, "one whole byte")
+        ok, where = need.get(self.checksum, whole)
         if not ok:
             raise BindingError(f"{self.name}: a {self.checksum} checksum must be {where}")
-        self.crc_byte = byte
+        self.crc_byte = byte = self._cs_shift // 8
         if self.checksum not in checksums.TABLE_CRCS:  # table CRCs are generated inline
             self._cs_fn = checksums.make(self.checksum, self.frame_id, self.length, byte)
 
@@ -168,7 +149,6 @@ class MessageCodec:
                     raise DbcError(f"{self.name}: bound signals {used[bit]} and {f.key} overlap")
                 used[bit] = f.key
 
-    # -- code generation ---------------------------------------------------------------
     def _crc_lines(self, buf: str, indent: str) -> list[str]:
         """Unrolled CRC over the data id (precomputed) and every byte but the CRC byte."""
         assert self.crc_byte is not None
@@ -185,12 +165,9 @@ class MessageCodec:
     def _decode_source(self) -> list[str]:
         layouts, counter, n = list(self.layouts), self._counter, self.length
         generic = self._cs is not None and self.checksum not in checksums.TABLE_CRCS
-        need_le = (
-            generic
-            or any(not f.big_endian for f in layouts)
-            or (counter is not None and not counter.big_endian)
-        )
-        need_be = any(f.big_endian for f in layouts) or (counter is not None and counter.big_endian)
+        placed = [*layouts, *([counter] if counter else [])]
+        need_le = generic or any(not f.big_endian for f in placed)
+        need_be = any(f.big_endian for f in placed)
         d = [
             "def decode(data):",
             f"    if len(data) != {n}:",
@@ -222,7 +199,7 @@ class MessageCodec:
         ]
         if narrowing:
             d.append(f"    if not ({' and '.join(narrowing)}):")
-            d.append("        range_error(data)")
+            d.append(f"        range_error({', '.join(f'r{i}' for i in range(len(layouts)))})")
         items = ", ".join(f"{f.key!r}: {physical(f, f'r{i}')}" for i, f in enumerate(layouts))
         cnt = extract(counter) if counter else "None"
         if counter and self.counter_modulo < 1 << counter.length:  # AUTOSAR P01: 15 invalid
@@ -304,18 +281,13 @@ class MessageCodec:
         exec(compile(source, f"<codec {self.name}>", "exec"), ns)  # noqa: S102 - generated above
         return ns["encode"], ns["decode"]
 
-    # -- slow paths (errors only) ----------------------------------------------------------
-    def _range_error(self, data: bytes | bytearray) -> None:
-        n_le, n_be = int.from_bytes(data, "little"), int.from_bytes(data, "big")
-        bad = []
-        for f in self.layouts:
-            raw = ((n_be if f.big_endian else n_le) >> f.shift) & f.mask
-            if f.signed and raw >> (f.length - 1):
-                raw -= 1 << f.length
-            if f.invert:
-                raw ^= 1
-            if not f.raw_min <= raw <= f.raw_max:
-                bad.append(f"{f.key}={raw * f.scale + f.offset:g}")
+    def _range_error(self, *raws: int) -> None:
+        """The decode error naming the fields whose raw values (``raws``) are out of range."""
+        bad = [
+            f"{f.key}={r * f.scale + f.offset:g}"
+            for f, r in zip(self.layouts, raws, strict=True)
+            if not f.raw_min <= r <= f.raw_max
+        ]
         raise RangeError(f"{self.name}: out of DBC range: {', '.join(bad)}")
 
     def _encode_error(self, values: Mapping[str, Any], exc: BaseException | None) -> None:

@@ -1,9 +1,5 @@
-"""The ``--dbc`` / ``--binding`` options every command shares, and the codec they name.
-
-``--binding FILE`` alone brings the DBC its ``dbc`` key names (beside the file); ``--dbc``
-needs a binding that names it: a DBC alone is a usage error, never a silent fallback to the
-packaged binding (:func:`dbc.codec.network_paths`).
-"""
+"""The ``--dbc`` / ``--binding`` options every command shares, and the codec they name
+(:func:`dbc.codec.network_paths`: a DBC alone is a usage error)."""
 
 from __future__ import annotations
 
@@ -28,22 +24,13 @@ def add_network_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def network_of(args: argparse.Namespace) -> tuple[Path, Path]:
-    """The (DBC, binding) files of parsed ``args``.
-
-    Raises:
-        BindingError: ``--dbc`` without ``--binding``, or a binding naming another DBC.
-    """
+    """The (DBC, binding) files of parsed ``args`` (BindingError as network_paths)."""
     return network_paths(args.dbc, args.binding)
 
 
 def codec_of(args: argparse.Namespace) -> Codec:
-    """The codec of parsed ``args`` (:func:`network_of`), loaded once.
-
-    Raises:
-        DbcError: as :func:`network_of`, or the DBC or binding cannot be loaded or matched.
-    """
-    dbc, binding = network_of(args)
-    return load_codec(dbc, binding)
+    """The codec of parsed ``args``, loaded once (DbcError: unusable network)."""
+    return load_codec(*network_of(args))
 
 
 __all__ = ["add_network_arguments", "codec_of", "network_of"]

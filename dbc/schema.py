@@ -1,11 +1,8 @@
 """pacc's logical interface: the roles and fields the ECU and the simulator exchange.
 
-A binding (:mod:`dbc.binding`) maps these to a vehicle's messages and signals. A required
-field must be bound (to a signal or a constant); an optional field the vehicle lacks takes
-its default here when decoded and is left out when encoded. The ``status`` role is optional
-as a whole: a network without it simply does not carry the ECU's status. A field with a
-documented ``range`` must be bound to a signal that can hold it (:func:`check_ranges`): a
-vehicle speed signal of [0, 1] m/s would clamp the car's speed on the bus.
+A binding (:mod:`dbc.binding`) maps them to a vehicle's signals: a required field must be
+bound (to a signal or a constant), an optional one the vehicle lacks takes its default; the
+``status`` role is optional. A field's ``range`` must fit its signal (:func:`check_ranges`).
 """
 
 from __future__ import annotations
@@ -19,8 +16,8 @@ from dbc.errors import BindingError
 
 @dataclass(frozen=True)
 class FieldSpec:
-    """One logical field: required, or optional with the value a receiver assumes; ``range``
-    is the [min, max] (the field's unit) a signal bound to it must hold (None: any)."""
+    """One field: required, or optional with the value a receiver assumes; ``range`` the
+    [min, max] (its unit) its signal must hold (None: any)."""
 
     required: bool = True
     default: float = 0.0
@@ -84,43 +81,18 @@ REQUIRED_ROLES: tuple[str, ...] = ("ego", "pedals", "radar", "hmi", "command")
 #: roles a binding may leave out
 OPTIONAL_ROLES: tuple[str, ...] = ("status",)
 
-#: the values a sender of the input roles starts from (every field of each role): the car at
-#: standstill with its speed valid, no pedal, a valid lead at 0 m not accelerating (with a
-#: valid lead acceleration), the ACC main switch on, no button, gap setting 2, profile 0
+#: the values the input roles' senders start from: each field's default, but a valid lead
+#: acceleration and the ACC main switch on (standstill, no pedal, a lead at 0 m, no button)
 _RESTING: dict[str, dict[str, float]] = {
-    "ego": {"speed_mps": 0.0, "accel_mps2": 0.0, "speed_valid": 1},
-    "pedals": {
-        "accel_pedal_pct": 0.0,
-        "accel_pressed": 0,
-        "brake_pressed": 0,
-        "brake_pressure_bar": 0.0,
-    },
-    "radar": {
-        "lead_valid": 1,
-        "gap_m": 0.0,
-        "rel_speed_mps": 0.0,
-        "lead_accel_mps2": 0.0,
-        "lead_accel_valid": 1,
-    },
-    "hmi": {
-        "main_switch": 1,
-        "set": 0,
-        "resume": 0,
-        "cancel": 0,
-        "gap_setting": 2,
-        "profile_id": 0,
-    },
+    role: {k: spec.default for k, spec in ROLES[role].items()}
+    | {"radar": {"lead_accel_valid": 1}, "hmi": {"main_switch": 1}}.get(role, {})
+    for role in ("ego", "pedals", "radar", "hmi")
 }
 
 
 def check_ranges(roles: Mapping[str, Any]) -> None:
-    """Refuse a network (``roles``: role -> :class:`dbc.codec.RoleCodec`) where a signal bound
-    to a field with a documented ``range`` cannot hold that range (a field held constant is
-    not checked: the vehicle does not carry it).
-
-    Raises:
-        BindingError: naming the message, the field, its range and the one it must hold.
-    """
+    """BindingError where a signal bound to a field with a ``range`` cannot hold it
+    (``roles``: role -> :class:`dbc.codec.RoleCodec`; constants are not checked)."""
     for role, fields in ROLES.items():
         rc = roles.get(role)
         for key, spec in fields.items():
@@ -136,8 +108,7 @@ def check_ranges(roles: Mapping[str, Any]) -> None:
 
 
 def resting_values(**roles: dict[str, float]) -> dict[str, dict[str, float]]:
-    """A fresh copy of the input roles' resting values (the simulator's and the test peers'
-    starting frames), each role's fields updated from ``roles[role]`` where given."""
+    """A fresh copy of the input roles' resting values, updated from ``roles[role]``."""
     return {role: {**fields, **roles.get(role, {})} for role, fields in _RESTING.items()}
 
 

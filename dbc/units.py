@@ -1,10 +1,8 @@
 """Physical units of DBC signals and their conversion to pacc's logical units.
 
-A logical field states its unit in its name (``speed_mps`` m/s, ``gap_m`` m, ``accel_mps2``
-m/s², ``accel_pedal_pct`` %, ``brake_pressure_bar`` bar; any other name is dimensionless).
-A DBC signal states its unit in the DBC (``"km/h"``) or the binding does. The codec folds the
-conversion factor into the signal's scale and offset once, so converting costs nothing per
-frame.
+A field states its unit in its name (``_mps`` m/s, ``_m`` m, ``_mps2`` m/s², ``_pct`` %,
+``_bar`` bar; else dimensionless); a signal in the DBC or the binding. The codec folds the
+factor into scale and offset once.
 """
 
 from __future__ import annotations
@@ -35,21 +33,12 @@ class UnitError(ValueError):
 def logical_unit(field: str) -> str | None:
     """The unit of logical field ``field`` (``"m/s"`` for ``speed_mps``), None if
     dimensionless."""
-    for suffix, unit in SUFFIX_UNITS:
-        if field.endswith(suffix):
-            return unit
-    return None
+    return next((unit for suffix, unit in SUFFIX_UNITS if field.endswith(suffix)), None)
 
 
 def conversion(field: str, unit: str | None) -> float:
-    """Factor turning a signal value in ``unit`` into field ``field``'s logical unit.
-
-    Dimensionless fields take any unit (factor 1). A dimensional field needs a unit of its
-    own dimension.
-
-    Raises:
-        UnitError: ``unit`` is missing, unknown, or of another dimension.
-    """
+    """Factor turning a value in ``unit`` into ``field``'s unit (1 for a dimensionless
+    field); UnitError: ``unit`` missing, unknown or of another dimension."""
     target = logical_unit(field)
     if target is None:
         return 1.0

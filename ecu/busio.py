@@ -18,8 +18,9 @@ from typing import Any
 
 import can
 
-from dbc.codec import Codec, EncodeError, MessageCodec, RoleCodec
+from dbc.codec import Codec, MessageCodec, RoleCodec
 from dbc.endpoint import Inbox, Outbox
+from dbc.errors import EncodeError
 from dbc.frame import Raw, port_of, raw_key
 from dbc.vocab.acc_state import AccState, FaultCode
 from dbc.vocab.pedals import PedalScale

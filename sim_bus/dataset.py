@@ -1,8 +1,6 @@
-"""Read the shipped real-data file ``sim_bus/data/openacc_human.npz`` (built by build_dataset).
-
-Only this packaged file is read at run time. It holds the human-driven leader->follower pairs
-of the JRC OpenACC AstaZero campaign (Makridis et al., 2021) at 10 Hz.
-"""
+"""The shipped real-data file ``sim_bus/data/openacc_human.npz`` (tools/build_dataset.py): the
+human-driven leader->follower pairs of the JRC OpenACC AstaZero campaign (Makridis et al.,
+2021), 10 Hz."""
 
 from __future__ import annotations
 
@@ -46,8 +44,8 @@ def load_human_pairs(path: Path = DATA_PATH) -> tuple[HumanPair, ...]:
         raise DataError(f"cannot read the simulator data file {path}: {exc}") from exc
     if len(offsets) != len(ids) + 1 or offsets[-1] != len(v_lead):
         raise DataError(f"{path}: offsets do not match the arrays")
-    pairs = []
-    for i, pair_id in enumerate(ids):
-        sl = slice(int(offsets[i]), int(offsets[i + 1]))
-        pairs.append(HumanPair(pair_id, makes[i], v_lead[sl], v_fol[sl], gap[sl], dt_s))
-    return tuple(pairs)
+    cuts = [slice(int(a), int(b)) for a, b in zip(offsets[:-1], offsets[1:], strict=True)]
+    return tuple(
+        HumanPair(pair_id, make, v_lead[sl], v_fol[sl], gap[sl], dt_s)
+        for pair_id, make, sl in zip(ids, makes, cuts, strict=True)
+    )

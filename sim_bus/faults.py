@@ -1,25 +1,18 @@
-"""Fault injection on the simulator's transmitted frames, configurable per message role.
+"""Fault injection on the simulator's transmitted frames, per message role.
 
-SPEC syntax (``--faults``): clauses separated by ``;``, each ``ROLE:KIND=VALUE[,KIND=VALUE]``.
-ROLE is one of ego, pedals, radar, hmi, or ``all`` (every role). KINDs:
-
-- ``drop=P``       drop each frame with probability P (the counter still advances: lost on
-                   the wire);
-- ``delay=S``      deliver every frame S seconds late (order kept);
-- ``crc=P``        corrupt the CRC byte of a frame with probability P;
-- ``counter=P``    repeat the previous alive counter with probability P;
-- ``freeze=A-B``   from A to B seconds, keep sending the values of time A (valid CRC/counter);
-- ``dropout=A-B``  from A to B seconds, send nothing (e.g. a radar dropout);
-- ``silence=A-B``  same as dropout; meant for ``all`` (bus silence).
-
-Example: ``radar:dropout=20-25;ego:crc=0.02;all:silence=100-100.5``. Several clauses for
-one role merge; window kinds may repeat. Random decisions use the drive's seeded Generator.
+SPEC (``--faults``): ``ROLE:KIND=VALUE[,KIND=VALUE]`` clauses separated by ``;``, ROLE one of
+ego, pedals, radar, hmi or ``all``. KINDs: ``drop=P`` (lost on the wire, the counter advances),
+``delay=S`` (s, order kept), ``crc=P`` (a corrupted byte), ``counter=P`` (the previous counter
+repeated), and windows A-B in s: ``freeze`` (the values of time A, valid CRC), ``dropout`` and
+``silence`` (nothing sent). E.g. ``radar:dropout=20-25;ego:crc=0.02;all:silence=100-100.5``;
+clauses of one role merge. Random draws use the drive's seeded Generator.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -50,10 +43,7 @@ class FaultPlan:
 
     def frozen_at(self, t_s: float) -> tuple[float, float] | None:
         """The freeze window containing ``t_s``, if any."""
-        for w in self.freeze:
-            if w[0] <= t_s < w[1]:
-                return w
-        return None
+        return next((w for w in self.freeze if w[0] <= t_s < w[1]), None)
 
     @property
     def random(self) -> bool:
@@ -86,31 +76,11 @@ def _window(value: str, clause: str) -> tuple[float, float]:
     return a, b
 
 
-@dataclass
-class _Draft:
-    """The faults of one role while a SPEC is parsed (the mutable twin of FaultPlan)."""
-
-    values: dict[str, float] = field(default_factory=dict)  # drop, crc, counter, delay
-    freeze: list[tuple[float, float]] = field(default_factory=list)
-    silent: list[tuple[float, float]] = field(default_factory=list)
-
-    def plan(self) -> FaultPlan:
-        v = self.values
-        return FaultPlan(
-            drop=v.get("drop", 0.0),
-            crc=v.get("crc", 0.0),
-            counter=v.get("counter", 0.0),
-            delay_s=v.get("delay", 0.0),
-            freeze=tuple(self.freeze),
-            silent=tuple(self.silent),
-        )
-
-
 def parse_faults(text: str | None) -> FaultSpec:
     """Parse a SPEC (see module docstring); an empty or None SPEC means no faults."""
     if not text or not text.strip():
         return FaultSpec()
-    drafts: dict[str, _Draft] = {}
+    drafts: dict[str, dict[str, Any]] = {}  # role -> FaultPlan's keyword arguments
     for clause in (c.strip() for c in text.split(";")):
         if not clause:
             continue
@@ -125,29 +95,23 @@ def parse_faults(text: str | None) -> FaultSpec:
                 raise FaultSpecError(f"{clause!r}: expected KIND=VALUE, got {item!r}")
             kind, value = (s.strip() for s in item.split("=", 1))
             for tgt in targets:
-                _apply(drafts.setdefault(tgt, _Draft()), kind, value, clause)
-    return FaultSpec({role: d.plan() for role, d in drafts.items()}, text)
+                _apply(drafts.setdefault(tgt, {}), kind, value, clause)
+    return FaultSpec({role: FaultPlan(**kw) for role, kw in drafts.items()}, text)
 
 
-def _apply(draft: _Draft, kind: str, value: str, clause: str) -> None:
-    if kind in _PROB:
+def _apply(draft: dict[str, Any], kind: str, value: str, clause: str) -> None:
+    if kind in (*_PROB, "delay"):  # a probability 0..1, or a delay of 0..10 s
+        what, top, unit = ("seconds", 10.0, " s") if kind == "delay" else ("a probability", 1, "")
         try:
-            p = float(value)
+            x = float(value)
         except ValueError:
-            raise FaultSpecError(f"{clause!r}: {kind} needs a probability, got {value!r}") from None
-        if not 0.0 <= p <= 1.0:
-            raise FaultSpecError(f"{clause!r}: {kind} probability must lie in 0..1")
-        draft.values[kind] = p
-    elif kind == "delay":
-        try:
-            d = float(value)
-        except ValueError:
-            raise FaultSpecError(f"{clause!r}: delay needs seconds, got {value!r}") from None
-        if not 0.0 <= d <= 10.0:
-            raise FaultSpecError(f"{clause!r}: delay must lie in 0..10 s")
-        draft.values["delay"] = d
+            raise FaultSpecError(f"{clause!r}: {kind} needs {what}, got {value!r}") from None
+        if not 0.0 <= x <= top:
+            raise FaultSpecError(f"{clause!r}: {kind} must lie in 0..{top:g}{unit}")
+        draft["delay_s" if kind == "delay" else kind] = x
     elif kind in _WINDOW:
-        (draft.freeze if kind == "freeze" else draft.silent).append(_window(value, clause))
+        key = "freeze" if kind == "freeze" else "silent"
+        draft[key] = (*draft.get(key, ()), _window(value, clause))
     else:
         raise FaultSpecError(
             f"{clause!r}: unknown fault kind {kind!r} (one of {_PROB + ('delay',) + _WINDOW})"

@@ -1,13 +1,9 @@
 """The simulator's bus node: plays ESC, PEDAL, RADAR and HMI, consumes ACC_Command.
 
-Frames go out at their DBC periods (ego and pedals 10 ms, radar 50 ms, hmi 100 ms) with the
-alive counter and CRC of the codec's Outbox, stamped with simulated time. ACC_Command frames
-are checked by an Inbox (E2E); the request is applied only while the command is fresh
-(``command_timeout_s``), ``request_active`` is 1 and no pedal is pressed (see world.World).
-
-Two clocks: :meth:`SimNode.step` (lockstep, one tick; the caller owns time: same seed, same
-frame sequence) and :meth:`SimNode.run_realtime` (sleeps to the wall clock).
-Fault injection (sim_bus.faults) is applied to the transmitted frames.
+Frames go out at their DBC periods through the Outbox (counter, CRC) and the role's fault plan
+(:mod:`sim_bus.faults`), stamped with simulated time; ACC_Command is E2E-checked by an Inbox
+and applied while fresh (``command_timeout_s``, s). :meth:`SimNode.step` is one lockstep tick
+(same seed, same frames); :meth:`SimNode.run_realtime` sleeps to the wall clock.
 """
 
 from __future__ import annotations
@@ -26,22 +22,17 @@ from dbc.codec import Codec, MessageCodec, load_codec
 from dbc.endpoint import Inbox, Outbox
 from dbc.frame import port_of, raw_key
 from dbc.vocab.acc_state import AccState
-from sim_bus.faults import ROLES, FaultPlan, FaultSpec
+from sim_bus.faults import ROLES as TX_ROLES
+from sim_bus.faults import FaultPlan, FaultSpec
 from sim_bus.readings import Readings
 from sim_bus.world import World
 
-#: the roles the simulator sends (the ones faults apply to)
-TX_ROLES = ROLES
+__all__ = ["TX_ROLES", "SimNode"]  # TX_ROLES: the roles the simulator sends
 
 
 class SimNode:
-    """Bus I/O around a :class:`World`. ``bus`` is any python-can bus, reached through its
-    frame port (:func:`dbc.frame.port_of`: the lockstep bus's own, else python-can messages
-    converted at the edge).
-
-    ``faults``: per-role fault plans; ``rng``: the Generator for random faults (seeded by the
-    caller); ``gap_setting`` 1..3 and ``profile_id`` 0..255 are sent on HMI_Buttons.
-    """
+    """Bus I/O around a :class:`World` on any python-can ``bus`` (:func:`dbc.frame.port_of`);
+    ``rng`` draws the random faults; ``gap_setting`` 1..3 and ``profile_id`` go on the HMI."""
 
     def __init__(
         self,
@@ -59,15 +50,13 @@ class SimNode:
         self.world = world
         self.codec = codec or load_codec()
         self.outbox = Outbox(self.codec)
-        cmd_cycle = self.codec.by_role["command"].cycle_s
         self.inbox = Inbox(
             self.codec,
             tuple(r for r in ("command", "status") if r in self.codec.roles),
-            timeout_multiple=command_timeout_s / cmd_cycle,
+            timeout_multiple=command_timeout_s / self.codec.by_role["command"].cycle_s,
         )
         self.dt_s = world.cfg.plant.dt_s
-        self.tick = 0
-        self.t_s = 0.0
+        self.tick, self.t_s = 0, 0.0
         roles = {r: self.codec.roles[r] for r in TX_ROLES}
         #: each role's values at this tick, read off the world (:class:`Readings`)
         self.readings = Readings(world, roles, gap_setting, profile_id)
@@ -76,44 +65,42 @@ class SimNode:
         #: delayed frames: (due time s, sequence, key, payload)
         self._pending: list[tuple[float, int, int, bytes]] = []
         self._seq = 0
-        self.request_active = False
-        self.a_request_mps2 = 0.0
+        #: the last usable command: request active, request m/s², AccState, takeover request
+        self.request_active, self.a_request_mps2, self.takeover_request = False, 0.0, False
         self.acc_state: int = AccState.OFF
-        self.takeover_request = False
         self.status: dict[str, Any] | None = None
         self.frames_sent = 0
         self.send_errors = 0  # frames the bus refused (can.CanError on send)
         self.recv_errors = 0  # can.CanError on receive
         self.fault_counts: Counter[tuple[str, str]] = Counter()
-        self._fillers = self.readings.fillers(TX_ROLES)
+        rd = self.readings  # each role's filler: its values at this tick
+        self._fillers = {"ego": rd.ego, "pedals": rd.pedals, "radar": rd.radar, "hmi": rd.hmi}
         self._roles = roles
         self.faults = faults  # schedules the frames (the property's setter)
         self.commands_ok = 0
-        #: called with (time, key, payload, received) for every frame in and out (a bus
-        #: recorder's :meth:`~ecu.buslog.writer.CanLogWriter.frame_raw`; :mod:`dbc.frame`)
+        #: called with (time s, key, payload, received) for every frame in and out (a recorder)
         self.tap: Callable[[float, int, Any, bool], None] | None = None
 
     @property
     def faults(self) -> FaultSpec | None:
-        """The fault plans applied to the transmitted frames (None: none); setting them
-        re-plans the frames from the next tick on."""
+        """The fault plans of the transmitted frames (None: none); setting re-plans them."""
         return self._faults
 
     @faults.setter
     def faults(self, faults: FaultSpec | None) -> None:
         self._faults = faults if faults is not None and faults.plans else None
         roles, fillers = self._roles, self._fillers
+        plans = self._faults.plans if self._faults is not None else {}
         every = {r: [max(1, round(p.cycle_s / self.dt_s)) for p in roles[r].parts] for r in roles}
         self._hyper = math.lcm(*(n for ns in every.values() for n in ns))
-        #: the frames due at tick k, ``_due[k % _hyper]``: per role due (in TX_ROLES order),
-        #: its filler (its values at this tick) and its messages due, each with its frame key
-        #: and its role's fault plan
+        #: ``_due[k % _hyper]``: per role due at tick k, its filler and its messages due (each
+        #: with its frame key and fault plan)
         self._due = [
             tuple(
                 (
                     fillers[r],
                     tuple(
-                        (mc, raw_key(mc.frame_id, mc.is_extended), self._plan(r))
+                        (mc, raw_key(mc.frame_id, mc.is_extended), plans.get(r))
                         for mc, n in zip(roles[r].parts, every[r], strict=True)
                         if k % n == 0
                     ),
@@ -124,10 +111,6 @@ class SimNode:
             for k in range(self._hyper)
         ]
 
-    def _plan(self, role: str) -> FaultPlan | None:
-        return self.faults.plan(role) if self.faults is not None else None
-
-    # -- receive ------------------------------------------------------------------------
     def _receive(self, now: float) -> None:
         """Take every waiting frame in (the command and status they carry)."""
         try:
@@ -135,8 +118,7 @@ class SimNode:
         except can.CanError:  # a bus error (real bus): nothing more to read this tick
             self.recv_errors += 1
             return
-        accept = self.inbox.accept
-        tap = self.tap
+        accept, tap = self.inbox.accept, self.tap
         for _, key, data in frames:
             if tap is not None:
                 tap(now, key, data, True)
@@ -158,13 +140,9 @@ class SimNode:
         elif role == "status":
             self.status = self.inbox.latest("status")
 
-    # -- transmit -----------------------------------------------------------------------
     def _transmit(self, now: float) -> None:
-        """Send the frames due at this tick (each role's values filled once), through their
-        role's fault plan where it has one, then the delayed frames now due."""
-        encode = self.outbox.encode_part
-        put = self.port.put
-        tap = self.tap
+        """Send the frames due at this tick (through their fault plans), then delayed ones."""
+        encode, put, tap = self.outbox.encode_part, self.port.put, self.tap
         out: list[tuple[int, bytes]] = []
         for fill, frames in self._due[self.tick % self._hyper]:
             values = fill()
@@ -198,12 +176,8 @@ class SimNode:
         now: float,
         out: list[tuple[int, bytes]],
     ) -> None:
-        """One frame of message ``mc`` through its role's fault plan: added to ``out`` if it
-        goes out now.
-
-        One uniform draw per frame decides the random faults (``u < counter``, ``u < crc``,
-        ``u < drop``), so with one seed the same frames are hit whatever the kind.
-        """
+        """One frame of ``mc`` through its role's fault plan, into ``out`` if it goes now; one
+        uniform draw decides every random fault (one seed hits the same frames)."""
         counts = self.fault_counts
         role = mc.role
         if plan.silent_at(now):
@@ -211,10 +185,7 @@ class SimNode:
             return
         window = plan.frozen_at(now)
         if window is not None:
-            frozen = f"{mc.key}@{window[0]}"
-            if frozen not in self._frozen:
-                self._frozen[frozen] = dict(vals)
-            vals = self._frozen[frozen]
+            vals = self._frozen.setdefault(f"{mc.key}@{window[0]}", dict(vals))
             counts[(role, "frozen")] += 1
         u = float(self._rng.random()) if plan.random else 1.0
         if u < plan.counter and mc.counter_modulo:  # repeat the previous alive counter
@@ -242,7 +213,6 @@ class SimNode:
         """Frames hit by any fault so far."""
         return sum(self.fault_counts.values())
 
-    # -- clocks -------------------------------------------------------------------------
     def command_now(self, now: float) -> tuple[bool, float, int]:
         """(request active and fresh, request m/s², AccState the driver sees) at ``now``."""
         fresh = self.inbox.fresh("command", now) if self.commands_ok else False

@@ -1,13 +1,10 @@
-"""Ego vehicle longitudinal dynamics: eq. 1-2 of the paper with the sign fix of docs/paper-notes.md.
+"""Ego longitudinal dynamics: eq. 1-2 of the paper with the sign fix of docs/paper-notes.md.
 
     v[t+1] = v[t] + a[t]·Δt + σ_v·n_v
     g[t+1] = g[t] + (v_f[t] − v[t])·Δt + ½·(a_f[t] − a[t])·Δt² + σ_g·n_g
 
-with n ~ N(0, 1) scaled so that σ_v, σ_g are standard deviations per 0.1 s (the paper's
-10 Hz step) whatever the simulation step is. Between the requested acceleration and the
-actual one sits a first-order actuator lag (time constant ``actuator_tau_s``, 0 = none).
-The speed never goes below zero: at standstill a negative acceleration holds the car.
-A gap at or below zero is a collision; the plant records it, it never hides it.
+n ~ N(0, 1), σ per 0.1 s (the paper's step) whatever Δt; a first-order actuator lag
+(``actuator_tau_s``); the speed stops at zero; a gap <= 0 is a recorded collision.
 """
 
 from __future__ import annotations
@@ -60,38 +57,6 @@ def lag_factor(dt_s: float, tau_s: float) -> float:
 
 
 def step(
-    state: PlantState,
-    a_cmd_mps2: float,
-    v_lead_mps: float,
-    a_lead_mps2: float,
-    cfg: PlantConfig,
-    noise_v: float = 0.0,
-    noise_g: float = 0.0,
-) -> PlantState:
-    """One plant step of ``cfg.dt_s``; ``noise_v``, ``noise_g`` are N(0, 1) draws (pure)."""
-    v, a, g, x = _step_floats(
-        state.v_mps,
-        state.a_mps2,
-        state.gap_m,
-        state.x_m,
-        a_cmd_mps2,
-        v_lead_mps,
-        a_lead_mps2,
-        cfg.dt_s,
-        lag_factor(cfg.dt_s, cfg.actuator_tau_s),
-        cfg.accel_min_mps2,
-        cfg.accel_max_mps2,
-        _noise_scale(cfg) * cfg.sigma_v_mps * noise_v,
-        _noise_scale(cfg) * cfg.sigma_g_m * noise_g,
-    )
-    return PlantState(v, a, g, x)
-
-
-def _noise_scale(cfg: PlantConfig) -> float:
-    return math.sqrt(cfg.dt_s / NOISE_REF_DT_S)
-
-
-def _step_floats(
     v: float,
     a: float,
     g: float,
@@ -106,7 +71,9 @@ def _step_floats(
     dv_noise: float,
     dg_noise: float,
 ) -> tuple[float, float, float, float]:
-    """Scalar core of :func:`step` (floats in, floats out, no allocation beyond the tuple)."""
+    """One plant step (pure, floats): speed m/s, acceleration m/s², gap m and position m
+    after ``dt`` s under command ``a_cmd`` (clipped to [a_lo, a_hi], lagged by ``k_lag``), the
+    lead at ``v_f``, ``a_f``, and the scaled noise increments."""
     a_cmd = a_lo if a_cmd < a_lo else a_hi if a_cmd > a_hi else a_cmd
     a = a + k_lag * (a_cmd - a)
     a_eff = a
@@ -122,35 +89,24 @@ def _step_floats(
 
 
 class Plant:
-    """Stateful wrapper around :func:`step` for the hot loop (floats, pre-drawn noise).
-
-    ``rng`` draws the noise in blocks; with both sigmas zero no noise is drawn at all.
-    """
+    """Stateful :func:`step` for the hot loop: floats, noise drawn from ``rng`` in blocks
+    (none with both sigmas zero)."""
 
     def __init__(self, cfg: PlantConfig, initial: PlantState, rng: np.random.Generator) -> None:
         self.cfg = cfg
-        self.v_mps = initial.v_mps
-        self.a_mps2 = initial.a_mps2
-        self.gap_m = initial.gap_m
-        self.x_m = initial.x_m
+        self.v_mps, self.a_mps2 = initial.v_mps, initial.a_mps2
+        self.gap_m, self.x_m = initial.gap_m, initial.x_m
         self.collided = initial.gap_m <= 0.0
         self.collision_t_s: float | None = 0.0 if self.collided else None
         self.t_s = 0.0
         self._k = lag_factor(cfg.dt_s, cfg.actuator_tau_s)
-        scale = _noise_scale(cfg)
-        self._sv = scale * cfg.sigma_v_mps
-        self._sg = scale * cfg.sigma_g_m
+        scale = math.sqrt(cfg.dt_s / NOISE_REF_DT_S)
+        self._sv, self._sg = scale * cfg.sigma_v_mps, scale * cfg.sigma_g_m
         self._rng = rng
         self._quiet = self._sv == 0.0 and self._sg == 0.0
         #: a block of N(0, 1) draws, (speed, gap) pairs flattened into Python floats
         self._noise: list[float] = []
         self._i = 0
-
-    def _refill(self) -> int:
-        """Draw the next block of noise; the index of its first pair (0)."""
-        # the same draws as rows of a (4096, 2) array; tolist: the same floats
-        self._noise = self._rng.standard_normal((4096, 2)).ravel().tolist()
-        return 0
 
     def advance(self, a_cmd_mps2: float, v_lead_mps: float, a_lead_mps2: float) -> None:
         """Advance one step of ``cfg.dt_s`` with the given command and lead motion."""
@@ -160,13 +116,14 @@ class Plant:
         else:
             i = self._i
             if i >= len(self._noise):
-                i = self._refill()
+                # the next block: the draws of a (4096, 2) array, as Python floats
+                self._noise, i = self._rng.standard_normal((4096, 2)).ravel().tolist(), 0
             noise = self._noise
             self._i = i + 2
             nv, ng = self._sv * noise[i], self._sg * noise[i + 1]
         if not math.isfinite(a_cmd_mps2):
             a_cmd_mps2 = 0.0
-        self.v_mps, self.a_mps2, self.gap_m, self.x_m = _step_floats(
+        self.v_mps, self.a_mps2, self.gap_m, self.x_m = step(
             self.v_mps,
             self.a_mps2,
             self.gap_m,
@@ -183,5 +140,4 @@ class Plant:
         )
         self.t_s += cfg.dt_s
         if self.gap_m <= 0.0 and not self.collided:
-            self.collided = True
-            self.collision_t_s = self.t_s
+            self.collided, self.collision_t_s = True, self.t_s

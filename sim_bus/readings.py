@@ -1,16 +1,12 @@
-"""What the simulator's sensors read at a tick: each transmitted role's values off the world.
-
-The simulator's node (:class:`sim_bus.node.SimNode`) sends ESC (``ego``), PEDAL
-(``pedals``), RADAR (``radar``) and HMI (``hmi``) frames; :class:`Readings` fills each role's
-values from the simulated world once per tick, each value limited to its DBC field's bounds
-(``x`` within [lo, hi]; above: hi; below or NaN: lo), so encoding never fails. The radar
-reports no lead beyond its range or while a new track is being confirmed (a target switch of
-a road scenario, :mod:`sim_bus.lead.events`). Each role keeps one dict, updated in place.
+"""What the simulator's sensors read at a tick: each transmitted role's values off the world,
+limited to the field's DBC bounds (above: hi; below or NaN: lo) so encoding never fails. The
+radar reports no lead beyond its range or while it confirms a new track. One dict per role,
+updated in place.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Mapping
 from typing import Any
 
 from dbc.codec import RoleCodec
@@ -21,14 +17,8 @@ __all__ = ["Readings"]
 
 
 class Readings:
-    """The transmitted roles' values of ``world`` at the current tick.
-
-    Args:
-        world: the simulated world (read at each call).
-        roles: the transmitted roles' codecs (their fields' bounds).
-        gap_setting: the HMI's gap setting code.
-        profile_id: the HMI's driver profile id.
-    """
+    """The transmitted roles' values of ``world`` at the current tick (``roles``: their
+    codecs, for the bounds; ``gap_setting``, ``profile_id``: the HMI's)."""
 
     def __init__(
         self,
@@ -38,23 +28,16 @@ class Readings:
         profile_id: int = 0,
     ) -> None:
         self.world = world
-        b = {(r, k): rc.bounds(k) for r, rc in roles.items() for k in rc.fields}
         #: each role's values, updated in place by its filler
         self.values: dict[str, dict[str, Any]] = resting_values(
             hmi={"gap_setting": int(gap_setting), "profile_id": int(profile_id)}
         )
-        self._b_ego = b[("ego", "speed_mps")], b[("ego", "accel_mps2")]
-        self._b_pedals = b[("pedals", "accel_pedal_pct")], b[("pedals", "brake_pressure_bar")]
-        self._b_radar = (
-            b[("radar", "gap_m")],
-            b[("radar", "rel_speed_mps")],
-            b[("radar", "lead_accel_mps2")],
+        ego, pedals, radar = roles["ego"], roles["pedals"], roles["radar"]
+        self._b_ego = ego.bounds("speed_mps"), ego.bounds("accel_mps2")
+        self._b_pedals = pedals.bounds("accel_pedal_pct"), pedals.bounds("brake_pressure_bar")
+        self._b_radar = tuple(
+            radar.bounds(k) for k in ("gap_m", "rel_speed_mps", "lead_accel_mps2")
         )
-
-    def fillers(self, roles: Iterable[str]) -> dict[str, Callable[[], dict[str, Any]]]:
-        """Each of ``roles``' filler: its values at this tick (the HMI's for any other)."""
-        named = {"ego": self.ego, "pedals": self.pedals, "radar": self.radar}
-        return {r: named.get(r, self.hmi) for r in roles}
 
     def ego(self) -> dict[str, Any]:
         """ESC: the ego speed (m/s) and acceleration (m/s^2)."""
@@ -102,7 +85,5 @@ class Readings:
         vals = self.values["hmi"]
         vals["set"] = 1 if agent.set_button else 0
         vals["resume"] = 1 if agent.resume_button else 0
-        hmi = getattr(agent, "hmi_buttons", None)
-        if hmi is not None:
-            vals.update(hmi)
+        vals.update(getattr(agent, "hmi_buttons", None) or {})  # a person's other buttons
         return vals

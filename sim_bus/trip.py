@@ -1,10 +1,6 @@
-"""The trip log of a simulator run: the world's samples as an :class:`dbc.vocab.triplog.Trip`.
-
-One function for every writer of a simulated ACC trip (``pacc drive --log``, ``pacc sim
---log``, the study's ``logs/``): samples at 10 Hz, pedals as fractions of the network's full
-scale (:class:`dbc.vocab.pedals.PedalScale`, the scaling the ECU's own logs use), and the driving
-condition named from the driver's condition factor, so that the cloud, which learns one table
-per (driver, condition), never files a rain drive as a dry one.
+"""The trip log of a simulator run: the world's samples as a :class:`dbc.vocab.triplog.Trip`
+at 10 Hz, pedals as fractions (:class:`dbc.vocab.pedals.PedalScale`), the condition named from
+the driver's condition factor (the cloud never files a rain drive as a dry one).
 """
 
 from __future__ import annotations
@@ -23,29 +19,18 @@ from sim_bus.world import WorldLog
 
 #: sample period of a trip log, s
 TRIP_DT_S = 0.1
-#: the condition of the nominal condition factor 1
-NOMINAL_CONDITION = "default"
 
 
 def condition_name(condition_factor: float) -> str:
-    """The trip's condition: ``"default"`` (the nominal one, the cloud's and ``--fetch``'s
-    default too) for the factor 1, else ``"factor-<f>"`` (``"factor-1.2"``).
-
-    A condition factor multiplies the driver's preferred time gap (rain lengthens it); the
-    simulator has no other name for it, so a trip under another factor is its own condition.
-    """
-    return NOMINAL_CONDITION if condition_factor == 1.0 else f"factor-{condition_factor:g}"
+    """The trip's condition: ``"default"`` for the factor 1, else ``"factor-<f>"``."""
+    return "default" if condition_factor == 1.0 else f"factor-{condition_factor:g}"
 
 
 def world_trip(
     log: WorldLog, driver: DriverParams, pedals: PedalScale, meta: Mapping[str, Any]
 ) -> Trip:
-    """The ACC trip (``mode`` "acc") of a simulator run, decimated to :data:`TRIP_DT_S`.
-
-    ``log``: the world's samples, shape (m,) each. ``driver``: the driver that drove (its
-    ``condition_factor`` names the condition). ``meta``: what the writer adds (scenario, seed,
-    source, ...); it may not override the driver, the condition or the mode.
-    """
+    """The ACC trip of a run (``log``: (m,) arrays), decimated to :data:`TRIP_DT_S`;
+    ``meta`` adds scenario, seed … but may not override driver, condition or mode."""
     every = max(1, round(TRIP_DT_S / float(np.median(np.diff(log.t_s))))) if len(log.t_s) > 1 else 1
     sl = slice(None, None, every)
     accel = np.vectorize(pedals.accel, otypes=[np.float64])
@@ -59,14 +44,10 @@ def world_trip(
     clash = sorted(set(own) & set(meta))
     if clash:
         raise DriveError(f"world_trip: meta may not set {clash}")
+    kept = ("t_s", "v_mps", "gap_m", "v_lead_mps", "a_mps2", "acc_state")
     return Trip(
-        t_s=log.t_s[sl],
-        v_mps=log.v_mps[sl],
-        gap_m=log.gap_m[sl],
-        v_lead_mps=log.v_lead_mps[sl],
-        a_mps2=log.a_mps2[sl],
+        **{k: getattr(log, k)[sl] for k in kept},
         accel_pedal=accel(log.accel_pct[sl]),
         brake_pedal=brake(log.brake_bar[sl]),
-        acc_state=log.acc_state[sl],
         meta={**own, **meta},
     )

@@ -1,22 +1,17 @@
 """The simulated world around the ACC: lead profile, ego plant and driver, without the bus.
 
-One :meth:`World.advance` is one plant step (10 ms by default). The lead drives the profile;
-a road scenario's events (:mod:`sim_bus.lead.events`) switch the tracked vehicle: a cut-in, a
-cut-out revealing the vehicle ahead, a lead loss (free road: the gap is ``FREE_GAP_M``,
-beyond the radar's range) and a new lead appearing. After an event the lead holds its speed,
-then rejoins the flow (the profile's speed, with a lag and bounded accelerations).
-
-The driver decides at its own rate (20 Hz), from what it perceived ``reaction_s`` ago. The
-applied acceleration is chosen like a powertrain would: the driver's pedals when one is
-pressed, else the ACC request while the ACC command is active and fresh, else coasting. The
-world logs one sample per driver step (shape (m,) arrays, see :class:`WorldLog`).
+One :meth:`World.advance` is one plant step (10 ms). The lead drives the profile until a road
+scenario's event (:mod:`sim_bus.lead.events`) switches the tracked vehicle (free road: the gap
+is ``FREE_GAP_M``); then it holds its speed and rejoins the flow. The driver decides at 20 Hz;
+the applied acceleration is the pressed pedal's, else the fresh active ACC request, else
+coasting. One logged sample per driver step (:class:`WorldLog`).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Protocol
 
 import numpy as np
@@ -34,67 +29,6 @@ FREE_GAP_M = 1000.0
 #: how a lead that left its profile rejoins the flow: lag (s), acceleration bounds (m/s²)
 REJOIN_TAU_S = 2.0
 REJOIN_ACCEL_MPS2 = (-3.0, 1.5)
-
-_COLUMNS = (
-    "t_s",
-    "v_mps",
-    "gap_m",
-    "v_lead_mps",
-    "a_mps2",
-    "accel_pressed",
-    "brake_pressed",
-    "acc_state",
-    "pref_gap_m",
-    "a_request_mps2",
-    "request_active",
-    "accel_pct",
-    "brake_bar",
-)
-
-
-#: the logged columns but time (the /sim/world channel of a bus recording)
-WORLD_COLUMNS: tuple[str, ...] = _COLUMNS[1:]
-
-
-@dataclass(frozen=True)
-class WorldConfig:
-    """Simulation settings: plant (its ``dt_s`` is the tick), driver rate, engagement time."""
-
-    plant: PlantConfig = field(default_factory=PlantConfig)
-    driver_dt_s: float = 0.05
-    engage_s: float = 1.5
-    initial_gap_factor: float = 1.0  # initial gap = factor · driver's preferred gap
-
-    def __post_init__(self) -> None:
-        ratio = self.driver_dt_s / self.plant.dt_s
-        if not 1 <= ratio < math.inf or abs(ratio - round(ratio)) > 1e-9:
-            raise DriveError("driver_dt_s must be a whole multiple of plant.dt_s")
-        if not 0 <= self.engage_s < math.inf:
-            raise DriveError("engage_s must be finite and >= 0")
-        if not 0 < self.initial_gap_factor < math.inf:
-            raise DriveError("initial_gap_factor must be finite and > 0")
-
-
-class PedalSource(Protocol):
-    """The driver as the world and the bus node see it (a :class:`DriverAgent`, or a person's
-    pedals from ``pacc.hil``): :meth:`step` once per driver step, then its outputs.
-
-    Outputs: ``a_cmd_mps2`` (m/s², applied while a pedal is pressed), ``accel_pressed``,
-    ``brake_pressed``, ``accel_pct`` (%), ``brake_bar`` (bar), ``set_button``,
-    ``resume_button``, ``pref_gap_m`` (m, NaN when unknown).
-    """
-
-    a_cmd_mps2: float
-    accel_pressed: bool
-    brake_pressed: bool
-    accel_pct: float
-    brake_bar: float
-    set_button: bool
-    resume_button: bool
-    pref_gap_m: float
-
-    def step(self, v_mps: float, v_lead_mps: float, gap_m: float, acc_state: int) -> None:
-        """Decide this driver step from the ego speed, lead speed (m/s), gap (m), AccState."""
 
 
 @dataclass(frozen=True)
@@ -116,8 +50,7 @@ class WorldLog:
     brake_bar: np.ndarray
 
     def safety(self, threshold_s: float = 2.0, cut_in_t_s: Sequence[float] = ()) -> SafetyFigures:
-        """Time-to-collision exposure (sim_bus.metrics.safety_figures) of these samples;
-        ``cut_in_t_s``: the times of the drive's cut-ins, s."""
+        """TTC exposure (:func:`sim_bus.metrics.safety_figures`); cut-ins at ``cut_in_t_s``."""
         return safety_figures(
             self.t_s,
             self.gap_m,
@@ -129,7 +62,7 @@ class WorldLog:
         )
 
     def metrics(self) -> DriveMetrics:
-        """The drive's figures (PoI, NIM, safety; sim_bus.metrics) from these samples."""
+        """The drive's figures (:func:`sim_bus.metrics.drive_metrics`)."""
         return drive_metrics(
             self.t_s,
             self.v_mps,
@@ -141,6 +74,48 @@ class WorldLog:
             self.brake_pressed,
             self.pref_gap_m,
         )
+
+
+_COLUMNS = tuple(f.name for f in fields(WorldLog))
+#: the logged columns but time (the /sim/world channel of a bus recording)
+WORLD_COLUMNS: tuple[str, ...] = _COLUMNS[1:]
+
+
+@dataclass(frozen=True)
+class WorldConfig:
+    """Simulation settings: plant (its ``dt_s`` is the tick), driver step s, engagement s."""
+
+    plant: PlantConfig = field(default_factory=PlantConfig)
+    driver_dt_s: float = 0.05
+    engage_s: float = 1.5
+    initial_gap_factor: float = 1.0  # initial gap = factor · driver's preferred gap
+
+    def __post_init__(self) -> None:
+        ratio = self.driver_dt_s / self.plant.dt_s
+        if not 1 <= ratio < math.inf or abs(ratio - round(ratio)) > 1e-9:
+            raise DriveError("driver_dt_s must be a whole multiple of plant.dt_s")
+        if not 0 <= self.engage_s < math.inf:
+            raise DriveError("engage_s must be finite and >= 0")
+        if not 0 < self.initial_gap_factor < math.inf:
+            raise DriveError("initial_gap_factor must be finite and > 0")
+
+
+class PedalSource(Protocol):
+    """The driver as the world sees it (a :class:`DriverAgent` or a person, ``pacc.hil``):
+    :meth:`step` once per driver step, then its outputs (``a_cmd_mps2`` m/s² while a pedal is
+    pressed, ``accel_pct`` %, ``brake_bar`` bar, ``pref_gap_m`` m, NaN when unknown)."""
+
+    a_cmd_mps2: float
+    accel_pressed: bool
+    brake_pressed: bool
+    accel_pct: float
+    brake_bar: float
+    set_button: bool
+    resume_button: bool
+    pref_gap_m: float
+
+    def step(self, v_mps: float, v_lead_mps: float, gap_m: float, acc_state: int) -> None:
+        """Decide this driver step from the ego speed, lead speed (m/s), gap (m), AccState."""
 
 
 class World:
@@ -155,8 +130,7 @@ class World:
         acc_mode: bool = True,
         pedals: PedalSource | None = None,
     ) -> None:
-        """``pedals``: an external driver (a person, ``pacc.hil``) instead of the synthetic
-        :class:`DriverAgent` of ``driver``; the world then draws no driver noise from it."""
+        """``pedals``: a person (``pacc.hil``) instead of ``driver``'s :class:`DriverAgent`."""
         if not seed >= 0:
             raise DriveError(f"a seed is an integer >= 0, got {seed}")
         self.cfg = cfg = cfg or WorldConfig()
@@ -164,9 +138,7 @@ class World:
         self.profile = profile
         ss = np.random.SeedSequence([seed, 0x776F726C64])
         rng_plant, rng_driver = (np.random.default_rng(s) for s in ss.spawn(2))
-        v_lead, a_lead = profile.resample(cfg.plant.dt_s)
-        self._v_lead = v_lead.tolist()
-        self._a_lead = a_lead.tolist()
+        self._v_lead, self._a_lead = (x.tolist() for x in profile.resample(cfg.plant.dt_s))
         self.n_ticks = len(self._v_lead) - 1
         v0 = self._v_lead[0]
         gap0 = float(driver.preferred_gap_m(v0)) * cfg.initial_gap_factor
@@ -175,20 +147,17 @@ class World:
             driver, rng_driver, dt_s=cfg.driver_dt_s, acc_mode=acc_mode, engage_s=cfg.engage_s
         )
         self._every = int(round(cfg.driver_dt_s / cfg.plant.dt_s))
-        self.tick = 0
-        self.t_s = 0.0
-        self.v_lead_mps = v0
-        self.a_lead_mps2 = self._a_lead[0]
+        self.tick, self.t_s = 0, 0.0
+        self.v_lead_mps, self.a_lead_mps2 = v0, self._a_lead[0]
         self.applied_mps2 = 0.0
         self._events: list[LeadEvent] = sorted(profile.events, key=lambda e: e.t_s)
         self._lead_mode = "profile"  # profile | track (after an event) | none (free road)
-        self._hold_v = 0.0
-        self._hold_until = 0.0
+        self._hold_v, self._hold_until = 0.0, 0.0  # the held speed m/s, until s
         #: the radar reports no lead until this time (a new track being confirmed), s
         self.radar_blank_until = -1.0
         #: the events played so far: (time s, kind, new gap m or None when skipped)
         self.events_log: list[tuple[float, str, float | None]] = []
-        #: logged samples, at most ``_log_max``: one tuple of the _COLUMNS per driver step
+        #: one tuple of the _COLUMNS per driver step, at most ``_log_max``
         self._log_max = self.n_ticks // self._every + 1
         self._log: list[tuple[float | bool | int, ...]] = []
         self._dt_s = cfg.plant.dt_s
@@ -222,26 +191,21 @@ class World:
                         agent.brake_bar,
                     )
                 )
-        if agent.accel_pressed or agent.brake_pressed:
-            a = agent.a_cmd_mps2
-        elif request_active:
-            a = a_request_mps2
-        else:
-            a = COAST_MPS2
+        # the pressed pedal's acceleration, else the ACC request's, else coasting
+        pedal = agent.accel_pressed or agent.brake_pressed
+        a = agent.a_cmd_mps2 if pedal else a_request_mps2 if request_active else COAST_MPS2
         self.applied_mps2 = a
         car.advance(a, self.v_lead_mps, self.a_lead_mps2)
         self.tick = tick = self.tick + 1
         self.t_s = tick * self._dt_s
         i = tick if tick < self.n_ticks else self.n_ticks
         if self._lead_mode == "profile":
-            self.v_lead_mps = self._v_lead[i]
-            self.a_lead_mps2 = self._a_lead[i]
+            self.v_lead_mps, self.a_lead_mps2 = self._v_lead[i], self._a_lead[i]
         elif self._lead_mode == "track":
             self._track(i)
         else:  # free road: nothing in sight
             car.gap_m = FREE_GAP_M
-            self.v_lead_mps = car.v_mps
-            self.a_lead_mps2 = 0.0
+            self.v_lead_mps, self.a_lead_mps2 = car.v_mps, 0.0
         while self._events and self._events[0].t_s <= self.t_s + 1e-9:
             self._play(self._events.pop(0), i)
 
@@ -261,53 +225,40 @@ class World:
         v = self.v_lead_mps + a * dt
         if v <= 0.0:
             v, a = 0.0, 0.0
-        self.v_lead_mps = v
-        self.a_lead_mps2 = a
+        self.v_lead_mps, self.a_lead_mps2 = v, a
 
     def _play(self, ev: LeadEvent, i: int) -> None:
         """Switch the tracked vehicle as ``ev`` says (skipped when a cutter does not fit)."""
         car = self.plant
         v_ego = car.v_mps
+        gap: float | None = None
         if ev.kind == "lead_loss":
             self._lead_mode = "none"
             car.gap_m = FREE_GAP_M
             self.v_lead_mps, self.a_lead_mps2 = v_ego, 0.0
-            self.events_log.append((self.t_s, ev.kind, None))
-            return
-        present = self._lead_mode != "none"
-        if ev.kind == "cut_in":
-            gap = cut_in_gap_m(ev, v_ego, car.gap_m) if present else None
-            if gap is None:
-                self.events_log.append((self.t_s, ev.kind, None))
-                return
-        elif ev.kind == "cut_out":
-            if not present:
-                self.events_log.append((self.t_s, ev.kind, None))
-                return
-            gap = reveal_gap_m(ev, v_ego, car.gap_m)
-        else:  # lead_appear
+        elif ev.kind == "lead_appear":
             gap = ev.gap_m + ev.gap_thw_s * v_ego
-        v_new = max(v_ego + ev.v_mps, 0.0) if ev.v_relative else ev.v_mps
-        car.gap_m = gap
-        self._lead_mode = "track"
-        self.v_lead_mps, self.a_lead_mps2 = v_new, 0.0
-        self._hold_v, self._hold_until = v_new, self.t_s + ev.hold_s
-        self.radar_blank_until = self.t_s + ev.dropout_s
+        elif self.lead_present:
+            reveal = ev.kind == "cut_out"
+            gap = (reveal_gap_m if reveal else cut_in_gap_m)(ev, v_ego, car.gap_m)
+        if gap is not None:
+            v_new = max(v_ego + ev.v_mps, 0.0) if ev.v_relative else ev.v_mps
+            car.gap_m = gap
+            self._lead_mode = "track"
+            self.v_lead_mps, self.a_lead_mps2 = v_new, 0.0
+            self._hold_v, self._hold_until = v_new, self.t_s + ev.hold_s
+            self.radar_blank_until = self.t_s + ev.dropout_s
         self.events_log.append((self.t_s, ev.kind, gap))
 
     def logged_since(self, start: int) -> list[tuple[float | bool | int, ...]]:
-        """The samples logged from the ``start``-th on (``t_s`` first, then the
-        :data:`WORLD_COLUMNS`), as they are kept: what a live view streams while the world
-        runs (:meth:`log` gives them all as arrays)."""
+        """The samples logged from the ``start``-th on (``t_s``, then :data:`WORLD_COLUMNS`):
+        what a live view streams."""
         return self._log[start:]
 
     def log(self) -> WorldLog:
         """The samples logged so far."""
         # float64 columns: what writing each sample into a float array gives (bools 0/1)
-        if self._log:
-            cols = np.array(self._log, dtype=np.float64).T
-        else:
-            cols = np.zeros((len(_COLUMNS), 0))
+        cols = np.array(self._log, dtype=np.float64).reshape(-1, len(_COLUMNS)).T
         d = {name: cols[j].copy() for j, name in enumerate(_COLUMNS)}
         for name in ("accel_pressed", "brake_pressed", "request_active"):
             d[name] = d[name].astype(bool)

@@ -1,9 +1,9 @@
 """The vocabulary the ECU, the simulator and the cloud share: what each of them reads and writes.
 
 - :mod:`dbc.vocab.dgpt` — the Driving Gap Preference Table and its safety bounds.
-- :mod:`dbc.vocab.dgpt_file` — the DGPT's JSON file format on bytes, streams and paths.
+- :mod:`dbc.vocab.dgpt_file` — the DGPT's JSON file format.
 - :mod:`dbc.vocab.triplog` — ``Trip``, a car-following trip as arrays.
-- :mod:`dbc.vocab.triplog_file` — the MCAP trip-log format on bytes, streams and paths.
+- :mod:`dbc.vocab.triplog_file` — the MCAP trip-log format.
 - :mod:`dbc.vocab.tripmode` — ``TripMode`` (manual, acc, takeover) and the one classifier.
 - :mod:`dbc.vocab.acc_state` — the ACC's engagement state and fault codes.
 - :mod:`dbc.vocab.pedals` — ``PedalScale``, pedal fractions from the DBC's full scale.

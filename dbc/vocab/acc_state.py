@@ -1,9 +1,5 @@
-"""The ACC's engagement state and fault codes: the DBC's ``AccState`` and ``FaultCode`` values.
-
-Shared by the ECU (which sets them), the simulator and the trip logs (which record them) and the
-cloud (which tells manual driving from ACC driving by them). The transitions live in
-:mod:`ecu.cycle.state`.
-"""
+"""The ACC's engagement state and fault codes: the DBC's ``AccState`` and ``FaultCode`` values
+(transitions: :mod:`ecu.cycle.state`)."""
 
 from __future__ import annotations
 

@@ -1,23 +1,19 @@
-"""The Driving Gap Preference Table (DGPT): the desired gap to the lead per ego speed.
+"""The Driving Gap Preference Table (DGPT): the desired gap to the lead (m) per ego speed.
 
-A table holds a uniform speed axis from 0 to 40 m/s (step at most 0.5 m/s) and one desired
-bumper-to-bumper gap per speed bin. Between bins the gap is interpolated linearly; beyond the
-axis it is held at the end values. Tables carry their provenance: a version (incremented by
-every change), the driver id, a driving-condition tag, the source (``predefined``, ``irl``,
-``adapted``), an ISO 8601 creation time and free-form metadata.
-
-A table is valid by construction: the shapes, the axis, finite values and every gap within
-:class:`SafetyBounds` are checked when it is built, else :class:`DgptError`. Its file format
-(JSON, on bytes, streams or paths) is :mod:`dbc.vocab.dgpt_file`.
+A uniform speed axis 0..40 m/s (step <= 0.5 m/s), one bumper-to-bumper gap per bin,
+interpolated linearly and held beyond the ends, with its provenance (version, driver,
+condition, source, creation time, meta). Valid by construction (shapes, axis, finite values;
+:class:`SafetyBounds` where asked), else :class:`DgptError`. File format:
+:mod:`dbc.vocab.dgpt_file`.
 """
 
 from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import astuple, dataclass, field, replace
 from datetime import UTC, datetime
-from typing import Any, Literal, cast, get_args, overload
+from typing import Any, Literal, TypeVar, cast, get_args, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -41,6 +37,7 @@ _AXIS_TOL = 1e-6
 Source = Literal["predefined", "irl", "adapted"]
 _SOURCES: tuple[str, ...] = get_args(Source)
 FloatArray = npt.NDArray[np.float64]
+_V = TypeVar("_V", float, FloatArray)
 
 
 class DgptError(FormatError):
@@ -54,13 +51,9 @@ def utc_now_iso() -> str:
 
 @dataclass(frozen=True)
 class SafetyBounds:
-    """The safe region of a DGPT, as time gaps plus standstill distances.
-
-    ``lower_m(v) = standstill_min_m + headway_min_s * v`` and
-    ``upper_m(v) = standstill_max_m + headway_max_s * v`` (v in m/s, result in m).
-    ``standstill_m`` is the nominal standstill distance d0 used to build predefined tables
-    and by the adaptation's safety filter.
-    """
+    """The safe region of a DGPT: ``standstill_min_m + headway_min_s * v`` to
+    ``standstill_max_m + headway_max_s * v`` (v m/s, gaps m); ``standstill_m`` is the nominal
+    standstill distance d0 (predefined tables, the adaptation's safety filter)."""
 
     standstill_m: float = 4.0
     headway_min_s: float = 0.8
@@ -69,14 +62,7 @@ class SafetyBounds:
     standstill_max_m: float = 10.0
 
     def __post_init__(self) -> None:
-        values = (
-            self.standstill_m,
-            self.headway_min_s,
-            self.headway_max_s,
-            self.standstill_min_m,
-            self.standstill_max_m,
-        )
-        if not all(math.isfinite(x) and x >= 0.0 for x in values):
+        if not all(math.isfinite(x) and x >= 0.0 for x in astuple(self)):
             raise DgptError(f"SafetyBounds must be finite and non-negative: {self}")
         if self.headway_min_s > self.headway_max_s:
             raise DgptError("SafetyBounds: headway_min_s exceeds headway_max_s")
@@ -85,19 +71,11 @@ class SafetyBounds:
                 "SafetyBounds: need standstill_min_m <= standstill_m <= standstill_max_m"
             )
 
-    @overload
-    def lower_m(self, v_mps: float) -> float: ...
-    @overload
-    def lower_m(self, v_mps: FloatArray) -> FloatArray: ...
-    def lower_m(self, v_mps: float | FloatArray) -> float | FloatArray:
+    def lower_m(self, v_mps: _V) -> _V:
         """Smallest safe gap (m) at speed ``v_mps`` (scalar or array of any shape)."""
         return self.standstill_min_m + self.headway_min_s * v_mps
 
-    @overload
-    def upper_m(self, v_mps: float) -> float: ...
-    @overload
-    def upper_m(self, v_mps: FloatArray) -> FloatArray: ...
-    def upper_m(self, v_mps: float | FloatArray) -> float | FloatArray:
+    def upper_m(self, v_mps: _V) -> _V:
         """Largest safe gap (m) at speed ``v_mps`` (scalar or array of any shape)."""
         return self.standstill_max_m + self.headway_max_s * v_mps
 
@@ -147,19 +125,6 @@ def _check_structure(speed: FloatArray, gap: FloatArray) -> None:
         raise DgptError(f"speed step {step:g} m/s is coarser than {AXIS_MAX_STEP_MPS} m/s")
 
 
-def check_bounds(speed_mps: FloatArray, gap_m: FloatArray, bounds: SafetyBounds) -> None:
-    """Raise :class:`DgptError` naming the first bin whose gap is outside ``bounds``."""
-    lo = bounds.lower_m(speed_mps)
-    hi = bounds.upper_m(speed_mps)
-    bad = np.flatnonzero((gap_m < lo - 1e-9) | (gap_m > hi + 1e-9))
-    if bad.size:
-        i = int(bad[0])
-        raise DgptError(
-            f"gap {gap_m[i]:.3f} m at {speed_mps[i]:g} m/s is outside the safety bounds "
-            f"[{lo[i]:.3f}, {hi[i]:.3f}] m ({bad.size} bin(s) out of bounds)"
-        )
-
-
 def clamp_to_bounds(
     speed_mps: FloatArray, gap_m: FloatArray, bounds: SafetyBounds | None = None
 ) -> FloatArray:
@@ -170,19 +135,9 @@ def clamp_to_bounds(
 
 @dataclass(frozen=True, eq=False)
 class Dgpt:
-    """A Driving Gap Preference Table (immutable; arrays are read-only).
-
-    Attributes:
-        speed_mps: uniform speed axis, shape ``(n,)``, 0..40 m/s, step <= 0.5 m/s.
-        gap_m: desired bumper-to-bumper gap per speed bin, shape ``(n,)``, metres.
-        version: incremented by every change (:meth:`with_gaps`), 0 to :data:`MAX_VERSION`.
-        driver_id: whose preference this is (a :data:`PLAIN_NAME` in a file).
-        condition: driving-condition tag (weather/traffic/road), e.g. ``"default"`` (plain
-            in a file).
-        source: ``"predefined"``, ``"irl"`` or ``"adapted"``.
-        created_utc: ISO 8601 creation time.
-        meta: free-form JSON-serialisable metadata.
-    """
+    """A DGPT (immutable, read-only arrays): ``speed_mps`` (n,) axis, m/s; ``gap_m`` (n,)
+    gaps, m; ``version`` 0..:data:`MAX_VERSION`, +1 per change; ``driver_id`` and
+    ``condition`` (plain names in a file); ``source``; ``created_utc`` ISO 8601; ``meta``."""
 
     speed_mps: FloatArray
     gap_m: FloatArray
@@ -192,6 +147,10 @@ class Dgpt:
     source: Source = "predefined"
     created_utc: str = field(default_factory=utc_now_iso)
     meta: dict[str, Any] = field(default_factory=dict)
+    # lookup()'s scalar fast path: Python floats, no numpy call per control cycle
+    _v0: float = field(init=False, repr=False)
+    _dv: float = field(init=False, repr=False)
+    _gaps: tuple[float, ...] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         speed = _readonly(self.speed_mps, "speed_mps")
@@ -211,7 +170,6 @@ class Dgpt:
         object.__setattr__(self, "speed_mps", speed)
         object.__setattr__(self, "gap_m", gap)
         object.__setattr__(self, "version", int(self.version))
-        # Scalar fast path for lookup(): Python floats avoid numpy call overhead per cycle.
         object.__setattr__(self, "_v0", float(speed[0]))
         object.__setattr__(self, "_dv", float(speed[1] - speed[0]))
         object.__setattr__(self, "_gaps", tuple(float(g) for g in gap))
@@ -219,23 +177,18 @@ class Dgpt:
     @property
     def step_mps(self) -> float:
         """Speed-axis step, m/s."""
-        return cast(float, self._dv)  # type: ignore[attr-defined]
+        return self._dv
 
     @overload
     def lookup(self, v_mps: float) -> float: ...
     @overload
     def lookup(self, v_mps: FloatArray) -> FloatArray: ...
     def lookup(self, v_mps: float | FloatArray) -> float | FloatArray:
-        """Desired gap (m) at speed ``v_mps``: linear interpolation, ends held.
-
-        A Python/NumPy scalar gives a float (a fast path used by the control loop); an array
-        of any shape gives an array of the same shape. A NaN speed gives NaN.
-        """
+        """Desired gap (m) at speed ``v_mps`` (m/s; a scalar or an array of any shape),
+        interpolated linearly, ends held; NaN gives NaN."""
         if isinstance(v_mps, np.ndarray):
             return cast(FloatArray, np.interp(v_mps, self.speed_mps, self.gap_m))
-        gaps: tuple[float, ...] = self._gaps  # type: ignore[attr-defined]
-        v0: float = self._v0  # type: ignore[attr-defined]
-        dv: float = self._dv  # type: ignore[attr-defined]
+        gaps, v0, dv = self._gaps, self._v0, self._dv
         x = (float(v_mps) - v0) / dv
         if not x > 0.0:
             return gaps[0] if x <= 0.0 else math.nan
@@ -248,9 +201,7 @@ class Dgpt:
 
     def slope(self, v_mps: float) -> float:
         """d(gap)/d(speed) of the interpolant at ``v_mps``, in s (0 beyond the axis ends)."""
-        gaps: tuple[float, ...] = self._gaps  # type: ignore[attr-defined]
-        v0: float = self._v0  # type: ignore[attr-defined]
-        dv: float = self._dv  # type: ignore[attr-defined]
+        gaps, v0, dv = self._gaps, self._v0, self._dv
         x = (float(v_mps) - v0) / dv
         last = len(gaps) - 1
         if not 0.0 <= x < last:
@@ -266,24 +217,29 @@ class Dgpt:
         created_utc: str | None = None,
         meta: dict[str, Any] | None = None,
     ) -> Dgpt:
-        """A copy with new gaps (shape ``(n,)``), ``version + 1`` and the given source.
-
-        ``meta`` replaces the metadata when given (default: a copy of this table's).
-        """
-        return Dgpt(
-            speed_mps=self.speed_mps,
+        """A copy with new gaps (n,), m, ``version + 1``, ``source`` and ``meta`` (default: a
+        copy of this table's)."""
+        return replace(
+            self,
             gap_m=np.asarray(gap_m, dtype=np.float64).copy(),
             version=self.version + 1,
-            driver_id=self.driver_id,
-            condition=self.condition,
             source=source,
             created_utc=created_utc if created_utc is not None else utc_now_iso(),
             meta=dict(self.meta) if meta is None else dict(meta),
         )
 
     def check_bounds(self, bounds: SafetyBounds | None = None) -> None:
-        """Raise :class:`DgptError` if any gap lies outside ``bounds`` (default bounds)."""
-        check_bounds(self.speed_mps, self.gap_m, bounds if bounds is not None else SafetyBounds())
+        """Raise :class:`DgptError` naming the first bin whose gap lies outside ``bounds``
+        (default bounds)."""
+        b, speed, gap = bounds if bounds is not None else SafetyBounds(), self.speed_mps, self.gap_m
+        lo, hi = b.lower_m(speed), b.upper_m(speed)
+        bad = np.flatnonzero((gap < lo - 1e-9) | (gap > hi + 1e-9))
+        if bad.size:
+            i = int(bad[0])
+            raise DgptError(
+                f"gap {gap[i]:.3f} m at {speed[i]:g} m/s is outside the safety bounds "
+                f"[{lo[i]:.3f}, {hi[i]:.3f}] m ({bad.size} bin(s) out of bounds)"
+            )
 
     def to_json_dict(self) -> dict[str, Any]:
         """The JSON object of this table (format ``pacc.dgpt/1``)."""
@@ -310,23 +266,14 @@ def predefined(
     bounds: SafetyBounds | None = None,
     created_utc: str | None = None,
 ) -> Dgpt:
-    """A constant-time-headway table: ``gap(v) = standstill_m + headway_s * v``.
-
-    The paper's settings are 1 s (low), 3 s (medium) and 4 s (high); any headway whose table
-    stays within ``bounds`` is accepted, anything else raises :class:`DgptError`.
-    """
+    """A constant-time-headway table ``gap(v) = standstill_m + headway_s * v`` (the paper's
+    1, 3 and 4 s); :class:`DgptError` if it leaves ``bounds``."""
     if not (math.isfinite(headway_s) and math.isfinite(standstill_m)):
         raise DgptError(f"headway and standstill must be finite: {headway_s}, {standstill_m}")
     speed = speed_axis(step_mps)
-    gap = standstill_m + headway_s * speed
-    b = bounds if bounds is not None else SafetyBounds()
-    try:
-        check_bounds(speed, gap, b)
-    except DgptError as exc:
-        raise DgptError(f"predefined table {headway_s:g} s + {standstill_m:g} m: {exc}") from None
-    return Dgpt(
+    table = Dgpt(
         speed_mps=speed,
-        gap_m=gap,
+        gap_m=standstill_m + headway_s * speed,
         version=0,
         driver_id=driver_id,
         condition=condition,
@@ -334,6 +281,11 @@ def predefined(
         created_utc=created_utc if created_utc is not None else utc_now_iso(),
         meta={"headway_s": float(headway_s), "standstill_m": float(standstill_m)},
     )
+    try:
+        table.check_bounds(bounds)
+    except DgptError as exc:
+        raise DgptError(f"predefined table {headway_s:g} s + {standstill_m:g} m: {exc}") from None
+    return table
 
 
 __all__ = [
@@ -342,7 +294,6 @@ __all__ = [
     "MAX_VERSION",
     "PLAIN_NAME",
     "SafetyBounds",
-    "check_bounds",
     "clamp_to_bounds",
     "predefined",
     "speed_axis",

@@ -1,19 +1,10 @@
-"""The DGPT file format: a table as one JSON object, on bytes, streams or paths.
+"""The DGPT file format: a table (:class:`dbc.vocab.dgpt.Dgpt`) as one JSON object.
 
-A table (:class:`dbc.vocab.dgpt.Dgpt`) is stored as::
-
-    {"format": "pacc.dgpt/1", "driver_id": "d1", "condition": "dry", "source": "irl",
-     "version": 3, "created_utc": "2026-01-01T00:00:00Z",
-     "speed_mps": [0.0, 0.5, ...], "gap_m": [4.0, 4.6, ...], "meta": {...}}
-
-:func:`dgpt_from_bytes` (and :func:`read_dgpt` on a binary stream) validates the format tag,
-the keys, the shapes, the axis, plain driver and condition names, that every value is finite
-and that every gap lies within :class:`dbc.vocab.dgpt.SafetyBounds`; anything else raises
-:class:`DgptError` naming the defect. :func:`dgpt_to_bytes` / :func:`write_dgpt` are the
-inverse. :func:`load_dgpt` and :func:`save_dgpt` are thin path wrappers (the error names the
-file; the save is atomic); :func:`load_dgpt` reads only a regular file of at most
-:data:`MAX_DGPT_BYTES` (a FIFO, a device or a huge file is refused without blocking or
-reading it).
+``{"format": "pacc.dgpt/1", "driver_id", "condition", "source", "version", "created_utc",
+"speed_mps": [...], "gap_m": [...], "meta": {...}}`` (speeds m/s, gaps m). Reading checks the
+tag, keys, shapes, axis, plain names, finite values and the safety bounds, else
+:class:`DgptError` naming the defect (and the file). :func:`load_dgpt` reads only a regular
+file of at most :data:`MAX_DGPT_BYTES`; :func:`save_dgpt` is atomic.
 """
 
 from __future__ import annotations
@@ -23,7 +14,7 @@ import os
 import stat
 import tempfile
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
 import numpy as np
 
@@ -34,7 +25,7 @@ MAX_DGPT_BYTES = 1 << 20
 
 
 def dgpt_from_json_dict(obj: Any, bounds: SafetyBounds | None = None) -> Dgpt:
-    """Build and validate a table from its parsed JSON object (see module docstring)."""
+    """Build and validate a table from its parsed JSON object."""
     if not isinstance(obj, dict):
         raise DgptError("top level is not a JSON object")
     tag = obj.get("format")
@@ -75,8 +66,8 @@ def dgpt_from_json_dict(obj: Any, bounds: SafetyBounds | None = None) -> Dgpt:
 
 
 def dgpt_from_bytes(data: bytes, bounds: SafetyBounds | None = None) -> Dgpt:
-    """Parse and validate the bytes of a DGPT JSON file (:class:`DgptError` on any defect;
-    "not valid JSON: ..." or "invalid DGPT: ...")."""
+    """Parse and validate the bytes of a DGPT file ("not valid JSON: ..." or
+    "invalid DGPT: ...")."""
     try:
         obj = json.loads(data.decode("utf-8"), parse_constant=float)
     except (ValueError, RecursionError) as exc:  # JSONDecodeError, int digit limit, nesting
@@ -88,29 +79,17 @@ def dgpt_from_bytes(data: bytes, bounds: SafetyBounds | None = None) -> Dgpt:
 
 
 def dgpt_to_bytes(table: Dgpt) -> bytes:
-    """The bytes of ``table``'s DGPT JSON file (UTF-8, indented, a final newline)."""
+    """The bytes of ``table``'s DGPT file (UTF-8 JSON, indented, a final newline)."""
     return (json.dumps(table.to_json_dict(), indent=1) + "\n").encode("utf-8")
 
 
-def read_dgpt(stream: IO[bytes], bounds: SafetyBounds | None = None) -> Dgpt:
-    """Read and validate a table from a binary stream (to its end)."""
-    return dgpt_from_bytes(stream.read(), bounds)
-
-
-def write_dgpt(table: Dgpt, stream: IO[bytes]) -> None:
-    """Write ``table``'s JSON to a binary stream."""
-    stream.write(dgpt_to_bytes(table))
-
-
 def load_dgpt(path: str | os.PathLike[str], bounds: SafetyBounds | None = None) -> Dgpt:
-    """Read and validate a DGPT JSON file; :class:`DgptError` names the file and the defect
-    (also for anything but a regular file of at most :data:`MAX_DGPT_BYTES`)."""
+    """Read and validate a DGPT file; :class:`DgptError` names the file and the defect."""
     p = Path(path)
     try:
         fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK)  # a FIFO must not block the open
         with os.fdopen(fd, "rb") as fh:
-            st = os.fstat(fd)
-            if not stat.S_ISREG(st.st_mode):
+            if not stat.S_ISREG(os.fstat(fd).st_mode):
                 raise DgptError(f"{p}: not a regular file")
             raw = fh.read(MAX_DGPT_BYTES + 1)
     except OSError as exc:
@@ -124,12 +103,11 @@ def load_dgpt(path: str | os.PathLike[str], bounds: SafetyBounds | None = None) 
 
 
 def save_dgpt(table: Dgpt, path: str | os.PathLike[str]) -> None:
-    """Write ``table`` as JSON to ``path`` atomically (temp file + rename)."""
+    """Write ``table`` to ``path`` atomically (a temp file of its own, then a rename)."""
     p = Path(path)
     data = dgpt_to_bytes(table)
     tmp: str | None = None
     try:
-        # a temp file of its own per writer, so two processes saving one path cannot collide
         fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
@@ -146,7 +124,5 @@ __all__ = [
     "dgpt_from_json_dict",
     "dgpt_to_bytes",
     "load_dgpt",
-    "read_dgpt",
     "save_dgpt",
-    "write_dgpt",
 ]

@@ -1,9 +1,5 @@
-"""One mapping of what reading an MCAP file raises to a one-line error of the reader's kind.
-
-The mcap package raises many exception types on damaged input (its own EndOfFile, struct.error,
-zstd/lz4 errors, KeyError …); the trip-log and bus-recording readers both turn them into
-their own error with the file's name and whether it looks truncated or foreign.
-"""
+"""One mapping of what reading an MCAP file raises (EndOfFile, struct.error, zstd errors …)
+to a one-line error of the reader's kind, naming the file and whether it looks truncated."""
 
 from __future__ import annotations
 
@@ -18,10 +14,8 @@ __all__ = ["mcap_errors"]
 
 @contextmanager
 def mcap_errors(path: Path | str, what: str, error: type[PaccError]) -> Iterator[None]:
-    """Inside the block, reading ``path`` (a file, or a name for bytes or a stream; a ``what``,
-    e.g. "trip log") raises only ``error``:
-    missing file, directory, truncated or corrupt/foreign file, each with a one-line message;
-    an ``error`` raised inside passes unchanged."""
+    """Inside the block, reading ``path`` (a file or a name; a ``what``, e.g. "trip log")
+    raises only ``error``, one line each; an ``error`` raised inside passes unchanged."""
     try:
         yield
     except error:

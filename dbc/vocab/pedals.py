@@ -1,10 +1,8 @@
-"""The driver's pedals as fractions 0..1, scaled once from the vehicle network.
+"""The driver's pedals as fractions 0..1 of full scale, scaled once from the network.
 
-The network carries the accelerator as a position in % and the brake as the master-cylinder
-pressure in bar; the ECU's inputs, its takeover logs and the simulator's trip logs all state
-the pedals as fractions of full scale. Full scale is the upper bound of the bound field in the
-DBC (``PEDAL_Status.AccelPedalPos`` 100 %, ``PEDAL_Status.BrakePressure`` 250 bar in
-``dbc/pacc.dbc``), so one pedal has one value whoever writes the trip.
+The bus carries the accelerator in % and the brake pressure in bar; full scale is the DBC's
+upper bound of the bound field (100 %, 250 bar in ``dbc/pacc.dbc``), so the ECU's and the
+simulator's trip logs give one pedal one value.
 """
 
 from __future__ import annotations
@@ -18,20 +16,10 @@ from dbc.vocab import FormatError
 if TYPE_CHECKING:
     from dbc.codec import Codec
 
-#: the pedals role and its fields in the binding table
-PEDALS_ROLE = "pedals"
-ACCEL_FIELD = "accel_pedal_pct"
-BRAKE_FIELD = "brake_pressure_bar"
-
 
 @dataclass(frozen=True, slots=True)
 class PedalScale:
-    """Full-scale values of the pedal fields.
-
-    Attributes:
-        accel_full_pct: accelerator position that counts as fully pressed, %.
-        brake_full_bar: brake pressure that counts as fully pressed, bar.
-    """
+    """Full scale of the pedal fields: accelerator %, brake pressure bar."""
 
     accel_full_pct: float
     brake_full_bar: float
@@ -46,11 +34,11 @@ class PedalScale:
     def from_codec(cls, codec: Codec) -> PedalScale:
         """Full scale = the DBC maximum of each bound pedal field (a network without a brake
         pressure signal reports 0 bar: its full scale is then 1 bar, the fraction 0)."""
-        pedals = codec.roles[PEDALS_ROLE]
-        brake = pedals.part_of(BRAKE_FIELD)
+        pedals = codec.roles["pedals"]
+        brake = pedals.part_of("brake_pressure_bar")
         return cls(
-            accel_full_pct=pedals.bounds(ACCEL_FIELD)[1],
-            brake_full_bar=1.0 if brake is None else brake.bounds(BRAKE_FIELD)[1],
+            accel_full_pct=pedals.bounds("accel_pedal_pct")[1],
+            brake_full_bar=1.0 if brake is None else brake.bounds("brake_pressure_bar")[1],
         )
 
     def accel(self, pct: float) -> float:
@@ -67,4 +55,4 @@ def _unit(x: float) -> float:
     return 0.0 if x < 0.0 else (1.0 if x > 1.0 else x)
 
 
-__all__ = ["ACCEL_FIELD", "BRAKE_FIELD", "PEDALS_ROLE", "PedalScale"]
+__all__ = ["PedalScale"]

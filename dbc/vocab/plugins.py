@@ -1,24 +1,11 @@
 """Finding methods by name: built-ins, Python entry points and ``module:attribute``.
 
-Three kinds of method plug into pacc, each behind a small interface of its own room:
-
-==================  =======================================  ==============================
-group               interface                                built-ins
-==================  =======================================  ==============================
-pacc.controllers    :class:`ecu.methods.GapController`       ``pid``
-pacc.adaptations    :class:`ecu.methods.Adaptation`          ``timegap``, ``paper``, ``bayes``
-pacc.learners       :class:`cloud_sync.learners.Learner`     ``irl``, ``empirical``, ``gp``
-==================  =======================================  ==============================
-
-A method is named by a *spec*: a built-in's name, the name of an entry point of the group
-(a package declares ``[project.entry-points."pacc.controllers"] mine = "pkg.mod:Factory"``),
-or ``pkg.mod:Factory`` directly. What the spec names is a **factory**: a callable taking the
-method's parameters as keyword arguments (a class does) and returning the method object.
-
-This module only finds factories; each room checks what they return and guards the calls
-(:mod:`ecu.methods.guard` for the control loop). Lookups of entry points are cached.
-:func:`provenance` says which installed distribution (and version) a spec's code comes from,
-so a run's manifest can name what a re-run elsewhere must install.
+Groups: ``pacc.controllers`` (:class:`ecu.methods.GapController`), ``pacc.adaptations``
+(:class:`ecu.methods.Adaptation`), ``pacc.learners`` (:class:`cloud_sync.learners.Learner`).
+A *spec* (a built-in's name, an entry point of the group, or ``pkg.mod:Factory``) names a
+factory: a callable taking the method's parameters as keywords. This module only finds
+factories (entry points cached); each room checks and guards what they return.
+:func:`provenance` names the distribution a spec's code comes from (a run's manifest).
 """
 
 from __future__ import annotations
@@ -72,24 +59,29 @@ def load_target(target: str) -> Any:
     return obj
 
 
+def _find(group: str, name: str, builtins: Mapping[str, str]) -> tuple[str, str | None] | None:
+    """(target, declaring distribution or None) of a built-in, an entry point or
+    ``module:attribute`` named ``name``; None if it names none."""
+    if name in builtins:
+        return builtins[name], None
+    if name in _entry_points(group):
+        return _entry_points(group)[name]
+    return (name, None) if ":" in name else None
+
+
 def resolve(group: str, spec: str, builtins: Mapping[str, str]) -> Callable[..., Any]:
     """The factory a spec names in ``group``: a built-in (``builtins``: name -> target), an
     installed entry point, or ``module:attribute``. PluginError naming what exists if none."""
     if group not in GROUPS:
         raise PluginError(f"unknown plug-in group {group!r}: one of {GROUPS}")
-    name = spec.strip()
-    if name in builtins:
-        target = builtins[name]
-    elif name in _entry_points(group):
-        target = _entry_points(group)[name][0]
-    elif ":" in name:
-        target = name
-    else:
+    found = _find(group, spec.strip(), builtins)
+    if found is None:
         known = sorted({*builtins, *_entry_points(group)})
         raise PluginError(
             f"no {group.split('.')[-1][:-1]} {spec!r}: one of {', '.join(known)} "
             "or 'module:attribute'"
         )
+    target = found[0]
     factory = load_target(target)
     if not callable(factory):
         raise PluginError(f"{spec!r} ({target}) is not callable")
@@ -111,10 +103,7 @@ def provenance(group: str, spec: str, builtins: Mapping[str, str]) -> dict[str, 
     distribution declaring the entry point, else the one holding the target's top-level
     module; None for a module on the path that no installed distribution holds)."""
     name = spec.strip()
-    if name in builtins:
-        target, dist = builtins[name], None
-    else:
-        target, dist = _entry_points(group).get(name, (name, None))
+    target, dist = _find(group, name, builtins) or (name, None)
     if dist is None:
         top = target.partition(":")[0].split(".")[0]
         dist = next(iter(packages_distributions().get(top, [])), None)

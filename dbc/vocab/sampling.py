@@ -1,9 +1,6 @@
-"""How manual car-following is sampled: the rule and the limits the ECU's recorder
-(:mod:`ecu.manual`) and the bus-log extraction (:mod:`cloud_sync.irl.sources.bus_demos`) share.
-
-A control cycle is kept when it comes ``period_s`` after the last kept one less half a cycle
-(:func:`keep_sample`): in real time, where cycles jitter, every 5th 20-ms cycle at 10 Hz; in
-lockstep the same cycles as ``period_s - 1 µs``. A run of manual samples of at least
+"""How manual car-following is sampled, shared by the ECU's recorder (:mod:`ecu.manual`) and
+the bus-log extraction (:mod:`cloud_sync.irl.sources.bus_demos`): a cycle is kept ``period_s``
+less half a cycle after the last kept one (:func:`keep_sample`); a manual run of at least
 :data:`MANUAL_MIN_S` becomes a trip, cut at :data:`MANUAL_MAX_S`.
 """
 

@@ -1,9 +1,8 @@
 """Trip logs: a car-following trip as arrays (:class:`Trip`).
 
-A :class:`Trip` holds one trip sampled at a fixed rate (10 Hz typical) as 1-D float arrays of
-equal length ``n``, checked when it is built (:class:`TripLogError`), and a ``meta`` dict
-(driver, condition, mode: :mod:`dbc.vocab.tripmode`). Its file format, an MCAP trip log on
-bytes, streams or paths, is :mod:`dbc.vocab.triplog_file`.
+One trip sampled at a fixed rate (10 Hz typical): 1-D arrays of one length ``n``, checked
+when built (:class:`TripLogError`), and a ``meta`` dict (driver, condition, mode:
+:mod:`dbc.vocab.tripmode`). File format: :mod:`dbc.vocab.triplog_file`.
 """
 
 from __future__ import annotations
@@ -17,7 +16,7 @@ from dbc.vocab import FormatError
 from dbc.vocab.acc_state import AccState
 from dbc.vocab.tripmode import TripMode, mode_of
 
-__all__ = ["FLOAT_FIELDS", "Trip", "TripLogError"]
+__all__ = ["ACC_STATE_MAX", "FLOAT_FIELDS", "Trip", "TripLogError"]
 
 
 class TripLogError(FormatError):
@@ -34,8 +33,8 @@ FLOAT_FIELDS: tuple[str, ...] = (
     "accel_pedal",
     "brake_pedal",
 )
-#: the largest AccState code (FAULT): one definition, ecu.cycle.state
-_ACC_STATE_MAX = int(max(AccState))
+#: the largest AccState code (FAULT)
+ACC_STATE_MAX = int(max(AccState))
 
 
 def _as_float_array(name: str, value: Any) -> np.ndarray:
@@ -69,20 +68,9 @@ def _check_fraction(name: str, arr: np.ndarray) -> None:
 
 @dataclass(frozen=True, eq=False)
 class Trip:
-    """One car-following trip, arrays of shape ``(n,)``.
-
-    Attributes:
-        t_s: sample times, s, finite and strictly increasing.
-        v_mps: ego speed, m/s.
-        gap_m: bumper-to-bumper gap to the lead vehicle, m (NaN: no lead).
-        v_lead_mps: lead vehicle speed, m/s (NaN: no lead).
-        a_mps2: ego acceleration, m/s².
-        accel_pedal: accelerator position 0..1 (NaN: not recorded).
-        brake_pedal: brake pedal 0..1 (NaN: not recorded).
-        acc_state: AccState code per sample (0 Off/manual, 1 Standby, 2 Active, 3 Override,
-            4 Fault), int64.
-        meta: JSON-serialisable metadata (driver_id, condition, mode, scenario, seed, ...).
-    """
+    """One car-following trip, arrays (n,): ``t_s`` (s, finite, increasing), ``v_mps``,
+    ``v_lead_mps`` (m/s), ``gap_m`` (m), ``a_mps2`` (m/s²), pedals 0..1 (NaN: not recorded;
+    lead NaN: no lead), ``acc_state`` AccState codes (int64), JSON-ready ``meta``."""
 
     t_s: np.ndarray
     v_mps: np.ndarray
@@ -93,7 +81,7 @@ class Trip:
     brake_pedal: np.ndarray
     acc_state: np.ndarray
     meta: dict[str, Any] = field(default_factory=dict)
-    #: equal trips compare by value; arrays are not hashable, so neither is a trip
+    #: trips compare by value; arrays are not hashable, so neither is a trip
     __hash__ = None  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
@@ -112,8 +100,8 @@ class Trip:
             raise TripLogError("Trip.t_s must be finite")
         if n > 1 and not np.all(np.diff(self.t_s) > 0):
             raise TripLogError("Trip.t_s must be strictly increasing")
-        if n and (state.min() < 0 or state.max() > _ACC_STATE_MAX):
-            raise TripLogError(f"Trip.acc_state outside 0..{_ACC_STATE_MAX}")
+        if n and (state.min() < 0 or state.max() > ACC_STATE_MAX):
+            raise TripLogError(f"Trip.acc_state outside 0..{ACC_STATE_MAX}")
         for name in ("accel_pedal", "brake_pedal"):
             _check_fraction(name, getattr(self, name))
         if not isinstance(self.meta, dict):
@@ -130,8 +118,8 @@ class Trip:
         a_mps2: np.ndarray,
         meta: dict[str, Any] | None = None,
     ) -> Trip:
-        """A manual-driving trip from the car-following arrays (t, v, g, v_f, a), each (n,):
-        pedals not recorded (NaN), ``acc_state`` 0, ``meta["mode"] = "manual"``."""
+        """A manual trip from the arrays (n,) t, v, gap, v_lead, a: pedals NaN, ``acc_state``
+        0, ``meta["mode"] = "manual"``."""
         n = np.asarray(t_s).shape[0] if np.ndim(t_s) else 0
         return cls(
             t_s=t_s,
@@ -163,6 +151,5 @@ class Trip:
 
 
 def trip_mode(trip: Trip) -> TripMode:
-    """The trip mode of ``trip`` (:func:`~dbc.vocab.tripmode.mode_of` on its meta and ACC
-    state)."""
+    """The trip mode of ``trip`` (:func:`~dbc.vocab.tripmode.mode_of`)."""
     return mode_of(trip.meta, trip.acc_state)

@@ -1,18 +1,9 @@
-"""Trip modes: how a trip log was driven, and the one rule that classifies a trip.
+"""Trip modes: how a trip log was driven (``meta["mode"]``), and the one classifier.
 
-A trip log's ``meta["mode"]`` says how it was driven (:class:`TripMode`):
-
-- ``manual``: the driver drove with the ACC off (a demonstration for the learner);
-- ``acc``: the ACC drove (the whole trip, the driver's takeovers inside it);
-- ``takeover``: one takeover segment the ECU's recorder cut out of an ACC drive.
-
-A trip log **without** a mode (an older or foreign file) is classified by what it records:
-``acc`` when its ACC state was Active at some sample (the ECU drove part of it), else
-``manual``. A mode that is none of the three is a :class:`TripModeError`, never a guess.
-
-The vehicle's spool, the cloud's ingest and the learner
-(:func:`cloud_sync.irl.demos.is_acc_trip`) all classify through :func:`mode_of`
-(:func:`dbc.vocab.triplog.trip_mode` for a ``Trip``).
+``manual`` (ACC off: a demonstration), ``acc`` (the ACC drove, takeovers inside) or
+``takeover`` (one takeover cut out of an ACC drive). A log without a mode is ``acc`` when its
+ACC state was Active at some sample, else ``manual``; an unknown mode is a
+:class:`TripModeError`. The spool, the cloud's ingest and the learner all use :func:`mode_of`.
 """
 
 from __future__ import annotations
@@ -44,11 +35,8 @@ class TripMode(StrEnum):
 
 
 def mode_of(meta: dict[str, Any], acc_state: np.ndarray) -> TripMode:
-    """The trip mode from a trip's ``meta`` and its ACC-state column (n,).
-
-    Raises:
-        TripModeError: ``meta["mode"]`` is given but is not a :class:`TripMode` value.
-    """
+    """The trip mode from a trip's ``meta`` and its ACC-state column (n,) (TripModeError: an
+    unknown ``meta["mode"]``)."""
     mode = meta.get("mode")
     if mode is None:
         active = np.asarray(acc_state) == int(AccState.ACTIVE)

@@ -8,16 +8,8 @@ from pathlib import Path
 
 from sim_bus.errors import ScenarioError
 from sim_bus.lead.events import ROAD_SCENARIOS, road_profile
-from sim_bus.lead.profile import LeadProfile
 from sim_bus.lead.profile_csv import save_profile_csv
 from sim_bus.lead.scenarios import canonical_profiles
-
-
-def all_profiles(seed: int) -> dict[str, LeadProfile]:
-    """Every named profile at ``seed``: the canonical set, then the road scenarios."""
-    profiles = dict(canonical_profiles(seed))
-    profiles.update({name: road_profile(name, seed) for name in ROAD_SCENARIOS})
-    return profiles
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -32,7 +24,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=0)
     args = p.parse_args(argv)
     try:
-        profiles = all_profiles(args.seed)
+        profiles = dict(canonical_profiles(args.seed))  # then the road scenarios
+        profiles.update({name: road_profile(name, args.seed) for name in ROAD_SCENARIOS})
     except ScenarioError as exc:
         print(f"error: {exc}")
         return 2

@@ -1,10 +1,5 @@
-"""A lead speed profile and the events that change which vehicle the radar tracks.
-
-- :class:`LeadProfile` — the tracked vehicle's speed over a drive, 10 Hz
-  (:mod:`sim_bus.lead.scenarios` builds them from the shipped OpenACC data);
-- :class:`LeadEvent` — one change of the tracked vehicle (:mod:`sim_bus.lead.events` builds
-  the road scenarios from them).
-"""
+"""A lead speed profile (:class:`LeadProfile`, 10 Hz) and the events that change which vehicle
+the radar tracks (:class:`LeadEvent`)."""
 
 from __future__ import annotations
 
@@ -33,12 +28,9 @@ class SegmentRef:
 
 @dataclass(frozen=True)
 class LeadProfile:
-    """A lead speed profile: ``t_s``, ``v_lead_mps`` float64 arrays of shape (n,), 10 Hz.
-
-    ``events``: changes of the tracked vehicle (:mod:`sim_bus.lead.events`; none: the lead drives
-    the profile throughout, the paper's car following). ``set_speed_mps``: the ACC set speed
-    the road calls for (None: the study's, above every lead speed).
-    """
+    """A lead speed profile: ``t_s`` (s), ``v_lead_mps`` (m/s) float64 (n,), 10 Hz; ``events``
+    (none: the paper's car following); ``set_speed_mps`` the road's ACC set speed (None: the
+    study's)."""
 
     name: str
     t_s: np.ndarray
@@ -54,11 +46,8 @@ class LeadProfile:
         return float(self.t_s[-1] - self.t_s[0]) if len(self.t_s) else 0.0
 
     def resample(self, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
-        """Lead speed and acceleration on a grid of step ``dt_s`` from 0 to the end, shape (m,).
-
-        The speed is interpolated linearly; the acceleration is the slope of the interpolant,
-        so integrating it reproduces the interpolated speed exactly.
-        """
+        """Lead speed (m/s, linear) and acceleration (m/s², the interpolant's slope) on a grid
+        of step ``dt_s`` (s), arrays (m,)."""
         n = int(round(self.duration_s / dt_s)) + 1
         t = np.arange(n) * dt_s + self.t_s[0]
         v = np.interp(t, self.t_s, self.v_lead_mps)
@@ -69,19 +58,10 @@ class LeadProfile:
 
 @dataclass(frozen=True)
 class LeadEvent:
-    """One change of the tracked vehicle at ``t_s`` (s from the profile's start).
-
-    Attributes:
-        kind: ``cut_in`` (a vehicle enters between the ego car and its lead), ``cut_out``
-            (the lead leaves and reveals the vehicle ahead of it), ``lead_loss`` (the lead
-            leaves; free road), ``lead_appear`` (a vehicle comes into sight).
-        gap_m, gap_thw_s: the new lead's gap at ``t_s`` is ``gap_m + gap_thw_s·v_ego`` (cut-in,
-            appear); for a cut-out ``gap_m`` is its distance beyond the old lead, m.
-        v_mps: the new lead's speed at ``t_s``, m/s; relative to the ego car's when
-            ``v_relative`` (cut-in), else absolute.
-        hold_s: the new lead keeps that speed this long, then rejoins the flow, s.
-        dropout_s: the radar reports no lead this long while it confirms the new track, s.
-    """
+    """One change of the tracked vehicle at ``t_s`` (s): ``kind`` (cut_in, cut_out revealing
+    the vehicle ahead, lead_loss, lead_appear); the new gap ``gap_m + gap_thw_s·v_ego`` (m;
+    a cut-out's ``gap_m`` is beyond the old lead); ``v_mps`` (m/s, relative to the ego's when
+    ``v_relative``), held ``hold_s``; the radar blind ``dropout_s`` (s)."""
 
     t_s: float
     kind: EventKind

@@ -1,10 +1,5 @@
-"""A lead speed profile as a CSV file: ``t_s,v_lead_mps`` rows, read back at 10 Hz.
-
-:func:`save_profile_csv` writes a :class:`~sim_bus.lead.scenarios.LeadProfile`;
-:func:`load_profile_csv` reads a recorded or edited file (any increasing time stamps, s;
-speeds in m/s), resampled to the profiles' 10 Hz, and refuses an unusable file with a
-:class:`~sim_bus.errors.ScenarioError` naming it (``pacc drive --scenario FILE.csv``).
-"""
+"""A lead speed profile as a CSV file: ``t_s,v_lead_mps`` rows (s, m/s), read back at 10 Hz;
+an unusable file is a :class:`~sim_bus.errors.ScenarioError` naming it."""
 
 from __future__ import annotations
 
@@ -33,13 +28,8 @@ MAX_PROFILE_S = 86_400.0
 
 
 def load_profile_csv(path: Path, name: str | None = None) -> LeadProfile:
-    """Read a recorded ``t_s,v_lead_mps`` CSV and resample it to 10 Hz.
-
-    Raises ScenarioError with the file and the reason when the file is unusable (missing
-    columns, non-numeric or non-finite values, time not increasing, negative speeds or
-    speeds above :data:`MAX_LEAD_SPEED_MPS`, shorter than 1 s or longer than
-    :data:`MAX_PROFILE_S`).
-    """
+    """Read a ``t_s,v_lead_mps`` CSV (increasing times, 1 s to :data:`MAX_PROFILE_S`; speeds
+    0 to :data:`MAX_LEAD_SPEED_MPS`) resampled to 10 Hz."""
     path = Path(path)
     try:
         with path.open(newline="", encoding="utf-8-sig") as handle:

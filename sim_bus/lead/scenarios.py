@@ -1,23 +1,15 @@
-"""Lead-vehicle speed profiles: the paper's stochastic generator over the shipped real data.
+"""Lead speed profiles (10 Hz): the paper's stochastic generator (section IV-A) over the real data.
 
-The generator (section IV-A of the paper): cut the real leader speed traces into short
-segments; draw a high-level random sequence of average speeds; for each, pick a random real
-segment of matching average speed and concatenate; finally filter so acceleration and
-deceleration stay within bounds (a rate limiter, then a moving average, which keeps the
-bounds). The real data cover leader speeds of about 12-28 m/s; a requested average speed
-with no real segment within the tolerance takes the nearest real segment scaled in speed
-(the scale is recorded). Every profile carries its provenance (pair, start sample, length,
-scale), so a test can check that its pieces really come from the data.
-
-Profiles are 10 Hz. ``canonical_profiles(seed)`` gives the evaluation set: four manual-driving
-profiles covering 5-30 m/s, Scenario A (seen: drawn from the manual profiles, from 30 m/s
-slowing to 5 m/s) and Scenario B (unseen: newly synthesized), 300 s each. A profile's CSV
-file (``t_s,v_lead_mps``) is :mod:`sim_bus.lead.profile_csv`.
+A random sequence of average speeds, each matched by a random real leader segment of that
+mean (else the nearest one scaled, the scale recorded), concatenated and filtered to bounded
+accelerations. Every profile records where its pieces come from. :func:`canonical_profiles`:
+``manual1``..``manual4`` (5-30 m/s), ``A`` (seen: from the manual profiles, 30 to 5 m/s) and
+``B`` (unseen), 300 s each.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 
 import numpy as np
@@ -40,6 +32,11 @@ class GeneratorConfig:
     duration_s: float = 300.0
     max_spread_mps: float = 8.0
 
+    @property
+    def n_segments(self) -> int:
+        """How many segments of ``segment_s`` cover ``duration_s`` with one to spare."""
+        return int(np.ceil(self.duration_s / self.segment_s)) + 1
+
 
 @dataclass(frozen=True)
 class _Library:
@@ -54,11 +51,8 @@ class _Library:
 
 
 def _library(sources: list[tuple[str, np.ndarray]], cfg: GeneratorConfig) -> _Library:
-    """Index every window of ``cfg.segment_s`` (stride ``cfg.stride_s``) of the sources.
-
-    Windows that touch standstill (min < 1 m/s) or spread more than ``max_spread_mps`` are
-    left out: the generator wants car-following segments around one average speed.
-    """
+    """Index every window of ``cfg.segment_s`` (stride ``cfg.stride_s``) of the sources but
+    those touching standstill (< 1 m/s) or spreading more than ``max_spread_mps``."""
     n = int(round(cfg.segment_s / DT_S))
     stride = max(1, int(round(cfg.stride_s / DT_S)))
     idx_l, start_l, mean_l = [], [], []
@@ -89,11 +83,8 @@ def real_sources() -> list[tuple[str, np.ndarray]]:
 
 
 def bound_filter(v_mps: np.ndarray, cfg: GeneratorConfig) -> np.ndarray:
-    """Rate-limit to [−decel_max, accel_max]·Δt per sample, then a centred moving average.
-
-    A moving average is a convex combination of shifted copies, so it keeps the bounds.
-    Returns float64 of the same shape (n,), speeds ≥ 0.
-    """
+    """Rate-limit to [−decel_max, accel_max]·Δt per sample, then a centred moving average
+    (which keeps the bounds); float64 (n,), speeds >= 0 m/s."""
     out = np.empty_like(v_mps, dtype=np.float64)
     up, down = cfg.accel_max_mps2 * DT_S, cfg.decel_max_mps2 * DT_S
     prev = float(v_mps[0])
@@ -114,12 +105,9 @@ def synthesize(
     cfg: GeneratorConfig | None = None,
     sources: list[tuple[str, np.ndarray]] | None = None,
 ) -> LeadProfile:
-    """Concatenate random segments matching each average speed, then bound-filter.
-
-    ``speeds_mps``: the high-level sequence, shape (k,); ``sources``: named 10-Hz speed traces
-    to cut segments from (default: the shipped real leader traces). The result is trimmed to
-    ``cfg.duration_s``. Pure function of (speeds, seed, cfg, sources).
-    """
+    """Random segments matching each average speed of ``speeds_mps`` (k,), m/s, cut from
+    ``sources`` (named 10-Hz traces; default the real leaders), concatenated, bound-filtered
+    and trimmed to ``cfg.duration_s``."""
     cfg = cfg or GeneratorConfig()
     speeds = np.asarray(speeds_mps, dtype=np.float64)
     if speeds.ndim != 1 or len(speeds) == 0 or not np.all(np.isfinite(speeds)):
@@ -133,12 +121,9 @@ def synthesize(
     for target in speeds.tolist():
         err = np.abs(lib.mean_mps - target)
         ok = np.flatnonzero(err <= cfg.tolerance_mps)
-        if len(ok):
-            j = int(ok[rng.integers(len(ok))])
-            scale = 1.0
-        else:
-            j = int(np.argmin(err))
-            scale = target / float(lib.mean_mps[j])
+        # a random matching segment, else the nearest one scaled to the target
+        j = int(ok[rng.integers(len(ok))]) if len(ok) else int(np.argmin(err))
+        scale = 1.0 if len(ok) else target / float(lib.mean_mps[j])
         src = int(lib.source_index[j])
         s = int(lib.start[j])
         pieces.append(scale * lib.speeds[src][s : s + lib.length])
@@ -156,12 +141,8 @@ def synthesize(
 def random_speed_sequence(
     lo_mps: float, hi_mps: float, n: int, rng: np.random.Generator, max_step_mps: float = 5.0
 ) -> np.ndarray:
-    """A bounded random walk of ``n`` average speeds in [lo, hi] (shape (n,)).
-
-    The walk starts uniformly in the range, steps by at most ``max_step_mps`` and visits both
-    ends of the range (the lowest and highest draws are stretched onto lo and hi), so the
-    profile covers the requested speeds.
-    """
+    """A bounded random walk of ``n`` average speeds (n,), m/s, steps up to ``max_step_mps``,
+    stretched to visit both ``lo_mps`` and ``hi_mps``."""
     if not (0 < lo_mps < hi_mps) or n < 2:
         raise ScenarioError("need 0 < lo < hi and at least two speeds")
     x = np.empty(n)
@@ -184,20 +165,8 @@ MANUAL_RANGES_MPS: tuple[tuple[float, float], ...] = (
 )
 
 
-def _scenario_a(manual: list[LeadProfile], seed: int, cfg: GeneratorConfig) -> LeadProfile:
-    """Seen scenario: segments of the manual profiles, average speed from 30 down to 5 m/s."""
-    n_seg = int(np.ceil(cfg.duration_s / cfg.segment_s)) + 1
-    speeds = np.linspace(30.0, 5.0, n_seg)
-    sources = [(p.name, p.v_lead_mps) for p in manual]
-    return synthesize(speeds, seed, "A", cfg, sources)
-
-
 def canonical_profiles(seed: int = 0) -> dict[str, LeadProfile]:
-    """The evaluation set: ``manual1``..``manual4``, ``A`` (seen) and ``B`` (unseen), 300 s.
-
-    Pure function of the seed (an integer >= 0; ScenarioError otherwise) and the shipped data
-    (cached; the arrays are read-only).
-    """
+    """The evaluation set of ``seed`` >= 0 (else ScenarioError): cached, arrays read-only."""
     if not seed >= 0:
         raise ScenarioError(f"a seed is an integer >= 0, got {seed}")
     return dict(_canonical_profiles(int(seed)))
@@ -206,7 +175,7 @@ def canonical_profiles(seed: int = 0) -> dict[str, LeadProfile]:
 @lru_cache(maxsize=8)
 def _canonical_profiles(seed: int) -> dict[str, LeadProfile]:
     cfg = GeneratorConfig()
-    n_seg = int(np.ceil(cfg.duration_s / cfg.segment_s)) + 1
+    n_seg = cfg.n_segments
     ss = np.random.SeedSequence(seed)
     children = ss.spawn(len(MANUAL_RANGES_MPS) + 1)
     out: dict[str, LeadProfile] = {}
@@ -217,7 +186,10 @@ def _canonical_profiles(seed: int) -> dict[str, LeadProfile]:
         prof = synthesize(seq, int(rng.integers(2**31)), f"manual{k + 1}", cfg)
         manual.append(prof)
         out[prof.name] = prof
-    out["A"] = _scenario_a(manual, int(np.random.default_rng(children[-1]).integers(2**31)), cfg)
+    # A, seen: segments of the manual profiles, average speed from 30 down to 5 m/s
+    seed_a = int(np.random.default_rng(children[-1]).integers(2**31))
+    sources = [(p.name, p.v_lead_mps) for p in manual]
+    out["A"] = synthesize(np.linspace(30.0, 5.0, n_seg), seed_a, "A", cfg, sources)
     rng = np.random.default_rng(ss.spawn(1)[0])
     seq = random_speed_sequence(5.0, 30.0, n_seg, rng, max_step_mps=6.0)
     out["B"] = synthesize(seq, int(rng.integers(2**31)), "B", cfg)
@@ -229,11 +201,8 @@ def _canonical_profiles(seed: int) -> dict[str, LeadProfile]:
 
 
 def shorten(profile: LeadProfile, duration_s: float) -> LeadProfile:
-    """The first ``duration_s`` seconds of a profile (for quick tests and demos).
-
-    ``duration_s`` must be at least one sample step (0.1 s); beyond the profile's end
-    (``inf`` included) the whole profile is kept. Raises ScenarioError otherwise.
-    """
+    """The first ``duration_s`` seconds (>= 0.1 s, else ScenarioError; inf: all) of a
+    profile."""
     if not duration_s >= DT_S:  # NaN too
         raise ScenarioError(
             f"a drive lasts at least one profile step ({DT_S} s), not {duration_s} s"
@@ -241,12 +210,11 @@ def shorten(profile: LeadProfile, duration_s: float) -> LeadProfile:
     n = len(profile.t_s) if duration_s >= profile.duration_s else int(round(duration_s / DT_S)) + 1
     raw = None if profile.raw_v_mps is None else profile.raw_v_mps[:n]
     end = float(profile.t_s[n - 1])
-    return LeadProfile(
-        profile.name,
-        profile.t_s[:n],
-        profile.v_lead_mps[:n],
-        profile.segments,
-        raw,
-        events=tuple(e for e in profile.events if e.t_s <= end),
-        set_speed_mps=profile.set_speed_mps,
+    events = tuple(e for e in profile.events if e.t_s <= end)
+    return replace(
+        profile,
+        t_s=profile.t_s[:n],
+        v_lead_mps=profile.v_lead_mps[:n],
+        raw_v_mps=raw,
+        events=events,
     )

@@ -38,7 +38,7 @@ def test_kmh_signal_decodes_to_mps(tmp_path: Path) -> None:
     assert SPEED in text
     kmh = text.replace(SPEED, 'SG_ VehicleSpeed : 16|16@1+ (0.01,0) [0|250] "km/h" ACC')
     codec = load_codec(*_network(tmp_path, kmh, BINDING_PATH.read_text()))
-    data = codec.encode("ego", {"speed_mps": 20.0, "accel_mps2": 0.0, "speed_valid": 1})
+    data = codec.by_role["ego"].encode({"speed_mps": 20.0, "accel_mps2": 0.0, "speed_valid": 1}, 0)
     assert int.from_bytes(data[2:4], "little") == 7200
     assert codec.decode(0xB0, data).values["speed_mps"] == pytest.approx(20.0)
     assert codec.roles["ego"].bounds("speed_mps")[1] == pytest.approx(250 / 3.6)
@@ -59,7 +59,9 @@ def test_binding_states_the_unit_the_dbc_lacks(tmp_path: Path) -> None:
         'speed_mps = "VehicleSpeed"', 'speed_mps = { signal = "VehicleSpeed", unit = "mph" }'
     )
     codec = load_codec(*_network(tmp_path, text, binding))
-    data = codec.encode("ego", {"speed_mps": 0.44704 * 50, "accel_mps2": 0.0, "speed_valid": 1})
+    data = codec.by_role["ego"].encode(
+        {"speed_mps": 0.44704 * 50, "accel_mps2": 0.0, "speed_valid": 1}, 0
+    )
     assert int.from_bytes(data[2:4], "little") == 5000  # 50.00 mph
 
 
@@ -72,7 +74,7 @@ def test_inverted_flag_and_constants(tmp_path: Path) -> None:
         "speed_valid = { const = 1 } }\nconstants = { SpeedValid = 1 }",
     )
     codec = load_codec(*_network(tmp_path, DBC_PATH.read_text(), binding))
-    data = codec.encode("ego", {"speed_mps": 3.0, "accel_mps2": 0.5, "speed_valid": 0})
+    data = codec.by_role["ego"].encode({"speed_mps": 3.0, "accel_mps2": 0.5, "speed_valid": 0}, 0)
     assert data[1] & 0x10  # SpeedValid (bit 12) fixed at 1 whatever the caller says
     assert codec.roles["ego"].defaults == {"speed_valid": 1.0}
     flipped = BINDING_PATH.read_text().replace(
@@ -80,7 +82,7 @@ def test_inverted_flag_and_constants(tmp_path: Path) -> None:
     )
     (tmp_path / "flipped").mkdir()
     codec = load_codec(*_network(tmp_path / "flipped", DBC_PATH.read_text(), flipped))
-    data = codec.encode("ego", {"speed_mps": 3.0, "accel_mps2": 0.5, "speed_valid": 1})
+    data = codec.by_role["ego"].encode({"speed_mps": 3.0, "accel_mps2": 0.5, "speed_valid": 1}, 0)
     assert not data[1] & 0x10
     assert codec.decode(0xB0, data).values["speed_valid"] == 1
 
@@ -93,7 +95,8 @@ def test_v2_form_of_the_pacc_binding_encodes_the_same_frames(tmp_path: Path) -> 
     ours, theirs = load_codec(*_network(tmp_path, DBC_PATH.read_text(), v2)), load_codec()
     values = {"speed_mps": 12.34, "accel_mps2": -1.5, "speed_valid": 1}
     for counter in range(16):
-        assert ours.encode("ego", values, counter) == theirs.encode("ego", values, counter)
+        mine, packaged = ours.by_role["ego"], theirs.by_role["ego"]
+        assert mine.encode(values, counter) == packaged.encode(values, counter)
 
 
 def test_network_without_status_runs_the_ecu(tmp_path: Path) -> None:
@@ -150,7 +153,7 @@ def test_autosar_p01_frames_interoperate_with_autosar_e2e(tmp_path: Path) -> Non
         assert p01.e2e_p01_check(bytearray(data), 0xB0)
         counters.append(data[1] & 0xF)
     assert counters == [*range(15), *range(5)]
-    theirs = bytearray(codec.encode("ego", values, 14))
+    theirs = bytearray(codec.by_role["ego"].encode(values, 14))
     inbox = Inbox(codec, ["ego"])
     for k in range(30):
         p01.e2e_p01_protect(theirs, 0xB0, increment_counter=True)  # 0, 1, ... 14, 0, ...
@@ -176,7 +179,7 @@ def test_scale_is_a_further_factor(tmp_path: Path) -> None:
         "lead_accel_mps2": 0.0,
         "lead_accel_valid": 1,
     }
-    data = codec.encode("radar", radar)
+    data = codec.by_role["radar"].encode(radar, 0)
     assert int.from_bytes(data[2:4], "little") == 300  # 15 m at 0.05 m per bit
     assert codec.decode(0x120, data).values["gap_m"] == pytest.approx(30.0)
     assert codec.roles["radar"].bounds("gap_m") == (0.0, 500.0)

@@ -12,19 +12,19 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from dbc import BINDING_PATH, DBC_PATH
-from dbc.codec import (
+from dbc.codec import MessageCodec, load_codec
+from dbc.e2e import e2e_crc
+from dbc.endpoint import Outbox
+from dbc.errors import (
     CodecError,
     CrcError,
     DbcError,
     DecodeError,
     DlcError,
     EncodeError,
-    MessageCodec,
     RangeError,
     UnknownFrameError,
-    load_codec,
 )
-from dbc.e2e import e2e_crc
 
 CODEC = load_codec()
 ROLES = sorted(CODEC.by_role)
@@ -109,12 +109,12 @@ def test_physical_rounding_to_resolution() -> None:
 )
 def test_encode_refuses_bad_values(values: dict[str, Any], message: str) -> None:
     with pytest.raises(EncodeError, match=message):
-        CODEC.encode("ego", values)
+        CODEC.by_role["ego"].encode(values, 0)
 
 
 def test_encode_unknown_role() -> None:
     with pytest.raises(EncodeError, match="no role"):
-        CODEC.encode("wipers", {})
+        Outbox(CODEC).encode("wipers", {})
 
 
 def _with_crc(mc: MessageCodec, payload: bytearray) -> bytes:
@@ -212,7 +212,7 @@ def test_other_vehicle_dbc_with_renamed_message_needs_matching_binding(tmp_path:
     binding.write_text(BINDING_PATH.read_text().replace('"ESC_Speed"', '"VehSpd"'))
     other = load_codec(renamed, binding)
     assert other.by_role["ego"].name == "VehSpd"
-    data = other.encode("ego", {"speed_mps": 5, "accel_mps2": 1, "speed_valid": 1})
+    data = other.by_role["ego"].encode({"speed_mps": 5, "accel_mps2": 1, "speed_valid": 1}, 0)
     assert other.decode(other.by_role["ego"].frame_id, data).values["speed_mps"] == 5
 
 
@@ -249,7 +249,7 @@ def test_motorola_signals(tmp_path: Path) -> None:
     codec = load_codec(path)
     db: Any = cantools.database.load_file(str(path), strict=True)
     values = {"speed_mps": 27.81, "accel_mps2": -3.33, "speed_valid": 1}
-    data = codec.encode("ego", values, 9)
+    data = codec.by_role["ego"].encode(values, 9)
     theirs = db.get_message_by_name("ESC_Speed").decode(data, decode_choices=False)
     assert theirs["VehicleSpeed"] == pytest.approx(27.81)
     assert theirs["LongAccel"] == pytest.approx(-3.33)

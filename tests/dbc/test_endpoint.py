@@ -7,9 +7,10 @@ from collections.abc import Iterator
 import can
 import pytest
 
-from dbc.codec import EncodeError, load_codec
+from dbc.codec import load_codec
 from dbc.e2e import E2EStatus
 from dbc.endpoint import UNKNOWN_ROLE, Inbox, Outbox
+from dbc.errors import EncodeError
 from dbc.frame import EFF_FLAG, OTHER, raw_of
 from dbc.message import Decoded
 

@@ -6,12 +6,15 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from sim_bus.metrics import (
     acc_on_mask,
     drive_metrics,
     min_ttc_s,
     poi_nim,
+    pressed_episodes,
     rms_jerk,
     safety_figures,
 )
@@ -115,3 +118,27 @@ def test_a_time_below_that_began_during_an_accelerator_press_stays_the_drivers()
     s = safety_figures(t, ttc * 2.0, v, v - 2.0, press, 2.0)
     assert s.below_override_s == pytest.approx(0.4)
     assert s.below_own_s == pytest.approx(0.1) and s.min_ttc_own_s == pytest.approx(1.5)
+
+
+def _episodes_by_hand(below: list[bool], pressed: list[bool]) -> list[bool]:
+    """The rule walked sample by sample: a run below the threshold is the driver's from a
+    sample pressed at its start, or pressed right after a pressed one, to its end."""
+    out = list(pressed)
+    for k in range(len(below)):
+        run_start = k == 0 or not below[k - 1]
+        if below[k] and pressed[k] and (run_start or out[k - 1]):
+            j = k
+            while j < len(below) and below[j]:
+                out[j] = True
+                j += 1
+    return out
+
+
+@given(st.lists(st.tuples(st.booleans(), st.booleans()), max_size=40))
+def test_pressed_episodes_follow_the_rule_sample_by_sample(
+    samples: list[tuple[bool, bool]],
+) -> None:
+    below = [b for b, _ in samples]
+    pressed = [p for _, p in samples]
+    got = pressed_episodes(np.array(below, dtype=bool), np.array(pressed, dtype=bool))
+    assert got.tolist() == _episodes_by_hand(below, pressed)

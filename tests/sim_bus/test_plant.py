@@ -10,7 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from sim_bus.errors import DriveError
-from sim_bus.plant import Plant, PlantConfig, PlantState, lag_factor, step
+from sim_bus.plant import Plant, PlantConfig, PlantState, lag_factor
 from sim_bus.world import WorldConfig
 
 EXACT = PlantConfig(dt_s=0.01, actuator_tau_s=0.0, sigma_v_mps=0.0, sigma_g_m=0.0)
@@ -37,12 +37,13 @@ def test_constant_acceleration_matches_closed_form(
 
 def test_gap_sign_ego_acceleration_shrinks_the_gap() -> None:
     # the sign fix of docs/paper-notes.md: ½(a_f − a)Δt², so ego acceleration closes the gap
-    s0 = PlantState(20.0, 0.0, 50.0)
-    fast = step(s0, 2.0, 20.0, 0.0, EXACT)
-    slow = step(s0, -2.0, 20.0, 0.0, EXACT)
-    assert fast.gap_m < 50.0 < slow.gap_m
-    lead_acc = step(s0, 0.0, 20.0, 2.0, EXACT)
-    assert lead_acc.gap_m > 50.0
+    def gap_after(a_cmd: float, a_lead: float) -> float:
+        car = Plant(EXACT, PlantState(20.0, 0.0, 50.0), np.random.default_rng(0))
+        car.advance(a_cmd, 20.0, a_lead)
+        return car.gap_m
+
+    assert gap_after(2.0, 0.0) < 50.0 < gap_after(-2.0, 0.0)
+    assert gap_after(0.0, 2.0) > 50.0
 
 
 def test_actuator_lag_is_first_order() -> None:

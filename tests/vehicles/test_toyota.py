@@ -21,10 +21,10 @@ import numpy as np
 import pytest
 
 from dbc import DATA_DIR
-from dbc.codec import Codec, CrcError, load_codec, network_paths
+from dbc.codec import Codec, load_codec, network_paths
 from dbc.e2e import E2EStatus
 from dbc.endpoint import Inbox, Outbox
-from dbc.errors import BindingError, DbcError
+from dbc.errors import BindingError, CrcError, DbcError
 from dbc.vocab.acc_state import AccState
 from dbc.vocab.dgpt import predefined
 from ecu.node import EcuConfig, EcuNode

@@ -22,8 +22,8 @@ import sys
 import time
 
 from cloud_sync.errors import CloudSyncError
-from dbc.codec import Codec, CodecError
-from dbc.errors import BindingError, UsageError
+from dbc.codec import Codec
+from dbc.errors import BindingError, CodecError, UsageError
 from dbc.network import add_network_arguments, codec_of, network_of
 from dbc.vocab import FormatError
 from dbc.vocab.dgpt import PLAIN_NAME, Dgpt, DgptError, predefined
