@@ -58,7 +58,8 @@ log = logging.getLogger(__name__)
 DEFAULT_MAX_UPLOAD_BYTES = 16 * 1024 * 1024
 
 
-def _sha256(data: bytes) -> str:
+def sha256_hex(data: bytes) -> str:
+    """SHA-256 of ``data``, hex."""
     return hashlib.sha256(data).hexdigest()
 
 
@@ -137,7 +138,7 @@ class CloudService:
         _check_names(vehicle_id, drivers)
         token = secrets.token_urlsafe(32)
         hook = None if keep_token is None else (lambda: keep_token(token))
-        self.store.register(vehicle_id, _sha256(token.encode()), drivers, hook)
+        self.store.save_vehicle(vehicle_id, sha256_hex(token.encode()), drivers, hook, new=True)
         return token
 
     def update_vehicle(
@@ -152,12 +153,11 @@ class CloudService:
         (returned; ``keep_token`` inside the transaction) or ``"revoke"`` it. StoreError."""
         _check_names(vehicle_id, drivers)
         fresh = secrets.token_urlsafe(32) if token == "new" else None
-        if fresh is not None:
-            digest: str | None = _sha256(fresh.encode())
-        else:  # revoked: a value no token's SHA-256 (hex) can equal
-            digest = f"revoked-{secrets.token_hex(16)}" if token == "revoke" else None
+        # revoked: a value no token's SHA-256 (hex) can equal
+        revoked = f"revoked-{secrets.token_hex(16)}" if token == "revoke" else None
+        digest = sha256_hex(fresh.encode()) if fresh is not None else revoked
         hook = None if fresh is None or keep_token is None else (lambda: keep_token(fresh))
-        self.store.update_vehicle(vehicle_id, digest, drivers, hook)
+        self.store.save_vehicle(vehicle_id, digest, drivers, hook)
         return fresh
 
     def register_driver(self, vehicle_id: str, driver_id: str) -> None:
@@ -166,7 +166,7 @@ class CloudService:
 
     def authenticate(self, token: str | None) -> str:
         """The vehicle holding ``token``; :class:`AuthError` if none."""
-        vehicle = self.store.vehicle_by_token(_sha256(token.encode())) if token else None
+        vehicle = self.store.vehicle_by_token(sha256_hex(token.encode())) if token else None
         if vehicle is None:
             raise AuthError("unknown or missing vehicle token")
         return vehicle
@@ -191,17 +191,9 @@ class CloudService:
         condition = trip.meta.get("condition") or "default"
         check_plain(BadBatchError, driver_id=driver_id, condition=condition)
         self._own(vehicle_id, driver_id)
-        digest = _sha256(data)
+        digest = sha256_hex(data)
         row = BatchRow(
-            seq=0,
-            digest=digest,
-            vehicle_id=vehicle_id,
-            driver_id=driver_id,
-            condition=condition,
-            kind=kind.value,
-            size_bytes=len(data),
-            received_utc=utc_now_iso(),
-            used_in_version=None,
+            0, digest, vehicle_id, driver_id, condition, kind.value, len(data), utc_now_iso(), None
         )
         with storage_errors():
             added = self.store.add_batch(row, data)
@@ -286,7 +278,7 @@ class CloudService:
 
     def _trips(self, batches: Iterable[BatchRow]) -> list[Trip]:
         """The trips of ``batches`` in digest order."""
-        ordered = sorted(batches, key=_digest)
+        ordered = sorted(batches, key=lambda b: b.digest)
         return [
             trip_from_bytes(self.store.read_blob(b.digest), f"batch {b.digest}") for b in ordered
         ]
@@ -297,12 +289,12 @@ class CloudService:
         if versions and table.version <= versions[-1].version:
             table = replace(table, version=versions[-1].version + 1)  # versions only grow
         row = VersionRow(
-            driver_id=table.driver_id,
-            condition=table.condition,
-            version=table.version,
-            source=table.source,
-            created_utc=table.created_utc,
-            n_batches=len(used),
+            table.driver_id,
+            table.condition,
+            table.version,
+            table.source,
+            table.created_utc,
+            len(used),
         )
         self.store.add_version(row, sign_dgpt(table, self.key), used)
         log.info("published DGPT %s/%s v%d", row.driver_id, row.condition, row.version)
@@ -338,10 +330,6 @@ def _check_names(vehicle_id: str, drivers: list[str]) -> None:
         check_plain(StoreError, driver_id=driver_id)
     if len(set(drivers)) != len(drivers):
         raise StoreError(f"a driver id is repeated: {', '.join(drivers)}")
-
-
-def _digest(batch: BatchRow) -> str:
-    return batch.digest
 
 
 __all__ = [

@@ -185,47 +185,43 @@ class CloudStore:
 
     # -- vehicles and drivers -----------------------------------------------------------
 
-    def register(
-        self,
-        vehicle_id: str,
-        token_sha256: str,
-        drivers: list[str],
-        before_commit: Callable[[], None] | None = None,
-    ) -> None:
-        """Register a vehicle and its drivers in one transaction, ``before_commit`` inside it
-        (all or nothing). StoreError if the vehicle exists or a driver is taken."""
-        with self.transaction() as db:
-            if db.execute("SELECT 1 FROM vehicles WHERE vehicle_id = ?", (vehicle_id,)).fetchone():
-                raise StoreError(
-                    f"vehicle {vehicle_id!r} is already registered (pacc cloud vehicle adds "
-                    "drivers and reissues or revokes its token)"
-                )
-            db.execute("INSERT INTO vehicles VALUES (?, ?)", (vehicle_id, token_sha256))
-            _add_drivers(db, vehicle_id, drivers)
-            if before_commit is not None:
-                before_commit()
-
-    def update_vehicle(
+    def save_vehicle(
         self,
         vehicle_id: str,
         token_sha256: str | None,
         drivers: list[str],
         before_commit: Callable[[], None] | None = None,
+        *,
+        new: bool = False,
     ) -> None:
-        """Add ``drivers`` to a registered vehicle and, unless None, replace the SHA-256 of its
-        token (the old token stops working), in one transaction with ``before_commit`` as
-        :meth:`register`. StoreError if the vehicle is unknown or a driver is taken."""
+        """Register (``new``) or update a vehicle in one transaction: its token's SHA-256 (None:
+        kept; the old token stops working), ``drivers`` added, ``before_commit`` inside it (all
+        or nothing). StoreError: the vehicle exists (``new``) or is unknown, a driver is taken."""
         with self.transaction() as db:
-            if token_sha256 is not None:
+            known = db.execute("SELECT 1 FROM vehicles WHERE vehicle_id = ?", (vehicle_id,))
+            if new and known.fetchone():
+                raise StoreError(
+                    f"vehicle {vehicle_id!r} is already registered (pacc cloud vehicle adds "
+                    "drivers and reissues or revokes its token)"
+                )
+            if new:
+                db.execute("INSERT INTO vehicles VALUES (?, ?)", (vehicle_id, token_sha256))
+            elif not known.fetchone():
+                raise StoreError(f"no vehicle {vehicle_id!r} (pacc cloud register adds one)")
+            elif token_sha256 is not None:
                 db.execute(
                     "UPDATE vehicles SET token_sha256 = ? WHERE vehicle_id = ?",
                     (token_sha256, vehicle_id),
                 )
-            if not db.execute(
-                "SELECT 1 FROM vehicles WHERE vehicle_id = ?", (vehicle_id,)
-            ).fetchone():
-                raise StoreError(f"no vehicle {vehicle_id!r} (pacc cloud register adds one)")
-            _add_drivers(db, vehicle_id, drivers)
+            for driver_id in drivers:
+                row = db.execute(
+                    "SELECT vehicle_id FROM drivers WHERE driver_id = ?", (driver_id,)
+                ).fetchone()
+                if row is not None:
+                    raise StoreError(
+                        f"driver {driver_id!r} is already registered to vehicle {row[0]!r}"
+                    )
+                db.execute("INSERT INTO drivers VALUES (?, ?)", (driver_id, vehicle_id))
             if before_commit is not None:
                 before_commit()
 
@@ -335,14 +331,3 @@ class CloudStore:
 
 
 __all__ = ["SCHEMA_VERSION", "BatchRow", "CloudStore", "StoreError", "VersionRow"]
-
-
-def _add_drivers(db: sqlite3.Connection, vehicle_id: str, drivers: list[str]) -> None:
-    """Bind each of ``drivers`` to ``vehicle_id`` inside a transaction; StoreError if taken."""
-    for driver_id in drivers:
-        row = db.execute(
-            "SELECT vehicle_id FROM drivers WHERE driver_id = ?", (driver_id,)
-        ).fetchone()
-        if row is not None:
-            raise StoreError(f"driver {driver_id!r} is already registered to vehicle {row[0]!r}")
-        db.execute("INSERT INTO drivers VALUES (?, ?)", (driver_id, vehicle_id))

@@ -14,7 +14,7 @@ import json
 import math
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import astuple, dataclass
 from datetime import datetime
 from typing import TYPE_CHECKING, Any
 
@@ -61,21 +61,14 @@ class TripReport:
         if unknown:
             raise BadBatchError(f"trip report: unknown field(s) {', '.join(sorted(unknown))}")
         names = {k: body.get(k, "default" if k == "condition" else None) for k in _KEYS}
-        check_plain(BadBatchError, **{k: names[k] for k in ("driver_id", "condition", "trip_id")})
+        plain = {k: names[k] for k in ("driver_id", "condition", "trip_id")}
+        check_plain(BadBatchError, **plain)
         version, acc_on = _numbers(names["dgpt_version"], names["acc_on_s"])
         segments = _digests(names["segments"] if names["segments"] is not None else [])
         start = names["start_utc"]
         if start is not None and not _is_utc(start):
             raise BadBatchError(f"trip report: start_utc {start!r} is not ISO 8601 UTC")
-        return cls(
-            str(names["driver_id"]),
-            str(names["condition"]),
-            str(names["trip_id"]),
-            version,
-            acc_on,
-            segments,
-            start,
-        )
+        return cls(*map(str, plain.values()), version, acc_on, segments, start)
 
     def canonical(self) -> str:
         """The report as canonical JSON (sorted keys): what a duplicate must equal."""
@@ -202,19 +195,8 @@ def record_trip(service: CloudService, vehicle_id: str, body: object) -> TripRec
             "INSERT INTO trips (vehicle_id, driver_id, condition, trip_id, start_utc, "
             "received_utc, dgpt_version, acc_on_s, intervention_s, takeovers, report) "
             "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-            (
-                vehicle_id,
-                report.driver_id,
-                report.condition,
-                report.trip_id,
-                report.start_utc,
-                utc_now_iso(),
-                report.dgpt_version,
-                report.acc_on_s,
-                seconds,
-                takeovers,
-                text,
-            ),
+            (vehicle_id, *astuple(report)[:3], report.start_utc, utc_now_iso())
+            + (report.dgpt_version, report.acc_on_s, seconds, takeovers, text),
         )
         db.executemany(
             "INSERT INTO trip_segments VALUES (?, ?)", [(d, cur.lastrowid) for d in report.segments]

@@ -9,13 +9,12 @@ operator token (``pacc cloud serve --operator-token-file``; only its SHA-256 kep
 
 from __future__ import annotations
 
-import hashlib
 import hmac
 from pathlib import Path
 from typing import Any
 
 from cloud_sync.api import ForbiddenError, NotFoundError
-from cloud_sync.service.rules import CloudService
+from cloud_sync.service.rules import CloudService, sha256_hex
 from cloud_sync.service.trips import trip_rows
 
 __all__ = ["DASHBOARD", "ServiceViews"]
@@ -23,10 +22,6 @@ __all__ = ["DASHBOARD", "ServiceViews"]
 DASHBOARD = Path(__file__).with_name("dashboard.html")
 #: the table metadata a version's view shows
 _META = ("n_trips", "usable_demo_s", "covered_mps", "coverage_s", "method")
-
-
-def _sha256(text: str) -> str:
-    return hashlib.sha256(text.encode()).hexdigest()
 
 
 class ServiceViews:
@@ -38,7 +33,11 @@ class ServiceViews:
 
     def viewer(self, token: str | None) -> str | None:
         """Who ``token`` is: a vehicle id, or None for the operator (AuthError: neither)."""
-        if token and self.operator_sha and hmac.compare_digest(_sha256(token), self.operator_sha):
+        if (
+            token
+            and self.operator_sha
+            and hmac.compare_digest(sha256_hex(token.encode()), self.operator_sha)
+        ):
             return None
         return self.service.authenticate(token)
 
