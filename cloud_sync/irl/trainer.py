@@ -21,9 +21,9 @@ from cloud_sync.irl.baseline import baseline_if_any, empirical_baseline
 from cloud_sync.irl.blend import Evidence, blend, covered_ranges, evidence
 from cloud_sync.irl.config import IrlConfig
 from cloud_sync.irl.extract import finish_table, outside_coverage, search_range
-from cloud_sync.irl.fit import Fit, fit_alpha, start_alpha
-from cloud_sync.irl.mce_irl import CompiledMdp, DemoStats
-from cloud_sync.irl.model import METHOD, RewardModel, compile_model, fresh_model, model_of_table
+from cloud_sync.irl.fit import fit_alpha, start_alpha
+from cloud_sync.irl.mce_irl import CompiledMdp
+from cloud_sync.irl.model import METHOD, compile_model, fresh_model, model_of_table
 from cloud_sync.irl.policy_gap import steady_drift, steady_gaps
 from dbc.vocab.dgpt import Dgpt, speed_axis
 from dbc.vocab.triplog import Trip
@@ -67,7 +67,15 @@ def learn_dgpt(
     ``config.takeover_weight``, or ``weights``); with ``init`` its model and α are the start and
     prior, uncovered speeds keep its gaps, version + 1. DemoError, TrainingError."""
     cfg = config if config is not None else IrlConfig()
-    w = _trip_weights(trips, weights, init, driver_id=driver_id, seed=seed, config=cfg)
+    if not seed >= 0:  # numpy's generators take no negative seed
+        raise TrainingError(f"a seed is an integer >= 0, got {seed}")
+    if init is not None and init.driver_id != driver_id:
+        raise TrainingError(
+            f"the initial table belongs to driver {init.driver_id!r}, not {driver_id!r}"
+        )
+    w = list(weights) if weights is not None else dm.takeover_weighted(trips, cfg.takeover_weight)
+    if len(w) != len(trips):
+        raise DemoError(f"{len(w)} weights for {len(trips)} trips")
     usable_s = dm.check_demos(
         trips, max_gap_m=cfg.max_gap_m, min_total_s=cfg.min_total_demo_s, dt_s=cfg.grid.dt_s
     )
@@ -102,9 +110,28 @@ def learn_dgpt(
     )
     learned = _extract(cfg, fit.alpha, mdp, axis, ev)
     gap, covered = blend(axis, learned, ev, half_s=cfg.blend_half_s, bounds=cfg.bounds)
-    meta = _irl_meta(
-        cfg, seed, len(trips), dm.digest(trips, w), usable_s, stats, ev, covered, model, fit, init
-    )
+    meta: dict[str, Any] = {
+        "method": METHOD,
+        "training_digest": dm.digest(trips, w),
+        "seed": int(seed),
+        "n_trips": len(trips),
+        "usable_demo_s": round(usable_s, 3),
+        "n_segments": stats.n_segments,
+        "coverage_s": [round(float(c), 2) for c in ev.coverage_s],
+        "min_coverage_s": cfg.min_coverage_s,
+        "covered_mps": covered_ranges(axis, covered),
+        "outside_coverage": outside_coverage(axis, covered),
+        "alpha": [float(a) for a in fit.alpha],
+        "grid": model.grid.spec(),
+        "features": model.features.spec(),
+        "horizon_steps": cfg.horizon_steps,
+        "l2": cfg.l2,
+        "iterations": fit.n_iter,
+        "converged": fit.converged,
+        "objective": fit.objective,
+    }
+    if init is not None:
+        meta["parent_version"] = init.version
     table = Dgpt(
         speed_mps=axis,
         gap_m=gap,
@@ -114,16 +141,17 @@ def learn_dgpt(
         source="irl",
         meta=meta,
     )
+    baseline = baseline_if_any(trips, driver_id, condition, cfg)
     return LearnResult(
-        table=table,
-        baseline=baseline_if_any(trips, driver_id, condition, cfg),
-        alpha=fit.alpha,
-        mdp=mdp,
-        covered=covered,
-        n_iter=fit.n_iter,
-        converged=fit.converged,
-        message=fit.message,
-        train_s=fit.train_s,
+        table,
+        baseline,
+        fit.alpha,
+        mdp,
+        covered,
+        fit.n_iter,
+        fit.converged,
+        fit.message,
+        fit.train_s,
     )
 
 
@@ -172,71 +200,3 @@ def _extract(
     support = search_range(axis, ev.support, cfg.bounds, cfg.gap_resolution_m)
     raw = steady_gaps(drift, value, mdp.grid.v_mps, mdp.grid.gap_m, axis, support)
     return finish_table(axis, raw, ev.covered, cfg.bounds, cutoff=cfg.lowpass_cutoff)
-
-
-def _trip_weights(
-    trips: Sequence[Trip],
-    weights: Sequence[float] | None,
-    init: Dgpt | None,
-    *,
-    driver_id: str,
-    seed: int,
-    config: IrlConfig,
-) -> list[float]:
-    """The per-trip weights of a :func:`learn_dgpt` call, after refusing a negative seed, an
-    ``init`` of another driver and a weight list of the wrong length."""
-    if not seed >= 0:  # numpy's generators take no negative seed
-        raise TrainingError(f"a seed is an integer >= 0, got {seed}")
-    if init is not None and init.driver_id != driver_id:
-        raise TrainingError(
-            f"the initial table belongs to driver {init.driver_id!r}, not {driver_id!r}"
-        )
-    w = (
-        list(weights)
-        if weights is not None
-        else dm.takeover_weighted(trips, config.takeover_weight)
-    )
-    if len(w) != len(trips):
-        raise DemoError(f"{len(w)} weights for {len(trips)} trips")
-    return w
-
-
-def _irl_meta(
-    cfg: IrlConfig,
-    seed: int,
-    n_trips: int,
-    data_digest: str,
-    usable_s: float,
-    stats: DemoStats,
-    ev: Evidence,
-    covered: np.ndarray,
-    model: RewardModel,
-    fit: Fit,
-    init: Dgpt | None,
-) -> dict[str, Any]:
-    """The metadata of a learned table: data, evidence, the model (read back by
-    :func:`cloud_sync.irl.model.model_of_table`) and the optimiser's outcome."""
-    axis = speed_axis(cfg.dgpt_step_mps)
-    meta: dict[str, Any] = {
-        "method": METHOD,
-        "training_digest": data_digest,
-        "seed": int(seed),
-        "n_trips": n_trips,
-        "usable_demo_s": round(usable_s, 3),
-        "n_segments": stats.n_segments,
-        "coverage_s": [round(float(c), 2) for c in ev.coverage_s],
-        "min_coverage_s": cfg.min_coverage_s,
-        "covered_mps": covered_ranges(axis, covered),
-        "outside_coverage": outside_coverage(axis, covered),
-        "alpha": [float(a) for a in fit.alpha],
-        "grid": model.grid.spec(),
-        "features": model.features.spec(),
-        "horizon_steps": cfg.horizon_steps,
-        "l2": cfg.l2,
-        "iterations": fit.n_iter,
-        "converged": fit.converged,
-        "objective": fit.objective,
-    }
-    if init is not None:
-        meta["parent_version"] = init.version
-    return meta
