@@ -47,7 +47,6 @@ def coverage_s(
 def evidence(
     axis_mps: np.ndarray,
     samples: Samples,
-    *,
     min_coverage_s: float,
     previous_m: np.ndarray | None,
     window_mps: float,

@@ -13,6 +13,7 @@ import numpy as np
 from scipy import optimize
 from tqdm import tqdm
 
+from cloud_sync.irl.config import IrlConfig
 from cloud_sync.irl.mce_irl import CompiledMdp, DemoStats, objective
 
 __all__ = ["Fit", "start_alpha", "fit_alpha"]
@@ -42,20 +43,16 @@ def fit_alpha(
     mdp: CompiledMdp,
     stats: DemoStats,
     alpha0: np.ndarray,
-    *,
     prior: np.ndarray | None,
-    l2: float,
-    max_iter: int,
-    gtol: float,
-    ftol: float,
+    cfg: IrlConfig,
     progress: bool = False,
 ) -> Fit:
-    """Minimise the MCE-IRL dual by L-BFGS-B from ``alpha0`` (K,), L2 towards ``prior``
-    (stops at ``max_iter``, ``gtol``, ``ftol``); TrainingError if the objective diverges."""
-    bar = tqdm(total=max_iter, desc="IRL", unit="it", leave=False) if progress else None
+    """Minimise the MCE-IRL dual by L-BFGS-B from ``alpha0`` (K,), L2 (``cfg.l2``) towards
+    ``prior`` (stops at ``cfg.max_iter``, ``gtol``, ``ftol``); TrainingError if it diverges."""
+    bar = tqdm(total=cfg.max_iter, desc="IRL", unit="it", leave=False) if progress else None
 
     def fun(alpha: np.ndarray) -> tuple[float, np.ndarray]:
-        return objective(alpha, mdp, stats, l2=l2, prior=prior)
+        return objective(alpha, mdp, stats, l2=cfg.l2, prior=prior)
 
     def show(intermediate_result: optimize.OptimizeResult) -> None:
         if bar is not None:
@@ -64,22 +61,15 @@ def fit_alpha(
 
     t0 = time.perf_counter()
     try:
+        options = {"maxiter": cfg.max_iter, "gtol": cfg.gtol, "ftol": cfg.ftol}
+        callback = show if bar is not None else None
         res = optimize.minimize(
-            fun,
-            alpha0,
-            jac=True,
-            method="L-BFGS-B",
-            callback=show if bar is not None else None,
-            options={"maxiter": max_iter, "gtol": gtol, "ftol": ftol},
+            fun, alpha0, jac=True, method="L-BFGS-B", callback=callback, options=options
         )
     finally:
         if bar is not None:
             bar.close()
+    wall = time.perf_counter() - t0
     return Fit(
-        alpha=np.asarray(res.x),
-        n_iter=int(res.nit),
-        converged=bool(res.success),
-        message=str(res.message),
-        objective=float(res.fun),
-        train_s=time.perf_counter() - t0,
+        np.asarray(res.x), int(res.nit), bool(res.success), str(res.message), float(res.fun), wall
     )

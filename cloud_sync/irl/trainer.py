@@ -81,33 +81,18 @@ def learn_dgpt(
     )
     samples = dm.pooled_samples(trips, cfg.max_gap_m)
     axis = speed_axis(cfg.dgpt_step_mps)
+    previous = None if init is None else np.interp(axis, init.speed_mps, init.gap_m)
     ev = evidence(
-        axis,
-        samples,
-        min_coverage_s=cfg.min_coverage_s,
-        previous_m=None if init is None else np.interp(axis, init.speed_mps, init.gap_m),
-        window_mps=cfg.blend_window_mps,
-        support_ratio=cfg.init_support_ratio,
+        axis, samples, cfg.min_coverage_s, previous, cfg.blend_window_mps, cfg.init_support_ratio
     )
-    model = model_of_table(init)
-    if model is None:
-        model = fresh_model(samples, cfg.grid, cfg.features)
+    model = model_of_table(init) or fresh_model(samples, cfg.grid, cfg.features)
     mdp = compile_model(model, cfg.grid)
     tr = dm.extract_transitions(
         trips, w, dt_s=model.grid.dt_s, horizon=cfg.horizon_steps, max_gap_m=cfg.max_gap_m
     )
     stats = dm.demo_stats(mdp, tr, cfg.horizon_steps)
-    fit = fit_alpha(
-        mdp,
-        stats,
-        start_alpha(model.features.n_features, model.prior_alpha, seed),
-        prior=model.prior_alpha,
-        l2=cfg.l2,
-        max_iter=cfg.max_iter,
-        gtol=cfg.gtol,
-        ftol=cfg.ftol,
-        progress=progress,
-    )
+    alpha0 = start_alpha(model.features.n_features, model.prior_alpha, seed)
+    fit = fit_alpha(mdp, stats, alpha0, model.prior_alpha, cfg, progress)
     learned = _extract(cfg, fit.alpha, mdp, axis, ev)
     gap, covered = blend(axis, learned, ev, half_s=cfg.blend_half_s, bounds=cfg.bounds)
     meta: dict[str, Any] = {
