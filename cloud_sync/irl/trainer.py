@@ -3,7 +3,7 @@
 :func:`learn_dgpt` learns from demonstrations (manual drives, plus weighted ACC takeovers);
 :func:`fine_tune` continues an earlier IRL table; :func:`empirical_baseline` is the comparison.
 Phases: :mod:`~cloud_sync.irl.demos`, :mod:`~cloud_sync.irl.blend`, :mod:`~cloud_sync.irl.model`,
-:mod:`~cloud_sync.irl.fit`, :mod:`~cloud_sync.irl.policy_gap`, :mod:`~cloud_sync.irl.extract`.
+:mod:`~cloud_sync.irl.mce_irl`, :mod:`~cloud_sync.irl.policy_gap`, :mod:`~cloud_sync.irl.extract`.
 Every result is a pure function of (configuration, seed, data).
 """
 
@@ -17,12 +17,16 @@ import numpy as np
 
 from cloud_sync.errors import DemoError, TrainingError
 from cloud_sync.irl import demos as dm
-from cloud_sync.irl.baseline import baseline_if_any, empirical_baseline
 from cloud_sync.irl.blend import Evidence, blend, covered_ranges, evidence
 from cloud_sync.irl.config import IrlConfig
-from cloud_sync.irl.extract import finish_table, outside_coverage, search_range
-from cloud_sync.irl.fit import fit_alpha, start_alpha
-from cloud_sync.irl.mce_irl import CompiledMdp
+from cloud_sync.irl.extract import (
+    baseline_if_any,
+    empirical_baseline,
+    finish_table,
+    outside_coverage,
+    search_range,
+)
+from cloud_sync.irl.mce_irl import CompiledMdp, fit_alpha, start_alpha
 from cloud_sync.irl.model import METHOD, compile_model, fresh_model, model_of_table
 from cloud_sync.irl.policy_gap import steady_drift, steady_gaps
 from dbc.vocab.dgpt import Dgpt, speed_axis

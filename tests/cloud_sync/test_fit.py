@@ -6,13 +6,14 @@ import numpy as np
 import pytest
 
 from cloud_sync.irl.config import IrlConfig
-from cloud_sync.irl.fit import fit_alpha, start_alpha
 from cloud_sync.irl.mce_irl import (
     DemoStats,
     feature_expectations,
+    fit_alpha,
     objective,
     reward_table,
     soft_value_iteration,
+    start_alpha,
     state_action_visitation,
 )
 from tests.cloud_sync.test_mce_irl import small_mdp
