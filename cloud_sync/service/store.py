@@ -10,6 +10,7 @@ tables only. One connection behind a lock; one process per folder.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sqlite3
 import threading
@@ -124,8 +125,12 @@ class CloudStore:
         except (OSError, sqlite3.Error) as exc:
             raise StoreError(f"cannot open the cloud data folder {self.root}: {exc}") from exc
         self._lock = threading.RLock()
-        #: temporary files of a killed process removed at opening
-        self.orphans_removed = self._remove_orphans()
+        #: temporary files of a killed process (``.*.part``: no row points at them) removed
+        self.orphans_removed = 0
+        for part in [*self.root.glob("blobs/**/.*.part"), *self.root.glob("dgpt/**/.*.part")]:
+            with contextlib.suppress(OSError):
+                part.unlink()
+                self.orphans_removed += 1
 
     def _migrate(self) -> None:
         """Create the tables of a new index, or add those an older one lacks (one
@@ -164,19 +169,6 @@ class CloudStore:
         """The rows of a read-only ``sql`` on the index, under the store's lock."""
         with self._lock:
             return list(self._db.execute(sql, args).fetchall())
-
-    def _remove_orphans(self) -> int:
-        """Delete ``.*.part`` files under ``blobs/`` and ``dgpt/`` (a write a crash cut short:
-        no row points at them); the count."""
-        removed = 0
-        for folder in ("blobs", "dgpt"):
-            for part in (self.root / folder).glob("**/.*.part"):
-                try:
-                    part.unlink()
-                except OSError:
-                    continue
-                removed += 1
-        return removed
 
     def close(self) -> None:
         """Close the index."""

@@ -133,28 +133,6 @@ def _onsets(pressed: np.ndarray) -> np.ndarray:
     return out
 
 
-def _measure(service: CloudService, report: TripReport) -> tuple[float, int, float]:
-    """(intervention s, takeovers, tolerance s) from the stored segments the report names."""
-    store = service.store
-    total_s, takeovers, tolerance = 0.0, 0, 0.0
-    for digest in report.segments:
-        rows = store.query(
-            "SELECT driver_id, condition, kind FROM batches WHERE digest = ?", (digest,)
-        )
-        if not rows:
-            raise BadBatchError(f"trip report: segment {digest[:12]} was not uploaded")
-        if rows[0][:2] != (report.driver_id, report.condition):
-            raise BadBatchError(f"trip report: segment {digest[:12]} is another trip's driver")
-        if rows[0][2] != TripMode.TAKEOVER:
-            raise BadBatchError(f"trip report: batch {digest[:12]} is not a takeover segment")
-        trip = trip_from_bytes(store.read_blob(digest), f"batch {digest}")
-        seconds, count = segment_interventions(trip)
-        total_s += seconds
-        takeovers += count
-        tolerance += float(np.median(np.diff(trip.t_s))) if len(trip) > 1 else 0.0
-    return total_s, takeovers, tolerance
-
-
 def record_trip(service: CloudService, vehicle_id: str, body: object) -> TripReceipt:
     """Check and keep one trip report of ``vehicle_id``; its receipt (ForbiddenError: not
     the vehicle's driver; BadBatchError: malformed, unknown segment or version, taken id)."""
@@ -166,7 +144,24 @@ def record_trip(service: CloudService, vehicle_id: str, body: object) -> TripRec
             f"trip report: {report.driver_id}/{report.condition} has no published "
             f"version {report.dgpt_version}"
         )
-    seconds, takeovers, tolerance = _measure(service, report)
+    # the intervention s, takeovers and tolerance s of the stored segments the report names
+    store = service.store
+    seconds, takeovers, tolerance = 0.0, 0, 0.0
+    for digest in report.segments:
+        rows = store.query(
+            "SELECT driver_id, condition, kind FROM batches WHERE digest = ?", (digest,)
+        )
+        if not rows:
+            raise BadBatchError(f"trip report: segment {digest[:12]} was not uploaded")
+        if rows[0][:2] != (report.driver_id, report.condition):
+            raise BadBatchError(f"trip report: segment {digest[:12]} is another trip's driver")
+        if rows[0][2] != TripMode.TAKEOVER:
+            raise BadBatchError(f"trip report: batch {digest[:12]} is not a takeover segment")
+        trip = trip_from_bytes(store.read_blob(digest), f"batch {digest}")
+        spent, count = segment_interventions(trip)
+        seconds += spent
+        takeovers += count
+        tolerance += float(np.median(np.diff(trip.t_s))) if len(trip) > 1 else 0.0
     if seconds > report.acc_on_s + tolerance:
         raise BadBatchError(
             f"trip report: acc_on_s {report.acc_on_s:.1f} s is shorter than the "

@@ -6,7 +6,7 @@ fetches the driver's newest verified table every ``sync_every_s`` s and offers i
 and by the study harness
 (:class:`pacc.study.loop.StudyCloud`: :meth:`~VehicleLink.put`, then a blocking
 :meth:`~VehicleLink.drain`). Trip reports (:mod:`cloud_sync.service.trips`) are queued in the
-spool's ``reports/`` folder and posted behind their segments (:mod:`cloud_sync.vehicle.reports`).
+spool's ``reports/`` folder and posted behind their segments (:mod:`cloud_sync.vehicle.uploader`).
 """
 
 from __future__ import annotations
@@ -21,9 +21,8 @@ from typing import Any
 from cloud_sync.api import CloudApi
 from cloud_sync.errors import CloudSyncError
 from cloud_sync.vehicle.download import ProfileDownloader
-from cloud_sync.vehicle.reports import ReportError
 from cloud_sync.vehicle.spool import Spool
-from cloud_sync.vehicle.uploader import Uploader, UploaderConfig
+from cloud_sync.vehicle.uploader import ReportError, Uploader, UploaderConfig
 from dbc.vocab.dgpt import Dgpt
 from dbc.vocab.triplog import Trip
 

@@ -7,7 +7,7 @@ Each ``--add`` file (an MCAP trip log) is checked and spooled; then every pendin
 uploaded (retrying while the cloud is unavailable, up to ``--retry-s`` seconds) and deleted
 only once the cloud acknowledged it; then the trip reports ``pacc ecu --cloud`` queued in
 ``DIR/reports`` are posted, each once its segments are up
-(:mod:`cloud_sync.vehicle.reports`). With ``--fetch`` the driver's newest signed table is
+(:mod:`cloud_sync.vehicle.uploader`). With ``--fetch`` the driver's newest signed table is
 downloaded, verified against the trusted key and kept in ``DIR/profiles``; a served cloud
 learns in the background, so ``--wait S`` first waits up to S s for the driver's learning job
 to be idle (the batches just uploaded learned from). Exits 1 while a
