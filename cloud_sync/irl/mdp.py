@@ -113,8 +113,8 @@ def grid_from_spec(spec: dict[str, object]) -> Grid:
         raise TrainingError(f"invalid grid spec: {exc}") from exc
     if min(n.values()) < 2:
         raise TrainingError("invalid grid spec: every axis needs >= 2 points")
-    axes = [_axis(f[f"{k}_min_{u}"], f[f"{k}_step_{u}"], n[f"n_{k}"]) for k, u in _AXES]
-    return Grid(*axes, accels, f["dt_s"])
+    v, gap, dv = (_axis(f[f"{k}_min_{u}"], f[f"{k}_step_{u}"], n[f"n_{k}"]) for k, u in _AXES)
+    return Grid(v, gap, dv, accels, f["dt_s"])
 
 
 def make_grid(config: GridConfig, v_max_mps: float, gap_max_m: float) -> Grid:

@@ -200,10 +200,10 @@ class CloudService:
     ) -> str:
         """Register a vehicle and its drivers in one transaction (``keep_token(token)`` inside
         it: all or nothing); the token. StoreError: names not plain, vehicle or driver taken."""
-        _check_names(vehicle_id, drivers)
-        token = secrets.token_urlsafe(32)
-        hook = None if keep_token is None else (lambda: keep_token(token))
-        self.store.save_vehicle(vehicle_id, sha256_hex(token.encode()), drivers, hook, new=True)
+        token = self.update_vehicle(
+            vehicle_id, drivers, token="new", keep_token=keep_token, new=True
+        )
+        assert token is not None
         return token
 
     def update_vehicle(
@@ -213,16 +213,18 @@ class CloudService:
         *,
         token: str | None = None,
         keep_token: Callable[[str], None] | None = None,
+        new: bool = False,
     ) -> str | None:
-        """Add ``drivers`` to a vehicle and, with ``token`` ``"new"``, issue a fresh token
-        (returned; ``keep_token`` inside the transaction) or ``"revoke"`` it. StoreError."""
+        """Add ``drivers`` to a vehicle (``new``: a new one) and, with ``token`` ``"new"``,
+        issue a fresh token (returned; ``keep_token`` inside the transaction) or ``"revoke"``
+        it. StoreError."""
         _check_names(vehicle_id, drivers)
         fresh = secrets.token_urlsafe(32) if token == "new" else None
         # revoked: a value no token's SHA-256 (hex) can equal
         revoked = f"revoked-{secrets.token_hex(16)}" if token == "revoke" else None
         digest = sha256_hex(fresh.encode()) if fresh is not None else revoked
         hook = None if fresh is None or keep_token is None else (lambda: keep_token(fresh))
-        self.store.save_vehicle(vehicle_id, digest, drivers, hook)
+        self.store.save_vehicle(vehicle_id, digest, drivers, hook, new=new)
         return fresh
 
     def register_driver(self, vehicle_id: str, driver_id: str) -> None:

@@ -68,7 +68,8 @@ class TripReport:
         start = names["start_utc"]
         if start is not None and not _is_utc(start):
             raise BadBatchError(f"trip report: start_utc {start!r} is not ISO 8601 UTC")
-        return cls(*map(str, plain.values()), version, acc_on, segments, start)
+        driver_id, condition, trip_id = map(str, plain.values())
+        return cls(driver_id, condition, trip_id, version, acc_on, segments, start)
 
     def canonical(self) -> str:
         """The report as canonical JSON (sorted keys): what a duplicate must equal."""

@@ -67,7 +67,6 @@ class VehicleLink:
         self.start_version: int | None = None
         #: digests of the takeover segments spooled during this trip
         self.segments: list[str] = []
-        self.reports_queued = 0
 
     def put(self, trip: Trip) -> str:
         """Spool ``trip`` (tagged with the vehicle id); its batch digest (SpoolError)."""
@@ -101,7 +100,6 @@ class VehicleLink:
     def queue_report(self, report: Mapping[str, Any]) -> None:
         """Queue a trip report behind its segments (ReportError if it cannot be)."""
         self.uploader.reports.put(report)
-        self.reports_queued += 1
         self.uploader.notify()
 
     def end_trip(self, acc_on_s: float, start_utc: str | None = None) -> str:
@@ -189,7 +187,7 @@ class VehicleLink:
             f"{len(self.spool.pending())} spooled, {self.spool.stats.evicted.total()} evicted"
         )
         reports = self.uploader.reports
-        if self.reports_queued or reports.stats.sent or reports.pending():
+        if reports.stats.queued or reports.stats.sent or reports.pending():
             text += (
                 f"; trip reports sent {reports.stats.sent}, queued "
                 f"{len(reports.pending())}, refused {reports.stats.rejected}"
