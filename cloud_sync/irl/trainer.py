@@ -2,9 +2,10 @@
 
 :func:`learn_dgpt` learns from demonstrations (manual drives, plus weighted ACC takeovers);
 :func:`fine_tune` continues an earlier IRL table; :func:`empirical_baseline` is the comparison.
-Phases: :mod:`~cloud_sync.irl.demos`, :mod:`~cloud_sync.irl.blend`, :mod:`~cloud_sync.irl.model`,
-:mod:`~cloud_sync.irl.mce_irl`, :mod:`~cloud_sync.irl.policy_gap`, :mod:`~cloud_sync.irl.extract`.
-Every result is a pure function of (configuration, seed, data).
+Phases: :mod:`~cloud_sync.irl.demos`, :mod:`~cloud_sync.irl.blend`, the reward model
+(:class:`RewardModel`: a fresh grid and basis, or an earlier table's, with its α as the fit's
+start and prior), :mod:`~cloud_sync.irl.mce_irl` (also the gap the policy keeps),
+:mod:`~cloud_sync.irl.extract`. Every result is a pure function of (configuration, seed, data).
 """
 
 from __future__ import annotations
@@ -26,13 +27,97 @@ from cloud_sync.irl.extract import (
     outside_coverage,
     search_range,
 )
-from cloud_sync.irl.mce_irl import CompiledMdp, fit_alpha, start_alpha
-from cloud_sync.irl.model import METHOD, compile_model, fresh_model, model_of_table
-from cloud_sync.irl.policy_gap import steady_drift, steady_gaps
+from cloud_sync.irl.features import (
+    FeatureConfig,
+    Features,
+    features_from_spec,
+    make_features,
+    make_time_gap_features,
+)
+from cloud_sync.irl.mce_irl import CompiledMdp, fit_alpha, start_alpha, steady_drift, steady_gaps
+from cloud_sync.irl.mdp import Grid, GridConfig, build_transitions, grid_from_spec, make_grid
 from dbc.vocab.dgpt import Dgpt, speed_axis
 from dbc.vocab.triplog import Trip
 
-__all__ = ["IrlConfig", "LearnResult", "learn_dgpt", "fine_tune", "empirical_baseline", "METHOD"]
+__all__ = [
+    "METHOD",
+    "IrlConfig",
+    "LearnResult",
+    "RewardModel",
+    "compile_model",
+    "empirical_baseline",
+    "fine_tune",
+    "fresh_model",
+    "learn_dgpt",
+    "model_of_table",
+    "reference_line",
+]
+
+#: ``meta["method"]`` of a learned table: the tables whose metadata carry a model
+METHOD = "mce_irl/1"
+
+
+@dataclass(frozen=True)
+class RewardModel:
+    """A grid, the reward basis on it and, continuing an earlier table, its α (K,)."""
+
+    grid: Grid
+    features: Features
+    prior_alpha: np.ndarray | None = None
+
+
+def reference_line(
+    v_mps: np.ndarray, gap_m: np.ndarray, dv_mps: np.ndarray, a_mps2: np.ndarray
+) -> tuple[float, float]:
+    """Least-squares line ``g ≈ c0 + c1·v`` through near-steady samples (all samples if fewer
+    than 20 are steady); ``c1`` clipped to 0…5 s. Inputs (k,). Returns ``(c0_m, c1_s)``."""
+    steady = (np.abs(dv_mps) <= 1.0) & (np.abs(a_mps2) <= 0.5)
+    if steady.sum() < 20:
+        steady = np.ones(v_mps.size, dtype=bool)
+    v, g = v_mps[steady], gap_m[steady]
+    if v.size < 2 or float(np.ptp(v)) < 1e-6:
+        return float(np.median(g)) if g.size else 0.0, 0.0
+    c1, c0 = np.polyfit(v, g, 1)
+    c1 = float(np.clip(c1, 0.0, 5.0))
+    return float(np.median(g - c1 * v)), c1
+
+
+def fresh_model(
+    samples: dm.Samples, grid_config: GridConfig, feature_config: FeatureConfig
+) -> RewardModel:
+    """A grid up to the samples' 99.9 % speed and 99.5 % gap quantiles, and the basis of
+    ``feature_config`` on it: time-gap RBFs (fitted to nothing), or, with the ``offset`` basis,
+    RBFs around the samples' :func:`reference_line`; no prior α."""
+    grid = make_grid(
+        grid_config,
+        float(np.percentile(samples.v_mps, 99.9)),
+        float(np.percentile(samples.gap_m, 99.5)),
+    )
+    if feature_config.gap_basis == "time_gap":
+        return RewardModel(grid=grid, features=make_time_gap_features(grid, feature_config))
+    c0, c1 = reference_line(samples.v_mps, samples.gap_m, samples.dv_mps, samples.a_mps2)
+    return RewardModel(grid=grid, features=make_features(grid, feature_config, c0, c1))
+
+
+def model_of_table(table: Dgpt | None) -> RewardModel | None:
+    """The grid, features and α of an earlier :data:`METHOD` table (None: no table or another
+    method); TrainingError when its metadata are unusable."""
+    if table is None or table.meta.get("method") != METHOD:
+        return None
+    try:
+        grid = grid_from_spec(table.meta["grid"])
+        feats = features_from_spec(grid, table.meta["features"])
+        alpha = np.asarray(table.meta["alpha"], dtype=np.float64)
+    except (KeyError, TypeError, ValueError, TrainingError) as exc:
+        raise TrainingError(f"initial DGPT has unusable IRL metadata: {exc}") from exc
+    if alpha.shape != (feats.n_features,) or not np.all(np.isfinite(alpha)):
+        raise TrainingError("initial DGPT: alpha does not match its feature spec")
+    return RewardModel(grid=grid, features=feats, prior_alpha=alpha)
+
+
+def compile_model(model: RewardModel, grid_config: GridConfig) -> CompiledMdp:
+    """The model's MDP with transitions under ``grid_config``'s noise (lead, speed)."""
+    return CompiledMdp.build(model.grid, model.features, build_transitions(model.grid, grid_config))
 
 
 @dataclass(frozen=True)
