@@ -162,7 +162,7 @@ class VehicleLink:
             last.drain()
         finally:
             timer.cancel()
-        self.uploader.stats.uploaded += last.stats.uploaded
+        self.uploader.stats.sent += last.stats.sent
         self.uploader.stats.rejected += last.stats.rejected
         self.uploader.reports.stats.sent += last.reports.stats.sent
         self.uploader.reports.stats.rejected += last.reports.stats.rejected
@@ -183,7 +183,7 @@ class VehicleLink:
         """One line of what the link did."""
         up = self.uploader.stats
         text = (
-            f"cloud: {up.uploaded} batch(es) uploaded, {up.rejected} rejected, "
+            f"cloud: {up.sent} batch(es) uploaded, {up.rejected} rejected, "
             f"{len(self.spool.pending())} spooled, {self.spool.stats.evicted.total()} evicted"
         )
         reports = self.uploader.reports

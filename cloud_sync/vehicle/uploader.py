@@ -3,7 +3,7 @@
 Pending batches go oldest first on a thread of their own; one is deleted only when the receipt
 names its digest. A retryable failure (:class:`CloudUnavailableError`) is retried with
 exponential backoff and full jitter; 413/422 move the batch to ``rejected/``; 401 ends the pass
-and 403 or another 4xx skips the batch for this pass (:attr:`UploadStats.held`).
+and 403 or another 4xx skips the batch for this pass (:attr:`SendStats.held`).
 
 Then the trip reports (:mod:`cloud_sync.service.trips`), queued by :class:`ReportQueue` as JSON
 files ``reports/<seq>-<trip_id>.json`` in the spool (written atomically), are posted oldest
@@ -53,16 +53,22 @@ class ReportError(CloudSyncError):
 
 
 @dataclass
-class ReportStats:
-    """What the queue did since it was opened (counts)."""
+class SendStats:
+    """What the uploader (batches) or the report queue did since start (counts)."""
 
-    queued: int = 0
     sent: int = 0
     duplicates: int = 0
     rejected: int = 0
     held: int = 0
-    #: why the last report was kept ("" when none was)
+    retries: int = 0
+    queued: int = 0
+    #: why the newest held one was kept ("" if none): for the command to say so
     last_held: str = ""
+
+    def hold(self, why: str) -> None:
+        """Count one kept for a later pass, and why."""
+        self.held += 1
+        self.last_held = why
 
 
 class ReportQueue:
@@ -70,7 +76,7 @@ class ReportQueue:
 
     def __init__(self, spool_root: str | os.PathLike[str]) -> None:
         self.root = Path(spool_root) / REPORTS
-        self.stats = ReportStats()
+        self.stats = SendStats()
         self._lock = threading.Lock()
         if self.root.is_dir():  # a write cut short by a crash: never renamed, not a report
             for part in self.root.glob(".*.part"):
@@ -131,12 +137,8 @@ class ReportQueue:
                 self._reject(path, f"refused by the cloud ({http_answer(exc)})")
                 continue
             except CloudError as exc:  # unreachable, 401, 403, 404, 405, 409, 429 ...: held
-                self.stats.held += 1
-                self.stats.last_held = f"{path.name}: {http_answer(exc)}" + (
-                    " (not the service's root URL, or a cloud without POST /v1/trips)"
-                    if exc.status == 404
-                    else ""
-                )
+                hint = " (not the service's root URL, or a cloud without POST /v1/trips)"
+                self.stats.hold(f"{path.name}: {http_answer(exc)}" + hint * (exc.status == 404))
                 log.warning("trip report %s kept for later: %s", path.name, http_answer(exc))
                 break
             path.unlink()
@@ -168,19 +170,6 @@ class UploaderConfig:
     poll_s: float = 5.0
 
 
-@dataclass
-class UploadStats:
-    """Counts since start."""
-
-    uploaded: int = 0
-    duplicates: int = 0
-    rejected: int = 0
-    held: int = 0
-    retries: int = 0
-    #: why the newest held batch was kept ("" if none): for the command to say so
-    last_held: str = ""
-
-
 class Uploader:
     """Uploads the batches of ``spool`` to ``cloud`` (see the module docstring)."""
 
@@ -188,7 +177,7 @@ class Uploader:
         self.spool = spool
         self.cloud = cloud
         self.config = config if config is not None else UploaderConfig()
-        self.stats = UploadStats()
+        self.stats = SendStats()
         #: the spool's trip reports, posted after the batches
         self.reports = ReportQueue(spool.root)
         self._stop = threading.Event()
@@ -207,8 +196,7 @@ class Uploader:
             try:
                 done += int(self._deliver(batch))
             except AuthError as exc:  # every batch would get the same answer: stop the pass
-                self.stats.held += 1
-                self.stats.last_held = f"the cloud refused the token (HTTP 401): {exc}"
+                self.stats.hold(f"the cloud refused the token (HTTP 401): {exc}")
                 log.error("upload refused, token not accepted: %s (batches kept)", exc)
                 return done
         if not self._stop.is_set():
@@ -244,20 +232,18 @@ class Uploader:
         except AuthError:
             raise
         except CloudError as exc:  # about the set-up (403 ...): keep it for the next pass
-            self.stats.held += 1
-            self.stats.last_held = f"batch {batch.seq}: {http_answer(exc)}" + (
+            hint = (
                 " (add the driver to this vehicle: pacc cloud vehicle --vehicle V --driver ID; "
                 "ECU takeovers need pacc ecu --driver ID)"
-                if exc.status == 403
-                else ""
             )
+            self.stats.hold(f"batch {batch.seq}: {http_answer(exc)}" + hint * (exc.status == 403))
             log.error("batch %d kept, the cloud answered %s", batch.seq, http_answer(exc))
             return False
         if receipt.digest != batch.digest:  # never delete on a receipt for other bytes
             log.error("receipt digest %s for batch %s: kept", receipt.digest, batch.digest)
             return False
         self.spool.ack(batch.digest)
-        self.stats.uploaded += 1
+        self.stats.sent += 1
         self.stats.duplicates += int(receipt.duplicate)
         return True
 
@@ -310,8 +296,7 @@ __all__ = [
     "REPORTS",
     "ReportError",
     "ReportQueue",
-    "ReportStats",
-    "UploadStats",
+    "SendStats",
     "Uploader",
     "UploaderConfig",
     "http_answer",

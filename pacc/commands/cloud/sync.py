@@ -89,7 +89,7 @@ def _upload(link: Any, retry_s: float) -> int:
     left = link.spool.pending()
     stats = uploader.stats
     print(
-        f"uploaded {stats.uploaded} batch(es) ({stats.duplicates} already held), "
+        f"uploaded {stats.sent} batch(es) ({stats.duplicates} already held), "
         f"{stats.rejected} rejected, {len(left)} still spooled"
     )
     if stats.held and stats.last_held:
