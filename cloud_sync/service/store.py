@@ -114,6 +114,7 @@ class CloudStore:
 
     def __init__(self, data_dir: str | os.PathLike[str]) -> None:
         self.root = Path(data_dir)
+        self._lock = threading.RLock()
         try:
             self.root.mkdir(parents=True, exist_ok=True)
             self._db = sqlite3.connect(
@@ -124,7 +125,6 @@ class CloudStore:
             self._migrate()
         except (OSError, sqlite3.Error) as exc:
             raise StoreError(f"cannot open the cloud data folder {self.root}: {exc}") from exc
-        self._lock = threading.RLock()
         #: temporary files of a killed process (``.*.part``: no row points at them) removed
         self.orphans_removed = 0
         for part in [*self.root.glob("blobs/**/.*.part"), *self.root.glob("dgpt/**/.*.part")]:
@@ -141,16 +141,10 @@ class CloudStore:
             raise StoreError(f"index schema {old} is newer than this pacc's ({SCHEMA_VERSION})")
         if old == SCHEMA_VERSION:
             return
-        statements = [s.strip() for s in SCHEMA.split(";") if s.strip()]
-        self._db.execute("BEGIN IMMEDIATE")
-        try:
-            for statement in statements:
-                self._db.execute(statement)
-            self._db.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
-        except BaseException:
-            self._db.execute("ROLLBACK")
-            raise
-        self._db.execute("COMMIT")
+        with self.transaction() as db:
+            for statement in SCHEMA.split(";"):
+                db.execute(statement)
+            db.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
 
     @contextmanager
     def transaction(self) -> Iterator[sqlite3.Connection]:

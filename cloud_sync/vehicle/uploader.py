@@ -138,7 +138,8 @@ class ReportQueue:
                 continue
             except CloudError as exc:  # unreachable, 401, 403, 404, 405, 409, 429 ...: held
                 hint = " (not the service's root URL, or a cloud without POST /v1/trips)"
-                self.stats.hold(f"{path.name}: {http_answer(exc)}" + hint * (exc.status == 404))
+                why = f"{path.name}: {http_answer(exc)}"
+                self.stats.hold(why + (hint if exc.status == 404 else ""))
                 log.warning("trip report %s kept for later: %s", path.name, http_answer(exc))
                 break
             path.unlink()
@@ -236,7 +237,8 @@ class Uploader:
                 " (add the driver to this vehicle: pacc cloud vehicle --vehicle V --driver ID; "
                 "ECU takeovers need pacc ecu --driver ID)"
             )
-            self.stats.hold(f"batch {batch.seq}: {http_answer(exc)}" + hint * (exc.status == 403))
+            why = f"batch {batch.seq}: {http_answer(exc)}"
+            self.stats.hold(why + (hint if exc.status == 403 else ""))
             log.error("batch %d kept, the cloud answered %s", batch.seq, http_answer(exc))
             return False
         if receipt.digest != batch.digest:  # never delete on a receipt for other bytes
