@@ -61,18 +61,8 @@ class CloudUnavailableError(CloudError):
     status = 503
 
 
-#: status -> error class, for the HTTP client
-ERRORS_BY_STATUS: dict[int, type[CloudError]] = {
-    cls.status: cls
-    for cls in (
-        AuthError,
-        ForbiddenError,
-        NotFoundError,
-        PayloadTooLargeError,
-        BadBatchError,
-        CloudUnavailableError,
-    )
-}
+#: status -> error class (the six above), for the HTTP client
+ERRORS_BY_STATUS: dict[int, type[CloudError]] = {c.status: c for c in CloudError.__subclasses__()}
 
 
 def is_plain_name(value: object) -> bool:

@@ -15,7 +15,6 @@ import hashlib
 import json
 import os
 from pathlib import Path
-from typing import Any
 
 from cryptography.exceptions import InvalidSignature
 from cryptography.hazmat.primitives import serialization
@@ -104,7 +103,7 @@ def sign_dgpt(table: Dgpt, key: Ed25519PrivateKey) -> bytes:
     return json.dumps(envelope, sort_keys=True).encode("utf-8")
 
 
-def _envelope(data: bytes) -> dict[str, Any]:
+def _verify(data: bytes, public_key: Ed25519PublicKey, bounds: SafetyBounds | None) -> Dgpt:
     try:
         obj = json.loads(data)
     except (ValueError, UnicodeDecodeError) as exc:
@@ -114,22 +113,6 @@ def _envelope(data: bytes) -> dict[str, Any]:
     for key in ("key_id", "dgpt", "signature"):
         if not isinstance(obj.get(key), str):
             raise SignatureError(f"signed table: {key!r} missing or not a string")
-    return obj
-
-
-def verify_dgpt(
-    data: bytes, public_key: Ed25519PublicKey, bounds: SafetyBounds | None = None
-) -> Dgpt:
-    """The table inside signed-table bytes ``data`` once signature and bounds hold; any
-    defect, whatever the bytes, is a SignatureError (nothing else is raised)."""
-    try:
-        return _verify(data, public_key, bounds)
-    except (ValueError, RecursionError) as exc:  # UnicodeError and binascii.Error included
-        raise SignatureError(f"signed table is malformed ({type(exc).__name__}: {exc})") from exc
-
-
-def _verify(data: bytes, public_key: Ed25519PublicKey, bounds: SafetyBounds | None) -> Dgpt:
-    obj = _envelope(data)
     if obj["key_id"] != key_id(public_key):
         raise SignatureError(
             f"signed with key {obj['key_id']}, this vehicle trusts {key_id(public_key)}"
@@ -143,6 +126,17 @@ def _verify(data: bytes, public_key: Ed25519PublicKey, bounds: SafetyBounds | No
         return dgpt_from_json_dict(json.loads(obj["dgpt"]), bounds)
     except (DgptError, ValueError) as exc:
         raise SignatureError(f"signed table refused: {exc}") from exc
+
+
+def verify_dgpt(
+    data: bytes, public_key: Ed25519PublicKey, bounds: SafetyBounds | None = None
+) -> Dgpt:
+    """The table inside signed-table bytes ``data`` once signature and bounds hold; any
+    defect, whatever the bytes, is a SignatureError (nothing else is raised)."""
+    try:
+        return _verify(data, public_key, bounds)
+    except (ValueError, RecursionError) as exc:  # UnicodeError and binascii.Error included
+        raise SignatureError(f"signed table is malformed ({type(exc).__name__}: {exc})") from exc
 
 
 __all__ = [

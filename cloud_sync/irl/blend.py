@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cloud_sync.errors import DemoError
-from cloud_sync.irl.demos import Samples
+from cloud_sync.irl.demos import Samples, true_runs
 from cloud_sync.irl.extract import gap_support
 from dbc.vocab.dgpt import SafetyBounds, clamp_to_bounds
 
@@ -47,7 +47,6 @@ def coverage_s(
 def evidence(
     axis_mps: np.ndarray,
     samples: Samples,
-    *,
     min_coverage_s: float,
     previous_m: np.ndarray | None,
     window_mps: float,
@@ -89,9 +88,4 @@ def blend(
 
 def covered_ranges(axis_mps: np.ndarray, mask: np.ndarray) -> list[list[float]]:
     """Contiguous True ranges of ``mask`` (n,) as ``[[v_from, v_to], ...]`` (m/s)."""
-    out: list[list[float]] = []
-    padded = np.concatenate([[False], mask, [False]]).astype(np.int8)
-    edges = np.flatnonzero(np.diff(padded))
-    for a, b in zip(edges[::2], edges[1::2], strict=True):
-        out.append([float(axis_mps[a]), float(axis_mps[b - 1])])
-    return out
+    return [[float(axis_mps[a]), float(axis_mps[b - 1])] for a, b in true_runs(mask)]

@@ -1,7 +1,7 @@
 """The IRL trainer's configuration: everything that decides a learned table.
 
 :class:`IrlConfig` is frozen and checked when built (:class:`cloud_sync.errors.TrainingError`);
-:mod:`cloud_sync.irl.trainer` and :mod:`cloud_sync.irl.baseline` take it.
+:mod:`cloud_sync.irl.trainer` and :func:`cloud_sync.irl.extract.empirical_baseline` take it.
 """
 
 from __future__ import annotations

@@ -32,6 +32,7 @@ __all__ = [
     "digest",
     "takeover_weighted",
     "is_acc_trip",
+    "true_runs",
 ]
 
 MAX_SPEED_MPS = 70.0  # faster samples are sensor garbage, not car following
@@ -142,7 +143,7 @@ def check_demos(
     return total
 
 
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+def true_runs(mask: np.ndarray) -> list[tuple[int, int]]:
     """[start, stop) index ranges of True runs in ``mask`` (1-D bool)."""
     padded = np.concatenate([[False], mask, [False]])
     edges = np.flatnonzero(np.diff(padded.astype(np.int8)))
@@ -166,7 +167,7 @@ def extract_transitions(
             # a step is valid when both ends are usable and evenly spaced in time
             step_ok = good[:-1] & good[1:]
             step_ok &= np.abs(np.diff(trip.t_s[idx]) - stride * sample_dt) < 0.5 * sample_dt
-            for start, stop in _runs(step_ok):
+            for start, stop in true_runs(step_ok):
                 i0 = idx[start:stop]
                 i1 = idx[start + 1 : stop + 1]
                 m = stop - start

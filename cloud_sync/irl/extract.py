@@ -4,15 +4,22 @@ bounds. Pure functions on the DGPT speed axis (shape (n,)).
 :func:`gap_support`/:func:`search_range` (the demonstrated gap range per bin, m),
 :func:`lowpass` (zero-phase Butterworth), :func:`continue_time_gap` (uncovered bins at the time
 gap of covered ones of at least :data:`CONTINUE_MIN_SPEED_MPS`, else :data:`PRIOR_HEADWAY_S`),
-:func:`finish_table` (raw gaps -> table) and :func:`steady_state_gaps` (the empirical baseline).
+:func:`finish_table` (raw gaps -> table), :func:`steady_state_gaps` and from it
+:func:`empirical_baseline` (the comparison table, meta ``method = empirical``).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from scipy import signal
 
-from dbc.vocab.dgpt import SafetyBounds, clamp_to_bounds
+from cloud_sync.errors import DemoError
+from cloud_sync.irl import demos as dm
+from cloud_sync.irl.config import IrlConfig
+from dbc.vocab.dgpt import Dgpt, SafetyBounds, clamp_to_bounds, speed_axis
+from dbc.vocab.triplog import Trip
 
 #: covered bins slower than this do not set the time gap continued to other speeds, m/s:
 #: below it the standstill distance dominates the gap and (g − d0)/v is mostly noise (issue
@@ -32,6 +39,8 @@ __all__ = [
     "finish_table",
     "gap_support",
     "search_range",
+    "empirical_baseline",
+    "baseline_if_any",
 ]
 
 
@@ -164,3 +173,49 @@ def search_range(
     lo = np.fmax(bounds.lower_m(axis_mps), np.nan_to_num(support[0], nan=-np.inf))
     hi = np.fmin(bounds.upper_m(axis_mps), np.nan_to_num(support[1], nan=np.inf))
     return np.asarray(lo), np.asarray(np.maximum(hi, lo + min_width_m))
+
+
+def empirical_baseline(
+    trips: Sequence[Trip],
+    *,
+    driver_id: str,
+    condition: str = "default",
+    config: IrlConfig | None = None,
+) -> Dgpt:
+    """The empirical steady-state table (same format; meta ``method = empirical``)."""
+    cfg = config if config is not None else IrlConfig()
+    dm.check_demos(trips, max_gap_m=cfg.max_gap_m, min_total_s=cfg.min_total_demo_s)
+    s = dm.pooled_samples(trips, cfg.max_gap_m)
+    axis = speed_axis(cfg.dgpt_step_mps)
+    raw, count = steady_state_gaps(axis, s.v_mps, s.gap_m, s.dv_mps, s.a_mps2)
+    dt = float(np.median(s.dt_s)) if s.dt_s.size else 0.1
+    covered = (count * dt >= cfg.min_coverage_s / 4.0) & np.isfinite(raw)
+    if not covered.any():
+        raise DemoError("no speed bin has enough steady-state following for the baseline")
+    gap = finish_table(axis, raw, covered, cfg.bounds, cutoff=cfg.lowpass_cutoff)
+    return Dgpt(
+        speed_mps=axis,
+        gap_m=gap,
+        version=0,
+        driver_id=driver_id,
+        condition=condition,
+        source="irl",
+        meta={
+            "method": "empirical",
+            "steady_samples": count.tolist(),
+            "covered": covered.tolist(),
+            "outside_coverage": outside_coverage(axis, covered),
+            "training_digest": dm.digest(trips, [1.0] * len(trips)),
+        },
+    )
+
+
+def baseline_if_any(
+    trips: Sequence[Trip], driver_id: str, condition: str, cfg: IrlConfig
+) -> Dgpt | None:
+    """The empirical baseline, or None when the data hold no steady-state following (e.g.
+    takeovers alone)."""
+    try:
+        return empirical_baseline(trips, driver_id=driver_id, condition=condition, config=cfg)
+    except DemoError:
+        return None

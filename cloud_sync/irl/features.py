@@ -55,14 +55,8 @@ class FeatureConfig:
                 f"FeatureConfig.gap_basis must be one of {', '.join(GAP_BASES)}, "
                 f"got {self.gap_basis!r}"
             )
-        for name in (
-            "v_spacing_mps",
-            "gap_spacing_m",
-            "width_ratio",
-            "time_gap_spacing_s",
-            "time_gap_max_s",
-            "time_gap_floor_mps",
-        ):
+        positive = "v_spacing_mps gap_spacing_m width_ratio time_gap_spacing_s time_gap_max_s"
+        for name in (*positive.split(), "time_gap_floor_mps"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise TrainingError(f"FeatureConfig.{name} must be finite and > 0, got {value}")
@@ -113,15 +107,8 @@ class Features:
         """The (v, g) reward on the outer product of ``v_mps`` (n,) and ``gap_m`` (m,): (n, m)."""
         A, _, _ = self.split(alpha)
         bv = rbf(v_mps, self.v_centres_mps, self.v_width_mps)
-        bg = gap_basis(
-            v_mps,
-            gap_m,
-            self.gap_centres_m,
-            self.gap_width_m,
-            self.ref_c0_m,
-            self.ref_c1_s,
-            self.time_gap_floor_mps,
-        )
+        line = (self.ref_c0_m, self.ref_c1_s, self.time_gap_floor_mps)
+        bg = gap_basis(v_mps, gap_m, self.gap_centres_m, self.gap_width_m, *line)
         return np.asarray(np.einsum("kj,klj->kl", bv @ A, bg))
 
     def counts(self, m_vg: np.ndarray) -> np.ndarray:
@@ -175,12 +162,6 @@ def dv_weight(dv_mps: np.ndarray, width_mps: float) -> np.ndarray:
     return np.asarray(np.exp(-0.5 * (dv_mps / width_mps) ** 2))
 
 
-def _comfort(grid: Grid) -> tuple[np.ndarray, np.ndarray]:
-    dv_max = float(np.max(np.abs(grid.dv_mps)))
-    a_max = float(np.max(np.abs(grid.accels_mps2)))
-    return -((grid.dv_mps / dv_max) ** 2), -((grid.accels_mps2 / a_max) ** 2)
-
-
 def _build(
     grid: Grid,
     vc: np.ndarray,
@@ -192,22 +173,11 @@ def _build(
     floor: float = 0.0,
     dv_width: float = 0.0,
 ) -> Features:
-    f_dv, f_a = _comfort(grid)
-    return Features(
-        v_centres_mps=vc,
-        gap_centres_m=gc,
-        v_width_mps=wv,
-        gap_width_m=wg,
-        Bv=rbf(grid.v_mps, vc, wv),
-        Bg=gap_basis(grid.v_mps, grid.gap_m, gc, wg, c0, c1, floor),
-        f_dv=f_dv,
-        f_a=f_a,
-        k_dv=dv_weight(grid.dv_mps, dv_width),
-        dv_width_mps=dv_width,
-        ref_c0_m=c0,
-        ref_c1_s=c1,
-        time_gap_floor_mps=floor,
-    )
+    f_dv = -((grid.dv_mps / float(np.max(np.abs(grid.dv_mps)))) ** 2)
+    f_a = -((grid.accels_mps2 / float(np.max(np.abs(grid.accels_mps2)))) ** 2)
+    bv, bg = rbf(grid.v_mps, vc, wv), gap_basis(grid.v_mps, grid.gap_m, gc, wg, c0, c1, floor)
+    k_dv = dv_weight(grid.dv_mps, dv_width)
+    return Features(vc, gc, wv, wg, bv, bg, f_dv, f_a, k_dv, dv_width, c0, c1, floor)
 
 
 def make_features(
@@ -222,16 +192,8 @@ def make_features(
     else:
         half = config.offset_range_m
         gc = np.arange(-half, half + 1e-9, config.gap_spacing_m)
-    return _build(
-        grid,
-        vc,
-        gc,
-        config.width_ratio * config.v_spacing_mps,
-        config.width_ratio * config.gap_spacing_m,
-        ref_c0_m,
-        ref_c1_s,
-        dv_width=config.dv_width_mps,
-    )
+    wv, wg = config.width_ratio * config.v_spacing_mps, config.width_ratio * config.gap_spacing_m
+    return _build(grid, vc, gc, wv, wg, ref_c0_m, ref_c1_s, dv_width=config.dv_width_mps)
 
 
 def make_time_gap_features(grid: Grid, config: FeatureConfig) -> Features:
@@ -241,17 +203,11 @@ def make_time_gap_features(grid: Grid, config: FeatureConfig) -> Features:
     non-monotonic ones too — is a ridge of the basis."""
     vc = np.arange(grid.v_mps[0], grid.v_mps[-1] + 1e-9, config.v_spacing_mps)
     gc = np.arange(0.0, config.time_gap_max_s + 1e-9, config.time_gap_spacing_s)
-    return _build(
-        grid,
-        vc,
-        gc,
+    wv, wg = (
         config.width_ratio * config.v_spacing_mps,
         config.width_ratio * config.time_gap_spacing_s,
-        0.0,
-        0.0,
-        config.time_gap_floor_mps,
-        config.dv_width_mps,
     )
+    return _build(grid, vc, gc, wv, wg, 0.0, 0.0, config.time_gap_floor_mps, config.dv_width_mps)
 
 
 def features_from_spec(grid: Grid, spec: dict[str, object]) -> Features:

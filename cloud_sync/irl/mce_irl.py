@@ -2,19 +2,29 @@
 
 Shapes: ``S`` states, ``A`` actions, ``K`` features, ``H`` the longest segment (steps); time is
 counted in steps to go. :func:`soft_value_iteration` (log space), :func:`state_action_visitation`
-and :func:`objective`, the convex dual ``f(α) = −(α·μ_D − Σ_h p0_h·V_h) + ½λ‖α − α_prior‖²``.
+and :func:`objective`, the convex dual ``f(α) = −(α·μ_D − Σ_h p0_h·V_h) + ½λ‖α − α_prior‖²``,
+minimised by :func:`fit_alpha` (L-BFGS-B from :func:`start_alpha`: the prior α or zeros plus
+N(0, 10⁻³) noise from the seed). The table is read from the soft-optimal policy, not the
+reward's argmax (3–6 m off the OpenACC followers' steady gaps; docs/irl.md):
+:func:`steady_drift` (``E_π[a | v, g, dv = 0]``, m/s², and the soft value on the grid's (v, g))
+and :func:`steady_gaps` (per DGPT speed the gap, m, where that drift turns from braking to
+accelerating, the highest-value one if several, else the demonstrated range's edge).
 """
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from scipy import optimize
+from tqdm import tqdm
 
 from cloud_sync.errors import TrainingError
+from cloud_sync.irl.config import IrlConfig
 from cloud_sync.irl.features import Features
-from cloud_sync.irl.mdp import Grid
+from cloud_sync.irl.mdp import Grid, interp_weights
 
 __all__ = [
     "CompiledMdp",
@@ -24,6 +34,11 @@ __all__ = [
     "state_action_visitation",
     "feature_expectations",
     "objective",
+    "Fit",
+    "start_alpha",
+    "fit_alpha",
+    "steady_drift",
+    "steady_gaps",
 ]
 
 
@@ -145,3 +160,124 @@ def objective(
     if not (np.isfinite(value) and np.all(np.isfinite(grad))):
         raise TrainingError("IRL objective is not finite (reward weights diverged)")
     return value, grad
+
+
+@dataclass(frozen=True)
+class Fit:
+    """The outcome of :func:`fit_alpha`: ``alpha`` (K,), iterations, whether the stopping
+    rule was met and the optimiser's message, the final objective, wall time ``train_s`` (s)."""
+
+    alpha: np.ndarray
+    n_iter: int
+    converged: bool
+    message: str
+    objective: float
+    train_s: float
+
+
+def start_alpha(n_features: int, prior: np.ndarray | None, seed: int) -> np.ndarray:
+    """``prior`` (or zeros), shape (K,), plus N(0, 10⁻³) noise from ``default_rng(seed)``."""
+    rng = np.random.default_rng(seed)
+    alpha0 = prior.copy() if prior is not None else np.zeros(n_features)
+    return np.asarray(alpha0 + rng.normal(0.0, 1e-3, n_features))
+
+
+def fit_alpha(
+    mdp: CompiledMdp,
+    stats: DemoStats,
+    alpha0: np.ndarray,
+    prior: np.ndarray | None,
+    cfg: IrlConfig,
+    progress: bool = False,
+) -> Fit:
+    """Minimise the MCE-IRL dual by L-BFGS-B from ``alpha0`` (K,), L2 (``cfg.l2``) towards
+    ``prior`` (stops at ``cfg.max_iter``, ``gtol``, ``ftol``); TrainingError if it diverges."""
+    bar = tqdm(total=cfg.max_iter, desc="IRL", unit="it", leave=False) if progress else None
+
+    def fun(alpha: np.ndarray) -> tuple[float, np.ndarray]:
+        return objective(alpha, mdp, stats, l2=cfg.l2, prior=prior)
+
+    def show(intermediate_result: optimize.OptimizeResult) -> None:
+        if bar is not None:
+            bar.update(1)
+            bar.set_postfix(f=f"{intermediate_result.fun:.4f}")
+
+    t0 = time.perf_counter()
+    try:
+        options = {"maxiter": cfg.max_iter, "gtol": cfg.gtol, "ftol": cfg.ftol}
+        callback = show if bar is not None else None
+        res = optimize.minimize(
+            fun, alpha0, jac=True, method="L-BFGS-B", callback=callback, options=options
+        )
+    finally:
+        if bar is not None:
+            bar.close()
+    wall = time.perf_counter() - t0
+    return Fit(
+        np.asarray(res.x), int(res.nit), bool(res.success), str(res.message), float(res.fun), wall
+    )
+
+
+def steady_drift(
+    mdp: CompiledMdp, alpha: np.ndarray, horizon: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(drift, value)``, each (n_v, n_gap) on ``mdp.grid``: the soft-optimal policy's
+    expected acceleration (m/s²) with ``horizon`` steps to go at relative speed 0 (linearly
+    interpolated on the dv axis), and the soft value of those states."""
+    grid = mdp.grid
+    n_v, n_g, n_dv = grid.shape
+    V, pi = soft_value_iteration(mdp.P, reward_table(mdp, alpha), horizon)
+    ea = (pi[horizon - 1] @ grid.accels_mps2).reshape(n_v, n_g, n_dv)
+    value = V[horizon].reshape(n_v, n_g, n_dv)
+    i0, i1, w1 = interp_weights(grid.dv_mps, np.zeros(1))
+    w = float(w1[0])
+    drift = (1.0 - w) * ea[:, :, int(i0[0])] + w * ea[:, :, int(i1[0])]
+    val = (1.0 - w) * value[:, :, int(i0[0])] + w * value[:, :, int(i1[0])]
+    return np.asarray(drift), np.asarray(val)
+
+
+def _along_speed(table: np.ndarray, grid_v: np.ndarray, v: float) -> np.ndarray:
+    """Row of ``table`` (n_v, m) linearly interpolated at speed ``v``: (m,)."""
+    i0, i1, w1 = interp_weights(grid_v, np.asarray([v]))
+    w = float(w1[0])
+    return np.asarray((1.0 - w) * table[int(i0[0])] + w * table[int(i1[0])])
+
+
+def steady_gaps(
+    drift: np.ndarray,
+    value: np.ndarray,
+    grid_v_mps: np.ndarray,
+    grid_gap_m: np.ndarray,
+    axis_mps: np.ndarray,
+    support: tuple[np.ndarray, np.ndarray],
+) -> np.ndarray:
+    """The steady-following gap (n,) at each speed of ``axis_mps``: ``drift``, ``value``
+    (n_v, n_gap) on the grid axes, ``support`` (lo, hi) (n,) each; NaN where the support is NaN
+    or the speed lies above the grid."""
+    out = np.full(axis_mps.size, np.nan)
+    g = grid_gap_m
+    for k, v in enumerate(axis_mps.tolist()):
+        lo, hi = float(support[0][k]), float(support[1][k])
+        if not (np.isfinite(lo) and np.isfinite(hi)) or v > grid_v_mps[-1] + 1e-9:
+            continue
+        d = _along_speed(drift, grid_v_mps, v)
+        val = _along_speed(value, grid_v_mps, v)
+        up = np.flatnonzero((d[:-1] < 0.0) & (d[1:] >= 0.0))
+        x = g[up] + (g[up + 1] - g[up]) * (-d[up]) / (d[up + 1] - d[up])
+        inside = (x >= lo) & (x <= hi)
+        if inside.any():
+            cand = x[inside]
+            out[k] = float(cand[np.argmax(np.interp(cand, g, val))])
+        else:
+            # no gap to return to inside the range: the policy drives the gap to an edge
+            # (accelerating everywhere: the lower one; braking everywhere: the upper one;
+            # pushed away from an unstable gap: the edge of higher soft value)
+            d_lo, d_hi = np.interp([lo, hi], g, d)
+            if d_lo >= 0.0 and d_hi >= 0.0:
+                out[k] = lo
+            elif d_lo < 0.0 and d_hi < 0.0:
+                out[k] = hi
+            else:
+                v_lo, v_hi = np.interp([lo, hi], g, val)
+                out[k] = lo if v_lo >= v_hi else hi
+    return out

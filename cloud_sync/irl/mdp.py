@@ -94,36 +94,27 @@ class Grid:
         }
 
 
+#: the spec's axes: (name, unit)
+_AXES = (("v", "mps"), ("gap", "m"), ("dv", "mps"))
+
+
 def _axis(lo: float, step: float, n: int) -> np.ndarray:
     return lo + step * np.arange(n, dtype=np.float64)
 
 
 def grid_from_spec(spec: dict[str, object]) -> Grid:
     """Rebuild a :class:`Grid` from :meth:`Grid.spec` (raises :class:`TrainingError`)."""
-    float_keys = (
-        "v_min_mps",
-        "v_step_mps",
-        "gap_min_m",
-        "gap_step_m",
-        "dv_min_mps",
-        "dv_step_mps",
-        "dt_s",
-    )
+    float_keys = [f"{k}_{part}_{u}" for k, u in _AXES for part in ("min", "step")] + ["dt_s"]
     try:
         f = {k: float(spec[k]) for k in float_keys}  # type: ignore[arg-type]
-        n = {k: int(spec[k]) for k in ("n_v", "n_gap", "n_dv")}  # type: ignore[call-overload]
+        n = {f"n_{k}": int(spec[f"n_{k}"]) for k, _ in _AXES}  # type: ignore[call-overload]
         accels = np.asarray(spec["accels_mps2"], dtype=np.float64)
     except (KeyError, TypeError, ValueError) as exc:
         raise TrainingError(f"invalid grid spec: {exc}") from exc
     if min(n.values()) < 2:
         raise TrainingError("invalid grid spec: every axis needs >= 2 points")
-    return Grid(
-        v_mps=_axis(f["v_min_mps"], f["v_step_mps"], n["n_v"]),
-        gap_m=_axis(f["gap_min_m"], f["gap_step_m"], n["n_gap"]),
-        dv_mps=_axis(f["dv_min_mps"], f["dv_step_mps"], n["n_dv"]),
-        accels_mps2=accels,
-        dt_s=f["dt_s"],
-    )
+    v, gap, dv = (_axis(f[f"{k}_min_{u}"], f[f"{k}_step_{u}"], n[f"n_{k}"]) for k, u in _AXES)
+    return Grid(v, gap, dv, accels, f["dt_s"])
 
 
 def make_grid(config: GridConfig, v_max_mps: float, gap_max_m: float) -> Grid:
@@ -135,13 +126,9 @@ def make_grid(config: GridConfig, v_max_mps: float, gap_max_m: float) -> Grid:
     g_top = min(max(gap_max_m, 0.0) + config.gap_margin_m, config.gap_cap_m)
     n_g = int(math.ceil(g_top / config.gap_step_m)) + 1
     n_dv_half = int(math.ceil(config.dv_max_mps / config.dv_step_mps))
-    return Grid(
-        v_mps=_axis(0.0, config.v_step_mps, max(n_v, 2)),
-        gap_m=_axis(0.0, config.gap_step_m, max(n_g, 2)),
-        dv_mps=_axis(-n_dv_half * config.dv_step_mps, config.dv_step_mps, 2 * n_dv_half + 1),
-        accels_mps2=np.asarray(config.accels_mps2, dtype=np.float64),
-        dt_s=config.dt_s,
-    )
+    v, gap = _axis(0.0, config.v_step_mps, max(n_v, 2)), _axis(0.0, config.gap_step_m, max(n_g, 2))
+    dv = _axis(-n_dv_half * config.dv_step_mps, config.dv_step_mps, 2 * n_dv_half + 1)
+    return Grid(v, gap, dv, np.asarray(config.accels_mps2, dtype=np.float64), config.dt_s)
 
 
 def interp_weights(axis: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

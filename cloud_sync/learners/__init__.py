@@ -2,9 +2,9 @@
 
 :class:`Learner` — ``learn(trips, *, driver_id, seed) -> Dgpt`` (a table on the standard speed
 axis, m over m/s, whose ``meta`` holds ``method`` and ``covered``, one bool per bin);
-:func:`learn` adds ``learn_s`` (s) and ``learner``. Built-ins: ``irl`` and ``empirical``
-(:mod:`cloud_sync.learners.builtin`), ``gp`` (:mod:`cloud_sync.learners.gp`); others from the
-``pacc.learners`` entry points or ``module:attribute`` (:mod:`dbc.vocab.plugins`).
+:func:`learn` adds ``learn_s`` (s) and ``learner``. Built-ins: ``irl``, ``empirical`` and ``gp``
+(:mod:`cloud_sync.learners.builtin`); others from the ``pacc.learners`` entry points or
+``module:attribute`` (:mod:`dbc.vocab.plugins`).
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ GROUP = "pacc.learners"
 BUILTIN_LEARNERS: dict[str, str] = {
     "irl": "cloud_sync.learners.builtin:IrlLearner",
     "empirical": "cloud_sync.learners.builtin:EmpiricalLearner",
-    "gp": "cloud_sync.learners.gp:GpLearner",
+    "gp": "cloud_sync.learners.builtin:GpLearner",
 }
 
 

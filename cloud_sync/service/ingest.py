@@ -17,13 +17,7 @@ from dbc.vocab.triplog import Trip, TripLogError, trip_mode
 from dbc.vocab.triplog_file import trip_from_bytes
 from dbc.vocab.tripmode import TripMode, TripModeError
 
-__all__ = [
-    "MAX_DECOMPRESSED_BYTES",
-    "StorageFullError",
-    "check_chunks",
-    "parse_batch",
-    "storage_errors",
-]
+__all__ = ["MAX_DECOMPRESSED_BYTES", "StorageFullError", "parse_batch", "storage_errors"]
 
 #: the most a batch may decompress to, bytes (a 2-hour trip is about 15 MB of samples)
 MAX_DECOMPRESSED_BYTES = 64 * 1024 * 1024
@@ -41,18 +35,19 @@ def storage_errors() -> Iterator[None]:
     a full disk, else 503), never a 500 and never a batch the vehicle drops."""
     try:
         yield
-    except OSError as exc:
-        if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+    except (OSError, sqlite3.OperationalError) as exc:
+        if isinstance(exc, OSError):
+            full, what = (
+                exc.errno in (errno.ENOSPC, errno.EDQUOT),
+                f"storage failed: {exc.strerror or exc}",
+            )
+        else:
+            full, what = "full" in str(exc), f"index failed: {exc}"
+        if full:
             raise StorageFullError(
                 "the cloud's disk is full: batch not stored, retry later"
             ) from exc
-        raise CloudUnavailableError(f"the cloud's storage failed: {exc.strerror or exc}") from exc
-    except sqlite3.OperationalError as exc:
-        if "full" in str(exc):
-            raise StorageFullError(
-                "the cloud's disk is full: batch not stored, retry later"
-            ) from exc
-        raise CloudUnavailableError(f"the cloud's index failed: {exc}") from exc
+        raise CloudUnavailableError(f"the cloud's {what}") from exc
 
 
 def parse_batch(data: bytes) -> tuple[Trip, TripMode]:

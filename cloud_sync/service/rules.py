@@ -5,7 +5,9 @@ checked (:mod:`cloud_sync.service.ingest`), attributed to its ``driver_id``/``co
 stored once per SHA-256. Each new batch schedules a learning job for its (driver, condition):
 a pure function of the stored batches in digest order (manual trips learn a table, later
 takeovers fine-tune it; too little data waits). Training may run on ``compute``
-(:mod:`cloud_sync.engine`); each version is signed (:mod:`cloud_sync.signing`) and kept.
+(:mod:`cloud_sync.engine`; :func:`train_table`, a pure function, runs anywhere) or, deferred
+until a table is asked for, on a :class:`DeferredExecutor`; each version is signed
+(:mod:`cloud_sync.signing`) and kept.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import os
 import secrets
 import threading
 from collections.abc import Callable, Iterable
-from concurrent.futures import Executor, Future
+from concurrent.futures import Executor, Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -33,11 +35,10 @@ from cloud_sync.api import (
     check_plain,
     is_plain_name,
 )
-from cloud_sync.engine import InlineExecutor
+from cloud_sync.engine import InlineExecutor, single_blas_thread
 from cloud_sync.errors import DemoError
-from cloud_sync.irl.trainer import IrlConfig
+from cloud_sync.irl.trainer import IrlConfig, fine_tune, learn_dgpt
 from cloud_sync.service.ingest import StorageFullError, parse_batch, storage_errors
-from cloud_sync.service.jobs import DeferredExecutor, train_table
 from cloud_sync.service.store import BatchRow, CloudStore, StoreError, VersionRow
 from cloud_sync.signing import (
     load_private_key,
@@ -58,7 +59,8 @@ log = logging.getLogger(__name__)
 DEFAULT_MAX_UPLOAD_BYTES = 16 * 1024 * 1024
 
 
-def _sha256(data: bytes) -> str:
+def sha256_hex(data: bytes) -> str:
+    """SHA-256 of ``data``, hex."""
     return hashlib.sha256(data).hexdigest()
 
 
@@ -69,6 +71,70 @@ class ServiceConfig:
     max_upload_bytes: int = DEFAULT_MAX_UPLOAD_BYTES
     seed: int = 0
     irl: IrlConfig | None = None
+
+
+class DeferredExecutor(Executor):
+    """Queues jobs until :meth:`run_pending` (a sync pass of many batches learns once);
+    ``threads`` > 1 runs that many queued jobs at a time (training elsewhere, on Dask)."""
+
+    def __init__(self, threads: int = 1) -> None:
+        self._queue: list[tuple[Future[Any], Callable[..., Any], tuple[Any, ...]]] = []
+        self._lock = threading.Lock()
+        self.threads = max(1, threads)
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
+        """Queue ``fn(*args)``; its future completes in :meth:`run_pending`."""
+        if kwargs:
+            raise TypeError("DeferredExecutor.submit takes positional arguments only")
+        future: Future[Any] = Future()
+        with self._lock:
+            self._queue.append((future, fn, args))
+        return future
+
+    def run_pending(self) -> None:
+        """Run every queued job, oldest first: in the caller's thread, or ``threads`` at a
+        time in a pool of threads."""
+        while True:
+            with self._lock:
+                batch, self._queue = self._queue, []
+            if not batch:
+                return
+            if self.threads == 1 or len(batch) == 1:
+                for job in batch:
+                    _complete(*job)
+            else:
+                with ThreadPoolExecutor(min(self.threads, len(batch)), "pacc-deferred") as pool:
+                    list(pool.map(lambda job: _complete(*job), batch))
+
+
+def _complete(future: Future[Any], fn: Callable[..., Any], args: tuple[Any, ...]) -> None:
+    try:
+        future.set_result(fn(*args))
+    except BaseException as exc:  # the future carries it, as a pool's would
+        future.set_exception(exc)
+
+
+def train_table(
+    manual: list[Trip],
+    corrections: list[Trip],
+    previous: Dgpt | None,
+    driver_id: str,
+    condition: str,
+    seed: int,
+    irl: IrlConfig | None,
+) -> Dgpt:
+    """A job's training, pure: ``previous`` (None: learned from the ``manual`` trips)
+    fine-tuned with the ``corrections``; DemoError if the data are not enough yet. One BLAS
+    thread: the same table on any engine."""
+    with single_blas_thread():
+        if previous is None:
+            previous = learn_dgpt(
+                manual, driver_id=driver_id, condition=condition, seed=seed, config=irl
+            ).table
+        table = previous
+        if corrections:
+            table = fine_tune(corrections, table, seed=seed, config=irl).table
+        return table
 
 
 @dataclass
@@ -134,10 +200,10 @@ class CloudService:
     ) -> str:
         """Register a vehicle and its drivers in one transaction (``keep_token(token)`` inside
         it: all or nothing); the token. StoreError: names not plain, vehicle or driver taken."""
-        _check_names(vehicle_id, drivers)
-        token = secrets.token_urlsafe(32)
-        hook = None if keep_token is None else (lambda: keep_token(token))
-        self.store.register(vehicle_id, _sha256(token.encode()), drivers, hook)
+        token = self.update_vehicle(
+            vehicle_id, drivers, token="new", keep_token=keep_token, new=True
+        )
+        assert token is not None
         return token
 
     def update_vehicle(
@@ -147,17 +213,18 @@ class CloudService:
         *,
         token: str | None = None,
         keep_token: Callable[[str], None] | None = None,
+        new: bool = False,
     ) -> str | None:
-        """Add ``drivers`` to a vehicle and, with ``token`` ``"new"``, issue a fresh token
-        (returned; ``keep_token`` inside the transaction) or ``"revoke"`` it. StoreError."""
+        """Add ``drivers`` to a vehicle (``new``: a new one) and, with ``token`` ``"new"``,
+        issue a fresh token (returned; ``keep_token`` inside the transaction) or ``"revoke"``
+        it. StoreError."""
         _check_names(vehicle_id, drivers)
         fresh = secrets.token_urlsafe(32) if token == "new" else None
-        if fresh is not None:
-            digest: str | None = _sha256(fresh.encode())
-        else:  # revoked: a value no token's SHA-256 (hex) can equal
-            digest = f"revoked-{secrets.token_hex(16)}" if token == "revoke" else None
+        # revoked: a value no token's SHA-256 (hex) can equal
+        revoked = f"revoked-{secrets.token_hex(16)}" if token == "revoke" else None
+        digest = sha256_hex(fresh.encode()) if fresh is not None else revoked
         hook = None if fresh is None or keep_token is None else (lambda: keep_token(fresh))
-        self.store.update_vehicle(vehicle_id, digest, drivers, hook)
+        self.store.save_vehicle(vehicle_id, digest, drivers, hook, new=new)
         return fresh
 
     def register_driver(self, vehicle_id: str, driver_id: str) -> None:
@@ -166,7 +233,7 @@ class CloudService:
 
     def authenticate(self, token: str | None) -> str:
         """The vehicle holding ``token``; :class:`AuthError` if none."""
-        vehicle = self.store.vehicle_by_token(_sha256(token.encode())) if token else None
+        vehicle = self.store.vehicle_by_token(sha256_hex(token.encode())) if token else None
         if vehicle is None:
             raise AuthError("unknown or missing vehicle token")
         return vehicle
@@ -191,17 +258,9 @@ class CloudService:
         condition = trip.meta.get("condition") or "default"
         check_plain(BadBatchError, driver_id=driver_id, condition=condition)
         self._own(vehicle_id, driver_id)
-        digest = _sha256(data)
+        digest = sha256_hex(data)
         row = BatchRow(
-            seq=0,
-            digest=digest,
-            vehicle_id=vehicle_id,
-            driver_id=driver_id,
-            condition=condition,
-            kind=kind.value,
-            size_bytes=len(data),
-            received_utc=utc_now_iso(),
-            used_in_version=None,
+            0, digest, vehicle_id, driver_id, condition, kind.value, len(data), utc_now_iso(), None
         )
         with storage_errors():
             added = self.store.add_batch(row, data)
@@ -286,7 +345,7 @@ class CloudService:
 
     def _trips(self, batches: Iterable[BatchRow]) -> list[Trip]:
         """The trips of ``batches`` in digest order."""
-        ordered = sorted(batches, key=_digest)
+        ordered = sorted(batches, key=lambda b: b.digest)
         return [
             trip_from_bytes(self.store.read_blob(b.digest), f"batch {b.digest}") for b in ordered
         ]
@@ -297,12 +356,12 @@ class CloudService:
         if versions and table.version <= versions[-1].version:
             table = replace(table, version=versions[-1].version + 1)  # versions only grow
         row = VersionRow(
-            driver_id=table.driver_id,
-            condition=table.condition,
-            version=table.version,
-            source=table.source,
-            created_utc=table.created_utc,
-            n_batches=len(used),
+            table.driver_id,
+            table.condition,
+            table.version,
+            table.source,
+            table.created_utc,
+            len(used),
         )
         self.store.add_version(row, sign_dgpt(table, self.key), used)
         log.info("published DGPT %s/%s v%d", row.driver_id, row.condition, row.version)
@@ -338,10 +397,6 @@ def _check_names(vehicle_id: str, drivers: list[str]) -> None:
         check_plain(StoreError, driver_id=driver_id)
     if len(set(drivers)) != len(drivers):
         raise StoreError(f"a driver id is repeated: {', '.join(drivers)}")
-
-
-def _digest(batch: BatchRow) -> str:
-    return batch.digest
 
 
 __all__ = [

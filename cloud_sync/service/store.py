@@ -10,6 +10,7 @@ tables only. One connection behind a lock; one process per folder.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sqlite3
 import threading
@@ -113,6 +114,7 @@ class CloudStore:
 
     def __init__(self, data_dir: str | os.PathLike[str]) -> None:
         self.root = Path(data_dir)
+        self._lock = threading.RLock()
         try:
             self.root.mkdir(parents=True, exist_ok=True)
             self._db = sqlite3.connect(
@@ -123,9 +125,12 @@ class CloudStore:
             self._migrate()
         except (OSError, sqlite3.Error) as exc:
             raise StoreError(f"cannot open the cloud data folder {self.root}: {exc}") from exc
-        self._lock = threading.RLock()
-        #: temporary files of a killed process removed at opening
-        self.orphans_removed = self._remove_orphans()
+        #: temporary files of a killed process (``.*.part``: no row points at them) removed
+        self.orphans_removed = 0
+        for part in [*self.root.glob("blobs/**/.*.part"), *self.root.glob("dgpt/**/.*.part")]:
+            with contextlib.suppress(OSError):
+                part.unlink()
+                self.orphans_removed += 1
 
     def _migrate(self) -> None:
         """Create the tables of a new index, or add those an older one lacks (one
@@ -136,16 +141,10 @@ class CloudStore:
             raise StoreError(f"index schema {old} is newer than this pacc's ({SCHEMA_VERSION})")
         if old == SCHEMA_VERSION:
             return
-        statements = [s.strip() for s in SCHEMA.split(";") if s.strip()]
-        self._db.execute("BEGIN IMMEDIATE")
-        try:
-            for statement in statements:
-                self._db.execute(statement)
-            self._db.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
-        except BaseException:
-            self._db.execute("ROLLBACK")
-            raise
-        self._db.execute("COMMIT")
+        with self.transaction() as db:
+            for statement in SCHEMA.split(";"):
+                db.execute(statement)
+            db.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
 
     @contextmanager
     def transaction(self) -> Iterator[sqlite3.Connection]:
@@ -165,19 +164,6 @@ class CloudStore:
         with self._lock:
             return list(self._db.execute(sql, args).fetchall())
 
-    def _remove_orphans(self) -> int:
-        """Delete ``.*.part`` files under ``blobs/`` and ``dgpt/`` (a write a crash cut short:
-        no row points at them); the count."""
-        removed = 0
-        for folder in ("blobs", "dgpt"):
-            for part in (self.root / folder).glob("**/.*.part"):
-                try:
-                    part.unlink()
-                except OSError:
-                    continue
-                removed += 1
-        return removed
-
     def close(self) -> None:
         """Close the index."""
         with self._lock:
@@ -185,47 +171,43 @@ class CloudStore:
 
     # -- vehicles and drivers -----------------------------------------------------------
 
-    def register(
-        self,
-        vehicle_id: str,
-        token_sha256: str,
-        drivers: list[str],
-        before_commit: Callable[[], None] | None = None,
-    ) -> None:
-        """Register a vehicle and its drivers in one transaction, ``before_commit`` inside it
-        (all or nothing). StoreError if the vehicle exists or a driver is taken."""
-        with self.transaction() as db:
-            if db.execute("SELECT 1 FROM vehicles WHERE vehicle_id = ?", (vehicle_id,)).fetchone():
-                raise StoreError(
-                    f"vehicle {vehicle_id!r} is already registered (pacc cloud vehicle adds "
-                    "drivers and reissues or revokes its token)"
-                )
-            db.execute("INSERT INTO vehicles VALUES (?, ?)", (vehicle_id, token_sha256))
-            _add_drivers(db, vehicle_id, drivers)
-            if before_commit is not None:
-                before_commit()
-
-    def update_vehicle(
+    def save_vehicle(
         self,
         vehicle_id: str,
         token_sha256: str | None,
         drivers: list[str],
         before_commit: Callable[[], None] | None = None,
+        *,
+        new: bool = False,
     ) -> None:
-        """Add ``drivers`` to a registered vehicle and, unless None, replace the SHA-256 of its
-        token (the old token stops working), in one transaction with ``before_commit`` as
-        :meth:`register`. StoreError if the vehicle is unknown or a driver is taken."""
+        """Register (``new``) or update a vehicle in one transaction: its token's SHA-256 (None:
+        kept; the old token stops working), ``drivers`` added, ``before_commit`` inside it (all
+        or nothing). StoreError: the vehicle exists (``new``) or is unknown, a driver is taken."""
         with self.transaction() as db:
-            if token_sha256 is not None:
+            known = db.execute("SELECT 1 FROM vehicles WHERE vehicle_id = ?", (vehicle_id,))
+            if new and known.fetchone():
+                raise StoreError(
+                    f"vehicle {vehicle_id!r} is already registered (pacc cloud vehicle adds "
+                    "drivers and reissues or revokes its token)"
+                )
+            if new:
+                db.execute("INSERT INTO vehicles VALUES (?, ?)", (vehicle_id, token_sha256))
+            elif not known.fetchone():
+                raise StoreError(f"no vehicle {vehicle_id!r} (pacc cloud register adds one)")
+            elif token_sha256 is not None:
                 db.execute(
                     "UPDATE vehicles SET token_sha256 = ? WHERE vehicle_id = ?",
                     (token_sha256, vehicle_id),
                 )
-            if not db.execute(
-                "SELECT 1 FROM vehicles WHERE vehicle_id = ?", (vehicle_id,)
-            ).fetchone():
-                raise StoreError(f"no vehicle {vehicle_id!r} (pacc cloud register adds one)")
-            _add_drivers(db, vehicle_id, drivers)
+            for driver_id in drivers:
+                row = db.execute(
+                    "SELECT vehicle_id FROM drivers WHERE driver_id = ?", (driver_id,)
+                ).fetchone()
+                if row is not None:
+                    raise StoreError(
+                        f"driver {driver_id!r} is already registered to vehicle {row[0]!r}"
+                    )
+                db.execute("INSERT INTO drivers VALUES (?, ?)", (driver_id, vehicle_id))
             if before_commit is not None:
                 before_commit()
 
@@ -335,14 +317,3 @@ class CloudStore:
 
 
 __all__ = ["SCHEMA_VERSION", "BatchRow", "CloudStore", "StoreError", "VersionRow"]
-
-
-def _add_drivers(db: sqlite3.Connection, vehicle_id: str, drivers: list[str]) -> None:
-    """Bind each of ``drivers`` to ``vehicle_id`` inside a transaction; StoreError if taken."""
-    for driver_id in drivers:
-        row = db.execute(
-            "SELECT vehicle_id FROM drivers WHERE driver_id = ?", (driver_id,)
-        ).fetchone()
-        if row is not None:
-            raise StoreError(f"driver {driver_id!r} is already registered to vehicle {row[0]!r}")
-        db.execute("INSERT INTO drivers VALUES (?, ?)", (driver_id, vehicle_id))

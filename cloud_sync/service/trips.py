@@ -14,7 +14,7 @@ import json
 import math
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import astuple, dataclass
 from datetime import datetime
 from typing import TYPE_CHECKING, Any
 
@@ -61,21 +61,15 @@ class TripReport:
         if unknown:
             raise BadBatchError(f"trip report: unknown field(s) {', '.join(sorted(unknown))}")
         names = {k: body.get(k, "default" if k == "condition" else None) for k in _KEYS}
-        check_plain(BadBatchError, **{k: names[k] for k in ("driver_id", "condition", "trip_id")})
+        plain = {k: names[k] for k in ("driver_id", "condition", "trip_id")}
+        check_plain(BadBatchError, **plain)
         version, acc_on = _numbers(names["dgpt_version"], names["acc_on_s"])
         segments = _digests(names["segments"] if names["segments"] is not None else [])
         start = names["start_utc"]
         if start is not None and not _is_utc(start):
             raise BadBatchError(f"trip report: start_utc {start!r} is not ISO 8601 UTC")
-        return cls(
-            str(names["driver_id"]),
-            str(names["condition"]),
-            str(names["trip_id"]),
-            version,
-            acc_on,
-            segments,
-            start,
-        )
+        driver_id, condition, trip_id = map(str, plain.values())
+        return cls(driver_id, condition, trip_id, version, acc_on, segments, start)
 
     def canonical(self) -> str:
         """The report as canonical JSON (sorted keys): what a duplicate must equal."""
@@ -140,28 +134,6 @@ def _onsets(pressed: np.ndarray) -> np.ndarray:
     return out
 
 
-def _measure(service: CloudService, report: TripReport) -> tuple[float, int, float]:
-    """(intervention s, takeovers, tolerance s) from the stored segments the report names."""
-    store = service.store
-    total_s, takeovers, tolerance = 0.0, 0, 0.0
-    for digest in report.segments:
-        rows = store.query(
-            "SELECT driver_id, condition, kind FROM batches WHERE digest = ?", (digest,)
-        )
-        if not rows:
-            raise BadBatchError(f"trip report: segment {digest[:12]} was not uploaded")
-        if rows[0][:2] != (report.driver_id, report.condition):
-            raise BadBatchError(f"trip report: segment {digest[:12]} is another trip's driver")
-        if rows[0][2] != TripMode.TAKEOVER:
-            raise BadBatchError(f"trip report: batch {digest[:12]} is not a takeover segment")
-        trip = trip_from_bytes(store.read_blob(digest), f"batch {digest}")
-        seconds, count = segment_interventions(trip)
-        total_s += seconds
-        takeovers += count
-        tolerance += float(np.median(np.diff(trip.t_s))) if len(trip) > 1 else 0.0
-    return total_s, takeovers, tolerance
-
-
 def record_trip(service: CloudService, vehicle_id: str, body: object) -> TripReceipt:
     """Check and keep one trip report of ``vehicle_id``; its receipt (ForbiddenError: not
     the vehicle's driver; BadBatchError: malformed, unknown segment or version, taken id)."""
@@ -173,7 +145,24 @@ def record_trip(service: CloudService, vehicle_id: str, body: object) -> TripRec
             f"trip report: {report.driver_id}/{report.condition} has no published "
             f"version {report.dgpt_version}"
         )
-    seconds, takeovers, tolerance = _measure(service, report)
+    # the intervention s, takeovers and tolerance s of the stored segments the report names
+    store = service.store
+    seconds, takeovers, tolerance = 0.0, 0, 0.0
+    for digest in report.segments:
+        rows = store.query(
+            "SELECT driver_id, condition, kind FROM batches WHERE digest = ?", (digest,)
+        )
+        if not rows:
+            raise BadBatchError(f"trip report: segment {digest[:12]} was not uploaded")
+        if rows[0][:2] != (report.driver_id, report.condition):
+            raise BadBatchError(f"trip report: segment {digest[:12]} is another trip's driver")
+        if rows[0][2] != TripMode.TAKEOVER:
+            raise BadBatchError(f"trip report: batch {digest[:12]} is not a takeover segment")
+        trip = trip_from_bytes(store.read_blob(digest), f"batch {digest}")
+        spent, count = segment_interventions(trip)
+        seconds += spent
+        takeovers += count
+        tolerance += float(np.median(np.diff(trip.t_s))) if len(trip) > 1 else 0.0
     if seconds > report.acc_on_s + tolerance:
         raise BadBatchError(
             f"trip report: acc_on_s {report.acc_on_s:.1f} s is shorter than the "
@@ -202,19 +191,8 @@ def record_trip(service: CloudService, vehicle_id: str, body: object) -> TripRec
             "INSERT INTO trips (vehicle_id, driver_id, condition, trip_id, start_utc, "
             "received_utc, dgpt_version, acc_on_s, intervention_s, takeovers, report) "
             "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-            (
-                vehicle_id,
-                report.driver_id,
-                report.condition,
-                report.trip_id,
-                report.start_utc,
-                utc_now_iso(),
-                report.dgpt_version,
-                report.acc_on_s,
-                seconds,
-                takeovers,
-                text,
-            ),
+            (vehicle_id, *astuple(report)[:3], report.start_utc, utc_now_iso())
+            + (report.dgpt_version, report.acc_on_s, seconds, takeovers, text),
         )
         db.executemany(
             "INSERT INTO trip_segments VALUES (?, ?)", [(d, cur.lastrowid) for d in report.segments]

@@ -91,7 +91,7 @@ class ProfileDownloader:
             self.report.unchanged += 1
             return None
         try:
-            self._keep(driver_id, condition, data)
+            write_atomic(self.cache_path(driver_id, condition), data)
         except OSError as exc:  # a full disk: use the table, say it is not kept for offline
             self._refuse(f"verified table not cached ({exc.strerror or exc}); used this run only")
         self.report.fetched += 1
@@ -124,9 +124,6 @@ class ProfileDownloader:
             )
             return None
         return table
-
-    def _keep(self, driver_id: str, condition: str, data: bytes) -> None:
-        write_atomic(self.cache_path(driver_id, condition), data)
 
     def _refuse(self, reason: str) -> None:
         self.report.refusals.append(reason)

@@ -6,7 +6,7 @@ fetches the driver's newest verified table every ``sync_every_s`` s and offers i
 and by the study harness
 (:class:`pacc.study.loop.StudyCloud`: :meth:`~VehicleLink.put`, then a blocking
 :meth:`~VehicleLink.drain`). Trip reports (:mod:`cloud_sync.service.trips`) are queued in the
-spool's ``reports/`` folder and posted behind their segments (:mod:`cloud_sync.vehicle.reports`).
+spool's ``reports/`` folder and posted behind their segments (:mod:`cloud_sync.vehicle.uploader`).
 """
 
 from __future__ import annotations
@@ -21,9 +21,8 @@ from typing import Any
 from cloud_sync.api import CloudApi
 from cloud_sync.errors import CloudSyncError
 from cloud_sync.vehicle.download import ProfileDownloader
-from cloud_sync.vehicle.reports import ReportError
 from cloud_sync.vehicle.spool import Spool
-from cloud_sync.vehicle.uploader import Uploader, UploaderConfig
+from cloud_sync.vehicle.uploader import ReportError, Uploader, UploaderConfig
 from dbc.vocab.dgpt import Dgpt
 from dbc.vocab.triplog import Trip
 
@@ -68,7 +67,6 @@ class VehicleLink:
         self.start_version: int | None = None
         #: digests of the takeover segments spooled during this trip
         self.segments: list[str] = []
-        self.reports_queued = 0
 
     def put(self, trip: Trip) -> str:
         """Spool ``trip`` (tagged with the vehicle id); its batch digest (SpoolError)."""
@@ -102,7 +100,6 @@ class VehicleLink:
     def queue_report(self, report: Mapping[str, Any]) -> None:
         """Queue a trip report behind its segments (ReportError if it cannot be)."""
         self.uploader.reports.put(report)
-        self.reports_queued += 1
         self.uploader.notify()
 
     def end_trip(self, acc_on_s: float, start_utc: str | None = None) -> str:
@@ -165,7 +162,7 @@ class VehicleLink:
             last.drain()
         finally:
             timer.cancel()
-        self.uploader.stats.uploaded += last.stats.uploaded
+        self.uploader.stats.sent += last.stats.sent
         self.uploader.stats.rejected += last.stats.rejected
         self.uploader.reports.stats.sent += last.reports.stats.sent
         self.uploader.reports.stats.rejected += last.reports.stats.rejected
@@ -186,11 +183,11 @@ class VehicleLink:
         """One line of what the link did."""
         up = self.uploader.stats
         text = (
-            f"cloud: {up.uploaded} batch(es) uploaded, {up.rejected} rejected, "
+            f"cloud: {up.sent} batch(es) uploaded, {up.rejected} rejected, "
             f"{len(self.spool.pending())} spooled, {self.spool.stats.evicted.total()} evicted"
         )
         reports = self.uploader.reports
-        if self.reports_queued or reports.stats.sent or reports.pending():
+        if reports.stats.queued or reports.stats.sent or reports.pending():
             text += (
                 f"; trip reports sent {reports.stats.sent}, queued "
                 f"{len(reports.pending())}, refused {reports.stats.rejected}"

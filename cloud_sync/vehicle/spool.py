@@ -112,7 +112,10 @@ class Spool:
         for path in sorted(self.root.glob("*.mcap")):
             match = _NAME.match(path.name)
             if match is None or file_digest(path) != match["digest"]:
-                self._quarantine(path)
+                (self.root / _QUARANTINE).mkdir(exist_ok=True)
+                path.replace(self.root / _QUARANTINE / path.name)
+                self.stats.quarantined += 1
+                log.warning("spool: %s does not match its name's digest, quarantined", path.name)
                 continue
             batch = Batch(
                 seq=int(match["seq"]),
@@ -122,13 +125,6 @@ class Spool:
                 path=path,
             )
             self._batches.setdefault(batch.digest, batch)
-
-    def _quarantine(self, path: Path) -> None:
-        target = self.root / _QUARANTINE
-        target.mkdir(exist_ok=True)
-        path.replace(target / path.name)
-        self.stats.quarantined += 1
-        log.warning("spool: %s does not match its name's digest, quarantined", path.name)
 
     # -- adding --------------------------------------------------------------------------
 

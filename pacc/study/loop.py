@@ -112,7 +112,7 @@ class StudyCloud:
                 f"study cloud: {stats.rejected} batch(es) refused, "
                 f"{len(spool.pending())} not taken (see {spool.root})"
             )
-        return stats.uploaded
+        return stats.sent
 
     def report_trip(self, report: dict[str, Any]) -> None:
         """Report one ACC trip (``cloud_sync.service.trips``) behind its uploaded segments

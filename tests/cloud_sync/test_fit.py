@@ -5,13 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cloud_sync.irl.fit import fit_alpha, start_alpha
+from cloud_sync.irl.config import IrlConfig
 from cloud_sync.irl.mce_irl import (
     DemoStats,
     feature_expectations,
+    fit_alpha,
     objective,
     reward_table,
     soft_value_iteration,
+    start_alpha,
     state_action_visitation,
 )
 from tests.cloud_sync.test_mce_irl import small_mdp
@@ -45,7 +47,9 @@ def test_fit_stops_at_the_stationary_point_of_the_dual() -> None:
     ``μ_model − μ_D = −λ·α``."""
     stats = own_stats(np.random.default_rng(5).normal(0.0, 0.5, K))
     alpha0 = start_alpha(K, None, 0)
-    fit = fit_alpha(MDP, stats, alpha0, prior=None, l2=0.01, max_iter=300, gtol=1e-6, ftol=1e-12)
+    fit = fit_alpha(
+        MDP, stats, alpha0, None, IrlConfig(l2=0.01, max_iter=300, gtol=1e-6, ftol=1e-12)
+    )
     assert fit.converged, fit.message
     _, grad = objective(fit.alpha, MDP, stats, l2=0.01)
     assert np.max(np.abs(grad)) <= 1e-6
@@ -60,10 +64,10 @@ def test_strong_l2_pulls_the_fit_to_the_prior() -> None:
     stats = own_stats(np.random.default_rng(6).normal(0.0, 0.5, K))
     prior = np.full(K, 0.3)
     loose = fit_alpha(
-        MDP, stats, prior.copy(), prior=prior, l2=1e-3, max_iter=200, gtol=1e-6, ftol=1e-12
+        MDP, stats, prior.copy(), prior, IrlConfig(l2=1e-3, max_iter=200, gtol=1e-6, ftol=1e-12)
     )
     tight = fit_alpha(
-        MDP, stats, prior.copy(), prior=prior, l2=1e3, max_iter=200, gtol=1e-6, ftol=1e-12
+        MDP, stats, prior.copy(), prior, IrlConfig(l2=1e3, max_iter=200, gtol=1e-6, ftol=1e-12)
     )
     assert np.max(np.abs(tight.alpha - prior)) < 1e-2
     assert np.max(np.abs(loose.alpha - prior)) > 10 * np.max(np.abs(tight.alpha - prior))

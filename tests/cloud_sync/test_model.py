@@ -11,7 +11,7 @@ from cloud_sync.errors import TrainingError
 from cloud_sync.irl.demos import Samples
 from cloud_sync.irl.features import FeatureConfig, gap_basis
 from cloud_sync.irl.mdp import GridConfig
-from cloud_sync.irl.model import (
+from cloud_sync.irl.trainer import (
     METHOD,
     RewardModel,
     compile_model,

@@ -6,9 +6,8 @@ import numpy as np
 import pytest
 
 from cloud_sync.irl.features import FeatureConfig, make_features
-from cloud_sync.irl.mce_irl import CompiledMdp
+from cloud_sync.irl.mce_irl import CompiledMdp, steady_drift, steady_gaps
 from cloud_sync.irl.mdp import GridConfig, build_transitions, make_grid
-from cloud_sync.irl.policy_gap import steady_drift, steady_gaps
 
 GRID_V = np.arange(0.0, 21.0, 1.0)
 GRID_G = np.arange(0.0, 62.0, 2.0)

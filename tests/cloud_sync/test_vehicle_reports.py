@@ -22,9 +22,8 @@ from cloud_sync.vehicle.client import HttpCloud
 from cloud_sync.vehicle.connect import write_token
 from cloud_sync.vehicle.download import ProfileDownloader
 from cloud_sync.vehicle.link import VehicleLink
-from cloud_sync.vehicle.reports import ReportError, ReportQueue
 from cloud_sync.vehicle.spool import Spool
-from cloud_sync.vehicle.uploader import Uploader
+from cloud_sync.vehicle.uploader import ReportError, ReportQueue, Uploader
 from pacc.commands.cloud import main as cloud_main
 from pacc.commands.ecu import main as ecu_main
 from tests.ecu.test_cli import Peers
@@ -119,7 +118,7 @@ def test_a_report_waits_in_the_spool_while_the_cloud_is_away(
     # pacc cloud sync exits 1 as for a refused batch
     queue = ReportQueue(tmp_path / "spool")
     queue.put({**report, "trip_id": "bad-version", "dgpt_version": 99, "segments": []})
-    with caplog.at_level(logging.ERROR, logger="cloud_sync.vehicle.reports"):
+    with caplog.at_level(logging.ERROR, logger="cloud_sync.vehicle.uploader"):
         assert cloud_main([*sync, "--token-file", str(tmp_path / "car.token")]) == 1
     out = capsys.readouterr().out
     assert "trip reports: 0 sent, 1 refused" in out and "0 still queued" in out, out
@@ -182,7 +181,7 @@ def test_a_damaged_report_file_is_set_aside_and_bad_reports_are_not_queued(
     assert not (queue.root / ".0123.part").exists()
     with (
         HttpCloud(served.url, token) as live,
-        caplog.at_level(logging.ERROR, logger="cloud_sync.vehicle.reports"),
+        caplog.at_level(logging.ERROR, logger="cloud_sync.vehicle.uploader"),
     ):
         assert queue.send(live, set()) == 0
     assert queue.stats.rejected == 2 and queue.pending() == []

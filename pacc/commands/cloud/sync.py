@@ -7,7 +7,7 @@ Each ``--add`` file (an MCAP trip log) is checked and spooled; then every pendin
 uploaded (retrying while the cloud is unavailable, up to ``--retry-s`` seconds) and deleted
 only once the cloud acknowledged it; then the trip reports ``pacc ecu --cloud`` queued in
 ``DIR/reports`` are posted, each once its segments are up
-(:mod:`cloud_sync.vehicle.reports`). With ``--fetch`` the driver's newest signed table is
+(:mod:`cloud_sync.vehicle.uploader`). With ``--fetch`` the driver's newest signed table is
 downloaded, verified against the trusted key and kept in ``DIR/profiles``; a served cloud
 learns in the background, so ``--wait S`` first waits up to S s for the driver's learning job
 to be idle (the batches just uploaded learned from). Exits 1 while a
@@ -89,7 +89,7 @@ def _upload(link: Any, retry_s: float) -> int:
     left = link.spool.pending()
     stats = uploader.stats
     print(
-        f"uploaded {stats.uploaded} batch(es) ({stats.duplicates} already held), "
+        f"uploaded {stats.sent} batch(es) ({stats.duplicates} already held), "
         f"{stats.rejected} rejected, {len(left)} still spooled"
     )
     if stats.held and stats.last_held:
