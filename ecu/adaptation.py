@@ -19,7 +19,7 @@ from enum import StrEnum
 from typing import Literal, get_args
 
 from dbc.vocab.dgpt import Dgpt, SafetyBounds
-from ecu import EcuError
+from ecu import EcuError, finite_fields
 from ecu.table_update import safety_filter, spread_weights, timegap_update, with_pedal
 
 AdaptationMode = Literal["paper", "timegap"]
@@ -33,51 +33,25 @@ class AdaptationError(EcuError):
 
 @dataclass(frozen=True)
 class AdaptationParams:
-    """Parameters of the adaptation (defaults justified in docs/ecu.md and the tests).
+    """Parameters of the adaptation, units in the names (defaults justified in docs/ecu.md)."""
 
-    Attributes:
-        min_takeover_s: P_T; a takeover this short or shorter is noise on its own, s.
-        short_press_min_s: a takeover longer than this but not longer than P_T is a short
-            press, evidence once repeated, s.
-        short_press_count: this many short presses of one pedal in a row update the table.
-        short_press_window_s: a short press continues the run only within this time of the
-            previous one's end, s.
-        coast_down_s: K_T; closing speed times K_T is the gap still lost after release, s.
-        max_speed_diff_mps: V_D; a lead faster by V_D or more is pulling away, m/s.
-        window_size: bins moved by one update in ``"paper"`` mode (odd, >= 1).
-        mode: ``"timegap"`` (default) or ``"paper"`` (Algorithm 1's local window).
-        spread_speed_mps: timegap mode: standard deviation of the weight over speed, m/s.
-        min_speed_mps: timegap mode: slower speeds count as this one in time-gap space, m/s.
-        step_fraction: the share of the change made by one update, in (0, 1].
-        switch_window_s: a takeover starting this soon after a radar target switch is
-            skipped (it answers the new vehicle), s.
-    """
-
-    min_takeover_s: float = 1.0
-    short_press_min_s: float = 0.25
-    short_press_count: int = 2
-    short_press_window_s: float = 30.0
-    coast_down_s: float = 1.0
-    max_speed_diff_mps: float = 5.0
-    window_size: int = 9
-    mode: AdaptationMode = "timegap"
-    spread_speed_mps: float = 15.0
-    min_speed_mps: float = 10.0
-    step_fraction: float = 1.0
-    switch_window_s: float = 5.0
+    min_takeover_s: float = 1.0  # P_T: a takeover this short or shorter is noise on its own
+    short_press_min_s: float = 0.25  # longer than this, up to P_T: a short press
+    short_press_count: int = 2  # this many short presses of one pedal in a row update the table
+    short_press_window_s: float = 30.0  # a short press continues the run within this of the last
+    coast_down_s: float = 1.0  # K_T: closing speed times K_T is the gap still lost after release
+    max_speed_diff_mps: float = 5.0  # V_D: a lead faster by V_D or more is pulling away
+    window_size: int = 9  # bins moved by one update in "paper" mode (odd, >= 1)
+    mode: AdaptationMode = "timegap"  # or "paper" (Algorithm 1's local window)
+    spread_speed_mps: float = 15.0  # timegap: standard deviation of the weight over speed
+    min_speed_mps: float = 10.0  # timegap: slower speeds count as this one in time-gap space
+    step_fraction: float = 1.0  # the share of the change made by one update, in (0, 1]
+    switch_window_s: float = 5.0  # a takeover this soon after a target switch is skipped
 
     def __post_init__(self) -> None:
-        floats = (
-            self.switch_window_s,
-            self.min_takeover_s,
-            self.short_press_min_s,
-            self.short_press_window_s,
-            self.coast_down_s,
-            self.max_speed_diff_mps,
-            self.spread_speed_mps,
-            self.min_speed_mps,
-        )
-        if not all(math.isfinite(x) and x >= 0.0 for x in floats):
+        names = "switch_window_s min_takeover_s short_press_min_s short_press_window_s"
+        names += " coast_down_s max_speed_diff_mps spread_speed_mps min_speed_mps"
+        if not finite_fields(self, names):
             raise AdaptationError(f"adaptation parameters must be finite and >= 0: {self}")
         if self.window_size < 1 or self.window_size % 2 == 0:
             raise AdaptationError(f"window_size must be odd and >= 1, got {self.window_size}")
@@ -208,6 +182,12 @@ def centre_bin(table: Dgpt, v_mps: float) -> int:
     return min(max(centre, 0), table.speed_mps.size - 1)
 
 
+def applied(table: Dgpt, new: Dgpt, centre: int, g_desire_m: float) -> Decision:
+    """The decision of updating ``table`` to ``new`` at bin ``centre`` (``g_desire_m`` in m)."""
+    delta = float(new.gap_m[centre] - table.gap_m[centre])
+    return Decision(True, Reason.APPLIED, centre, g_desire_m, delta)
+
+
 def adapt(
     table: Dgpt,
     summary: TakeoverSummary,
@@ -237,11 +217,4 @@ def adapt(
     gap = safety_filter(speed, gap, bounds if bounds is not None else SafetyBounds())
     gap = with_pedal(table.gap_m, gap, summary.pedal)
     new = table.with_gaps(gap, "adapted", created_utc=created_utc)
-    decision = Decision(
-        applied=True,
-        reason=Reason.APPLIED,
-        bin_index=centre,
-        g_desire_m=g_desire,
-        delta_m=float(new.gap_m[centre] - table.gap_m[centre]),
-    )
-    return new, decision
+    return new, applied(table, new, centre, g_desire)

@@ -183,16 +183,6 @@ class TakeoverRecorder:
         self._engaged = False
         self._on = False
 
-    @property
-    def sink_errors(self) -> int:
-        """Failed attempts to build or store a segment."""
-        return self.queue.sink_errors
-
-    @property
-    def pending(self) -> deque[Trip]:
-        """Segments the sink refused so far and not yet stored."""
-        return self.queue.pending
-
     def sample(self, s: Sample) -> None:
         """Offer one sample; kept if ``period_s`` has passed since the last kept one."""
         if not (math.isfinite(s.t_s) and s.t_s - self._last_t >= self.period_s - PERIOD_EPS_S):

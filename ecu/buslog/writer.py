@@ -159,16 +159,10 @@ class CanLogWriter:
         self.tick(t_s)
 
     def series(
-        self,
-        topic: str,
-        columns: Sequence[str],
-        description: str = "",
-        integral: Sequence[bool] | None = None,
+        self, topic: str, columns: Sequence[str], integral: Sequence[bool] | None = None
     ) -> None:
         """Declare the sampled channel ``topic`` with ``columns`` (besides ``t_s``);
-        ``integral``: per column, written as an integer (default: none). ``description`` is
-        not stored: the fields' names say what they are."""
-        del description
+        ``integral``: per column, written as an integer (default: none)."""
         if topic in self._series:
             return
         ints = tuple(integral) if integral is not None else (False,) * len(columns)
@@ -219,9 +213,9 @@ class CanLogWriter:
             self._fail(t_s, exc)
 
     def _declare_cycles(self) -> None:
-        self.series(INPUTS_TOPIC, INPUT_FIELDS, "", integral_fields(NodeInputs, INPUT_FIELDS))
+        self.series(INPUTS_TOPIC, INPUT_FIELDS, integral_fields(NodeInputs, INPUT_FIELDS))
         outputs = integral_fields(NodeOutputs, OUTPUT_FIELDS)
-        self.series(OUTPUTS_TOPIC, ("cycle", *OUTPUT_FIELDS), "", (True, *outputs))
+        self.series(OUTPUTS_TOPIC, ("cycle", *OUTPUT_FIELDS), (True, *outputs))
         self._cycles_declared = True
 
     def tick(self, t_s: float) -> None:

@@ -88,23 +88,10 @@ class RuleAdaptation:
         self.params = dataclasses.replace(base, **fields) if fields else base
 
     def update(
-        self,
-        table: Dgpt,
-        takeover: TakeoverSummary,
-        *,
-        bounds: SafetyBounds,
-        short_run: bool,
-        created_utc: str,
+        self, table: Dgpt, takeover: TakeoverSummary, **kw: Any
     ) -> tuple[Dgpt | None, Decision]:
         """Algorithm 1 (``paper``) or its time-gap successor on one finished takeover."""
-        new, decision = adapt(
-            table,
-            takeover,
-            self.params,
-            bounds=bounds,
-            short_run=short_run,
-            created_utc=created_utc,
-        )
+        new, decision = adapt(table, takeover, self.params, **kw)
         return (new if decision.applied else None), decision
 
 
