@@ -39,12 +39,8 @@ class RuntimeCodecError(EcuError):
 
 
 def check_outputs_fit(codec: Codec, config: EcuConfig) -> None:
-    """Refuse a codec that cannot carry every output of a node configured by ``config``:
-    AccState FAULT, every FaultCode, the acceleration envelope and the highest set speed.
-
-    Raises:
-        RuntimeCodecError: naming the message, the field, its range and what it must carry.
-    """
+    """RuntimeCodecError unless ``codec`` carries every output of a node of ``config``: AccState
+    FAULT, every FaultCode, the acceleration envelope and the highest set speed."""
     ctl = config.controller
     command, status = codec.roles["command"], codec.roles.get("status")
     needs: list[tuple[RoleCodec | None, str, float, float]] = [
@@ -180,10 +176,7 @@ def _keyed(parts: Sequence[MessageCodec]) -> tuple[tuple[MessageCodec, int], ...
 
 class BusIO:
     """The ECU's port on ``bus`` (owned by the caller): an Inbox for the input roles (timing out
-    after ``timeout_multiple`` DBC periods), an Outbox for the outputs of a node of ``config``.
-
-    Raises:
-        RuntimeCodecError: the codec cannot carry every output (:func:`check_outputs_fit`)."""
+    after ``timeout_multiple`` DBC periods), an Outbox (:func:`check_outputs_fit`)."""
 
     def __init__(
         self, bus: can.BusABC, codec: Codec, config: EcuConfig, timeout_multiple: float = 10.0

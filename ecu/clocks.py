@@ -62,12 +62,8 @@ class CycleClock:
         self._stop = threading.Event()
 
     def advance_to(self, now_s: float, port: FramePort, run_cycle: RunCycle) -> None:
-        """Drain ``port`` at ``now_s`` and run every cycle due up to ``now_s``.
-
-        Raises:
-            RuntimeClockError: ``now_s`` is not finite, or so far from the first call that
-                the cycle grid overflows (a host bug; nothing is consumed).
-        """
+        """Drain ``port`` at ``now_s`` and run every cycle due up to ``now_s`` (RuntimeClockError:
+        ``now_s`` not finite, or the cycle grid overflows: a host bug; nothing is consumed)."""
         if not math.isfinite(now_s):
             raise RuntimeClockError(f"advance_to: time must be finite, got {now_s}")
         t0, cycle = self.t0, self.cycle_s

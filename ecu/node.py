@@ -53,17 +53,9 @@ log = logging.getLogger(__name__)
 
 
 class EcuNode:
-    """The ACC node's state and its :meth:`step` (see the module docstring).
-
-    Args:
-        config: node configuration.
-        table: the DGPT to start with.
-        takeover_sink / manual_sink: receive the takeover segments and the manual
-            car-following trips (None: not recorded).
-        utc_now: the ISO 8601 ``created_utc`` of adapted tables (default: the wall clock).
-        utc_of: maps the node's clock (s) to ISO 8601 UTC for the segments' ``start_utc``.
-        manual_min_s: the shortest manual stretch recorded, s.
-    """
+    """The ACC node's state and its :meth:`step` (module docstring). The sinks get the takeover
+    segments and manual trips (None: not recorded); ``utc_now``: ``created_utc`` of adapted tables;
+    ``utc_of``: node clock (s) -> ISO 8601 UTC; ``manual_min_s``: shortest manual stretch, s."""
 
     def __init__(
         self,

@@ -23,11 +23,8 @@ from ecu.recorder import TakeoverRecorder, TripSink
 
 
 def plugins(config: EcuConfig) -> tuple[GuardedController | None, GuardedAdaptation | None]:
-    """The guarded plug-in methods ``config`` names (None: the built-in called directly).
-
-    Raises:
-        PluginError: a spec names nothing loadable or its factory refuses the arguments.
-    """
+    """The guarded plug-in methods ``config`` names (None: the built-in called directly;
+    PluginError: nothing loadable, or the factory refuses the arguments)."""
     law = adaptation = None
     budget = config.plugin_budget_s
     controller_budget = CONTROLLER_BUDGET_S if budget is None else budget

@@ -57,11 +57,7 @@ _values = attrgetter(*(f.name for f in fields(Sample)))
 
 
 def trip_of(samples: list[Sample], meta: dict[str, Any]) -> Trip:
-    """The samples as a trip log (pedals clipped to 0..1).
-
-    Raises:
-        TripLogError: the samples do not make a valid trip (non-monotonic time ...).
-    """
+    """The samples as a trip log, pedals clipped to 0..1 (TripLogError: not a valid trip)."""
     t, v, gap, v_lead, a, accel, brake, state = (
         np.asarray(c) for c in zip(*map(_values, samples), strict=True)
     )
@@ -145,15 +141,9 @@ class SinkQueue:
 
 
 class TakeoverRecorder:
-    """Ring buffer plus open segment; see the module docstring.
-
-    Args:
-        sink: receives each complete segment.
-        period_s / pre_s / post_s: recording period, pre-trigger and post-release lengths, s.
-        meta: metadata copied into every segment (driver_id, condition, seed, ...).
-        utc_of: maps a sample time (the node's clock, s) to ISO 8601 UTC for the segment's
-            ``meta["start_utc"]`` (None: the node's clock only).
-    """
+    """Ring buffer plus open segment (module docstring) for ``sink``: ``period_s`` / ``pre_s`` /
+    ``post_s`` recording period, pre-trigger and post-release lengths, s; ``meta`` copied into every
+    segment; ``utc_of``: node clock (s) -> ISO 8601 UTC for ``meta["start_utc"]``."""
 
     def __init__(
         self,

@@ -75,19 +75,11 @@ class RuntimeSummary:
 
 
 class EcuRuntime:
-    """Bus-side driver of an :class:`EcuNode` (see the module docstring).
+    """Bus-side driver of an :class:`EcuNode` on an open ``bus`` (the caller closes it).
 
-    Args:
-        bus: an open python-can bus (the caller owns and closes it).
-        node: the node to run.
-        codec: the network codec; None loads the packaged pacc DBC.
-        on_event: called with each node event text (state changes, faults, adaptations).
-        timeout_multiple: an input role times out after this many of its DBC periods.
-        profile_dir: driver profiles ``profile_<n>.json`` (:mod:`ecu.profiles`).
-
-    Raises:
-        RuntimeCodecError: the codec cannot carry every output of the node.
-    """
+    ``codec`` None: the packaged pacc DBC; ``on_event``: gets each node event text; an input role
+    times out after ``timeout_multiple`` DBC periods; ``profile_dir``: ``profile_<n>.json``
+    (:mod:`ecu.profiles`). RuntimeCodecError: the codec cannot carry every output."""
 
     def __init__(
         self,
@@ -124,12 +116,7 @@ class EcuRuntime:
         self.io.tap = recorder.frame_raw if recorder is not None else None
 
     def advance_to(self, now_s: float) -> None:
-        """Lockstep: drain the bus at ``now_s`` and run every cycle due up to ``now_s``.
-
-        Raises:
-            RuntimeClockError: ``now_s`` is not finite, or so far from the first call that
-                the cycle grid overflows (a host bug; nothing is consumed).
-        """
+        """Lockstep: drain the bus at ``now_s`` and run every cycle due (:class:`CycleClock`)."""
         self.clock.advance_to(now_s, self.io, self._cycle)
 
     def run_realtime(self, duration_s: float | None = None) -> None:

@@ -137,11 +137,8 @@ def _cycles(log: CanLog) -> list[tuple[float, int]]:
 
 
 def replay_through_ecu(log: CanLog, node: EcuNode | None = None) -> ReplayResult:
-    """Run the recording's received frames and cycles through the ECU (module docstring).
-
-    Raises:
-        CanLogError: the recording names no ECU (no attached configuration, no cycles).
-    """
+    """Run the recording's received frames and cycles through the ECU (module docstring;
+    CanLogError: the recording names no ECU: no attached configuration, no cycles)."""
     node = node if node is not None else _ecu_of(log)
     codec = codec_of(log)
     cycles = _cycles(log)

@@ -65,21 +65,13 @@ SERIES_STEP = 20_000
 
 
 class CanLogWriter:
-    """Writes one recording (module docstring). Not thread-safe: one node's thread feeds it.
+    """Writes one recording (module docstring) to ``path`` (``path.part`` until :meth:`close`;
+    None: only ``sinks``, e.g. :class:`ecu.buslog.live.FoxgloveSink`). Not thread-safe.
 
-    Args:
-        path: the MCAP file (``path.part`` until :meth:`close`); None: only ``sinks``.
-        db: the cantools database of the network (``None``: raw frames only).
-        time_base: maps the node's clock to UTC.
-        node: who records (``ecu``, ``sim``, ``drive``, ``export``).
-        attachments / metadata: stored as MCAP attachments / metadata records.
-        flush_s: the flush interval on the node's clock, s (at most this is lost on a kill).
-        sinks: more sinks besides the file (:class:`ecu.buslog.live.FoxgloveSink`).
-        rows_s: the decoded rows and cycles are written every ``rows_s``, s (>= ``flush_s``).
-
-    Raises:
-        CanLogError: ``path`` cannot be created.
-    """
+    ``db``: the cantools database (None: raw frames only); ``node``: who records (``ecu``, ``sim``,
+    ``drive``, ``export``); ``flush_s``: flush interval on the node's clock, s (at most this is lost
+    on a kill); ``rows_s`` (>= ``flush_s``), s: how often decoded rows and cycles are written.
+    CanLogError: ``path`` cannot be created."""
 
     def __init__(
         self,
@@ -330,12 +322,8 @@ class CanLogWriter:
             self._end_chunk()
 
     def close(self) -> None:
-        """Write what is open, finish the file and rename it to ``path``.
-
-        Raises:
-            CanLogError: recording stopped earlier (what was written stays in ``.part``),
-                or the file cannot be finished.
-        """
+        """Write what is open, finish the file and rename it to ``path`` (CanLogError: stopped
+        earlier, what was written stays in ``.part``; or the file cannot be finished)."""
         if self.closed:
             return
         self.closed = True
