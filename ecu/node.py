@@ -14,6 +14,7 @@ import logging
 import math
 from collections import Counter
 from collections.abc import Callable
+from functools import partial
 
 from dbc.vocab import FormatError
 from dbc.vocab.acc_state import AccState, FaultCode
@@ -310,20 +311,12 @@ class EcuNode:
         self._short_presses, short_run = count_short_press(
             self._short_presses, summary, now_s, params
         )
+        # a plug-in is guarded, its table clipped by the ECU
+        update = self._adaptation or partial(adapt, params=params)
         try:
-            if self._adaptation is not None:  # a plug-in: guarded, the table clipped by the ECU
-                self._table, decision = self._adaptation(
-                    self._table,
-                    summary,
-                    bounds=self.config.bounds,
-                    short_run=short_run,
-                    created_utc=self._utc_now(),
-                )
-                return decision
-            self._table, decision = adapt(
+            self._table, decision = update(
                 self._table,
                 summary,
-                params,
                 bounds=self.config.bounds,
                 short_run=short_run,
                 created_utc=self._utc_now(),

@@ -112,10 +112,9 @@ class FoxgloveSink:
         channels, self._channels = self._channels, []
         for ch in channels:
             ch.close()
-        if channels or self._server is not None:
-            server, self._server = self._server, None
-            if server is not None:
-                server.stop()
+        server, self._server = self._server, None
+        if server is not None:
+            server.stop()
 
 
 def add_foxglove_argument(parser: argparse.ArgumentParser) -> None:

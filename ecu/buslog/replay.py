@@ -67,14 +67,10 @@ class ReplayResult:
 
     def first_difference(self) -> int | None:
         """Index of the first frame that differs (None: identical)."""
-        for i, (a, b) in enumerate(zip(self.sent, self.recorded, strict=False)):
-            if a != b:
-                return i
-        return (
-            None
-            if len(self.sent) == len(self.recorded)
-            else min(len(self.sent), len(self.recorded))
-        )
+        pairs = enumerate(zip(self.sent, self.recorded, strict=False))
+        first = next((i for i, (a, b) in pairs if a != b), None)
+        n, m = len(self.sent), len(self.recorded)
+        return first if first is not None or n == m else min(n, m)
 
 
 def codec_of(log: CanLog) -> Codec:

@@ -121,19 +121,3 @@ def make_adaptation(spec: str, params: Mapping[str, Any]) -> Adaptation:
     if not callable(getattr(obj, "update", None)):
         raise PluginError(f"adaptation {spec!r} has no update(table, takeover, ...)")
     return obj  # type: ignore[no-any-return]
-
-
-__all__ = [
-    "ADAPTATION_GROUP",
-    "BUILTIN_ADAPTATIONS",
-    "BUILTIN_CONTROLLERS",
-    "CONTROLLER_GROUP",
-    "Adaptation",
-    "GapController",
-    "PaperAdaptation",
-    "PidController",
-    "RuleAdaptation",
-    "TimegapAdaptation",
-    "make_adaptation",
-    "make_controller",
-]

@@ -16,6 +16,7 @@ import math
 import time
 from collections import Counter
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -158,23 +159,14 @@ class GuardedAdaptation:
         self.budget_s = budget_s
         self.report = PluginReport(name)
 
-    def __call__(
-        self,
-        table: Dgpt,
-        takeover: TakeoverSummary,
-        *,
-        bounds: SafetyBounds,
-        short_run: bool,
-        created_utc: str,
-    ) -> tuple[Dgpt, Decision]:
-        """The table after the takeover (``table`` itself when nothing applies)."""
+    def __call__(self, table: Dgpt, takeover: TakeoverSummary, **kw: Any) -> tuple[Dgpt, Decision]:
+        """The table after the takeover (``table`` itself when nothing applies); ``kw`` as
+        :meth:`Adaptation.update`'s (``bounds``, ``short_run``, ``created_utc``)."""
         refused = Decision(applied=False, reason=Reason.INVALID_INPUT)
         start = time.perf_counter()
         try:  # the result is checked inside the timed, guarded call
-            new, decision = self.plugin.update(
-                table, takeover, bounds=bounds, short_run=short_run, created_utc=created_utc
-            )
-            result = self._checked(table, new, decision, bounds)
+            new, decision = self.plugin.update(table, takeover, **kw)
+            result = self._checked(table, new, decision, kw["bounds"])
         except KeyboardInterrupt:
             raise
         except BaseException as exc:  # noqa: BLE001 - SystemExit too: no change
