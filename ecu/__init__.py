@@ -2,8 +2,8 @@
 
 Modules, one concept each:
 
-- :mod:`ecu.adaptation` — online DGPT adaptation from one takeover (Algorithm 1).
-- :mod:`ecu.table_update` — how an applied takeover changes the table (spread, safety filter).
+- :mod:`ecu.adaptation` — online DGPT adaptation from one takeover (Algorithm 1): the table
+  update (spread, safety filter).
 - :mod:`ecu.controller` — PID gap controller with the acceleration/jerk envelope.
 - :mod:`ecu.recorder` — takeover recorder (pre-trigger ring buffer, segments to a sink).
 - :mod:`ecu.manual` — manual-driving recorder (the driver's car-following stretches as trips).

@@ -7,7 +7,7 @@ duration ``p_t`` (s): (1) behaviour filter ``p_t > P_T`` (or a run of short pres
 window; ``"timegap"``, the default: in time-gap space over a wide speed range); (4) every bin
 clipped into the table's :class:`~dbc.vocab.dgpt.SafetyBounds`. An accelerator takeover only
 shortens the table, a brake takeover only lengthens it (else ``against_pedal``).
-:func:`adapt` is pure; the array mathematics of (3)-(4) is :mod:`ecu.table_update`.
+:func:`adapt` is pure; gaps in m, speeds in m/s.
 Rationale and measurements: docs/ecu.md, docs/paper-notes.md.
 """
 
@@ -18,9 +18,10 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Literal, get_args
 
-from dbc.vocab.dgpt import Dgpt, SafetyBounds
+import numpy as np
+
+from dbc.vocab.dgpt import Dgpt, SafetyBounds, clamp_to_bounds
 from ecu import EcuError, finite_fields
-from ecu.table_update import safety_filter, spread_weights, timegap_update, with_pedal
 
 AdaptationMode = Literal["paper", "timegap"]
 #: the selectable adaptation modes (``AdaptationParams.mode``)
@@ -180,6 +181,46 @@ def centre_bin(table: Dgpt, v_mps: float) -> int:
     """The speed bin of ``table`` nearest ``v_mps`` (m/s), clipped to the axis."""
     centre = int(round((v_mps - float(table.speed_mps[0])) / table.step_mps))
     return min(max(centre, 0), table.speed_mps.size - 1)
+
+
+def spread_weights(n_bins: int, centre: int, window_size: int) -> np.ndarray:
+    """Triangular update weights, shape ``(n_bins,)``: 1 at ``centre``, 0 outside the window."""
+    half = (window_size - 1) // 2
+    idx = np.arange(n_bins)
+    w = 1.0 - np.abs(idx - centre) / (half + 1)
+    return np.clip(w, 0.0, 1.0)
+
+
+def timegap_weights(speed_mps: np.ndarray, v_mps: float, spread_speed_mps: float) -> np.ndarray:
+    """Gaussian update weights over speed, shape of ``speed_mps``: ``exp(-((v_i - v)/s)^2 / 2)``."""
+    return np.exp(-0.5 * ((speed_mps - v_mps) / spread_speed_mps) ** 2)
+
+
+def timegap_update(
+    table: Dgpt, centre: int, g_desire_m: float, params: AdaptationParams
+) -> np.ndarray:
+    """New gaps, shape ``(n,)``: the time-gap change at bin ``centre`` spread over speed."""
+    vmin = params.min_speed_mps
+    speed = table.speed_mps
+    v_c = float(speed[centre])
+    dh = params.step_fraction * (g_desire_m - float(table.gap_m[centre])) / max(v_c, vmin)
+    w = timegap_weights(speed, v_c, params.spread_speed_mps)
+    return np.asarray(table.gap_m + w * dh * np.maximum(speed, vmin))
+
+
+def safety_filter(speed_mps: np.ndarray, gap_m: np.ndarray, bounds: SafetyBounds) -> np.ndarray:
+    """``gap_m`` (``(n,)``) clipped into the table's safety ``bounds`` at ``speed_mps``."""
+    return np.asarray(clamp_to_bounds(speed_mps, gap_m, bounds))
+
+
+def with_pedal(old_m: np.ndarray, new_m: np.ndarray, pedal: str) -> np.ndarray:
+    """``new_m`` with no bin moved against the pedal (``(n,)`` each): after the accelerator
+    no bin is longer than before, after the brake none is shorter."""
+    if pedal == "accel":
+        return np.asarray(np.minimum(new_m, old_m))
+    if pedal == "brake":
+        return np.asarray(np.maximum(new_m, old_m))
+    return new_m
 
 
 def applied(table: Dgpt, new: Dgpt, centre: int, g_desire_m: float) -> Decision:

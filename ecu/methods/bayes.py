@@ -27,8 +27,9 @@ from ecu.adaptation import (
     behaviour_filter,
     centre_bin,
     predict_steady_gap,
+    safety_filter,
+    with_pedal,
 )
-from ecu.table_update import safety_filter, with_pedal
 
 
 @dataclasses.dataclass(frozen=True)
