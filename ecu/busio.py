@@ -224,13 +224,6 @@ class BusIO:
         """The node's inputs at ``now_s`` (:func:`inputs_from`)."""
         return inputs_from(self.inbox, now_s, self.pedals)
 
-    def profile_request(self, inputs: NodeInputs) -> int | None:
-        """The driver profile the HMI asks for (``DriverProfileId``), None while it is stale."""
-        if not inputs.hmi_ok:
-            return None
-        hmi = self.inbox.latest("hmi")
-        return None if hmi is None else int(hmi["profile_id"])
-
     def send(self, t_s: float, out: NodeOutputs, *, status: bool) -> NodeOutputs:
         """Send ACC_Command (and ACC_Status if ``status``) stamped ``t_s``; the outputs as
         sent (after the safety check: ``out`` itself when it passed). Never raises: an

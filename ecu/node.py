@@ -30,11 +30,10 @@ from ecu.adaptation import (
     count_short_press,
 )
 from ecu.config import ConfigError, EcuConfig
-from ecu.cycle.command import Command, ControlMemory, control
+from ecu.cycle.command import ControlMemory, control
 from ecu.cycle.phases import (
     Engagement,
     InputCheck,
-    Plan,
     check_inputs,
     cycle_time,
     enter_state,
@@ -129,7 +128,16 @@ class EcuNode:
         self._pending_events = []
         now_s, dt = cycle_time(now_s, self._last_now, config.cycle_s)
         self._last_now = now_s
-        check = self._check_inputs(inp, now_s)
+        check = check_inputs(
+            inp,
+            now_s,
+            state=self.state,
+            buttons=self._buttons,
+            valid_since_s=self._valid_since,
+            settle_s=config.settle_s,
+            has_set_speed=self.set_speed_mps > 0.0,
+        )
+        self._valid_since, self._buttons = check.valid_since_s, check.buttons
         ev = check.events
         old = self.state
         new = transition(old, ev, config.brake_mode)
@@ -138,8 +146,25 @@ class EcuNode:
         self.state = new
         self._track_takeover(old, new, check, inp, now_s, events)
         p = plan(self._table, inp.v_mps)
-        go = ev.resume_edge or ev.accel_pressed  # a go at a standstill
-        command = self._control(new, inp, p, dt, events, go)
+        command, self._control_mem = control(
+            config,
+            new,
+            inp,
+            p,
+            set_speed_mps=self.set_speed_mps,
+            fault_ramp=self._fault_ramp,
+            mem=self._control_mem,
+            dt_s=dt,
+            law=self._law,
+            resume=ev.resume_edge or ev.accel_pressed,  # a go at a standstill
+        )
+        if command.ramp_done:
+            self._fault_ramp = False
+            events.append("fault ramp complete: request inactive")
+        if command.beyond_limit and not self._beyond:
+            self.limit_requests += 1
+            events.append("takeover request: the braking needed exceeds the ACC's")
+        self._beyond = command.beyond_limit
         sample = None
         if self.recorder is not None:
             sample = sample_of(inp, now_s, new)
@@ -185,20 +210,6 @@ class EcuNode:
         if self.manual is not None:
             self.manual.flush()
 
-    def _check_inputs(self, inp: NodeInputs, now_s: float) -> InputCheck:
-        check = check_inputs(
-            inp,
-            now_s,
-            state=self.state,
-            buttons=self._buttons,
-            valid_since_s=self._valid_since,
-            settle_s=self.config.settle_s,
-            has_set_speed=self.set_speed_mps > 0.0,
-        )
-        self._valid_since = check.valid_since_s
-        self._buttons = check.buttons
-        return check
-
     def _enter(
         self, old: AccState, new: AccState, check: InputCheck, inp: NodeInputs, events: list[str]
     ) -> None:
@@ -223,36 +234,6 @@ class EcuNode:
             events.append(f"fault: {check.fault.name} input invalid while {old.name}")
         events.append(f"state {old.name} -> {new.name}")
         log.info("ACC state %s -> %s", old.name, new.name)
-
-    def _control(
-        self,
-        state: AccState,
-        inp: NodeInputs,
-        p: Plan,
-        dt: float,
-        events: list[str],
-        resume: bool = False,
-    ) -> Command:
-        command, self._control_mem = control(
-            self.config,
-            state,
-            inp,
-            p,
-            set_speed_mps=self.set_speed_mps,
-            fault_ramp=self._fault_ramp,
-            mem=self._control_mem,
-            dt_s=dt,
-            law=self._law,
-            resume=resume,
-        )
-        if command.ramp_done:
-            self._fault_ramp = False
-            events.append("fault ramp complete: request inactive")
-        if command.beyond_limit and not self._beyond:
-            self.limit_requests += 1
-            events.append("takeover request: the braking needed exceeds the ACC's")
-        self._beyond = command.beyond_limit
-        return command
 
     def _track_takeover(
         self,

@@ -50,12 +50,12 @@ class RuntimeSummary:
     plugin_faults: dict[str, int] = field(default_factory=dict)
 
     def __str__(self) -> str:
-        def counts(d: dict[str, int]) -> str:
-            return ", ".join(f"{k} {v}" for k, v in sorted(d.items()))
+        def counts(d: dict[str, int], empty: str = "none") -> str:
+            return ", ".join(f"{k} {v}" for k, v in sorted(d.items())) or empty
 
-        errors, faults = counts(self.e2e_errors) or "none", counts(self.faults) or "none"
-        decisions = counts(self.adaptation_decisions) or "none"
-        stops, plugin = counts(self.safety_stops) or "none", counts(self.plugin_faults)
+        errors, faults = counts(self.e2e_errors), counts(self.faults)
+        decisions, stops = counts(self.adaptation_decisions), counts(self.safety_stops)
+        plugin = counts(self.plugin_faults, "")
         return "\n".join(
             [
                 f"cycles:         {self.cycles}",
@@ -142,12 +142,12 @@ class EcuRuntime:
         t_start = time.perf_counter()
         io = self.io
         inputs = inputs_from(io.inbox, t, io.pedals)  # io.read_inputs, without the call
+        hmi = io.inbox.latest("hmi") if inputs.hmi_ok else None  # None: stale
         profiles = self.profiles
-        if profiles is not None:
-            profiles.request(io.profile_request(inputs))
+        if profiles is not None:  # the driver profile the HMI asks for (DriverProfileId)
+            profiles.request(None if hmi is None else int(hmi["profile_id"]))
         if profiles is None or profiles.selected in (None, GUEST_PROFILE):
             self.table_offer.apply(self.node)  # not under another driver's HMI profile
-        hmi = io.inbox.latest("hmi") if inputs.hmi_ok else None
         if hmi is not None and hmi.get("gap_setting") != self._gap_setting:
             self._gap_setting, first = hmi.get("gap_setting"), self._gap_setting is None
             table = None if first else gap_setting_table(self.node.table, self._gap_setting)

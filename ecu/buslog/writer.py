@@ -125,16 +125,10 @@ class CanLogWriter:
         for name, record in (metadata or {}).items():
             for sink in self.sinks:
                 sink.metadata(name, {str(k): str(v) for k, v in record.items()})
-        for name, data in (attachments or {}).items():
-            self.attach(name, data)
-        self._end_chunk()  # a recording killed from now on is readable
-
-    def attach(self, name: str, data: bytes, media_type: str = "text/plain") -> None:
-        """Store ``data`` as the attachment ``name`` (stamped with the origin's UTC); nothing
-        once the recording stopped."""
-        if self.error is None:
+        for name, data in (attachments or {}).items():  # stamped with the origin's UTC
             for sink in self.sinks:
-                sink.attach(self.time_base.utc_origin_ns, name, media_type, data)
+                sink.attach(time_base.utc_origin_ns, name, "text/plain", data)
+        self._end_chunk()  # a recording killed from now on is readable
 
     def frame_raw(self, t_s: float, key: int, data: Any, rx: bool) -> None:
         """One frame received (``rx``) or sent at ``t_s`` (s, the node's clock), in the raw
