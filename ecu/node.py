@@ -248,19 +248,16 @@ class EcuNode:
         accel, brake = check.events.accel_pressed, check.events.brake_pressed
         if self._takeover_start is None:
             if old is AccState.ACTIVE and (accel or brake) and new is not AccState.ACTIVE:
-                self._start_takeover(takeover_pedal(accel, brake), now_s, events)
+                pedal = self._takeover_pedal = takeover_pedal(accel, brake)
+                self._takeover_start = now_s
+                # how long after a target switch (a cut-in) it started: not preference evidence
+                self._takeover_after_switch = self._control_mem.road.since_switch_s
+                self.takeovers += 1
+                events.append(f"takeover {self.takeovers} ({pedal})")
+                if self.recorder is not None:
+                    self.recorder.start(now_s, pedal)
         elif not (accel or brake):
             self._release_takeover(new, check.valid, inp, now_s, events)
-
-    def _start_takeover(self, pedal: str, now_s: float, events: list[str]) -> None:
-        self._takeover_start = now_s
-        self._takeover_pedal = pedal
-        # how long after a target switch (a cut-in) it started: not preference evidence
-        self._takeover_after_switch = self._control_mem.road.since_switch_s
-        self.takeovers += 1
-        events.append(f"takeover {self.takeovers} ({pedal})")
-        if self.recorder is not None:
-            self.recorder.start(now_s, pedal)
 
     def _release_takeover(
         self, new: AccState, valid: bool, inp: NodeInputs, now_s: float, events: list[str]

@@ -89,23 +89,15 @@ class SinkQueue:
         #: trips the sink refused so far and not yet stored
         self.pending: deque[Trip] = deque()
 
-    def put(self, trip: Trip) -> None:
-        """Queue ``trip`` and store what is pending."""
-        if len(self.pending) >= MAX_PENDING:
-            lost = self.pending.popleft()
-            self.lost += 1
-            log.error("%s %s dropped: sink failing", self.what, lost.meta.get("index"))
-        self.pending.append(trip)
-        self.store()
-
     def build(
         self,
         samples: list[Sample],
         meta: dict[str, Any],
         utc_of: Callable[[float], str] | None = None,
     ) -> None:
-        """Put the trip of ``samples`` (``meta["start_utc"] = utc_of(first t_s)`` when given); a
-        trip that cannot be built is counted, logged and dropped. Never raises."""
+        """Queue the trip of ``samples`` (``meta["start_utc"] = utc_of(first t_s)`` when given)
+        and store what is pending; a trip that cannot be built is counted, logged and dropped.
+        Never raises."""
         if utc_of is not None and samples:
             try:
                 meta["start_utc"] = utc_of(samples[0].t_s)
@@ -119,7 +111,12 @@ class SinkQueue:
             log.error("%s %s not built: %s", self.what, meta.get("index"), exc)
             self.store()
             return
-        self.put(trip)
+        if len(self.pending) >= MAX_PENDING:
+            lost = self.pending.popleft()
+            self.lost += 1
+            log.error("%s %s dropped: sink failing", self.what, lost.meta.get("index"))
+        self.pending.append(trip)
+        self.store()
 
     def store(self) -> None:
         """Hand the pending trips to the sink, oldest first, until one fails."""
