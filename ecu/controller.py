@@ -33,10 +33,8 @@ ACCEL_MAX_MPS2 = 2.0
 #: smallest gap margin (m) above the floor reckoned with by :func:`closing_limit_mps2`
 MIN_MARGIN_M = 0.5
 
-# The functions of the control cycle write ``max(a, b)`` out as ``b if a < b else a`` and
-# ``min(a, b)`` as ``b if a > b else a``: what the builtins return, NaN and signed zeros
-# included (they keep ``a`` unless ``b`` compares beyond it), at a sixth of the cost of a
-# builtin call.
+# The control cycle writes ``max(a, b)`` out as ``b if a < b else a`` (``min`` likewise): the
+# builtins' results, NaN and signed zeros included, at a sixth of the cost of the call.
 
 
 def interp(x: float, table: Table) -> float:

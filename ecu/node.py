@@ -75,7 +75,8 @@ class EcuNode:
         self.fault_code = FaultCode.NONE
         self.set_speed_mps = 0.0
         self.decisions: Counter[Reason] = Counter()
-        self._applied = 0  # decisions[Reason.APPLIED], read every cycle
+        #: adaptations applied so far (decisions[Reason.APPLIED], read every cycle)
+        self.adaptations = 0
         #: FAULT entries by the input that caused them
         self.faults: Counter[FaultCode] = Counter()
         self.takeovers = 0
@@ -115,11 +116,6 @@ class EcuNode:
             if guard is not None:
                 out.update({f"{role} {k}": n for k, n in guard.report.counts.items() if n})
         return out
-
-    @property
-    def adaptations(self) -> int:
-        """Adaptations applied so far."""
-        return self._applied
 
     def step(self, inp: NodeInputs, now_s: float) -> NodeOutputs:
         """Run one control cycle at time ``now_s`` (s, monotonic); never raises on bad input."""
@@ -177,7 +173,7 @@ class EcuNode:
             command,
             p,
             table=self._table,
-            adaptation_count=self._applied,
+            adaptation_count=self.adaptations,
             fault_code=reported_fault(self.fault_code, self._profile_fault),
             set_speed_mps=self.set_speed_mps,
             events=tuple(events),
@@ -306,7 +302,7 @@ class EcuNode:
 
     def _record_decision(self, decision: Decision, events: list[str]) -> str:
         self.decisions[decision.reason] += 1
-        self._applied += decision.reason is Reason.APPLIED
+        self.adaptations += decision.reason is Reason.APPLIED
         self.last_decision = decision
         text = str(decision)
         if decision.applied:

@@ -133,9 +133,7 @@ def enter_state(
 
 def takeover_pedal(accel: bool, brake: bool) -> str:
     """The pedal of a takeover: ``"accel"``, ``"brake"`` or ``"both"``."""
-    if accel and brake:
-        return "both"
-    return "accel" if accel else "brake"
+    return "both" if accel and brake else ("accel" if accel else "brake")
 
 
 def plan(table: Dgpt, v_mps: float) -> Plan:
