@@ -137,8 +137,28 @@ class EcuNode:
         ev = check.events
         old = self.state
         new = transition(old, ev, config.brake_mode)
-        if new is not old:
-            self._enter(old, new, check, inp, events)
+        if new is not old:  # entering a state
+            mem, reset = enter_state(
+                old,
+                new,
+                Engagement(self.fault_code, self.set_speed_mps, self._fault_ramp),
+                fault=check.fault,
+                set_edge=ev.set_edge,
+                v_mps=inp.v_mps,
+                config=config,
+            )
+            self.fault_code, self.set_speed_mps, self._fault_ramp = (
+                mem.fault_code,
+                mem.set_speed_mps,
+                mem.fault_ramp,
+            )
+            if reset:
+                self._control_mem = ControlMemory(0.0, self._control_mem.prev_accel_mps2)
+            if new is AccState.FAULT:
+                self.faults[check.fault] += 1
+                events.append(f"fault: {check.fault.name} input invalid while {old.name}")
+            events.append(f"state {old.name} -> {new.name}")
+            log.info("ACC state %s -> %s", old.name, new.name)
         self.state = new
         self._track_takeover(old, new, check, inp, now_s, events)
         p = plan(self._table, inp.v_mps)
@@ -205,31 +225,6 @@ class EcuNode:
             self.recorder.flush()
         if self.manual is not None:
             self.manual.flush()
-
-    def _enter(
-        self, old: AccState, new: AccState, check: InputCheck, inp: NodeInputs, events: list[str]
-    ) -> None:
-        mem, reset = enter_state(
-            old,
-            new,
-            Engagement(self.fault_code, self.set_speed_mps, self._fault_ramp),
-            fault=check.fault,
-            set_edge=check.events.set_edge,
-            v_mps=inp.v_mps,
-            config=self.config,
-        )
-        self.fault_code, self.set_speed_mps, self._fault_ramp = (
-            mem.fault_code,
-            mem.set_speed_mps,
-            mem.fault_ramp,
-        )
-        if reset:
-            self._control_mem = ControlMemory(0.0, self._control_mem.prev_accel_mps2)
-        if new is AccState.FAULT:
-            self.faults[check.fault] += 1
-            events.append(f"fault: {check.fault.name} input invalid while {old.name}")
-        events.append(f"state {old.name} -> {new.name}")
-        log.info("ACC state %s -> %s", old.name, new.name)
 
     def _track_takeover(
         self,
