@@ -2,8 +2,8 @@
 
 Modules, one concept each:
 
-- :mod:`ecu.adaptation` — online DGPT adaptation from one takeover (Algorithm 1).
-- :mod:`ecu.table_update` — how an applied takeover changes the table (spread, safety filter).
+- :mod:`ecu.adaptation` — online DGPT adaptation from one takeover (Algorithm 1): the table
+  update (spread, safety filter).
 - :mod:`ecu.controller` — PID gap controller with the acceleration/jerk envelope.
 - :mod:`ecu.recorder` — takeover recorder (pre-trigger ring buffer, segments to a sink).
 - :mod:`ecu.manual` — manual-driving recorder (the driver's car-following stretches as trips).
@@ -30,6 +30,8 @@ Every error raised by this package derives from :class:`EcuError` (itself a
 
 from __future__ import annotations
 
+import math
+
 from dbc.errors import PaccError
 
 
@@ -37,4 +39,9 @@ class EcuError(PaccError):
     """Root of every exception raised by the :mod:`ecu` package."""
 
 
-__all__ = ["EcuError"]
+def finite_fields(obj: object, names: str, low: float = 0.0) -> bool:
+    """Each attribute of ``obj`` named in ``names`` (space-separated) is finite and >= ``low``."""
+    return all(math.isfinite(x) and x >= low for x in (getattr(obj, n) for n in names.split()))
+
+
+__all__ = ["EcuError", "finite_fields"]

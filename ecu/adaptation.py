@@ -7,7 +7,7 @@ duration ``p_t`` (s): (1) behaviour filter ``p_t > P_T`` (or a run of short pres
 window; ``"timegap"``, the default: in time-gap space over a wide speed range); (4) every bin
 clipped into the table's :class:`~dbc.vocab.dgpt.SafetyBounds`. An accelerator takeover only
 shortens the table, a brake takeover only lengthens it (else ``against_pedal``).
-:func:`adapt` is pure; the array mathematics of (3)-(4) is :mod:`ecu.table_update`.
+:func:`adapt` is pure; gaps in m, speeds in m/s.
 Rationale and measurements: docs/ecu.md, docs/paper-notes.md.
 """
 
@@ -18,9 +18,10 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Literal, get_args
 
-from dbc.vocab.dgpt import Dgpt, SafetyBounds
-from ecu import EcuError
-from ecu.table_update import safety_filter, spread_weights, timegap_update, with_pedal
+import numpy as np
+
+from dbc.vocab.dgpt import Dgpt, SafetyBounds, clamp_to_bounds
+from ecu import EcuError, finite_fields
 
 AdaptationMode = Literal["paper", "timegap"]
 #: the selectable adaptation modes (``AdaptationParams.mode``)
@@ -33,51 +34,25 @@ class AdaptationError(EcuError):
 
 @dataclass(frozen=True)
 class AdaptationParams:
-    """Parameters of the adaptation (defaults justified in docs/ecu.md and the tests).
+    """Parameters of the adaptation, units in the names (defaults justified in docs/ecu.md)."""
 
-    Attributes:
-        min_takeover_s: P_T; a takeover this short or shorter is noise on its own, s.
-        short_press_min_s: a takeover longer than this but not longer than P_T is a short
-            press, evidence once repeated, s.
-        short_press_count: this many short presses of one pedal in a row update the table.
-        short_press_window_s: a short press continues the run only within this time of the
-            previous one's end, s.
-        coast_down_s: K_T; closing speed times K_T is the gap still lost after release, s.
-        max_speed_diff_mps: V_D; a lead faster by V_D or more is pulling away, m/s.
-        window_size: bins moved by one update in ``"paper"`` mode (odd, >= 1).
-        mode: ``"timegap"`` (default) or ``"paper"`` (Algorithm 1's local window).
-        spread_speed_mps: timegap mode: standard deviation of the weight over speed, m/s.
-        min_speed_mps: timegap mode: slower speeds count as this one in time-gap space, m/s.
-        step_fraction: the share of the change made by one update, in (0, 1].
-        switch_window_s: a takeover starting this soon after a radar target switch is
-            skipped (it answers the new vehicle), s.
-    """
-
-    min_takeover_s: float = 1.0
-    short_press_min_s: float = 0.25
-    short_press_count: int = 2
-    short_press_window_s: float = 30.0
-    coast_down_s: float = 1.0
-    max_speed_diff_mps: float = 5.0
-    window_size: int = 9
-    mode: AdaptationMode = "timegap"
-    spread_speed_mps: float = 15.0
-    min_speed_mps: float = 10.0
-    step_fraction: float = 1.0
-    switch_window_s: float = 5.0
+    min_takeover_s: float = 1.0  # P_T: a takeover this short or shorter is noise on its own
+    short_press_min_s: float = 0.25  # longer than this, up to P_T: a short press
+    short_press_count: int = 2  # this many short presses of one pedal in a row update the table
+    short_press_window_s: float = 30.0  # a short press continues the run within this of the last
+    coast_down_s: float = 1.0  # K_T: closing speed times K_T is the gap still lost after release
+    max_speed_diff_mps: float = 5.0  # V_D: a lead faster by V_D or more is pulling away
+    window_size: int = 9  # bins moved by one update in "paper" mode (odd, >= 1)
+    mode: AdaptationMode = "timegap"  # or "paper" (Algorithm 1's local window)
+    spread_speed_mps: float = 15.0  # timegap: standard deviation of the weight over speed
+    min_speed_mps: float = 10.0  # timegap: slower speeds count as this one in time-gap space
+    step_fraction: float = 1.0  # the share of the change made by one update, in (0, 1]
+    switch_window_s: float = 5.0  # a takeover this soon after a target switch is skipped
 
     def __post_init__(self) -> None:
-        floats = (
-            self.switch_window_s,
-            self.min_takeover_s,
-            self.short_press_min_s,
-            self.short_press_window_s,
-            self.coast_down_s,
-            self.max_speed_diff_mps,
-            self.spread_speed_mps,
-            self.min_speed_mps,
-        )
-        if not all(math.isfinite(x) and x >= 0.0 for x in floats):
+        names = "switch_window_s min_takeover_s short_press_min_s short_press_window_s"
+        names += " coast_down_s max_speed_diff_mps spread_speed_mps min_speed_mps"
+        if not finite_fields(self, names):
             raise AdaptationError(f"adaptation parameters must be finite and >= 0: {self}")
         if self.window_size < 1 or self.window_size % 2 == 0:
             raise AdaptationError(f"window_size must be odd and >= 1, got {self.window_size}")
@@ -208,6 +183,52 @@ def centre_bin(table: Dgpt, v_mps: float) -> int:
     return min(max(centre, 0), table.speed_mps.size - 1)
 
 
+def spread_weights(n_bins: int, centre: int, window_size: int) -> np.ndarray:
+    """Triangular update weights, shape ``(n_bins,)``: 1 at ``centre``, 0 outside the window."""
+    half = (window_size - 1) // 2
+    idx = np.arange(n_bins)
+    w = 1.0 - np.abs(idx - centre) / (half + 1)
+    return np.clip(w, 0.0, 1.0)
+
+
+def timegap_weights(speed_mps: np.ndarray, v_mps: float, spread_speed_mps: float) -> np.ndarray:
+    """Gaussian update weights over speed, shape of ``speed_mps``: ``exp(-((v_i - v)/s)^2 / 2)``."""
+    return np.exp(-0.5 * ((speed_mps - v_mps) / spread_speed_mps) ** 2)
+
+
+def timegap_update(
+    table: Dgpt, centre: int, g_desire_m: float, params: AdaptationParams
+) -> np.ndarray:
+    """New gaps, shape ``(n,)``: the time-gap change at bin ``centre`` spread over speed."""
+    vmin = params.min_speed_mps
+    speed = table.speed_mps
+    v_c = float(speed[centre])
+    dh = params.step_fraction * (g_desire_m - float(table.gap_m[centre])) / max(v_c, vmin)
+    w = timegap_weights(speed, v_c, params.spread_speed_mps)
+    return np.asarray(table.gap_m + w * dh * np.maximum(speed, vmin))
+
+
+def safety_filter(speed_mps: np.ndarray, gap_m: np.ndarray, bounds: SafetyBounds) -> np.ndarray:
+    """``gap_m`` (``(n,)``) clipped into the table's safety ``bounds`` at ``speed_mps``."""
+    return np.asarray(clamp_to_bounds(speed_mps, gap_m, bounds))
+
+
+def with_pedal(old_m: np.ndarray, new_m: np.ndarray, pedal: str) -> np.ndarray:
+    """``new_m`` with no bin moved against the pedal (``(n,)`` each): after the accelerator
+    no bin is longer than before, after the brake none is shorter."""
+    if pedal == "accel":
+        return np.asarray(np.minimum(new_m, old_m))
+    if pedal == "brake":
+        return np.asarray(np.maximum(new_m, old_m))
+    return new_m
+
+
+def applied(table: Dgpt, new: Dgpt, centre: int, g_desire_m: float) -> Decision:
+    """The decision of updating ``table`` to ``new`` at bin ``centre`` (``g_desire_m`` in m)."""
+    delta = float(new.gap_m[centre] - table.gap_m[centre])
+    return Decision(True, Reason.APPLIED, centre, g_desire_m, delta)
+
+
 def adapt(
     table: Dgpt,
     summary: TakeoverSummary,
@@ -237,11 +258,4 @@ def adapt(
     gap = safety_filter(speed, gap, bounds if bounds is not None else SafetyBounds())
     gap = with_pedal(table.gap_m, gap, summary.pedal)
     new = table.with_gaps(gap, "adapted", created_utc=created_utc)
-    decision = Decision(
-        applied=True,
-        reason=Reason.APPLIED,
-        bin_index=centre,
-        g_desire_m=g_desire,
-        delta_m=float(new.gap_m[centre] - table.gap_m[centre]),
-    )
-    return new, decision
+    return new, applied(table, new, centre, g_desire)

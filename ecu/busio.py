@@ -40,12 +40,8 @@ class RuntimeCodecError(EcuError):
 
 
 def check_outputs_fit(codec: Codec, config: EcuConfig) -> None:
-    """Refuse a codec that cannot carry every output of a node configured by ``config``:
-    AccState FAULT, every FaultCode, the acceleration envelope and the highest set speed.
-
-    Raises:
-        RuntimeCodecError: naming the message, the field, its range and what it must carry.
-    """
+    """RuntimeCodecError unless ``codec`` carries every output of a node of ``config``: AccState
+    FAULT, every FaultCode, the acceleration envelope and the highest set speed."""
     ctl = config.controller
     command, status = codec.roles["command"], codec.roles.get("status")
     needs: list[tuple[RoleCodec | None, str, float, float]] = [
@@ -181,10 +177,7 @@ def _keyed(parts: Sequence[MessageCodec]) -> tuple[tuple[MessageCodec, int], ...
 
 class BusIO:
     """The ECU's port on ``bus`` (owned by the caller): an Inbox for the input roles (timing out
-    after ``timeout_multiple`` DBC periods), an Outbox for the outputs of a node of ``config``.
-
-    Raises:
-        RuntimeCodecError: the codec cannot carry every output (:func:`check_outputs_fit`)."""
+    after ``timeout_multiple`` DBC periods), an Outbox (:func:`check_outputs_fit`)."""
 
     def __init__(
         self, bus: can.BusABC, codec: Codec, config: EcuConfig, timeout_multiple: float = 10.0
@@ -231,13 +224,6 @@ class BusIO:
     def read_inputs(self, now_s: float) -> NodeInputs:
         """The node's inputs at ``now_s`` (:func:`inputs_from`)."""
         return inputs_from(self.inbox, now_s, self.pedals)
-
-    def profile_request(self, inputs: NodeInputs) -> int | None:
-        """The driver profile the HMI asks for (``DriverProfileId``), None while it is stale."""
-        if not inputs.hmi_ok:
-            return None
-        hmi = self.inbox.latest("hmi")
-        return None if hmi is None else int(hmi["profile_id"])
 
     def send(self, t_s: float, out: NodeOutputs, *, status: bool) -> NodeOutputs:
         """Send ACC_Command (and ACC_Status if ``status``) stamped ``t_s``; the outputs as

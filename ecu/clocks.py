@@ -15,9 +15,9 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable
-from typing import Protocol
 
 from ecu import EcuError
+from ecu.busio import BusIO
 
 log = logging.getLogger(__name__)
 
@@ -36,16 +36,6 @@ class RuntimeClockError(EcuError):
     """The runtime was given a time it cannot run to (not finite)."""
 
 
-class FramePort(Protocol):
-    """What a clock needs of the bus side (:class:`ecu.busio.BusIO`)."""
-
-    def drain(self, now_s: float) -> None:
-        """Accept every waiting frame, stamped ``now_s``."""
-
-    def receive(self, timeout_s: float, clock: Callable[[], float]) -> float:
-        """Wait up to ``timeout_s`` for one frame (stamped on arrival); return ``clock()``."""
-
-
 class CycleClock:
     """The cycle grid of one node (period ``cycle_s``, s) and the two ways of running it."""
 
@@ -61,13 +51,9 @@ class CycleClock:
         self._max_catchup = int(MAX_CATCHUP_S / cycle_s)
         self._stop = threading.Event()
 
-    def advance_to(self, now_s: float, port: FramePort, run_cycle: RunCycle) -> None:
-        """Drain ``port`` at ``now_s`` and run every cycle due up to ``now_s``.
-
-        Raises:
-            RuntimeClockError: ``now_s`` is not finite, or so far from the first call that
-                the cycle grid overflows (a host bug; nothing is consumed).
-        """
+    def advance_to(self, now_s: float, port: BusIO, run_cycle: RunCycle) -> None:
+        """Drain ``port`` at ``now_s`` and run every cycle due up to ``now_s`` (RuntimeClockError:
+        ``now_s`` not finite, or the cycle grid overflows: a host bug; nothing is consumed)."""
         if not math.isfinite(now_s):
             raise RuntimeClockError(f"advance_to: time must be finite, got {now_s}")
         t0, cycle = self.t0, self.cycle_s
@@ -93,7 +79,7 @@ class CycleClock:
     def run_realtime(
         self,
         duration_s: float | None,
-        port: FramePort,
+        port: BusIO,
         run_cycle: RunCycle,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:

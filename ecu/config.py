@@ -27,19 +27,11 @@ class ConfigError(EcuError):
 class EcuConfig:
     """Configuration of the ACC node (frozen; validated on construction; units in the names).
 
-    Attributes:
-        brake_mode: ``"resume"`` (brake = override, the paper's study) or ``"cancel"`` (brake
-            returns to STANDBY: production behaviour).
-        set_speed_mps: if given, SET engages with this set speed; None: the current speed,
-            capped at ``max_set_speed_mps``.
-        settle_s: inputs must be valid this long before SET re-engages.
-        trip_meta: metadata copied into every takeover segment (driver_id, seed, ...).
-        gap_controller / adaptation_method: a plug-in by spec (:mod:`ecu.methods`), called
-            through the guard with ``controller_args`` / ``adaptation_args``; ``""``: the
-            built-in PID (``controller``) / rule (``adaptation_params``) called directly.
-        plugin_budget_s: wall-time budget of one plug-in call (None: 10 ms for a controller,
-            100 ms for an adaptation).
-    """
+    ``brake_mode``: ``"resume"`` (brake = override, the paper's study) or ``"cancel"`` (back to
+    STANDBY, production); ``set_speed_mps`` None: SET takes the current speed (capped);
+    ``gap_controller`` / ``adaptation_method``: a plug-in spec (:mod:`ecu.methods`), guarded, with
+    ``controller_args`` / ``adaptation_args`` (``""``: the built-in called directly);
+    ``plugin_budget_s`` None: 10 ms for a controller, 100 ms for an adaptation."""
 
     adaptation: bool = True
     brake_mode: BrakeMode = "resume"
@@ -48,13 +40,13 @@ class EcuConfig:
     bounds: SafetyBounds = field(default_factory=SafetyBounds)
     cycle_s: float = 0.02
     status_period_s: float = 0.1
-    settle_s: float = 1.0
+    settle_s: float = 1.0  # inputs valid this long before SET re-engages
     set_speed_mps: float | None = None
     max_set_speed_mps: float = MAX_SET_SPEED_MPS
     record_period_s: float = 0.1
     pre_trigger_s: float = 5.0
     post_trigger_s: float = 5.0
-    trip_meta: Mapping[str, Any] = field(default_factory=dict)
+    trip_meta: Mapping[str, Any] = field(default_factory=dict)  # copied into every trip
     gap_controller: str = ""
     controller_args: Mapping[str, Any] = field(default_factory=dict)
     adaptation_method: str = ""

@@ -18,7 +18,7 @@ import math
 from bisect import bisect_right
 from dataclasses import dataclass, field
 
-from ecu import EcuError
+from ecu import EcuError, finite_fields
 
 
 class ControllerError(EcuError):
@@ -33,10 +33,8 @@ ACCEL_MAX_MPS2 = 2.0
 #: smallest gap margin (m) above the floor reckoned with by :func:`closing_limit_mps2`
 MIN_MARGIN_M = 0.5
 
-# The functions of the control cycle write ``max(a, b)`` out as ``b if a < b else a`` and
-# ``min(a, b)`` as ``b if a > b else a``: what the builtins return, NaN and signed zeros
-# included (they keep ``a`` unless ``b`` compares beyond it), at a sixth of the cost of a
-# builtin call.
+# The control cycle writes ``max(a, b)`` out as ``b if a < b else a`` (``min`` likewise): the
+# builtins' results, NaN and signed zeros included, at a sixth of the cost of the call.
 
 
 def interp(x: float, table: Table) -> float:
@@ -64,44 +62,22 @@ def _check_table(name: str, table: Table) -> None:
 
 @dataclass(frozen=True)
 class RoadParams:
-    """Target switches, lead loss and standstill (units in the names).
+    """Target switches, lead loss and standstill (units in the names)."""
 
-    Attributes:
-        switch_jump_m: a gap change this much beyond what the relative speed explains within
-            one cycle is a new target, m.
-        reacquire_s: a lead valid again after at least this long without one is new, s.
-        lead_loss_hold_s: for this long after the lead is lost the request does not rise, s.
-        standstill_mps: below this speed the car stands, m/s.
-        hold_accel_mps2: the request that holds a standing car, m/s^2 (< 0).
-        auto_resume_s: a stop shorter than this resumes on its own when the lead departs, s.
-        depart_rel_mps: the lead departs when it pulls away faster than this, m/s.
-        stop_lead_mps: behind a lead slower than this the car stops at its standstill gap, m/s.
-        lead_stop_horizon_s: a braking lead that stands within this time is one to stop
-            behind, s.
-    """
-
+    #: a gap change this much beyond what the relative speed explains in a cycle: a new target
     switch_jump_m: float = 3.0
-    reacquire_s: float = 1.0
-    lead_loss_hold_s: float = 1.0
-    standstill_mps: float = 0.1
-    hold_accel_mps2: float = -1.0
-    auto_resume_s: float = 3.0
-    depart_rel_mps: float = 0.5
-    stop_lead_mps: float = 3.0
-    lead_stop_horizon_s: float = 4.0
+    reacquire_s: float = 1.0  # a lead valid again after this long without one is new
+    lead_loss_hold_s: float = 1.0  # this long after the lead is lost the request does not rise
+    standstill_mps: float = 0.1  # below this speed the car stands
+    hold_accel_mps2: float = -1.0  # the request that holds a standing car (< 0)
+    auto_resume_s: float = 3.0  # a stop shorter than this resumes when the lead departs
+    depart_rel_mps: float = 0.5  # the lead departs when it pulls away faster than this
+    stop_lead_mps: float = 3.0  # behind a lead slower than this: stop at the standstill gap
+    lead_stop_horizon_s: float = 4.0  # a braking lead standing within this time: stop behind
 
     def __post_init__(self) -> None:
-        vals = (
-            self.switch_jump_m,
-            self.reacquire_s,
-            self.lead_loss_hold_s,
-            self.standstill_mps,
-            self.auto_resume_s,
-            self.depart_rel_mps,
-            self.stop_lead_mps,
-            self.lead_stop_horizon_s,
-        )
-        if not all(math.isfinite(x) and x >= 0.0 for x in vals):
+        names = "switch_jump_m reacquire_s lead_loss_hold_s standstill_mps auto_resume_s"
+        if not finite_fields(self, names + " depart_rel_mps stop_lead_mps lead_stop_horizon_s"):
             raise ControllerError(f"road parameters must be finite and >= 0: {self}")
         if not ACCEL_MIN_MPS2 <= self.hold_accel_mps2 < 0.0:
             raise ControllerError("hold_accel_mps2 must lie in [-3.5, 0)")
@@ -109,46 +85,27 @@ class RoadParams:
 
 @dataclass(frozen=True)
 class ControllerParams:
-    """Gains (as (breakpoints m/s, values) tables) and the output envelope.
+    """Gains as (breakpoints m/s, values) tables and the output envelope (units in the names;
+    the envelope within -3.5 ... +2.0 m/s^2)."""
 
-    Attributes:
-        kp: proportional gain on the gap error, 1/s^2.
-        ki: integral gain, 1/s^3.
-        kd: derivative gain on the gap-error rate (relative speed), 1/s.
-        k_lead_accel: feed-forward of the lead acceleration, dimensionless.
-        k_cruise_per_s: speed-error gain of the cruise law, 1/s.
-        integral_limit_m_s: clamp of the gap-error integral, m*s.
-        accel_min_mps2 / accel_max_mps2: acceleration envelope, m/s^2 (within -3.5 ... +2.0).
-        jerk_max_mps3: rate limit of the request in normal operation, m/s^3.
-        emergency_ttc_s: time-to-collision below which the emergency exception applies, s.
-        emergency_jerk_mps3: rate limit of a *decreasing* request in an emergency, m/s^3.
-    """
-
-    kp: Table = ((0.0, 10.0, 20.0, 30.0), (0.25, 0.2, 0.15, 0.12))
-    ki: Table = ((0.0, 30.0), (0.01, 0.01))
-    kd: Table = ((0.0, 10.0, 30.0), (0.8, 0.75, 0.7))
-    k_lead_accel: float = 0.5
-    k_cruise_per_s: float = 0.3
-    integral_limit_m_s: float = 20.0
+    kp: Table = ((0.0, 10.0, 20.0, 30.0), (0.25, 0.2, 0.15, 0.12))  # on the gap error, 1/s^2
+    ki: Table = ((0.0, 30.0), (0.01, 0.01))  # on its integral, 1/s^3
+    kd: Table = ((0.0, 10.0, 30.0), (0.8, 0.75, 0.7))  # on its rate (relative speed), 1/s
+    k_lead_accel: float = 0.5  # feed-forward of the lead acceleration
+    k_cruise_per_s: float = 0.3  # speed-error gain of the cruise law
+    integral_limit_m_s: float = 20.0  # clamp of the gap-error integral
     accel_min_mps2: float = -3.5
     accel_max_mps2: float = 2.0
-    jerk_max_mps3: float = 2.5
-    emergency_ttc_s: float = 3.0
-    emergency_jerk_mps3: float = 10.0
+    jerk_max_mps3: float = 2.5  # rate limit of the request in normal operation
+    emergency_ttc_s: float = 3.0  # time-to-collision below which the emergency exception applies
+    emergency_jerk_mps3: float = 10.0  # rate limit of a *decreasing* request in an emergency
     road: RoadParams = field(default_factory=RoadParams)
 
     def __post_init__(self) -> None:
         for name in ("kp", "ki", "kd"):
             _check_table(name, getattr(self, name))
-        scalars = (
-            self.k_lead_accel,
-            self.k_cruise_per_s,
-            self.integral_limit_m_s,
-            self.jerk_max_mps3,
-            self.emergency_ttc_s,
-            self.emergency_jerk_mps3,
-        )
-        if not all(math.isfinite(x) and x >= 0.0 for x in scalars):
+        names = "k_lead_accel k_cruise_per_s integral_limit_m_s jerk_max_mps3 emergency_ttc_s"
+        if not finite_fields(self, names + " emergency_jerk_mps3"):
             raise ControllerError(f"controller parameters must be finite and >= 0: {self}")
         if not self.accel_min_mps2 < 0.0 < self.accel_max_mps2:
             raise ControllerError("need accel_min_mps2 < 0 < accel_max_mps2")

@@ -19,14 +19,11 @@ _MANUAL_OK = (FaultCode.NONE, FaultCode.HMI_INPUT)
 
 
 class ManualRecorder:
-    """The driver's manual car-following stretches as trip logs (module docstring).
+    """The driver's manual car-following stretches as trip logs (module docstring) to ``sink``.
 
-    Args:
-        sink: receives each manual trip.
-        period_s / cycle_s: recording period and control cycle, s (``cycle_s`` 0: the takeover
-            recorder's rule, :func:`~dbc.vocab.sampling.keep_sample`).
-        min_s / max_s: shortest stretch kept, longest trip (longer ones in pieces), s.
-        meta / utc_of: as :class:`ecu.recorder.TakeoverRecorder`'s."""
+    ``period_s`` / ``cycle_s``: recording period and control cycle, s (``cycle_s`` 0: the takeover
+    recorder's rule); ``min_s`` / ``max_s``: shortest stretch kept, longest trip (longer ones in
+    pieces), s; ``meta`` / ``utc_of``: as :class:`ecu.recorder.TakeoverRecorder`'s."""
 
     def __init__(
         self,

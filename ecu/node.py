@@ -14,6 +14,7 @@ import logging
 import math
 from collections import Counter
 from collections.abc import Callable
+from functools import partial
 
 from dbc.vocab import FormatError
 from dbc.vocab.acc_state import AccState, FaultCode
@@ -29,11 +30,10 @@ from ecu.adaptation import (
     count_short_press,
 )
 from ecu.config import ConfigError, EcuConfig
-from ecu.cycle.command import Command, ControlMemory, control
+from ecu.cycle.command import ControlMemory, control
 from ecu.cycle.phases import (
     Engagement,
     InputCheck,
-    Plan,
     check_inputs,
     cycle_time,
     enter_state,
@@ -53,17 +53,9 @@ log = logging.getLogger(__name__)
 
 
 class EcuNode:
-    """The ACC node's state and its :meth:`step` (see the module docstring).
-
-    Args:
-        config: node configuration.
-        table: the DGPT to start with.
-        takeover_sink / manual_sink: receive the takeover segments and the manual
-            car-following trips (None: not recorded).
-        utc_now: the ISO 8601 ``created_utc`` of adapted tables (default: the wall clock).
-        utc_of: maps the node's clock (s) to ISO 8601 UTC for the segments' ``start_utc``.
-        manual_min_s: the shortest manual stretch recorded, s.
-    """
+    """The ACC node's state and its :meth:`step` (module docstring). The sinks get the takeover
+    segments and manual trips (None: not recorded); ``utc_now``: ``created_utc`` of adapted tables;
+    ``utc_of``: node clock (s) -> ISO 8601 UTC; ``manual_min_s``: shortest manual stretch, s."""
 
     def __init__(
         self,
@@ -83,7 +75,8 @@ class EcuNode:
         self.fault_code = FaultCode.NONE
         self.set_speed_mps = 0.0
         self.decisions: Counter[Reason] = Counter()
-        self._applied = 0  # decisions[Reason.APPLIED], read every cycle
+        #: adaptations applied so far (decisions[Reason.APPLIED], read every cycle)
+        self.adaptations = 0
         #: FAULT entries by the input that caused them
         self.faults: Counter[FaultCode] = Counter()
         self.takeovers = 0
@@ -124,11 +117,6 @@ class EcuNode:
                 out.update({f"{role} {k}": n for k, n in guard.report.counts.items() if n})
         return out
 
-    @property
-    def adaptations(self) -> int:
-        """Adaptations applied so far."""
-        return self._applied
-
     def step(self, inp: NodeInputs, now_s: float) -> NodeOutputs:
         """Run one control cycle at time ``now_s`` (s, monotonic); never raises on bad input."""
         config = self.config
@@ -136,17 +124,63 @@ class EcuNode:
         self._pending_events = []
         now_s, dt = cycle_time(now_s, self._last_now, config.cycle_s)
         self._last_now = now_s
-        check = self._check_inputs(inp, now_s)
+        check = check_inputs(
+            inp,
+            now_s,
+            state=self.state,
+            buttons=self._buttons,
+            valid_since_s=self._valid_since,
+            settle_s=config.settle_s,
+            has_set_speed=self.set_speed_mps > 0.0,
+        )
+        self._valid_since, self._buttons = check.valid_since_s, check.buttons
         ev = check.events
         old = self.state
         new = transition(old, ev, config.brake_mode)
-        if new is not old:
-            self._enter(old, new, check, inp, events)
+        if new is not old:  # entering a state
+            mem, reset = enter_state(
+                old,
+                new,
+                Engagement(self.fault_code, self.set_speed_mps, self._fault_ramp),
+                fault=check.fault,
+                set_edge=ev.set_edge,
+                v_mps=inp.v_mps,
+                config=config,
+            )
+            self.fault_code, self.set_speed_mps, self._fault_ramp = (
+                mem.fault_code,
+                mem.set_speed_mps,
+                mem.fault_ramp,
+            )
+            if reset:
+                self._control_mem = ControlMemory(0.0, self._control_mem.prev_accel_mps2)
+            if new is AccState.FAULT:
+                self.faults[check.fault] += 1
+                events.append(f"fault: {check.fault.name} input invalid while {old.name}")
+            events.append(f"state {old.name} -> {new.name}")
+            log.info("ACC state %s -> %s", old.name, new.name)
         self.state = new
         self._track_takeover(old, new, check, inp, now_s, events)
         p = plan(self._table, inp.v_mps)
-        go = ev.resume_edge or ev.accel_pressed  # a go at a standstill
-        command = self._control(new, inp, p, dt, events, go)
+        command, self._control_mem = control(
+            config,
+            new,
+            inp,
+            p,
+            set_speed_mps=self.set_speed_mps,
+            fault_ramp=self._fault_ramp,
+            mem=self._control_mem,
+            dt_s=dt,
+            law=self._law,
+            resume=ev.resume_edge or ev.accel_pressed,  # a go at a standstill
+        )
+        if command.ramp_done:
+            self._fault_ramp = False
+            events.append("fault ramp complete: request inactive")
+        if command.beyond_limit and not self._beyond:
+            self.limit_requests += 1
+            events.append("takeover request: the braking needed exceeds the ACC's")
+        self._beyond = command.beyond_limit
         sample = None
         if self.recorder is not None:
             sample = sample_of(inp, now_s, new)
@@ -159,7 +193,7 @@ class EcuNode:
             command,
             p,
             table=self._table,
-            adaptation_count=self._applied,
+            adaptation_count=self.adaptations,
             fault_code=reported_fault(self.fault_code, self._profile_fault),
             set_speed_mps=self.set_speed_mps,
             events=tuple(events),
@@ -192,75 +226,6 @@ class EcuNode:
         if self.manual is not None:
             self.manual.flush()
 
-    def _check_inputs(self, inp: NodeInputs, now_s: float) -> InputCheck:
-        check = check_inputs(
-            inp,
-            now_s,
-            state=self.state,
-            buttons=self._buttons,
-            valid_since_s=self._valid_since,
-            settle_s=self.config.settle_s,
-            has_set_speed=self.set_speed_mps > 0.0,
-        )
-        self._valid_since = check.valid_since_s
-        self._buttons = check.buttons
-        return check
-
-    def _enter(
-        self, old: AccState, new: AccState, check: InputCheck, inp: NodeInputs, events: list[str]
-    ) -> None:
-        mem, reset = enter_state(
-            old,
-            new,
-            Engagement(self.fault_code, self.set_speed_mps, self._fault_ramp),
-            fault=check.fault,
-            set_edge=check.events.set_edge,
-            v_mps=inp.v_mps,
-            config=self.config,
-        )
-        self.fault_code, self.set_speed_mps, self._fault_ramp = (
-            mem.fault_code,
-            mem.set_speed_mps,
-            mem.fault_ramp,
-        )
-        if reset:
-            self._control_mem = ControlMemory(0.0, self._control_mem.prev_accel_mps2)
-        if new is AccState.FAULT:
-            self.faults[check.fault] += 1
-            events.append(f"fault: {check.fault.name} input invalid while {old.name}")
-        events.append(f"state {old.name} -> {new.name}")
-        log.info("ACC state %s -> %s", old.name, new.name)
-
-    def _control(
-        self,
-        state: AccState,
-        inp: NodeInputs,
-        p: Plan,
-        dt: float,
-        events: list[str],
-        resume: bool = False,
-    ) -> Command:
-        command, self._control_mem = control(
-            self.config,
-            state,
-            inp,
-            p,
-            set_speed_mps=self.set_speed_mps,
-            fault_ramp=self._fault_ramp,
-            mem=self._control_mem,
-            dt_s=dt,
-            law=self._law,
-            resume=resume,
-        )
-        if command.ramp_done:
-            self._fault_ramp = False
-            events.append("fault ramp complete: request inactive")
-        if command.beyond_limit and not self._beyond:
-            self.limit_requests += 1
-            events.append("takeover request: the braking needed exceeds the ACC's")
-        self._beyond = command.beyond_limit
-        return command
-
     def _track_takeover(
         self,
         old: AccState,
@@ -274,19 +239,16 @@ class EcuNode:
         accel, brake = check.events.accel_pressed, check.events.brake_pressed
         if self._takeover_start is None:
             if old is AccState.ACTIVE and (accel or brake) and new is not AccState.ACTIVE:
-                self._start_takeover(takeover_pedal(accel, brake), now_s, events)
+                pedal = self._takeover_pedal = takeover_pedal(accel, brake)
+                self._takeover_start = now_s
+                # how long after a target switch (a cut-in) it started: not preference evidence
+                self._takeover_after_switch = self._control_mem.road.since_switch_s
+                self.takeovers += 1
+                events.append(f"takeover {self.takeovers} ({pedal})")
+                if self.recorder is not None:
+                    self.recorder.start(now_s, pedal)
         elif not (accel or brake):
             self._release_takeover(new, check.valid, inp, now_s, events)
-
-    def _start_takeover(self, pedal: str, now_s: float, events: list[str]) -> None:
-        self._takeover_start = now_s
-        self._takeover_pedal = pedal
-        # how long after a target switch (a cut-in) it started: not preference evidence
-        self._takeover_after_switch = self._control_mem.road.since_switch_s
-        self.takeovers += 1
-        events.append(f"takeover {self.takeovers} ({pedal})")
-        if self.recorder is not None:
-            self.recorder.start(now_s, pedal)
 
     def _release_takeover(
         self, new: AccState, valid: bool, inp: NodeInputs, now_s: float, events: list[str]
@@ -318,20 +280,12 @@ class EcuNode:
         self._short_presses, short_run = count_short_press(
             self._short_presses, summary, now_s, params
         )
+        # a plug-in is guarded, its table clipped by the ECU
+        update = self._adaptation or partial(adapt, params=params)
         try:
-            if self._adaptation is not None:  # a plug-in: guarded, the table clipped by the ECU
-                self._table, decision = self._adaptation(
-                    self._table,
-                    summary,
-                    bounds=self.config.bounds,
-                    short_run=short_run,
-                    created_utc=self._utc_now(),
-                )
-                return decision
-            self._table, decision = adapt(
+            self._table, decision = update(
                 self._table,
                 summary,
-                params,
                 bounds=self.config.bounds,
                 short_run=short_run,
                 created_utc=self._utc_now(),
@@ -343,7 +297,7 @@ class EcuNode:
 
     def _record_decision(self, decision: Decision, events: list[str]) -> str:
         self.decisions[decision.reason] += 1
-        self._applied += decision.reason is Reason.APPLIED
+        self.adaptations += decision.reason is Reason.APPLIED
         self.last_decision = decision
         text = str(decision)
         if decision.applied:

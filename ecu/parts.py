@@ -23,14 +23,10 @@ from ecu.recorder import TakeoverRecorder, TripSink
 
 
 def plugins(config: EcuConfig) -> tuple[GuardedController | None, GuardedAdaptation | None]:
-    """The guarded plug-in methods ``config`` names (None: the built-in called directly).
-
-    Raises:
-        PluginError: a spec names nothing loadable or its factory refuses the arguments.
-    """
+    """The guarded plug-in methods ``config`` names (None: the built-in called directly;
+    PluginError: nothing loadable, or the factory refuses the arguments)."""
     law = adaptation = None
     budget = config.plugin_budget_s
-    controller_budget = CONTROLLER_BUDGET_S if budget is None else budget
     if config.gap_controller:
         args = dict(config.controller_args)
         if config.gap_controller == "pid" and not args:
@@ -39,12 +35,11 @@ def plugins(config: EcuConfig) -> tuple[GuardedController | None, GuardedAdaptat
             make_controller(config.gap_controller, args),
             config.controller,
             name=config.gap_controller,
-            budget_s=controller_budget,
+            budget_s=CONTROLLER_BUDGET_S if budget is None else budget,
         )
     if config.adaptation_method:
-        args = dict(config.adaptation_args)
         adaptation = GuardedAdaptation(
-            make_adaptation(config.adaptation_method, args),
+            make_adaptation(config.adaptation_method, dict(config.adaptation_args)),
             name=config.adaptation_method,
             budget_s=ADAPTATION_BUDGET_S if budget is None else budget,
         )

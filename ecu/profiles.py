@@ -44,11 +44,6 @@ def gap_setting_table(table: Dgpt, code: float | None) -> Dgpt | None:
         return None
 
 
-def profile_path(profile_dir: Path, profile_id: int) -> Path:
-    """The file of driver profile ``profile_id`` in ``profile_dir``."""
-    return profile_dir / f"profile_{profile_id}.json"
-
-
 class ProfileSwitcher:
     """Switches ``node`` to the profile the HMI asks for (``profile_dir/profile_<n>.json``), once
     per change of the id."""
@@ -92,7 +87,7 @@ class ProfileSwitcher:
 
     def _load(self, profile_id: int) -> None:
         """Worker thread: read profile ``profile_id``; its outcome waits for the cycle."""
-        path = profile_path(self.profile_dir, profile_id)
+        path = self.profile_dir / f"profile_{profile_id}.json"
         current = self.node.table
         keeping = f"keeping the last good DGPT ({current.driver_id} v{current.version})"
         table: Dgpt | None = _KEEP

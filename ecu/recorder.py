@@ -57,11 +57,7 @@ _values = attrgetter(*(f.name for f in fields(Sample)))
 
 
 def trip_of(samples: list[Sample], meta: dict[str, Any]) -> Trip:
-    """The samples as a trip log (pedals clipped to 0..1).
-
-    Raises:
-        TripLogError: the samples do not make a valid trip (non-monotonic time ...).
-    """
+    """The samples as a trip log, pedals clipped to 0..1 (TripLogError: not a valid trip)."""
     t, v, gap, v_lead, a, accel, brake, state = (
         np.asarray(c) for c in zip(*map(_values, samples), strict=True)
     )
@@ -93,23 +89,15 @@ class SinkQueue:
         #: trips the sink refused so far and not yet stored
         self.pending: deque[Trip] = deque()
 
-    def put(self, trip: Trip) -> None:
-        """Queue ``trip`` and store what is pending."""
-        if len(self.pending) >= MAX_PENDING:
-            lost = self.pending.popleft()
-            self.lost += 1
-            log.error("%s %s dropped: sink failing", self.what, lost.meta.get("index"))
-        self.pending.append(trip)
-        self.store()
-
     def build(
         self,
         samples: list[Sample],
         meta: dict[str, Any],
         utc_of: Callable[[float], str] | None = None,
     ) -> None:
-        """Put the trip of ``samples`` (``meta["start_utc"] = utc_of(first t_s)`` when given); a
-        trip that cannot be built is counted, logged and dropped. Never raises."""
+        """Queue the trip of ``samples`` (``meta["start_utc"] = utc_of(first t_s)`` when given)
+        and store what is pending; a trip that cannot be built is counted, logged and dropped.
+        Never raises."""
         if utc_of is not None and samples:
             try:
                 meta["start_utc"] = utc_of(samples[0].t_s)
@@ -123,7 +111,12 @@ class SinkQueue:
             log.error("%s %s not built: %s", self.what, meta.get("index"), exc)
             self.store()
             return
-        self.put(trip)
+        if len(self.pending) >= MAX_PENDING:
+            lost = self.pending.popleft()
+            self.lost += 1
+            log.error("%s %s dropped: sink failing", self.what, lost.meta.get("index"))
+        self.pending.append(trip)
+        self.store()
 
     def store(self) -> None:
         """Hand the pending trips to the sink, oldest first, until one fails."""
@@ -145,15 +138,9 @@ class SinkQueue:
 
 
 class TakeoverRecorder:
-    """Ring buffer plus open segment; see the module docstring.
-
-    Args:
-        sink: receives each complete segment.
-        period_s / pre_s / post_s: recording period, pre-trigger and post-release lengths, s.
-        meta: metadata copied into every segment (driver_id, condition, seed, ...).
-        utc_of: maps a sample time (the node's clock, s) to ISO 8601 UTC for the segment's
-            ``meta["start_utc"]`` (None: the node's clock only).
-    """
+    """Ring buffer plus open segment (module docstring) for ``sink``: ``period_s`` / ``pre_s`` /
+    ``post_s`` recording period, pre-trigger and post-release lengths, s; ``meta`` copied into every
+    segment; ``utc_of``: node clock (s) -> ISO 8601 UTC for ``meta["start_utc"]``."""
 
     def __init__(
         self,
@@ -182,16 +169,6 @@ class TakeoverRecorder:
         self.acc_on_s = 0.0
         self._engaged = False
         self._on = False
-
-    @property
-    def sink_errors(self) -> int:
-        """Failed attempts to build or store a segment."""
-        return self.queue.sink_errors
-
-    @property
-    def pending(self) -> deque[Trip]:
-        """Segments the sink refused so far and not yet stored."""
-        return self.queue.pending
 
     def sample(self, s: Sample) -> None:
         """Offer one sample; kept if ``period_s`` has passed since the last kept one."""

@@ -50,12 +50,12 @@ class RuntimeSummary:
     plugin_faults: dict[str, int] = field(default_factory=dict)
 
     def __str__(self) -> str:
-        def counts(d: dict[str, int]) -> str:
-            return ", ".join(f"{k} {v}" for k, v in sorted(d.items()))
+        def counts(d: dict[str, int], empty: str = "none") -> str:
+            return ", ".join(f"{k} {v}" for k, v in sorted(d.items())) or empty
 
-        errors, faults = counts(self.e2e_errors) or "none", counts(self.faults) or "none"
-        decisions = counts(self.adaptation_decisions) or "none"
-        stops, plugin = counts(self.safety_stops) or "none", counts(self.plugin_faults)
+        errors, faults = counts(self.e2e_errors), counts(self.faults)
+        decisions, stops = counts(self.adaptation_decisions), counts(self.safety_stops)
+        plugin = counts(self.plugin_faults, "")
         return "\n".join(
             [
                 f"cycles:         {self.cycles}",
@@ -75,19 +75,11 @@ class RuntimeSummary:
 
 
 class EcuRuntime:
-    """Bus-side driver of an :class:`EcuNode` (see the module docstring).
+    """Bus-side driver of an :class:`EcuNode` on an open ``bus`` (the caller closes it).
 
-    Args:
-        bus: an open python-can bus (the caller owns and closes it).
-        node: the node to run.
-        codec: the network codec; None loads the packaged pacc DBC.
-        on_event: called with each node event text (state changes, faults, adaptations).
-        timeout_multiple: an input role times out after this many of its DBC periods.
-        profile_dir: driver profiles ``profile_<n>.json`` (:mod:`ecu.profiles`).
-
-    Raises:
-        RuntimeCodecError: the codec cannot carry every output of the node.
-    """
+    ``codec`` None: the packaged pacc DBC; ``on_event``: gets each node event text; an input role
+    times out after ``timeout_multiple`` DBC periods; ``profile_dir``: ``profile_<n>.json``
+    (:mod:`ecu.profiles`). RuntimeCodecError: the codec cannot carry every output."""
 
     def __init__(
         self,
@@ -124,12 +116,7 @@ class EcuRuntime:
         self.io.tap = recorder.frame_raw if recorder is not None else None
 
     def advance_to(self, now_s: float) -> None:
-        """Lockstep: drain the bus at ``now_s`` and run every cycle due up to ``now_s``.
-
-        Raises:
-            RuntimeClockError: ``now_s`` is not finite, or so far from the first call that
-                the cycle grid overflows (a host bug; nothing is consumed).
-        """
+        """Lockstep: drain the bus at ``now_s`` and run every cycle due (:class:`CycleClock`)."""
         self.clock.advance_to(now_s, self.io, self._cycle)
 
     def run_realtime(self, duration_s: float | None = None) -> None:
@@ -155,12 +142,12 @@ class EcuRuntime:
         t_start = time.perf_counter()
         io = self.io
         inputs = inputs_from(io.inbox, t, io.pedals)  # io.read_inputs, without the call
+        hmi = io.inbox.latest("hmi") if inputs.hmi_ok else None  # None: stale
         profiles = self.profiles
-        if profiles is not None:
-            profiles.request(io.profile_request(inputs))
+        if profiles is not None:  # the driver profile the HMI asks for (DriverProfileId)
+            profiles.request(None if hmi is None else int(hmi["profile_id"]))
         if profiles is None or profiles.selected in (None, GUEST_PROFILE):
             self.table_offer.apply(self.node)  # not under another driver's HMI profile
-        hmi = io.inbox.latest("hmi") if inputs.hmi_ok else None
         if hmi is not None and hmi.get("gap_setting") != self._gap_setting:
             self._gap_setting, first = hmi.get("gap_setting"), self._gap_setting is None
             table = None if first else gap_setting_table(self.node.table, self._gap_setting)

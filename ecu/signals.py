@@ -51,16 +51,9 @@ class NodeInputs:
 
 @cycle_value
 class NodeOutputs:
-    """Everything the node emits in one cycle (the runtime packs it into frames).
-
-    Attributes:
-        accel_request_mps2: requested acceleration, m/s^2 (always within the envelope).
-        takeover_request: the driver must take over (FAULT, or braking beyond authority).
-        desired_gap_m: DGPT at the current speed, m.
-        fault_code: FaultCode of the last fault (0 none).
-        emergency: the emergency jerk exception was in force this cycle.
-        events: human-readable events of this cycle (state changes, faults, adaptations).
-    """
+    """Everything the node emits in one cycle (the runtime packs it into frames): the request
+    (m/s^2, within the envelope), ``takeover_request`` (FAULT, or braking beyond authority), the
+    DGPT at the current speed (m), the last FaultCode, whether the emergency jerk exception held."""
 
     accel_request_mps2: float
     request_active: bool
@@ -72,7 +65,7 @@ class NodeOutputs:
     fault_code: FaultCode
     set_speed_mps: float
     emergency: bool
-    events: tuple[str, ...] = ()
+    events: tuple[str, ...] = ()  # this cycle's state changes, faults, adaptations
 
 
 def input_fault(inp: NodeInputs) -> FaultCode:

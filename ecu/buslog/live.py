@@ -26,11 +26,8 @@ BACKLOG = 50_000
 
 
 def parse_address(text: str) -> tuple[str, int]:
-    """``HOST:PORT``, ``:PORT`` or ``HOST`` -> (host, port); loopback and 8765 by default.
-
-    Raises:
-        CanLogError: a port that is not an integer in 0..65535.
-    """
+    """``HOST:PORT``, ``:PORT`` or ``HOST`` -> (host, port); loopback and 8765 by default
+    (CanLogError: a port not in 0..65535)."""
     host, sep, port = text.rpartition(":")
     if not sep:
         host, port = text, "8765"
@@ -45,10 +42,7 @@ def parse_address(text: str) -> tuple[str, int]:
 
 class FoxgloveSink:
     """A :class:`~ecu.buslog.sinks.Sink` serving the channels on a Foxglove WebSocket server on
-    ``host:port`` (port 0: any free one, :attr:`port` says which).
-
-    Raises:
-        CanLogError: the server cannot start (port taken, foxglove-sdk missing)."""
+    ``host:port`` (0: any free port, :attr:`port` says which; CanLogError if it cannot start)."""
 
     def __init__(self, host: str = "127.0.0.1", port: int = 8765, name: str = "pacc") -> None:
         try:
@@ -118,10 +112,9 @@ class FoxgloveSink:
         channels, self._channels = self._channels, []
         for ch in channels:
             ch.close()
-        if channels or self._server is not None:
-            server, self._server = self._server, None
-            if server is not None:
-                server.stop()
+        server, self._server = self._server, None
+        if server is not None:
+            server.stop()
 
 
 def add_foxglove_argument(parser: argparse.ArgumentParser) -> None:
@@ -137,11 +130,8 @@ def add_foxglove_argument(parser: argparse.ArgumentParser) -> None:
 
 
 def live_sinks(address: str | None, say: Callable[[str], None]) -> list[FoxgloveSink]:
-    """The live view of ``--foxglove ADDRESS`` (none without it); ``say`` gets its URL.
-
-    Raises:
-        CanLogError: a bad address, or the server cannot start.
-    """
+    """The live view of ``--foxglove ADDRESS`` (none without it); ``say`` gets its URL
+    (CanLogError: a bad address, or the server cannot start)."""
     if address is None:
         return []
     host, port = parse_address(address)

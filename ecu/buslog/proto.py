@@ -95,11 +95,7 @@ class ProtoRows:
 
 def decode_rows(layout: str, payloads: Sequence[bytes]) -> dict[str, np.ndarray]:
     """Columns of messages written by :class:`ProtoRows` with ``layout`` (int64 for the
-    ``sfixed64`` fields, float64 else).
-
-    Raises:
-        ValueError: a message that is not of this layout.
-    """
+    ``sfixed64`` fields, float64 else; ValueError: a message not of this layout)."""
     names, kinds = zip(*(part.rpartition(":")[::2] for part in layout.split(",")), strict=True)
     if not all(names) or not set(kinds) <= {"d", "q"}:
         raise ValueError(f"bad field layout {layout!r}")

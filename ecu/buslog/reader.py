@@ -84,13 +84,9 @@ class CanLog:
 
 
 def mcap_records(path: Path, recover: bool) -> tuple[list[Any], str]:
-    """Every record of the MCAP file ``path`` in file order (CRCs checked), and what stopped
-    the reading ("" at the file's end); with ``recover``, a file cut short (a killed recorder)
-    is read up to its last complete record.
-
-    Raises:
-        CanLogError: missing, not MCAP, cut short (without ``recover``, or before a channel).
-    """
+    """Every record of the MCAP file ``path`` in file order (CRCs checked), and what stopped the
+    reading ("" at the end); ``recover`` reads a file cut short up to its last complete record
+    (CanLogError: missing, not MCAP, cut short without ``recover`` or before a channel)."""
     from mcap import records  # noqa: PLC0415 - mcap only when a recording is read
     from mcap.stream_reader import StreamReader  # noqa: PLC0415
 
@@ -166,12 +162,8 @@ def _frames(blocks: list[dict[str, np.ndarray]], path: Path) -> Frames:
 
 
 def read_canlog(path: str | os.PathLike[str], *, recover: bool = False) -> CanLog:
-    """Read a recording of :mod:`ecu.buslog.writer`.
-
-    Raises:
-        CanLogError: missing, not MCAP, truncated (no footer; unless ``recover``), bad CRC,
-            or not a pacc bus recording (no ``/can/raw`` channel and no ``pacc`` metadata).
-    """
+    """Read a recording of :mod:`ecu.buslog.writer` (CanLogError: missing, not MCAP, truncated
+    unless ``recover``, bad CRC, or no ``/can/raw`` channel and no ``pacc`` metadata)."""
     path = Path(path)
     channels, blocks, events, metadata, attachments, footer, tail_error = _scan(path, recover)
     if not footer and not recover:

@@ -80,12 +80,8 @@ def open_recording(
     sinks: Sequence[Sink] = (),
 ) -> CanLogWriter:
     """A :class:`CanLogWriter` for a node on ``codec``'s network with the DBC and binding (default:
-    ``codec``'s files), and the ECU's ``config`` and starting ``table``, attached; ``sinks`` get
-    the same channels (flushed every :data:`~ecu.buslog.live.LIVE_FLUSH_S`).
-
-    Raises:
-        CanLogError: the file cannot be written, or an attached file cannot be read.
-    """
+    ``codec``'s files), the ECU's ``config`` and starting ``table`` attached; ``sinks`` get the same
+    channels (every :data:`~ecu.buslog.live.LIVE_FLUSH_S`). CanLogError: a file not writable."""
     dbc_file = Path(dbc_path) if dbc_path else (codec.dbc_path or DBC_PATH)
     binding_file = Path(binding_path) if binding_path else (codec.binding.path or BINDING_PATH)
     attachments = {

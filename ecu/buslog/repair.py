@@ -18,12 +18,8 @@ from ecu.buslog.reader import mcap_records, read_canlog
 
 
 def repair(src: str | os.PathLike[str], dst: str | os.PathLike[str]) -> int:
-    """Copy what is readable of the recording ``src`` into the complete file ``dst``; the
-    number of frames it holds.
-
-    Raises:
-        CanLogError: ``src`` is missing, not MCAP, or ``dst`` cannot be written.
-    """
+    """Copy what is readable of the recording ``src`` into the complete file ``dst``; the number
+    of frames it holds (CanLogError: ``src`` missing or not MCAP, ``dst`` unwritable)."""
     from mcap import records  # noqa: PLC0415 - mcap only when a file is repaired
 
     src, dst = Path(src), Path(dst)

@@ -67,14 +67,10 @@ class ReplayResult:
 
     def first_difference(self) -> int | None:
         """Index of the first frame that differs (None: identical)."""
-        for i, (a, b) in enumerate(zip(self.sent, self.recorded, strict=False)):
-            if a != b:
-                return i
-        return (
-            None
-            if len(self.sent) == len(self.recorded)
-            else min(len(self.sent), len(self.recorded))
-        )
+        pairs = enumerate(zip(self.sent, self.recorded, strict=False))
+        first = next((i for i, (a, b) in pairs if a != b), None)
+        n, m = len(self.sent), len(self.recorded)
+        return first if first is not None or n == m else min(n, m)
 
 
 def codec_of(log: CanLog) -> Codec:
@@ -137,11 +133,8 @@ def _cycles(log: CanLog) -> list[tuple[float, int]]:
 
 
 def replay_through_ecu(log: CanLog, node: EcuNode | None = None) -> ReplayResult:
-    """Run the recording's received frames and cycles through the ECU (module docstring).
-
-    Raises:
-        CanLogError: the recording names no ECU (no attached configuration, no cycles).
-    """
+    """Run the recording's received frames and cycles through the ECU (module docstring;
+    CanLogError: the recording names no ECU: no attached configuration, no cycles)."""
     node = node if node is not None else _ecu_of(log)
     codec = codec_of(log)
     cycles = _cycles(log)

@@ -68,11 +68,8 @@ class Sink(Protocol):
 
 
 class McapSink(McapFile):
-    """The recording file: ``path.part`` while it is written, renamed ``path`` when complete.
-
-    Raises:
-        CanLogError: ``path`` is a directory or cannot be created.
-    """
+    """The recording file: ``path.part`` while written, renamed ``path`` when complete
+    (CanLogError: ``path`` is a directory or cannot be created)."""
 
     def __init__(self, path: str | os.PathLike[str]) -> None:
         self.path = Path(path)
@@ -96,12 +93,8 @@ class McapSink(McapFile):
         self.records(handle, seq0, log_times, rows.format_into(table, RECORD_HEAD))
 
     def close(self, complete: bool) -> None:
-        """Finish the file and rename it (``complete``), else end the chunk and keep the
-        ``.part`` (readable up to its last chunk).
-
-        Raises:
-            CanLogError: the file cannot be finished.
-        """
+        """Finish the file and rename it (``complete``), else end the chunk and keep the ``.part``
+        (readable up to its last chunk); CanLogError: the file cannot be finished."""
         if not complete:
             with contextlib.suppress(Exception):
                 self.flush()
@@ -119,11 +112,7 @@ class McapSink(McapFile):
 
 
 def close_all(sinks: Sequence[Sink]) -> None:
-    """Close every sink as complete, whichever of them fails.
-
-    Raises:
-        CanLogError: the first sink that could not be finished.
-    """
+    """Close every sink as complete, whichever fails; raise the first CanLogError."""
     failed: CanLogError | None = None
     for sink in sinks:
         try:

@@ -65,21 +65,13 @@ SERIES_STEP = 20_000
 
 
 class CanLogWriter:
-    """Writes one recording (module docstring). Not thread-safe: one node's thread feeds it.
+    """Writes one recording (module docstring) to ``path`` (``path.part`` until :meth:`close`;
+    None: only ``sinks``, e.g. :class:`ecu.buslog.live.FoxgloveSink`). Not thread-safe.
 
-    Args:
-        path: the MCAP file (``path.part`` until :meth:`close`); None: only ``sinks``.
-        db: the cantools database of the network (``None``: raw frames only).
-        time_base: maps the node's clock to UTC.
-        node: who records (``ecu``, ``sim``, ``drive``, ``export``).
-        attachments / metadata: stored as MCAP attachments / metadata records.
-        flush_s: the flush interval on the node's clock, s (at most this is lost on a kill).
-        sinks: more sinks besides the file (:class:`ecu.buslog.live.FoxgloveSink`).
-        rows_s: the decoded rows and cycles are written every ``rows_s``, s (>= ``flush_s``).
-
-    Raises:
-        CanLogError: ``path`` cannot be created.
-    """
+    ``db``: the cantools database (None: raw frames only); ``node``: who records (``ecu``, ``sim``,
+    ``drive``, ``export``); ``flush_s``: flush interval on the node's clock, s (at most this is lost
+    on a kill); ``rows_s`` (>= ``flush_s``), s: how often decoded rows and cycles are written.
+    CanLogError: ``path`` cannot be created."""
 
     def __init__(
         self,
@@ -133,16 +125,10 @@ class CanLogWriter:
         for name, record in (metadata or {}).items():
             for sink in self.sinks:
                 sink.metadata(name, {str(k): str(v) for k, v in record.items()})
-        for name, data in (attachments or {}).items():
-            self.attach(name, data)
-        self._end_chunk()  # a recording killed from now on is readable
-
-    def attach(self, name: str, data: bytes, media_type: str = "text/plain") -> None:
-        """Store ``data`` as the attachment ``name`` (stamped with the origin's UTC); nothing
-        once the recording stopped."""
-        if self.error is None:
+        for name, data in (attachments or {}).items():  # stamped with the origin's UTC
             for sink in self.sinks:
-                sink.attach(self.time_base.utc_origin_ns, name, media_type, data)
+                sink.attach(time_base.utc_origin_ns, name, "text/plain", data)
+        self._end_chunk()  # a recording killed from now on is readable
 
     def frame_raw(self, t_s: float, key: int, data: Any, rx: bool) -> None:
         """One frame received (``rx``) or sent at ``t_s`` (s, the node's clock), in the raw
@@ -159,16 +145,10 @@ class CanLogWriter:
         self.tick(t_s)
 
     def series(
-        self,
-        topic: str,
-        columns: Sequence[str],
-        description: str = "",
-        integral: Sequence[bool] | None = None,
+        self, topic: str, columns: Sequence[str], integral: Sequence[bool] | None = None
     ) -> None:
         """Declare the sampled channel ``topic`` with ``columns`` (besides ``t_s``);
-        ``integral``: per column, written as an integer (default: none). ``description`` is
-        not stored: the fields' names say what they are."""
-        del description
+        ``integral``: per column, written as an integer (default: none)."""
         if topic in self._series:
             return
         ints = tuple(integral) if integral is not None else (False,) * len(columns)
@@ -219,9 +199,9 @@ class CanLogWriter:
             self._fail(t_s, exc)
 
     def _declare_cycles(self) -> None:
-        self.series(INPUTS_TOPIC, INPUT_FIELDS, "", integral_fields(NodeInputs, INPUT_FIELDS))
+        self.series(INPUTS_TOPIC, INPUT_FIELDS, integral_fields(NodeInputs, INPUT_FIELDS))
         outputs = integral_fields(NodeOutputs, OUTPUT_FIELDS)
-        self.series(OUTPUTS_TOPIC, ("cycle", *OUTPUT_FIELDS), "", (True, *outputs))
+        self.series(OUTPUTS_TOPIC, ("cycle", *OUTPUT_FIELDS), (True, *outputs))
         self._cycles_declared = True
 
     def tick(self, t_s: float) -> None:
@@ -336,12 +316,8 @@ class CanLogWriter:
             self._end_chunk()
 
     def close(self) -> None:
-        """Write what is open, finish the file and rename it to ``path``.
-
-        Raises:
-            CanLogError: recording stopped earlier (what was written stays in ``.part``),
-                or the file cannot be finished.
-        """
+        """Write what is open, finish the file and rename it to ``path`` (CanLogError: stopped
+        earlier, what was written stays in ``.part``; or the file cannot be finished)."""
         if self.closed:
             return
         self.closed = True

@@ -100,13 +100,8 @@ def check_inputs(
 
 @cycle_value
 class Engagement:
-    """What the node remembers about engagement across cycles.
-
-    Attributes:
-        fault_code: reason of the last FAULT (``NONE`` once re-engaged).
-        set_speed_mps: cruise set speed, m/s (0: none; RESUME has nothing to resume).
-        fault_ramp: an executed request is ramping to zero in FAULT.
-    """
+    """What the node remembers about engagement across cycles: the last FAULT's code (``NONE``
+    once re-engaged), the set speed (m/s; 0: none), whether the request ramps to zero in FAULT."""
 
     fault_code: FaultCode = FaultCode.NONE
     set_speed_mps: float = 0.0
@@ -138,9 +133,7 @@ def enter_state(
 
 def takeover_pedal(accel: bool, brake: bool) -> str:
     """The pedal of a takeover: ``"accel"``, ``"brake"`` or ``"both"``."""
-    if accel and brake:
-        return "both"
-    return "accel" if accel else "brake"
+    return "both" if accel and brake else ("accel" if accel else "brake")
 
 
 def plan(table: Dgpt, v_mps: float) -> Plan:

@@ -18,15 +18,9 @@ from ecu.signals import cycle_value
 
 @cycle_value
 class RoadMemory:
-    """What the control law remembers about the road between cycles.
-
-    Attributes:
-        last_gap_m, last_rel_mps: the last valid radar gap (m) and relative speed (m/s).
-        no_lead_s: time since a lead was last valid, s (inf: never one).
-        since_switch_s: time since the last target switch, s (inf: none yet).
-        standstill_s: time standing while ACTIVE, s (< 0: moving).
-        go: the driver asked to pull away during this standstill (or it may on its own).
-    """
+    """What the control law remembers about the road between cycles: the last valid radar gap
+    (m) and relative speed (m/s); times since a lead was valid and since the last target switch
+    (s, inf: never); time standing while ACTIVE (s, < 0: moving); ``go``: pull away now allowed."""
 
     last_gap_m: float = math.nan
     last_rel_mps: float = 0.0

@@ -16,18 +16,12 @@ URGENT_STOP_MPS2 = -2.0
 #: a lead slower than this stands; behind it, slower than CREEP_MPS and within 3 m of the
 #: standstill gap, the car brakes to a stop instead of creeping on, m/s
 STANDING_LEAD_MPS = 0.3
-#: a stop behind a standing lead keeps this many seconds of the closing speed to spare: a
-#: constant-deceleration stop exactly at the standstill gap passes below 2 s TTC at its end
-#: (min TTC = sqrt(2 gap / decel)); traced on a fresh population seed, cut-out: 1.69 s. With a
-#: spare of s seconds the replanned stop keeps TTC >= s + sqrt(2 g0 / a): 0.5 s gave 1.99 s
-#: (g0 3.3 m, a 2.9 m/s^2, population seed 690274); 1.0 s keeps 2 s down to g0 = 2 m at 3.5
+#: seconds of closing speed a stop behind a standing lead keeps to spare: TTC >= s + sqrt(2 g0 / a)
+#: (0 s: 1.69 s; 0.5 s: 1.99 s on population seed 690274; 1.0 s keeps 2 s to g0 = 2 m at 3.5)
 STOP_SPARE_S = 1.0
 CREEP_MPS = 1.5
-#: the time the ACC's braking takes to build (the jerk-limited ramp and the powertrain's lag),
-#: s: the gap closed meanwhile is gone before the braking acts. Traced on a fresh population
-#: seed (854026, driver 6, cut-out, road seed 629805): an accelerator press as a cut-out
-#: revealed a car 10 m/s slower 31 m ahead; released at 2.2 s TTC, the ACC's -3.5 m/s^2
-#: built over 0.6 s and TTC fell to 1.72 s until the driver braked
+#: the time the ACC's braking takes to build (jerk ramp, powertrain lag), s: on population seed
+#: 854026 (driver 6, cut-out) -3.5 m/s^2 built over 0.6 s and TTC fell from 2.2 s to 1.72 s
 BRAKE_BUILD_S = 0.5
 
 

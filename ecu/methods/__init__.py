@@ -88,23 +88,10 @@ class RuleAdaptation:
         self.params = dataclasses.replace(base, **fields) if fields else base
 
     def update(
-        self,
-        table: Dgpt,
-        takeover: TakeoverSummary,
-        *,
-        bounds: SafetyBounds,
-        short_run: bool,
-        created_utc: str,
+        self, table: Dgpt, takeover: TakeoverSummary, **kw: Any
     ) -> tuple[Dgpt | None, Decision]:
         """Algorithm 1 (``paper``) or its time-gap successor on one finished takeover."""
-        new, decision = adapt(
-            table,
-            takeover,
-            self.params,
-            bounds=bounds,
-            short_run=short_run,
-            created_utc=created_utc,
-        )
+        new, decision = adapt(table, takeover, self.params, **kw)
         return (new if decision.applied else None), decision
 
 
@@ -134,19 +121,3 @@ def make_adaptation(spec: str, params: Mapping[str, Any]) -> Adaptation:
     if not callable(getattr(obj, "update", None)):
         raise PluginError(f"adaptation {spec!r} has no update(table, takeover, ...)")
     return obj  # type: ignore[no-any-return]
-
-
-__all__ = [
-    "ADAPTATION_GROUP",
-    "BUILTIN_ADAPTATIONS",
-    "BUILTIN_CONTROLLERS",
-    "CONTROLLER_GROUP",
-    "Adaptation",
-    "GapController",
-    "PaperAdaptation",
-    "PidController",
-    "RuleAdaptation",
-    "TimegapAdaptation",
-    "make_adaptation",
-    "make_controller",
-]

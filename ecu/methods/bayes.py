@@ -23,11 +23,13 @@ from ecu.adaptation import (
     Reason,
     TakeoverSummary,
     against_pedal,
+    applied,
     behaviour_filter,
     centre_bin,
     predict_steady_gap,
+    safety_filter,
+    with_pedal,
 )
-from ecu.table_update import safety_filter, with_pedal
 
 
 @dataclasses.dataclass(frozen=True)
@@ -99,11 +101,4 @@ class BayesAdaptation:
         gap = with_pedal(table.gap_m, safety_filter(speed, gap, bounds), takeover.pedal)
         new = table.with_gaps(gap, "adapted", created_utc=created_utc)
         self._table = new
-        decision = Decision(
-            applied=True,
-            reason=Reason.APPLIED,
-            bin_index=centre,
-            g_desire_m=g_desire,
-            delta_m=float(new.gap_m[centre] - table.gap_m[centre]),
-        )
-        return new, decision
+        return new, applied(table, new, centre, g_desire)

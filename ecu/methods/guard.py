@@ -16,6 +16,7 @@ import math
 import time
 from collections import Counter
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -36,6 +37,7 @@ HARD_FACTOR = 10.0
 LATE_STREAK = 3
 #: overruns after which a controller plug-in is switched off for the rest of the trip
 MAX_OVERRUNS = 3
+_REFUSED = Decision(applied=False, reason=Reason.INVALID_INPUT)
 
 
 @dataclass
@@ -92,25 +94,19 @@ class GuardedController:
             except BaseException as exc:  # noqa: BLE001 - SystemExit too: the safe output
                 fault = ("raised", _describe(exc))
             elapsed = time.perf_counter() - start
-            if elapsed > self.budget_s and self._late_call(elapsed):
+            late = elapsed > self.budget_s  # an overrun: see the module docstring
+            self._late = self._late + 1 if late else 0
+            if late and (self._late >= LATE_STREAK or elapsed > HARD_FACTOR * self.budget_s):
                 self._overrun(elapsed)
-            else:
-                if elapsed <= self.budget_s:
-                    self._late = 0
-                if checked is not None:
-                    return checked
-                if fault is not None:
-                    report.fault(*fault)
+            elif checked is not None:
+                return checked
+            elif fault is not None:
+                report.fault(*fault)
         # the memory is the plug-in's: the PID reads it as its integral only inside its own
         # clamp (a plug-in's large memory would otherwise hold the PID on the cruise law)
         limit = self.fallback.integral_limit_m_s
         integral = min(max(memory, -limit), limit) if math.isfinite(memory) else 0.0
         return desired_accel(self.fallback, obs, integral, dt_s, integrate=True)
-
-    def _late_call(self, elapsed_s: float) -> bool:
-        """Count a call over the budget; whether it overruns (see the module docstring)."""
-        self._late += 1
-        return self._late >= LATE_STREAK or elapsed_s > HARD_FACTOR * self.budget_s
 
     def _overrun(self, elapsed_s: float) -> None:
         self.report.fault("overrun", f"{elapsed_s * 1e3:.1f} ms > {self.budget_s * 1e3:.1f} ms")
@@ -158,52 +154,41 @@ class GuardedAdaptation:
         self.budget_s = budget_s
         self.report = PluginReport(name)
 
-    def __call__(
-        self,
-        table: Dgpt,
-        takeover: TakeoverSummary,
-        *,
-        bounds: SafetyBounds,
-        short_run: bool,
-        created_utc: str,
-    ) -> tuple[Dgpt, Decision]:
-        """The table after the takeover (``table`` itself when nothing applies)."""
-        refused = Decision(applied=False, reason=Reason.INVALID_INPUT)
+    def __call__(self, table: Dgpt, takeover: TakeoverSummary, **kw: Any) -> tuple[Dgpt, Decision]:
+        """The table after the takeover (``table`` itself when nothing applies); ``kw`` as
+        :meth:`Adaptation.update`'s (``bounds``, ``short_run``, ``created_utc``)."""
         start = time.perf_counter()
         try:  # the result is checked inside the timed, guarded call
-            new, decision = self.plugin.update(
-                table, takeover, bounds=bounds, short_run=short_run, created_utc=created_utc
-            )
-            result = self._checked(table, new, decision, bounds)
+            new, decision = self.plugin.update(table, takeover, **kw)
+            result = self._checked(table, new, decision, kw["bounds"])
         except KeyboardInterrupt:
             raise
         except BaseException as exc:  # noqa: BLE001 - SystemExit too: no change
             self.report.fault("raised", _describe(exc))
-            return table, refused
+            return table, _REFUSED
         elapsed = time.perf_counter() - start
         if elapsed > self.budget_s:
             self.report.fault("overrun", f"{elapsed * 1e3:.1f} ms > {self.budget_s * 1e3:.1f} ms")
-            return table, refused
+            return table, _REFUSED
         return result
 
     def _checked(
         self, table: Dgpt, new: object, decision: object, bounds: SafetyBounds
     ) -> tuple[Dgpt, Decision]:
-        refused = Decision(applied=False, reason=Reason.INVALID_INPUT)
         if not isinstance(decision, Decision):
             self.report.fault("bad_output", f"decision {type(decision).__name__}")
-            return table, refused
+            return table, _REFUSED
         if new is None or not decision.applied:
-            return table, decision if not decision.applied else refused
+            return table, decision if not decision.applied else _REFUSED
         if not isinstance(new, Dgpt) or new.gap_m.shape != table.gap_m.shape:
             self.report.fault("bad_output", f"table {type(new).__name__}")
-            return table, refused
+            return table, _REFUSED
         if not np.array_equal(new.speed_mps, table.speed_mps):
             self.report.fault("bad_output", "table on another speed axis")
-            return table, refused
+            return table, _REFUSED
         if not np.all(np.isfinite(new.gap_m)):
             self.report.fault("non_finite", "table with non-finite gaps")
-            return table, refused
+            return table, _REFUSED
         clipped = np.asarray(clamp_to_bounds(new.speed_mps, new.gap_m, bounds))
         if not np.array_equal(clipped, new.gap_m):
             new = new.with_gaps(clipped, "adapted", created_utc=new.created_utc)

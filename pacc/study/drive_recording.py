@@ -31,7 +31,6 @@ if TYPE_CHECKING:
 
 
 #: the description of the ``/sim/world`` channel
-WORLD_DESCRIPTION = "the simulated world: plant, lead, driver"
 #: the paces a drive may be held to, times real time (1e-3: 1 s of drive per 17 min)
 MIN_PACE, MAX_PACE = 1e-3, 1e6
 #: a paced loop this far behind (s of wall time) starts again from where it is (no burst)
@@ -79,7 +78,7 @@ def finish_recording(recorder: CanLogWriter, log: WorldLog, streamed: bool = Fal
 def record_world(recorder: CanLogWriter, log: WorldLog) -> None:
     """The simulated world of a finished drive (:class:`WorldLog`) on ``/sim/world``, at once."""
     columns = {name: getattr(log, name) for name in WORLD_COLUMNS}
-    recorder.series(WORLD_TOPIC, WORLD_COLUMNS, WORLD_DESCRIPTION)
+    recorder.series(WORLD_TOPIC, WORLD_COLUMNS)
     recorder.write_series(WORLD_TOPIC, columns, log.t_s)
 
 
@@ -93,7 +92,7 @@ class WorldFeed:
         self.world = world
         #: the world's rows sampled so far
         self.rows = 0
-        recorder.series(WORLD_TOPIC, WORLD_COLUMNS, WORLD_DESCRIPTION)
+        recorder.series(WORLD_TOPIC, WORLD_COLUMNS)
 
     def __call__(self) -> None:
         """Sample the rows the world logged since the last call."""

@@ -18,8 +18,9 @@ from ecu.adaptation import (
     TakeoverSummary,
     adapt,
     count_short_press,
+    spread_weights,
+    timegap_weights,
 )
-from ecu.table_update import spread_weights, timegap_weights
 
 P = AdaptationParams(mode="paper")  # P_T 1 s, K_T 1 s, V_D 5 m/s, window 9
 #: the one safety band of tables and adaptation: 2 m + 0.8 s·v … 10 m + 5 s·v

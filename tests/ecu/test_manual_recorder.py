@@ -231,11 +231,11 @@ def test_flush_retries_the_pending_segments_behind_an_empty_takeover() -> None:
     rec.release(0.0, "none")
     for k in range(6):  # the post window ends at the last sample: the sink fails
         rec.sample(Sample(k * 0.1, 20.0, 30.0, 20.0, 0.0, 0.0, 0.5, ACTIVE))
-    assert len(rec.pending) == 1 and not stored
+    assert len(rec.queue.pending) == 1 and not stored
     broken[0] = False
     rec.start(0.6, "accel")  # nothing sampled since the segment: an empty one
     rec.flush()
-    assert [len(t) for t in stored] == [6] and not rec.pending
+    assert [len(t) for t in stored] == [6] and not rec.queue.pending
 
 
 def test_a_clock_utc_cannot_map_costs_the_field_not_the_trip_nor_the_loop(

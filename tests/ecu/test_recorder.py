@@ -84,7 +84,7 @@ def test_sink_failure_counted_not_raised() -> None:
     feed(rec, 0.0, 1.0)
     rec.start(1.0, "accel")
     rec.flush()
-    assert rec.sink_errors == 1 and rec.segments == 1
+    assert rec.queue.sink_errors == 1 and rec.segments == 1
 
 
 def _takeover(rec: TakeoverRecorder, t0: float) -> None:
@@ -104,7 +104,7 @@ def test_segment_survives_a_sink_failure_and_is_stored_later(tmp_path: Path) -> 
     d.rmdir()
     d.write_text("the medium is gone")
     _takeover(rec, 0.0)
-    assert rec.sink_errors >= 1 and rec.segments == 1
+    assert rec.queue.sink_errors >= 1 and rec.segments == 1
     d.unlink()
     d.mkdir()
     _takeover(rec, 30.0)  # the medium is back: both segments are written

@@ -270,7 +270,7 @@ def _report_recorders(args: argparse.Namespace, node: EcuNode) -> None:
         rec = node.recorder
         say(
             f"takeover segments: {rec.queue.stored} of {rec.segments} written to"
-            f" {args.takeovers} ({rec.sink_errors} failed attempts{_lost(rec.queue)})"
+            f" {args.takeovers} ({rec.queue.sink_errors} failed attempts{_lost(rec.queue)})"
         )
     if node.manual is not None:
         man = node.manual
