@@ -53,7 +53,7 @@ from dbc.vocab.dgpt import Dgpt
 from ecu.node import EcuNode
 from pacc.study.drive import BUSES, DriveConfig, DriveResult, predefined_table, run_drive
 from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
-from sim_bus.node import TX_ROLES
+from sim_bus.faults import ROLES as TX_ROLES
 from sim_bus.world import World
 
 _ROOT = str(Path(__file__).resolve().parent.parent)

@@ -29,8 +29,10 @@ from dbc.codec import Codec, load_codec
 from dbc.endpoint import Outbox
 from dbc.schema import resting_values
 from dbc.vocab.dgpt import predefined
-from ecu.node import EcuConfig, EcuNode, NodeInputs
+from ecu.config import EcuConfig
+from ecu.node import EcuNode
 from ecu.runtime import EcuRuntime
+from ecu.signals import NodeInputs
 
 #: the roles the peers play
 PEER_ROLES = ("ego", "pedals", "radar", "hmi")

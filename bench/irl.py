@@ -19,6 +19,7 @@ import scipy.sparse as sp
 from scipy import optimize
 
 from cloud_sync.irl import demos as dm
+from cloud_sync.irl.config import IrlConfig
 from cloud_sync.irl.features import FeatureConfig, make_features
 from cloud_sync.irl.mce_irl import (
     CompiledMdp,
@@ -28,7 +29,7 @@ from cloud_sync.irl.mce_irl import (
     reward_table,
 )
 from cloud_sync.irl.mdp import GridConfig, build_transitions, make_grid
-from cloud_sync.irl.trainer import IrlConfig, learn_dgpt
+from cloud_sync.irl.trainer import learn_dgpt
 from dbc.vocab.triplog import Trip
 from sim_bus.drivers import BUILTIN_DRIVERS
 from sim_bus.lead.scenarios import canonical_profiles

@@ -50,9 +50,10 @@ import numpy as np
 
 from cloud_sync.errors import DemoError
 from cloud_sync.irl.blend import covered_ranges
+from cloud_sync.irl.config import IrlConfig
 from cloud_sync.irl.demos import usable_mask
 from cloud_sync.irl.sources.tripfiles import read_csv_trip
-from cloud_sync.irl.trainer import IrlConfig, fine_tune, learn_dgpt
+from cloud_sync.irl.trainer import fine_tune, learn_dgpt
 from cloud_sync.learners import learn
 from dbc.vocab.dgpt import Dgpt
 from dbc.vocab.triplog import Trip

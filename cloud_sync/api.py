@@ -162,21 +162,3 @@ class CloudApi(Protocol):
         """Report one ACC trip after its takeover segments were uploaded (the fields:
         :mod:`cloud_sync.service.trips`); idempotent per (driver, trip id)."""
         ...
-
-
-__all__ = [
-    "ERRORS_BY_STATUS",
-    "AuthError",
-    "BadBatchError",
-    "CloudApi",
-    "CloudError",
-    "CloudUnavailableError",
-    "ForbiddenError",
-    "NotFoundError",
-    "PayloadTooLargeError",
-    "Receipt",
-    "TripReceipt",
-    "check_plain",
-    "check_plausible",
-    "is_plain_name",
-]

@@ -54,6 +54,3 @@ def set_aside(path: Path, reason: str) -> Path:
     path.replace(target / path.name)
     fsync_dir(path.parent)
     return target / path.name
-
-
-__all__ = ["fsync_dir", "set_aside", "write_atomic", "write_temp"]

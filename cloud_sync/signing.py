@@ -137,17 +137,3 @@ def verify_dgpt(
         return _verify(data, public_key, bounds)
     except (ValueError, RecursionError) as exc:  # UnicodeError and binascii.Error included
         raise SignatureError(f"signed table is malformed ({type(exc).__name__}: {exc})") from exc
-
-
-__all__ = [
-    "SIGNED_FORMAT",
-    "SignatureError",
-    "key_id",
-    "load_private_key",
-    "load_public_key",
-    "new_private_key",
-    "public_pem",
-    "save_private_key",
-    "sign_dgpt",
-    "verify_dgpt",
-]

@@ -79,15 +79,3 @@ def make(kind: str, frame_id: int, length: int, byte: int) -> Checksum | None:
     if kind == "none":
         return None
     raise DbcError(f"unknown checksum {kind!r} (one of {', '.join(KINDS)})")
-
-
-__all__ = [
-    "COUNTER_MODULO",
-    "KINDS",
-    "TABLE_CRCS",
-    "Checksum",
-    "honda",
-    "make",
-    "table_crc",
-    "toyota",
-]

@@ -17,8 +17,6 @@ from dbc.errors import BindingError, DbcError, UnknownFrameError
 from dbc.message import Decoded, MessageCodec, Value
 from dbc.schema import ROLES, check_ranges
 
-__all__ = ["Codec", "Decoded", "MessageCodec", "RoleCodec", "load_codec", "network_paths"]
-
 
 class RoleCodec:
     """One role: its message codecs (``parts``), the ``defaults`` receivers assume for fields

@@ -16,8 +16,6 @@ import numpy as np
 
 from dbc.layout import placement
 
-__all__ = ["MessageColumns", "message_columns"]
-
 #: The time column of every decoded block, s (the recording node's clock).
 TIME_KEY = "t_s"
 

@@ -138,19 +138,3 @@ def port_of(bus: can.BusABC) -> RawPort:
     """``bus``'s frame port: its own ``frame_port`` (lockstep), else a :class:`MessagePort`."""
     native = getattr(bus, "frame_port", None)
     return native() if native is not None else MessagePort(bus)
-
-
-__all__ = [
-    "EFF_FLAG",
-    "ID_MASK",
-    "OTHER",
-    "Frame",
-    "MessagePort",
-    "Raw",
-    "RawPort",
-    "message_of",
-    "port_of",
-    "raw_key",
-    "raw_of",
-    "rx_copy",
-]

@@ -118,6 +118,3 @@ class LockstepBus(BusABC):
             self._retarget()
             if not self._peers:
                 _channels.pop(self.channel_id, None)
-
-
-__all__ = ["LockstepBus"]

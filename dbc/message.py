@@ -18,8 +18,6 @@ from dbc.errors import BindingError, CrcError, DbcError, DlcError, EncodeError, 
 from dbc.layout import FieldLayout, extract, layout, physical, placed_le, raw_from
 from dbc.units import UnitError, conversion
 
-__all__ = ["Decoded", "MessageCodec", "Value", "compiled_codecs"]
-
 Value = float | int
 
 

@@ -31,6 +31,3 @@ def network_of(args: argparse.Namespace) -> tuple[Path, Path]:
 def codec_of(args: argparse.Namespace) -> Codec:
     """The codec of parsed ``args``, loaded once (DbcError: unusable network)."""
     return load_codec(*network_of(args))
-
-
-__all__ = ["add_network_arguments", "codec_of", "network_of"]

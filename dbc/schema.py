@@ -110,13 +110,3 @@ def check_ranges(roles: Mapping[str, Any]) -> None:
 def resting_values(**roles: dict[str, float]) -> dict[str, dict[str, float]]:
     """A fresh copy of the input roles' resting values, updated from ``roles[role]``."""
     return {role: {**fields, **roles.get(role, {})} for role, fields in _RESTING.items()}
-
-
-__all__ = [
-    "OPTIONAL_ROLES",
-    "REQUIRED_ROLES",
-    "ROLES",
-    "FieldSpec",
-    "check_ranges",
-    "resting_values",
-]

@@ -49,6 +49,3 @@ def conversion(field: str, unit: str | None) -> float:
         known = ", ".join(factors)
         raise UnitError(f"field {field} is in {target}: unit {unit!r} is not one of {known}")
     return factors[unit]
-
-
-__all__ = ["FACTORS", "SUFFIX_UNITS", "UnitError", "conversion", "logical_unit"]

@@ -18,10 +18,11 @@ from typing import Any
 
 import can
 
-from dbc.codec import Codec, MessageCodec, RoleCodec
+from dbc.codec import Codec, RoleCodec
 from dbc.endpoint import Inbox, Outbox
 from dbc.errors import EncodeError
 from dbc.frame import Raw, port_of, raw_key
+from dbc.message import MessageCodec
 from dbc.vocab.acc_state import AccState, FaultCode
 from dbc.vocab.pedals import PedalScale
 from ecu import EcuError

@@ -29,7 +29,7 @@ from ecu.adaptation import (
     adapt,
     count_short_press,
 )
-from ecu.config import ConfigError, EcuConfig
+from ecu.config import EcuConfig
 from ecu.cycle.command import ControlMemory, control
 from ecu.cycle.phases import (
     Engagement,
@@ -47,7 +47,7 @@ from ecu.cycle.state import transition
 from ecu.manual import ManualRecorder
 from ecu.parts import plugins, recorders
 from ecu.recorder import TakeoverRecorder, TripSink
-from ecu.signals import NodeInputs, NodeOutputs, input_fault
+from ecu.signals import NodeInputs, NodeOutputs
 
 log = logging.getLogger(__name__)
 
@@ -305,6 +305,3 @@ class EcuNode:
         events.append(text)
         log.info("%s", text)
         return decision.reason.value
-
-
-__all__ = ["ConfigError", "EcuConfig", "NodeInputs", "NodeOutputs", "input_fault"]

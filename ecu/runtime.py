@@ -18,11 +18,12 @@ import can
 
 from dbc.codec import Codec, load_codec
 from dbc.vocab.dgpt import Dgpt
-from ecu.busio import INPUT_ROLES, BusIO, RuntimeCodecError, inputs_from
+from ecu.busio import BusIO, inputs_from
 from ecu.buslog.writer import CanLogWriter
-from ecu.clocks import MAX_CATCHUP_S, CycleClock, RuntimeClockError
-from ecu.node import EcuNode, NodeOutputs
+from ecu.clocks import CycleClock
+from ecu.node import EcuNode
 from ecu.profiles import GUEST_PROFILE, ProfileSwitcher, TableOffer, gap_setting_table
+from ecu.signals import NodeOutputs
 
 log = logging.getLogger(__name__)
 
@@ -187,6 +188,3 @@ class EcuRuntime:
             safety_stops=dict(self.io.safety.stopped),
             plugin_faults=node.plugin_faults,
         )
-
-
-__all__ = ["INPUT_ROLES", "MAX_CATCHUP_S", "RuntimeClockError", "RuntimeCodecError"]

@@ -167,6 +167,3 @@ def fit_pair(
         float(nrmse(gap, pair.gap_m[split:])[0]),
         float(nrmse(vel, pair.v_follower_mps[split:])[0]),
     )
-
-
-__all__ = ["CALIBRATION_SHARE", "MODELS", "Fit", "fit_pair", "nrmse", "simulate"]

@@ -64,6 +64,3 @@ def idm_plus_accel(
     a = p.accel_max_mps2 * (follow if free > follow else free)
     a = -DECEL_LIMIT_MPS2 if a < -DECEL_LIMIT_MPS2 else a
     return p.accel_max_mps2 if a > p.accel_max_mps2 else a
-
-
-__all__ = ["DECEL_LIMIT_MPS2", "idm_plus_accel", "interp_float"]

@@ -18,16 +18,15 @@ from typing import Any
 import can
 import numpy as np
 
-from dbc.codec import Codec, MessageCodec, load_codec
+from dbc.codec import Codec, load_codec
 from dbc.endpoint import Inbox, Outbox
 from dbc.frame import port_of, raw_key
+from dbc.message import MessageCodec
 from dbc.vocab.acc_state import AccState
 from sim_bus.faults import ROLES as TX_ROLES
 from sim_bus.faults import FaultPlan, FaultSpec
 from sim_bus.readings import Readings
 from sim_bus.world import World
-
-__all__ = ["TX_ROLES", "SimNode"]  # TX_ROLES: the roles the simulator sends
 
 
 class SimNode:

@@ -13,8 +13,6 @@ from dbc.codec import RoleCodec
 from dbc.schema import resting_values
 from sim_bus.world import World
 
-__all__ = ["Readings"]
-
 
 class Readings:
     """The transmitted roles' values of ``world`` at the current tick (``roles``: their

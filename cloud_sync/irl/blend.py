@@ -17,8 +17,6 @@ from cloud_sync.irl.demos import Samples, true_runs
 from cloud_sync.irl.extract import gap_support
 from dbc.vocab.dgpt import SafetyBounds, clamp_to_bounds
 
-__all__ = ["Evidence", "coverage_s", "evidence", "blend", "covered_ranges"]
-
 
 @dataclass(frozen=True)
 class Evidence:

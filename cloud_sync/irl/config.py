@@ -14,8 +14,6 @@ from cloud_sync.irl.features import FeatureConfig
 from cloud_sync.irl.mdp import GridConfig
 from dbc.vocab.dgpt import SafetyBounds
 
-__all__ = ["IrlConfig"]
-
 
 @dataclass(frozen=True)
 class IrlConfig:

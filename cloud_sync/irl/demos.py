@@ -21,20 +21,6 @@ from cloud_sync.irl.mdp import interp_weights
 from dbc.vocab.acc_state import AccState
 from dbc.vocab.triplog import Trip, trip_mode
 
-__all__ = [
-    "Samples",
-    "Transitions",
-    "usable_mask",
-    "pooled_samples",
-    "check_demos",
-    "extract_transitions",
-    "demo_stats",
-    "digest",
-    "takeover_weighted",
-    "is_acc_trip",
-    "true_runs",
-]
-
 MAX_SPEED_MPS = 70.0  # faster samples are sensor garbage, not car following
 
 

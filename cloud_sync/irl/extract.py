@@ -29,20 +29,6 @@ CONTINUE_MIN_SPEED_MPS = 8.0
 #: personality is 1.45 s; the real OpenACC followers keep 1.4-3.4 s)
 PRIOR_HEADWAY_S = 1.5
 
-__all__ = [
-    "CONTINUE_MIN_SPEED_MPS",
-    "PRIOR_HEADWAY_S",
-    "outside_coverage",
-    "lowpass",
-    "continue_time_gap",
-    "steady_state_gaps",
-    "finish_table",
-    "gap_support",
-    "search_range",
-    "empirical_baseline",
-    "baseline_if_any",
-]
-
 
 def gap_support(
     axis_mps: np.ndarray,

@@ -19,15 +19,6 @@ import numpy as np
 from cloud_sync.errors import TrainingError
 from cloud_sync.irl.mdp import Grid
 
-__all__ = [
-    "FeatureConfig",
-    "Features",
-    "make_features",
-    "make_time_gap_features",
-    "features_from_spec",
-    "GAP_BASES",
-]
-
 #: the gap coordinate of the RBFs: ``time_gap`` (default), ``g/max(v, floor)`` on fixed
 #: centres, nothing fitted to the data; ``offset``, ``g − ℓ(v)`` from a reference line fitted
 #: to the demonstrations (the earlier basis, kept for comparison and for tables that carry it)

@@ -26,21 +26,6 @@ from cloud_sync.irl.config import IrlConfig
 from cloud_sync.irl.features import Features
 from cloud_sync.irl.mdp import Grid, interp_weights
 
-__all__ = [
-    "CompiledMdp",
-    "DemoStats",
-    "reward_table",
-    "soft_value_iteration",
-    "state_action_visitation",
-    "feature_expectations",
-    "objective",
-    "Fit",
-    "start_alpha",
-    "fit_alpha",
-    "steady_drift",
-    "steady_gaps",
-]
-
 
 @dataclass(frozen=True)
 class CompiledMdp:

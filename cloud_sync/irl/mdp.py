@@ -18,8 +18,6 @@ import scipy.sparse as sp
 
 from cloud_sync.errors import TrainingError
 
-__all__ = ["GridConfig", "Grid", "make_grid", "build_transitions", "interp_weights"]
-
 
 @dataclass(frozen=True)
 class GridConfig:

@@ -13,8 +13,6 @@ from matplotlib.figure import Figure
 
 from cloud_sync.irl.trainer import LearnResult
 
-__all__ = ["plot_result"]
-
 
 def plot_result(result: LearnResult, path: str | os.PathLike[str]) -> None:
     """Write the figure of ``result`` to ``path`` (format from the suffix, e.g. ``.png``)."""

@@ -22,7 +22,6 @@ from cloud_sync.irl.blend import Evidence, blend, covered_ranges, evidence
 from cloud_sync.irl.config import IrlConfig
 from cloud_sync.irl.extract import (
     baseline_if_any,
-    empirical_baseline,
     finish_table,
     outside_coverage,
     search_range,
@@ -38,20 +37,6 @@ from cloud_sync.irl.mce_irl import CompiledMdp, fit_alpha, start_alpha, steady_d
 from cloud_sync.irl.mdp import Grid, GridConfig, build_transitions, grid_from_spec, make_grid
 from dbc.vocab.dgpt import Dgpt, speed_axis
 from dbc.vocab.triplog import Trip
-
-__all__ = [
-    "METHOD",
-    "IrlConfig",
-    "LearnResult",
-    "RewardModel",
-    "compile_model",
-    "empirical_baseline",
-    "fine_tune",
-    "fresh_model",
-    "learn_dgpt",
-    "model_of_table",
-    "reference_line",
-]
 
 #: ``meta["method"]`` of a learned table: the tables whose metadata carry a model
 METHOD = "mce_irl/1"

@@ -20,8 +20,14 @@ import numpy as np
 
 from cloud_sync.errors import DemoError
 from cloud_sync.irl import demos as dm
-from cloud_sync.irl.extract import continue_time_gap, outside_coverage, steady_state_gaps
-from cloud_sync.irl.trainer import IrlConfig, empirical_baseline, learn_dgpt
+from cloud_sync.irl.config import IrlConfig
+from cloud_sync.irl.extract import (
+    continue_time_gap,
+    empirical_baseline,
+    outside_coverage,
+    steady_state_gaps,
+)
+from cloud_sync.irl.trainer import learn_dgpt
 from dbc.vocab.dgpt import Dgpt, SafetyBounds, clamp_to_bounds, speed_axis
 from dbc.vocab.triplog import Trip
 
@@ -143,6 +149,3 @@ class GpLearner:
                 "training_digest": dm.digest(trips, [1.0] * len(trips)),
             },
         )
-
-
-__all__ = ["EmpiricalLearner", "GpLearner", "IrlLearner", "linear_mean", "log_marginal"]

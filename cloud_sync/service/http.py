@@ -349,6 +349,3 @@ class ServiceViews:
     def page(self) -> bytes:
         """The dashboard."""
         return DASHBOARD.read_bytes()
-
-
-__all__ = ["DASHBOARD", "ServiceViews", "create_app"]

@@ -17,8 +17,6 @@ from dbc.vocab.triplog import Trip, TripLogError, trip_mode
 from dbc.vocab.triplog_file import trip_from_bytes
 from dbc.vocab.tripmode import TripMode, TripModeError
 
-__all__ = ["MAX_DECOMPRESSED_BYTES", "StorageFullError", "parse_batch", "storage_errors"]
-
 #: the most a batch may decompress to, bytes (a 2-hour trip is about 15 MB of samples)
 MAX_DECOMPRESSED_BYTES = 64 * 1024 * 1024
 

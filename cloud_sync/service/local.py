@@ -90,6 +90,3 @@ def hold_folder(data_dir: str | os.PathLike[str], server_url: str | None = None)
         os.ftruncate(fd, 0)
         os.pwrite(fd, server_url.encode(), 0)
     return fd
-
-
-__all__ = ["LocalCloud", "hold_folder"]

@@ -37,8 +37,9 @@ from cloud_sync.api import (
 )
 from cloud_sync.engine import InlineExecutor, single_blas_thread
 from cloud_sync.errors import DemoError
-from cloud_sync.irl.trainer import IrlConfig, fine_tune, learn_dgpt
-from cloud_sync.service.ingest import StorageFullError, parse_batch, storage_errors
+from cloud_sync.irl.config import IrlConfig
+from cloud_sync.irl.trainer import fine_tune, learn_dgpt
+from cloud_sync.service.ingest import parse_batch, storage_errors
 from cloud_sync.service.store import BatchRow, CloudStore, StoreError, VersionRow
 from cloud_sync.signing import (
     load_private_key,
@@ -397,14 +398,3 @@ def _check_names(vehicle_id: str, drivers: list[str]) -> None:
         check_plain(StoreError, driver_id=driver_id)
     if len(set(drivers)) != len(drivers):
         raise StoreError(f"a driver id is repeated: {', '.join(drivers)}")
-
-
-__all__ = [
-    "DEFAULT_MAX_UPLOAD_BYTES",
-    "CloudService",
-    "DeferredExecutor",
-    "InlineExecutor",
-    "ServiceConfig",
-    "StorageFullError",
-    "train_table",
-]

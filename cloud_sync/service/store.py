@@ -314,6 +314,3 @@ class CloudStore:
     def read_version(self, row: VersionRow) -> bytes:
         """The signed bytes of a published version."""
         return self.version_path(row.driver_id, row.condition, row.version).read_bytes()
-
-
-__all__ = ["SCHEMA_VERSION", "BatchRow", "CloudStore", "StoreError", "VersionRow"]

@@ -30,8 +30,6 @@ from dbc.vocab.tripmode import TripMode
 if TYPE_CHECKING:
     from cloud_sync.service.rules import CloudService
 
-__all__ = ["MAX_ACC_ON_S", "TripReport", "record_trip", "segment_interventions", "trip_rows"]
-
 #: the longest ACC-on time a report may state, s (one day)
 MAX_ACC_ON_S = 86_400.0
 #: the most segments one report may name

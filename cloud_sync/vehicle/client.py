@@ -107,6 +107,3 @@ class HttpCloud:
         """Report one ACC trip (``POST /v1/trips``); the receipt the service answered with."""
         body = self._call("POST", "/v1/trips", json=dict(report)).json()
         return TripReceipt(str(body["trip_id"]), str(body["driver_id"]), bool(body["duplicate"]))
-
-
-__all__ = ["DEFAULT_TIMEOUT_S", "HttpCloud"]

@@ -58,6 +58,3 @@ def write_token(path: str | os.PathLike[str], token: str, *, force: bool = False
         stream.flush()
         os.fsync(stream.fileno())
     tmp.replace(target)
-
-
-__all__ = ["connect", "is_url", "read_token", "write_token"]

@@ -128,6 +128,3 @@ class ProfileDownloader:
     def _refuse(self, reason: str) -> None:
         self.report.refusals.append(reason)
         log.error("profile refused: %s", reason)
-
-
-__all__ = ["FetchReport", "ProfileDownloader"]

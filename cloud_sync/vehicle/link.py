@@ -199,6 +199,3 @@ class VehicleLink:
                 f"refused {len(dl.refusals)}, offline {dl.offline}"
             )
         return text
-
-
-__all__ = ["DEFAULT_SYNC_EVERY_S", "VehicleLink"]

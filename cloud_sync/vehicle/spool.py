@@ -252,15 +252,3 @@ class Spool:
             self._remove(batch)
             self.stats.acked += 1
             return True
-
-
-__all__ = [
-    "DEFAULT_QUOTA_BYTES",
-    "EVICTION_ORDER",
-    "Batch",
-    "BatchKind",
-    "Spool",
-    "SpoolError",
-    "SpoolStats",
-    "file_digest",
-]

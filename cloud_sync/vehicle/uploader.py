@@ -292,14 +292,3 @@ class Uploader:
         if self._thread is not None:
             self._thread.join(timeout_s)
             self._thread = None
-
-
-__all__ = [
-    "REPORTS",
-    "ReportError",
-    "ReportQueue",
-    "SendStats",
-    "Uploader",
-    "UploaderConfig",
-    "http_answer",
-]

@@ -286,15 +286,3 @@ def predefined(
     except DgptError as exc:
         raise DgptError(f"predefined table {headway_s:g} s + {standstill_m:g} m: {exc}") from None
     return table
-
-
-__all__ = [
-    "Dgpt",
-    "DgptError",
-    "MAX_VERSION",
-    "PLAIN_NAME",
-    "SafetyBounds",
-    "clamp_to_bounds",
-    "predefined",
-    "speed_axis",
-]

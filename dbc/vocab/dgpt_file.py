@@ -116,13 +116,3 @@ def save_dgpt(table: Dgpt, path: str | os.PathLike[str]) -> None:
         if tmp is not None:
             Path(tmp).unlink(missing_ok=True)
         raise DgptError(f"{p}: cannot write: {exc.strerror or exc}") from None
-
-
-__all__ = [
-    "MAX_DGPT_BYTES",
-    "dgpt_from_bytes",
-    "dgpt_from_json_dict",
-    "dgpt_to_bytes",
-    "load_dgpt",
-    "save_dgpt",
-]

@@ -9,8 +9,6 @@ from pathlib import Path
 
 from dbc.errors import PaccError
 
-__all__ = ["mcap_errors"]
-
 
 @contextmanager
 def mcap_errors(path: Path | str, what: str, error: type[PaccError]) -> Iterator[None]:

@@ -53,6 +53,3 @@ class PedalScale:
 def _unit(x: float) -> float:
     """``x`` clipped to [0, 1]; NaN passes through (the caller's validity checks see it)."""
     return 0.0 if x < 0.0 else (1.0 if x > 1.0 else x)
-
-
-__all__ = ["PedalScale"]

@@ -122,15 +122,3 @@ def installed(group: str, builtins: Mapping[str, str]) -> list[Found]:
         if name not in builtins:
             out.append(Found(name, dist, target))
     return out
-
-
-__all__ = [
-    "GROUPS",
-    "Found",
-    "PluginError",
-    "build",
-    "installed",
-    "load_target",
-    "provenance",
-    "resolve",
-]

@@ -6,8 +6,6 @@ less half a cycle after the last kept one (:func:`keep_sample`); a manual run of
 
 from __future__ import annotations
 
-__all__ = ["MANUAL_MAX_S", "MANUAL_MIN_S", "PERIOD_EPS_S", "keep_interval_s", "keep_sample"]
-
 #: Shortest manual stretch that becomes a trip, s (``pacc demos extract``'s default too).
 MANUAL_MIN_S = 10.0
 #: Longest manual trip, s: a longer stretch is handed over in pieces of this length.

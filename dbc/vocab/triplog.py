@@ -16,8 +16,6 @@ from dbc.vocab import FormatError
 from dbc.vocab.acc_state import AccState
 from dbc.vocab.tripmode import TripMode, mode_of
 
-__all__ = ["ACC_STATE_MAX", "FLOAT_FIELDS", "Trip", "TripLogError"]
-
 
 class TripLogError(FormatError):
     """A trip log (MCAP or CSV) cannot be read or written: unknown, corrupt or truncated."""

@@ -23,15 +23,6 @@ import numpy as np
 from dbc.vocab.mcap_errors import mcap_errors
 from dbc.vocab.triplog import ACC_STATE_MAX, FLOAT_FIELDS, Trip, TripLogError
 
-__all__ = [
-    "META_TOPIC",
-    "SAMPLE_TOPIC",
-    "read_trip",
-    "trip_from_bytes",
-    "trip_to_bytes",
-    "write_trip",
-]
-
 SAMPLE_TOPIC = "/pacc/car_following"
 META_TOPIC = "/pacc/trip_meta"
 SAMPLE_SCHEMA_NAME = "pacc.CarFollowingSample"

@@ -46,6 +46,3 @@ def mode_of(meta: dict[str, Any], acc_state: np.ndarray) -> TripMode:
     except ValueError:
         known = ", ".join(m.value for m in TripMode)
         raise TripModeError(f"unknown trip mode {mode!r} (known: {known})") from None
-
-
-__all__ = ["TripMode", "TripModeError", "mode_of"]

@@ -190,6 +190,3 @@ def outputs(
         command.emergency,  # emergency
         events,  # events
     )
-
-
-__all__ = ["Plan"]

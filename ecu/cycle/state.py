@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from typing import Literal
 
-from dbc.vocab.acc_state import AccState, FaultCode
+from dbc.vocab.acc_state import AccState
 from ecu.signals import cycle_value
 
 BrakeMode = Literal["resume", "cancel"]
@@ -68,6 +68,3 @@ def _from_disengaged(state: AccState, ev: Events) -> AccState:
     if state is AccState.FAULT and ev.cancel_edge:
         return AccState.STANDBY
     return state
-
-
-__all__ = ["AccState", "FaultCode"]

@@ -29,7 +29,8 @@ from ecu.adaptation import AdaptationParams, Decision
 from ecu.buslog.format import TimeBase
 from ecu.buslog.sinks import Sink
 from ecu.buslog.writer import CanLogWriter
-from ecu.node import EcuConfig, EcuNode
+from ecu.config import EcuConfig
+from ecu.node import EcuNode
 from ecu.runtime import EcuRuntime, RuntimeSummary
 from pacc.study.drive_recording import (
     MAX_PACE,

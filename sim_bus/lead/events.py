@@ -171,6 +171,3 @@ def _mixed(rng: np.random.Generator, flow_seed: int, duration_s: float) -> LeadP
     events.append(LeadEvent(cut.t_s, "cut_out", cut.gap_m, 0.0, 0.5 * flow_at, False, cut.hold_s))
     events += _loss_and_appear(rng, 180.0 * frac)
     return _with(base, events, 32.0)
-
-
-__all__ = ["ROAD_SCENARIOS", "cut_in_gap_m", "reveal_gap_m", "road_profile", "stop_and_go_profile"]

@@ -62,6 +62,3 @@ def load_profile_csv(path: Path, name: str | None = None) -> LeadProfile:
     n = int(np.floor((t[-1] - t[0]) / DT_S + 1e-9)) + 1
     grid = np.arange(n) * DT_S
     return LeadProfile(name or path.stem, grid, np.interp(grid + t[0], t, v))
-
-
-__all__ = ["MAX_LEAD_SPEED_MPS", "MAX_PROFILE_S", "load_profile_csv", "save_profile_csv"]

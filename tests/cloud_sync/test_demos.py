@@ -11,6 +11,7 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from cloud_sync.errors import DemoError
+from cloud_sync.irl.config import IrlConfig
 from cloud_sync.irl.demos import (
     check_demos,
     digest,
@@ -18,7 +19,7 @@ from cloud_sync.irl.demos import (
     takeover_weighted,
     usable_mask,
 )
-from cloud_sync.irl.trainer import IrlConfig, learn_dgpt
+from cloud_sync.irl.trainer import learn_dgpt
 from dbc.vocab.acc_state import AccState
 from dbc.vocab.dgpt import speed_axis
 from dbc.vocab.triplog import Trip

@@ -22,7 +22,7 @@ from cloud_sync.engine import (
     workers_of,
 )
 from cloud_sync.errors import CloudSyncError, EngineError
-from cloud_sync.irl.trainer import IrlConfig
+from cloud_sync.irl.config import IrlConfig
 from cloud_sync.service.rules import CloudService, DeferredExecutor, ServiceConfig
 from dbc.vocab.triplog_file import write_trip
 from tests.cloud_sync.conftest import follower_trip

@@ -10,15 +10,11 @@ import numpy as np
 import pytest
 
 from cloud_sync.errors import TrainingError
+from cloud_sync.irl.config import IrlConfig
+from cloud_sync.irl.extract import empirical_baseline
 from cloud_sync.irl.features import FeatureConfig
 from cloud_sync.irl.sources.synthetic import lead_speed
-from cloud_sync.irl.trainer import (
-    IrlConfig,
-    LearnResult,
-    empirical_baseline,
-    fine_tune,
-    learn_dgpt,
-)
+from cloud_sync.irl.trainer import LearnResult, fine_tune, learn_dgpt
 from dbc.vocab.acc_state import AccState
 from dbc.vocab.dgpt import SafetyBounds, predefined
 from dbc.vocab.dgpt_file import load_dgpt, save_dgpt

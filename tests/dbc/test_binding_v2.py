@@ -14,7 +14,8 @@ from dbc.codec import load_codec, network_paths
 from dbc.endpoint import Inbox, Outbox
 from dbc.errors import BindingError
 from dbc.vocab.dgpt import predefined
-from ecu.node import EcuConfig, EcuNode
+from ecu.config import EcuConfig
+from ecu.node import EcuNode
 from ecu.runtime import EcuRuntime
 from tests.peers import PeerNodes
 

@@ -14,9 +14,9 @@ from e2e import p01
 
 from dbc import checksums
 from dbc.binding import FieldBinding, PartBinding
-from dbc.codec import MessageCodec
 from dbc.e2e import e2e_crc
 from dbc.errors import DbcError
+from dbc.message import MessageCodec
 
 #: opendbc's wheel exists for Python < 3.13 only (the dev dependency's marker): the tests
 #: against it are skipped there, and fail (not skip) where it should be but is missing

@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from dbc import BINDING_PATH, DBC_PATH
-from dbc.codec import MessageCodec, load_codec
+from dbc.codec import load_codec
 from dbc.e2e import e2e_crc
 from dbc.endpoint import Outbox
 from dbc.errors import (
@@ -25,6 +25,7 @@ from dbc.errors import (
     RangeError,
     UnknownFrameError,
 )
+from dbc.message import MessageCodec
 
 CODEC = load_codec()
 ROLES = sorted(CODEC.by_role)

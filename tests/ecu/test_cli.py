@@ -18,7 +18,8 @@ from dbc import BINDING_PATH, DBC_PATH
 from dbc.codec import load_codec
 from dbc.vocab.dgpt import predefined
 from dbc.vocab.dgpt_file import load_dgpt
-from ecu.node import EcuConfig, EcuNode
+from ecu.config import EcuConfig
+from ecu.node import EcuNode
 from ecu.runtime import EcuRuntime
 from pacc.commands.ecu import main
 from pacc.commands.ecu.run import run_until_done

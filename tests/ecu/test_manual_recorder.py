@@ -17,9 +17,11 @@ from dbc.vocab.sampling import MANUAL_MAX_S, keep_sample
 from dbc.vocab.triplog import Trip
 from dbc.vocab.triplog_file import read_trip
 from ecu.buslog.format import TimeBase
+from ecu.config import EcuConfig
 from ecu.manual import ManualRecorder
-from ecu.node import EcuConfig, EcuNode, NodeInputs
+from ecu.node import EcuNode
 from ecu.recorder import RecorderError, Sample, TakeoverRecorder, directory_sink
+from ecu.signals import NodeInputs
 
 OFF, STANDBY, ACTIVE = int(AccState.OFF), int(AccState.STANDBY), int(AccState.ACTIVE)
 

@@ -13,11 +13,12 @@ import pytest
 from dbc.vocab.dgpt import Dgpt, SafetyBounds, predefined
 from dbc.vocab.plugins import PluginError
 from ecu.adaptation import Decision, Reason, TakeoverSummary
+from ecu.config import EcuConfig
 from ecu.controller import ControlInput, desired_accel
 from ecu.methods import PidController, make_adaptation, make_controller
 from ecu.methods.bayes import BayesAdaptation
 from ecu.methods.guard import GuardedController
-from ecu.node import EcuConfig, EcuNode
+from ecu.node import EcuNode
 from tests.ecu.test_node import DT, EPS, JERK, Loop
 
 HERE = "tests.ecu.test_methods"

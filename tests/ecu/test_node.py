@@ -14,9 +14,10 @@ from hypothesis import strategies as st
 from dbc.vocab.acc_state import AccState, FaultCode
 from dbc.vocab.dgpt import predefined
 from dbc.vocab.triplog import Trip
+from ecu.config import ConfigError, EcuConfig
 from ecu.cycle.command import ControlMemory, control
-from ecu.node import ConfigError, EcuConfig, EcuNode, NodeInputs, NodeOutputs
-from ecu.signals import Plan
+from ecu.node import EcuNode
+from ecu.signals import NodeInputs, NodeOutputs, Plan
 
 DT = 0.02
 JERK = 2.5

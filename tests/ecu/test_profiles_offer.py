@@ -10,7 +10,8 @@ import can
 from dbc.codec import load_codec
 from dbc.vocab.acc_state import AccState
 from dbc.vocab.dgpt import predefined
-from ecu.node import EcuConfig, EcuNode
+from ecu.config import EcuConfig
+from ecu.node import EcuNode
 from ecu.profiles import TableOffer, may_swap
 from ecu.runtime import EcuRuntime
 from tests.peers import PeerNodes

@@ -22,9 +22,12 @@ from dbc.vocab.dgpt import predefined
 from dbc.vocab.dgpt_file import save_dgpt
 from dbc.vocab.triplog import Trip
 from ecu.adaptation import AdaptationParams
-from ecu.config import ConfigError
-from ecu.node import EcuConfig, EcuNode, NodeInputs
-from ecu.runtime import EcuRuntime, RuntimeClockError, RuntimeCodecError
+from ecu.busio import RuntimeCodecError
+from ecu.clocks import RuntimeClockError
+from ecu.config import ConfigError, EcuConfig
+from ecu.node import EcuNode
+from ecu.runtime import EcuRuntime
+from ecu.signals import NodeInputs
 from tests.peers import PeerNodes
 
 _ids = itertools.count()

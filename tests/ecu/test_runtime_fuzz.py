@@ -27,7 +27,8 @@ from dbc.codec import load_codec
 from dbc.vocab.acc_state import AccState
 from dbc.vocab.dgpt import predefined
 from dbc.vocab.dgpt_file import save_dgpt
-from ecu.node import EcuConfig, EcuNode
+from ecu.config import EcuConfig
+from ecu.node import EcuNode
 from ecu.runtime import EcuRuntime
 from tests.peers import PeerNodes
 

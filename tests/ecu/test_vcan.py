@@ -6,7 +6,8 @@ import can
 import pytest
 
 from dbc.vocab.dgpt import predefined
-from ecu.node import EcuConfig, EcuNode
+from ecu.config import EcuConfig
+from ecu.node import EcuNode
 from ecu.runtime import EcuRuntime
 from tests.peers import PeerNodes
 

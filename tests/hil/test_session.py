@@ -14,7 +14,8 @@ import pytest
 
 from dbc.vocab.dgpt import predefined
 from ecu.buslog.live import FoxgloveSink
-from ecu.node import EcuConfig, EcuNode
+from ecu.config import EcuConfig
+from ecu.node import EcuNode
 from ecu.runtime import EcuRuntime
 from pacc.commands import hil as hil_cmd
 from pacc.commands import study as study_cmd

@@ -23,7 +23,8 @@ from dbc.vocab.triplog import Trip
 from dbc.vocab.triplog_file import write_trip
 from ecu.buslog.reader import CanLog, read_canlog
 from ecu.buslog.replay import play, replay_through_ecu
-from ecu.node import EcuConfig, EcuNode
+from ecu.config import EcuConfig
+from ecu.node import EcuNode
 from ecu.runtime import EcuRuntime
 from pacc import cli
 from pacc.cli import main as pacc_main

@@ -13,7 +13,8 @@ from dbc.vocab.acc_state import AccState
 from dbc.vocab.dgpt import predefined
 from dbc.vocab.dgpt_file import save_dgpt
 from dbc.vocab.triplog_file import read_trip
-from ecu.node import EcuConfig, EcuNode
+from ecu.config import EcuConfig
+from ecu.node import EcuNode
 from ecu.runtime import EcuRuntime
 from pacc.commands import drive
 from pacc.commands import sim as cli

@@ -27,7 +27,8 @@ from dbc.endpoint import Inbox, Outbox
 from dbc.errors import BindingError, CrcError, DbcError
 from dbc.vocab.acc_state import AccState
 from dbc.vocab.dgpt import predefined
-from ecu.node import EcuConfig, EcuNode
+from ecu.config import EcuConfig
+from ecu.node import EcuNode
 from ecu.runtime import EcuRuntime
 from tools.opendbc_toyota import assemble
 

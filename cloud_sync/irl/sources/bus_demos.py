@@ -27,8 +27,6 @@ from dbc.vocab.pedals import PedalScale
 from dbc.vocab.sampling import MANUAL_MAX_S, MANUAL_MIN_S, PERIOD_EPS_S, keep_interval_s
 from dbc.vocab.triplog import Trip
 
-__all__ = ["DT_S", "TIME_RESOLUTION_S", "ExtractReport", "bus_trip", "extract_demos", "read_frames"]
-
 #: the trips' sample period, s (the ECU recorder's and the simulator's trip logs' too)
 DT_S = 0.1
 #: sample times are rounded to this, s (module docstring)

@@ -67,6 +67,3 @@ def follower_trip(
         acc_state=np.zeros(n, dtype=np.int64),
         meta={"driver_id": "syn", "mode": "manual", "seed": seed},
     )
-
-
-__all__ = ["follower_trip", "lead_speed"]

@@ -18,8 +18,6 @@ from dbc.vocab.triplog import Trip, TripLogError
 from dbc.vocab.triplog_file import read_trip
 from dbc.vocab.tripmode import TripMode
 
-__all__ = ["read_csv_trip", "load_trip", "REQUIRED_CSV_COLUMNS"]
-
 REQUIRED_CSV_COLUMNS: tuple[str, ...] = ("t", "v_follower", "spacing", "v_leader")
 
 

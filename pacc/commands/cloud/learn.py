@@ -32,9 +32,10 @@ def _do_learn(args: argparse.Namespace) -> int:
     import numpy as np  # noqa: PLC0415
 
     from cloud_sync.api import is_plain_name  # noqa: PLC0415
+    from cloud_sync.irl.config import IrlConfig  # noqa: PLC0415
     from cloud_sync.irl.demos import is_acc_trip  # noqa: PLC0415
     from cloud_sync.irl.sources.tripfiles import load_trip  # noqa: PLC0415
-    from cloud_sync.irl.trainer import METHOD, IrlConfig, fine_tune, learn_dgpt  # noqa: PLC0415
+    from cloud_sync.irl.trainer import METHOD, fine_tune, learn_dgpt  # noqa: PLC0415
     from dbc.vocab.dgpt_file import load_dgpt, save_dgpt  # noqa: PLC0415
 
     for option, name in (("--driver", args.driver), ("--condition", args.condition)):

@@ -33,8 +33,9 @@ from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES, AdaptationParams
 from ecu.buslog.format import TimeBase
 from ecu.buslog.live import add_foxglove_argument
+from ecu.config import EcuConfig
 from ecu.methods import make_adaptation, make_controller
-from ecu.node import EcuConfig, EcuNode
+from ecu.node import EcuNode
 from ecu.recorder import SinkQueue, TripSink
 from pacc.commands._args import (
     CommandParser,

@@ -15,7 +15,8 @@ from typing import TYPE_CHECKING
 
 from dbc.vocab.dgpt import Dgpt
 from dbc.vocab.triplog import Trip
-from ecu.node import EcuConfig, EcuNode
+from ecu.config import EcuConfig
+from ecu.node import EcuNode
 from ecu.recorder import TripSink
 
 if TYPE_CHECKING:
