@@ -8,7 +8,6 @@ status: 0, 1 after a collision, 2 on bad options, input files or a bus that cann
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
 from pathlib import Path
@@ -36,6 +35,7 @@ from pacc.commands._args import (
     check_distinct_outputs,
     check_writable_file,
 )
+from pacc.commands.drive.report import fig
 from pacc.study.drive import resolve_profile, with_condition
 from pacc.study.drive_recording import WorldFeed, finish_recording
 from sim_bus.drivers import GAP_SETTING_CODE, DriverParams, load_driver
@@ -84,11 +84,6 @@ def _setup(args: argparse.Namespace) -> tuple[DriverParams, FaultSpec, LeadProfi
     return driver, faults, profile
 
 
-def _fig(value: float, spec: str, unit: str) -> str:
-    """``value`` formatted with its unit, or ``n/a`` (no ACC-ON time: no PoI, no NIM)."""
-    return f"{value:{spec}}{unit}" if math.isfinite(value) else "n/a"
-
-
 def _state_name(code: int) -> str:
     """The ACC state's name (OFF, STANDBY, ACTIVE …) of a code on the bus."""
     try:
@@ -122,19 +117,6 @@ def _run(node: SimNode, duration_s: float, quiet: bool, feed: WorldFeed | None =
         print("pacc sim: interrupted", file=sys.stderr)
 
 
-def _finish_recording(
-    recorder: CanLogWriter, log: WorldLog, can_log: Path | None, streamed: bool = False
-) -> int:
-    """Close the recording with the world (unless ``streamed`` live); the exit status."""
-    failed = finish_recording(recorder, log, streamed)
-    if failed is not None:
-        print(f"pacc sim: error: bus recording failed: {failed}", file=sys.stderr)
-        return 2
-    if can_log is not None:
-        print(f"bus recording: {recorder.frames} frames written to {can_log}")
-    return 0
-
-
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc sim``; returns the exit status."""
     args = _parser().parse_args(argv)
@@ -152,13 +134,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"pacc sim: error: {bus_error(args, exc)}", file=sys.stderr)
         return 2
     world = World(driver, profile, args.seed)
+    gap = GAP_SETTING_CODE[driver.predefined_setting]
     node = SimNode(
-        bus,
-        world,
-        codec=codec,
-        faults=faults,
-        rng=fault_rng(args.seed),
-        gap_setting=GAP_SETTING_CODE[driver.predefined_setting],
+        bus, world, codec=codec, faults=faults, rng=fault_rng(args.seed), gap_setting=gap
     )
     base = TimeBase.now(0.0)  # simulated time 0 is now
     try:
@@ -193,48 +171,46 @@ def main(argv: list[str] | None = None) -> int:
             feed()  # the rows of the last ticks (the loop feeds before each tick)
     log = world.log()
     m = log.metrics()
-    collided = world.plant.collided
     print(
         f"sim: scenario {args.scenario}, driver {driver.driver_id}, {world.t_s:.1f} s in "
         f"{time.monotonic() - start:.1f} s wall; {node.commands_ok} ACC commands received"
         + (f"; {node.send_errors} frames refused by the bus" if node.send_errors else "")
     )
     print(
-        f"  PoI {_fig(m.poi_pct, '.2f', ' %')}  NIM {_fig(m.nim_per_min, '.2f', ' /min')}  "
-        f"min gap {m.min_gap_m:.2f} m  "
+        f"  PoI {fig(m.poi_pct, '.2f', ' %', 'n/a')}  "
+        f"NIM {fig(m.nim_per_min, '.2f', ' /min', 'n/a')}  min gap {m.min_gap_m:.2f} m  "
         f"min TTC {m.min_ttc_s:.2f} s  RMS jerk {m.rms_jerk_mps3:.3f} m/s^3  presses "
-        f"{m.press_onsets}  collisions {1 if collided else 0}"
+        f"{m.press_onsets}  collisions {int(world.plant.collided)}"
     )
-    return _save(args, world, driver, node, base, recorder, streamed=feed is not None)
+    return _save(args, log, world.plant.collided, driver, node, base, recorder, feed is not None)
 
 
 def _save(
     args: argparse.Namespace,
-    world: World,
+    log: WorldLog,
+    collided: bool,
     driver: DriverParams,
     node: SimNode,
     base: TimeBase,
     recorder: CanLogWriter | None,
-    streamed: bool = False,
+    streamed: bool,
 ) -> int:
     """Write ``--log`` and close ``--can-log`` (``streamed``: its world was fed live); the
     exit status (1 collision, 2 a failed output)."""
-    log = world.log()
-    collided = world.plant.collided
     status = 1 if collided else 0
     if args.log is not None:
-        meta = {
-            "scenario": args.scenario,
-            "seed": args.seed,
-            "collision": collided,
-            "source": "pacc.commands.sim",
-            "start_utc": base.iso(0.0),
-        }
+        meta = {"scenario": args.scenario, "seed": args.seed, "collision": collided,
+                "source": "pacc.commands.sim", "start_utc": base.iso(0.0)}  # fmt: skip
         try:
             write_trip(args.log, world_trip(log, driver, PedalScale.from_codec(node.codec), meta))
         except (TripLogError, OSError) as exc:
             print(f"pacc sim: error: cannot write {args.log}: {exc}", file=sys.stderr)
             status = 2
     if recorder is not None:
-        status = max(status, _finish_recording(recorder, log, args.can_log, streamed=streamed))
+        failed = finish_recording(recorder, log, streamed)
+        if failed is not None:
+            print(f"pacc sim: error: bus recording failed: {failed}", file=sys.stderr)
+            return 2
+        if args.can_log is not None:
+            print(f"bus recording: {recorder.frames} frames written to {args.can_log}")
     return status

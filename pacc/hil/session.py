@@ -70,14 +70,11 @@ class SessionConfig:
     table: Path | None = None  # the IRL table of a free drive (the protocol learns its own)
     #: ``HOST:PORT`` of a Foxglove live view of each drive's recording (in-process ECU only)
     foxglove: str | None = None
-    #: what a brake press does to the ACC: ``resume`` (an override; the ACC drives again on
-    #: release: the paper's study) or ``cancel`` (back to STANDBY: production behaviour)
+    #: brake press: ``resume`` (an override: the paper's study) or ``cancel`` (to STANDBY)
     brake_mode: Literal["resume", "cancel"] = "resume"
-    #: the page's horizontal field of view, degrees: the angle the screen subtends at the
-    #: participant's eye (2·atan(width / 2·distance)), so a lead at gap g looks as in a car
+    #: the page's horizontal field of view, degrees (the angle the screen subtends at the eye)
     fov_deg: float = 50.0
-    #: what SET sets, km/h: None the car's speed at the press (a production ACC); a study in
-    #: which the lead governs sets a speed above every lead's (the paper protocol: 130)
+    #: what SET sets, km/h: None the car's speed at the press (the paper protocol: 130)
     set_speed_kmh: float | None = None
 
 
@@ -94,7 +91,8 @@ class Session:
             load_driver(BODY), driver_id=cfg.participant, predefined_setting=cfg.setting
         )
         self._lock = threading.RLock()
-        self.manifest = self._open_manifest()
+        self.manifest = open_manifest(self.folder / MANIFEST, cfg.participant, cfg.protocol,
+                                      cfg.seed, cfg.short_s, plan)  # fmt: skip
         self.drive: HilDrive | None = None
         self.runner: RealtimeRunner | None = None
         self.phase = "ready"  # ready | driving | paused | after | syncing | learning | failed
@@ -103,12 +101,6 @@ class Session:
         self._pauses: list[dict[str, Any]] = []
         self._cloud_link: StudyCloud | None = None
         self.seq = 0
-
-    def _open_manifest(self) -> dict[str, Any]:
-        cfg = self.cfg
-        return open_manifest(
-            self.folder / MANIFEST, cfg.participant, cfg.protocol, cfg.seed, cfg.short_s, self.plan
-        )
 
     def _save(self) -> None:
         save_json(self.folder / MANIFEST, self.manifest)
@@ -318,19 +310,17 @@ class Session:
         self._mark_done(step, {"ratings": ratings, "at": utc_now_iso()})
 
     def _cloud(self) -> StudyCloud:
-        if self._cloud_link is None:
-            remote = None
-            if self.cfg.cloud is not None:
-                if self.cfg.token_file is None or self.cfg.trust is None:
-                    raise SimError("--cloud needs --token-file and --trust")
-                remote = (self.cfg.cloud, self.cfg.token_file, self.cfg.trust)
-            self._cloud_link = (
-                StudyCloud.remote(*remote, self.folder)
-                if remote is not None
-                else StudyCloud.embedded(
-                    self.folder, [self.cfg.participant], self.cfg.seed, keep=True
-                )
+        cfg = self.cfg
+        if self._cloud_link is not None:
+            return self._cloud_link
+        if cfg.cloud is None:
+            self._cloud_link = StudyCloud.embedded(
+                self.folder, [cfg.participant], cfg.seed, keep=True
             )
+        elif cfg.token_file is None or cfg.trust is None:
+            raise SimError("--cloud needs --token-file and --trust")
+        else:
+            self._cloud_link = StudyCloud.remote(cfg.cloud, cfg.token_file, cfg.trust, self.folder)
         return self._cloud_link
 
     def _learn(self, step: Step) -> None:
@@ -343,13 +333,8 @@ class Session:
         save_dgpt(table, self.folder / "tables" / "irl.json")
         save_dgpt(predefined_table(self.participant), self.folder / "tables" / "predefined.json")
         with self._lock:
-            info = {
-                "batches": batches,
-                "version": table.version,
-                "signed": True,
-                "at": utc_now_iso(),
-            }
-            self._mark_done(step, info)
+            info = {"batches": batches, "version": table.version, "signed": True}
+            self._mark_done(step, {**info, "at": utc_now_iso()})
 
     def _sync(self, step: Step, record: dict[str, Any], segments: list[Trip], table: Dgpt) -> None:
         try:
@@ -357,9 +342,8 @@ class Session:
         except Exception as exc:  # noqa: BLE001 - shown; the drive's files are kept
             newer, batches = table, 0
             with self._lock:
-                self.manifest["events"].append(
-                    {"event": f"sync failed: {exc}", "at": utc_now_iso()}
-                )
+                event = {"event": f"sync failed: {exc}", "at": utc_now_iso()}
+                self.manifest["events"].append(event)
         save_dgpt(newer, self.folder / "tables" / "irl-latest.json")
         record["incremental"] = {"uploaded": batches, "next_version": newer.version}
         save_json(self.folder / "drives" / f"{step.id}.json", record)

@@ -54,17 +54,6 @@ from sim_bus.faults import parse_faults
 from sim_bus.lead.scenarios import shorten
 
 
-def _recording_ok(args: argparse.Namespace, result: Any) -> bool:
-    """Report the bus recording (and live view) of the drive; False if it failed."""
-    failed = result.extra.get("can_log_error")
-    if failed:
-        print(f"pacc drive: error: bus recording failed: {failed}", file=sys.stderr)
-        return False
-    if args.can_log is not None:
-        print(f"  bus recording  {args.can_log}")
-    return True
-
-
 class _ManualTrips:
     """The ECU's manual-trip sink of ``--manual-trips DIR``: writes each trip to DIR and
     keeps what it did, for the drive's report. RecorderError if DIR cannot be written."""
@@ -93,11 +82,8 @@ class _ManualTrips:
         lost = made - len(self.written)
         if lost <= 0:
             return True
-        print(
-            f"pacc drive: error: {lost} manual trip(s) not written: "
-            f"{self.error or 'not built (see the log)'}",
-            file=sys.stderr,
-        )
+        why = self.error or "not built (see the log)"
+        print(f"pacc drive: error: {lost} manual trip(s) not written: {why}", file=sys.stderr)
         return False
 
 
@@ -124,14 +110,10 @@ def _check_options(args: argparse.Namespace) -> None:
             f"adapts its table (--controller {args.controller}+oa)"
         )
     for given, spec, params, named in (
-        (
-            "--gap-controller-args",
-            "--gap-controller",
-            args.gap_controller_args,
-            args.gap_controller,
-        ),
+        ("--gap-controller-args", "--gap-controller", args.gap_controller_args,
+         args.gap_controller),
         ("--adaptation-args", "--adaptation", args.adaptation_args, args.adaptation),
-    ):
+    ):  # fmt: skip
         if params and not named:
             raise UsageError(f"{given} gives the parameters of a {spec} SPEC: name the plug-in")
 
@@ -146,11 +128,8 @@ def _table(args: argparse.Namespace, base: DriverParams, driver: DriverParams) -
         return irl_table(base, args.seed, args.cache)
     table = load_dgpt(args.profile)
     if table.driver_id not in (driver.driver_id, "guest"):
-        print(
-            f"pacc drive: warning: --profile is driver {table.driver_id!r}'s table, the "
-            f"drive's driver is {driver.driver_id!r}",
-            file=sys.stderr,
-        )
+        print(f"pacc drive: warning: --profile is driver {table.driver_id!r}'s table, the "
+              f"drive's driver is {driver.driver_id!r}", file=sys.stderr)  # fmt: skip
     return table
 
 
@@ -167,22 +146,12 @@ def main(argv: list[str] | None = None) -> int:
         if args.duration is not None and not (args.duration > 0):
             raise SimError("--duration must be > 0")
         cfg = DriveConfig(
-            scenario=args.scenario,
-            driver_id=driver.driver_id,
-            controller=args.controller,
-            seed=args.seed,
-            duration_s=args.duration,
-            faults=args.faults,
-            brake_mode=args.brake_mode,
-            adaptation=adaptation_params(args.adaptation_mode),
-            dbc=args.dbc,
-            binding=args.binding,
-            gap_controller=args.gap_controller,
-            adaptation_method=args.adaptation,
-            controller_args=args.gap_controller_args,
-            adaptation_args=args.adaptation_args,
-            manual=args.manual,
-        )
+            args.scenario, driver.driver_id, args.controller, args.seed, args.duration,
+            args.faults, args.brake_mode, adaptation=adaptation_params(args.adaptation_mode),
+            dbc=args.dbc, binding=args.binding, gap_controller=args.gap_controller,
+            controller_args=args.gap_controller_args, adaptation_method=args.adaptation,
+            adaptation_args=args.adaptation_args, manual=args.manual,
+        )  # fmt: skip
         drive_codec(cfg)  # a DBC without its binding: refused before any learning
         profile = resolve_profile(args.scenario, args.seed)
         table = _table(args, base, driver)
@@ -192,17 +161,8 @@ def main(argv: list[str] | None = None) -> int:
         if pace is not None:
             print(f"drive: paced at {pace:g}x real time (--pace 0: as fast as it runs)")
         try:
-            result = run_drive(
-                cfg,
-                driver,
-                table,
-                profile,
-                can_log=args.can_log,
-                live=live,
-                bus=args.bus,
-                manual_sink=manual,
-                pace=pace,
-            )
+            result = run_drive(cfg, driver, table, profile, can_log=args.can_log, live=live,
+                               bus=args.bus, manual_sink=manual, pace=pace)  # fmt: skip
         finally:
             for sink in live:
                 sink.close(complete=True)
@@ -240,8 +200,12 @@ def _outputs(
         print(f"  log            {args.log}")
     made = int(result.extra.get("manual_trips", 0))
     written = manual is None or manual.report(made, EcuConfig().record_period_s)
-    recorded = not (args.can_log is not None or live) or _recording_ok(args, result)
-    if not (written and recorded):
+    failed = result.extra.get("can_log_error")
+    if failed:
+        print(f"pacc drive: error: bus recording failed: {failed}", file=sys.stderr)
+    elif args.can_log is not None:
+        print(f"  bus recording  {args.can_log}")
+    if not written or failed:
         return 2
     if stopped is not None:
         return 130  # what an interrupted command exits with; its outputs are written
@@ -264,28 +228,16 @@ def _manual(args: argparse.Namespace) -> int | None:
     log ``pacc demos extract`` reads)."""
     from sim_bus.manual import manual_trip  # noqa: PLC0415
 
-    given = [
-        opt
-        for opt, on in (
-            ("--controller", args.controller != "predefined"),
-            ("--profile", args.profile is not None),
-            ("--faults", bool(args.faults)),
-            ("--manual-trips", args.manual_trips is not None),
-            ("--adaptation-mode", args.adaptation_mode is not None),
-            ("--gap-controller", bool(args.gap_controller)),
-            ("--adaptation", bool(args.adaptation)),
-            ("--foxglove", args.foxglove is not None),
-            ("--pace", args.pace is not None),
-            ("--bus", args.bus != BUSES[0]),
-        )
-        if on
-    ]
+    given = [opt for opt, on in (
+        ("--controller", args.controller != "predefined"), ("--profile", args.profile is not None),
+        ("--faults", bool(args.faults)), ("--manual-trips", args.manual_trips is not None),
+        ("--adaptation-mode", args.adaptation_mode is not None),
+        ("--gap-controller", bool(args.gap_controller)), ("--adaptation", bool(args.adaptation)),
+        ("--foxglove", args.foxglove is not None), ("--pace", args.pace is not None),
+        ("--bus", args.bus != BUSES[0])) if on]  # fmt: skip
     if (args.log is None) == (args.can_log is None) or given:
-        why = (
-            f"drives the ACC off: drop {', '.join(given)}"
-            if given
-            else "writes --log FILE (no bus) or --can-log FILE (the bus drive), one of them"
-        )
+        why = (f"drives the ACC off: drop {', '.join(given)}" if given else "writes --log "
+               "FILE (no bus) or --can-log FILE (the bus drive), one of them")  # fmt: skip
         print(f"pacc drive: error: --manual {why}", file=sys.stderr)
         return 2
     if args.can_log is not None:
@@ -296,9 +248,8 @@ def _manual(args: argparse.Namespace) -> int | None:
         if args.duration is not None:
             profile = shorten(profile, args.duration)
         trip = manual_trip(driver, profile, args.seed)
-        trip = dataclasses.replace(
-            trip, meta={**trip.meta, "scenario": args.scenario, "seed": args.seed}
-        )
+        meta = {**trip.meta, "scenario": args.scenario, "seed": args.seed}
+        trip = dataclasses.replace(trip, meta=meta)
         write_trip(args.log, trip)
     except (SimError, FormatError, DbcError, OSError) as exc:
         print(f"pacc drive: error: {error_line(exc)}", file=sys.stderr)

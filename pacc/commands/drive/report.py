@@ -25,9 +25,9 @@ def fault_time(t_s: np.ndarray, acc_state: np.ndarray) -> tuple[float, int]:
     return float(dt[fault].sum()), entries
 
 
-def _fig(value: float, spec: str, unit: str) -> str:
-    """``value`` formatted with its unit, or ``n/a`` (no ACC-ON time: no PoI, no NIM)."""
-    return f"{value:{spec}}{unit}" if np.isfinite(value) else f"{'n/a':>7}"
+def fig(value: float, spec: str, unit: str, na: str = f"{'n/a':>7}") -> str:
+    """``value`` formatted with its unit, or ``na`` (no ACC-ON time: no PoI, no NIM)."""
+    return f"{value:{spec}}{unit}" if np.isfinite(value) else na
 
 
 def format_result(r: DriveResult) -> str:
@@ -45,8 +45,8 @@ def format_result(r: DriveResult) -> str:
         )
         + f", seed {c.seed}, {r.sim_s:.1f} s simulated in {r.wall_s:.2f} s "
         f"({r.realtime_factor:.0f}x real time)",
-        f"  PoI            {_fig(m.poi_pct, '7.2f', ' %  ')} (ACC-ON {m.acc_on_s:.1f} s)",
-        f"  NIM            {_fig(m.nim_per_min, '7.2f', ' /min')} ({m.press_onsets} presses)",
+        f"  PoI            {fig(m.poi_pct, '7.2f', ' %  ')} (ACC-ON {m.acc_on_s:.1f} s)",
+        f"  NIM            {fig(m.nim_per_min, '7.2f', ' /min')} ({m.press_onsets} presses)",
         f"  min gap        {m.min_gap_m:7.2f} m",
         f"  min TTC        {m.min_ttc_s:7.2f} s",
         f"  TTC < 2 s      {safety.below_own_s:7.2f} s under the ACC, "
