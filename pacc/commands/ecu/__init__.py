@@ -188,21 +188,14 @@ def main(argv: list[str] | None = None) -> int:
     check_distinct_outputs(
         can_log=args.can_log, save_profile=args.save_profile, profile=args.profile
     )
+    level = logging.INFO if args.verbose else logging.WARNING
+    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     try:
-        network_of(args)
-    except BindingError as exc:  # --dbc without a binding for it: a usage error
+        network_of(args)  # --dbc without a binding for it: a usage error
+        return _serve(args)
+    except BindingError as exc:
         print(f"pacc ecu: error: {exc}", file=sys.stderr)
         return 2
-    return _run(args)
-
-
-def _run(args: argparse.Namespace) -> int:
-    logging.basicConfig(
-        level=logging.INFO if args.verbose else logging.WARNING,
-        format="%(levelname)s %(name)s: %(message)s",
-    )
-    try:
-        return _serve(args)
     except Exit as exc:
         print(exc.message, file=sys.stderr)
         return exc.code
@@ -221,16 +214,10 @@ def _serve(args: argparse.Namespace) -> int:
     try:  # refuse now, not after the drive when the table would be lost
         check_writable_file(args.save_profile, "--save-profile")
     except UsageError as exc:
-        raise Exit(1, f"pacc ecu: error: {exc}") from None
+        raise _fail(1, f"{exc}") from None
     base = TimeBase.now(time.monotonic())  # the real-time clock against the wall clock
-    node = EcuNode(
-        config,
-        table,
-        sink,
-        utc_of=base.iso,
-        manual_sink=manual,
-        manual_min_s=MANUAL_MIN_S if args.manual_min is None else args.manual_min,
-    )
+    min_s = MANUAL_MIN_S if args.manual_min is None else args.manual_min
+    node = EcuNode(config, table, sink, utc_of=base.iso, manual_sink=manual, manual_min_s=min_s)
     if profile_fault:
         node.report_profile_fault()
     warn_guest(args, node)
@@ -251,13 +238,18 @@ def _serve(args: argparse.Namespace) -> int:
         try:
             save_dgpt(node.table, args.save_profile)
         except DgptError as exc:
-            raise Exit(1, f"pacc ecu: error: {exc}") from None
+            raise _fail(1, f"{exc}") from None
         say(f"profile saved: {args.save_profile} (v{node.table.version})")
     if bus_error is not None:
-        raise Exit(1, f"pacc ecu: error: the CAN bus failed: {bus_error}")
+        raise _fail(1, f"the CAN bus failed: {bus_error}")
     if recording_error is not None:  # after the takeovers and the profile are saved
-        raise Exit(1, f"pacc ecu: error: {recording_error}")
+        raise _fail(1, f"{recording_error}")
     return 0
+
+
+def _fail(code: int, text: str) -> Exit:
+    """The :class:`Exit` of an error: ``pacc ecu: error: TEXT``, exit ``code``."""
+    return Exit(code, f"pacc ecu: error: {text}")
 
 
 def _lost(queue: SinkQueue) -> str:
@@ -286,35 +278,30 @@ def _report_recorders(args: argparse.Namespace, node: EcuNode) -> None:
 def _config(args: argparse.Namespace) -> tuple[EcuConfig, Dgpt]:
     """The node's configuration and the predefined fallback table (usage errors: exit 2)."""
     if args.manual == "" and not args.cloud:
-        raise Exit(2, "pacc ecu: error: --manual needs a DIR (or --cloud: the link's spool)")
+        raise _fail(2, "--manual needs a DIR (or --cloud: the link's spool)")
     if args.manual and args.cloud:
-        raise Exit(2, "pacc ecu: error: --cloud spools the manual trips: --manual without DIR")
+        raise _fail(2, "--cloud spools the manual trips: --manual without DIR")
     if args.manual_min is not None and args.manual is None:
-        raise Exit(2, "pacc ecu: error: --manual-min is for --manual (the manual trips)")
+        raise _fail(2, "--manual-min is for --manual (the manual trips)")
     if not args.adaptation and args.adaptation_method:
-        raise Exit(2, "pacc ecu: error: --adaptation-method with --no-adaptation: nothing adapts")
+        raise _fail(2, "--adaptation-method with --no-adaptation: nothing adapts")
     for option, name in (("--driver", args.driver), ("--condition", args.condition)):
         if name is not None and PLAIN_NAME.fullmatch(name) is None:
-            raise Exit(
-                2, f"pacc ecu: error: {option} {name!a}: not a plain name (letters, digits, _.-)"
-            )
+            raise _fail(2, f"{option} {name!a}: not a plain name (letters, digits, _.-)")
     try:
         config = EcuConfig(
-            adaptation=args.adaptation,
+            adaptation=args.adaptation, brake_mode=args.brake, set_speed_mps=args.set_speed,
             adaptation_params=AdaptationParams(mode=args.adaptation_mode),
-            brake_mode=args.brake,
-            set_speed_mps=args.set_speed,
             trip_meta={"driver_id": args.driver} if args.driver else {},
-            gap_controller=args.gap_controller,
-            adaptation_method=args.adaptation_method,
-        )
+            gap_controller=args.gap_controller, adaptation_method=args.adaptation_method,
+        )  # fmt: skip
         if config.gap_controller:  # a spec that names nothing: refused before the bus opens
             make_controller(config.gap_controller, {})
         if config.adaptation_method:
             make_adaptation(config.adaptation_method, {})
         return config, predefined(args.headway, args.standstill)
     except (EcuError, FormatError) as exc:
-        raise Exit(2, f"pacc ecu: error: {exc}") from None
+        raise _fail(2, f"{exc}") from None
 
 
 def _initial_table(
@@ -328,19 +315,13 @@ def _initial_table(
         table = load_dgpt(args.profile, config.bounds)
     except DgptError as exc:
         print(f"pacc ecu: profile refused: {exc}", file=sys.stderr)
-        print(
-            f"pacc ecu: running on the predefined table ({args.headway:g} s headway, "
-            f"{args.standstill:g} m standstill) instead",
-            file=sys.stderr,
-        )
+        print(f"pacc ecu: running on the predefined table ({args.headway:g} s headway, "
+              f"{args.standstill:g} m standstill) instead", file=sys.stderr)  # fmt: skip
         return fallback, True
     say(f"profile: {args.profile} ({table.driver_id}, {table.source}, v{table.version})")
     if args.driver and table.driver_id not in (args.driver, "guest"):
-        print(
-            f"pacc ecu: warning: --profile is driver {table.driver_id!r}'s table, the "
-            f"takeovers are tagged {args.driver!r}",
-            file=sys.stderr,
-        )
+        print(f"pacc ecu: warning: --profile is driver {table.driver_id!r}'s table, the "
+              f"takeovers are tagged {args.driver!r}", file=sys.stderr)  # fmt: skip
     return table, False
 
 
@@ -353,5 +334,5 @@ def _codec_and_sinks(
         codec = codec_of(args)
         takeovers, manual = spool_sinks(None if args.cloud else args.takeovers, args.manual)
     except (CodecError, EcuError, FormatError, CloudSyncError) as exc:
-        raise Exit(1, f"pacc ecu: error: {exc}") from None
+        raise _fail(1, f"{exc}") from None
     return codec, takeovers, manual
