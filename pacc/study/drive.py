@@ -182,14 +182,9 @@ def run_drive(
     bus: str = "lockstep",
     pace: float | None = None,
 ) -> DriveResult:
-    """Run one lockstep drive; a collision is reported, never raised.
-
-    ``record_channel``: the bus channel (default: a private one); ``can_log``: record the bus, the
-    ECU's internals and the world to this MCAP file, simulated time 0 at ``utc_start_ns``;
-    ``live``: more sinks (a Foxglove view); ``pace``: times real time (None: as fast as it runs;
-    Ctrl-C ends a paced drive there, ``extra["interrupted_at_s"]``); ``takeover_sink`` /
-    ``manual_sink``: the ECU's takeover segments and manual trips.
-    """
+    """Run one lockstep drive; a collision is reported, never raised. ``can_log``: the MCAP
+    recording (time 0 at ``utc_start_ns``), ``live``: more sinks; ``pace``: times real time
+    (None: flat out; Ctrl-C ends a paced drive, ``extra["interrupted_at_s"]``)."""
     _check_drive(cfg, bus, pace)
     prof = profile or resolve_profile(cfg.scenario, cfg.seed)
     if cfg.duration_s is not None:
@@ -337,11 +332,7 @@ def _open_bus(interface: str, channel: str) -> can.BusABC:
 
 
 def drive_codec(cfg: DriveConfig) -> Codec:
-    """The codec of the drive's vehicle network (``cfg.dbc``/``cfg.binding``), loaded once.
-
-    Raises:
-        DbcError: the network cannot be loaded (a BindingError for a DBC without binding).
-    """
+    """The codec of the drive's network (``cfg.dbc``/``cfg.binding``); DbcError if unloadable."""
     return load_codec(*network_paths(cfg.dbc, cfg.binding))
 
 

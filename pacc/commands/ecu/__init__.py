@@ -2,16 +2,12 @@
 
     pacc ecu -i virtual -c vcan0 --headway 1.5 --driver d2 --takeovers spool/ --duration 300
 
-The node starts from ``--profile`` (a DGPT file; refused: the predefined table and FaultCode
-Profile) or a predefined constant-headway table, prints state changes, faults and
-adaptations, and at exit (``--duration``, Ctrl-C, SIGTERM) writes the open takeover segment
-and manual stretch and prints a summary. ``--takeovers DIR`` / ``--manual DIR`` spool them for
-``pacc cloud sync``; ``--cloud`` links to the cloud (docs/cloud.md). Exit codes: 0 done, 1
-bus/DBC/spool error, 2 usage error.
-
-The command is a package: :mod:`pacc.commands.ecu.cloud` (its link to the cloud: spool,
-vehicle link, start table), :mod:`pacc.commands.ecu.run` (its run on the bus: recording,
-real-time loop, SIGTERM, summary).
+It starts from ``--profile`` (refused: the predefined table, FaultCode Profile) or a
+constant-headway table, prints state changes, faults and adaptations, and at exit writes the
+open takeover segment and manual stretch (``--takeovers``/``--manual`` spools, ``--cloud``:
+docs/cloud.md) and a summary. Exit: 0 done, 1 bus/DBC/spool error, 2 usage error. Modules:
+:mod:`pacc.commands.ecu.cloud` (spool, vehicle link, start table), :mod:`pacc.commands.ecu.run`
+(recording, real-time loop, SIGTERM, summary).
 """
 
 from __future__ import annotations
