@@ -10,6 +10,7 @@ import sys
 import time
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 from cloud_sync.errors import CloudSyncError, EngineError
 from dbc.errors import DbcError, error_line
@@ -127,16 +128,18 @@ def _check_scheduler(address: str | None) -> None:
         raise EngineError(f"no Dask scheduler answers at {address}: {exc}") from exc
 
 
-def _spec(args: argparse.Namespace, argv: list[str]) -> StudySpec:
-    """The spec of the command line: a study file's (``--config``; ``--workers`` and
-    ``--scheduler`` given here replace its own), HIL sessions', a population's, or Table I's."""
+def _spec(args: argparse.Namespace, argv: list[str]) -> tuple[StudySpec, dict[str, Any] | None]:
+    """The spec of the command line and the study file's config (``--config``; ``--workers``
+    and ``--scheduler`` given here replace its own), or HIL sessions', a population's, Table I's."""
     if args.hil is not None:
         beside = None if args.beside is None else str(args.beside)
-        return StudySpec(report="hil", sessions=str(args.hil), beside=beside)
+        return StudySpec(report="hil", sessions=str(args.hil), beside=beside), None
     if args.config is not None:
-        spec = spec_of(load_study_file(args.config))
+        config = load_study_file(args.config)
+        spec = spec_of(config)
         workers = args.workers if "--workers" in argv else spec.workers
-        return replace(spec, workers=workers, scheduler=args.scheduler or spec.scheduler)
+        scheduler = args.scheduler or spec.scheduler
+        return replace(spec, workers=workers, scheduler=scheduler), config
     bad = [c for c in args.controllers if c not in CONTROLLERS]
     if bad:
         raise SimError(f"unknown controllers {bad}: choose from {', '.join(CONTROLLERS)}")
@@ -146,10 +149,9 @@ def _spec(args: argparse.Namespace, argv: list[str]) -> StudySpec:
                        "--drivers, --cloud or --incremental")  # fmt: skip
     if pop and args.can_logs:
         raise SimError("--population keeps no logs: not with --can-logs")
+    drawn = (f"{args.population_kind}:{args.population if pop else 5}:{args.seed}",)
     return StudySpec(
-        drivers=(f"{args.population_kind}:{args.population}:{args.seed}",)
-        if pop
-        else args.drivers or (f"{args.population_kind}:5:{args.seed}",),
+        drivers=drawn if pop else args.drivers or drawn,
         scenarios=args.scenarios or (("B",) if pop else ("A", "B")),
         methods=tuple(table1_method(c) for c in args.controllers),
         trials=args.trials if args.trials is not None else (1 if pop else 3),
@@ -157,19 +159,12 @@ def _spec(args: argparse.Namespace, argv: list[str]) -> StudySpec:
         duration_s=args.duration if args.duration is not None or not pop else 120.0,
         report="incremental" if args.incremental else "population" if pop else "table1",
         learn_in="direct" if args.direct or pop else "cloud",
-        logs=not (args.no_logs or pop),
-        can_logs=args.can_logs,
-        adaptation=adaptation_params(args.adaptation),
-        cloud=args.cloud,
-        token_file=args.token_file,
-        trust=args.trust,
-        incremental=args.incremental,
-        dbc=args.dbc,
-        binding=args.binding,
-        bus=args.bus,
-        workers=args.workers,
+        logs=not (args.no_logs or pop), can_logs=args.can_logs,
+        adaptation=adaptation_params(args.adaptation), cloud=args.cloud,
+        token_file=args.token_file, trust=args.trust, incremental=args.incremental,
+        dbc=args.dbc, binding=args.binding, bus=args.bus, workers=args.workers,
         scheduler=args.scheduler,
-    )
+    ), None  # fmt: skip
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -177,12 +172,11 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     start = time.perf_counter()
     try:
-        spec = _spec(args, list(sys.argv[1:] if argv is None else argv))
+        spec, config = _spec(args, list(sys.argv[1:] if argv is None else argv))
         if spec.report == "hil":
             return _hil_table(spec, args.out)
         codec_of(args)  # a DBC without its binding, a binding that does not fit: refused now
-        if args.config is not None:
-            config = load_study_file(args.config)
+        if config is not None:
             write_manifest(args.out, {**config, "workers": spec.workers,
                                       "scheduler": spec.scheduler or ""})  # fmt: skip
         _check_scheduler(spec.scheduler)  # now, not after every table is learned
