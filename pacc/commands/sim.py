@@ -199,8 +199,13 @@ def _save(
     exit status (1 collision, 2 a failed output)."""
     status = 1 if collided else 0
     if args.log is not None:
-        meta = {"scenario": args.scenario, "seed": args.seed, "collision": collided,
-                "source": "pacc.commands.sim", "start_utc": base.iso(0.0)}  # fmt: skip
+        meta = {
+            "scenario": args.scenario,
+            "seed": args.seed,
+            "collision": collided,
+            "source": "pacc.commands.sim",
+            "start_utc": base.iso(0.0),
+        }
         try:
             write_trip(args.log, world_trip(log, driver, PedalScale.from_codec(node.codec), meta))
         except (TripLogError, OSError) as exc:

@@ -48,18 +48,27 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--scenarios", type=_name_list, help="comma-separated (default A,B; with --population: B)"
     )
-    p.add_argument("--controllers", type=_name_list, default=CONTROLLERS,
-                   help="comma-separated subset of " + ",".join(CONTROLLERS))  # fmt: skip
-    p.add_argument("--trials", type=integer(1, 1000),
-                   help="drives per cell (default 3; with --population: 1)")  # fmt: skip
+    p.add_argument(
+        "--controllers",
+        type=_name_list,
+        default=CONTROLLERS,
+        help="comma-separated subset of " + ",".join(CONTROLLERS),
+    )
+    p.add_argument(
+        "--trials", type=integer(1, 1000), help="drives per cell (default 3; with --population: 1)"
+    )
     p.add_argument("--seed", type=integer(0), default=0, help="study seed (default 0)")
     p.add_argument(
         "--duration",
         type=number(0.0, 1e5, lo_open=True),
         help="shorten every drive to N s (default: the whole 300 s; with --population: 120)",
     )
-    p.add_argument("--workers", type=integer(1, 256), default=min(2, os.cpu_count() or 1),
-                   help="parallel drive processes (default: 2 or the core count)")  # fmt: skip
+    p.add_argument(
+        "--workers",
+        type=integer(1, 256),
+        default=min(2, os.cpu_count() or 1),
+        help="parallel drive processes (default: 2 or the core count)",
+    )
     p.add_argument(
         "--scheduler",
         metavar="local|tcp://HOST:8786",
@@ -76,27 +85,45 @@ def _parser() -> argparse.ArgumentParser:
         "ignored (docs/plugins.md)",
     )
     p.add_argument("--no-logs", action="store_true", help="do not write MCAP logs")
-    p.add_argument("--can-logs", action="store_true", help="also record every drive's bus "
-                   "traffic, decoded, with the ECU's internals (MCAP, OUT/can/; pacc replay, "
-                   "pacc plot)")  # fmt: skip
+    p.add_argument(
+        "--can-logs",
+        action="store_true",
+        help="also record every drive's bus "
+        "traffic, decoded, with the ECU's internals (MCAP, OUT/can/; pacc replay, "
+        "pacc plot)",
+    )
     p.add_argument("--cache", type=Path, help="cache folder of learned IRL tables")
-    p.add_argument("--adaptation", "--adaptation-mode", choices=ADAPTATION_MODES,
-                   help="online adaptation of the +oa controllers (default: the ECU's, "
-                   "docs/ecu.md)")  # fmt: skip
+    p.add_argument(
+        "--adaptation",
+        "--adaptation-mode",
+        choices=ADAPTATION_MODES,
+        help="online adaptation of the +oa controllers (default: the ECU's, docs/ecu.md)",
+    )
     cloud = p.add_argument_group("the vehicle-cloud loop (docs/cloud.md)")
-    cloud.add_argument("--cloud", metavar="URL|DIR", help="learn the IRL tables in this "
-                       "cloud (default: a fresh embedded one in OUT/cloud)")  # fmt: skip
+    cloud.add_argument(
+        "--cloud",
+        metavar="URL|DIR",
+        help="learn the IRL tables in this cloud (default: a fresh embedded one in OUT/cloud)",
+    )
     cloud.add_argument("--token-file", help="with --cloud: the vehicle's token file")
     cloud.add_argument("--trust", help="with --cloud: the cloud's public key (PEM)")
     cloud.add_argument(
         "--direct", action="store_true", help="no cloud: learn in-process (cached in --cache)"
     )
-    cloud.add_argument("--incremental", type=integer(1, 1000), default=0, metavar="N",
-                       help="instead of Table I: N IRL+OA trips per driver, the cloud "
-                       "fine-tuning between")  # fmt: skip
-    p.add_argument("--population", type=integer(1, 100_000), default=0, metavar="N",
-                   help="instead of d1..d5: N drivers drawn with --seed (docs/study.md), "
-                   "resumable")  # fmt: skip
+    cloud.add_argument(
+        "--incremental",
+        type=integer(1, 1000),
+        default=0,
+        metavar="N",
+        help="instead of Table I: N IRL+OA trips per driver, the cloud fine-tuning between",
+    )
+    p.add_argument(
+        "--population",
+        type=integer(1, 100_000),
+        default=0,
+        metavar="N",
+        help="instead of d1..d5: N drivers drawn with --seed (docs/study.md), resumable",
+    )
     p.add_argument(
         "--population-kind",
         choices=tuple(POPULATIONS),
@@ -104,13 +131,26 @@ def _parser() -> argparse.ArgumentParser:
         help="the drawn drivers: people (calibrated to the study's people, the default; they "
         "draw their own manual-vs-ACC mismatch) or headway (steady-state headway drivers)",
     )
-    p.add_argument("--bus", choices=BUSES, default=BUSES[0], help="the python-can bus of "
-                   "every drive: lockstep (default) or virtual (the same rows)")  # fmt: skip
-    p.add_argument("--hil", type=Path, metavar="SESSIONS", help="instead of synthetic drivers: "
-                   "Table I of the people in pacc hil's session folders (docs/hil.md), written "
-                   "to --out")  # fmt: skip
-    p.add_argument("--beside", type=Path, metavar="DRIVES_CSV", help="with --hil: a synthetic "
-                   "study's drives.csv, its averages put beside the people's")  # fmt: skip
+    p.add_argument(
+        "--bus",
+        choices=BUSES,
+        default=BUSES[0],
+        help="the python-can bus of every drive: lockstep (default) or virtual (the same rows)",
+    )
+    p.add_argument(
+        "--hil",
+        type=Path,
+        metavar="SESSIONS",
+        help="instead of synthetic drivers: "
+        "Table I of the people in pacc hil's session folders (docs/hil.md), written "
+        "to --out",
+    )
+    p.add_argument(
+        "--beside",
+        type=Path,
+        metavar="DRIVES_CSV",
+        help="with --hil: a synthetic study's drives.csv, its averages put beside the people's",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     add_network_arguments(p)
     return p
@@ -159,12 +199,19 @@ def _spec(args: argparse.Namespace, argv: list[str]) -> tuple[StudySpec, dict[st
         duration_s=args.duration if args.duration is not None or not pop else 120.0,
         report="incremental" if args.incremental else "population" if pop else "table1",
         learn_in="direct" if args.direct or pop else "cloud",
-        logs=not (args.no_logs or pop), can_logs=args.can_logs,
-        adaptation=adaptation_params(args.adaptation), cloud=args.cloud,
-        token_file=args.token_file, trust=args.trust, incremental=args.incremental,
-        dbc=args.dbc, binding=args.binding, bus=args.bus, workers=args.workers,
+        logs=not (args.no_logs or pop),
+        can_logs=args.can_logs,
+        adaptation=adaptation_params(args.adaptation),
+        cloud=args.cloud,
+        token_file=args.token_file,
+        trust=args.trust,
+        incremental=args.incremental,
+        dbc=args.dbc,
+        binding=args.binding,
+        bus=args.bus,
+        workers=args.workers,
         scheduler=args.scheduler,
-    ), None  # fmt: skip
+    ), None
 
 
 def main(argv: list[str] | None = None) -> int:

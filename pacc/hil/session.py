@@ -91,8 +91,9 @@ class Session:
             load_driver(BODY), driver_id=cfg.participant, predefined_setting=cfg.setting
         )
         self._lock = threading.RLock()
-        self.manifest = open_manifest(self.folder / MANIFEST, cfg.participant, cfg.protocol,
-                                      cfg.seed, cfg.short_s, plan)  # fmt: skip
+        self.manifest = open_manifest(
+            self.folder / MANIFEST, cfg.participant, cfg.protocol, cfg.seed, cfg.short_s, plan
+        )
         self.drive: HilDrive | None = None
         self.runner: RealtimeRunner | None = None
         self.phase = "ready"  # ready | driving | paused | after | syncing | learning | failed

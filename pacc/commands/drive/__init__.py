@@ -110,10 +110,14 @@ def _check_options(args: argparse.Namespace) -> None:
             f"adapts its table (--controller {args.controller}+oa)"
         )
     for given, spec, params, named in (
-        ("--gap-controller-args", "--gap-controller", args.gap_controller_args,
-         args.gap_controller),
+        (
+            "--gap-controller-args",
+            "--gap-controller",
+            args.gap_controller_args,
+            args.gap_controller,
+        ),
         ("--adaptation-args", "--adaptation", args.adaptation_args, args.adaptation),
-    ):  # fmt: skip
+    ):
         if params and not named:
             raise UsageError(f"{given} gives the parameters of a {spec} SPEC: name the plug-in")
 
@@ -128,8 +132,11 @@ def _table(args: argparse.Namespace, base: DriverParams, driver: DriverParams) -
         return irl_table(base, args.seed, args.cache)
     table = load_dgpt(args.profile)
     if table.driver_id not in (driver.driver_id, "guest"):
-        print(f"pacc drive: warning: --profile is driver {table.driver_id!r}'s table, the "
-              f"drive's driver is {driver.driver_id!r}", file=sys.stderr)  # fmt: skip
+        print(
+            f"pacc drive: warning: --profile is driver {table.driver_id!r}'s table, the "
+            f"drive's driver is {driver.driver_id!r}",
+            file=sys.stderr,
+        )
     return table
 
 
@@ -146,12 +153,22 @@ def main(argv: list[str] | None = None) -> int:
         if args.duration is not None and not (args.duration > 0):
             raise SimError("--duration must be > 0")
         cfg = DriveConfig(
-            args.scenario, driver.driver_id, args.controller, args.seed, args.duration,
-            args.faults, args.brake_mode, adaptation=adaptation_params(args.adaptation_mode),
-            dbc=args.dbc, binding=args.binding, gap_controller=args.gap_controller,
-            controller_args=args.gap_controller_args, adaptation_method=args.adaptation,
-            adaptation_args=args.adaptation_args, manual=args.manual,
-        )  # fmt: skip
+            args.scenario,
+            driver.driver_id,
+            args.controller,
+            args.seed,
+            args.duration,
+            args.faults,
+            args.brake_mode,
+            adaptation=adaptation_params(args.adaptation_mode),
+            dbc=args.dbc,
+            binding=args.binding,
+            gap_controller=args.gap_controller,
+            controller_args=args.gap_controller_args,
+            adaptation_method=args.adaptation,
+            adaptation_args=args.adaptation_args,
+            manual=args.manual,
+        )
         drive_codec(cfg)  # a DBC without its binding: refused before any learning
         profile = resolve_profile(args.scenario, args.seed)
         table = _table(args, base, driver)
@@ -161,8 +178,17 @@ def main(argv: list[str] | None = None) -> int:
         if pace is not None:
             print(f"drive: paced at {pace:g}x real time (--pace 0: as fast as it runs)")
         try:
-            result = run_drive(cfg, driver, table, profile, can_log=args.can_log, live=live,
-                               bus=args.bus, manual_sink=manual, pace=pace)  # fmt: skip
+            result = run_drive(
+                cfg,
+                driver,
+                table,
+                profile,
+                can_log=args.can_log,
+                live=live,
+                bus=args.bus,
+                manual_sink=manual,
+                pace=pace,
+            )
         finally:
             for sink in live:
                 sink.close(complete=True)
@@ -228,16 +254,28 @@ def _manual(args: argparse.Namespace) -> int | None:
     log ``pacc demos extract`` reads)."""
     from sim_bus.manual import manual_trip  # noqa: PLC0415
 
-    given = [opt for opt, on in (
-        ("--controller", args.controller != "predefined"), ("--profile", args.profile is not None),
-        ("--faults", bool(args.faults)), ("--manual-trips", args.manual_trips is not None),
-        ("--adaptation-mode", args.adaptation_mode is not None),
-        ("--gap-controller", bool(args.gap_controller)), ("--adaptation", bool(args.adaptation)),
-        ("--foxglove", args.foxglove is not None), ("--pace", args.pace is not None),
-        ("--bus", args.bus != BUSES[0])) if on]  # fmt: skip
+    given = [
+        opt
+        for opt, on in (
+            ("--controller", args.controller != "predefined"),
+            ("--profile", args.profile is not None),
+            ("--faults", bool(args.faults)),
+            ("--manual-trips", args.manual_trips is not None),
+            ("--adaptation-mode", args.adaptation_mode is not None),
+            ("--gap-controller", bool(args.gap_controller)),
+            ("--adaptation", bool(args.adaptation)),
+            ("--foxglove", args.foxglove is not None),
+            ("--pace", args.pace is not None),
+            ("--bus", args.bus != BUSES[0]),
+        )
+        if on
+    ]
     if (args.log is None) == (args.can_log is None) or given:
-        why = (f"drives the ACC off: drop {', '.join(given)}" if given else "writes --log "
-               "FILE (no bus) or --can-log FILE (the bus drive), one of them")  # fmt: skip
+        why = (
+            f"drives the ACC off: drop {', '.join(given)}"
+            if given
+            else "writes --log FILE (no bus) or --can-log FILE (the bus drive), one of them"
+        )
         print(f"pacc drive: error: --manual {why}", file=sys.stderr)
         return 2
     if args.can_log is not None:

@@ -286,11 +286,14 @@ def _config(args: argparse.Namespace) -> tuple[EcuConfig, Dgpt]:
             raise _fail(2, f"{option} {name!a}: not a plain name (letters, digits, _.-)")
     try:
         config = EcuConfig(
-            adaptation=args.adaptation, brake_mode=args.brake, set_speed_mps=args.set_speed,
+            adaptation=args.adaptation,
+            brake_mode=args.brake,
+            set_speed_mps=args.set_speed,
             adaptation_params=AdaptationParams(mode=args.adaptation_mode),
             trip_meta={"driver_id": args.driver} if args.driver else {},
-            gap_controller=args.gap_controller, adaptation_method=args.adaptation_method,
-        )  # fmt: skip
+            gap_controller=args.gap_controller,
+            adaptation_method=args.adaptation_method,
+        )
         if config.gap_controller:  # a spec that names nothing: refused before the bus opens
             make_controller(config.gap_controller, {})
         if config.adaptation_method:
@@ -311,13 +314,19 @@ def _initial_table(
         table = load_dgpt(args.profile, config.bounds)
     except DgptError as exc:
         print(f"pacc ecu: profile refused: {exc}", file=sys.stderr)
-        print(f"pacc ecu: running on the predefined table ({args.headway:g} s headway, "
-              f"{args.standstill:g} m standstill) instead", file=sys.stderr)  # fmt: skip
+        print(
+            f"pacc ecu: running on the predefined table ({args.headway:g} s headway, "
+            f"{args.standstill:g} m standstill) instead",
+            file=sys.stderr,
+        )
         return fallback, True
     say(f"profile: {args.profile} ({table.driver_id}, {table.source}, v{table.version})")
     if args.driver and table.driver_id not in (args.driver, "guest"):
-        print(f"pacc ecu: warning: --profile is driver {table.driver_id!r}'s table, the "
-              f"takeovers are tagged {args.driver!r}", file=sys.stderr)  # fmt: skip
+        print(
+            f"pacc ecu: warning: --profile is driver {table.driver_id!r}'s table, the "
+            f"takeovers are tagged {args.driver!r}",
+            file=sys.stderr,
+        )
     return table, False
 
 
