@@ -86,9 +86,16 @@ def control(
     beyond = engaged and beyond_authority(config, inp, p, lead_a)
     if active:
         obs = ControlInput(  # positional fields in declaration order
-            p.v_mps, inp.a_mps2, set_speed_mps, inp.lead_valid, inp.gap_m, inp.rel_speed_mps,
-            lead_a, p.desired_gap_m, p.desired_gap_slope_s,
-        )  # fmt: skip
+            p.v_mps,
+            inp.a_mps2,
+            set_speed_mps,
+            inp.lead_valid,
+            inp.gap_m,
+            inp.rel_speed_mps,
+            lead_a,
+            p.desired_gap_m,
+            p.desired_gap_slope_s,
+        )
         if law is None:
             target, integral = desired_accel(ctl, obs, integral0, dt_s, integrate=True)
         else:

@@ -92,8 +92,17 @@ class HilDrive(Rig):
             # a person's SET (the study's drives set a speed above every lead's)
             ecu.config = dataclasses.replace(ecu.config, set_speed_mps=set_speed_mps)
         channel = record_channel or f"pacc-hil-{next(_channels)}-{id(self):x}"
-        super().__init__(cfg, world, ecu, table, TimeBase(time.time_ns(), 0.0), channel=channel,
-                         bus=bus, can_log=can_log, live=live)  # fmt: skip
+        super().__init__(
+            cfg,
+            world,
+            ecu,
+            table,
+            TimeBase(time.time_ns(), 0.0),
+            channel=channel,
+            bus=bus,
+            can_log=can_log,
+            live=live,
+        )
         self.dt_s = self.world.cfg.plant.dt_s
         #: wall-clock times of the first and the latest tick (perf_counter s)
         self._wall = (math.nan, math.nan)

@@ -45,9 +45,14 @@ def _records(sessions: Path, pattern: str, fields: Sequence[str]) -> list[dict[s
         for path in sorted((folder / "drives").glob(pattern), key=lambda p: (trip_of(p.stem), p)):
             try:
                 rec = json.loads(path.read_text(encoding="utf-8"))
-                out.append({**{k: rec["row"][k] for k in fields}, "trip": trip_of(path.stem),
-                            "dgpt_version": rec["table_version"],
-                            "uploaded": rec.get("incremental", {}).get("uploaded", 0)})  # fmt: skip
+                out.append(
+                    {
+                        **{k: rec["row"][k] for k in fields},
+                        "trip": trip_of(path.stem),
+                        "dgpt_version": rec["table_version"],
+                        "uploaded": rec.get("incremental", {}).get("uploaded", 0),
+                    }
+                )
             except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
                 raise SimError(f"{path}: not a drive record ({exc})") from exc
     return out

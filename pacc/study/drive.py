@@ -195,8 +195,19 @@ def run_drive(
     base = TimeBase(time.time_ns() if utc_start_ns is None else utc_start_ns, 0.0)
     channel = record_channel or f"pacc-drive-{id(cfg):x}-{next(_channel_ids)}"
     gap = GAP_SETTING_CODE[driver.predefined_setting]
-    rig = Rig(cfg, world, ecu, table, base, interface=bus, channel=channel, can_log=can_log,
-              live=live, faults=faults, gap_setting=gap)  # fmt: skip
+    rig = Rig(
+        cfg,
+        world,
+        ecu,
+        table,
+        base,
+        interface=bus,
+        channel=channel,
+        can_log=can_log,
+        live=live,
+        faults=faults,
+        gap_setting=gap,
+    )
     interrupted_at: float | None = None
     try:
         assert rig.rt is not None
@@ -277,8 +288,14 @@ class Rig:
                     self.recorder = drive_recorder(can_log, cfg, ecu, table, self.codec, base, live)
                     self.rt.record_to(self.recorder)
                     self.feed = WorldFeed(self.recorder, world) if live else None
-            self.node = SimNode(bus, world, codec=self.codec, faults=faults,
-                                rng=fault_rng(cfg.seed), gap_setting=gap_setting)  # fmt: skip
+            self.node = SimNode(
+                bus,
+                world,
+                codec=self.codec,
+                faults=faults,
+                rng=fault_rng(cfg.seed),
+                gap_setting=gap_setting,
+            )
         except BaseException:
             self.close()
             raise

@@ -51,19 +51,63 @@ CONTROLLER_TITLES = {
 }
 SCENARIO_TITLES = {"A": "Seen (A)", "B": "Unseen (B)"}
 #: a drive's metrics, in the columns of drives.csv (also a hil session's records)
-METRIC_FIELDS = ("poi_pct", "nim_per_min", "press_onsets", "acc_on_s", "min_gap_m", "min_ttc_s",
-                 "rms_jerk_mps3", "gap_error_rms_m")  # fmt: skip
+METRIC_FIELDS = (
+    "poi_pct",
+    "nim_per_min",
+    "press_onsets",
+    "acc_on_s",
+    "min_gap_m",
+    "min_ttc_s",
+    "rms_jerk_mps3",
+    "gap_error_rms_m",
+)
 #: Table I's drives.csv
-FIELDS = ("driver", "scenario", "controller", "trial", "seed", *METRIC_FIELDS, "takeovers",
-          "adaptations", "collision", "sim_s", "wall_s")  # fmt: skip
+FIELDS = (
+    "driver",
+    "scenario",
+    "controller",
+    "trial",
+    "seed",
+    *METRIC_FIELDS,
+    "takeovers",
+    "adaptations",
+    "collision",
+    "sim_s",
+    "wall_s",
+)
 #: a study file's drives.csv
 SUMMARY_FIELDS = (
-    "driver", "scenario", "method", "table", "adaptation", "controller", "trial", "seed",
-    "poi_pct", "nim_per_min", "press_onsets", "min_gap_m", "min_ttc_s", "rms_jerk_mps3",
-    "gap_error_rms_m", "takeovers", "adaptations", "collision", "plugin_faults",
-)  # fmt: skip
-INCREMENTAL_FIELDS = ("driver", "trip", "dgpt_version", "poi_pct", "nim_per_min", "takeovers",
-                      "uploaded", "min_ttc_s", "collision")  # fmt: skip
+    "driver",
+    "scenario",
+    "method",
+    "table",
+    "adaptation",
+    "controller",
+    "trial",
+    "seed",
+    "poi_pct",
+    "nim_per_min",
+    "press_onsets",
+    "min_gap_m",
+    "min_ttc_s",
+    "rms_jerk_mps3",
+    "gap_error_rms_m",
+    "takeovers",
+    "adaptations",
+    "collision",
+    "plugin_faults",
+)
+INCREMENTAL_FIELDS = (
+    "driver",
+    "trip",
+    "dgpt_version",
+    "poi_pct",
+    "nim_per_min",
+    "takeovers",
+    "uploaded",
+    "min_ttc_s",
+    "collision",
+)
 #: a drive whose minimum time-to-collision is below this is reported by name, s
 TTC_FLOOR_S = 2.0
 METRICS = (("poi_pct", "PoI %"), ("nim_per_min", "NIM /min"))
@@ -156,18 +200,25 @@ def format_table(cfg: StudySpec, rows: Sequence[dict[str, Any]]) -> str:
     ]
     for name in drivers:
         for scenario in cfg.scenarios:
-            cells = [f"{means[(name, scenario, c)][0]:.1f} % | {means[(name, scenario, c)][1]:.1f}"
-                     for c in controllers]  # fmt: skip
+            cells = [
+                f"{means[(name, scenario, c)][0]:.1f} % | {means[(name, scenario, c)][1]:.1f}"
+                for c in controllers
+            ]
             title = SCENARIO_TITLES.get(scenario, scenario)
             lines.append(f"| {name} | {title} | " + " | ".join(cells) + " |")
     avg = averages(means)
-    lines.append("| **average** | | "
-                 + " | ".join(f"**{avg[c][0]:.1f} %** | **{avg[c][1]:.1f}**" for c in controllers)
-                 + " |")  # fmt: skip
-    lines.append("| paper (average) | | "
-                 + " | ".join(f"{PAPER_AVERAGES[c][0]:.1f} % | {PAPER_AVERAGES[c][1]:.1f}"
-                              for c in controllers)
-                 + " |")  # fmt: skip
+    lines.append(
+        "| **average** | | "
+        + " | ".join(f"**{avg[c][0]:.1f} %** | **{avg[c][1]:.1f}**" for c in controllers)
+        + " |"
+    )
+    lines.append(
+        "| paper (average) | | "
+        + " | ".join(
+            f"{PAPER_AVERAGES[c][0]:.1f} % | {PAPER_AVERAGES[c][1]:.1f}" for c in controllers
+        )
+        + " |"
+    )
     out = [
         "# Table I — interventions per controller (synthetic drivers, CAN bus)",
         "",
@@ -187,16 +238,22 @@ def format_table(cfg: StudySpec, rows: Sequence[dict[str, Any]]) -> str:
         out += ["Reduction against Predefined (ours; paper in brackets):", ""]
         for c in (c for c in controllers if c != "predefined"):
             ours = (reduction_pct(base[0], avg[c][0]), reduction_pct(base[1], avg[c][1]))
-            paper = (reduction_pct(p["predefined"][0], p[c][0]),
-                     reduction_pct(p["predefined"][1], p[c][1]))  # fmt: skip
-            out.append(f"- {CONTROLLER_TITLES[c]}: PoI {pct(ours[0])} ({pct(paper[0])}), "
-                       f"NIM {pct(ours[1])} ({pct(paper[1])})")  # fmt: skip
+            paper = (
+                reduction_pct(p["predefined"][0], p[c][0]),
+                reduction_pct(p["predefined"][1], p[c][1]),
+            )
+            out.append(
+                f"- {CONTROLLER_TITLES[c]}: PoI {pct(ours[0])} ({pct(paper[0])}), "
+                f"NIM {pct(ours[1])} ({pct(paper[1])})"
+            )
         out.append("")
     collisions = sum(int(r["collision"]) for r in rows)
     min_gap = min(float(r["min_gap_m"]) for r in rows)
     min_ttc = min(float(r["min_ttc_s"]) for r in rows)
-    out.append(f"Safety over all drives: {collisions} collisions, min gap {min_gap:.2f} m, "
-               f"min TTC {min_ttc:.2f} s.")  # fmt: skip
+    out.append(
+        f"Safety over all drives: {collisions} collisions, min gap {min_gap:.2f} m, "
+        f"min TTC {min_ttc:.2f} s."
+    )
     return "\n".join(out) + "\n"
 
 
@@ -215,8 +272,14 @@ def bars(
     for k, (ax, label) in enumerate(zip(axes, ("PoI (%)", "NIM (presses / min)"), strict=True)):
         for i, (legend, values, err) in enumerate(bars):
             offset = (i - (len(bars) - 1) / 2) * width if len(bars) > 1 else 0.0
-            ax.bar(x + offset, values[k], width, yerr=None if err is None else err[k],
-                   capsize=4, label=legend)  # fmt: skip
+            ax.bar(
+                x + offset,
+                values[k],
+                width,
+                yerr=None if err is None else err[k],
+                capsize=4,
+                label=legend,
+            )
         ax.set_xticks(x, labels, rotation=15 if len(bars) > 1 else 30, fontsize=8)
         ax.set_ylabel(label)
         ax.grid(axis="y", alpha=0.3)
@@ -234,9 +297,12 @@ def plot(path: Path, rows: Sequence[dict[str, Any]], who: str = "synthetic drive
     controllers = [c for c in CONTROLLERS if c in avg]
     ours = np.array([[avg[c][k] for c in controllers] for k in (0, 1)])
     paper = np.array([[PAPER_AVERAGES[c][k] for c in controllers] for k in (0, 1)])
-    bars(path, "Interventions per controller (Table I averages)",
-          [CONTROLLER_TITLES[c] for c in controllers],
-          [(f"pacc ({who})", ours, None), ("paper (human drivers)", paper, None)])  # fmt: skip
+    bars(
+        path,
+        "Interventions per controller (Table I averages)",
+        [CONTROLLER_TITLES[c] for c in controllers],
+        [(f"pacc ({who})", ours, None), ("paper (human drivers)", paper, None)],
+    )
 
 
 def _fmt_ci(mean: float, ci: tuple[float, float]) -> str:
@@ -257,8 +323,9 @@ def _population_tests(
 
 def acceptance(rows: Sequence[dict[str, Any]], *, alpha: float = 0.05) -> list[str]:
     """The population study's goals, each ``met`` or ``NOT met`` with its figures."""
-    tests = {(m, pair): (res, p) for m, pair, res, p in
-             _population_tests(rows, np.random.default_rng(0))}  # fmt: skip
+    tests = {
+        (m, pair): (res, p) for m, pair, res, p in _population_tests(rows, np.random.default_rng(0))
+    }
     out = []
     if all(c in {p for _, pair in tests for p in pair} for c in CONTROLLERS):
         for metric, name in METRICS:
@@ -272,9 +339,11 @@ def acceptance(rows: Sequence[dict[str, Any]], *, alpha: float = 0.05) -> list[s
         for base in ("predefined", "irl"):
             res, p = tests[("poi_pct", (base, f"{base}+oa"))]
             verdict = "met" if res.mean_diff < 0 and p < alpha else "NOT met"
-            out.append(f"- {CONTROLLER_TITLES[base + '+oa']} lowers PoI against "
-                       f"{CONTROLLER_TITLES[base]}: {verdict} ({res.mean_diff:+.2f} points, "
-                       f"Holm p {p:.2g})")  # fmt: skip
+            out.append(
+                f"- {CONTROLLER_TITLES[base + '+oa']} lowers PoI against "
+                f"{CONTROLLER_TITLES[base]}: {verdict} ({res.mean_diff:+.2f} points, "
+                f"Holm p {p:.2g})"
+            )
     collisions = sum(int(r["collision"]) for r in rows)
     out.append(f"- no collision: {'met' if collisions == 0 else 'NOT met'} ({collisions})")
     return out
@@ -313,8 +382,10 @@ def format_population(cfg: StudySpec, rows: Sequence[dict[str, Any]]) -> str:
             f"| {_fmt_ci(res.mean_diff, res.ci)} | {res.better} / {res.worse} / {res.ties} "
             f"| {res.p_value:.2g} | {p_adj:.2g} |"
         )
-    low = sorted((r for r in rows if float(r["min_ttc_s"]) < TTC_FLOOR_S),
-                 key=lambda r: float(r["min_ttc_s"]))  # fmt: skip
+    low = sorted(
+        (r for r in rows if float(r["min_ttc_s"]) < TTC_FLOOR_S),
+        key=lambda r: float(r["min_ttc_s"]),
+    )
     out = [
         f"# Population study — {len(drivers)} drawn drivers, population seed {cfg.seed}",
         "",
@@ -415,12 +486,19 @@ def plot_incremental(path: Path, rows: Sequence[dict[str, Any]]) -> None:
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
     curve = per_trip(rows)
-    for ax, key, k, label in ((axes[0], "poi_pct", 1, "PoI (%)"),
-                              (axes[1], "nim_per_min", 2, "NIM (presses / min)")):  # fmt: skip
+    for ax, key, k, label in (
+        (axes[0], "poi_pct", 1, "PoI (%)"),
+        (axes[1], "nim_per_min", 2, "NIM (presses / min)"),
+    ):
         for driver in sorted({str(r["driver"]) for r in rows}):
             sel = [r for r in rows if r["driver"] == driver]
-            ax.plot([int(r["trip"]) for r in sel], [float(r[key]) for r in sel], alpha=0.5,
-                    lw=1, label=driver)  # fmt: skip
+            ax.plot(
+                [int(r["trip"]) for r in sel],
+                [float(r[key]) for r in sel],
+                alpha=0.5,
+                lw=1,
+                label=driver,
+            )
         ax.plot([c[0] for c in curve], [c[k] for c in curve], "k-o", lw=2.5, label="mean")
         ax.set_xticks([c[0] for c in curve])
         ax.set_xlabel("trip (each after the cloud fine-tuned on the previous takeovers)")

@@ -203,7 +203,13 @@ def plot(path: Path, board: Sequence[Mapping[str, Any]]) -> None:
     """PoI and NIM per method with their intervals across drivers."""
     means = np.array([[b[short] for b in board] for short in ("poi", "nim")], dtype=float)
     ci = np.array([[b[f"{short}_ci"] for b in board] for short in ("poi", "nim")], dtype=float)
-    err = [np.vstack([np.nan_to_num(means[k] - ci[k, :, 0]), np.nan_to_num(ci[k, :, 1] - means[k])])
-           for k in (0, 1)]  # fmt: skip
-    bars(path, "pacc bench: mean over drivers, 95 % bootstrap interval",
-         [b["method"] for b in board], [("", means, err)])  # fmt: skip
+    err = [
+        np.vstack([np.nan_to_num(means[k] - ci[k, :, 0]), np.nan_to_num(ci[k, :, 1] - means[k])])
+        for k in (0, 1)
+    ]
+    bars(
+        path,
+        "pacc bench: mean over drivers, 95 % bootstrap interval",
+        [b["method"] for b in board],
+        [("", means, err)],
+    )
