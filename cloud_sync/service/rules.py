@@ -21,7 +21,7 @@ from collections.abc import Callable, Iterable
 from concurrent.futures import Executor, Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PrivateKey
 
@@ -37,8 +37,6 @@ from cloud_sync.api import (
 )
 from cloud_sync.engine import InlineExecutor, single_blas_thread
 from cloud_sync.errors import DemoError
-from cloud_sync.irl.config import IrlConfig
-from cloud_sync.irl.trainer import fine_tune, learn_dgpt
 from cloud_sync.service.ingest import parse_batch, storage_errors
 from cloud_sync.service.store import BatchRow, CloudStore, StoreError, VersionRow
 from cloud_sync.signing import (
@@ -53,6 +51,9 @@ from dbc.vocab.dgpt import Dgpt, utc_now_iso
 from dbc.vocab.triplog import Trip
 from dbc.vocab.triplog_file import trip_from_bytes
 from dbc.vocab.tripmode import TripMode
+
+if TYPE_CHECKING:  # the IRL stack (scipy) loads with the first job, not with every command
+    from cloud_sync.irl.config import IrlConfig
 
 log = logging.getLogger(__name__)
 
@@ -127,6 +128,8 @@ def train_table(
     """A job's training, pure: ``previous`` (None: learned from the ``manual`` trips)
     fine-tuned with the ``corrections``; DemoError if the data are not enough yet. One BLAS
     thread: the same table on any engine."""
+    from cloud_sync.irl.trainer import fine_tune, learn_dgpt  # noqa: PLC0415 - see imports
+
     with single_blas_thread():
         if previous is None:
             previous = learn_dgpt(
