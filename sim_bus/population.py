@@ -233,7 +233,7 @@ class TakeoverScales:
 
 
 #: frozen after the fit (docs/drivers.md names the seed it was fitted on)
-PEOPLE_SCALES = TakeoverScales(mismatch=1.3, taps_per_min=1.8, press_s=0.7)
+PEOPLE_SCALES = TakeoverScales(mismatch=0.24, taps_per_min=1.8, press_s=0.7)
 #: the populations by name; ``headway`` (the steady-state calibration alone) is the older one
 POPULATIONS = ("headway", "people")
 DEFAULT_POPULATION = "people"
@@ -255,7 +255,7 @@ def people_driver(
         accel_max_mps2=accel,
         decel_comfort_mps2=decel,
         reaction_s=reaction,
-        acc_offset_s=round(max(offset, 0.3 - min(base.headway_s)), 4),
+        acc_offset_s=round(offset, 4),
         acc_preference_factor=1.0,
         trip_shift_sd_s=float(rng.uniform(0.05, 0.25)),
         condition_drift_per_min=float(rng.uniform(0.01, 0.05)),
