@@ -158,11 +158,11 @@ def nearest_setting(headway_s: float) -> str:
 
 
 #: the manual-vs-ACC mismatch prior: the time gap wanted under ACC minus the one kept by
-#: hand, log-normal about the fitted median (sd of the log below) clipped to the range, s
-#: (docs/drivers.md: longer under ACC for virtually every driver, bounds from reported ACC
-#: headways, size fitted)
-MISMATCH_SD_LOG = 0.35
-MISMATCH_RANGE_S = (0.05, 1.0)
+#: hand, scale·N(mean, sd) s clipped to the range (docs/drivers.md: direction from field
+#: tests, bounds from reported ACC headways, size fitted)
+MISMATCH_MEAN_S = 0.3
+MISMATCH_SD_S = 0.3
+MISMATCH_RANGE_S = (-0.5, 1.0)
 
 
 def draw_driver(prior: PopulationPrior, seed: int, index: int) -> DriverParams:
@@ -226,14 +226,15 @@ class TakeoverScales:
     """The three scales of the ``people`` population's takeover prior, fitted on one seed to
     the paper's four PoI averages only (``python -m tools.calibration people``) and frozen."""
 
-    mismatch: float  # median of the ACC-vs-manual offset, s
+    mismatch: float  # × the ACC-vs-manual offset prior N(MISMATCH_MEAN_S, MISMATCH_SD_S),
+    # clipped to MISMATCH_RANGE_S after scaling
     taps_per_min: float  # mean rate of presses that are not about the gap, per min
     press_s: float  # median of a press not about the gap, and of the longest press beyond
     # press_min_s, s
 
 
 #: frozen after the fit (docs/drivers.md names the seed it was fitted on)
-PEOPLE_SCALES = TakeoverScales(mismatch=0.24, taps_per_min=1.8, press_s=0.7)
+PEOPLE_SCALES = TakeoverScales(mismatch=1.3, taps_per_min=1.8, press_s=0.7)
 #: the populations by name; ``headway`` (the steady-state calibration alone) is the older one
 POPULATIONS = ("headway", "people")
 DEFAULT_POPULATION = "people"
@@ -248,14 +249,17 @@ def people_driver(
     accel, decel, reaction = (
         _lognormal(rng, med, sd, 0.25 * med, 4.0 * med) for med, sd in FOLLOWING_PRIOR.values()
     )
-    offset = _lognormal(rng, scales.mismatch, MISMATCH_SD_LOG, *MISMATCH_RANGE_S)
+    offset = _clip(
+        scales.mismatch * (MISMATCH_MEAN_S + MISMATCH_SD_S * float(rng.standard_normal())),
+        *MISMATCH_RANGE_S,
+    )
     taps = scales.taps_per_min * math.exp(0.5 * float(rng.standard_normal()) - 0.125)
     return dataclasses.replace(
         base,
         accel_max_mps2=accel,
         decel_comfort_mps2=decel,
         reaction_s=reaction,
-        acc_offset_s=round(offset, 4),
+        acc_offset_s=round(max(offset, 0.3 - min(base.headway_s)), 4),
         acc_preference_factor=1.0,
         trip_shift_sd_s=float(rng.uniform(0.05, 0.25)),
         condition_drift_per_min=float(rng.uniform(0.01, 0.05)),

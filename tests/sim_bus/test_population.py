@@ -86,10 +86,9 @@ def test_people_population_keeps_the_preference_and_draws_habits() -> None:
         assert (p.headway_s, p.standstill_m) == (b.headway_s, b.standstill_m)
         assert p.tap_s >= 0.3 and p.press_max_s > p.press_min_s and p.trip_shift_sd_s > 0
     offsets = np.array([p.acc_offset_s for p in people])
-    assert offsets.min() >= MISMATCH_RANGE_S[0]  # longer under ACC for every driver
-    assert abs(np.median(offsets) - PEOPLE_SCALES.mismatch) < 0.25 * PEOPLE_SCALES.mismatch
+    assert 0.1 < offsets.mean() < 0.3 * PEOPLE_SCALES.mismatch + 0.2  # prior N(0.3, 0.3)·scale
     wide = [people_driver(b, 3, i, TakeoverScales(3.0, 1.0, 1.0)) for i, b in enumerate(base)]
-    assert max(p.acc_offset_s for p in wide) == MISMATCH_RANGE_S[1]  # clipped
+    assert max(p.acc_offset_s for p in wide) == MISMATCH_RANGE_S[1]  # clipped after scaling
     taps = np.array([p.spurious_press_per_min for p in people])
     assert abs(np.median(taps) - PEOPLE_SCALES.taps_per_min) < 0.5 * PEOPLE_SCALES.taps_per_min
     assert people_driver(base[0], 3, 0) == people[0]
