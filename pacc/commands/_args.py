@@ -47,6 +47,14 @@ def add_bus_arguments(parser: argparse.ArgumentParser, title: str | None = None)
     )
 
 
+def add_cloud_arguments(p: Any, *, paths: bool = False) -> None:
+    """``--cloud``, ``--token-file``, ``--trust`` (``paths``: as :class:`Path`) on ``p``."""
+    kind = Path if paths else str
+    p.add_argument("--cloud", metavar="URL|DIR", help="the cloud service, or a folder")
+    p.add_argument("--token-file", type=kind, help="with --cloud: the vehicle's token file")
+    p.add_argument("--trust", type=kind, help="with --cloud: the cloud's public key (PEM)")
+
+
 def add_world_arguments(p: argparse.ArgumentParser) -> None:
     """The simulated world's options, ``pacc drive``'s and ``pacc sim``'s: scenario, driver,
     seed, faults, duration (s), the trip log, the condition factor."""

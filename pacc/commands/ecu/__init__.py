@@ -36,6 +36,7 @@ from ecu.recorder import SinkQueue, TripSink
 from pacc.commands._args import (
     CommandParser,
     add_bus_arguments,
+    add_cloud_arguments,
     check_distinct_outputs,
     check_writable_file,
     number,
@@ -62,117 +63,40 @@ def build_parser() -> argparse.ArgumentParser:
     table = p.add_mutually_exclusive_group()
     table.add_argument("--profile", metavar="DGPT.json", help="driver gap preference table")
     table.add_argument(
-        "--headway",
-        type=number(0.1, 10.0),
-        default=1.5,
-        metavar="S",
-        help="predefined table: constant time headway, s (default 1.5; the paper: 1, 3, 4)",
+        "--headway", type=number(0.1, 10.0), default=1.5, help="predefined table's headway, s (1.5)"
     )
-    p.add_argument(
-        "--standstill",
-        type=number(0.5, 50.0),
-        default=4.0,
-        metavar="M",
-        help="standstill gap, m (4)",
-    )
+    p.add_argument("--standstill", type=number(0.5, 50.0), default=4.0, help="standstill gap, m")
     p.add_argument(
         "--adaptation",
         action=argparse.BooleanOptionalAction,
         default=True,
         help="online DGPT adaptation at each takeover release (default: on)",
     )
+    p.add_argument("--adaptation-mode", choices=ADAPTATION_MODES, default="timegap")
+    p.add_argument("--brake", choices=("resume", "cancel"), default="resume", help="brake press")
+    p.add_argument("--profiles", metavar="DIR", help="DriverProfileId n loads DIR/profile_<n>.json")
+    p.add_argument("--set-speed", type=number(0.0, 60.0), help="SET speed, m/s (default: current)")
+    p.add_argument("--gap-controller", default="", metavar="SPEC", help="see pacc plugins")
+    p.add_argument("--adaptation-method", default="", metavar="SPEC", help="see pacc plugins")
+    p.add_argument("--takeovers", metavar="DIR", help="spool takeover segments here")
     p.add_argument(
-        "--adaptation-mode",
-        choices=ADAPTATION_MODES,
-        default="timegap",
-        help="online adaptation: the paper's Algorithm 1 ('paper') or the time-gap update "
-        "spread over speed ('timegap', default; docs/ecu.md)",
+        "--manual", nargs="?", const="", metavar="DIR", help="spool manual stretches (docs/ecu.md)"
     )
     p.add_argument(
-        "--brake",
-        choices=("resume", "cancel"),
-        default="resume",
-        help="brake press: override and resume on release (paper) or cancel (production)",
+        "--manual-min", type=number(0.1, MANUAL_MAX_S), help="shortest manual stretch kept, s"
     )
-    p.add_argument(
-        "--profiles",
-        metavar="DIR",
-        help="driver profiles: HMI DriverProfileId n > 0 loads DIR/profile_<n>.json",
-    )
-    p.add_argument(
-        "--set-speed",
-        type=number(0.0, 60.0),
-        metavar="MPS",
-        help="SET engages at this speed, m/s (default: the current speed)",
-    )
-    p.add_argument(
-        "--gap-controller",
-        default="",
-        metavar="SPEC",
-        help="gap controller through the guarded plug-in interface ('pacc plugins' lists them)",
-    )
-    p.add_argument(
-        "--adaptation-method",
-        default="",
-        metavar="SPEC",
-        help="online adaptation through the plug-in interface: timegap, paper, bayes, ...",
-    )
-    p.add_argument(
-        "--takeovers",
-        metavar="DIR",
-        help="spool takeover segments here (MCAP batches for pacc cloud sync --spool DIR)",
-    )
-    p.add_argument(
-        "--manual",
-        nargs="?",
-        const="",
-        metavar="DIR",
-        help="record the driver's manual car-following stretches (ACC not engaged, a lead, "
-        "inputs good) as demonstrations: spooled in DIR (pacc cloud sync --spool DIR; may be "
-        "the --takeovers DIR), or with --cloud and no DIR in the cloud link's spool",
-    )
-    p.add_argument(
-        "--manual-min",
-        type=number(0.1, MANUAL_MAX_S),
-        metavar="S",
-        help=f"with --manual: shortest manual stretch recorded, s (0.1 to {MANUAL_MAX_S:g}, "
-        f"default {MANUAL_MIN_S:g})",
-    )
-    p.add_argument(
-        "--can-log",
-        metavar="FILE",
-        help="record every frame in and out (raw and decoded) and the node's internals to "
-        "this MCAP file (pacc replay, pacc plot, pacc export)",
-    )
+    p.add_argument("--can-log", metavar="FILE", help="record frames and internals to this MCAP")
     add_foxglove_argument(p)
     p.add_argument("--save-profile", metavar="PATH", help="write the final DGPT here at exit")
     p.add_argument("--duration", type=number(0.0, 1e7), metavar="S", help="stop after S seconds")
-    cloud = p.add_argument_group(
-        "cloud (docs/cloud.md): takeovers, manual trips and trip reports up, verified tables down"
-    )
-    cloud.add_argument("--cloud", metavar="URL|DIR", help="the cloud service, or a folder")
+    cloud = p.add_argument_group("cloud (docs/cloud.md)")
+    add_cloud_arguments(cloud)
     cloud.add_argument("--vehicle", metavar="ID", help="this vehicle's id (with --cloud)")
-    cloud.add_argument("--token-file", metavar="F", help="file holding the vehicle's token")
-    cloud.add_argument(
-        "--trust",
-        metavar="KEY.pub",
-        help="the cloud's public key (default for a folder: "
-        "DIR/keys/cloud.pub; required for a URL)",
-    )
-    cloud.add_argument(
-        "--driver",
-        metavar="ID",
-        help="the driver: tags the takeover segments and manual trips (--takeovers, --manual, "
-        "--cloud); with --cloud also downloads this driver's table and reports the trip",
-    )
+    cloud.add_argument("--driver", metavar="ID", help="the driver: tags trips, picks its table")
     cloud.add_argument("--condition", default="default", help="driving condition of --driver")
     cloud.add_argument("--spool", metavar="DIR", default="pacc-spool", help="the spool folder")
     cloud.add_argument(
-        "--sync-every",
-        type=number(0.0, 86400.0, lo_open=True),
-        default=60.0,
-        metavar="S",
-        help="download period, s (60)",
+        "--sync-every", type=number(0.0, 86400.0, lo_open=True), default=60.0, help="period, s"
     )
     p.add_argument("-v", "--verbose", action="store_true", help="log at INFO level")
     return p
