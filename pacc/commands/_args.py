@@ -58,25 +58,13 @@ def add_cloud_arguments(p: Any, *, paths: bool = False) -> None:
 def add_world_arguments(p: argparse.ArgumentParser) -> None:
     """The simulated world's options, ``pacc drive``'s and ``pacc sim``'s: scenario, driver,
     seed, faults, duration (s), the trip log, the condition factor."""
-    p.add_argument(
-        "--scenario",
-        default="B",
-        help="A, B, manual1..manual4, a road scenario (cutin, cutout, leadloss, stopgo, C: "
-        "mixed traffic) or a CSV of t_s,v_lead_mps (default B)",
-    )
+    p.add_argument("--scenario", default="B", help="A, B, manual1..4, a road scenario or a CSV")
     p.add_argument("--driver", default="d1", help="d1..d5 or a driver .toml/.json (default d1)")
     p.add_argument("--seed", type=integer(0), default=0)
     p.add_argument("--faults", default="", help="fault SPEC, e.g. 'radar:dropout=100-105'")
-    p.add_argument(
-        "--duration", type=number(0.0, 1e6, lo_open=True), help="simulate only the first N s"
-    )
+    p.add_argument("--duration", type=number(0.0, 1e6, lo_open=True), help="the first N s only")
     p.add_argument("--log", type=Path, help="write the drive as an MCAP trip log")
-    p.add_argument(
-        "--condition-factor",
-        type=number(0.1, 10.0),
-        default=1.0,
-        help="multiply the driver's preference, e.g. 1.2 for rain (default 1)",
-    )
+    p.add_argument("--condition-factor", type=number(0.1, 10.0), default=1.0, help="x preference")
 
 
 def bus_kwargs(args: argparse.Namespace) -> dict[str, Any]:
