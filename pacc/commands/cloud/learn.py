@@ -167,43 +167,14 @@ def add_subparser(subparsers: Any) -> None:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument(
-        "--demos",
-        nargs="+",
-        required=True,
-        metavar="FILE",
-        help="demonstration trips: .mcap trip logs or .csv car-following pairs",
-    )
+    p.add_argument("--demos", nargs="+", required=True, metavar="FILE", help=".mcap or .csv trips")
     p.add_argument("--driver", required=True, metavar="ID", help="driver id of the table")
-    p.add_argument(
-        "--condition",
-        default="default",
-        metavar="TAG",
-        help="driving-condition tag (default: %(default)s)",
-    )
-    p.add_argument(
-        "--init", metavar="DGPT.json", help="earlier IRL table to continue from (fine-tuning)"
-    )
-    p.add_argument(
-        "-o",
-        "--output",
-        required=True,
-        metavar="DGPT.json",
-        help="where to write the learned table",
-    )
+    p.add_argument("--condition", default="default", metavar="TAG", help="driving condition")
+    p.add_argument("--init", metavar="DGPT.json", help="earlier IRL table to fine-tune")
+    p.add_argument("-o", "--output", required=True, metavar="DGPT.json", help="the learned table")
     p.add_argument("--plot", metavar="PNG", help="write the reward / DGPT figure here")
     p.add_argument("--seed", type=integer(0), default=0, help="seed (default: %(default)s)")
-    p.add_argument(
-        "--learner",
-        default="irl",
-        metavar="SPEC",
-        help="irl (default), empirical, gp, an entry point of pacc.learners or module:attribute",
-    )
-    p.add_argument(
-        "--takeover-weight",
-        type=number(0.0, 1000.0),
-        default=5.0,
-        help="weight of ACC-trip takeover samples vs manual ones (default: %(default)s)",
-    )
+    p.add_argument("--learner", default="irl", metavar="SPEC", help="irl, empirical, gp, ...")
+    p.add_argument("--takeover-weight", type=number(0.0, 1000.0), default=5.0, help="(default 5)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_do_learn)

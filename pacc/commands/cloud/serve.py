@@ -194,23 +194,17 @@ def _do_serve(args: argparse.Namespace) -> int:
 def add_subparser(subparsers: Any) -> None:
     """Register ``register`` and ``serve`` on the ``pacc cloud`` parser."""
     reg = subparsers.add_parser("register", help="register a vehicle and its drivers")
-    reg.add_argument("--data", required=True, help="the cloud's data folder")
-    reg.add_argument("--vehicle", required=True, help="vehicle id")
-    reg.add_argument("--driver", action="append", default=[], help="a driver id (repeatable)")
+    veh = subparsers.add_parser("vehicle", help="add drivers, reissue or revoke a vehicle's token")
+    for q in (reg, veh):
+        q.add_argument("--data", required=True, help="the cloud's data folder")
+        q.add_argument("--vehicle", required=True, help="vehicle id")
+        q.add_argument("--driver", action="append", default=[], help="a driver id (repeatable)")
+        q.add_argument("--force", action="store_true", help="replace an existing token file")
     reg.add_argument("--token-file", required=True, help="where to write the vehicle's token")
-    reg.add_argument("--force", action="store_true", help="replace an existing --token-file")
     reg.set_defaults(func=_do_register)
-
-    veh = subparsers.add_parser(
-        "vehicle", help="add drivers to a registered vehicle, reissue or revoke its token"
-    )
-    veh.add_argument("--data", required=True, help="the cloud's data folder")
-    veh.add_argument("--vehicle", required=True, help="vehicle id")
-    veh.add_argument("--driver", action="append", default=[], help="a driver to add (repeatable)")
     what = veh.add_mutually_exclusive_group()
     what.add_argument("--new-token", metavar="FILE", help="issue a new token into FILE")
     what.add_argument("--revoke", action="store_true", help="void the token: no new one")
-    veh.add_argument("--force", action="store_true", help="replace an existing --new-token FILE")
     veh.set_defaults(func=_do_vehicle)
 
     srv = subparsers.add_parser("serve", help="run the cloud service over HTTP")
@@ -218,23 +212,8 @@ def add_subparser(subparsers: Any) -> None:
     srv.add_argument("--host", default="127.0.0.1")
     srv.add_argument("--port", type=integer(1, 65535), default=8080)
     srv.add_argument("--workers", type=integer(1, 256), default=1, help="learning job threads")
-    srv.add_argument(
-        "--max-upload-mb",
-        type=number(0.0, 4096.0, lo_open=True),
-        default=16.0,
-        help="upload size limit, MiB (default 16, at most 4096)",
-    )
+    srv.add_argument("--max-upload-mb", type=number(0.0, 4096.0, lo_open=True), default=16.0)
     srv.add_argument("--seed", type=integer(0), default=0, help="seed of every learning job")
-    srv.add_argument(
-        "--scheduler",
-        metavar="local|tcp://HOST:8786",
-        help="train on Dask: 'local' starts a LocalCluster of --workers processes, an address "
-        "joins that cluster (docs/scale.md; needs pacc[dask])",
-    )
-    srv.add_argument(
-        "--operator-token-file",
-        metavar="FILE",
-        help="the operator's token (created there, mode 0600, if FILE does not exist): it "
-        "reads every vehicle's lists and the dashboard at /dashboard",
-    )
+    srv.add_argument("--scheduler", metavar="local|tcp://HOST:8786", help="Dask (docs/scale.md)")
+    srv.add_argument("--operator-token-file", metavar="FILE", help="the operator's token")
     srv.set_defaults(func=_do_serve)

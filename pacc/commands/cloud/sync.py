@@ -140,26 +140,10 @@ def add_subparser(subparsers: Any) -> None:
     p.add_argument("--cloud", required=True, help="the service URL, or a folder (embedded)")
     p.add_argument("--token-file", required=True, help="file holding the vehicle's token")
     p.add_argument("--add", nargs="*", default=[], help="MCAP trip logs to spool first")
-    p.add_argument(
-        "--quota-mb",
-        type=number(0.0, 1024.0 * 1024.0, lo_open=True),
-        default=256.0,
-        help="spool size quota, MiB (default 256)",
-    )
-    p.add_argument(
-        "--retry-s",
-        type=number(0.0, 86400.0),
-        default=60.0,
-        help="stop retrying after, s (default 60, at most a day)",
-    )
+    p.add_argument("--quota-mb", type=number(0.0, 2.0**20, lo_open=True), default=256.0)
+    p.add_argument("--retry-s", type=number(0.0, 86400.0), default=60.0, help="give up after, s")
     p.add_argument("--fetch", metavar="DRIVER", help="download this driver's newest table")
     p.add_argument("--condition", default="default", help="driving condition of --fetch")
     p.add_argument("--trust", help="the cloud's public key (PEM) to verify --fetch with")
-    p.add_argument(
-        "--wait",
-        type=number(0.0, 86400.0),
-        default=0.0,
-        metavar="S",
-        help="before --fetch, wait up to S seconds for the cloud to learn from the upload",
-    )
+    p.add_argument("--wait", type=number(0.0, 86400.0), default=0.0, help="for learning, s")
     p.set_defaults(func=_do_sync)
