@@ -42,20 +42,9 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--no-builtin", action="store_true", help="leave d1..d5 out")
     p.add_argument("--scenarios", default="B", help="comma-separated (default B)")
-    p.add_argument(
-        "--duration",
-        type=number(0.0, 1e5, lo_open=True),
-        default=120.0,
-        help="s per drive (default 120)",
-    )
+    p.add_argument("--duration", type=number(0.0, 1e5, lo_open=True), default=120.0, help="s")
     p.add_argument("--trials", type=integer(1, 1000), default=1)
-    p.add_argument(
-        "--csv",
-        action="append",
-        default=[],
-        metavar="FILE",
-        help="a car-following CSV of a real driver (OpenACC columns), repeatable",
-    )
+    p.add_argument("--csv", action="append", default=[], metavar="FILE", help="a real driver")
     p.add_argument(
         "--methods",
         type=Path,
@@ -106,9 +95,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         opts = _options(args)
         print(f"population seeds (drawn fresh): {', '.join(map(str, opts.seeds))}")
-
-        run_bench(opts, args.out, workers=max(1, args.workers), scheduler=args.scheduler,
-                  progress=not args.quiet)  # fmt: skip
+        workers, progress = max(1, args.workers), not args.quiet
+        run_bench(opts, args.out, workers=workers, scheduler=args.scheduler, progress=progress)
     except (SimError, EcuError, FormatError, CloudSyncError, OSError) as exc:
         print(f"pacc bench: error: {exc}", file=sys.stderr)
         return 2

@@ -33,12 +33,7 @@ def _parser() -> argparse.ArgumentParser:
     ex.add_argument("-o", "--out", type=Path, required=True, help="folder of the trip logs")
     ex.add_argument("--driver", default="guest", help="driver id of the trips (default guest)")
     ex.add_argument("--condition", default="default", help="condition (default 'default')")
-    ex.add_argument(
-        "--min-s",
-        type=number(0.0, 1e6),
-        default=MANUAL_MIN_S,
-        help=f"shortest stretch kept, s (default {MANUAL_MIN_S:g})",
-    )
+    ex.add_argument("--min-s", type=number(0.0, 1e6), default=MANUAL_MIN_S, help="shortest, s")
     add_network_arguments(ex)
     return p
 

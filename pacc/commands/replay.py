@@ -28,20 +28,10 @@ def _parser() -> argparse.ArgumentParser:
         "CAN bus in real time",
     )
     p.add_argument("log", type=Path, metavar="LOG", help="a pacc bus recording (.mcap)")
-    p.add_argument(
-        "--ecu",
-        action="store_true",
-        help="through the recorded ECU at the recorded times; compare its frames",
-    )
+    p.add_argument("--ecu", action="store_true", help="through the ECU; compare its frames")
     p.add_argument("--events", action="store_true", help="--ecu: print every ECU event")
     add_bus_arguments(p, "real time (omitted: python-can's own configuration applies)")
-    p.add_argument(
-        "--frames",
-        choices=("all", "rx", "tx"),
-        default="all",
-        help="the frames to send: all, rx (those the recorded node received: its inputs, "
-        "to drive another ECU) or tx (default all)",
-    )
+    p.add_argument("--frames", choices=("all", "rx", "tx"), default="all", help="frames to send")
     return p
 
 

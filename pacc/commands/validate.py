@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from pacc.commands._args import CommandParser
+from pacc.commands._args import CommandParser, integer
 from pacc.study.report import CONTROLLER_TITLES, PAPER_AVERAGES, read_drives
 from pacc.study.stats import bootstrap_ci, comparisons, holm, per_driver
 from sim_bus.dataset import load_human_pairs
@@ -125,16 +125,14 @@ def main(argv: list[str] | None = None) -> int:
     p = CommandParser(prog="pacc validate", description=__doc__.split("\n\n")[0])
     sub = p.add_subparsers(dest="what", required=True)
     f = sub.add_parser("following", help="car-following models against real trajectories")
-    f.add_argument("--pairs", type=int, default=0, help="only the first N pairs (default all)")
-    f.add_argument("--maxiter", type=int, default=60, help="generations of each fit")
+    f.add_argument("--pairs", type=integer(0), default=0, help="the first N pairs (0: all)")
+    f.add_argument("--maxiter", type=integer(1), default=60, help="generations of each fit")
     f.add_argument("--plot", type=Path, help="a PNG of the held-out spacing errors")
     g = sub.add_parser("people", help="a population study's Table I beside the paper's")
     g.add_argument("drives", type=Path, help="drives.csv of pacc study --population")
     g.add_argument("--plot", type=Path, help="a PNG of the averages beside the paper's")
     args = p.parse_args(argv)
     if args.what == "following":
-        if args.pairs < 0 or args.maxiter < 1:
-            p.error("--pairs must be >= 0 and --maxiter >= 1")
         pairs = load_human_pairs()
         pairs = pairs[: args.pairs] if args.pairs else pairs
         fits = [fit_pair(m, pair, maxiter=args.maxiter) for pair in pairs for m in MODELS]
