@@ -136,17 +136,10 @@ def _check_options(args: argparse.Namespace) -> None:
             f"{adapts} is for the +oa controllers; --controller {args.controller} never "
             f"adapts its table (--controller {args.controller}+oa)"
         )
-    for given, spec, params, named in (
-        (
-            "--gap-controller-args",
-            "--gap-controller",
-            args.gap_controller_args,
-            args.gap_controller,
-        ),
-        ("--adaptation-args", "--adaptation", args.adaptation_args, args.adaptation),
-    ):
-        if params and not named:
-            raise UsageError(f"{given} gives the parameters of a {spec} SPEC: name the plug-in")
+    for spec in ("--gap-controller", "--adaptation"):
+        name = spec[2:].replace("-", "_")
+        if getattr(args, f"{name}_args") and not getattr(args, name):
+            raise UsageError(f"{spec}-args gives the parameters of a {spec} SPEC: name the plug-in")
 
 
 def _table(args: argparse.Namespace, base: DriverParams, driver: DriverParams) -> Dgpt:
@@ -177,8 +170,6 @@ def main(argv: list[str] | None = None) -> int:
         base = load_driver(args.driver)
         driver = with_condition(base, args.condition_factor * CONDITION_FACTORS[args.condition])
         parse_faults(args.faults)
-        if args.duration is not None and not (args.duration > 0):
-            raise SimError("--duration must be > 0")
         cfg = DriveConfig(
             args.scenario,
             driver.driver_id,

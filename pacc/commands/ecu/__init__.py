@@ -41,14 +41,7 @@ from pacc.commands._args import (
     check_writable_file,
     number,
 )
-from pacc.commands.ecu.cloud import (
-    Exit,
-    cloud_link,
-    cloud_table,
-    say,
-    spool_sinks,
-    warn_guest,
-)
+from pacc.commands.ecu.cloud import Exit, cloud_link, cloud_table, say, spool_sinks, warn_guest
 from pacc.commands.ecu.run import close_recorder, open_recorder, run_on_bus
 
 
@@ -117,7 +110,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"pacc ecu: error: {exc}", file=sys.stderr)
         return 2
     except Exit as exc:
-        print(exc.message, file=sys.stderr)
+        print(exc, file=sys.stderr)
         return exc.code
 
 
@@ -134,7 +127,7 @@ def _serve(args: argparse.Namespace) -> int:
     try:  # refuse now, not after the drive when the table would be lost
         check_writable_file(args.save_profile, "--save-profile")
     except UsageError as exc:
-        raise _fail(1, f"{exc}") from None
+        raise Exit(1, f"{exc}") from None
     base = TimeBase.now(time.monotonic())  # the real-time clock against the wall clock
     min_s = MANUAL_MIN_S if args.manual_min is None else args.manual_min
     node = EcuNode(config, table, sink, utc_of=base.iso, manual_sink=manual, manual_min_s=min_s)
@@ -158,18 +151,13 @@ def _serve(args: argparse.Namespace) -> int:
         try:
             save_dgpt(node.table, args.save_profile)
         except DgptError as exc:
-            raise _fail(1, f"{exc}") from None
+            raise Exit(1, f"{exc}") from None
         say(f"profile saved: {args.save_profile} (v{node.table.version})")
     if bus_error is not None:
-        raise _fail(1, f"the CAN bus failed: {bus_error}")
+        raise Exit(1, f"the CAN bus failed: {bus_error}")
     if recording_error is not None:  # after the takeovers and the profile are saved
-        raise _fail(1, f"{recording_error}")
+        raise Exit(1, f"{recording_error}")
     return 0
-
-
-def _fail(code: int, text: str) -> Exit:
-    """The :class:`Exit` of an error: ``pacc ecu: error: TEXT``, exit ``code``."""
-    return Exit(code, f"pacc ecu: error: {text}")
 
 
 def _lost(queue: SinkQueue) -> str:
@@ -198,16 +186,16 @@ def _report_recorders(args: argparse.Namespace, node: EcuNode) -> None:
 def _config(args: argparse.Namespace) -> tuple[EcuConfig, Dgpt]:
     """The node's configuration and the predefined fallback table (usage errors: exit 2)."""
     if args.manual == "" and not args.cloud:
-        raise _fail(2, "--manual needs a DIR (or --cloud: the link's spool)")
+        raise Exit(2, "--manual needs a DIR (or --cloud: the link's spool)")
     if args.manual and args.cloud:
-        raise _fail(2, "--cloud spools the manual trips: --manual without DIR")
+        raise Exit(2, "--cloud spools the manual trips: --manual without DIR")
     if args.manual_min is not None and args.manual is None:
-        raise _fail(2, "--manual-min is for --manual (the manual trips)")
+        raise Exit(2, "--manual-min is for --manual (the manual trips)")
     if not args.adaptation and args.adaptation_method:
-        raise _fail(2, "--adaptation-method with --no-adaptation: nothing adapts")
+        raise Exit(2, "--adaptation-method with --no-adaptation: nothing adapts")
     for option, name in (("--driver", args.driver), ("--condition", args.condition)):
         if name is not None and PLAIN_NAME.fullmatch(name) is None:
-            raise _fail(2, f"{option} {name!a}: not a plain name (letters, digits, _.-)")
+            raise Exit(2, f"{option} {name!a}: not a plain name (letters, digits, _.-)")
     try:
         config = EcuConfig(
             adaptation=args.adaptation,
@@ -224,7 +212,7 @@ def _config(args: argparse.Namespace) -> tuple[EcuConfig, Dgpt]:
             make_adaptation(config.adaptation_method, {})
         return config, predefined(args.headway, args.standstill)
     except (EcuError, FormatError) as exc:
-        raise _fail(2, f"{exc}") from None
+        raise Exit(2, f"{exc}") from None
 
 
 def _initial_table(
@@ -263,5 +251,5 @@ def _codec_and_sinks(
         codec = codec_of(args)
         takeovers, manual = spool_sinks(None if args.cloud else args.takeovers, args.manual)
     except (CodecError, EcuError, FormatError, CloudSyncError) as exc:
-        raise _fail(1, f"{exc}") from None
+        raise Exit(1, f"{exc}") from None
     return codec, takeovers, manual
