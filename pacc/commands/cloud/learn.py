@@ -1,8 +1,5 @@
 """``pacc cloud learn``: learn a driver's DGPT by IRL from demonstration files.
 
-    pacc cloud learn --demos FILES... --driver ID [--condition TAG] [--init DGPT.json]
-                     -o DGPT.json [--plot out.png] [--seed N] [--quiet]
-
 FILES are ``.mcap`` trip logs or ``.csv`` car-following pairs. With ``--init`` (an earlier
 IRL table) training continues from its reward weights, speeds without new evidence keep its
 gaps, and the output is its next version; when some FILES are ACC trips (trip-log mode

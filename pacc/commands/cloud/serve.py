@@ -1,10 +1,5 @@
 """``pacc cloud serve``, ``register`` and ``vehicle``: run the cloud service, enrol vehicles.
 
-    pacc cloud register --data DIR --vehicle ID [--driver D ...] --token-file F [--force]
-    pacc cloud vehicle --data DIR --vehicle ID [--driver D ...] [--new-token F [--force] | --revoke]
-    pacc cloud serve --data DIR [--host 127.0.0.1] [--port 8080] [--workers 1]
-                     [--max-upload-mb 16] [--seed 0] [--scheduler local|tcp://HOST:8786]
-
 ``register`` creates the data folder and its signing key if new, registers the vehicle and its
 drivers, writes the vehicle's token to F (mode 0600) and names the public key file the vehicle
 must trust (``DIR/keys/cloud.pub``); an existing F (perhaps another vehicle's token) is
@@ -33,6 +28,7 @@ from typing import Any
 from cloud_sync.engine import open_executor, workers_of
 from cloud_sync.errors import CloudSyncError
 from cloud_sync.vehicle.connect import write_token
+from dbc.errors import error_line
 from pacc.commands._args import integer, number
 
 __all__ = ["add_subparser"]
@@ -94,7 +90,7 @@ def _do_vehicle(args: argparse.Namespace) -> int:
 def _refused(command: str, exc: BaseException) -> int:
     """One error line; exit 2 for an answer about the input (names, taken, a file in the
     way), 1 for a storage failure."""
-    print(f"pacc cloud {command}: error: {_one_line(exc)}", file=sys.stderr)
+    print(f"pacc cloud {command}: error: {error_line(exc)}", file=sys.stderr)
     return 1 if isinstance(exc, OSError) else 2
 
 
@@ -123,12 +119,6 @@ def _listen(host: str, port: int) -> socket.socket:
         raise OSError(exc.errno, f"cannot listen on {host}:{port}: {why}") from exc
 
 
-def _one_line(exc: BaseException) -> str:
-    if isinstance(exc, OSError) and exc.strerror:
-        return f"{exc.strerror}: {exc.filename}" if exc.filename else exc.strerror
-    return " ".join(str(exc).split())
-
-
 def _do_serve(args: argparse.Namespace) -> int:
     # uvicorn and the FastAPI app cost ~0.5 s of start-up: only `serve` needs them
     import uvicorn  # noqa: PLC0415
@@ -142,7 +132,7 @@ def _do_serve(args: argparse.Namespace) -> int:
         Path(args.data).mkdir(parents=True, exist_ok=True)
         hold_folder(args.data, f"http://{args.host}:{args.port}")
     except (CloudSyncError, OSError) as exc:
-        print(f"pacc cloud serve: error: {_one_line(exc)}", file=sys.stderr)
+        print(f"pacc cloud serve: error: {error_line(exc)}", file=sys.stderr)
         return 2
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
     logging.getLogger("distributed").setLevel(logging.WARNING)  # its INFO is every connection
@@ -164,7 +154,7 @@ def _do_serve(args: argparse.Namespace) -> int:
     try:
         service = CloudService.open(args.data, executor=pool, config=config, compute=compute)
     except (CloudSyncError, OSError) as exc:
-        print(f"pacc cloud serve: error: {_one_line(exc)}", file=sys.stderr)
+        print(f"pacc cloud serve: error: {error_line(exc)}", file=sys.stderr)
         pool.shutdown(wait=True)
         if compute is not None:
             compute.shutdown()

@@ -1,8 +1,5 @@
 """``pacc cloud sync``: spool trip logs and upload a spool to the cloud, once.
 
-    pacc cloud sync --spool DIR --cloud URL|DIR --token-file F [--add FILE ...]
-                    [--quota-mb 256] [--retry-s 60] [--fetch DRIVER --trust KEY.pub [--wait S]]
-
 Each ``--add`` file (an MCAP trip log) is checked and spooled; then every pending batch is
 uploaded (retrying while the cloud is unavailable, up to ``--retry-s`` seconds) and deleted
 only once the cloud acknowledged it; then the trip reports ``pacc ecu --cloud`` queued in
@@ -10,9 +7,8 @@ only once the cloud acknowledged it; then the trip reports ``pacc ecu --cloud`` 
 (:mod:`cloud_sync.vehicle.uploader`). With ``--fetch`` the driver's newest signed table is
 downloaded, verified against the trusted key and kept in ``DIR/profiles``; a served cloud
 learns in the background, so ``--wait S`` first waits up to S s for the driver's learning job
-to be idle (the batches just uploaded learned from). Exits 1 while a
-batch or a report stays queued or one was set aside (``DIR/rejected``,
-``DIR/reports/rejected``), so a timer can tell.
+to be idle (the batches just uploaded learned from). Exits 1 while a batch or a report stays
+queued or one was set aside (``DIR/rejected``, ``DIR/reports/rejected``), so a timer can tell.
 """
 
 from __future__ import annotations
