@@ -14,6 +14,7 @@ import argparse
 import json
 import math
 import os
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn
@@ -29,6 +30,12 @@ class CommandParser(argparse.ArgumentParser):
         """Print the one line and exit 2."""
         text = " ".join(message.split())
         self.exit(2, f"{self.prog}: error: {text} (see {self.prog} --help)\n")
+
+
+def fail(prog: str, why: object, code: int = 2) -> int:
+    """Print ``PROG: error: WHY`` on stderr; return the exit status ``code``."""
+    print(f"{prog}: error: {why}", file=sys.stderr)
+    return code
 
 
 #: the largest integer any option takes (seeds, counts): beyond it a typo, not a wish

@@ -20,7 +20,7 @@ from pathlib import Path
 from cloud_sync.errors import CloudSyncError
 from dbc.vocab import FormatError
 from ecu import EcuError
-from pacc.commands._args import CommandParser, integer, number
+from pacc.commands._args import CommandParser, fail, integer, number
 from pacc.study.bench.suite import (
     DEFAULT_METHODS,
     BenchOptions,
@@ -98,8 +98,7 @@ def main(argv: list[str] | None = None) -> int:
         workers, progress = max(1, args.workers), not args.quiet
         run_bench(opts, args.out, workers=workers, scheduler=args.scheduler, progress=progress)
     except (SimError, EcuError, FormatError, CloudSyncError, OSError) as exc:
-        print(f"pacc bench: error: {exc}", file=sys.stderr)
-        return 2
+        return fail("pacc bench", exc)
     print((args.out / "leaderboard.md").read_text(encoding="utf-8"))
     print(f"took {time.perf_counter() - start:.0f} s; {args.out}/leaderboard.md, .csv, .png")
     return 0

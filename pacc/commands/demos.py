@@ -16,7 +16,7 @@ from pathlib import Path
 from dbc.errors import DbcError, PaccError
 from dbc.network import add_network_arguments, codec_of
 from dbc.vocab.sampling import MANUAL_MIN_S
-from pacc.commands._args import CommandParser, number
+from pacc.commands._args import CommandParser, fail, number
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -63,7 +63,6 @@ def main(argv: list[str] | None = None) -> int:
                 written += 1
             print("\n".join(report.lines()))
     except (PaccError, DbcError, OSError, ValueError) as exc:
-        print(f"pacc demos: error: {exc}", file=sys.stderr)
-        return 2
+        return fail("pacc demos", exc)
     print(f"demos: {written} trip logs written to {args.out}")
     return 0 if written else 1

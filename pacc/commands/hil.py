@@ -29,6 +29,7 @@ from pacc.commands._args import (
     add_cloud_arguments,
     bus_error,
     bus_kwargs,
+    fail,
     integer,
     number,
 )
@@ -146,8 +147,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         port = server.start()
     except (SimError, EcuError, FormatError, CloudSyncError, DbcError, OSError) as exc:
-        print(f"pacc hil: error: {exc}", file=sys.stderr)
-        return 2
+        return fail("pacc hil", exc)
     url = f"http://{args.host}:{port}/"
     print(f"pacc hil: open {url} (session folder {session.folder})", flush=True)
     try:

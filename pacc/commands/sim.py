@@ -34,6 +34,7 @@ from pacc.commands._args import (
     bus_kwargs,
     check_distinct_outputs,
     check_writable_file,
+    fail,
 )
 from pacc.commands.drive.report import fig
 from pacc.study.drive import resolve_profile, with_condition
@@ -115,14 +116,12 @@ def main(argv: list[str] | None = None) -> int:
         driver, faults, profile = _setup(args)
         codec = codec_of(args)
     except (SimError, DbcError, UsageError) as exc:
-        print(f"pacc sim: error: {exc}", file=sys.stderr)
-        return 2
+        return fail("pacc sim", exc)
     try:
         # only given flags are passed: a None bitrate would hide the one of ~/.canrc
         bus = can.Bus(**bus_kwargs(args))
     except (can.CanError, ValueError, OSError, ImportError) as exc:
-        print(f"pacc sim: error: {bus_error(args, exc)}", file=sys.stderr)
-        return 2
+        return fail("pacc sim", bus_error(args, exc))
     world = World(driver, profile, args.seed)
     gap = GAP_SETTING_CODE[driver.predefined_setting]
     node = SimNode(

@@ -18,7 +18,7 @@ from dbc.network import add_network_arguments, codec_of
 from dbc.vocab import FormatError
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES
-from pacc.commands._args import CommandParser, add_cloud_arguments, integer, number
+from pacc.commands._args import CommandParser, add_cloud_arguments, fail, integer, number
 from pacc.study.drive import BUSES, CONTROLLERS, adaptation_params
 from pacc.study.manifest import write_manifest
 from pacc.study.pipeline import StudyInterrupted, run
@@ -148,8 +148,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"pacc study: {exc}", file=sys.stderr)
         return 130
     except (SimError, EcuError, FormatError, CloudSyncError, DbcError, OSError) as exc:
-        print(f"pacc study: error: {error_line(exc)}", file=sys.stderr)
-        return 2
+        return fail("pacc study", error_line(exc))
     report, files = _OUTPUTS[spec.report]
     print((args.out / report).read_text(encoding="utf-8"))
     files += (", logs/" if spec.logs else "") + (", can/" if spec.can_logs else "")
@@ -179,7 +178,6 @@ def _hil_table(spec: StudySpec, out: Path) -> int:
         beside = None if spec.beside is None else Path(spec.beside)
         print(build_table(Path(spec.sessions), out, beside), end="")
     except (SimError, FormatError, OSError) as exc:
-        print(f"pacc study: error: {exc}", file=sys.stderr)
-        return 2
+        return fail("pacc study", exc)
     print(f"outputs in {out}/ (table1.md, drives.csv, table1.png)")
     return 0

@@ -11,14 +11,13 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 from pathlib import Path
 from typing import Any
 
 from cloud_sync.errors import CloudSyncError
 from dbc.vocab import FormatError
 from ecu import EcuError
-from pacc.commands._args import integer, number, same_file
+from pacc.commands._args import fail, integer, number, same_file
 
 __all__ = ["add_subparser"]
 
@@ -37,7 +36,9 @@ def _do_learn(args: argparse.Namespace) -> int:
 
     for option, name in (("--driver", args.driver), ("--condition", args.condition)):
         if not is_plain_name(name):
-            return _refused(f"{option} {name!r}: not a plain name (letters, digits, _.-)")
+            return fail(
+                "pacc cloud learn", f"{option} {name!r}: not a plain name (letters, digits, _.-)"
+            )
     if args.learner != "irl":
         return _other_learner(args)
     try:
@@ -74,7 +75,7 @@ def _do_learn(args: argparse.Namespace) -> int:
 
             plot_result(result, args.plot)
     except (CloudSyncError, EcuError, FormatError) as exc:
-        return _refused(exc)
+        return fail("pacc cloud learn", exc)
     t = result.table
     cov = result.covered
     ranges = ", ".join(f"{a:g}-{b:g}" for a, b in t.meta["covered_mps"])
@@ -113,19 +114,13 @@ def _other_learner(args: argparse.Namespace) -> int:
         table = learn(args.learner, trips, driver_id=args.driver, seed=args.seed)
         save_dgpt(table, args.output)
     except (CloudSyncError, EcuError, FormatError) as exc:
-        return _refused(exc)
+        return fail("pacc cloud learn", exc)
     covered = sum(bool(c) for c in table.meta["covered"])
     print(
         f"{args.learner}: {covered} of {table.speed_mps.size} speed bins covered, "
         f"{table.meta['learn_s']:.2f} s; table written to {args.output}"
     )
     return 0
-
-
-def _refused(why: object) -> int:
-    """Say why the input is refused, in one line; exit status 2 (bad input, as argparse)."""
-    print(f"pacc cloud learn: error: {why}", file=sys.stderr)
-    return 2
 
 
 def _check_outputs(args: argparse.Namespace, plot: str | None) -> None:

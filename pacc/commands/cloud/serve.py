@@ -29,7 +29,7 @@ from cloud_sync.engine import open_executor, workers_of
 from cloud_sync.errors import CloudSyncError
 from cloud_sync.vehicle.connect import write_token
 from dbc.errors import error_line
-from pacc.commands._args import integer, number
+from pacc.commands._args import fail, integer, number
 
 __all__ = ["add_subparser"]
 
@@ -132,8 +132,7 @@ def _do_serve(args: argparse.Namespace) -> int:
         Path(args.data).mkdir(parents=True, exist_ok=True)
         hold_folder(args.data, f"http://{args.host}:{args.port}")
     except (CloudSyncError, OSError) as exc:
-        print(f"pacc cloud serve: error: {error_line(exc)}", file=sys.stderr)
-        return 2
+        return fail("pacc cloud serve", error_line(exc))
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
     logging.getLogger("distributed").setLevel(logging.WARNING)  # its INFO is every connection
     try:
@@ -146,8 +145,7 @@ def _do_serve(args: argparse.Namespace) -> int:
         if args.scheduler is not None:
             compute = open_executor(args.scheduler, args.workers)
     except CloudSyncError as exc:
-        print(f"pacc cloud serve: error: {exc}", file=sys.stderr)
-        return 2
+        return fail("pacc cloud serve", exc)
     threads = max(args.workers, workers_of(compute) if compute is not None else 1)
     pool = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="pacc-learn")
     config = ServiceConfig(max_upload_bytes=int(args.max_upload_mb * 1024 * 1024), seed=args.seed)

@@ -18,14 +18,9 @@ import sys
 from typing import Any
 
 from cloud_sync.errors import CloudSyncError
-from pacc.commands._args import number
+from pacc.commands._args import fail, number
 
 __all__ = ["add_subparser"]
-
-
-def _fail(text: str, code: int = 1) -> int:
-    print(f"pacc cloud sync: error: {text}", file=sys.stderr)
-    return code
 
 
 def _condition_hint(not_found: int) -> str:
@@ -47,12 +42,14 @@ def _do_sync(args: argparse.Namespace) -> int:
     from cloud_sync.vehicle.spool import Spool  # noqa: PLC0415
 
     if args.fetch and not args.trust:
-        return _fail("--fetch needs --trust KEY.pub (the cloud's public key)", 2)
+        return fail("pacc cloud sync", "--fetch needs --trust KEY.pub (the cloud's public key)")
     if args.wait and not args.fetch:
-        return _fail("--wait waits to --fetch a table: give --fetch DRIVER", 2)
+        return fail("pacc cloud sync", "--wait waits to --fetch a table: give --fetch DRIVER")
     for option, name in (("--fetch", args.fetch), ("--condition", args.condition)):
         if name is not None and not is_plain_name(name):
-            return _fail(f"{option} {name!r}: not a plain name (letters, digits, _.-)", 2)
+            return fail(
+                "pacc cloud sync", f"{option} {name!r}: not a plain name (letters, digits, _.-)"
+            )
     try:
         spool = Spool(args.spool, quota_bytes=int(args.quota_mb * 1024 * 1024))
         for path in args.add:
@@ -65,7 +62,7 @@ def _do_sync(args: argparse.Namespace) -> int:
             downloader = ProfileDownloader(cloud, key, spool.root / "profiles")
         link = VehicleLink(cloud, spool, None, downloader=downloader)
     except (CloudSyncError, OSError) as exc:
-        return _fail(str(exc))
+        return fail("pacc cloud sync", exc, 1)
     if spool.stats.quarantined:
         print(
             f"pacc cloud sync: warning: {spool.stats.quarantined} file(s) in {args.spool} are "
@@ -112,10 +109,9 @@ def _fetch(args: argparse.Namespace, link: Any, downloader: Any) -> int:
             print(f"pacc cloud sync: warning: {exc}", file=sys.stderr)
     table = link.table(args.fetch, args.condition)
     if table is None:
-        return _fail(
-            f"no usable table for {args.fetch}/{args.condition}: "
-            f"{downloader.report.describe()}{_condition_hint(downloader.report.not_found)}"
-        )
+        hint = _condition_hint(downloader.report.not_found)
+        why = f"no usable table for {args.fetch}/{args.condition}: "
+        return fail("pacc cloud sync", why + downloader.report.describe() + hint, 1)
     print(
         f"DGPT {table.driver_id}/{table.condition} v{table.version} verified, kept in "
         f"{downloader.cache_path(args.fetch, args.condition)}"

@@ -34,6 +34,7 @@ from pacc.commands._args import (
     check_distinct_outputs,
     check_writable_dir,
     check_writable_file,
+    fail,
     json_parameters,
     number,
 )
@@ -217,8 +218,7 @@ def main(argv: list[str] | None = None) -> int:
         text = error_line(exc)
         if isinstance(exc, OSError) and exc.filename is None and args.can_log is not None:
             text = f"--can-log {args.can_log}: {text}"  # the recording's write, unnamed
-        print(f"pacc drive: error: {text}", file=sys.stderr)
-        return 2
+        return fail("pacc drive", text)
     return _outputs(args, result, driver, manual, bool(live))
 
 
@@ -308,8 +308,7 @@ def _manual(args: argparse.Namespace) -> int | None:
         trip = dataclasses.replace(trip, meta=meta)
         write_trip(args.log, trip)
     except (SimError, FormatError, DbcError, OSError) as exc:
-        print(f"pacc drive: error: {error_line(exc)}", file=sys.stderr)
-        return 2
+        return fail("pacc drive", error_line(exc))
     collided = bool(trip.meta.get("collision"))
     print(
         f"manual drive: scenario {args.scenario}, driver {driver.driver_id} by hand (ACC off), "

@@ -39,6 +39,7 @@ from pacc.commands._args import (
     add_cloud_arguments,
     check_distinct_outputs,
     check_writable_file,
+    fail,
     number,
 )
 from pacc.commands.ecu.cloud import Exit, cloud_link, cloud_table, say, spool_sinks, warn_guest
@@ -107,8 +108,7 @@ def main(argv: list[str] | None = None) -> int:
         network_of(args)  # --dbc without a binding for it: a usage error
         return _serve(args)
     except BindingError as exc:
-        print(f"pacc ecu: error: {exc}", file=sys.stderr)
-        return 2
+        return fail("pacc ecu", exc)
     except Exit as exc:
         print(exc, file=sys.stderr)
         return exc.code

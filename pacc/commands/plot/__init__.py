@@ -30,7 +30,7 @@ from dbc.vocab.triplog_file import read_trip
 from ecu import EcuError
 from ecu.buslog.format import INPUTS_TOPIC, OUTPUTS_TOPIC, WORLD_TOPIC, CanLogError
 from ecu.buslog.reader import CanLog
-from pacc.commands._args import CommandParser, check_distinct_outputs, integer, same_file
+from pacc.commands._args import CommandParser, check_distinct_outputs, fail, integer, same_file
 
 
 @dataclass(frozen=True)
@@ -340,7 +340,6 @@ def main(argv: list[str] | None = None) -> int:
         start = log.metadata.get("pacc", {}).get("start_utc", "?") if log is not None else "?"
         plot(log, out, args.dpi, args.signals, trip, f"{args.log.name}: {node} from {start} UTC")
     except (EcuError, FormatError, DbcError, OSError, ValueError) as exc:
-        print(f"pacc plot: error: {exc}", file=sys.stderr)
-        return 2
+        return fail("pacc plot", exc)
     print(f"plot: {out}")
     return 0
