@@ -24,34 +24,27 @@ from sim_bus.dataset import load_human_pairs
 from sim_bus.following import MODELS, Fit, fit_pair
 
 
+def _row(*cells: object) -> str:
+    return "| " + " | ".join(map(str, cells)) + " |"
+
+
 def following_table(fits: Sequence[Fit]) -> str:
     """Markdown: held-out spacing NRMSE per pair and model, speed NRMSE, driver/IDM ratio."""
     models = list(dict.fromkeys(f.model for f in fits))
     by = {(f.pair_id, f.model): f for f in fits}
     pairs = list(dict.fromkeys(f.pair_id for f in fits))
+    spacing = [f"{m} spacing" for m in models]
     lines = [
-        "| pair | "
-        + " | ".join(f"{m} spacing" for m in models)
-        + " | driver / idm | "
-        + " | ".join(f"{m} speed" for m in models)
-        + " |",
+        _row("pair", *spacing, "driver / idm", *(f"{m} speed" for m in models)),
         "|---" * (2 * len(models) + 2) + "|",
     ]
     for p in pairs:
         ratio = by[(p, "driver")].spacing / by[(p, "idm")].spacing
-        lines.append(
-            f"| {p} | "
-            + " | ".join(f"{by[(p, m)].spacing:.3f}" for m in models)
-            + f" | {ratio:.2f} | "
-            + " | ".join(f"{by[(p, m)].speed:.3f}" for m in models)
-            + " |"
-        )
+        cells = [f"{by[(p, m)].spacing:.3f}" for m in models]
+        lines.append(_row(p, *cells, f"{ratio:.2f}", *(f"{by[(p, m)].speed:.3f}" for m in models)))
     mean = {m: float(np.mean([by[(p, m)].spacing for p in pairs])) for m in models}
-    lines.append(
-        "| **mean** | "
-        + " | ".join(f"**{mean[m]:.3f}**" for m in models)
-        + " |" * (len(models) + 2)
-    )
+    means = [f"**{mean[m]:.3f}**" for m in models]
+    lines.append(_row("**mean**", *means) + " |" * (len(models) + 1))
     return "\n".join(lines)
 
 
