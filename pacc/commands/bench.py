@@ -33,26 +33,15 @@ from sim_bus.errors import SimError
 
 def _parser() -> argparse.ArgumentParser:
     p = CommandParser(prog="pacc bench", description=__doc__.split("\n\n")[0])
-    p.add_argument(
-        "--seeds", type=integer(1, 1000), default=2, metavar="K", help="fresh population seeds (2)"
-    )
+    p.add_argument("--seeds", type=integer(1, 1000), default=2, metavar="K", help="fresh seeds")
     p.add_argument("--seed-list", metavar="S1,S2", help="these population seeds instead")
-    p.add_argument(
-        "--drivers-per-seed", type=integer(1, 100_000), default=3, metavar="N", help="default 3"
-    )
+    p.add_argument("--drivers-per-seed", type=integer(1, 100_000), default=3, metavar="N")
     p.add_argument("--no-builtin", action="store_true", help="leave d1..d5 out")
     p.add_argument("--scenarios", default="B", help="comma-separated (default B)")
     p.add_argument("--duration", type=number(0.0, 1e5, lo_open=True), default=120.0, help="s")
     p.add_argument("--trials", type=integer(1, 1000), default=1)
     p.add_argument("--csv", action="append", default=[], metavar="FILE", help="a real driver")
-    p.add_argument(
-        "--methods",
-        type=Path,
-        metavar="STUDY.toml",
-        help="take the [[methods]] of this study file (default: paper, "
-        + ", ".join(m["name"] for m in DEFAULT_METHODS[1:])
-        + ")",
-    )
+    p.add_argument("--methods", type=Path, metavar="STUDY.toml", help="its [[methods]]")
     p.add_argument("--out", type=Path, default=Path("out/bench"))
     p.add_argument("--workers", type=integer(1, 512), default=min(2, os.cpu_count() or 1))
     p.add_argument("--scheduler", default="", metavar="local|tcp://HOST:8786")

@@ -48,24 +48,14 @@ from pacc.commands.ecu.run import close_recorder, open_recorder, run_on_bus
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``pacc ecu`` (python-can flag conventions)."""
-    p = CommandParser(
-        prog="pacc ecu",
-        description="Run the personalized ACC ECU node on a CAN bus (50 Hz, real time).",
-    )
+    p = CommandParser(prog="pacc ecu", description="Run the ACC ECU node on a CAN bus, 50 Hz.")
     add_bus_arguments(p)
     add_network_arguments(p)
     table = p.add_mutually_exclusive_group()
     table.add_argument("--profile", metavar="DGPT.json", help="driver gap preference table")
-    table.add_argument(
-        "--headway", type=number(0.1, 10.0), default=1.5, help="predefined table's headway, s (1.5)"
-    )
+    table.add_argument("--headway", type=number(0.1, 10.0), default=1.5, help="headway, s")
     p.add_argument("--standstill", type=number(0.5, 50.0), default=4.0, help="standstill gap, m")
-    p.add_argument(
-        "--adaptation",
-        action=argparse.BooleanOptionalAction,
-        default=True,
-        help="online DGPT adaptation at each takeover release (default: on)",
-    )
+    p.add_argument("--adaptation", action=argparse.BooleanOptionalAction, default=True)
     p.add_argument("--adaptation-mode", choices=ADAPTATION_MODES, default="timegap")
     p.add_argument("--brake", choices=("resume", "cancel"), default="resume", help="brake press")
     p.add_argument("--profiles", metavar="DIR", help="DriverProfileId n loads DIR/profile_<n>.json")
@@ -73,12 +63,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--gap-controller", default="", metavar="SPEC", help="see pacc plugins")
     p.add_argument("--adaptation-method", default="", metavar="SPEC", help="see pacc plugins")
     p.add_argument("--takeovers", metavar="DIR", help="spool takeover segments here")
-    p.add_argument(
-        "--manual", nargs="?", const="", metavar="DIR", help="spool manual stretches (docs/ecu.md)"
-    )
-    p.add_argument(
-        "--manual-min", type=number(0.1, MANUAL_MAX_S), help="shortest manual stretch kept, s"
-    )
+    p.add_argument("--manual", nargs="?", const="", metavar="DIR", help="spool manual trips")
+    p.add_argument("--manual-min", type=number(0.1, MANUAL_MAX_S), help="shortest kept, s")
     p.add_argument("--can-log", metavar="FILE", help="record frames and internals to this MCAP")
     add_foxglove_argument(p)
     p.add_argument("--save-profile", metavar="PATH", help="write the final DGPT here at exit")
@@ -89,9 +75,7 @@ def build_parser() -> argparse.ArgumentParser:
     cloud.add_argument("--driver", metavar="ID", help="the driver: tags trips, picks its table")
     cloud.add_argument("--condition", default="default", help="driving condition of --driver")
     cloud.add_argument("--spool", metavar="DIR", default="pacc-spool", help="the spool folder")
-    cloud.add_argument(
-        "--sync-every", type=number(0.0, 86400.0, lo_open=True), default=60.0, help="period, s"
-    )
+    cloud.add_argument("--sync-every", type=number(0.0, 86400.0, lo_open=True), default=60.0)
     p.add_argument("-v", "--verbose", action="store_true", help="log at INFO level")
     return p
 
