@@ -71,7 +71,12 @@ def add_world_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--faults", default="", help="fault SPEC, e.g. 'radar:dropout=100-105'")
     p.add_argument("--duration", type=number(0.0, 1e6, lo_open=True), help="the first N s only")
     p.add_argument("--log", type=Path, help="write the drive as an MCAP trip log")
-    p.add_argument("--condition-factor", type=number(0.1, 10.0), default=1.0, help="x preference")
+    p.add_argument(
+        "--condition-factor",
+        type=number(0.1, 10.0),
+        default=1.0,
+        help="multiply the driver's preferred gap (rain: 1.2)",
+    )
 
 
 def bus_kwargs(args: argparse.Namespace) -> dict[str, Any]:

@@ -38,7 +38,12 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--drivers-per-seed", type=integer(1, 100_000), default=3, metavar="N")
     p.add_argument("--no-builtin", action="store_true", help="leave d1..d5 out")
     p.add_argument("--scenarios", default="B", help="comma-separated (default B)")
-    p.add_argument("--duration", type=number(0.0, 1e5, lo_open=True), default=120.0, help="s")
+    p.add_argument(
+        "--duration",
+        type=number(0.0, 1e5, lo_open=True),
+        default=120.0,
+        help="s per drive (default 120)",
+    )
     p.add_argument("--trials", type=integer(1, 1000), default=1)
     p.add_argument("--csv", action="append", default=[], metavar="FILE", help="a real driver")
     p.add_argument("--methods", type=Path, metavar="STUDY.toml", help="its [[methods]]")

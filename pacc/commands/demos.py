@@ -33,7 +33,7 @@ def _parser() -> argparse.ArgumentParser:
     ex.add_argument("-o", "--out", type=Path, required=True, help="folder of the trip logs")
     ex.add_argument("--driver", default="guest", help="driver id of the trips (default guest)")
     ex.add_argument("--condition", default="default", help="condition (default 'default')")
-    ex.add_argument("--min-s", type=number(0.0, 1e6), default=MANUAL_MIN_S, help="shortest, s")
+    ex.add_argument("--min-s", type=number(0.0, 1e6), default=MANUAL_MIN_S, help="shortest kept, s")
     add_network_arguments(ex)
     return p
 

@@ -46,7 +46,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--trials", type=integer(1, 1000), help="drives per cell (default 3)")
     p.add_argument("--seed", type=integer(0), default=0, help="study seed (default 0)")
-    p.add_argument("--duration", type=number(0.0, 1e5, lo_open=True), help="each drive's s")
+    p.add_argument("--duration", type=number(0.0, 1e5, lo_open=True), help="s per drive")
     p.add_argument("--workers", type=integer(1, 256), default=min(2, os.cpu_count() or 1))
     p.add_argument("--scheduler", metavar="local|tcp://HOST:8786", help="Dask (docs/scale.md)")
     p.add_argument("--out", type=Path, default=Path("out/study"), help="output folder")

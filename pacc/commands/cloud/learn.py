@@ -167,6 +167,6 @@ def add_subparser(subparsers: Any) -> None:
     p.add_argument("--plot", metavar="PNG", help="write the reward / DGPT figure here")
     p.add_argument("--seed", type=integer(0), default=0, help="seed (default: %(default)s)")
     p.add_argument("--learner", default="irl", metavar="SPEC", help="irl, empirical, gp, ...")
-    p.add_argument("--takeover-weight", type=number(0.0, 1000.0), default=5.0, help="(default 5)")
+    p.add_argument("--takeover-weight", type=number(0.0, 1000.0), default=5.0, help="vs manual")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_do_learn)

@@ -137,5 +137,5 @@ def add_subparser(subparsers: Any) -> None:
     p.add_argument("--fetch", metavar="DRIVER", help="download this driver's newest table")
     p.add_argument("--condition", default="default", help="driving condition of --fetch")
     p.add_argument("--trust", help="the cloud's public key (PEM) to verify --fetch with")
-    p.add_argument("--wait", type=number(0.0, 86400.0), default=0.0, help="for learning, s")
+    p.add_argument("--wait", type=number(0.0, 86400.0), default=0.0, help="learning wait, s")
     p.set_defaults(func=_do_sync)

@@ -77,7 +77,13 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--gap-controller", default="", metavar="SPEC", help="see pacc plugins")
     p.add_argument("--adaptation", default="", metavar="SPEC", help="see pacc plugins")
     for name in ("--gap-controller-args", "--adaptation-args"):
-        p.add_argument(name, type=json_parameters, default=(), metavar="JSON", help="a JSON object")
+        p.add_argument(
+            name,
+            type=json_parameters,
+            default=(),
+            metavar="JSON",
+            help="the plug-in's parameters, a JSON object",
+        )
     add_network_arguments(p)
     return p
 

@@ -53,7 +53,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_network_arguments(p)
     table = p.add_mutually_exclusive_group()
     table.add_argument("--profile", metavar="DGPT.json", help="driver gap preference table")
-    table.add_argument("--headway", type=number(0.1, 10.0), default=1.5, help="headway, s")
+    table.add_argument("--headway", type=number(0.1, 10.0), default=1.5, help="headway, s (table)")
     p.add_argument("--standstill", type=number(0.5, 50.0), default=4.0, help="standstill gap, m")
     p.add_argument("--adaptation", action=argparse.BooleanOptionalAction, default=True)
     p.add_argument("--adaptation-mode", choices=ADAPTATION_MODES, default="timegap")
