@@ -16,15 +16,9 @@ from dbc.errors import PaccError, error_line
 #: sub-command -> (module with ``main(argv) -> int``, one-line help)
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "ecu": ("pacc.commands.ecu", "run the ACC ECU node on a CAN bus"),
-    "sim": (
-        "pacc.commands.sim",
-        "run the bus simulator (lead, ego physics, driver) against an ECU",
-    ),
+    "sim": ("pacc.commands.sim", "run the bus simulator (lead, ego car, driver) against an ECU"),
     "drive": ("pacc.commands.drive", "ECU + simulator in one process, lockstep, print PoI/NIM"),
-    "study": (
-        "pacc.commands.study",
-        "the paper's study (Table I) end to end: every driver x controller",
-    ),
+    "study": ("pacc.commands.study", "the paper's study (Table I): every driver x controller"),
     "cloud": ("pacc.commands.cloud", "cloud side: learn a driver's DGPT by IRL, sync logs"),
     "export": ("pacc.commands.export", "convert CAN logs: pacc MCAP <-> .log/.asc/.blf/.trc/.csv"),
     "replay": ("pacc.commands.replay", "replay a bus recording through the ECU or onto a bus"),
@@ -33,10 +27,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "hil": ("pacc.commands.hil", "a person drives in a browser against the ECU: the paper's study"),
     "bench": ("pacc.commands.bench", "every method on fresh seeds, d1..d5, real data: leaderboard"),
     "plugins": ("pacc.commands.plugins", "list the controllers, adaptations and learners to name"),
-    "validate": (
-        "pacc.commands.validate",
-        "synthetic drivers beside real people: following, Table I",
-    ),
+    "validate": ("pacc.commands.validate", "synthetic drivers beside real people"),
 }
 
 _USAGE = "usage: pacc [-h] [--debug] {" + ",".join(SUBCOMMANDS) + "} ..."

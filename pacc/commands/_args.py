@@ -14,6 +14,7 @@ import argparse
 import json
 import math
 import os
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn
@@ -29,6 +30,12 @@ class CommandParser(argparse.ArgumentParser):
         """Print the one line and exit 2."""
         text = " ".join(message.split())
         self.exit(2, f"{self.prog}: error: {text} (see {self.prog} --help)\n")
+
+
+def fail(prog: str, why: object, code: int = 2) -> int:
+    """Print ``PROG: error: WHY`` on stderr; return the exit status ``code``."""
+    print(f"{prog}: error: {why}", file=sys.stderr)
+    return code
 
 
 #: the largest integer any option takes (seeds, counts): beyond it a typo, not a wish
@@ -47,27 +54,28 @@ def add_bus_arguments(parser: argparse.ArgumentParser, title: str | None = None)
     )
 
 
+def add_cloud_arguments(p: Any, *, paths: bool = False) -> None:
+    """``--cloud``, ``--token-file``, ``--trust`` (``paths``: as :class:`Path`) on ``p``."""
+    kind = Path if paths else str
+    p.add_argument("--cloud", metavar="URL|DIR", help="the cloud service, or a folder")
+    p.add_argument("--token-file", type=kind, help="with --cloud: the vehicle's token file")
+    p.add_argument("--trust", type=kind, help="with --cloud: the cloud's public key (PEM)")
+
+
 def add_world_arguments(p: argparse.ArgumentParser) -> None:
     """The simulated world's options, ``pacc drive``'s and ``pacc sim``'s: scenario, driver,
     seed, faults, duration (s), the trip log, the condition factor."""
-    p.add_argument(
-        "--scenario",
-        default="B",
-        help="A, B, manual1..manual4, a road scenario (cutin, cutout, leadloss, stopgo, C: "
-        "mixed traffic) or a CSV of t_s,v_lead_mps (default B)",
-    )
+    p.add_argument("--scenario", default="B", help="A, B, manual1..4, a road scenario or a CSV")
     p.add_argument("--driver", default="d1", help="d1..d5 or a driver .toml/.json (default d1)")
     p.add_argument("--seed", type=integer(0), default=0)
     p.add_argument("--faults", default="", help="fault SPEC, e.g. 'radar:dropout=100-105'")
-    p.add_argument(
-        "--duration", type=number(0.0, 1e6, lo_open=True), help="simulate only the first N s"
-    )
+    p.add_argument("--duration", type=number(0.0, 1e6, lo_open=True), help="the first N s only")
     p.add_argument("--log", type=Path, help="write the drive as an MCAP trip log")
     p.add_argument(
         "--condition-factor",
         type=number(0.1, 10.0),
         default=1.0,
-        help="multiply the driver's preference, e.g. 1.2 for rain (default 1)",
+        help="multiply the driver's preferred gap (rain: 1.2)",
     )
 
 

@@ -20,7 +20,7 @@ from pathlib import Path
 from cloud_sync.errors import CloudSyncError
 from dbc.vocab import FormatError
 from ecu import EcuError
-from pacc.commands._args import CommandParser, integer, number
+from pacc.commands._args import CommandParser, fail, integer, number
 from pacc.study.bench.suite import (
     DEFAULT_METHODS,
     BenchOptions,
@@ -33,13 +33,9 @@ from sim_bus.errors import SimError
 
 def _parser() -> argparse.ArgumentParser:
     p = CommandParser(prog="pacc bench", description=__doc__.split("\n\n")[0])
-    p.add_argument(
-        "--seeds", type=integer(1, 1000), default=2, metavar="K", help="fresh population seeds (2)"
-    )
+    p.add_argument("--seeds", type=integer(1, 1000), default=2, metavar="K", help="fresh seeds")
     p.add_argument("--seed-list", metavar="S1,S2", help="these population seeds instead")
-    p.add_argument(
-        "--drivers-per-seed", type=integer(1, 100_000), default=3, metavar="N", help="default 3"
-    )
+    p.add_argument("--drivers-per-seed", type=integer(1, 100_000), default=3, metavar="N")
     p.add_argument("--no-builtin", action="store_true", help="leave d1..d5 out")
     p.add_argument("--scenarios", default="B", help="comma-separated (default B)")
     p.add_argument(
@@ -49,21 +45,8 @@ def _parser() -> argparse.ArgumentParser:
         help="s per drive (default 120)",
     )
     p.add_argument("--trials", type=integer(1, 1000), default=1)
-    p.add_argument(
-        "--csv",
-        action="append",
-        default=[],
-        metavar="FILE",
-        help="a car-following CSV of a real driver (OpenACC columns), repeatable",
-    )
-    p.add_argument(
-        "--methods",
-        type=Path,
-        metavar="STUDY.toml",
-        help="take the [[methods]] of this study file (default: paper, "
-        + ", ".join(m["name"] for m in DEFAULT_METHODS[1:])
-        + ")",
-    )
+    p.add_argument("--csv", action="append", default=[], metavar="FILE", help="a real driver")
+    p.add_argument("--methods", type=Path, metavar="STUDY.toml", help="its [[methods]]")
     p.add_argument("--out", type=Path, default=Path("out/bench"))
     p.add_argument("--workers", type=integer(1, 512), default=min(2, os.cpu_count() or 1))
     p.add_argument("--scheduler", default="", metavar="local|tcp://HOST:8786")
@@ -106,12 +89,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         opts = _options(args)
         print(f"population seeds (drawn fresh): {', '.join(map(str, opts.seeds))}")
-
-        run_bench(opts, args.out, workers=max(1, args.workers), scheduler=args.scheduler,
-                  progress=not args.quiet)  # fmt: skip
+        workers, progress = max(1, args.workers), not args.quiet
+        run_bench(opts, args.out, workers=workers, scheduler=args.scheduler, progress=progress)
     except (SimError, EcuError, FormatError, CloudSyncError, OSError) as exc:
-        print(f"pacc bench: error: {exc}", file=sys.stderr)
-        return 2
+        return fail("pacc bench", exc)
     print((args.out / "leaderboard.md").read_text(encoding="utf-8"))
     print(f"took {time.perf_counter() - start:.0f} s; {args.out}/leaderboard.md, .csv, .png")
     return 0

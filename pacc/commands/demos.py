@@ -16,7 +16,7 @@ from pathlib import Path
 from dbc.errors import DbcError, PaccError
 from dbc.network import add_network_arguments, codec_of
 from dbc.vocab.sampling import MANUAL_MIN_S
-from pacc.commands._args import CommandParser, number
+from pacc.commands._args import CommandParser, fail, number
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -33,12 +33,7 @@ def _parser() -> argparse.ArgumentParser:
     ex.add_argument("-o", "--out", type=Path, required=True, help="folder of the trip logs")
     ex.add_argument("--driver", default="guest", help="driver id of the trips (default guest)")
     ex.add_argument("--condition", default="default", help="condition (default 'default')")
-    ex.add_argument(
-        "--min-s",
-        type=number(0.0, 1e6),
-        default=MANUAL_MIN_S,
-        help=f"shortest stretch kept, s (default {MANUAL_MIN_S:g})",
-    )
+    ex.add_argument("--min-s", type=number(0.0, 1e6), default=MANUAL_MIN_S, help="shortest kept, s")
     add_network_arguments(ex)
     return p
 
@@ -68,7 +63,6 @@ def main(argv: list[str] | None = None) -> int:
                 written += 1
             print("\n".join(report.lines()))
     except (PaccError, DbcError, OSError, ValueError) as exc:
-        print(f"pacc demos: error: {exc}", file=sys.stderr)
-        return 2
+        return fail("pacc demos", exc)
     print(f"demos: {written} trip logs written to {args.out}")
     return 0 if written else 1

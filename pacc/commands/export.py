@@ -16,7 +16,7 @@ from pathlib import Path
 from dbc.errors import UsageError, error_line
 from dbc.vocab import FormatError
 from ecu import EcuError
-from pacc.commands._args import CommandParser
+from pacc.commands._args import CommandParser, fail
 
 #: the formats pacc converts between, by suffix
 FORMATS = (".mcap", ".log", ".asc", ".blf", ".trc", ".csv")
@@ -112,7 +112,6 @@ def main(argv: list[str] | None = None) -> int:
         text = error_line(exc)
         if str(args.src) not in text and str(args.dst) not in text:
             text = f"{args.src}: {text}"  # a python-can reader's bare message names no file
-        print(f"pacc export: error: {text}", file=sys.stderr)
-        return 2
+        return fail("pacc export", text)
     print(f"{n} frames: {args.src} -> {args.dst}")
     return 0

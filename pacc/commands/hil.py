@@ -26,8 +26,10 @@ from ecu.buslog.live import add_foxglove_argument, parse_address
 from pacc.commands._args import (
     CommandParser,
     add_bus_arguments,
+    add_cloud_arguments,
     bus_error,
     bus_kwargs,
+    fail,
     integer,
     number,
 )
@@ -54,69 +56,20 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--participant", help="participant id with a number, e.g. P01")
     p.add_argument("--protocol", choices=("paper",), help="run the paper's study protocol")
     p.add_argument("--out", type=Path, default=Path("sessions"), help="session folders")
-    p.add_argument(
-        "--incremental",
-        type=integer(0, 100),
-        default=0,
-        metavar="N",
-        help="protocol: then N IRL+OA drives on B, the cloud fine-tuning between them",
-    )
+    p.add_argument("--incremental", type=integer(0, 100), default=0, metavar="N")
     p.add_argument("--scenario", default="B", help="free drive: A, B, manual1..4 or a CSV")
-    p.add_argument(
-        "--controller",
-        default="predefined",
-        choices=(*CONTROLLERS, "manual"),
-        help="free drive: the ECU's controller (manual: ACC off)",
-    )
-    p.add_argument(
-        "--setting",
-        choices=("low", "medium", "high"),
-        default="medium",
-        help="the participant's Predefined headway setting: 1, 3 or 4 s (default medium)",
-    )
+    p.add_argument("--controller", default="predefined", choices=(*CONTROLLERS, "manual"))
+    p.add_argument("--setting", choices=("low", "medium", "high"), default="medium")
     p.add_argument("--table", type=Path, help="free drive with irl/irl+oa: the DGPT file")
-    p.add_argument(
-        "--fov",
-        type=number(10.0, 150.0),
-        default=50.0,
-        metavar="DEG",
-        help="horizontal field of view the screen fills at the eye, degrees: 2·atan(width / "
-        "(2 · eye distance)) (default 50: a 56-cm-wide screen at 60 cm)",
-    )
-    p.add_argument(
-        "--set-speed",
-        type=number(30.0, 180.0),
-        metavar="KMH",
-        help="SET sets this speed and the ACC follows the lead below it (default with "
-        "--protocol: 130, above every lead's speed, so the lead governs as in the paper); "
-        "without: the car's speed at the press, as in a production car",
-    )
-    p.add_argument(
-        "--brake",
-        choices=("resume", "cancel"),
-        default="resume",
-        help="a brake press overrides the ACC, which drives again on release (resume, the "
-        "paper's study), or cancels it to standby (cancel, production cars)",
-    )
-    p.add_argument(
-        "--weather",
-        default="day",
-        metavar="W[,W...]",
-        help="day, rain or night for every drive, or one per drive in plan order",
-    )
+    p.add_argument("--fov", type=number(10.0, 150.0), default=50.0, help="field of view, degrees")
+    p.add_argument("--set-speed", type=number(30.0, 180.0), metavar="KMH", help="SET speed, km/h")
+    p.add_argument("--brake", choices=("resume", "cancel"), default="resume", help="brake press")
+    p.add_argument("--weather", default="day", metavar="W[,W...]", help="day, rain or night")
     p.add_argument("--seed", type=integer(0), default=0, help="scenario and plant-noise seed")
-    p.add_argument(
-        "--short", type=number(1.0, 1e6), metavar="S", help="shorten every drive to S seconds"
-    )
-    p.add_argument(
-        "--lockstep",
-        action="store_true",
-        help="the world advances only when the page steps it (tests, slow machines)",
-    )
+    p.add_argument("--short", type=number(1.0, 1e6), metavar="S", help="shorten each drive to S s")
+    p.add_argument("--lockstep", action="store_true", help="the page steps the world")
     p.add_argument("--mapping", type=Path, help="gamepad mapping file (default: ~/.config/pacc)")
-    p.add_argument("--cloud", metavar="URL|DIR", help="learn in this cloud (default: embedded)")
-    p.add_argument("--token-file", type=Path, help="with --cloud: the vehicle's token file")
-    p.add_argument("--trust", type=Path, help="with --cloud: the cloud's public key (PEM)")
+    add_cloud_arguments(p, paths=True)
     add_bus_arguments(p, "the bus of a separate pacc ecu (omitted: the ECU in-process)")
     add_foxglove_argument(p)
     return p
@@ -194,8 +147,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         port = server.start()
     except (SimError, EcuError, FormatError, CloudSyncError, DbcError, OSError) as exc:
-        print(f"pacc hil: error: {exc}", file=sys.stderr)
-        return 2
+        return fail("pacc hil", exc)
     url = f"http://{args.host}:{port}/"
     print(f"pacc hil: open {url} (session folder {session.folder})", flush=True)
     try:

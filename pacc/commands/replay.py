@@ -15,7 +15,7 @@ from pathlib import Path
 
 from dbc.vocab import FormatError
 from ecu import EcuError
-from pacc.commands._args import CommandParser, add_bus_arguments, bus_error, bus_kwargs
+from pacc.commands._args import CommandParser, add_bus_arguments, bus_error, bus_kwargs, fail
 
 #: state changes printed in full; the rest are counted
 MAX_STATES_SHOWN = 12
@@ -28,20 +28,10 @@ def _parser() -> argparse.ArgumentParser:
         "CAN bus in real time",
     )
     p.add_argument("log", type=Path, metavar="LOG", help="a pacc bus recording (.mcap)")
-    p.add_argument(
-        "--ecu",
-        action="store_true",
-        help="through the recorded ECU at the recorded times; compare its frames",
-    )
+    p.add_argument("--ecu", action="store_true", help="through the ECU; compare its frames")
     p.add_argument("--events", action="store_true", help="--ecu: print every ECU event")
     add_bus_arguments(p, "real time (omitted: python-can's own configuration applies)")
-    p.add_argument(
-        "--frames",
-        choices=("all", "rx", "tx"),
-        default="all",
-        help="the frames to send: all, rx (those the recorded node received: its inputs, "
-        "to drive another ECU) or tx (default all)",
-    )
+    p.add_argument("--frames", choices=("all", "rx", "tx"), default="all", help="frames to send")
     return p
 
 
@@ -100,8 +90,7 @@ def _realtime(args: argparse.Namespace) -> int:
     try:
         bus = can.Bus(**bus_kwargs(args))
     except (can.CanError, OSError, ValueError, ImportError) as exc:
-        print(f"pacc replay: error: {bus_error(args, exc)}", file=sys.stderr)
-        return 2
+        return fail("pacc replay", bus_error(args, exc))
     with bus:
         try:
             result = play(log, bus, which=args.frames)
@@ -138,5 +127,4 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return _ecu(args) if args.ecu else _realtime(args)
     except (EcuError, FormatError) as exc:
-        print(f"pacc replay: error: {exc}", file=sys.stderr)
-        return 2
+        return fail("pacc replay", exc)

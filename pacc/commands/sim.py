@@ -34,6 +34,7 @@ from pacc.commands._args import (
     bus_kwargs,
     check_distinct_outputs,
     check_writable_file,
+    fail,
 )
 from pacc.commands.drive.report import fig
 from pacc.study.drive import resolve_profile, with_condition
@@ -55,13 +56,7 @@ def _parser() -> argparse.ArgumentParser:
     p = CommandParser(prog="pacc sim", description=__doc__.split("\n\n")[0])
     add_bus_arguments(p)
     add_world_arguments(p)
-    p.add_argument(
-        "--can-log",
-        type=Path,
-        metavar="FILE",
-        help="record every frame in and out (raw and decoded) and the simulated world to "
-        "this MCAP file",
-    )
+    p.add_argument("--can-log", type=Path, metavar="FILE", help="record the bus to this MCAP")
     p.add_argument("--quiet", action="store_true", help="no progress line")
     add_network_arguments(p)
     add_foxglove_argument(p)
@@ -70,14 +65,10 @@ def _parser() -> argparse.ArgumentParser:
 
 def _setup(args: argparse.Namespace) -> tuple[DriverParams, FaultSpec, LeadProfile]:
     """The driver, the faults and the lead profile of the run; SimError on bad options."""
-    if args.seed < 0:
-        raise SimError(f"--seed must be >= 0, got {args.seed}")
     driver = with_condition(load_driver(args.driver), args.condition_factor)
     faults = parse_faults(args.faults)
     profile = resolve_profile(args.scenario, args.seed)
     if args.duration is not None:
-        if not args.duration > 0:
-            raise SimError("--duration must be > 0")
         profile = shorten(profile, args.duration)
     check_writable_file(args.log, "--log")  # now, not after the drive when it would be lost
     check_writable_file(args.can_log, "--can-log")
@@ -125,14 +116,12 @@ def main(argv: list[str] | None = None) -> int:
         driver, faults, profile = _setup(args)
         codec = codec_of(args)
     except (SimError, DbcError, UsageError) as exc:
-        print(f"pacc sim: error: {exc}", file=sys.stderr)
-        return 2
+        return fail("pacc sim", exc)
     try:
         # only given flags are passed: a None bitrate would hide the one of ~/.canrc
         bus = can.Bus(**bus_kwargs(args))
     except (can.CanError, ValueError, OSError, ImportError) as exc:
-        print(f"pacc sim: error: {bus_error(args, exc)}", file=sys.stderr)
-        return 2
+        return fail("pacc sim", bus_error(args, exc))
     world = World(driver, profile, args.seed)
     gap = GAP_SETTING_CODE[driver.predefined_setting]
     node = SimNode(

@@ -18,7 +18,7 @@ from dbc.network import add_network_arguments, codec_of
 from dbc.vocab import FormatError
 from ecu import EcuError
 from ecu.adaptation import ADAPTATION_MODES
-from pacc.commands._args import CommandParser, integer, number
+from pacc.commands._args import CommandParser, add_cloud_arguments, fail, integer, number
 from pacc.study.drive import BUSES, CONTROLLERS, adaptation_params
 from pacc.study.manifest import write_manifest
 from pacc.study.pipeline import StudyInterrupted, run
@@ -39,118 +39,31 @@ def _name_list(text: str) -> tuple[str, ...]:
 
 def _parser() -> argparse.ArgumentParser:
     p = CommandParser(prog="pacc study", description=_DESCRIPTION)
+    p.add_argument("--drivers", type=_name_list, help="d1..d5, driver files or KIND:N:SEED")
+    p.add_argument("--scenarios", type=_name_list, help="comma-separated (default A,B)")
     p.add_argument(
-        "--drivers",
-        type=_name_list,
-        help="comma-separated: d1..d5 (the built-in drivers), driver files, or KIND:N:SEED "
-        "(N drawn drivers; default: 5 drawn from the people population with --seed)",
+        "--controllers", type=_name_list, default=CONTROLLERS, help=",".join(CONTROLLERS)
     )
-    p.add_argument(
-        "--scenarios", type=_name_list, help="comma-separated (default A,B; with --population: B)"
-    )
-    p.add_argument(
-        "--controllers",
-        type=_name_list,
-        default=CONTROLLERS,
-        help="comma-separated subset of " + ",".join(CONTROLLERS),
-    )
-    p.add_argument(
-        "--trials", type=integer(1, 1000), help="drives per cell (default 3; with --population: 1)"
-    )
+    p.add_argument("--trials", type=integer(1, 1000), help="drives per cell (default 3)")
     p.add_argument("--seed", type=integer(0), default=0, help="study seed (default 0)")
-    p.add_argument(
-        "--duration",
-        type=number(0.0, 1e5, lo_open=True),
-        help="shorten every drive to N s (default: the whole 300 s; with --population: 120)",
-    )
-    p.add_argument(
-        "--workers",
-        type=integer(1, 256),
-        default=min(2, os.cpu_count() or 1),
-        help="parallel drive processes (default: 2 or the core count)",
-    )
-    p.add_argument(
-        "--scheduler",
-        metavar="local|tcp://HOST:8786",
-        help="run the drives and the learning on Dask: 'local' starts a LocalCluster of "
-        "--workers processes, an address joins that cluster (docs/scale.md; needs pacc[dask])",
-    )
+    p.add_argument("--duration", type=number(0.0, 1e5, lo_open=True), help="s per drive")
+    p.add_argument("--workers", type=integer(1, 256), default=min(2, os.cpu_count() or 1))
+    p.add_argument("--scheduler", metavar="local|tcp://HOST:8786", help="Dask (docs/scale.md)")
     p.add_argument("--out", type=Path, default=Path("out/study"), help="output folder")
-    p.add_argument(
-        "--config",
-        type=Path,
-        metavar="FILE",
-        help="run a study file (TOML: drivers, scenarios, methods, trials, seeds) or a run's "
-        "manifest.json again; the other options but --out/--workers/--scheduler/-q are "
-        "ignored (docs/plugins.md)",
-    )
+    p.add_argument("--config", type=Path, metavar="FILE", help="a study file or a manifest.json")
     p.add_argument("--no-logs", action="store_true", help="do not write MCAP logs")
-    p.add_argument(
-        "--can-logs",
-        action="store_true",
-        help="also record every drive's bus "
-        "traffic, decoded, with the ECU's internals (MCAP, OUT/can/; pacc replay, "
-        "pacc plot)",
-    )
+    p.add_argument("--can-logs", action="store_true", help="record every drive's bus (OUT/can/)")
     p.add_argument("--cache", type=Path, help="cache folder of learned IRL tables")
-    p.add_argument(
-        "--adaptation",
-        "--adaptation-mode",
-        choices=ADAPTATION_MODES,
-        help="online adaptation of the +oa controllers (default: the ECU's, docs/ecu.md)",
-    )
+    p.add_argument("--adaptation", "--adaptation-mode", choices=ADAPTATION_MODES)
     cloud = p.add_argument_group("the vehicle-cloud loop (docs/cloud.md)")
-    cloud.add_argument(
-        "--cloud",
-        metavar="URL|DIR",
-        help="learn the IRL tables in this cloud (default: a fresh embedded one in OUT/cloud)",
-    )
-    cloud.add_argument("--token-file", help="with --cloud: the vehicle's token file")
-    cloud.add_argument("--trust", help="with --cloud: the cloud's public key (PEM)")
-    cloud.add_argument(
-        "--direct", action="store_true", help="no cloud: learn in-process (cached in --cache)"
-    )
-    cloud.add_argument(
-        "--incremental",
-        type=integer(1, 1000),
-        default=0,
-        metavar="N",
-        help="instead of Table I: N IRL+OA trips per driver, the cloud fine-tuning between",
-    )
-    p.add_argument(
-        "--population",
-        type=integer(1, 100_000),
-        default=0,
-        metavar="N",
-        help="instead of d1..d5: N drivers drawn with --seed (docs/study.md), resumable",
-    )
-    p.add_argument(
-        "--population-kind",
-        choices=tuple(POPULATIONS),
-        default=DEFAULT_POPULATION,
-        help="the drawn drivers: people (calibrated to the study's people, the default; they "
-        "draw their own manual-vs-ACC mismatch) or headway (steady-state headway drivers)",
-    )
-    p.add_argument(
-        "--bus",
-        choices=BUSES,
-        default=BUSES[0],
-        help="the python-can bus of every drive: lockstep (default) or virtual (the same rows)",
-    )
-    p.add_argument(
-        "--hil",
-        type=Path,
-        metavar="SESSIONS",
-        help="instead of synthetic drivers: "
-        "Table I of the people in pacc hil's session folders (docs/hil.md), written "
-        "to --out",
-    )
-    p.add_argument(
-        "--beside",
-        type=Path,
-        metavar="DRIVES_CSV",
-        help="with --hil: a synthetic study's drives.csv, its averages put beside the people's",
-    )
+    add_cloud_arguments(cloud)
+    cloud.add_argument("--direct", action="store_true", help="no cloud: learn in-process")
+    cloud.add_argument("--incremental", type=integer(1, 1000), default=0, metavar="N")
+    p.add_argument("--population", type=integer(1, 100_000), default=0, metavar="N")
+    p.add_argument("--population-kind", choices=tuple(POPULATIONS), default=DEFAULT_POPULATION)
+    p.add_argument("--bus", choices=BUSES, default=BUSES[0], help="python-can bus of each drive")
+    p.add_argument("--hil", type=Path, metavar="SESSIONS", help="Table I of pacc hil sessions")
+    p.add_argument("--beside", type=Path, metavar="DRIVES_CSV", help="with --hil: a drives.csv")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     add_network_arguments(p)
     return p
@@ -185,8 +98,7 @@ def _spec(args: argparse.Namespace, argv: list[str]) -> tuple[StudySpec, dict[st
         raise SimError(f"unknown controllers {bad}: choose from {', '.join(CONTROLLERS)}")
     pop = args.population != 0
     if pop and (args.drivers is not None or args.cloud is not None or args.incremental):
-        raise SimError("--population draws its drivers and learns in-process: not with "
-                       "--drivers, --cloud or --incremental")  # fmt: skip
+        raise SimError("--population: not with --drivers, --cloud or --incremental")
     if pop and args.can_logs:
         raise SimError("--population keeps no logs: not with --can-logs")
     drawn = (f"{args.population_kind}:{args.population if pop else 5}:{args.seed}",)
@@ -224,26 +136,25 @@ def main(argv: list[str] | None = None) -> int:
             return _hil_table(spec, args.out)
         codec_of(args)  # a DBC without its binding, a binding that does not fit: refused now
         if config is not None:
-            write_manifest(args.out, {**config, "workers": spec.workers,
-                                      "scheduler": spec.scheduler or ""})  # fmt: skip
+            extra = {"workers": spec.workers, "scheduler": spec.scheduler or ""}
+            write_manifest(args.out, {**config, **extra})
         _check_scheduler(spec.scheduler)  # now, not after every table is learned
         if any(m.table != "predefined" for m in spec.methods) and not args.quiet:
-            where = "in-process" if spec.learn_in == "direct" else (
-                f"in the cloud ({spec.cloud or args.out / 'cloud'})")  # fmt: skip
-            print("pacc study: learning each driver's tables from its manual trips "
-                  f"{where} before the drives ...", file=sys.stderr)  # fmt: skip
+            cloud = f"in the cloud ({spec.cloud or args.out / 'cloud'})"
+            where = "in-process" if spec.learn_in == "direct" else cloud
+            print(f"pacc study: learning the drivers' tables {where} ...", file=sys.stderr)
         rows = run(spec, args.out, cache_dir=args.cache, progress=not args.quiet)
     except StudyInterrupted as exc:
         print(f"pacc study: {exc}", file=sys.stderr)
         return 130
     except (SimError, EcuError, FormatError, CloudSyncError, DbcError, OSError) as exc:
-        print(f"pacc study: error: {error_line(exc)}", file=sys.stderr)
-        return 2
+        return fail("pacc study", error_line(exc))
     report, files = _OUTPUTS[spec.report]
     print((args.out / report).read_text(encoding="utf-8"))
-    print(f"{len(rows)} drives in {time.perf_counter() - start:.1f} s; outputs in {args.out}/ "
-          f"({files}" + (", logs/" if spec.logs else "") + (", can/" if spec.can_logs else "")
-          + (", cloud/)" if spec.learn_in == "cloud" else ")"))  # fmt: skip
+    files += (", logs/" if spec.logs else "") + (", can/" if spec.can_logs else "")
+    files += ", cloud/" if spec.learn_in == "cloud" else ""
+    took = time.perf_counter() - start
+    print(f"{len(rows)} drives in {took:.1f} s; outputs in {args.out}/ ({files})")
     if args.config is not None:
         print(f"run it again with 'pacc study --config {args.out}/manifest.json'")
     return 1 if any(int(r["collision"]) for r in rows) else 0
@@ -267,7 +178,6 @@ def _hil_table(spec: StudySpec, out: Path) -> int:
         beside = None if spec.beside is None else Path(spec.beside)
         print(build_table(Path(spec.sessions), out, beside), end="")
     except (SimError, FormatError, OSError) as exc:
-        print(f"pacc study: error: {exc}", file=sys.stderr)
-        return 2
+        return fail("pacc study", exc)
     print(f"outputs in {out}/ (table1.md, drives.csv, table1.png)")
     return 0

@@ -17,11 +17,15 @@ from typing import Any
 
 import numpy as np
 
-from pacc.commands._args import CommandParser
+from pacc.commands._args import CommandParser, integer
 from pacc.study.report import CONTROLLER_TITLES, PAPER_AVERAGES, read_drives
 from pacc.study.stats import bootstrap_ci, comparisons, holm, per_driver
 from sim_bus.dataset import load_human_pairs
 from sim_bus.following import MODELS, Fit, fit_pair
+
+
+def _row(*cells: object) -> str:
+    return "| " + " | ".join(map(str, cells)) + " |"
 
 
 def following_table(fits: Sequence[Fit]) -> str:
@@ -29,29 +33,18 @@ def following_table(fits: Sequence[Fit]) -> str:
     models = list(dict.fromkeys(f.model for f in fits))
     by = {(f.pair_id, f.model): f for f in fits}
     pairs = list(dict.fromkeys(f.pair_id for f in fits))
+    spacing = [f"{m} spacing" for m in models]
     lines = [
-        "| pair | "
-        + " | ".join(f"{m} spacing" for m in models)
-        + " | driver / idm | "
-        + " | ".join(f"{m} speed" for m in models)
-        + " |",
+        _row("pair", *spacing, "driver / idm", *(f"{m} speed" for m in models)),
         "|---" * (2 * len(models) + 2) + "|",
     ]
     for p in pairs:
         ratio = by[(p, "driver")].spacing / by[(p, "idm")].spacing
-        lines.append(
-            f"| {p} | "
-            + " | ".join(f"{by[(p, m)].spacing:.3f}" for m in models)
-            + f" | {ratio:.2f} | "
-            + " | ".join(f"{by[(p, m)].speed:.3f}" for m in models)
-            + " |"
-        )
+        cells = [f"{by[(p, m)].spacing:.3f}" for m in models]
+        lines.append(_row(p, *cells, f"{ratio:.2f}", *(f"{by[(p, m)].speed:.3f}" for m in models)))
     mean = {m: float(np.mean([by[(p, m)].spacing for p in pairs])) for m in models}
-    lines.append(
-        "| **mean** | "
-        + " | ".join(f"**{mean[m]:.3f}**" for m in models)
-        + " |" * (len(models) + 2)
-    )
+    means = [f"**{mean[m]:.3f}**" for m in models]
+    lines.append(_row("**mean**", *means) + " |" * (len(models) + 1))
     return "\n".join(lines)
 
 
@@ -125,16 +118,14 @@ def main(argv: list[str] | None = None) -> int:
     p = CommandParser(prog="pacc validate", description=__doc__.split("\n\n")[0])
     sub = p.add_subparsers(dest="what", required=True)
     f = sub.add_parser("following", help="car-following models against real trajectories")
-    f.add_argument("--pairs", type=int, default=0, help="only the first N pairs (default all)")
-    f.add_argument("--maxiter", type=int, default=60, help="generations of each fit")
+    f.add_argument("--pairs", type=integer(0), default=0, help="the first N pairs (0: all)")
+    f.add_argument("--maxiter", type=integer(1), default=60, help="generations of each fit")
     f.add_argument("--plot", type=Path, help="a PNG of the held-out spacing errors")
     g = sub.add_parser("people", help="a population study's Table I beside the paper's")
     g.add_argument("drives", type=Path, help="drives.csv of pacc study --population")
     g.add_argument("--plot", type=Path, help="a PNG of the averages beside the paper's")
     args = p.parse_args(argv)
     if args.what == "following":
-        if args.pairs < 0 or args.maxiter < 1:
-            p.error("--pairs must be >= 0 and --maxiter >= 1")
         pairs = load_human_pairs()
         pairs = pairs[: args.pairs] if args.pairs else pairs
         fits = [fit_pair(m, pair, maxiter=args.maxiter) for pair in pairs for m in MODELS]

@@ -1,8 +1,5 @@
 """``pacc cloud learn``: learn a driver's DGPT by IRL from demonstration files.
 
-    pacc cloud learn --demos FILES... --driver ID [--condition TAG] [--init DGPT.json]
-                     -o DGPT.json [--plot out.png] [--seed N] [--quiet]
-
 FILES are ``.mcap`` trip logs or ``.csv`` car-following pairs. With ``--init`` (an earlier
 IRL table) training continues from its reward weights, speeds without new evidence keep its
 gaps, and the output is its next version; when some FILES are ACC trips (trip-log mode
@@ -14,14 +11,13 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 from pathlib import Path
 from typing import Any
 
 from cloud_sync.errors import CloudSyncError
 from dbc.vocab import FormatError
 from ecu import EcuError
-from pacc.commands._args import integer, number, same_file
+from pacc.commands._args import fail, integer, number, same_file
 
 __all__ = ["add_subparser"]
 
@@ -40,7 +36,9 @@ def _do_learn(args: argparse.Namespace) -> int:
 
     for option, name in (("--driver", args.driver), ("--condition", args.condition)):
         if not is_plain_name(name):
-            return _refused(f"{option} {name!r}: not a plain name (letters, digits, _.-)")
+            return fail(
+                "pacc cloud learn", f"{option} {name!r}: not a plain name (letters, digits, _.-)"
+            )
     if args.learner != "irl":
         return _other_learner(args)
     try:
@@ -77,7 +75,7 @@ def _do_learn(args: argparse.Namespace) -> int:
 
             plot_result(result, args.plot)
     except (CloudSyncError, EcuError, FormatError) as exc:
-        return _refused(exc)
+        return fail("pacc cloud learn", exc)
     t = result.table
     cov = result.covered
     ranges = ", ".join(f"{a:g}-{b:g}" for a, b in t.meta["covered_mps"])
@@ -116,19 +114,13 @@ def _other_learner(args: argparse.Namespace) -> int:
         table = learn(args.learner, trips, driver_id=args.driver, seed=args.seed)
         save_dgpt(table, args.output)
     except (CloudSyncError, EcuError, FormatError) as exc:
-        return _refused(exc)
+        return fail("pacc cloud learn", exc)
     covered = sum(bool(c) for c in table.meta["covered"])
     print(
         f"{args.learner}: {covered} of {table.speed_mps.size} speed bins covered, "
         f"{table.meta['learn_s']:.2f} s; table written to {args.output}"
     )
     return 0
-
-
-def _refused(why: object) -> int:
-    """Say why the input is refused, in one line; exit status 2 (bad input, as argparse)."""
-    print(f"pacc cloud learn: error: {why}", file=sys.stderr)
-    return 2
 
 
 def _check_outputs(args: argparse.Namespace, plot: str | None) -> None:
@@ -167,43 +159,14 @@ def add_subparser(subparsers: Any) -> None:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument(
-        "--demos",
-        nargs="+",
-        required=True,
-        metavar="FILE",
-        help="demonstration trips: .mcap trip logs or .csv car-following pairs",
-    )
+    p.add_argument("--demos", nargs="+", required=True, metavar="FILE", help=".mcap or .csv trips")
     p.add_argument("--driver", required=True, metavar="ID", help="driver id of the table")
-    p.add_argument(
-        "--condition",
-        default="default",
-        metavar="TAG",
-        help="driving-condition tag (default: %(default)s)",
-    )
-    p.add_argument(
-        "--init", metavar="DGPT.json", help="earlier IRL table to continue from (fine-tuning)"
-    )
-    p.add_argument(
-        "-o",
-        "--output",
-        required=True,
-        metavar="DGPT.json",
-        help="where to write the learned table",
-    )
+    p.add_argument("--condition", default="default", metavar="TAG", help="driving condition")
+    p.add_argument("--init", metavar="DGPT.json", help="earlier IRL table to fine-tune")
+    p.add_argument("-o", "--output", required=True, metavar="DGPT.json", help="the learned table")
     p.add_argument("--plot", metavar="PNG", help="write the reward / DGPT figure here")
     p.add_argument("--seed", type=integer(0), default=0, help="seed (default: %(default)s)")
-    p.add_argument(
-        "--learner",
-        default="irl",
-        metavar="SPEC",
-        help="irl (default), empirical, gp, an entry point of pacc.learners or module:attribute",
-    )
-    p.add_argument(
-        "--takeover-weight",
-        type=number(0.0, 1000.0),
-        default=5.0,
-        help="weight of ACC-trip takeover samples vs manual ones (default: %(default)s)",
-    )
+    p.add_argument("--learner", default="irl", metavar="SPEC", help="irl, empirical, gp, ...")
+    p.add_argument("--takeover-weight", type=number(0.0, 1000.0), default=5.0, help="vs manual")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_do_learn)

@@ -1,10 +1,5 @@
 """``pacc cloud serve``, ``register`` and ``vehicle``: run the cloud service, enrol vehicles.
 
-    pacc cloud register --data DIR --vehicle ID [--driver D ...] --token-file F [--force]
-    pacc cloud vehicle --data DIR --vehicle ID [--driver D ...] [--new-token F [--force] | --revoke]
-    pacc cloud serve --data DIR [--host 127.0.0.1] [--port 8080] [--workers 1]
-                     [--max-upload-mb 16] [--seed 0] [--scheduler local|tcp://HOST:8786]
-
 ``register`` creates the data folder and its signing key if new, registers the vehicle and its
 drivers, writes the vehicle's token to F (mode 0600) and names the public key file the vehicle
 must trust (``DIR/keys/cloud.pub``); an existing F (perhaps another vehicle's token) is
@@ -33,7 +28,8 @@ from typing import Any
 from cloud_sync.engine import open_executor, workers_of
 from cloud_sync.errors import CloudSyncError
 from cloud_sync.vehicle.connect import write_token
-from pacc.commands._args import integer, number
+from dbc.errors import error_line
+from pacc.commands._args import fail, integer, number
 
 __all__ = ["add_subparser"]
 
@@ -94,7 +90,7 @@ def _do_vehicle(args: argparse.Namespace) -> int:
 def _refused(command: str, exc: BaseException) -> int:
     """One error line; exit 2 for an answer about the input (names, taken, a file in the
     way), 1 for a storage failure."""
-    print(f"pacc cloud {command}: error: {_one_line(exc)}", file=sys.stderr)
+    print(f"pacc cloud {command}: error: {error_line(exc)}", file=sys.stderr)
     return 1 if isinstance(exc, OSError) else 2
 
 
@@ -123,12 +119,6 @@ def _listen(host: str, port: int) -> socket.socket:
         raise OSError(exc.errno, f"cannot listen on {host}:{port}: {why}") from exc
 
 
-def _one_line(exc: BaseException) -> str:
-    if isinstance(exc, OSError) and exc.strerror:
-        return f"{exc.strerror}: {exc.filename}" if exc.filename else exc.strerror
-    return " ".join(str(exc).split())
-
-
 def _do_serve(args: argparse.Namespace) -> int:
     # uvicorn and the FastAPI app cost ~0.5 s of start-up: only `serve` needs them
     import uvicorn  # noqa: PLC0415
@@ -142,8 +132,7 @@ def _do_serve(args: argparse.Namespace) -> int:
         Path(args.data).mkdir(parents=True, exist_ok=True)
         hold_folder(args.data, f"http://{args.host}:{args.port}")
     except (CloudSyncError, OSError) as exc:
-        print(f"pacc cloud serve: error: {_one_line(exc)}", file=sys.stderr)
-        return 2
+        return fail("pacc cloud serve", error_line(exc))
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
     logging.getLogger("distributed").setLevel(logging.WARNING)  # its INFO is every connection
     try:
@@ -156,15 +145,14 @@ def _do_serve(args: argparse.Namespace) -> int:
         if args.scheduler is not None:
             compute = open_executor(args.scheduler, args.workers)
     except CloudSyncError as exc:
-        print(f"pacc cloud serve: error: {exc}", file=sys.stderr)
-        return 2
+        return fail("pacc cloud serve", exc)
     threads = max(args.workers, workers_of(compute) if compute is not None else 1)
     pool = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="pacc-learn")
     config = ServiceConfig(max_upload_bytes=int(args.max_upload_mb * 1024 * 1024), seed=args.seed)
     try:
         service = CloudService.open(args.data, executor=pool, config=config, compute=compute)
     except (CloudSyncError, OSError) as exc:
-        print(f"pacc cloud serve: error: {_one_line(exc)}", file=sys.stderr)
+        print(f"pacc cloud serve: error: {error_line(exc)}", file=sys.stderr)
         pool.shutdown(wait=True)
         if compute is not None:
             compute.shutdown()
@@ -194,23 +182,17 @@ def _do_serve(args: argparse.Namespace) -> int:
 def add_subparser(subparsers: Any) -> None:
     """Register ``register`` and ``serve`` on the ``pacc cloud`` parser."""
     reg = subparsers.add_parser("register", help="register a vehicle and its drivers")
-    reg.add_argument("--data", required=True, help="the cloud's data folder")
-    reg.add_argument("--vehicle", required=True, help="vehicle id")
-    reg.add_argument("--driver", action="append", default=[], help="a driver id (repeatable)")
+    veh = subparsers.add_parser("vehicle", help="add drivers, reissue or revoke a vehicle's token")
+    for q in (reg, veh):
+        q.add_argument("--data", required=True, help="the cloud's data folder")
+        q.add_argument("--vehicle", required=True, help="vehicle id")
+        q.add_argument("--driver", action="append", default=[], help="a driver id (repeatable)")
+        q.add_argument("--force", action="store_true", help="replace an existing token file")
     reg.add_argument("--token-file", required=True, help="where to write the vehicle's token")
-    reg.add_argument("--force", action="store_true", help="replace an existing --token-file")
     reg.set_defaults(func=_do_register)
-
-    veh = subparsers.add_parser(
-        "vehicle", help="add drivers to a registered vehicle, reissue or revoke its token"
-    )
-    veh.add_argument("--data", required=True, help="the cloud's data folder")
-    veh.add_argument("--vehicle", required=True, help="vehicle id")
-    veh.add_argument("--driver", action="append", default=[], help="a driver to add (repeatable)")
     what = veh.add_mutually_exclusive_group()
     what.add_argument("--new-token", metavar="FILE", help="issue a new token into FILE")
     what.add_argument("--revoke", action="store_true", help="void the token: no new one")
-    veh.add_argument("--force", action="store_true", help="replace an existing --new-token FILE")
     veh.set_defaults(func=_do_vehicle)
 
     srv = subparsers.add_parser("serve", help="run the cloud service over HTTP")
@@ -218,23 +200,8 @@ def add_subparser(subparsers: Any) -> None:
     srv.add_argument("--host", default="127.0.0.1")
     srv.add_argument("--port", type=integer(1, 65535), default=8080)
     srv.add_argument("--workers", type=integer(1, 256), default=1, help="learning job threads")
-    srv.add_argument(
-        "--max-upload-mb",
-        type=number(0.0, 4096.0, lo_open=True),
-        default=16.0,
-        help="upload size limit, MiB (default 16, at most 4096)",
-    )
+    srv.add_argument("--max-upload-mb", type=number(0.0, 4096.0, lo_open=True), default=16.0)
     srv.add_argument("--seed", type=integer(0), default=0, help="seed of every learning job")
-    srv.add_argument(
-        "--scheduler",
-        metavar="local|tcp://HOST:8786",
-        help="train on Dask: 'local' starts a LocalCluster of --workers processes, an address "
-        "joins that cluster (docs/scale.md; needs pacc[dask])",
-    )
-    srv.add_argument(
-        "--operator-token-file",
-        metavar="FILE",
-        help="the operator's token (created there, mode 0600, if FILE does not exist): it "
-        "reads every vehicle's lists and the dashboard at /dashboard",
-    )
+    srv.add_argument("--scheduler", metavar="local|tcp://HOST:8786", help="Dask (docs/scale.md)")
+    srv.add_argument("--operator-token-file", metavar="FILE", help="the operator's token")
     srv.set_defaults(func=_do_serve)

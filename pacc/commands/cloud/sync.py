@@ -1,8 +1,5 @@
 """``pacc cloud sync``: spool trip logs and upload a spool to the cloud, once.
 
-    pacc cloud sync --spool DIR --cloud URL|DIR --token-file F [--add FILE ...]
-                    [--quota-mb 256] [--retry-s 60] [--fetch DRIVER --trust KEY.pub [--wait S]]
-
 Each ``--add`` file (an MCAP trip log) is checked and spooled; then every pending batch is
 uploaded (retrying while the cloud is unavailable, up to ``--retry-s`` seconds) and deleted
 only once the cloud acknowledged it; then the trip reports ``pacc ecu --cloud`` queued in
@@ -10,9 +7,8 @@ only once the cloud acknowledged it; then the trip reports ``pacc ecu --cloud`` 
 (:mod:`cloud_sync.vehicle.uploader`). With ``--fetch`` the driver's newest signed table is
 downloaded, verified against the trusted key and kept in ``DIR/profiles``; a served cloud
 learns in the background, so ``--wait S`` first waits up to S s for the driver's learning job
-to be idle (the batches just uploaded learned from). Exits 1 while a
-batch or a report stays queued or one was set aside (``DIR/rejected``,
-``DIR/reports/rejected``), so a timer can tell.
+to be idle (the batches just uploaded learned from). Exits 1 while a batch or a report stays
+queued or one was set aside (``DIR/rejected``, ``DIR/reports/rejected``), so a timer can tell.
 """
 
 from __future__ import annotations
@@ -22,14 +18,9 @@ import sys
 from typing import Any
 
 from cloud_sync.errors import CloudSyncError
-from pacc.commands._args import number
+from pacc.commands._args import fail, number
 
 __all__ = ["add_subparser"]
-
-
-def _fail(text: str, code: int = 1) -> int:
-    print(f"pacc cloud sync: error: {text}", file=sys.stderr)
-    return code
 
 
 def _condition_hint(not_found: int) -> str:
@@ -51,12 +42,14 @@ def _do_sync(args: argparse.Namespace) -> int:
     from cloud_sync.vehicle.spool import Spool  # noqa: PLC0415
 
     if args.fetch and not args.trust:
-        return _fail("--fetch needs --trust KEY.pub (the cloud's public key)", 2)
+        return fail("pacc cloud sync", "--fetch needs --trust KEY.pub (the cloud's public key)")
     if args.wait and not args.fetch:
-        return _fail("--wait waits to --fetch a table: give --fetch DRIVER", 2)
+        return fail("pacc cloud sync", "--wait waits to --fetch a table: give --fetch DRIVER")
     for option, name in (("--fetch", args.fetch), ("--condition", args.condition)):
         if name is not None and not is_plain_name(name):
-            return _fail(f"{option} {name!r}: not a plain name (letters, digits, _.-)", 2)
+            return fail(
+                "pacc cloud sync", f"{option} {name!r}: not a plain name (letters, digits, _.-)"
+            )
     try:
         spool = Spool(args.spool, quota_bytes=int(args.quota_mb * 1024 * 1024))
         for path in args.add:
@@ -69,7 +62,7 @@ def _do_sync(args: argparse.Namespace) -> int:
             downloader = ProfileDownloader(cloud, key, spool.root / "profiles")
         link = VehicleLink(cloud, spool, None, downloader=downloader)
     except (CloudSyncError, OSError) as exc:
-        return _fail(str(exc))
+        return fail("pacc cloud sync", exc, 1)
     if spool.stats.quarantined:
         print(
             f"pacc cloud sync: warning: {spool.stats.quarantined} file(s) in {args.spool} are "
@@ -116,10 +109,9 @@ def _fetch(args: argparse.Namespace, link: Any, downloader: Any) -> int:
             print(f"pacc cloud sync: warning: {exc}", file=sys.stderr)
     table = link.table(args.fetch, args.condition)
     if table is None:
-        return _fail(
-            f"no usable table for {args.fetch}/{args.condition}: "
-            f"{downloader.report.describe()}{_condition_hint(downloader.report.not_found)}"
-        )
+        hint = _condition_hint(downloader.report.not_found)
+        why = f"no usable table for {args.fetch}/{args.condition}: "
+        return fail("pacc cloud sync", why + downloader.report.describe() + hint, 1)
     print(
         f"DGPT {table.driver_id}/{table.condition} v{table.version} verified, kept in "
         f"{downloader.cache_path(args.fetch, args.condition)}"
@@ -140,26 +132,10 @@ def add_subparser(subparsers: Any) -> None:
     p.add_argument("--cloud", required=True, help="the service URL, or a folder (embedded)")
     p.add_argument("--token-file", required=True, help="file holding the vehicle's token")
     p.add_argument("--add", nargs="*", default=[], help="MCAP trip logs to spool first")
-    p.add_argument(
-        "--quota-mb",
-        type=number(0.0, 1024.0 * 1024.0, lo_open=True),
-        default=256.0,
-        help="spool size quota, MiB (default 256)",
-    )
-    p.add_argument(
-        "--retry-s",
-        type=number(0.0, 86400.0),
-        default=60.0,
-        help="stop retrying after, s (default 60, at most a day)",
-    )
+    p.add_argument("--quota-mb", type=number(0.0, 2.0**20, lo_open=True), default=256.0)
+    p.add_argument("--retry-s", type=number(0.0, 86400.0), default=60.0, help="give up after, s")
     p.add_argument("--fetch", metavar="DRIVER", help="download this driver's newest table")
     p.add_argument("--condition", default="default", help="driving condition of --fetch")
     p.add_argument("--trust", help="the cloud's public key (PEM) to verify --fetch with")
-    p.add_argument(
-        "--wait",
-        type=number(0.0, 86400.0),
-        default=0.0,
-        metavar="S",
-        help="before --fetch, wait up to S seconds for the cloud to learn from the upload",
-    )
+    p.add_argument("--wait", type=number(0.0, 86400.0), default=0.0, help="learning wait, s")
     p.set_defaults(func=_do_sync)

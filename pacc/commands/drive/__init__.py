@@ -4,10 +4,8 @@ Prints PoI, NIM, min gap, min TTC, RMS jerk, takeovers, adaptations, collisions.
 ``--manual`` drives by hand (ACC off) and writes the trip to ``--log``, a demonstration; with
 ``--can-log`` it drives by hand on the bus, the ECU on and never engaged. ``--foxglove``
 streams the drive live at ``--pace`` times real time. Exit status: 0, 1 after a collision,
-2 on bad options, input files or an output not written; 130 after Ctrl-C.
-
-The command is a package: :mod:`pacc.commands.drive.options` (its options),
-:mod:`pacc.commands.drive.report` (the drive's figures as text).
+2 on bad options, input files or an output not written; 130 after Ctrl-C. The figures as text:
+:mod:`pacc.commands.drive.report`.
 """
 
 from __future__ import annotations
@@ -19,24 +17,31 @@ from pathlib import Path
 from typing import Any
 
 from dbc.errors import DbcError, UsageError, error_line
+from dbc.network import add_network_arguments
 from dbc.vocab import FormatError
 from dbc.vocab.dgpt import Dgpt
 from dbc.vocab.dgpt_file import load_dgpt
 from dbc.vocab.triplog import Trip, TripLogError
 from dbc.vocab.triplog_file import write_trip
 from ecu import EcuError
-from ecu.buslog.live import live_sinks
+from ecu.adaptation import ADAPTATION_MODES
+from ecu.buslog.live import add_foxglove_argument, live_sinks
 from ecu.config import EcuConfig
 from ecu.recorder import directory_sink
 from pacc.commands._args import (
+    CommandParser,
+    add_world_arguments,
     check_distinct_outputs,
     check_writable_dir,
     check_writable_file,
+    fail,
+    json_parameters,
+    number,
 )
-from pacc.commands.drive.options import parser
 from pacc.commands.drive.report import format_result
 from pacc.study.drive import (
     BUSES,
+    CONTROLLERS,
     DriveConfig,
     adaptation_params,
     drive_codec,
@@ -52,6 +57,35 @@ from sim_bus.drivers import CONDITION_FACTORS, DriverParams, load_driver
 from sim_bus.errors import SimError
 from sim_bus.faults import parse_faults
 from sim_bus.lead.scenarios import shorten
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = CommandParser(prog="pacc drive", description=__doc__.split("\n\n")[0])
+    add_world_arguments(p)
+    p.add_argument("--controller", default="predefined", choices=CONTROLLERS)
+    p.add_argument("--profile", type=Path, help="DGPT JSON for the irl controllers")
+    p.add_argument("--manual", action="store_true", help="drive by hand, ACC off (needs --log)")
+    p.add_argument("--can-log", type=Path, metavar="FILE", help="record the bus to this MCAP")
+    p.add_argument("--manual-trips", type=Path, metavar="DIR", help="record manual stretches here")
+    add_foxglove_argument(p)
+    p.add_argument("--pace", type=number(0.0, 1e6), metavar="X", help="X times real time (0: fast)")
+    p.add_argument("--brake-mode", choices=("resume", "cancel"), default="resume")
+    p.add_argument("--condition", choices=sorted(CONDITION_FACTORS), default="dry")
+    p.add_argument("--cache", type=Path, help="cache folder of learned IRL tables")
+    p.add_argument("--adaptation-mode", choices=ADAPTATION_MODES)
+    p.add_argument("--bus", choices=BUSES, default=BUSES[0], help="ECU-simulator python-can bus")
+    p.add_argument("--gap-controller", default="", metavar="SPEC", help="see pacc plugins")
+    p.add_argument("--adaptation", default="", metavar="SPEC", help="see pacc plugins")
+    for name in ("--gap-controller-args", "--adaptation-args"):
+        p.add_argument(
+            name,
+            type=json_parameters,
+            default=(),
+            metavar="JSON",
+            help="the plug-in's parameters, a JSON object",
+        )
+    add_network_arguments(p)
+    return p
 
 
 class _ManualTrips:
@@ -109,17 +143,10 @@ def _check_options(args: argparse.Namespace) -> None:
             f"{adapts} is for the +oa controllers; --controller {args.controller} never "
             f"adapts its table (--controller {args.controller}+oa)"
         )
-    for given, spec, params, named in (
-        (
-            "--gap-controller-args",
-            "--gap-controller",
-            args.gap_controller_args,
-            args.gap_controller,
-        ),
-        ("--adaptation-args", "--adaptation", args.adaptation_args, args.adaptation),
-    ):
-        if params and not named:
-            raise UsageError(f"{given} gives the parameters of a {spec} SPEC: name the plug-in")
+    for spec in ("--gap-controller", "--adaptation"):
+        name = spec[2:].replace("-", "_")
+        if getattr(args, f"{name}_args") and not getattr(args, name):
+            raise UsageError(f"{spec}-args gives the parameters of a {spec} SPEC: name the plug-in")
 
 
 def _table(args: argparse.Namespace, base: DriverParams, driver: DriverParams) -> Dgpt:
@@ -142,7 +169,7 @@ def _table(args: argparse.Namespace, base: DriverParams, driver: DriverParams) -
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc drive``; returns the exit status."""
-    args = parser(__doc__.split("\n\n")[0]).parse_args(argv)
+    args = _parser().parse_args(argv)
     _check_options(args)
     if args.manual and (code := _manual(args)) is not None:
         return code
@@ -150,8 +177,6 @@ def main(argv: list[str] | None = None) -> int:
         base = load_driver(args.driver)
         driver = with_condition(base, args.condition_factor * CONDITION_FACTORS[args.condition])
         parse_faults(args.faults)
-        if args.duration is not None and not (args.duration > 0):
-            raise SimError("--duration must be > 0")
         cfg = DriveConfig(
             args.scenario,
             driver.driver_id,
@@ -199,8 +224,7 @@ def main(argv: list[str] | None = None) -> int:
         text = error_line(exc)
         if isinstance(exc, OSError) and exc.filename is None and args.can_log is not None:
             text = f"--can-log {args.can_log}: {text}"  # the recording's write, unnamed
-        print(f"pacc drive: error: {text}", file=sys.stderr)
-        return 2
+        return fail("pacc drive", text)
     return _outputs(args, result, driver, manual, bool(live))
 
 
@@ -290,8 +314,7 @@ def _manual(args: argparse.Namespace) -> int | None:
         trip = dataclasses.replace(trip, meta=meta)
         write_trip(args.log, trip)
     except (SimError, FormatError, DbcError, OSError) as exc:
-        print(f"pacc drive: error: {error_line(exc)}", file=sys.stderr)
-        return 2
+        return fail("pacc drive", error_line(exc))
     collided = bool(trip.meta.get("collision"))
     print(
         f"manual drive: scenario {args.scenario}, driver {driver.driver_id} by hand (ACC off), "

@@ -36,144 +36,46 @@ from ecu.recorder import SinkQueue, TripSink
 from pacc.commands._args import (
     CommandParser,
     add_bus_arguments,
+    add_cloud_arguments,
     check_distinct_outputs,
     check_writable_file,
+    fail,
     number,
 )
-from pacc.commands.ecu.cloud import (
-    Exit,
-    cloud_link,
-    cloud_table,
-    say,
-    spool_sinks,
-    warn_guest,
-)
+from pacc.commands.ecu.cloud import Exit, cloud_link, cloud_table, say, spool_sinks, warn_guest
 from pacc.commands.ecu.run import close_recorder, open_recorder, run_on_bus
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``pacc ecu`` (python-can flag conventions)."""
-    p = CommandParser(
-        prog="pacc ecu",
-        description="Run the personalized ACC ECU node on a CAN bus (50 Hz, real time).",
-    )
+    p = CommandParser(prog="pacc ecu", description="Run the ACC ECU node on a CAN bus, 50 Hz.")
     add_bus_arguments(p)
     add_network_arguments(p)
     table = p.add_mutually_exclusive_group()
     table.add_argument("--profile", metavar="DGPT.json", help="driver gap preference table")
-    table.add_argument(
-        "--headway",
-        type=number(0.1, 10.0),
-        default=1.5,
-        metavar="S",
-        help="predefined table: constant time headway, s (default 1.5; the paper: 1, 3, 4)",
-    )
-    p.add_argument(
-        "--standstill",
-        type=number(0.5, 50.0),
-        default=4.0,
-        metavar="M",
-        help="standstill gap, m (4)",
-    )
-    p.add_argument(
-        "--adaptation",
-        action=argparse.BooleanOptionalAction,
-        default=True,
-        help="online DGPT adaptation at each takeover release (default: on)",
-    )
-    p.add_argument(
-        "--adaptation-mode",
-        choices=ADAPTATION_MODES,
-        default="timegap",
-        help="online adaptation: the paper's Algorithm 1 ('paper') or the time-gap update "
-        "spread over speed ('timegap', default; docs/ecu.md)",
-    )
-    p.add_argument(
-        "--brake",
-        choices=("resume", "cancel"),
-        default="resume",
-        help="brake press: override and resume on release (paper) or cancel (production)",
-    )
-    p.add_argument(
-        "--profiles",
-        metavar="DIR",
-        help="driver profiles: HMI DriverProfileId n > 0 loads DIR/profile_<n>.json",
-    )
-    p.add_argument(
-        "--set-speed",
-        type=number(0.0, 60.0),
-        metavar="MPS",
-        help="SET engages at this speed, m/s (default: the current speed)",
-    )
-    p.add_argument(
-        "--gap-controller",
-        default="",
-        metavar="SPEC",
-        help="gap controller through the guarded plug-in interface ('pacc plugins' lists them)",
-    )
-    p.add_argument(
-        "--adaptation-method",
-        default="",
-        metavar="SPEC",
-        help="online adaptation through the plug-in interface: timegap, paper, bayes, ...",
-    )
-    p.add_argument(
-        "--takeovers",
-        metavar="DIR",
-        help="spool takeover segments here (MCAP batches for pacc cloud sync --spool DIR)",
-    )
-    p.add_argument(
-        "--manual",
-        nargs="?",
-        const="",
-        metavar="DIR",
-        help="record the driver's manual car-following stretches (ACC not engaged, a lead, "
-        "inputs good) as demonstrations: spooled in DIR (pacc cloud sync --spool DIR; may be "
-        "the --takeovers DIR), or with --cloud and no DIR in the cloud link's spool",
-    )
-    p.add_argument(
-        "--manual-min",
-        type=number(0.1, MANUAL_MAX_S),
-        metavar="S",
-        help=f"with --manual: shortest manual stretch recorded, s (0.1 to {MANUAL_MAX_S:g}, "
-        f"default {MANUAL_MIN_S:g})",
-    )
-    p.add_argument(
-        "--can-log",
-        metavar="FILE",
-        help="record every frame in and out (raw and decoded) and the node's internals to "
-        "this MCAP file (pacc replay, pacc plot, pacc export)",
-    )
+    table.add_argument("--headway", type=number(0.1, 10.0), default=1.5, help="headway, s (table)")
+    p.add_argument("--standstill", type=number(0.5, 50.0), default=4.0, help="standstill gap, m")
+    p.add_argument("--adaptation", action=argparse.BooleanOptionalAction, default=True)
+    p.add_argument("--adaptation-mode", choices=ADAPTATION_MODES, default="timegap")
+    p.add_argument("--brake", choices=("resume", "cancel"), default="resume", help="brake press")
+    p.add_argument("--profiles", metavar="DIR", help="DriverProfileId n loads DIR/profile_<n>.json")
+    p.add_argument("--set-speed", type=number(0.0, 60.0), help="SET speed, m/s (default: current)")
+    p.add_argument("--gap-controller", default="", metavar="SPEC", help="see pacc plugins")
+    p.add_argument("--adaptation-method", default="", metavar="SPEC", help="see pacc plugins")
+    p.add_argument("--takeovers", metavar="DIR", help="spool takeover segments here")
+    p.add_argument("--manual", nargs="?", const="", metavar="DIR", help="spool manual trips")
+    p.add_argument("--manual-min", type=number(0.1, MANUAL_MAX_S), help="shortest kept, s")
+    p.add_argument("--can-log", metavar="FILE", help="record frames and internals to this MCAP")
     add_foxglove_argument(p)
     p.add_argument("--save-profile", metavar="PATH", help="write the final DGPT here at exit")
     p.add_argument("--duration", type=number(0.0, 1e7), metavar="S", help="stop after S seconds")
-    cloud = p.add_argument_group(
-        "cloud (docs/cloud.md): takeovers, manual trips and trip reports up, verified tables down"
-    )
-    cloud.add_argument("--cloud", metavar="URL|DIR", help="the cloud service, or a folder")
+    cloud = p.add_argument_group("cloud (docs/cloud.md)")
+    add_cloud_arguments(cloud)
     cloud.add_argument("--vehicle", metavar="ID", help="this vehicle's id (with --cloud)")
-    cloud.add_argument("--token-file", metavar="F", help="file holding the vehicle's token")
-    cloud.add_argument(
-        "--trust",
-        metavar="KEY.pub",
-        help="the cloud's public key (default for a folder: "
-        "DIR/keys/cloud.pub; required for a URL)",
-    )
-    cloud.add_argument(
-        "--driver",
-        metavar="ID",
-        help="the driver: tags the takeover segments and manual trips (--takeovers, --manual, "
-        "--cloud); with --cloud also downloads this driver's table and reports the trip",
-    )
+    cloud.add_argument("--driver", metavar="ID", help="the driver: tags trips, picks its table")
     cloud.add_argument("--condition", default="default", help="driving condition of --driver")
     cloud.add_argument("--spool", metavar="DIR", default="pacc-spool", help="the spool folder")
-    cloud.add_argument(
-        "--sync-every",
-        type=number(0.0, 86400.0, lo_open=True),
-        default=60.0,
-        metavar="S",
-        help="download period, s (60)",
-    )
+    cloud.add_argument("--sync-every", type=number(0.0, 86400.0, lo_open=True), default=60.0)
     p.add_argument("-v", "--verbose", action="store_true", help="log at INFO level")
     return p
 
@@ -190,10 +92,9 @@ def main(argv: list[str] | None = None) -> int:
         network_of(args)  # --dbc without a binding for it: a usage error
         return _serve(args)
     except BindingError as exc:
-        print(f"pacc ecu: error: {exc}", file=sys.stderr)
-        return 2
+        return fail("pacc ecu", exc)
     except Exit as exc:
-        print(exc.message, file=sys.stderr)
+        print(exc, file=sys.stderr)
         return exc.code
 
 
@@ -210,7 +111,7 @@ def _serve(args: argparse.Namespace) -> int:
     try:  # refuse now, not after the drive when the table would be lost
         check_writable_file(args.save_profile, "--save-profile")
     except UsageError as exc:
-        raise _fail(1, f"{exc}") from None
+        raise Exit(1, f"{exc}") from None
     base = TimeBase.now(time.monotonic())  # the real-time clock against the wall clock
     min_s = MANUAL_MIN_S if args.manual_min is None else args.manual_min
     node = EcuNode(config, table, sink, utc_of=base.iso, manual_sink=manual, manual_min_s=min_s)
@@ -234,18 +135,13 @@ def _serve(args: argparse.Namespace) -> int:
         try:
             save_dgpt(node.table, args.save_profile)
         except DgptError as exc:
-            raise _fail(1, f"{exc}") from None
+            raise Exit(1, f"{exc}") from None
         say(f"profile saved: {args.save_profile} (v{node.table.version})")
     if bus_error is not None:
-        raise _fail(1, f"the CAN bus failed: {bus_error}")
+        raise Exit(1, f"the CAN bus failed: {bus_error}")
     if recording_error is not None:  # after the takeovers and the profile are saved
-        raise _fail(1, f"{recording_error}")
+        raise Exit(1, f"{recording_error}")
     return 0
-
-
-def _fail(code: int, text: str) -> Exit:
-    """The :class:`Exit` of an error: ``pacc ecu: error: TEXT``, exit ``code``."""
-    return Exit(code, f"pacc ecu: error: {text}")
 
 
 def _lost(queue: SinkQueue) -> str:
@@ -274,16 +170,16 @@ def _report_recorders(args: argparse.Namespace, node: EcuNode) -> None:
 def _config(args: argparse.Namespace) -> tuple[EcuConfig, Dgpt]:
     """The node's configuration and the predefined fallback table (usage errors: exit 2)."""
     if args.manual == "" and not args.cloud:
-        raise _fail(2, "--manual needs a DIR (or --cloud: the link's spool)")
+        raise Exit(2, "--manual needs a DIR (or --cloud: the link's spool)")
     if args.manual and args.cloud:
-        raise _fail(2, "--cloud spools the manual trips: --manual without DIR")
+        raise Exit(2, "--cloud spools the manual trips: --manual without DIR")
     if args.manual_min is not None and args.manual is None:
-        raise _fail(2, "--manual-min is for --manual (the manual trips)")
+        raise Exit(2, "--manual-min is for --manual (the manual trips)")
     if not args.adaptation and args.adaptation_method:
-        raise _fail(2, "--adaptation-method with --no-adaptation: nothing adapts")
+        raise Exit(2, "--adaptation-method with --no-adaptation: nothing adapts")
     for option, name in (("--driver", args.driver), ("--condition", args.condition)):
         if name is not None and PLAIN_NAME.fullmatch(name) is None:
-            raise _fail(2, f"{option} {name!a}: not a plain name (letters, digits, _.-)")
+            raise Exit(2, f"{option} {name!a}: not a plain name (letters, digits, _.-)")
     try:
         config = EcuConfig(
             adaptation=args.adaptation,
@@ -300,7 +196,7 @@ def _config(args: argparse.Namespace) -> tuple[EcuConfig, Dgpt]:
             make_adaptation(config.adaptation_method, {})
         return config, predefined(args.headway, args.standstill)
     except (EcuError, FormatError) as exc:
-        raise _fail(2, f"{exc}") from None
+        raise Exit(2, f"{exc}") from None
 
 
 def _initial_table(
@@ -339,5 +235,5 @@ def _codec_and_sinks(
         codec = codec_of(args)
         takeovers, manual = spool_sinks(None if args.cloud else args.takeovers, args.manual)
     except (CodecError, EcuError, FormatError, CloudSyncError) as exc:
-        raise _fail(1, f"{exc}") from None
+        raise Exit(1, f"{exc}") from None
     return codec, takeovers, manual

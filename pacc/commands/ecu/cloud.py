@@ -22,14 +22,7 @@ from ecu.recorder import TripSink
 if TYPE_CHECKING:
     from cloud_sync.vehicle.link import VehicleLink
 
-__all__ = [
-    "Exit",
-    "cloud_link",
-    "cloud_table",
-    "say",
-    "spool_sinks",
-    "warn_guest",
-]
+__all__ = ["Exit", "cloud_link", "cloud_table", "say", "spool_sinks", "warn_guest"]
 
 
 def say(text: object) -> None:
@@ -43,12 +36,11 @@ def say(text: object) -> None:
 
 
 class Exit(Exception):
-    """Ends ``pacc ecu`` with ``code`` after printing ``message`` to stderr."""
+    """Ends ``pacc ecu`` with exit ``code`` after ``pacc ecu: error: TEXT`` on stderr."""
 
-    def __init__(self, code: int, message: str) -> None:
-        super().__init__(message)
+    def __init__(self, code: int, text: str) -> None:
+        super().__init__(f"pacc ecu: error: {text}")
         self.code = code
-        self.message = message
 
 
 def spool_sinks(
@@ -98,7 +90,7 @@ def warn_guest(args: argparse.Namespace, node: EcuNode) -> None:
 
 
 def cloud_link(args: argparse.Namespace, config: EcuConfig) -> VehicleLink:
-    """The vehicle's cloud link of ``--cloud`` (usage and set-up errors raise _Exit)."""
+    """The vehicle's cloud link of ``--cloud`` (usage and set-up errors raise Exit)."""
     # the cloud side (httpx, cryptography, the embedded service) is only for --cloud runs
     from cloud_sync.api import is_plain_name  # noqa: PLC0415
     from cloud_sync.errors import CloudSyncError  # noqa: PLC0415
@@ -109,21 +101,16 @@ def cloud_link(args: argparse.Namespace, config: EcuConfig) -> VehicleLink:
     from cloud_sync.vehicle.spool import Spool  # noqa: PLC0415
 
     if not (args.vehicle and args.token_file):
-        raise Exit(2, "pacc ecu: error: --cloud needs --vehicle ID and --token-file F")
+        raise Exit(2, "--cloud needs --vehicle ID and --token-file F")
     if not is_plain_name(args.vehicle):
-        raise Exit(
-            2,
-            f"pacc ecu: error: --vehicle {args.vehicle!a}: not a plain name (letters, digits, _.-)",
-        )
+        raise Exit(2, f"--vehicle {args.vehicle!a}: not a plain name (letters, digits, _.-)")
     if args.takeovers:
-        raise Exit(2, "pacc ecu: error: --cloud spools the takeovers: drop --takeovers")
+        raise Exit(2, "--cloud spools the takeovers: drop --takeovers")
     if args.driver and args.profile:
-        raise Exit(2, "pacc ecu: error: --driver (the cloud's tables) or --profile, not both")
-    if not args.sync_every > 0:
-        raise Exit(2, "pacc ecu: error: --sync-every must be > 0")
+        raise Exit(2, "--driver (the cloud's tables) or --profile, not both")
     trust = args.trust or (None if is_url(args.cloud) else Path(args.cloud) / "keys" / "cloud.pub")
     if args.driver and trust is None:
-        raise Exit(2, "pacc ecu: error: --driver with a cloud URL needs --trust KEY.pub")
+        raise Exit(2, "--driver with a cloud URL needs --trust KEY.pub")
     try:
         # short calls: the start-up download must not hold the control loop back for long
         cloud = connect(args.cloud, read_token(args.token_file), timeout_s=5.0)
@@ -143,7 +130,7 @@ def cloud_link(args: argparse.Namespace, config: EcuConfig) -> VehicleLink:
             sync_every_s=args.sync_every,
         )
     except (CloudSyncError, OSError) as exc:
-        raise Exit(1, f"pacc ecu: error: {exc}") from None
+        raise Exit(1, f"{exc}") from None
     say(f"cloud: {args.cloud} as vehicle {args.vehicle}, spool {args.spool}")
     return link
 

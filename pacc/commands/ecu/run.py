@@ -65,7 +65,7 @@ def open_recorder(
         text = _one_line(exc)
         if args.can_log is not None and str(args.can_log) not in text:
             text = f"--can-log {args.can_log}: {text}"
-        raise Exit(1, f"pacc ecu: error: {text}") from None
+        raise Exit(1, text) from None
 
 
 def _one_line(exc: BaseException) -> str:
@@ -104,12 +104,12 @@ def run_on_bus(
     try:
         bus = can.Bus(**bus_kwargs(args))
     except (can.CanError, OSError, ValueError, ImportError) as exc:
-        raise Exit(1, f"pacc ecu: error: {bus_error_text(args, exc)}") from None
+        raise Exit(1, bus_error_text(args, exc)) from None
     with bus:
         try:
             rt = EcuRuntime(bus, node, codec, on_event=utc_events(base), profile_dir=args.profiles)
         except (EcuError, FormatError) as exc:  # a DBC that cannot carry the outputs
-            raise Exit(1, f"pacc ecu: error: {exc}") from None
+            raise Exit(1, f"{exc}") from None
         if link is not None:
             link.start(rt.offer_table)
         rt.record_to(recorder)

@@ -30,7 +30,7 @@ from dbc.vocab.triplog_file import read_trip
 from ecu import EcuError
 from ecu.buslog.format import INPUTS_TOPIC, OUTPUTS_TOPIC, WORLD_TOPIC, CanLogError
 from ecu.buslog.reader import CanLog
-from pacc.commands._args import CommandParser, check_distinct_outputs, integer, same_file
+from pacc.commands._args import CommandParser, check_distinct_outputs, fail, integer, same_file
 
 
 @dataclass(frozen=True)
@@ -268,40 +268,14 @@ def load(path: Path, dbc: str | None, warn: Any) -> tuple[CanLog | None, Trip | 
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = CommandParser(
-        prog="pacc plot",
-        description="plot one recorded drive: speed, gap vs desired gap, pedals, ACC request "
-        "and state over time",
-    )
-    p.add_argument(
-        "log",
-        type=Path,
-        metavar="LOG",
-        help="a pacc bus recording (.mcap, .mcap.part), a trip log, or any python-can log",
-    )
-    p.add_argument(
-        "signals",
-        nargs="*",
-        metavar="SIGNAL",
-        help="signals to draw: Message.signal, /topic.field or a bare name "
-        "(default: the fixed panels)",
-    )
+    p = CommandParser(prog="pacc plot", description="plot one recorded drive over time")
+    p.add_argument("log", type=Path, metavar="LOG", help="a recording, trip log or python-can log")
+    p.add_argument("signals", nargs="*", metavar="SIGNAL", help="Message.signal, /topic.field")
     p.add_argument("-o", "--out", type=Path, help="the PNG to write")
-    p.add_argument(
-        "--plotjuggler",
-        type=Path,
-        metavar="LAYOUT",
-        help="write a PlotJuggler layout (.xml) that opens this recording: plotjuggler -l LAYOUT",
-    )
+    p.add_argument("--plotjuggler", type=Path, metavar="LAYOUT", help="a PlotJuggler layout .xml")
     p.add_argument("--dbc", help="a foreign log: decode it with this DBC (default: pacc's)")
-    p.add_argument(
-        "--binding",
-        help="a foreign log without SIGNALs: the fixed panels from the bus, decoded through "
-        "this binding (speed, lead, pedals, ACC state)",
-    )
-    p.add_argument(
-        "--dpi", type=integer(10, 1200), default=120, help="resolution (default 120, 10..1200)"
-    )
+    p.add_argument("--binding", help="a foreign log: the fixed panels through this binding")
+    p.add_argument("--dpi", type=integer(10, 1200), default=120, help="resolution (default 120)")
     return p
 
 
@@ -366,7 +340,6 @@ def main(argv: list[str] | None = None) -> int:
         start = log.metadata.get("pacc", {}).get("start_utc", "?") if log is not None else "?"
         plot(log, out, args.dpi, args.signals, trip, f"{args.log.name}: {node} from {start} UTC")
     except (EcuError, FormatError, DbcError, OSError, ValueError) as exc:
-        print(f"pacc plot: error: {exc}", file=sys.stderr)
-        return 2
+        return fail("pacc plot", exc)
     print(f"plot: {out}")
     return 0
