@@ -15,8 +15,6 @@ from enum import Enum
 
 from dbc.errors import DbcError
 
-CRC8_INIT = 0xFF
-CRC8_XOROUT = 0xFF
 COUNTER_MODULO = 16
 
 
@@ -31,29 +29,12 @@ CRC8_TABLE: tuple[int, ...] = tuple(_table_entry(b) for b in range(256))
 
 
 def crc8_update(crc: int, data: bytes | bytearray | memoryview) -> int:
-    """Feed ``data`` into a running CRC-8/J1850 register ``crc`` (no final XOR)."""
+    """Feed ``data`` into a running CRC-8/J1850 register ``crc`` (no final XOR); the
+    checksums are :func:`dbc.checksums.table_crc`."""
     table = CRC8_TABLE
     for byte in data:
         crc = table[crc ^ byte]
     return crc
-
-
-def crc8_j1850(data: bytes | bytearray | memoryview) -> int:
-    """CRC-8 SAE J1850 of ``data`` (init 0xFF, final XOR 0xFF); 0..255."""
-    return crc8_update(CRC8_INIT, data) ^ CRC8_XOROUT
-
-
-def data_id_of(frame_id: int) -> int:
-    """The 16-bit E2E data id of a frame: its CAN identifier truncated to 16 bits."""
-    return frame_id & 0xFFFF
-
-
-def e2e_crc(data_id: int, payload: bytes | bytearray, crc_byte: int) -> int:
-    """The E2E CRC of ``payload`` under ``data_id``, skipping the byte at ``crc_byte``
-    (reference form of what the codec unrolls)."""
-    return crc8_j1850(
-        bytes((data_id & 0xFF, data_id >> 8)) + payload[:crc_byte] + payload[crc_byte + 1 :]
-    )
 
 
 class E2EStatus(Enum):

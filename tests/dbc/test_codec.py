@@ -12,8 +12,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from dbc import BINDING_PATH, DBC_PATH
+from dbc.checksums import table_crc
 from dbc.codec import load_codec
-from dbc.e2e import e2e_crc
 from dbc.endpoint import Outbox
 from dbc.errors import (
     CodecError,
@@ -120,7 +120,7 @@ def test_encode_unknown_role() -> None:
 
 def _with_crc(mc: MessageCodec, payload: bytearray) -> bytes:
     assert mc.crc_byte is not None
-    payload[mc.crc_byte] = e2e_crc(mc.data_id, payload, mc.crc_byte)
+    payload[mc.crc_byte] = table_crc(mc.checksum, mc.frame_id, mc.crc_byte)(bytes(payload))
     return bytes(payload)
 
 
