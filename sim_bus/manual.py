@@ -34,12 +34,9 @@ def manual_trip(
     plant: PlantConfig | None = None,
     condition: str | None = None,
 ) -> Trip:
-    """Drive ``profile`` by hand with ``driver``; return a cloud_sync Trip (10 Hz, mode manual).
-
-    The ego starts at the lead's speed at the driver's preferred gap. A collision (gap ≤ 0)
-    ends the trip early and is recorded in ``meta["collision"]``. ``condition``: the trip's
-    condition (default: named from the driver's condition factor, sim_bus.trip).
-    """
+    """Drive ``profile`` by hand with ``driver`` from the lead's speed at the preferred gap:
+    a Trip (10 Hz, mode manual), ended by a collision (``meta["collision"]``); ``condition``
+    default: named from the driver's condition factor (sim_bus.trip)."""
     if not seed >= 0:
         raise DriveError(f"a seed is an integer >= 0, got {seed}")
     cfg = plant or PlantConfig(dt_s=MANUAL_DT_S)

@@ -85,12 +85,6 @@ def ttc_s(gap_m: np.ndarray, v_mps: np.ndarray, v_lead_mps: np.ndarray) -> np.nd
     return ttc
 
 
-def min_ttc_s(gap_m: np.ndarray, v_mps: np.ndarray, v_lead_mps: np.ndarray) -> float:
-    """Smallest time to collision, s (inf if never closing)."""
-    ttc = ttc_s(gap_m, v_mps, v_lead_mps)
-    return float(ttc.min()) if len(ttc) else math.inf
-
-
 def rms_jerk(t_s: np.ndarray, a_mps2: np.ndarray) -> float:
     """Root mean square of the finite-difference jerk (m/s³); 0 for fewer than 2 samples."""
     if len(a_mps2) < 2:
@@ -115,13 +109,14 @@ def drive_metrics(
     pressed = np.asarray(accel_pressed, bool) | np.asarray(brake_pressed, bool)
     on = acc_on_mask(acc_state) & ~pressed & (np.asarray(gap_m) < NO_LEAD_GAP_M)  # a lead ahead
     err = (np.asarray(gap_m) - np.asarray(pref_gap_m))[on]
+    ttc = ttc_s(gap_m, v_mps, v_lead_mps)
     return DriveMetrics(
         poi_pct=poi,
         nim_per_min=nim,
         acc_on_s=on_s,
         press_onsets=n_on,
         min_gap_m=float(np.min(gap_m)) if len(gap_m) else math.nan,
-        min_ttc_s=min_ttc_s(gap_m, v_mps, v_lead_mps),
+        min_ttc_s=float(ttc.min()) if len(ttc) else math.inf,
         rms_jerk_mps3=rms_jerk(t_s, a_mps2),
         gap_error_mean_m=float(err.mean()) if err.size else math.nan,
         gap_error_rms_m=float(np.sqrt(np.mean(err * err))) if err.size else math.nan,

@@ -12,11 +12,11 @@ from hypothesis import strategies as st
 from sim_bus.metrics import (
     acc_on_mask,
     drive_metrics,
-    min_ttc_s,
     poi_nim,
     pressed_episodes,
     rms_jerk,
     safety_figures,
+    ttc_s,
 )
 
 
@@ -52,8 +52,8 @@ def test_min_ttc_and_jerk() -> None:
     gap = np.array([30.0, 20.0, 10.0])
     v = np.array([20.0, 20.0, 15.0])
     vl = np.array([25.0, 15.0, 10.0])
-    assert min_ttc_s(gap, v, vl) == pytest.approx(2.0)
-    assert min_ttc_s(gap, vl - 10.0, vl) == math.inf
+    assert ttc_s(gap, v, vl).min() == pytest.approx(2.0)
+    assert ttc_s(gap, vl - 10.0, vl).min() == math.inf
     t = np.arange(5) * 0.5
     a = np.array([0.0, 1.0, 2.0, 3.0, 4.0])
     assert rms_jerk(t, a) == pytest.approx(2.0)
