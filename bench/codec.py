@@ -95,7 +95,7 @@ def main() -> None:
     def cantools_round_trip() -> None:
         for msg, named, e2e_crc, crc_byte, crc_name, _ in theirs:
             raw = bytearray(msg.encode(named))
-            raw[crc_byte] = e2e_crc(raw)
+            raw[crc_byte] = e2e_crc(bytes(raw))
             data = bytes(raw)
             decoded = msg.decode(data)
             if decoded[crc_name] != e2e_crc(data):
@@ -104,7 +104,7 @@ def main() -> None:
     # same bytes on both sides, or the comparison is meaningless
     for (mc, values), (msg, named, e2e_crc, crc_byte, _, _) in zip(ours, theirs, strict=True):
         raw = bytearray(msg.encode(named))
-        raw[crc_byte] = e2e_crc(raw)
+        raw[crc_byte] = e2e_crc(bytes(raw))
         assert bytes(raw) == mc.encode(values, 5), mc.name
 
     theirs_rate = _rate(cantools_round_trip, args.seconds)

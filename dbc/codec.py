@@ -13,8 +13,8 @@ from typing import Any
 from dbc import BINDING_PATH, DBC_PATH
 from dbc.binding import Binding, check_against, load_binding
 from dbc.binding import binding_file as packaged_binding
-from dbc.errors import BindingError, DbcError, UnknownFrameError
-from dbc.message import Decoded, MessageCodec, Value
+from dbc.errors import BindingError, DbcError
+from dbc.message import MessageCodec, Value
 from dbc.schema import ROLES, check_ranges
 
 
@@ -92,13 +92,6 @@ class Codec:
     def parts(self) -> list[MessageCodec]:
         """Every bound message, role by role."""
         return [p for rc in self.roles.values() for p in rc.parts]
-
-    def decode(self, frame_id: int, data: bytes | bytearray) -> Decoded:
-        """Decode and check one frame; raise a :class:`DecodeError` subclass if unusable."""
-        mc = self.by_id.get(frame_id)
-        if mc is None:
-            raise UnknownFrameError(f"unknown frame id {frame_id:#x}")
-        return mc.decode(data)
 
 
 def _load_db(dbc_path: Path) -> Any:
