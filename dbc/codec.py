@@ -52,11 +52,6 @@ class RoleCodec:
             return v, v
         raise KeyError(key)
 
-    @property
-    def cycle_s(self) -> float:
-        """The shortest period of the role's messages, s."""
-        return min(p.cycle_s for p in self.parts)
-
 
 class Codec:
     """All bound messages of one network: ``by_role`` (each role's first message), ``roles``

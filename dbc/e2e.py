@@ -57,7 +57,6 @@ class E2EReceiver:
 
     __slots__ = (
         "modulo",
-        "cycle_s",
         "timeout_s",
         "max_delta",
         "last_counter",
@@ -72,7 +71,6 @@ class E2EReceiver:
         if cycle_s <= 0 or timeout_multiple <= 0 or counter_modulo < 2:
             raise DbcError("cycle_s and timeout_multiple must be positive, counter_modulo >= 2")
         self.modulo = counter_modulo
-        self.cycle_s = cycle_s
         self.timeout_s = cycle_s * timeout_multiple
         #: largest counter delta without a timeout: at most ``timeout_multiple`` frames lost
         self.max_delta = min(counter_modulo - 1, int(timeout_multiple) + 1)
