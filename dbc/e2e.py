@@ -91,20 +91,15 @@ class E2EReceiver:
     def check_counter(self, counter: int, now_s: float) -> E2EStatus:
         """Classify a frame that passed the CRC by its alive counter, received at ``now_s``
         (s); OK and SKIPPED are usable and refresh the timeout (module docstring)."""
-        last = self.last_counter
-        if last is None or (self.timed_out(now_s) and counter != last):
-            status = E2EStatus.OK
-        else:
+        last, status = self.last_counter, E2EStatus.OK
+        if last is not None and not (self.timed_out(now_s) and counter != last):
             delta = (counter - last) % self.modulo
-            if delta == 1:
-                status = E2EStatus.OK
-            elif delta == 0:
-                self._counts[E2EStatus.REPEATED] += 1
-                return E2EStatus.REPEATED
-            elif delta > self.max_delta:  # an old frame, late: not a loss the timeout allows
-                self._counts[E2EStatus.WRONG_SEQUENCE] += 1
-                return E2EStatus.WRONG_SEQUENCE
-            else:
+            # repeated, or an old frame come late (not a loss the timeout allows): dropped
+            if delta == 0 or delta > self.max_delta:
+                status = E2EStatus.REPEATED if delta == 0 else E2EStatus.WRONG_SEQUENCE
+                self._counts[status] += 1
+                return status
+            if delta > 1:
                 status = E2EStatus.SKIPPED
         self.last_counter = counter
         self.last_ok_s = now_s
