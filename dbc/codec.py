@@ -55,7 +55,7 @@ class RoleCodec:
 
 class Codec:
     """All bound messages of one network: ``by_role`` (each role's first message), ``roles``
-    (whole roles), ``by_id`` (by frame id)."""
+    (whole roles), ``by_id`` (every message by frame id, role by role)."""
 
     def __init__(self, db: Any, binding: Binding, dbc_path: Path | None = None) -> None:
         check_against(binding, db)
@@ -83,10 +83,6 @@ class Codec:
             self.by_role[rb.role] = parts[0]
             self.roles[rb.role] = RoleCodec(rb.role, tuple(parts), rb.consts)
         check_ranges(self.roles)
-
-    def parts(self) -> list[MessageCodec]:
-        """Every bound message, role by role."""
-        return [p for rc in self.roles.values() for p in rc.parts]
 
 
 def _load_db(dbc_path: Path) -> Any:
@@ -136,8 +132,7 @@ def load_codec(dbc_path: str | Path | None = None, binding_path: str | Path | No
     """The codec of a DBC and binding (default: the packaged ones; a binding alone brings
     its DBC; a DBC alone takes the packaged binding), loaded once; DbcError if unusable."""
     if binding_path is not None and dbc_path is None:
-        dbc, binding = network_paths(None, binding_path)
-        return _load_codec(dbc, binding)
+        return _load_codec(*network_paths(None, binding_path))
     dbc = Path(dbc_path).resolve() if dbc_path else DBC_PATH
     binding = Path(binding_path).resolve() if binding_path else BINDING_PATH
     return _load_codec(dbc, binding)

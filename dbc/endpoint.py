@@ -168,7 +168,7 @@ class Outbox:
 
     def __init__(self, codec: Codec) -> None:
         self.codec = codec
-        self.counters: dict[str, int] = {mc.key: 0 for mc in codec.parts()}
+        self.counters: dict[str, int] = {mc.key: 0 for mc in codec.by_id.values()}
         self.frames_out = 0
 
     def encode_part(self, mc: MessageCodec, values: Mapping[str, Any]) -> bytes:
