@@ -3,7 +3,7 @@
 Both sides do the same work per frame: build the payload from physical values with the
 alive counter and the E2E CRC, then decode it, verify the CRC and get physical values back.
 The cantools side uses ``Message.encode``/``Message.decode`` (its defaults) for the signals
-and the same CRC routine (``dbc.e2e.e2e_crc``) for the checksum. The last line is the ratio.
+and the same CRC routine (``dbc.checksums.table_crc``) for the checksum. The last line is the ratio.
 
     python bench/codec.py [--seconds 2.0]
 """
@@ -15,8 +15,8 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from dbc.checksums import table_crc
 from dbc.codec import load_codec
-from dbc.e2e import e2e_crc
 
 SAMPLE: dict[str, dict[str, Any]] = {
     "ego": {"speed_mps": 23.45, "accel_mps2": -0.71, "speed_valid": 1},
@@ -89,21 +89,22 @@ def main() -> None:
         assert crc is not None and counter is not None and mc.crc_byte is not None
         named[counter] = 5
         named[crc] = 0
-        theirs.append((msg, named, mc.data_id, mc.crc_byte, crc, counter))
+        e2e_crc = table_crc(mc.checksum, mc.frame_id, mc.crc_byte)
+        theirs.append((msg, named, e2e_crc, mc.crc_byte, crc, counter))
 
     def cantools_round_trip() -> None:
-        for msg, named, data_id, crc_byte, crc_name, _ in theirs:
+        for msg, named, e2e_crc, crc_byte, crc_name, _ in theirs:
             raw = bytearray(msg.encode(named))
-            raw[crc_byte] = e2e_crc(data_id, raw, crc_byte)
+            raw[crc_byte] = e2e_crc(bytes(raw))
             data = bytes(raw)
             decoded = msg.decode(data)
-            if decoded[crc_name] != e2e_crc(data_id, data, crc_byte):
+            if decoded[crc_name] != e2e_crc(data):
                 raise AssertionError("CRC")
 
     # same bytes on both sides, or the comparison is meaningless
-    for (mc, values), (msg, named, data_id, crc_byte, _, _) in zip(ours, theirs, strict=True):
+    for (mc, values), (msg, named, e2e_crc, crc_byte, _, _) in zip(ours, theirs, strict=True):
         raw = bytearray(msg.encode(named))
-        raw[crc_byte] = e2e_crc(data_id, raw, crc_byte)
+        raw[crc_byte] = e2e_crc(bytes(raw))
         assert bytes(raw) == mc.encode(values, 5), mc.name
 
     theirs_rate = _rate(cantools_round_trip, args.seconds)

@@ -141,7 +141,7 @@ def run_split(presses: int, out: Path, weather: str = "day") -> dict[str, Any]:
 
         def tap(t: float, key: int, data: Any, rx: bool) -> None:
             if not rx:
-                d = codec.decode(key, data)
+                d = codec.by_id[key].decode(data)
                 if d.role == "pedals":
                     hits.append((time.perf_counter(), int(d.values["accel_pressed"])))
 
@@ -187,7 +187,7 @@ def run(presses: int, out: Path, weather: str = "day") -> dict[str, Any]:
             def tap(t: float, key: int, data: Any, rx: bool) -> None:
                 if rx:
                     return
-                d = codec.decode(key, data)
+                d = codec.by_id[key].decode(data)
                 if d.role == "pedals":
                     hits.append((time.perf_counter(), int(d.values["accel_pressed"])))
 

@@ -1,18 +1,13 @@
 """Per-message checksums, pluggable by name in the binding (``checksum = "toyota"``).
 
-Each kind is a pure function of the frame id, the length and the payload with the checksum's
-own bits zero, returning the checksum:
-
-* ``pacc_crc8`` — CRC-8 SAE J1850 over the 16-bit data id and the payload (:mod:`dbc.e2e`);
-* ``autosar_p01`` — AUTOSAR E2E profile 1, data id mode BOTH: CRC-8 poly 0x1D, start 0, no
-  final XOR, counter 0..14 (checked against the ``autosar-e2e`` package);
-* ``toyota`` — the byte sum of payload, frame id and length mod 256 in the last byte;
-* ``honda`` — 8 minus the nibble sum of frame id and payload (+3 for an extended id) mod 16
-  in the last byte's low nibble (both as opendbc's toyotacan.py/hondacan.py describe them,
-  MIT licence; written here from that description);
-* ``none``.
-
-The codec unrolls the table CRCs inline; the functions here are their reference forms.
+Each kind is a pure function of the frame id, the length and the payload with its checksum
+bits zero: ``pacc_crc8`` (CRC-8 SAE J1850 over the 16-bit data id and the payload,
+:mod:`dbc.e2e`); ``autosar_p01`` (AUTOSAR E2E profile 1, data id mode BOTH: CRC-8 poly 0x1D,
+start 0, no final XOR, counter 0..14; checked against the ``autosar-e2e`` package);
+``toyota`` (byte sum of payload, frame id and length mod 256, in the last byte); ``honda`` (8
+minus the nibble sum of frame id and payload, +3 for an extended id, mod 16, in the last
+byte's low nibble; both as opendbc's toyotacan.py/hondacan.py describe them, MIT licence,
+written here from that description); ``none``. The codec unrolls the table CRCs inline.
 """
 
 from __future__ import annotations

@@ -13,8 +13,8 @@ from typing import Any
 from dbc import BINDING_PATH, DBC_PATH
 from dbc.binding import Binding, check_against, load_binding
 from dbc.binding import binding_file as packaged_binding
-from dbc.errors import BindingError, DbcError, UnknownFrameError
-from dbc.message import Decoded, MessageCodec, Value
+from dbc.errors import BindingError, DbcError
+from dbc.message import MessageCodec, Value
 from dbc.schema import ROLES, check_ranges
 
 
@@ -52,15 +52,10 @@ class RoleCodec:
             return v, v
         raise KeyError(key)
 
-    @property
-    def cycle_s(self) -> float:
-        """The shortest period of the role's messages, s."""
-        return min(p.cycle_s for p in self.parts)
-
 
 class Codec:
     """All bound messages of one network: ``by_role`` (each role's first message), ``roles``
-    (whole roles), ``by_id`` (by frame id)."""
+    (whole roles), ``by_id`` (every message by frame id, role by role)."""
 
     def __init__(self, db: Any, binding: Binding, dbc_path: Path | None = None) -> None:
         check_against(binding, db)
@@ -88,17 +83,6 @@ class Codec:
             self.by_role[rb.role] = parts[0]
             self.roles[rb.role] = RoleCodec(rb.role, tuple(parts), rb.consts)
         check_ranges(self.roles)
-
-    def parts(self) -> list[MessageCodec]:
-        """Every bound message, role by role."""
-        return [p for rc in self.roles.values() for p in rc.parts]
-
-    def decode(self, frame_id: int, data: bytes | bytearray) -> Decoded:
-        """Decode and check one frame; raise a :class:`DecodeError` subclass if unusable."""
-        mc = self.by_id.get(frame_id)
-        if mc is None:
-            raise UnknownFrameError(f"unknown frame id {frame_id:#x}")
-        return mc.decode(data)
 
 
 def _load_db(dbc_path: Path) -> Any:
@@ -148,8 +132,7 @@ def load_codec(dbc_path: str | Path | None = None, binding_path: str | Path | No
     """The codec of a DBC and binding (default: the packaged ones; a binding alone brings
     its DBC; a DBC alone takes the packaged binding), loaded once; DbcError if unusable."""
     if binding_path is not None and dbc_path is None:
-        dbc, binding = network_paths(None, binding_path)
-        return _load_codec(dbc, binding)
+        return _load_codec(*network_paths(None, binding_path))
     dbc = Path(dbc_path).resolve() if dbc_path else DBC_PATH
     binding = Path(binding_path).resolve() if binding_path else BINDING_PATH
     return _load_codec(dbc, binding)

@@ -68,9 +68,7 @@ class MessageColumns:
             raw = ((word >> np.uint64(shift)) & mask).astype(np.int64)
             if s.is_signed:
                 raw = np.where(raw >= (1 << (s.length - 1)), raw - (1 << s.length), raw)
-            if s.scale == 1 and s.offset == 0:
-                out[s.name] = raw
-            elif integral:
+            if integral:
                 out[s.name] = raw * int(s.scale) + int(s.offset)
             else:
                 out[s.name] = raw * float(s.scale) + float(s.offset)

@@ -15,8 +15,6 @@ from enum import Enum
 
 from dbc.errors import DbcError
 
-CRC8_INIT = 0xFF
-CRC8_XOROUT = 0xFF
 COUNTER_MODULO = 16
 
 
@@ -31,29 +29,12 @@ CRC8_TABLE: tuple[int, ...] = tuple(_table_entry(b) for b in range(256))
 
 
 def crc8_update(crc: int, data: bytes | bytearray | memoryview) -> int:
-    """Feed ``data`` into a running CRC-8/J1850 register ``crc`` (no final XOR)."""
+    """Feed ``data`` into a running CRC-8/J1850 register ``crc`` (no final XOR); the
+    checksums are :func:`dbc.checksums.table_crc`."""
     table = CRC8_TABLE
     for byte in data:
         crc = table[crc ^ byte]
     return crc
-
-
-def crc8_j1850(data: bytes | bytearray | memoryview) -> int:
-    """CRC-8 SAE J1850 of ``data`` (init 0xFF, final XOR 0xFF); 0..255."""
-    return crc8_update(CRC8_INIT, data) ^ CRC8_XOROUT
-
-
-def data_id_of(frame_id: int) -> int:
-    """The 16-bit E2E data id of a frame: its CAN identifier truncated to 16 bits."""
-    return frame_id & 0xFFFF
-
-
-def e2e_crc(data_id: int, payload: bytes | bytearray, crc_byte: int) -> int:
-    """The E2E CRC of ``payload`` under ``data_id``, skipping the byte at ``crc_byte``
-    (reference form of what the codec unrolls)."""
-    return crc8_j1850(
-        bytes((data_id & 0xFF, data_id >> 8)) + payload[:crc_byte] + payload[crc_byte + 1 :]
-    )
 
 
 class E2EStatus(Enum):
@@ -76,7 +57,6 @@ class E2EReceiver:
 
     __slots__ = (
         "modulo",
-        "cycle_s",
         "timeout_s",
         "max_delta",
         "last_counter",
@@ -91,7 +71,6 @@ class E2EReceiver:
         if cycle_s <= 0 or timeout_multiple <= 0 or counter_modulo < 2:
             raise DbcError("cycle_s and timeout_multiple must be positive, counter_modulo >= 2")
         self.modulo = counter_modulo
-        self.cycle_s = cycle_s
         self.timeout_s = cycle_s * timeout_multiple
         #: largest counter delta without a timeout: at most ``timeout_multiple`` frames lost
         self.max_delta = min(counter_modulo - 1, int(timeout_multiple) + 1)
@@ -112,20 +91,15 @@ class E2EReceiver:
     def check_counter(self, counter: int, now_s: float) -> E2EStatus:
         """Classify a frame that passed the CRC by its alive counter, received at ``now_s``
         (s); OK and SKIPPED are usable and refresh the timeout (module docstring)."""
-        last = self.last_counter
-        if last is None or (self.timed_out(now_s) and counter != last):
-            status = E2EStatus.OK
-        else:
+        last, status = self.last_counter, E2EStatus.OK
+        if last is not None and not (self.timed_out(now_s) and counter != last):
             delta = (counter - last) % self.modulo
-            if delta == 1:
-                status = E2EStatus.OK
-            elif delta == 0:
-                self._counts[E2EStatus.REPEATED] += 1
-                return E2EStatus.REPEATED
-            elif delta > self.max_delta:  # an old frame, late: not a loss the timeout allows
-                self._counts[E2EStatus.WRONG_SEQUENCE] += 1
-                return E2EStatus.WRONG_SEQUENCE
-            else:
+            # repeated, or an old frame come late (not a loss the timeout allows): dropped
+            if delta == 0 or delta > self.max_delta:
+                status = E2EStatus.REPEATED if delta == 0 else E2EStatus.WRONG_SEQUENCE
+                self._counts[status] += 1
+                return status
+            if delta > 1:
                 status = E2EStatus.SKIPPED
         self.last_counter = counter
         self.last_ok_s = now_s

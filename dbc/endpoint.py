@@ -47,7 +47,6 @@ class Inbox:
         self.roles = tuple(roles)
         #: E2E state per message, keyed by MessageCodec.key (the role for its first message)
         self.receivers: dict[str, E2EReceiver] = {}
-        self._role_of: dict[str, str] = {}
         #: roles over several messages or with defaults: merged before they are reported
         self._merge: dict[str, RoleCodec] = {}
         self._partial: dict[str, dict[str, Value]] = {}
@@ -63,7 +62,7 @@ class Inbox:
                 self._merge[role], self._partial[role], self._seen[role] = rc, {}, set()
             for mc in rc.parts:  # the codec refuses a message without a period
                 rx = E2EReceiver(mc.cycle_s, timeout_multiple, mc.counter_modulo or 16)
-                self.receivers[mc.key], self._role_of[mc.key] = rx, role
+                self.receivers[mc.key] = rx
                 self._routes[raw_key(mc.frame_id, mc.is_extended)] = _Route(mc, rx, merged)
             self._role_receivers[role] = tuple(self.receivers[mc.key] for mc in rc.parts)
         #: the receiver of each one-message role: freshness in one lookup
@@ -79,9 +78,9 @@ class Inbox:
     def counts(self) -> Counter[tuple[str, E2EStatus]]:
         """Every outcome so far by (role, status): the receivers' counts, derived on demand."""
         out: Counter[tuple[str, E2EStatus]] = Counter()
-        for key, receiver in self.receivers.items():
-            for status, n in receiver.counts.items():
-                out[(self._role_of[key], status)] += n
+        for route in self._routes.values():
+            for status, n in route.receiver.counts.items():
+                out[(route.role, status)] += n
         for status, n in self._unknown.items():
             out[(UNKNOWN_ROLE, status)] += n
         return out
@@ -169,7 +168,7 @@ class Outbox:
 
     def __init__(self, codec: Codec) -> None:
         self.codec = codec
-        self.counters: dict[str, int] = {mc.key: 0 for mc in codec.parts()}
+        self.counters: dict[str, int] = {mc.key: 0 for mc in codec.by_id.values()}
         self.frames_out = 0
 
     def encode_part(self, mc: MessageCodec, values: Mapping[str, Any]) -> bytes:

@@ -38,10 +38,6 @@ class DecodeError(CodecError):
     """A received frame cannot be used."""
 
 
-class UnknownFrameError(DecodeError):
-    """The frame id belongs to no bound message."""
-
-
 class DlcError(DecodeError):
     """The frame's length differs from the DBC's."""
 

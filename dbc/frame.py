@@ -9,7 +9,7 @@ is ``(timestamp, OTHER, message)``. A node reaches its bus through a :class:`Raw
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import Any, Protocol
+from typing import Any, Protocol, cast
 
 import can
 from can.typechecking import Channel
@@ -135,6 +135,6 @@ class MessagePort:
 
 
 def port_of(bus: can.BusABC) -> RawPort:
-    """``bus``'s frame port: its own ``frame_port`` (lockstep), else a :class:`MessagePort`."""
-    native = getattr(bus, "frame_port", None)
-    return native() if native is not None else MessagePort(bus)
+    """``bus``'s frame port: the bus itself where it takes and puts frames (lockstep), else a
+    :class:`MessagePort`."""
+    return cast(RawPort, bus) if hasattr(bus, "take") else MessagePort(bus)

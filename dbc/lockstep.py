@@ -58,10 +58,6 @@ class LockstepBus(BusABC):
         if not self._open:
             raise CanOperationError("Cannot operate on a closed bus")
 
-    def frame_port(self) -> LockstepBus:
-        """This bus as its node's :class:`dbc.frame.RawPort` (:func:`dbc.frame.port_of`)."""
-        return self
-
     def send(self, msg: Message, timeout: float | None = None) -> None:
         """Queue ``msg`` to every other bus of the channel as a frame (its payload copied)."""
         self._check_open()

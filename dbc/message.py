@@ -13,7 +13,7 @@ from typing import Any, NamedTuple
 
 from dbc import checksums
 from dbc.binding import PartBinding
-from dbc.e2e import CRC8_TABLE, crc8_update, data_id_of
+from dbc.e2e import CRC8_TABLE, crc8_update
 from dbc.errors import BindingError, CrcError, DbcError, DlcError, EncodeError, RangeError
 from dbc.layout import FieldLayout, extract, layout, physical, placed_le, raw_from
 from dbc.units import UnitError, conversion
@@ -67,7 +67,7 @@ class MessageCodec:
         self.length: int = message.length
         cycle_ms = part.cycle_ms if part.cycle_ms is not None else (message.cycle_time or 0)
         self.cycle_s: float = cycle_ms / 1000.0
-        self.data_id = data_id_of(self.frame_id)
+        self.data_id = self.frame_id & 0xFFFF  # the 16-bit E2E data id
         by_signal = {fb.signal: fb for fb in part.fields.values()}
         layouts = []
         for s in message.signals:

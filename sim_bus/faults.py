@@ -58,10 +58,6 @@ class FaultSpec:
     plans: dict[str, FaultPlan] = field(default_factory=dict)
     text: str = ""
 
-    def plan(self, role: str) -> FaultPlan | None:
-        """The plan of ``role`` or None when it has no fault."""
-        return self.plans.get(role)
-
 
 def _window(value: str, clause: str) -> tuple[float, float]:
     try:

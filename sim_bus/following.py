@@ -1,25 +1,14 @@
 """Car-following models checked against real trajectories: fit on the first part, replay the rest.
 
-The validation traffic science uses (Punzo, Zheng & Montanino, "About calibration of
-car-following dynamics of automated and human-driven vehicles", Transportation Research C 128,
-2021): per real follower, each model is calibrated on the first part of the trajectory by
-minimising the normalised spacing error (NRMSE, ``rms(s_sim − s) / rms(s)``) of a
-closed-loop simulation that replays the real lead, and is then scored the same way, from the
-real state at the split, on the held-out rest (spacing and speed NRMSE).
-
-The models (parameters in the order of each ``bounds``):
-
-- ``driver``: the synthetic drivers' manual law, IDM+ (Schakel et al., 2010; exactly
-  :func:`sim_bus.idm.idm_plus_accel`) seeing the lead's gap and speed ``reaction_s`` late —
-  (a_max, b, T, s0, v0, reaction);
-- ``idm``: the Intelligent Driver Model (Treiber, Hennecke & Helbing, 2000), no delay —
-  (a, b, T, s0, v0);
-- ``ctg``: a constant-time-gap linear law, ``a = k1·(s − s0 − T·v) + k2·(v_l − v)``
-  (the ACC law of Milanés & Shladover, Transportation Research C 48, 2014) — (k1, k2, T, s0);
-- ``gipps``: Gipps (1981), its speed at t+τ from the state at t — (a, b, b̂, τ, s0, V).
-
-Every simulation is vectorised over parameter sets (shape ``(P, k)``), so a calibration is one
-:func:`scipy.optimize.differential_evolution` run with ``vectorized=True``. Units: m, m/s, s.
+Per real follower, each model is calibrated on the first part by minimising the spacing NRMSE
+(``rms(s_sim − s) / rms(s)``) of a closed-loop replay of the real lead, then scored from the
+real state at the split on the held-out rest (Punzo, Zheng & Montanino, Transportation
+Research C 128, 2021). Models (parameters in ``MODELS`` order): ``driver`` IDM+ (Schakel et
+al., 2010; :func:`sim_bus.idm.idm_plus_accel`) seeing the lead ``reaction_s`` late; ``idm``
+(Treiber, Hennecke & Helbing, 2000); ``ctg`` ``a = k1·(s − s0 − T·v) + k2·(v_l − v)``
+(Milanés & Shladover, Transportation Research C 48, 2014); ``gipps`` (Gipps, 1981).
+Simulations are vectorised over parameter sets (P, k) for scipy's differential evolution.
+Units: m, m/s, s.
 """
 
 from __future__ import annotations
@@ -34,7 +23,8 @@ from sim_bus.dataset import HumanPair
 from sim_bus.idm import DECEL_LIMIT_MPS2
 
 Bounds = tuple[tuple[float, float], ...]
-#: parameter bounds per model (the order of the module doc); ranges of the field's calibrations
+#: parameter bounds per model: driver (a_max, b, T, s0, v0, reaction), idm (a, b, T, s0, v0),
+#: ctg (k1, k2, T, s0), gipps (a, b, b̂, τ, s0, V); ranges of the field's calibrations
 MODELS: dict[str, Bounds] = {
     "driver": ((0.3, 4.0), (0.5, 5.0), (0.3, 3.5), (0.5, 8.0), (20.0, 50.0), (0.0, 1.5)),
     "idm": ((0.3, 4.0), (0.5, 5.0), (0.3, 3.5), (0.5, 8.0), (20.0, 50.0)),
@@ -78,11 +68,8 @@ def _gipps_speed(x: np.ndarray, v: np.ndarray, vl: np.ndarray, s: np.ndarray) ->
 def simulate(
     model: str, x: np.ndarray, pair: HumanPair, start: int, stop: int
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Replay the real lead of ``pair`` from sample ``start`` (the real state) to ``stop``.
-
-    ``x``: parameter sets, shape (P, k). Returns the simulated gap and speed, shape
-    (stop − start, P). Before ``start`` the follower sees the real history (the delays).
-    """
+    """Replay ``pair``'s real lead from sample ``start`` (the real state, the real history
+    before it) to ``stop`` with parameter sets ``x`` (P, k): gap, speed (stop − start, P)."""
     x = np.atleast_2d(np.asarray(x, dtype=np.float64))
     dt = pair.dt_s
     n_sets = x.shape[0]

@@ -20,11 +20,8 @@ DECEL_LIMIT_MPS2 = 8.0
 
 
 def interp_float(x: float, xp: tuple[float, ...], fp: tuple[float, ...]) -> float:
-    """``float(np.interp(x, xp, fp))`` for one float ``x`` and float breakpoints ``xp``
-    (increasing) and values ``fp``: the same float, the same arithmetic (numpy's own:
-    ``slope * (x - xp[j]) + fp[j]``, its NaN fallbacks, ends held), without numpy's
-    per-call conversion of the tables (1.5 us a call; the driver looks its headway up every
-    step). tests/sim_bus/test_behaviour.py checks it against ``np.interp``."""
+    """``float(np.interp(x, xp, fp))`` for one float, in numpy's own arithmetic (NaN
+    fallbacks, ends held), without its per-call table conversion (1.5 us a call)."""
     if len(xp) == 1:
         return fp[0]
     if math.isnan(x):
@@ -48,11 +45,8 @@ def interp_float(x: float, xp: tuple[float, ...], fp: tuple[float, ...]) -> floa
 def idm_plus_accel(
     v_mps: float, v_lead_mps: float, gap_m: float, pref_gap_m: float, p: DriverParams
 ) -> float:
-    """IDM+ acceleration (m/s²) around the preferred gap, limited to [−8, a_max].
-
-    ``max(a, b)`` and ``min(a, b)`` are written out (``b if a < b else a``, ``b if a > b
-    else a``: what the builtins return, NaN included, at a sixth of a call's cost); so in
-    the driver's other per-step methods."""
+    """IDM+ acceleration (m/s²) around the preferred gap, limited to [−8, a_max] (min and
+    max written out: the builtins' results, NaN included, at a sixth of a call's cost)."""
     s_star = pref_gap_m + v_mps * (v_mps - v_lead_mps) / (
         2.0 * math.sqrt(p.accel_max_mps2 * p.decel_comfort_mps2)
     )

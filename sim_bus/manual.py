@@ -14,7 +14,7 @@ import numpy as np
 from dbc.codec import load_codec
 from dbc.vocab.acc_state import AccState
 from dbc.vocab.pedals import PedalScale
-from dbc.vocab.triplog import Trip
+from dbc.vocab.triplog import FLOAT_FIELDS, Trip
 from dbc.vocab.tripmode import TripMode
 from sim_bus.behaviour import DriverAgent
 from sim_bus.drivers import DriverParams
@@ -34,12 +34,9 @@ def manual_trip(
     plant: PlantConfig | None = None,
     condition: str | None = None,
 ) -> Trip:
-    """Drive ``profile`` by hand with ``driver``; return a cloud_sync Trip (10 Hz, mode manual).
-
-    The ego starts at the lead's speed at the driver's preferred gap. A collision (gap ≤ 0)
-    ends the trip early and is recorded in ``meta["collision"]``. ``condition``: the trip's
-    condition (default: named from the driver's condition factor, sim_bus.trip).
-    """
+    """Drive ``profile`` by hand with ``driver`` from the lead's speed at the preferred gap:
+    a Trip (10 Hz, mode manual), ended by a collision (``meta["collision"]``); ``condition``
+    default: named from the driver's condition factor (sim_bus.trip)."""
     if not seed >= 0:
         raise DriveError(f"a seed is an integer >= 0, got {seed}")
     cfg = plant or PlantConfig(dt_s=MANUAL_DT_S)
@@ -93,14 +90,5 @@ def manual_trip(
         # the preference it actually kept is preferred_gap_m(v, condition_mean), roughly
         "condition_mean": condition_sum / k if k else 1.0,
     }
-    return Trip(
-        t_s=cols[0],
-        v_mps=cols[1],
-        gap_m=cols[2],
-        v_lead_mps=cols[3],
-        a_mps2=cols[4],
-        accel_pedal=cols[5],
-        brake_pedal=cols[6],
-        acc_state=np.full(k, AccState.OFF, dtype=np.int64),
-        meta=meta,
-    )
+    floats = dict(zip(FLOAT_FIELDS, cols, strict=True))  # the rows of cols, in the Trip's order
+    return Trip(**floats, acc_state=np.full(k, AccState.OFF, dtype=np.int64), meta=meta)

@@ -85,47 +85,12 @@ def ttc_s(gap_m: np.ndarray, v_mps: np.ndarray, v_lead_mps: np.ndarray) -> np.nd
     return ttc
 
 
-def min_ttc_s(gap_m: np.ndarray, v_mps: np.ndarray, v_lead_mps: np.ndarray) -> float:
-    """Smallest time to collision, s (inf if never closing)."""
-    ttc = ttc_s(gap_m, v_mps, v_lead_mps)
-    return float(ttc.min()) if len(ttc) else math.inf
-
-
 def rms_jerk(t_s: np.ndarray, a_mps2: np.ndarray) -> float:
     """Root mean square of the finite-difference jerk (m/s³); 0 for fewer than 2 samples."""
     if len(a_mps2) < 2:
         return 0.0
     j = np.diff(np.asarray(a_mps2, dtype=np.float64)) / np.diff(np.asarray(t_s, dtype=np.float64))
     return float(np.sqrt(np.mean(j * j)))
-
-
-def drive_metrics(
-    t_s: np.ndarray,
-    v_mps: np.ndarray,
-    gap_m: np.ndarray,
-    v_lead_mps: np.ndarray,
-    a_mps2: np.ndarray,
-    acc_state: np.ndarray,
-    accel_pressed: np.ndarray,
-    brake_pressed: np.ndarray,
-    pref_gap_m: np.ndarray,
-) -> DriveMetrics:
-    """All figures of one drive; the gap error uses ACC-ON samples without a pedal pressed."""
-    poi, nim, on_s, n_on = poi_nim(t_s, acc_state, accel_pressed, brake_pressed)
-    pressed = np.asarray(accel_pressed, bool) | np.asarray(brake_pressed, bool)
-    on = acc_on_mask(acc_state) & ~pressed & (np.asarray(gap_m) < NO_LEAD_GAP_M)  # a lead ahead
-    err = (np.asarray(gap_m) - np.asarray(pref_gap_m))[on]
-    return DriveMetrics(
-        poi_pct=poi,
-        nim_per_min=nim,
-        acc_on_s=on_s,
-        press_onsets=n_on,
-        min_gap_m=float(np.min(gap_m)) if len(gap_m) else math.nan,
-        min_ttc_s=min_ttc_s(gap_m, v_mps, v_lead_mps),
-        rms_jerk_mps3=rms_jerk(t_s, a_mps2),
-        gap_error_mean_m=float(err.mean()) if err.size else math.nan,
-        gap_error_rms_m=float(np.sqrt(np.mean(err * err))) if err.size else math.nan,
-    )
 
 
 @dataclass(frozen=True)
@@ -172,33 +137,3 @@ def inherited_mask(
             mask[k] = True
             k += 1
     return mask
-
-
-def safety_figures(
-    t_s: np.ndarray,
-    gap_m: np.ndarray,
-    v_mps: np.ndarray,
-    v_lead_mps: np.ndarray,
-    accel_pressed: np.ndarray,
-    threshold_s: float = 2.0,
-    cut_in_t_s: Sequence[float] = (),
-) -> SafetyFigures:
-    """Min TTC (s), min gap (m) and time (s) below ``threshold_s`` of TTC, whole and without
-    the driver's accelerator presses or the cut-ins at ``cut_in_t_s`` (s)."""
-    t = np.asarray(t_s, dtype=np.float64)
-    dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
-    gap = np.asarray(gap_m, dtype=np.float64)
-    ttc = ttc_s(gap, v_mps, v_lead_mps)
-    below = ttc < threshold_s
-    press = pressed_episodes(below, np.asarray(accel_pressed, dtype=bool))
-    cut = inherited_mask(ttc, t, cut_in_t_s, threshold_s) & ~press
-    own = ~press & ~cut
-    return SafetyFigures(
-        min_ttc_s=float(ttc.min()) if len(ttc) else math.inf,
-        min_gap_m=float(gap.min()) if len(gap) else math.nan,
-        below_s=float(below.sum()) * dt,
-        min_ttc_own_s=float(ttc[own].min()) if own.any() else math.inf,
-        below_own_s=float((below & own).sum()) * dt,
-        below_override_s=float((below & press).sum()) * dt,
-        below_cut_in_s=float((below & cut).sum()) * dt,
-    )

@@ -21,7 +21,17 @@ from sim_bus.drivers import DriverParams
 from sim_bus.errors import DriveError
 from sim_bus.lead.events import cut_in_gap_m, reveal_gap_m
 from sim_bus.lead.profile import LeadEvent, LeadProfile
-from sim_bus.metrics import DriveMetrics, SafetyFigures, drive_metrics, safety_figures
+from sim_bus.metrics import (
+    NO_LEAD_GAP_M,
+    DriveMetrics,
+    SafetyFigures,
+    acc_on_mask,
+    inherited_mask,
+    poi_nim,
+    pressed_episodes,
+    rms_jerk,
+    ttc_s,
+)
 from sim_bus.plant import Plant, PlantConfig, PlantState
 
 #: the gap while no vehicle is in sight (free road), m: beyond any radar's range
@@ -50,29 +60,45 @@ class WorldLog:
     brake_bar: np.ndarray
 
     def safety(self, threshold_s: float = 2.0, cut_in_t_s: Sequence[float] = ()) -> SafetyFigures:
-        """TTC exposure (:func:`sim_bus.metrics.safety_figures`); cut-ins at ``cut_in_t_s``."""
-        return safety_figures(
-            self.t_s,
-            self.gap_m,
-            self.v_mps,
-            self.v_lead_mps,
-            self.accel_pressed,
-            threshold_s,
-            cut_in_t_s,
+        """Min TTC (s), min gap (m) and time (s) below ``threshold_s`` of TTC, whole and
+        without the driver's accelerator presses or the cut-ins at ``cut_in_t_s`` (s)."""
+        t = np.asarray(self.t_s, dtype=np.float64)
+        dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+        gap = np.asarray(self.gap_m, dtype=np.float64)
+        ttc = ttc_s(gap, self.v_mps, self.v_lead_mps)
+        below = ttc < threshold_s
+        press = pressed_episodes(below, np.asarray(self.accel_pressed, dtype=bool))
+        cut = inherited_mask(ttc, t, cut_in_t_s, threshold_s) & ~press
+        own = ~press & ~cut
+        return SafetyFigures(
+            min_ttc_s=float(ttc.min()) if len(ttc) else math.inf,
+            min_gap_m=float(gap.min()) if len(gap) else math.nan,
+            below_s=float(below.sum()) * dt,
+            min_ttc_own_s=float(ttc[own].min()) if own.any() else math.inf,
+            below_own_s=float((below & own).sum()) * dt,
+            below_override_s=float((below & press).sum()) * dt,
+            below_cut_in_s=float((below & cut).sum()) * dt,
         )
 
     def metrics(self) -> DriveMetrics:
-        """The drive's figures (:func:`sim_bus.metrics.drive_metrics`)."""
-        return drive_metrics(
-            self.t_s,
-            self.v_mps,
-            self.gap_m,
-            self.v_lead_mps,
-            self.a_mps2,
-            self.acc_state,
-            self.accel_pressed,
-            self.brake_pressed,
-            self.pref_gap_m,
+        """The drive's figures (:mod:`sim_bus.metrics`); the gap error uses ACC-ON samples
+        without a pedal pressed and with a lead ahead."""
+        gap_m, acc_state = self.gap_m, self.acc_state
+        poi, nim, on_s, n_on = poi_nim(self.t_s, acc_state, self.accel_pressed, self.brake_pressed)
+        pressed = np.asarray(self.accel_pressed, bool) | np.asarray(self.brake_pressed, bool)
+        on = acc_on_mask(acc_state) & ~pressed & (np.asarray(gap_m) < NO_LEAD_GAP_M)
+        err = (np.asarray(gap_m) - np.asarray(self.pref_gap_m))[on]
+        ttc = ttc_s(gap_m, self.v_mps, self.v_lead_mps)
+        return DriveMetrics(
+            poi_pct=poi,
+            nim_per_min=nim,
+            acc_on_s=on_s,
+            press_onsets=n_on,
+            min_gap_m=float(np.min(gap_m)) if len(gap_m) else math.nan,
+            min_ttc_s=float(ttc.min()) if len(ttc) else math.inf,
+            rms_jerk_mps3=rms_jerk(self.t_s, self.a_mps2),
+            gap_error_mean_m=float(err.mean()) if err.size else math.nan,
+            gap_error_rms_m=float(np.sqrt(np.mean(err * err))) if err.size else math.nan,
         )
 
 

@@ -126,7 +126,7 @@ def codec_module_source() -> str:
         "",
     ]
     table = []
-    for i, mc in enumerate(load_codec().parts()):
+    for i, mc in enumerate(load_codec().by_id.values()):
         source = mc.source()
         lines += ["", f"def _make_{i}(ns: dict[str, Any]) -> tuple[Any, Any]:"]
         lines += [f"    {name}{_TYPES.get(name, '')} = ns[{name!r}]" for name in _NAMES]

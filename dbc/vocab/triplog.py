@@ -14,7 +14,7 @@ import numpy as np
 
 from dbc.vocab import FormatError
 from dbc.vocab.acc_state import AccState
-from dbc.vocab.tripmode import TripMode, mode_of
+from dbc.vocab.tripmode import TripMode, TripModeError
 
 
 class TripLogError(FormatError):
@@ -149,5 +149,17 @@ class Trip:
 
 
 def trip_mode(trip: Trip) -> TripMode:
-    """The trip mode of ``trip`` (:func:`~dbc.vocab.tripmode.mode_of`)."""
-    return mode_of(trip.meta, trip.acc_state)
+    """The trip mode of ``trip``: its ``meta["mode"]``, else ``acc`` when its ACC state was
+    Active at some sample, else ``manual`` (TripModeError: an unknown mode)."""
+    mode = trip.meta.get("mode")
+    if mode is None:
+        return (
+            TripMode.ACC
+            if bool(np.any(trip.acc_state == int(AccState.ACTIVE)))
+            else TripMode.MANUAL
+        )
+    try:
+        return TripMode(mode)
+    except ValueError:
+        known = ", ".join(m.value for m in TripMode)
+        raise TripModeError(f"unknown trip mode {mode!r} (known: {known})") from None

@@ -77,11 +77,6 @@ def _library(sources: list[tuple[str, np.ndarray]], cfg: GeneratorConfig) -> _Li
     )
 
 
-def real_sources() -> list[tuple[str, np.ndarray]]:
-    """The shipped real leader speed traces as (pair id, speed array (n,)) pairs."""
-    return [(p.pair_id, p.v_leader_mps) for p in load_human_pairs()]
-
-
 def bound_filter(v_mps: np.ndarray, cfg: GeneratorConfig) -> np.ndarray:
     """Rate-limit to [−decel_max, accel_max]·Δt per sample, then a centred moving average
     (which keeps the bounds); float64 (n,), speeds >= 0 m/s."""
@@ -114,7 +109,9 @@ def synthesize(
         raise ScenarioError("the speed sequence must be a non-empty 1-D array of finite values")
     if np.any(speeds <= 0):
         raise ScenarioError("average speeds must be > 0 m/s")
-    lib = _library(real_sources() if sources is None else sources, cfg)
+    if sources is None:
+        sources = [(p.pair_id, p.v_leader_mps) for p in load_human_pairs()]
+    lib = _library(sources, cfg)
     rng = np.random.default_rng(seed)
     pieces: list[np.ndarray] = []
     refs: list[SegmentRef] = []

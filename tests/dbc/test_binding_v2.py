@@ -41,7 +41,7 @@ def test_kmh_signal_decodes_to_mps(tmp_path: Path) -> None:
     codec = load_codec(*_network(tmp_path, kmh, BINDING_PATH.read_text()))
     data = codec.by_role["ego"].encode({"speed_mps": 20.0, "accel_mps2": 0.0, "speed_valid": 1}, 0)
     assert int.from_bytes(data[2:4], "little") == 7200
-    assert codec.decode(0xB0, data).values["speed_mps"] == pytest.approx(20.0)
+    assert codec.by_id[0xB0].decode(data).values["speed_mps"] == pytest.approx(20.0)
     assert codec.roles["ego"].bounds("speed_mps")[1] == pytest.approx(250 / 3.6)
 
 
@@ -85,7 +85,7 @@ def test_inverted_flag_and_constants(tmp_path: Path) -> None:
     codec = load_codec(*_network(tmp_path / "flipped", DBC_PATH.read_text(), flipped))
     data = codec.by_role["ego"].encode({"speed_mps": 3.0, "accel_mps2": 0.5, "speed_valid": 1}, 0)
     assert not data[1] & 0x10
-    assert codec.decode(0xB0, data).values["speed_valid"] == 1
+    assert codec.by_id[0xB0].decode(data).values["speed_valid"] == 1
 
 
 def test_v2_form_of_the_pacc_binding_encodes_the_same_frames(tmp_path: Path) -> None:
@@ -182,7 +182,7 @@ def test_scale_is_a_further_factor(tmp_path: Path) -> None:
     }
     data = codec.by_role["radar"].encode(radar, 0)
     assert int.from_bytes(data[2:4], "little") == 300  # 15 m at 0.05 m per bit
-    assert codec.decode(0x120, data).values["gap_m"] == pytest.approx(30.0)
+    assert codec.by_id[0x120].decode(data).values["gap_m"] == pytest.approx(30.0)
     assert codec.roles["radar"].bounds("gap_m") == (0.0, 500.0)
     bad = binding.replace("scale = 2", "scale = 0")
     (tmp_path / "bad").mkdir()  # load_codec caches by path: a new folder for a new table

@@ -5,7 +5,8 @@ from __future__ import annotations
 from hypothesis import given
 from hypothesis import strategies as st
 
-from dbc.e2e import E2EReceiver, E2EStatus, crc8_j1850, e2e_crc
+from dbc.checksums import table_crc
+from dbc.e2e import E2EReceiver, E2EStatus, crc8_update
 
 
 def _bitwise_crc8(data: bytes) -> int:
@@ -19,20 +20,21 @@ def _bitwise_crc8(data: bytes) -> int:
 
 
 def test_crc_check_value() -> None:
-    # catalogue check value of CRC-8/SAE-J1850 ("123456789")
-    assert crc8_j1850(b"123456789") == 0x4B
-    assert crc8_j1850(b"") == 0x00
+    # catalogue check value of CRC-8/SAE-J1850 ("123456789"): init 0xFF, final XOR 0xFF
+    assert crc8_update(0xFF, b"123456789") ^ 0xFF == 0x4B
+    assert crc8_update(0xFF, b"") ^ 0xFF == 0x00
 
 
 @given(st.binary(max_size=16))
 def test_table_matches_bitwise(data: bytes) -> None:
-    assert crc8_j1850(data) == _bitwise_crc8(data)
+    assert crc8_update(0xFF, data) ^ 0xFF == _bitwise_crc8(data)
 
 
 def test_e2e_crc_covers_data_id() -> None:
     payload = bytes(8)
-    assert e2e_crc(0x120, payload, 0) != e2e_crc(0x121, payload, 0)
-    assert e2e_crc(0x120, payload, 0) == _bitwise_crc8(bytes((0x20, 0x01)) + payload[1:])
+    crc = table_crc("pacc_crc8", 0x120, 0)
+    assert crc(payload) != table_crc("pacc_crc8", 0x121, 0)(payload)
+    assert crc(payload) == _bitwise_crc8(bytes((0x20, 0x01)) + payload[1:])
 
 
 def test_counter_ok_repeat_skip() -> None:

@@ -57,7 +57,7 @@ def test_bad_frames_are_dropped_and_counted() -> None:
     corrupt = bytearray(outbox.encode("ego", {**EGO, "speed_mps": 30.0}))
     corrupt[3] ^= 0x40
     assert inbox.accept(mc.frame_id, bytes(corrupt), 0.01) is None
-    assert inbox.latest("ego") == pytest.approx(CODEC.decode(mc.frame_id, good).values)
+    assert inbox.latest("ego") == pytest.approx(CODEC.by_id[mc.frame_id].decode(good).values)
     assert inbox.accept(mc.frame_id, good, 0.02) is None  # counter repeated
     assert inbox.accept(mc.frame_id, good[:5], 0.03) is None
     assert inbox.accept(0x7FF, good, 0.04) is None

@@ -39,14 +39,23 @@ def _network(tmp_path: Path, dbc_text: str, binding_text: str) -> tuple[Path, Pa
 @pytest.mark.parametrize(
     ("old", "new", "message"),
     [
-        ("VehicleSpeed : 16|16@1+ (0.01,0) [0|90]", "VehicleSpeed : 16|16@1+ (0.01,0) [0|1]",
-         r"speed_mps range \[0, 1\] cannot hold \[0, 40\]"),
-        ("LeadDistance : 16|16@1+ (0.05,0) [0|250]", "LeadDistance : 16|16@1+ (0.05,0) [0|50]",
-         r"gap_m range \[0, 50\] cannot hold \[0, 200\]"),
-        ("DgptVersion : 32|16@1+ (1,0) [0|65535]", "DgptVersion : 32|8@1+ (1,0) [0|255]",
-         r"dgpt_version range \[0, 255\] cannot hold \[0, 65535\]"),
+        (
+            "VehicleSpeed : 16|16@1+ (0.01,0) [0|90]",
+            "VehicleSpeed : 16|16@1+ (0.01,0) [0|1]",
+            r"speed_mps range \[0, 1\] cannot hold \[0, 40\]",
+        ),
+        (
+            "LeadDistance : 16|16@1+ (0.05,0) [0|250]",
+            "LeadDistance : 16|16@1+ (0.05,0) [0|50]",
+            r"gap_m range \[0, 50\] cannot hold \[0, 200\]",
+        ),
+        (
+            "DgptVersion : 32|16@1+ (1,0) [0|65535]",
+            "DgptVersion : 32|8@1+ (1,0) [0|255]",
+            r"dgpt_version range \[0, 255\] cannot hold \[0, 65535\]",
+        ),
     ],
-)  # fmt: skip
+)
 def test_a_signal_that_cannot_hold_the_fields_range_is_refused_at_load(
     tmp_path: Path, old: str, new: str, message: str
 ) -> None:

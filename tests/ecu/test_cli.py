@@ -62,7 +62,7 @@ class Peers(threading.Thread):
                 while (msg := bus.recv(0)) is not None:
                     mc = CODEC.by_id.get(msg.arbitration_id)
                     if mc is not None and mc.role == "status":
-                        self.status.append(CODEC.decode(msg.arbitration_id, msg.data).values)
+                        self.status.append(mc.decode(msg.data).values)
                 time.sleep(0.002)
 
 

@@ -43,6 +43,6 @@ def test_corrupt_flips_the_crc_byte_of_the_binding(tmp_path: Path, crc_start: in
     differ = [i for i, (a, b) in enumerate(zip(msg.data, genuine, strict=True)) if a != b]
     assert differ == [crc_byte]
     with pytest.raises(CrcError):
-        codec.decode(msg.arbitration_id, msg.data)
+        codec.by_id[msg.arbitration_id].decode(msg.data)
     inbox = Inbox(codec, ["ego"])
     assert inbox.accept(msg.arbitration_id, msg.data, 0.0) is None

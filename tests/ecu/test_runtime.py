@@ -91,7 +91,7 @@ class Bench:
             mc = CODEC.by_id.get(msg.arbitration_id)
             if mc is None or mc.role not in ("command", "status"):
                 continue
-            d = CODEC.decode(msg.arbitration_id, msg.data)
+            d = mc.decode(msg.data)
             (self.commands if d.role == "command" else self.statuses).append(d.values)
 
     def _plant_step(self, dt: float) -> None:

@@ -126,7 +126,7 @@ def _read_commands(listener: can.BusABC, counters: list[int]) -> list[dict[str, 
     while (msg := listener.recv(0)) is not None:
         mc = CODEC.by_id.get(msg.arbitration_id)
         if mc is not None and mc.role == "command":
-            decoded = CODEC.decode(msg.arbitration_id, msg.data)
+            decoded = mc.decode(msg.data)
             got.append(decoded.values)
             assert decoded.counter is not None
             counters.append(decoded.counter)

@@ -206,7 +206,7 @@ def test_the_port_sends_only_vetted_commands_and_counts_the_stops(
     assert returned[2].accel_request_mps2 == 0.0  # what went out, for the recorder to log
     frames = []
     while (msg := rx.recv(0.1)) is not None:
-        d = codec.decode(msg.arbitration_id, msg.data)
+        d = codec.by_id[msg.arbitration_id].decode(msg.data)
         if d.role == "command":
             frames.append((d.values["accel_request_mps2"], d.values["request_active"]))
     assert frames[:4] == [(0.0, 1), (0.05, 1), (0.0, 0), (0.0, 1)]

@@ -41,7 +41,7 @@ class Frames:
         self.by_role: dict[str, list[dict[str, Any]]] = {}
 
         def tap(t: float, key: int, data: Any, rx: bool) -> None:
-            d = codec.decode(key, data)
+            d = codec.by_id[key].decode(data)
             self.by_role.setdefault(d.role, []).append(dict(d.values))
 
         session.drive.node.tap = tap

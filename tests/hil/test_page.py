@@ -94,7 +94,7 @@ def test_gamepad_calibrated_then_drives(browser: Any, hil_app: AppFactory, tmp_p
     pedals: list[dict[str, Any]] = []
 
     def tap(t: float, key: int, data: Any, rx: bool) -> None:
-        d = codec.decode(key, data)
+        d = codec.by_id[key].decode(data)
         if d.role == "pedals":
             pedals.append(dict(d.values))
 

@@ -14,7 +14,7 @@ from cloud_sync.vehicle.spool import Spool, SpoolError
 from dbc.vocab.acc_state import AccState
 from dbc.vocab.triplog import Trip, trip_mode
 from dbc.vocab.triplog_file import write_trip
-from dbc.vocab.tripmode import TripMode, TripModeError, mode_of
+from dbc.vocab.tripmode import TripMode, TripModeError
 
 
 def trip(mode: str | None, states: list[int] | None = None) -> Trip:
@@ -68,8 +68,9 @@ def test_an_unknown_mode_is_an_error_never_a_guess(tmp_path: Path) -> None:
             classify(bad)
     with pytest.raises(SpoolError, match="not spooled: unknown trip mode 'cruise'"):
         Spool(tmp_path).put_trip(bad)
+    z = np.zeros(1)
     with pytest.raises(TripModeError):
-        mode_of({"mode": 3}, np.zeros(1))
+        trip_mode(Trip.manual(z, z, z, z, z, {"mode": 3}))
 
 
 def test_the_cloud_files_a_mode_less_trip_as_manual_and_refuses_an_unknown_mode(

@@ -13,14 +13,14 @@ def test_parse_full_spec() -> None:
         "radar:dropout=20-25,crc=0.1;ego:delay=0.02,drop=0.05;"
         "pedals:counter=0.01,freeze=3-4;all:silence=100-100.5"
     )
-    r = spec.plan("radar")
+    r = spec.plans.get("radar")
     assert r is not None and r.crc == 0.1 and (20.0, 25.0) in r.silent
     assert r.silent_at(22.0) and not r.silent_at(25.0) and r.silent_at(100.2)
-    ego = spec.plan("ego")
+    ego = spec.plans.get("ego")
     assert ego is not None and ego.delay_s == 0.02 and ego.drop == 0.05 and ego.random
-    ped = spec.plan("pedals")
+    ped = spec.plans.get("pedals")
     assert ped is not None and ped.counter == 0.01 and ped.frozen_at(3.5) == (3.0, 4.0)
-    hmi = spec.plan("hmi")
+    hmi = spec.plans.get("hmi")
     assert hmi is not None and hmi.silent_at(100.1) and not hmi.random
 
 
@@ -28,15 +28,15 @@ def test_clauses_of_one_role_merge() -> None:
     spec = parse_faults(
         "radar:drop=0.1;radar:crc=0.2,dropout=1-2;radar:dropout=3-4;radar:drop=0.3;all:freeze=5-6"
     )
-    assert spec.plan("radar") == FaultPlan(
+    assert spec.plans.get("radar") == FaultPlan(
         drop=0.3, crc=0.2, silent=((1.0, 2.0), (3.0, 4.0)), freeze=((5.0, 6.0),)
     )  # the later drop wins
-    assert all(spec.plan(r) == FaultPlan(freeze=((5.0, 6.0),)) for r in ROLES if r != "radar")
+    assert all(spec.plans.get(r) == FaultPlan(freeze=((5.0, 6.0),)) for r in ROLES if r != "radar")
 
 
 def test_empty_spec_means_no_faults() -> None:
     assert parse_faults("").plans == {} and parse_faults(None).plans == {}
-    assert all(parse_faults(" ; ").plan(r) is None for r in ROLES)
+    assert all(parse_faults(" ; ").plans.get(r) is None for r in ROLES)
 
 
 @pytest.mark.parametrize(

@@ -89,7 +89,7 @@ def test_cut_in_switches_target_without_a_jerk_spike() -> None:
         rid = codec.by_role["radar"].frame_id
         while (m := listener.recv(0.0)) is not None:
             if m.arbitration_id == rid:
-                radar.append((m.timestamp, codec.decode(rid, m.data).values))
+                radar.append((m.timestamp, codec.by_id[rid].decode(m.data).values))
     finally:
         listener.shutdown()
     assert not r.collision and r.road_events[0][1] == "cut_in"

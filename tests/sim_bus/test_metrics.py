@@ -11,13 +11,12 @@ from hypothesis import strategies as st
 
 from sim_bus.metrics import (
     acc_on_mask,
-    drive_metrics,
-    min_ttc_s,
     poi_nim,
     pressed_episodes,
     rms_jerk,
-    safety_figures,
+    ttc_s,
 )
+from sim_bus.world import WorldLog
 
 
 def test_poi_and_nim_hand_counted() -> None:
@@ -52,11 +51,40 @@ def test_min_ttc_and_jerk() -> None:
     gap = np.array([30.0, 20.0, 10.0])
     v = np.array([20.0, 20.0, 15.0])
     vl = np.array([25.0, 15.0, 10.0])
-    assert min_ttc_s(gap, v, vl) == pytest.approx(2.0)
-    assert min_ttc_s(gap, vl - 10.0, vl) == math.inf
+    assert ttc_s(gap, v, vl).min() == pytest.approx(2.0)
+    assert ttc_s(gap, vl - 10.0, vl).min() == math.inf
     t = np.arange(5) * 0.5
     a = np.array([0.0, 1.0, 2.0, 3.0, 4.0])
     assert rms_jerk(t, a) == pytest.approx(2.0)
+
+
+def _log(
+    t: np.ndarray,
+    gap: np.ndarray,
+    v: np.ndarray,
+    vl: np.ndarray,
+    accel_pressed: np.ndarray,
+    acc_state: np.ndarray | None = None,
+    pref_gap_m: float = math.nan,
+) -> WorldLog:
+    """A drive log of these columns, every other one zero (no brake, no request)."""
+    zero = np.zeros(len(t))
+    state = np.full(len(t), 2) if acc_state is None else acc_state
+    return WorldLog(
+        t,
+        v,
+        gap,
+        vl,
+        zero,
+        accel_pressed,
+        zero.astype(bool),
+        state,
+        np.full(len(t), pref_gap_m),
+        zero,
+        zero.astype(bool),
+        zero,
+        zero,
+    )
 
 
 def test_drive_metrics_gap_error_uses_unpressed_acc_on_samples() -> None:
@@ -66,17 +94,7 @@ def test_drive_metrics_gap_error_uses_unpressed_acc_on_samples() -> None:
     pressed = np.zeros(n, bool)
     pressed[:50] = True
     gap = np.where(np.arange(n) < 50, 100.0, 32.0)
-    m = drive_metrics(
-        t,
-        np.full(n, 20.0),
-        gap,
-        np.full(n, 20.0),
-        np.zeros(n),
-        state,
-        pressed,
-        np.zeros(n, bool),
-        np.full(n, 30.0),
-    )
+    m = _log(t, gap, np.full(n, 20.0), np.full(n, 20.0), pressed, state, pref_gap_m=30.0).metrics()
     assert m.gap_error_mean_m == pytest.approx(2.0) and m.gap_error_rms_m == pytest.approx(2.0)
     assert m.min_gap_m == 32.0 and m.poi_pct == pytest.approx(50.0)
 
@@ -93,17 +111,17 @@ def test_safety_counts_a_cut_in_that_began_below_the_threshold_apart() -> None:
     vl = v - closing
     press = np.zeros(10, dtype=bool)
     press[8] = True
-    s = safety_figures(t, gap, v, vl, press, 2.0, cut_in_t_s=[0.2])
+    s = _log(t, gap, v, vl, press).safety(2.0, cut_in_t_s=[0.2])
     assert s.below_cut_in_s == pytest.approx(0.3)
     assert s.below_own_s == pytest.approx(0.1)  # sample 7
     assert s.below_override_s == pytest.approx(0.1)  # sample 8
     assert s.min_ttc_own_s == pytest.approx(1.0) and s.min_ttc_s == pytest.approx(1.0)
     # a cut-in that began with more than the threshold plus 1 s exempts nothing
-    s = safety_figures(t, gap, v, vl, press, 2.0, cut_in_t_s=[0.5])
+    s = _log(t, gap, v, vl, press).safety(2.0, cut_in_t_s=[0.5])
     assert s.below_cut_in_s == 0.0 and s.below_own_s == pytest.approx(0.4)
     # one that began at 2.9 s (within the 1-s reaction allowance) sets what follows
     ttc2 = np.array([9, 9, 2.9, 2.2, 1.9, 1.8, 2.3, 3.1, 1.0, 9], dtype=float)
-    s = safety_figures(t, ttc2 * closing, v, vl, np.zeros(10, dtype=bool), 2.0, [0.2])
+    s = _log(t, ttc2 * closing, v, vl, np.zeros(10, dtype=bool)).safety(2.0, [0.2])
     assert s.below_cut_in_s == pytest.approx(0.2) and s.below_own_s == pytest.approx(0.1)
 
 
@@ -115,7 +133,7 @@ def test_a_time_below_that_began_during_an_accelerator_press_stays_the_drivers()
     v = np.full(10, 10.0)
     press = np.zeros(10, dtype=bool)
     press[2:5] = True
-    s = safety_figures(t, ttc * 2.0, v, v - 2.0, press, 2.0)
+    s = _log(t, ttc * 2.0, v, v - 2.0, press).safety(2.0)
     assert s.below_override_s == pytest.approx(0.4)
     assert s.below_own_s == pytest.approx(0.1) and s.min_ttc_own_s == pytest.approx(1.5)
 

@@ -31,7 +31,7 @@ def test_typed_only_adds_annotations() -> None:
     """The compiled functions are the generated ones with types: strip them and the source
     comes back line for line."""
     back = {v: k for k, v in _SIGNATURES.items()}
-    for mc in load_codec().parts():
+    for mc in load_codec().by_id.values():
         lines = [back.get(ln, _ANNOTATION.sub(r"\1 = ", ln)) for ln in typed(mc.source())]
         assert lines == mc.source().splitlines()
         assert any(": int = " in ln for ln in typed(mc.source()))
@@ -69,7 +69,7 @@ def test_the_generated_module_gives_the_codecs_results() -> None:
     ns: dict[str, Any] = {}
     exec(compile(codec_module_source(), "<generated>", "exec"), ns)  # noqa: S102
     rng = random.Random(23)
-    for mc in load_codec().parts():
+    for mc in load_codec().by_id.values():
         encode, decode = ns["FACTORIES"][mc.source()](mc.namespace())
         decoded = 0
         for data in _frames(mc, rng, 300):
@@ -109,7 +109,7 @@ try:
     print(m.__file__)
 except ImportError:
     print("pure")
-parts = load_codec().parts()
+parts = load_codec().by_id.values()
 print(sum(not isinstance(f, types.FunctionType) for p in parts for f in (p.encode, p.decode)),
       "of", 2 * len(parts), "codec functions compiled")
 d = BUILTIN_DRIVERS["d3"]
