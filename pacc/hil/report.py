@@ -25,7 +25,9 @@ from pacc.study.report import (
     PAPER_AVERAGES,
     format_incremental,
     format_table,
+    md_table,
     plot,
+    poi_nim,
     read_drives,
     write_csv,
 )
@@ -105,22 +107,20 @@ def paired_tests(rows: list[dict[str, Any]]) -> list[str]:
 def side_by_side(people: list[dict[str, Any]], synthetic: list[dict[str, Any]]) -> str:
     """Markdown: the averages per controller, people beside synthetic drivers and the paper."""
     ours, syn = averages(cell_means(people)), averages(cell_means(synthetic))
+    body = [
+        f"{CONTROLLER_TITLES[c]} | " + poi_nim([ours[c], syn[c], PAPER_AVERAGES[c]])
+        for c in CONTROLLERS
+        if c in ours and c in syn
+    ]
+    head = "controller | people PoI | NIM | synthetic PoI | NIM | paper PoI | NIM"
     lines = [
         "## People beside synthetic drivers (averages over drivers and scenarios)",
         "",
-        "| controller | people PoI | NIM | synthetic PoI | NIM | paper PoI | NIM |",
-        "|---|---:|---:|---:|---:|---:|---:|",
+        *md_table(head, body, right=6),
+        "",
+        f"{len({r['driver'] for r in people})} people, "
+        f"{len({r['driver'] for r in synthetic})} synthetic drivers.",
     ]
-    for c in CONTROLLERS:
-        if c in ours and c in syn:
-            (p, n), (sp, sn), (pp, pn) = ours[c], syn[c], PAPER_AVERAGES[c]
-            lines.append(
-                f"| {CONTROLLER_TITLES[c]} | {p:.1f} % | {n:.1f} | {sp:.1f} % | {sn:.1f} "
-                f"| {pp:.1f} % | {pn:.1f} |"
-            )
-    people_n = len({r["driver"] for r in people})
-    syn_n = len({r["driver"] for r in synthetic})
-    lines += ["", f"{people_n} people, {syn_n} synthetic drivers."]
     return "\n".join(lines) + "\n"
 
 

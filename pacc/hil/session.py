@@ -312,16 +312,16 @@ class Session:
 
     def _cloud(self) -> StudyCloud:
         cfg = self.cfg
-        if self._cloud_link is not None:
-            return self._cloud_link
-        if cfg.cloud is None:
-            self._cloud_link = StudyCloud.embedded(
-                self.folder, [cfg.participant], cfg.seed, keep=True
+        if self._cloud_link is None:
+            self._cloud_link = StudyCloud.open(
+                self.folder,
+                [cfg.participant],
+                cfg.seed,
+                cfg.cloud,
+                cfg.token_file,
+                cfg.trust,
+                keep=True,
             )
-        elif cfg.token_file is None or cfg.trust is None:
-            raise SimError("--cloud needs --token-file and --trust")
-        else:
-            self._cloud_link = StudyCloud.remote(cfg.cloud, cfg.token_file, cfg.trust, self.folder)
         return self._cloud_link
 
     def _learn(self, step: Step) -> None:

@@ -88,6 +88,24 @@ class StudyCloud:
         return cls._linked(LocalCloud(service, token), service.public_key_pem(), out)
 
     @classmethod
+    def open(
+        cls,
+        out: Path,
+        drivers: Iterable[str],
+        seed: int,
+        cloud: str | None,
+        token_file: str | Path | None,
+        trust: str | Path | None,
+        **embedded: Any,
+    ) -> StudyCloud:
+        """The cloud at ``cloud`` (a URL or folder: :meth:`remote`), else :meth:`embedded`."""
+        if cloud is None:
+            return cls.embedded(out, drivers, seed, **embedded)
+        if token_file is None or trust is None:
+            raise SimError("--cloud needs --token-file and --trust")
+        return cls.remote(cloud, Path(token_file), Path(trust), out)
+
+    @classmethod
     def remote(cls, target: str, token_file: Path, trust: Path, out: Path) -> StudyCloud:
         """A running cloud (URL) or another folder; the drivers must be registered there
         to the vehicle of ``token_file`` (``pacc cloud register``)."""
@@ -250,6 +268,3 @@ def run_incremental(
             if newer is not None and newer.version > table.version:
                 table = newer
     return rows
-
-
-__all__ = ["STUDY_VEHICLE", "TOKEN_FILE", "StudyCloud", "cloud_irl_tables", "run_incremental"]

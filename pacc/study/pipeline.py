@@ -153,12 +153,11 @@ def make_tables(
 def study_cloud(
     spec: StudySpec, drivers: Mapping[str, DriverParams], out: Path, executor: Executor | None
 ) -> StudyCloud:
-    """The study's cloud: the one of ``spec.cloud``, or a fresh embedded one under ``out``
-    (training on ``executor`` if it is a Dask cluster's)."""
-    if spec.cloud is None:
-        return StudyCloud.embedded(out, drivers, spec.seed, executor if is_dask(executor) else None)
-    assert spec.token_file is not None and spec.trust is not None  # validate() checked
-    return StudyCloud.remote(spec.cloud, Path(spec.token_file), Path(spec.trust), out)
+    """The study's cloud (a fresh embedded one trains on ``executor`` if it is Dask's)."""
+    compute = executor if is_dask(executor) else None
+    return StudyCloud.open(
+        out, drivers, spec.seed, spec.cloud, spec.token_file, spec.trust, compute=compute
+    )
 
 
 def plan(

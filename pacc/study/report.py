@@ -194,7 +194,7 @@ def md_table(head: str, rows: Iterable[str], right: int = 0) -> list[str]:
     return [f"| {head} |", rule, *(f"| {row} |" for row in rows)]
 
 
-def _poi_nim(pairs: Iterable[tuple[float, float]], bold: str = "") -> str:
+def poi_nim(pairs: Iterable[tuple[float, float]], bold: str = "") -> str:
     """The PoI and NIM cells of each (PoI %, NIM /min) pair."""
     return " | ".join(f"{bold}{p:.1f} %{bold} | {bold}{n:.1f}{bold}" for p, n in pairs)
 
@@ -207,12 +207,12 @@ def format_table(cfg: StudySpec, rows: Sequence[dict[str, Any]]) -> str:
     drivers = list(dict.fromkeys(str(r["driver"]) for r in rows))
     controllers = [c for c in CONTROLLERS if c in cfg.controllers]
     body = [
-        f"{d} | {SCENARIO_TITLES.get(s, s)} | " + _poi_nim(means[(d, s, c)] for c in controllers)
+        f"{d} | {SCENARIO_TITLES.get(s, s)} | " + poi_nim(means[(d, s, c)] for c in controllers)
         for d in drivers
         for s in cfg.scenarios
     ]
-    body.append("**average** | | " + _poi_nim((avg[c] for c in controllers), "**"))
-    body.append("paper (average) | | " + _poi_nim(PAPER_AVERAGES[c] for c in controllers))
+    body.append("**average** | | " + poi_nim((avg[c] for c in controllers), "**"))
+    body.append("paper (average) | | " + poi_nim(PAPER_AVERAGES[c] for c in controllers))
     titles = (f"{CONTROLLER_TITLES[c]} PoI | NIM" for c in controllers)
     head = " | ".join(["driver | scenario", *titles])
     out = [
