@@ -138,15 +138,6 @@ class HilDrive(Rig):
         first, last = self._wall
         return 0.0 if math.isnan(first) else last - first
 
-    def run_lockstep(
-        self, policy: Callable[[HilDrive], None] | None = None, every: int = 10
-    ) -> None:
-        """Step to the end; ``policy(self)`` (a scripted participant) every ``every`` ticks."""
-        while not self.done:
-            if policy is not None and self.node.tick % every == 0:
-                policy(self)
-            self.step()
-
     def snapshot(self) -> dict[str, Any]:
         """What the page shows (never the controller: the drives are blind)."""
         w = self.world
@@ -161,7 +152,7 @@ class HilDrive(Rig):
             "v_lead": w.v_lead_mps,
             "a_lead": w.a_lead_mps2,
             "acc_state": AccState(self.node.acc_state).name,
-            "set_speed": float(set_speed) if _finite(set_speed) else 0.0,
+            "set_speed": float(set_speed) if math.isfinite(set_speed) else 0.0,
             "gap_setting": self.pedals.gap_setting,
             "main": self.pedals.main_on,
             "accel": self.pedals.accel,
@@ -253,10 +244,6 @@ class RealtimeRunner:
         self.latest = drive.snapshot()
         if not self._stop.is_set() and self._on_done is not None:
             self._on_done()
-
-
-def _finite(x: Any) -> bool:
-    return isinstance(x, int | float) and math.isfinite(x)
 
 
 def jitter_p99_ms(lateness_s: list[float]) -> float:

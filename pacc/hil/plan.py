@@ -60,15 +60,7 @@ def balanced_latin_square(n: int, row: int) -> list[int]:
     every position and directly follows every other condition equally often."""
     if n < 1:
         raise ValueError(f"a Latin square has order >= 1, got {n}")
-    first = [0]
-    lo, hi = 1, n - 1
-    for k in range(1, n):
-        if k % 2 == 1:
-            first.append(lo)
-            lo += 1
-        else:
-            first.append(hi)
-            hi -= 1
+    first = [0] + [(k + 1) // 2 if k % 2 else n - k // 2 for k in range(1, n)]
     rows = n if n % 2 == 0 else 2 * n
     r = row % rows
     seq = [(c + r) % n for c in first]
