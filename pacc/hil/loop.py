@@ -15,7 +15,6 @@ import math
 import threading
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -36,23 +35,6 @@ from sim_bus.trip import world_trip
 from sim_bus.world import World, WorldConfig, WorldLog
 
 _channels = itertools.count()
-
-
-@dataclass
-class DriveOutcome:
-    """What a finished (or abandoned) drive left: its log, figures and ECU counters."""
-
-    log: WorldLog
-    collision: bool
-    collision_t_s: float | None
-    takeovers: int
-    adaptations: int
-    final_table: Dgpt | None
-    sim_s: float
-    wall_s: float
-    start_utc: str
-    segments: list[Trip] = field(default_factory=list)
-    extra: dict[str, Any] = field(default_factory=dict)
 
 
 class HilDrive(Rig):
@@ -86,6 +68,7 @@ class HilDrive(Rig):
             participant, profile, cfg.seed, WorldConfig(engage_s=cfg.engage_s), pedals=self.pedals
         )
         self.segments: list[Trip] = []
+        self.extra: dict[str, Any] = {}  # what finish() adds to the drive's record
         ecu = None
         if bus is None:
             ecu = ecu_node(cfg, participant, table, profile, self.segments.append)
@@ -164,34 +147,20 @@ class HilDrive(Rig):
             "events": [[round(t, 2), kind] for t, kind, _ in w.events_log],
         }
 
-    def finish(self) -> DriveOutcome:
-        """Close the buses and the recording; the drive's outcome (call once)."""
+    def finish(self) -> WorldLog:
+        """Close the ECU, the buses and the recording (its failure in :attr:`extra`); the
+        drive's log (call once). The figures stay on the world and the ECU."""
         log = self.world.log()
-        extra: dict[str, Any] = {}
         if self.ecu is not None:
             self.ecu.finish()
         err = self.finish_recording(log)
-        if err:
-            extra["can_log_error"] = err
+        self.extra = {"can_log_error": err} if err else {}
         self.close()
-        car = self.world.plant
-        return DriveOutcome(
-            log=log,
-            collision=car.collided,
-            collision_t_s=car.collision_t_s,
-            takeovers=self.ecu.takeovers if self.ecu else 0,
-            adaptations=self.ecu.adaptations if self.ecu else 0,
-            final_table=self.ecu.table if self.ecu else None,
-            sim_s=self.world.t_s,
-            wall_s=self.wall_s,
-            start_utc=self.base.iso(0.0),
-            segments=list(self.segments),
-            extra=extra,
-        )
+        return log
 
-    def trip(self, outcome: DriveOutcome, meta: dict[str, Any]) -> Trip:
+    def trip(self, log: WorldLog, meta: dict[str, Any]) -> Trip:
         """The drive as a trip log (10 Hz); a manual drive's ``mode`` is ``manual``."""
-        trip = world_trip(outcome.log, self.participant, PedalScale.from_codec(self.codec), meta)
+        trip = world_trip(log, self.participant, PedalScale.from_codec(self.codec), meta)
         if not self.acc:
             trip = dataclasses.replace(trip, meta={**trip.meta, "mode": "manual"})
         return trip

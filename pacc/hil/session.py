@@ -285,19 +285,17 @@ class Session:
         step = self.current()
         drive = self.drive
         assert step is not None and drive is not None
-        outcome = drive.finish()
+        log, car = drive.finish(), drive.world.plant
         self.message = (
-            f"The drive ended in a collision at {outcome.collision_t_s:.1f} s."
-            if outcome.collision and outcome.collision_t_s is not None
+            f"The drive ended in a collision at {car.collision_t_s:.1f} s."
+            if car.collided and car.collision_t_s is not None
             else ""
         )
-        record = write_drive(
-            self.folder, step, drive, outcome, seed=self.cfg.seed, pauses=self._pauses
-        )
+        record = write_drive(self.folder, step, drive, log, seed=self.cfg.seed, pauses=self._pauses)
         self.seq += 1
-        if step.id.startswith("inc") and outcome.final_table is not None:
+        if step.id.startswith("inc") and drive.ecu is not None:
             self.phase = "syncing"  # the takeovers go up, the fine-tuned table comes down
-            args = (step, record, outcome.segments, drive.table)
+            args = (step, record, list(drive.segments), drive.table)
             threading.Thread(target=self._sync, args=args, daemon=True).start()
         else:
             self.phase = "after"

@@ -3,7 +3,7 @@ streamed as it runs or added at the end, the lockstep loop held to the wall cloc
 
 For a live view (``--foxglove``) :class:`WorldFeed` samples the world into the recorder as the
 drive runs and :class:`Pacer` holds the loop to ``pace`` times real time; neither changes the
-drive. Without one the world is written at the end (:func:`record_world`).
+drive. Without one the world is written at the end (:func:`finish_recording`).
 """
 
 from __future__ import annotations
@@ -30,7 +30,6 @@ if TYPE_CHECKING:
     from _typeshed import DataclassInstance
 
 
-#: the description of the ``/sim/world`` channel
 #: the paces a drive may be held to, times real time (1e-3: 1 s of drive per 17 min)
 MIN_PACE, MAX_PACE = 1e-3, 1e6
 #: a paced loop this far behind (s of wall time) starts again from where it is (no burst)
@@ -67,25 +66,19 @@ def finish_recording(recorder: CanLogWriter, log: WorldLog, streamed: bool = Fal
     it; the failure's text (None: written). A failed recording does not cost the drive's
     results."""
     try:
-        if not streamed:
-            record_world(recorder, log)
+        if not streamed:  # the world of the finished drive, at once
+            columns = {name: getattr(log, name) for name in WORLD_COLUMNS}
+            recorder.series(WORLD_TOPIC, WORLD_COLUMNS)
+            recorder.write_series(WORLD_TOPIC, columns, log.t_s)
         recorder.close()
     except (EcuError, FormatError, OSError) as exc:
         return str(exc)
     return None
 
 
-def record_world(recorder: CanLogWriter, log: WorldLog) -> None:
-    """The simulated world of a finished drive (:class:`WorldLog`) on ``/sim/world``, at once."""
-    columns = {name: getattr(log, name) for name in WORLD_COLUMNS}
-    recorder.series(WORLD_TOPIC, WORLD_COLUMNS)
-    recorder.write_series(WORLD_TOPIC, columns, log.t_s)
-
-
 class WorldFeed:
     """``/sim/world`` sampled into ``recorder`` while ``world`` runs (one row per driver step,
-    20 Hz): call it after each tick. A drive fed so must not also call :func:`record_world`.
-    """
+    20 Hz): call it after each tick."""
 
     def __init__(self, recorder: CanLogWriter, world: World) -> None:
         self.recorder = recorder

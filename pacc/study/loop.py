@@ -98,19 +98,14 @@ class StudyCloud:
         trust: str | Path | None,
         **embedded: Any,
     ) -> StudyCloud:
-        """The cloud at ``cloud`` (a URL or folder: :meth:`remote`), else :meth:`embedded`."""
+        """The running cloud (URL) or folder ``cloud``, where the drivers are registered to the
+        vehicle of ``token_file`` (``pacc cloud register``); None: :meth:`embedded`."""
         if cloud is None:
             return cls.embedded(out, drivers, seed, **embedded)
         if token_file is None or trust is None:
             raise SimError("--cloud needs --token-file and --trust")
-        return cls.remote(cloud, Path(token_file), Path(trust), out)
-
-    @classmethod
-    def remote(cls, target: str, token_file: Path, trust: Path, out: Path) -> StudyCloud:
-        """A running cloud (URL) or another folder; the drivers must be registered there
-        to the vehicle of ``token_file`` (``pacc cloud register``)."""
         try:
-            return cls._linked(connect(target, read_token(token_file)), trust, out)
+            return cls._linked(connect(cloud, read_token(Path(token_file))), Path(trust), out)
         except CloudSyncError as exc:
             raise SimError(f"study cloud: {exc}") from exc
 
