@@ -19,7 +19,6 @@ from pathlib import Path
 from typing import Any
 
 import can
-import numpy as np
 
 from dbc.vocab.acc_state import AccState
 from dbc.vocab.dgpt import Dgpt
@@ -213,10 +212,3 @@ class RealtimeRunner:
         self.latest = drive.snapshot()
         if not self._stop.is_set() and self._on_done is not None:
             self._on_done()
-
-
-def jitter_p99_ms(lateness_s: list[float]) -> float:
-    """The 99th percentile of the ticks' lateness against their schedule, ms."""
-    if not lateness_s:
-        return math.nan
-    return float(np.percentile(np.asarray(lateness_s) * 1000.0, 99))

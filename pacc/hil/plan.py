@@ -18,8 +18,6 @@ from sim_bus.errors import SimError
 
 #: the eight ACC conditions of Table I, (controller, scenario)
 CONDITIONS: tuple[tuple[str, str], ...] = tuple((c, s) for s in ("A", "B") for c in CONTROLLERS)
-#: step kinds: consent, drive (practice, manual or ACC), learn, break, done
-KINDS = ("consent", "drive", "learn", "break", "done")
 #: the conditions the page can show a drive in
 WEATHER = ("day", "rain", "night")
 
@@ -46,7 +44,7 @@ class Step:
     """
 
     id: str
-    kind: str
+    kind: str  # consent, drive (practice, manual or ACC), learn, break or done
     label: str
     scenario: str = ""
     controller: str | None = None

@@ -226,6 +226,13 @@ def run_drive(
         can_log_error = rig.finish_recording(log)
     finally:
         rig.close()
+    # the recording's failure, the simulated time (s) Ctrl-C ended a paced drive at, the ECU's
+    # manual trips (with a manual sink: it wrote those it could)
+    extra: dict[str, Any] = {"can_log_error": can_log_error} if can_log_error else {}
+    if interrupted_at is not None:
+        extra["interrupted_at_s"] = interrupted_at
+    if ecu.manual is not None:
+        extra["manual_trips"] = ecu.manual.trips
     return DriveResult(
         config=cfg,
         metrics=log.metrics(),
@@ -244,7 +251,7 @@ def run_drive(
         start_utc=base.iso(0.0),
         road_events=list(world.events_log),
         limit_requests=ecu.limit_requests,
-        extra=_extra(ecu, can_log_error, interrupted_at),
+        extra=extra,
     )
 
 
@@ -328,17 +335,6 @@ def _check_drive(cfg: DriveConfig, bus: str, pace: float | None) -> None:
         raise DriveError(f"seed must be >= 0, got {cfg.seed}")
     if pace is not None and not MIN_PACE <= pace <= MAX_PACE:
         raise DriveError(f"pace must be within {MIN_PACE:g}..{MAX_PACE:g}, got {pace}")
-
-
-def _extra(ecu: EcuNode, can_log_error: str | None, interrupted_at: float | None) -> dict[str, Any]:
-    """:attr:`DriveResult.extra`: the recording's failure, the simulated time (s) Ctrl-C ended
-    a paced drive at, the ECU's manual trips (with a manual sink: it wrote those it could)."""
-    extra: dict[str, Any] = {"can_log_error": can_log_error} if can_log_error else {}
-    if interrupted_at is not None:
-        extra["interrupted_at_s"] = interrupted_at
-    if ecu.manual is not None:
-        extra["manual_trips"] = ecu.manual.trips
-    return extra
 
 
 def _open_bus(interface: str, channel: str) -> can.BusABC:
