@@ -27,6 +27,7 @@ from dbc.vocab.triplog import Trip
 from ecu import EcuError
 from ecu.adaptation import AdaptationParams, Decision
 from ecu.buslog.format import TimeBase
+from ecu.buslog.recording import open_recording
 from ecu.buslog.sinks import Sink
 from ecu.buslog.writer import CanLogWriter
 from ecu.config import EcuConfig
@@ -37,7 +38,6 @@ from pacc.study.drive_recording import (
     MIN_PACE,
     WorldFeed,
     after_tick,
-    drive_recorder,
     finish_recording,
 )
 from sim_bus.drivers import GAP_SETTING_CODE, DriverParams
@@ -292,7 +292,20 @@ class Rig:
             if ecu is not None:
                 self.rt = EcuRuntime(ecu_bus, ecu, codec=self.codec)
                 if can_log is not None or live:
-                    self.recorder = drive_recorder(can_log, cfg, ecu, table, self.codec, base, live)
+                    # the drive's settings in the metadata; one left at None is absent
+                    settings = {
+                        k: str(v) for k, v in dataclasses.asdict(cfg).items() if v is not None
+                    }
+                    self.recorder = open_recording(
+                        can_log,
+                        self.codec,
+                        base,
+                        node="drive",
+                        config=ecu.config,
+                        table=table,
+                        metadata={"drive": settings},
+                        sinks=live,
+                    )
                     self.rt.record_to(self.recorder)
                     self.feed = WorldFeed(self.recorder, world) if live else None
             self.node = SimNode(

@@ -8,57 +8,20 @@ drive. Without one the world is written at the end (:func:`finish_recording`).
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
-from collections.abc import Callable, Sequence
-from pathlib import Path
-from typing import TYPE_CHECKING
+from collections.abc import Callable
 
-from dbc.codec import Codec
 from dbc.vocab import FormatError
-from dbc.vocab.dgpt import Dgpt
 from ecu import EcuError
-from ecu.buslog.format import WORLD_TOPIC, TimeBase
-from ecu.buslog.recording import open_recording
-from ecu.buslog.sinks import Sink
+from ecu.buslog.format import WORLD_TOPIC
 from ecu.buslog.writer import CanLogWriter
-from ecu.node import EcuNode
 from sim_bus.world import WORLD_COLUMNS, World, WorldLog
-
-if TYPE_CHECKING:
-    from _typeshed import DataclassInstance
-
 
 #: the paces a drive may be held to, times real time (1e-3: 1 s of drive per 17 min)
 MIN_PACE, MAX_PACE = 1e-3, 1e6
 #: a paced loop this far behind (s of wall time) starts again from where it is (no burst)
 RESYNC_S = 0.25
-
-
-def drive_recorder(
-    path: Path | None,
-    cfg: DataclassInstance,
-    ecu: EcuNode,
-    table: Dgpt,
-    codec: Codec,
-    base: TimeBase,
-    live: Sequence[Sink] = (),
-) -> CanLogWriter:
-    """The bus recorder of a drive: the ECU's port, simulated time on ``base``; the drive's
-    configuration ``cfg`` (a dataclass) in the recording's metadata."""
-    # a setting left at its default (None) is absent, never the string 'None'
-    settings = {k: str(v) for k, v in dataclasses.asdict(cfg).items() if v is not None}
-    return open_recording(
-        path,
-        codec,
-        base,
-        node="drive",
-        config=ecu.config,
-        table=table,
-        metadata={"drive": settings},
-        sinks=live,
-    )
 
 
 def finish_recording(recorder: CanLogWriter, log: WorldLog, streamed: bool = False) -> str | None:
