@@ -200,28 +200,6 @@ class StudyInterrupted(SimError):
         self.rows = rows
 
 
-def read_done(path: Path, fp: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
-    """Key -> record of an earlier run with fingerprint ``fp`` in ``path``; a missing file is
-    none, another run's is a SimError, a last line cut short by a kill is ignored."""
-    if not path.is_file():
-        return {}
-    lines = path.read_text(encoding="utf-8").splitlines()
-    try:
-        head = json.loads(lines[0]) if lines else {}
-    except ValueError:
-        head = {}
-    if head.get("fingerprint") != json.loads(json.dumps(fp, default=str)):
-        raise SimError(f"{path} holds another study; give another --out or remove the file")
-    done: dict[str, dict[str, Any]] = {}
-    for line in lines[1:]:
-        try:
-            rec = json.loads(line)
-        except ValueError:
-            continue  # a line cut short by a kill: that task runs again
-        done[str(rec["key"])] = rec["record"]
-    return done
-
-
 def run_resumable(
     tasks: Sequence[T],
     fn: Callable[[T], dict[str, Any]],
@@ -236,8 +214,22 @@ def run_resumable(
     finishes); every record in task order. Ctrl-C: :class:`StudyInterrupted`."""
     if len(set(keys)) != len(keys):
         raise SimError("two tasks of the plan share a key")
-    done = read_done(path, fp)
-    if not path.is_file():
+    done: dict[str, dict[str, Any]] = {}
+    if path.is_file():  # an earlier run: its fingerprint must be ``fp``
+        lines = path.read_text(encoding="utf-8").splitlines()
+        try:
+            head = json.loads(lines[0]) if lines else {}
+        except ValueError:
+            head = {}
+        if head.get("fingerprint") != json.loads(json.dumps(fp, default=str)):
+            raise SimError(f"{path} holds another study; give another --out or remove the file")
+        for line in lines[1:]:
+            try:
+                rec = json.loads(line)
+            except ValueError:
+                continue  # a line cut short by a kill: that task runs again
+            done[str(rec["key"])] = rec["record"]
+    else:
         path.write_text(json.dumps({"fingerprint": fp}, default=str) + "\n", encoding="utf-8")
     todo = [i for i, k in enumerate(keys) if k not in done]
     try:
