@@ -107,11 +107,6 @@ class Session:
         save_json(self.folder / MANIFEST, self.manifest)
         self.seq += 1
 
-    def _at(self) -> str:
-        step = self.current()
-        t = self.drive.world.t_s if self.drive is not None else None
-        return f"{step.id if step else '-'}@{t:.2f}s" if t is not None else "-"
-
     def current(self) -> Step | None:
         """The first step not finished (None: the session is complete)."""
         done = self.manifest["done"]
@@ -144,7 +139,9 @@ class Session:
             self.runner.paused = True
         self.phase = "paused"
         self._pauses.append({"t_s": round(self.drive.world.t_s, 3), "why": why})
-        self.manifest["events"].append({"event": why, "at": self._at()})
+        step = self.current()
+        at = f"{step.id if step else '-'}@{self.drive.world.t_s:.2f}s"
+        self.manifest["events"].append({"event": why, "at": at})
         self._save()
 
     def handle(self, msg: dict[str, Any]) -> dict[str, Any] | None:

@@ -98,7 +98,8 @@ def leaderboard(
                     seeds[_seed_of(d)].append(v)
             line[f"{short}_by_seed"] = {s: float(np.mean(v)) for s, v in sorted(seeds.items())}
         ttc = [float(r["min_ttc_s"]) for r in mine]
-        lowest = list(per_driver_min(mine).values())
+        drivers = dict.fromkeys(r["driver"] for r in mine)
+        lowest = [min(float(r["min_ttc_s"]) for r in mine if r["driver"] == d) for d in drivers]
         line["min_ttc"] = min(ttc) if ttc else math.nan
         line["min_ttc_median"] = float(np.median(lowest)) if lowest else math.nan
         line["collisions"] = sum(int(r["collision"]) for r in mine)
@@ -114,14 +115,6 @@ def leaderboard(
         for (i, t), p in zip(live, holm([t["p"] for _, t in live]), strict=True):
             board[i][f"{short}_vs_paper"] = {**t, "p_holm": p}
     return board
-
-
-def per_driver_min(rows: Sequence[Mapping[str, Any]]) -> dict[str, float]:
-    """driver -> the lowest min TTC of its drives (s)."""
-    out: dict[str, float] = {}
-    for r in rows:
-        out[r["driver"]] = min(out.get(r["driver"], math.inf), float(r["min_ttc_s"]))
-    return out
 
 
 def _paired(
