@@ -105,23 +105,24 @@ class TableTask:
 
     driver: DriverParams
     seed: int
-    table: str  # "predefined" or a learner spec
-    learner_args: tuple[tuple[str, Any], ...] = ()
+    method: Method  # its table source and learner arguments
     cache_dir: str | None = None
 
 
 def learn_table(task: TableTask) -> Dgpt | str:
     """The driver's table (on a worker), or why its learner could not learn one. ``irl``
     without arguments is the cached IRL table of :func:`~pacc.study.irl_table.irl_table`."""
-    if task.table == "predefined":
+    table, args = task.method.table, task.method.learner_args
+    if table == "predefined":
         return predefined_table(task.driver)
-    if task.table == "irl" and not task.learner_args:
+    if table == "irl" and not args:
         cache = Path(task.cache_dir) if task.cache_dir is not None else None
         return irl_table(task.driver, task.seed, cache)
     trips = manual_trips(task.driver, task.seed)
     try:
-        return learn(task.table, trips, driver_id=task.driver.driver_id, seed=task.seed,
-                     params=dict(task.learner_args))  # fmt: skip
+        return learn(
+            table, trips, driver_id=task.driver.driver_id, seed=task.seed, params=dict(args)
+        )
     except (FormatError, CloudSyncError, ValueError) as exc:  # data a learner cannot use
         return str(exc)
 
@@ -143,8 +144,7 @@ def make_tables(
         tables.update({k: learned[k[0]] for k in cloud_irl})
     todo = [k for k in wanted if k not in tables]
     cache = str(cache_dir) if cache_dir is not None else None
-    tasks = [TableTask(drivers[d], spec.seed, wanted[(d, key)].table,
-                       wanted[(d, key)].learner_args, cache) for d, key in todo]  # fmt: skip
+    tasks = [TableTask(drivers[d], spec.seed, wanted[(d, key)], cache) for d, key in todo]
     for index, table in map_unordered(executor, learn_table, tasks):
         tables[todo[index]] = table
     return tables
