@@ -15,12 +15,10 @@ import math
 import threading
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import can
-import numpy as np
 
 from dbc.vocab.acc_state import AccState
 from dbc.vocab.dgpt import Dgpt
@@ -36,23 +34,6 @@ from sim_bus.trip import world_trip
 from sim_bus.world import World, WorldConfig, WorldLog
 
 _channels = itertools.count()
-
-
-@dataclass
-class DriveOutcome:
-    """What a finished (or abandoned) drive left: its log, figures and ECU counters."""
-
-    log: WorldLog
-    collision: bool
-    collision_t_s: float | None
-    takeovers: int
-    adaptations: int
-    final_table: Dgpt | None
-    sim_s: float
-    wall_s: float
-    start_utc: str
-    segments: list[Trip] = field(default_factory=list)
-    extra: dict[str, Any] = field(default_factory=dict)
 
 
 class HilDrive(Rig):
@@ -86,6 +67,7 @@ class HilDrive(Rig):
             participant, profile, cfg.seed, WorldConfig(engage_s=cfg.engage_s), pedals=self.pedals
         )
         self.segments: list[Trip] = []
+        self.extra: dict[str, Any] = {}  # what finish() adds to the drive's record
         ecu = None
         if bus is None:
             ecu = ecu_node(cfg, participant, table, profile, self.segments.append)
@@ -138,15 +120,6 @@ class HilDrive(Rig):
         first, last = self._wall
         return 0.0 if math.isnan(first) else last - first
 
-    def run_lockstep(
-        self, policy: Callable[[HilDrive], None] | None = None, every: int = 10
-    ) -> None:
-        """Step to the end; ``policy(self)`` (a scripted participant) every ``every`` ticks."""
-        while not self.done:
-            if policy is not None and self.node.tick % every == 0:
-                policy(self)
-            self.step()
-
     def snapshot(self) -> dict[str, Any]:
         """What the page shows (never the controller: the drives are blind)."""
         w = self.world
@@ -161,7 +134,7 @@ class HilDrive(Rig):
             "v_lead": w.v_lead_mps,
             "a_lead": w.a_lead_mps2,
             "acc_state": AccState(self.node.acc_state).name,
-            "set_speed": float(set_speed) if _finite(set_speed) else 0.0,
+            "set_speed": float(set_speed) if math.isfinite(set_speed) else 0.0,
             "gap_setting": self.pedals.gap_setting,
             "main": self.pedals.main_on,
             "accel": self.pedals.accel,
@@ -173,34 +146,20 @@ class HilDrive(Rig):
             "events": [[round(t, 2), kind] for t, kind, _ in w.events_log],
         }
 
-    def finish(self) -> DriveOutcome:
-        """Close the buses and the recording; the drive's outcome (call once)."""
+    def finish(self) -> WorldLog:
+        """Close the ECU, the buses and the recording (its failure in :attr:`extra`); the
+        drive's log (call once). The figures stay on the world and the ECU."""
         log = self.world.log()
-        extra: dict[str, Any] = {}
         if self.ecu is not None:
             self.ecu.finish()
         err = self.finish_recording(log)
-        if err:
-            extra["can_log_error"] = err
+        self.extra = {"can_log_error": err} if err else {}
         self.close()
-        car = self.world.plant
-        return DriveOutcome(
-            log=log,
-            collision=car.collided,
-            collision_t_s=car.collision_t_s,
-            takeovers=self.ecu.takeovers if self.ecu else 0,
-            adaptations=self.ecu.adaptations if self.ecu else 0,
-            final_table=self.ecu.table if self.ecu else None,
-            sim_s=self.world.t_s,
-            wall_s=self.wall_s,
-            start_utc=self.base.iso(0.0),
-            segments=list(self.segments),
-            extra=extra,
-        )
+        return log
 
-    def trip(self, outcome: DriveOutcome, meta: dict[str, Any]) -> Trip:
+    def trip(self, log: WorldLog, meta: dict[str, Any]) -> Trip:
         """The drive as a trip log (10 Hz); a manual drive's ``mode`` is ``manual``."""
-        trip = world_trip(outcome.log, self.participant, PedalScale.from_codec(self.codec), meta)
+        trip = world_trip(log, self.participant, PedalScale.from_codec(self.codec), meta)
         if not self.acc:
             trip = dataclasses.replace(trip, meta={**trip.meta, "mode": "manual"})
         return trip
@@ -253,14 +212,3 @@ class RealtimeRunner:
         self.latest = drive.snapshot()
         if not self._stop.is_set() and self._on_done is not None:
             self._on_done()
-
-
-def _finite(x: Any) -> bool:
-    return isinstance(x, int | float) and math.isfinite(x)
-
-
-def jitter_p99_ms(lateness_s: list[float]) -> float:
-    """The 99th percentile of the ticks' lateness against their schedule, ms."""
-    if not lateness_s:
-        return math.nan
-    return float(np.percentile(np.asarray(lateness_s) * 1000.0, 99))

@@ -18,8 +18,6 @@ from sim_bus.errors import SimError
 
 #: the eight ACC conditions of Table I, (controller, scenario)
 CONDITIONS: tuple[tuple[str, str], ...] = tuple((c, s) for s in ("A", "B") for c in CONTROLLERS)
-#: step kinds: consent, drive (practice, manual or ACC), learn, break, done
-KINDS = ("consent", "drive", "learn", "break", "done")
 #: the conditions the page can show a drive in
 WEATHER = ("day", "rain", "night")
 
@@ -46,7 +44,7 @@ class Step:
     """
 
     id: str
-    kind: str
+    kind: str  # consent, drive (practice, manual or ACC), learn, break or done
     label: str
     scenario: str = ""
     controller: str | None = None
@@ -60,15 +58,7 @@ def balanced_latin_square(n: int, row: int) -> list[int]:
     every position and directly follows every other condition equally often."""
     if n < 1:
         raise ValueError(f"a Latin square has order >= 1, got {n}")
-    first = [0]
-    lo, hi = 1, n - 1
-    for k in range(1, n):
-        if k % 2 == 1:
-            first.append(lo)
-            lo += 1
-        else:
-            first.append(hi)
-            hi -= 1
+    first = [0] + [(k + 1) // 2 if k % 2 else n - k // 2 for k in range(1, n)]
     rows = n if n % 2 == 0 else 2 * n
     r = row % rows
     seq = [(c + r) % n for c in first]

@@ -17,10 +17,11 @@ from typing import Any
 from dbc.vocab.dgpt import utc_now_iso
 from dbc.vocab.dgpt_file import save_dgpt
 from dbc.vocab.triplog_file import write_trip
-from pacc.hil.loop import DriveOutcome, HilDrive
+from pacc.hil.loop import HilDrive
 from pacc.hil.plan import Step
 from pacc.study.report import METRIC_FIELDS
 from sim_bus.errors import SimError
+from sim_bus.world import WorldLog
 
 RATINGS_HEAD = ("participant", "step", "scenario", "controller", "comfort", "trust")
 
@@ -29,26 +30,26 @@ def write_drive(
     folder: Path,
     step: Step,
     drive: HilDrive,
-    outcome: DriveOutcome,
+    log: WorldLog,
     *,
     seed: int,
     pauses: list[dict[str, Any]],
 ) -> dict[str, Any]:
-    """Write the drive's trip log, record and final table; the record."""
-    participant = drive.participant.driver_id
+    """Write the finished drive's trip log, record and final table; the record."""
+    participant, car, ecu = drive.participant.driver_id, drive.world.plant, drive.ecu
     controller = step.controller or "manual"
     meta = {
         "scenario": step.scenario,
         "seed": seed,
         "controller": controller,
-        "collision": outcome.collision,
+        "collision": car.collided,
         "source": "pacc.hil",
-        "start_utc": outcome.start_utc,
+        "start_utc": drive.base.iso(0.0),
         "step": step.id,
         "pauses": pauses,
     }
-    write_trip(folder / "logs" / f"{step.id}.mcap", drive.trip(outcome, meta))
-    m = outcome.log.metrics()
+    write_trip(folder / "logs" / f"{step.id}.mcap", drive.trip(log, meta))
+    m = log.metrics()
     row = {
         "driver": participant,
         "scenario": step.scenario,
@@ -56,11 +57,11 @@ def write_drive(
         "trial": 1,
         "seed": seed,
         **{k: getattr(m, k) for k in METRIC_FIELDS},
-        "takeovers": outcome.takeovers,
-        "adaptations": outcome.adaptations,
-        "collision": int(outcome.collision),
-        "sim_s": round(outcome.sim_s, 3),
-        "wall_s": round(outcome.wall_s, 3),
+        "takeovers": ecu.takeovers if ecu else 0,
+        "adaptations": ecu.adaptations if ecu else 0,
+        "collision": int(car.collided),
+        "sim_s": round(drive.world.t_s, 3),
+        "wall_s": round(drive.wall_s, 3),
     }
     record: dict[str, Any] = {
         "step": step.id,
@@ -69,14 +70,14 @@ def write_drive(
         "brake_mode": drive.cfg.brake_mode,
         "row": row,
         "pauses": pauses,
-        "collision_t_s": outcome.collision_t_s,
+        "collision_t_s": car.collision_t_s,
         "table_version": drive.table.version if step.controller is not None else None,
         "final_table_version": None,
-        **outcome.extra,
+        **drive.extra,
     }
-    if outcome.final_table is not None and step.controller is not None:
-        save_dgpt(outcome.final_table, folder / "tables" / f"{step.id}-final.json")
-        record["final_table_version"] = outcome.final_table.version
+    if ecu is not None and step.controller is not None:
+        save_dgpt(ecu.table, folder / "tables" / f"{step.id}-final.json")
+        record["final_table_version"] = ecu.table.version
     save_json(folder / "drives" / f"{step.id}.json", record)
     return record
 

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -25,7 +24,9 @@ from pacc.study.report import (
     PAPER_AVERAGES,
     format_incremental,
     format_table,
+    md_table,
     plot,
+    poi_nim,
     read_drives,
     write_csv,
 )
@@ -37,9 +38,9 @@ from sim_bus.errors import SimError
 REPORT_SEED = 0
 
 
-def _records(sessions: Path, pattern: str, fields: Sequence[str]) -> list[dict[str, Any]]:
+def _records(sessions: Path, pattern: str) -> list[dict[str, Any]]:
     """The drive records ``drives/<pattern>`` of every session (participant, then trip order):
-    their row's ``fields``, the table version and trip; SimError naming one not readable."""
+    their row (Table I's columns), table version and trip; SimError naming one not readable."""
     out = []
     for folder in sorted(p for p in sessions.iterdir() if (p / "manifest.json").is_file()):
         for path in sorted((folder / "drives").glob(pattern), key=lambda p: (trip_of(p.stem), p)):
@@ -47,7 +48,7 @@ def _records(sessions: Path, pattern: str, fields: Sequence[str]) -> list[dict[s
                 rec = json.loads(path.read_text(encoding="utf-8"))
                 out.append(
                     {
-                        **{k: rec["row"][k] for k in fields},
+                        **{k: rec["row"][k] for k in FIELDS},
                         "trip": trip_of(path.stem),
                         "dgpt_version": rec["table_version"],
                         "uploaded": rec.get("incremental", {}).get("uploaded", 0),
@@ -56,17 +57,6 @@ def _records(sessions: Path, pattern: str, fields: Sequence[str]) -> list[dict[s
             except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
                 raise SimError(f"{path}: not a drive record ({exc})") from exc
     return out
-
-
-def session_rows(sessions: Path) -> list[dict[str, Any]]:
-    """Every finished ACC drive of every session under ``sessions`` (Table I's columns)."""
-    return [{k: r[k] for k in FIELDS} for r in _records(sessions, "acc*.json", FIELDS)]
-
-
-def incremental_rows(sessions: Path) -> list[dict[str, Any]]:
-    """The incremental drives as rows of the synthetic study's incremental report."""
-    fields = ("driver", "poi_pct", "nim_per_min", "takeovers", "min_ttc_s", "collision")
-    return _records(sessions, "inc*.json", fields)
 
 
 def complete(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -105,22 +95,20 @@ def paired_tests(rows: list[dict[str, Any]]) -> list[str]:
 def side_by_side(people: list[dict[str, Any]], synthetic: list[dict[str, Any]]) -> str:
     """Markdown: the averages per controller, people beside synthetic drivers and the paper."""
     ours, syn = averages(cell_means(people)), averages(cell_means(synthetic))
+    body = [
+        f"{CONTROLLER_TITLES[c]} | " + poi_nim([ours[c], syn[c], PAPER_AVERAGES[c]])
+        for c in CONTROLLERS
+        if c in ours and c in syn
+    ]
+    head = "controller | people PoI | NIM | synthetic PoI | NIM | paper PoI | NIM"
     lines = [
         "## People beside synthetic drivers (averages over drivers and scenarios)",
         "",
-        "| controller | people PoI | NIM | synthetic PoI | NIM | paper PoI | NIM |",
-        "|---|---:|---:|---:|---:|---:|---:|",
+        *md_table(head, body, right=6),
+        "",
+        f"{len({r['driver'] for r in people})} people, "
+        f"{len({r['driver'] for r in synthetic})} synthetic drivers.",
     ]
-    for c in CONTROLLERS:
-        if c in ours and c in syn:
-            (p, n), (sp, sn), (pp, pn) = ours[c], syn[c], PAPER_AVERAGES[c]
-            lines.append(
-                f"| {CONTROLLER_TITLES[c]} | {p:.1f} % | {n:.1f} | {sp:.1f} % | {sn:.1f} "
-                f"| {pp:.1f} % | {pn:.1f} |"
-            )
-    people_n = len({r["driver"] for r in people})
-    syn_n = len({r["driver"] for r in synthetic})
-    lines += ["", f"{people_n} people, {syn_n} synthetic drivers."]
     return "\n".join(lines) + "\n"
 
 
@@ -130,7 +118,7 @@ def build_table(sessions: Path, out: Path, synthetic: Path | None = None) -> str
     SimError when no participant finished every cell."""
     if not sessions.is_dir():
         raise SimError(f"{sessions}: not a folder of hil sessions")
-    rows = complete(session_rows(sessions))
+    rows = complete(_records(sessions, "acc*.json"))
     if not rows:
         raise SimError(f"{sessions}: no participant has finished all eight ACC drives")
     drivers = tuple(dict.fromkeys(str(r["driver"]) for r in rows))
@@ -145,7 +133,7 @@ def build_table(sessions: Path, out: Path, synthetic: Path | None = None) -> str
     (out / "table1.md").write_text(text, encoding="utf-8")
     write_csv(out / "drives.csv", rows)
     plot(out / "table1.png", rows, who="people, pacc hil")
-    inc = incremental_rows(sessions)
+    inc = _records(sessions, "inc*.json")
     if inc:
         text += "\n" + format_incremental(inc)
         (out / "table1.md").write_text(text, encoding="utf-8")

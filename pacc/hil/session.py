@@ -107,11 +107,6 @@ class Session:
         save_json(self.folder / MANIFEST, self.manifest)
         self.seq += 1
 
-    def _at(self) -> str:
-        step = self.current()
-        t = self.drive.world.t_s if self.drive is not None else None
-        return f"{step.id if step else '-'}@{t:.2f}s" if t is not None else "-"
-
     def current(self) -> Step | None:
         """The first step not finished (None: the session is complete)."""
         done = self.manifest["done"]
@@ -144,7 +139,9 @@ class Session:
             self.runner.paused = True
         self.phase = "paused"
         self._pauses.append({"t_s": round(self.drive.world.t_s, 3), "why": why})
-        self.manifest["events"].append({"event": why, "at": self._at()})
+        step = self.current()
+        at = f"{step.id if step else '-'}@{self.drive.world.t_s:.2f}s"
+        self.manifest["events"].append({"event": why, "at": at})
         self._save()
 
     def handle(self, msg: dict[str, Any]) -> dict[str, Any] | None:
@@ -285,19 +282,17 @@ class Session:
         step = self.current()
         drive = self.drive
         assert step is not None and drive is not None
-        outcome = drive.finish()
+        log, car = drive.finish(), drive.world.plant
         self.message = (
-            f"The drive ended in a collision at {outcome.collision_t_s:.1f} s."
-            if outcome.collision and outcome.collision_t_s is not None
+            f"The drive ended in a collision at {car.collision_t_s:.1f} s."
+            if car.collided and car.collision_t_s is not None
             else ""
         )
-        record = write_drive(
-            self.folder, step, drive, outcome, seed=self.cfg.seed, pauses=self._pauses
-        )
+        record = write_drive(self.folder, step, drive, log, seed=self.cfg.seed, pauses=self._pauses)
         self.seq += 1
-        if step.id.startswith("inc") and outcome.final_table is not None:
+        if step.id.startswith("inc") and drive.ecu is not None:
             self.phase = "syncing"  # the takeovers go up, the fine-tuned table comes down
-            args = (step, record, outcome.segments, drive.table)
+            args = (step, record, list(drive.segments), drive.table)
             threading.Thread(target=self._sync, args=args, daemon=True).start()
         else:
             self.phase = "after"
@@ -312,16 +307,16 @@ class Session:
 
     def _cloud(self) -> StudyCloud:
         cfg = self.cfg
-        if self._cloud_link is not None:
-            return self._cloud_link
-        if cfg.cloud is None:
-            self._cloud_link = StudyCloud.embedded(
-                self.folder, [cfg.participant], cfg.seed, keep=True
+        if self._cloud_link is None:
+            self._cloud_link = StudyCloud.open(
+                self.folder,
+                [cfg.participant],
+                cfg.seed,
+                cfg.cloud,
+                cfg.token_file,
+                cfg.trust,
+                keep=True,
             )
-        elif cfg.token_file is None or cfg.trust is None:
-            raise SimError("--cloud needs --token-file and --trust")
-        else:
-            self._cloud_link = StudyCloud.remote(cfg.cloud, cfg.token_file, cfg.trust, self.folder)
         return self._cloud_link
 
     def _learn(self, step: Step) -> None:

@@ -27,6 +27,7 @@ from dbc.vocab.triplog import Trip
 from ecu import EcuError
 from ecu.adaptation import AdaptationParams, Decision
 from ecu.buslog.format import TimeBase
+from ecu.buslog.recording import open_recording
 from ecu.buslog.sinks import Sink
 from ecu.buslog.writer import CanLogWriter
 from ecu.config import EcuConfig
@@ -37,7 +38,6 @@ from pacc.study.drive_recording import (
     MIN_PACE,
     WorldFeed,
     after_tick,
-    drive_recorder,
     finish_recording,
 )
 from sim_bus.drivers import GAP_SETTING_CODE, DriverParams
@@ -226,6 +226,13 @@ def run_drive(
         can_log_error = rig.finish_recording(log)
     finally:
         rig.close()
+    # the recording's failure, the simulated time (s) Ctrl-C ended a paced drive at, the ECU's
+    # manual trips (with a manual sink: it wrote those it could)
+    extra: dict[str, Any] = {"can_log_error": can_log_error} if can_log_error else {}
+    if interrupted_at is not None:
+        extra["interrupted_at_s"] = interrupted_at
+    if ecu.manual is not None:
+        extra["manual_trips"] = ecu.manual.trips
     return DriveResult(
         config=cfg,
         metrics=log.metrics(),
@@ -244,7 +251,7 @@ def run_drive(
         start_utc=base.iso(0.0),
         road_events=list(world.events_log),
         limit_requests=ecu.limit_requests,
-        extra=_extra(ecu, can_log_error, interrupted_at),
+        extra=extra,
     )
 
 
@@ -285,7 +292,20 @@ class Rig:
             if ecu is not None:
                 self.rt = EcuRuntime(ecu_bus, ecu, codec=self.codec)
                 if can_log is not None or live:
-                    self.recorder = drive_recorder(can_log, cfg, ecu, table, self.codec, base, live)
+                    # the drive's settings in the metadata; one left at None is absent
+                    settings = {
+                        k: str(v) for k, v in dataclasses.asdict(cfg).items() if v is not None
+                    }
+                    self.recorder = open_recording(
+                        can_log,
+                        self.codec,
+                        base,
+                        node="drive",
+                        config=ecu.config,
+                        table=table,
+                        metadata={"drive": settings},
+                        sinks=live,
+                    )
                     self.rt.record_to(self.recorder)
                     self.feed = WorldFeed(self.recorder, world) if live else None
             self.node = SimNode(
@@ -328,17 +348,6 @@ def _check_drive(cfg: DriveConfig, bus: str, pace: float | None) -> None:
         raise DriveError(f"seed must be >= 0, got {cfg.seed}")
     if pace is not None and not MIN_PACE <= pace <= MAX_PACE:
         raise DriveError(f"pace must be within {MIN_PACE:g}..{MAX_PACE:g}, got {pace}")
-
-
-def _extra(ecu: EcuNode, can_log_error: str | None, interrupted_at: float | None) -> dict[str, Any]:
-    """:attr:`DriveResult.extra`: the recording's failure, the simulated time (s) Ctrl-C ended
-    a paced drive at, the ECU's manual trips (with a manual sink: it wrote those it could)."""
-    extra: dict[str, Any] = {"can_log_error": can_log_error} if can_log_error else {}
-    if interrupted_at is not None:
-        extra["interrupted_at_s"] = interrupted_at
-    if ecu.manual is not None:
-        extra["manual_trips"] = ecu.manual.trips
-    return extra
 
 
 def _open_bus(interface: str, channel: str) -> can.BusABC:

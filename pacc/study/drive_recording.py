@@ -3,63 +3,25 @@ streamed as it runs or added at the end, the lockstep loop held to the wall cloc
 
 For a live view (``--foxglove``) :class:`WorldFeed` samples the world into the recorder as the
 drive runs and :class:`Pacer` holds the loop to ``pace`` times real time; neither changes the
-drive. Without one the world is written at the end (:func:`record_world`).
+drive. Without one the world is written at the end (:func:`finish_recording`).
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
-from collections.abc import Callable, Sequence
-from pathlib import Path
-from typing import TYPE_CHECKING
+from collections.abc import Callable
 
-from dbc.codec import Codec
 from dbc.vocab import FormatError
-from dbc.vocab.dgpt import Dgpt
 from ecu import EcuError
-from ecu.buslog.format import WORLD_TOPIC, TimeBase
-from ecu.buslog.recording import open_recording
-from ecu.buslog.sinks import Sink
+from ecu.buslog.format import WORLD_TOPIC
 from ecu.buslog.writer import CanLogWriter
-from ecu.node import EcuNode
 from sim_bus.world import WORLD_COLUMNS, World, WorldLog
 
-if TYPE_CHECKING:
-    from _typeshed import DataclassInstance
-
-
-#: the description of the ``/sim/world`` channel
 #: the paces a drive may be held to, times real time (1e-3: 1 s of drive per 17 min)
 MIN_PACE, MAX_PACE = 1e-3, 1e6
 #: a paced loop this far behind (s of wall time) starts again from where it is (no burst)
 RESYNC_S = 0.25
-
-
-def drive_recorder(
-    path: Path | None,
-    cfg: DataclassInstance,
-    ecu: EcuNode,
-    table: Dgpt,
-    codec: Codec,
-    base: TimeBase,
-    live: Sequence[Sink] = (),
-) -> CanLogWriter:
-    """The bus recorder of a drive: the ECU's port, simulated time on ``base``; the drive's
-    configuration ``cfg`` (a dataclass) in the recording's metadata."""
-    # a setting left at its default (None) is absent, never the string 'None'
-    settings = {k: str(v) for k, v in dataclasses.asdict(cfg).items() if v is not None}
-    return open_recording(
-        path,
-        codec,
-        base,
-        node="drive",
-        config=ecu.config,
-        table=table,
-        metadata={"drive": settings},
-        sinks=live,
-    )
 
 
 def finish_recording(recorder: CanLogWriter, log: WorldLog, streamed: bool = False) -> str | None:
@@ -67,25 +29,19 @@ def finish_recording(recorder: CanLogWriter, log: WorldLog, streamed: bool = Fal
     it; the failure's text (None: written). A failed recording does not cost the drive's
     results."""
     try:
-        if not streamed:
-            record_world(recorder, log)
+        if not streamed:  # the world of the finished drive, at once
+            columns = {name: getattr(log, name) for name in WORLD_COLUMNS}
+            recorder.series(WORLD_TOPIC, WORLD_COLUMNS)
+            recorder.write_series(WORLD_TOPIC, columns, log.t_s)
         recorder.close()
     except (EcuError, FormatError, OSError) as exc:
         return str(exc)
     return None
 
 
-def record_world(recorder: CanLogWriter, log: WorldLog) -> None:
-    """The simulated world of a finished drive (:class:`WorldLog`) on ``/sim/world``, at once."""
-    columns = {name: getattr(log, name) for name in WORLD_COLUMNS}
-    recorder.series(WORLD_TOPIC, WORLD_COLUMNS)
-    recorder.write_series(WORLD_TOPIC, columns, log.t_s)
-
-
 class WorldFeed:
     """``/sim/world`` sampled into ``recorder`` while ``world`` runs (one row per driver step,
-    20 Hz): call it after each tick. A drive fed so must not also call :func:`record_world`.
-    """
+    20 Hz): call it after each tick."""
 
     def __init__(self, recorder: CanLogWriter, world: World) -> None:
         self.recorder = recorder

@@ -24,12 +24,6 @@ from sim_bus.manual import manual_trip
 MANUAL_PROFILES = ("manual1", "manual2", "manual3", "manual4")
 
 
-def default_cache_dir() -> Path:
-    """``$XDG_CACHE_HOME/pacc`` or ``~/.cache/pacc``."""
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "pacc"
-
-
 def code_digest(packages: tuple[str, ...] = ("cloud_sync", "sim_bus", "ecu")) -> str:
     """SHA-256 over the Python sources of ``packages`` (sorted by path): the code version."""
     digest = hashlib.sha256()
@@ -69,7 +63,7 @@ def manual_trips(driver: DriverParams, seed: int) -> list[Trip]:
 def irl_table(driver: DriverParams, seed: int, cache_dir: Path | None = None) -> Dgpt:
     """Learn (or read from the cache) the driver's IRL table from its manual trips."""
     key = cache_key(driver, seed, code_digest())
-    folder = cache_dir or default_cache_dir()
+    folder = cache_dir or Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "pacc"
     path = folder / f"irl-{driver.driver_id}-{key}.json"
     if path.is_file():
         try:

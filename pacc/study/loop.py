@@ -88,11 +88,24 @@ class StudyCloud:
         return cls._linked(LocalCloud(service, token), service.public_key_pem(), out)
 
     @classmethod
-    def remote(cls, target: str, token_file: Path, trust: Path, out: Path) -> StudyCloud:
-        """A running cloud (URL) or another folder; the drivers must be registered there
-        to the vehicle of ``token_file`` (``pacc cloud register``)."""
+    def open(
+        cls,
+        out: Path,
+        drivers: Iterable[str],
+        seed: int,
+        cloud: str | None,
+        token_file: str | Path | None,
+        trust: str | Path | None,
+        **embedded: Any,
+    ) -> StudyCloud:
+        """The running cloud (URL) or folder ``cloud``, where the drivers are registered to the
+        vehicle of ``token_file`` (``pacc cloud register``); None: :meth:`embedded`."""
+        if cloud is None:
+            return cls.embedded(out, drivers, seed, **embedded)
+        if token_file is None or trust is None:
+            raise SimError("--cloud needs --token-file and --trust")
         try:
-            return cls._linked(connect(target, read_token(token_file)), trust, out)
+            return cls._linked(connect(cloud, read_token(Path(token_file))), Path(trust), out)
         except CloudSyncError as exc:
             raise SimError(f"study cloud: {exc}") from exc
 
@@ -250,6 +263,3 @@ def run_incremental(
             if newer is not None and newer.version > table.version:
                 table = newer
     return rows
-
-
-__all__ = ["STUDY_VEHICLE", "TOKEN_FILE", "StudyCloud", "cloud_irl_tables", "run_incremental"]

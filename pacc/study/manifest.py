@@ -32,51 +32,19 @@ def git_commit(root: Path | None = None) -> dict[str, Any] | None:
     if not (where / ".git").exists():
         return None
     try:
-        sha = subprocess.run(
-            ["git", "-C", str(where), "rev-parse", "HEAD"],
-            capture_output=True,
-            text=True,
-            check=True,
-            timeout=10,
-        ).stdout.strip()
-        status = subprocess.run(
-            ["git", "-C", str(where), "status", "--porcelain", "--untracked-files=no"],
-            capture_output=True,
-            text=True,
-            check=True,
-            timeout=10,
-        ).stdout
+        sha, status = (
+            subprocess.run(
+                ["git", "-C", str(where), *args],
+                capture_output=True,
+                text=True,
+                check=True,
+                timeout=10,
+            ).stdout
+            for args in (["rev-parse", "HEAD"], ["status", "--porcelain", "--untracked-files=no"])
+        )
     except (OSError, subprocess.SubprocessError):
         return None
-    return {"commit": sha, "dirty": bool(status.strip())}
-
-
-def pacc_version() -> str:
-    """The installed pacc's version ("unknown" when not installed)."""
-    try:
-        return version("pacc")
-    except PackageNotFoundError:
-        return "unknown"
-
-
-def platform_info() -> dict[str, str]:
-    """Python, OS, machine and numpy of this run."""
-    return {
-        "python": sys.version.split()[0],
-        "system": f"{platform.system()} {platform.release()}",
-        "machine": platform.machine(),
-        "numpy": np.__version__,
-    }
-
-
-def seeds_of(config: Mapping[str, Any]) -> dict[str, Any]:
-    """Every seed a resolved config uses."""
-    seed, trials = int(config["seed"]), int(config["trials"])
-    return {
-        "study": seed,
-        "trials": [seed + k for k in range(trials)],
-        "populations": [p["seed"] for p in config["drivers"]["population"]],
-    }
+    return {"commit": sha.strip(), "dirty": bool(status.strip())}
 
 
 #: method field -> (plug-in group, built-ins, the values that name no plug-in)
@@ -121,13 +89,27 @@ def write_manifest(
     extra: Mapping[str, Any] | None = None,
 ) -> Path:
     """Write ``out/manifest.json`` for ``config`` (plus ``extra`` keys); its path."""
+    try:
+        pacc_version = version("pacc")
+    except PackageNotFoundError:
+        pacc_version = "unknown"
+    seed = int(config["seed"])
     doc = {
-        "pacc_version": pacc_version(),
+        "pacc_version": pacc_version,
         "git": git_commit(),
         "created_utc": utc_now_iso(),
         "command": sys.argv,
-        "platform": platform_info(),
-        "seeds": seeds_of(config),
+        "platform": {
+            "python": sys.version.split()[0],
+            "system": f"{platform.system()} {platform.release()}",
+            "machine": platform.machine(),
+            "numpy": np.__version__,
+        },
+        "seeds": {
+            "study": seed,
+            "trials": [seed + k for k in range(int(config["trials"]))],
+            "populations": [p["seed"] for p in config["drivers"]["population"]],
+        },
         "config": dict(config),
         "plugins": plugin_origins(config.get("methods", [])),
         **(dict(extra) if extra else {}),

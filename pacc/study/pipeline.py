@@ -105,23 +105,24 @@ class TableTask:
 
     driver: DriverParams
     seed: int
-    table: str  # "predefined" or a learner spec
-    learner_args: tuple[tuple[str, Any], ...] = ()
+    method: Method  # its table source and learner arguments
     cache_dir: str | None = None
 
 
 def learn_table(task: TableTask) -> Dgpt | str:
     """The driver's table (on a worker), or why its learner could not learn one. ``irl``
     without arguments is the cached IRL table of :func:`~pacc.study.irl_table.irl_table`."""
-    if task.table == "predefined":
+    table, args = task.method.table, task.method.learner_args
+    if table == "predefined":
         return predefined_table(task.driver)
-    if task.table == "irl" and not task.learner_args:
+    if table == "irl" and not args:
         cache = Path(task.cache_dir) if task.cache_dir is not None else None
         return irl_table(task.driver, task.seed, cache)
     trips = manual_trips(task.driver, task.seed)
     try:
-        return learn(task.table, trips, driver_id=task.driver.driver_id, seed=task.seed,
-                     params=dict(task.learner_args))  # fmt: skip
+        return learn(
+            table, trips, driver_id=task.driver.driver_id, seed=task.seed, params=dict(args)
+        )
     except (FormatError, CloudSyncError, ValueError) as exc:  # data a learner cannot use
         return str(exc)
 
@@ -143,8 +144,7 @@ def make_tables(
         tables.update({k: learned[k[0]] for k in cloud_irl})
     todo = [k for k in wanted if k not in tables]
     cache = str(cache_dir) if cache_dir is not None else None
-    tasks = [TableTask(drivers[d], spec.seed, wanted[(d, key)].table,
-                       wanted[(d, key)].learner_args, cache) for d, key in todo]  # fmt: skip
+    tasks = [TableTask(drivers[d], spec.seed, wanted[(d, key)], cache) for d, key in todo]
     for index, table in map_unordered(executor, learn_table, tasks):
         tables[todo[index]] = table
     return tables
@@ -153,12 +153,11 @@ def make_tables(
 def study_cloud(
     spec: StudySpec, drivers: Mapping[str, DriverParams], out: Path, executor: Executor | None
 ) -> StudyCloud:
-    """The study's cloud: the one of ``spec.cloud``, or a fresh embedded one under ``out``
-    (training on ``executor`` if it is a Dask cluster's)."""
-    if spec.cloud is None:
-        return StudyCloud.embedded(out, drivers, spec.seed, executor if is_dask(executor) else None)
-    assert spec.token_file is not None and spec.trust is not None  # validate() checked
-    return StudyCloud.remote(spec.cloud, Path(spec.token_file), Path(spec.trust), out)
+    """The study's cloud (a fresh embedded one trains on ``executor`` if it is Dask's)."""
+    compute = executor if is_dask(executor) else None
+    return StudyCloud.open(
+        out, drivers, spec.seed, spec.cloud, spec.token_file, spec.trust, compute=compute
+    )
 
 
 def plan(
@@ -201,28 +200,6 @@ class StudyInterrupted(SimError):
         self.rows = rows
 
 
-def read_done(path: Path, fp: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
-    """Key -> record of an earlier run with fingerprint ``fp`` in ``path``; a missing file is
-    none, another run's is a SimError, a last line cut short by a kill is ignored."""
-    if not path.is_file():
-        return {}
-    lines = path.read_text(encoding="utf-8").splitlines()
-    try:
-        head = json.loads(lines[0]) if lines else {}
-    except ValueError:
-        head = {}
-    if head.get("fingerprint") != json.loads(json.dumps(fp, default=str)):
-        raise SimError(f"{path} holds another study; give another --out or remove the file")
-    done: dict[str, dict[str, Any]] = {}
-    for line in lines[1:]:
-        try:
-            rec = json.loads(line)
-        except ValueError:
-            continue  # a line cut short by a kill: that task runs again
-        done[str(rec["key"])] = rec["record"]
-    return done
-
-
 def run_resumable(
     tasks: Sequence[T],
     fn: Callable[[T], dict[str, Any]],
@@ -237,8 +214,22 @@ def run_resumable(
     finishes); every record in task order. Ctrl-C: :class:`StudyInterrupted`."""
     if len(set(keys)) != len(keys):
         raise SimError("two tasks of the plan share a key")
-    done = read_done(path, fp)
-    if not path.is_file():
+    done: dict[str, dict[str, Any]] = {}
+    if path.is_file():  # an earlier run: its fingerprint must be ``fp``
+        lines = path.read_text(encoding="utf-8").splitlines()
+        try:
+            head = json.loads(lines[0]) if lines else {}
+        except ValueError:
+            head = {}
+        if head.get("fingerprint") != json.loads(json.dumps(fp, default=str)):
+            raise SimError(f"{path} holds another study; give another --out or remove the file")
+        for line in lines[1:]:
+            try:
+                rec = json.loads(line)
+            except ValueError:
+                continue  # a line cut short by a kill: that task runs again
+            done[str(rec["key"])] = rec["record"]
+    else:
         path.write_text(json.dumps({"fingerprint": fp}, default=str) + "\n", encoding="utf-8")
     todo = [i for i, k in enumerate(keys) if k not in done]
     try:

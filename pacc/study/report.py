@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -63,39 +64,15 @@ METRIC_FIELDS = (
 )
 #: Table I's drives.csv
 FIELDS = (
-    "driver",
-    "scenario",
-    "controller",
-    "trial",
-    "seed",
+    *("driver", "scenario", "controller", "trial", "seed"),
     *METRIC_FIELDS,
-    "takeovers",
-    "adaptations",
-    "collision",
-    "sim_s",
-    "wall_s",
+    *("takeovers", "adaptations", "collision", "sim_s", "wall_s"),
 )
 #: a study file's drives.csv
 SUMMARY_FIELDS = (
-    "driver",
-    "scenario",
-    "method",
-    "table",
-    "adaptation",
-    "controller",
-    "trial",
-    "seed",
-    "poi_pct",
-    "nim_per_min",
-    "press_onsets",
-    "min_gap_m",
-    "min_ttc_s",
-    "rms_jerk_mps3",
-    "gap_error_rms_m",
-    "takeovers",
-    "adaptations",
-    "collision",
-    "plugin_faults",
+    *("driver", "scenario", "method", "table", "adaptation", "controller", "trial", "seed"),
+    *(f for f in METRIC_FIELDS if f != "acc_on_s"),
+    *("takeovers", "adaptations", "collision", "plugin_faults"),
 )
 INCREMENTAL_FIELDS = (
     "driver",
@@ -186,39 +163,34 @@ def pct(value: float) -> str:
     return f"{value:.1f} %" if math.isfinite(value) else "n/a"
 
 
+def md_table(head: str, rows: Iterable[str], right: int = 0) -> list[str]:
+    """A Markdown table's lines: ``head`` and ``rows`` (cells joined by `` | ``) around the rule
+    (the last ``right`` columns right-aligned)."""
+    rule = "|" + "---|" * (head.count(" | ") + 1 - right) + "---:|" * right
+    return [f"| {head} |", rule, *(f"| {row} |" for row in rows)]
+
+
+def poi_nim(pairs: Iterable[tuple[float, float]], bold: str = "") -> str:
+    """The PoI and NIM cells of each (PoI %, NIM /min) pair."""
+    return " | ".join(f"{bold}{p:.1f} %{bold} | {bold}{n:.1f}{bold}" for p, n in pairs)
+
+
 def format_table(cfg: StudySpec, rows: Sequence[dict[str, Any]]) -> str:
     """Table I in Markdown: driver × scenario rows (row order), PoI / NIM per controller, the
     average, the reductions against Predefined and the paper's averages beside ours."""
     means = cell_means(rows)
+    avg = averages(means)
     drivers = list(dict.fromkeys(str(r["driver"]) for r in rows))
     controllers = [c for c in CONTROLLERS if c in cfg.controllers]
-    lines = [
-        "| driver | scenario | "
-        + " | ".join(f"{CONTROLLER_TITLES[c]} PoI | NIM" for c in controllers)
-        + " |",
-        "|" + "---|" * (2 + 2 * len(controllers)),
+    body = [
+        f"{d} | {SCENARIO_TITLES.get(s, s)} | " + poi_nim(means[(d, s, c)] for c in controllers)
+        for d in drivers
+        for s in cfg.scenarios
     ]
-    for name in drivers:
-        for scenario in cfg.scenarios:
-            cells = [
-                f"{means[(name, scenario, c)][0]:.1f} % | {means[(name, scenario, c)][1]:.1f}"
-                for c in controllers
-            ]
-            title = SCENARIO_TITLES.get(scenario, scenario)
-            lines.append(f"| {name} | {title} | " + " | ".join(cells) + " |")
-    avg = averages(means)
-    lines.append(
-        "| **average** | | "
-        + " | ".join(f"**{avg[c][0]:.1f} %** | **{avg[c][1]:.1f}**" for c in controllers)
-        + " |"
-    )
-    lines.append(
-        "| paper (average) | | "
-        + " | ".join(
-            f"{PAPER_AVERAGES[c][0]:.1f} % | {PAPER_AVERAGES[c][1]:.1f}" for c in controllers
-        )
-        + " |"
-    )
+    body.append("**average** | | " + poi_nim((avg[c] for c in controllers), "**"))
+    body.append("paper (average) | | " + poi_nim(PAPER_AVERAGES[c] for c in controllers))
+    titles = (f"{CONTROLLER_TITLES[c]} PoI | NIM" for c in controllers)
+    head = " | ".join(["driver | scenario", *titles])
     out = [
         "# Table I — interventions per controller (synthetic drivers, CAN bus)",
         "",
@@ -230,65 +202,68 @@ def format_table(cfg: StudySpec, rows: Sequence[dict[str, Any]]) -> str:
         + ".",
         "PoI: % of ACC-ON time with a pedal pressed; NIM: pedal presses per minute.",
         "",
-        *lines,
+        *md_table(head, body),
         "",
     ]
     if "predefined" in avg:
         base, p = avg["predefined"], PAPER_AVERAGES
         out += ["Reduction against Predefined (ours; paper in brackets):", ""]
         for c in (c for c in controllers if c != "predefined"):
-            ours = (reduction_pct(base[0], avg[c][0]), reduction_pct(base[1], avg[c][1]))
-            paper = (
-                reduction_pct(p["predefined"][0], p[c][0]),
-                reduction_pct(p["predefined"][1], p[c][1]),
-            )
+            ours = [pct(reduction_pct(base[k], avg[c][k])) for k in (0, 1)]
+            paper = [pct(reduction_pct(p["predefined"][k], p[c][k])) for k in (0, 1)]
             out.append(
-                f"- {CONTROLLER_TITLES[c]}: PoI {pct(ours[0])} ({pct(paper[0])}), "
-                f"NIM {pct(ours[1])} ({pct(paper[1])})"
+                f"- {CONTROLLER_TITLES[c]}: PoI {ours[0]} ({paper[0]}), NIM {ours[1]} ({paper[1]})"
             )
         out.append("")
-    collisions = sum(int(r["collision"]) for r in rows)
-    min_gap = min(float(r["min_gap_m"]) for r in rows)
-    min_ttc = min(float(r["min_ttc_s"]) for r in rows)
     out.append(
-        f"Safety over all drives: {collisions} collisions, min gap {min_gap:.2f} m, "
-        f"min TTC {min_ttc:.2f} s."
+        f"Safety over all drives: {_collisions(rows)} collisions, min gap "
+        f"{_lowest(rows, 'min_gap_m'):.2f} m, min TTC {_lowest(rows, 'min_ttc_s'):.2f} s."
     )
     return "\n".join(out) + "\n"
+
+
+def _collisions(rows: Iterable[Mapping[str, Any]]) -> int:
+    return sum(int(r["collision"]) for r in rows)
+
+
+def _lowest(rows: Iterable[Mapping[str, Any]], key: str) -> float:
+    return min(float(r[key]) for r in rows)
+
+
+@contextmanager
+def two_plots(path: Path, title: str) -> Iterator[Any]:
+    """Two axes side by side, PoI (%) and NIM (/min), saved to ``path`` under ``title``."""
+    import matplotlib  # noqa: PLC0415 - a second of start-up; only the plots need it
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt  # noqa: PLC0415
+
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+    for ax, label in zip(axes, ("PoI (%)", "NIM (presses / min)"), strict=True):
+        ax.set_ylabel(label)
+    yield axes
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
 
 
 def bars(
     path: Path, title: str, labels: Sequence[str], bars: Sequence[tuple[str, np.ndarray, Any]]
 ) -> None:
     """Two bar charts (PoI, NIM) side by side; ``bars``: (legend, values shape (2, n), yerr)."""
-    import matplotlib  # noqa: PLC0415 - a second of start-up; only the plots need it
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt  # noqa: PLC0415
-
     x = np.arange(len(labels))
     width = 0.8 / len(bars)
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
-    for k, (ax, label) in enumerate(zip(axes, ("PoI (%)", "NIM (presses / min)"), strict=True)):
-        for i, (legend, values, err) in enumerate(bars):
-            offset = (i - (len(bars) - 1) / 2) * width if len(bars) > 1 else 0.0
-            ax.bar(
-                x + offset,
-                values[k],
-                width,
-                yerr=None if err is None else err[k],
-                capsize=4,
-                label=legend,
-            )
-        ax.set_xticks(x, labels, rotation=15 if len(bars) > 1 else 30, fontsize=8)
-        ax.set_ylabel(label)
-        ax.grid(axis="y", alpha=0.3)
-    if len(bars) > 1:
-        axes[0].legend()
-    fig.suptitle(title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    with two_plots(path, title) as axes:
+        for k, ax in enumerate(axes):
+            for i, (legend, values, err) in enumerate(bars):
+                offset = (i - (len(bars) - 1) / 2) * width if len(bars) > 1 else 0.0
+                yerr = None if err is None else err[k]
+                ax.bar(x + offset, values[k], width, yerr=yerr, capsize=4, label=legend)
+            ax.set_xticks(x, labels, rotation=15 if len(bars) > 1 else 30, fontsize=8)
+            ax.grid(axis="y", alpha=0.3)
+        if len(bars) > 1:
+            axes[0].legend()
 
 
 def plot(path: Path, rows: Sequence[dict[str, Any]], who: str = "synthetic drivers") -> None:
@@ -344,7 +319,7 @@ def acceptance(rows: Sequence[dict[str, Any]], *, alpha: float = 0.05) -> list[s
                 f"{CONTROLLER_TITLES[base]}: {verdict} ({res.mean_diff:+.2f} points, "
                 f"Holm p {p:.2g})"
             )
-    collisions = sum(int(r["collision"]) for r in rows)
+    collisions = _collisions(rows)
     out.append(f"- no collision: {'met' if collisions == 0 else 'NOT met'} ({collisions})")
     return out
 
@@ -355,33 +330,22 @@ def format_population(cfg: StudySpec, rows: Sequence[dict[str, Any]]) -> str:
     rng = np.random.default_rng(0)
     drivers, poi = per_driver(rows, "poi_pct")
     _, nim = per_driver(rows, "nim_per_min")
-    summary = [
-        "| controller | PoI % (mean, 95 % CI) | NIM /min (mean, 95 % CI) | min TTC s | "
-        f"drives < {TTC_FLOOR_S:g} s TTC | min gap m | collisions |",
-        "|---|---|---|---|---|---|---|",
-    ]
+    summary = []
     for c in poi:
         mine = [r for r in rows if r["controller"] == c]
-        poi_ci = _fmt_ci(float(poi[c].mean()), bootstrap_ci(poi[c], rng))
-        nim_ci = _fmt_ci(float(nim[c].mean()), bootstrap_ci(nim[c], rng))
         summary.append(
-            f"| {CONTROLLER_TITLES[c]} | {poi_ci} | {nim_ci} "
-            f"| {min(float(r['min_ttc_s']) for r in mine):.2f} "
+            f"{CONTROLLER_TITLES[c]} | {_fmt_ci(float(poi[c].mean()), bootstrap_ci(poi[c], rng))} "
+            f"| {_fmt_ci(float(nim[c].mean()), bootstrap_ci(nim[c], rng))} "
+            f"| {_lowest(mine, 'min_ttc_s'):.2f} "
             f"| {sum(float(r['min_ttc_s']) < TTC_FLOOR_S for r in mine)} "
-            f"| {min(float(r['min_gap_m']) for r in mine):.2f} "
-            f"| {sum(int(r['collision']) for r in mine)} |"
+            f"| {_lowest(mine, 'min_gap_m'):.2f} | {_collisions(mine)}"
         )
     paired = [
-        "| metric | B vs A | mean B − A (95 % CI) | B better / worse / same | Wilcoxon p "
-        "| Holm p |",
-        "|---|---|---|---|---|---|",
+        f"{dict(METRICS)[metric]} | {CONTROLLER_TITLES[b]} vs {CONTROLLER_TITLES[a]} "
+        f"| {_fmt_ci(res.mean_diff, res.ci)} | {res.better} / {res.worse} / {res.ties} "
+        f"| {res.p_value:.2g} | {p_adj:.2g}"
+        for metric, (a, b), res, p_adj in _population_tests(rows, rng)
     ]
-    for metric, (a, b), res, p_adj in _population_tests(rows, rng):
-        paired.append(
-            f"| {dict(METRICS)[metric]} | {CONTROLLER_TITLES[b]} vs {CONTROLLER_TITLES[a]} "
-            f"| {_fmt_ci(res.mean_diff, res.ci)} | {res.better} / {res.worse} / {res.ties} "
-            f"| {res.p_value:.2g} | {p_adj:.2g} |"
-        )
     low = sorted(
         (r for r in rows if float(r["min_ttc_s"]) < TTC_FLOOR_S),
         key=lambda r: float(r["min_ttc_s"]),
@@ -396,11 +360,19 @@ def format_population(cfg: StudySpec, rows: Sequence[dict[str, Any]]) -> str:
         "intervals: percentile bootstrap over drivers (2000 resamples); tests: paired "
         "Wilcoxon signed-rank over drivers, Holm-adjusted over the 12 comparisons.",
         "",
-        *summary,
+        *md_table(
+            "controller | PoI % (mean, 95 % CI) | NIM /min (mean, 95 % CI) | min TTC s | "
+            f"drives < {TTC_FLOOR_S:g} s TTC | min gap m | collisions",
+            summary,
+        ),
         "",
         "Paired comparisons (lower is better; B better = lower for B):",
         "",
-        *paired,
+        *md_table(
+            "metric | B vs A | mean B − A (95 % CI) | B better / worse / same | Wilcoxon p "
+            "| Holm p",
+            paired,
+        ),
         "",
         "Goals:",
         "",
@@ -438,74 +410,54 @@ def write_timings(
 
 def summary_table(rows: Sequence[Mapping[str, Any]], methods: Sequence[str]) -> str:
     """Markdown: per method, drives, mean PoI and NIM, lowest TTC, collisions, plug-in faults."""
-    lines = [
-        "| method | drives | PoI % | NIM /min | min TTC s | collisions | plug-in faults |",
-        "|---|---|---|---|---|---|---|",
-    ]
+    body = []
     for name in methods:
         mine = [r for r in rows if r["method"] == name]
-        if not mine:
-            lines.append(f"| {name} | 0 | – | – | – | – | – |")
-            continue
-        lines.append(
-            f"| {name} | {len(mine)} | {np.mean([r['poi_pct'] for r in mine]):.2f} | "
+        body.append(
+            f"{name} | 0 | – | – | – | – | –"
+            if not mine
+            else f"{name} | {len(mine)} | {np.mean([r['poi_pct'] for r in mine]):.2f} | "
             f"{np.mean([r['nim_per_min'] for r in mine]):.2f} | "
-            f"{min(float(r['min_ttc_s']) for r in mine):.2f} | "
-            f"{sum(int(r['collision']) for r in mine)} | "
-            f"{sum(1 for r in mine if r['plugin_faults'])} |"
+            f"{_lowest(mine, 'min_ttc_s'):.2f} | {_collisions(mine)} | "
+            f"{sum(1 for r in mine if r['plugin_faults'])}"
         )
-    return "\n".join(lines) + "\n"
+    head = "method | drives | PoI % | NIM /min | min TTC s | collisions | plug-in faults"
+    return "\n".join(md_table(head, body)) + "\n"
 
 
 def format_incremental(rows: Sequence[dict[str, Any]]) -> str:
     """Markdown: the mean over drivers per trip, then every driver's trips."""
+    trips = [f"{k} | {poi:.1f} | {nim:.2f} | {n}" for k, poi, nim, n in per_trip(rows)]
+    drives = [
+        f"{r['driver']} | {r['trip']} | {r['dgpt_version']} | {float(r['poi_pct']):.1f} "
+        f"| {float(r['nim_per_min']):.2f} | {r['takeovers']} | {float(r['min_ttc_s']):.1f}"
+        for r in rows
+    ]
     lines = [
         "# Incremental learning (IRL + OA, scenario B): takeovers -> cloud fine-tune -> next trip",
         "",
-        "| trip | PoI (%) | NIM (/min) | drivers |",
-        "|---:|---:|---:|---:|",
-        *(f"| {k} | {poi:.1f} | {nim:.2f} | {n} |" for k, poi, nim, n in per_trip(rows)),
+        *md_table("trip | PoI (%) | NIM (/min) | drivers", trips, right=4),
         "",
-        "| driver | trip | DGPT version | PoI (%) | NIM (/min) | takeovers | min TTC (s) |",
-        "|---|---:|---:|---:|---:|---:|---:|",
-    ]
-    lines += [
-        f"| {r['driver']} | {r['trip']} | {r['dgpt_version']} | {float(r['poi_pct']):.1f} "
-        f"| {float(r['nim_per_min']):.2f} | {r['takeovers']} | {float(r['min_ttc_s']):.1f} |"
-        for r in rows
+        *md_table(
+            "driver | trip | DGPT version | PoI (%) | NIM (/min) | takeovers | min TTC (s)",
+            drives,
+            right=6,
+        ),
     ]
     return "\n".join(lines) + "\n"
 
 
 def plot_incremental(path: Path, rows: Sequence[dict[str, Any]]) -> None:
     """The learning curve: PoI and NIM per trip, each driver thin, the mean thick."""
-    import matplotlib  # noqa: PLC0415 - a second of start-up; only the plots need it
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt  # noqa: PLC0415
-
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
     curve = per_trip(rows)
-    for ax, key, k, label in (
-        (axes[0], "poi_pct", 1, "PoI (%)"),
-        (axes[1], "nim_per_min", 2, "NIM (presses / min)"),
-    ):
-        for driver in sorted({str(r["driver"]) for r in rows}):
-            sel = [r for r in rows if r["driver"] == driver]
-            ax.plot(
-                [int(r["trip"]) for r in sel],
-                [float(r[key]) for r in sel],
-                alpha=0.5,
-                lw=1,
-                label=driver,
-            )
-        ax.plot([c[0] for c in curve], [c[k] for c in curve], "k-o", lw=2.5, label="mean")
-        ax.set_xticks([c[0] for c in curve])
-        ax.set_xlabel("trip (each after the cloud fine-tuned on the previous takeovers)")
-        ax.set_ylabel(label)
-        ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=8)
-    fig.suptitle("Incremental learning through the cloud (IRL + OA)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    with two_plots(path, "Incremental learning through the cloud (IRL + OA)") as axes:
+        for ax, key, k in ((axes[0], "poi_pct", 1), (axes[1], "nim_per_min", 2)):
+            for driver in sorted({str(r["driver"]) for r in rows}):
+                sel = [r for r in rows if r["driver"] == driver]
+                trips, values = [int(r["trip"]) for r in sel], [float(r[key]) for r in sel]
+                ax.plot(trips, values, alpha=0.5, lw=1, label=driver)
+            ax.plot([c[0] for c in curve], [c[k] for c in curve], "k-o", lw=2.5, label="mean")
+            ax.set_xticks([c[0] for c in curve])
+            ax.set_xlabel("trip (each after the cloud fine-tuned on the previous takeovers)")
+            ax.grid(alpha=0.3)
+        axes[0].legend(fontsize=8)

@@ -65,14 +65,10 @@ class Method:
 
     def as_dict(self) -> dict[str, Any]:
         """JSON form (arguments as objects), as a study file writes it."""
-        return {
-            "name": self.name,
-            "table": self.table,
+        doc = {k: dict(v) if k.endswith("_args") else v for k, v in vars(self).items()}
+        return doc | {
             "adaptation": self.adaptation or "none",
             "controller": self.controller or "builtin",
-            "learner_args": dict(self.learner_args),
-            "adaptation_args": dict(self.adaptation_args),
-            "controller_args": dict(self.controller_args),
         }
 
 

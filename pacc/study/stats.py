@@ -125,24 +125,19 @@ def cell_means(
         acc.setdefault((r["driver"], r["scenario"], r["controller"]), []).append(
             (float(r["poi_pct"]), float(r["nim_per_min"]))
         )
-    return {
-        k: (sum(p for p, _ in v) / len(v), sum(n for _, n in v) / len(v)) for k, v in acc.items()
-    }
+    return {k: _mean_pair(v) for k, v in acc.items()}
+
+
+def _mean_pair(pairs: Sequence[tuple[float, float]]) -> tuple[float, float]:
+    return sum(p for p, _ in pairs) / len(pairs), sum(n for _, n in pairs) / len(pairs)
 
 
 def averages(
     means: dict[tuple[str, str, str], tuple[float, float]],
 ) -> dict[str, tuple[float, float]]:
     """Controller -> (PoI %, NIM /min) averaged over every driver and scenario cell."""
-    out: dict[str, tuple[float, float]] = {}
-    for controller in CONTROLLERS:
-        cells = [v for (_, _, c), v in means.items() if c == controller]
-        if cells:
-            out[controller] = (
-                sum(p for p, _ in cells) / len(cells),
-                sum(n for _, n in cells) / len(cells),
-            )
-    return out
+    cells = {c: [v for (_, _, k), v in means.items() if k == c] for c in CONTROLLERS}
+    return {c: _mean_pair(v) for c, v in cells.items() if v}
 
 
 def reduction_pct(base: float, value: float) -> float:

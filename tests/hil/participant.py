@@ -38,13 +38,13 @@ def decide(s: dict[str, Any], headway_s: float = HEADWAY_S) -> tuple[bool, bool,
 def drive_without_browser(drive: HilDrive) -> None:
     """Play the participant into ``drive`` directly (lockstep, no page, no WebSocket)."""
 
-    def policy(d: HilDrive) -> None:
-        accel, brake, press_set = decide(d.snapshot())
-        d.pedals.keys(accel, brake)
-        if press_set:
-            d.pedals.press("set")
-
-    drive.run_lockstep(policy, every=EVERY)
+    while not drive.done:
+        if drive.node.tick % EVERY == 0:
+            accel, brake, press_set = decide(drive.snapshot())
+            drive.pedals.keys(accel, brake)
+            if press_set:
+                drive.pedals.press("set")
+        drive.step()
 
 
 def drive_in_browser(page: Any, headway_s: float = HEADWAY_S) -> dict[str, Any]:

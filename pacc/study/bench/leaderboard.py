@@ -8,7 +8,6 @@ on the same drivers, Holm-adjusted over the methods (:mod:`pacc.study.stats`).
 
 from __future__ import annotations
 
-import csv
 import math
 from collections import defaultdict
 from collections.abc import Mapping, Sequence
@@ -18,7 +17,8 @@ from typing import Any
 import numpy as np
 
 from pacc.study.bench.heldout import BASELINE
-from pacc.study.report import bars
+from pacc.study.report import bars, md_table
+from pacc.study.report import write_csv as write_rows
 from pacc.study.stats import bootstrap_ci, driver_means, holm, paired_comparison
 
 PAPER = "paper"
@@ -98,7 +98,8 @@ def leaderboard(
                     seeds[_seed_of(d)].append(v)
             line[f"{short}_by_seed"] = {s: float(np.mean(v)) for s, v in sorted(seeds.items())}
         ttc = [float(r["min_ttc_s"]) for r in mine]
-        lowest = list(per_driver_min(mine).values())
+        drivers = dict.fromkeys(r["driver"] for r in mine)
+        lowest = [min(float(r["min_ttc_s"]) for r in mine if r["driver"] == d) for d in drivers]
         line["min_ttc"] = min(ttc) if ttc else math.nan
         line["min_ttc_median"] = float(np.median(lowest)) if lowest else math.nan
         line["collisions"] = sum(int(r["collision"]) for r in mine)
@@ -114,14 +115,6 @@ def leaderboard(
         for (i, t), p in zip(live, holm([t["p"] for _, t in live]), strict=True):
             board[i][f"{short}_vs_paper"] = {**t, "p_holm": p}
     return board
-
-
-def per_driver_min(rows: Sequence[Mapping[str, Any]]) -> dict[str, float]:
-    """driver -> the lowest min TTC of its drives (s)."""
-    out: dict[str, float] = {}
-    for r in rows:
-        out[r["driver"]] = min(out.get(r["driver"], math.inf), float(r["min_ttc_s"]))
-    return out
 
 
 def _paired(
@@ -155,48 +148,48 @@ def _paired_cell(t: Mapping[str, Any] | None) -> str:
 
 def markdown(board: Sequence[Mapping[str, Any]], header: str) -> str:
     """The leaderboard as Markdown, ``header`` (seeds, sizes) above it."""
-    lines = [header, "",
-             "| method | drives | PoI % [95 % CI drivers] | PoI by seed | NIM /min [CI] | "
-             "min TTC s (lowest / median) | collisions | held-out gap error m vs baseline, "
-             "real (wins/n) | drawn (wins/n) | d1..d5 (wins/n) | learn s | "
-             "ΔPoI vs paper [CI] p(Holm) | ΔNIM vs paper [CI] p(Holm) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+    head = (
+        "method | drives | PoI % [95 % CI drivers] | PoI by seed | NIM /min [CI] | min TTC s "
+        "(lowest / median) | collisions | held-out gap error m vs baseline, real (wins/n) | "
+        "drawn (wins/n) | d1..d5 (wins/n) | learn s | ΔPoI vs paper [CI] p(Holm) | "
+        "ΔNIM vs paper [CI] p(Holm)"
+    )
+    lines = []
     for b in board:
         seeds = ", ".join(f"{v:.1f}" for v in b["poi_by_seed"].values()) or "–"
         h = b["heldout"]
         lines.append(
-            f"| {b['method']} | {b['drives']} | {_fmt(b['poi'], b['poi_ci'])} | {seeds} | "
+            f"{b['method']} | {b['drives']} | {_fmt(b['poi'], b['poi_ci'])} | {seeds} | "
             f"{_fmt(b['nim'], b['nim_ci'])} | {_fmt(b['min_ttc'])} / {_fmt(b['min_ttc_median'])} "
             f"| {b['collisions']} | {_heldout_cell(h, 'real')} | {_heldout_cell(h, 'drawn')} | "
             f"{_heldout_cell(h, 'builtin')} | "
             f"{_fmt(h['learn_s']) if h is not None else '–'} | "
-            f"{_paired_cell(b['poi_vs_paper'])} | {_paired_cell(b['nim_vs_paper'])} |"
+            f"{_paired_cell(b['poi_vs_paper'])} | {_paired_cell(b['nim_vs_paper'])}"
         )
-    return "\n".join(lines) + "\n"
+    return "\n".join([header, "", *md_table(head, lines)]) + "\n"
 
 
 def write_csv(path: Path, board: Sequence[Mapping[str, Any]]) -> None:
     """The leaderboard flat, one row per method."""
-    cols = ["method", "table", "adaptation", "controller", "drives", "poi", "poi_lo", "poi_hi",
-            "nim", "nim_lo", "nim_hi", "min_ttc", "min_ttc_median", "collisions",
-            "heldout_real_m", "baseline_real_m", "wins_real", "n_real", "heldout_drawn_m",
-            "baseline_drawn_m", "wins_drawn", "n_drawn", "learn_s", "dpoi_vs_paper",
-            "p_poi_holm", "dnim_vs_paper", "p_nim_holm"]  # fmt: skip
-    with path.open("w", newline="", encoding="utf-8") as fh:
-        w = csv.writer(fh)
-        w.writerow(cols)
-        for b in board:
-            h = b["heldout"] or {}
-            real, drawn = h.get("real", {}), h.get("drawn", {})
-            pp, pn = b["poi_vs_paper"] or {}, b["nim_vs_paper"] or {}
-            w.writerow([
-                b["method"], b["table"], b["adaptation"], b["controller"], b["drives"],
-                b["poi"], *b["poi_ci"], b["nim"], *b["nim_ci"], b["min_ttc"],
-                b["min_ttc_median"], b["collisions"], real.get("error_m"),
-                real.get("baseline_m"), real.get("wins"), real.get("n"), drawn.get("error_m"),
-                drawn.get("baseline_m"), drawn.get("wins"), drawn.get("n"), h.get("learn_s"),
-                pp.get("diff"), pp.get("p_holm"), pn.get("diff"), pn.get("p_holm"),
-            ])  # fmt: skip
+    rows = []
+    for b in board:
+        h = b["heldout"] or {}
+        row = {k: b[k] for k in ("method", "table", "adaptation", "controller", "drives")}
+        for s in ("poi", "nim"):
+            row |= {s: b[s], f"{s}_lo": b[f"{s}_ci"][0], f"{s}_hi": b[f"{s}_ci"][1]}
+        row |= {k: b[k] for k in ("min_ttc", "min_ttc_median", "collisions")}
+        for kind in ("real", "drawn"):
+            k = h.get(kind, {})
+            row |= {
+                f"heldout_{kind}_m": k.get("error_m"),
+                f"baseline_{kind}_m": k.get("baseline_m"),
+            }
+            row |= {f"wins_{kind}": k.get("wins"), f"n_{kind}": k.get("n")}
+        pp, pn = b["poi_vs_paper"] or {}, b["nim_vs_paper"] or {}
+        row |= {"learn_s": h.get("learn_s"), "dpoi_vs_paper": pp.get("diff")}
+        row |= {"p_poi_holm": pp.get("p_holm"), "dnim_vs_paper": pn.get("diff")}
+        rows.append({**row, "p_nim_holm": pn.get("p_holm")})
+    write_rows(path, rows, list(rows[0]) if rows else [])
 
 
 def plot(path: Path, board: Sequence[Mapping[str, Any]]) -> None:

@@ -53,12 +53,7 @@ class BenchOptions:
 
 def fresh_seeds(k: int) -> tuple[int, ...]:
     """``k`` distinct population seeds in [0, 10^6), drawn now from the OS's entropy."""
-    seeds: list[int] = []
-    while len(seeds) < k:
-        s = secrets.randbelow(10**6)
-        if s not in seeds:
-            seeds.append(s)
-    return tuple(seeds)
+    return tuple(secrets.SystemRandom().sample(range(10**6), k))
 
 
 def stored_options(out: Path) -> BenchOptions | None:
