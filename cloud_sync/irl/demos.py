@@ -4,7 +4,9 @@ A sample is usable when the driver is in control (``acc_state`` not Active; in a
 only after the first engagement), a lead is present (gap 0..``max_gap_m`` m) and the speeds are
 finite within 0..70 m/s. Trips are resampled at the decision interval at every phase offset;
 the action is ``(v[t+1] − v[t])/dt`` (m/s²); usable runs are cut into segments of at most
-``horizon`` steps. :func:`takeover_weighted` weighs ACC-trip corrections above manual drives.
+``horizon`` steps; in an ACC trip a run shorter than a step (a short takeover) is one decision,
+its first state and its mean acceleration. :func:`takeover_weighted` weighs ACC-trip
+corrections above manual drives.
 """
 
 from __future__ import annotations
@@ -167,6 +169,21 @@ def extract_transitions(
                 cols["pos"].append(seg_len - (k - seg_start))
                 cols["seg_len"].append(seg_len)
                 cols["weight"].append(np.full(m, float(w)))
+        if is_acc_trip(trip):  # a takeover shorter than a step is one decision
+            for a, b in true_runs(ok):
+                span_s = float(trip.t_s[b - 1] - trip.t_s[a])
+                if b - a > stride or span_s <= 0.0:
+                    continue  # stepped above, or a single sample
+                for name, value in (
+                    ("v_mps", trip.v_mps[a]),
+                    ("gap_m", trip.gap_m[a]),
+                    ("dv_mps", trip.v_lead_mps[a] - trip.v_mps[a]),
+                    ("a_mps2", (trip.v_mps[b - 1] - trip.v_mps[a]) / span_s),
+                    ("pos", 1),
+                    ("seg_len", 1),
+                    ("weight", float(w)),
+                ):
+                    cols[name].append(np.array([value], dtype=np.float64))
     arrays = {k: (np.concatenate(v) if v else np.zeros(0)) for k, v in cols.items()}
     arrays["pos"] = arrays["pos"].astype(np.int64)
     arrays["seg_len"] = arrays["seg_len"].astype(np.int64)

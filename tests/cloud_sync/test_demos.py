@@ -23,6 +23,7 @@ from cloud_sync.irl.trainer import learn_dgpt
 from dbc.vocab.acc_state import AccState
 from dbc.vocab.dgpt import speed_axis
 from dbc.vocab.triplog import Trip
+from tests.cloud_sync.conftest import takeover_segment
 
 
 def nan_trip(n: int = 600) -> Trip:
@@ -86,6 +87,26 @@ def test_segments_cover_every_step_once(follower: Callable[..., Trip]) -> None:
     # the action is the mean acceleration over the step
     assert np.allclose(tr.a_mps2[:3], (t.v_mps[10:40:10] - t.v_mps[0:30:10]) / 1.0)
     assert np.all(np.isfinite(tr.dv_mps))
+
+
+def test_a_takeover_shorter_than_a_decision_is_one_decision() -> None:
+    """0.7 s pedal presses (7 samples at 10 Hz) span no 1 s step: in a takeover segment each
+    is one decision (its first state, its mean acceleration); in a manual trip none."""
+    seg = takeover_segment(5, [(50, 57, "accel"), (120, 127, "brake")])
+    tr = extract_transitions([seg], [5.0], dt_s=1.0, horizon=5, max_gap_m=120.0)
+    assert tr.n == 2 and np.all(tr.pos == 1) and np.all(tr.seg_len == 1)
+    assert np.allclose(tr.v_mps, seg.v_mps[[50, 120]]) and np.all(tr.weight == 5.0)
+    want = (seg.v_mps[[56, 126]] - seg.v_mps[[50, 120]]) / (seg.t_s[56] - seg.t_s[50])
+    assert np.allclose(tr.a_mps2, want)
+    manual = replace(seg, meta={**seg.meta, "mode": "manual"}, acc_state=seg.acc_state * 0)
+    gaps = manual.gap_m.copy()
+    gaps[np.r_[:50, 57:120, 127 : len(gaps)]] = np.nan  # the same two short runs, manual
+    assert (
+        extract_transitions(
+            [replace(manual, gap_m=gaps)], [1.0], dt_s=1.0, horizon=5, max_gap_m=120.0
+        ).n
+        == 0
+    )
 
 
 def test_takeover_weights_and_digest(follower: Callable[..., Trip]) -> None:

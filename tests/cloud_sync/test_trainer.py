@@ -19,6 +19,7 @@ from dbc.vocab.acc_state import AccState
 from dbc.vocab.dgpt import SafetyBounds, predefined
 from dbc.vocab.dgpt_file import load_dgpt, save_dgpt
 from dbc.vocab.triplog import Trip
+from tests.cloud_sync.conftest import takeover_segment
 
 D0, T = 4.0, 1.6
 
@@ -169,6 +170,17 @@ def test_fine_tune_moves_toward_takeovers_and_keeps_uncovered(
     far = ~res.covered
     assert far.sum() > 40
     assert np.array_equal(new.gap_m[far], init.gap_m[far])
+
+
+@pytest.mark.slow
+def test_fine_tune_learns_from_short_takeovers(learned: LearnResult) -> None:
+    """Pedal presses of 0.7 s, shorter than a decision, are still corrections: a new version
+    (the incremental study's people drivers, whose takeovers all were this short)."""
+    presses = [(40, 47, "accel"), (90, 97, "brake"), (140, 147, "accel")]
+    segments = [takeover_segment(seed, presses) for seed in range(30, 34)]
+    new = fine_tune(segments, learned.table, seed=0).table
+    assert new.version == learned.table.version + 1
+    assert new.meta["n_segments"] == 12
 
 
 def test_fine_tune_needs_an_irl_table(syn_trips: list[Trip]) -> None:
