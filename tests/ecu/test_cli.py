@@ -31,12 +31,13 @@ CODEC = load_codec()
 
 
 class Peers(threading.Thread):
-    """Plays ESC/PEDAL/RADAR/HMI in real time: SET at 1.2 s, accelerator 1.6..3.0 s (its switch,
+    """Plays ESC/PEDAL/RADAR/HMI in real time: SET at 1.5 s, accelerator 1.9..3.3 s (its switch,
     and its position at ``accel_pct`` %; 0, the resting position, by default).
 
     The timeline starts at the ECU's first frame, not at the thread's start: on a loaded
     machine (pytest -n 2 on two cores) the ECU may take a while to open its bus, and SET
-    needs a second of valid inputs before it.
+    needs a second of valid inputs before it (SET at 1.5 s leaves half a second for the first
+    frames of every role to arrive on a loaded machine).
     """
 
     def __init__(self, channel: str, seconds: float, accel_pct: float = 0.0) -> None:
@@ -53,8 +54,8 @@ class Peers(threading.Thread):
                 pass
             t0 = time.monotonic()
             while (t := time.monotonic() - t0) < self.seconds:
-                pressed = 1.6 <= t < 3.0
-                peers.set("hmi", set=int(1.2 <= t < 1.4))
+                pressed = 1.9 <= t < 3.3
+                peers.set("hmi", set=int(1.5 <= t < 1.7))
                 peers.set(
                     "pedals", accel_pressed=int(pressed), accel_pedal_pct=self.accel_pct * pressed
                 )
