@@ -31,7 +31,7 @@ CODEC = load_codec()
 
 
 class Peers(threading.Thread):
-    """Plays ESC/PEDAL/RADAR/HMI in real time: SET at 1.5 s, accelerator 1.9..3.3 s (its switch,
+    """Plays ESC/PEDAL/RADAR/HMI in real time: SET at 1.5 s, accelerator 1.9..3.1 s (its switch,
     and its position at ``accel_pct`` %; 0, the resting position, by default).
 
     The timeline starts at the ECU's first frame, not at the thread's start: on a loaded
@@ -54,7 +54,7 @@ class Peers(threading.Thread):
                 pass
             t0 = time.monotonic()
             while (t := time.monotonic() - t0) < self.seconds:
-                pressed = 1.9 <= t < 3.3
+                pressed = 1.9 <= t < 3.1
                 peers.set("hmi", set=int(1.5 <= t < 1.7))
                 peers.set(
                     "pedals", accel_pressed=int(pressed), accel_pedal_pct=self.accel_pct * pressed
