@@ -37,7 +37,7 @@ lint: $(STAMP)
 
 # pytest exits 5 when it collects no test: make treats that as a failure, so CI never passes on nothing.
 # -n auto: one pytest-xdist worker per core; --dist worksteal: an idle worker takes tests queued
-# for a busy one, so the suite's long tests do not end it on one worker (about 240 s of pytest
+# for a busy one, so the suite's long tests do not end it on one worker (about 230 s of pytest
 # on a quiet 2-core machine); `make test-fast` leaves out the tests marked slow.
 test: lint
 	$(BIN)/python -m pytest -n auto --dist worksteal
