@@ -14,6 +14,7 @@ the vocabulary every room shares, and the project's error root.
 - :mod:`dbc.frame` — the one frame form inside the nodes, and the python-can edge.
 - :mod:`dbc.network` — the ``--dbc`` / ``--binding`` options.
 - :mod:`dbc.errors` — ``PaccError`` and the codec's errors by phase.
+- :mod:`dbc.atomic` — files written whole or not at all (temporary file, then a rename).
 - :mod:`dbc.vocab` — DGPT and trip-log formats, ACC state, pedal scaling.
 - :mod:`dbc.lockstep` — the in-process python-can bus where the simulator owns time.
 """

@@ -20,8 +20,8 @@ from dataclasses import astuple, dataclass
 from pathlib import Path
 from typing import Any
 
-from cloud_sync.durable import fsync_dir, write_atomic, write_temp
 from cloud_sync.errors import CloudSyncError
+from dbc.atomic import write_bytes_atomic
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS vehicles (
@@ -232,9 +232,9 @@ class CloudStore:
         with self._lock:
             if self.query("SELECT 1 FROM batches WHERE digest = ?", (row.digest,)):
                 if not self.blob_path(row.digest).is_file():  # lost after its row: heal it
-                    write_atomic(self.blob_path(row.digest), data)
+                    write_bytes_atomic(self.blob_path(row.digest), data, durable=True)
                 return False
-            write_atomic(self.blob_path(row.digest), data)
+            write_bytes_atomic(self.blob_path(row.digest), data, durable=True)
             with self.transaction() as db:
                 db.execute(
                     "INSERT INTO batches (digest, vehicle_id, driver_id, condition, kind, "
@@ -283,7 +283,6 @@ class CloudStore:
         """Publish a signed DGPT version and mark the batches ``used``; an existing version
         is refused (StoreError) before its file is touched."""
         final = self.version_path(row.driver_id, row.condition, row.version)
-        tmp = write_temp(final, signed)
         try:
             with self.transaction() as db:
                 db.execute(
@@ -294,14 +293,11 @@ class CloudStore:
                     "UPDATE batches SET used_in_version = ? WHERE digest = ?",
                     [(row.version, d) for d in used],
                 )
-                tmp.replace(final)  # inside the transaction: no row without its file
-                fsync_dir(final.parent)
+                write_bytes_atomic(final, signed, durable=True)  # no row without its file
         except sqlite3.IntegrityError as exc:
             raise StoreError(
                 f"DGPT {row.driver_id}/{row.condition} v{row.version} exists already"
             ) from exc
-        finally:
-            tmp.unlink(missing_ok=True)
 
     def versions(self, driver_id: str, condition: str) -> list[VersionRow]:
         """Every published version of the driver's table under ``condition``, oldest first."""

@@ -11,6 +11,7 @@ from pathlib import Path
 
 from cloud_sync.api import CloudApi
 from cloud_sync.errors import CloudSyncError
+from dbc.atomic import atomic_writer
 
 
 def is_url(target: str) -> bool:
@@ -44,17 +45,15 @@ def read_token(path: str | os.PathLike[str]) -> str:
 
 def write_token(path: str | os.PathLike[str], token: str, *, force: bool = False) -> None:
     """Write ``token`` to ``path``, readable by the owner only (mode 0600). An existing file
-    (perhaps another vehicle's token) is replaced only with ``force``, atomically (a
-    temporary file renamed over it); otherwise CloudSyncError."""
+    (perhaps another vehicle's token) is replaced only with ``force``, atomically
+    (:mod:`dbc.atomic`); otherwise CloudSyncError."""
     target = Path(path)
     if not force and target.exists():
         raise CloudSyncError(
             f"{target} exists (another vehicle's token?): name a new file, or --force to replace it"
         )
-    tmp = target.with_name(target.name + ".part")
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
-    with os.fdopen(fd, "w", encoding="utf-8") as stream:
-        stream.write(token + "\n")
+    with atomic_writer(target) as stream:  # not durable=True: it would make a missing folder
+        os.fchmod(stream.fileno(), 0o600)  # before the token is in it
+        stream.write(f"{token}\n".encode())
         stream.flush()
         os.fsync(stream.fileno())
-    tmp.replace(target)

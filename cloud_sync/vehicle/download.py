@@ -16,9 +16,9 @@ from pathlib import Path
 from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PublicKey
 
 from cloud_sync.api import CloudApi, CloudError, CloudUnavailableError, NotFoundError, check_plain
-from cloud_sync.durable import write_atomic
 from cloud_sync.errors import CloudSyncError
 from cloud_sync.signing import SignatureError, verify_dgpt
+from dbc.atomic import write_bytes_atomic
 from dbc.vocab.dgpt import Dgpt, SafetyBounds
 
 log = logging.getLogger(__name__)
@@ -91,7 +91,7 @@ class ProfileDownloader:
             self.report.unchanged += 1
             return None
         try:
-            write_atomic(self.cache_path(driver_id, condition), data)
+            write_bytes_atomic(self.cache_path(driver_id, condition), data, durable=True)
         except OSError as exc:  # a full disk: use the table, say it is not kept for offline
             self._refuse(f"verified table not cached ({exc.strerror or exc}); used this run only")
         self.report.fetched += 1

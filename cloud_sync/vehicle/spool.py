@@ -23,8 +23,9 @@ from pathlib import Path
 from typing import Literal
 
 from cloud_sync.api import BadBatchError, check_plausible
-from cloud_sync.durable import fsync_dir, set_aside
+from cloud_sync.durable import set_aside
 from cloud_sync.errors import CloudSyncError
+from dbc.atomic import fsync_dir
 from dbc.vocab.triplog import Trip, TripLogError, trip_mode
 from dbc.vocab.triplog_file import read_trip, write_trip
 from dbc.vocab.tripmode import TripModeError

@@ -35,9 +35,10 @@ from cloud_sync.api import (
     CloudUnavailableError,
     PayloadTooLargeError,
 )
-from cloud_sync.durable import set_aside, write_atomic
+from cloud_sync.durable import set_aside
 from cloud_sync.errors import CloudSyncError
 from cloud_sync.vehicle.spool import Batch, Spool
+from dbc.atomic import write_bytes_atomic
 from dbc.vocab.dgpt import PLAIN_NAME
 
 log = logging.getLogger(__name__)
@@ -97,7 +98,7 @@ class ReportQueue:
             if not isinstance(trip_id, str) or _NAME.match(final.name) is None:
                 raise ReportError(f"trip report not queued: trip_id {trip_id!r} is not plain")
             try:
-                write_atomic(final, (text + "\n").encode("utf-8"))
+                write_bytes_atomic(final, (text + "\n").encode("utf-8"), durable=True)
             except OSError as exc:
                 raise ReportError(f"trip report not queued: {exc.strerror or exc}") from exc
             self.stats.queued += 1

@@ -12,12 +12,12 @@ from __future__ import annotations
 import json
 import os
 import stat
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from dbc.atomic import write_bytes_atomic
 from dbc.vocab.dgpt import FORMAT_TAG, PLAIN_NAME, Dgpt, DgptError, SafetyBounds
 
 #: the largest DGPT file read, bytes (a 0.5 m/s table is about 4 KB)
@@ -103,16 +103,8 @@ def load_dgpt(path: str | os.PathLike[str], bounds: SafetyBounds | None = None) 
 
 
 def save_dgpt(table: Dgpt, path: str | os.PathLike[str]) -> None:
-    """Write ``table`` to ``path`` atomically (a temp file of its own, then a rename)."""
-    p = Path(path)
-    data = dgpt_to_bytes(table)
-    tmp: str | None = None
+    """Write ``table`` to ``path`` atomically (:mod:`dbc.atomic`; DgptError if it cannot)."""
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        Path(tmp).replace(p)
+        write_bytes_atomic(path, dgpt_to_bytes(table))
     except OSError as exc:
-        if tmp is not None:
-            Path(tmp).unlink(missing_ok=True)
-        raise DgptError(f"{p}: cannot write: {exc.strerror or exc}") from None
+        raise DgptError(f"{Path(path)}: cannot write: {exc.strerror or exc}") from None

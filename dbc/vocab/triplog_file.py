@@ -9,7 +9,6 @@ corrupt log is refused with :class:`TripLogError` naming it, never read in part.
 
 from __future__ import annotations
 
-import contextlib
 import io
 import json
 import math
@@ -20,6 +19,7 @@ from typing import IO, Any
 
 import numpy as np
 
+from dbc.atomic import write_bytes_atomic
 from dbc.vocab.mcap_errors import mcap_errors
 from dbc.vocab.triplog import ACC_STATE_MAX, FLOAT_FIELDS, Trip, TripLogError
 
@@ -63,18 +63,9 @@ def _unnum(x: Any, where: str) -> float:
 
 
 def write_trip(path: str | os.PathLike[str], trip: Trip) -> None:
-    """Write ``trip`` to ``path`` as MCAP (:func:`trip_to_bytes`) through a temporary name
-    and a rename: a crash never leaves a partial log. OSError if ``path`` cannot be written."""
-    path = Path(path)
-    data = trip_to_bytes(trip)
-    tmp = path.with_name(path.name + ".part")
-    try:
-        tmp.write_bytes(data)
-        tmp.replace(path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            tmp.unlink(missing_ok=True)
-        raise
+    """Write ``trip`` to ``path`` as MCAP (:func:`trip_to_bytes`) atomically (:mod:`dbc.atomic`:
+    a crash never leaves a partial log). OSError if ``path`` cannot be written."""
+    write_bytes_atomic(path, trip_to_bytes(trip))
 
 
 def trip_to_bytes(trip: Trip) -> bytes:

@@ -3,15 +3,15 @@
 ``pacc export x.mcap.part x.mcap`` (:mod:`pacc.commands.export`): every record up to the last
 complete chunk (schemas, channels, messages, attachments, metadata) is copied into a new
 file that has its summary and footer, so every MCAP tool (Foxglove, ``mcap info``, the
-indexed readers) opens it. The copy is written as ``.dst.repairing`` and renamed when complete.
+indexed readers) opens it. The copy is written atomically (:mod:`dbc.atomic`).
 """
 
 from __future__ import annotations
 
-import contextlib
 import os
 from pathlib import Path
 
+from dbc.atomic import atomic_writer
 from ecu.buslog.format import CanLogError
 from ecu.buslog.mcapfile import McapFile
 from ecu.buslog.reader import mcap_records, read_canlog
@@ -26,9 +26,8 @@ def repair(src: str | os.PathLike[str], dst: str | os.PathLike[str]) -> int:
     got, _ = mcap_records(src, recover=True)
     if not got or not isinstance(got[0], records.Header):
         raise CanLogError(f"{src}: not an MCAP file (no header)")
-    tmp = dst.with_name(f".{dst.name}.repairing")  # not dst.part: that may be src
     try:
-        with tmp.open("wb") as stream:
+        with atomic_writer(dst) as stream:  # a hidden temporary name, never src's dst.part
             out = McapFile(stream, profile=got[0].profile, library=got[0].library)
             schemas: dict[int, int] = {}
             channels: dict[int, int] = {}
@@ -49,11 +48,6 @@ def repair(src: str | os.PathLike[str], dst: str | os.PathLike[str]) -> int:
                 elif isinstance(rec, records.Metadata):
                     out.metadata(rec.name, dict(rec.metadata))
             out.finish()
-        tmp.replace(dst)
-    except BaseException as exc:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
-        if isinstance(exc, OSError):
-            raise CanLogError(f"{dst}: cannot write: {exc.strerror or exc}") from None
-        raise
+    except OSError as exc:
+        raise CanLogError(f"{dst}: cannot write: {exc.strerror or exc}") from None
     return len(read_canlog(dst).frames)

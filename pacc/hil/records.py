@@ -14,6 +14,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from dbc.atomic import write_bytes_atomic
 from dbc.vocab.dgpt import utc_now_iso
 from dbc.vocab.dgpt_file import save_dgpt
 from dbc.vocab.triplog_file import write_trip
@@ -83,10 +84,8 @@ def write_drive(
 
 
 def save_json(path: Path, doc: Any) -> None:
-    """Write ``doc`` to ``path`` atomically (``path.part``, then renamed over it)."""
-    tmp = path.with_name(path.name + ".part")
-    tmp.write_text(json.dumps(doc, indent=1, default=str), encoding="utf-8")
-    tmp.replace(path)
+    """Write ``doc`` to ``path`` atomically (:mod:`dbc.atomic`)."""
+    write_bytes_atomic(path, json.dumps(doc, indent=1, default=str).encode())
 
 
 def append_rating(

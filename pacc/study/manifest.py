@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from cloud_sync.learners import BUILTIN_LEARNERS
+from dbc.atomic import write_bytes_atomic
 from dbc.vocab.dgpt import utc_now_iso
 from dbc.vocab.plugins import PluginError, provenance
 from ecu.methods import BUILTIN_ADAPTATIONS, BUILTIN_CONTROLLERS
@@ -116,7 +117,7 @@ def write_manifest(
     }
     out.mkdir(parents=True, exist_ok=True)
     path = out / MANIFEST
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(doc, indent=2, sort_keys=True, default=str) + "\n", encoding="utf-8")
-    tmp.replace(path)
+    write_bytes_atomic(
+        path, json.dumps(doc, indent=2, sort_keys=True, default=str).encode() + b"\n"
+    )
     return path
