@@ -168,14 +168,16 @@ def run_drivers(
     trials: int = 1,
     scenario: str = "B",
     irl_from: str = "learned",
+    roads: str = "per-driver",
 ) -> list[dict[str, Any]]:
     """Every drive (120 s) of ``drivers`` under ``controllers`` in ``scenario``, two processes
     (the study pipeline's tables and drives; IRL learned in-process from :func:`manual_view`,
     cached in the default cache folder). ``irl_from`` ``manual``/``acc``: the IRL table is the
-    driver's own manual or ACC preference instead (what a perfect learner would give)."""
+    driver's own manual or ACC preference instead (what a perfect learner would give). ``roads``:
+    each driver its own draw of the scenario (``shared``: the seed's one, as before)."""
     spec = StudySpec(
         drivers=(), scenarios=(scenario,), methods=tuple(table1_method(c) for c in controllers),
-        trials=trials, seed=seed, duration_s=120.0, learn_in="direct", logs=False,
+        trials=trials, seed=seed, duration_s=120.0, learn_in="direct", logs=False, roads=roads,
     )  # fmt: skip
     by_id = {d.driver_id: d for d in drivers}
     with open_executor(None, 2) as executor:

@@ -22,7 +22,7 @@ from pacc.commands._args import CommandParser, add_cloud_arguments, fail, intege
 from pacc.study.drive import BUSES, CONTROLLERS, adaptation_params
 from pacc.study.manifest import write_manifest
 from pacc.study.pipeline import StudyInterrupted, run
-from pacc.study.spec import StudySpec, load_study_file, spec_of, table1_method
+from pacc.study.spec import ROADS, StudySpec, load_study_file, spec_of, table1_method
 from sim_bus.errors import SimError
 from sim_bus.population import DEFAULT_POPULATION, POPULATIONS
 
@@ -61,6 +61,12 @@ def _parser() -> argparse.ArgumentParser:
     cloud.add_argument("--incremental", type=integer(1, 1000), default=0, metavar="N")
     p.add_argument("--population", type=integer(1, 100_000), default=0, metavar="N")
     p.add_argument("--population-kind", choices=tuple(POPULATIONS), default=DEFAULT_POPULATION)
+    p.add_argument(
+        "--roads",
+        choices=ROADS,
+        help="one lead road per seed or per driver "
+        "(default: per-driver with --population, else shared)",
+    )
     p.add_argument("--bus", choices=BUSES, default=BUSES[0], help="python-can bus of each drive")
     p.add_argument("--hil", type=Path, metavar="SESSIONS", help="Table I of pacc hil sessions")
     p.add_argument("--beside", type=Path, metavar="DRIVES_CSV", help="with --hil: a drives.csv")
@@ -121,6 +127,7 @@ def _spec(args: argparse.Namespace, argv: list[str]) -> tuple[StudySpec, dict[st
         dbc=args.dbc,
         binding=args.binding,
         bus=args.bus,
+        roads=args.roads or ("per-driver" if pop else "shared"),
         workers=args.workers,
         scheduler=args.scheduler,
     ), None

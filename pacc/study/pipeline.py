@@ -29,7 +29,7 @@ from dbc.vocab.triplog_file import write_trip
 from pacc.study.drive import DriveConfig, log_to_trip, predefined_table, resolve_profile, run_drive
 from pacc.study.irl_table import irl_table, manual_trips
 from pacc.study.loop import StudyCloud, cloud_irl_tables
-from pacc.study.spec import ECU_ADAPTATION, Method, StudySpec, validate
+from pacc.study.spec import ECU_ADAPTATION, Method, StudySpec, road_seed, validate
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import SimError
 
@@ -47,7 +47,7 @@ class Drive:
     table: Dgpt
     method: Method
     trial: int
-    profile_seed: int  # the study seed: the lead profile's
+    profile_seed: int  # the lead profile's (pacc.study.spec.road_seed)
     log: str | None = None
     can_log: str | None = None
     bus: str = "lockstep"
@@ -169,6 +169,7 @@ def plan(
     """Every drive whose table exists, in order (driver, scenario, method, trial)."""
     drives = []
     for driver_id, driver in drivers.items():
+        road = road_seed(spec.seed, driver_id, spec.roads)
         for scenario in spec.scenarios:
             for m in spec.methods:
                 table = tables[(driver_id, m.table_key)]
@@ -185,7 +186,7 @@ def plan(
                         adaptation_args=m.adaptation_args,
                     )  # fmt: skip
                     drives.append(
-                        Drive(cfg, driver, table, m, trial, spec.seed,
+                        Drive(cfg, driver, table, m, trial, road,
                               str(out / "logs" / name) if spec.logs else None,
                               str(out / "can" / name) if spec.can_logs else None, spec.bus)
                     )  # fmt: skip

@@ -14,6 +14,7 @@ import itertools
 import json
 import math
 import tomllib
+import zlib
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -37,6 +38,10 @@ ECU_ADAPTATION = "ecu"
 LEARN_IN = ("cloud", "direct")
 #: the study's modes, each named by the report it writes (pacc.study.report; ``hil``: Table I of
 #: pacc hil's session folders, pacc.hil.report)
+#: ``shared``: every driver follows the study seed's lead; ``per-driver``: each driver its own
+#: draw of the same scenario (:func:`road_seed`), so that a population's averages do not rest on
+#: one road
+ROADS = ("shared", "per-driver")
 REPORTS = ("table1", "population", "summary", "incremental", "hil")
 
 
@@ -81,6 +86,12 @@ def table1_method(controller: str) -> Method:
 TABLE1_METHODS = tuple(table1_method(c) for c in CONTROLLERS)
 
 
+def road_seed(seed: int, driver_id: str, roads: str = "per-driver") -> int:
+    """The seed of the lead profiles ``driver_id`` follows in a study of ``seed``: the study's
+    own (``shared``) or one drawn from both (``per-driver``; the same whatever the drivers)."""
+    return seed if roads == "shared" else zlib.crc32(f"{seed}/{driver_id}".encode())
+
+
 @dataclass(frozen=True)
 class StudySpec:
     """What to run. Trial k drives with noise seed ``seed + k``; ``duration_s`` shortens every
@@ -108,6 +119,7 @@ class StudySpec:
     dbc: str | None = None  # the vehicle network of every drive (None: pacc's)
     binding: str | None = None
     bus: str = "lockstep"  # the python-can interface of every drive (pacc.study.drive.BUSES)
+    roads: str = "shared"  # the lead's road: one per study seed, or one per driver (ROADS)
     sessions: str | None = None
     beside: str | None = None
     workers: int = 2
@@ -169,6 +181,7 @@ def validate(spec: StudySpec) -> dict[str, DriverParams]:
         (not spec.methods, f"give at least one method or controller ({', '.join(CONTROLLERS)})"),
         (not spec.scenarios, "give at least one scenario"),
         (spec.bus not in BUSES, f"--bus must be one of {', '.join(BUSES)}, got {spec.bus!r}"),
+        (spec.roads not in ROADS, f"--roads must be one of {', '.join(ROADS)}, got {spec.roads!r}"),
         (spec.trials < 1, "--trials must be >= 1"),
         (spec.duration_s is not None and not spec.duration_s > 0, "--duration must be > 0"),
         (spec.seed < 0, f"--seed must be >= 0, got {spec.seed}"),

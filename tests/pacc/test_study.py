@@ -18,7 +18,7 @@ from pacc.commands.study import main
 from pacc.study import pipeline
 from pacc.study.pipeline import make_tables, plan, run
 from pacc.study.report import format_table
-from pacc.study.spec import StudySpec, table1_method, validate
+from pacc.study.spec import StudySpec, road_seed, table1_method, validate
 from pacc.study.stats import reduction_pct
 from sim_bus.drivers import DriverParams
 from tests.cli_util import exit_code
@@ -262,3 +262,19 @@ def test_errors_come_before_learning(
     assert main(["--drivers", drivers, *QUICK, "--out", str(out)]) == 2
     assert message in capsys.readouterr().err
     assert learned == []
+
+
+def test_roads_shared_or_one_per_driver(tmp_path: Path) -> None:
+    spec = StudySpec(drivers=("headway:3:5",), scenarios=("B",), methods=methods("predefined"),
+                     trials=2, seed=5, learn_in="direct")  # fmt: skip
+    drivers = validate(spec)
+    tables = make_tables(spec, drivers, tmp_path, InlineExecutor(), None)
+    shared = plan(spec, drivers, tables, tmp_path)
+    assert {d.profile_seed for d in shared} == {5}
+    own = plan(StudySpec(**{**spec.__dict__, "roads": "per-driver"}), drivers, tables, tmp_path)
+    seeds = {d.config.driver_id: d.profile_seed for d in own}
+    assert len(set(seeds.values())) == 3 and 5 not in seeds.values()
+    # a driver's road is its own, whatever other drivers the study has
+    more = validate(StudySpec(**{**spec.__dict__, "drivers": ("headway:4:5",)}))
+    assert all(road_seed(5, i) == seeds[i] for i in list(more)[:3])
+    assert exit_code(main, ["--roads", "everywhere", "--out", str(tmp_path), "-q"]) == 2
