@@ -60,6 +60,10 @@ RESUME_LEAD_MPS = 1.0
 STANDSTILL_MPS = 0.1
 RESUME_DELAY_S = 1.0
 FAULT_RETRY_S = 5.0  # after a fault, the driver tries SET once it has lasted this long
+#: a driver that set out to drive with the ACC engages it by this time even if the gap never
+#: felt right (not closing, not too close), s: one whose cautious following (IDM's small
+#: comfortable deceleration) never closed to its short preferred gap drove 120 s by hand
+ENGAGE_ANYWAY_S = 30.0
 
 
 class DriverAgent:
@@ -241,7 +245,8 @@ class DriverAgent:
         p = self.p
         band = max(p.comfort_band * pref, p.comfort_band_min_m)
         quiet = self.t_s - self._last_release_t >= RESUME_DELAY_S
-        feels_right = (abs(g - pref) <= band and vl - v > -1.0) or g >= LEAD_SIGHT_M
+        late = not self._engaged_once and self.t_s >= ENGAGE_ANYWAY_S and g >= pref - band
+        feels_right = ((abs(g - pref) <= band or late) and vl - v > -1.0) or g >= LEAD_SIGHT_M
         can_engage = self.t_s >= self.engage_s and (
             acc_state == AccState.STANDBY or self._fault_t >= FAULT_RETRY_S
         )

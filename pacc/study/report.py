@@ -226,6 +226,12 @@ def _collisions(rows: Iterable[Mapping[str, Any]]) -> int:
     return sum(int(r["collision"]) for r in rows)
 
 
+def _never_on(rows: Sequence[Mapping[str, Any]]) -> int:
+    """Drives without a PoI: the driver never engaged the ACC (a weak accelerator behind a
+    fast lead never closes to a gap it would engage at)."""
+    return sum(not math.isfinite(float(r["poi_pct"])) for r in rows)
+
+
 def _lowest(rows: Iterable[Mapping[str, Any]], key: str) -> float:
     return min(float(r[key]) for r in rows)
 
@@ -356,7 +362,9 @@ def format_population(cfg: StudySpec, rows: Sequence[dict[str, Any]]) -> str:
         f"Scenarios {', '.join(cfg.scenarios)}; {cfg.trials} trial(s) per cell; "
         + ("full-length drives" if cfg.duration_s is None else f"{cfg.duration_s:g}-s drives")
         + ("" if cfg.adaptation is None else f"; {cfg.adaptation.mode} adaptation")
-        + f"; {len(rows)} drives. A driver's value is its mean over scenarios and trials;",
+        + f"; {len(rows)} drives"
+        + (f" ({idle} never had the ACC on: left out)" if (idle := _never_on(rows)) else "")
+        + ". A driver's value is its mean over scenarios and trials;",
         "intervals: percentile bootstrap over drivers (2000 resamples); tests: paired "
         "Wilcoxon signed-rank over drivers, Holm-adjusted over the 12 comparisons.",
         "",

@@ -84,10 +84,13 @@ def holm(p_values: list[float]) -> list[float]:
 def driver_means(
     rows: Iterable[Mapping[str, Any]], metric: str, by: str = "controller"
 ) -> dict[str, dict[str, float]]:
-    """Group (a row's ``by``) -> driver -> mean ``metric`` of its drives (first-seen order)."""
+    """Group (a row's ``by``) -> driver -> mean ``metric`` of its drives (first-seen order);
+    a drive without the figure (NaN: the ACC was never on) is left out, and so is a driver
+    with none."""
     acc: dict[str, dict[str, list[float]]] = {}
     for r in rows:
-        acc.setdefault(str(r[by]), {}).setdefault(str(r["driver"]), []).append(float(r[metric]))
+        if math.isfinite(value := float(r[metric])):
+            acc.setdefault(str(r[by]), {}).setdefault(str(r["driver"]), []).append(value)
     return {g: {d: float(np.mean(v)) for d, v in ds.items()} for g, ds in acc.items()}
 
 
@@ -119,9 +122,12 @@ def comparisons(
 def cell_means(
     rows: Iterable[Mapping[str, Any]],
 ) -> dict[tuple[str, str, str], tuple[float, float]]:
-    """(driver, scenario, controller) -> (mean PoI %, mean NIM /min) over the trials."""
+    """(driver, scenario, controller) -> (mean PoI %, mean NIM /min) over the trials whose ACC
+    was on (a cell with none is left out)."""
     acc: dict[tuple[str, str, str], list[tuple[float, float]]] = {}
     for r in rows:
+        if not math.isfinite(float(r["poi_pct"])):
+            continue
         acc.setdefault((r["driver"], r["scenario"], r["controller"]), []).append(
             (float(r["poi_pct"]), float(r["nim_per_min"]))
         )

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from pacc.study.stats import bootstrap_ci, holm, paired_comparison
+from pacc.study.stats import bootstrap_ci, cell_means, driver_means, holm, paired_comparison
 from sim_bus.errors import SimError
 
 
@@ -42,3 +42,14 @@ def test_holm() -> None:
     # sorted 0.01, 0.02, 0.04 -> 3*0.01, max(0.03, 2*0.02), max(0.04, 1*0.04)
     assert holm([0.04, 0.01, 0.02]) == pytest.approx([0.04, 0.03, 0.04])
     assert holm([0.5, 0.9]) == pytest.approx([1.0, 1.0])
+
+
+def test_a_drive_whose_acc_was_never_on_is_left_out() -> None:
+    nan = math.nan
+    rows = [
+        {"driver": "a", "controller": "irl", "poi_pct": 4.0, "nim_per_min": 1.0},
+        {"driver": "a", "controller": "irl", "poi_pct": nan, "nim_per_min": nan},
+        {"driver": "b", "controller": "irl", "poi_pct": nan, "nim_per_min": nan},
+    ]
+    assert driver_means(rows, "poi_pct") == {"irl": {"a": 4.0}}
+    assert cell_means([dict(r, scenario="B") for r in rows]) == {("a", "B", "irl"): (4.0, 1.0)}

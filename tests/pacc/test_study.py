@@ -16,6 +16,7 @@ from dbc.vocab.triplog_file import read_trip
 from ecu.adaptation import AdaptationParams
 from pacc.commands.study import main
 from pacc.study import pipeline
+from pacc.study.drive import DriveConfig, predefined_table, resolve_profile, run_drive
 from pacc.study.pipeline import make_tables, plan, run
 from pacc.study.report import format_table
 from pacc.study.spec import StudySpec, road_seed, table1_method, validate
@@ -278,3 +279,16 @@ def test_roads_shared_or_one_per_driver(tmp_path: Path) -> None:
     more = validate(StudySpec(**{**spec.__dict__, "drivers": ("headway:4:5",)}))
     assert all(road_seed(5, i) == seeds[i] for i in list(more)[:3])
     assert exit_code(main, ["--roads", "everywhere", "--out", str(tmp_path), "-q"]) == 2
+
+
+def test_a_cautious_driver_engages_the_acc_by_thirty_seconds() -> None:
+    # its comfortable deceleration is 0.19 m/s^2: behind this lead its own following never
+    # closed to its 0.8-s preferred gap, and it drove all 120 s by hand (no PoI)
+    driver = validate(StudySpec(drivers=("people:4:404235",)))["p404235-0003"]
+    assert driver.decel_comfort_mps2 < 0.2
+    cfg = DriveConfig(scenario="B", driver_id=driver.driver_id, controller="predefined",
+                      seed=404235, duration_s=120.0)  # fmt: skip
+    road = resolve_profile("B", road_seed(404235, driver.driver_id))
+    result = run_drive(cfg, driver, predefined_table(driver), road)
+    assert 85.0 < result.metrics.acc_on_s <= 90.0  # SET at 30 s, not before
+    assert not result.collision
