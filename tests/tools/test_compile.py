@@ -145,16 +145,31 @@ def _drive(tmp: Path, name: str, pythonpath: str) -> tuple[str, str]:
     return done.stdout, h.hexdigest()
 
 
+def _build_dir(config: pytest.Config, tmp_path: Path) -> Path:
+    """Where the test builds: a folder of pytest's cache, so that a run on the same sources,
+    tool, Python and mypy reuses the last run's build (``build`` checks its fingerprint)."""
+    cache = getattr(config, "cache", None)
+    if cache is None:  # -p no:cacheprovider
+        return tmp_path / "compiled"
+    out: Path = cache.mkdir("compiled-codecs") / "build"
+    if out.exists() and not (out / ".compiled").is_file():
+        shutil.rmtree(out)  # an interrupted build
+    return out
+
+
 @pytest.mark.slow
-def test_the_compiled_codecs_give_the_same_drive(tmp_path: Path) -> None:
-    """The codec module compiled with mypyc (about 10 s of gcc): a drive on it records the
-    same frames and decoded signals, and gives the same metrics, as on the pure codecs."""
+def test_the_compiled_codecs_give_the_same_drive(
+    tmp_path: Path, pytestconfig: pytest.Config
+) -> None:
+    """The codec module compiled with mypyc (about 10 s of gcc, once per change of the
+    sources): a drive on it records the same frames and decoded signals, and gives the same
+    metrics, as on the pure codecs."""
     why = _compiler()
     if why is not None:
         pytest.skip(f"mypyc needs a C compiler and Python's headers: {why}")
     from tools.compile import build  # noqa: PLC0415 - only where a compiler is
 
-    out = tmp_path / "compiled"
+    out = _build_dir(pytestconfig, tmp_path)
     build(out, modules=("dbc/_compiled_codecs.py",))
     assert list((out / "dbc").glob("_compiled_codecs*.so"))
     pure_out, pure_hash = _drive(tmp_path, "pure", str(ROOT))
