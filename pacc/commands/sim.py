@@ -32,17 +32,12 @@ from pacc.commands._args import (
 from sim_bus.errors import SimError
 
 if TYPE_CHECKING:
-    import can
-
-    from dbc.codec import Codec
     from ecu.buslog.format import TimeBase
     from ecu.buslog.writer import CanLogWriter
     from pacc.study.drive_recording import WorldFeed
-    from sim_bus.drivers import DriverParams
     from sim_bus.faults import FaultSpec
-    from sim_bus.lead.profile import LeadProfile
     from sim_bus.node import SimNode
-    from sim_bus.world import WorldLog
+    from sim_bus.world import World, WorldLog
 
 #: seconds between two progress lines
 PROGRESS_EVERY_S = 5.0
@@ -59,12 +54,13 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-def _setup(args: argparse.Namespace) -> tuple[DriverParams, FaultSpec, LeadProfile]:
-    """The driver, the faults and the lead profile of the run; SimError on bad options."""
+def _setup(args: argparse.Namespace) -> tuple[World, FaultSpec]:
+    """The world (driver, lead profile) and the faults of the run; SimError on bad options."""
     from pacc.study.drive import resolve_profile, with_condition  # noqa: PLC0415
     from sim_bus.drivers import load_driver  # noqa: PLC0415
     from sim_bus.faults import parse_faults  # noqa: PLC0415
     from sim_bus.lead.scenarios import shorten  # noqa: PLC0415
+    from sim_bus.world import World  # noqa: PLC0415
 
     driver = with_condition(load_driver(args.driver), args.condition_factor)
     faults = parse_faults(args.faults)
@@ -73,7 +69,7 @@ def _setup(args: argparse.Namespace) -> tuple[DriverParams, FaultSpec, LeadProfi
         profile = shorten(profile, args.duration)
     check_writable_file(args.log, "--log")  # now, not after the drive when it would be lost
     check_writable_file(args.can_log, "--can-log")
-    return driver, faults, profile
+    return World(driver, profile, args.seed), faults
 
 
 def _state_name(code: int) -> str:
@@ -120,9 +116,12 @@ def main(argv: list[str] | None = None) -> int:
     from ecu.buslog.live import live_sinks  # noqa: PLC0415
     from ecu.buslog.recording import open_recording  # noqa: PLC0415
     from pacc.study.drive_recording import WorldFeed  # noqa: PLC0415
+    from sim_bus.drivers import GAP_SETTING_CODE  # noqa: PLC0415
+    from sim_bus.faults import fault_rng  # noqa: PLC0415
+    from sim_bus.node import SimNode  # noqa: PLC0415
 
     try:
-        driver, faults, profile = _setup(args)
+        world, faults = _setup(args)
         codec = codec_of(args)
     except (SimError, DbcError, UsageError) as exc:
         return fail("pacc sim", exc)
@@ -131,8 +130,10 @@ def main(argv: list[str] | None = None) -> int:
         bus = can.Bus(**bus_kwargs(args))
     except (can.CanError, ValueError, OSError, ImportError) as exc:
         return fail("pacc sim", bus_error(args, exc))
-    node = _node(args, bus, driver, faults, profile, codec)
-    world = node.world
+    gap = GAP_SETTING_CODE[world.driver.predefined_setting]
+    node = SimNode(
+        bus, world, codec=codec, faults=faults, rng=fault_rng(args.seed), gap_setting=gap
+    )
     base = TimeBase.now(0.0)  # simulated time 0 is now
     try:
         live = live_sinks(args.foxglove, print)
@@ -159,35 +160,14 @@ def main(argv: list[str] | None = None) -> int:
         feed = WorldFeed(recorder, world) if live else None
     start = time.monotonic()
     try:
-        _run(node, profile.duration_s, args.quiet, feed)
+        _run(node, world.profile.duration_s, args.quiet, feed)
     finally:
         bus.shutdown()
         if feed is not None:
             feed()  # the rows of the last ticks (the loop feeds before each tick)
     log = world.log()
     _print_figures(args, node, log, start)
-    return _save(args, log, world.plant.collided, driver, node, base, recorder, feed is not None)
-
-
-def _node(
-    args: argparse.Namespace,
-    bus: can.BusABC,
-    driver: DriverParams,
-    faults: FaultSpec,
-    profile: LeadProfile,
-    codec: Codec,
-) -> SimNode:
-    """The simulator's node on ``bus``: the world of ``driver`` behind ``profile``."""
-    from sim_bus.drivers import GAP_SETTING_CODE  # noqa: PLC0415
-    from sim_bus.faults import fault_rng  # noqa: PLC0415
-    from sim_bus.node import SimNode  # noqa: PLC0415
-    from sim_bus.world import World  # noqa: PLC0415
-
-    world = World(driver, profile, args.seed)
-    gap = GAP_SETTING_CODE[driver.predefined_setting]
-    return SimNode(
-        bus, world, codec=codec, faults=faults, rng=fault_rng(args.seed), gap_setting=gap
-    )
+    return _save(args, log, world, node, base, recorder, feed is not None)
 
 
 def _print_figures(args: argparse.Namespace, node: SimNode, log: WorldLog, start: float) -> None:
@@ -211,8 +191,7 @@ def _print_figures(args: argparse.Namespace, node: SimNode, log: WorldLog, start
 def _save(
     args: argparse.Namespace,
     log: WorldLog,
-    collided: bool,
-    driver: DriverParams,
+    world: World,
     node: SimNode,
     base: TimeBase,
     recorder: CanLogWriter | None,
@@ -226,6 +205,7 @@ def _save(
     from pacc.study.drive_recording import finish_recording  # noqa: PLC0415
     from sim_bus.trip import world_trip  # noqa: PLC0415
 
+    collided = world.plant.collided
     status = 1 if collided else 0
     if args.log is not None:
         meta = {
@@ -236,7 +216,9 @@ def _save(
             "start_utc": base.iso(0.0),
         }
         try:
-            write_trip(args.log, world_trip(log, driver, PedalScale.from_codec(node.codec), meta))
+            write_trip(
+                args.log, world_trip(log, world.driver, PedalScale.from_codec(node.codec), meta)
+            )
         except (TripLogError, OSError) as exc:
             print(f"pacc sim: error: cannot write {args.log}: {exc}", file=sys.stderr)
             status = 2
