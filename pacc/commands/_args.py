@@ -6,7 +6,7 @@ options (:func:`add_world_arguments`), finite ranged numbers
 (:func:`number`, :func:`integer`), and outputs refused before a run: two options naming one
 file (:func:`check_distinct_outputs`), an unwritable file or folder
 (:func:`check_writable_file`, :func:`check_writable_dir`). Nothing here imports numpy or
-python-can: ``pacc X --help`` stays fast, the names options choose from are copies the
+python-can, so ``pacc X --help`` stays fast: the names options choose from are copies of the
 libraries' own (tests/pacc/test_cli.py compares them).
 """
 
