@@ -109,7 +109,6 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc sim``; returns the exit status."""
     args = _parser().parse_args(argv)
     check_distinct_outputs(log=args.log, can_log=args.can_log)
-    # python-can, numpy and the simulator only when it runs, not for --help
     import can  # noqa: PLC0415
 
     from ecu.buslog.format import TimeBase  # noqa: PLC0415

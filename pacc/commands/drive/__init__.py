@@ -163,7 +163,6 @@ def main(argv: list[str] | None = None) -> int:
     _check_options(args)
     if args.manual and (code := _manual(args)) is not None:
         return code
-    # numpy, python-can and the harness only when a drive runs, not for --help
     from ecu.buslog.live import live_sinks  # noqa: PLC0415
     from pacc.study.drive import (  # noqa: PLC0415
         DriveConfig,

@@ -74,7 +74,6 @@ def main(argv: list[str] | None = None) -> int:
     )
     level = logging.INFO if args.verbose else logging.WARNING
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
-    # the node, numpy, python-can and MCAP only when it runs, not for --help
     from pacc.commands.ecu.cloud import Exit  # noqa: PLC0415
     from pacc.commands.ecu.run import serve  # noqa: PLC0415
 

@@ -1,9 +1,5 @@
-"""``pacc ecu``'s run: the node from the options, the bus recording, the real-time loop,
-SIGTERM, the summary.
-
-Part of :mod:`pacc.commands.ecu` (one concept per module): python-can, the runtime, MCAP
-and Foxglove are imported only when the ECU runs, never for ``--help`` or a usage error.
-"""
+"""``pacc ecu``'s run (part of :mod:`pacc.commands.ecu`, imported when it runs): the node
+from the options, the bus recording, the real-time loop, SIGTERM, the summary."""
 
 from __future__ import annotations
 
@@ -109,7 +105,6 @@ def run_on_bus(
 ) -> str | None:
     """Open the bus, run the node on it until done and print the summary; return the bus
     failure's text (None: clean end)."""
-    # python-can and the runtime cost ~0.3 s of start-up that --help and usage errors skip
     import can  # noqa: PLC0415
 
     from ecu.runtime import EcuRuntime  # noqa: PLC0415
