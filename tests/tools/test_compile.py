@@ -154,8 +154,8 @@ def _compiled_copy(config: pytest.Config, tmp_path: Path) -> Path:
 
     from tools import compile as tool  # noqa: PLC0415
 
-    made = (tool.codec_module_source(), Path(tool.__file__).read_text(encoding="utf-8"))
-    made += (sys.version, mypy.version.__version__, str(sysconfig.get_config_var("CC")))
+    made = [tool.codec_module_source(), Path(tool.__file__).read_text(encoding="utf-8")]
+    made += [sys.version, mypy.version.__version__, str(sysconfig.get_config_var("CC"))]
     key = hashlib.sha256("\0".join(made).encode()).hexdigest()[:16]
     cache = getattr(config, "cache", None)  # None: -p no:cacheprovider
     kept = None if cache is None else Path(cache.mkdir("compiled-codecs")) / key
