@@ -23,6 +23,7 @@ folder imports one that imports it back.
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import pytest
@@ -97,6 +98,12 @@ def imported_modules(tree: ast.AST) -> list[tuple[int, str]]:
     return found
 
 
+@functools.cache
+def imports_in(path: Path) -> list[tuple[int, str]]:
+    """:func:`imported_modules` of the file ``path``, read once for every check here."""
+    return imported_modules(ast.parse(path.read_text(encoding="utf-8"), filename=str(path)))
+
+
 def violations(package: str) -> list[str]:
     """Every import in ``package`` its room may not make, as 'file:line: a -> b'."""
     bad: list[str] = []
@@ -104,8 +111,7 @@ def violations(package: str) -> list[str]:
         importer = module_name(path)
         own = room_of(importer)
         assert own is not None, importer
-        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
-        for line, target in imported_modules(tree):
+        for line, target in imports_in(path):
             theirs = room_of(target)
             if theirs is not None and theirs != own and theirs not in ALLOWED[own]:
                 bad.append(f"{path.relative_to(ROOT)}:{line}: {importer} -> {target}")
@@ -161,9 +167,8 @@ def module_imports(packages: tuple[str, ...]) -> dict[str, set[str]]:
     files = {module_name(p): p for pkg in packages for p in (ROOT / pkg).rglob("*.py")}
     graph: dict[str, set[str]] = {}
     for name, path in files.items():
-        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
         targets = set()
-        for _, written in imported_modules(tree):
+        for _, written in imports_in(path):
             target = written
             while target and target not in files:
                 target = target.rpartition(".")[0]

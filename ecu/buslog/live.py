@@ -8,7 +8,6 @@ client loses the oldest messages (``message_backlog_size``), the node never wait
 
 from __future__ import annotations
 
-import argparse
 from collections.abc import Callable
 from typing import Any
 
@@ -18,7 +17,6 @@ from ecu.buslog.format import CanLogError
 from ecu.buslog.proto import ProtoRows
 from ecu.buslog.sinks import ChannelSpec
 
-DEFAULT_ADDRESS = "127.0.0.1:8765"
 #: the recorder's flush interval with a live view, s of the node's clock (the view's delay)
 LIVE_FLUSH_S = 0.2
 #: per-client queue of the server, messages (one flush of a busy bus fits)
@@ -115,18 +113,6 @@ class FoxgloveSink:
         server, self._server = self._server, None
         if server is not None:
             server.stop()
-
-
-def add_foxglove_argument(parser: argparse.ArgumentParser) -> None:
-    """``--foxglove [HOST:PORT]`` on a command's parser."""
-    parser.add_argument(
-        "--foxglove",
-        nargs="?",
-        const=DEFAULT_ADDRESS,
-        metavar="HOST:PORT",
-        help="stream the bus, decoded, and the node's internals live to Foxglove over a "
-        f"WebSocket (default {DEFAULT_ADDRESS}, loopback only; the channels of --can-log)",
-    )
 
 
 def live_sinks(address: str | None, say: Callable[[str], None]) -> list[FoxgloveSink]:

@@ -5,7 +5,9 @@
 options (:func:`add_world_arguments`), finite ranged numbers
 (:func:`number`, :func:`integer`), and outputs refused before a run: two options naming one
 file (:func:`check_distinct_outputs`), an unwritable file or folder
-(:func:`check_writable_file`, :func:`check_writable_dir`).
+(:func:`check_writable_file`, :func:`check_writable_dir`). Nothing here imports numpy or
+python-can, so ``pacc X --help`` stays fast: the names options choose from are copies of the
+libraries' own (tests/pacc/test_cli.py compares them).
 """
 
 from __future__ import annotations
@@ -38,6 +40,18 @@ def fail(prog: str, why: object, code: int = 2) -> int:
     return code
 
 
+#: the choices of options, as pacc.study.drive (CONTROLLERS, BUSES), ecu.adaptation
+#: (ADAPTATION_MODES), sim_bus.population (POPULATIONS, DEFAULT_POPULATION) and
+#: sim_bus.drivers (CONDITION_FACTORS) and pacc.study.spec (ROADS) define them
+CONTROLLERS = ("predefined", "predefined+oa", "irl", "irl+oa")
+BUSES = ("lockstep", "virtual")
+ADAPTATION_MODES = ("paper", "timegap")
+POPULATIONS, DEFAULT_POPULATION = ("headway", "people"), "people"
+CONDITIONS = ("dry", "night", "wet")
+ROADS = ("shared", "per-driver")
+#: ``--foxglove``'s address when given alone (ecu.buslog.live.parse_address's defaults)
+FOXGLOVE_ADDRESS = "127.0.0.1:8765"
+
 #: the largest integer any option takes (seeds, counts): beyond it a typo, not a wish
 INT_MAX = 2**31 - 1
 
@@ -51,6 +65,18 @@ def add_bus_arguments(parser: argparse.ArgumentParser, title: str | None = None)
     group.add_argument("-c", "--channel", help="channel, e.g. vcan0")
     group.add_argument(
         "-b", "--bitrate", type=integer(1, 10_000_000), help="bitrate, bit/s (1..10000000)"
+    )
+
+
+def add_foxglove_argument(parser: argparse.ArgumentParser) -> None:
+    """``--foxglove [HOST:PORT]`` on a command's parser."""
+    parser.add_argument(
+        "--foxglove",
+        nargs="?",
+        const=FOXGLOVE_ADDRESS,
+        metavar="HOST:PORT",
+        help="stream the bus, decoded, and the node's internals live to Foxglove over a "
+        f"WebSocket (default {FOXGLOVE_ADDRESS}, loopback only; the channels of --can-log)",
     )
 
 

@@ -16,19 +16,16 @@ import sys
 import time
 import tomllib
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from cloud_sync.errors import CloudSyncError
 from dbc.vocab import FormatError
 from ecu import EcuError
 from pacc.commands._args import CommandParser, fail, integer, number
-from pacc.study.bench.suite import (
-    DEFAULT_METHODS,
-    BenchOptions,
-    fresh_seeds,
-    run_bench,
-    stored_options,
-)
 from sim_bus.errors import SimError
+
+if TYPE_CHECKING:
+    from pacc.study.bench.suite import BenchOptions
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -55,6 +52,13 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _options(args: argparse.Namespace) -> BenchOptions:
+    from pacc.study.bench.suite import (  # noqa: PLC0415 - the harness: not for --help
+        DEFAULT_METHODS,
+        BenchOptions,
+        fresh_seeds,
+        stored_options,
+    )
+
     stored = stored_options(args.out)
     if stored is not None:
         print(f"resuming the bench in {args.out} (seeds {list(stored.seeds)})", file=sys.stderr)
@@ -85,6 +89,8 @@ def _options(args: argparse.Namespace) -> BenchOptions:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc bench``; 0 on success, 2 on bad input."""
     args = _parser().parse_args(argv)
+    from pacc.study.bench.suite import run_bench  # noqa: PLC0415
+
     start = time.perf_counter()
     try:
         opts = _options(args)

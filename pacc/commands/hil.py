@@ -14,30 +14,30 @@ import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
-
-import can
+from typing import TYPE_CHECKING
 
 from cloud_sync.errors import CloudSyncError
 from dbc.errors import DbcError
 from dbc.vocab import FormatError
-from dbc.vocab.dgpt_file import load_dgpt
 from ecu import EcuError
-from ecu.buslog.live import add_foxglove_argument, parse_address
 from pacc.commands._args import (
+    CONTROLLERS,
     CommandParser,
     add_bus_arguments,
     add_cloud_arguments,
+    add_foxglove_argument,
     bus_error,
     bus_kwargs,
     fail,
     integer,
     number,
 )
-from pacc.hil.plan import free_plan, paper_plan, participant_index, with_weather
-from pacc.hil.server import ServerThread, create_app, default_mapping_path
-from pacc.hil.session import Session, SessionConfig
-from pacc.study.drive import CONTROLLERS
 from sim_bus.errors import SimError
+
+if TYPE_CHECKING:
+    import can
+
+    from pacc.hil.session import Session
 
 #: the page's default port (not 8765: Foxglove's, which ``--foxglove`` takes by default)
 DEFAULT_PORT = 8770
@@ -79,6 +79,7 @@ def _bus_factory(args: argparse.Namespace) -> Callable[[], can.BusABC] | None:
     """What opens the bus to a separate ECU (None: the ECU runs in-process)."""
     if not bus_kwargs(args):
         return None
+    import can  # noqa: PLC0415 - python-can, the session and its server: not for --help
 
     def open_bus() -> can.BusABC:
         try:
@@ -91,6 +92,16 @@ def _bus_factory(args: argparse.Namespace) -> Callable[[], can.BusABC] | None:
 
 def session_of(args: argparse.Namespace) -> Session:
     """The session the options ask for; SimError on bad options."""
+    from dbc.vocab.dgpt_file import load_dgpt  # noqa: PLC0415
+    from ecu.buslog.live import parse_address  # noqa: PLC0415
+    from pacc.hil.plan import (  # noqa: PLC0415
+        free_plan,
+        paper_plan,
+        participant_index,
+        with_weather,
+    )
+    from pacc.hil.session import Session, SessionConfig  # noqa: PLC0415
+
     if args.protocol is not None:
         if args.participant is None:
             raise SimError("--protocol needs --participant")
@@ -140,6 +151,8 @@ def session_of(args: argparse.Namespace) -> Session:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc hil``; serves until Ctrl-C. 0 on success, 2 on bad input."""
     args = _parser().parse_args(argv)
+    from pacc.hil.server import ServerThread, create_app, default_mapping_path  # noqa: PLC0415
+
     try:
         session = session_of(args)
         server = ServerThread(

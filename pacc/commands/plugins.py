@@ -11,14 +11,7 @@ from __future__ import annotations
 
 import sys
 
-from cloud_sync.learners import BUILTIN_LEARNERS
-from dbc.vocab.plugins import GROUPS, PluginError, installed, load_target
-from ecu.methods import BUILTIN_ADAPTATIONS, BUILTIN_CONTROLLERS
 from pacc.commands._args import CommandParser
-
-BUILTINS = dict(
-    zip(GROUPS, (BUILTIN_CONTROLLERS, BUILTIN_ADAPTATIONS, BUILTIN_LEARNERS), strict=True)
-)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -26,10 +19,15 @@ def main(argv: list[str] | None = None) -> int:
     p = CommandParser(prog="pacc plugins", description=__doc__.split("\n\n")[0])
     p.add_argument("--check", action="store_true", help="load every method, report failures")
     args = p.parse_args(argv)
+    from cloud_sync.learners import BUILTIN_LEARNERS  # noqa: PLC0415 - numpy: not for --help
+    from dbc.vocab.plugins import GROUPS, PluginError, installed, load_target  # noqa: PLC0415
+    from ecu.methods import BUILTIN_ADAPTATIONS, BUILTIN_CONTROLLERS  # noqa: PLC0415
+
+    builtins = (BUILTIN_CONTROLLERS, BUILTIN_ADAPTATIONS, BUILTIN_LEARNERS)
     failed = 0
-    for group in GROUPS:
+    for group, builtin in zip(GROUPS, builtins, strict=True):
         print(f"{group}:")
-        for found in installed(group, BUILTINS[group]):
+        for found in installed(group, builtin):
             status = ""
             if args.check:
                 try:

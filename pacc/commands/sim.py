@@ -11,24 +11,17 @@ import argparse
 import sys
 import time
 from pathlib import Path
-
-import can
+from typing import TYPE_CHECKING
 
 from dbc.errors import DbcError, UsageError
 from dbc.network import add_network_arguments, codec_of
 from dbc.vocab import FormatError
 from dbc.vocab.acc_state import AccState
-from dbc.vocab.pedals import PedalScale
-from dbc.vocab.triplog import TripLogError
-from dbc.vocab.triplog_file import write_trip
 from ecu import EcuError
-from ecu.buslog.format import TimeBase
-from ecu.buslog.live import add_foxglove_argument, live_sinks
-from ecu.buslog.recording import open_recording
-from ecu.buslog.writer import CanLogWriter
 from pacc.commands._args import (
     CommandParser,
     add_bus_arguments,
+    add_foxglove_argument,
     add_world_arguments,
     bus_error,
     bus_kwargs,
@@ -36,17 +29,15 @@ from pacc.commands._args import (
     check_writable_file,
     fail,
 )
-from pacc.commands.drive.report import fig
-from pacc.study.drive import resolve_profile, with_condition
-from pacc.study.drive_recording import WorldFeed, finish_recording
-from sim_bus.drivers import GAP_SETTING_CODE, DriverParams, load_driver
 from sim_bus.errors import SimError
-from sim_bus.faults import FaultSpec, fault_rng, parse_faults
-from sim_bus.lead.profile import LeadProfile
-from sim_bus.lead.scenarios import shorten
-from sim_bus.node import SimNode
-from sim_bus.trip import world_trip
-from sim_bus.world import World, WorldLog
+
+if TYPE_CHECKING:
+    from ecu.buslog.format import TimeBase
+    from ecu.buslog.writer import CanLogWriter
+    from pacc.study.drive_recording import WorldFeed
+    from sim_bus.faults import FaultSpec
+    from sim_bus.node import SimNode
+    from sim_bus.world import World, WorldLog
 
 #: seconds between two progress lines
 PROGRESS_EVERY_S = 5.0
@@ -63,8 +54,14 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-def _setup(args: argparse.Namespace) -> tuple[DriverParams, FaultSpec, LeadProfile]:
-    """The driver, the faults and the lead profile of the run; SimError on bad options."""
+def _setup(args: argparse.Namespace) -> tuple[World, FaultSpec]:
+    """The world (driver, lead profile) and the faults of the run; SimError on bad options."""
+    from pacc.study.drive import resolve_profile, with_condition  # noqa: PLC0415
+    from sim_bus.drivers import load_driver  # noqa: PLC0415
+    from sim_bus.faults import parse_faults  # noqa: PLC0415
+    from sim_bus.lead.scenarios import shorten  # noqa: PLC0415
+    from sim_bus.world import World  # noqa: PLC0415
+
     driver = with_condition(load_driver(args.driver), args.condition_factor)
     faults = parse_faults(args.faults)
     profile = resolve_profile(args.scenario, args.seed)
@@ -72,7 +69,7 @@ def _setup(args: argparse.Namespace) -> tuple[DriverParams, FaultSpec, LeadProfi
         profile = shorten(profile, args.duration)
     check_writable_file(args.log, "--log")  # now, not after the drive when it would be lost
     check_writable_file(args.can_log, "--can-log")
-    return driver, faults, profile
+    return World(driver, profile, args.seed), faults
 
 
 def _state_name(code: int) -> str:
@@ -112,8 +109,18 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc sim``; returns the exit status."""
     args = _parser().parse_args(argv)
     check_distinct_outputs(log=args.log, can_log=args.can_log)
+    import can  # noqa: PLC0415
+
+    from ecu.buslog.format import TimeBase  # noqa: PLC0415
+    from ecu.buslog.live import live_sinks  # noqa: PLC0415
+    from ecu.buslog.recording import open_recording  # noqa: PLC0415
+    from pacc.study.drive_recording import WorldFeed  # noqa: PLC0415
+    from sim_bus.drivers import GAP_SETTING_CODE  # noqa: PLC0415
+    from sim_bus.faults import fault_rng  # noqa: PLC0415
+    from sim_bus.node import SimNode  # noqa: PLC0415
+
     try:
-        driver, faults, profile = _setup(args)
+        world, faults = _setup(args)
         codec = codec_of(args)
     except (SimError, DbcError, UsageError) as exc:
         return fail("pacc sim", exc)
@@ -122,8 +129,7 @@ def main(argv: list[str] | None = None) -> int:
         bus = can.Bus(**bus_kwargs(args))
     except (can.CanError, ValueError, OSError, ImportError) as exc:
         return fail("pacc sim", bus_error(args, exc))
-    world = World(driver, profile, args.seed)
-    gap = GAP_SETTING_CODE[driver.predefined_setting]
+    gap = GAP_SETTING_CODE[world.driver.predefined_setting]
     node = SimNode(
         bus, world, codec=codec, faults=faults, rng=fault_rng(args.seed), gap_setting=gap
     )
@@ -153,15 +159,23 @@ def main(argv: list[str] | None = None) -> int:
         feed = WorldFeed(recorder, world) if live else None
     start = time.monotonic()
     try:
-        _run(node, profile.duration_s, args.quiet, feed)
+        _run(node, world.profile.duration_s, args.quiet, feed)
     finally:
         bus.shutdown()
         if feed is not None:
             feed()  # the rows of the last ticks (the loop feeds before each tick)
     log = world.log()
-    m = log.metrics()
+    _print_figures(args, node, log, start)
+    return _save(args, log, world, node, base, recorder, feed is not None)
+
+
+def _print_figures(args: argparse.Namespace, node: SimNode, log: WorldLog, start: float) -> None:
+    """The drive's summary and figures (``start``: its monotonic start time, s)."""
+    from pacc.commands.drive.report import fig  # noqa: PLC0415
+
+    world, m = node.world, log.metrics()
     print(
-        f"sim: scenario {args.scenario}, driver {driver.driver_id}, {world.t_s:.1f} s in "
+        f"sim: scenario {args.scenario}, driver {world.driver.driver_id}, {world.t_s:.1f} s in "
         f"{time.monotonic() - start:.1f} s wall; {node.commands_ok} ACC commands received"
         + (f"; {node.send_errors} frames refused by the bus" if node.send_errors else "")
     )
@@ -171,14 +185,12 @@ def main(argv: list[str] | None = None) -> int:
         f"min TTC {m.min_ttc_s:.2f} s  RMS jerk {m.rms_jerk_mps3:.3f} m/s^3  presses "
         f"{m.press_onsets}  collisions {int(world.plant.collided)}"
     )
-    return _save(args, log, world.plant.collided, driver, node, base, recorder, feed is not None)
 
 
 def _save(
     args: argparse.Namespace,
     log: WorldLog,
-    collided: bool,
-    driver: DriverParams,
+    world: World,
     node: SimNode,
     base: TimeBase,
     recorder: CanLogWriter | None,
@@ -186,6 +198,13 @@ def _save(
 ) -> int:
     """Write ``--log`` and close ``--can-log`` (``streamed``: its world was fed live); the
     exit status (1 collision, 2 a failed output)."""
+    from dbc.vocab.pedals import PedalScale  # noqa: PLC0415
+    from dbc.vocab.triplog import TripLogError  # noqa: PLC0415
+    from dbc.vocab.triplog_file import write_trip  # noqa: PLC0415
+    from pacc.study.drive_recording import finish_recording  # noqa: PLC0415
+    from sim_bus.trip import world_trip  # noqa: PLC0415
+
+    collided = world.plant.collided
     status = 1 if collided else 0
     if args.log is not None:
         meta = {
@@ -196,7 +215,9 @@ def _save(
             "start_utc": base.iso(0.0),
         }
         try:
-            write_trip(args.log, world_trip(log, driver, PedalScale.from_codec(node.codec), meta))
+            write_trip(
+                args.log, world_trip(log, world.driver, PedalScale.from_codec(node.codec), meta)
+            )
         except (TripLogError, OSError) as exc:
             print(f"pacc sim: error: cannot write {args.log}: {exc}", file=sys.stderr)
             status = 2

@@ -10,21 +10,30 @@ import sys
 import time
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from cloud_sync.errors import CloudSyncError, EngineError
 from dbc.errors import DbcError, error_line
 from dbc.network import add_network_arguments, codec_of
 from dbc.vocab import FormatError
 from ecu import EcuError
-from ecu.adaptation import ADAPTATION_MODES
-from pacc.commands._args import CommandParser, add_cloud_arguments, fail, integer, number
-from pacc.study.drive import BUSES, CONTROLLERS, adaptation_params
-from pacc.study.manifest import write_manifest
-from pacc.study.pipeline import StudyInterrupted, run
-from pacc.study.spec import ROADS, StudySpec, load_study_file, spec_of, table1_method
+from pacc.commands._args import (
+    ADAPTATION_MODES,
+    BUSES,
+    CONTROLLERS,
+    DEFAULT_POPULATION,
+    POPULATIONS,
+    ROADS,
+    CommandParser,
+    add_cloud_arguments,
+    fail,
+    integer,
+    number,
+)
 from sim_bus.errors import SimError
-from sim_bus.population import DEFAULT_POPULATION, POPULATIONS
+
+if TYPE_CHECKING:
+    from pacc.study.spec import StudySpec
 
 _DESCRIPTION = "the paper's human-in-the-loop study (its Table I), end to end on the bus"
 
@@ -60,7 +69,7 @@ def _parser() -> argparse.ArgumentParser:
     cloud.add_argument("--direct", action="store_true", help="no cloud: learn in-process")
     cloud.add_argument("--incremental", type=integer(1, 1000), default=0, metavar="N")
     p.add_argument("--population", type=integer(1, 100_000), default=0, metavar="N")
-    p.add_argument("--population-kind", choices=tuple(POPULATIONS), default=DEFAULT_POPULATION)
+    p.add_argument("--population-kind", choices=POPULATIONS, default=DEFAULT_POPULATION)
     p.add_argument(
         "--roads",
         choices=ROADS,
@@ -90,6 +99,9 @@ def _check_scheduler(address: str | None) -> None:
 def _spec(args: argparse.Namespace, argv: list[str]) -> tuple[StudySpec, dict[str, Any] | None]:
     """The spec of the command line and the study file's config (``--config``; ``--workers``
     and ``--scheduler`` given here replace its own), or HIL sessions', a population's, Table I's."""
+    from pacc.study.drive import adaptation_params  # noqa: PLC0415 - the harness: not for --help
+    from pacc.study.spec import StudySpec, load_study_file, spec_of, table1_method  # noqa: PLC0415
+
     if args.hil is not None:
         beside = None if args.beside is None else str(args.beside)
         return StudySpec(report="hil", sessions=str(args.hil), beside=beside), None
@@ -136,6 +148,9 @@ def _spec(args: argparse.Namespace, argv: list[str]) -> tuple[StudySpec, dict[st
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pacc study``; 0 on success, 1 if a drive collided, 2 on bad input."""
     args = _parser().parse_args(argv)
+    from pacc.study.manifest import write_manifest  # noqa: PLC0415
+    from pacc.study.pipeline import StudyInterrupted, run  # noqa: PLC0415
+
     start = time.perf_counter()
     try:
         spec, config = _spec(args, list(sys.argv[1:] if argv is None else argv))

@@ -13,15 +13,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
-
-import numpy as np
+from typing import TYPE_CHECKING, Any
 
 from pacc.commands._args import CommandParser, integer
-from pacc.study.report import CONTROLLER_TITLES, PAPER_AVERAGES, read_drives
-from pacc.study.stats import bootstrap_ci, comparisons, holm, per_driver
-from sim_bus.dataset import load_human_pairs
-from sim_bus.following import MODELS, Fit, fit_pair
+
+if TYPE_CHECKING:
+    from sim_bus.following import Fit
 
 
 def _row(*cells: object) -> str:
@@ -30,6 +27,8 @@ def _row(*cells: object) -> str:
 
 def following_table(fits: Sequence[Fit]) -> str:
     """Markdown: held-out spacing NRMSE per pair and model, speed NRMSE, driver/IDM ratio."""
+    import numpy as np  # noqa: PLC0415 - numpy and scipy only when run, not for --help
+
     models = list(dict.fromkeys(f.model for f in fits))
     by = {(f.pair_id, f.model): f for f in fits}
     pairs = list(dict.fromkeys(f.pair_id for f in fits))
@@ -50,6 +49,11 @@ def following_table(fits: Sequence[Fit]) -> str:
 
 def people_table(rows: Sequence[dict[str, Any]]) -> str:
     """Markdown: Table I averages with 95 % CIs beside the paper's, and paired verdicts."""
+    import numpy as np  # noqa: PLC0415
+
+    from pacc.study.report import CONTROLLER_TITLES, PAPER_AVERAGES  # noqa: PLC0415
+    from pacc.study.stats import bootstrap_ci, comparisons, holm, per_driver  # noqa: PLC0415
+
     rng = np.random.default_rng(0)
     lines = [
         "| controller | PoI % [95 % CI] | paper | NIM /min [95 % CI] | paper |",
@@ -95,6 +99,7 @@ def _plot_following(path: Path, fits: Sequence[Fit]) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt  # noqa: PLC0415
+    import numpy as np  # noqa: PLC0415
 
     pairs = list(dict.fromkeys(f.pair_id for f in fits))
     models = list(dict.fromkeys(f.model for f in fits))
@@ -126,6 +131,9 @@ def main(argv: list[str] | None = None) -> int:
     g.add_argument("--plot", type=Path, help="a PNG of the averages beside the paper's")
     args = p.parse_args(argv)
     if args.what == "following":
+        from sim_bus.dataset import load_human_pairs  # noqa: PLC0415
+        from sim_bus.following import MODELS, fit_pair  # noqa: PLC0415
+
         pairs = load_human_pairs()
         pairs = pairs[: args.pairs] if args.pairs else pairs
         fits = [fit_pair(m, pair, maxiter=args.maxiter) for pair in pairs for m in MODELS]
@@ -133,10 +141,10 @@ def main(argv: list[str] | None = None) -> int:
         if args.plot:
             _plot_following(args.plot, fits)
         return 0
+    from pacc.study.report import plot, read_drives  # noqa: PLC0415
+
     rows = read_drives(args.drives)
     print(people_table(rows))
     if args.plot:
-        from pacc.study.report import plot  # noqa: PLC0415
-
         plot(args.plot, rows)
     return 0

@@ -15,7 +15,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy import stats
 
 from pacc.study.drive import CONTROLLERS
 from sim_bus.errors import SimError
@@ -59,6 +58,8 @@ def paired_comparison(a: np.ndarray, b: np.ndarray, rng: np.random.Generator) ->
         raise SimError(f"paired values need one shape (n,), got {x.shape} and {y.shape}")
     d = y - x
     nonzero = d[np.abs(d) > 1e-12]
+    from scipy import stats  # noqa: PLC0415 - ~0.5 s of start-up, only for this test
+
     p = float(stats.wilcoxon(nonzero).pvalue) if nonzero.size >= 1 else 1.0
     return Paired(
         mean_diff=float(d.mean()) if d.size else math.nan,

@@ -135,7 +135,7 @@ def test_drive_says_when_manual_trips_were_not_written(
         out_dir.write_text("not a folder any more\n")
         return run_drive(*args, **kwargs)
 
-    monkeypatch.setattr("pacc.commands.drive.run_drive", run_drive_losing_the_folder)
+    monkeypatch.setattr("pacc.study.drive.run_drive", run_drive_losing_the_folder)
     argv = ["--scenario", "cutin", "--driver", "d3", "--seed", "2", "--brake-mode", "cancel"]
     argv += ["--duration", "120", "--log", str(tmp_path / "trip.mcap")]
     assert drive_main([*argv, "--manual-trips", str(out_dir)]) == 2

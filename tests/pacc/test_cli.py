@@ -34,14 +34,48 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
     assert capsys.readouterr().out.startswith("pacc ")
 
 
-def test_help_imports_nothing_heavy() -> None:
-    code = (
-        "import sys; from pacc import cli; cli.main(['--help']);"
-        "heavy = [m for m in ('numpy', 'scipy', 'can', 'cantools', 'mcap') if m in sys.modules];"
-        "print(heavy)"
-    )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip().splitlines()[-1] == "[]"
+#: what a sub-command imports only when it runs: ~1 s of start-up together
+HEAVY = ("numpy", "scipy", "can", "cantools", "mcap", "matplotlib", "playwright", "starlette")
+_HELP_RUNS = """
+import contextlib, io, sys
+from pacc import cli
+runs = [["--help"]] + [[n, f] for n in cli.SUBCOMMANDS for f in ("--help", "--no-such-flag")]
+runs += [["cloud", c, "--help"] for c in ("learn", "serve", "sync", "register", "vehicle")]
+for argv in runs:
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        try:
+            code = cli.main(argv)
+        except SystemExit as exc:
+            code = exc.code
+    print(argv, code, [m for m in sys.argv[1:] if m in sys.modules])
+"""
+
+
+def test_help_and_usage_errors_import_nothing_heavy() -> None:
+    """``pacc --help``, ``pacc X --help`` and a usage error of each sub-command (the cloud's
+    too), one after another in one interpreter: none imports numpy, python-can, MCAP…"""
+    cmd = [sys.executable, "-c", _HELP_RUNS, *HEAVY]
+    out = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout.splitlines()
+    assert len(out) == 1 + 2 * len(cli.SUBCOMMANDS) + 5
+    for line in out:
+        assert line.endswith((" 0 []", " 2 []")), line
+    assert all(line.endswith(" 2 []") for line in out if "--no-such-flag" in line)
+
+
+def test_the_options_choose_from_the_libraries_names() -> None:
+    """The choices _args holds for ``--help`` are the names the libraries define."""
+    from ecu.adaptation import ADAPTATION_MODES  # noqa: PLC0415
+    from pacc.commands import _args  # noqa: PLC0415
+    from pacc.study.drive import BUSES, CONTROLLERS  # noqa: PLC0415
+    from pacc.study.spec import ROADS  # noqa: PLC0415
+    from sim_bus.drivers import CONDITION_FACTORS  # noqa: PLC0415
+    from sim_bus.population import DEFAULT_POPULATION, POPULATIONS  # noqa: PLC0415
+
+    assert (_args.CONTROLLERS, _args.BUSES) == (CONTROLLERS, BUSES)
+    assert _args.ADAPTATION_MODES == ADAPTATION_MODES
+    assert tuple(sorted(CONDITION_FACTORS)) == _args.CONDITIONS
+    assert (_args.POPULATIONS, _args.DEFAULT_POPULATION) == (POPULATIONS, DEFAULT_POPULATION)
+    assert _args.ROADS == ROADS
 
 
 @pytest.mark.parametrize("name", sorted(cli.SUBCOMMANDS))

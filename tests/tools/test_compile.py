@@ -145,17 +145,51 @@ def _drive(tmp: Path, name: str, pythonpath: str) -> tuple[str, str]:
     return done.stdout, h.hexdigest()
 
 
+def _compiled_copy(config: pytest.Config, tmp_path: Path) -> Path:
+    """The packages with the codec module compiled (:func:`tools.compile.build`). Its
+    extensions are kept in pytest's cache and reused while what they are built from is the
+    same (the generated module imports nothing of pacc): that module, the tool, Python, mypy
+    and the compiler; the packages around them are copied afresh."""
+    import mypy.version  # noqa: PLC0415 - only where a compiler is
+
+    from tools import compile as tool  # noqa: PLC0415
+
+    made = [tool.codec_module_source(), Path(tool.__file__).read_text(encoding="utf-8")]
+    made += [sys.version, mypy.version.__version__, str(sysconfig.get_config_var("CC"))]
+    key = hashlib.sha256("\0".join(made).encode()).hexdigest()[:16]
+    cache = getattr(config, "cache", None)  # None: -p no:cacheprovider
+    kept = None if cache is None else Path(cache.mkdir("compiled-codecs")) / key
+    out = tmp_path / "compiled"
+    if kept is not None and list(kept.glob("_compiled_codecs*.so")):
+        for pkg in tool.PACKAGES:
+            shutil.copytree(
+                ROOT / pkg, out / pkg, ignore=shutil.ignore_patterns("__pycache__", "*.so")
+            )
+        for so in kept.glob("_compiled_codecs*.so"):
+            shutil.copy2(so, out / "dbc")
+        return out
+    tool.build(out, modules=("dbc/_compiled_codecs.py",))
+    if kept is not None:  # written whole, then named: an interrupted copy is never reused
+        shutil.rmtree(kept.parent)
+        part = kept.with_suffix(".part")
+        part.mkdir(parents=True)
+        for so in (out / "dbc").glob("_compiled_codecs*.so"):
+            shutil.copy2(so, part)
+        part.rename(kept)
+    return out
+
+
 @pytest.mark.slow
-def test_the_compiled_codecs_give_the_same_drive(tmp_path: Path) -> None:
-    """The codec module compiled with mypyc (about 10 s of gcc): a drive on it records the
-    same frames and decoded signals, and gives the same metrics, as on the pure codecs."""
+def test_the_compiled_codecs_give_the_same_drive(
+    tmp_path: Path, pytestconfig: pytest.Config
+) -> None:
+    """The codec module compiled with mypyc (about 10 s of gcc, once per change of the
+    codecs): a drive on it records the same frames and decoded signals, and gives the same
+    metrics, as on the pure codecs."""
     why = _compiler()
     if why is not None:
         pytest.skip(f"mypyc needs a C compiler and Python's headers: {why}")
-    from tools.compile import build  # noqa: PLC0415 - only where a compiler is
-
-    out = tmp_path / "compiled"
-    build(out, modules=("dbc/_compiled_codecs.py",))
+    out = _compiled_copy(pytestconfig, tmp_path)
     assert list((out / "dbc").glob("_compiled_codecs*.so"))
     pure_out, pure_hash = _drive(tmp_path, "pure", str(ROOT))
     out_lines, out_hash = _drive(tmp_path, "compiled", str(out))

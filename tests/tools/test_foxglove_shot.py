@@ -6,7 +6,6 @@ from __future__ import annotations
 import urllib.error
 import urllib.request
 from collections.abc import Iterator
-from pathlib import Path
 
 import pytest
 
@@ -15,8 +14,10 @@ from tools.foxglove_shot import serve
 DATA = bytes(range(10))
 
 
-@pytest.fixture
-def base(tmp_path: Path) -> Iterator[str]:
+@pytest.fixture(scope="module")
+def base(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
+    """One server for the module's tests (they only read): its shutdown waits half a second."""
+    tmp_path = tmp_path_factory.mktemp("shot")
     (tmp_path / "root").mkdir()
     (tmp_path / "root" / "rec.mcap").write_bytes(DATA)
     (tmp_path / "root" / "empty.mcap").write_bytes(b"")

@@ -1,8 +1,7 @@
 """``pacc cloud``: the cloud side's sub-commands.
 
 One module per sub-command (cantools style): each has ``add_subparser(subparsers)`` and a
-private ``_do_x(args)``. Heavy libraries are imported inside the sub-commands, so ``--help``
-stays fast.
+private ``_do_x(args)``.
 
 - :mod:`pacc.commands.cloud.learn` — ``pacc cloud learn``: a driver's DGPT by IRL from files.
 - :mod:`pacc.commands.cloud.serve` — ``pacc cloud serve``, ``register`` and ``vehicle``.

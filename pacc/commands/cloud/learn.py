@@ -23,8 +23,6 @@ __all__ = ["add_subparser"]
 
 
 def _do_learn(args: argparse.Namespace) -> int:
-    # numpy, scipy and the trainer cost ~2 s of start-up (python -X importtime); imported here,
-    # `pacc cloud --help` stays at ~20 ms of imports
     import numpy as np  # noqa: PLC0415
 
     from cloud_sync.api import is_plain_name  # noqa: PLC0415

@@ -35,7 +35,6 @@ __all__ = ["add_subparser"]
 
 
 def _do_register(args: argparse.Namespace) -> int:
-    # the service pulls in numpy, scipy and the trainer (~2 s): `pacc cloud --help` must not
     from cloud_sync.service.rules import CloudService  # noqa: PLC0415
 
     def keep(token: str) -> None:
@@ -120,7 +119,6 @@ def _listen(host: str, port: int) -> socket.socket:
 
 
 def _do_serve(args: argparse.Namespace) -> int:
-    # uvicorn and the FastAPI app cost ~0.5 s of start-up: only `serve` needs them
     import uvicorn  # noqa: PLC0415
 
     from cloud_sync.service.http import create_app  # noqa: PLC0415

@@ -33,7 +33,6 @@ def _condition_hint(not_found: int) -> str:
 
 
 def _do_sync(args: argparse.Namespace) -> int:
-    # numpy, MCAP, httpx and the embedded service (~2 s of imports): not for `--help`
     from cloud_sync.api import is_plain_name  # noqa: PLC0415
     from cloud_sync.signing import load_public_key  # noqa: PLC0415
     from cloud_sync.vehicle.connect import connect, read_token  # noqa: PLC0415

@@ -14,22 +14,19 @@ import argparse
 import dataclasses
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from dbc.errors import DbcError, UsageError, error_line
 from dbc.network import add_network_arguments
 from dbc.vocab import FormatError
-from dbc.vocab.dgpt import Dgpt
-from dbc.vocab.dgpt_file import load_dgpt
-from dbc.vocab.triplog import Trip, TripLogError
-from dbc.vocab.triplog_file import write_trip
 from ecu import EcuError
-from ecu.adaptation import ADAPTATION_MODES
-from ecu.buslog.live import add_foxglove_argument, live_sinks
-from ecu.config import EcuConfig
-from ecu.recorder import directory_sink
 from pacc.commands._args import (
+    ADAPTATION_MODES,
+    BUSES,
+    CONDITIONS,
+    CONTROLLERS,
     CommandParser,
+    add_foxglove_argument,
     add_world_arguments,
     check_distinct_outputs,
     check_writable_dir,
@@ -38,25 +35,12 @@ from pacc.commands._args import (
     json_parameters,
     number,
 )
-from pacc.commands.drive.report import format_result
-from pacc.study.drive import (
-    BUSES,
-    CONTROLLERS,
-    DriveConfig,
-    adaptation_params,
-    drive_codec,
-    log_to_trip,
-    predefined_table,
-    resolve_profile,
-    run_drive,
-    with_condition,
-)
-from pacc.study.drive_recording import MIN_PACE
-from pacc.study.irl_table import irl_table
-from sim_bus.drivers import CONDITION_FACTORS, DriverParams, load_driver
 from sim_bus.errors import SimError
-from sim_bus.faults import parse_faults
-from sim_bus.lead.scenarios import shorten
+
+if TYPE_CHECKING:
+    from dbc.vocab.dgpt import Dgpt
+    from dbc.vocab.triplog import Trip
+    from sim_bus.drivers import DriverParams
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -70,7 +54,7 @@ def _parser() -> argparse.ArgumentParser:
     add_foxglove_argument(p)
     p.add_argument("--pace", type=number(0.0, 1e6), metavar="X", help="X times real time (0: fast)")
     p.add_argument("--brake-mode", choices=("resume", "cancel"), default="resume")
-    p.add_argument("--condition", choices=sorted(CONDITION_FACTORS), default="dry")
+    p.add_argument("--condition", choices=CONDITIONS, default="dry")
     p.add_argument("--cache", type=Path, help="cache folder of learned IRL tables")
     p.add_argument("--adaptation-mode", choices=ADAPTATION_MODES)
     p.add_argument("--bus", choices=BUSES, default=BUSES[0], help="ECU-simulator python-can bus")
@@ -93,6 +77,8 @@ class _ManualTrips:
     keeps what it did, for the drive's report. RecorderError if DIR cannot be written."""
 
     def __init__(self, directory: Path) -> None:
+        from ecu.recorder import directory_sink  # noqa: PLC0415 - not for --help
+
         self.directory = directory
         self._write = directory_sink(directory, "manual")
         #: sample counts of the trips written
@@ -152,6 +138,10 @@ def _check_options(args: argparse.Namespace) -> None:
 def _table(args: argparse.Namespace, base: DriverParams, driver: DriverParams) -> Dgpt:
     """The drive's table: ``--profile`` or the learned IRL one for the irl controllers (the
     IRL table is learned in normal conditions, from ``base``), else the predefined one."""
+    from dbc.vocab.dgpt_file import load_dgpt  # noqa: PLC0415
+    from pacc.study.drive import predefined_table  # noqa: PLC0415
+    from pacc.study.irl_table import irl_table  # noqa: PLC0415
+
     if not args.controller.startswith("irl"):
         return predefined_table(driver)
     if args.profile is None:
@@ -173,6 +163,18 @@ def main(argv: list[str] | None = None) -> int:
     _check_options(args)
     if args.manual and (code := _manual(args)) is not None:
         return code
+    from ecu.buslog.live import live_sinks  # noqa: PLC0415
+    from pacc.study.drive import (  # noqa: PLC0415
+        DriveConfig,
+        adaptation_params,
+        drive_codec,
+        resolve_profile,
+        run_drive,
+        with_condition,
+    )
+    from sim_bus.drivers import CONDITION_FACTORS, load_driver  # noqa: PLC0415
+    from sim_bus.faults import parse_faults  # noqa: PLC0415
+
     try:
         base = load_driver(args.driver)
         driver = with_condition(base, args.condition_factor * CONDITION_FACTORS[args.condition])
@@ -237,6 +239,12 @@ def _outputs(
 ) -> int:
     """Print the drive's figures and write ``--log``; the exit status (130 for a drive
     Ctrl-C stopped, 2 for an output not written, 1 for a collision)."""
+    from dbc.vocab.triplog import TripLogError  # noqa: PLC0415
+    from dbc.vocab.triplog_file import write_trip  # noqa: PLC0415
+    from ecu.config import EcuConfig  # noqa: PLC0415
+    from pacc.commands.drive.report import format_result  # noqa: PLC0415
+    from pacc.study.drive import log_to_trip  # noqa: PLC0415
+
     print(format_result(result))
     stopped = result.extra.get("interrupted_at_s")
     if stopped is not None:
@@ -266,6 +274,8 @@ def _pace(args: argparse.Namespace) -> float | None:
     """The drive's pace (times real time; None: as fast as it runs) of ``--pace`` and
     ``--foxglove``; SimError for a pace above 0 and below :data:`MIN_PACE`.
     """
+    from pacc.study.drive_recording import MIN_PACE  # noqa: PLC0415
+
     pace = args.pace if args.pace is not None else 1.0 if args.foxglove is not None else 0.0
     if 0 < pace < MIN_PACE:
         raise SimError(f"--pace {pace:g}: 0 or at least {MIN_PACE:g}")
@@ -276,6 +286,10 @@ def _manual(args: argparse.Namespace) -> int | None:
     """``pacc drive --manual``: the driver follows the scenario by hand, written to --log;
     with ``--can-log`` None: the bus drive runs with the ACC never engaged (the manual bus
     log ``pacc demos extract`` reads)."""
+    from dbc.vocab.triplog_file import write_trip  # noqa: PLC0415
+    from pacc.study.drive import resolve_profile, with_condition  # noqa: PLC0415
+    from sim_bus.drivers import load_driver  # noqa: PLC0415
+    from sim_bus.lead.scenarios import shorten  # noqa: PLC0415
     from sim_bus.manual import manual_trip  # noqa: PLC0415
 
     given = [

@@ -18,19 +18,19 @@ import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
-
-import numpy as np
+from typing import TYPE_CHECKING, Any
 
 from dbc.errors import DbcError, UsageError
 from dbc.vocab import FormatError
 from dbc.vocab.acc_state import AccState
-from dbc.vocab.triplog import Trip
-from dbc.vocab.triplog_file import read_trip
 from ecu import EcuError
-from ecu.buslog.format import INPUTS_TOPIC, OUTPUTS_TOPIC, WORLD_TOPIC, CanLogError
-from ecu.buslog.reader import CanLog
 from pacc.commands._args import CommandParser, check_distinct_outputs, fail, integer, same_file
+
+if TYPE_CHECKING:  # numpy, MCAP and the readers are imported when drawing, not for --help
+    import numpy as np
+
+    from dbc.vocab.triplog import Trip
+    from ecu.buslog.reader import CanLog
 
 
 @dataclass(frozen=True)
@@ -56,6 +56,15 @@ def traces(log: CanLog) -> Traces:
     Raises:
         CanLogError: the recording holds neither.
     """
+    import numpy as np  # noqa: PLC0415
+
+    from ecu.buslog.format import (  # noqa: PLC0415
+        INPUTS_TOPIC,
+        OUTPUTS_TOPIC,
+        WORLD_TOPIC,
+        CanLogError,
+    )
+
     if INPUTS_TOPIC in log.series and OUTPUTS_TOPIC in log.series:
         i, o = log.series[INPUTS_TOPIC], log.series[OUTPUTS_TOPIC]
         lead = i["lead_valid"] > 0
@@ -95,6 +104,8 @@ def traces(log: CanLog) -> Traces:
 
 def trip_traces(trip: Trip) -> Traces:
     """The fixed panels of a trip log."""
+    import numpy as np  # noqa: PLC0415
+
     pref = trip.meta.get("pref_gap_m")
     n = len(trip.t_s)
     target = np.full(n, float(pref)) if isinstance(pref, int | float) else np.full(n, np.nan)
@@ -118,6 +129,8 @@ def trip_traces(trip: Trip) -> Traces:
 def takeovers(log: CanLog | None, tr: Traces) -> list[float]:
     """Times of the driver's takeovers (node clock, s): the ECU's takeover events, else the
     changes from ACTIVE to OVERRIDE or OFF."""
+    import numpy as np  # noqa: PLC0415
+
     if log is not None:
         marks = [t for t, text in log.events if "takeover" in text.lower() and np.isfinite(t)]
         if marks:
@@ -235,6 +248,10 @@ def pick(log: CanLog, name: str) -> tuple[str, np.ndarray, np.ndarray]:
     """(label, t_s, values) of the signal ``name``: ``Message.signal``, ``/topic.field`` or a
     bare name found in exactly one place; CanLogError otherwise.
     """
+    import numpy as np  # noqa: PLC0415
+
+    from ecu.buslog.format import CanLogError  # noqa: PLC0415
+
     tables = {f"{m}.": cols for m, cols in log.decoded.items()}
     tables.update({f"{topic}.": cols for topic, cols in log.series.items()})
     for prefix, cols in tables.items():
@@ -251,6 +268,8 @@ def load(path: Path, dbc: str | None, warn: Any) -> tuple[CanLog | None, Trip | 
     """The recording or trip log at ``path``; any other log through python-can and ``dbc``."""
     import tempfile  # noqa: PLC0415
 
+    from dbc.vocab.triplog_file import read_trip  # noqa: PLC0415
+    from ecu.buslog.format import CanLogError  # noqa: PLC0415
     from ecu.buslog.reader import read_canlog, read_recording  # noqa: PLC0415
     from pacc.commands.export import convert  # noqa: PLC0415
 
@@ -290,6 +309,7 @@ def _bus_trip(args: argparse.Namespace) -> Trip:
 
 def _write_layout(path: Path, log: CanLog | None, layout: Path) -> None:
     """Write the PlotJuggler layout of the recording ``path`` to ``layout`` and say so."""
+    from ecu.buslog.format import CanLogError  # noqa: PLC0415
     from pacc.commands.plot.layout import layout_xml, recording_series  # noqa: PLC0415
 
     if log is None or not path.name.endswith(".mcap"):
@@ -324,6 +344,8 @@ def main(argv: list[str] | None = None) -> int:
                 raise UsageError(f"{option} {path} is LOG itself: it would overwrite the recording")
     except UsageError as exc:
         parser.error(str(exc))
+    from ecu.buslog.format import CanLogError  # noqa: PLC0415
+
     try:
         log, trip = load(args.log, args.dbc, _warn)
         if args.plotjuggler is not None:
