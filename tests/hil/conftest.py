@@ -1,7 +1,8 @@
 """A real browser for the hil tests: Debian's chromium driven by Playwright (no download).
 
 ``make test`` installs ``chromium`` (the Makefile) and ``playwright`` ([dev]); the browser is
-launched once per test session. ``hil_app`` serves a session on a free port of 127.0.0.1.
+launched once per test session, and ``tab`` is one page of it that the tests take in turn (a
+page costs about 0.5 s to open). ``hil_app`` serves a session on a free port of 127.0.0.1.
 """
 
 from __future__ import annotations
@@ -54,4 +55,31 @@ def hil_app(tmp_path: Path) -> Iterator[AppFactory]:
     yield make
     for server, session in servers:
         session.close()
+        server.server.should_exit = True  # all at once: each takes up to 0.1 s to see it
+    for server, _ in servers:
         server.stop()
+
+
+@pytest.fixture(scope="session")
+def _shared_tab(browser: Any) -> Iterator[Any]:
+    page = browser.new_page()
+    yield page
+    page.close()
+
+
+@pytest.fixture
+def tab(_shared_tab: Any, hil_app: AppFactory) -> Iterator[Any]:
+    """The shared page for one test (goto a ``hil_app`` URL): its uncaught errors are
+    collected in ``tab.errors`` and fail the test; it leaves for about:blank before the
+    test's servers stop."""
+    page = _shared_tab
+    page.errors = []
+
+    def on_error(e: Any) -> None:
+        page.errors.append(str(e))
+
+    page.on("pageerror", on_error)
+    yield page
+    page.goto("about:blank")
+    page.remove_listener("pageerror", on_error)
+    assert page.errors == [], page.errors
