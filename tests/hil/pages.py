@@ -37,6 +37,9 @@ GAMEPAD_JS = """
 
 #: resolves once two more frames are drawn (the page has shown the view it holds)
 TWO_FRAMES = "new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r)))"
+#: resolves after the next frame, once the view just received is drawn: the page's own frame
+#: callback was registered in the frame before, so it runs first (callbacks run in order)
+NEXT_FRAME = "new Promise((r) => requestAnimationFrame(r))"
 
 #: the lead's brake lights when it brakes (road.js BRAKE)
 BRAKE_LIGHT_RGB = (255, 32, 32)

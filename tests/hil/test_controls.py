@@ -14,7 +14,7 @@ from pacc.hil.plan import Step
 from pacc.hil.session import Session, SessionConfig
 from sim_bus.faults import parse_faults
 from tests.hil.conftest import AppFactory
-from tests.hil.pages import TWO_FRAMES, open_hil
+from tests.hil.pages import NEXT_FRAME, TWO_FRAMES, open_hil
 
 
 def _acc_plan(scenario: str = "B", controller: str = "predefined") -> list[Step]:
@@ -191,10 +191,10 @@ def test_collision_warning_before_a_crash(tab: Any, hil_app: AppFactory) -> None
     warned_at = None
     view = page.evaluate("window.__hil.view")
     step_draw = (
-        f"async () => [await window.__hil.step(10), await {TWO_FRAMES}, window.__hil.warnings]"
+        f"async () => [await window.__hil.step(10), await {NEXT_FRAME}, window.__hil.warnings]"
     )
     while view["phase"] == "driving" and not view["state"]["collided"]:
-        view, _, warnings = page.evaluate(step_draw)  # one round trip: step, two frames, count
+        view, _, warnings = page.evaluate(step_draw)  # one round trip: step, a frame, count
         if warned_at is None and warnings > 0:
             warned_at = view["state"]["t"]
             assert page.is_visible("#warn")

@@ -15,7 +15,7 @@ from pacc.hil.plan import Step, free_plan
 from pacc.hil.session import Session, SessionConfig
 from tests.hil.conftest import AppFactory
 from tests.hil.pages import BRAKE_LIGHT_RGB, GAMEPAD_JS, TWO_FRAMES, body_pixels, new_page, open_hil
-from tests.hil.participant import decide, drive_in_browser, drive_without_browser
+from tests.hil.participant import EVERY, decide, drive_in_browser, drive_without_browser
 
 
 def _with_pad(browser: Any, url: str, path: str) -> Any:
@@ -52,7 +52,7 @@ def test_brake_lights_when_the_lead_brakes(tab: Any, hil_app: AppFactory) -> Non
         if accel != held:
             (page.keyboard.down if accel else page.keyboard.up)("ArrowUp")
             held = accel
-        view = page.evaluate("window.__hil.step(10)")
+        view = page.evaluate(f"window.__hil.step({EVERY})")
         if "dark" not in shots and view["state"]["t"] >= 8.0:
             page.evaluate(TWO_FRAMES)
             shots["dark"] = body_pixels(page.screenshot(), BRAKE_LIGHT_RGB)

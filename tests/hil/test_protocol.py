@@ -47,7 +47,8 @@ def _walk(page: Any) -> dict[str, Any]:
         elif kind == "learn":
             if view["phase"] != "learning":
                 page.evaluate("window.__hil.action('start')")
-            page.wait_for_function("window.__hil.view.phase !== 'learning'")  # the page's frames
+            # the page's frames bring the phase (no timeout of its own: as long as it learns)
+            page.wait_for_function("window.__hil.view.phase !== 'learning'", timeout=0)
             view = page.evaluate("window.__hil.view")
             assert view["phase"] != "failed", view["message"]
         else:
@@ -55,7 +56,7 @@ def _walk(page: Any) -> dict[str, Any]:
             headway = 3.0 if view["step"]["id"].startswith("inc") else HEADWAY_S
             view = drive_in_browser(page, headway)
             if view["phase"] == "syncing":  # an incremental drive's takeovers go up
-                page.wait_for_function("window.__hil.view.phase !== 'syncing'")
+                page.wait_for_function("window.__hil.view.phase !== 'syncing'", timeout=0)
                 view = page.evaluate("window.__hil.view")
             assert view["phase"] == "after", view
             rating = {"comfort": 5, "trust": 6} if view["rate"] else {}

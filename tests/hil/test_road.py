@@ -17,7 +17,7 @@ from PIL import Image
 
 from pacc.hil.plan import Step
 from tests.hil.conftest import AppFactory
-from tests.hil.pages import BODY_RGB, TWO_FRAMES, open_hil
+from tests.hil.pages import BODY_RGB, NEXT_FRAME, TWO_FRAMES, open_hil
 
 #: set to a folder (docs/img) to keep the screenshots of the page in each condition
 SHOTS_ENV = "PACC_HIL_SCREENSHOTS"
@@ -25,10 +25,10 @@ W_PX = 960
 POST_RGB = (90, 90, 96)
 POST_SPACING_M = 4.0
 RAIL_L_M = 1.5 * 3.75 + 0.75 + 0.3  # the left guard rail's distance from the eye, m (road.js)
-#: one round trip: step ``n`` ticks, let two frames draw, read canvas row ``y`` (x < ``w``)
+#: one round trip: step ``n`` ticks, let the page draw it, read canvas row ``y`` (x < ``w``)
 STEP_DRAW_ROW = f"""async ([n, y, w]) => {{
   const view = await window.__hil.step(n);
-  await {TWO_FRAMES};
+  await {NEXT_FRAME};
   return [view, Array.from(document.getElementById('view').getContext('2d')
     .getImageData(0, y, w, 1).data)];
 }}"""
