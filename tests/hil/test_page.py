@@ -18,15 +18,6 @@ from tests.hil.pages import BRAKE_LIGHT_RGB, GAMEPAD_JS, TWO_FRAMES, body_pixels
 from tests.hil.participant import EVERY, decide, drive_in_browser, drive_without_browser
 
 
-def _with_pad(browser: Any, url: str, path: str) -> Any:
-    """A page of its own with the synthetic gamepad (its script stays with the page)."""
-    page = browser.new_page(viewport={"width": 480, "height": 300})
-    page.add_init_script(GAMEPAD_JS)
-    page.goto(url + path)
-    page.wait_for_function("window.__hil ? window.__hil.view !== null : !!window.__cal")
-    return page
-
-
 def test_page_loads_with_no_network(browser: Any, hil_app: AppFactory) -> None:
     url, _ = hil_app(free_plan("B", "predefined"), short_s=5.0)
     page = new_page(browser)  # every request outside 127.0.0.1 aborted and kept
@@ -64,27 +55,29 @@ def test_brake_lights_when_the_lead_brakes(tab: Any, hil_app: AppFactory) -> Non
 @pytest.mark.slow
 def test_gamepad_calibrated_then_drives(browser: Any, hil_app: AppFactory, tmp_path: Path) -> None:
     url, session = hil_app(free_plan("B", None), short_s=10.0, lockstep=True)
-    cal = _with_pad(browser, url, "/calibrate")
-    cal.wait_for_function("document.getElementById('pad').textContent.startsWith('Gamepad')")
+    page = browser.new_page(viewport={"width": 480, "height": 300})
+    page.add_init_script(GAMEPAD_JS)  # a page of its own: the synthetic pad stays with it
+    page.goto(url + "/calibrate")
+    page.wait_for_function("document.getElementById('pad').textContent.startsWith('Gamepad')")
     # accelerator: axis 2 of a pedal resting at -1; brake: the left trigger (button 6)
-    cal.click("#cap-accel")
-    cal.evaluate("window.__setPad([null, null, 1.0])")
-    cal.evaluate(TWO_FRAMES)  # a frame polls the pad at full travel
-    cal.evaluate("window.__setPad([null, null, -1.0])")
-    cal.wait_for_function("window.__cal.mapping.accel !== undefined")
-    cal.click("#cap-brake")
-    cal.evaluate("window.__setPad(null, {6: 1})")
-    cal.evaluate(TWO_FRAMES)
-    cal.evaluate("window.__setPad(null, {6: 0})")
-    cal.wait_for_function("window.__cal.mapping.brake !== undefined")
-    cal.click("#save")
-    cal.wait_for_function("window.__cal.saved === true")
+    page.click("#cap-accel")
+    page.evaluate("window.__setPad([null, null, 1.0])")
+    page.evaluate(TWO_FRAMES)  # a frame polls the pad at full travel
+    page.evaluate("window.__setPad([null, null, -1.0])")
+    page.wait_for_function("window.__cal.mapping.accel !== undefined")
+    page.click("#cap-brake")
+    page.evaluate("window.__setPad(null, {6: 1})")
+    page.evaluate(TWO_FRAMES)
+    page.evaluate("window.__setPad(null, {6: 0})")
+    page.wait_for_function("window.__cal.mapping.brake !== undefined")
+    page.click("#save")
+    page.wait_for_function("window.__cal.saved === true")
     saved = json.loads((tmp_path / "gamepad.json").read_text())
     assert saved["accel"] == {"axis": 2, "rest": -1.0, "full": 1.0}
     assert saved["brake"] == {"button": 6}
-    cal.close()
 
-    page = _with_pad(browser, url, "/")
+    page.goto(url + "/")  # the driving page (the pad at rest again)
+    page.wait_for_function("window.__hil.view !== null")
     page.wait_for_timeout(200)  # the mapping fetched
     page.evaluate("window.__hil.manual = true")
     page.evaluate("window.__hil.action('start')")
