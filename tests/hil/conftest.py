@@ -37,8 +37,18 @@ def browser() -> Iterator[Any]:
 AppFactory = Callable[..., tuple[str, Session]]
 
 
+@pytest.fixture(scope="session")
+def _stopping() -> Iterator[list[ServerThread]]:
+    """Servers told to stop, joined at the end: each takes up to 0.1 s to notice, meanwhile
+    the next tests run."""
+    servers: list[ServerThread] = []
+    yield servers
+    for server in servers:
+        server.stop()
+
+
 @pytest.fixture
-def hil_app(tmp_path: Path) -> Iterator[AppFactory]:
+def hil_app(tmp_path: Path, _stopping: list[ServerThread]) -> Iterator[AppFactory]:
     """Factory: ``hil_app(plan, **SessionConfig fields)`` -> (base URL, session), served."""
     servers: list[tuple[ServerThread, Session]] = []
 
@@ -55,9 +65,8 @@ def hil_app(tmp_path: Path) -> Iterator[AppFactory]:
     yield make
     for server, session in servers:
         session.close()
-        server.server.should_exit = True  # all at once: each takes up to 0.1 s to see it
-    for server, _ in servers:
-        server.stop()
+        server.server.should_exit = True
+        _stopping.append(server)
 
 
 @pytest.fixture(scope="session")
