@@ -8,7 +8,7 @@ what ``pacc hil`` holds (web server, world, ECU); ``--one-process`` puts it in t
 process (it then shares the GIL with the world's thread).
 
 1. Key press -> PEDAL frame: Playwright presses the accelerator key on the driving page
-   (real time, in-process ECU on ``virtual``); the time from just before the key event to
+   (real time, in-process ECU on ``lockstep``); the time from just before the key event to
    the first PEDAL frame on the bus with AccelPressed = 1 (a tap on the simulator's bus
    node), p50 / p99 / max. Named peer: one 60-Hz display frame plus one PEDAL period
    (16.7 + 10 ms), the budget; goal p99 <= 50 ms. The figure includes Playwright's

@@ -1,10 +1,10 @@
 """One drive with a person at the pedals: world + bus + ECU, stepped in lockstep or real time.
 
 :class:`HilDrive` wires :func:`pacc.study.drive.run_drive`'s parts with
-:class:`~pacc.hil.human.HumanPedals` as the driver and the ECU in-process on a private
-``virtual`` channel (or a separate ``pacc ecu`` on ``bus``). :meth:`HilDrive.step` is one plant
-tick (10 ms); :class:`RealtimeRunner` calls it on a thread paced to the wall clock, lockstep
-callers (the page's ``step`` messages, tests) call it themselves.
+:class:`~pacc.hil.human.HumanPedals` as the driver, the ECU in-process on a private ``lockstep``
+channel as in a study (or a separate ``pacc ecu`` on ``bus``). :meth:`HilDrive.step` is one
+plant tick (10 ms); :class:`RealtimeRunner` calls it on a thread paced to the wall clock,
+lockstep callers (the page's ``step`` messages, tests) call it themselves.
 """
 
 from __future__ import annotations
@@ -53,7 +53,6 @@ class HilDrive(Rig):
         acc: bool = True,
         bus: can.BusABC | None = None,
         can_log: Path | None = None,
-        record_channel: str | None = None,
         live: Sequence[Sink] = (),
         set_speed_mps: float | None = None,
     ) -> None:
@@ -73,13 +72,14 @@ class HilDrive(Rig):
             ecu = ecu_node(cfg, participant, table, profile, self.segments.append)
             # a person's SET (the study's drives set a speed above every lead's)
             ecu.config = dataclasses.replace(ecu.config, set_speed_mps=set_speed_mps)
-        channel = record_channel or f"pacc-hil-{next(_channels)}-{id(self):x}"
+        channel = f"pacc-hil-{next(_channels)}-{id(self):x}"
         super().__init__(
             cfg,
             world,
             ecu,
             table,
             TimeBase(time.time_ns(), 0.0),
+            interface="lockstep",
             channel=channel,
             bus=bus,
             can_log=can_log,

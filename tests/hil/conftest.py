@@ -1,7 +1,8 @@
 """A real browser for the hil tests: Debian's chromium driven by Playwright (no download).
 
 ``make test`` installs ``chromium`` (the Makefile) and ``playwright`` ([dev]); the browser is
-launched once per test session. ``hil_app`` serves a session on a free port of 127.0.0.1.
+launched once per test session, and ``tab`` is one page of it that the tests take in turn (a
+page costs about 0.5 s to open). ``hil_app`` serves a session on a free port of 127.0.0.1.
 """
 
 from __future__ import annotations
@@ -36,8 +37,18 @@ def browser() -> Iterator[Any]:
 AppFactory = Callable[..., tuple[str, Session]]
 
 
+@pytest.fixture(scope="session")
+def _stopping() -> Iterator[list[ServerThread]]:
+    """Servers told to stop, joined at the end: each takes up to 0.1 s to notice, meanwhile
+    the next tests run."""
+    servers: list[ServerThread] = []
+    yield servers
+    for server in servers:
+        server.stop()
+
+
 @pytest.fixture
-def hil_app(tmp_path: Path) -> Iterator[AppFactory]:
+def hil_app(tmp_path: Path, _stopping: list[ServerThread]) -> Iterator[AppFactory]:
     """Factory: ``hil_app(plan, **SessionConfig fields)`` -> (base URL, session), served."""
     servers: list[tuple[ServerThread, Session]] = []
 
@@ -54,4 +65,30 @@ def hil_app(tmp_path: Path) -> Iterator[AppFactory]:
     yield make
     for server, session in servers:
         session.close()
-        server.stop()
+        server.server.should_exit = True
+        _stopping.append(server)
+
+
+@pytest.fixture(scope="session")
+def _shared_tab(browser: Any) -> Iterator[Any]:
+    page = browser.new_page()
+    yield page
+    page.close()
+
+
+@pytest.fixture
+def tab(_shared_tab: Any, hil_app: AppFactory) -> Iterator[Any]:
+    """The shared page for one test (goto a ``hil_app`` URL): its uncaught errors are
+    collected in ``tab.errors`` and fail the test; it leaves for about:blank before the
+    test's servers stop."""
+    page = _shared_tab
+    page.errors = []
+
+    def on_error(e: Any) -> None:
+        page.errors.append(str(e))
+
+    page.on("pageerror", on_error)
+    yield page
+    page.goto("about:blank")
+    page.remove_listener("pageerror", on_error)
+    assert page.errors == [], page.errors

@@ -35,6 +35,12 @@ GAMEPAD_JS = """
 """
 
 
+#: resolves once two more frames are drawn (the page has shown the view it holds)
+TWO_FRAMES = "new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r)))"
+#: resolves after the next frame, once the view just received is drawn: the page's own frame
+#: callback was registered in the frame before, so it runs first (callbacks run in order)
+NEXT_FRAME = "new Promise((r) => requestAnimationFrame(r))"
+
 #: the lead's brake lights when it brakes (road.js BRAKE)
 BRAKE_LIGHT_RGB = (255, 32, 32)
 
@@ -43,6 +49,15 @@ def body_pixels(png: bytes, rgb: tuple[int, int, int] = BODY_RGB) -> int:
     """How many pixels of a screenshot show ``rgb`` (default: the lead's body colour)."""
     img = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
     return int((np.abs(img - np.array(rgb)).sum(axis=2) <= 6).sum())
+
+
+def open_hil(page: Any, url: str, width: int = 480, height: int = 300) -> Any:
+    """``page`` (the shared ``tab``) at ``width`` x ``height`` showing the driving page of
+    ``url``, its first view received; the page."""
+    page.set_viewport_size({"width": width, "height": height})
+    page.goto(url + "/")
+    page.wait_for_function("window.__hil.view !== null")
+    return page
 
 
 def new_page(browser: Any, width: int = 480, height: int = 300) -> Any:

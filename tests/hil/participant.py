@@ -16,8 +16,8 @@ from pacc.hil.loop import HilDrive
 HEADWAY_S = 1.6
 #: under ACC it takes over when the gap is off by more than these factors of its wish
 TOO_CLOSE, TOO_FAR = 0.7, 1.5
-#: ticks (10 ms) between decisions: one lockstep step
-EVERY = 10
+#: ticks (10 ms) between decisions, one lockstep step: 0.2 s, about a person's reaction time
+EVERY = 20
 
 
 def decide(s: dict[str, Any], headway_s: float = HEADWAY_S) -> tuple[bool, bool, bool]:

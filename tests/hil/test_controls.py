@@ -14,7 +14,7 @@ from pacc.hil.plan import Step
 from pacc.hil.session import Session, SessionConfig
 from sim_bus.faults import parse_faults
 from tests.hil.conftest import AppFactory
-from tests.hil.pages import new_page
+from tests.hil.pages import NEXT_FRAME, TWO_FRAMES, open_hil
 
 
 def _acc_plan(scenario: str = "B", controller: str = "predefined") -> list[Step]:
@@ -24,10 +24,8 @@ def _acc_plan(scenario: str = "B", controller: str = "predefined") -> list[Step]
     ]
 
 
-def _open(browser: Any, url: str) -> Any:
-    page = new_page(browser, 960, 564)  # the canvas at 960 x 540
-    page.goto(url + "/")
-    page.wait_for_function("window.__hil.view !== null")
+def _open(tab: Any, url: str) -> Any:
+    page = open_hil(tab, url, 960, 564)  # the canvas at 960 x 540
     page.evaluate("window.__hil.manual = true")
     return page
 
@@ -51,16 +49,16 @@ class Frames:
 
 
 def _steps(page: Any, seconds: float) -> dict[str, Any]:
-    view: dict[str, Any] = {}
-    for _ in range(int(round(seconds / 0.1))):
-        view = page.evaluate("window.__hil.step(10)")
+    """``seconds`` of the drive in one step message (lockstep: the world is the same as in
+    10-tick steps, nothing else reaches it in between); the view after."""
+    view: dict[str, Any] = page.evaluate(f"window.__hil.step({round(seconds * 100)})")
     return view
 
 
 @pytest.mark.slow
-def test_ratings_clicked_are_saved(browser: Any, hil_app: AppFactory) -> None:
+def test_ratings_clicked_are_saved(tab: Any, hil_app: AppFactory) -> None:
     url, session = hil_app(_acc_plan(), short_s=2.0, lockstep=True)
-    page = _open(browser, url)
+    page = _open(tab, url)
     page.keyboard.press("Enter")  # Start
     page.wait_for_function("window.__hil.view.phase === 'driving'")
     view = _steps(page, 3.0)
@@ -68,7 +66,8 @@ def test_ratings_clicked_are_saved(browser: Any, hil_app: AppFactory) -> None:
     page.wait_for_selector("#rating:not(.hidden)")
     page.click("input[name=comfort][value='5']")
     page.click("input[name=trust][value='6']")
-    page.wait_for_timeout(300)  # many frames, each answered with the view: the clicks stay
+    frames = page.evaluate("window.__hil.frames")  # ten frames, each answered with the view:
+    page.wait_for_function(f"window.__hil.frames >= {frames + 10}")  # the clicks stay
     assert page.is_checked("input[name=comfort][value='5']")
     page.keyboard.press("Enter")
     page.wait_for_function("window.__hil.view.step.kind === 'done'")
@@ -76,13 +75,12 @@ def test_ratings_clicked_are_saved(browser: Any, hil_app: AppFactory) -> None:
     assert [(r["step"], r["comfort"], r["trust"]) for r in rows] == [("acc1-B", "5", "6")]
     manifest = json.loads((session.folder / "manifest.json").read_text())
     assert manifest["done"]["acc1-B"]["ratings"] == {"comfort": 5, "trust": 6}
-    page.close()
 
 
 @pytest.mark.slow
-def test_set_gap_and_main_switch_in_the_bus_frames(browser: Any, hil_app: AppFactory) -> None:
+def test_set_gap_and_main_switch_in_the_bus_frames(tab: Any, hil_app: AppFactory) -> None:
     url, session = hil_app(_acc_plan(), short_s=60.0, lockstep=True)
-    page = _open(browser, url)
+    page = _open(tab, url)
     text = page.inner_text("#text")
     assert "Drive off" not in text and "current speed" in text
     page.keyboard.press("Enter")
@@ -111,7 +109,7 @@ def test_set_gap_and_main_switch_in_the_bus_frames(browser: Any, hil_app: AppFac
     assert frames.last("status")["desired_gap_m"] == pytest.approx(4.0 + 1.0 * v, abs=1.0)
     page.keyboard.press("m")  # main switch off: the ACC is off and the page says so
     view = _steps(page, 0.5)
-    page.wait_for_timeout(100)
+    page.evaluate(TWO_FRAMES)
     assert frames.last("hmi")["main_switch"] == 0 and view["state"]["acc_state"] == "OFF"
     assert "OFF" in page.inner_text("#toast") and page.is_visible("#toast")
     page.keyboard.press("m")  # on again: STANDBY, S engages
@@ -122,19 +120,18 @@ def test_set_gap_and_main_switch_in_the_bus_frames(browser: Any, hil_app: AppFac
     assert view["state"]["acc_state"] == "ACTIVE"
     page.keyboard.press("e")  # engine sound on: its pitch follows the speed
     view = _steps(page, 0.1)
-    page.wait_for_timeout(100)
+    page.evaluate(TWO_FRAMES)
     kmh = view["state"]["v"] * 3.6
     assert page.evaluate("window.__hil.engineHz") == pytest.approx(35 + 4 * (kmh % 50), abs=0.01)
-    page.close()
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("mode", ["resume", "cancel"])
 def test_brake_resumes_or_cancels_as_the_study_says(
-    browser: Any, hil_app: AppFactory, mode: str
+    tab: Any, hil_app: AppFactory, mode: str
 ) -> None:
     url, session = hil_app(_acc_plan(), short_s=60.0, lockstep=True, brake_mode=mode)
-    page = _open(browser, url)
+    page = _open(tab, url)
     assert ("switches the cruise control off" in page.inner_text("#text")) == (mode == "cancel")
     page.keyboard.press("Enter")
     page.wait_for_function("window.__hil.view.phase === 'driving'")
@@ -150,15 +147,14 @@ def test_brake_resumes_or_cancels_as_the_study_says(
     view = _steps(page, 1.5)
     assert view["state"]["acc_state"] == ("ACTIVE" if mode == "resume" else "STANDBY")
     assert frames.last("command")["takeover_request"] == 0
-    page.wait_for_timeout(100)
+    page.evaluate(TWO_FRAMES)  # the frames have seen the latest view
     assert page.evaluate("window.__hil.chimes") == 0  # the participant's own override
-    page.close()
 
 
 @pytest.mark.slow
-def test_take_over_shown_for_the_ecus_request_only(browser: Any, hil_app: AppFactory) -> None:
+def test_take_over_shown_for_the_ecus_request_only(tab: Any, hil_app: AppFactory) -> None:
     url, session = hil_app(_acc_plan(), short_s=60.0, lockstep=True)
-    page = _open(browser, url)
+    page = _open(tab, url)
     page.keyboard.press("Enter")
     page.wait_for_function("window.__hil.view.phase === 'driving'")
     frames = Frames(session)
@@ -169,7 +165,7 @@ def test_take_over_shown_for_the_ecus_request_only(browser: Any, hil_app: AppFac
     assert _steps(page, 0.5)["state"]["acc_state"] == "OVERRIDE"
     page.keyboard.up("ArrowUp")
     _steps(page, 1.0)
-    page.wait_for_timeout(100)
+    page.evaluate(TWO_FRAMES)
     assert page.evaluate("window.__hil.chimes") == 0 and not page.is_visible("#cue")
     assert session.drive is not None
     t = session.drive.world.t_s
@@ -179,33 +175,33 @@ def test_take_over_shown_for_the_ecus_request_only(browser: Any, hil_app: AppFac
     assert frames.last("command")["takeover_request"] == 1
     page.wait_for_function("window.__hil.chimes === 1")
     assert page.is_visible("#cue") and page.inner_text("#cue") == "TAKE OVER"
-    page.close()
 
 
 @pytest.mark.slow
-def test_collision_warning_before_a_crash(browser: Any, hil_app: AppFactory) -> None:
+def test_collision_warning_before_a_crash(tab: Any, hil_app: AppFactory) -> None:
     url, _ = hil_app(
         [Step("m", "drive", "Manual", "A", None), Step("done", "done", "End")],
         short_s=60.0,
         lockstep=True,
     )
-    page = _open(browser, url)
+    page = _open(tab, url)
     page.keyboard.press("Enter")
     page.wait_for_function("window.__hil.view.phase === 'driving'")
     page.keyboard.down("ArrowUp")  # a naive hold of the accelerator
     warned_at = None
     view = page.evaluate("window.__hil.view")
+    step_draw = (
+        f"async () => [await window.__hil.step(10), await {NEXT_FRAME}, window.__hil.warnings]"
+    )
     while view["phase"] == "driving" and not view["state"]["collided"]:
-        view = page.evaluate("window.__hil.step(10)")
-        page.evaluate("new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r)))")
-        if warned_at is None and page.evaluate("window.__hil.warnings") > 0:
+        view, _, warnings = page.evaluate(step_draw)  # one round trip: step, a frame, count
+        if warned_at is None and warnings > 0:
             warned_at = view["state"]["t"]
             assert page.is_visible("#warn")
     page.keyboard.up("ArrowUp")
     assert view["state"]["collided"] or view["phase"] == "after"
     crash_t = view["state"]["t"]
     assert warned_at is not None and crash_t - warned_at >= 1.5, (warned_at, crash_t)
-    page.close()
 
 
 def test_foxglove_port_clash_is_a_clear_error(capsys: Any, tmp_path: Path) -> None:
@@ -256,11 +252,9 @@ def test_a_taken_live_view_port_leaves_the_page_a_message(tmp_path: Path) -> Non
 
 
 @pytest.mark.slow
-def test_calibration_link_is_readable(browser: Any, hil_app: AppFactory) -> None:
+def test_calibration_link_is_readable(tab: Any, hil_app: AppFactory) -> None:
     url, _ = hil_app(_acc_plan(), short_s=2.0)
-    page = new_page(browser)
-    page.goto(url + "/calibrate")
-    color = page.eval_on_selector("a", "a => getComputedStyle(a).color")
+    tab.goto(url + "/calibrate")
+    color = tab.eval_on_selector("a", "a => getComputedStyle(a).color")
     r, g, b = (int(x) for x in color[4:-1].split(","))
     assert 0.2126 * r + 0.7152 * g + 0.0722 * b > 128, color  # light on the black page
-    page.close()

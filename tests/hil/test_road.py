@@ -17,7 +17,7 @@ from PIL import Image
 
 from pacc.hil.plan import Step
 from tests.hil.conftest import AppFactory
-from tests.hil.pages import BODY_RGB, new_page
+from tests.hil.pages import BODY_RGB, NEXT_FRAME, TWO_FRAMES, open_hil
 
 #: set to a folder (docs/img) to keep the screenshots of the page in each condition
 SHOTS_ENV = "PACC_HIL_SCREENSHOTS"
@@ -25,17 +25,29 @@ W_PX = 960
 POST_RGB = (90, 90, 96)
 POST_SPACING_M = 4.0
 RAIL_L_M = 1.5 * 3.75 + 0.75 + 0.3  # the left guard rail's distance from the eye, m (road.js)
-TWO_FRAMES = "new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r)))"
+#: one round trip: step ``n`` ticks, let the page draw it, read canvas row ``y`` (x < ``w``)
+STEP_DRAW_ROW = f"""async ([n, y, w]) => {{
+  const view = await window.__hil.step(n);
+  await {NEXT_FRAME};
+  return [view, Array.from(document.getElementById('view').getContext('2d')
+    .getImageData(0, y, w, 1).data)];
+}}"""
 
 
-def _drive(browser: Any, hil_app: AppFactory, steps: list[Step], **kw: Any) -> tuple[Any, Any]:
+def _drive(tab: Any, hil_app: AppFactory, steps: list[Step], **kw: Any) -> tuple[Any, Any]:
     url, session = hil_app([*steps, Step("done", "done", "End")], lockstep=True, **kw)
-    page = new_page(browser, W_PX, 564)
-    page.goto(url + "/")
-    page.wait_for_function("window.__hil.view !== null")
+    page = open_hil(tab, url, W_PX, 564)
     page.evaluate("window.__hil.manual = true")
     page.evaluate("window.__hil.action('start')")
     return page, session
+
+
+def _step_to(page: Any, t_s: float, n: int) -> dict[str, Any]:
+    """Step ``n`` ticks at a time until the drive's time reaches ``t_s``; the last view."""
+    view: dict[str, Any] = page.evaluate("window.__hil.view")
+    while view["state"]["t"] < t_s - 1e-6:
+        view = page.evaluate(f"window.__hil.step({n})")
+    return view
 
 
 def _runs(row: np.ndarray, rgb: tuple[int, int, int]) -> list[tuple[int, int]]:
@@ -52,10 +64,10 @@ def _canvas(page: Any) -> np.ndarray:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("fov_deg", [50.0, 70.0])
-def test_lead_subtends_its_real_angle(browser: Any, hil_app: AppFactory, fov_deg: float) -> None:
+def test_lead_subtends_its_real_angle(tab: Any, hil_app: AppFactory, fov_deg: float) -> None:
     """The lead's drawn width at gaps of 10, 30 and 60 m is f · 1.8 m / g (within 5 %),
     f = (W/2) / tan(fov/2): the angle a 1.8-m-wide car subtends at that gap."""
-    page, _ = _drive(browser, hil_app, [Step("d", "drive", "D", "B", None)], fov_deg=fov_deg)
+    page, _ = _drive(tab, hil_app, [Step("d", "drive", "D", "B", None)], fov_deg=fov_deg)
     page.evaluate("window.__hil.step(10)")
     f_px = (W_PX / 2) / math.tan(math.radians(fov_deg) / 2)
     for gap in (10.0, 30.0, 60.0):
@@ -65,14 +77,13 @@ def test_lead_subtends_its_real_angle(browser: Any, hil_app: AppFactory, fov_deg
         width = max((n for y in range(img.shape[0]) for _, n in _runs(img[y], BODY_RGB)), default=0)
         want = f_px * 1.8 / gap
         assert abs(width - want) <= 0.05 * want, (fov_deg, gap, width, want)
-    page.close()
 
 
 @pytest.mark.slow
-def test_posts_pass_at_speed_over_spacing(browser: Any, hil_app: AppFactory) -> None:
+def test_posts_pass_at_speed_over_spacing(tab: Any, hil_app: AppFactory) -> None:
     """The guard-rail posts found in the frames sit 4 m apart and move with the car: one
     passes every spacing / speed seconds (counted where the nearest post leaves a band)."""
-    page, _ = _drive(browser, hil_app, [Step("d", "drive", "D", "B", None)], short_s=60.0)
+    page, _ = _drive(tab, hil_app, [Step("d", "drive", "D", "B", None)], short_s=60.0)
     page.keyboard.down("ArrowUp")
     view = page.evaluate("window.__hil.step(200)")
     page.keyboard.up("ArrowUp")
@@ -85,18 +96,11 @@ def test_posts_pass_at_speed_over_spacing(browser: Any, hil_app: AppFactory) -> 
     phases: list[float] = []
     nearest: list[float] = []
     for _ in range(60):
-        view = page.evaluate("window.__hil.step(5)")
+        view, data = page.evaluate(STEP_DRAW_ROW, [5, y, W_PX // 2])
         s = view["state"]
         odo += s["v"] * (s["t"] - t)
         t = s["t"]
-        page.evaluate(TWO_FRAMES)
-        row = np.asarray(
-            page.evaluate(
-                f"Array.from(document.getElementById('view').getContext('2d')"
-                f".getImageData(0, {y}, {W_PX // 2}, 1).data)"
-            ),
-            dtype=np.uint8,
-        ).reshape(-1, 4)[:, :3]
+        row = np.asarray(data, dtype=np.uint8).reshape(-1, 4)[:, :3]
         zs = sorted(f_px * RAIL_L_M / (W_PX / 2 - (a + n / 2)) for a, n in _runs(row, POST_RGB))
         zs = [z for z in zs if band[0] - 0.5 < z < band[1] + 0.5]  # feet below the rail
         assert len(zs) >= 2, zs
@@ -111,7 +115,6 @@ def test_posts_pass_at_speed_over_spacing(browser: Any, hil_app: AppFactory) -> 
     passed = sum(1 for a, b in zip(nearest, nearest[1:], strict=False) if b > a + 1.0)
     assert odo > 5 * POST_SPACING_M
     assert abs(passed - odo / POST_SPACING_M) <= 1.0, (passed, odo / POST_SPACING_M)
-    page.close()
 
 
 def _luma(img: np.ndarray) -> float:
@@ -119,7 +122,7 @@ def _luma(img: np.ndarray) -> float:
 
 
 @pytest.mark.slow
-def test_day_rain_night_and_a_cut_in(browser: Any, hil_app: AppFactory, tmp_path: Path) -> None:
+def test_day_rain_night_and_a_cut_in(tab: Any, hil_app: AppFactory, tmp_path: Path) -> None:
     """Each drive's condition is drawn (night darker, rain greyer than day) and a cut-in is
     shown as it happens: the new lead comes across from the next lane, the old one ahead."""
     keep = os.environ.get(SHOTS_ENV)
@@ -132,11 +135,11 @@ def test_day_rain_night_and_a_cut_in(browser: Any, hil_app: AppFactory, tmp_path
     ):
         weather = name if name != "cutin" else "day"
         step = Step("d", "drive", "D", scenario, "predefined", weather=weather)
-        page, _ = _drive(browser, hil_app, [step], short_s=40.0, out=tmp_path / name)
-        view = page.evaluate("window.__hil.step(100)")
+        page, _ = _drive(tab, hil_app, [step], short_s=40.0, out=tmp_path / name)
+        page.evaluate("window.__hil.step(100)")
         page.keyboard.press("s")
-        while view["state"]["t"] < until - 1e-6:
-            view = page.evaluate("window.__hil.step(10)")
+        _step_to(page, until - 1.0, 100)  # the same world in fewer round trips
+        view = _step_to(page, until, 10)  # the last second as the page steps it
         page.evaluate(TWO_FRAMES)
         png = page.screenshot()
         shots[name] = np.asarray(Image.open(io.BytesIO(png)).convert("RGB"))
@@ -147,7 +150,6 @@ def test_day_rain_night_and_a_cut_in(browser: Any, hil_app: AppFactory, tmp_path
         if keep:
             Path(keep).mkdir(parents=True, exist_ok=True)
             (Path(keep) / f"hil-{name}.png").write_bytes(png)
-        page.close()
     assert _luma(shots["night"]) < 0.5 * _luma(shots["day"])
     day_sky, rain_sky = shots["day"][20:100].reshape(-1, 3), shots["rain"][20:100].reshape(-1, 3)
     assert np.ptp(rain_sky.mean(axis=0)) < np.ptp(day_sky.mean(axis=0))  # grey, not blue
