@@ -45,6 +45,7 @@ def test_population_study_reports_and_resumes(
         learn_in="direct",
         logs=False,
         workers=1,
+        roads="per-driver",  # the population's default
     )
     rows = run(cfg, out, progress=False)
     assert len(rows) == 4
