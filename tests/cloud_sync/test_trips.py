@@ -26,8 +26,7 @@ from cloud_sync.vehicle.client import HttpCloud
 from dbc.vocab.triplog import Trip
 from dbc.vocab.triplog_file import write_trip
 
-from .conftest import follower_trip, takeover_segment
-from .test_views import OPERATOR, _Served
+from .conftest import OPERATOR, Served, follower_trip, takeover_segment
 
 #: three trips: (presses of each segment, the trip's ACC-on seconds); trip 2 had no takeover
 TRIPS: list[tuple[list[list[tuple[int, int, str]]], float]] = [
@@ -54,14 +53,14 @@ def test_a_segments_interventions_follow_the_study_definitions() -> None:
 
 
 @pytest.fixture(scope="module")
-def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[_Served, CloudService]]:
+def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Served, CloudService]]:
     """The service over HTTP: car-a with driver syn (a learned table), car-b with other."""
     tmp = tmp_path_factory.mktemp("trips")
     pool = ThreadPoolExecutor(max_workers=1)
     service = CloudService.open(tmp / "cloud", executor=pool)
     service.register_vehicle("car-b")
     service.register_driver("car-b", "other")
-    s = _Served(service)
+    s = Served(service)
     yield s, service
     s.stop()
     pool.shutdown(wait=True)
@@ -101,7 +100,7 @@ def _newest(api: HttpCloud) -> dict[str, Any]:
 
 
 def test_the_per_trip_curve_over_http_holds_what_the_trips_contain(
-    served: tuple[_Served, CloudService], tmp_path: Path
+    served: tuple[Served, CloudService], tmp_path: Path
 ) -> None:
     s, service = served
     token = service.register_vehicle("car-a")
@@ -135,7 +134,7 @@ def test_the_per_trip_curve_over_http_holds_what_the_trips_contain(
         _refusals(api, s, token, sent)
 
 
-def _refusals(api: HttpCloud, s: _Served, token: str, sent: list[dict[str, Any]]) -> None:
+def _refusals(api: HttpCloud, s: Served, token: str, sent: list[dict[str, Any]]) -> None:
     """Bad reports are refused with a clean 4xx and nothing stored."""
     first = {k: v for k, v in sent[0].items() if k not in ("inter_s", "takeovers")}
     assert api.report_trip(first).duplicate  # the same report again
@@ -248,7 +247,7 @@ def test_an_incremental_study_against_a_served_cloud_draws_its_per_trip_curve(
     token = service.register_vehicle("lab")
     service.register_driver("lab", "d3")
     (tmp_path / "lab.token").write_text(token + "\n", encoding="utf-8")
-    s = _Served(service)
+    s = Served(service)
     try:
         argv = ["--drivers", "d3", "--incremental", "3", "--duration", "40", "--seed", "2"]
         argv += ["--cloud", s.url, "--token-file", str(tmp_path / "lab.token")]
