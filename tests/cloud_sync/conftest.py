@@ -17,6 +17,7 @@ import pytest
 import uvicorn
 
 from cloud_sync.irl.sources.synthetic import follower_trip, lead_speed
+from cloud_sync.irl.trainer import LearnResult, learn_dgpt
 from cloud_sync.service.http import create_app
 from cloud_sync.service.rules import CloudService
 from dbc.vocab.acc_state import AccState
@@ -112,3 +113,9 @@ def follower() -> Callable[..., Trip]:
 def syn_trips() -> list[Trip]:
     """Four 5-minute manual drives of the follower with preference 4 m + 1.6 s·v."""
     return [follower_trip(s) for s in range(4)]
+
+
+@pytest.fixture(scope="session")
+def syn_learned_one(syn_trips: list[Trip]) -> LearnResult:
+    """What driver syn's first drive learns with seed 0 (tests only read it)."""
+    return learn_dgpt(syn_trips[:1], driver_id="syn", seed=0)

@@ -23,7 +23,7 @@ from cloud_sync.api import (
     PayloadTooLargeError,
 )
 from cloud_sync.service.local import LocalCloud
-from cloud_sync.service.rules import CloudService, ServiceConfig
+from cloud_sync.service.rules import CloudService, DeferredExecutor, ServiceConfig
 from cloud_sync.service.store import BatchRow
 from cloud_sync.signing import load_public_key, verify_dgpt
 from cloud_sync.vehicle.client import HttpCloud
@@ -192,12 +192,12 @@ def test_an_unreachable_cloud_is_unavailable() -> None:
 
 
 @pytest.mark.slow
-def test_manual_trips_learn_a_signed_table_and_takeovers_fine_tune_it(
-    cloud: CloudService, token: str, tmp_path: Path
-) -> None:
+def test_manual_trips_learn_a_signed_table_and_takeovers_fine_tune_it(tmp_path: Path) -> None:
     """The loop's cloud half: manual trips -> v1 signed; a takeover batch -> v2 signed.
-    (Learning does not depend on the transport: the embedded backend only.)"""
-    api = LocalCloud(cloud, token)
+    (Learning does not depend on the transport: the embedded backend only; each wait_idle
+    learns from every batch since the last.)"""
+    cloud = CloudService.open(tmp_path / "cloud", DeferredExecutor())
+    api = LocalCloud(cloud, cloud.register("car-a", ["syn"]))
     for seed in range(2):
         api.upload(trip_bytes(follower_trip(seed, minutes=3.0), tmp_path))
     cloud.wait_idle(120.0)
@@ -217,6 +217,7 @@ def test_manual_trips_learn_a_signed_table_and_takeovers_fine_tune_it(
     assert kept[-2:] == [first.version, second.version]  # every version kept, in order
     assert kept == sorted(set(kept))
     assert cloud.job_errors == []
+    cloud.store.close()
 
 
 def test_openapi_description_lists_the_routes(cloud: CloudService, http_server: Served) -> None:
