@@ -104,8 +104,7 @@ def model_of_table(table: Dgpt | None) -> RewardModel | None:
 
 def compile_model(model: RewardModel, grid_config: GridConfig) -> CompiledMdp:
     """The model's MDP with transitions under ``grid_config``'s noise (lead, speed); those of
-    the last two grids are kept (read-only), so a fine-tune on its parent's grid skips the
-    build, about three quarters of a learn."""
+    the last two grids are kept (read-only): a fine-tune on its parent's grid skips the build."""
     g = model.grid
     axes = tuple(a.tobytes() for a in (g.v_mps, g.gap_m, g.dv_mps, g.accels_mps2))
     P, PT = _transitions(axes, g.dt_s, grid_config)
