@@ -25,6 +25,7 @@ from cloud_sync.signing import load_public_key, verify_dgpt
 from cloud_sync.vehicle.client import HttpCloud
 from dbc.vocab.triplog import Trip
 from dbc.vocab.triplog_file import write_trip
+from tests.ecu.test_cli_cloud import cloud_table
 
 from .conftest import OPERATOR, Served, follower_trip, takeover_segment
 
@@ -177,8 +178,7 @@ def test_acc_time_shorter_than_the_segments_interventions_is_refused(tmp_path: P
     token = service.register_vehicle("car")
     service.register_driver("car", "syn")
     api = LocalCloud(service, token)
-    api.upload(_bytes(follower_trip(0, minutes=2.0), tmp_path))
-    api.latest_dgpt("syn")
+    service.publish(cloud_table(2.5, version=1), [])  # the table the trip drove with
     digest = api.upload(_bytes(takeover_segment(1, [(10, 110, "accel")]), tmp_path)).digest
     report = {"driver_id": "syn", "trip_id": "t", "dgpt_version": 1, "segments": [digest]}
     with pytest.raises(BadBatchError, match="shorter"):
@@ -199,7 +199,8 @@ def test_an_index_of_the_older_schema_is_migrated_without_loss(tmp_path: Path) -
     token = service.register_vehicle("car")
     service.register_driver("car", "syn")
     api = LocalCloud(service, token)
-    api.upload(_bytes(follower_trip(0, minutes=2.0), tmp_path))
+    manual = api.upload(_bytes(follower_trip(0, minutes=2.0), tmp_path)).digest
+    service.publish(cloud_table(2.5, version=1), [manual])  # as if learned from it
     signed = api.latest_dgpt("syn")
     digest = api.upload(_bytes(takeover_segment(1, [(10, 20, "accel")]), tmp_path)).digest
     service.store.close()
