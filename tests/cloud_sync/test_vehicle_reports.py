@@ -88,7 +88,7 @@ def test_a_report_waits_in_the_spool_while_the_cloud_is_away(
         link.sink(takeover_segment(7, [(50, 80, "accel")]))
         line = link.end_trip(120.0, "2026-11-24T10:00:00.5Z")
         assert "queued" in line and f"v{version}" in line, line
-        link.stop(drain_s=0.5)
+        link.stop(drain_s=0.1)
         assert "trip reports sent 0, queued 1" in link.report()
     queued = ReportQueue(tmp_path / "spool").pending()
     assert len(queued) == 1
