@@ -117,7 +117,8 @@ def _transitions(
 ) -> tuple[sp.csr_matrix, sp.csr_matrix]:
     """``P`` and its CSR transpose on the grid of ``axes`` (the float64 bytes of v, gap, dv,
     accelerations), with their arrays made read-only."""
-    P = build_transitions(Grid(*(np.frombuffer(a) for a in axes), dt_s), grid_config)
+    v, gap, dv, accels = (np.frombuffer(a) for a in axes)
+    P = build_transitions(Grid(v, gap, dv, accels, dt_s), grid_config)
     PT = P.T.tocsr()
     for m in (P, PT):
         for array in (m.data, m.indices, m.indptr):
