@@ -148,10 +148,8 @@ def _three_point(sigma: float, h: float) -> list[tuple[float, float]]:
 
 
 def build_transitions(grid: Grid, config: GridConfig) -> sp.csr_matrix:
-    """The transition matrix ``P``, shape ``(n_states·n_actions, n_states)``, CSR, rows sum to 1.
-
-    ``P[s·n_actions + a, s']`` is the probability of ``s'`` after action ``a`` in ``s``.
-    """
+    """The transitions ``P`` (n_states·n_actions, n_states), CSR, rows sum to 1:
+    ``P[s·n_actions + a, s']`` is the probability of ``s'`` after action ``a`` in ``s``."""
     n_v, n_g, n_dv = grid.shape
     n_a = grid.n_actions
     iv, ig, idv, ia = np.meshgrid(

@@ -16,7 +16,6 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sp
 
 from cloud_sync.errors import DemoError, TrainingError
 from cloud_sync.irl import demos as dm
@@ -104,25 +103,20 @@ def model_of_table(table: Dgpt | None) -> RewardModel | None:
 
 def compile_model(model: RewardModel, grid_config: GridConfig) -> CompiledMdp:
     """The model's MDP with transitions under ``grid_config``'s noise (lead, speed); those of
-    the last two grids are kept (read-only): a fine-tune on its parent's grid skips the build."""
+    the last two grids are kept: a fine-tune on its parent's grid skips their build."""
     g = model.grid
     axes = tuple(a.tobytes() for a in (g.v_mps, g.gap_m, g.dv_mps, g.accels_mps2))
-    P, PT = _transitions(axes, g.dt_s, grid_config)
-    return CompiledMdp(grid=g, features=model.features, P=P, PT=PT)
+    return CompiledMdp(g, model.features, *_transitions(axes, g.dt_s, grid_config))
 
 
 @functools.lru_cache(maxsize=2)
-def _transitions(
-    axes: tuple[bytes, ...], dt_s: float, grid_config: GridConfig
-) -> tuple[sp.csr_matrix, sp.csr_matrix]:
-    """``P`` and its CSR transpose on the grid of ``axes`` (the float64 bytes of v, gap, dv,
-    accelerations), with their arrays made read-only."""
+def _transitions(axes: tuple[bytes, ...], dt_s: float, config: GridConfig) -> tuple[Any, Any]:
+    """``P`` and its CSR ``Pᵀ``, read-only, on the grid of ``axes`` (v, gap, dv, accels)."""
     v, gap, dv, accels = (np.frombuffer(a) for a in axes)
-    P = build_transitions(Grid(v, gap, dv, accels, dt_s), grid_config)
+    P = build_transitions(Grid(v, gap, dv, accels, dt_s), config)
     PT = P.T.tocsr()
-    for m in (P, PT):
-        for array in (m.data, m.indices, m.indptr):
-            array.flags.writeable = False
+    for array in (P.data, P.indices, P.indptr, PT.data, PT.indices, PT.indptr):
+        array.flags.writeable = False
     return P, PT
 
 
