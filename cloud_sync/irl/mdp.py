@@ -150,15 +150,9 @@ def _three_point(sigma: float, h: float) -> list[tuple[float, float]]:
 def build_transitions(grid: Grid, config: GridConfig) -> sp.csr_matrix:
     """The transitions ``P`` (n_states·n_actions, n_states), CSR, rows sum to 1:
     ``P[s·n_actions + a, s']`` is the probability of ``s'`` after action ``a`` in ``s``."""
-    n_v, n_g, n_dv = grid.shape
-    n_a = grid.n_actions
-    iv, ig, idv, ia = np.meshgrid(
-        np.arange(n_v), np.arange(n_g), np.arange(n_dv), np.arange(n_a), indexing="ij"
-    )
-    v = grid.v_mps[iv].ravel()
-    g = grid.gap_m[ig].ravel()
-    dv = grid.dv_mps[idv].ravel()
-    a = grid.accels_mps2[ia].ravel()
+    _, n_g, n_dv = grid.shape
+    axes = (grid.v_mps, grid.gap_m, grid.dv_mps, grid.accels_mps2)
+    v, g, dv, a = (x.ravel() for x in np.meshgrid(*axes, indexing="ij"))  # row by row
     dt = grid.dt_s
     lead = _three_point(config.lead_accel_sigma_mps2, (grid.dv_mps[1] - grid.dv_mps[0]) / dt)
     noise = _three_point(config.speed_noise_sigma_mps, grid.v_mps[1] - grid.v_mps[0])
@@ -182,9 +176,8 @@ def build_transitions(grid: Grid, config: GridConfig) -> sp.csr_matrix:
                         cols[k] = (vi * n_g + gi) * n_dv + di
                         k += 1
     keep = vals.T > 1e-12  # row by row, each row's candidates in loop order
-    indptr = np.zeros(v.size + 1, dtype=np.int32)
-    np.cumsum(keep.sum(axis=1), out=indptr[1:])
-    shape = (grid.n_states * n_a, grid.n_states)
+    indptr = np.concatenate([[0], np.cumsum(keep.sum(axis=1))]).astype(np.int32)
+    shape = (grid.n_states * grid.n_actions, grid.n_states)
     P = sp.csr_matrix((vals.T[keep], cols.T[keep], indptr), shape=shape)
     P.sum_duplicates()
     # renormalise rows against round-off of dropped tiny weights

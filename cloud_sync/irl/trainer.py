@@ -106,18 +106,17 @@ def compile_model(model: RewardModel, grid_config: GridConfig) -> CompiledMdp:
     the last two grids are kept: a fine-tune on its parent's grid skips their build."""
     g = model.grid
     axes = tuple(a.tobytes() for a in (g.v_mps, g.gap_m, g.dv_mps, g.accels_mps2))
-    return CompiledMdp(g, model.features, *_transitions(axes, g.dt_s, grid_config))
+    return CompiledMdp.build(g, model.features, _transitions(axes, g.dt_s, grid_config))
 
 
 @functools.lru_cache(maxsize=2)
-def _transitions(axes: tuple[bytes, ...], dt_s: float, config: GridConfig) -> tuple[Any, Any]:
-    """``P`` and its CSR ``Pᵀ``, read-only, on the grid of ``axes`` (v, gap, dv, accels)."""
+def _transitions(axes: tuple[bytes, ...], dt_s: float, config: GridConfig) -> Any:
+    """``P`` (read-only CSR) on the grid of ``axes``, the float64 bytes of v, gap, dv, accels."""
     v, gap, dv, accels = (np.frombuffer(a) for a in axes)
     P = build_transitions(Grid(v, gap, dv, accels, dt_s), config)
-    PT = P.T.tocsr()
-    for array in (P.data, P.indices, P.indptr, PT.data, PT.indices, PT.indptr):
+    for array in (P.data, P.indices, P.indptr):
         array.flags.writeable = False
-    return P, PT
+    return P
 
 
 @dataclass(frozen=True)
