@@ -30,7 +30,8 @@ from cloud_sync.vehicle.client import HttpCloud
 from dbc.vocab.acc_state import AccState
 from dbc.vocab.triplog import Trip
 from dbc.vocab.triplog_file import write_trip
-from tests.cloud_sync.conftest import Served, follower_trip
+from tests.cloud_sync.conftest import follower_trip
+from tests.cloud_sync.served import Served
 
 LIMIT = 2 * 1024 * 1024
 

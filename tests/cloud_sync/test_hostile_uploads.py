@@ -25,7 +25,8 @@ from cloud_sync.service.ingest import MAX_DECOMPRESSED_BYTES
 from cloud_sync.service.local import LocalCloud
 from cloud_sync.service.rules import CloudService, DeferredExecutor
 from dbc.vocab.triplog import FLOAT_FIELDS, Trip
-from tests.cloud_sync.conftest import Served, follower_trip
+from tests.cloud_sync.conftest import follower_trip
+from tests.cloud_sync.served import Served
 from tests.cloud_sync.test_cloud_api import cloud, token, trip_bytes
 
 __all__ = ["cloud", "token"]  # the fixtures, shared with test_cloud_api

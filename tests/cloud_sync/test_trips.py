@@ -27,7 +27,8 @@ from dbc.vocab.triplog import Trip
 from dbc.vocab.triplog_file import write_trip
 from tests.ecu.test_cli_cloud import cloud_table
 
-from .conftest import OPERATOR, Served, follower_trip, takeover_segment
+from .conftest import follower_trip, takeover_segment
+from .served import OPERATOR, Served
 
 #: three trips: (presses of each segment, the trip's ACC-on seconds); trip 2 had no takeover
 TRIPS: list[tuple[list[list[tuple[int, int, str]]], float]] = [

@@ -29,7 +29,8 @@ from pacc.commands.ecu import main as ecu_main
 from tests.ecu.test_cli import Peers
 from tests.ecu.test_cli_cloud import cloud_table
 
-from .conftest import Served, takeover_segment
+from .conftest import takeover_segment
+from .served import Served
 
 
 @pytest.fixture(scope="module")

@@ -15,7 +15,8 @@ from cloud_sync.service.rules import CloudService
 from cloud_sync.service.trips import record_trip
 from dbc.vocab.triplog_file import write_trip
 
-from .conftest import OPERATOR, Served, follower_trip, takeover_segment
+from .conftest import follower_trip, takeover_segment
+from .served import OPERATOR, Served
 
 
 @pytest.fixture(scope="module")
