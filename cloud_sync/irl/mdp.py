@@ -148,26 +148,19 @@ def _three_point(sigma: float, h: float) -> list[tuple[float, float]]:
 
 
 def build_transitions(grid: Grid, config: GridConfig) -> sp.csr_matrix:
-    """The transition matrix ``P``, shape ``(n_states·n_actions, n_states)``, CSR, rows sum to 1.
-
-    ``P[s·n_actions + a, s']`` is the probability of ``s'`` after action ``a`` in ``s``.
-    """
-    n_v, n_g, n_dv = grid.shape
-    n_a = grid.n_actions
-    iv, ig, idv, ia = np.meshgrid(
-        np.arange(n_v), np.arange(n_g), np.arange(n_dv), np.arange(n_a), indexing="ij"
-    )
-    rows = (((iv * n_g + ig) * n_dv + idv) * n_a + ia).ravel()
-    v = grid.v_mps[iv].ravel()
-    g = grid.gap_m[ig].ravel()
-    dv = grid.dv_mps[idv].ravel()
-    a = grid.accels_mps2[ia].ravel()
+    """The transitions ``P`` (n_states·n_actions, n_states), CSR, rows sum to 1:
+    ``P[s·n_actions + a, s']`` is the probability of ``s'`` after action ``a`` in ``s``."""
+    _, n_g, n_dv = grid.shape
+    axes = (grid.v_mps, grid.gap_m, grid.dv_mps, grid.accels_mps2)
+    v, g, dv, a = (x.ravel() for x in np.meshgrid(*axes, indexing="ij"))  # row by row
     dt = grid.dt_s
     lead = _three_point(config.lead_accel_sigma_mps2, (grid.dv_mps[1] - grid.dv_mps[0]) / dt)
     noise = _three_point(config.speed_noise_sigma_mps, grid.v_mps[1] - grid.v_mps[0])
-    all_rows: list[np.ndarray] = []
-    all_cols: list[np.ndarray] = []
-    all_vals: list[np.ndarray] = []
+    # the candidates (lead·noise·8 corners, rows), in the order of the loops
+    n_cand = len(lead) * len(noise) * 8
+    cols = np.empty((n_cand, v.size), dtype=np.int32)
+    vals = np.empty((n_cand, v.size))
+    k = 0
     for a_f, p_f in lead:
         for e_v, p_v in noise:
             v1 = v + a * dt + e_v
@@ -179,15 +172,13 @@ def build_transitions(grid: Grid, config: GridConfig) -> sp.csr_matrix:
             for vi, vw in ((v0i, 1.0 - wv), (v1i, wv)):
                 for gi, gw in ((g0i, 1.0 - wg), (g1i, wg)):
                     for di, dw in ((d0i, 1.0 - wd), (d1i, wd)):
-                        w = p_f * p_v * vw * gw * dw
-                        keep = w > 1e-12
-                        all_rows.append(rows[keep])
-                        all_cols.append(((vi * n_g + gi) * n_dv + di)[keep])
-                        all_vals.append(w[keep])
-    P = sp.csr_matrix(
-        (np.concatenate(all_vals), (np.concatenate(all_rows), np.concatenate(all_cols))),
-        shape=(grid.n_states * n_a, grid.n_states),
-    )
+                        vals[k] = p_f * p_v * vw * gw * dw
+                        cols[k] = (vi * n_g + gi) * n_dv + di
+                        k += 1
+    keep = vals.T > 1e-12  # row by row, each row's candidates in loop order
+    indptr = np.concatenate([[0], np.cumsum(keep.sum(axis=1))]).astype(np.int32)
+    shape = (grid.n_states * grid.n_actions, grid.n_states)
+    P = sp.csr_matrix((vals.T[keep], cols.T[keep], indptr), shape=shape)
     P.sum_duplicates()
     # renormalise rows against round-off of dropped tiny weights
     row_sum = np.asarray(P.sum(axis=1)).ravel()

@@ -10,6 +10,7 @@ start and prior), :mod:`~cloud_sync.irl.mce_irl` (also the gap the policy keeps)
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any
@@ -101,8 +102,21 @@ def model_of_table(table: Dgpt | None) -> RewardModel | None:
 
 
 def compile_model(model: RewardModel, grid_config: GridConfig) -> CompiledMdp:
-    """The model's MDP with transitions under ``grid_config``'s noise (lead, speed)."""
-    return CompiledMdp.build(model.grid, model.features, build_transitions(model.grid, grid_config))
+    """The model's MDP with transitions under ``grid_config``'s noise (lead, speed); those of
+    the last two grids are kept: a fine-tune on its parent's grid skips their build."""
+    g = model.grid
+    axes = tuple(a.tobytes() for a in (g.v_mps, g.gap_m, g.dv_mps, g.accels_mps2))
+    return CompiledMdp.build(g, model.features, _transitions(axes, g.dt_s, grid_config))
+
+
+@functools.lru_cache(maxsize=2)
+def _transitions(axes: tuple[bytes, ...], dt_s: float, config: GridConfig) -> Any:
+    """``P`` (read-only CSR) on the grid of ``axes``, the float64 bytes of v, gap, dv, accels."""
+    v, gap, dv, accels = (np.frombuffer(a) for a in axes)
+    P = build_transitions(Grid(v, gap, dv, accels, dt_s), config)
+    for array in (P.data, P.indices, P.indptr):
+        array.flags.writeable = False
+    return P
 
 
 @dataclass(frozen=True)

@@ -9,8 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from cloud_sync.irl.trainer import LearnResult
 from dbc.vocab.acc_state import AccState
-from dbc.vocab.dgpt_file import load_dgpt
+from dbc.vocab.dgpt_file import load_dgpt, save_dgpt
 from dbc.vocab.triplog import Trip
 from dbc.vocab.triplog_file import write_trip
 from pacc.cli import main as pacc_main
@@ -142,12 +143,10 @@ def test_help_and_no_command(capsys: pytest.CaptureFixture[str]) -> None:
 
 @pytest.mark.slow
 def test_init_with_acc_trip_fine_tunes(
-    syn_trips: list[Trip], follower: Callable[..., Trip], tmp_path: Path
+    syn_learned_one: LearnResult, follower: Callable[..., Trip], tmp_path: Path
 ) -> None:
-    manual = tmp_path / "manual.mcap"
-    write_trip(manual, syn_trips[0])
-    base = tmp_path / "v1.json"
-    assert main(["learn", "--demos", str(manual), "--driver", "d", "-o", str(base), "-q"]) == 0
+    base = tmp_path / "v1.json"  # learned from a manual drive (as pacc cloud learn does above)
+    save_dgpt(syn_learned_one.table, base)
     t = follower(31, headway_s=1.0, minutes=2.0, v_lo=15.0, v_hi=20.0)
     state = np.full(len(t), AccState.ACTIVE)
     for start in range(0, len(t), 300):
@@ -155,9 +154,8 @@ def test_init_with_acc_trip_fine_tunes(
     acc = tmp_path / "acc.mcap"
     write_trip(acc, replace(t, acc_state=state, meta={**t.meta, "mode": "acc"}))
     out = tmp_path / "v2.json"
-    rc = main(
-        ["learn", "--demos", str(acc), "--driver", "d", "--init", str(base), "-o", str(out), "-q"]
-    )
+    argv = ["learn", "--demos", str(acc), "--driver", "syn", "--init", str(base), "-o", str(out)]
+    rc = main([*argv, "-q"])
     assert rc == 0
     v1, v2 = load_dgpt(base), load_dgpt(out)
     assert v2.version == 2 and v2.meta["n_trips"] == 1

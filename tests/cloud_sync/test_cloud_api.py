@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import dataclasses
 import socket
-import threading
-import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -14,7 +12,6 @@ from pathlib import Path
 import httpx
 import numpy as np
 import pytest
-import uvicorn
 
 from cloud_sync.api import (
     AuthError,
@@ -25,9 +22,8 @@ from cloud_sync.api import (
     NotFoundError,
     PayloadTooLargeError,
 )
-from cloud_sync.service.http import create_app
 from cloud_sync.service.local import LocalCloud
-from cloud_sync.service.rules import CloudService, ServiceConfig
+from cloud_sync.service.rules import CloudService, DeferredExecutor, ServiceConfig
 from cloud_sync.service.store import BatchRow
 from cloud_sync.signing import load_public_key, verify_dgpt
 from cloud_sync.vehicle.client import HttpCloud
@@ -35,6 +31,7 @@ from dbc.vocab.acc_state import AccState
 from dbc.vocab.triplog import Trip
 from dbc.vocab.triplog_file import write_trip
 from tests.cloud_sync.conftest import follower_trip
+from tests.cloud_sync.served import Served
 
 LIMIT = 2 * 1024 * 1024
 
@@ -54,30 +51,6 @@ def takeover_of(trip: Trip) -> Trip:
     state = np.full(len(trip), int(AccState.OVERRIDE), dtype=np.int64)
     state[:100] = int(AccState.ACTIVE)
     return dataclasses.replace(trip, acc_state=state, meta={**trip.meta, "mode": "takeover"})
-
-
-class Served:
-    """A uvicorn server of the app in a thread, on an ephemeral loopback port."""
-
-    def __init__(self, service: CloudService) -> None:
-        self.sock = socket.socket()
-        self.sock.bind(("127.0.0.1", 0))
-        self.url = f"http://127.0.0.1:{self.sock.getsockname()[1]}"
-        config = uvicorn.Config(create_app(service), log_level="warning", lifespan="off")
-        self.server = uvicorn.Server(config)
-        self.thread = threading.Thread(
-            target=self.server.run, kwargs={"sockets": [self.sock]}, daemon=True
-        )
-        self.thread.start()
-        deadline = time.monotonic() + 10.0
-        while not self.server.started and time.monotonic() < deadline:
-            time.sleep(0.01)
-        assert self.server.started
-
-    def stop(self) -> None:
-        self.server.should_exit = True
-        self.thread.join(10.0)
-        self.sock.close()
 
 
 @pytest.fixture
@@ -102,7 +75,8 @@ def connect(request: pytest.FixtureRequest, cloud: CloudService) -> Iterator[Con
     if request.param == "local":
         yield lambda token: LocalCloud(cloud, token)
         return
-    served = Served(cloud)
+    served: Served = request.getfixturevalue("http_server")
+    served.serve(cloud)
     clients: list[HttpCloud] = []
 
     def make(token: str) -> CloudApi:
@@ -112,7 +86,6 @@ def connect(request: pytest.FixtureRequest, cloud: CloudService) -> Iterator[Con
     yield make
     for c in clients:
         c.close()
-    served.stop()
 
 
 @pytest.fixture
@@ -220,12 +193,12 @@ def test_an_unreachable_cloud_is_unavailable() -> None:
 
 
 @pytest.mark.slow
-def test_manual_trips_learn_a_signed_table_and_takeovers_fine_tune_it(
-    cloud: CloudService, token: str, tmp_path: Path
-) -> None:
+def test_manual_trips_learn_a_signed_table_and_takeovers_fine_tune_it(tmp_path: Path) -> None:
     """The loop's cloud half: manual trips -> v1 signed; a takeover batch -> v2 signed.
-    (Learning does not depend on the transport: the embedded backend only.)"""
-    api = LocalCloud(cloud, token)
+    (Learning does not depend on the transport: the embedded backend only; each wait_idle
+    learns from every batch since the last.)"""
+    cloud = CloudService.open(tmp_path / "cloud", DeferredExecutor())
+    api = LocalCloud(cloud, cloud.register("car-a", ["syn"]))
     for seed in range(2):
         api.upload(trip_bytes(follower_trip(seed, minutes=3.0), tmp_path))
     cloud.wait_idle(120.0)
@@ -245,29 +218,24 @@ def test_manual_trips_learn_a_signed_table_and_takeovers_fine_tune_it(
     assert kept[-2:] == [first.version, second.version]  # every version kept, in order
     assert kept == sorted(set(kept))
     assert cloud.job_errors == []
+    cloud.store.close()
 
 
-def test_openapi_description_lists_the_routes(cloud: CloudService) -> None:
-    served = Served(cloud)
-    try:
-        spec = httpx.get(f"{served.url}/openapi.json", timeout=10.0).json()
-    finally:
-        served.stop()
+def test_openapi_description_lists_the_routes(cloud: CloudService, http_server: Served) -> None:
+    http_server.serve(cloud)
+    spec = httpx.get(f"{http_server.url}/openapi.json", timeout=10.0).json()
     assert {"/v1/batches", "/v1/drivers/{driver_id}/dgpt", "/v1/key", "/v1/health"} <= set(
         spec["paths"]
     )
 
 
 def test_openapi_documents_the_body_the_bearer_scheme_and_the_errors(
-    cloud: CloudService,
+    cloud: CloudService, http_server: Served
 ) -> None:
-    served = Served(cloud)
-    try:
-        spec = httpx.get(f"{served.url}/openapi.json", timeout=10.0).json()
-        docs = httpx.get(f"{served.url}/docs", timeout=10.0).text
-        js = httpx.get(f"{served.url}/static/swagger-ui/swagger-ui-bundle.js", timeout=10.0)
-    finally:
-        served.stop()
+    http_server.serve(cloud)
+    spec = httpx.get(f"{http_server.url}/openapi.json", timeout=10.0).json()
+    docs = httpx.get(f"{http_server.url}/docs", timeout=10.0).text
+    js = httpx.get(f"{http_server.url}/static/swagger-ui/swagger-ui-bundle.js", timeout=10.0)
     post = spec["paths"]["/v1/batches"]["post"]
     body = post["requestBody"]["content"]["application/octet-stream"]["schema"]
     assert body == {"type": "string", "format": "binary"} and post["requestBody"]["required"]
@@ -281,7 +249,7 @@ def test_openapi_documents_the_body_the_bearer_scheme_and_the_errors(
 
 
 def test_a_full_disk_is_507_with_retry_after_and_the_batch_stays_spooled(
-    cloud: CloudService, token: str, tmp_path: Path
+    cloud: CloudService, token: str, tmp_path: Path, http_server: Served
 ) -> None:
     """The store's disk full (ENOSPC from the blob write): 507 + Retry-After over HTTP, a
     retryable error for the vehicle, nothing stored."""
@@ -296,7 +264,8 @@ def test_a_full_disk_is_507_with_retry_after_and_the_batch_stays_spooled(
         raise OSError(errno.ENOSPC, "No space left on device")
 
     cloud.store.add_batch = full  # type: ignore[method-assign]
-    served = Served(cloud)
+    served = http_server
+    served.serve(cloud)
     data = trip_bytes(follower_trip(0, minutes=0.2), tmp_path)
     try:
         answer = httpx.post(
@@ -310,7 +279,6 @@ def test_a_full_disk_is_507_with_retry_after_and_the_batch_stays_spooled(
         with HttpCloud(served.url, token) as client, pytest.raises(CloudUnavailableError):
             client.upload(data)
     finally:
-        served.stop()
         cloud.store.add_batch = real  # type: ignore[method-assign]
     assert cloud.store.batch_count() == 0
 

@@ -11,6 +11,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 
 import httpx
@@ -170,7 +171,7 @@ def test_sync_to_an_unreachable_cloud_keeps_the_batch(
     token.write_text("abc\n")
     write_trip(tmp_path / "a.mcap", follower_trip(0, minutes=0.2))
     args = ["sync", "--spool", str(tmp_path / "s"), "--cloud", f"http://127.0.0.1:{free_port()}"]
-    args += ["--token-file", str(token), "--add", str(tmp_path / "a.mcap"), "--retry-s", "1"]
+    args += ["--token-file", str(token), "--add", str(tmp_path / "a.mcap"), "--retry-s", "0.2"]
     assert main(args) == 1
     assert "1 still spooled" in capsys.readouterr().out
     assert len(list((tmp_path / "s").glob("*.mcap"))) == 1
@@ -185,9 +186,11 @@ def test_a_bad_token_file_is_a_clear_error(
     assert "holds no single token" in capsys.readouterr().err
 
 
-@pytest.fixture
-def server(tmp_path: Path) -> Iterator[tuple[str, Path, Path]]:
-    data, token = register(tmp_path, "syn")
+@pytest.fixture(scope="module")
+def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, Path, Path]]:
+    """``pacc cloud serve`` as a process, for the module: vehicle car with drivers syn (whose
+    trips its tests upload) and learner (whose trips one test waits to be learned)."""
+    data, token = register(tmp_path_factory.mktemp("served"), "syn", "learner")
     port = free_port()
     proc = subprocess.Popen(
         [sys.executable, "-m", "pacc", "cloud", "serve", "--data", str(data), "--port", str(port)],
@@ -211,48 +214,50 @@ def server(tmp_path: Path) -> Iterator[tuple[str, Path, Path]]:
     assert "serving" in out and "pacc cloud stopped" in out
 
 
+def _batches(url: str) -> int:
+    """How many batches the served cloud holds."""
+    return int(httpx.get(f"{url}/v1/health", timeout=5.0).json()["batches"])
+
+
 @pytest.mark.slow
 def test_serve_then_sync_over_http(
     server: tuple[str, Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     url, data, token = server
     write_trip(tmp_path / "a.mcap", follower_trip(0, minutes=0.5))
+    before = _batches(url)
     args = ["sync", "--spool", str(tmp_path / "s"), "--cloud", url, "--token-file", str(token)]
     assert main([*args, "--add", str(tmp_path / "a.mcap")]) == 0
     assert "uploaded 1 batch(es)" in capsys.readouterr().out
-    assert httpx.get(f"{url}/v1/health", timeout=5.0).json()["batches"] == 1
+    assert _batches(url) == before + 1
     assert httpx.get(f"{url}/openapi.json", timeout=5.0).status_code == 200
 
 
-def test_serve_on_a_taken_port_is_one_line_and_exit_2(tmp_path: Path) -> None:
+def test_serve_on_a_taken_port_is_one_line_and_exit_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     with socket.create_server(("127.0.0.1", 0)) as taken:
         port = taken.getsockname()[1]
-        done = subprocess.run(
-            [sys.executable, "-m", "pacc", "cloud", "serve", "--data", str(tmp_path / "c")]
-            + ["--port", str(port), "--scheduler", "local"],
-            env={**os.environ, "PYTHONPATH": str(ROOT)},
-            capture_output=True,
-            text=True,
-            timeout=60,
-            check=False,
-        )
-    assert done.returncode == 2, done.stderr
-    assert done.stderr.strip() == (
+        argv = ["serve", "--data", str(tmp_path / "c"), "--port", str(port)]
+        assert main([*argv, "--scheduler", "local"]) == 2
+    out, err = capsys.readouterr()
+    assert err.strip() == (
         f"pacc cloud serve: error: cannot listen on 127.0.0.1:{port}: Address already in use"
     )
-    assert "serving" not in done.stdout
+    assert "serving" not in out
 
 
 def test_an_embedded_sync_into_a_served_folder_is_refused_with_the_url(
     server: tuple[str, Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     url, data, token = server
-    write_trip(tmp_path / "a.mcap", follower_trip(0, minutes=0.2))
+    write_trip(tmp_path / "a.mcap", follower_trip(1, minutes=0.2))
+    before = _batches(url)
     args = ["sync", "--spool", str(tmp_path / "s"), "--cloud", str(data), "--token-file"]
     assert main([*args, str(token), "--add", str(tmp_path / "a.mcap")]) == 1
     assert f"served by pacc cloud serve at {url}" in capsys.readouterr().err
     assert len(list((tmp_path / "s").glob("*.mcap"))) == 1  # kept for a sync to the URL
-    assert httpx.get(f"{url}/v1/health", timeout=5.0).json()["batches"] == 0
+    assert _batches(url) == before
 
 
 @pytest.mark.slow
@@ -263,14 +268,15 @@ def test_sync_waits_for_the_served_cloud_to_learn_before_it_fetches(
     trips = []
     for seed in range(3):
         trips.append(tmp_path / f"manual{seed}.mcap")
-        write_trip(trips[-1], follower_trip(seed, minutes=2.0))
+        trip = follower_trip(seed, minutes=2.0)
+        write_trip(trips[-1], replace(trip, meta={**trip.meta, "driver_id": "learner"}))
     args = ["sync", "--spool", str(tmp_path / "s"), "--cloud", url, "--token-file", str(token)]
-    args += ["--add", *map(str, trips), "--fetch", "syn"]
+    args += ["--add", *map(str, trips), "--fetch", "learner"]
     args += ["--trust", str(data / "keys" / "cloud.pub"), "--wait", "120"]
     assert main(args) == 0, capsys.readouterr().err
-    assert "DGPT syn/default v" in capsys.readouterr().out
+    assert "DGPT learner/default v" in capsys.readouterr().out
     auth = {"Authorization": f"Bearer {token.read_text().strip()}"}
-    batches = httpx.get(f"{url}/v1/drivers/syn/batches", headers=auth, timeout=5.0).json()
+    batches = httpx.get(f"{url}/v1/drivers/learner/batches", headers=auth, timeout=5.0).json()
     assert len(batches) == 3 and all(b["used_in_version"] for b in batches)  # learned from
 
 

@@ -23,10 +23,11 @@ from mcap.records import Chunk, DataEnd, Footer, Header
 from cloud_sync.api import MAX_SAMPLES, BadBatchError
 from cloud_sync.service.ingest import MAX_DECOMPRESSED_BYTES
 from cloud_sync.service.local import LocalCloud
-from cloud_sync.service.rules import CloudService
+from cloud_sync.service.rules import CloudService, DeferredExecutor
 from dbc.vocab.triplog import FLOAT_FIELDS, Trip
 from tests.cloud_sync.conftest import follower_trip
-from tests.cloud_sync.test_cloud_api import Served, cloud, token, trip_bytes
+from tests.cloud_sync.served import Served
+from tests.cloud_sync.test_cloud_api import cloud, token, trip_bytes
 
 __all__ = ["cloud", "token"]  # the fixtures, shared with test_cloud_api
 
@@ -70,6 +71,12 @@ def _with(trip: Trip, **columns: object) -> Trip:
     return dataclasses.replace(trip, **columns)  # type: ignore[arg-type]
 
 
+def _steady(n: int, meta: dict[str, object]) -> Trip:
+    """``n`` samples at 10 Hz of steady following: 20 m/s, 36 m behind a lead as fast."""
+    v = np.full(n, 20.0)
+    return Trip.manual(np.arange(n) * 0.1, v, np.full(n, 36.0), v, np.zeros(n), meta)
+
+
 @pytest.mark.parametrize(
     "damage",
     ["v_inf", "gap_minus_inf", "negative_speed", "lead_too_fast", "no_samples", "too_many"],
@@ -88,7 +95,7 @@ def test_implausible_samples_are_422_and_stored_nowhere(damage: str, tmp_path: P
         "no_samples": lambda: Trip(
             **{k: np.zeros(0) for k in FLOAT_FIELDS}, acc_state=np.zeros(0), meta=trip.meta
         ),
-        "too_many": lambda: follower_trip(0, minutes=(MAX_SAMPLES + 10) / 600.0),
+        "too_many": lambda: _steady(MAX_SAMPLES + 10, trip.meta),
     }[damage]()
     with pytest.raises(BadBatchError, match="implausible|samples"):
         LocalCloud(cloud, token).upload(trip_bytes(bad, tmp_path))
@@ -96,24 +103,24 @@ def test_implausible_samples_are_422_and_stored_nowhere(damage: str, tmp_path: P
     cloud.store.close()
 
 
-def test_the_vehicles_own_trips_stay_plausible(
-    cloud: CloudService, token: str, tmp_path: Path
-) -> None:
+def test_the_vehicles_own_trips_stay_plausible(tmp_path: Path) -> None:
+    cloud = CloudService.open(tmp_path / "cloud", DeferredExecutor())  # stored, not learned
+    token = cloud.register("car-a", ["syn"])
     receipt = LocalCloud(cloud, token).upload(trip_bytes(follower_trip(1, minutes=1), tmp_path))
     assert receipt.kind == "manual" and not receipt.duplicate
+    cloud.store.close()
 
 
-def test_deeply_nested_json_is_a_clean_422(cloud: CloudService, token: str) -> None:
-    served = Served(cloud)
-    try:
-        answer = httpx.post(
-            f"{served.url}/v1/trips",
-            content=b"[" * 100_000 + b"]" * 100_000,
-            headers={"Authorization": f"Bearer {token}"},
-            timeout=30.0,
-        )
-    finally:
-        served.stop()
+def test_deeply_nested_json_is_a_clean_422(
+    cloud: CloudService, token: str, http_server: Served
+) -> None:
+    http_server.serve(cloud)
+    answer = httpx.post(
+        f"{http_server.url}/v1/trips",
+        content=b"[" * 100_000 + b"]" * 100_000,
+        headers={"Authorization": f"Bearer {token}"},
+        timeout=30.0,
+    )
     assert answer.status_code == 422 and "nested" in answer.json()["detail"]
 
 
@@ -153,25 +160,24 @@ def test_a_client_hanging_up_mid_upload_is_one_log_line(cloud: CloudService, tok
     assert cloud.store.batch_count() == 0
 
 
-def test_docs_render_the_operations_in_a_browser(cloud: CloudService, tmp_path: Path) -> None:
+def test_docs_render_the_operations_in_a_browser(
+    cloud: CloudService, tmp_path: Path, http_server: Served
+) -> None:
     if shutil.which("/usr/bin/chromium") is None:
         pytest.skip("/usr/bin/chromium is missing: `make test` installs it")
     from playwright.sync_api import sync_playwright  # noqa: PLC0415 - only this test
 
-    served = Served(cloud)
+    http_server.serve(cloud)
     shot = tmp_path / "docs.png"
-    try:
-        with sync_playwright() as p:
-            browser = p.chromium.launch(executable_path="/usr/bin/chromium", headless=True)
-            page = browser.new_page(viewport={"width": 1200, "height": 1600})
-            page.goto(f"{served.url}/docs")
-            page.wait_for_selector(".opblock", timeout=15_000)
-            paths = page.locator(".opblock-summary-path").all_inner_texts()
-            text = page.inner_text("body")
-            page.screenshot(path=str(shot), full_page=True)
-            browser.close()
-    finally:
-        served.stop()
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path="/usr/bin/chromium", headless=True)
+        page = browser.new_page(viewport={"width": 1200, "height": 1600})
+        page.goto(f"{http_server.url}/docs")
+        page.wait_for_selector(".opblock", timeout=15_000)
+        paths = page.locator(".opblock-summary-path").all_inner_texts()
+        text = page.inner_text("body")
+        page.screenshot(path=str(shot), full_page=True)
+        browser.close()
     assert "Unable to render" not in text
     assert {"/v1/batches", "/v1/trips", "/v1/drivers/{driver_id}/dgpt", "/v1/key"} <= {
         p.replace("\u200b", "") for p in paths

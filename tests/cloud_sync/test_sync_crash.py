@@ -18,7 +18,7 @@ from cloud_sync.service.rules import CloudService
 from cloud_sync.vehicle.client import HttpCloud
 from cloud_sync.vehicle.spool import Spool
 from cloud_sync.vehicle.uploader import Uploader, UploaderConfig
-from tests.cloud_sync.test_cloud_api import Served
+from tests.cloud_sync.served import Served
 from tests.cloud_sync.test_spool import make_trip
 
 KILLS = 50

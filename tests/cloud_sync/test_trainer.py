@@ -133,8 +133,10 @@ def test_uncovered_speeds_follow_time_gap_continuation(learned: LearnResult) -> 
 
 
 @pytest.mark.slow
-def test_pure_function_of_config_seed_and_data(syn_trips: list[Trip], learned: LearnResult) -> None:
-    again = learn_dgpt(syn_trips[:1], driver_id="syn", seed=0)
+def test_pure_function_of_config_seed_and_data(
+    syn_trips: list[Trip], syn_learned_one: LearnResult, learned: LearnResult
+) -> None:
+    again = syn_learned_one
     same = learn_dgpt(syn_trips[:1], driver_id="syn", seed=0)
     other_seed = learn_dgpt(syn_trips[:1], driver_id="syn", seed=7)
     assert np.array_equal(again.table.gap_m, same.table.gap_m)

@@ -25,9 +25,10 @@ from cloud_sync.signing import load_public_key, verify_dgpt
 from cloud_sync.vehicle.client import HttpCloud
 from dbc.vocab.triplog import Trip
 from dbc.vocab.triplog_file import write_trip
+from tests.ecu.test_cli_cloud import cloud_table
 
 from .conftest import follower_trip, takeover_segment
-from .test_views import OPERATOR, _Served
+from .served import OPERATOR, Served
 
 #: three trips: (presses of each segment, the trip's ACC-on seconds); trip 2 had no takeover
 TRIPS: list[tuple[list[list[tuple[int, int, str]]], float]] = [
@@ -54,14 +55,14 @@ def test_a_segments_interventions_follow_the_study_definitions() -> None:
 
 
 @pytest.fixture(scope="module")
-def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[_Served, CloudService]]:
+def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Served, CloudService]]:
     """The service over HTTP: car-a with driver syn (a learned table), car-b with other."""
     tmp = tmp_path_factory.mktemp("trips")
     pool = ThreadPoolExecutor(max_workers=1)
     service = CloudService.open(tmp / "cloud", executor=pool)
     service.register_vehicle("car-b")
     service.register_driver("car-b", "other")
-    s = _Served(service)
+    s = Served(service)
     yield s, service
     s.stop()
     pool.shutdown(wait=True)
@@ -101,7 +102,7 @@ def _newest(api: HttpCloud) -> dict[str, Any]:
 
 
 def test_the_per_trip_curve_over_http_holds_what_the_trips_contain(
-    served: tuple[_Served, CloudService], tmp_path: Path
+    served: tuple[Served, CloudService], tmp_path: Path
 ) -> None:
     s, service = served
     token = service.register_vehicle("car-a")
@@ -135,7 +136,7 @@ def test_the_per_trip_curve_over_http_holds_what_the_trips_contain(
         _refusals(api, s, token, sent)
 
 
-def _refusals(api: HttpCloud, s: _Served, token: str, sent: list[dict[str, Any]]) -> None:
+def _refusals(api: HttpCloud, s: Served, token: str, sent: list[dict[str, Any]]) -> None:
     """Bad reports are refused with a clean 4xx and nothing stored."""
     first = {k: v for k, v in sent[0].items() if k not in ("inter_s", "takeovers")}
     assert api.report_trip(first).duplicate  # the same report again
@@ -178,8 +179,7 @@ def test_acc_time_shorter_than_the_segments_interventions_is_refused(tmp_path: P
     token = service.register_vehicle("car")
     service.register_driver("car", "syn")
     api = LocalCloud(service, token)
-    api.upload(_bytes(follower_trip(0, minutes=2.0), tmp_path))
-    api.latest_dgpt("syn")
+    service.publish(cloud_table(2.5, version=1), [])  # the table the trip drove with
     digest = api.upload(_bytes(takeover_segment(1, [(10, 110, "accel")]), tmp_path)).digest
     report = {"driver_id": "syn", "trip_id": "t", "dgpt_version": 1, "segments": [digest]}
     with pytest.raises(BadBatchError, match="shorter"):
@@ -200,7 +200,8 @@ def test_an_index_of_the_older_schema_is_migrated_without_loss(tmp_path: Path) -
     token = service.register_vehicle("car")
     service.register_driver("car", "syn")
     api = LocalCloud(service, token)
-    api.upload(_bytes(follower_trip(0, minutes=2.0), tmp_path))
+    manual = api.upload(_bytes(follower_trip(0, minutes=2.0), tmp_path)).digest
+    service.publish(cloud_table(2.5, version=1), [manual])  # as if learned from it
     signed = api.latest_dgpt("syn")
     digest = api.upload(_bytes(takeover_segment(1, [(10, 20, "accel")]), tmp_path)).digest
     service.store.close()
@@ -248,7 +249,7 @@ def test_an_incremental_study_against_a_served_cloud_draws_its_per_trip_curve(
     token = service.register_vehicle("lab")
     service.register_driver("lab", "d3")
     (tmp_path / "lab.token").write_text(token + "\n", encoding="utf-8")
-    s = _Served(service)
+    s = Served(service)
     try:
         argv = ["--drivers", "d3", "--incremental", "3", "--duration", "40", "--seed", "2"]
         argv += ["--cloud", s.url, "--token-file", str(tmp_path / "lab.token")]

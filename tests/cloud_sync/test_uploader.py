@@ -7,7 +7,7 @@ import dataclasses
 import socket
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -117,9 +117,11 @@ def spool_with(tmp_path: Path, n: int) -> Spool:
     return spool
 
 
-def wait_until_empty(spool: Spool, timeout_s: float = 30.0) -> None:
+def wait_for(done: Callable[[], object], timeout_s: float = 30.0) -> None:
+    """Poll ``done`` every 20 ms until it holds; fail the test after ``timeout_s``."""
     deadline = time.monotonic() + timeout_s
-    while spool.pending() and time.monotonic() < deadline:
+    while not done():
+        assert time.monotonic() < deadline, "timed out"
         time.sleep(0.02)
 
 
@@ -161,10 +163,10 @@ def test_outage_5xx_dropped_and_slow_answers_lose_nothing(
     uploader = Uploader(spool, client, FAST)
     uploader.start()
     try:
-        time.sleep(0.5)  # the server is down: retries, nothing deleted
-        assert len(spool.pending()) == 4 and uploader.stats.retries > 0
+        wait_for(lambda: uploader.stats.retries >= 3)  # the server is down: retries
+        assert len(spool.pending()) == 4  # nothing deleted
         server.start()
-        wait_until_empty(spool)
+        wait_for(lambda: not spool.pending())
     finally:
         uploader.stop()
         client.close()
@@ -216,7 +218,7 @@ def test_stop_cuts_a_backoff_short(tmp_path: Path) -> None:
     client = HttpCloud(f"http://127.0.0.1:{free_port()}", "t", timeout_s=0.5)
     uploader = Uploader(spool, client, slow)
     uploader.start()
-    time.sleep(0.3)
+    wait_for(lambda: uploader.stats.retries >= 1)  # the first attempt failed: in its backoff
     started = time.monotonic()
     uploader.stop()
     client.close()

@@ -30,16 +30,16 @@ from tests.ecu.test_cli import Peers
 from tests.ecu.test_cli_cloud import cloud_table
 
 from .conftest import takeover_segment
-from .test_views import _Served
+from .served import Served
 
 
 @pytest.fixture(scope="module")
-def cloud(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[_Served, CloudService]]:
+def cloud(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Served, CloudService]]:
     """The service over HTTP with vehicle car and driver syn, one published table."""
     tmp = tmp_path_factory.mktemp("reports")
     pool = ThreadPoolExecutor(max_workers=1)
     service = CloudService.open(tmp / "cloud", executor=pool)
-    served = _Served(service)
+    served = Served(service)
     yield served, service
     served.stop()
     pool.shutdown(wait=True)
@@ -53,7 +53,7 @@ def _dead_url() -> str:
         return f"http://127.0.0.1:{sock.getsockname()[1]}"
 
 
-def _trips(served: _Served, token: str) -> list[dict[str, object]]:
+def _trips(served: Served, token: str) -> list[dict[str, object]]:
     answer = served.get("/v1/drivers/syn/trips", token)
     assert answer.status_code == 200, answer.text
     trips: list[dict[str, object]] = answer.json()
@@ -61,7 +61,7 @@ def _trips(served: _Served, token: str) -> list[dict[str, object]]:
 
 
 def test_a_report_waits_in_the_spool_while_the_cloud_is_away(
-    cloud: tuple[_Served, CloudService],
+    cloud: tuple[Served, CloudService],
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
     caplog: pytest.LogCaptureFixture,
@@ -89,7 +89,7 @@ def test_a_report_waits_in_the_spool_while_the_cloud_is_away(
         link.sink(takeover_segment(7, [(50, 80, "accel")]))
         line = link.end_trip(120.0, "2026-11-24T10:00:00.5Z")
         assert "queued" in line and f"v{version}" in line, line
-        link.stop(drain_s=0.5)
+        link.stop(drain_s=0.1)
         assert "trip reports sent 0, queued 1" in link.report()
     queued = ReportQueue(tmp_path / "spool").pending()
     assert len(queued) == 1
@@ -133,7 +133,7 @@ def test_a_report_waits_in_the_spool_while_the_cloud_is_away(
 
 @pytest.mark.slow
 def test_ecu_reports_its_trip_over_http(
-    cloud: tuple[_Served, CloudService], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    cloud: tuple[Served, CloudService], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     served, service = cloud
     token = service.register_vehicle("car-ecu")
@@ -168,7 +168,7 @@ def test_ecu_reports_its_trip_over_http(
 
 
 def test_a_damaged_report_file_is_set_aside_and_bad_reports_are_not_queued(
-    cloud: tuple[_Served, CloudService], tmp_path: Path, caplog: pytest.LogCaptureFixture
+    cloud: tuple[Served, CloudService], tmp_path: Path, caplog: pytest.LogCaptureFixture
 ) -> None:
     served, service = cloud
     token = service.register_vehicle("car-junk")
@@ -205,7 +205,7 @@ def test_a_damaged_report_file_is_set_aside_and_bad_reports_are_not_queued(
 
 
 def test_a_report_is_held_on_an_answer_about_the_set_up_and_sent_later(
-    cloud: tuple[_Served, CloudService],
+    cloud: tuple[Served, CloudService],
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
 ) -> None:

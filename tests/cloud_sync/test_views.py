@@ -3,58 +3,24 @@ browser (Debian's chromium driven by Playwright) after an upload."""
 
 from __future__ import annotations
 
-import hashlib
 import os
 import shutil
-import socket
-import threading
-import time
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from typing import Any
 
-import httpx
 import pytest
-import uvicorn
 
-from cloud_sync.service.http import create_app
 from cloud_sync.service.rules import CloudService
 from cloud_sync.service.trips import record_trip
 from dbc.vocab.triplog_file import write_trip
 
 from .conftest import follower_trip, takeover_segment
-
-OPERATOR = "operator-secret-token"
-
-
-class _Served:
-    def __init__(self, service: CloudService) -> None:
-        self.sock = socket.socket()
-        self.sock.bind(("127.0.0.1", 0))
-        self.url = f"http://127.0.0.1:{self.sock.getsockname()[1]}"
-        app = create_app(service, hashlib.sha256(OPERATOR.encode()).hexdigest())
-        self.server = uvicorn.Server(uvicorn.Config(app, log_level="warning", lifespan="off"))
-        self.thread = threading.Thread(
-            target=self.server.run, kwargs={"sockets": [self.sock]}, daemon=True
-        )
-        self.thread.start()
-        deadline = time.monotonic() + 10.0
-        while not self.server.started and time.monotonic() < deadline:
-            time.sleep(0.01)
-
-    def get(self, path: str, token: str | None) -> Any:
-        headers = {"Authorization": f"Bearer {token}"} if token else {}
-        return httpx.get(self.url + path, headers=headers, timeout=30.0)
-
-    def stop(self) -> None:
-        self.server.should_exit = True
-        self.thread.join(10.0)
-        self.sock.close()
+from .served import OPERATOR, Served
 
 
 @pytest.fixture(scope="module")
-def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[_Served, str, str]]:
+def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Served, str, str]]:
     """A cloud with two vehicles, one driver each; car-a's driver uploaded a manual trip, has
     a learned table, then drove two ACC trips with it (one takeover segment) and reported them."""
     tmp = tmp_path_factory.mktemp("views")
@@ -74,14 +40,14 @@ def served(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[_Served, 
         report = {"driver_id": "syn", "trip_id": trip_id, "dgpt_version": 1}
         record_trip(service, "car-a", {**report, "acc_on_s": acc_on_s, "segments": segments})
     service.wait_idle(120.0)
-    s = _Served(service)
+    s = Served(service)
     yield s, token_a, token_b
     s.stop()
     pool.shutdown(wait=True)
     service.store.close()
 
 
-def test_lists_follow_the_vehicle_token_rules(served: tuple[_Served, str, str]) -> None:
+def test_lists_follow_the_vehicle_token_rules(served: tuple[Served, str, str]) -> None:
     s, token_a, token_b = served
     assert [d["driver_id"] for d in s.get("/v1/drivers", token_a).json()] == ["syn"]
     assert [d["driver_id"] for d in s.get("/v1/drivers", token_b).json()] == ["other"]
@@ -126,7 +92,7 @@ _INKED = """(sel) => { const c = document.querySelector(sel);
 
 @pytest.mark.slow
 def test_dashboard_in_chromium_shows_the_drivers_table_plot(
-    served: tuple[_Served, str, str],
+    served: tuple[Served, str, str],
 ) -> None:
     playwright = pytest.importorskip("playwright.sync_api")
     if not Path(CHROMIUM).exists():
