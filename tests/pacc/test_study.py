@@ -52,14 +52,13 @@ def _without_wall(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 @pytest.mark.slow
 def test_small_study_outputs_and_determinism(tmp_path: Path, cache: Path) -> None:
-    # 2 workers first: the two IRL tables are learned side by side, the 1-worker run reads them
+    one = run(SMALL, tmp_path / "w1", cache_dir=cache, progress=False)
     two = run(
         StudySpec(**{**SMALL.__dict__, "workers": 2, "logs": False}),
         tmp_path / "w2",
         cache_dir=cache,
         progress=False,
     )
-    one = run(SMALL, tmp_path / "w1", cache_dir=cache, progress=False)
     assert len(one) == 4
     assert _without_wall(one) == _without_wall(two)  # workers do not change results
     out = tmp_path / "w1"
