@@ -201,7 +201,7 @@ def test_a_population_study_on_dask_gives_the_in_process_rows(
         learn_in="direct",
         logs=False,
     )
-    cache = tmp_path / "cache"  # the tables learned on the workers, side by side, then read
-    rows = run(cfg, tmp_path / "dask", cache_dir=cache, executor=dask_cluster)
+    cache = tmp_path / "cache"
     ref = run(cfg, tmp_path / "inline", cache_dir=cache, executor=InlineExecutor())
+    rows = run(cfg, tmp_path / "dask", cache_dir=cache, executor=dask_cluster)
     assert len(rows) == 4 and _without_wall(rows) == _without_wall(ref)
