@@ -24,6 +24,7 @@ from ecu.runtime import EcuRuntime
 from pacc.commands.ecu import main
 from pacc.commands.ecu.run import run_until_done
 from tests.cli_util import exit_code
+from tests.conftest import TakeoverRun
 from tests.peers import PeerNodes
 
 _ids = itertools.count()
@@ -67,53 +68,6 @@ class Peers(threading.Thread):
                 time.sleep(0.002)
 
 
-@pytest.mark.slow
-def test_cli_runs_takeover_and_prints_summary(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    channel = f"ecu-cli-{next(_ids)}"
-    peers = Peers(channel, 4.2)
-    peers.start()
-    rc = main(
-        [
-            "-i",
-            "virtual",
-            "-c",
-            channel,
-            "--headway",
-            "3",
-            "--duration",
-            "4.0",
-            "--takeovers",
-            str(tmp_path / "to"),
-            "--save-profile",
-            str(tmp_path / "p.json"),
-        ]
-    )
-    peers.join()
-    out = capsys.readouterr().out
-    assert rc == 0
-    assert "adaptation: timegap; brake press: resume" in out
-    assert "state OFF -> STANDBY" in out
-    assert "state STANDBY -> ACTIVE" in out
-    assert "state ACTIVE -> OVERRIDE" in out
-    assert "takeover 1 (accel)" in out
-    assert "adaptation applied" in out
-    for line in (
-        "cycles:",
-        "frames in/out:",
-        "E2E errors:",
-        "takeovers:      1",
-        "adaptations:    1",
-        "max cycle time:",
-    ):
-        assert line in out
-    # the open takeover segment is flushed at exit; the adapted profile saved
-    assert len(list((tmp_path / "to").glob("*-takeover-*.mcap"))) == 1
-    saved = load_dgpt(tmp_path / "p.json")
-    assert saved.version == 1 and saved.source == "adapted"
-
-
 _SIGTERM_SCRIPT = """
 import os, signal, sys, threading, time
 import can
@@ -132,8 +86,8 @@ def peers():
             pass
         t0 = time.monotonic()
         while (t := time.monotonic() - t0) < 4.0:
-            p.set("hmi", set=int(1.2 <= t < 1.4))
-            p.set("pedals", accel_pressed=int(1.6 <= t < 3.0))
+            p.set("hmi", set=int(1.5 <= t < 1.7))
+            p.set("pedals", accel_pressed=int(1.9 <= t < 3.1))
             p.send_due(t)
             while bus.recv(0) is not None:
                 pass
@@ -368,31 +322,45 @@ def test_bus_failure_ends_the_run_cleanly() -> None:
 
 
 @pytest.mark.slow
-def test_cli_can_log_records_the_run_and_takeovers_carry_utc(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+def test_cli_runs_takeover_prints_summary_and_can_log_records_it(
+    takeover_run: TakeoverRun,
 ) -> None:
+    """The scripted run: the summary and the takeover, the adapted profile saved, the bus
+    recording (its takeover segment stamped with the wall clock) replayed bit for bit."""
     from dbc.vocab.triplog_file import read_trip  # noqa: PLC0415
     from ecu.buslog.reader import read_canlog  # noqa: PLC0415
     from ecu.buslog.replay import replay_through_ecu  # noqa: PLC0415
 
-    channel = f"ecu-cli-{next(_ids)}"
-    peers = Peers(channel, 4.2)
-    peers.start()
-    before = time.time()
-    argv = ["-i", "virtual", "-c", channel, "--headway", "3", "--duration", "4.0"]
-    rec = tmp_path / "bus.mcap"
-    rc = main([*argv, "--takeovers", str(tmp_path / "to"), "--can-log", str(rec)])
-    peers.join()
-    out = capsys.readouterr().out
-    assert rc == 0
+    out, folder = takeover_run.out, takeover_run.folder
+    assert takeover_run.rc == 0, takeover_run.err
+    assert "adaptation: timegap; brake press: resume" in out
+    assert "state OFF -> STANDBY" in out
+    assert "state STANDBY -> ACTIVE" in out
+    assert "state ACTIVE -> OVERRIDE" in out
+    assert "takeover 1 (accel)" in out
+    assert "adaptation applied" in out
+    for line in (
+        "cycles:",
+        "frames in/out:",
+        "E2E errors:",
+        "takeovers:      1",
+        "adaptations:    1",
+        "max cycle time:",
+    ):
+        assert line in out
+    # the open takeover segment is flushed at exit; the adapted profile saved
+    assert len(list((folder / "spool").glob("*-takeover-*.mcap"))) == 1
+    saved = load_dgpt(folder / "p.json")
+    assert saved.version == 1 and saved.source == "adapted"
+    rec = folder / "bus.mcap"
     assert f"frames written to {rec}" in out
     log = read_canlog(rec)
     assert log.node == "ecu" and (~log.frames.rx).sum() >= 150  # 50 Hz commands for ~4 s
     assert log.frames.rx.sum() > 500 and "ACC_Command" in log.decoded
     assert any("takeover 1" in text for _, text in log.events), (log.events, out)
-    segment = read_trip(next((tmp_path / "to").glob("*-takeover-*.mcap")))
+    segment = read_trip(next((folder / "spool").glob("*-takeover-*.mcap")))
     start = segment.meta["start_utc"]  # the wall clock, not the boot clock
-    assert start[:10] == time.strftime("%Y-%m-%d", time.gmtime(before))
+    assert start[:10] == time.strftime("%Y-%m-%d", time.gmtime(takeover_run.started_utc_s))
     # its cycles at their recorded times: the replayed ECU sends what it sent, bit for bit
     result = replay_through_ecu(log)
     assert result.identical and len(result.sent) >= 150

@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import itertools
+import shutil
 import socket
 import sqlite3
 from pathlib import Path
@@ -22,7 +23,7 @@ from cloud_sync.service.rules import CloudService
 from cloud_sync.vehicle.spool import Spool
 from dbc.vocab.triplog_file import read_trip
 from pacc import cli
-from tests.ecu.test_cli import Peers
+from tests.conftest import TakeoverRun
 
 _ids = itertools.count()
 
@@ -40,18 +41,14 @@ def _registered(data: Path) -> list[str]:
 
 @pytest.mark.slow
 def test_readme_takeover_flow_uploads_every_segment(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    takeover_run: TakeoverRun, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    spool, cloud, token = tmp_path / "spool", tmp_path / "cloud", tmp_path / "car1.token"
-    channel = f"data-loss-{next(_ids)}"
-    peers = Peers(channel, 4.2)
-    peers.start()
-    argv = ["ecu", "-i", "virtual", "-c", channel, "--headway", "3", "--duration", "4.0"]
-    assert cli.main([*argv, "--driver", "d2", "--takeovers", str(spool)]) == 0
-    peers.join()
-    out, err = capsys.readouterr()
+    out, err = takeover_run.out, takeover_run.err
+    assert takeover_run.rc == 0, err
     assert "takeover segments: 1 of 1 written" in out and "guest" not in err
     assert " UTC  state STANDBY -> ACTIVE" in out  # wall-clock times, not the boot clock
+    spool, cloud, token = tmp_path / "spool", tmp_path / "cloud", tmp_path / "car1.token"
+    shutil.copytree(takeover_run.folder / "spool", spool)  # the sync empties it: a copy
     (batch,) = Spool(spool).pending()
     assert batch.kind == "takeover" and read_trip(batch.path).meta["driver_id"] == "d2"
     register = ["cloud", "register", "--data", str(cloud), "--vehicle", "car1"]

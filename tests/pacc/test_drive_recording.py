@@ -5,7 +5,6 @@ from __future__ import annotations
 import re
 import subprocess
 import sys
-import threading
 from dataclasses import replace
 from functools import lru_cache
 from pathlib import Path
@@ -18,18 +17,13 @@ import pytest
 from mcap.reader import make_reader
 
 from dbc import DBC_PATH
-from dbc.vocab.dgpt import predefined
 from dbc.vocab.triplog import Trip
 from dbc.vocab.triplog_file import write_trip
 from ecu.buslog.reader import CanLog, read_canlog
 from ecu.buslog.replay import play, replay_through_ecu
-from ecu.config import EcuConfig
-from ecu.node import EcuNode
-from ecu.runtime import EcuRuntime
 from pacc import cli
 from pacc.cli import main as pacc_main
 from pacc.commands import replay as replay_cmd
-from pacc.commands import sim as sim_cli
 from pacc.commands.drive import main as drive_main
 from pacc.commands.export import main as export_main
 from pacc.commands.plot import main as plot_main
@@ -242,29 +236,6 @@ def test_study_drive_records_its_bus(tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
-def test_sim_cli_records_in_real_time(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    channel = "test-sim-can-log"
-    ecu_bus = can.Bus(interface="virtual", channel=channel)
-    rt = EcuRuntime(ecu_bus, EcuNode(EcuConfig(set_speed_mps=40.0), predefined(1.8)))
-    thread = threading.Thread(target=rt.run_realtime, args=(3.0,), daemon=True)
-    thread.start()
-    path = tmp_path / "sim.mcap"
-    try:
-        argv = ["-i", "virtual", "-c", channel, "--duration", "2", "--quiet"]
-        rc = sim_cli.main([*argv, "--can-log", str(path)])
-    finally:
-        rt.stop()
-        thread.join(5.0)
-        ecu_bus.shutdown()
-    assert rc == 0 and "bus recording:" in capsys.readouterr().out
-    log = read_canlog(path)
-    assert log.node == "sim" and "/sim/world" in log.series
-    rx = log.frames.rx
-    assert rx.sum() > 50 and (~rx).sum() > 400  # ACC commands in, the simulator's frames out
-    assert log.time_base.utc_origin_ns > 1_600_000_000 * 10**9  # the wall clock
-    assert plot_main([str(path), "-o", str(tmp_path / "sim.png")]) == 0
-
-
 def test_play_sends_the_recorded_inputs(
     recorded: tuple[Path, list[tuple[float, int, bytes]]],
 ) -> None:

@@ -25,7 +25,7 @@ from sim_bus.errors import SimError
 STUDY = """
 seed = 4
 trials = 1
-duration_s = 8.0
+duration_s = 4.0
 workers = 1
 
 [drivers]

@@ -13,12 +13,14 @@ from dbc.vocab.acc_state import AccState
 from dbc.vocab.dgpt import predefined
 from dbc.vocab.dgpt_file import save_dgpt
 from dbc.vocab.triplog_file import read_trip
+from ecu.buslog.reader import read_canlog
 from ecu.config import EcuConfig
 from ecu.node import EcuNode
 from ecu.runtime import EcuRuntime
 from pacc.commands import drive
 from pacc.commands import sim as cli
 from pacc.commands.drive import report as drive_report
+from pacc.commands.plot import main as plot_main
 from pacc.study.drive import with_condition
 from pacc.study.irl_table import cache_key, code_digest, irl_table
 from sim_bus.drivers import BUILTIN_DRIVERS
@@ -120,37 +122,36 @@ def test_irl_table_cache_hit_skips_learning(tmp_path: Path) -> None:
     assert cache_key(driver, 5, src) != cache_key(driver, 5, "another code version")
 
 
-def test_sim_real_time_against_an_ecu_runtime(capsys: pytest.CaptureFixture[str]) -> None:
+def test_sim_real_time_against_an_ecu_runtime_records_the_run(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``pacc sim --can-log`` in real time against an ECU runtime on the same bus: the ECU's
+    commands counted, the run recorded (the simulator's frames out, the commands in, the
+    world, the wall clock) and plotted."""
     channel = "test-pacc-sim-rt"
     ecu_bus = can.Bus(interface="virtual", channel=channel)
     rt = EcuRuntime(ecu_bus, EcuNode(EcuConfig(set_speed_mps=40.0), predefined(1.8)))
     thread = threading.Thread(target=rt.run_realtime, args=(4.0,), daemon=True)
     thread.start()
+    path = tmp_path / "sim.mcap"
     try:
-        rc = cli.main(
-            [
-                "-i",
-                "virtual",
-                "-c",
-                channel,
-                "--scenario",
-                "manual2",
-                "--driver",
-                "d2",
-                "--duration",
-                "3",
-                "--quiet",
-            ]
-        )
+        argv = ["-i", "virtual", "-c", channel, "--scenario", "manual2", "--driver", "d2"]
+        rc = cli.main([*argv, "--duration", "3", "--quiet", "--can-log", str(path)])
     finally:
         rt.stop()
         thread.join(5.0)
         ecu_bus.shutdown()
     out = capsys.readouterr().out
-    assert rc == 0
+    assert rc == 0 and "bus recording:" in out
     n_cmd = int(out.split(" ACC commands received")[0].rsplit(";", 1)[1])
     assert 100 <= n_cmd <= 160  # 50 Hz for ~3 s
     assert rt.summary().frames_in > 500
+    log = read_canlog(path)
+    assert log.node == "sim" and "/sim/world" in log.series
+    rx = log.frames.rx
+    assert rx.sum() > 50 and (~rx).sum() > 400  # ACC commands in, the simulator's frames out
+    assert log.time_base.utc_origin_ns > 1_600_000_000 * 10**9  # the wall clock
+    assert plot_main([str(path), "-o", str(tmp_path / "sim.png")]) == 0
 
 
 def test_sim_bad_bus(capsys: pytest.CaptureFixture[str]) -> None:

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from ecu.buslog.format import CanLogError
 from ecu.buslog.live import FoxgloveSink
 from ecu.buslog.reader import read_canlog
 from pacc.commands.drive import main as drive_main
@@ -203,8 +204,9 @@ def test_pacc_sim_with_a_live_view_records_the_whole_world(
 
 
 def test_ctrl_c_ends_a_paced_drive_with_its_figures_and_files(tmp_path: Path) -> None:
-    """``pacc drive --pace 1`` stopped by Ctrl-C after about 1.5 s: the figures of the drive
-    so far, ``--log`` and ``--can-log`` (the world included) written, exit status 130."""
+    """``pacc drive --pace 1`` stopped by Ctrl-C once its recording's first flush (1 s) is
+    there: the figures of the drive so far, ``--log`` and ``--can-log`` (the world included)
+    written, exit status 130."""
     log, can_log = tmp_path / "run.mcap", tmp_path / "bus.mcap"
     argv = ["--duration", "60", "--pace", "1", "--log", str(log), "--can-log", str(can_log)]
 
@@ -223,7 +225,14 @@ def test_ctrl_c_ends_a_paced_drive_with_its_figures_and_files(tmp_path: Path) ->
     assert child.stdout is not None
     first = child.stdout.readline()  # "drive: paced at 1x ..." once the drive starts
     assert "paced at 1x" in first
-    time.sleep(1.5)
+    part, deadline = can_log.with_name(can_log.name + ".part"), time.monotonic() + 30.0
+    while time.monotonic() < deadline and child.poll() is None:  # until the first flush (1 s)
+        try:
+            if len(read_canlog(part, recover=True).frames):
+                break
+        except (OSError, CanLogError):  # not there yet, or its header half written
+            pass
+        time.sleep(0.05)
     child.send_signal(signal.SIGINT)
     out, err = child.communicate(timeout=30)
     assert child.returncode == 130, err
