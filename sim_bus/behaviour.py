@@ -315,8 +315,13 @@ class DriverAgent:
                 self._start("brake")
             elif rested and self._far_t >= p.patience_far_s:
                 self._start("accel")
-            elif rested and u < self._tap_p:
-                self._start("tap")
+            elif (
+                rested
+                and u < self._tap_p
+                and steady
+                and (vl >= RESUME_LEAD_MPS or g >= LEAD_SIGHT_M)
+            ):
+                self._start("tap")  # never toward a lead it closes on, that brakes or stands
             else:
                 self.a_cmd_mps2 = a
                 self._set_pedals(0.0, "none")

@@ -231,3 +231,15 @@ def test_the_drives_traced_behind_hard_braking_leads_stay_above_2_s(
     r = run_drive(cfg, driver, predefined_table(driver), resolve_profile("B", road))
     s = r.safety()
     assert not r.collision and s.below_own_s == 0.0 and s.min_gap_m > 3.0, s
+
+
+def test_no_tap_toward_a_standing_lead() -> None:
+    """Regression (a drawn case of the test above): a driver tapped the accelerator while the
+    ACC stopped it 12 m behind a standing car, then braked at 1.87 s TTC. A press not about
+    the gap starts only behind a lead it does not close on, that neither brakes nor stands."""
+    driver = draw_population(1, 930750)[0]
+    cfg = DriveConfig(
+        scenario="cutout", driver_id=driver.driver_id, controller="predefined+oa", seed=283339
+    )
+    r = run_drive(cfg, driver, predefined_table(driver), road_profile("cutout", 283339, 60.0))
+    assert not r.collision and r.safety().min_ttc_s > 2.0
