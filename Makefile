@@ -37,13 +37,14 @@ lint: $(STAMP)
 
 # pytest exits 5 when it collects no test: make treats that as a failure, so CI never passes on nothing.
 # -n auto: one pytest-xdist worker per core; --dist worksteal: an idle worker takes tests queued
-# for a busy one, so the suite's long tests do not end it on one worker (about 230 s of pytest
-# on a quiet 2-core machine); `make test-fast` leaves out the tests marked slow.
+# for a busy one, so the suite's long tests do not end it on one worker; `make test-fast` leaves
+# out the tests marked slow. Bytecode caching stays on (a PYTHONDONTWRITEBYTECODE in the
+# environment made every worker and every CLI subprocess recompile pacc and re-rewrite the tests).
 test: lint
-	$(BIN)/python -m pytest -n auto --dist worksteal
+	env -u PYTHONDONTWRITEBYTECODE $(BIN)/python -m pytest -n auto --dist worksteal
 
 test-fast: $(STAMP)
-	$(BIN)/python -m pytest -n auto --dist worksteal -m 'not slow'
+	env -u PYTHONDONTWRITEBYTECODE $(BIN)/python -m pytest -n auto --dist worksteal -m 'not slow'
 
 format: $(STAMP)
 	$(BIN)/ruff format $(SOURCES)
