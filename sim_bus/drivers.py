@@ -113,7 +113,7 @@ class DriverParams:
             raise DriverError(f"{self.driver_id}: condition_factor must lie in 0.5..2")
         if not 0.5 <= self.acc_preference_factor <= 2.0:
             raise DriverError(f"{self.driver_id}: acc_preference_factor must lie in 0.5..2")
-        if not (-1.5 <= self.acc_offset_s <= 2.0 and min(heads) + self.acc_offset_s >= 0.3):
+        if not (-1.5 <= self.acc_offset_s <= 2.0 and min(heads) + self.acc_offset_s >= 0.3 - 1e-9):
             raise DriverError(
                 f"{self.driver_id}: acc_offset_s must lie in -1.5..2 s and keep every "
                 "headway under ACC at 0.3 s or more"
