@@ -383,7 +383,7 @@ PLANS: dict[str, tuple[list[str], list[Plan]]] = {
             ),
             skip(
                 "pacc study --population N [--seed S] [--scenarios B] [--trials 1] "
-                "[--duration 120] [--cache DIR]",
+                "[--duration 120] [--cache DIR] [--roads per-driver|shared]",
                 "a synopsis",
             ),
             skip(

@@ -227,8 +227,7 @@ def _collisions(rows: Iterable[Mapping[str, Any]]) -> int:
 
 
 def _never_on(rows: Sequence[Mapping[str, Any]]) -> int:
-    """Drives without a PoI: the driver never engaged the ACC (a weak accelerator behind a
-    fast lead never closes to a gap it would engage at)."""
+    """Drives without a PoI: the driver never had the ACC on."""
     return sum(not math.isfinite(float(r["poi_pct"])) for r in rows)
 
 

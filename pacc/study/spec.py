@@ -36,12 +36,12 @@ from sim_bus.population import DEFAULT_POPULATION, POPULATIONS, draw_population
 ECU_ADAPTATION = "ecu"
 #: what a study learns its tables in: the vehicle-cloud loop, or in-process (cached)
 LEARN_IN = ("cloud", "direct")
-#: the study's modes, each named by the report it writes (pacc.study.report; ``hil``: Table I of
-#: pacc hil's session folders, pacc.hil.report)
 #: ``shared``: every driver follows the study seed's lead; ``per-driver``: each driver its own
 #: draw of the same scenario (:func:`road_seed`), so that a population's averages do not rest on
 #: one road
 ROADS = ("shared", "per-driver")
+#: the study's modes, each named by the report it writes (pacc.study.report; ``hil``: Table I of
+#: pacc hil's session folders, pacc.hil.report)
 REPORTS = ("table1", "population", "summary", "incremental", "hil")
 
 
