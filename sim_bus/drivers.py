@@ -17,6 +17,7 @@ import json
 import math
 import re
 import tomllib
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -24,6 +25,16 @@ from typing import Any, Literal
 import numpy as np
 
 from sim_bus.errors import DriverError
+
+
+def random_streams(
+    seed: int, driver_id: str, tag: int
+) -> tuple[np.random.Generator, np.random.Generator]:
+    """The plant's and the driver's random streams of one drive: a pure function of the seed,
+    the driver (two drivers of one seed share no taps, noise or trip shift) and ``tag``."""
+    plant, driver = np.random.SeedSequence([seed, zlib.crc32(driver_id.encode()), tag]).spawn(2)
+    return np.random.default_rng(plant), np.random.default_rng(driver)
+
 
 PredefinedSetting = Literal["low", "medium", "high"]
 #: the paper's predefined headways (s) per setting, and the HMI GapSetting code of each

@@ -17,7 +17,7 @@ from dbc.vocab.pedals import PedalScale
 from dbc.vocab.triplog import FLOAT_FIELDS, Trip
 from dbc.vocab.tripmode import TripMode
 from sim_bus.behaviour import DriverAgent
-from sim_bus.drivers import DriverParams
+from sim_bus.drivers import DriverParams, random_streams
 from sim_bus.errors import DriveError
 from sim_bus.lead.profile import LeadProfile
 from sim_bus.plant import Plant, PlantConfig, PlantState
@@ -42,8 +42,7 @@ def manual_trip(
     cfg = plant or PlantConfig(dt_s=MANUAL_DT_S)
     if abs(cfg.dt_s - MANUAL_DT_S) > 1e-12:
         raise DriveError(f"manual trips run at dt_s = {MANUAL_DT_S}")
-    ss = np.random.SeedSequence([seed, 0x6D616E])
-    rng_plant, rng_driver = (np.random.default_rng(s) for s in ss.spawn(2))
+    rng_plant, rng_driver = random_streams(seed, driver.driver_id, 0x6D616E)
     v_lead, a_lead = profile.resample(MANUAL_DT_S)
     v0 = float(v_lead[0])
     gap0 = float(driver.preferred_gap_m(v0))

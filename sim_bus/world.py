@@ -17,7 +17,7 @@ from typing import Protocol
 import numpy as np
 
 from sim_bus.behaviour import COAST_MPS2, DriverAgent
-from sim_bus.drivers import DriverParams
+from sim_bus.drivers import DriverParams, random_streams
 from sim_bus.errors import DriveError
 from sim_bus.lead.events import cut_in_gap_m, reveal_gap_m
 from sim_bus.lead.profile import LeadEvent, LeadProfile
@@ -145,7 +145,8 @@ class PedalSource(Protocol):
 
 
 class World:
-    """Lead + plant + driver, advanced one tick at a time (pure function of its seed >= 0)."""
+    """Lead + plant + driver, advanced one tick at a time (pure function of the seed >= 0 and
+    the driver)."""
 
     def __init__(
         self,
@@ -162,8 +163,7 @@ class World:
         self.cfg = cfg = cfg or WorldConfig()
         self.driver = driver
         self.profile = profile
-        ss = np.random.SeedSequence([seed, 0x776F726C64])
-        rng_plant, rng_driver = (np.random.default_rng(s) for s in ss.spawn(2))
+        rng_plant, rng_driver = random_streams(seed, driver.driver_id, 0x776F726C64)
         self._v_lead, self._a_lead = (x.tolist() for x in profile.resample(cfg.plant.dt_s))
         self.n_ticks = len(self._v_lead) - 1
         v0 = self._v_lead[0]

@@ -55,6 +55,19 @@ def test_manual_trip_is_deterministic(profiles: dict[str, LeadProfile]) -> None:
     assert not np.array_equal(a.gap_m, c.gap_m)
 
 
+def test_two_drivers_of_one_seed_do_not_share_their_noise(
+    profiles: dict[str, LeadProfile],
+) -> None:
+    """The world's random streams follow the driver too: a twin under another id, on the same
+    road and seed, drives with other control noise (no factor shared by a seed's drivers)."""
+    p = shorten(profiles["B"], 60.0)
+    d5 = BUILTIN_DRIVERS["d5"]
+    twin = dataclasses.replace(d5, driver_id="d5-twin")
+    a, b = manual_trip(d5, p, seed=3), manual_trip(twin, p, seed=3)
+    assert not np.array_equal(a.gap_m, b.gap_m)
+    assert np.array_equal(manual_trip(twin, p, seed=3).gap_m, b.gap_m)
+
+
 def test_manual_trip_round_trips_through_mcap(
     tmp_path: Path, profiles: dict[str, LeadProfile]
 ) -> None:
