@@ -287,22 +287,3 @@ def draw_population(
     if population == "people":
         return tuple(people_driver(d, seed, i) for i, d in enumerate(drivers))
     return tuple(drivers)
-
-
-__all__ = [
-    "BANDS_MPS",
-    "BREAKPOINTS_MPS",
-    "DEFAULT_POPULATION",
-    "FOLLOWING_PRIOR",
-    "PEOPLE_SCALES",
-    "POPULATIONS",
-    "PopulationPrior",
-    "TakeoverScales",
-    "band_headways",
-    "calibrate",
-    "draw_driver",
-    "draw_population",
-    "nearest_setting",
-    "people_driver",
-    "shipped_prior",
-]

@@ -19,8 +19,6 @@ from dbc.vocab import FormatError
 from ecu import EcuError
 from pacc.commands._args import fail, integer, number, same_file
 
-__all__ = ["add_subparser"]
-
 
 def _do_learn(args: argparse.Namespace) -> int:
     import numpy as np  # noqa: PLC0415

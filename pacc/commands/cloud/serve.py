@@ -31,8 +31,6 @@ from cloud_sync.vehicle.connect import write_token
 from dbc.errors import error_line
 from pacc.commands._args import fail, integer, number
 
-__all__ = ["add_subparser"]
-
 
 def _do_register(args: argparse.Namespace) -> int:
     from cloud_sync.service.rules import CloudService  # noqa: PLC0415

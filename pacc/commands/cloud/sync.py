@@ -20,8 +20,6 @@ from typing import Any
 from cloud_sync.errors import CloudSyncError
 from pacc.commands._args import fail, number
 
-__all__ = ["add_subparser"]
-
 
 def _condition_hint(not_found: int) -> str:
     if not not_found:

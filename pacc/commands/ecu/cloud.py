@@ -22,8 +22,6 @@ from ecu.recorder import TripSink
 if TYPE_CHECKING:
     from cloud_sync.vehicle.link import VehicleLink
 
-__all__ = ["Exit", "cloud_link", "cloud_table", "say", "spool_sinks", "warn_guest"]
-
 
 def say(text: object) -> None:
     """Print ``text`` to stdout now. If the reader has gone (``pacc ecu | head``, a dead log
