@@ -4,7 +4,8 @@ Per real follower, each model is calibrated on the first part by minimising the 
 (``rms(s_sim − s) / rms(s)``) of a closed-loop replay of the real lead, then scored from the
 real state at the split on the held-out rest (Punzo, Zheng & Montanino, Transportation
 Research C 128, 2021). Models (parameters in ``MODELS`` order): ``driver`` IDM+ (Schakel et
-al., 2010; :func:`sim_bus.idm.idm_plus_accel`) seeing the lead ``reaction_s`` late; ``idm``
+al., 2010; :func:`sim_bus.idm.idm_plus_accel`) around a time headway over speed (linear from
+10 to 30 m/s, held outside, as the drivers' own table) seeing the lead ``reaction_s`` late; ``idm``
 (Treiber, Hennecke & Helbing, 2000); ``ctg`` ``a = k1·(s − s0 − T·v) + k2·(v_l − v)``
 (Milanés & Shladover, Transportation Research C 48, 2014); ``gipps`` (Gipps, 1981).
 Simulations are vectorised over parameter sets (P, k) for scipy's differential evolution.
@@ -23,10 +24,19 @@ from sim_bus.dataset import HumanPair
 from sim_bus.idm import DECEL_LIMIT_MPS2
 
 Bounds = tuple[tuple[float, float], ...]
-#: parameter bounds per model: driver (a_max, b, T, s0, v0, reaction), idm (a, b, T, s0, v0),
+#: parameter bounds per model: driver (a_max, b, T, s0, v0, reaction, T at 30 m/s where T is
+#: the headway at 10 m/s), idm (a, b, T, s0, v0),
 #: ctg (k1, k2, T, s0), gipps (a, b, b̂, τ, s0, V); ranges of the field's calibrations
 MODELS: dict[str, Bounds] = {
-    "driver": ((0.3, 4.0), (0.5, 5.0), (0.3, 3.5), (0.5, 8.0), (20.0, 50.0), (0.0, 1.5)),
+    "driver": (
+        (0.3, 4.0),
+        (0.5, 5.0),
+        (0.3, 3.5),
+        (0.5, 8.0),
+        (20.0, 50.0),
+        (0.0, 1.5),
+        (0.3, 3.5),
+    ),
     "idm": ((0.3, 4.0), (0.5, 5.0), (0.3, 3.5), (0.5, 8.0), (20.0, 50.0)),
     "ctg": ((0.01, 1.0), (0.01, 2.0), (0.3, 3.5), (0.5, 8.0)),
     "gipps": ((0.3, 4.0), (0.5, 5.0), (0.5, 6.0), (0.1, 1.5), (0.5, 8.0), (20.0, 50.0)),
@@ -47,6 +57,8 @@ def _accel(model: str, x: np.ndarray, v: np.ndarray, vl: np.ndarray, s: np.ndarr
     if model == "ctg":
         return np.asarray(x[:, 0] * (s - x[:, 3] - x[:, 2] * v) + x[:, 1] * (vl - v))
     a, b, t, s0, v0 = x[:, 0], x[:, 1], x[:, 2], x[:, 3], x[:, 4]
+    if model == "driver":
+        t = t + (x[:, 6] - t) * np.clip((v - 10.0) / 20.0, 0.0, 1.0)
     s_star = s0 + t * v + v * (v - vl) / (2.0 * np.sqrt(a * b))
     s_eff = np.maximum(s, 0.1)
     free = 1.0 - (v / v0) ** 4
@@ -154,3 +166,18 @@ def fit_pair(
         float(nrmse(gap, pair.gap_m[split:])[0]),
         float(nrmse(vel, pair.v_follower_mps[split:])[0]),
     )
+
+
+#: the driver model's dynamics parameters that make the population's prior, by index
+PRIOR_PARAMS = {"accel_max_mps2": 0, "decel_comfort_mps2": 1, "reaction_s": 5}
+
+
+def dynamics_prior(fits: list[Fit]) -> dict[str, tuple[float, float]]:
+    """(median, sd of the log) over the real followers of each :data:`PRIOR_PARAMS` entry of
+    the ``driver`` fits: the population's prior (``sim_bus.population.FOLLOWING_PRIOR``)."""
+    mine = np.array([f.params for f in fits if f.model == "driver"])
+    out = {}
+    for name, i in PRIOR_PARAMS.items():
+        x = np.maximum(mine[:, i], 1e-3)
+        out[name] = (float(np.median(x)), float(np.std(np.log(x), ddof=1)))
+    return out

@@ -210,14 +210,15 @@ def draw_driver(prior: PopulationPrior, seed: int, index: int) -> DriverParams:
     )
 
 
-#: the manual-following dynamics of real human followers: (median, sd of the log) of the
-#: drivers' model fitted per follower (sim_bus.following: first half of the first five shipped
-#: OpenACC human pairs, ``pacc validate following``; docs/drivers.md). The desired speed is
-#: not in it: the pairs never exceed 28 m/s, so the fits cannot tell it (they put it there)
-FOLLOWING_PRIOR: dict[str, tuple[float, float]] = {
-    "accel_max_mps2": (1.6, 0.6),
-    "decel_comfort_mps2": (0.6, 1.0),
-    "reaction_s": (0.46, 0.8),
+#: the manual-following dynamics of real human followers: (median, sd of the log, lowest,
+#: highest) of the drivers' model fitted per follower (sim_bus.following.dynamics_prior over
+#: the eight shipped OpenACC human pairs, ``pacc validate following``; docs/drivers.md), held
+#: within the fits' bounds. The desired speed is not in it: the pairs never exceed 28 m/s, so
+#: the fits cannot tell it
+FOLLOWING_PRIOR: dict[str, tuple[float, float, float, float]] = {
+    "accel_max_mps2": (1.73, 0.59, 0.43, 4.0),
+    "decel_comfort_mps2": (1.86, 0.87, 0.5, 5.0),
+    "reaction_s": (0.76, 1.73, 0.19, 1.5),
 }
 
 
@@ -246,9 +247,7 @@ def people_driver(
     """``base`` with the ``people`` prior's dynamics and takeover habits (docs/drivers.md), from
     its own random stream (the preference of ``base`` is kept)."""
     rng = np.random.default_rng([seed, index, 0x706570])
-    accel, decel, reaction = (
-        _lognormal(rng, med, sd, 0.25 * med, 4.0 * med) for med, sd in FOLLOWING_PRIOR.values()
-    )
+    accel, decel, reaction = (_lognormal(rng, *prior) for prior in FOLLOWING_PRIOR.values())
     offset = _clip(
         scales.mismatch * (MISMATCH_MEAN_S + MISMATCH_SD_S * float(rng.standard_normal())),
         *MISMATCH_RANGE_S,

@@ -132,12 +132,16 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     if args.what == "following":
         from sim_bus.dataset import load_human_pairs  # noqa: PLC0415
-        from sim_bus.following import MODELS, fit_pair  # noqa: PLC0415
+        from sim_bus.following import MODELS, dynamics_prior, fit_pair  # noqa: PLC0415
 
         pairs = load_human_pairs()
         pairs = pairs[: args.pairs] if args.pairs else pairs
         fits = [fit_pair(m, pair, maxiter=args.maxiter) for pair in pairs for m in MODELS]
         print(following_table(fits))
+        if len(pairs) > 1:  # the population's prior over the dynamics, from the driver fits
+            prior = dynamics_prior(fits)
+            cells = (f"{k} {m:.2f} ({sd:.2f})" for k, (m, sd) in prior.items())
+            print("\nprior, median (sd of log): " + ", ".join(cells))
         if args.plot:
             _plot_following(args.plot, fits)
         return 0

@@ -20,12 +20,23 @@ def _short(n: int = 1200):  # type: ignore[no-untyped-def]
 
 
 def test_the_drivers_model_is_the_drivers_idm_plus() -> None:
-    """One step of ``driver`` (no delay) is sim_bus.idm's IDM+ for the same parameters."""
-    d = DriverParams("x", standstill_m=3.0, headway_s=(1.4,) * 4, accel_max_mps2=1.3)
-    pair = _short(3)
-    x = np.array([[d.accel_max_mps2, d.decel_comfort_mps2, 1.4, 3.0, d.desired_speed_mps, 0.0]])
-    _, v = simulate("driver", x, pair, 0, 2)
-    v0, vl, g = pair.v_follower_mps[0], pair.v_leader_mps[0], pair.gap_m[0]
+    """One step of ``driver`` (no delay) is sim_bus.idm's IDM+ for the same parameters, its
+    headway over speed included."""
+    d = DriverParams(
+        "x",
+        standstill_m=3.0,
+        headway_speeds_mps=(10.0, 30.0),
+        headway_s=(1.1, 2.3),
+        accel_max_mps2=1.3,
+    )
+    pair = _short()
+    k = int(np.argmax((pair.v_follower_mps > 12.0) & (pair.v_follower_mps < 28.0)))
+    x = np.array(
+        [[d.accel_max_mps2, d.decel_comfort_mps2, 1.1, 3.0, d.desired_speed_mps, 0.0, 2.3]]
+    )
+    _, v = simulate("driver", x, pair, k, k + 2)
+    v0, vl, g = pair.v_follower_mps[k], pair.v_leader_mps[k], pair.gap_m[k]
+    assert 12.0 < v0 < 28.0
     a = idm_plus_accel(v0, vl, g, float(d.preferred_gap_m(v0)), d)
     assert abs(v[1, 0] - (v0 + a * pair.dt_s)) < 1e-9
 
