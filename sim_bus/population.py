@@ -235,7 +235,7 @@ class TakeoverScales:
 
 
 #: frozen after the fit (docs/drivers.md names the seed it was fitted on)
-PEOPLE_SCALES = TakeoverScales(mismatch=1.1, taps_per_min=3.0, press_s=0.6)
+PEOPLE_SCALES = TakeoverScales(mismatch=1.3, taps_per_min=3.5, press_s=0.6)
 #: the populations by name; ``headway`` (the steady-state calibration alone) is the older one
 POPULATIONS = ("headway", "people")
 DEFAULT_POPULATION = "people"
