@@ -39,6 +39,19 @@ class DriveMetrics:
         return {k: float(v) for k, v in asdict(self).items()}
 
 
+#: a drive's metrics, in the columns of drives.csv (also a hil session's records)
+METRIC_FIELDS = (
+    "poi_pct",
+    "nim_per_min",
+    "press_onsets",
+    "acc_on_s",
+    "min_gap_m",
+    "min_ttc_s",
+    "rms_jerk_mps3",
+    "gap_error_rms_m",
+)
+
+
 def acc_on_mask(acc_state: np.ndarray) -> np.ndarray:
     """Boolean (n,): ACC-ON samples (Active/Override, and Standby after the first engagement)."""
     s = np.asarray(acc_state)

@@ -20,8 +20,8 @@ from dbc.vocab.dgpt_file import save_dgpt
 from dbc.vocab.triplog_file import write_trip
 from pacc.hil.loop import HilDrive
 from pacc.hil.plan import Step
-from pacc.study.report import METRIC_FIELDS
 from sim_bus.errors import SimError
+from sim_bus.metrics import METRIC_FIELDS
 from sim_bus.world import WorldLog
 
 RATINGS_HEAD = ("participant", "step", "scenario", "controller", "comfort", "trust")

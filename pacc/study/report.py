@@ -36,6 +36,7 @@ from pacc.study.stats import (
 )
 from sim_bus.drivers import DriverParams
 from sim_bus.errors import SimError
+from sim_bus.metrics import METRIC_FIELDS
 
 #: averages of the paper's Table I (PoI %, NIM /min), for comparison
 PAPER_AVERAGES: dict[str, tuple[float, float]] = {
@@ -51,17 +52,6 @@ CONTROLLER_TITLES = {
     "irl+oa": "IRL + OA",
 }
 SCENARIO_TITLES = {"A": "Seen (A)", "B": "Unseen (B)"}
-#: a drive's metrics, in the columns of drives.csv (also a hil session's records)
-METRIC_FIELDS = (
-    "poi_pct",
-    "nim_per_min",
-    "press_onsets",
-    "acc_on_s",
-    "min_gap_m",
-    "min_ttc_s",
-    "rms_jerk_mps3",
-    "gap_error_rms_m",
-)
 #: Table I's drives.csv
 FIELDS = (
     *("driver", "scenario", "controller", "trial", "seed"),

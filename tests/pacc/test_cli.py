@@ -157,3 +157,17 @@ def test_a_manual_drive_on_the_bus_gives_pacc_demos_its_demonstrations(tmp_path:
     trips = [read_trip(p) for p in sorted((tmp_path / "t").glob("*.mcap"))]
     assert trips and sum(float(t.t_s[-1] - t.t_s[0]) for t in trips) > 50.0
     assert all(t.meta["mode"] == "manual" for t in trips)
+
+
+def test_the_driving_station_starts_without_scipy_or_matplotlib() -> None:
+    """Every module of ``pacc hil`` imports without scipy or matplotlib (a session's records
+    take their columns from sim_bus.metrics, not from the study's report writer)."""
+    code = (
+        "import importlib, pkgutil, sys, pacc.hil\n"
+        "for m in pkgutil.iter_modules(pacc.hil.__path__):\n"
+        "    importlib.import_module('pacc.hil.' + m.name)\n"
+        "importlib.import_module('pacc.commands.hil')\n"
+        "print([m for m in ('scipy', 'matplotlib') if m in sys.modules])\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
