@@ -123,7 +123,7 @@ def test_the_ecu_and_the_extraction_cut_the_same_stretches(tmp_path: Path) -> No
     cfg = DriveConfig(
         scenario="cutin",
         driver_id="d3",
-        seed=2,
+        seed=0,
         duration_s=120,
         faults="pedals:dropout=50-51",
         brake_mode="cancel",

@@ -99,7 +99,7 @@ def test_drive_writes_what_the_ecu_recorded_of_manual_driving(
     """``pacc drive --manual-trips DIR``: in cancel mode the driver drives between a brake
     takeover and the resume; the ECU's manual trips land in DIR, and the drive's figures are
     those of the same drive without the option."""
-    argv = ["--scenario", "cutin", "--driver", "d3", "--seed", "2", "--brake-mode", "cancel"]
+    argv = ["--scenario", "cutin", "--driver", "d3", "--seed", "0", "--brake-mode", "cancel"]
     argv += ["--duration", "120"]
     assert drive_main(argv) == 0
     plain = capsys.readouterr().out
@@ -107,9 +107,9 @@ def test_drive_writes_what_the_ecu_recorded_of_manual_driving(
     out = capsys.readouterr().out
     same = plain.splitlines()[1:]  # the first line has the wall-clock time
     assert out.splitlines()[1 : len(same) + 1] == same, out  # the same drive; one line more
-    assert f"manual trips   2 (39.4 s) in {tmp_path / 'm'}" in out
+    assert f"manual trips   2 (50.6 s) in {tmp_path / 'm'}" in out
     trips = [read_trip(p) for p in sorted((tmp_path / "m").glob("manual_*.mcap"))]
-    assert [len(t) for t in trips] == [250, 144]
+    assert [len(t) for t in trips] == [221, 285]
     for trip in trips:
         assert trip.meta["mode"] == "manual" and trip.meta["driver_id"] == "d3"
         assert set(trip.acc_state.tolist()) <= {0, 1} and np.isfinite(trip.gap_m).all()
@@ -136,7 +136,7 @@ def test_drive_says_when_manual_trips_were_not_written(
         return run_drive(*args, **kwargs)
 
     monkeypatch.setattr("pacc.study.drive.run_drive", run_drive_losing_the_folder)
-    argv = ["--scenario", "cutin", "--driver", "d3", "--seed", "2", "--brake-mode", "cancel"]
+    argv = ["--scenario", "cutin", "--driver", "d3", "--seed", "0", "--brake-mode", "cancel"]
     argv += ["--duration", "120", "--log", str(tmp_path / "trip.mcap")]
     assert drive_main([*argv, "--manual-trips", str(out_dir)]) == 2
     out, err = capsys.readouterr()
