@@ -38,6 +38,8 @@ def test_people_puts_table_one_beside_the_paper(
     out = capsys.readouterr().out
     assert "| IRL | 16.5 [" in out and "| 14.5 |" in out
     assert "IRL + OA vs IRL: PoI -7.00 points, lower for 6 of 6 drivers" in out
+    assert "mean press s (PoI × 0.6 / NIM): Predefined 2.70 (1.14)" in out  # 22.5 % at 5/min
+    assert "IRL 1.98 (1.36)" in out
 
 
 def test_people_refuses_a_file_without_drives(tmp_path: Path) -> None:
