@@ -5,7 +5,8 @@ NIM) of N drivers of the ``people`` population of SEED with the three takeover s
 (default: the frozen ``PEOPLE_SCALES``), 120-s drives of scenario B (or SCENARIO; the rows to
 DRIVES_CSV, for ``pacc validate people``): what the scales were fitted with, on one seed, to
 the paper's four PoI averages. ``kinds SEED``: the three held-out driver kinds, 3 drives
-each per controller. ``trace SEED N``: why IRL draws presses (:func:`trace`). Without a
+each per controller. ``trace SEED N``: why IRL draws presses (:func:`trace`). ``presses SEED
+N``: brake and accelerator presses per controller (:func:`presses`). Without a
 sub-command:
 
 Measures the steady-state time gap (gap / follower speed, samples with |v_lead − v| < 0.5 m/s)
@@ -20,6 +21,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -28,13 +30,15 @@ from scipy import stats
 
 from cloud_sync.engine import map_unordered, open_executor
 from dbc.vocab.dgpt import Dgpt, clamp_to_bounds
-from pacc.study.pipeline import make_tables, plan, run_one
+from pacc.study.drive import resolve_profile, run_drive
+from pacc.study.pipeline import Drive, make_tables, plan, run_one
 from pacc.study.report import write_csv
 from pacc.study.spec import StudySpec, table1_method
 from sim_bus.dataset import load_human_pairs
 from sim_bus.drivers import BUILTIN_DRIVERS, DriverParams
 from sim_bus.lead.profile import LeadProfile
 from sim_bus.manual import manual_trip
+from sim_bus.metrics import acc_on_mask
 from sim_bus.population import PEOPLE_SCALES, TakeoverScales, draw_population, people_driver
 
 BANDS_MPS: tuple[tuple[float, float], ...] = (
@@ -169,12 +173,14 @@ def run_drivers(
     scenario: str = "B",
     irl_from: str = "learned",
     roads: str = "per-driver",
+    worker: Callable[[Drive], dict[str, Any]] = run_one,
 ) -> list[dict[str, Any]]:
     """Every drive (120 s) of ``drivers`` under ``controllers`` in ``scenario``, two processes
     (the study pipeline's tables and drives; IRL learned in-process from :func:`manual_view`,
     cached in the default cache folder). ``irl_from`` ``manual``/``acc``: the IRL table is the
     driver's own manual or ACC preference instead (what a perfect learner would give). ``roads``:
-    each driver its own draw of the scenario (``shared``: the seed's one, as before)."""
+    each driver its own draw of the scenario (``shared``: the seed's one, as before); ``worker``
+    makes a drive's row (:func:`press_row`: its presses by pedal)."""
     spec = StudySpec(
         drivers=(), scenarios=(scenario,), methods=tuple(table1_method(c) for c in controllers),
         trials=trials, seed=seed, duration_s=120.0, learn_in="direct", logs=False, roads=roads,
@@ -189,7 +195,7 @@ def run_drivers(
                 pref = d.preferred_gap_m if irl_from == "manual" else d.acc_preferred_gap_m
                 tables[(i, key)] = t.with_gaps(clamp_to_bounds(t.speed_mps, pref(t.speed_mps)))
         drives = plan(spec, by_id, tables, Path())
-        rows = dict(map_unordered(executor, run_one, drives))
+        rows = dict(map_unordered(executor, worker, drives))
     return [rows[i] for i in sorted(rows)]
 
 
@@ -201,6 +207,39 @@ def averages(rows: list[dict[str, Any]]) -> str:
         poi = np.mean([float(r["poi_pct"]) for r in mine])
         nim = np.mean([float(r["nim_per_min"]) for r in mine])
         out.append(f"{c:<14} PoI {poi:5.1f} %  NIM {nim:5.2f} /min")
+    return "\n".join(out)
+
+
+def press_lengths(pressed: np.ndarray, on: np.ndarray, dt_s: float) -> list[float]:
+    """The length (s) of every press of one pedal while the ACC is on: runs of ``pressed &
+    on`` (bool arrays of one drive's samples, ``dt_s`` s apart)."""
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], (pressed & on).astype(np.int8), [0]))))
+    return [float(n) * dt_s for n in edges[1::2] - edges[::2]]
+
+
+def press_row(drive: Drive) -> dict[str, Any]:
+    """A drive's controller, ACC-on minutes and press lengths by pedal (``brake``, ``accel``)."""
+    log = run_drive(drive.config, drive.driver, drive.table,
+                    resolve_profile(drive.config.scenario, drive.profile_seed)).log  # fmt: skip
+    on = acc_on_mask(log.acc_state)
+    dt = float(np.median(np.diff(log.t_s)))
+    return {"controller": drive.method.name, "on_min": float(on.sum()) * dt / 60.0,
+            "brake": press_lengths(np.asarray(log.brake_pressed, bool), on, dt),
+            "accel": press_lengths(np.asarray(log.accel_pressed, bool), on, dt)}  # fmt: skip
+
+
+def presses(rows: list[dict[str, Any]]) -> str:
+    """Per controller and pedal: presses per minute of ACC-on time and their mean length (s)."""
+    out = []
+    for c in dict.fromkeys(str(r["controller"]) for r in rows):
+        mine = [r for r in rows if r["controller"] == c]
+        minutes = sum(float(r["on_min"]) for r in mine)
+        cells = []
+        for pedal in ("brake", "accel"):
+            lens = [x for r in mine for x in r[pedal]]
+            mean = float(np.mean(lens)) if lens else 0.0
+            cells.append(f"{pedal} {len(lens) / minutes:5.2f} /min {mean:4.2f} s")
+        out.append(f"{c:<14} " + "  ".join(cells))
     return "\n".join(out)
 
 
@@ -237,6 +276,10 @@ def main(argv: list[str] | None = None) -> int:
         print(averages(rows))
         if len(argv) > 6:
             write_csv(Path(argv[6]), rows)
+        return 0
+    if argv and argv[0] == "presses":
+        seed, n = int(argv[1]), int(argv[2])
+        print(presses(run_drivers(list(draw_population(n, seed)), seed, worker=press_row)))
         return 0
     if argv and argv[0] == "trace":
         print(trace(list(draw_population(int(argv[2]), int(argv[1]))), int(argv[1])))

@@ -83,3 +83,17 @@ def test_a_manual_view_drives_by_hand_exactly_as_its_driver() -> None:
         assert view != d and view.acc_offset_s == 0.0
         a, b = manual_trip(d, profile, 5), manual_trip(view, profile, 5)
         assert np.array_equal(a.gap_m, b.gap_m) and np.array_equal(a.v_mps, b.v_mps)
+
+
+def test_presses_by_pedal_while_the_acc_is_on() -> None:
+    pressed = np.array([0, 1, 1, 0, 1, 1, 1, 1, 0, 1], bool)
+    on = np.array([1, 1, 1, 1, 1, 1, 0, 1, 1, 1], bool)  # off for one sample: two presses
+    assert calibration.press_lengths(pressed, on, 0.05) == pytest.approx([0.1, 0.1, 0.05, 0.05])
+    rows = [
+        {"controller": "irl", "on_min": 1.5, "brake": [1.0, 2.0], "accel": [0.5]},
+        {"controller": "irl", "on_min": 0.5, "brake": [3.0], "accel": []},
+    ]
+    assert (
+        calibration.presses(rows)
+        == "irl            brake  1.50 /min 2.00 s  accel  0.50 /min 0.50 s"
+    )
