@@ -33,7 +33,8 @@
     irl / median and how often irl <= median, real and synthetic separately.
 
     .venv/bin/python bench/irl_quality.py [--real-only | --synthetic-only] [--fine-tune]
-                                          [--horizon-sweep] [--held-out [N] [--seed S]]
+                                          [--horizon-sweep] [--held-out [N] [--seed S]
+                                          [--reaction S]]
 
 """
 
@@ -242,7 +243,7 @@ def _held_out_row(
     return held, true
 
 
-def held_out(n: int, seed: int, csvs: list[Path]) -> None:
+def held_out(n: int, seed: int, csvs: list[Path], reaction_s: float | None = None) -> None:
     print(
         "(e) held-out gap error (m) of each learner trained on the same data, and its RMSE (m)"
         " against the hidden true preference where there is one (drawn drivers)\n"
@@ -263,7 +264,9 @@ def held_out(n: int, seed: int, csvs: list[Path]) -> None:
     print(f"\nDrawn drivers of population seed {seed} (manual1..4, 70 % / 30 % of each):\n")
     print(head)
     profiles = canonical_profiles(seed)
-    for driver in draw_population(n, seed):
+    for drawn in draw_population(n, seed):
+        # --reaction S: the same drivers with another reaction time (what it costs IRL)
+        driver = drawn if reaction_s is None else dataclasses.replace(drawn, reaction_s=reaction_s)
         trips = [manual_trip(driver, profiles[f"manual{i + 1}"], seed + i) for i in range(4)]
         cuts = [int(TRAIN_FRACTION * t.t_s.size) for t in trips]
         train = [part(t, 0, c) for t, c in zip(trips, cuts, strict=True)]
@@ -304,7 +307,9 @@ def _option(argv: list[str], name: str, default: int) -> int:
 def main(argv: list[str]) -> int:
     if "--held-out" in argv:
         csvs = [Path(a) for a in argv if a.endswith(".csv")]
-        held_out(_option(argv, "--held-out", 20), _option(argv, "--seed", 2), csvs)
+        i = argv.index("--reaction") if "--reaction" in argv else -1
+        reaction = float(argv[i + 1]) if 0 <= i < len(argv) - 1 else None
+        held_out(_option(argv, "--held-out", 20), _option(argv, "--seed", 2), csvs, reaction)
         return 0
     if "--synthetic-only" not in argv:
         real()
