@@ -24,9 +24,9 @@ from sim_bus.dataset import HumanPair
 from sim_bus.idm import DECEL_LIMIT_MPS2
 
 Bounds = tuple[tuple[float, float], ...]
-#: parameter bounds per model: driver (a_max, b, T, s0, v0, reaction, T at 30 m/s where T is
-#: the headway at 10 m/s), idm (a, b, T, s0, v0),
-#: ctg (k1, k2, T, s0), gipps (a, b, b̂, τ, s0, V); ranges of the field's calibrations
+#: parameter bounds per model: driver (a_max, b, T₁₀, s0, v0, reaction, T₃₀; T₁₀ and T₃₀ the
+#: headways at 10 and 30 m/s), idm (a, b, T, s0, v0), ctg (k1, k2, T, s0), gipps (a, b, b̂, τ,
+#: s0, V); ranges of the field's calibrations
 MODELS: dict[str, Bounds] = {
     "driver": (
         (0.3, 4.0),
