@@ -132,22 +132,34 @@ class Fit:
     speed: float  # held out
 
 
-def _objective(model: str, pair: HumanPair, stop: int) -> Callable[[np.ndarray], np.ndarray]:
+def _objective(
+    model: str, pair: HumanPair, start: int, stop: int
+) -> Callable[[np.ndarray], np.ndarray]:
     def f(xt: np.ndarray) -> np.ndarray:
-        gap, _ = simulate(model, xt.T, pair, 0, stop)
-        err = nrmse(gap, pair.gap_m[:stop])
+        gap, _ = simulate(model, xt.T, pair, start, stop)
+        err = nrmse(gap, pair.gap_m[start:stop])
         return np.where(np.min(gap, axis=0) <= 0.0, COLLISION_NRMSE, err)
 
     return f
 
 
 def fit_pair(
-    model: str, pair: HumanPair, *, seed: int = 0, maxiter: int = 40, popsize: int = 10
+    model: str,
+    pair: HumanPair,
+    *,
+    seed: int = 0,
+    maxiter: int = 40,
+    popsize: int = 10,
+    reverse: bool = False,
 ) -> Fit:
-    """Calibrate ``model`` on the first :data:`CALIBRATION_SHARE` of ``pair``; score the rest."""
-    split = int(len(pair.gap_m) * CALIBRATION_SHARE)
+    """Calibrate ``model`` on the first :data:`CALIBRATION_SHARE` of ``pair``; score the rest
+    (``reverse``: calibrate on the rest, score the first part, from the real state at its
+    start)."""
+    n = len(pair.gap_m)
+    split = int(n * CALIBRATION_SHARE)
+    fit_part, test_part = ((split, n), (0, split)) if reverse else ((0, split), (split, n))
     res = differential_evolution(
-        _objective(model, pair, split),
+        _objective(model, pair, *fit_part),
         MODELS[model],
         seed=seed,
         maxiter=maxiter,
@@ -157,14 +169,15 @@ def fit_pair(
         vectorized=True,
         updating="deferred",
     )
-    gap, vel = simulate(model, res.x, pair, split, len(pair.gap_m))
+    gap, vel = simulate(model, res.x, pair, *test_part)
+    a, b = test_part
     return Fit(
         pair.pair_id,
         model,
         tuple(round(float(p), 4) for p in res.x),
         float(res.fun),
-        float(nrmse(gap, pair.gap_m[split:])[0]),
-        float(nrmse(vel, pair.v_follower_mps[split:])[0]),
+        float(nrmse(gap, pair.gap_m[a:b])[0]),
+        float(nrmse(vel, pair.v_follower_mps[a:b])[0]),
     )
 
 

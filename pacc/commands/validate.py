@@ -102,7 +102,7 @@ def people_table(rows: Sequence[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-def _plot_following(path: Path, fits: Sequence[Fit]) -> None:
+def _plot_following(path: Path, fits: Sequence[Fit], reverse: bool = False) -> None:
     import matplotlib  # noqa: PLC0415  (only the plot needs it)
 
     matplotlib.use("Agg")
@@ -119,7 +119,8 @@ def _plot_following(path: Path, fits: Sequence[Fit]) -> None:
         ax.bar(x + i * w - 0.4 + w / 2, [by[(p, m)] for p in pairs], w, label=m)
     ax.set_xticks(x, [p.replace("040719_", "") for p in pairs], rotation=20)
     ax.set_ylabel("held-out spacing NRMSE")
-    ax.set_title("Car following on real OpenACC human pairs (fit: first half; scored: rest)")
+    parts = "second half; scored: first" if reverse else "first half; scored: rest"
+    ax.set_title(f"Car following on real OpenACC human pairs (fit: {parts})")
     ax.legend()
     fig.tight_layout()
     fig.savefig(path, dpi=120)
@@ -134,24 +135,28 @@ def main(argv: list[str] | None = None) -> int:
     f.add_argument("--pairs", type=integer(0), default=0, help="the first N pairs (0: all)")
     f.add_argument("--maxiter", type=integer(1), default=60, help="generations of each fit")
     f.add_argument("--plot", type=Path, help="a PNG of the held-out spacing errors")
+    f.add_argument("--reverse", action="store_true", help="fit on the second half, score the first")
     g = sub.add_parser("people", help="a population study's Table I beside the paper's")
     g.add_argument("drives", type=Path, help="drives.csv of pacc study --population")
     g.add_argument("--plot", type=Path, help="a PNG of the averages beside the paper's")
     args = p.parse_args(argv)
     if args.what == "following":
+        from functools import partial  # noqa: PLC0415
+
         from sim_bus.dataset import load_human_pairs  # noqa: PLC0415
         from sim_bus.following import MODELS, dynamics_prior, fit_pair  # noqa: PLC0415
 
         pairs = load_human_pairs()
         pairs = pairs[: args.pairs] if args.pairs else pairs
-        fits = [fit_pair(m, pair, maxiter=args.maxiter) for pair in pairs for m in MODELS]
+        fit = partial(fit_pair, maxiter=args.maxiter, reverse=args.reverse)
+        fits = [fit(m, pair) for pair in pairs for m in MODELS]
         print(following_table(fits))
         if len(pairs) > 1:  # the population's prior over the dynamics, from the driver fits
             prior = dynamics_prior(fits)
             cells = (f"{k} {m:.2f} ({sd:.2f})" for k, (m, sd) in prior.items())
             print("\nprior, median (sd of log): " + ", ".join(cells))
         if args.plot:
-            _plot_following(args.plot, fits)
+            _plot_following(args.plot, fits, args.reverse)
         return 0
     from pacc.study.report import plot, read_drives  # noqa: PLC0415
 

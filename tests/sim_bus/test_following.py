@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pytest
 
 from sim_bus.dataset import load_human_pairs
 from sim_bus.drivers import DriverParams
@@ -58,3 +59,13 @@ def test_fit_beats_a_guess_and_scores_the_held_out_part() -> None:
     guess, _ = simulate("ctg", np.array([[0.1, 0.1, 3.0, 5.0]]), pair, 0, 600)
     assert fit.fit_spacing < float(nrmse(guess, pair.gap_m[:600])[0])
     assert 0.0 < fit.spacing < 1.0 and 0.0 < fit.speed < 1.0
+
+
+def test_a_reverse_fit_calibrates_on_the_second_half_and_scores_the_first() -> None:
+    pair = _short()
+    fit = fit_pair("ctg", pair, maxiter=8, reverse=True)
+    guess, _ = simulate("ctg", np.array([[0.1, 0.1, 3.0, 5.0]]), pair, 600, 1200)
+    assert fit.fit_spacing < float(nrmse(guess, pair.gap_m[600:])[0])
+    first, _ = simulate("ctg", np.array(fit.params), pair, 0, 600)
+    # the parameters are kept to 4 decimals
+    assert fit.spacing == pytest.approx(float(nrmse(first, pair.gap_m[:600])[0]), rel=1e-2)
