@@ -34,7 +34,7 @@
 
     .venv/bin/python bench/irl_quality.py [--real-only | --synthetic-only] [--fine-tune]
                                           [--horizon-sweep] [--held-out [N] [--seed S]
-                                          [--reaction S]]
+                                          [--reaction S] [--lead-lag S]]
 
 """
 
@@ -216,13 +216,34 @@ def horizon_sweep() -> None:
 LEARNERS = ("irl", "gp", "empirical")  # the last is the per-bin median, the peer
 
 
+def _lead_seen_late(trip: Trip, lag_s: float) -> Trip:
+    """``trip`` with the gap and the lead's speed as seen ``lag_s`` s late (own speed at once)."""
+    k = int(round(lag_s / float(np.median(np.diff(trip.t_s)))))
+    if k <= 0 or k >= len(trip):
+        return trip
+
+    def late(x: np.ndarray) -> np.ndarray:
+        return np.concatenate([np.repeat(x[:1], k), x[:-k]])
+
+    return dataclasses.replace(trip, gap_m=late(trip.gap_m), v_lead_mps=late(trip.v_lead_mps))
+
+
 def _held_out_row(
-    name: str, train: list[Trip], test: list[Trip], truth: Callable[[np.ndarray], np.ndarray] | None
+    name: str,
+    train: list[Trip],
+    test: list[Trip],
+    truth: Callable[[np.ndarray], np.ndarray] | None,
+    lead_lag_s: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """Held-out error and RMSE against ``truth`` (NaN without one) of each of :data:`LEARNERS`,
-    over the speeds all of them cover; prints the row."""
+    over the speeds all of them cover; prints the row. ``lead_lag_s``: IRL learns from the lead
+    as seen that late (a diagnosis of the drivers' reaction time; the others as recorded)."""
+    late = [_lead_seen_late(t, lead_lag_s) for t in train]
     try:
-        tables = [learn(spec, train, driver_id=name, seed=0) for spec in LEARNERS]
+        tables = [
+            learn(spec, late if spec == "irl" else train, driver_id=name, seed=0)
+            for spec in LEARNERS
+        ]
     except DemoError as exc:
         print(f"| {name} | {exc} |" + " |" * (2 * len(LEARNERS)))
         return None
@@ -243,7 +264,9 @@ def _held_out_row(
     return held, true
 
 
-def held_out(n: int, seed: int, csvs: list[Path], reaction_s: float | None = None) -> None:
+def held_out(
+    n: int, seed: int, csvs: list[Path], reaction_s: float | None = None, lead_lag_s: float = 0.0
+) -> None:
     print(
         "(e) held-out gap error (m) of each learner trained on the same data, and its RMSE (m)"
         " against the hidden true preference where there is one (drawn drivers)\n"
@@ -258,7 +281,9 @@ def held_out(n: int, seed: int, csvs: list[Path], reaction_s: float | None = Non
     real_trips = _human_trips() + [(f.stem, read_csv_trip(f)) for f in csvs]
     for name, trip in real_trips:
         cut = int(TRAIN_FRACTION * trip.t_s.size)
-        row = _held_out_row(name, [part(trip, 0, cut)], [part(trip, cut, trip.t_s.size)], None)
+        row = _held_out_row(
+            name, [part(trip, 0, cut)], [part(trip, cut, trip.t_s.size)], None, lead_lag_s
+        )
         if row is not None:
             results["real"].append(row)
     print(f"\nDrawn drivers of population seed {seed} (manual1..4, 70 % / 30 % of each):\n")
@@ -274,7 +299,11 @@ def held_out(n: int, seed: int, csvs: list[Path], reaction_s: float | None = Non
         # the preference it realised: g*(v) at the mean of its condition factor (1 without drift)
         c_mean = float(np.mean([t.meta.get("condition_mean", 1.0) for t in trips]))
         row = _held_out_row(
-            driver.driver_id, train, test, partial(driver.preferred_gap_m, condition_factor=c_mean)
+            driver.driver_id,
+            train,
+            test,
+            partial(driver.preferred_gap_m, condition_factor=c_mean),
+            lead_lag_s,
         )
         if row is not None:
             results["synthetic"].append(row)
@@ -309,7 +338,10 @@ def main(argv: list[str]) -> int:
         csvs = [Path(a) for a in argv if a.endswith(".csv")]
         i = argv.index("--reaction") if "--reaction" in argv else -1
         reaction = float(argv[i + 1]) if 0 <= i < len(argv) - 1 else None
-        held_out(_option(argv, "--held-out", 20), _option(argv, "--seed", 2), csvs, reaction)
+        j = argv.index("--lead-lag") if "--lead-lag" in argv else -1
+        lag = float(argv[j + 1]) if 0 <= j < len(argv) - 1 else 0.0
+        n, seed = _option(argv, "--held-out", 20), _option(argv, "--seed", 2)
+        held_out(n, seed, csvs, reaction, lag)
         return 0
     if "--synthetic-only" not in argv:
         real()
