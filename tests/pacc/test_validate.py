@@ -15,7 +15,7 @@ def test_following_prints_every_model_per_pair(
     capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
     png = tmp_path / "f.png"
-    assert main(["following", "--pairs", "2", "--maxiter", "2", "--plot", str(png)]) == 0
+    assert main(["following", "--pairs", "2", "--maxiter", "1", "--plot", str(png)]) == 0
     out = capsys.readouterr().out
     assert "driver spacing | idm spacing | ctg spacing | gipps spacing" in out
     assert "040719_platoon10_f2" in out and "**mean**" in out
