@@ -219,13 +219,13 @@ def press_lengths(pressed: np.ndarray, on: np.ndarray, dt_s: float) -> list[floa
 
 def press_row(drive: Drive) -> dict[str, Any]:
     """A drive's controller, ACC-on minutes and press lengths by pedal (``brake``, ``accel``)."""
-    log = run_drive(drive.config, drive.driver, drive.table,
-                    resolve_profile(drive.config.scenario, drive.profile_seed)).log  # fmt: skip
+    road = resolve_profile(drive.config.scenario, drive.profile_seed)
+    log = run_drive(drive.config, drive.driver, drive.table, road).log
     on = acc_on_mask(log.acc_state)
     dt = float(np.median(np.diff(log.t_s)))
-    return {"controller": drive.method.name, "on_min": float(on.sum()) * dt / 60.0,
-            "brake": press_lengths(np.asarray(log.brake_pressed, bool), on, dt),
-            "accel": press_lengths(np.asarray(log.accel_pressed, bool), on, dt)}  # fmt: skip
+    pedals = {"brake": log.brake_pressed, "accel": log.accel_pressed}
+    lengths = {k: press_lengths(np.asarray(x, bool), on, dt) for k, x in pedals.items()}
+    return {"controller": drive.method.name, "on_min": float(on.sum()) * dt / 60.0, **lengths}
 
 
 def presses(rows: list[dict[str, Any]]) -> str:

@@ -92,7 +92,7 @@ def people_table(rows: Sequence[dict[str, Any]]) -> str:
         + ", ".join(f"{CONTROLLER_TITLES[c]} {s:.1f}" for c, s in spread.items())
     )
     # seconds pressed per press: PoI % of a minute (0.6 s per point) over presses per minute
-    press = {c: (0.6 * v.mean() / values["nim_per_min"][c].mean()) for c, v in poi.items()}
+    press = {c: 0.6 * v.mean() / values["nim_per_min"][c].mean() for c, v in poi.items()}
     paper = {c: 0.6 * PAPER_AVERAGES[c][0] / PAPER_AVERAGES[c][1] for c in press}
     lines.append(
         "- mean press s (PoI × 0.6 / NIM): "
