@@ -143,10 +143,8 @@ def count_short_press(
     return ShortPresses(summary.pedal, count, end_s), False
 
 
-def behaviour_filter(
-    summary: TakeoverSummary, params: AdaptationParams, *, short_run: bool = False
-) -> Reason:
-    """``Reason.APPLIED`` if the takeover may update the table, else the skip reason."""
+def _input_reason(summary: TakeoverSummary) -> Reason | None:
+    """``INVALID_INPUT`` or ``NO_LEAD`` for a summary nothing can be learned from, else None."""
     values = (summary.duration_s, summary.v_mps)
     if not all(math.isfinite(x) for x in values) or summary.v_mps < 0.0:
         return Reason.INVALID_INPUT
@@ -155,6 +153,20 @@ def behaviour_filter(
     lead = (summary.v_lead_mps, summary.gap_m)
     if not all(math.isfinite(x) and x >= 0.0 for x in lead):
         return Reason.INVALID_INPUT
+    return None
+
+
+def behaviour_filter(
+    summary: TakeoverSummary, params: AdaptationParams, *, short_run: bool = False
+) -> Reason:
+    """``Reason.APPLIED`` if the takeover may update the table, else the skip reason (a press
+    that began within ``switch_window_s`` of a radar target switch: forced by a cut-in, no
+    evidence of the preferred gap)."""
+    invalid = _input_reason(summary)
+    if invalid is not None:
+        return invalid
+    if summary.after_switch_s < params.switch_window_s:
+        return Reason.TARGET_SWITCH
     if summary.duration_s <= params.min_takeover_s and not (
         short_run and summary.duration_s > params.short_press_min_s
     ):
@@ -240,9 +252,6 @@ def adapt(
 ) -> tuple[Dgpt, Decision]:
     """Apply the adaptation (``params.mode``) for one finished takeover; pure."""
     reason = behaviour_filter(summary, params, short_run=short_run)
-    answers = reason in (Reason.APPLIED, Reason.SHORT_TAKEOVER, Reason.SPEED_DIFFERENCE)
-    if answers and summary.after_switch_s < params.switch_window_s:
-        reason = Reason.TARGET_SWITCH  # forced by a cut-in: no evidence of the preferred gap
     if reason is not Reason.APPLIED:
         return table, Decision(applied=False, reason=reason)
     g_desire = predict_steady_gap(summary, params)

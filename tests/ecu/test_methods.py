@@ -261,6 +261,20 @@ def test_bayes_moves_by_evidence_and_grows_surer() -> None:
     assert skipped is None and d3.reason is Reason.AGAINST_PEDAL
 
 
+def test_bayes_learns_nothing_from_a_press_forced_by_a_cut_in() -> None:
+    """A brake press 2 s after a radar target switch is the cut-in's, not a preference; 8 s
+    after, it is evidence (the same rule as Algorithm 1's, ``switch_window_s`` 5 s)."""
+    bayes = BayesAdaptation()
+    kw: dict[str, Any] = {"bounds": SafetyBounds(), "short_run": False, "created_utc": "x"}
+    forced = TakeoverSummary(3.0, 20.0, 20.0, 60.0, pedal="brake", after_switch_s=2.0)
+    new, decision = bayes.update(predefined(1.5), forced, **kw)
+    assert new is None and decision.reason is Reason.TARGET_SWITCH
+    assert bayes.variance_m2() is None  # the belief is untouched
+    later = TakeoverSummary(3.0, 20.0, 20.0, 60.0, pedal="brake", after_switch_s=8.0)
+    new, decision = bayes.update(predefined(1.5), later, **kw)
+    assert new is not None and decision.applied
+
+
 def test_bayes_in_the_loop_through_the_entry_of_its_name() -> None:
     node = EcuNode(EcuConfig(set_speed_mps=30.0, adaptation_method="bayes"), predefined(2.0))
     _, requests = _drive(node, seconds=6.0)
