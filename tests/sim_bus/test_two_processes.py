@@ -8,13 +8,17 @@ exactly as a user would. Skipped where python-can-remote is not installed.
 
 from __future__ import annotations
 
+import os
 import re
+import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import IO
 
 import can_remote  # noqa: F401 - the bus server the test starts: a dev dependency, so fail if missing
 import pytest
@@ -62,20 +66,56 @@ def _count(pattern: str, text: str) -> int:
     return int(match.group(1))
 
 
+class _Output:
+    """Every line a process prints, read on a thread as it comes (a pipe never fills)."""
+
+    def __init__(self, proc: subprocess.Popen[str]) -> None:
+        assert proc.stdout is not None
+        self.lines: list[str] = []
+        self._new = threading.Condition()
+        self._thread = threading.Thread(target=self._read, args=(proc.stdout,), daemon=True)
+        self._thread.start()
+
+    def _read(self, stream: IO[str]) -> None:
+        for line in iter(stream.readline, ""):
+            with self._new:
+                self.lines.append(line)
+                self._new.notify_all()
+
+    def wait_for(self, text: str, timeout_s: float) -> None:
+        """Return once a line holds ``text``; fail after ``timeout_s`` s or at the end."""
+        with self._new:
+            found = self._new.wait_for(
+                lambda: any(text in x for x in self.lines) or not self._thread.is_alive(),
+                timeout_s,
+            )
+            if not (found and any(text in x for x in self.lines)):
+                pytest.fail(f"never printed {text!r}: {''.join(self.lines)}")
+
+    def text(self) -> str:
+        """All it printed (after the process ended)."""
+        self._thread.join(timeout=30)
+        return "".join(self.lines)
+
+
 def test_ecu_and_sim_in_two_processes(remote_bus: str) -> None:
     """The simulator's frames reach the ECU's process and the ECU's commands reach the
-    simulator's: the ECU engages (SET from the simulated driver), no frame corrupted."""
+    simulator's: the ECU engages (SET from the simulated driver), no frame corrupted. The
+    simulator starts once the ECU says it runs, and the ECU stops (SIGTERM) once the
+    simulator is done, so a slow start on a loaded machine shortens neither."""
     bus = ["-i", "remote", "-c", remote_bus]
     pacc = [sys.executable, "-m", "pacc"]
     ecu = subprocess.Popen(
-        [*pacc, "ecu", *bus, "--set-speed", "40", "--duration", str(RUN_S + 1.0)],
+        [*pacc, "ecu", *bus, "--set-speed", "40", "--duration", "120"],
         stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
         text=True,
         cwd=ROOT,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
     )
+    out = _Output(ecu)
     try:
-        time.sleep(0.5)
+        out.wait_for("ECU running", 60.0)
         sim = subprocess.run(
             [*pacc, "sim", *bus, "--duration", str(RUN_S), "--quiet"],
             check=False,
@@ -84,12 +124,14 @@ def test_ecu_and_sim_in_two_processes(remote_bus: str) -> None:
             timeout=60,
             cwd=ROOT,
         )
-        ecu_out, ecu_err = ecu.communicate(timeout=60)
+        ecu.send_signal(signal.SIGTERM)
+        ecu.wait(timeout=60)
     finally:
         if ecu.poll() is None:
             ecu.kill()
+    ecu_out = out.text()
     assert sim.returncode == 0, sim.stderr
-    assert ecu.returncode == 0, ecu_err
+    assert ecu.returncode == 0, ecu_out
     received = _count(r"(\d+) ACC commands received", sim.stdout)
     frames_in = _count(r"frames in/out:\s+(\d+)", ecu_out)
     assert received > 50 * (RUN_S - 2.0)  # ACC_Command every 20 ms while both run
