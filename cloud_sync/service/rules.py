@@ -17,6 +17,7 @@ import logging
 import os
 import secrets
 import threading
+import time
 from collections.abc import Callable, Iterable
 from concurrent.futures import Executor, Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
@@ -68,11 +69,15 @@ def sha256_hex(data: bytes) -> str:
 
 @dataclass(frozen=True)
 class ServiceConfig:
-    """Settings: the largest batch (bytes), the jobs' seed, IRL settings (None: defaults)."""
+    """Settings: the largest batch (bytes), the jobs' seed, IRL settings (None: defaults), and
+    ``settle_s``: a learning job starts once its (driver, condition) has had no new batch for
+    this long, s (0: at once), so that a burst of uploads (a vehicle's four manual trips)
+    learns one version, not one from the first trip and another from all of them."""
 
     max_upload_bytes: int = DEFAULT_MAX_UPLOAD_BYTES
     seed: int = 0
     irl: IrlConfig | None = None
+    settle_s: float = 0.0
 
 
 class DeferredExecutor(Executor):
@@ -145,6 +150,7 @@ def train_table(
 class _JobState:
     running: bool = False
     dirty: bool = False
+    touched: float = 0.0  # time.monotonic() of its newest batch
     futures: list[Future[Any]] = field(default_factory=list)
 
 
@@ -279,6 +285,7 @@ class CloudService:
         key = (driver_id, condition)
         with self._jobs_lock:
             state = self._jobs.setdefault(key, _JobState())
+            state.touched = time.monotonic()
             if state.running:
                 state.dirty = True  # the running job will run once more
                 return
@@ -298,9 +305,21 @@ class CloudService:
         for driver_id, condition in self.store.unused_keys():
             self.schedule(driver_id, condition)
 
+    def _settle(self, state: _JobState) -> None:
+        """Wait until no batch came for ``config.settle_s``; the batches so far are this run's."""
+        settle = self.config.settle_s
+        while settle > 0.0:
+            with self._jobs_lock:
+                left = state.touched + settle - time.monotonic()
+                if left <= 0.0:
+                    state.dirty = False  # the run about to start reads every batch so far
+                    return
+            time.sleep(left)
+
     def _job_loop(self, key: tuple[str, str]) -> None:
         state = self._jobs[key]
         while True:
+            self._settle(state)
             try:
                 self.learn_once(*key)
             except Exception as exc:  # a job's failure is reported, never raised at a client

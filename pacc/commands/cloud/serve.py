@@ -144,7 +144,9 @@ def _do_serve(args: argparse.Namespace) -> int:
         return fail("pacc cloud serve", exc)
     threads = max(args.workers, workers_of(compute) if compute is not None else 1)
     pool = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="pacc-learn")
-    config = ServiceConfig(max_upload_bytes=int(args.max_upload_mb * 1024 * 1024), seed=args.seed)
+    config = ServiceConfig(
+        max_upload_bytes=int(args.max_upload_mb * 1024 * 1024), seed=args.seed, settle_s=args.settle
+    )
     try:
         service = CloudService.open(args.data, executor=pool, config=config, compute=compute)
     except (CloudSyncError, OSError) as exc:
@@ -198,6 +200,13 @@ def add_subparser(subparsers: Any) -> None:
     srv.add_argument("--workers", type=integer(1, 256), default=1, help="learning job threads")
     srv.add_argument("--max-upload-mb", type=number(0.0, 4096.0, lo_open=True), default=16.0)
     srv.add_argument("--seed", type=integer(0), default=0, help="seed of every learning job")
+    srv.add_argument(
+        "--settle",
+        type=number(0.0, 600.0),
+        default=1.0,
+        metavar="S",
+        help="learn once a driver's uploads have paused S seconds (default 1; 0: at once)",
+    )
     srv.add_argument("--scheduler", metavar="local|tcp://HOST:8786", help="Dask (docs/scale.md)")
     srv.add_argument("--operator-token-file", metavar="FILE", help="the operator's token")
     srv.set_defaults(func=_do_serve)
