@@ -230,12 +230,16 @@ class TakeoverScales:
     mismatch: float  # × the ACC-vs-manual offset prior N(MISMATCH_MEAN_S, MISMATCH_SD_S),
     # clipped to MISMATCH_RANGE_S after scaling
     taps_per_min: float  # mean rate of presses that are not about the gap, per min
-    press_s: float  # median of a press not about the gap, and of the longest press beyond
-    # press_min_s, s
+    drift: float  # × the drift prior: the headway's shift between trips, sd U(0.05, 0.25) s
+    # (at most 1 s), and the within-trip walk of its condition, U(0.01, 0.05) per √min
 
 
+#: the longest a driver holds a press about the gap beyond its shortest press: log-normal
+#: around this, s. The paper's behaviour filter skips takeovers of P_T = 1 s or less as the
+#: noise of short presses, so the presses it learns from, about the gap, are longer
+PRESS_HOLD_S = 1.0
 #: frozen after the fit (docs/drivers.md names the seed it was fitted on)
-PEOPLE_SCALES = TakeoverScales(mismatch=1.3, taps_per_min=3.5, press_s=0.6)
+PEOPLE_SCALES = TakeoverScales(mismatch=0.85, taps_per_min=4.0, drift=2.5)
 #: the populations by name; ``headway`` (the steady-state calibration alone) is the older one
 POPULATIONS = ("headway", "people")
 DEFAULT_POPULATION = "people"
@@ -260,11 +264,11 @@ def people_driver(
         reaction_s=reaction,
         acc_offset_s=round(max(offset, 0.3 - min(base.headway_s)), 4),
         acc_preference_factor=1.0,
-        trip_shift_sd_s=float(rng.uniform(0.05, 0.25)),
-        condition_drift_per_min=float(rng.uniform(0.01, 0.05)),
+        trip_shift_sd_s=min(scales.drift * float(rng.uniform(0.05, 0.25)), 1.0),
+        condition_drift_per_min=scales.drift * float(rng.uniform(0.01, 0.05)),
         spurious_press_per_min=taps,
-        tap_s=_lognormal(rng, scales.press_s, 0.4, 0.3, 4.0),
-        press_max_s=base.press_min_s + _lognormal(rng, scales.press_s, 0.4, 0.3, 4.0),
+        tap_s=base.press_min_s,  # a press not about the gap: the driver's shortest
+        press_max_s=base.press_min_s + _lognormal(rng, PRESS_HOLD_S, 0.4, 0.3, 4.0),
     )
 
 

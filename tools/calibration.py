@@ -1,6 +1,6 @@
 """Calibrate the drivers against real people: ``python -m tools.calibration [people ...]``.
 
-``people SEED N [MISMATCH TAPS PRESS_S [DRIVES_CSV [SCENARIO]]]``: Table I averages (PoI,
+``people SEED N [MISMATCH TAPS DRIFT [DRIVES_CSV [SCENARIO]]]``: Table I averages (PoI,
 NIM) of N drivers of the ``people`` population of SEED with the three takeover scales given
 (default: the frozen ``PEOPLE_SCALES``), 120-s drives of scenario B (or SCENARIO; the rows to
 DRIVES_CSV, for ``pacc validate people``): what the scales were fitted with, on one seed, to
@@ -158,11 +158,15 @@ HELD_OUT_KINDS = (
 
 def manual_view(driver: DriverParams) -> DriverParams:
     """``driver`` without what only shows under ACC (offset, taps, press lengths): its manual
-    trips, hence its IRL table, are the same, so a table learned once serves every scale."""
+    trips, hence its IRL table, are the same for every mismatch and tap scale, so a table
+    learned once serves them (the drift scale changes the manual trips too)."""
     return dataclasses.replace(
-        driver, acc_offset_s=0.0, spurious_press_per_min=0.0, tap_s=0.3,
+        driver,
+        acc_offset_s=0.0,
+        spurious_press_per_min=0.0,
+        tap_s=0.3,
         press_max_s=driver.press_min_s + 1.0,
-    )  # fmt: skip
+    )
 
 
 def run_drivers(

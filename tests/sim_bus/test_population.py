@@ -84,11 +84,17 @@ def test_people_population_keeps_the_preference_and_draws_habits() -> None:
     assert people == draw_population(40, 3, population="people")
     for b, p in zip(base, people, strict=True):
         assert (p.headway_s, p.standstill_m) == (b.headway_s, b.standstill_m)
-        assert p.tap_s >= 0.3 and p.press_max_s > p.press_min_s and p.trip_shift_sd_s > 0
+        # a tap lasts its shortest press
+        assert p.tap_s == p.press_min_s < p.press_max_s and p.trip_shift_sd_s > 0
     offsets = np.array([p.acc_offset_s for p in people])
     assert 0.1 < offsets.mean() < 0.3 * PEOPLE_SCALES.mismatch + 0.2  # prior N(0.3, 0.3)·scale
-    wide = [people_driver(b, 3, i, TakeoverScales(3.0, 1.0, 1.0)) for i, b in enumerate(base)]
+    wide = [people_driver(b, 3, i, TakeoverScales(3.0, 1.0, 2.0)) for i, b in enumerate(base)]
     assert max(p.acc_offset_s for p in wide) == MISMATCH_RANGE_S[1]  # clipped after scaling
+    for p, w in zip(people, wide, strict=True):  # the drift scale, from the same draws
+        assert w.trip_shift_sd_s == pytest.approx(2.0 * p.trip_shift_sd_s / PEOPLE_SCALES.drift)
+        assert w.condition_drift_per_min == pytest.approx(
+            2.0 * p.condition_drift_per_min / PEOPLE_SCALES.drift
+        )
     taps = np.array([p.spurious_press_per_min for p in people])
     assert abs(np.median(taps) - PEOPLE_SCALES.taps_per_min) < 0.5 * PEOPLE_SCALES.taps_per_min
     assert people_driver(base[0], 3, 0) == people[0]
