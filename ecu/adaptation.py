@@ -143,28 +143,22 @@ def count_short_press(
     return ShortPresses(summary.pedal, count, end_s), False
 
 
-def _input_reason(summary: TakeoverSummary) -> Reason | None:
-    """``INVALID_INPUT`` or ``NO_LEAD`` for a summary nothing can be learned from, else None."""
-    values = (summary.duration_s, summary.v_mps)
-    if not all(math.isfinite(x) for x in values) or summary.v_mps < 0.0:
-        return Reason.INVALID_INPUT
-    if not summary.lead_valid:
-        return Reason.NO_LEAD
-    lead = (summary.v_lead_mps, summary.gap_m)
-    if not all(math.isfinite(x) and x >= 0.0 for x in lead):
-        return Reason.INVALID_INPUT
-    return None
-
-
 def behaviour_filter(
     summary: TakeoverSummary, params: AdaptationParams, *, short_run: bool = False
 ) -> Reason:
     """``Reason.APPLIED`` if the takeover may update the table, else the skip reason (a press
     that began within ``switch_window_s`` of a radar target switch: forced by a cut-in, no
     evidence of the preferred gap)."""
-    invalid = _input_reason(summary)
-    if invalid is not None:
-        return invalid
+    own = (summary.duration_s, summary.v_mps)
+    lead = (summary.v_lead_mps, summary.gap_m)
+    if (
+        not all(math.isfinite(x) for x in own)
+        or summary.v_mps < 0.0
+        or (summary.lead_valid and not all(math.isfinite(x) and x >= 0.0 for x in lead))
+    ):
+        return Reason.INVALID_INPUT
+    if not summary.lead_valid:
+        return Reason.NO_LEAD
     if summary.after_switch_s < params.switch_window_s:
         return Reason.TARGET_SWITCH
     if summary.duration_s <= params.min_takeover_s and not (

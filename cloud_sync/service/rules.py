@@ -306,15 +306,11 @@ class CloudService:
             self.schedule(driver_id, condition)
 
     def _settle(self, state: _JobState) -> None:
-        """Wait until no batch came for ``config.settle_s``; the batches so far are this run's."""
-        settle = self.config.settle_s
-        while settle > 0.0:
-            with self._jobs_lock:
-                left = state.touched + settle - time.monotonic()
-                if left <= 0.0:
-                    state.dirty = False  # the run about to start reads every batch so far
-                    return
-            time.sleep(left)
+        """Wait until no batch came for ``config.settle_s`` s (the run then reads them all)."""
+        if self.config.settle_s > 0.0:
+            while (left := state.touched + self.config.settle_s - time.monotonic()) > 0.0:
+                time.sleep(left)
+            state.dirty = False  # a batch stored after this still marks it (schedule)
 
     def _job_loop(self, key: tuple[str, str]) -> None:
         state = self._jobs[key]

@@ -204,8 +204,7 @@ def add_subparser(subparsers: Any) -> None:
         "--settle",
         type=number(0.0, 600.0),
         default=1.0,
-        metavar="S",
-        help="learn once a driver's uploads have paused S seconds (default 1; 0: at once)",
+        help="seconds without uploads before a driver is learned (0: at once)",
     )
     srv.add_argument("--scheduler", metavar="local|tcp://HOST:8786", help="Dask (docs/scale.md)")
     srv.add_argument("--operator-token-file", metavar="FILE", help="the operator's token")
