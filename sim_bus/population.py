@@ -239,7 +239,7 @@ class TakeoverScales:
 #: noise of short presses, so the presses it learns from, about the gap, are longer
 PRESS_HOLD_S = 1.0
 #: frozen after the fit (docs/drivers.md names the seed it was fitted on)
-PEOPLE_SCALES = TakeoverScales(mismatch=0.85, taps_per_min=4.0, drift=2.5)
+PEOPLE_SCALES = TakeoverScales(mismatch=0.6, taps_per_min=4.0, drift=2.5)
 #: the populations by name; ``headway`` (the steady-state calibration alone) is the older one
 POPULATIONS = ("headway", "people")
 DEFAULT_POPULATION = "people"

@@ -104,6 +104,8 @@ def test_people_population_keeps_the_preference_and_draws_habits() -> None:
 
 def test_an_offset_clipped_to_the_shortest_headway_is_valid() -> None:
     # driver 20 of seed 336432 draws an offset below -0.3 s with a 0.6-s headway: clipped to
-    # -0.3, 0.6 + (-0.3) is 0.29999999999999993 in floating point, which was refused
-    drivers = draw_population(21, 336432)
-    assert min(drivers[20].headway_s) + drivers[20].acc_offset_s == pytest.approx(0.3)
+    # -0.3, 0.6 + (-0.3) is 0.29999999999999993 in floating point, which was refused (with a
+    # mismatch scale of 1.3; a driver is drawn from its own stream, so the scale alone pins it)
+    base = draw_population(21, 336432, population="headway")[20]
+    driver = people_driver(base, 336432, 20, TakeoverScales(1.3, 3.5, 1.0))
+    assert min(driver.headway_s) + driver.acc_offset_s == pytest.approx(0.3)
