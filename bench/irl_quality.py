@@ -333,15 +333,17 @@ def _option(argv: list[str], name: str, default: int) -> int:
     return default
 
 
+def _seconds(argv: list[str], name: str) -> float | None:
+    """The number after ``name`` (s), or None without one."""
+    i = argv.index(name) if name in argv else len(argv)
+    return float(argv[i + 1]) if i + 1 < len(argv) else None
+
+
 def main(argv: list[str]) -> int:
     if "--held-out" in argv:
         csvs = [Path(a) for a in argv if a.endswith(".csv")]
-        i = argv.index("--reaction") if "--reaction" in argv else -1
-        reaction = float(argv[i + 1]) if 0 <= i < len(argv) - 1 else None
-        j = argv.index("--lead-lag") if "--lead-lag" in argv else -1
-        lag = float(argv[j + 1]) if 0 <= j < len(argv) - 1 else 0.0
         n, seed = _option(argv, "--held-out", 20), _option(argv, "--seed", 2)
-        held_out(n, seed, csvs, reaction, lag)
+        held_out(n, seed, csvs, _seconds(argv, "--reaction"), _seconds(argv, "--lead-lag") or 0.0)
         return 0
     if "--synthetic-only" not in argv:
         real()
